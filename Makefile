@@ -1,0 +1,33 @@
+# pkmlab: `make reproduce` then `make test` is the whole quick start.
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: install reproduce test lint bench derive clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+reproduce: install
+	$(BIN)/pkmlab demo --out out
+
+lint: install
+	$(BIN)/ruff check src tests benchmarks
+
+test: lint
+	$(BIN)/python -m pytest
+
+bench: install
+	$(BIN)/python benchmarks/run.py
+
+derive: install
+	$(BIN)/python -m pkmlab.derivations.rrr3_sextic
+
+clean:
+	rm -rf $(VENV) out build src/*.egg-info

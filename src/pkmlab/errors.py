@@ -1,0 +1,41 @@
+"""Errors raised by pkmlab.
+
+Every error a user can cause by their input derives from :class:`PkmlabError`; its message
+is one line that names the problem (which parameter, which leg, which pose). The CLI prints
+that line and exits non-zero instead of showing a traceback.
+"""
+
+from __future__ import annotations
+
+
+class PkmlabError(Exception):
+    """Base class of the errors caused by a user's input."""
+
+
+class InvalidParameterError(PkmlabError, ValueError):
+    """An architecture or option value that is impossible (non-finite, non-positive, ...)."""
+
+
+class UnreachablePoseError(PkmlabError, ValueError):
+    """A platform pose that one or more legs cannot reach (inverse kinematics).
+
+    ``legs`` lists the 1-based numbers of the legs that cannot reach; ``index`` is the position
+    of the first offending pose in a batch (``None`` for a single pose).
+    """
+
+    def __init__(self, message: str, legs: tuple[int, ...] = (), index: tuple[int, ...] | None = None):
+        super().__init__(message)
+        self.legs = legs
+        self.index = index
+
+
+class SingularityError(PkmlabError, RuntimeError):
+    """A configuration at or too near a gain-type (forward) singularity, ``det(Jηφ) = 0``."""
+
+
+class BranchFollowingError(SingularityError):
+    """The assembly mode cannot be followed continuously to the requested actuated angles."""
+
+
+class AssemblyError(PkmlabError, ValueError):
+    """Actuated angles for which the mechanism cannot be assembled (no forward solution)."""

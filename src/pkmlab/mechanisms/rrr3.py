@@ -1,0 +1,465 @@
+"""Compiled kernels of the planar 3-RRR: constraints, Jacobians, inverse and forward kinematics.
+
+Every function here works on one configuration and reads the architecture from the packed
+parameter vector ``P`` (:attr:`pkmlab.geometry.Planar3RRR.packed`, layout in
+:mod:`pkmlab.geometry`). They are compiled with Numba (``cache=True``), written once and
+used both by the public API (:mod:`pkmlab.kinematics`, which broadcasts over batches) and by
+the simulation loop. Conventions are those of SPEC §1–§3 and :mod:`pkmlab.geometry`:
+``q = (θ1, θ2, θ3, φ1, φ2, φ3, α)``, absolute angles.
+
+Loop-closure constraints (paper eqs. (2), (3), (5), (6), in that order)::
+
+    η[0:2] = e1 + r1 u(φ1) + R(α) P2        - e2 - r2 u(φ2)    (loop b1 → p1 → p2 ← b2)
+    η[2:4] = e2 + r2 u(φ2) + R(α) (P3 - P2) - e3 - r3 u(φ3)    (loop b2 → p2 → p3 ← b3)
+
+with ``e_i = b_i + l_i u(θ_i)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .. import closed_chain
+from ..geometry import ACTIVE_LENGTH, BASE, PASSIVE_LENGTH, PLATFORM, REFERENCE
+from ..polynomial import moebius_shift, real_roots
+from . import _rrr3_sextic as sextic
+
+N_COORDINATES = 7
+N_ACTIVE = 3
+N_CONSTRAINTS = 4
+MAX_ASSEMBLY_MODES = 6
+
+# Status bits of forward kinematics / branch following.
+OK = 0
+NOT_CONVERGED = 1  # Newton's method did not converge (no nearby solution)
+SINGULAR = 2  # det(Jηφ) vanished or changed sign: a gain-type singularity was met
+DEGENERATE = 4  # the sextic vanished identically (a continuum of solutions)
+
+TWO_PI = 2.0 * math.pi
+
+
+@njit(cache=True)
+def wrap_angle(x):
+    """``x`` mapped to ``(-π, π]``."""
+    y = x - TWO_PI * math.floor((x + math.pi) / TWO_PI)  # in [-π, π)
+    if y <= -math.pi:
+        y += TWO_PI
+    return y
+
+
+@njit(cache=True)
+def elbows(theta, P):
+    """Elbow points ``e_i = b_i + l_i u(θ_i)`` as a (3, 2) array."""
+    e = np.empty((3, 2))
+    for i in range(3):
+        li = P[ACTIVE_LENGTH + i]
+        e[i, 0] = P[BASE + 2 * i] + li * math.cos(theta[i])
+        e[i, 1] = P[BASE + 2 * i + 1] + li * math.sin(theta[i])
+    return e
+
+
+@njit(cache=True)
+def constraints(q, P, out):
+    """Write ``η(q)`` (eqs. 2, 3, 5, 6) into ``out`` (4,)."""
+    ca, sa = math.cos(q[6]), math.sin(q[6])
+    p2x, p2y = P[PLATFORM], P[PLATFORM + 1]
+    dx, dy = P[PLATFORM + 2] - p2x, P[PLATFORM + 3] - p2y  # P3 - P2
+    vx = np.empty(3)
+    vy = np.empty(3)
+    for i in range(3):  # vertex p_i reached through leg i
+        li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
+        vx[i] = P[BASE + 2 * i] + li * math.cos(q[i]) + ri * math.cos(q[3 + i])
+        vy[i] = P[BASE + 2 * i + 1] + li * math.sin(q[i]) + ri * math.sin(q[3 + i])
+    out[0] = vx[0] + ca * p2x - sa * p2y - vx[1]
+    out[1] = vy[0] + sa * p2x + ca * p2y - vy[1]
+    out[2] = vx[1] + ca * dx - sa * dy - vx[2]
+    out[3] = vy[1] + sa * dx + ca * dy - vy[2]
+
+
+@njit(cache=True)
+def constraint_jacobian(q, P, out):
+    """Write ``Jηq = ∂η/∂q`` (4, 7) into ``out``; columns ``[Jηθ | Jηφ]`` (paper §2.3)."""
+    out[:, :] = 0.0
+    ca, sa = math.cos(q[6]), math.sin(q[6])
+    p2x, p2y = P[PLATFORM], P[PLATFORM + 1]
+    dx, dy = P[PLATFORM + 2] - p2x, P[PLATFORM + 3] - p2y
+    for i in range(3):
+        li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
+        # d/dx (k u(x)) = k (-sin x, cos x); leg i enters loop 1 (rows 0-1) and/or loop 2.
+        gtx, gty = -li * math.sin(q[i]), li * math.cos(q[i])
+        gpx, gpy = -ri * math.sin(q[3 + i]), ri * math.cos(q[3 + i])
+        if i == 0:
+            out[0, 0], out[1, 0] = gtx, gty
+            out[0, 3], out[1, 3] = gpx, gpy
+        elif i == 1:
+            out[0, 1], out[1, 1], out[2, 1], out[3, 1] = -gtx, -gty, gtx, gty
+            out[0, 4], out[1, 4], out[2, 4], out[3, 4] = -gpx, -gpy, gpx, gpy
+        else:
+            out[2, 2], out[3, 2] = -gtx, -gty
+            out[2, 5], out[3, 5] = -gpx, -gpy
+    # d/dα R(α) v = R(α + π/2) v
+    out[0, 6] = -sa * p2x - ca * p2y
+    out[1, 6] = ca * p2x - sa * p2y
+    out[2, 6] = -sa * dx - ca * dy
+    out[3, 6] = ca * dx - sa * dy
+
+
+@njit(cache=True)
+def constraint_convective(q, qd, P, out):
+    """Write ``J̇ηq q̇`` (4,) into ``out``: ``η̈`` when ``q̈ = 0``.
+
+    Each term ``k u(x)`` of ``η`` contributes ``-k u(x) ẋ²``; ``R(α) v`` contributes
+    ``-R(α) v α̇²``.
+    """
+    ca, sa = math.cos(q[6]), math.sin(q[6])
+    w2 = qd[6] * qd[6]
+    p2x, p2y = P[PLATFORM], P[PLATFORM + 1]
+    dx, dy = P[PLATFORM + 2] - p2x, P[PLATFORM + 3] - p2y
+    ax = np.empty(3)
+    ay = np.empty(3)
+    for i in range(3):  # centripetal acceleration of vertex p_i through leg i
+        li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
+        t2, f2 = qd[i] * qd[i], qd[3 + i] * qd[3 + i]
+        ax[i] = -li * math.cos(q[i]) * t2 - ri * math.cos(q[3 + i]) * f2
+        ay[i] = -li * math.sin(q[i]) * t2 - ri * math.sin(q[3 + i]) * f2
+    out[0] = ax[0] - (ca * p2x - sa * p2y) * w2 - ax[1]
+    out[1] = ay[0] - (sa * p2x + ca * p2y) * w2 - ay[1]
+    out[2] = ax[1] - (ca * dx - sa * dy) * w2 - ax[2]
+    out[3] = ay[1] - (sa * dx + ca * dy) * w2 - ay[2]
+
+
+@njit(cache=True)
+def platform_pose(q, P, out):
+    """Write the platform pose ``(x, y, α)`` (3,): its reference point (centroid) and orientation.
+
+    The position is reached through leg 1: ``p1 = b1 + l1 u(θ1) + r1 u(φ1)``, then
+    ``(x, y) = p1 + R(α) C`` with ``C`` the reference point in the platform frame.
+    """
+    ca, sa = math.cos(q[6]), math.sin(q[6])
+    cx, cy = P[REFERENCE], P[REFERENCE + 1]
+    l1, r1 = P[ACTIVE_LENGTH], P[PASSIVE_LENGTH]
+    out[0] = P[BASE] + l1 * math.cos(q[0]) + r1 * math.cos(q[3]) + ca * cx - sa * cy
+    out[1] = P[BASE + 1] + l1 * math.sin(q[0]) + r1 * math.sin(q[3]) + sa * cx + ca * cy
+    out[2] = q[6]
+
+
+@njit(cache=True)
+def pose_jacobian(q, P, out):
+    """Write ``∂(x, y, α)/∂q`` (3, 7) into ``out`` (the paper's ``Jpq`` of eq. 17, plus ``α``)."""
+    out[:, :] = 0.0
+    ca, sa = math.cos(q[6]), math.sin(q[6])
+    cx, cy = P[REFERENCE], P[REFERENCE + 1]
+    l1, r1 = P[ACTIVE_LENGTH], P[PASSIVE_LENGTH]
+    out[0, 0], out[1, 0] = -l1 * math.sin(q[0]), l1 * math.cos(q[0])
+    out[0, 3], out[1, 3] = -r1 * math.sin(q[3]), r1 * math.cos(q[3])
+    out[0, 6], out[1, 6] = -sa * cx - ca * cy, ca * cx - sa * cy
+    out[2, 6] = 1.0
+
+
+@njit(cache=True)
+def pose_convective(q, qd, P, out):
+    """Write ``J̇pq q̇`` (3,): the platform pose's acceleration when ``q̈ = 0``."""
+    ca, sa = math.cos(q[6]), math.sin(q[6])
+    cx, cy = P[REFERENCE], P[REFERENCE + 1]
+    l1, r1 = P[ACTIVE_LENGTH], P[PASSIVE_LENGTH]
+    t2, f2, w2 = qd[0] * qd[0], qd[3] * qd[3], qd[6] * qd[6]
+    out[0] = -l1 * math.cos(q[0]) * t2 - r1 * math.cos(q[3]) * f2 - (ca * cx - sa * cy) * w2
+    out[1] = -l1 * math.sin(q[0]) * t2 - r1 * math.sin(q[3]) * f2 - (sa * cx + ca * cy) * w2
+    out[2] = 0.0
+
+
+@njit(cache=True)
+def singularity_scale(P):
+    """``a r1 r2 r3``: the factor of eq. (18) that makes ``S`` independent of the scale."""
+    a = math.hypot(P[PLATFORM], P[PLATFORM + 1])
+    return a * P[PASSIVE_LENGTH] * P[PASSIVE_LENGTH + 1] * P[PASSIVE_LENGTH + 2]
+
+
+@njit(cache=True)
+def forward_singularity_determinant(q, P):
+    """``det(Jηφ)`` (eq. 18): zero at a gain-type (forward) singularity."""
+    j = np.empty((4, 7))
+    constraint_jacobian(q, P, j)
+    return closed_chain.determinant(j[:, 3:])
+
+
+@njit(cache=True)
+def singularity_measure(q, P):
+    """``S = -det(Jηφ) / (a r1 r2 r3)`` (eq. 19 with SPEC §2's sign)."""
+    return -forward_singularity_determinant(q, P) / singularity_scale(P)
+
+
+# ------------------------------------------------------------------ inverse kinematics
+@njit(cache=True)
+def inverse_kinematics(pose, mode, P, q):
+    """Inverse kinematics of one pose for one working mode (paper §2, SPEC §3).
+
+    ``pose = (x, y, α)``; ``mode = (σ1, σ2, σ3)``, ``σ_i = +1`` when elbow ``e_i`` lies to the
+    left of the directed line ``b_i → p_i``. Writes ``q`` (7,) and returns a bit mask of the
+    legs that cannot reach their vertex (bit ``i`` for leg ``i + 1``; 0 when all reach).
+    """
+    ca, sa = math.cos(pose[2]), math.sin(pose[2])
+    cx, cy = P[REFERENCE], P[REFERENCE + 1]
+    p1x = pose[0] - (ca * cx - sa * cy)
+    p1y = pose[1] - (sa * cx + ca * cy)
+    unreachable = 0
+    for i in range(3):
+        if i == 0:
+            vx, vy = 0.0, 0.0
+        else:
+            vx, vy = P[PLATFORM + 2 * (i - 1)], P[PLATFORM + 2 * (i - 1) + 1]
+        px = p1x + ca * vx - sa * vy
+        py = p1y + sa * vx + ca * vy
+        dx, dy = px - P[BASE + 2 * i], py - P[BASE + 2 * i + 1]
+        rho = math.hypot(dx, dy)
+        li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
+        if rho == 0.0:
+            cos_beta = 2.0 if li != ri else 1.0
+        else:
+            cos_beta = (li * li + rho * rho - ri * ri) / (2.0 * li * rho)
+        if not (abs(cos_beta) <= 1.0 + 1e-12):  # also catches NaN
+            unreachable |= 1 << i
+            cos_beta = 1.0
+        beta = math.acos(min(1.0, max(-1.0, cos_beta)))
+        theta = math.atan2(dy, dx) + mode[i] * beta
+        ex = P[BASE + 2 * i] + li * math.cos(theta)
+        ey = P[BASE + 2 * i + 1] + li * math.sin(theta)
+        q[i] = wrap_angle(theta)
+        q[3 + i] = math.atan2(py - ey, px - ex)
+    q[6] = pose[2]
+    return unreachable
+
+
+# ------------------------------------------------------------------ Newton on η = 0
+@njit(cache=True)
+def solve_passive(q, P, max_iter, tol):
+    """Newton's method on ``η(θ, φ) = 0`` for the passive coordinates, ``θ`` fixed, in place.
+
+    Returns ``(status, iterations)``. Converged when the Newton step is below ``tol`` (rad)
+    and the residual at round-off level.
+    """
+    eta = np.empty(4)
+    jac = np.empty((4, 7))
+    rhs = np.empty((4, 1))
+    for it in range(max_iter):
+        constraints(q, P, eta)
+        constraint_jacobian(q, P, jac)
+        for k in range(4):
+            rhs[k, 0] = -eta[k]
+        dx, ok = closed_chain.lu_solve(jac[:, 3:], rhs)
+        if not ok:
+            return SINGULAR, it
+        step = 0.0
+        for k in range(4):
+            q[3 + k] += dx[k, 0]
+            step = max(step, abs(dx[k, 0]))
+        if not math.isfinite(step) or step > 1.0:
+            return NOT_CONVERGED, it + 1
+        if step <= tol:
+            return OK, it + 1
+    return NOT_CONVERGED, max_iter
+
+
+# ------------------------------------------------------------------ forward kinematics
+@njit(cache=True)
+def _rotate(x, y, c, s):
+    return c * x - s * y, s * x + c * y
+
+
+@njit(cache=True)
+def forward_kinematics(theta, P, q_out, s_out):
+    """Every assembly mode for actuated angles ``θ`` (paper §2.2.2, eq. 12).
+
+    Forms the sextic in ``t = tan(ψ/2)`` (generated by :mod:`pkmlab.derivations.rrr3_sextic`,
+    in frames normalised so that elbow 2 lies on the x axis of elbow 1 and vertex 2 on the
+    platform's x axis), re-parametrises it when a root lies near ``ψ = π``, isolates its real
+    roots, rebuilds each configuration and polishes it with Newton's method on ``η = 0``.
+
+    Writes up to 6 configurations into ``q_out`` (6, 7), sorted by ``α``, and their ``S`` into
+    ``s_out`` (6,). Returns ``(count, status)``; ``status`` is ``DEGENERATE`` when the sextic
+    vanishes identically (architecture singularity).
+    """
+    e = elbows(theta, P)
+    d2x, d2y = e[1, 0] - e[0, 0], e[1, 1] - e[0, 1]
+    d3x, d3y = e[2, 0] - e[0, 0], e[2, 1] - e[0, 1]
+    beta = math.atan2(d2y, d2x)  # world-frame normalisation: e2 on the x axis of e1
+    cb, sb = math.cos(beta), math.sin(beta)
+    n3x, n3y = _rotate(d3x, d3y, cb, -sb)
+    p2x, p2y = P[PLATFORM], P[PLATFORM + 1]
+    gamma = math.atan2(p2y, p2x)  # platform-frame normalisation: P2 on the x axis
+    cg, sg = math.cos(gamma), math.sin(gamma)
+    m3x, m3y = _rotate(P[PLATFORM + 2], P[PLATFORM + 3], cg, -sg)
+    a2 = math.hypot(p2x, p2y)
+    r1, r2, r3 = P[PASSIVE_LENGTH], P[PASSIVE_LENGTH + 1], P[PASSIVE_LENGTH + 2]
+    d2 = math.hypot(d2x, d2y)
+
+    k = np.empty(7)
+    sextic.cubic_coefficients(d2, n3x, n3y, r1, r2, r3, a2, m3x, m3y, k)
+    coeffs = np.empty(7)
+    sextic.sextic_coefficients(k, coeffs)
+    scale = 0.0
+    for j in range(7):
+        scale = max(scale, abs(coeffs[j]))
+    if scale == 0.0 or not math.isfinite(scale):
+        return 0, DEGENERATE
+
+    # ψ = 2 atan(t) cannot reach π: when a root is near there (small leading coefficient),
+    # re-parametrise with t' = tan((ψ - ψ0)/2) for the shift that best separates roots from
+    # infinity.
+    psi0 = 0.0
+    best = abs(coeffs[0]) / scale
+    if best < 1e-2:
+        shifted_best = coeffs.copy()
+        for shift in (0.5 * math.pi, -0.5 * math.pi, math.pi / 3.0, -math.pi / 3.0):
+            cand = moebius_shift(coeffs, math.tan(0.5 * shift))
+            cscale = 0.0
+            for j in range(7):
+                cscale = max(cscale, abs(cand[j]))
+            ratio = abs(cand[0]) / cscale
+            if ratio > best:
+                best, psi0, shifted_best = ratio, shift, cand
+            if best >= 1e-2:
+                break
+        coeffs = shifted_best
+
+    roots = np.empty(6)
+    n_roots = real_roots(coeffs, roots)
+
+    num = np.empty(3)
+    count = 0
+    for j in range(n_roots):
+        psi = psi0 + 2.0 * math.atan(roots[j])
+        cp, sp_ = math.cos(psi), math.sin(psi)
+        sextic.vertex1_numerators(d2, n3x, n3y, r1, r2, r3, a2, m3x, m3y, cp, sp_, num)
+        alpha = psi - gamma + beta
+        ca, sa = math.cos(alpha), math.sin(alpha)
+        if abs(num[2]) > 1e-9 * (abs(num[0]) + abs(num[1])):
+            ux, uy = _rotate(num[0] / num[2], num[1] / num[2], cb, sb)
+            p1x, p1y = e[0, 0] + ux, e[0, 1] + uy
+        else:
+            # Cramer's rule degenerates: intersect the circles of legs 1 and 2 instead.
+            p1x, p1y = _circle_vertex1(e, P, ca, sa)
+        q = q_out[count]
+        q[0], q[1], q[2] = theta[0], theta[1], theta[2]
+        q[6] = alpha
+        for i in range(3):
+            if i == 0:
+                vx, vy = p1x, p1y
+            else:
+                ox, oy = _rotate(P[PLATFORM + 2 * (i - 1)], P[PLATFORM + 2 * (i - 1) + 1], ca, sa)
+                vx, vy = p1x + ox, p1y + oy
+            q[3 + i] = math.atan2(vy - e[i, 1], vx - e[i, 0])
+        status, _it = solve_passive(q, P, 30, 1e-15)
+        if status != OK and not _residual_small(q, P):
+            continue
+        for i in range(3, 7):
+            q[i] = wrap_angle(q[i])
+        duplicate = False
+        for other in range(count):
+            diff = 0.0
+            for i in range(3, 7):
+                diff = max(diff, abs(wrap_angle(q[i] - q_out[other, i])))
+            if diff < 1e-8:
+                duplicate = True
+        if not duplicate:
+            count += 1
+    # Sort by α (insertion sort; at most 6 entries).
+    for a_idx in range(1, count):
+        b_idx = a_idx
+        while b_idx > 0 and q_out[b_idx - 1, 6] > q_out[b_idx, 6]:
+            for i in range(7):
+                q_out[b_idx - 1, i], q_out[b_idx, i] = q_out[b_idx, i], q_out[b_idx - 1, i]
+            b_idx -= 1
+    for j in range(count):
+        s_out[j] = singularity_measure(q_out[j], P)
+    return count, OK
+
+
+@njit(cache=True)
+def _residual_small(q, P):
+    eta = np.empty(4)
+    constraints(q, P, eta)
+    worst = 0.0
+    for k in range(4):
+        worst = max(worst, abs(eta[k]))
+    return worst <= 1e-12
+
+
+@njit(cache=True)
+def _circle_vertex1(e, P, ca, sa):
+    """Vertex p1 at orientation α from legs 1 and 2 alone; the intersection that best fits leg 3."""
+    ox, oy = _rotate(P[PLATFORM], P[PLATFORM + 1], ca, sa)
+    cx, cy = e[1, 0] - ox, e[1, 1] - oy  # p1 lies on the circle (c, r2) and on (e1, r1)
+    r1, r2 = P[PASSIVE_LENGTH], P[PASSIVE_LENGTH + 1]
+    dx, dy = cx - e[0, 0], cy - e[0, 1]
+    d = max(math.hypot(dx, dy), 1e-300)
+    along = (r1 * r1 - r2 * r2 + d * d) / (2.0 * d)
+    h = math.sqrt(max(0.0, r1 * r1 - along * along))
+    bx, by = e[0, 0] + along * dx / d, e[0, 1] + along * dy / d
+    best_x, best_y, best_res = bx, by, np.inf
+    ox3, oy3 = _rotate(P[PLATFORM + 2], P[PLATFORM + 3], ca, sa)
+    for sign in (-1.0, 1.0):
+        px, py = bx - sign * h * dy / d, by + sign * h * dx / d
+        res = abs(math.hypot(px + ox3 - e[2, 0], py + oy3 - e[2, 1]) - P[PASSIVE_LENGTH + 2])
+        if res < best_res:
+            best_x, best_y, best_res = px, py, res
+    return best_x, best_y
+
+
+# ------------------------------------------------------------------ branch following
+@njit(cache=True)
+def branch_following(q_prev, theta, P, q_out, min_abs_s):
+    """The assembly mode continuously connected to ``q_prev``, at actuated angles ``θ`` (§3.2).
+
+    Marches ``θ`` from ``q_prev[:3]`` to ``theta`` in equal sub-steps (one in the common case),
+    each with a first-order predictor ``φ += Jφθ Δθ`` and a Newton corrector on ``η = 0``;
+    the number of sub-steps doubles (up to 64) when a corrector fails. The branch is
+    followed only while ``|S|`` stays above ``min_abs_s`` and keeps its sign: a sign change
+    means a gain-type singularity was crossed. Writes ``q_out`` (7,) and returns the status
+    (``OK``, ``NOT_CONVERGED`` or ``SINGULAR``).
+    """
+    s_prev = singularity_measure(q_prev, P)
+    if abs(s_prev) <= min_abs_s:
+        q_out[:] = q_prev
+        return SINGULAR
+    jac = np.empty((4, 7))
+    n_sub = 1
+    while n_sub <= 64:
+        q_out[:] = q_prev
+        status = OK
+        for sub in range(n_sub):
+            frac = (sub + 1.0) / n_sub
+            # predictor: the tangent of the branch at the last point, φ̇ = Jφθ θ̇
+            constraint_jacobian(q_out, P, jac)
+            j_phi_theta, ok = closed_chain.passive_jacobian(jac, 3)
+            if not ok:
+                status = SINGULAR
+                break
+            dtheta = np.empty(3)
+            for i in range(3):
+                target = q_prev[i] + frac * (theta[i] - q_prev[i])
+                dtheta[i] = target - q_out[i]
+                q_out[i] = target
+            for k in range(4):
+                acc = 0.0
+                for i in range(3):
+                    acc += j_phi_theta[k, i] * dtheta[i]
+                q_out[3 + k] += acc
+            status, _it = solve_passive(q_out, P, 8, 1e-14)
+            if status != OK:
+                break
+            s_now = singularity_measure(q_out, P)
+            if s_now * s_prev <= 0.0 or abs(s_now) <= min_abs_s:
+                status = SINGULAR
+                break
+        if status == OK:
+            for k in range(3, 7):
+                q_out[k] = wrap_angle(q_out[k])
+            # keep α continuous with the previous configuration rather than wrapped
+            q_out[6] = q_prev[6] + wrap_angle(q_out[6] - q_prev[6])
+            return OK
+        n_sub *= 2
+    return status
