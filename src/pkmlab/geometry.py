@@ -58,7 +58,10 @@ COORDINATE_NAMES = ("theta1", "theta2", "theta3", "phi1", "phi2", "phi3", "alpha
 
 
 def _per_leg(name: str, value) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{name} must be a number or a list of 3 numbers, got {value!r}") from None
     if arr.ndim == 0:
         arr = np.full(3, float(arr))
     if arr.shape != (3,):

@@ -440,7 +440,8 @@ def branch_following(q_prev, theta, P, q_out, min_abs_s):
                 break
             dtheta = np.empty(3)
             for i in range(3):
-                target = q_prev[i] + frac * (theta[i] - q_prev[i])
+                # angles are periodic: march along the shorter way round
+                target = q_prev[i] + frac * wrap_angle(theta[i] - q_prev[i])
                 dtheta[i] = target - q_out[i]
                 q_out[i] = target
             for k in range(4):
@@ -456,6 +457,8 @@ def branch_following(q_prev, theta, P, q_out, min_abs_s):
                 status = SINGULAR
                 break
         if status == OK:
+            for i in range(3):
+                q_out[i] = theta[i]
             for k in range(3, 7):
                 q_out[k] = wrap_angle(q_out[k])
             # keep α continuous with the previous configuration rather than wrapped

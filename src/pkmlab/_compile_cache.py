@@ -1,0 +1,41 @@
+"""Where Numba keeps pkmlab's compiled kernels.
+
+Numba's on-disk cache (``cache=True``) revalidates a function against its own source file
+only: a kernel that calls a changed kernel in *another* module would be loaded stale. The
+cache directory is therefore keyed by a hash of all of pkmlab's sources, so that any change
+(an upgrade, a local edit) starts from a fresh cache, and the source tree stays clean.
+
+Must run before any module that defines compiled kernels is imported.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
+
+def configure() -> Path:
+    import numba
+
+    package = Path(__file__).resolve().parent
+    digest = hashlib.sha1()
+    for path in sorted(package.rglob("*.py")):
+        digest.update(path.relative_to(package).as_posix().encode())
+        digest.update(path.read_bytes())
+    base = os.environ.get("PKMLAB_CACHE_DIR") or os.environ.get("NUMBA_CACHE_DIR")
+    if not base:
+        xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        base = os.path.join(xdg, "pkmlab")
+    cache = Path(base) / f"numba-{digest.hexdigest()[:16]}"
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+    except OSError:  # read-only home: fall back to the temporary folder
+        cache = Path(tempfile.gettempdir()) / "pkmlab-cache" / cache.name
+        cache.mkdir(parents=True, exist_ok=True)
+    numba.config.CACHE_DIR = str(cache)
+    return cache
+
+
+CACHE_DIR = configure()

@@ -1,0 +1,488 @@
+"""Kinematics of the planar 3-RRR: inverse, forward (every assembly mode), branch following,
+velocity and acceleration kinematics, and the singularity measure (paper §2, §3.2).
+
+Every function takes the model first and arrays shaped ``(..., n)``: one configuration or a
+batch of any shape, with the same code path. The arithmetic happens in compiled kernels
+(:mod:`pkmlab.mechanisms.rrr3`, :mod:`pkmlab.closed_chain`); this module validates inputs,
+broadcasts, and turns failures into one-line errors.
+
+Examples
+--------
+>>> import numpy as np
+>>> from pkmlab import Planar3RRR, inverse_kinematics, forward_kinematics
+>>> model = Planar3RRR.paper()
+>>> ik = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1))
+>>> np.round(ik.theta, 4).tolist()
+[1.6146, 1.9831, -1.1846]
+>>> fk = forward_kinematics(model, ik.theta)
+>>> int(fk.count), np.round(fk.pose[np.argmin(np.abs(fk.pose[:, 2]))], 6).tolist()
+(2, [0.2, 0.21, 0.0])
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from . import closed_chain
+from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError
+from .geometry import WORKING_MODES, Planar3RRR
+from .mechanisms import rrr3
+
+__all__ = [
+    "InverseKinematicsSolution",
+    "ForwardKinematicsSolution",
+    "AssemblyMode",
+    "inverse_kinematics",
+    "forward_kinematics",
+    "branch_following",
+    "platform_pose",
+    "constraint_residual",
+    "constraint_jacobian",
+    "passive_jacobian",
+    "actuated_jacobian",
+    "velocity_jacobian",
+    "platform_jacobian",
+    "passive_rates",
+    "coordinate_rates",
+    "acceleration_bias",
+    "coordinate_accelerations",
+    "forward_singularity_determinant",
+    "singularity_measure",
+    "working_mode_of",
+]
+
+
+# ------------------------------------------------------------------ input handling
+def _batch(name: str, value, n: int) -> tuple[np.ndarray, tuple[int, ...]]:
+    """``value`` as a C-contiguous ``(N, n)`` float array, and its leading shape."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{name} must be numbers, got {value!r}") from None
+    if arr.ndim == 0 or arr.shape[-1] != n:
+        raise InvalidParameterError(f"{name} must have {n} components (shape (..., {n})), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise InvalidParameterError(f"{name} must be finite, got {arr[tuple(bad)]} at index {tuple(bad.tolist())}")
+    return np.ascontiguousarray(arr.reshape(-1, n)), arr.shape[:-1]
+
+
+def _pair(name_a: str, a, n_a: int, name_b: str, b, n_b: int):
+    a2, shape_a = _batch(name_a, a, n_a)
+    b2, shape_b = _batch(name_b, b, n_b)
+    try:
+        shape = np.broadcast_shapes(shape_a, shape_b)
+    except ValueError:
+        raise InvalidParameterError(f"{name_a} {shape_a} and {name_b} {shape_b} do not broadcast") from None
+    a_full = np.broadcast_to(a2.reshape(*shape_a, n_a), (*shape, n_a)).reshape(-1, n_a)
+    b_full = np.broadcast_to(b2.reshape(*shape_b, n_b), (*shape, n_b)).reshape(-1, n_b)
+    return np.ascontiguousarray(a_full), np.ascontiguousarray(b_full), shape
+
+
+def _index_text(flat: int, shape: tuple[int, ...]) -> str:
+    return "" if shape == () else f" at index {tuple(int(i) for i in np.unravel_index(flat, shape))}"
+
+
+def _mode_array(mode) -> np.ndarray:
+    symbols = {"+": 1, "-": -1, "+1": 1, "-1": -1, "1": 1}
+    values = [symbols.get(m, m) if isinstance(m, str) else m for m in mode]
+    arr = np.asarray(values)
+    if arr.shape != (3,) or not np.all(np.isin(arr, (1, -1))):
+        raise InvalidParameterError(f"working mode must be three signs (+1 or -1), got {mode!r}")
+    return arr.astype(np.int64)
+
+
+# ------------------------------------------------------------------ compiled batch drivers
+@njit(cache=True)
+def _inverse_kinematics_batch(poses, modes, P, q_out, unreachable):
+    for k in range(poses.shape[0]):
+        for m in range(modes.shape[0]):
+            unreachable[k, m] = rrr3.inverse_kinematics(poses[k], modes[m], P, q_out[k, m])
+
+
+@njit(cache=True)
+def _forward_kinematics_batch(thetas, P, q_out, s_out, count, status):
+    for k in range(thetas.shape[0]):
+        count[k], status[k] = rrr3.forward_kinematics(thetas[k], P, q_out[k], s_out[k])
+
+
+@njit(cache=True)
+def _branch_following_batch(q_prev, thetas, P, min_abs_s, q_out, status):
+    for k in range(thetas.shape[0]):
+        status[k] = rrr3.branch_following(q_prev[k], thetas[k], P, q_out[k], min_abs_s)
+
+
+@njit(cache=True)
+def _first_order_batch(qs, P, residual, j_eta_q, j_pose_q, j_q_theta, det, ok):
+    for k in range(qs.shape[0]):
+        rrr3.constraints(qs[k], P, residual[k])
+        rrr3.constraint_jacobian(qs[k], P, j_eta_q[k])
+        rrr3.pose_jacobian(qs[k], P, j_pose_q[k])
+        det[k] = closed_chain.determinant(j_eta_q[k, :, 3:])
+        jq, ok[k] = closed_chain.actuated_jacobian(j_eta_q[k], 3)
+        j_q_theta[k] = jq
+
+
+@njit(cache=True)
+def _second_order_batch(qs, theta_dots, P, q_dot, bias, pose_bias, ok):
+    jac = np.empty((4, 7))
+    gamma = np.empty(4)
+    for k in range(qs.shape[0]):
+        rrr3.constraint_jacobian(qs[k], P, jac)
+        jq, ok[k] = closed_chain.actuated_jacobian(jac, 3)
+        q_dot[k] = jq @ theta_dots[k]
+        rrr3.constraint_convective(qs[k], q_dot[k], P, gamma)
+        b, ok_b = closed_chain.passive_acceleration_bias(jac, gamma, 3)
+        ok[k] = ok[k] and ok_b
+        bias[k, :3] = 0.0
+        bias[k, 3:] = b
+        rrr3.pose_convective(qs[k], q_dot[k], P, pose_bias[k])
+
+
+@njit(cache=True)
+def _pose_batch(qs, P, out):
+    for k in range(qs.shape[0]):
+        rrr3.platform_pose(qs[k], P, out[k])
+
+
+# ------------------------------------------------------------------ inverse kinematics
+@dataclass(frozen=True)
+class InverseKinematicsSolution:
+    """Result of :func:`inverse_kinematics`.
+
+    ``q`` has shape ``(..., 7)`` for one working mode, ``(..., 8, 7)`` for all of them (in
+    the order of ``modes``); entries for poses out of reach are NaN when
+    ``on_unreachable="nan"``. ``unreachable_legs`` is a bit mask per solution (bit ``i`` set
+    when leg ``i + 1`` cannot reach); ``S`` is the singularity measure of each solution.
+    """
+
+    q: np.ndarray
+    modes: np.ndarray
+    unreachable_legs: np.ndarray
+    S: np.ndarray
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Actuated angles ``(θ1, θ2, θ3)``."""
+        return self.q[..., :3]
+
+    @property
+    def phi(self) -> np.ndarray:
+        """Passive angles ``(φ1, φ2, φ3)`` of the legs (``α`` is ``q[..., 6]``)."""
+        return self.q[..., 3:6]
+
+    @property
+    def reachable(self) -> np.ndarray:
+        return self.unreachable_legs == 0
+
+
+def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: str = "raise"):
+    """Actuated and passive angles that put the platform at ``pose = (x, y, α)`` (SPEC §3).
+
+    Parameters
+    ----------
+    model : Planar3RRR
+    pose : array_like, shape (..., 3)
+        Platform centroid ``(x, y)`` in metres and orientation ``α`` in radians.
+    mode : sequence of 3 signs, optional
+        Working mode ``(σ1, σ2, σ3)``; ``σ_i = +1`` when elbow ``e_i`` lies to the left of
+        the directed line ``b_i → p_i``. All 8 modes (:data:`pkmlab.geometry.WORKING_MODES`)
+        when omitted.
+    on_unreachable : {"raise", "nan"}
+        Raise :class:`~pkmlab.errors.UnreachablePoseError` naming the leg(s) that cannot reach,
+        or fill those solutions with NaN (for maps over a region).
+
+    Returns
+    -------
+    InverseKinematicsSolution
+    """
+    if on_unreachable not in ("raise", "nan"):
+        raise InvalidParameterError(f"on_unreachable must be 'raise' or 'nan', got {on_unreachable!r}")
+    poses, shape = _batch("pose", pose, 3)
+    modes = WORKING_MODES if mode is None else _mode_array(mode)[None, :]
+    q = np.empty((poses.shape[0], modes.shape[0], 7))
+    unreachable = np.zeros((poses.shape[0], modes.shape[0]), dtype=np.int64)
+    _inverse_kinematics_batch(poses, modes, model.packed, q, unreachable)
+    bad = np.flatnonzero(unreachable.any(axis=1))
+    if bad.size and on_unreachable == "raise":
+        k = int(bad[0])
+        raise _unreachable_error(model, poses[k], int(unreachable[k].max()), k, shape)
+    q[unreachable != 0] = np.nan
+    s = singularity_measure(model, np.where(np.isnan(q), 0.0, q))
+    s[unreachable != 0] = np.nan
+    if mode is not None:
+        q, unreachable, s, modes = q[:, 0], unreachable[:, 0], s[:, 0], modes[0]
+        return InverseKinematicsSolution(
+            q.reshape(*shape, 7), modes, unreachable.reshape(shape), s.reshape(shape)
+        )
+    return InverseKinematicsSolution(
+        q.reshape(*shape, 8, 7), modes, unreachable.reshape(*shape, 8), s.reshape(*shape, 8)
+    )
+
+
+def _unreachable_error(model, pose, mask, flat, shape) -> UnreachablePoseError:
+    legs = tuple(i + 1 for i in range(3) if mask & (1 << i))
+    x, y, alpha = pose
+    c, s = np.cos(alpha), np.sin(alpha)
+    rot = np.array([[c, -s], [s, c]])
+    p1 = np.array([x, y]) - rot @ model.reference_point
+    details = []
+    for leg in legs:
+        i = leg - 1
+        p = p1 + rot @ model.platform_vertices[i]
+        rho = float(np.hypot(*(p - model.base_points[i])))
+        lo = abs(model.active_lengths[i] - model.passive_lengths[i])
+        hi = model.active_lengths[i] + model.passive_lengths[i]
+        details.append(f"leg {leg}: |p{leg} - b{leg}| = {rho:.4g} m, reach {lo:.4g}..{hi:.4g} m")
+    which = f"leg {legs[0]}" if len(legs) == 1 else "legs " + ", ".join(map(str, legs[:-1])) + f" and {legs[-1]}"
+    return UnreachablePoseError(
+        f"pose (x={x:.6g}, y={y:.6g}, alpha={alpha:.6g}){_index_text(flat, shape)} is out of reach of "
+        f"{which} ({'; '.join(details)})",
+        legs=legs,
+        index=None if shape == () else tuple(int(i) for i in np.unravel_index(flat, shape)),
+    )
+
+
+def working_mode_of(model: Planar3RRR, q) -> np.ndarray:
+    """Working mode ``σ`` (..., 3) of configurations ``q``: the sign of ``(p_i - b_i) × (e_i - b_i)``."""
+    qs, shape = _batch("q", q, 7)
+    b = model.base_points
+    e = b + model.active_lengths[:, None] * np.stack([np.cos(qs[:, :3]), np.sin(qs[:, :3])], axis=-1)
+    p = e + model.passive_lengths[:, None] * np.stack([np.cos(qs[:, 3:6]), np.sin(qs[:, 3:6])], axis=-1)
+    cross = np.cross(p - b, e - b)
+    return np.where(cross > 0, 1, -1).reshape(*shape, 3)
+
+
+# ------------------------------------------------------------------ forward kinematics
+@dataclass(frozen=True)
+class AssemblyMode:
+    """One solution of forward kinematics: configuration, platform pose and ``S``."""
+
+    q: np.ndarray
+    pose: np.ndarray
+    S: float
+
+    @property
+    def phi(self) -> np.ndarray:
+        return self.q[3:6]
+
+    @property
+    def alpha(self) -> float:
+        return float(self.q[6])
+
+
+@dataclass(frozen=True)
+class ForwardKinematicsSolution:
+    """Every assembly mode for each ``θ`` of a batch (paper §2.2.2).
+
+    ``q`` (..., 6, 7), ``pose`` (..., 6, 3) and ``S`` (..., 6) hold up to six solutions per
+    ``θ``, sorted by ``α``; the first ``count`` (...) are valid, the rest NaN. For a single
+    ``θ`` the object is a sequence of :class:`AssemblyMode`.
+    """
+
+    q: np.ndarray
+    pose: np.ndarray
+    S: np.ndarray
+    count: np.ndarray
+
+    def __len__(self) -> int:
+        if self.count.ndim:
+            raise TypeError("len() of a batched ForwardKinematicsSolution: use .count")
+        return int(self.count)
+
+    def __getitem__(self, j: int) -> AssemblyMode:
+        n = len(self)
+        if not -n <= j < n:
+            raise IndexError(f"assembly mode {j} of {n}")
+        j %= n
+        return AssemblyMode(self.q[j].copy(), self.pose[j].copy(), float(self.S[j]))
+
+    def nearest(self, pose) -> AssemblyMode:
+        """The assembly mode whose platform pose is nearest to ``pose`` (metres and radians)."""
+        n = len(self)
+        if n == 0:
+            raise IndexError("no assembly mode")
+        target = np.asarray(pose, dtype=float)
+        d = self.pose[:n] - target
+        d[:, 2] = np.angle(np.exp(1j * d[:, 2]))
+        return self[int(np.argmin(np.linalg.norm(d, axis=1)))]
+
+
+def forward_kinematics(model: Planar3RRR, theta) -> ForwardKinematicsSolution:
+    """Every assembly mode for actuated angles ``θ`` (..., 3), from the degree-6 polynomial.
+
+    Each real root of the sextic (eq. 12) is turned into a configuration and polished with
+    Newton's method on ``η = 0``, so each returned ``q`` satisfies the loop closure to
+    round-off. ``count`` is 0 where the mechanism cannot be assembled.
+    """
+    thetas, shape = _batch("theta", theta, 3)
+    n = thetas.shape[0]
+    q = np.full((n, 6, 7), np.nan)
+    s = np.full((n, 6), np.nan)
+    count = np.zeros(n, dtype=np.int64)
+    status = np.zeros(n, dtype=np.int64)
+    _forward_kinematics_batch(thetas, model.packed, q, s, count, status)
+    if np.any(status == rrr3.DEGENERATE):
+        k = int(np.flatnonzero(status == rrr3.DEGENERATE)[0])
+        raise SingularityError(
+            f"theta = {thetas[k].tolist()}{_index_text(k, shape)}: the forward-kinematics polynomial "
+            "vanishes identically (architecture singularity, a continuum of assembly modes)"
+        )
+    for k in range(n):
+        q[k, count[k]:] = np.nan
+        s[k, count[k]:] = np.nan
+    pose = platform_pose(model, np.where(np.isnan(q), 0.0, q))
+    pose[np.isnan(q[..., 0])] = np.nan
+    return ForwardKinematicsSolution(
+        q.reshape(*shape, 6, 7), pose.reshape(*shape, 6, 3), s.reshape(*shape, 6), count.reshape(shape)
+    )
+
+
+def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float = 1e-6) -> np.ndarray:
+    """The configuration at ``θ`` continuously connected to ``q_previous`` (paper §3.2).
+
+    This is the forward kinematics used during simulation: among the up to six assembly
+    modes, the one on the same branch as the previous configuration. Cheap in the common
+    case (one predictor-corrector step); a large step is subdivided.
+
+    Raises
+    ------
+    BranchFollowingError
+        When the branch cannot be followed: ``|S|`` falls to ``min_abs_S`` or changes sign on
+        the way (a gain-type singularity), or the corrector does not converge.
+    """
+    q_prev, thetas, shape = _pair("q_previous", q_previous, 7, "theta", theta, 3)
+    q_out = np.empty_like(q_prev)
+    status = np.zeros(q_prev.shape[0], dtype=np.int64)
+    _branch_following_batch(q_prev, thetas, model.packed, float(min_abs_S), q_out, status)
+    if np.any(status != rrr3.OK):
+        k = int(np.flatnonzero(status != rrr3.OK)[0])
+        s_prev = float(singularity_measure(model, q_prev[k]))
+        raise BranchFollowingError(
+            f"cannot follow the assembly mode from theta = {np.round(q_prev[k, :3], 6).tolist()} "
+            f"to {np.round(thetas[k], 6).tolist()}{_index_text(k, shape)}: a gain-type singularity "
+            f"(S = {s_prev:.3g} at the start, |S| limit {min_abs_S:g})"
+        )
+    return q_out.reshape(*shape, 7)
+
+
+# ------------------------------------------------------------------ first-order kinematics
+def _first_order(model, q):
+    qs, shape = _batch("q", q, 7)
+    n = qs.shape[0]
+    residual = np.empty((n, 4))
+    j_eta_q = np.empty((n, 4, 7))
+    j_pose_q = np.empty((n, 3, 7))
+    j_q_theta = np.empty((n, 7, 3))
+    det = np.empty(n)
+    ok = np.zeros(n, dtype=np.bool_)
+    _first_order_batch(qs, model.packed, residual, j_eta_q, j_pose_q, j_q_theta, det, ok)
+    return shape, residual, j_eta_q, j_pose_q, j_q_theta, det, ok
+
+
+def _require_regular(ok, shape, what):
+    if not np.all(ok):
+        k = int(np.flatnonzero(~ok)[0])
+        raise SingularityError(
+            f"{what} is undefined{_index_text(k, shape)}: det(J_eta_phi) = 0 (gain-type singularity)"
+        )
+
+
+def platform_pose(model: Planar3RRR, q) -> np.ndarray:
+    """Platform pose ``(x, y, α)`` (..., 3) of configurations ``q`` (eq. 13, centroid position)."""
+    qs, shape = _batch("q", q, 7)
+    out = np.empty((qs.shape[0], 3))
+    _pose_batch(qs, model.packed, out)
+    return out.reshape(*shape, 3)
+
+
+def constraint_residual(model: Planar3RRR, q) -> np.ndarray:
+    """Loop-closure residual ``η(q)`` (..., 4), eqs. (2), (3), (5), (6)."""
+    shape, residual, *_ = _first_order(model, q)
+    return residual.reshape(*shape, 4)
+
+
+def constraint_jacobian(model: Planar3RRR, q) -> np.ndarray:
+    """``Jηq = ∂η/∂q`` (..., 4, 7) = ``[Jηθ | Jηφ]`` (paper §2.3)."""
+    shape, _r, j_eta_q, *_ = _first_order(model, q)
+    return j_eta_q.reshape(*shape, 4, 7)
+
+
+def passive_jacobian(model: Planar3RRR, q) -> np.ndarray:
+    """``Jφθ = -Jηφ⁻¹ Jηθ`` (..., 4, 3), eq. (15): ``φ̇ = Jφθ θ̇``."""
+    shape, _r, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
+    _require_regular(ok, shape, "J_phi_theta")
+    return j_q_theta[:, 3:, :].reshape(*shape, 4, 3)
+
+
+def actuated_jacobian(model: Planar3RRR, q) -> np.ndarray:
+    """``Jqθ = [I3; Jφθ]`` (..., 7, 3), eq. (31): ``q̇ = Jqθ θ̇``."""
+    shape, _r, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
+    _require_regular(ok, shape, "J_q_theta")
+    return j_q_theta.reshape(*shape, 7, 3)
+
+
+def platform_jacobian(model: Planar3RRR, q) -> np.ndarray:
+    """``∂(ẋ, ẏ, α̇)/∂θ̇`` (..., 3, 3): ``Jpq Jqθ`` with the orientation row added (eqs. 14–17)."""
+    shape, _r, _j, j_pose_q, j_q_theta, _d, ok = _first_order(model, q)
+    _require_regular(ok, shape, "the platform Jacobian")
+    return (j_pose_q @ j_q_theta).reshape(*shape, 3, 3)
+
+
+def velocity_jacobian(model: Planar3RRR, q) -> np.ndarray:
+    """``Jv = Jpθ + Jpφ Jφθ`` (..., 2, 3), eq. (16): centroid velocity ``ṗ = Jv θ̇``."""
+    return platform_jacobian(model, q)[..., :2, :]
+
+
+def _second_order(model, q, theta_dot):
+    qs, tds, shape = _pair("q", q, 7, "theta_dot", theta_dot, 3)
+    n = qs.shape[0]
+    q_dot = np.empty((n, 7))
+    bias = np.empty((n, 7))
+    pose_bias = np.empty((n, 3))
+    ok = np.zeros(n, dtype=np.bool_)
+    _second_order_batch(qs, tds, model.packed, q_dot, bias, pose_bias, ok)
+    _require_regular(ok, shape, "the passive rates")
+    return shape, q_dot, bias, pose_bias
+
+
+def coordinate_rates(model: Planar3RRR, q, theta_dot) -> np.ndarray:
+    """``q̇ = Jqθ θ̇`` (..., 7), eq. (31)."""
+    shape, q_dot, _b, _pb = _second_order(model, q, theta_dot)
+    return q_dot.reshape(*shape, 7)
+
+
+def passive_rates(model: Planar3RRR, q, theta_dot) -> np.ndarray:
+    """``φ̇ = Jφθ θ̇`` (..., 4) = ``(φ̇1, φ̇2, φ̇3, α̇)``, eq. (15)."""
+    return coordinate_rates(model, q, theta_dot)[..., 3:]
+
+
+def acceleration_bias(model: Planar3RRR, q, theta_dot) -> np.ndarray:
+    """``J̇qθ θ̇`` (..., 7): ``q̈`` when ``θ̈ = 0`` (eq. 32); zero in the actuated rows."""
+    shape, _qd, bias, _pb = _second_order(model, q, theta_dot)
+    return bias.reshape(*shape, 7)
+
+
+def coordinate_accelerations(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
+    """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., 7), eq. (32)."""
+    bias = acceleration_bias(model, q, theta_dot)
+    j_q_theta = actuated_jacobian(model, q)
+    return bias + np.einsum("...ij,...j->...i", j_q_theta, np.asarray(theta_ddot, dtype=float))
+
+
+def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
+    """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity."""
+    shape, _r, _j, _jp, _jq, det, _ok = _first_order(model, q)
+    return det.reshape(shape)
+
+
+def singularity_measure(model: Planar3RRR, q) -> np.ndarray:
+    """``S = -det(Jηφ) / (a r1 r2 r3)`` (...), eq. (19) with SPEC §2's sign.
+
+    For the paper's geometry (equal ``r_i``, equilateral platform) this is
+    ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``.
+    """
+    return -forward_singularity_determinant(model, q) / rrr3.singularity_scale(model.packed)
