@@ -86,7 +86,16 @@ def cmd_demo(args) -> dict:
     from .kinematics import branch_following, forward_kinematics, inverse_kinematics
     from .plotting import plot_singularity_map, save
 
+    def say(text: str) -> None:  # progress report, kept off stdout with --json
+        if not args.json:
+            print(text)
+
     model = _model(args)
+    out_dir = Path(args.out)
+    try:  # fail before the computation, not after it
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise PkmlabError(f"cannot create output folder {out_dir}: {exc.strerror or exc}") from None
     start = np.array([0.20, 0.21, 0.0])
     s_path = np.linspace(0.0, 2 * np.pi, 721)
     path = np.stack([0.25 + 0.05 * np.cos(np.pi + s_path), 0.21 + 0.05 * np.sin(np.pi + s_path),
@@ -95,28 +104,33 @@ def cmd_demo(args) -> dict:
     min_s = np.nanmin(np.abs(ik_path.S), axis=0)
     best = int(np.nanargmax(min_s))
     mode = tuple(int(m) for m in ik_path.modes[best])
-    print("paper circle: min |S| along the path per working mode: "
-          + ", ".join(f"{_signs(m)} {v:.3f}" for m, v in zip(ik_path.modes, min_s, strict=True)))
-    print(f"working mode maximising min |S|: {_signs(mode)}")
+    say("paper circle: min |S| along the path per working mode: "
+        + ", ".join(f"{_signs(m)} {v:.3f}" for m, v in zip(ik_path.modes, min_s, strict=True)))
+    say(f"working mode maximising min |S|: {_signs(mode)}")
     ik = inverse_kinematics(model, start, mode=mode)
     fk = forward_kinematics(model, ik.theta)
-    print(f"start pose {start.tolist()}: theta = {np.round(ik.theta, 6).tolist()}, "
-          f"{len(fk)} assembly modes:")
+    say(f"start pose {start.tolist()}: theta = {np.round(ik.theta, 6).tolist()}, "
+        f"{len(fk)} assembly modes:")
     for j, sol in enumerate(fk):
-        print(f"  {j + 1}: x = {sol.pose[0]:+.6f}  y = {sol.pose[1]:+.6f}  alpha = {sol.pose[2]:+.6f}  "
-              f"S = {sol.S:+.4f}")
+        say(f"  {j + 1}: x = {sol.pose[0]:+.6f}  y = {sol.pose[1]:+.6f}  alpha = {sol.pose[2]:+.6f}  "
+            f"S = {sol.S:+.4f}")
     # Branch following around the circle, driven by the IK of the chosen working mode.
     q = fk.nearest(start).q
     worst = 0.0
     for k in range(1, len(path)):
         q = branch_following(model, q, ik_path.q[k, best, :3])
         worst = max(worst, float(np.max(np.abs(q[3:] - ik_path.q[k, best, 3:]))))
-    print(f"branch following around the circle: largest deviation from IK passive angles {worst:.2e} rad")
+    say(f"branch following around the circle: largest deviation from IK passive angles {worst:.2e} rad")
     smap = singularity_map(model, alpha=0.0, mode=mode, resolution=args.resolution)
     ax = plot_singularity_map(smap, model=model, path_xy=path[:, :2])
-    out = save(ax.figure, Path(args.out) / "fig03_singularity_map.png")
-    plt.close(ax.figure)
-    print(f"wrote {out}")
+    out = out_dir / "fig03_singularity_map.png"
+    try:
+        save(ax.figure, out)
+    except OSError as exc:
+        raise PkmlabError(f"cannot write {out}: {exc.strerror or exc}") from None
+    finally:
+        plt.close(ax.figure)
+    say(f"wrote {out}")
     return {"working_mode": list(mode), "figure": str(out)}
 
 

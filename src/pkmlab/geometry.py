@@ -69,6 +69,14 @@ def _per_leg(name: str, value) -> np.ndarray:
     return arr
 
 
+def _float_array(label: str, value) -> np.ndarray:
+    """``value`` as a float array; a non-numeric or ragged value is an :class:`InvalidParameterError`."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{label} must be numeric, got {value!r}") from None
+
+
 def _frozen(arr: np.ndarray) -> np.ndarray:
     arr = np.array(arr, dtype=float)
     arr.setflags(write=False)
@@ -127,7 +135,7 @@ class Planar3RRR:
     # ---------------------------------------------------------------- construction
     def __post_init__(self):
         set_ = object.__setattr__
-        base = np.asarray(self.base_points, dtype=float)
+        base = _float_array("base_points", self.base_points)
         if base.shape != (3, 2):
             raise InvalidParameterError("base_points must be 3 points (x, y)")
         set_(self, "base_points", _frozen(base))
@@ -135,10 +143,11 @@ class Planar3RRR:
                             ("active_masses", "mass_l"), ("passive_masses", "mass_r"),
                             ("active_inertias", "inertia_l"), ("passive_inertias", "inertia_r")):
             set_(self, name, _frozen(_per_leg(label, getattr(self, name))))
-        for name in ("platform_side", "platform_mass", "platform_inertia"):
-            value = np.asarray(getattr(self, name), dtype=float)
+        for name, label in (("platform_side", "a (platform side)"), ("platform_mass", "mass_a"),
+                            ("platform_inertia", "inertia_a")):
+            value = _float_array(label, getattr(self, name))
             if value.ndim != 0:
-                raise InvalidParameterError(f"{name} must be a single number")
+                raise InvalidParameterError(f"{label} must be a single number, got {getattr(self, name)!r}")
             set_(self, name, float(value))
         if self.active_com is None:
             set_(self, "active_com", np.column_stack([self.active_lengths / 2, np.zeros(3)]))
@@ -147,7 +156,7 @@ class Planar3RRR:
         if self.platform_com is None:
             set_(self, "platform_com", self.platform_vertices.mean(axis=0))
         for name, shape in (("active_com", (3, 2)), ("passive_com", (3, 2)), ("platform_com", (2,))):
-            arr = np.asarray(getattr(self, name), dtype=float)
+            arr = _float_array(name, getattr(self, name))
             if arr.shape != shape:
                 raise InvalidParameterError(f"{name} must have shape {shape}")
             set_(self, name, _frozen(arr))
@@ -251,7 +260,8 @@ class Planar3RRR:
         return isinstance(other, Planar3RRR) and np.array_equal(self.packed, other.packed)
 
     def __hash__(self) -> int:
-        return hash(self.packed.tobytes())
+        # ``+ 0.0`` turns -0.0 into 0.0: equal models (np.array_equal) must hash equal.
+        return hash((self.packed + 0.0).tobytes())
 
     def __repr__(self) -> str:
         return (
@@ -264,7 +274,9 @@ class Planar3RRR:
         _check_array("l (active link length)", "l", self.active_lengths, positive=True)
         _check_array("r (passive link length)", "r", self.passive_lengths, positive=True)
         _check_number("a (platform side)", self.platform_side, positive=True)
-        _check_array("base point", "b", self.base_points.ravel(), positive=False)
+        for i, point in enumerate(self.base_points):
+            if not np.all(np.isfinite(point)):
+                raise InvalidParameterError(f"base point b{i + 1} must be finite, got {point.tolist()}")
         _check_array("mass_l", "mass_l", self.active_masses, positive=True)
         _check_array("mass_r", "mass_r", self.passive_masses, positive=True)
         _check_number("mass_a", self.platform_mass, positive=True)
@@ -274,7 +286,8 @@ class Planar3RRR:
         for name in ("active_com", "passive_com", "platform_com"):
             _check_array(name, name, np.ravel(getattr(self, name)), positive=False)
         b = self.base_points
-        area = 0.5 * abs(np.cross(b[1] - b[0], b[2] - b[0]))
+        (ux, uy), (vx, vy) = b[1] - b[0], b[2] - b[0]
+        area = 0.5 * abs(ux * vy - uy * vx)
         if area <= 1e-12 * max(1.0, np.ptp(b) ** 2):
             raise InvalidParameterError("base points b1, b2, b3 are collinear: the base must be a triangle")
         if not _can_be_assembled(self):

@@ -53,6 +53,13 @@ def read_toml(path: str | Path) -> dict:
         raise FileFormatError(f"{path}: malformed TOML: {exc}") from None
 
 
+def _is_numeric(value) -> bool:
+    """A number or a (nested) list of numbers; TOML booleans are not numbers."""
+    if isinstance(value, list):
+        return all(_is_numeric(v) for v in value)
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def manipulator_from_dict(table: dict, where: str = "[manipulator]") -> Planar3RRR:
     """Build the model from a ``[manipulator]`` table (``preset`` and ``params``)."""
     for key in table:
@@ -69,7 +76,7 @@ def manipulator_from_dict(table: dict, where: str = "[manipulator]") -> Planar3R
     for key, value in params.items():
         if key not in PARAM_KEYS:
             raise _unknown_key(key, PARAM_KEYS, f"{where}.params")
-        if isinstance(value, bool) or not isinstance(value, (int, float, list)):
+        if not _is_numeric(value):
             raise InvalidParameterError(f"{where}.params.{key} must be a number or a list of numbers")
     return Planar3RRR.from_params(**params)
 

@@ -252,7 +252,8 @@ def working_mode_of(model: Planar3RRR, q) -> np.ndarray:
     b = model.base_points
     e = b + model.active_lengths[:, None] * np.stack([np.cos(qs[:, :3]), np.sin(qs[:, :3])], axis=-1)
     p = e + model.passive_lengths[:, None] * np.stack([np.cos(qs[:, 3:6]), np.sin(qs[:, 3:6])], axis=-1)
-    cross = np.cross(p - b, e - b)
+    u, v = p - b, e - b
+    cross = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
     return np.where(cross > 0, 1, -1).reshape(*shape, 3)
 
 

@@ -1,0 +1,25 @@
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+import pkmlab  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def paper():
+    return pkmlab.Planar3RRR.paper()
+
+
+def random_reachable_poses(rng, model, n, margin=0.05):
+    """Random platform poses reachable in at least one working mode with |S| > margin."""
+    out = []
+    while len(out) < n:
+        pose = np.array([rng.uniform(0.1, 0.42), rng.uniform(0.05, 0.38), rng.uniform(-0.8, 0.8)])
+        ik = pkmlab.inverse_kinematics(model, pose, on_unreachable="nan")
+        if np.any(np.abs(ik.S) > margin):
+            out.append(pose)
+    return np.array(out)
