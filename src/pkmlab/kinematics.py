@@ -15,8 +15,8 @@ Examples
 >>> np.round(ik.theta, 4).tolist()
 [1.6146, 1.9831, -1.1846]
 >>> fk = forward_kinematics(model, ik.theta)
->>> int(fk.count), np.round(fk.pose[np.argmin(np.abs(fk.pose[:, 2]))], 6).tolist()
-(2, [0.2, 0.21, 0.0])
+>>> int(fk.count), np.allclose(fk.nearest([0.2, 0.21, 0.0]).pose, [0.2, 0.21, 0.0], atol=1e-12)
+(2, True)
 """
 
 from __future__ import annotations

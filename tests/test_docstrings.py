@@ -1,0 +1,16 @@
+"""The worked examples in the docstrings run and give what they show."""
+
+import doctest
+import importlib
+
+import pytest
+
+MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis"]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples(name):
+    module = importlib.import_module(name)
+    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0
+    assert result.failed == 0
