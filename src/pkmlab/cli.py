@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -134,12 +135,25 @@ def cmd_demo(args) -> dict:
     return {"working_mode": list(mode), "figure": str(out)}
 
 
+# argparse reads only "-1" and "-1.5" as negative numbers: "-1e-3", "-1.2E+00" or "-inf" would be
+# taken for unknown options and the positional argument reported missing. Widen its matcher (a
+# private attribute of the parser) so every negative float is read as a value.
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
+def _accept_negative_numbers(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    parser._negative_number_matcher = _NEGATIVE_NUMBER
+    return parser
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
                                      "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
+    _accept_negative_numbers(parser)
     sub = parser.add_subparsers(dest="command", required=True)
 
     def common(p):
+        _accept_negative_numbers(p)
         p.add_argument("--params", metavar="FILE.toml", help="manipulator parameters (default: the paper preset)")
         p.add_argument("--json", action="store_true", help="machine-readable output")
 

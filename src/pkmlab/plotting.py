@@ -67,6 +67,9 @@ def save(fig, path: str | os.PathLike, dpi: int = 150) -> Path:
     os.close(fd)
     try:
         fig.savefig(tmp, dpi=dpi)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the figure ordinary permissions
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
