@@ -22,8 +22,23 @@ import math
 import numpy as np
 from numba import njit
 
-from .. import closed_chain
-from ..geometry import ACTIVE_LENGTH, BASE, PASSIVE_LENGTH, PLATFORM, REFERENCE
+from .. import closed_chain, lagrangian
+from ..geometry import (
+    ACTIVE_COM,
+    ACTIVE_INERTIA,
+    ACTIVE_LENGTH,
+    ACTIVE_MASS,
+    BASE,
+    PASSIVE_COM,
+    PASSIVE_INERTIA,
+    PASSIVE_LENGTH,
+    PASSIVE_MASS,
+    PLATFORM,
+    PLATFORM_COM,
+    PLATFORM_INERTIA,
+    PLATFORM_MASS,
+    REFERENCE,
+)
 from ..polynomial import moebius_shift, real_roots
 from . import _rrr3_sextic as sextic
 
@@ -466,3 +481,127 @@ def branch_following(q_prev, theta, P, q_out, min_abs_s):
             return OK
         n_sub *= 2
     return status
+
+
+# ------------------------------------------------------------------ dynamics (paper §3)
+N_BODIES = 7  # active links 1-3, passive links 1-3, platform
+
+
+@njit(cache=True)
+def body_description(P):
+    """The bodies as sums of rotating vectors, for :func:`pkmlab.lagrangian.rotating_vector_bodies`.
+
+    Mass centres: active link ``i``: ``b_i + R(θ_i) c_li``; passive link ``i``:
+    ``b_i + l_i u(θ_i) + R(φ_i) c_ri``; platform (reached through leg 1, as ``p`` of eq. 13):
+    ``b_1 + l_1 u(θ_1) + r_1 u(φ_1) + R(α) c_a``. Returns ``(term_body, term_coord, term_vec,
+    body_angle, D)`` with ``D[b] = (m_b, m_b, I_b)``.
+    """
+    term_body = np.array([0, 1, 2, 3, 3, 4, 4, 5, 5, 6, 6, 6])
+    term_coord = np.array([0, 1, 2, 0, 3, 1, 4, 2, 5, 0, 3, 6])
+    term_vec = np.zeros((12, 2))
+    D = np.empty((N_BODIES, 3))
+    for i in range(3):
+        term_vec[i, 0] = P[ACTIVE_COM + 2 * i]
+        term_vec[i, 1] = P[ACTIVE_COM + 2 * i + 1]
+        term_vec[3 + 2 * i, 0] = P[ACTIVE_LENGTH + i]
+        term_vec[4 + 2 * i, 0] = P[PASSIVE_COM + 2 * i]
+        term_vec[4 + 2 * i, 1] = P[PASSIVE_COM + 2 * i + 1]
+        D[i, 0] = D[i, 1] = P[ACTIVE_MASS + i]
+        D[i, 2] = P[ACTIVE_INERTIA + i]
+        D[3 + i, 0] = D[3 + i, 1] = P[PASSIVE_MASS + i]
+        D[3 + i, 2] = P[PASSIVE_INERTIA + i]
+    term_vec[9, 0] = P[ACTIVE_LENGTH]
+    term_vec[10, 0] = P[PASSIVE_LENGTH]
+    term_vec[11, 0] = P[PLATFORM_COM]
+    term_vec[11, 1] = P[PLATFORM_COM + 1]
+    D[6, 0] = D[6, 1] = P[PLATFORM_MASS]
+    D[6, 2] = P[PLATFORM_INERTIA]
+    body_angle = np.arange(N_BODIES)
+    return term_body, term_coord, term_vec, body_angle, D
+
+
+@njit(cache=True)
+def bodies(q, qd, P, with_partials):
+    """Body Jacobians ``J`` (7, 3, 7), partials ``H`` (7, 7, 3, 7) or empty, ``J̇q̇`` and ``D``."""
+    term_body, term_coord, term_vec, body_angle, D = body_description(P)
+    J = np.empty((N_BODIES, 3, 7))
+    H = np.empty((N_BODIES if with_partials else 0, 7, 3, 7))
+    bias = np.empty((N_BODIES, 3))
+    lagrangian.rotating_vector_bodies(q, qd, N_BODIES, term_body, term_coord, term_vec, body_angle, J, H, bias)
+    return J, H, bias, D
+
+
+@njit(cache=True)
+def constraint_jacobian_rate(q, qd, P, out):
+    """Write ``J̇ηq`` (4, 7): column ``j`` of ``Jηq`` is ``R(q_j + π/2) v``, so its rate is that
+    column turned by a further ``π/2`` and scaled by ``q̇_j``."""
+    constraint_jacobian(q, P, out)
+    for j in range(7):
+        for r in (0, 2):
+            x, y = out[r, j], out[r + 1, j]
+            out[r, j] = -y * qd[j]
+            out[r + 1, j] = x * qd[j]
+
+
+@njit(cache=True)
+def actuator_space_dynamics(q, theta_dot, P):
+    """``(Mθ, Cθ θ̇, q̇, ok)`` at a configuration ``q`` on the constraint manifold (eq. 35)."""
+    jac = np.empty((4, 7))
+    constraint_jacobian(q, P, jac)
+    j_q_theta, ok = closed_chain.actuated_jacobian(jac, 3)
+    qd = j_q_theta @ theta_dot
+    gamma = np.empty(4)
+    constraint_convective(q, qd, P, gamma)
+    passive_bias, ok_bias = closed_chain.passive_acceleration_bias(jac, gamma, 3)
+    bias_q = np.zeros(7)
+    bias_q[3:] = passive_bias
+    J, _H, body_bias, D = bodies(q, qd, P, False)
+    M = lagrangian.mass_matrix(J, D)
+    h = lagrangian.velocity_product(J, D, body_bias)
+    m_theta, c_theta = lagrangian.actuator_space_model(M, h, j_q_theta, bias_q)
+    return m_theta, c_theta, qd, ok and ok_bias
+
+
+@njit(cache=True)
+def forward_dynamics(q, theta_dot, tau, P):
+    """``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (eq. 35) at ``q``; returns ``(θ̈, ok)``."""
+    m_theta, c_theta, _qd, ok = actuator_space_dynamics(q, theta_dot, P)
+    rhs = np.empty((3, 1))
+    for i in range(3):
+        rhs[i, 0] = tau[i] - c_theta[i]
+    x, ok_solve = closed_chain.lu_solve(m_theta, rhs)
+    return x[:, 0].copy(), ok and ok_solve
+
+
+@njit(cache=True)
+def full_dynamics(q, qd, tau, P, stabilization):
+    """``(q̈, λ, ok)`` of the full 7-coordinate model with multipliers (eq. 26), actuated torques ``τ`` (3,).
+
+    With ``stabilization = ω > 0`` the constraint is imposed at acceleration level as
+    ``η̈ + 2ω η̇ + ω² η = 0`` (Baumgarte), so that drift off the manifold decays instead of
+    growing during integration; on the manifold (``η = η̇ = 0``) nothing changes.
+    """
+    jac = np.empty((4, 7))
+    constraint_jacobian(q, P, jac)
+    gamma = np.empty(4)
+    constraint_convective(q, qd, P, gamma)
+    if stabilization > 0.0:
+        eta = np.empty(4)
+        constraints(q, P, eta)
+        eta_dot = jac @ qd
+        for k in range(4):
+            gamma[k] += 2.0 * stabilization * eta_dot[k] + stabilization * stabilization * eta[k]
+    J, _H, body_bias, D = bodies(q, qd, P, False)
+    M = lagrangian.mass_matrix(J, D)
+    h = lagrangian.velocity_product(J, D, body_bias)
+    tau_q = np.zeros(7)
+    tau_q[:3] = tau
+    return lagrangian.constrained_accelerations(M, h, jac, gamma, tau_q)
+
+
+@njit(cache=True)
+def kinetic_energy(q, qd, P):
+    """``T = ½ q̇ᵀ M q̇`` (eq. 20)."""
+    J, _H, _b, D = bodies(q, qd, P, False)
+    M = lagrangian.mass_matrix(J, D)
+    return 0.5 * (qd @ (M @ qd))

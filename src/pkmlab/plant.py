@@ -1,0 +1,204 @@
+"""Plants: the simulated machine, advancing its state under actuator torques.
+
+Two independent formulations of the same physics (SPEC §6):
+
+* :class:`ReducedPlant` integrates the actuator-space model (eq. 35) in the state
+  ``(θ, θ̇)``; after every evaluation the passive variables are recovered by
+  branch-following forward kinematics (paper §3.2), so the configuration is always on the
+  constraint manifold — the loop-closure residual stays at round-off level by construction.
+* :class:`FullPlant` integrates the seven coordinates with Lagrange multipliers (eq. 26) as
+  an index-1 differential-algebraic system, with Baumgarte stabilisation of the constraint
+  drift. It shares no reduction step with the first and serves as its cross-check.
+
+Both integrate with SciPy's DOP853 at tight tolerances (relative 1e-11 by default) so that
+integration error stays far below any tracking error of interest; ``rtol``/``atol`` are
+parameters. Torques are given as a function ``torque(t, θ, θ̇) -> (3,)`` or as a constant.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from scipy.integrate import solve_ivp
+
+from .errors import BranchFollowingError, InvalidParameterError, SingularityError
+from .geometry import Planar3RRR
+from .kinematics import _batch
+from .mechanisms import rrr3
+
+
+@dataclass(frozen=True)
+class PlantRun:
+    """Time series of a plant simulation (like SciPy's ``OdeResult``).
+
+    ``q`` (N, 7) and ``q_dot`` (N, 7) are full configurations and rates at times ``t`` (N,);
+    ``loop_residual`` (N,) is ``max |η(q)|`` in metres; ``n_evaluations`` counts right-hand
+    side evaluations.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    q_dot: np.ndarray
+    loop_residual: np.ndarray
+    n_evaluations: int
+
+    @property
+    def theta(self) -> np.ndarray:
+        return self.q[:, :3]
+
+    @property
+    def theta_dot(self) -> np.ndarray:
+        return self.q_dot[:, :3]
+
+
+def _torque_function(torque) -> Callable[[float, np.ndarray, np.ndarray], np.ndarray]:
+    if callable(torque):
+        return torque
+    value, _shape = _batch("torque", torque, 3)
+    if value.shape[0] != 1:
+        raise InvalidParameterError("a constant torque must have exactly 3 components")
+    constant = value[0].copy()
+    return lambda t, theta, theta_dot: constant
+
+
+def _check_times(t_final, t_eval):
+    if not np.isfinite(t_final) or t_final <= 0:
+        raise InvalidParameterError(f"t_final must be a positive number of seconds, got {t_final}")
+    if t_eval is None:
+        return None
+    t_eval = np.asarray(t_eval, dtype=float)
+    if t_eval.ndim != 1 or np.any(np.diff(t_eval) <= 0) or t_eval[0] < 0 or t_eval[-1] > t_final:
+        raise InvalidParameterError("t_eval must increase strictly within [0, t_final]")
+    return t_eval
+
+
+@njit(cache=True)
+def _reduced_rhs(y, q_guess, tau, P, min_abs_s, q_out):
+    """``(θ̇, θ̈)`` of eq. (35) at ``θ = y[:3]``, with ``φ`` branch-followed from ``q_guess``."""
+    status = rrr3.branch_following(q_guess, y[:3], P, q_out, min_abs_s)
+    out = np.empty(6)
+    out[:3] = y[3:]
+    theta_ddot, ok = rrr3.forward_dynamics(q_out, y[3:], tau, P)
+    out[3:] = theta_ddot
+    if status == rrr3.OK and not ok:
+        status = rrr3.SINGULAR
+    return out, status
+
+
+@njit(cache=True)
+def _full_rhs(y, tau, P, stabilization):
+    out = np.empty(14)
+    out[:7] = y[7:]
+    qdd, _lam, ok = rrr3.full_dynamics(y[:7], y[7:], tau, P, stabilization)
+    out[7:] = qdd
+    return out, ok
+
+
+@njit(cache=True)
+def _residuals(qs, P):
+    out = np.empty(qs.shape[0])
+    eta = np.empty(4)
+    for k in range(qs.shape[0]):
+        rrr3.constraints(qs[k], P, eta)
+        out[k] = np.max(np.abs(eta))
+    return out
+
+
+class ReducedPlant:
+    """The machine integrated in the actuator space: state ``(θ, θ̇)`` and eq. (35).
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The plant's own parameters (they may differ from a controller's model).
+    rtol, atol : float
+        DOP853 tolerances.
+    min_abs_S : float
+        Branch following stops the run with :class:`~pkmlab.errors.BranchFollowingError`
+        when ``|S|`` falls below this (a gain-type singularity, where eq. 35 is invalid).
+    """
+
+    def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, min_abs_S: float = 1e-6):
+        self.model = model
+        self.rtol, self.atol, self.min_abs_S = float(rtol), float(atol), float(min_abs_S)
+
+    def simulate(self, q0, theta_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
+        """Integrate from configuration ``q0`` (on the manifold) and actuated rates ``θ̇0``."""
+        q0 = _batch("q0", q0, 7)[0][0]
+        theta_dot0 = _batch("theta_dot0", theta_dot0, 3)[0][0]
+        t_eval = _check_times(t_final, t_eval)
+        torque_fn = _torque_function(torque)
+        P = self.model.packed
+        q_last = q0.copy()
+        q_work = np.empty(7)
+        evaluations = 0
+
+        def rhs(t, y):
+            nonlocal evaluations
+            evaluations += 1
+            tau = np.asarray(torque_fn(t, y[:3], y[3:]), dtype=float)
+            ydot, status = _reduced_rhs(y, q_last, tau, P, self.min_abs_S, q_work)
+            if status != rrr3.OK:
+                raise BranchFollowingError(
+                    f"the plant reached a gain-type singularity at t = {t:.6g} s "
+                    f"(theta = {np.round(y[:3], 6).tolist()})"
+                )
+            q_last[:] = q_work
+            return ydot
+
+        y0 = np.concatenate([q0[:3], theta_dot0])
+        sol = solve_ivp(rhs, (0.0, float(t_final)), y0, method="DOP853", rtol=self.rtol, atol=self.atol,
+                        t_eval=t_eval)
+        if sol.status != 0:
+            raise SingularityError(f"integration failed: {sol.message}")
+        # rebuild the passive variables at the output times, following the branch from q0
+        qs = np.empty((sol.t.size, 7))
+        q_prev = q0
+        for k in range(sol.t.size):
+            q_next = np.empty(7)
+            if rrr3.branch_following(q_prev, sol.y[:3, k].copy(), P, q_next, self.min_abs_S) != rrr3.OK:
+                raise BranchFollowingError(f"lost the assembly mode at t = {sol.t[k]:.6g} s")
+            qs[k] = q_prev = q_next
+        from .kinematics import coordinate_rates
+
+        q_dot = coordinate_rates(self.model, qs, sol.y[3:].T)
+        return PlantRun(sol.t, qs, q_dot, _residuals(qs, P), evaluations)
+
+
+class FullPlant:
+    """The machine integrated in all seven coordinates with multipliers (eq. 26, index-1 form).
+
+    ``stabilization`` is the Baumgarte rate ω (1/s) of ``η̈ + 2ω η̇ + ω² η = 0``.
+    """
+
+    def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, stabilization: float = 20.0):
+        self.model = model
+        self.rtol, self.atol, self.stabilization = float(rtol), float(atol), float(stabilization)
+
+    def simulate(self, q0, q_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
+        """Integrate from ``q0`` and ``q̇0`` (both consistent with the constraints)."""
+        q0 = _batch("q0", q0, 7)[0][0]
+        q_dot0 = _batch("q_dot0", q_dot0, 7)[0][0]
+        t_eval = _check_times(t_final, t_eval)
+        torque_fn = _torque_function(torque)
+        P = self.model.packed
+        evaluations = 0
+
+        def rhs(t, y):
+            nonlocal evaluations
+            evaluations += 1
+            tau = np.asarray(torque_fn(t, y[:3], y[7:10]), dtype=float)
+            ydot, ok = _full_rhs(y, tau, P, self.stabilization)
+            if not ok:
+                raise SingularityError(f"the constrained dynamics became singular at t = {t:.6g} s")
+            return ydot
+
+        sol = solve_ivp(rhs, (0.0, float(t_final)), np.concatenate([q0, q_dot0]), method="DOP853",
+                        rtol=self.rtol, atol=self.atol, t_eval=t_eval)
+        if sol.status != 0:
+            raise SingularityError(f"integration failed: {sol.message}")
+        qs = np.ascontiguousarray(sol.y[:7].T)
+        return PlantRun(sol.t, qs, np.ascontiguousarray(sol.y[7:].T), _residuals(qs, P), evaluations)
