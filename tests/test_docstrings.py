@@ -5,7 +5,7 @@ import importlib
 
 import pytest
 
-MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis"]
+MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -10,7 +10,10 @@ control of a planar 3-RRR parallel manipulator". Start with :class:`Planar3RRR`:
 2
 """
 
-from . import _compile_cache  # noqa: F401  (must precede the compiled modules)
+from . import (
+    _compile_cache,  # noqa: F401  (must precede the compiled modules)
+    dynamics,
+)
 from .analysis import SingularityMap, singularity_map
 from .errors import (
     AssemblyError,
@@ -43,6 +46,7 @@ from .kinematics import (
     velocity_jacobian,
     working_mode_of,
 )
+from .plant import FullPlant, PlantRun, ReducedPlant
 
 __version__ = "0.1.0"
 
@@ -75,6 +79,10 @@ __all__ = [
     "forward_singularity_determinant",
     "singularity_measure",
     "working_mode_of",
+    "dynamics",
+    "ReducedPlant",
+    "FullPlant",
+    "PlantRun",
     "SingularityMap",
     "singularity_map",
 ]

@@ -146,6 +146,50 @@ def _accept_negative_numbers(parser: argparse.ArgumentParser) -> argparse.Argume
     return parser
 
 
+def _dynamics_record(model, sol_q, theta_dot) -> dict:
+    from . import dynamics
+    from .kinematics import coordinate_rates, platform_pose
+
+    q_dot = coordinate_rates(model, sol_q, theta_dot)
+    m_theta, c_theta = dynamics.actuator_space_model(model, sol_q, theta_dot)
+    _qdd, lam = dynamics.constrained_accelerations(model, sol_q, q_dot, [0.0, 0.0, 0.0])
+    x, y, alpha = platform_pose(model, sol_q).tolist()
+    return {
+        "pose": {"x": x, "y": y, "alpha": alpha},
+        "q": sol_q.tolist(),
+        "q_dot": q_dot.tolist(),
+        "M_theta": m_theta.tolist(),
+        "c_theta": c_theta.tolist(),
+        "C_theta": dynamics.actuator_space_coriolis_matrix(model, sol_q, theta_dot).tolist(),
+        "M": dynamics.mass_matrix(model, sol_q).tolist(),
+        "lambda": lam.tolist(),
+        "kinetic_energy": float(dynamics.kinetic_energy(model, sol_q, q_dot)),
+    }
+
+
+def cmd_dynamics(args) -> dict:
+    from .kinematics import forward_kinematics
+
+    model = _model(args)
+    theta = [args.t1, args.t2, args.t3]
+    theta_dot = args.theta_dot
+    fk = forward_kinematics(model, theta)
+    if len(fk) == 0:
+        raise AssemblyError(f"theta = {theta} cannot be assembled: forward kinematics has no real solution")
+    chosen = [fk.nearest(args.near)] if args.near else list(fk)
+    records = [_dynamics_record(model, sol.q, theta_dot) for sol in chosen]
+    if not args.json:
+        for rec in records:
+            p = rec["pose"]
+            print(f"assembly mode at x = {p['x']:+.6f} m, y = {p['y']:+.6f} m, alpha = {p['alpha']:+.6f} rad")
+            print("  M_theta (kg m^2):")
+            for row in rec["M_theta"]:
+                print("    " + "  ".join(f"{v:+.6e}" for v in row))
+            print("  C_theta theta_dot (N m): " + "  ".join(f"{v:+.6e}" for v in rec["c_theta"]))
+            print("  lambda at zero torque (N): " + "  ".join(f"{v:+.6e}" for v in rec["lambda"]))
+    return records[0] if args.near else {"solutions": records}
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
                                      "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
@@ -171,6 +215,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("t3", type=float, metavar="T3")
     common(p)
     p.set_defaults(func=cmd_fk)
+
+    p = sub.add_parser("dynamics", help="actuator-space and full dynamic model at a state (paper eq. 26, 35)")
+    p.add_argument("t1", type=float, metavar="T1")
+    p.add_argument("t2", type=float, metavar="T2")
+    p.add_argument("t3", type=float, metavar="T3")
+    p.add_argument("--theta-dot", nargs=3, type=float, metavar=("W1", "W2", "W3"), default=[0.0, 0.0, 0.0],
+                   help="actuated rates (rad/s), default 0")
+    p.add_argument("--near", nargs=3, type=float, metavar=("X", "Y", "ALPHA"),
+                   help="only the assembly mode whose platform pose is nearest to (X, Y, ALPHA)")
+    common(p)
+    p.set_defaults(func=cmd_dynamics)
 
     p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
     p.add_argument("--out", default="out", help="output folder (default: out)")
