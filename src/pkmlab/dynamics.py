@@ -16,7 +16,7 @@ Examples
 >>> model = Planar3RRR.paper()
 >>> q = inverse_kinematics(model, [0.2, 0.21, 0.0], mode=(-1, 1, -1)).q
 >>> m_theta, c_theta = actuator_space_model(model, q, [0.0, 0.0, 0.0])
->>> bool(np.all(np.linalg.eigvalsh(m_theta) > 0)), np.abs(c_theta).max()
+>>> bool(np.all(np.linalg.eigvalsh(m_theta) > 0)), float(np.abs(c_theta).max())
 (True, 0.0)
 """
 
