@@ -226,3 +226,19 @@ def test_cli_dynamics_json(paper, capsys):
     assert main(["dynamics", *theta, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert len(out["solutions"]) == int(pkmlab.forward_kinematics(paper, q[:3]).count)
+
+
+def test_plant_accuracy_against_a_tighter_reference(paper):
+    """The default tolerances (rtol 1e-11) keep the integration error far below 1e-8 rad over 1 s."""
+    q0 = pkmlab.inverse_kinematics(paper, [0.25, 0.21, 0.0], mode=(-1, 1, -1)).q
+
+    def torque(t, theta, theta_dot):
+        return np.array([0.05 * np.sin(4 * t), 0.03, -0.04 * np.cos(3 * t)])
+
+    t = np.linspace(0, 1.0, 21)
+    default = ReducedPlant(paper).simulate(q0, [0.2, -0.1, 0.3], torque, 1.0, t_eval=t)
+    reference = ReducedPlant(paper, rtol=1e-13, atol=1e-14).simulate(q0, [0.2, -0.1, 0.3], torque, 1.0, t_eval=t)
+    error = np.abs(default.theta - reference.theta).max()
+    assert error < 1e-9
+    loose = ReducedPlant(paper, rtol=1e-6, atol=1e-8).simulate(q0, [0.2, -0.1, 0.3], torque, 1.0, t_eval=t)
+    assert np.abs(loose.theta - reference.theta).max() > error  # the tolerance is what controls the error
