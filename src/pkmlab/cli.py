@@ -196,6 +196,10 @@ def build_parser() -> argparse.ArgumentParser:
     _accept_negative_numbers(parser)
     sub = parser.add_subparsers(dest="command", required=True)
 
+    def actuated_angles(p):
+        for k in (1, 2, 3):
+            p.add_argument(f"t{k}", type=float, metavar=f"T{k}")
+
     def common(p):
         _accept_negative_numbers(p)
         p.add_argument("--params", metavar="FILE.toml", help="manipulator parameters (default: the paper preset)")
@@ -210,16 +214,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_ik)
 
     p = sub.add_parser("fk", help="forward kinematics: every assembly mode of actuated angles")
-    p.add_argument("t1", type=float, metavar="T1")
-    p.add_argument("t2", type=float, metavar="T2")
-    p.add_argument("t3", type=float, metavar="T3")
+    actuated_angles(p)
     common(p)
     p.set_defaults(func=cmd_fk)
 
     p = sub.add_parser("dynamics", help="actuator-space and full dynamic model at a state (paper eq. 26, 35)")
-    p.add_argument("t1", type=float, metavar="T1")
-    p.add_argument("t2", type=float, metavar="T2")
-    p.add_argument("t3", type=float, metavar="T3")
+    actuated_angles(p)
     p.add_argument("--theta-dot", nargs=3, type=float, metavar=("W1", "W2", "W3"), default=[0.0, 0.0, 0.0],
                    help="actuated rates (rad/s), default 0")
     p.add_argument("--near", nargs=3, type=float, metavar=("X", "Y", "ALPHA"),

@@ -28,7 +28,7 @@ from numba import njit
 from . import closed_chain, lagrangian
 from .errors import SingularityError
 from .geometry import Planar3RRR
-from .kinematics import _batch, _index_text, _pair
+from .kinematics import _batch, _broadcast, _index_text, _pair
 from .mechanisms import rrr3
 
 __all__ = [
@@ -149,12 +149,7 @@ def kinetic_energy(model: Planar3RRR, q, q_dot) -> np.ndarray:
 
 
 def _constrained(model, q, q_dot, tau):
-    qs, qds, shape_a = _pair("q", q, 7, "q_dot", q_dot, 7)
-    tau_arr, shape_t = _batch("tau", tau, 3)
-    shape = np.broadcast_shapes(shape_a, shape_t)
-    qs = np.ascontiguousarray(np.broadcast_to(qs.reshape(*shape_a, 7), (*shape, 7)).reshape(-1, 7))
-    qds = np.ascontiguousarray(np.broadcast_to(qds.reshape(*shape_a, 7), (*shape, 7)).reshape(-1, 7))
-    taus = np.ascontiguousarray(np.broadcast_to(tau_arr.reshape(*shape_t, 3), (*shape, 3)).reshape(-1, 3))
+    qs, qds, taus, shape = _broadcast(("q", q, 7), ("q_dot", q_dot, 7), ("tau", tau, 3))
     n = qs.shape[0]
     qdd = np.empty((n, 7))
     lam = np.empty((n, 4))
@@ -213,12 +208,7 @@ def inverse_dynamics(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
 
 def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
     """Actuated accelerations ``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (..., 3) under torques ``τ`` (eq. 35)."""
-    qs, tds, shape_a = _pair("q", q, 7, "theta_dot", theta_dot, 3)
-    tau_arr, shape_t = _batch("tau", tau, 3)
-    shape = np.broadcast_shapes(shape_a, shape_t)
-    qs = np.ascontiguousarray(np.broadcast_to(qs.reshape(*shape_a, 7), (*shape, 7)).reshape(-1, 7))
-    tds = np.ascontiguousarray(np.broadcast_to(tds.reshape(*shape_a, 3), (*shape, 3)).reshape(-1, 3))
-    taus = np.ascontiguousarray(np.broadcast_to(tau_arr.reshape(*shape_t, 3), (*shape, 3)).reshape(-1, 3))
+    qs, tds, taus, shape = _broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("tau", tau, 3))
     out = np.empty((qs.shape[0], 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
     _forward_dynamics_batch(qs, tds, taus, model.packed, out, ok)

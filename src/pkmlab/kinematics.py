@@ -70,16 +70,30 @@ def _batch(name: str, value, n: int) -> tuple[np.ndarray, tuple[int, ...]]:
     return np.ascontiguousarray(arr.reshape(-1, n)), arr.shape[:-1]
 
 
-def _pair(name_a: str, a, n_a: int, name_b: str, b, n_b: int):
-    a2, shape_a = _batch(name_a, a, n_a)
-    b2, shape_b = _batch(name_b, b, n_b)
+def _broadcast(*specs) -> tuple:
+    """Validate ``(name, value, n)`` arrays and broadcast their leading shapes together.
+
+    Returns each as a C-contiguous ``(N, n)`` array, then the common leading shape.
+    """
+    arrays, shapes = [], []
+    for name, value, n in specs:
+        arr, shape = _batch(name, value, n)
+        arrays.append((arr, n))
+        shapes.append(shape)
     try:
-        shape = np.broadcast_shapes(shape_a, shape_b)
+        shape = np.broadcast_shapes(*shapes)
     except ValueError:
-        raise InvalidParameterError(f"{name_a} {shape_a} and {name_b} {shape_b} do not broadcast") from None
-    a_full = np.broadcast_to(a2.reshape(*shape_a, n_a), (*shape, n_a)).reshape(-1, n_a)
-    b_full = np.broadcast_to(b2.reshape(*shape_b, n_b), (*shape, n_b)).reshape(-1, n_b)
-    return np.ascontiguousarray(a_full), np.ascontiguousarray(b_full), shape
+        listing = " and ".join(f"{spec[0]} {s}" for spec, s in zip(specs, shapes, strict=True))
+        raise InvalidParameterError(f"{listing} do not broadcast") from None
+    full = [
+        np.ascontiguousarray(np.broadcast_to(arr.reshape(*s, n), (*shape, n)).reshape(-1, n))
+        for (arr, n), s in zip(arrays, shapes, strict=True)
+    ]
+    return (*full, shape)
+
+
+def _pair(name_a: str, a, n_a: int, name_b: str, b, n_b: int):
+    return _broadcast((name_a, a, n_a), (name_b, b, n_b))
 
 
 def _index_text(flat: int, shape: tuple[int, ...]) -> str:

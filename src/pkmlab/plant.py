@@ -64,6 +64,13 @@ def _torque_function(torque) -> Callable[[float, np.ndarray, np.ndarray], np.nda
     return lambda t, theta, theta_dot: constant
 
 
+def _initial(q0, rate_name, rate0, n_rate, torque, t_final, t_eval):
+    """Validated ``(q0, rate0, torque function, t_eval)`` of a simulation request."""
+    q0 = _batch("q0", q0, 7)[0][0]
+    rate0 = _batch(rate_name, rate0, n_rate)[0][0]
+    return q0, rate0, _torque_function(torque), _check_times(t_final, t_eval)
+
+
 def _check_times(t_final, t_eval):
     if not np.isfinite(t_final) or t_final <= 0:
         raise InvalidParameterError(f"t_final must be a positive number of seconds, got {t_final}")
@@ -127,10 +134,7 @@ class ReducedPlant:
 
     def simulate(self, q0, theta_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from configuration ``q0`` (on the manifold) and actuated rates ``θ̇0``."""
-        q0 = _batch("q0", q0, 7)[0][0]
-        theta_dot0 = _batch("theta_dot0", theta_dot0, 3)[0][0]
-        t_eval = _check_times(t_final, t_eval)
-        torque_fn = _torque_function(torque)
+        q0, theta_dot0, torque_fn, t_eval = _initial(q0, "theta_dot0", theta_dot0, 3, torque, t_final, t_eval)
         P = self.model.packed
         q_last = q0.copy()
         q_work = np.empty(7)
@@ -180,10 +184,7 @@ class FullPlant:
 
     def simulate(self, q0, q_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from ``q0`` and ``q̇0`` (both consistent with the constraints)."""
-        q0 = _batch("q0", q0, 7)[0][0]
-        q_dot0 = _batch("q_dot0", q_dot0, 7)[0][0]
-        t_eval = _check_times(t_final, t_eval)
-        torque_fn = _torque_function(torque)
+        q0, q_dot0, torque_fn, t_eval = _initial(q0, "q_dot0", q_dot0, 7, torque, t_final, t_eval)
         P = self.model.packed
         evaluations = 0
 
