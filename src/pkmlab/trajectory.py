@@ -1,0 +1,227 @@
+"""Desired motions of the platform and, through exact inverse kinematics, of the actuators.
+
+A trajectory is a geometric path of platform poses ``(x, y, α)`` parametrised by arc length
+``s ∈ [0, L]`` (a pure rotation is measured in radians), traversed with a time law
+``s(t)`` that starts and ends at rest (SPEC §4: the paper's "third-order polynomial").
+:meth:`Trajectory.desired` gives pose, velocity and acceleration at any time;
+:func:`desired_joint_motion` turns them into ``θ_d, θ̇_d, θ̈_d`` with exact inverse kinematics
+and its exact first and second derivatives (no finite differences)::
+
+    ẋ = J θ̇        →  θ̇_d = J⁻¹ ẋ_d
+    ẍ = J θ̈ + J̇θ̇  →  θ̈_d = J⁻¹ (ẍ_d - J̇ θ̇_d)
+
+with ``J`` the platform Jacobian (eqs. 14–17) at the inverse-kinematics configuration.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InvalidParameterError
+from .geometry import Planar3RRR
+from .kinematics import _first_order, _second_order, inverse_kinematics, platform_jacobian
+
+
+# ------------------------------------------------------------------ time laws
+def time_law(kind: str, tau):
+    """``(σ, σ', σ'')`` of a rest-to-rest law on ``τ ∈ [0, 1]``: cubic ``3τ² - 2τ³`` or quintic."""
+    tau = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0)
+    if kind == "cubic":
+        return 3 * tau**2 - 2 * tau**3, 6 * tau - 6 * tau**2, 6 - 12 * tau
+    if kind == "quintic":
+        return (10 * tau**3 - 15 * tau**4 + 6 * tau**5, 30 * tau**2 - 60 * tau**3 + 30 * tau**4,
+                60 * tau - 180 * tau**2 + 120 * tau**3)
+    raise InvalidParameterError(f"time_law must be 'cubic' or 'quintic', got {kind!r}")
+
+
+def _positive(name, value):
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise InvalidParameterError(f"{name} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def _finite_vector(name, value, n):
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+        raise InvalidParameterError(f"{name} must be {n} finite numbers, got {value!r}")
+    return arr
+
+
+# ------------------------------------------------------------------ paths
+@dataclass(frozen=True)
+class Circle:
+    """A circle of the platform centroid, ``turns`` times counter-clockwise from ``start_angle``.
+
+    The orientation goes linearly (in arc length) from ``alpha`` to ``alpha_end`` (constant by
+    default). The paper's path: ``Circle((0.25, 0.21), 0.05)`` (start at the leftmost point).
+    """
+
+    center: tuple[float, float]
+    radius: float
+    start_angle: float = math.pi
+    alpha: float = 0.0
+    alpha_end: float | None = None
+    turns: float = 1.0
+
+    def __post_init__(self):
+        _finite_vector("circle center", self.center, 2)
+        _positive("circle radius", self.radius)
+        _positive("circle turns", self.turns)
+
+    @property
+    def length(self) -> float:
+        return 2 * math.pi * self.radius * self.turns
+
+    def at(self, s):
+        """Pose, ``d/ds`` and ``d²/ds²`` (each (..., 3)) at arc lengths ``s``."""
+        s = np.asarray(s, dtype=float)
+        r = self.radius
+        psi = self.start_angle + s / r
+        a_end = self.alpha if self.alpha_end is None else self.alpha_end
+        da = (a_end - self.alpha) / self.length
+        c, sn = np.cos(psi), np.sin(psi)
+        pose = np.stack([self.center[0] + r * c, self.center[1] + r * sn, self.alpha + da * s], axis=-1)
+        d1 = np.stack([-sn, c, np.full_like(s, da)], axis=-1)
+        d2 = np.stack([-c / r, -sn / r, np.zeros_like(s)], axis=-1)
+        return pose, d1, d2
+
+
+@dataclass(frozen=True)
+class Line:
+    """A straight segment between two poses ``(x, y, α)``; ``α`` interpolated linearly.
+
+    The parameter is the distance travelled; for a pure rotation (same position) it is the
+    angle turned, in radians.
+    """
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+
+    def __post_init__(self):
+        a = _finite_vector("line start", self.start, 3)
+        b = _finite_vector("line end", self.end, 3)
+        if np.allclose(a, b):
+            raise InvalidParameterError("line start and end are the same pose")
+
+    @property
+    def length(self) -> float:
+        d = np.subtract(self.end, self.start)
+        dist = float(np.hypot(d[0], d[1]))
+        return dist if dist > 0 else abs(float(d[2]))
+
+    def at(self, s):
+        s = np.asarray(s, dtype=float)
+        d = np.subtract(self.end, self.start) / self.length
+        pose = np.asarray(self.start) + s[..., None] * d
+        return pose, np.broadcast_to(d, pose.shape).copy(), np.zeros_like(pose)
+
+
+# ------------------------------------------------------------------ trajectories
+@dataclass(frozen=True)
+class Trajectory:
+    """A path traversed with a rest-to-rest time law at average speed ``speed`` (m/s).
+
+    ``duration = length / speed`` (SPEC §4: ``T = L / v``).
+    """
+
+    path: Circle | Line
+    speed: float
+    law: str = "cubic"
+
+    def __post_init__(self):
+        _positive("speed", self.speed)
+        time_law(self.law, 0.0)
+
+    @property
+    def duration(self) -> float:
+        return self.path.length / self.speed
+
+    def desired(self, t):
+        """``(pose, pose_dot, pose_ddot)``, each (..., 3), at times ``t`` (clamped to [0, T])."""
+        T = self.duration
+        L = self.path.length
+        sigma, dsigma, ddsigma = time_law(self.law, np.asarray(t, dtype=float) / T)
+        s, s_dot, s_ddot = L * sigma, L * dsigma / T, L * ddsigma / T**2
+        pose, d1, d2 = self.path.at(s)
+        return pose, d1 * s_dot[..., None], d2 * (s_dot**2)[..., None] + d1 * s_ddot[..., None]
+
+
+@dataclass(frozen=True)
+class WaypointTrajectory:
+    """Straight segments through poses ``points`` (K, 3), at rest at every waypoint.
+
+    Each segment is its own rest-to-rest :class:`Trajectory` (so the corners need no infinite
+    acceleration); ``α`` is interpolated along each segment.
+    """
+
+    points: tuple
+    speed: float
+    law: str = "cubic"
+    segments: tuple = field(init=False, repr=False)
+
+    def __post_init__(self):
+        pts = np.asarray(self.points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] < 2 or not np.all(np.isfinite(pts)):
+            raise InvalidParameterError("waypoints must be at least two finite poses [x, y, alpha]")
+        segments = tuple(Trajectory(Line(tuple(a), tuple(b)), self.speed, self.law)
+                         for a, b in zip(pts[:-1], pts[1:], strict=True))
+        object.__setattr__(self, "segments", segments)
+
+    @property
+    def duration(self) -> float:
+        return sum(seg.duration for seg in self.segments)
+
+    def desired(self, t):
+        t = np.asarray(t, dtype=float)
+        starts = np.cumsum([0.0] + [seg.duration for seg in self.segments])
+        idx = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.segments) - 1)
+        out = [np.empty((*t.shape, 3)) for _ in range(3)]
+        for k, seg in enumerate(self.segments):
+            mask = idx == k
+            if np.any(mask):
+                for o, v in zip(out, seg.desired(t[mask] - starts[k]), strict=True):
+                    o[mask] = v
+        return tuple(out)
+
+
+def paper_trajectory(speed: float = 0.2) -> Trajectory:
+    """The paper's circle (SPEC §4): centre (0.25, 0.21), radius 0.05, from the leftmost point."""
+    return Trajectory(Circle((0.25, 0.21), 0.05, start_angle=math.pi, alpha=0.0), speed, "cubic")
+
+
+# ------------------------------------------------------------------ actuator space
+@dataclass(frozen=True)
+class JointMotion:
+    """Desired actuator motion at times ``t`` (N,): ``theta``, ``theta_dot``, ``theta_ddot`` (N, 3),
+    with the configurations ``q`` (N, 7) and platform ``pose`` (N, 3) they come from."""
+
+    t: np.ndarray
+    q: np.ndarray
+    pose: np.ndarray
+    theta: np.ndarray
+    theta_dot: np.ndarray
+    theta_ddot: np.ndarray
+
+
+def desired_joint_motion(model: Planar3RRR, trajectory, mode, t) -> JointMotion:
+    """Exact inverse kinematics of a trajectory and its first and second time derivatives.
+
+    ``θ`` is unwrapped along ``t`` so that it is continuous (IK returns angles in (-π, π]).
+    """
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    pose, pose_dot, pose_ddot = trajectory.desired(t)
+    q = inverse_kinematics(model, pose, mode=mode).q
+    jac = platform_jacobian(model, q)  # ẋ = J θ̇
+    theta_dot = np.linalg.solve(jac, pose_dot[..., None])[..., 0]
+    _shape, _qd, bias, pose_bias = _second_order(model, q, theta_dot)
+    _s, _r, _je, j_pose_q, _jq, _d, _ok = _first_order(model, q)
+    # ẍ = J θ̈ + (Jpq J̇qθ θ̇ + J̇pq q̇)
+    pose_acc_bias = np.einsum("nij,nj->ni", j_pose_q, bias) + pose_bias
+    theta_ddot = np.linalg.solve(jac, (pose_ddot - pose_acc_bias)[..., None])[..., 0]
+    theta = np.unwrap(q[:, :3], axis=0)
+    q = q.copy()
+    q[:, :3] = theta
+    return JointMotion(t, q, pose, theta, theta_dot, theta_ddot)
