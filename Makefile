@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 reproduce: install
-	$(BIN)/pkmlab demo --out out
+	$(BIN)/pkmlab reproduce --out out
 
 lint: install
 	$(BIN)/ruff check src tests benchmarks

@@ -190,6 +190,21 @@ def cmd_dynamics(args) -> dict:
     return records[0] if args.near else {"solutions": records}
 
 
+def cmd_reproduce(args) -> dict:
+    """The paper's three cases: summary.json, CSVs, figures 3-15 and REPORT.md in --out."""
+    from .report import reproduce
+
+    progress = None if args.json or args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    summary = reproduce(args.out, control=args.control, figures=not args.no_figures, progress=progress)
+    if not args.json:
+        print(f"{'case':<10} {'max path error (m)':>19} {'rms path error (m)':>19} {'peak torque (N m)':>18}")
+        for name, s in summary["cases"].items():
+            print(f"{name:<10} {s['max_path_error_m']:>19.4e} {s['rms_path_error_m']:>19.4e} "
+                  f"{max(s['peak_torque_Nm']):>18.4f}")
+        print(f"results in {args.out}/")
+    return summary
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
                                      "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
@@ -226,6 +241,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="only the assembly mode whose platform pose is nearest to (X, Y, ALPHA)")
     common(p)
     p.set_defaults(func=cmd_dynamics)
+
+    p = sub.add_parser("reproduce", help="the paper's three simulated cases with every figure (paper §5)")
+    p.add_argument("--out", default="out", help="output folder (default: out)")
+    p.add_argument("--control", choices=("sampled", "continuous"), default="sampled",
+                   help="sampled-data control at 1 ms (default) or continuous-time")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    common(p)
+    p.set_defaults(func=cmd_reproduce)
 
     p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
     p.add_argument("--out", default="out", help="output folder (default: out)")

@@ -75,3 +75,101 @@ def save(fig, path: str | os.PathLike, dpi: int = 150) -> Path:
         if os.path.exists(tmp):
             os.unlink(tmp)
     return path
+
+
+# ------------------------------------------------------------------ closed-loop results
+def plot_configuration(model: Planar3RRR, q, ax=None, title: str | None = None):
+    """Draw the mechanism at configuration ``q``: base, legs (active bold), platform (paper figure 4)."""
+    ax = _axes(ax)
+    q = np.asarray(q, dtype=float)
+    b = model.base_points
+    e = b + model.active_lengths[:, None] * np.stack([np.cos(q[:3]), np.sin(q[:3])], axis=-1)
+    p = e + model.passive_lengths[:, None] * np.stack([np.cos(q[3:6]), np.sin(q[3:6])], axis=-1)
+    tri = np.vstack([b, b[:1]])
+    ax.plot(tri[:, 0], tri[:, 1], "k--", lw=0.8, label="base")
+    for i in range(3):
+        ax.plot([b[i, 0], e[i, 0]], [b[i, 1], e[i, 1]], color="tab:blue", lw=3,
+                label="active links" if i == 0 else None)
+        ax.plot([e[i, 0], p[i, 0]], [e[i, 1], p[i, 1]], color="tab:orange", lw=2,
+                label="passive links" if i == 0 else None)
+        ax.annotate(f"b{i + 1}", b[i], textcoords="offset points", xytext=(-12, -12), fontsize=8)
+        ax.annotate(f"p{i + 1}", p[i], textcoords="offset points", xytext=(4, 4), fontsize=8)
+    plat = np.vstack([p, p[:1]])
+    ax.fill(plat[:, 0], plat[:, 1], color="tab:green", alpha=0.4, label="platform")
+    ax.plot(b[:, 0], b[:, 1], "ks", ms=7)
+    ax.plot(e[:, 0], e[:, 1], "o", color="tab:blue", ms=5)
+    centroid = p.mean(axis=0)
+    ax.plot(*centroid, "k+", ms=10)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(title or f"configuration at x = {centroid[0]:.3f} m, y = {centroid[1]:.3f} m, α = {q[6]:.3f} rad")
+    return ax
+
+
+def _case(result) -> str:
+    return result.scenario.name
+
+
+def plot_path(result, ax=None):
+    """Platform centroid path tracked vs desired (paper figures 6, 10, 13)."""
+    ax = _axes(ax)
+    ax.plot(result.pose_d[:, 0], result.pose_d[:, 1], "k--", lw=1.5, label="desired")
+    ax.plot(result.pose[:, 0], result.pose[:, 1], color="tab:red", lw=1.2, label="tracked")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(fontsize=8)
+    ax.set_title(f"path tracked vs desired ({_case(result)})")
+    return ax
+
+
+def plot_path_error(result, ax=None):
+    """Euclidean distance between actual and desired centroid vs time (paper figures 7, 11, 14)."""
+    ax = _axes(ax)
+    ax.plot(result.t, result.path_error * 1e3, color="tab:red")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("path error (mm)")
+    ax.set_title(f"error in path tracking ({_case(result)})")
+    ax.grid(alpha=0.3)
+    return ax
+
+
+def plot_alpha(result, ax=None):
+    """Platform orientation α vs time, actual and desired (paper figure 8)."""
+    ax = _axes(ax)
+    ax.plot(result.t, result.pose_d[:, 2], "k--", label="desired α")
+    ax.plot(result.t, result.pose[:, 2], color="tab:purple", label="actual α")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("α (rad)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.set_title(f"platform orientation ({_case(result)})")
+    return ax
+
+
+def plot_torques(result, ax=None):
+    """Actuator torques vs time (paper figures 9, 12, 15)."""
+    ax = _axes(ax)
+    for i in range(3):
+        ax.plot(result.t, result.tau[:, i], label=f"τ{i + 1}")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("torque (N·m)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.set_title(f"joint torques ({_case(result)})")
+    return ax
+
+
+def plot_singularity_along_path(result, ax=None):
+    """``S`` of the plant's configuration along the run (paper figure 5)."""
+    ax = _axes(ax)
+    ax.plot(result.t, result.S, color="tab:blue")
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("singularity measure S")
+    ax.set_ylim(min(0.0, float(result.S.min()) * 1.1), max(0.0, float(result.S.max()) * 1.1))
+    ax.grid(alpha=0.3)
+    ax.set_title(f"S along the trajectory ({_case(result)})")
+    return ax

@@ -80,8 +80,9 @@ class Scenario:
     name: str = "scenario"
 
     def __post_init__(self):
-        if not isinstance(self.sample_time, (int, float)) or not math.isfinite(self.sample_time) or self.sample_time < 0:
-            raise InvalidParameterError(f"sample_time must be a non-negative number of seconds, got {self.sample_time!r}")
+        ts = self.sample_time
+        if not isinstance(ts, (int, float)) or not math.isfinite(ts) or ts < 0:
+            raise InvalidParameterError(f"sample_time must be a non-negative number of seconds, got {ts!r}")
         if not isinstance(self.substeps, int) or self.substeps < 1:
             raise InvalidParameterError(f"substeps must be a positive integer, got {self.substeps!r}")
         for name in ("singularity_margin", "singularity_guard"):
@@ -157,7 +158,8 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, i
         s_all = ik.S[:, idx:idx + 1]
     unreachable = np.isnan(s_all)
     if np.all(unreachable.any(axis=0)):
-        k = int(np.flatnonzero(unreachable.all(axis=1) if unreachable.all(axis=1).any() else unreachable.any(axis=1))[0])
+        rows = unreachable.all(axis=1) if unreachable.all(axis=1).any() else unreachable.any(axis=1)
+        k = int(np.flatnonzero(rows)[0])
         try:
             inverse_kinematics(scenario.model, pose[k])
         except UnreachablePoseError as exc:

@@ -1,0 +1,153 @@
+"""The paper's reproduction: the three simulated cases, their data, figures and a report.
+
+:func:`reproduce` writes into a folder: ``summary.json``, one CSV per case (SPEC §8
+columns), a PNG per figure of the paper (3–15) and ``REPORT.md`` comparing the cases. All
+files are written into a temporary folder beside the target and moved into place only when
+everything succeeded, so an error or Ctrl-C leaves no half-written results.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+from .errors import PkmlabError
+from .simulation import PAPER_CASES, SimulationResult, paper_scenario, simulate
+
+#: (file name, paper figure, caption, case, plot kind)
+FIGURES = (
+    ("fig03_singularity_map.png", "3", "S over the workspace at α = 0 with the desired circle", None, "map"),
+    ("fig04_initial_configuration.png", "4", "Initial configuration: x = 0.20, y = 0.21, α = 0", None, "start"),
+    ("fig05_singularity_along_path.png", "5", "S along the trajectory (nominal case)", "nominal", "S"),
+    ("fig06_nominal_path.png", "6", "Path tracked vs desired (nominal)", "nominal", "path"),
+    ("fig07_nominal_path_error.png", "7", "Error in path tracking (nominal)", "nominal", "error"),
+    ("fig08_nominal_alpha.png", "8", "Platform orientation α (nominal)", "nominal", "alpha"),
+    ("fig09_nominal_torques.png", "9", "Joint torques (nominal)", "nominal", "torques"),
+    ("fig10_disturbed_path.png", "10", "Path tracked vs desired, plant masses and lengths +15 %", "disturbed", "path"),
+    ("fig11_disturbed_path_error.png", "11", "Error in path tracking, plant +15 %", "disturbed", "error"),
+    ("fig12_disturbed_torques.png", "12", "Joint torques, plant +15 %", "disturbed", "torques"),
+    ("fig12b_disturbed_alpha.png", "—", "Platform orientation α, plant +15 % (not in the paper)", "disturbed", "alpha"),
+    ("fig13_fast_path.png", "13", "Path tracked vs desired, v = 0.4 m/s", "fast", "path"),
+    ("fig14_fast_path_error.png", "14", "Error in path tracking, v = 0.4 m/s", "fast", "error"),
+    ("fig15_fast_torques.png", "15", "Joint torques, v = 0.4 m/s", "fast", "torques"),
+    ("fig15b_fast_alpha.png", "—", "Platform orientation α, v = 0.4 m/s (not in the paper)", "fast", "alpha"),
+)
+
+
+def run_cases(control: str = "sampled") -> dict[str, SimulationResult]:
+    """Simulate the paper's three cases (SPEC §7) with sampled-data or continuous-time control."""
+    if control not in ("sampled", "continuous"):
+        raise PkmlabError(f"control must be 'sampled' or 'continuous', got {control!r}")
+    results = {}
+    for name in PAPER_CASES:
+        scenario = paper_scenario(name)
+        if control == "continuous":
+            scenario = scenario.replace(sample_time=0.0)
+        results[name] = simulate(scenario)
+    return results
+
+
+def _draw(kind: str, results: dict, case: str | None):
+    import matplotlib.pyplot as plt
+
+    from . import plotting
+    from .analysis import singularity_map
+
+    nominal = results["nominal"]
+    model = nominal.scenario.model
+    fig, ax = plt.subplots(figsize=(6.4, 4.8) if kind in ("error", "alpha", "torques", "S") else (6.0, 5.2),
+                           layout="constrained")
+    if kind == "map":
+        smap = singularity_map(model, alpha=0.0, mode=nominal.working_mode, resolution=241)
+        plotting.plot_singularity_map(smap, ax=ax, model=model, path_xy=nominal.pose_d[:, :2])
+    elif kind == "start":
+        plotting.plot_configuration(model, nominal.q[0], ax=ax,
+                                    title="initial configuration: x = 0.20 m, y = 0.21 m, α = 0")
+    else:
+        draw = {"S": plotting.plot_singularity_along_path, "path": plotting.plot_path,
+                "error": plotting.plot_path_error, "alpha": plotting.plot_alpha, "torques": plotting.plot_torques}[kind]
+        draw(results[case], ax=ax)
+    return fig
+
+
+def _report(results: dict, summary: dict, figures: bool) -> str:
+    nominal = summary["nominal"]
+    lines = [
+        "# pkmlab: reproduction of the paper's simulated cases",
+        "",
+        "Planar 3-RRR, computed-torque control (kp = 1000, kv = 2√kp), the circle of SPEC §4. "
+        "Path error: distance between the plant's actual centroid (its own geometry) and the desired one.",
+        "",
+        "| case | speed (m/s) | max path error (mm) | rms path error (mm) | max α error (rad) | "
+        "peak torques (N·m) | peak torque / nominal | min abs(S) | working mode |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for name in PAPER_CASES:
+        s = summary[name]
+        speed = results[name].scenario.trajectory.speed
+        ratio = max(s["peak_torque_Nm"]) / max(nominal["peak_torque_Nm"])
+        lines.append(
+            f"| {name} | {speed:g} | {s['max_path_error_m'] * 1e3:.4g} | {s['rms_path_error_m'] * 1e3:.4g} | "
+            f"{s['max_alpha_error_rad']:.3g} | {', '.join(f'{v:.3f}' for v in s['peak_torque_Nm'])} | "
+            f"{ratio:.2f} | {s['min_abs_S']:.3f} | {tuple(s['working_mode'])} |"
+        )
+    lines += ["", "Data: `summary.json`, `nominal.csv`, `disturbed.csv`, `fast.csv` (one row per sample).", ""]
+    if figures:
+        lines += ["## Figures", ""]
+        for fname, number, caption, _case, _kind in FIGURES:
+            label = f"Figure {number}" if number != "—" else "Extra figure"
+            lines += [f"### {label}: {caption}", "", f"![{caption}]({fname})", ""]
+    return "\n".join(lines) + "\n"
+
+
+def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures: bool = True,
+              progress: Callable[[str], None] | None = None) -> dict:
+    """Run the three cases and write their results into ``out``; return the summary dict."""
+    say = progress or (lambda _msg: None)
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise PkmlabError(f"cannot write results to {out}: it exists and is not a folder")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}-tmp-"))
+    except OSError as exc:
+        raise PkmlabError(f"cannot write results to {out}: {exc.strerror or exc}") from None
+    try:
+        say(f"simulating the paper's cases ({control} control) ...")
+        results = run_cases(control)
+        summary = {"cases": {name: results[name].summary() for name in PAPER_CASES}}
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        for name, result in results.items():
+            result.to_csv(tmp / f"{name}.csv")
+        if figures:
+            import matplotlib
+
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+
+            for fname, _number, _caption, case, kind in FIGURES:
+                fig = _draw(kind, results, case)
+                fig.savefig(tmp / fname, dpi=150)
+                plt.close(fig)
+            say(f"drew {len(FIGURES)} figures")
+        (tmp / "REPORT.md").write_text(_report(results, summary["cases"], figures))
+        for path in tmp.iterdir():
+            os.chmod(path, 0o644)
+        os.chmod(tmp, 0o755)
+        if out.exists():
+            old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}-old-"))
+            os.replace(out, old / out.name)
+            os.replace(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+        say(f"wrote {out}/")
+        return summary
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+
