@@ -1,4 +1,4 @@
-"""Benchmarks of pkmlab's kinematics on the paper's 3-RRR (``make bench``).
+"""Benchmarks of pkmlab's kinematics and dynamics on the paper's 3-RRR (``make bench``).
 
 Prints a table and writes every figure, with the machine it ran on, to
 ``benchmarks/results.json``. Each figure is the median of several timed runs
@@ -15,12 +15,29 @@ Figures
   from a small ``@numba.njit`` loop (no Python overhead per call);
 * inverse kinematics, all 8 working modes, batched;
 * a baseline measured in the same run: ``scipy.optimize.fsolve`` on the loop-closure
-  equations written in plain NumPy. The "vs fsolve" column is the baseline's time per solve
-  divided by the row's time per solve.
+  equations written in plain NumPy. The "vs baseline" column of these rows is the baseline's
+  time per solve divided by the row's time per solve.
+
+Dynamics (paper §3, eq. 35), in working mode (-, +, -):
+
+* the actuator-space model ``(Mθ, Cθ θ̇)``: the compiled kernel
+  :func:`pkmlab.mechanisms.rrr3.actuator_space_dynamics` from a small ``@numba.njit`` loop,
+  :func:`pkmlab.dynamics.actuator_space_model` batched and once per state;
+* forward dynamics ``θ̈``: :func:`pkmlab.mechanisms.rrr3.forward_dynamics` from an njit loop
+  over the states of the paper's circle, the same with branch following of the passive
+  variables at every step (what :class:`pkmlab.plant.ReducedPlant` evaluates), and
+  :func:`pkmlab.dynamics.forward_dynamics` once per state and batched;
+* 1 s of free motion (zero torque) with :class:`pkmlab.plant.ReducedPlant` and
+  :class:`pkmlab.plant.FullPlant`: wall time, right-hand-side evaluations, loop-closure
+  residual, relative kinetic-energy drift and the largest difference between the two;
+* a baseline measured in the same run: ``(Mθ, Cθ θ̇)`` in plain NumPy (body Jacobians, ``M``
+  and ``Jqθ`` by ``np.linalg.solve``), once per state and vectorized over the batch, checked
+  against pkmlab to 1e-10. Rows called once per state are compared with the per-state
+  baseline, batched rows and compiled loops with the vectorized one.
 
 Usage::
 
-    .venv/bin/python benchmarks/run.py            # full run (about 20 s + any compilation)
+    .venv/bin/python benchmarks/run.py            # full run (about 35 s + any compilation)
     .venv/bin/python benchmarks/run.py --quick    # smoke test
 
 The first-call rows depend on the state of the compile cache: with a warm cache they are
@@ -49,8 +66,10 @@ from scipy.optimize import fsolve
 
 import pkmlab
 from pkmlab import WORKING_MODES
+from pkmlab import dynamics as pk_dynamics
 from pkmlab import kinematics as pk_kinematics
 from pkmlab.mechanisms import rrr3
+from pkmlab.plant import FullPlant, ReducedPlant
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_OUTPUT = HERE / "results.json"
@@ -70,6 +89,18 @@ MIN_ABS_S = 1e-6  # pkmlab.branch_following's default
 
 BASELINE_XTOL = 1e-12  # relative step tolerance handed to fsolve (its default is 1.49e-8)
 
+# Dynamics: states are the random poses above in the circle's working mode, with random rates and torques.
+DYN_MODE = CIRCLE_MODE
+THETA_DOT_STD = 1.0  # rad/s, standard deviation of each random θ̇_i
+TAU_STD = 0.1  # N·m, standard deviation of each random τ_i
+DYN_BASELINE_RTOL = 1e-10  # the NumPy baseline must agree with pkmlab to this, relative to max |entry|
+
+# Free motion (zero torque) of the plants: start pose, actuated rates, duration, output samples.
+FREE_MOTION_POSE = (0.25, 0.21, 0.0)
+FREE_MOTION_THETA_DOT = (0.4, 0.3, -0.4)
+FREE_MOTION_SECONDS = 1.0
+FREE_MOTION_SAMPLES = 201
+
 # Problem sizes and repeat counts: full run, and --quick.
 SETTINGS = {
     "full": {
@@ -81,6 +112,14 @@ SETTINGS = {
         "repeats_path_kernel": 31,
         "repeats_baseline": 5,
         "repeats_baseline_fd": 3,
+        "n_dyn_batch": 10_000,
+        "n_dyn_single": 2_000,
+        "n_dyn_baseline_single": 1_000,
+        "repeats_dyn_kernel": 31,
+        "repeats_dyn_batch": 7,
+        "repeats_dyn_single": 5,
+        "repeats_dyn_baseline": 5,
+        "repeats_plant": 5,
     },
     "quick": {
         "n_batch": 2_000,
@@ -91,6 +130,14 @@ SETTINGS = {
         "repeats_path_kernel": 5,
         "repeats_baseline": 3,
         "repeats_baseline_fd": 3,
+        "n_dyn_batch": 1_000,
+        "n_dyn_single": 200,
+        "n_dyn_baseline_single": 100,
+        "repeats_dyn_kernel": 5,
+        "repeats_dyn_batch": 3,
+        "repeats_dyn_single": 3,
+        "repeats_dyn_baseline": 3,
+        "repeats_plant": 3,
     },
 }
 
@@ -125,8 +172,12 @@ def time_once(fn: Callable[[], object]) -> tuple[float, object]:
     return time.perf_counter() - start, out
 
 
-def rate_row(key: str, name: str, times: list[float], ops: int, op: str, compare: bool = True) -> dict:
-    """A row whose figure is the time per operation (``ops`` operations per timed run)."""
+def rate_row(key: str, name: str, times: list[float], ops: int, op: str, compare: bool = True,
+             baseline: str = "fsolve") -> dict:
+    """A row whose figure is the time per operation (``ops`` operations per timed run).
+
+    ``baseline`` names the entry of :data:`BASELINES` it is compared with (when ``compare``).
+    """
     median = statistics.median(times)
     return {
         "key": key,
@@ -142,11 +193,30 @@ def rate_row(key: str, name: str, times: list[float], ops: int, op: str, compare
         "median_us_per_op": median / ops * 1e6,
         "per_second": ops / median,
         "compare_to_baseline": compare,
+        "baseline": baseline if compare else None,
     }
 
 
 def first_call_row(key: str, name: str, seconds: float) -> dict:
     return {"key": key, "name": name, "kind": "first_call", "repeats": 1, "times_s": [seconds], "median_s": seconds}
+
+
+def metric_row(key: str, name: str, value: float, unit: str) -> dict:
+    """A row whose figure is a measured quantity, not a time (shown in the median column)."""
+    return {"key": key, "name": name, "kind": "metric", "value": value, "unit": unit}
+
+
+def section_row(name: str) -> dict:
+    """A heading line in the printed table (not written to the JSON results)."""
+    return {"kind": "section", "name": name}
+
+
+# Reference row of each baseline: a row with ``baseline=b`` is compared with ``BASELINES[b]``.
+BASELINES = {
+    "fsolve": "baseline_fsolve",
+    "numpy_dyn_single": "baseline_numpy_dyn_single",
+    "numpy_dyn_batched": "baseline_numpy_dyn_batched",
+}
 
 
 # ------------------------------------------------------------------ machine
@@ -234,6 +304,51 @@ def wrapped(x: np.ndarray) -> np.ndarray:
     return np.angle(np.exp(1j * x))
 
 
+def dynamics_states(model: pkmlab.Planar3RRR, poses: np.ndarray, rng: np.random.Generator):
+    """Configurations of ``poses`` in working mode :data:`DYN_MODE`, random ``θ̇`` and ``τ``, and ``|S|`` min."""
+    ik = pkmlab.inverse_kinematics(model, poses, mode=DYN_MODE)
+    n = poses.shape[0]
+    theta_dot = rng.normal(0.0, THETA_DOT_STD, (n, 3))
+    tau = rng.normal(0.0, TAU_STD, (n, 3))
+    return np.ascontiguousarray(ik.q), theta_dot, tau, float(np.abs(ik.S).min())
+
+
+@numba.njit(cache=False)
+def actuator_space_kernel_loop(qs, theta_dots, P, m_out, c_out):
+    """``(Mθ, Cθ θ̇)`` at every state: one compiled kernel call per state. True when all were regular."""
+    all_ok = True
+    for k in range(qs.shape[0]):
+        m_theta, c_theta, _qd, ok = rrr3.actuator_space_dynamics(qs[k], theta_dots[k], P)
+        m_out[k] = m_theta
+        c_out[k] = c_theta
+        all_ok = all_ok and ok
+    return all_ok
+
+
+@numba.njit(cache=False)
+def forward_dynamics_kernel_loop(qs, theta_dots, taus, P, out):
+    """``θ̈`` at every state: one compiled kernel call per state. True when all were regular."""
+    all_ok = True
+    for k in range(qs.shape[0]):
+        theta_ddot, ok = rrr3.forward_dynamics(qs[k], theta_dots[k], taus[k], P)
+        out[k] = theta_ddot
+        all_ok = all_ok and ok
+    return all_ok
+
+
+@numba.njit(cache=False)
+def follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, min_abs_s, q_path, out):
+    """Per step: branch-follow ``φ`` from ``q_path[k - 1]`` to ``θ_k``, then ``θ̈`` there (a reduced-plant RHS)."""
+    status = 0
+    all_ok = True
+    for k in range(1, thetas.shape[0]):
+        status |= rrr3.branch_following(q_path[k - 1], thetas[k], P, q_path[k], min_abs_s)
+        theta_ddot, ok = rrr3.forward_dynamics(q_path[k], theta_dots[k], taus[k], P)
+        out[k] = theta_ddot
+        all_ok = all_ok and ok
+    return status, all_ok
+
+
 # ------------------------------------------------------------------ baseline: NumPy + scipy.optimize.fsolve
 # BASELINE: a SINGLE-SOLUTION Newton-type solve (MINPACK's hybrj, Powell's hybrid method, as
 # wrapped by scipy.optimize.fsolve) of the four loop-closure equations η(θ, φ) = 0 for
@@ -300,6 +415,102 @@ def baseline_path(closure: NumpyLoopClosure, q_start: np.ndarray, thetas: np.nda
     return out, failures
 
 
+# ------------------------------------------------------------------ baseline: actuator-space model in NumPy
+# BASELINE: (Mθ, Cθ θ̇) of eq. (35) written directly in NumPy, from the model's attributes (not
+# pkmlab's packed vector or kernels): the constraint Jacobian Jηq, Jqθ = [I; -Jηφ⁻¹ Jηθ] and the
+# passive acceleration bias by np.linalg.solve, the bodies' mass-centre/rotation Jacobians and
+# centripetal accelerations, M = Σ Jbᵀ Db Jb, C q̇ = Σ Jbᵀ Db (J̇b q̇), then
+# Mθ = Jqθᵀ M Jqθ and Cθ θ̇ = Jqθᵀ (M J̇qθ θ̇ + C q̇). Vectorized over a leading batch axis, so the
+# same code serves as the per-state baseline (one state per call) and the batched one.
+class NumpyActuatorSpaceModel:
+    """``(Mθ, Cθ θ̇)`` of the 3-RRR in plain NumPy, for ``q`` (n, 7) and ``θ̇`` (n, 3)."""
+
+    def __init__(self, model: pkmlab.Planar3RRR):
+        self.l = np.array(model.active_lengths, dtype=float)
+        self.r = np.array(model.passive_lengths, dtype=float)
+        vertices = np.array(model.platform_vertices, dtype=float)  # P1 at the platform origin
+        self.p2 = vertices[1] - vertices[0]
+        self.p32 = vertices[2] - vertices[1]
+        # Mass centre of body b (active links 0-2, passive links 3-5, platform 6) = base point
+        # + Σ R(q_j) v over its terms (b, j, v); body b rotates with coordinate b.
+        terms = [(i, i, model.active_com[i]) for i in range(3)]
+        for i in range(3):
+            terms += [(3 + i, i, (self.l[i], 0.0)), (3 + i, 3 + i, model.passive_com[i])]
+        terms += [(6, 0, (self.l[0], 0.0)), (6, 3, (self.r[0], 0.0)), (6, 6, model.platform_com)]
+        self.terms = [(b, j, float(v[0]), float(v[1])) for b, j, v in terms]
+        mass = np.concatenate([model.active_masses, model.passive_masses, [model.platform_mass]])
+        inertia = np.concatenate([model.active_inertias, model.passive_inertias, [model.platform_inertia]])
+        self.D = np.column_stack([mass, mass, inertia])  # (7, 3): (m, m, I) per body
+
+    def constraint_jacobian(self, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """``Jηq`` (n, 4, 7) from ``cos q`` and ``sin q``."""
+        jac = np.zeros((c.shape[0], 4, 7))
+        for i in range(3):
+            for coord, length in ((i, self.l[i]), (3 + i, self.r[i])):
+                d = length * np.stack([-s[:, coord], c[:, coord]], axis=-1)  # d/dx of length u(x)
+                if i == 0:
+                    jac[:, 0:2, coord] = d
+                elif i == 1:
+                    jac[:, 0:2, coord] = -d
+                    jac[:, 2:4, coord] = d
+                else:
+                    jac[:, 2:4, coord] = -d
+        ca, sa = c[:, 6], s[:, 6]
+        for rows, v in ((slice(0, 2), self.p2), (slice(2, 4), self.p32)):
+            jac[:, rows, 6] = np.stack([-sa * v[0] - ca * v[1], ca * v[0] - sa * v[1]], axis=-1)
+        return jac
+
+    def __call__(self, q: np.ndarray, theta_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        q = np.asarray(q, dtype=float).reshape(-1, 7)
+        theta_dot = np.asarray(theta_dot, dtype=float).reshape(-1, 3)
+        n = q.shape[0]
+        c, s = np.cos(q), np.sin(q)
+        jac = self.constraint_jacobian(c, s)
+        j_eta_phi = jac[:, :, 3:]
+        j_q_theta = np.zeros((n, 7, 3))
+        j_q_theta[:, :3] = np.eye(3)
+        j_q_theta[:, 3:] = -np.linalg.solve(j_eta_phi, jac[:, :, :3])
+        qd = (j_q_theta @ theta_dot[:, :, None])[:, :, 0]
+        # J̇ηq q̇: column j of Jηq is a vector R(q_j + π/2) v, whose rate is R(q_j + π) v q̇_j
+        turned = np.empty_like(jac)
+        turned[:, 0::2], turned[:, 1::2] = -jac[:, 1::2], jac[:, 0::2]
+        gamma = (turned @ (qd * qd)[:, :, None])[:, :, 0]
+        bias_q = np.zeros((n, 7))  # J̇qθ θ̇ (eq. 32)
+        bias_q[:, 3:] = -np.linalg.solve(j_eta_phi, gamma[:, :, None])[:, :, 0]
+        J = np.zeros((n, 7, 3, 7))  # body Jacobians: mass-centre velocity (x, y) and angular velocity
+        body_bias = np.zeros((n, 7, 3))  # J̇b q̇: centripetal accelerations
+        for b, j, vx, vy in self.terms:
+            rx, ry = c[:, j] * vx - s[:, j] * vy, s[:, j] * vx + c[:, j] * vy
+            J[:, b, 0, j] -= ry
+            J[:, b, 1, j] += rx
+            w2 = qd[:, j] * qd[:, j]
+            body_bias[:, b, 0] -= rx * w2
+            body_bias[:, b, 1] -= ry * w2
+        J[:, np.arange(7), 2, np.arange(7)] = 1.0
+        DJ = self.D[None, :, :, None] * J
+        M = np.einsum("nbri,nbrk->nik", J, DJ)
+        h = np.einsum("nbri,nbr->ni", DJ, body_bias)  # C q̇
+        j_q_theta_t = j_q_theta.transpose(0, 2, 1)
+        m_theta = j_q_theta_t @ M @ j_q_theta
+        c_theta = (j_q_theta_t @ (M @ bias_q[:, :, None] + h[:, :, None]))[:, :, 0]
+        return m_theta, c_theta
+
+
+def baseline_dynamics_per_state(baseline: NumpyActuatorSpaceModel, qs: np.ndarray, theta_dots: np.ndarray):
+    m_out = np.empty((qs.shape[0], 3, 3))
+    c_out = np.empty((qs.shape[0], 3))
+    for k in range(qs.shape[0]):
+        m_theta, c_theta = baseline(qs[k], theta_dots[k])
+        m_out[k], c_out[k] = m_theta[0], c_theta[0]
+    return m_out, c_out
+
+
+def relative_kinetic_energy_drift(model: pkmlab.Planar3RRR, run) -> float:
+    """``max_t |T(t) - T(0)| / T(0)`` of a plant run."""
+    energy = pk_dynamics.kinetic_energy(model, run.q, run.q_dot)
+    return float(np.abs(energy - energy[0]).max() / energy[0])
+
+
 # ------------------------------------------------------------------ report
 def micro() -> str:
     try:
@@ -319,11 +530,29 @@ def fmt_number(x: float) -> str:
     return f"{x:.3f}"
 
 
+def fmt_metric(x: float | int) -> str:
+    if isinstance(x, int | np.integer):
+        return f"{x:,}"
+    if x == 0.0:
+        return "0"
+    if 1e-3 <= abs(x) < 1e4:
+        return fmt_number(x)
+    return f"{x:.2e}"
+
+
 def format_table(rows: list[dict]) -> str:
     mu = micro()
-    header = ("benchmark", "median", "unit", "rate", "vs fsolve")
+    header = ("benchmark", "median", "unit", "rate", "vs baseline")
     lines = []
+    sections = []  # line indices of headings, printed across the table
     for row in rows:
+        if row["kind"] == "section":
+            sections.append(len(lines))
+            lines.append((row["name"], "", "", "", ""))
+            continue
+        if row["kind"] == "metric":
+            lines.append((row["name"], fmt_metric(row["value"]), row["unit"], "", ""))
+            continue
         if row["kind"] == "first_call":
             lines.append((row["name"], fmt_number(row["median_s"] * 1e3), "ms (1 call)", "", ""))
             continue
@@ -343,14 +572,18 @@ def format_table(rows: list[dict]) -> str:
             f"{row['per_second']:,.0f} {row['op']}s/s",
             ratio_text,
         ))
-    widths = [max(len(str(r[i])) for r in [header, *lines]) for i in range(len(header))]
+    body = [r for k, r in enumerate(lines) if k not in sections]
+    widths = [max(len(str(r[i])) for r in [header, *body]) for i in range(len(header))]
     align = ["<", ">", "<", ">", ">"]
 
     def fmt(r):
         return "  ".join(f"{str(v):{a}{w}}" for v, a, w in zip(r, align, widths, strict=True)).rstrip()
 
     rule = "-" * len(fmt(header))
-    return "\n".join([fmt(header), rule, *(fmt(r) for r in lines), rule])
+    out = [fmt(header), rule]
+    for k, r in enumerate(lines):
+        out.append(f"-- {r[0]} " + "-" * max(0, len(rule) - len(r[0]) - 4) if k in sections else fmt(r))
+    return "\n".join([*out, rule])
 
 
 def write_json_atomic(path: Path, payload: dict) -> None:
@@ -394,10 +627,35 @@ def main(argv: list[str] | None = None) -> int:
     rows.append(first_call_row("first_call_forward_kinematics", "first call: forward_kinematics", dt))
     dt, _ = time_once(lambda: pkmlab.branch_following(model, q1, th1 + 1e-3))
     rows.append(first_call_row("first_call_branch_following", "first call: branch_following", dt))
+    q_free = pkmlab.inverse_kinematics(model, FREE_MOTION_POSE, mode=DYN_MODE).q
+    theta_dot_free = np.array(FREE_MOTION_THETA_DOT)
+    zero3 = np.zeros(3)
+    dt, _ = time_once(lambda: pk_dynamics.actuator_space_model(model, q_free, theta_dot_free))
+    rows.append(first_call_row("first_call_actuator_space_model", "first call: dynamics.actuator_space_model", dt))
+    dt, _ = time_once(lambda: pk_dynamics.forward_dynamics(model, q_free, theta_dot_free, zero3))
+    rows.append(first_call_row("first_call_forward_dynamics", "first call: dynamics.forward_dynamics", dt))
+    dt, _ = time_once(lambda: pk_dynamics.kinetic_energy(model, q_free, np.zeros(7)))
+    rows.append(first_call_row("first_call_kinetic_energy", "first call: dynamics.kinetic_energy", dt))
+    dt, _ = time_once(lambda: ReducedPlant(model).simulate(q_free, theta_dot_free, zero3, 1e-3))
+    rows.append(first_call_row("first_call_reduced_plant", "first call: ReducedPlant.simulate (1 ms)", dt))
+    dt, _ = time_once(lambda: FullPlant(model).simulate(q_free, pkmlab.coordinate_rates(model, q_free, theta_dot_free),
+                                                       zero3, 1e-3))
+    rows.append(first_call_row("first_call_full_plant", "first call: FullPlant.simulate (1 ms)", dt))
     files_after = cache_files()
     scratch = np.tile(q1, (2, 1))
     dt, _ = time_once(lambda: follow_path_kernel(np.tile(th1, (2, 1)), P, MIN_ABS_S, scratch))
     rows.append(first_call_row("first_call_benchmark_njit_loop", "first call: benchmark's njit loop (compile)", dt))
+
+    def compile_dynamics_loops():
+        qs, tds, taus = np.tile(q_free, (2, 1)), np.tile(theta_dot_free, (2, 1)), np.zeros((2, 3))
+        actuator_space_kernel_loop(qs, tds, P, np.empty((2, 3, 3)), np.empty((2, 3)))
+        forward_dynamics_kernel_loop(qs, tds, taus, P, np.empty((2, 3)))
+        follow_and_forward_dynamics_kernel_loop(qs[:, :3].copy(), tds, taus, P, MIN_ABS_S, qs.copy(),
+                                                np.empty((2, 3)))
+
+    dt, _ = time_once(compile_dynamics_loops)
+    rows.append(first_call_row("first_call_benchmark_dynamics_njit_loops",
+                               "first call: benchmark's 3 dynamics njit loops (compile)", dt))
     new_files = sorted(files_after - files_before)
     cache_state = {
         "dir": str(numba.config.CACHE_DIR),
@@ -505,12 +763,127 @@ def main(argv: list[str] | None = None) -> int:
         checks[f"{key}_max_residual"] = float(max(np.abs(closure.residual(x, closure.elbows(t))).max()
                                                   for x, t in zip(out, path_thetas, strict=True)))
 
-    reference_row = next(r for r in rows if r["key"] == "baseline_fsolve")
-    reference_row["is_baseline_reference"] = True
-    reference = reference_row["median_us_per_op"]
+    # (5) dynamics: the actuator-space model, forward dynamics, free motion of the plants
+    rows.append(section_row("dynamics (working mode (-, +, -); vs baseline: NumPy Mθ, Cθθ̇)"))
+    dyn_q, dyn_theta_dot, dyn_tau, dyn_min_abs_s = dynamics_states(model, poses[: cfg["n_dyn_batch"]], rng)
+    n_dyn = dyn_q.shape[0]
+    n_dyn_single = min(cfg["n_dyn_single"], n_dyn)
+    checks["dyn_states_min_abs_S"] = dyn_min_abs_s
+
+    progress("actuator-space model ...")
+    m_kernel = np.empty((n_dyn, 3, 3))
+    c_kernel = np.empty((n_dyn, 3))
+    times, kernel_ok = time_runs(lambda: actuator_space_kernel_loop(dyn_q, dyn_theta_dot, P, m_kernel, c_kernel),
+                                 cfg["repeats_dyn_kernel"])
+    rows.append(rate_row("dyn_model_kernel", f"Mθ, Cθθ̇: compiled kernel in njit loop ({n_dyn} states)", times, n_dyn,
+                         "eval", baseline="numpy_dyn_batched"))
+    checks["dyn_model_kernel_ok"] = bool(kernel_ok)
+    times, (m_api, c_api) = time_runs(lambda: pk_dynamics.actuator_space_model(model, dyn_q, dyn_theta_dot),
+                                      cfg["repeats_dyn_batch"])
+    rows.append(rate_row("dyn_model_api_batched", f"Mθ, Cθθ̇: batched API ({n_dyn} states)", times, n_dyn, "eval",
+                         baseline="numpy_dyn_batched"))
+
+    def model_api_single():
+        for k in range(n_dyn_single):
+            pk_dynamics.actuator_space_model(model, dyn_q[k], dyn_theta_dot[k])
+
+    times, _ = time_runs(model_api_single, cfg["repeats_dyn_single"])
+    rows.append(rate_row("dyn_model_api_single", f"Mθ, Cθθ̇: API once per state ({n_dyn_single} states)", times,
+                         n_dyn_single, "eval", baseline="numpy_dyn_single"))
+    checks["dyn_model_kernel_vs_api_max_abs_diff"] = float(max(np.abs(m_kernel - m_api).max(),
+                                                               np.abs(c_kernel - c_api).max()))
+
+    progress("baseline (NumPy Mθ, Cθθ̇) ...")
+    numpy_model = NumpyActuatorSpaceModel(model)
+    times, (m_base, c_base) = time_runs(lambda: numpy_model(dyn_q, dyn_theta_dot), cfg["repeats_dyn_baseline"])
+    rows.append(rate_row("baseline_numpy_dyn_batched", f"baseline: NumPy Mθ, Cθθ̇, vectorized ({n_dyn} states)",
+                         times, n_dyn, "eval", baseline="numpy_dyn_batched"))
+    n_base_single = min(cfg["n_dyn_baseline_single"], n_dyn)
+    times, (m_base1, c_base1) = time_runs(
+        lambda: baseline_dynamics_per_state(numpy_model, dyn_q[:n_base_single], dyn_theta_dot[:n_base_single]),
+        cfg["repeats_dyn_baseline"])
+    rows.append(rate_row("baseline_numpy_dyn_single", f"baseline: NumPy Mθ, Cθθ̇, once per state ({n_base_single} "
+                         "states)", times, n_base_single, "eval", baseline="numpy_dyn_single"))
+    m_scale, c_scale = float(np.abs(m_api).max()), float(np.abs(c_api).max())
+    diff_m = float(max(np.abs(m_base - m_api).max(), np.abs(m_base1 - m_api[:n_base_single]).max()))
+    diff_c = float(max(np.abs(c_base - c_api).max(), np.abs(c_base1 - c_api[:n_base_single]).max()))
+    checks["dyn_baseline_max_abs_diff_m_theta"] = diff_m
+    checks["dyn_baseline_max_abs_diff_c_theta"] = diff_c
+    checks["dyn_baseline_max_abs_m_theta"] = m_scale
+    checks["dyn_baseline_max_abs_c_theta"] = c_scale
+    checks["dyn_baseline_max_rel_diff"] = max(diff_m / m_scale, diff_c / c_scale)
+    checks["dyn_baseline_agrees_to_rtol"] = checks["dyn_baseline_max_rel_diff"] <= DYN_BASELINE_RTOL
+
+    progress("forward dynamics ...")
+    circle_theta_dot = rng.normal(0.0, THETA_DOT_STD, (CIRCLE_SAMPLES, 3))
+    circle_tau = rng.normal(0.0, TAU_STD, (CIRCLE_SAMPLES, 3))
+    fd_kernel = np.empty((n_steps, 3))
+    q_steps = np.ascontiguousarray(q_ref[1:])
+    times, fd_ok = time_runs(lambda: forward_dynamics_kernel_loop(q_steps, circle_theta_dot[1:], circle_tau[1:], P,
+                                                                  fd_kernel), cfg["repeats_path_kernel"])
+    rows.append(rate_row("fd_kernel", f"forward dynamics: compiled kernel in njit loop ({n_steps} circle states)",
+                         times, n_steps, "call", compare=False))
+    checks["fd_kernel_ok"] = bool(fd_ok)
+    q_fd_path = np.empty_like(q_ref)
+    q_fd_path[0] = q_ref[0]
+    fd_bf = np.zeros((CIRCLE_SAMPLES, 3))
+    times, (fd_bf_status, fd_bf_ok) = time_runs(
+        lambda: follow_and_forward_dynamics_kernel_loop(path_thetas, circle_theta_dot, circle_tau, P, MIN_ABS_S,
+                                                        q_fd_path, fd_bf),
+        cfg["repeats_path_kernel"])
+    rows.append(rate_row("fd_bf_kernel", f"forward dynamics + branch following, kernels in njit loop ({n_steps} "
+                         "steps)", times, n_steps, "step", compare=False))
+    checks["fd_bf_kernel_status"] = int(fd_bf_status)
+    checks["fd_bf_kernel_ok"] = bool(fd_bf_ok)
+    checks["fd_bf_max_dev_from_ik_rad"] = float(np.abs(wrapped(q_fd_path[:, 3:] - q_ref[:, 3:])).max())
+    checks["fd_bf_vs_fd_at_ik_max_abs_diff"] = float(np.abs(fd_bf[1:] - fd_kernel).max())
+
+    def fd_api_single():
+        for k in range(1, n_steps + 1):
+            pk_dynamics.forward_dynamics(model, q_ref[k], circle_theta_dot[k], circle_tau[k])
+
+    times, _ = time_runs(fd_api_single, cfg["repeats_dyn_single"])
+    rows.append(rate_row("fd_api_single", f"forward dynamics: API once per state ({n_steps} circle states)", times,
+                         n_steps, "call", compare=False))
+    times, fd_api = time_runs(lambda: pk_dynamics.forward_dynamics(model, dyn_q, dyn_theta_dot, dyn_tau),
+                              cfg["repeats_dyn_batch"])
+    rows.append(rate_row("fd_api_batched", f"forward dynamics: batched API ({n_dyn} states)", times, n_dyn, "call",
+                         compare=False))
+    # θ̈ must satisfy eq. (35): Mθ θ̈ + Cθ θ̇ = τ
+    checks["fd_api_eq35_max_abs_residual"] = float(np.abs(np.einsum("nij,nj->ni", m_api, fd_api) + c_api
+                                                          - dyn_tau).max())
+
+    progress("free motion of the plants ...")
+    t_eval = np.linspace(0.0, FREE_MOTION_SECONDS, FREE_MOTION_SAMPLES)
+    q_dot_free = pkmlab.coordinate_rates(model, q_free, theta_dot_free)
+    reduced_plant, full_plant = ReducedPlant(model), FullPlant(model)
+    plant_runs = {}
+    for key, label, plant, rate in (("reduced", "ReducedPlant", reduced_plant, theta_dot_free),
+                                    ("full", "FullPlant", full_plant, q_dot_free)):
+        times, run = time_runs(lambda plant=plant, rate=rate: plant.simulate(q_free, rate, zero3, FREE_MOTION_SECONDS,
+                                                                            t_eval=t_eval), cfg["repeats_plant"])
+        plant_runs[key] = run
+        label = f"free motion {FREE_MOTION_SECONDS:g} s, {label}"
+        rows.append(rate_row(f"plant_{key}_wall", f"{label}: wall time", times, 1, "run", compare=False))
+        rows[-1]["us_per_rhs_evaluation"] = rows[-1]["median_us_per_op"] / run.n_evaluations
+        rows.append(metric_row(f"plant_{key}_rhs_evaluations", f"{label}: RHS evaluations", int(run.n_evaluations),
+                               "evals"))
+        rows.append(metric_row(f"plant_{key}_max_loop_residual", f"{label}: max loop residual",
+                               float(run.loop_residual.max()), "m"))
+        rows.append(metric_row(f"plant_{key}_energy_drift", f"{label}: relative kinetic-energy drift",
+                               relative_kinetic_energy_drift(model, run), "max|T-T0|/T0"))
+    rows.append(metric_row("plant_reduced_vs_full_max_theta_diff",
+                           f"free motion {FREE_MOTION_SECONDS:g} s: max |θ_reduced - θ_full|",
+                           float(np.abs(plant_runs["reduced"].theta - plant_runs["full"].theta).max()), "rad"))
+    checks["plant_initial_kinetic_energy_J"] = float(pk_dynamics.kinetic_energy(model, q_free, q_dot_free))
+
+    for row in rows:
+        if row["kind"] == "per_op" and row["key"] == BASELINES.get(row["baseline"]):
+            row["is_baseline_reference"] = True
     for row in rows:
         if row.get("compare_to_baseline"):
-            row["speedup_vs_baseline"] = reference / row["median_us_per_op"]
+            reference = next(r for r in rows if r.get("key") == BASELINES[row["baseline"]])
+            row["speedup_vs_baseline"] = reference["median_us_per_op"] / row["median_us_per_op"]
 
     total = time.perf_counter() - t_start
     table = format_table(rows)
@@ -518,9 +891,13 @@ def main(argv: list[str] | None = None) -> int:
     first = sum(r["median_s"] for r in rows if r["kind"] == "first_call")
     print(f"{mode} run, {total:.1f} s in all ({first:.1f} s of first calls); compile cache {cache_state['state']}; "
           f"{machine_info()['cpu_count']} CPUs; numba {numba.__version__}, numpy {np.__version__}")
-    print("vs fsolve: the baseline's time per solve / this row's. The baseline is a single-solution Newton-type "
-          "solve (fsolve) started next to the answer;\nforward_kinematics finds every assembly mode, so only the "
-          "branch-following rows are like for like.")
+    print("vs baseline, kinematics: the fsolve baseline's time per solve / this row's. The baseline is a "
+          "single-solution Newton-type solve (fsolve) started next to the answer;\nforward_kinematics finds every "
+          "assembly mode, so only the branch-following rows are like for like.")
+    print("vs baseline, dynamics: the NumPy (Mθ, Cθθ̇) baseline's time per state / this row's; rows called once per "
+          "state against the baseline called once per state,\nbatched rows and compiled loops against the baseline "
+          f"vectorized over the batch. Baseline vs pkmlab: max relative difference "
+          f"{checks['dyn_baseline_max_rel_diff']:.1e} (required <= {DYN_BASELINE_RTOL:.0e}).")
     noisy = [r["key"] for r in rows if r["kind"] == "per_op" and r["max_s"] > 1.5 * r["min_s"]]
     if noisy:
         print(f"noisy (slowest repeat > 1.5x fastest; is the machine busy?): {', '.join(noisy)}")
@@ -529,6 +906,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"WARNING: {key} = {value}")
     if checks["bf_kernel_status"] != rrr3.OK:
         print(f"WARNING: branch following along the circle returned status {checks['bf_kernel_status']}")
+    if checks["fd_bf_kernel_status"] != rrr3.OK:
+        print(f"WARNING: branch following with forward dynamics returned status {checks['fd_bf_kernel_status']}")
+    for key in ("dyn_model_kernel_ok", "fd_kernel_ok", "fd_bf_kernel_ok", "dyn_baseline_agrees_to_rtol"):
+        if not checks[key]:
+            print(f"WARNING: {key} is False")
 
     payload = {
         "schema": 1,
@@ -551,6 +933,21 @@ def main(argv: list[str] | None = None) -> int:
             "circle_mode": CIRCLE_MODE,
             "min_abs_S": MIN_ABS_S,
             "baseline_xtol": BASELINE_XTOL,
+            "dyn_mode": DYN_MODE,
+            "dyn_states": "the first n_dyn_batch random poses above, inverse kinematics in dyn_mode",
+            "theta_dot_std": THETA_DOT_STD,
+            "tau_std": TAU_STD,
+            "dyn_baseline_rtol": DYN_BASELINE_RTOL,
+            "free_motion_pose": FREE_MOTION_POSE,
+            "free_motion_theta_dot": FREE_MOTION_THETA_DOT,
+            "free_motion_seconds": FREE_MOTION_SECONDS,
+            "free_motion_samples": FREE_MOTION_SAMPLES,
+            "free_motion_plants": {
+                "reduced": {"rtol": reduced_plant.rtol, "atol": reduced_plant.atol,
+                            "min_abs_S": reduced_plant.min_abs_S},
+                "full": {"rtol": full_plant.rtol, "atol": full_plant.atol,
+                         "stabilization": full_plant.stabilization},
+            },
             "timer": "time.perf_counter, median of repeats after one warm-up call, gc disabled while timing",
         },
         "baseline_note": (
@@ -558,8 +955,15 @@ def main(argv: list[str] | None = None) -> int:
             "Newton-type solve from the previous path sample, not an all-solution forward kinematics. "
             "speedup_vs_baseline = baseline us/solve / row us/op."
         ),
+        "dynamics_baseline_note": (
+            "(M_theta, C_theta theta_dot) of eq. (35) in plain NumPy (body Jacobians, M, J_q_theta by "
+            "np.linalg.solve), vectorized over a batch axis: baseline_numpy_dyn_single calls it once per state and is "
+            "the reference of rows with baseline 'numpy_dyn_single'; baseline_numpy_dyn_batched calls it once for all "
+            "states and is the reference of rows with baseline 'numpy_dyn_batched'. speedup_vs_baseline = baseline "
+            "us/eval / row us/eval. Agreement with pkmlab: checks.dyn_baseline_*."
+        ),
         "checks": checks,
-        "results": {row["key"]: row for row in rows},
+        "results": {row["key"]: row for row in rows if row["kind"] != "section"},
     }
     write_json_atomic(args.output, payload)
     print(f"wrote {args.output}")

@@ -1,0 +1,201 @@
+"""Trajectories, controllers and closed-loop runs (paper §4–5, SPEC §3–§8)."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import pkmlab
+from pkmlab.cli import main
+from pkmlab.control import ControllerSpec
+from pkmlab.errors import InvalidParameterError, PkmlabError, SingularityError, UnreachablePoseError
+from pkmlab.plant import ReducedPlant
+from pkmlab.simulation import COLUMNS, Scenario, paper_scenario, scaled_model, simulate
+from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory, desired_joint_motion, paper_trajectory
+
+
+@pytest.fixture(scope="module")
+def paper_runs():
+    return {name: simulate(paper_scenario(name)) for name in ("nominal", "disturbed", "fast")}
+
+
+# ------------------------------------------------------------------ trajectories
+def test_paper_circle_follows_spec_section_4():
+    tr = paper_trajectory(0.2)
+    L = 2 * np.pi * 0.05
+    assert tr.duration == pytest.approx(L / 0.2)
+    pose, vel, acc = tr.desired(np.array([0.0, tr.duration / 2, tr.duration]))
+    np.testing.assert_allclose(pose[0], [0.20, 0.21, 0.0], atol=1e-15)  # leftmost point
+    np.testing.assert_allclose(pose[1], [0.30, 0.21, 0.0], atol=1e-15)  # half way: rightmost point
+    np.testing.assert_allclose(pose[2], [0.20, 0.21, 0.0], atol=1e-15)  # one full turn
+    np.testing.assert_allclose(vel[[0, 2]], 0, atol=1e-15)  # rest at both ends
+    # s(t) = L (3τ² - 2τ³): speed at mid-time 1.5 L / T, counter-clockwise (going down at the leftmost point... up)
+    assert np.hypot(*vel[1, :2]) == pytest.approx(1.5 * L / tr.duration)
+    assert vel[1, 1] > 0  # counter-clockwise: moving up at the rightmost point
+
+
+@pytest.mark.parametrize("traj", [
+    paper_trajectory(0.3),
+    Trajectory(Circle((0.25, 0.2), 0.03, start_angle=0.5, alpha=-0.1, alpha_end=0.2), 0.1, "quintic"),
+    Trajectory(Line((0.2, 0.18, 0.0), (0.3, 0.24, 0.3)), 0.15, "quintic"),
+    WaypointTrajectory(((0.2, 0.2, 0.0), (0.28, 0.2, 0.1), (0.25, 0.25, -0.1)), 0.1),
+])
+def test_desired_derivatives_are_exact(paper, traj):
+    """Pose and joint velocities/accelerations against differences of pose and IK (Richardson)."""
+    t = np.linspace(0.05, traj.duration - 0.05, 7)
+    pose, vel, acc = traj.desired(t)
+    jm = desired_joint_motion(paper, traj, (-1, 1, -1), t)
+
+    def fd(fun, h):
+        d1 = lambda hh: (fun(t + hh) - fun(t - hh)) / (2 * hh)  # noqa: E731
+        d2 = lambda hh: (fun(t + hh) - 2 * fun(t) + fun(t - hh)) / hh**2  # noqa: E731
+        return (4 * d1(h / 2) - d1(h)) / 3, (4 * d2(h / 2) - d2(h)) / 3
+
+    v_num, a_num = fd(lambda tt: traj.desired(tt)[0], 1e-3)
+    np.testing.assert_allclose(vel, v_num, atol=1e-9)
+    np.testing.assert_allclose(acc, a_num, atol=1e-6)
+    theta = lambda tt: np.unwrap(pkmlab.inverse_kinematics(paper, traj.desired(tt)[0], mode=(-1, 1, -1)).theta, axis=0)  # noqa: E731
+    td_num, tdd_num = fd(theta, 1e-3)
+    np.testing.assert_allclose(jm.theta_dot, td_num, atol=1e-8)
+    np.testing.assert_allclose(jm.theta_ddot, tdd_num, atol=1e-5)
+
+
+def test_quintic_law_starts_and_ends_with_zero_acceleration():
+    tr = Trajectory(Line((0.2, 0.2, 0.0), (0.3, 0.2, 0.0)), 0.1, "quintic")
+    _p, v, a = tr.desired(np.array([0.0, tr.duration]))
+    np.testing.assert_allclose(v, 0, atol=1e-15)
+    np.testing.assert_allclose(a, 0, atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", [dict(speed=0.0), dict(speed=np.nan), dict(law="linear")])
+def test_bad_trajectory_parameters_are_refused(bad):
+    kwargs = dict(path=Circle((0.25, 0.21), 0.05), speed=0.2, law="cubic") | bad
+    with pytest.raises(InvalidParameterError):
+        Trajectory(**kwargs)
+
+
+# ------------------------------------------------------------------ closed loop
+def test_exact_model_continuous_time_tracks_to_integration_level(paper):
+    """Consistency of controller model, plant and trajectory derivatives (issue acceptance)."""
+    result = simulate(paper_scenario("nominal").replace(sample_time=0.0))
+    assert result.summary()["max_path_error_m"] < 1e-8
+    assert result.summary()["max_joint_error_rad"] < 1e-8
+
+
+def test_sampled_data_results_show_what_the_paper_reports(paper_runs):
+    nominal, disturbed, fast = (paper_runs[k].summary() for k in ("nominal", "disturbed", "fast"))
+    ratio = max(fast["peak_torque_Nm"]) / max(nominal["peak_torque_Nm"])
+    assert 3.5 < ratio < 4.5  # "the torques are almost four times"
+    assert fast["max_path_error_m"] > 2 * nominal["max_path_error_m"]
+    assert disturbed["max_path_error_m"] > nominal["max_path_error_m"]
+    assert max(disturbed["peak_torque_Nm"]) > max(nominal["peak_torque_Nm"])
+    for s in (nominal, disturbed, fast):
+        assert s["working_mode"] == [-1, 1, -1]  # SPEC §3: the mode maximising min |S| on the circle
+
+
+def test_sampled_run_is_self_consistent(paper, paper_runs):
+    r = paper_runs["nominal"]
+    assert r.t.size == 1572 and r.t[-1] == pytest.approx(1.571) and r.t[1] == pytest.approx(1e-3)
+    # the plant stays on its constraint manifold; reported pose and S come from its configuration
+    assert np.abs(pkmlab.constraint_residual(paper, r.q)).max() < 1e-13
+    np.testing.assert_allclose(r.pose[:, :2], pkmlab.platform_pose(paper, r.q)[:, :2], atol=1e-15)
+    np.testing.assert_allclose(r.S, pkmlab.singularity_measure(paper, r.q), atol=1e-15)
+    # torque really is the computed-torque law of SPEC §5 evaluated at each sample
+    k = 700
+    q_ctrl = pkmlab.branch_following(paper, r.q[k], r.theta[k])
+    m_theta, c_theta = pkmlab.dynamics.actuator_space_model(paper, q_ctrl, r.theta_dot[k])
+    jm = desired_joint_motion(paper, paper_trajectory(0.2), (-1, 1, -1), r.t[k:k + 1])
+    e = r.theta[k] - jm.theta[0]
+    e_dot = r.theta_dot[k] - jm.theta_dot[0]
+    expected = m_theta @ (jm.theta_ddot[0] - 1000 * e - 2 * np.sqrt(1000) * e_dot) + c_theta
+    np.testing.assert_allclose(r.tau[k], expected, rtol=1e-9, atol=1e-12)
+
+
+def test_sampled_plant_matches_an_adaptive_reference(paper, paper_runs):
+    """Zero-order hold replayed through the adaptive DOP853 plant at tight tolerance."""
+    r = paper_runs["fast"]
+    n = 300
+    held = r.tau[:n]
+
+    def torque(t, theta, theta_dot):
+        return held[min(int(t / 1e-3 + 1e-9), n - 1)]
+
+    q0 = r.q[0]
+    t_eval = r.t[:n]
+    ref = pkmlab.ReducedPlant(paper, rtol=1e-12, atol=1e-13)
+    # integrate sample by sample so that the discontinuities of τ fall on step boundaries
+    theta = [q0[:3]]
+    q, w = q0, np.zeros(3)
+    for k in range(n - 1):
+        run = ref.simulate(q, w, held[k], 1e-3, t_eval=[0.0, 1e-3])
+        q, w = run.q[-1], run.theta_dot[-1]
+        theta.append(q[:3])
+    np.testing.assert_allclose(np.array(theta), r.theta[:n], atol=1e-10)
+    assert isinstance(ref, ReducedPlant) and t_eval.size == n
+
+
+def test_pd_controller_runs_and_tracks_worse_than_computed_torque():
+    pd = simulate(paper_scenario("nominal").replace(controller=ControllerSpec("pd", kp=30.0, kv=1.0)))
+    ct = simulate(paper_scenario("nominal"))
+    assert pd.summary()["max_path_error_m"] > 10 * ct.summary()["max_path_error_m"]
+
+
+def test_preflight_refuses_a_path_out_of_the_workspace(paper):
+    far = Trajectory(Line((0.25, 0.2, 0.0), (0.9, 0.2, 0.0)), 0.2)
+    with pytest.raises(UnreachablePoseError, match=r"leaves the workspace at t = "):
+        simulate(Scenario(paper, far))
+
+
+def test_preflight_refuses_a_path_near_a_singularity(paper):
+    with pytest.raises(SingularityError, match=r"closest at t = .* pose"):
+        simulate(Scenario(paper, paper_trajectory(0.2), singularity_margin=5.0))
+
+
+def test_scaled_model_follows_spec_section_7(paper):
+    m = scaled_model(paper, 1.15, 1.15)
+    np.testing.assert_allclose(m.active_lengths, 0.25 * 1.15)
+    np.testing.assert_allclose(m.passive_lengths, 0.1667 * 1.15)
+    assert m.platform_side == pytest.approx(0.125 * 1.15)
+    np.testing.assert_allclose(m.base_points, paper.base_points)
+    np.testing.assert_allclose(m.passive_masses, 0.312 * 1.15)
+    np.testing.assert_allclose(m.active_inertias, 2.438e-3 * 1.15**3)
+    np.testing.assert_allclose(m.active_com[:, 0], m.active_lengths / 2)
+
+
+# ------------------------------------------------------------------ outputs
+def test_result_exports(tmp_path, paper_runs):
+    r = paper_runs["nominal"]
+    r.to_csv(tmp_path / "run.csv")
+    with open(tmp_path / "run.csv") as fh:
+        rows = list(csv.reader(fh))
+    assert tuple(rows[0]) == COLUMNS and len(rows) == r.t.size + 1
+    np.testing.assert_allclose(np.array(rows[1:], dtype=float), r.table(), rtol=0, atol=0)
+    r.to_json(tmp_path / "run.json")
+    data = json.loads((tmp_path / "run.json").read_text())
+    assert data["summary"] == json.loads(json.dumps(r.summary()))
+
+
+def test_reproduce_cli_writes_everything(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["reproduce", "--out", str(out), "--no-figures", "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["cases"]) == {"nominal", "disturbed", "fast"}
+    for case in summary["cases"].values():
+        assert set(case) == {"max_path_error_m", "rms_path_error_m", "max_alpha_error_rad", "max_joint_error_rad",
+                             "peak_torque_Nm", "min_abs_S", "working_mode"}
+    for name in ("nominal", "disturbed", "fast"):
+        header = (out / f"{name}.csv").read_text().splitlines()[0]
+        assert header == ",".join(COLUMNS)
+    assert "| nominal |" in (out / "REPORT.md").read_text()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary folders left
+
+
+def test_reproduce_refuses_an_unwritable_target(tmp_path):
+    target = tmp_path / "file"
+    target.write_text("x")
+    from pkmlab.report import reproduce
+
+    with pytest.raises(PkmlabError, match="not a folder"):
+        reproduce(target, figures=False)
+    assert target.read_text() == "x"
