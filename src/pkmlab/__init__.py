@@ -47,6 +47,7 @@ from .kinematics import (
     working_mode_of,
 )
 from .plant import FullPlant, PlantRun, ReducedPlant
+from .simulation import Scenario, SimulationResult, paper_scenario, simulate
 
 __version__ = "0.1.0"
 
@@ -80,6 +81,10 @@ __all__ = [
     "singularity_measure",
     "working_mode_of",
     "dynamics",
+    "Scenario",
+    "SimulationResult",
+    "paper_scenario",
+    "simulate",
     "ReducedPlant",
     "FullPlant",
     "PlantRun",
