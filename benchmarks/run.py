@@ -37,8 +37,11 @@ Dynamics (paper §3, eq. 35), in working mode (-, +, -):
 
 Usage::
 
-    .venv/bin/python benchmarks/run.py            # full run (about 35 s + any compilation)
+    .venv/bin/python benchmarks/run.py            # full run (about 50 s + any compilation of pkmlab)
     .venv/bin/python benchmarks/run.py --quick    # smoke test
+
+The benchmark's own njit loops are not cached (a cached loop would keep stale copies of
+pkmlab's kernels): compiling them takes about 15 s of every run on a 2-CPU machine.
 
 The first-call rows depend on the state of the compile cache: with a warm cache they are
 the time to load the kernels; after any change to pkmlab's sources (which invalidates the
@@ -114,8 +117,8 @@ SETTINGS = {
         "repeats_baseline_fd": 3,
         "n_dyn_batch": 10_000,
         "n_dyn_single": 2_000,
-        "n_dyn_baseline_single": 1_000,
-        "repeats_dyn_kernel": 31,
+        "n_dyn_baseline_single": 500,
+        "repeats_dyn_kernel": 15,
         "repeats_dyn_batch": 7,
         "repeats_dyn_single": 5,
         "repeats_dyn_baseline": 5,
@@ -820,7 +823,7 @@ def main(argv: list[str] | None = None) -> int:
     fd_kernel = np.empty((n_steps, 3))
     q_steps = np.ascontiguousarray(q_ref[1:])
     times, fd_ok = time_runs(lambda: forward_dynamics_kernel_loop(q_steps, circle_theta_dot[1:], circle_tau[1:], P,
-                                                                  fd_kernel), cfg["repeats_path_kernel"])
+                                                                  fd_kernel), cfg["repeats_dyn_kernel"])
     rows.append(rate_row("fd_kernel", f"forward dynamics: compiled kernel in njit loop ({n_steps} circle states)",
                          times, n_steps, "call", compare=False))
     checks["fd_kernel_ok"] = bool(fd_ok)
@@ -830,7 +833,7 @@ def main(argv: list[str] | None = None) -> int:
     times, (fd_bf_status, fd_bf_ok) = time_runs(
         lambda: follow_and_forward_dynamics_kernel_loop(path_thetas, circle_theta_dot, circle_tau, P, MIN_ABS_S,
                                                         q_fd_path, fd_bf),
-        cfg["repeats_path_kernel"])
+        cfg["repeats_dyn_kernel"])
     rows.append(rate_row("fd_bf_kernel", f"forward dynamics + branch following, kernels in njit loop ({n_steps} "
                          "steps)", times, n_steps, "step", compare=False))
     checks["fd_bf_kernel_status"] = int(fd_bf_status)
