@@ -199,3 +199,11 @@ def test_reproduce_refuses_an_unwritable_target(tmp_path):
     with pytest.raises(PkmlabError, match="not a folder"):
         reproduce(target, figures=False)
     assert target.read_text() == "x"
+
+
+def test_time_laws_are_at_rest_outside_the_motion():
+    tr = paper_trajectory(0.2)
+    pose, vel, acc = tr.desired(np.array([-0.1, tr.duration + 1e-4, tr.duration + 1.0]))
+    np.testing.assert_allclose(vel, 0, atol=0)
+    np.testing.assert_allclose(acc, 0, atol=0)
+    np.testing.assert_allclose(pose[1:], [[0.2, 0.21, 0.0]] * 2, atol=1e-15)

@@ -47,6 +47,7 @@ from .kinematics import (
     working_mode_of,
 )
 from .plant import FullPlant, PlantRun, ReducedPlant
+from .scenario_io import load_scenario
 from .simulation import Scenario, SimulationResult, paper_scenario, simulate
 
 __version__ = "0.1.0"
@@ -85,6 +86,7 @@ __all__ = [
     "SimulationResult",
     "paper_scenario",
     "simulate",
+    "load_scenario",
     "ReducedPlant",
     "FullPlant",
     "PlantRun",

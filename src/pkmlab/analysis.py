@@ -1,13 +1,16 @@
-"""Analyses over regions of the workspace: singularity maps (paper figure 3)."""
+"""Analyses over regions of the workspace: singularity maps (paper figure 3) and the reachable
+workspace of each working mode."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import InvalidParameterError
-from .geometry import Planar3RRR
+from .geometry import WORKING_MODES, Planar3RRR
 from .kinematics import _mode_array, inverse_kinematics
 
 
@@ -38,6 +41,46 @@ def default_extent(model: Planar3RRR) -> tuple[tuple[float, float], tuple[float,
     return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
 
 
+def _axis(name: str, bounds, default, resolution: int) -> np.ndarray:
+    bounds = default if bounds is None else bounds
+    try:
+        lo, hi = (float(v) for v in bounds)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{name} must be two numbers (min, max), got {bounds!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or not lo < hi:
+        raise InvalidParameterError(f"{name} must be two finite numbers with min < max, got ({lo:g}, {hi:g})")
+    return np.linspace(lo, hi, resolution)
+
+
+def _grid(model, alpha, x_range, y_range, resolution) -> tuple[np.ndarray, np.ndarray, float]:
+    """Validated grid axes ``x``, ``y`` and orientation for the maps below."""
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or resolution < 2:
+        raise InvalidParameterError(f"resolution must be an integer of at least 2, got {resolution!r}")
+    try:
+        alpha = float(alpha)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"alpha must be a number, got {alpha!r}") from None
+    if not math.isfinite(alpha):
+        raise InvalidParameterError(f"alpha must be finite, got {alpha}")
+    default_x, default_y = default_extent(model)
+    x = _axis("x_range", x_range, default_x, int(resolution))
+    y = _axis("y_range", y_range, default_y, int(resolution))
+    return x, y, alpha
+
+
+def _inverse_kinematics_rows(model, x, y, alpha, mode, progress, rows_per_chunk: int = 16):
+    """Inverse kinematics over the grid, a block of rows at a time so that ``progress`` can report."""
+    parts = []
+    for start in range(0, y.size, rows_per_chunk):
+        yy, xx = np.meshgrid(y[start:start + rows_per_chunk], x, indexing="ij")
+        poses = np.stack([xx, yy, np.full_like(xx, alpha)], axis=-1)
+        parts.append(inverse_kinematics(model, poses, mode=mode, on_unreachable="nan"))
+        if progress is not None:
+            progress(yy.shape[0])
+    return (np.concatenate([p.S for p in parts], axis=0),
+            np.concatenate([p.unreachable_legs for p in parts], axis=0))
+
+
 def singularity_map(
     model: Planar3RRR,
     alpha: float = 0.0,
@@ -45,21 +88,72 @@ def singularity_map(
     x_range: tuple[float, float] | None = None,
     y_range: tuple[float, float] | None = None,
     resolution: int = 201,
+    progress: Callable[[int], None] | None = None,
 ) -> SingularityMap:
     """``S(φ)`` of inverse-kinematics solutions over an ``x``–``y`` grid (eq. 19, figure 3).
+
+    ``progress``, when given, is called with the number of grid rows just computed.
 
     >>> m = singularity_map(Planar3RRR.paper(), resolution=11)
     >>> m.S.shape
     (11, 11)
     """
-    if int(resolution) < 2:
-        raise InvalidParameterError(f"resolution must be at least 2, got {resolution}")
-    default_x, default_y = default_extent(model)
-    x_range = default_x if x_range is None else x_range
-    y_range = default_y if y_range is None else y_range
-    x = np.linspace(*x_range, int(resolution))
-    y = np.linspace(*y_range, int(resolution))
-    xx, yy = np.meshgrid(x, y)
-    poses = np.stack([xx, yy, np.full_like(xx, float(alpha))], axis=-1)
-    ik = inverse_kinematics(model, poses, mode=mode, on_unreachable="nan")
-    return SingularityMap(x, y, ik.S, float(alpha), tuple(int(m) for m in _mode_array(mode)))
+    mode = tuple(int(m) for m in _mode_array(mode))
+    x, y, alpha = _grid(model, alpha, x_range, y_range, resolution)
+    s, _unreachable = _inverse_kinematics_rows(model, x, y, alpha, mode, progress)
+    return SingularityMap(x, y, s, alpha, mode)
+
+
+@dataclass(frozen=True)
+class Workspace:
+    """The reachable region at a fixed orientation ``α``, for each of the 8 working modes.
+
+    ``reachable[k, j, i]`` says whether ``(x[i], y[j], α)`` can be reached in working mode
+    ``modes[k]`` (a leg reaches its platform vertex whatever its working mode, so the masks
+    coincide; they are kept per mode to pair with ``S``). ``S[k]`` is the singularity measure
+    of that mode, NaN out of reach; ``area[k]`` (m²) is the number of reachable grid points
+    times the area of one grid cell.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    alpha: float
+    modes: np.ndarray
+    reachable: np.ndarray
+    S: np.ndarray
+    area: np.ndarray
+
+    @property
+    def cell_area(self) -> float:
+        """Area (m²) of one grid cell, ``Δx Δy``."""
+        return float((self.x[1] - self.x[0]) * (self.y[1] - self.y[0]))
+
+
+def workspace(
+    model: Planar3RRR,
+    alpha: float = 0.0,
+    resolution: int = 201,
+    x_range: tuple[float, float] | None = None,
+    y_range: tuple[float, float] | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> Workspace:
+    """Reachable region and ``S`` of every working mode over an ``x``–``y`` grid at orientation ``α``.
+
+    The default region (:func:`default_extent`) covers the base and every leg's reach.
+    ``progress``, when given, is called with the number of grid rows just computed.
+
+    >>> ws = workspace(Planar3RRR.paper(), alpha=0.0, resolution=41)
+    >>> ws.reachable.shape, ws.S.shape
+    ((8, 41, 41), (8, 41, 41))
+    >>> bool(np.all(ws.reachable == ws.reachable[0]))  # reach does not depend on the working mode
+    True
+    >>> round(float(ws.area[0]) * 1e4)  # cm², on this coarse grid
+    1052
+    """
+    x, y, alpha = _grid(model, alpha, x_range, y_range, resolution)
+    s, unreachable = _inverse_kinematics_rows(model, x, y, alpha, None, progress)
+    reachable = np.moveaxis(unreachable == 0, -1, 0)
+    s = np.moveaxis(s, -1, 0)
+    cell = float((x[1] - x[0]) * (y[1] - y[0]))
+    area = reachable.sum(axis=(1, 2)) * cell
+    return Workspace(x, y, alpha, WORKING_MODES.copy(), reachable, s, area)

@@ -205,6 +205,309 @@ def cmd_reproduce(args) -> dict:
     return summary
 
 
+def cmd_simulate(args) -> dict:
+    """One scenario file: summary.json, run.csv, plant.toml, figures and REPORT.md in --out."""
+    from .report import simulation_report
+    from .scenario_io import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    progress = None if args.json or args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    summary = simulation_report(scenario, args.out, figures=not args.no_figures, progress=progress)
+    if not args.json:
+        s = summary
+        print(f"scenario {s['scenario']}: max path error {s['max_path_error_m']:.4e} m, "
+              f"rms path error {s['rms_path_error_m']:.4e} m, peak torque {max(s['peak_torque_Nm']):.4f} N m, "
+              f"min |S| {s['min_abs_S']:.4f}, working mode {_signs(s['working_mode'])}")
+        print(f"results in {args.out}/")
+    return summary
+
+
+# ------------------------------------------------------------------ maps, workspace, animation
+MAX_RESOLUTION = 2001
+ANIMATION_COLUMNS = ("t", "theta1", "theta2", "theta3", "x", "y", "alpha", "x_d", "y_d")
+
+
+def _progress(args, total: int, label: str):
+    """A progress bar on stderr; silent with --quiet or when stderr is not a terminal."""
+    from .progress import Progress
+
+    return Progress(total, label, enabled=not args.quiet)
+
+
+def _resolution(value: int) -> int:
+    from .errors import InvalidParameterError
+
+    if not 2 <= value <= MAX_RESOLUTION:
+        raise InvalidParameterError(f"--resolution must be between 2 and {MAX_RESOLUTION} grid points per axis, "
+                                    f"got {value}")
+    return value
+
+
+def _figure_suffixes() -> set[str]:
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return {"." + ext for ext in FigureCanvasBase.get_supported_filetypes()} - {".raw", ".rgba"}
+
+
+def _output_path(path, flag: str, suffixes: set[str] | None = None) -> Path:
+    """``path`` as a ``Path``, refused before any computation when it cannot be written."""
+    import os
+
+    out = Path(path)
+    if out.is_dir():
+        raise PkmlabError(f"cannot write {out}: it is a folder")
+    if suffixes is not None and out.suffix.lower() not in suffixes:
+        shown = ", ".join(sorted(suffixes)) if len(suffixes) <= 4 else ", ".join(sorted(suffixes)[:6]) + ", ..."
+        what = f"'{out.suffix}'" if out.suffix else "no suffix"
+        raise PkmlabError(f"{flag} {out}: unsupported file type ({what}); use {shown}")
+    parent = out.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise PkmlabError(f"cannot write {out}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise PkmlabError(f"cannot write {out}: {parent} is not writable")
+    return out
+
+
+class _NewFolders:
+    """Remembers which parent folders of ``paths`` do not exist yet; if the ``with`` block fails,
+    removes those of them that were created (and are still empty), so an error leaves nothing."""
+
+    def __init__(self, *paths: Path):
+        self.missing: list[Path] = []
+        for path in paths:
+            parent = path.parent
+            while not parent.exists() and parent not in self.missing:
+                self.missing.append(parent)
+                parent = parent.parent
+
+    def __enter__(self) -> _NewFolders:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is not None:
+            for folder in sorted(self.missing, key=lambda f: len(f.parts), reverse=True):
+                try:
+                    folder.rmdir()
+                except OSError:
+                    pass
+
+
+class _Staged:
+    """Temporary files beside ``paths``, moved into place together when the ``with`` block succeeds.
+
+    On any error (or Ctrl-C) the temporary files, and the folders made for them, are removed and no
+    output file is touched.
+    """
+
+    def __init__(self, *paths: Path):
+        self.paths = paths
+        self.temps: list[Path] = []
+        self.folders = _NewFolders(*paths)
+
+    def __enter__(self) -> list[Path]:
+        import os
+        import tempfile
+
+        try:
+            for path in self.paths:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
+                os.close(fd)
+                self.temps.append(Path(tmp))
+        except OSError as exc:
+            self._clean(failed=True)
+            raise PkmlabError(f"cannot write {path}: {exc.strerror or exc}") from None
+        return self.temps
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        import os
+
+        failed = exc_type is not None
+        try:
+            if exc_type is None:
+                umask = os.umask(0)
+                os.umask(umask)
+                for tmp, path in zip(self.temps, self.paths, strict=True):
+                    try:
+                        os.chmod(tmp, 0o666 & ~umask)
+                        os.replace(tmp, path)
+                    except OSError as err:
+                        failed = True
+                        raise PkmlabError(f"cannot write {path}: {err.strerror or err}") from None
+            elif issubclass(exc_type, OSError):
+                raise PkmlabError(f"cannot write {', '.join(map(str, self.paths))}: {exc.strerror or exc}") from None
+        finally:
+            self._clean(failed)
+
+    def _clean(self, failed: bool) -> None:
+        for tmp in self.temps:
+            tmp.unlink(missing_ok=True)
+        if failed:
+            self.folders.__exit__(RuntimeError, None, None)
+
+
+def _nothing_reachable(x, y, alpha: float) -> PkmlabError:
+    return PkmlabError(f"no pose of the region x = {x[0]:g}..{x[-1]:g} m, y = {y[0]:g}..{y[-1]:g} m is reachable "
+                       f"at alpha = {alpha:g} rad: nothing to draw")
+
+
+def cmd_singularity_map(args) -> dict:
+    """S over x-y at one orientation and working mode (paper figure 3), with the singular contour S = 0."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .analysis import singularity_map
+    from .plotting import plot_singularity_map
+
+    model = _model(args)
+    out = _output_path(args.out, "--out", _figure_suffixes())
+    csv_path = _output_path(args.csv, "--csv", {".csv"}) if args.csv else None
+    resolution = _resolution(args.resolution)
+    with _progress(args, resolution, "singularity map") as bar:
+        smap = singularity_map(model, args.alpha, args.mode or ("+", "+", "+"), args.x_range, args.y_range,
+                               resolution, progress=bar.update)
+    reachable = smap.reachable
+    if not reachable.any():
+        raise _nothing_reachable(smap.x, smap.y, smap.alpha)
+    finite = smap.S[reachable]
+    result = {"alpha": smap.alpha, "mode": list(smap.mode), "min_S": float(finite.min()),
+              "max_S": float(finite.max()), "reachable_fraction": float(reachable.mean()), "figure": str(out),
+              "csv": str(csv_path) if csv_path else None}
+    ax = plot_singularity_map(smap, model=model)
+    try:
+        with _Staged(out, *([csv_path] if csv_path else [])) as temps:
+            ax.figure.savefig(temps[0], dpi=150)
+            if csv_path:
+                xx, yy = np.meshgrid(smap.x, smap.y)
+                buf = io.StringIO()
+                np.savetxt(buf, np.column_stack([xx.ravel(), yy.ravel(), smap.S.ravel()]), fmt="%.17g",
+                           delimiter=",", header="x,y,S", comments="")
+                temps[1].write_text(buf.getvalue())
+    finally:
+        plt.close(ax.figure)
+    if not args.json:
+        print(f"S at alpha = {smap.alpha:g} rad, working mode {_signs(smap.mode)}, {resolution} x {resolution} grid: "
+              f"min S = {result['min_S']:+.4f}, max S = {result['max_S']:+.4f}, "
+              f"reachable {100 * result['reachable_fraction']:.1f} % of the grid")
+        print(f"wrote {out}" + (f" and {csv_path}" if csv_path else ""))
+    return result
+
+
+def cmd_workspace(args) -> dict:
+    """The reachable region at one orientation for each of the 8 working modes, with their S = 0 curves."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .analysis import workspace
+    from .plotting import plot_workspace
+
+    model = _model(args)
+    out = _output_path(args.out, "--out", _figure_suffixes())
+    resolution = _resolution(args.resolution)
+    with _progress(args, resolution, "workspace") as bar:
+        ws = workspace(model, args.alpha, resolution, args.x_range, args.y_range, progress=bar.update)
+    if not ws.reachable.any():
+        raise _nothing_reachable(ws.x, ws.y, ws.alpha)
+    fig = plot_workspace(ws, model=model)
+    try:
+        with _Staged(out) as temps:
+            fig.savefig(temps[0], dpi=150)
+    finally:
+        plt.close(fig)
+    areas = [{"mode": [int(v) for v in m], "area_m2": float(a), "area_cm2": float(a) * 1e4}
+             for m, a in zip(ws.modes, ws.area, strict=True)]
+    if not args.json:
+        print(f"reachable workspace at alpha = {ws.alpha:g} rad ({resolution} x {resolution} grid, "
+              f"cell {ws.cell_area * 1e4:.4g} cm^2)")
+        print(_table(["mode", "area (cm^2)"], [[_signs(a["mode"]), f"{a['area_cm2']:.2f}"] for a in areas]))
+        print(f"wrote {out}")
+    return {"alpha": ws.alpha, "resolution": resolution, "cell_area_m2": ws.cell_area, "areas": areas,
+            "figure": str(out)}
+
+
+def _animation_model(args, folder: Path, case: str):
+    """The machine that produced the run: --params, else RESULT_DIR/plant.toml, else the paper's (scaled
+    for the reproduced 'disturbed' case)."""
+    from .geometry import Planar3RRR
+    from .io import load_manipulator
+    from .simulation import scaled_model
+
+    plant = folder / "plant.toml"
+    if args.params:
+        return load_manipulator(args.params), Path(args.params).name
+    if plant.is_file():
+        return load_manipulator(plant), f"{folder.name}/plant.toml"
+    if case == "disturbed":
+        return scaled_model(Planar3RRR.paper(), 1.15, 1.15), "paper preset, masses and lengths x1.15"
+    return Planar3RRR.paper(), "paper preset"
+
+
+def cmd_animate(args) -> dict:
+    """A GIF of a recorded run: the mechanism rebuilt from theta1..3, the desired path, the centroid's trail."""
+    import math
+
+    from .animation import rebuild_configurations, write_gif
+    from .errors import InvalidParameterError
+    from .io import read_result_csv
+    from .kinematics import platform_pose
+
+    folder = Path(args.result_dir)
+    if not folder.exists():
+        raise PkmlabError(f"result folder {folder} does not exist")
+    if not folder.is_dir():
+        raise PkmlabError(f"{folder} is not a folder (expected one written by pkmlab reproduce or pkmlab simulate)")
+    out = _output_path(args.out, "--out", {".gif"})
+    if args.fps < 1:
+        raise InvalidParameterError(f"--fps must be a positive number of frames per second, got {args.fps}")
+    if args.stride is not None and args.stride < 1:
+        raise InvalidParameterError(f"--stride must be a positive number of samples, got {args.stride}")
+    case = args.case
+    if case is None:
+        case = "run" if (folder / "run.csv").is_file() else "nominal"
+    case = case.removesuffix(".csv")
+    if not re.fullmatch(r"[\w][\w.-]*", case):
+        raise InvalidParameterError(f"--case must be the name of a CSV file in {folder} without '.csv', got {case!r}")
+    csv_path = folder / f"{case}.csv"
+    if not csv_path.is_file():
+        found = sorted(p.stem for p in folder.glob("*.csv"))
+        hint = (f"cases found: {', '.join(found)}" if found else
+                "expected nominal.csv, disturbed.csv, fast.csv (pkmlab reproduce) or run.csv (pkmlab simulate)")
+        raise PkmlabError(f"no {csv_path.name} in {folder} ({hint})")
+    data = read_result_csv(csv_path, ANIMATION_COLUMNS)
+    model, source = _animation_model(args, folder, case)
+    theta = np.column_stack([data["theta1"], data["theta2"], data["theta3"]])
+    q = rebuild_configurations(model, theta, [data["x"][0], data["y"][0], data["alpha"][0]])
+    centroid = platform_pose(model, q)[:, :2]
+    deviation = float(np.max(np.hypot(centroid[:, 0] - data["x"], centroid[:, 1] - data["y"])))
+    if deviation > 1e-3:
+        print(f"pkmlab animate: warning: the mechanism rebuilt from theta1..3 puts the centroid up to "
+              f"{deviation * 1e3:.3g} mm from the CSV's (x, y); is the manipulator ({source}) the one that "
+              "produced this run? (--params)", file=sys.stderr)
+    n = theta.shape[0]
+    stride = args.stride or max(1, math.ceil(n / 100))
+    frames = range(0, n, stride)
+    title = f"{folder.name}/{csv_path.name}, manipulator: {source}"
+    with _progress(args, len(frames), "frames") as bar, _NewFolders(out):
+        try:
+            write_gif(model, data["t"], q, np.column_stack([data["x_d"], data["y_d"]]), out, frames, fps=args.fps,
+                      title=title, on_frame=bar.update)
+        except OSError as exc:
+            raise PkmlabError(f"cannot write {out}: {exc.strerror or exc}") from None
+    if not args.json:
+        print(f"wrote {out}: {len(frames)} frames (one every {stride} of {n} samples) at {args.fps} fps "
+              f"from {csv_path}, manipulator: {source}")
+    return {"gif": str(out), "csv": str(csv_path), "frames": len(frames), "stride": stride, "fps": args.fps,
+            "samples": n, "manipulator": source, "max_centroid_deviation_m": deviation}
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
                                      "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
@@ -251,11 +554,56 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.set_defaults(func=cmd_reproduce)
 
+    p = sub.add_parser("simulate", help="simulate a scenario file: summary, time series, figures, REPORT.md")
+    p.add_argument("scenario", metavar="SCENARIO.toml", help="the scenario (format: README, 'Scenario files')")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (replaced when the run succeeds)")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_simulate)
+
     p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
     p.add_argument("--out", default="out", help="output folder (default: out)")
     p.add_argument("--resolution", type=int, default=241, help="grid points per axis of the S map")
     common(p)
     p.set_defaults(func=cmd_demo)
+
+    def figure_region(p, what: str):
+        p.add_argument("--alpha", type=float, default=0.0, metavar="A", help="platform orientation (rad), default 0")
+        p.add_argument("--resolution", type=int, default=201, metavar="N",
+                       help=f"grid points per axis (2..{MAX_RESOLUTION}, default 201)")
+        p.add_argument("--x-range", nargs=2, type=float, metavar=("XMIN", "XMAX"),
+                       help="x extent (m), default: the base and every leg's reach")
+        p.add_argument("--y-range", nargs=2, type=float, metavar=("YMIN", "YMAX"), help="y extent (m)")
+        p.add_argument("--out", required=True, metavar="FILE.png", help=f"the figure of the {what} (PNG, PDF, SVG...)")
+        p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    p = sub.add_parser("singularity-map", help="S over x-y at one orientation and working mode, S = 0 drawn "
+                       "(paper figure 3)")
+    figure_region(p, "map")
+    p.add_argument("--mode", nargs=3, metavar=("S1", "S2", "S3"), help="working mode, e.g. + - + (default + + +)")
+    p.add_argument("--csv", metavar="FILE.csv", help="also write the grid: columns x, y, S (NaN out of reach)")
+    common(p)
+    p.set_defaults(func=cmd_singularity_map)
+
+    p = sub.add_parser("workspace", help="reachable region at one orientation for each of the 8 working modes")
+    figure_region(p, "8 working modes")
+    common(p)
+    p.set_defaults(func=cmd_workspace)
+
+    p = sub.add_parser("animate", help="GIF of a run written by pkmlab reproduce or pkmlab simulate")
+    p.add_argument("result_dir", metavar="RESULT_DIR", help="folder written by pkmlab reproduce or pkmlab simulate")
+    p.add_argument("--out", required=True, metavar="FILE.gif", help="the animated GIF")
+    p.add_argument("--case", metavar="NAME", help="NAME.csv in RESULT_DIR: nominal (default), disturbed, fast; "
+                   "run for pkmlab simulate (default when run.csv exists)")
+    p.add_argument("--fps", type=int, default=20, help="frames per second (default 20)")
+    p.add_argument("--stride", type=int, help="draw every K-th sample (default: about 100 frames)", metavar="K")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _accept_negative_numbers(p)
+    p.add_argument("--params", metavar="FILE.toml", help="the manipulator that produced the run (default: "
+                   "RESULT_DIR/plant.toml if present, else the paper's, x1.15 for the reproduced 'disturbed' case)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=cmd_animate)
     return parser
 
 

@@ -15,8 +15,11 @@ refused with the closest valid key suggested; malformed TOML is reported with it
 from __future__ import annotations
 
 import difflib
+import math
 import tomllib
 from pathlib import Path
+
+import numpy as np
 
 from .errors import InvalidParameterError, PkmlabError
 from .geometry import Planar3RRR
@@ -36,21 +39,28 @@ def _unknown_key(key: str, valid, where: str) -> FileFormatError:
     return FileFormatError(f"unknown key '{key}' in {where}{hint}")
 
 
-def read_toml(path: str | Path) -> dict:
-    """Parse a TOML file, turning every failure into a one-line :class:`FileFormatError`."""
-    path = Path(path)
+def read_text(path: Path) -> str:
+    """The UTF-8 text of a file; every failure is a one-line :class:`FileFormatError`."""
     try:
-        text = path.read_bytes().decode("utf-8")
+        return path.read_bytes().decode("utf-8")
     except FileNotFoundError:
         raise FileFormatError(f"cannot read {path}: no such file") from None
     except IsADirectoryError:
         raise FileFormatError(f"cannot read {path}: it is a directory") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except (OSError, ValueError) as exc:  # ValueError: undecodable bytes, a NUL in the path
         raise FileFormatError(f"cannot read {path}: {exc}") from None
+
+
+def read_toml(path: str | Path) -> dict:
+    """Parse a TOML file, turning every failure into a one-line :class:`FileFormatError`."""
+    path = Path(path)
+    text = read_text(path)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise FileFormatError(f"{path}: malformed TOML: {exc}") from None
+    except RecursionError:
+        raise FileFormatError(f"{path}: malformed TOML: arrays or tables nested too deeply") from None
 
 
 def _is_numeric(value) -> bool:
@@ -89,3 +99,107 @@ def load_manipulator(path: str | Path) -> Planar3RRR:
             raise FileFormatError(f"{path}: [manipulator] must be a table")
         return manipulator_from_dict(data["manipulator"], f"{Path(path).name}: [manipulator]")
     return manipulator_from_dict({"params": data}, f"{Path(path).name}")
+
+
+def _toml_number(value: float) -> str:
+    value = float(value)
+    if not math.isfinite(value):
+        raise InvalidParameterError(f"cannot write the non-finite value {value} to a parameter file")
+    return repr(value)  # the shortest text that reads back as exactly this float
+
+
+def manipulator_to_toml(model: Planar3RRR, comment: str | None = None) -> str:
+    """A parameter file (:func:`load_manipulator` format) that reads back as a model equal to ``model``.
+
+    Every parameter is written explicitly, the base as ``base_points``. Mass centres other than
+    the defaults (link midpoints, platform centroid) have no key in the format and are refused.
+
+    >>> m = Planar3RRR.paper()
+    >>> text = manipulator_to_toml(m)
+    >>> manipulator_from_dict(tomllib.loads(text)["manipulator"]) == m
+    True
+    """
+    defaults = Planar3RRR(model.base_points, model.active_lengths, model.passive_lengths, model.platform_side)
+    for name in ("active_com", "passive_com", "platform_com"):
+        if not np.array_equal(getattr(model, name), getattr(defaults, name)):
+            raise InvalidParameterError(f"cannot write {name} to a parameter file: only the default mass centres "
+                                        f"(link midpoints, platform centroid) can be expressed")
+
+    def vec(values) -> str:
+        return "[" + ", ".join(_toml_number(v) for v in np.ravel(values)) + "]"
+
+    lines = [f"# {line}" for line in (comment or "").splitlines()]
+    lines += [""] if lines else []
+    lines += [
+        "[manipulator]",
+        'preset = "paper"',
+        "",
+        "[manipulator.params]",
+        "base_points = [" + ", ".join(vec(p) for p in model.base_points) + "]",
+        f"l = {vec(model.active_lengths)}",
+        f"r = {vec(model.passive_lengths)}",
+        f"a = {_toml_number(model.platform_side)}",
+        f"mass_l = {vec(model.active_masses)}",
+        f"mass_r = {vec(model.passive_masses)}",
+        f"mass_a = {_toml_number(model.platform_mass)}",
+        f"inertia_l = {vec(model.active_inertias)}",
+        f"inertia_r = {vec(model.passive_inertias)}",
+        f"inertia_a = {_toml_number(model.platform_inertia)}",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def read_result_csv(path: str | Path, columns) -> dict:
+    """The named ``columns`` of a result CSV (header row, then one row per sample) as float arrays.
+
+    Written by :meth:`pkmlab.simulation.SimulationResult.to_csv` (columns
+    :data:`pkmlab.simulation.COLUMNS`); other columns are ignored. A missing file, missing
+    columns (all named), a row of the wrong length or a value that is not a finite number (with
+    its row and line) is a one-line :class:`FileFormatError`.
+    """
+    import csv
+
+    import numpy as np
+
+    path = Path(path)
+    text = read_text(path)
+    reader = csv.reader(text.splitlines())
+    try:
+        header = [name.strip() for name in next(reader)]
+    except StopIteration:
+        raise FileFormatError(f"{path}: empty file (expected a header row: {', '.join(columns)})") from None
+    except csv.Error as exc:
+        raise FileFormatError(f"{path}: malformed CSV header: {exc}") from None
+    missing = [c for c in columns if c not in header]
+    if missing:
+        plural = "s" if len(missing) > 1 else ""
+        raise FileFormatError(f"{path}: missing column{plural} {', '.join(missing)}")
+    index = {c: header.index(c) for c in columns}
+    rows = []
+    try:
+        for record in reader:
+            if not record or all(not field.strip() for field in record):
+                continue  # blank line
+            row_number, line = len(rows) + 1, reader.line_num
+            if len(record) != len(header):
+                raise FileFormatError(f"{path}: row {row_number} (line {line}) has {len(record)} fields, "
+                                      f"the header has {len(header)}")
+            values = []
+            for c in columns:
+                field = record[index[c]].strip()
+                try:
+                    value = float(field)
+                except ValueError:
+                    raise FileFormatError(f"{path}: row {row_number} (line {line}): {c} = {field!r} "
+                                          "is not a number") from None
+                if not np.isfinite(value):
+                    raise FileFormatError(f"{path}: row {row_number} (line {line}): {c} = {field!r} "
+                                          "is not a finite number")
+                values.append(value)
+            rows.append(values)
+    except csv.Error as exc:
+        raise FileFormatError(f"{path}: malformed CSV at line {reader.line_num}: {exc}") from None
+    if not rows:
+        raise FileFormatError(f"{path}: no data rows after the header")
+    data = np.array(rows, dtype=float)
+    return {c: data[:, j] for j, c in enumerate(columns)}

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .analysis import SingularityMap
+from .analysis import SingularityMap, Workspace
 from .geometry import Planar3RRR
 
 
@@ -57,6 +57,56 @@ def plot_singularity_map(smap: SingularityMap, ax=None, model: Planar3RRR | None
     ax.set_ylabel("y (m)")
     ax.set_aspect("equal")
     return ax
+
+
+def plot_workspace(ws: Workspace, model: Planar3RRR | None = None, fig=None):
+    """The reachable region at orientation ``ws.alpha`` for each of the 8 working modes.
+
+    A 2×4 grid of panels, one per mode: the reachable region shaded by the sign of ``S``, its
+    boundary, and the curves ``S = 0`` where that mode is singular; titles give the mode's signs
+    and the reachable area in cm². ``model`` adds the base triangle. Returns the ``Figure``.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    if fig is None:
+        fig = plt.figure(figsize=(13.0, 7.2), layout="constrained")
+    axes = fig.subplots(2, 4, sharex=True, sharey=True)
+    colours = {"neg": "#9ecae1", "pos": "#fcae91"}
+    for k, ax in enumerate(axes.flat):
+        s = ws.S[k]
+        finite = s[np.isfinite(s)]
+        if finite.size:
+            big = float(np.max(np.abs(finite))) + 1.0
+            ax.contourf(ws.x, ws.y, s, levels=[-big, 0.0, big], colors=[colours["neg"], colours["pos"]])
+            if finite.min() < 0 < finite.max():
+                ax.contour(ws.x, ws.y, s, levels=[0.0], colors="k", linewidths=1.4)
+        mask = ws.reachable[k].astype(float)
+        if 0 < mask.sum() < mask.size:
+            ax.contour(ws.x, ws.y, mask, levels=[0.5], colors="0.35", linewidths=0.8)
+        if model is not None:
+            b = np.vstack([model.base_points, model.base_points[:1]])
+            ax.plot(b[:, 0], b[:, 1], "k--", lw=0.8)
+            ax.plot(model.base_points[:, 0], model.base_points[:, 1], "ks", ms=4)
+        mode = ", ".join(_sign(m) for m in ws.modes[k])
+        ax.set_title(f"mode ({mode}): {ws.area[k] * 1e4:.1f} cm²", fontsize=10)
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.25)
+    for ax in axes[-1]:
+        ax.set_xlabel("x (m)")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("y (m)")
+    handles = [Patch(color=colours["pos"], label="reachable, S > 0"),
+               Patch(color=colours["neg"], label="reachable, S < 0"),
+               Line2D([], [], color="k", lw=1.4, label="S = 0 (singular in this mode)"),
+               Line2D([], [], color="0.35", lw=0.8, label="workspace boundary")]
+    if model is not None:
+        handles.append(Line2D([], [], color="k", ls="--", marker="s", ms=4, lw=0.8, label="base"))
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=9, frameon=False)
+    fig.suptitle(f"Reachable workspace at α = {ws.alpha:g} rad for each working mode "
+                 f"(grid {ws.x.size} × {ws.y.size})", fontsize=12)
+    return fig
 
 
 def save(fig, path: str | os.PathLike, dpi: int = 150) -> Path:

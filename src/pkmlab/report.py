@@ -4,19 +4,21 @@
 columns), a PNG per figure of the paper (3–15) and ``REPORT.md`` comparing the cases. All
 files are written into a temporary folder beside the target and moved into place only when
 everything succeeded, so an error or Ctrl-C leaves no half-written results.
+
+:func:`simulation_report` does the same for one scenario (``pkmlab simulate``): ``summary.json``,
+``run.csv``, ``plant.toml`` (the real machine's parameters), five figures and ``REPORT.md``.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from collections.abc import Callable
-from pathlib import Path
 
+from . import simulation
 from .errors import PkmlabError
-from .simulation import PAPER_CASES, SimulationResult, paper_scenario, simulate
+from .outputs import atomic_output_dir
+from .simulation import PAPER_CASES, Scenario, SimulationResult, paper_scenario, simulate
 
 #: (file name, paper figure, caption, case, plot kind)
 FIGURES = (
@@ -35,6 +37,19 @@ FIGURES = (
     ("fig14_fast_path_error.png", "14", "Error in path tracking, v = 0.4 m/s", "fast", "error"),
     ("fig15_fast_torques.png", "15", "Joint torques, v = 0.4 m/s", "fast", "torques"),
     ("fig15b_fast_alpha.png", "—", "Platform orientation α, v = 0.4 m/s (not in the paper)", "fast", "alpha"),
+)
+
+#: Plots of one closed-loop result, by kind: the names of their functions in :mod:`pkmlab.plotting`.
+_RESULT_PLOTS = {"S": "plot_singularity_along_path", "path": "plot_path", "error": "plot_path_error",
+                 "alpha": "plot_alpha", "torques": "plot_torques"}
+
+#: Figures of one scenario's run (``pkmlab simulate``): (file name, caption, plot kind).
+RUN_FIGURES = (
+    ("path.png", "Path tracked vs desired", "path"),
+    ("path_error.png", "Error in path tracking", "error"),
+    ("alpha.png", "Platform orientation α, actual and desired", "alpha"),
+    ("torques.png", "Joint torques", "torques"),
+    ("singularity_along_path.png", "Singularity measure S of the plant along the run", "S"),
 )
 
 
@@ -68,9 +83,7 @@ def _draw(kind: str, results: dict, case: str | None):
         plotting.plot_configuration(model, nominal.q[0], ax=ax,
                                     title="initial configuration: x = 0.20 m, y = 0.21 m, α = 0")
     else:
-        draw = {"S": plotting.plot_singularity_along_path, "path": plotting.plot_path,
-                "error": plotting.plot_path_error, "alpha": plotting.plot_alpha, "torques": plotting.plot_torques}[kind]
-        draw(results[case], ax=ax)
+        getattr(plotting, _RESULT_PLOTS[kind])(results[case], ax=ax)
     return fig
 
 
@@ -108,15 +121,7 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
               progress: Callable[[str], None] | None = None) -> dict:
     """Run the three cases and write their results into ``out``; return the summary dict."""
     say = progress or (lambda _msg: None)
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise PkmlabError(f"cannot write results to {out}: it exists and is not a folder")
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}-tmp-"))
-    except OSError as exc:
-        raise PkmlabError(f"cannot write results to {out}: {exc.strerror or exc}") from None
-    try:
+    with atomic_output_dir(out) as tmp:
         say(f"simulating the paper's cases ({control} control) ...")
         results = run_cases(control)
         summary = {"cases": {name: results[name].summary() for name in PAPER_CASES}}
@@ -135,19 +140,96 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
                 plt.close(fig)
             say(f"drew {len(FIGURES)} figures")
         (tmp / "REPORT.md").write_text(_report(results, summary["cases"], figures))
-        for path in tmp.iterdir():
-            os.chmod(path, 0o644)
-        os.chmod(tmp, 0o755)
-        if out.exists():
-            old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}-old-"))
-            os.replace(out, old / out.name)
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-        say(f"wrote {out}/")
-        return summary
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
+    say(f"wrote {out}/")
+    return summary
 
+
+
+# ------------------------------------------------------------------ one scenario
+def _describe(scenario: Scenario) -> list[tuple[str, str]]:
+    traj = scenario.trajectory
+    path = getattr(traj, "path", None)
+    if path is not None and hasattr(path, "radius"):
+        shape = (f"circle, centre ({path.center[0]:g}, {path.center[1]:g}) m, radius {path.radius:g} m, "
+                 f"{path.turns:g} turn(s)")
+    elif path is not None:
+        shape = f"line from {list(path.start)} to {list(path.end)}"
+    else:
+        shape = f"{len(traj.segments) + 1} waypoints"
+    spec = scenario.controller
+    ts = scenario.sample_time
+    return [
+        ("trajectory", f"{shape}; average speed {traj.speed:g} m/s, {traj.law} time law, "
+                       f"duration {traj.duration:.4g} s"),
+        ("controller", f"{spec.kind}, kp = {spec.kp:g}, kv = {spec.velocity_gain:.4g}"),
+        ("control", f"sampled-data, Ts = {ts * 1e3:g} ms" if ts > 0 else "continuous-time"),
+        ("plant", "identical to the controller's model" if scenario.plant is None
+         else "its own parameters, see `plant.toml`"),
+        ("working mode", "chosen automatically (max min abs(S) along the path)"
+         if scenario.working_mode == "auto" else str(tuple(scenario.working_mode))),
+    ]
+
+
+def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
+    s = summary
+    lines = [f"# pkmlab: scenario `{result.scenario.name}`", "", "| | |", "| --- | --- |"]
+    lines += [f"| {key} | {value} |" for key, value in _describe(result.scenario)]
+    lines += [
+        "",
+        "## Summary",
+        "",
+        "| max path error (mm) | rms path error (mm) | max α error (rad) | max joint error (rad) | "
+        "peak torques (N·m) | min abs(S) | working mode |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+        f"| {s['max_path_error_m'] * 1e3:.4g} | {s['rms_path_error_m'] * 1e3:.4g} | {s['max_alpha_error_rad']:.3g} | "
+        f"{s['max_joint_error_rad']:.3g} | {', '.join(f'{v:.3f}' for v in s['peak_torque_Nm'])} | "
+        f"{s['min_abs_S']:.3f} | {tuple(s['working_mode'])} |",
+        "",
+        "Data: `summary.json`, `run.csv` (one row per sample), `plant.toml` (the plant's parameters).",
+        "",
+    ]
+    if figures:
+        lines += ["## Figures", ""]
+        for fname, caption, _kind in RUN_FIGURES:
+            lines += [f"### {caption}", "", f"![{caption}]({fname})", ""]
+    return "\n".join(lines) + "\n"
+
+
+def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool = True,
+                      progress: Callable[[str], None] | None = None) -> dict:
+    """Simulate ``scenario`` and write its results into the folder ``out``; return the summary.
+
+    ``out`` receives ``summary.json`` (SPEC §8 fields and ``"scenario"``, the name), ``run.csv``,
+    ``plant.toml``, the figures of :data:`RUN_FIGURES` and ``REPORT.md`` — all at once, when
+    everything succeeded (:func:`~pkmlab.outputs.atomic_output_dir`).
+    """
+    from .io import manipulator_to_toml
+
+    say = progress or (lambda _msg: None)
+    with atomic_output_dir(out) as tmp:
+        say(f"simulating {scenario.name} ...")
+        result = simulation.simulate(scenario)
+        summary = {"scenario": scenario.name, **result.summary()}
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        result.to_csv(tmp / "run.csv")
+        (tmp / "plant.toml").write_text(manipulator_to_toml(
+            scenario.plant_model, f"The plant (the real machine) of scenario {scenario.name!r}, written by pkmlab."))
+        if figures:
+            import matplotlib
+
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+
+            from . import plotting
+
+            for fname, _caption, kind in RUN_FIGURES:
+                fig, ax = plt.subplots(figsize=(6.0, 5.2) if kind == "path" else (6.4, 4.8), layout="constrained")
+                try:
+                    getattr(plotting, _RESULT_PLOTS[kind])(result, ax=ax)
+                    fig.savefig(tmp / fname, dpi=150)
+                finally:
+                    plt.close(fig)
+            say(f"drew {len(RUN_FIGURES)} figures")
+        (tmp / "REPORT.md").write_text(_run_report(result, summary, figures))
+    say(f"wrote {out}/")
+    return summary

@@ -27,14 +27,22 @@ from .kinematics import _first_order, _second_order, inverse_kinematics, platfor
 
 # ------------------------------------------------------------------ time laws
 def time_law(kind: str, tau):
-    """``(σ, σ', σ'')`` of a rest-to-rest law on ``τ ∈ [0, 1]``: cubic ``3τ² - 2τ³`` or quintic."""
-    tau = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0)
+    """``(σ, σ', σ'')`` of a rest-to-rest law on ``τ ∈ [0, 1]``: cubic ``3τ² - 2τ³`` or quintic.
+
+    Outside ``[0, 1]`` the motion is at rest at its end points (``σ' = σ'' = 0``); the cubic's
+    acceleration jumps there (``σ''(1) = -6``), as in the paper.
+    """
+    raw = np.asarray(tau, dtype=float)
+    tau = np.clip(raw, 0.0, 1.0)
     if kind == "cubic":
-        return 3 * tau**2 - 2 * tau**3, 6 * tau - 6 * tau**2, 6 - 12 * tau
-    if kind == "quintic":
-        return (10 * tau**3 - 15 * tau**4 + 6 * tau**5, 30 * tau**2 - 60 * tau**3 + 30 * tau**4,
-                60 * tau - 180 * tau**2 + 120 * tau**3)
-    raise InvalidParameterError(f"time_law must be 'cubic' or 'quintic', got {kind!r}")
+        sigma, d1, d2 = 3 * tau**2 - 2 * tau**3, 6 * tau - 6 * tau**2, 6 - 12 * tau
+    elif kind == "quintic":
+        sigma, d1, d2 = (10 * tau**3 - 15 * tau**4 + 6 * tau**5, 30 * tau**2 - 60 * tau**3 + 30 * tau**4,
+                         60 * tau - 180 * tau**2 + 120 * tau**3)
+    else:
+        raise InvalidParameterError(f"time_law must be 'cubic' or 'quintic', got {kind!r}")
+    outside = (raw < 0.0) | (raw > 1.0)
+    return sigma, np.where(outside, 0.0, d1), np.where(outside, 0.0, d2)
 
 
 def _positive(name, value):

@@ -1,0 +1,182 @@
+"""Animations of recorded runs: the mechanism rebuilt from its actuated angles, drawn frame by frame.
+
+:func:`rebuild_configurations` turns a recorded sequence of actuated angles back into full
+configurations — forward kinematics at the first sample (the assembly mode nearest the recorded
+pose), then branch following sample by sample (paper §3.2). :func:`write_gif` draws them, with
+the desired path and the trail of the centroid, into an animated GIF written atomically.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .errors import AssemblyError, BranchFollowingError
+from .geometry import Planar3RRR
+from .kinematics import branch_following, forward_kinematics, platform_pose
+
+
+def rebuild_configurations(model: Planar3RRR, theta, pose0) -> np.ndarray:
+    """Configurations ``q`` (N, 7) continuously following recorded actuated angles ``theta`` (N, 3).
+
+    The first is the assembly mode whose platform pose is nearest ``pose0 = (x, y, α)``; each
+    next one is on the same branch as the previous (:func:`~pkmlab.kinematics.branch_following`).
+
+    >>> from pkmlab.kinematics import inverse_kinematics
+    >>> model = Planar3RRR.paper()
+    >>> poses = [[0.20, 0.21, 0.0], [0.21, 0.21, 0.0], [0.22, 0.20, 0.05]]
+    >>> ik = inverse_kinematics(model, poses, mode=(-1, 1, -1))
+    >>> q = rebuild_configurations(model, ik.theta, poses[0])
+    >>> bool(np.allclose(q, ik.q, atol=1e-9))
+    True
+    """
+    theta = np.asarray(theta, dtype=float)
+    fk = forward_kinematics(model, theta[0])
+    if len(fk) == 0:
+        raise AssemblyError(
+            f"the first sample's theta = {np.round(theta[0], 6).tolist()} cannot be assembled with this "
+            "manipulator: is it the one that produced the run?"
+        )
+    q = np.empty((theta.shape[0], 7))
+    q[0] = fk.nearest(pose0).q
+    for k in range(1, theta.shape[0]):
+        try:
+            q[k] = branch_following(model, q[k - 1], theta[k])
+        except BranchFollowingError as exc:
+            raise BranchFollowingError(f"sample {k + 1}: {exc}") from None
+    return q
+
+
+def _legs(model: Planar3RRR, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Elbows ``e`` and platform vertices ``p``, each (N, 3, 2), of configurations ``q`` (N, 7)."""
+    b = model.base_points
+    e = b + model.active_lengths[:, None] * np.stack([np.cos(q[:, :3]), np.sin(q[:, :3])], axis=-1)
+    p = e + model.passive_lengths[:, None] * np.stack([np.cos(q[:, 3:6]), np.sin(q[:, 3:6])], axis=-1)
+    return e, p
+
+
+def _segments(start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """x and y of three segments start[i]–end[i] as one polyline broken by NaN."""
+    pts = np.full((9, 2), np.nan)
+    pts[0::3], pts[1::3] = start, end
+    return pts[:, 0], pts[:, 1]
+
+
+def _canvas_pillow_writer(fps: int):
+    """A :class:`matplotlib.animation.PillowWriter` that takes each frame from the canvas as drawn.
+
+    The stock writer redraws the whole figure per frame (``savefig``); here the caller restores
+    the static background and draws only the moving artists (blitting), several times faster,
+    and each frame is reduced to a 128-colour palette as it is grabbed.
+    """
+    from matplotlib.animation import PillowWriter
+    from PIL import Image
+
+    class CanvasPillowWriter(PillowWriter):
+        def grab_frame(self, **savefig_kwargs):
+            canvas = self.fig.canvas
+            size = canvas.get_width_height(physical=True)
+            frame = Image.frombuffer("RGBA", size, bytes(canvas.buffer_rgba()), "raw", "RGBA", 0, 1)
+            # quantised here, fast, rather than by the GIF encoder at the end (slow)
+            self._frames.append(frame.convert("RGB").quantize(colors=128, method=Image.Quantize.FASTOCTREE))
+
+    return CanvasPillowWriter(fps=fps)
+
+
+def write_gif(model: Planar3RRR, t, q, desired_xy, path: str | os.PathLike, frames: Sequence[int],
+              fps: int = 20, title: str = "", dpi: int = 90,
+              on_frame: Callable[[], None] | None = None) -> Path:
+    """Draw configurations ``q[frames]`` into an animated GIF at ``path`` (written atomically).
+
+    Each frame shows the base, the legs (active links bold), the platform, the desired path
+    ``desired_xy`` (N, 2) dashed, the trail of the centroid up to that sample and the time
+    ``t``. ``on_frame`` is called after each frame (progress). The GIF is written to a temporary
+    file beside ``path`` and moved into place only when complete.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Polygon
+
+    path = Path(path)
+    t = np.asarray(t, dtype=float)
+    q = np.asarray(q, dtype=float)
+    desired_xy = np.asarray(desired_xy, dtype=float)
+    frames = [int(k) for k in frames]
+    e, p = _legs(model, q)
+    centroid = platform_pose(model, q)[:, :2]
+    b = model.base_points
+
+    fig, ax = plt.subplots(figsize=(6.0, 5.6), dpi=dpi, layout="constrained")
+    try:
+        shown = np.vstack([b, e[frames].reshape(-1, 2), p[frames].reshape(-1, 2), desired_xy, centroid])
+        lo, hi = shown.min(axis=0), shown.max(axis=0)
+        pad = 0.06 * float(np.max(hi - lo))
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.25)
+        tri = np.vstack([b, b[:1]])
+        ax.plot(tri[:, 0], tri[:, 1], "k--", lw=0.8, label="base")
+        ax.plot(b[:, 0], b[:, 1], "ks", ms=6)
+        ax.plot(desired_xy[:, 0], desired_xy[:, 1], "--", color="tab:gray", lw=1.2, label="desired path")
+        (trail,) = ax.plot([], [], color="tab:red", lw=1.5, label="actual centroid")
+        (active,) = ax.plot([], [], color="tab:blue", lw=3, solid_capstyle="round", label="active links")
+        (passive,) = ax.plot([], [], color="tab:orange", lw=2, label="passive links")
+        (elbows,) = ax.plot([], [], "o", color="tab:blue", ms=4)
+        platform = Polygon(p[frames[0]], closed=True, color="tab:green", alpha=0.45, label="platform")
+        ax.add_patch(platform)
+        (centre,) = ax.plot([], [], "k+", ms=9)
+        clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=9, family="monospace",
+                        bbox={"boxstyle": "round", "facecolor": "white", "alpha": 0.8})
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_title(title, fontsize=10)
+        fig.legend(loc="outside lower center", ncols=3, fontsize=8, frameon=False)
+        fig.canvas.draw()
+        fig.set_layout_engine("none")  # freeze the layout: frames must not jitter
+        moving = (platform, trail, passive, active, elbows, centre, clock)  # drawn in this order
+        for artist in moving:
+            artist.set_animated(True)
+        fig.canvas.draw()  # everything that does not move, drawn once
+        background = fig.canvas.copy_from_bbox(fig.bbox)
+
+        def draw(k: int) -> None:
+            active.set_data(*_segments(b, e[k]))
+            passive.set_data(*_segments(e[k], p[k]))
+            elbows.set_data(e[k, :, 0], e[k, :, 1])
+            platform.set_xy(p[k])
+            centre.set_data([centroid[k, 0]], [centroid[k, 1]])
+            trail.set_data(centroid[: k + 1, 0], centroid[: k + 1, 1])
+            clock.set_text(f"t = {t[k]:7.3f} s\nα = {round(q[k, 6], 4) + 0.0:+.4f} rad")
+            fig.canvas.restore_region(background)
+            for artist in moving:
+                ax.draw_artist(artist)
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".gif")
+        os.close(fd)
+        try:
+            writer = _canvas_pillow_writer(fps)
+            writer.setup(fig, tmp, dpi=dpi)
+            for k in frames:
+                draw(k)
+                writer.grab_frame()
+                if on_frame is not None:
+                    on_frame()
+            writer.finish()  # only after the last frame: a failure leaves no GIF
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+    finally:
+        plt.close(fig)
+    return path

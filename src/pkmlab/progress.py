@@ -1,0 +1,82 @@
+"""A tiny progress bar for long command-line jobs, drawn on stderr.
+
+``Progress(total, label, enabled)`` redraws ``\\r[########............]  42% label`` as
+:meth:`Progress.update` is called, and ends the line on :meth:`Progress.close` (or at the end
+of a ``with`` block). It stays silent when ``enabled`` is false (``--quiet``) or when the
+stream is not a terminal, so logs and pipes never receive carriage returns.
+
+>>> import io
+>>> with Progress(3, "frames", stream=io.StringIO()) as bar:  # not a terminal: silent
+...     bar.update(3)
+>>> bar.count
+3
+"""
+
+from __future__ import annotations
+
+import sys
+
+
+def _is_terminal(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):  # no isatty, or a closed stream
+        return False
+
+
+class Progress:
+    """Progress of ``total`` steps of a job named ``label``.
+
+    Parameters
+    ----------
+    total : int
+        Number of steps; the bar is full after ``total`` calls of ``update()``.
+    label : str
+        Shown after the percentage.
+    enabled : bool
+        ``False`` silences the bar (``--quiet``).
+    stream : file-like, optional
+        Where to draw (default ``sys.stderr``); nothing is drawn unless ``stream.isatty()``.
+    width : int
+        Number of cells of the bar.
+    """
+
+    def __init__(self, total: int, label: str = "", enabled: bool = True, stream=None, width: int = 30):
+        self.total = max(int(total), 0)
+        self.label = label
+        self.stream = sys.stderr if stream is None else stream
+        self.width = int(width)
+        self.count = 0
+        self.active = bool(enabled) and self.total > 0 and _is_terminal(self.stream)
+        self._shown = -1
+        self._closed = False
+        self._draw()
+
+    def _draw(self) -> None:
+        if not self.active or self._closed:
+            return
+        percent = min(100, int(100 * self.count / self.total))
+        if percent == self._shown:
+            return
+        self._shown = percent
+        filled = min(self.width, self.width * self.count // self.total)
+        self.stream.write(f"\r[{'#' * filled}{'.' * (self.width - filled)}] {percent:3d}% {self.label}")
+        self.stream.flush()
+
+    def update(self, n: int = 1) -> None:
+        """Advance by ``n`` steps and redraw if the percentage changed."""
+        self.count += int(n)
+        self._draw()
+
+    def close(self) -> None:
+        """End the bar's line (once), so later messages start on a line of their own."""
+        if self.active and not self._closed:
+            self.stream.write("\n")
+            self.stream.flush()
+        self._closed = True
+
+    def __enter__(self) -> Progress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
