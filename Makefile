@@ -18,7 +18,7 @@ reproduce: install
 	$(BIN)/pkmlab reproduce --out out
 
 lint: install
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks examples
 
 test: lint
 	$(BIN)/python -m pytest

@@ -207,3 +207,32 @@ def test_time_laws_are_at_rest_outside_the_motion():
     np.testing.assert_allclose(vel, 0, atol=0)
     np.testing.assert_allclose(acc, 0, atol=0)
     np.testing.assert_allclose(pose[1:], [[0.2, 0.21, 0.0]] * 2, atol=1e-15)
+
+
+SCENARIO_LINE = """
+[trajectory]
+type = "line"
+start = [0.25, 0.2, 0.0]
+end = [{x_end}, 0.2, 0.0]
+speed = 0.2
+[simulation]
+singularity_margin = {margin}
+"""
+
+
+@pytest.mark.parametrize("x_end, margin, pattern", [
+    (0.9, 0.05, r"leaves the workspace at t = [0-9.]+ s.*leg"),
+    (0.3, 5.0, r"comes within [0-9.]+ of a gain-type singularity .* closest at t = [0-9.]+ s, pose \("),
+])
+def test_simulate_cli_refuses_bad_paths_before_running(tmp_path, capsys, x_end, margin, pattern):
+    path = tmp_path / "bad.toml"
+    path.write_text(SCENARIO_LINE.format(x_end=x_end, margin=margin))
+    out = tmp_path / "out"
+    assert main(["simulate", str(path), "--out", str(out)]) == 1
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in captured.err
+    import re
+
+    assert re.search(pattern, lines[0]), lines[0]
+    assert not out.exists() and [p.name for p in tmp_path.iterdir()] == ["bad.toml"]

@@ -190,11 +190,18 @@ def cmd_dynamics(args) -> dict:
     return records[0] if args.near else {"solutions": records}
 
 
+def _status_messages(args):
+    """Progress messages on stderr, only for a person watching: not with --json, --quiet or a pipe."""
+    if args.json or args.quiet or not sys.stderr.isatty():
+        return None
+    return lambda msg: print(msg, file=sys.stderr)
+
+
 def cmd_reproduce(args) -> dict:
     """The paper's three cases: summary.json, CSVs, figures 3-15 and REPORT.md in --out."""
     from .report import reproduce
 
-    progress = None if args.json or args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    progress = _status_messages(args)
     summary = reproduce(args.out, control=args.control, figures=not args.no_figures, progress=progress)
     if not args.json:
         print(f"{'case':<10} {'max path error (m)':>19} {'rms path error (m)':>19} {'peak torque (N m)':>18}")
@@ -211,7 +218,7 @@ def cmd_simulate(args) -> dict:
     from .scenario_io import load_scenario
 
     scenario = load_scenario(args.scenario)
-    progress = None if args.json or args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    progress = _status_messages(args)
     summary = simulation_report(scenario, args.out, figures=not args.no_figures, progress=progress)
     if not args.json:
         s = summary
