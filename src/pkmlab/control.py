@@ -81,5 +81,6 @@ def control_torque(kind, kp, kv, q_ctrl_prev, theta, theta_dot, theta_d, theta_d
     v = np.empty(3)
     for i in range(3):
         v[i] = theta_ddot_d[i] - kp * e[i] - kv * e_dot[i]
-    tau[:] = m_theta @ v + c_theta
+    for i in range(3):
+        tau[i] = c_theta[i] + m_theta[i, 0] * v[0] + m_theta[i, 1] * v[1] + m_theta[i, 2] * v[2]
     return tau, rrr3.OK

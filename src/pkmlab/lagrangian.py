@@ -171,8 +171,26 @@ def actuator_space_model(M, h, j_q_theta, bias_q):
 
     ``bias_q = J̇qθ θ̇`` and ``h = C q̇`` are evaluated at ``q̇ = Jqθ θ̇``.
     """
-    m_theta = j_q_theta.T @ M @ j_q_theta
-    c_theta = j_q_theta.T @ (M @ bias_q + h)
+    # explicit loops: for these small sizes they beat the BLAS calls behind `@`
+    n, na = j_q_theta.shape
+    mj = np.zeros((n, na))
+    f = h.copy()
+    for i in range(n):
+        for k in range(n):
+            mik = M[i, k]
+            if mik != 0.0:
+                f[i] += mik * bias_q[k]
+                for j in range(na):
+                    mj[i, j] += mik * j_q_theta[k, j]
+    m_theta = np.zeros((na, na))
+    c_theta = np.zeros(na)
+    for a in range(na):
+        for i in range(n):
+            jia = j_q_theta[i, a]
+            if jia != 0.0:
+                c_theta[a] += jia * f[i]
+                for b in range(na):
+                    m_theta[a, b] += jia * mj[i, b]
     return m_theta, c_theta
 
 

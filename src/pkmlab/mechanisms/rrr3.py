@@ -549,7 +549,10 @@ def actuator_space_dynamics(q, theta_dot, P):
     jac = np.empty((4, 7))
     constraint_jacobian(q, P, jac)
     j_q_theta, ok = closed_chain.actuated_jacobian(jac, 3)
-    qd = j_q_theta @ theta_dot
+    qd = np.zeros(7)
+    for i in range(7):
+        for j in range(3):
+            qd[i] += j_q_theta[i, j] * theta_dot[j]
     gamma = np.empty(4)
     constraint_convective(q, qd, P, gamma)
     passive_bias, ok_bias = closed_chain.passive_acceleration_bias(jac, gamma, 3)
