@@ -14,6 +14,7 @@ if os.environ.get("CI"):
 sys.path.insert(0, str(Path(__file__).parent))
 
 import pkmlab  # noqa: E402
+from pkmlab.cli import main  # noqa: E402
 
 
 @pytest.fixture(scope="session")
@@ -30,3 +31,10 @@ def random_reachable_poses(rng, model, n, margin=0.05):
         if np.any(np.abs(ik.S) > margin):
             out.append(pose)
     return np.array(out)
+
+
+def run(capsys, *argv) -> tuple[int, str, str]:
+    """Run the ``pkmlab`` command in-process: ``(exit code, stdout, stderr)``."""
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run
 from PIL import Image, ImageSequence
 from reference import BASE, A, L, R, S_closed_form, eta
 
@@ -64,12 +65,6 @@ def inverse_kinematics_by_hand(x, y, alpha, mode):
 
 
 # ------------------------------------------------------------------ helpers
-def run(capsys, *argv) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def run_json(capsys, *argv) -> dict:
     code, out, err = run(capsys, *argv, "--json")
     assert code == 0, err

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run
 
 from pkmlab.cli import main
 
@@ -80,12 +81,6 @@ POSES = [(0.2, 0.21, 0.0), (0.25, 0.16, -0.1), (0.3, 0.2, 0.3)]
 
 
 # ------------------------------------------------------------------ helpers
-def run(capsys, *argv) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def run_json(capsys, *argv) -> dict:
     code, out, err = run(capsys, *argv, "--json")
     assert code == 0, err
