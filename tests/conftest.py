@@ -38,3 +38,15 @@ def run(capsys, *argv) -> tuple[int, str, str]:
     code = main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def assert_user_error(code: int, out: str, err: str) -> str:
+    """Exit 1, nothing on stdout, exactly one line on stderr, no traceback; returns the message."""
+    assert code == 1
+    assert out == ""
+    assert "Traceback" not in err
+    lines = err.strip("\n").split("\n")
+    assert len(lines) == 1, err
+    assert lines[0].startswith("pkmlab"), err
+    assert err.endswith("\n")
+    return lines[0]

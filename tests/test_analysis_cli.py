@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run
+from conftest import assert_user_error, run
 from PIL import Image, ImageSequence
 from reference import BASE, A, L, R, S_closed_form, eta
 
@@ -69,17 +69,6 @@ def run_json(capsys, *argv) -> dict:
     code, out, err = run(capsys, *argv, "--json")
     assert code == 0, err
     return json.loads(out)
-
-
-def assert_user_error(code: int, out: str, err: str) -> str:
-    """Exit 1, nothing on stdout, exactly one line on stderr, no traceback; returns the message."""
-    assert code == 1
-    assert out == ""
-    assert "Traceback" not in err
-    lines = err.strip("\n").split("\n")
-    assert len(lines) == 1, err
-    assert lines[0].startswith("pkmlab"), err
-    return lines[0]
 
 
 def read_grid_csv(path: Path) -> np.ndarray:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run
+from conftest import assert_user_error, run
 
 from pkmlab.cli import main
 
@@ -90,18 +90,6 @@ def run_json(capsys, *argv) -> dict:
 
 def ik_solutions(capsys, pose, *extra) -> list[dict]:
     return run_json(capsys, "ik", *map(repr, pose), *extra)["solutions"]
-
-
-def assert_user_error(code: int, out: str, err: str) -> str:
-    """Exit 1, nothing on stdout, exactly one line on stderr, no traceback; returns the message."""
-    assert code == 1
-    assert out == ""
-    assert "Traceback" not in err
-    lines = err.strip("\n").split("\n")
-    assert len(lines) == 1, err
-    assert lines[0].startswith("pkmlab"), err
-    assert err.endswith("\n")
-    return lines[0]
 
 
 def assert_names(message: str, name: str) -> None:

@@ -9,7 +9,6 @@ the desired path and the trail of the centroid, into an animated GIF written ato
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -18,6 +17,7 @@ import numpy as np
 from .errors import AssemblyError, BranchFollowingError
 from .geometry import Planar3RRR
 from .kinematics import branch_following, forward_kinematics, platform_pose
+from .outputs import atomic_file
 
 
 def rebuild_configurations(model: Planar3RRR, theta, pose0) -> np.ndarray:
@@ -158,25 +158,15 @@ def write_gif(model: Planar3RRR, t, q, desired_xy, path: str | os.PathLike, fram
             for artist in moving:
                 ax.draw_artist(artist)
 
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".gif")
-        os.close(fd)
-        try:
+        with atomic_file(path) as tmp:
             writer = _canvas_pillow_writer(fps)
-            writer.setup(fig, tmp, dpi=dpi)
+            writer.setup(fig, str(tmp), dpi=dpi)
             for k in frames:
                 draw(k)
                 writer.grab_frame()
                 if on_frame is not None:
                     on_frame()
             writer.finish()  # only after the last frame: a failure leaves no GIF
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
     finally:
         plt.close(fig)
     return path

@@ -26,9 +26,8 @@ import numpy as np
 from numba import njit
 
 from . import closed_chain, lagrangian
-from .errors import SingularityError
 from .geometry import Planar3RRR
-from .kinematics import _batch, _broadcast, _index_text, _pair
+from .kinematics import _batch, _broadcast, _pair, _require_regular
 from .mechanisms import rrr3
 
 __all__ = [
@@ -57,11 +56,13 @@ def _full_space_batch(qs, qds, P, M_out, C_out, h_out, T_out):
 
 
 @njit(cache=True)
-def _constrained_batch(qs, qds, taus, P, qdd_out, lam_out, lam_explicit_out, ok):
+def _constrained_batch(qs, qds, taus, P, explicit, qdd_out, lam_out, lam_explicit_out, ok):
     jac = np.empty((4, 7))
     gamma = np.empty(4)
     for k in range(qs.shape[0]):
         qdd_out[k], lam_out[k], ok[k] = rrr3.full_dynamics(qs[k], qds[k], taus[k], P, 0.0)
+        if not explicit:
+            continue
         rrr3.constraint_jacobian(qs[k], P, jac)
         rrr3.constraint_convective(qs[k], qds[k], P, gamma)
         J, _H, bias, D = rrr3.bodies(qs[k], qds[k], P, False)
@@ -105,12 +106,6 @@ def _forward_dynamics_batch(qs, theta_dots, taus, P, out, ok):
         out[k], ok[k] = rrr3.forward_dynamics(qs[k], theta_dots[k], taus[k], P)
 
 
-def _require(ok, shape, what):
-    if not np.all(ok):
-        k = int(np.flatnonzero(~np.asarray(ok))[0])
-        raise SingularityError(f"{what} is undefined{_index_text(k, shape)}: gain-type singularity (det J_eta_phi = 0)")
-
-
 # ------------------------------------------------------------------ full configuration space
 def _full_space(model, q, q_dot):
     qs, qds, shape = _pair("q", q, 7, "q_dot", q_dot, 7)
@@ -148,15 +143,15 @@ def kinetic_energy(model: Planar3RRR, q, q_dot) -> np.ndarray:
     return T.reshape(shape)
 
 
-def _constrained(model, q, q_dot, tau):
+def _constrained(model, q, q_dot, tau, explicit=False):
     qs, qds, taus, shape = _broadcast(("q", q, 7), ("q_dot", q_dot, 7), ("tau", tau, 3))
     n = qs.shape[0]
     qdd = np.empty((n, 7))
     lam = np.empty((n, 4))
     lam_explicit = np.empty((n, 4))
     ok = np.zeros(n, dtype=np.bool_)
-    _constrained_batch(qs, qds, taus, model.packed, qdd, lam, lam_explicit, ok)
-    _require(ok, shape, "the constrained dynamics")
+    _constrained_batch(qs, qds, taus, model.packed, explicit, qdd, lam, lam_explicit, ok)
+    _require_regular(ok, shape, "the constrained dynamics")
     return shape, qdd, lam, lam_explicit
 
 
@@ -173,7 +168,7 @@ def constrained_accelerations(model: Planar3RRR, q, q_dot, tau) -> tuple[np.ndar
 
 def lagrange_multipliers(model: Planar3RRR, q, q_dot, tau) -> np.ndarray:
     """``λ`` (..., 4) in newtons from the paper's explicit formula (after eq. 26)."""
-    shape, _qdd, _lam, lam_explicit = _constrained(model, q, q_dot, tau)
+    shape, _qdd, _lam, lam_explicit = _constrained(model, q, q_dot, tau, explicit=True)
     return lam_explicit.reshape(*shape, 4)
 
 
@@ -186,7 +181,7 @@ def actuator_space_model(model: Planar3RRR, q, theta_dot) -> tuple[np.ndarray, n
     c = np.empty((n, 3))
     ok = np.zeros(n, dtype=np.bool_)
     _actuator_space_batch(qs, tds, model.packed, m, c, ok)
-    _require(ok, shape, "the actuator-space model")
+    _require_regular(ok, shape, "the actuator-space model")
     return m.reshape(*shape, 3, 3), c.reshape(*shape, 3)
 
 
@@ -196,7 +191,7 @@ def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarra
     out = np.empty((qs.shape[0], 3, 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
     _coriolis_theta_batch(qs, tds, model.packed, out, ok)
-    _require(ok, shape, "C_theta")
+    _require_regular(ok, shape, "C_theta")
     return out.reshape(*shape, 3, 3)
 
 
@@ -212,5 +207,5 @@ def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
     out = np.empty((qs.shape[0], 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
     _forward_dynamics_batch(qs, tds, taus, model.packed, out, ok)
-    _require(ok, shape, "the forward dynamics")
+    _require_regular(ok, shape, "the forward dynamics")
     return out.reshape(*shape, 3)

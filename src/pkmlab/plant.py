@@ -26,7 +26,7 @@ from scipy.integrate import solve_ivp
 
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError
 from .geometry import Planar3RRR
-from .kinematics import _batch
+from .kinematics import _batch, constraint_residual
 from .mechanisms import rrr3
 
 
@@ -52,6 +52,11 @@ class PlantRun:
     @property
     def theta_dot(self) -> np.ndarray:
         return self.q_dot[:, :3]
+
+
+def _loop_residual(model, qs):
+    """``max |η(q)|`` (m) of each configuration."""
+    return np.abs(constraint_residual(model, qs)).max(axis=-1)
 
 
 def _torque_function(torque) -> Callable[[float, np.ndarray, np.ndarray], np.ndarray]:
@@ -102,16 +107,6 @@ def _full_rhs(y, tau, P, stabilization):
     qdd, _lam, ok = rrr3.full_dynamics(y[:7], y[7:], tau, P, stabilization)
     out[7:] = qdd
     return out, ok
-
-
-@njit(cache=True)
-def _residuals(qs, P):
-    out = np.empty(qs.shape[0])
-    eta = np.empty(4)
-    for k in range(qs.shape[0]):
-        rrr3.constraints(qs[k], P, eta)
-        out[k] = np.max(np.abs(eta))
-    return out
 
 
 class ReducedPlant:
@@ -169,7 +164,7 @@ class ReducedPlant:
         from .kinematics import coordinate_rates
 
         q_dot = coordinate_rates(self.model, qs, sol.y[3:].T)
-        return PlantRun(sol.t, qs, q_dot, _residuals(qs, P), evaluations)
+        return PlantRun(sol.t, qs, q_dot, _loop_residual(self.model, qs), evaluations)
 
 
 class FullPlant:
@@ -202,4 +197,4 @@ class FullPlant:
         if sol.status != 0:
             raise SingularityError(f"integration failed: {sol.message}")
         qs = np.ascontiguousarray(sol.y[:7].T)
-        return PlantRun(sol.t, qs, np.ascontiguousarray(sol.y[7:].T), _residuals(qs, P), evaluations)
+        return PlantRun(sol.t, qs, np.ascontiguousarray(sol.y[7:].T), _loop_residual(self.model, qs), evaluations)

@@ -7,13 +7,13 @@ can combine and restyle them; :func:`save` writes a figure atomically.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from .analysis import SingularityMap, Workspace
 from .geometry import Planar3RRR
+from .outputs import atomic_file
 
 
 def _axes(ax):
@@ -111,20 +111,9 @@ def plot_workspace(ws: Workspace, model: Planar3RRR | None = None, fig=None):
 
 def save(fig, path: str | os.PathLike, dpi: int = 150) -> Path:
     """Write ``fig`` to ``path`` through a temporary file, so no half-written image is left."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=path.suffix, prefix=".tmp-")
-    os.close(fd)
-    try:
+    with atomic_file(path) as tmp:
         fig.savefig(tmp, dpi=dpi)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the figure ordinary permissions
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    return Path(path)
 
 
 # ------------------------------------------------------------------ closed-loop results

@@ -20,8 +20,6 @@ import csv
 import io
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -34,6 +32,7 @@ from .errors import BranchFollowingError, InvalidParameterError, SingularityErro
 from .geometry import WORKING_MODES, Planar3RRR
 from .kinematics import forward_kinematics, inverse_kinematics, platform_pose, singularity_measure
 from .mechanisms import rrr3
+from .outputs import atomic_file
 from .trajectory import desired_joint_motion, paper_trajectory
 
 #: Columns of the per-sample time series (SPEC §8).
@@ -313,18 +312,9 @@ class SimulationResult:
 
 
 def _write_atomic(path, text: str) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    with atomic_file(path) as tmp:
+        tmp.write_text(text)
+    return Path(path)
 
 
 # ------------------------------------------------------------------ simulate
