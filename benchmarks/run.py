@@ -216,6 +216,7 @@ def section_row(name: str) -> dict:
 
 # Reference row of each baseline: a row with ``baseline=b`` is compared with ``BASELINES[b]``.
 BASELINES = {
+    "numpy_solve_ivp_run": "numpy_solve_ivp_run",
     "fsolve": "baseline_fsolve",
     "numpy_dyn_single": "baseline_numpy_dyn_single",
     "numpy_dyn_batched": "baseline_numpy_dyn_batched",
@@ -879,6 +880,13 @@ def main(argv: list[str] | None = None) -> int:
                            f"free motion {FREE_MOTION_SECONDS:g} s: max |θ_reduced - θ_full|",
                            float(np.abs(plant_runs["reduced"].theta - plant_runs["full"].theta).max()), "rad"))
     checks["plant_initial_kinetic_energy_J"] = float(pk_dynamics.kinetic_energy(model, q_free, q_dot_free))
+
+    progress("closed-loop simulation: nominal case, NumPy/SciPy path, MuJoCo, batch, integrator, limits, growth")
+    import simulation_bench
+
+    sim_rows, sim_checks = simulation_bench.simulation_rows(sys.modules[__name__], args.quick)
+    rows += sim_rows
+    checks["simulation"] = sim_checks
 
     for row in rows:
         if row["kind"] == "per_op" and row["key"] == BASELINES.get(row["baseline"]):

@@ -236,3 +236,68 @@ def test_simulate_cli_refuses_bad_paths_before_running(tmp_path, capsys, x_end, 
 
     assert re.search(pattern, lines[0]), lines[0]
     assert not out.exists() and [p.name for p in tmp_path.iterdir()] == ["bad.toml"]
+
+
+# ------------------------------------------------------------------ batch runs
+def _uncertainty_study(n, seed=11):
+    rng = np.random.default_rng(seed)
+    base = paper_scenario("disturbed")
+    return [base.replace(plant=pkmlab.perturbed_model(base.model, rng), name=f"draw {i}") for i in range(n)]
+
+
+def test_batch_runs_are_identical_to_the_same_runs_done_alone():
+    scenarios = _uncertainty_study(3) + [
+        paper_scenario("nominal").replace(controller=ControllerSpec(kp=400.0)),
+        paper_scenario("disturbed"),
+    ]
+    batch = pkmlab.simulate_batch(scenarios)
+    for scenario, result in zip(scenarios, batch, strict=True):
+        alone = simulate(scenario)
+        assert result.scenario is scenario
+        for name in ("q", "theta_dot", "tau", "pose", "S"):
+            assert np.abs(getattr(result, name) - getattr(alone, name)).max() <= 1e-12, name
+    # the draws really differ, so that the comparison above is not trivially between equal runs
+    assert len({round(r.summary()["max_path_error_m"], 9) for r in batch}) == len(batch)
+
+
+def test_batch_refuses_runs_of_different_lengths_and_names_a_failed_run():
+    nominal = paper_scenario("nominal")
+    with pytest.raises(InvalidParameterError, match="same number of samples"):
+        pkmlab.simulate_batch([nominal, paper_scenario("fast")])
+    with pytest.raises(InvalidParameterError, match="continuous-time"):
+        pkmlab.simulate_batch([nominal.replace(sample_time=0.0)])
+    far = nominal.replace(working_mode=(1, 1, 1), singularity_margin=10.0, name="hopeless")
+    with pytest.raises(SingularityError, match=r"run 1 \(hopeless\)"):
+        pkmlab.simulate_batch([nominal, far])
+    results = pkmlab.simulate_batch([nominal, far], on_error="none")
+    assert results[1] is None and results[0].summary() == simulate(nominal).summary()
+    assert pkmlab.simulate_batch([]) == []
+
+
+# ------------------------------------------------------------------ the plant's integrator
+def test_plant_integrator_is_fourth_order_and_one_step_per_sample_is_below_1e_12():
+    """RK4 over one held-torque sample against DOP853 at rtol 1e-13, at the fast case's highest speed."""
+    from pkmlab.mechanisms import rrr3
+    from pkmlab.simulation import rk4_sample
+
+    fast = simulate(paper_scenario("fast"))
+    k = int(np.argmax(np.abs(fast.theta_dot).max(axis=1)))
+    model = fast.scenario.model
+    P = model.packed
+    q0, w0, tau = fast.q[k], fast.theta_dot[k], fast.tau[k]
+    span = 4e-3  # four samples with the torque held, so the error is large enough to measure
+    ref = ReducedPlant(model, rtol=1e-13, atol=1e-15).simulate(q0, w0, tau, span, t_eval=[0.0, span])
+    ref_state = np.concatenate([ref.q[-1, :3], ref.theta_dot[-1]])
+    errors = []
+    steps = (1, 2, 4, 8)
+    for n_sub in steps:
+        ws = rrr3.make_workspace(P)
+        ws.q[rrr3.BASE_SLOT, :] = q0
+        assert rrr3.linearize(ws, rrr3.BASE_SLOT, P)
+        x = np.concatenate([q0[:3], w0])
+        assert rk4_sample(ws, x, tau, P, span, n_sub, 1e-3, np.empty((5, 6))) == rrr3.OK
+        errors.append(np.abs(x - ref_state).max())
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all((orders > 3.5) & (orders < 4.6)), (errors, orders)
+    # one step per 1 ms sample: error per sample (h = span / 4) scaled from the h = 1 ms run
+    assert errors[2] < 1e-11

@@ -48,7 +48,7 @@ from .kinematics import (
 )
 from .plant import FullPlant, PlantRun, ReducedPlant
 from .scenario_io import load_scenario
-from .simulation import Scenario, SimulationResult, paper_scenario, simulate
+from .simulation import Scenario, SimulationResult, paper_scenario, perturbed_model, simulate, simulate_batch
 
 __version__ = "0.1.0"
 
@@ -85,7 +85,9 @@ __all__ = [
     "Scenario",
     "SimulationResult",
     "paper_scenario",
+    "perturbed_model",
     "simulate",
+    "simulate_batch",
     "load_scenario",
     "ReducedPlant",
     "FullPlant",

@@ -18,78 +18,96 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._compile_cache import NO_REFCOUNT
 
-@njit(cache=True)
-def lu_solve(a, b):
-    """Solve ``a x = b`` by Gaussian elimination with partial pivoting (small dense systems).
 
-    ``a`` is ``(m, m)``, ``b`` is ``(m, k)``; both are left unchanged. Returns ``(x, ok)``;
-    ``ok`` is False when a pivot vanishes (``a`` singular), and ``x`` is then meaningless.
-    Cheaper than LAPACK for the 4×4 systems of a planar mechanism, and allocation-light.
+@njit(**NO_REFCOUNT)
+def lu_factor(a, lu, piv):
+    """Factor ``P a = L U`` by Gaussian elimination with partial pivoting, into ``lu`` and ``piv``.
+
+    ``a`` (m, m) is left unchanged (it may be a view, e.g. the passive columns of ``Jηq``);
+    ``lu`` (m, m) receives ``L`` (unit diagonal, below) and ``U`` (on and above the diagonal),
+    ``piv`` (m,) the row swapped with row ``k`` at step ``k``. Returns ``(ok, det)``; ``ok`` is
+    False when a pivot is below ``1e-14 max|a|`` (singular to working precision). Allocates
+    nothing: this is the workhorse of the simulation loop.
     """
     m = a.shape[0]
-    k = b.shape[1]
-    lu = a.copy()
-    x = b.copy()
     scale = 0.0
     for i in range(m):
         for j in range(m):
-            scale = max(scale, abs(lu[i, j]))
-    if scale == 0.0:
-        return x, False
-    for col in range(m):
-        piv = col
-        for row in range(col + 1, m):
-            if abs(lu[row, col]) > abs(lu[piv, col]):
-                piv = row
-        if abs(lu[piv, col]) <= 1e-14 * scale:  # singular to working precision
-            return x, False
-        if piv != col:
-            for j in range(m):
-                lu[col, j], lu[piv, j] = lu[piv, j], lu[col, j]
-            for j in range(k):
-                x[col, j], x[piv, j] = x[piv, j], x[col, j]
-        inv = 1.0 / lu[col, col]
-        for row in range(col + 1, m):
-            f = lu[row, col] * inv
-            if f != 0.0:
-                for j in range(col, m):
-                    lu[row, j] -= f * lu[col, j]
-                for j in range(k):
-                    x[row, j] -= f * x[col, j]
-    for col in range(m - 1, -1, -1):
-        inv = 1.0 / lu[col, col]
-        for j in range(k):
-            acc = x[col, j]
-            for c in range(col + 1, m):
-                acc -= lu[col, c] * x[c, j]
-            x[col, j] = acc * inv
-    return x, True
-
-
-@njit(cache=True)
-def determinant(a):
-    """Determinant of a small square matrix by Gaussian elimination with partial pivoting."""
-    m = a.shape[0]
-    lu = a.copy()
+            lu[i, j] = a[i, j]
+            scale = max(scale, abs(a[i, j]))
     det = 1.0
+    ok = scale > 0.0
     for col in range(m):
-        piv = col
+        p = col
         for row in range(col + 1, m):
-            if abs(lu[row, col]) > abs(lu[piv, col]):
-                piv = row
-        if lu[piv, col] == 0.0:
-            return 0.0
-        if piv != col:
+            if abs(lu[row, col]) > abs(lu[p, col]):
+                p = row
+        piv[col] = p
+        if abs(lu[p, col]) <= 1e-14 * scale or lu[p, col] == 0.0:
+            return False, 0.0
+        if p != col:
             det = -det
             for j in range(m):
-                lu[col, j], lu[piv, j] = lu[piv, j], lu[col, j]
+                lu[col, j], lu[p, j] = lu[p, j], lu[col, j]
         det *= lu[col, col]
         inv = 1.0 / lu[col, col]
         for row in range(col + 1, m):
             f = lu[row, col] * inv
-            for j in range(col, m):
-                lu[row, j] -= f * lu[col, j]
+            lu[row, col] = f
+            if f != 0.0:
+                for j in range(col + 1, m):
+                    lu[row, j] -= f * lu[col, j]
+    return ok, det
+
+
+@njit(**NO_REFCOUNT)
+def lu_solve_factored(lu, piv, b):
+    """Overwrite ``b`` (m,) with ``a⁻¹ b`` from the factors of :func:`lu_factor`."""
+    m = lu.shape[0]
+    for col in range(m):  # the row interchanges first (they also reordered the stored multipliers)
+        p = piv[col]
+        if p != col:
+            b[col], b[p] = b[p], b[col]
+    for col in range(m):
+        for row in range(col + 1, m):
+            b[row] -= lu[row, col] * b[col]
+    for col in range(m - 1, -1, -1):
+        acc = b[col]
+        for c in range(col + 1, m):
+            acc -= lu[col, c] * b[c]
+        b[col] = acc / lu[col, col]
+
+
+@njit(cache=True)
+def lu_solve(a, b):
+    """Solve ``a x = b`` for small dense systems; ``a`` (m, m), ``b`` (m, k), both left unchanged.
+
+    Returns ``(x, ok)``; ``ok`` is False when ``a`` is singular to working precision (see
+    :func:`lu_factor`), and ``x`` is then meaningless.
+    """
+    m = a.shape[0]
+    lu = np.empty((m, m))
+    piv = np.empty(m, np.int64)
+    x = b.copy()
+    ok, _det = lu_factor(a, lu, piv)
+    if ok:
+        col = np.empty(m)
+        for j in range(b.shape[1]):
+            for i in range(m):
+                col[i] = b[i, j]
+            lu_solve_factored(lu, piv, col)
+            for i in range(m):
+                x[i, j] = col[i]
+    return x, ok
+
+
+@njit(cache=True)
+def determinant(a):
+    """Determinant of a small square matrix (from its LU factors; 0 when singular to working precision)."""
+    m = a.shape[0]
+    _ok, det = lu_factor(a, np.empty((m, m)), np.empty(m, np.int64))
     return det
 
 

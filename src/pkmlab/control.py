@@ -15,9 +15,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 from numba import njit
 
+from ._compile_cache import NO_REFCOUNT
 from .errors import InvalidParameterError
 from .mechanisms import rrr3
 
@@ -54,33 +54,34 @@ class ControllerSpec:
         return 2.0 * math.sqrt(self.kp) if self.kv is None else float(self.kv)
 
 
-@njit(cache=True)
-def control_torque(kind, kp, kv, q_ctrl_prev, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
-                   q_ctrl_out):
-    """Torques of one controller evaluation; ``q_ctrl_out`` receives the controller's configuration.
+@njit(**NO_REFCOUNT)
+def control_torque(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws, tau):
+    """Torques ``τ`` (written into ``tau``) of one controller evaluation; returns the status.
 
-    Returns ``(τ, status)``; status is that of the controller's branch following.
+    ``ws`` is the controller's own :class:`~pkmlab.mechanisms.rrr3.Workspace` (model ``P``): its
+    ``BASE`` slot holds the controller's configuration at the previous evaluation, from which
+    branch following reaches the measured ``θ``; on success the new configuration becomes the
+    base. The status is that of the controller's branch following.
     """
-    tau = np.zeros(3)
-    e = np.empty(3)
-    e_dot = np.empty(3)
-    for i in range(3):
-        e[i] = rrr3.wrap_angle(theta[i] - theta_d[i])
-        e_dot[i] = theta_dot[i] - theta_dot_d[i]
+    e0 = rrr3.wrap_angle(theta[0] - theta_d[0])
+    e1 = rrr3.wrap_angle(theta[1] - theta_d[1])
+    e2 = rrr3.wrap_angle(theta[2] - theta_d[2])
     if kind == PD:
-        q_ctrl_out[:] = q_ctrl_prev
-        for i in range(3):
-            tau[i] = -kp * e[i] - kv * e_dot[i]
-        return tau, rrr3.OK
-    status = rrr3.branch_following(q_ctrl_prev, theta, P, q_ctrl_out, min_abs_s)
+        tau[0] = -kp * e0 - kv * (theta_dot[0] - theta_dot_d[0])
+        tau[1] = -kp * e1 - kv * (theta_dot[1] - theta_dot_d[1])
+        tau[2] = -kp * e2 - kv * (theta_dot[2] - theta_dot_d[2])
+        return rrr3.OK
+    tau[:] = 0.0
+    status = rrr3.follow_branch(ws, theta, P, min_abs_s)
     if status != rrr3.OK:
-        return tau, status
-    m_theta, c_theta, _qd, ok = rrr3.actuator_space_dynamics(q_ctrl_out, theta_dot, P)
-    if not ok:
-        return tau, rrr3.SINGULAR
-    v = np.empty(3)
+        return status
+    rrr3.copy_slot(ws, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
+    rrr3.evaluate_dynamics(ws, rrr3.BASE_SLOT, theta_dot, P)
+    # v = θ̈_d - kp e - kv ė (eq. 38), τ = M̂θ v + Ĉθ θ̇ (eq. 39)
+    v0 = theta_ddot_d[0] - kp * e0 - kv * (theta_dot[0] - theta_dot_d[0])
+    v1 = theta_ddot_d[1] - kp * e1 - kv * (theta_dot[1] - theta_dot_d[1])
+    v2 = theta_ddot_d[2] - kp * e2 - kv * (theta_dot[2] - theta_dot_d[2])
+    m = ws.m_theta
     for i in range(3):
-        v[i] = theta_ddot_d[i] - kp * e[i] - kv * e_dot[i]
-    for i in range(3):
-        tau[i] = c_theta[i] + m_theta[i, 0] * v[0] + m_theta[i, 1] * v[1] + m_theta[i, 2] * v[2]
-    return tau, rrr3.OK
+        tau[i] = ws.c_theta[i] + m[i, 0] * v0 + m[i, 1] * v1 + m[i, 2] * v2
+    return rrr3.OK

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from . import closed_chain
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError
 from .geometry import WORKING_MODES, Planar3RRR
 from .mechanisms import rrr3
@@ -125,34 +124,42 @@ def _forward_kinematics_batch(thetas, P, q_out, s_out, count, status):
 
 @njit(cache=True)
 def _branch_following_batch(q_prev, thetas, P, min_abs_s, q_out, status):
+    ws = rrr3.make_workspace(P)
     for k in range(thetas.shape[0]):
-        status[k] = rrr3.branch_following(q_prev[k], thetas[k], P, q_out[k], min_abs_s)
+        status[k] = rrr3.branch_following_in(ws, q_prev[k], thetas[k], P, q_out[k], min_abs_s)
 
 
 @njit(cache=True)
 def _first_order_batch(qs, P, residual, j_eta_q, j_pose_q, j_q_theta, det, ok):
+    ws = rrr3.make_workspace(P)
     for k in range(qs.shape[0]):
-        rrr3.constraints(qs[k], P, residual[k])
-        rrr3.constraint_jacobian(qs[k], P, j_eta_q[k])
+        ws.q[0, :] = qs[k]
+        ok[k] = rrr3.linearize(ws, 0, P)
+        rrr3.constraints_from_sincos(ws.sincos[0], P, residual[k])
+        j_eta_q[k] = ws.jac[0]
         rrr3.pose_jacobian(qs[k], P, j_pose_q[k])
-        det[k] = closed_chain.determinant(j_eta_q[k, :, 3:])
-        jq, ok[k] = closed_chain.actuated_jacobian(j_eta_q[k], 3)
-        j_q_theta[k] = jq
+        det[k] = ws.det[0]
+        j_q_theta[k] = ws.j_q_theta[0]
+
+
+@njit(cache=True)
+def _determinant_batch(qs, P, det):
+    ws = rrr3.make_workspace(P)
+    for k in range(qs.shape[0]):
+        ws.q[0, :] = qs[k]
+        rrr3.linearize(ws, 0, P)
+        det[k] = ws.det[0]
 
 
 @njit(cache=True)
 def _second_order_batch(qs, theta_dots, P, q_dot, bias, pose_bias, ok):
-    jac = np.empty((4, 7))
-    gamma = np.empty(4)
+    ws = rrr3.make_workspace(P)
     for k in range(qs.shape[0]):
-        rrr3.constraint_jacobian(qs[k], P, jac)
-        jq, ok[k] = closed_chain.actuated_jacobian(jac, 3)
-        q_dot[k] = jq @ theta_dots[k]
-        rrr3.constraint_convective(qs[k], q_dot[k], P, gamma)
-        b, ok_b = closed_chain.passive_acceleration_bias(jac, gamma, 3)
-        ok[k] = ok[k] and ok_b
-        bias[k, :3] = 0.0
-        bias[k, 3:] = b
+        ws.q[0, :] = qs[k]
+        ok[k] = rrr3.linearize(ws, 0, P)
+        rrr3.evaluate_velocities(ws, 0, theta_dots[k], P)
+        q_dot[k] = ws.qd
+        bias[k] = ws.bias_q
         rrr3.pose_convective(qs[k], q_dot[k], P, pose_bias[k])
 
 
@@ -490,7 +497,9 @@ def coordinate_accelerations(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.
 
 def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
     """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity."""
-    shape, _r, _j, _jp, _jq, det, _ok = _first_order(model, q)
+    qs, shape = _batch("q", q, 7)
+    det = np.empty(qs.shape[0])
+    _determinant_batch(qs, model.packed, det)
     return det.reshape(shape)
 
 

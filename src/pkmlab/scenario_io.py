@@ -33,7 +33,7 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     working_mode = "auto"       # or three signs, e.g. [1, -1, 1]
     singularity_margin = 0.05   # refuse paths whose min |S| is below this
     singularity_guard = 0.01    # stop a run when the plant's |S| falls below this
-    substeps = 2                # Runge-Kutta steps per sample
+    substeps = 1                # Runge-Kutta (RK4) steps per sample
 
 Every problem — a missing file, malformed TOML (with its line), an unknown table or key (the
 closest valid one is suggested), a wrong type, a value that is not finite or out of range, a
@@ -309,7 +309,7 @@ def _simulation(rd: _Reader, table: dict) -> dict:
     out["working_mode"] = mode
     out["singularity_margin"] = rd.number(table, name, "singularity_margin", 0.05, "non-negative")
     out["singularity_guard"] = rd.number(table, name, "singularity_guard", 0.01, "non-negative")
-    substeps = table.get("substeps", 2)
+    substeps = table.get("substeps", 1)
     if isinstance(substeps, bool) or not isinstance(substeps, int) or not 1 <= substeps <= MAX_SUBSTEPS:
         raise rd.value_error(f"{rd.where(name, 'substeps')} must be an integer from 1 to {MAX_SUBSTEPS}, "
                              f"got {show(substeps)}")

@@ -24,11 +24,18 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy.integrate import solve_ivp
 
+from ._compile_cache import NO_REFCOUNT
 from .control import CONTROLLER_TYPES, ControllerSpec, control_torque
-from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError
+from .errors import (
+    BranchFollowingError,
+    InvalidParameterError,
+    PkmlabError,
+    SingularityError,
+    UnreachablePoseError,
+)
 from .geometry import WORKING_MODES, Planar3RRR
 from .kinematics import forward_kinematics, inverse_kinematics, platform_pose, singularity_measure
 from .mechanisms import rrr3
@@ -75,7 +82,7 @@ class Scenario:
     working_mode: object = "auto"
     singularity_margin: float = 0.05
     singularity_guard: float = 0.01
-    substeps: int = 2
+    substeps: int = 1
     name: str = "scenario"
 
     def __post_init__(self):
@@ -116,6 +123,29 @@ def scaled_model(model: Planar3RRR, mass: float = 1.0, length: float = 1.0) -> P
 PAPER_CASES = ("nominal", "disturbed", "fast")
 #: The scenario files of the paper's cases (package data).
 SCENARIO_DIR = Path(__file__).parent / "scenarios"
+
+
+def perturbed_model(model: Planar3RRR, rng: np.random.Generator, spread: float = 0.15) -> Planar3RRR:
+    """A machine whose every mass, inertia and link length (``l_i``, ``r_i``, ``a``) is multiplied by
+    its own factor drawn uniformly from ``[1 - spread, 1 + spread]`` — one draw of an uncertainty
+    study. The base points are unchanged. Raises if the draw cannot be assembled."""
+    if not 0.0 <= spread < 1.0:
+        raise InvalidParameterError(f"spread must be in [0, 1), got {spread!r}")
+
+    def factor(size=None):
+        return rng.uniform(1.0 - spread, 1.0 + spread, size)
+
+    return model.replace(
+        active_lengths=model.active_lengths * factor(3),
+        passive_lengths=model.passive_lengths * factor(3),
+        platform_side=float(model.platform_side * factor()),
+        active_masses=model.active_masses * factor(3),
+        passive_masses=model.passive_masses * factor(3),
+        platform_mass=float(model.platform_mass * factor()),
+        active_inertias=model.active_inertias * factor(3),
+        passive_inertias=model.passive_inertias * factor(3),
+        platform_inertia=float(model.platform_inertia * factor()),
+    )
 
 
 def paper_scenario(name: str = "nominal") -> Scenario:
@@ -184,68 +214,105 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, i
 
 
 # ------------------------------------------------------------------ compiled sampled-data loop
-@njit(cache=True)
-def _plant_derivative(theta, theta_dot, tau, q_plant, P, min_abs_s, q_out):
-    status = rrr3.branch_following(q_plant, theta, P, q_out, min_abs_s)
-    acc, ok = rrr3.forward_dynamics(q_out, theta_dot, tau, P)
-    if status == rrr3.OK and not ok:
-        status = rrr3.SINGULAR
-    return acc, status
+@njit(**NO_REFCOUNT)
+def _plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
+    """``θ̈`` of the reduced plant (eq. 35) at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
 
-
-@njit(cache=True)
-def _rk4_sample(theta, theta_dot, tau, q_plant, P, dt, n_sub, min_abs_s):
-    """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps."""
-    h = dt / n_sub
-    q_work = np.empty(7)
-    for _ in range(n_sub):
-        a1, s1 = _plant_derivative(theta, theta_dot, tau, q_plant, P, min_abs_s, q_work)
-        th2 = theta + 0.5 * h * theta_dot
-        w2 = theta_dot + 0.5 * h * a1
-        a2, s2 = _plant_derivative(th2, w2, tau, q_plant, P, min_abs_s, q_work)
-        th3 = theta + 0.5 * h * w2
-        w3 = theta_dot + 0.5 * h * a2
-        a3, s3 = _plant_derivative(th3, w3, tau, q_plant, P, min_abs_s, q_work)
-        th4 = theta + h * w3
-        w4 = theta_dot + h * a3
-        a4, s4 = _plant_derivative(th4, w4, tau, q_plant, P, min_abs_s, q_work)
-        if s1 != rrr3.OK or s2 != rrr3.OK or s3 != rrr3.OK or s4 != rrr3.OK:
-            return theta, theta_dot, rrr3.SINGULAR
-        theta = theta + h / 6.0 * (theta_dot + 2.0 * w2 + 2.0 * w3 + w4)
-        theta_dot = theta_dot + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-        status = rrr3.branch_following(q_plant, theta, P, q_work, min_abs_s)
+    ``slot = BASE_SLOT``: ``θ`` is the base configuration's (already on the manifold);
+    otherwise the passive variables are first found by branch following from the base.
+    """
+    if slot != rrr3.BASE_SLOT:
+        status = rrr3.follow_branch(ws, theta, P, min_abs_s)
         if status != rrr3.OK:
-            return theta, theta_dot, status
-        q_plant[:] = q_work
-    return theta, theta_dot, rrr3.OK
+            return status
+    rrr3.evaluate_dynamics(ws, slot, theta_dot, P)
+    if not rrr3.solve_accelerations(ws, tau):
+        return rrr3.SINGULAR
+    return rrr3.OK
+
+
+@njit(**NO_REFCOUNT)
+def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work):
+    """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
+
+    ``x`` (6,) = ``(θ, θ̇)`` is updated in place; ``ws.q[BASE_SLOT]`` holds the plant's
+    configuration at ``θ`` (linearised) and is moved along. The intermediate stages find their
+    passive variables by branch following from the start of the step. ``work`` is a (5, 6)
+    scratch array. Returns the status.
+    """
+    h = dt / n_sub
+    k = work[:4]
+    y = work[4]
+    for _ in range(n_sub):
+        for stage in range(4):
+            c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
+            for i in range(6):
+                y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
+            slot = rrr3.BASE_SLOT if stage == 0 else rrr3.TRIAL_SLOT
+            status = _plant_stage(ws, y[:3], y[3:], tau, P, min_abs_s, slot)
+            if status != rrr3.OK:
+                return status
+            for i in range(3):
+                k[stage, i] = y[3 + i]
+                k[stage, 3 + i] = ws.theta_ddot[i]
+        for i in range(6):
+            x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+        status = rrr3.follow_branch(ws, x[:3], P, min_abs_s)
+        if status != rrr3.OK:
+            return status
+        rrr3.copy_slot(ws, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
+    return rrr3.OK
 
 
 @njit(cache=True)
 def _sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
                        kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau):
-    """Run the whole sampled-data loop; returns ``(status, k)`` (``k`` = sample of a failure, else -1)."""
+    """Run the whole sampled-data loop; returns ``(status, k)`` (``k`` = sample of a failure, else -1).
+
+    Status ``10 + s`` means the controller's own model lost its branch (status ``s``).
+    """
     n = theta_d.shape[0]
-    q_plant = q_plant0.copy()
-    q_ctrl = q_ctrl0.copy()
-    q_ctrl_next = np.empty(7)
-    theta = q_plant[:3].copy()
-    theta_dot = np.zeros(3)
+    plant = rrr3.make_workspace(P_plant)
+    ctrl = rrr3.make_workspace(P_ctrl)
+    plant.q[rrr3.BASE_SLOT, :] = q_plant0
+    ctrl.q[rrr3.BASE_SLOT, :] = q_ctrl0
+    if not rrr3.linearize(plant, rrr3.BASE_SLOT, P_plant):
+        return rrr3.SINGULAR, 0
+    if not rrr3.linearize(ctrl, rrr3.BASE_SLOT, P_ctrl):
+        return 10 + rrr3.SINGULAR, 0
+    x = np.zeros(6)
+    x[:3] = q_plant0[:3]
+    work = np.empty((5, 6))
+    tau = np.zeros(3)
     for k in range(n):
-        out_q[k] = q_plant
-        out_q[k, :3] = theta
-        out_theta_dot[k] = theta_dot
-        tau, status = control_torque(kind, kp, kv, q_ctrl, theta, theta_dot, theta_d[k], theta_dot_d[k],
-                                     theta_ddot_d[k], P_ctrl, min_abs_s, q_ctrl_next)
+        out_q[k] = plant.q[rrr3.BASE_SLOT]
+        out_theta_dot[k] = x[3:]
+        status = control_torque(kind, kp, kv, x[:3], x[3:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
+                                min_abs_s, ctrl, tau)
         if status != rrr3.OK:
-            return 10 + status, k  # the controller's own model lost its branch
-        q_ctrl[:] = q_ctrl_next
+            return 10 + status, k
         out_tau[k] = tau
         if k == n - 1:
             break
-        theta, theta_dot, status = _rk4_sample(theta, theta_dot, tau, q_plant, P_plant, ts, n_sub, min_abs_s)
+        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work)
         if status != rrr3.OK:
             return status, k
     return rrr3.OK, -1
+
+
+@njit(cache=True, parallel=True)
+def _sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
+                        kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_status, out_k):
+    """:func:`_sampled_data_loop` for a batch of runs (leading axis), spread over the CPU cores.
+
+    Each run executes exactly the code of a single run, so its result is bit-for-bit the same.
+    """
+    for r in prange(theta_d.shape[0]):
+        status, k = _sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
+                                       q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], min_abs_s[r],
+                                       out_q[r], out_theta_dot[r], out_tau[r])
+        out_status[r] = status
+        out_k[r] = k
 
 
 # ------------------------------------------------------------------ results
@@ -331,6 +398,74 @@ def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray) -> np.
     return q
 
 
+@dataclass(frozen=True)
+class _Prepared:
+    """Everything a run needs before its loop: sample grid, working mode, desired motion, start."""
+
+    t: np.ndarray
+    mode: tuple[int, int, int]
+    desired: object
+    q_ctrl0: np.ndarray
+    q_plant0: np.ndarray
+    kind: int
+    kp: float
+    kv: float
+    guard: float
+
+
+def _sample_times(scenario: Scenario) -> np.ndarray:
+    # samples t_k = k Ts for k = 0 … ceil(T / Ts): the grid covers the whole motion, up to and past T
+    # (the desired motion is at rest after T); continuous-time runs report on a 1 ms grid
+    step = scenario.sample_time if scenario.sample_time > 0 else 1e-3
+    n = int(math.ceil(float(scenario.trajectory.duration) / step - 1e-9)) + 1
+    return np.arange(n) * step
+
+
+def _desired_motion(scenario: Scenario, t: np.ndarray):
+    mode, _min_s = choose_working_mode(scenario, t)
+    return mode, desired_joint_motion(scenario.model, scenario.trajectory, mode, t)
+
+
+def _prepare(scenario: Scenario, desired_cache: dict | None = None) -> _Prepared:
+    t = _sample_times(scenario)
+    # a batch often shares the controller's model and path between runs: its desired motion once
+    key = None
+    if desired_cache is not None:
+        key = (scenario.model, scenario.trajectory, scenario.working_mode, scenario.singularity_margin, t.size,
+               t[-1])
+        try:
+            hash(key)
+        except TypeError:
+            key = None
+    if key is not None and key in desired_cache:
+        mode, desired = desired_cache[key]
+    else:
+        mode, desired = _desired_motion(scenario, t)
+        if key is not None:
+            desired_cache[key] = (mode, desired)
+    q_ctrl0 = desired.q[0].copy()
+    q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
+    spec = scenario.controller
+    return _Prepared(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
+                     float(spec.velocity_gain), float(scenario.singularity_guard))
+
+
+def _loop_failure(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int) -> str:
+    who = "the controller's model" if status >= 10 else "the plant"
+    pose = platform_pose(scenario.plant_model, q[k_fail])
+    return (f"run stopped at t = {prep.t[k_fail]:.4f} s: {who} came within |S| < {prep.guard:g} of a gain-type "
+            f"singularity near pose ({pose[0]:.4f}, {pose[1]:.4f}, {pose[2]:.4f})")
+
+
+def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau) -> SimulationResult:
+    desired = prep.desired
+    pose = platform_pose(scenario.plant_model, q)
+    pose[:, 2] = desired.pose[:, 2] + np.angle(np.exp(1j * (pose[:, 2] - desired.pose[:, 2])))
+    theta_d = desired.theta + 2 * np.pi * np.round((q[:, :3] - desired.theta) / (2 * np.pi))
+    return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, desired.pose,
+                            singularity_measure(scenario.plant_model, q))
+
+
 def simulate(scenario: Scenario) -> SimulationResult:
     """Run a closed-loop scenario and return its :class:`SimulationResult`.
 
@@ -338,86 +473,139 @@ def simulate(scenario: Scenario) -> SimulationResult:
     >>> result.summary()["working_mode"]
     [-1, 1, -1]
     """
-    T = float(scenario.trajectory.duration)
-    ts = scenario.sample_time
-    # samples t_k = k Ts for k = 0 … ceil(T / Ts): the grid covers the whole motion, up to and past T
-    # (the desired motion is at rest after T); continuous-time runs report on a 1 ms grid
-    step = ts if ts > 0 else 1e-3
-    n = int(math.ceil(T / step - 1e-9)) + 1
-    t = np.arange(n) * step
-    mode, _min_s = choose_working_mode(scenario, t)
-    desired = desired_joint_motion(scenario.model, scenario.trajectory, mode, t)
-    q_ctrl0 = desired.q[0].copy()
-    q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
-    spec = scenario.controller
-    kind = CONTROLLER_TYPES[spec.kind]
-    kp, kv = float(spec.kp), spec.velocity_gain
-    guard = float(scenario.singularity_guard)
-    P_plant, P_ctrl = scenario.plant_model.packed, scenario.model.packed
-    if ts > 0:
-        q = np.zeros((n, 7))
-        theta_dot = np.zeros((n, 3))
-        tau = np.zeros((n, 3))
-        status, k_fail = _sampled_data_loop(ts, scenario.substeps, desired.theta, desired.theta_dot,
-                                            desired.theta_ddot, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                                            kind, kp, kv, guard, q, theta_dot, tau)
+    prep = _prepare(scenario)
+    n = prep.t.size
+    if scenario.sample_time > 0:
+        q, theta_dot, tau = np.zeros((n, 7)), np.zeros((n, 3)), np.zeros((n, 3))
+        d = prep.desired
+        status, k_fail = _sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
+                                            d.theta_ddot, prep.q_plant0, prep.q_ctrl0, scenario.plant_model.packed,
+                                            scenario.model.packed, prep.kind, prep.kp, prep.kv, prep.guard,
+                                            q, theta_dot, tau)
         if status != rrr3.OK:
-            who = "the controller's model" if status >= 10 else "the plant"
-            pose = platform_pose(scenario.plant_model, q[k_fail])
-            raise BranchFollowingError(
-                f"run stopped at t = {t[k_fail]:.4f} s: {who} came within |S| < {guard:g} of a gain-type "
-                f"singularity near pose ({pose[0]:.4f}, {pose[1]:.4f}, {pose[2]:.4f})"
-            )
+            raise BranchFollowingError(_loop_failure(scenario, prep, status, q, k_fail))
     else:
-        q, theta_dot, tau = _continuous_time(scenario, mode, t, q_plant0, q_ctrl0, kind, kp, kv, guard)
-    pose = platform_pose(scenario.plant_model, q)
-    pose[:, 2] = desired.pose[:, 2] + np.angle(np.exp(1j * (pose[:, 2] - desired.pose[:, 2])))
-    theta_d = desired.theta + 2 * np.pi * np.round((q[:, :3] - desired.theta) / (2 * np.pi))
-    return SimulationResult(scenario, mode, t, q, theta_dot, theta_d, tau, pose, desired.pose,
-                            singularity_measure(scenario.plant_model, q))
+        q, theta_dot, tau = _continuous_time(scenario, prep.mode, prep.t, prep.q_plant0, prep.q_ctrl0, prep.kind,
+                                             prep.kp, prep.kv, prep.guard)
+    return _result(scenario, prep, q, theta_dot, tau)
+
+
+def simulate_batch(scenarios, *, on_error: str = "raise") -> list[SimulationResult | None]:
+    """Run many sampled-data scenarios in one call, spread over the CPU cores.
+
+    The scenarios may differ in anything — plants, controller models, gains, speeds, paths,
+    sample times — as long as they have the same number of samples (trajectories of equal
+    length at equal ``Ts``, or any combination giving the same ``ceil(T / Ts) + 1``). Each run
+    executes exactly the compiled code of :func:`simulate`, so its result is the same, bit for
+    bit, as the run done alone. The set-up of runs that share the controller's model and path
+    (an uncertainty study of the plant, a gain sweep) is done once.
+
+    ``on_error="raise"`` raises the first run's error, naming the run; ``"none"`` puts ``None``
+    in place of a failed run and keeps the others. Use ``NUMBA_NUM_THREADS`` (or
+    :func:`numba.set_num_threads`) to choose how many cores.
+
+    >>> from pkmlab import ControllerSpec, paper_scenario, simulate_batch
+    >>> base = paper_scenario("disturbed")
+    >>> runs = simulate_batch([base.replace(controller=ControllerSpec(kp=kp)) for kp in (400.0, 1000.0)])
+    >>> len(runs)
+    2
+    """
+    if on_error not in ("raise", "none"):
+        raise InvalidParameterError(f'on_error must be "raise" or "none", got {on_error!r}')
+    scenarios = list(scenarios)
+    if not scenarios:
+        return []
+    cache: dict = {}
+    preps: list[_Prepared | None] = []
+    for i, sc in enumerate(scenarios):
+        if not isinstance(sc, Scenario):
+            raise InvalidParameterError(f"run {i}: expected a Scenario, got {type(sc).__name__}")
+        if sc.sample_time <= 0:
+            raise InvalidParameterError(f"run {i} ({sc.name}): simulate_batch runs sampled-data control only "
+                                        "(sample_time > 0); use simulate for continuous-time control")
+        try:
+            preps.append(_prepare(sc, cache))
+        except PkmlabError as exc:
+            if on_error == "raise":
+                raise type(exc)(f"run {i} ({sc.name}): {exc}") from None
+            preps.append(None)
+    sizes = {p.t.size for p in preps if p is not None}
+    if len(sizes) > 1:
+        raise InvalidParameterError(f"all runs of a batch need the same number of samples, got {sorted(sizes)}")
+    live = [i for i, p in enumerate(preps) if p is not None]
+    results: list[SimulationResult | None] = [None] * len(scenarios)
+    if not live:
+        return results
+    n, m = sizes.pop(), len(live)
+    P_len = scenarios[live[0]].model.packed.size
+    stack = {name: np.empty((m, n, 3)) for name in ("theta", "theta_dot", "theta_ddot")}
+    q0 = np.empty((m, 7))
+    qc0 = np.empty((m, 7))
+    P_plant, P_ctrl = np.empty((m, P_len)), np.empty((m, P_len))
+    ts, n_sub, kind = np.empty(m), np.empty(m, np.int64), np.empty(m, np.int64)
+    kp, kv, guard = np.empty(m), np.empty(m), np.empty(m)
+    for r, i in enumerate(live):
+        sc, p = scenarios[i], preps[i]
+        for name in stack:
+            stack[name][r] = getattr(p.desired, name)
+        q0[r], qc0[r] = p.q_plant0, p.q_ctrl0
+        P_plant[r], P_ctrl[r] = sc.plant_model.packed, sc.model.packed
+        ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
+        kp[r], kv[r], guard[r] = p.kp, p.kv, p.guard
+    q, theta_dot, tau = np.zeros((m, n, 7)), np.zeros((m, n, 3)), np.zeros((m, n, 3))
+    status, k_fail = np.zeros(m, np.int64), np.zeros(m, np.int64)
+    _sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant, P_ctrl,
+                        kind, kp, kv, guard, q, theta_dot, tau, status, k_fail)
+    for r, i in enumerate(live):
+        sc, p = scenarios[i], preps[i]
+        if status[r] != rrr3.OK:
+            if on_error == "raise":
+                raise BranchFollowingError(f"run {i} ({sc.name}): " + _loop_failure(sc, p, status[r], q[r], k_fail[r]))
+            continue
+        results[i] = _result(sc, p, q[r], theta_dot[r], tau[r])
+    return results
 
 
 def _continuous_time(scenario, mode, t, q_plant0, q_ctrl0, kind, kp, kv, guard):
     """Continuous-time control: the controller is evaluated at every stage of DOP853."""
     P_plant, P_ctrl = scenario.plant_model.packed, scenario.model.packed
-    q_plant, q_ctrl = q_plant0.copy(), q_ctrl0.copy()
-    q_work, q_ctrl_work = np.empty(7), np.empty(7)
-    last_tau = np.zeros(3)
+    plant, ctrl = _linearised_workspace(P_plant, q_plant0), _linearised_workspace(P_ctrl, q_ctrl0)
+    tau = np.zeros(3)
 
-    def torque_at(time, theta, theta_dot):
+    def control(time, theta, theta_dot, ws):
         d = desired_joint_motion(scenario.model, scenario.trajectory, mode, [time])
-        tau, status = control_torque(kind, kp, kv, q_ctrl, theta, theta_dot, d.theta[0], d.theta_dot[0],
-                                     d.theta_ddot[0], P_ctrl, guard, q_ctrl_work)
+        status = control_torque(kind, kp, kv, theta, theta_dot, d.theta[0], d.theta_dot[0], d.theta_ddot[0],
+                                P_ctrl, guard, ws, tau)
         if status != rrr3.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model lost its branch")
-        q_ctrl[:] = q_ctrl_work
         return tau
 
     def rhs(time, y):
-        tau = torque_at(time, y[:3], y[3:])
-        last_tau[:] = tau
-        acc, status = _plant_derivative(y[:3], y[3:], tau, q_plant, P_plant, guard, q_work)
-        if status != rrr3.OK:
+        control(time, y[:3], y[3:], ctrl)
+        if _plant_stage(plant, y[:3], y[3:], tau, P_plant, guard, rrr3.TRIAL_SLOT) != rrr3.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant approached a gain-type singularity")
-        q_plant[:] = q_work
-        return np.concatenate([y[3:], acc])
+        rrr3.copy_slot(plant, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)  # the next evaluation starts from here
+        return np.concatenate([y[3:], plant.theta_ddot])
 
     sol = solve_ivp(rhs, (0.0, float(t[-1])), np.concatenate([q_plant0[:3], np.zeros(3)]), method="DOP853",
                     rtol=1e-12, atol=1e-13, t_eval=t)
     if sol.status != 0:
         raise SingularityError(f"integration failed: {sol.message}")
+    # the reported samples: configurations by branch following along the solution, torques re-evaluated
     n = t.size
     q = np.empty((n, 7))
-    tau = np.empty((n, 3))
-    q_prev = q_plant0
-    q_c = q_ctrl0.copy()
+    torques = np.empty((n, 3))
+    plant, ctrl = _linearised_workspace(P_plant, q_plant0), _linearised_workspace(P_ctrl, q_ctrl0)
     for k in range(n):
-        q_next = np.empty(7)
-        rrr3.branch_following(q_prev, sol.y[:3, k].copy(), P_plant, q_next, guard)
-        q[k] = q_prev = q_next
-        q[k, :3] = sol.y[:3, k]
-        d = desired_joint_motion(scenario.model, scenario.trajectory, mode, [t[k]])
-        tau[k], _st = control_torque(kind, kp, kv, q_c, sol.y[:3, k], sol.y[3:, k], d.theta[0], d.theta_dot[0],
-                                     d.theta_ddot[0], P_ctrl, guard, q_ctrl_work)
-        q_c = q_ctrl_work.copy()
-    return q, sol.y[3:].T.copy(), tau
+        rrr3.follow_branch(plant, sol.y[:3, k].copy(), P_plant, guard)
+        rrr3.copy_slot(plant, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
+        q[k] = plant.q[rrr3.BASE_SLOT]
+        torques[k] = control(t[k], sol.y[:3, k].copy(), sol.y[3:, k].copy(), ctrl)
+    return q, sol.y[3:].T.copy(), torques
+
+
+def _linearised_workspace(P, q):
+    ws = rrr3.make_workspace(P)
+    ws.q[rrr3.BASE_SLOT, :] = q
+    rrr3.linearize(ws, rrr3.BASE_SLOT, P)
+    return ws

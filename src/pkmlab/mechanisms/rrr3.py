@@ -18,11 +18,13 @@ with ``e_i = b_i + l_i u(θ_i)``.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from .. import closed_chain, lagrangian
+from .._compile_cache import NO_REFCOUNT
 from ..geometry import (
     ACTIVE_COM,
     ACTIVE_INERTIA,
@@ -56,7 +58,7 @@ DEGENERATE = 4  # the sextic vanished identically (a continuum of solutions)
 TWO_PI = 2.0 * math.pi
 
 
-@njit(cache=True)
+@njit(**NO_REFCOUNT)
 def wrap_angle(x):
     """``x`` mapped to ``(-π, π]``."""
     y = x - TWO_PI * math.floor((x + math.pi) / TWO_PI)  # in [-π, π)
@@ -76,36 +78,50 @@ def elbows(theta, P):
     return e
 
 
-@njit(cache=True)
-def constraints(q, P, out):
-    """Write ``η(q)`` (eqs. 2, 3, 5, 6) into ``out`` (4,)."""
-    ca, sa = math.cos(q[6]), math.sin(q[6])
+@njit(**NO_REFCOUNT)
+def angle_sincos(q, sc):
+    """Write ``(cos q_j, sin q_j)`` of the 7 coordinates into ``sc`` (7, 2).
+
+    Every term of ``η``, of its Jacobian and of the bodies is ``k u(q_j)`` or ``R(q_j) v``: the
+    functions below take these once-computed values instead of calling ``cos``/``sin`` again.
+    """
+    for j in range(N_COORDINATES):
+        sc[j, 0] = math.cos(q[j])
+        sc[j, 1] = math.sin(q[j])
+
+
+@njit(**NO_REFCOUNT)
+def constraints_from_sincos(sc, P, out):
+    """Write ``η`` (eqs. 2, 3, 5, 6) into ``out`` (4,) from :func:`angle_sincos`; returns ``max |η_k|``."""
+    ca, sa = sc[6, 0], sc[6, 1]
     p2x, p2y = P[PLATFORM], P[PLATFORM + 1]
     dx, dy = P[PLATFORM + 2] - p2x, P[PLATFORM + 3] - p2y  # P3 - P2
-    vx = np.empty(3)
-    vy = np.empty(3)
-    for i in range(3):  # vertex p_i reached through leg i
-        li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
-        vx[i] = P[BASE + 2 * i] + li * math.cos(q[i]) + ri * math.cos(q[3 + i])
-        vy[i] = P[BASE + 2 * i + 1] + li * math.sin(q[i]) + ri * math.sin(q[3 + i])
-    out[0] = vx[0] + ca * p2x - sa * p2y - vx[1]
-    out[1] = vy[0] + sa * p2x + ca * p2y - vy[1]
-    out[2] = vx[1] + ca * dx - sa * dy - vx[2]
-    out[3] = vy[1] + sa * dx + ca * dy - vy[2]
+    # vertex p_i reached through leg i
+    v0x = P[BASE] + P[ACTIVE_LENGTH] * sc[0, 0] + P[PASSIVE_LENGTH] * sc[3, 0]
+    v0y = P[BASE + 1] + P[ACTIVE_LENGTH] * sc[0, 1] + P[PASSIVE_LENGTH] * sc[3, 1]
+    v1x = P[BASE + 2] + P[ACTIVE_LENGTH + 1] * sc[1, 0] + P[PASSIVE_LENGTH + 1] * sc[4, 0]
+    v1y = P[BASE + 3] + P[ACTIVE_LENGTH + 1] * sc[1, 1] + P[PASSIVE_LENGTH + 1] * sc[4, 1]
+    v2x = P[BASE + 4] + P[ACTIVE_LENGTH + 2] * sc[2, 0] + P[PASSIVE_LENGTH + 2] * sc[5, 0]
+    v2y = P[BASE + 5] + P[ACTIVE_LENGTH + 2] * sc[2, 1] + P[PASSIVE_LENGTH + 2] * sc[5, 1]
+    out[0] = v0x + ca * p2x - sa * p2y - v1x
+    out[1] = v0y + sa * p2x + ca * p2y - v1y
+    out[2] = v1x + ca * dx - sa * dy - v2x
+    out[3] = v1y + sa * dx + ca * dy - v2y
+    return max(max(abs(out[0]), abs(out[1])), max(abs(out[2]), abs(out[3])))
 
 
-@njit(cache=True)
-def constraint_jacobian(q, P, out):
+@njit(**NO_REFCOUNT)
+def constraint_jacobian_from_sincos(sc, P, out):
     """Write ``Jηq = ∂η/∂q`` (4, 7) into ``out``; columns ``[Jηθ | Jηφ]`` (paper §2.3)."""
     out[:, :] = 0.0
-    ca, sa = math.cos(q[6]), math.sin(q[6])
+    ca, sa = sc[6, 0], sc[6, 1]
     p2x, p2y = P[PLATFORM], P[PLATFORM + 1]
     dx, dy = P[PLATFORM + 2] - p2x, P[PLATFORM + 3] - p2y
     for i in range(3):
         li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
         # d/dx (k u(x)) = k (-sin x, cos x); leg i enters loop 1 (rows 0-1) and/or loop 2.
-        gtx, gty = -li * math.sin(q[i]), li * math.cos(q[i])
-        gpx, gpy = -ri * math.sin(q[3 + i]), ri * math.cos(q[3 + i])
+        gtx, gty = -li * sc[i, 1], li * sc[i, 0]
+        gpx, gpy = -ri * sc[3 + i, 1], ri * sc[3 + i, 0]
         if i == 0:
             out[0, 0], out[1, 0] = gtx, gty
             out[0, 3], out[1, 3] = gpx, gpy
@@ -122,28 +138,56 @@ def constraint_jacobian(q, P, out):
     out[3, 6] = ca * dx - sa * dy
 
 
-@njit(cache=True)
-def constraint_convective(q, qd, P, out):
+@njit(**NO_REFCOUNT)
+def constraint_convective_from_sincos(sc, qd, P, out):
     """Write ``J̇ηq q̇`` (4,) into ``out``: ``η̈`` when ``q̈ = 0``.
 
     Each term ``k u(x)`` of ``η`` contributes ``-k u(x) ẋ²``; ``R(α) v`` contributes
     ``-R(α) v α̇²``.
     """
-    ca, sa = math.cos(q[6]), math.sin(q[6])
+    ca, sa = sc[6, 0], sc[6, 1]
     w2 = qd[6] * qd[6]
     p2x, p2y = P[PLATFORM], P[PLATFORM + 1]
     dx, dy = P[PLATFORM + 2] - p2x, P[PLATFORM + 3] - p2y
-    ax = np.empty(3)
-    ay = np.empty(3)
-    for i in range(3):  # centripetal acceleration of vertex p_i through leg i
-        li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
-        t2, f2 = qd[i] * qd[i], qd[3 + i] * qd[3 + i]
-        ax[i] = -li * math.cos(q[i]) * t2 - ri * math.cos(q[3 + i]) * f2
-        ay[i] = -li * math.sin(q[i]) * t2 - ri * math.sin(q[3 + i]) * f2
-    out[0] = ax[0] - (ca * p2x - sa * p2y) * w2 - ax[1]
-    out[1] = ay[0] - (sa * p2x + ca * p2y) * w2 - ay[1]
-    out[2] = ax[1] - (ca * dx - sa * dy) * w2 - ax[2]
-    out[3] = ay[1] - (sa * dx + ca * dy) * w2 - ay[2]
+    # centripetal acceleration of vertex p_i reached through leg i
+    a0x, a0y = _leg_centripetal(sc, qd, P, 0)
+    a1x, a1y = _leg_centripetal(sc, qd, P, 1)
+    a2x, a2y = _leg_centripetal(sc, qd, P, 2)
+    out[0] = a0x - (ca * p2x - sa * p2y) * w2 - a1x
+    out[1] = a0y - (sa * p2x + ca * p2y) * w2 - a1y
+    out[2] = a1x - (ca * dx - sa * dy) * w2 - a2x
+    out[3] = a1y - (sa * dx + ca * dy) * w2 - a2y
+
+
+@njit(**NO_REFCOUNT)
+def _leg_centripetal(sc, qd, P, i):
+    li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
+    t2, f2 = qd[i] * qd[i], qd[3 + i] * qd[3 + i]
+    return (-li * sc[i, 0] * t2 - ri * sc[3 + i, 0] * f2, -li * sc[i, 1] * t2 - ri * sc[3 + i, 1] * f2)
+
+
+@njit(cache=True)
+def constraints(q, P, out):
+    """Write ``η(q)`` (eqs. 2, 3, 5, 6) into ``out`` (4,)."""
+    sc = np.empty((N_COORDINATES, 2))
+    angle_sincos(q, sc)
+    constraints_from_sincos(sc, P, out)
+
+
+@njit(cache=True)
+def constraint_jacobian(q, P, out):
+    """Write ``Jηq = ∂η/∂q`` (4, 7) into ``out``; columns ``[Jηθ | Jηφ]`` (paper §2.3)."""
+    sc = np.empty((N_COORDINATES, 2))
+    angle_sincos(q, sc)
+    constraint_jacobian_from_sincos(sc, P, out)
+
+
+@njit(cache=True)
+def constraint_convective(q, qd, P, out):
+    """Write ``J̇ηq q̇`` (4,) into ``out``: ``η̈`` when ``q̈ = 0``."""
+    sc = np.empty((N_COORDINATES, 2))
+    angle_sincos(q, sc)
+    constraint_convective_from_sincos(sc, qd, P, out)
 
 
 @njit(cache=True)
@@ -186,7 +230,7 @@ def pose_convective(q, qd, P, out):
     out[2] = 0.0
 
 
-@njit(cache=True)
+@njit(**NO_REFCOUNT)
 def singularity_scale(P):
     """``a r1 r2 r3``: the factor of eq. (18) that makes ``S`` independent of the scale."""
     a = math.hypot(P[PLATFORM], P[PLATFORM + 1])
@@ -424,63 +468,259 @@ def _circle_vertex1(e, P, ca, sa):
     return best_x, best_y
 
 
-# ------------------------------------------------------------------ branch following
+# ------------------------------------------------------------------ workspace
+class Workspace(NamedTuple):
+    """Mutable scratch of the compiled kernels for one model (MuJoCo's ``mjData``, Pinocchio's ``Data``).
+
+    The model (the packed parameter vector ``P``) never changes; everything a kernel computes
+    lands here, so that the simulation loop allocates nothing. Build it with
+    :func:`make_workspace` for the ``P`` it will be used with. Configuration slots (first index
+    of the per-configuration fields): ``BASE`` — where branch following starts, ``TRIAL`` —
+    where it ends, ``SAVED`` — a copy kept while marching in sub-steps. Each slot holds the
+    configuration ``q`` and its linearisation: ``(cos q, sin q)``, ``Jηq``, the LU factors of
+    ``Jηφ``, ``det Jηφ`` and ``Jqθ``.
+    """
+
+    q: np.ndarray  # (3, 7)
+    sincos: np.ndarray  # (3, 7, 2)
+    jac: np.ndarray  # (3, 4, 7) Jηq
+    lu: np.ndarray  # (3, 4, 4) LU factors of Jηφ
+    piv: np.ndarray  # (3, 4)
+    det: np.ndarray  # (3,) det Jηφ
+    j_q_theta: np.ndarray  # (3, 7, 3)
+    eta: np.ndarray  # (4,) constraint residual / right-hand sides
+    qd: np.ndarray  # (7,) q̇ = Jqθ θ̇
+    bias_q: np.ndarray  # (7,) J̇qθ θ̇
+    m_theta: np.ndarray  # (3, 3)
+    c_theta: np.ndarray  # (3,) Cθ θ̇
+    m_lu: np.ndarray  # (3, 3) LU factors of Mθ
+    m_piv: np.ndarray  # (3,)
+    theta_ddot: np.ndarray  # (3,)
+    theta_target: np.ndarray  # (3,) intermediate actuated angles of a sub-stepped branch following
+    body_scratch: np.ndarray  # (3, 4)
+    term_body: np.ndarray  # body description (see body_description), fixed by P
+    term_coord: np.ndarray
+    term_vec: np.ndarray
+    body_angle: np.ndarray
+    D: np.ndarray
+    constants: np.ndarray  # [a r1 r2 r3 (scale of S), tolerance on |η| (m)]
+
+
+BASE_SLOT, TRIAL_SLOT, SAVED_SLOT = 0, 1, 2
+_S_SCALE, _ETA_TOL = 0, 1
+
+
+@njit(cache=True)
+def make_workspace(P):
+    """A :class:`Workspace` for the model ``P``."""
+    term_body, term_coord, term_vec, body_angle, D = body_description(P)
+    # |η| is a sum of a few lengths: its round-off is a few ulps of the largest reach
+    reach = 0.0
+    for i in range(3):
+        reach = max(reach, math.hypot(P[BASE + 2 * i], P[BASE + 2 * i + 1]))
+    reach += max(P[ACTIVE_LENGTH], max(P[ACTIVE_LENGTH + 1], P[ACTIVE_LENGTH + 2]))
+    reach += max(P[PASSIVE_LENGTH], max(P[PASSIVE_LENGTH + 1], P[PASSIVE_LENGTH + 2]))
+    reach += max(math.hypot(P[PLATFORM], P[PLATFORM + 1]), math.hypot(P[PLATFORM + 2], P[PLATFORM + 3]))
+    constants = np.array([singularity_scale(P), 4.0 * 2.220446049250313e-16 * reach])
+    return Workspace(
+        np.zeros((3, 7)), np.zeros((3, 7, 2)), np.zeros((3, 4, 7)), np.zeros((3, 4, 4)),
+        np.zeros((3, 4), np.int64), np.zeros(3), np.zeros((3, 7, 3)), np.zeros(4), np.zeros(7), np.zeros(7),
+        np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros(3, np.int64), np.zeros(3), np.zeros(3),
+        np.zeros((3, 4)),
+        term_body, term_coord, term_vec, body_angle, D, constants,
+    )
+
+
+@njit(**NO_REFCOUNT)
+def copy_slot(ws, source, target):
+    """Copy a configuration and its linearisation from one slot to another."""
+    for i in range(7):
+        ws.q[target, i] = ws.q[source, i]
+        ws.sincos[target, i, 0] = ws.sincos[source, i, 0]
+        ws.sincos[target, i, 1] = ws.sincos[source, i, 1]
+        for j in range(3):
+            ws.j_q_theta[target, i, j] = ws.j_q_theta[source, i, j]
+    for k in range(4):
+        ws.piv[target, k] = ws.piv[source, k]
+        for j in range(7):
+            ws.jac[target, k, j] = ws.jac[source, k, j]
+        for j in range(4):
+            ws.lu[target, k, j] = ws.lu[source, k, j]
+    ws.det[target] = ws.det[source]
+
+
+@njit(**NO_REFCOUNT)
+def slot_singularity_measure(ws, slot):
+    """``S`` (eq. 19) of the configuration in ``slot``, from its LU factors."""
+    return -ws.det[slot] / ws.constants[_S_SCALE]
+
+
+@njit(**NO_REFCOUNT)
+def _fill_actuated_jacobian(ws, slot):
+    """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) of ``slot`` from its LU factors."""
+    jac, lu, piv, out = ws.jac[slot], ws.lu[slot], ws.piv[slot], ws.j_q_theta[slot]
+    rhs = ws.eta
+    for col in range(3):
+        for i in range(3):
+            out[i, col] = 1.0 if i == col else 0.0
+        for k in range(4):
+            rhs[k] = -jac[k, col]
+        closed_chain.lu_solve_factored(lu, piv, rhs)
+        for k in range(4):
+            out[3 + k, col] = rhs[k]
+
+
+@njit(**NO_REFCOUNT)
+def linearize(ws, slot, P):
+    """Linearise the configuration ``ws.q[slot]``: ``(cos, sin)``, ``Jηq``, LU of ``Jηφ``, ``Jqθ``.
+
+    Returns False at a gain-type singularity (``Jηφ`` singular to working precision).
+    """
+    sc = ws.sincos[slot]
+    angle_sincos(ws.q[slot], sc)
+    constraint_jacobian_from_sincos(sc, P, ws.jac[slot])
+    ok, det = closed_chain.lu_factor(ws.jac[slot, :, 3:], ws.lu[slot], ws.piv[slot])
+    ws.det[slot] = det
+    if ok:
+        _fill_actuated_jacobian(ws, slot)
+    return ok
+
+
+@njit(**NO_REFCOUNT)
+def correct_passive(ws, slot, P, max_iter):
+    """Newton's method on ``η(θ, φ) = 0`` for the passive coordinates of ``ws.q[slot]``, ``θ`` fixed.
+
+    Converged when ``max |η|`` is at round-off level (a few ulps of the mechanism's reach) or
+    the last Newton step was below 1e-15 rad; the slot is then linearised at the converged
+    configuration (the last residual evaluation doubles as the linearisation). Returns the status.
+    """
+    q, sc, jac, lu, piv, eta = ws.q[slot], ws.sincos[slot], ws.jac[slot], ws.lu[slot], ws.piv[slot], ws.eta
+    tiny_step = False
+    for it in range(max_iter + 1):
+        angle_sincos(q, sc)
+        residual = constraints_from_sincos(sc, P, eta)
+        constraint_jacobian_from_sincos(sc, P, jac)
+        ok, det = closed_chain.lu_factor(jac[:, 3:], lu, piv)
+        ws.det[slot] = det
+        if not ok:
+            return SINGULAR
+        if residual <= ws.constants[_ETA_TOL] or tiny_step:
+            _fill_actuated_jacobian(ws, slot)
+            return OK
+        if it == max_iter or not math.isfinite(residual):
+            break
+        for k in range(4):
+            eta[k] = -eta[k]
+        closed_chain.lu_solve_factored(lu, piv, eta)
+        step = 0.0
+        for k in range(4):
+            q[3 + k] += eta[k]
+            step = max(step, abs(eta[k]))
+        if not math.isfinite(step) or step > 1.0:
+            return NOT_CONVERGED
+        tiny_step = step <= 1e-15
+    return NOT_CONVERGED
+
+
+@njit(**NO_REFCOUNT)
+def _predict(ws, source, target, theta, P):
+    """Second-order Taylor predictor of the branch from ``source`` to actuated angles ``theta``.
+
+    Along the chord ``θ(s) = θ0 + s Δθ``: ``φ(1) ≈ φ0 + Jφθ Δθ + ½ J̇φθ(Δθ) Δθ``, where the
+    second-order term is the passive acceleration of eq. (32) at ``θ̇ = Δθ``, ``θ̈ = 0``
+    (``-Jηφ⁻¹ J̇ηq q̇`` with ``q̇ = Jqθ Δθ``). Its error is third order in ``|Δθ|``, so one
+    Newton step usually reaches round-off. Angles march the shorter way round.
+    """
+    q0, jqt, qd = ws.q[source], ws.j_q_theta[source], ws.qd
+    q1 = ws.q[target]
+    d0 = wrap_angle(theta[0] - q0[0])
+    d1 = wrap_angle(theta[1] - q0[1])
+    d2 = wrap_angle(theta[2] - q0[2])
+    for i in range(7):
+        qd[i] = jqt[i, 0] * d0 + jqt[i, 1] * d1 + jqt[i, 2] * d2
+    constraint_convective_from_sincos(ws.sincos[source], qd, P, ws.eta)
+    for k in range(4):
+        ws.eta[k] = -ws.eta[k]
+    closed_chain.lu_solve_factored(ws.lu[source], ws.piv[source], ws.eta)
+    q1[0], q1[1], q1[2] = theta[0], theta[1], theta[2]
+    for k in range(3):
+        q1[3 + k] = wrap_angle(q0[3 + k] + qd[3 + k] + 0.5 * ws.eta[k])
+    q1[6] = q0[6] + qd[6] + 0.5 * ws.eta[3]  # α stays continuous
+
+
+@njit(**NO_REFCOUNT)
+def _chord(ws, theta, P, s_ref, min_abs_s):
+    """Predict from ``BASE`` to ``theta`` into ``TRIAL`` and correct; ``S`` must keep the sign of ``s_ref``."""
+    _predict(ws, BASE_SLOT, TRIAL_SLOT, theta, P)
+    status = correct_passive(ws, TRIAL_SLOT, P, 8)
+    if status != OK:
+        return status
+    s_now = slot_singularity_measure(ws, TRIAL_SLOT)
+    if s_now * s_ref <= 0.0 or abs(s_now) <= min_abs_s:
+        return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def follow_branch(ws, theta, P, min_abs_s):
+    """Branch following (§3.2) from the linearised ``BASE`` slot to actuated angles ``theta`` into ``TRIAL``.
+
+    One chord in the common case; when its corrector fails, ``θ`` is marched in 2, 4, … 64
+    equal sub-steps. The branch is followed only while ``|S|`` stays above ``min_abs_s`` and
+    keeps its sign: a sign change means a gain-type singularity was crossed. ``BASE`` is left
+    unchanged. Returns the status (``OK``, ``NOT_CONVERGED`` or ``SINGULAR``).
+    """
+    s_ref = slot_singularity_measure(ws, BASE_SLOT)
+    if abs(s_ref) <= min_abs_s:
+        copy_slot(ws, BASE_SLOT, TRIAL_SLOT)
+        return SINGULAR
+    status = _chord(ws, theta, P, s_ref, min_abs_s)
+    if status == OK:
+        return OK
+    copy_slot(ws, BASE_SLOT, SAVED_SLOT)
+    target = ws.theta_target
+    n_sub = 2
+    while n_sub <= 64:
+        copy_slot(ws, SAVED_SLOT, BASE_SLOT)
+        for sub in range(n_sub):
+            frac = (sub + 1.0) / n_sub
+            for i in range(3):
+                target[i] = ws.q[SAVED_SLOT, i] + frac * wrap_angle(theta[i] - ws.q[SAVED_SLOT, i])
+            if sub == n_sub - 1:
+                for i in range(3):
+                    target[i] = theta[i]
+            status = _chord(ws, target, P, s_ref, min_abs_s)
+            if status != OK:
+                break
+            copy_slot(ws, TRIAL_SLOT, BASE_SLOT)
+        if status == OK:
+            break
+        n_sub *= 2
+    copy_slot(ws, BASE_SLOT, TRIAL_SLOT)  # the last point reached (the target on success)
+    copy_slot(ws, SAVED_SLOT, BASE_SLOT)
+    return status
+
+
+@njit(cache=True)
+def branch_following_in(ws, q_prev, theta, P, q_out, min_abs_s):
+    """:func:`branch_following` with a caller-owned :class:`Workspace` (no allocation)."""
+    ws.q[BASE_SLOT, :] = q_prev
+    if not linearize(ws, BASE_SLOT, P):
+        q_out[:] = q_prev
+        return SINGULAR
+    status = follow_branch(ws, theta, P, min_abs_s)
+    q_out[:] = ws.q[TRIAL_SLOT]
+    return status
+
+
 @njit(cache=True)
 def branch_following(q_prev, theta, P, q_out, min_abs_s):
     """The assembly mode continuously connected to ``q_prev``, at actuated angles ``θ`` (§3.2).
 
-    Marches ``θ`` from ``q_prev[:3]`` to ``theta`` in equal sub-steps (one in the common case),
-    each with a first-order predictor ``φ += Jφθ Δθ`` and a Newton corrector on ``η = 0``;
-    the number of sub-steps doubles (up to 64) when a corrector fails. The branch is
-    followed only while ``|S|`` stays above ``min_abs_s`` and keeps its sign: a sign change
-    means a gain-type singularity was crossed. Writes ``q_out`` (7,) and returns the status
-    (``OK``, ``NOT_CONVERGED`` or ``SINGULAR``).
+    See :func:`follow_branch`. Writes ``q_out`` (7,) — the configuration reached — and returns
+    the status (``OK``, ``NOT_CONVERGED`` or ``SINGULAR``).
     """
-    s_prev = singularity_measure(q_prev, P)
-    if abs(s_prev) <= min_abs_s:
-        q_out[:] = q_prev
-        return SINGULAR
-    jac = np.empty((4, 7))
-    n_sub = 1
-    while n_sub <= 64:
-        q_out[:] = q_prev
-        status = OK
-        for sub in range(n_sub):
-            frac = (sub + 1.0) / n_sub
-            # predictor: the tangent of the branch at the last point, φ̇ = Jφθ θ̇
-            constraint_jacobian(q_out, P, jac)
-            j_phi_theta, ok = closed_chain.passive_jacobian(jac, 3)
-            if not ok:
-                status = SINGULAR
-                break
-            dtheta = np.empty(3)
-            for i in range(3):
-                # angles are periodic: march along the shorter way round
-                target = q_prev[i] + frac * wrap_angle(theta[i] - q_prev[i])
-                dtheta[i] = target - q_out[i]
-                q_out[i] = target
-            for k in range(4):
-                acc = 0.0
-                for i in range(3):
-                    acc += j_phi_theta[k, i] * dtheta[i]
-                q_out[3 + k] += acc
-            status, _it = solve_passive(q_out, P, 8, 1e-14)
-            if status != OK:
-                break
-            s_now = singularity_measure(q_out, P)
-            if s_now * s_prev <= 0.0 or abs(s_now) <= min_abs_s:
-                status = SINGULAR
-                break
-        if status == OK:
-            for i in range(3):
-                q_out[i] = theta[i]
-            for k in range(3, 7):
-                q_out[k] = wrap_angle(q_out[k])
-            # keep α continuous with the previous configuration rather than wrapped
-            q_out[6] = q_prev[6] + wrap_angle(q_out[6] - q_prev[6])
-            return OK
-        n_sub *= 2
-    return status
+    return branch_following_in(make_workspace(P), q_prev, theta, P, q_out, min_abs_s)
 
 
 # ------------------------------------------------------------------ dynamics (paper §3)
@@ -543,37 +783,63 @@ def constraint_jacobian_rate(q, qd, P, out):
             out[r + 1, j] = x * qd[j]
 
 
+@njit(**NO_REFCOUNT)
+def evaluate_velocities(ws, slot, theta_dot, P):
+    """``q̇ = Jqθ θ̇`` (eq. 31) and ``J̇qθ θ̇`` (from eq. 32) at the linearised ``slot``, into ``ws.qd``, ``ws.bias_q``."""
+    jqt, qd, bias_q = ws.j_q_theta[slot], ws.qd, ws.bias_q
+    for i in range(7):
+        qd[i] = jqt[i, 0] * theta_dot[0] + jqt[i, 1] * theta_dot[1] + jqt[i, 2] * theta_dot[2]
+    constraint_convective_from_sincos(ws.sincos[slot], qd, P, ws.eta)
+    for k in range(4):
+        ws.eta[k] = -ws.eta[k]
+    closed_chain.lu_solve_factored(ws.lu[slot], ws.piv[slot], ws.eta)
+    bias_q[0] = bias_q[1] = bias_q[2] = 0.0
+    for k in range(4):
+        bias_q[3 + k] = ws.eta[k]
+
+
+@njit(**NO_REFCOUNT)
+def evaluate_dynamics(ws, slot, theta_dot, P):
+    """``Mθ`` and ``Cθ θ̇`` (eq. 35) at the linearised configuration of ``slot``, into ``ws``.
+
+    Also leaves ``q̇`` and ``J̇qθ θ̇`` in ``ws`` (:func:`evaluate_velocities`).
+    """
+    evaluate_velocities(ws, slot, theta_dot, P)
+    lagrangian.rotating_vector_actuator_model(ws.sincos[slot], ws.qd, ws.term_body, ws.term_coord, ws.term_vec,
+                                              ws.body_angle, ws.D, ws.j_q_theta[slot], ws.bias_q,
+                                              ws.body_scratch, ws.m_theta, ws.c_theta)
+
+
+@njit(**NO_REFCOUNT)
+def solve_accelerations(ws, tau):
+    """``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (eq. 35) into ``ws.theta_ddot`` after :func:`evaluate_dynamics`."""
+    ok, _det = closed_chain.lu_factor(ws.m_theta, ws.m_lu, ws.m_piv)
+    for i in range(3):
+        ws.theta_ddot[i] = tau[i] - ws.c_theta[i]
+    if ok:
+        closed_chain.lu_solve_factored(ws.m_lu, ws.m_piv, ws.theta_ddot)
+    return ok
+
+
 @njit(cache=True)
 def actuator_space_dynamics(q, theta_dot, P):
     """``(Mθ, Cθ θ̇, q̇, ok)`` at a configuration ``q`` on the constraint manifold (eq. 35)."""
-    jac = np.empty((4, 7))
-    constraint_jacobian(q, P, jac)
-    j_q_theta, ok = closed_chain.actuated_jacobian(jac, 3)
-    qd = np.zeros(7)
-    for i in range(7):
-        for j in range(3):
-            qd[i] += j_q_theta[i, j] * theta_dot[j]
-    gamma = np.empty(4)
-    constraint_convective(q, qd, P, gamma)
-    passive_bias, ok_bias = closed_chain.passive_acceleration_bias(jac, gamma, 3)
-    bias_q = np.zeros(7)
-    bias_q[3:] = passive_bias
-    J, _H, body_bias, D = bodies(q, qd, P, False)
-    M = lagrangian.mass_matrix(J, D)
-    h = lagrangian.velocity_product(J, D, body_bias)
-    m_theta, c_theta = lagrangian.actuator_space_model(M, h, j_q_theta, bias_q)
-    return m_theta, c_theta, qd, ok and ok_bias
+    ws = make_workspace(P)
+    ws.q[BASE_SLOT, :] = q
+    ok = linearize(ws, BASE_SLOT, P)
+    evaluate_dynamics(ws, BASE_SLOT, theta_dot, P)
+    return ws.m_theta.copy(), ws.c_theta.copy(), ws.qd.copy(), ok
 
 
 @njit(cache=True)
 def forward_dynamics(q, theta_dot, tau, P):
     """``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (eq. 35) at ``q``; returns ``(θ̈, ok)``."""
-    m_theta, c_theta, _qd, ok = actuator_space_dynamics(q, theta_dot, P)
-    rhs = np.empty((3, 1))
-    for i in range(3):
-        rhs[i, 0] = tau[i] - c_theta[i]
-    x, ok_solve = closed_chain.lu_solve(m_theta, rhs)
-    return x[:, 0].copy(), ok and ok_solve
+    ws = make_workspace(P)
+    ws.q[BASE_SLOT, :] = q
+    ok = linearize(ws, BASE_SLOT, P)
+    evaluate_dynamics(ws, BASE_SLOT, theta_dot, P)
+    ok_solve = solve_accelerations(ws, tau)
+    return ws.theta_ddot.copy(), ok and ok_solve
 
 
 @njit(cache=True)

@@ -1,0 +1,343 @@
+"""Closed-loop simulation benchmarks (``make bench`` runs them after the kernel rows of ``run.py``).
+
+Rows
+----
+* the paper's nominal case in-process, ``pkmlab.simulate(paper_scenario("nominal"))`` after
+  warm-up, and its compiled sampled-data loop alone;
+* the same case through a pure NumPy/SciPy path: the computed-torque controller and the plant
+  written in NumPy (``run.NumpyActuatorSpaceModel``; passive variables by ``fsolve`` from the
+  previous sample, ``run.NumpyLoopClosure``), the plant integrated over each 1 ms sample by
+  ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-10) with the torque held;
+* MuJoCo stepping the same mechanism (MJCF of ``mujoco_model.py``: 7 hinges, two ``connect``
+  loops, RK4 at 1 ms) for the same 1,571 steps with pkmlab's torques replayed, in the same run;
+* a batch of 1,000 disturbed runs with plant parameters drawn within ±15 %
+  (:func:`pkmlab.simulate_batch`), on all cores and on one, and the largest difference between
+  batch runs and the same runs done alone;
+* the plant integrator: error of RK4 with 1, 2, 4 steps per sample against DOP853 at rtol
+  1e-13 and its observed order;
+* the arithmetic limit: a hand count of the floating-point operations of one sample (listed in
+  :data:`FLOP_COUNT`) priced at this machine's measured scalar throughput;
+* how the cost grows with the simulated duration, the batch size and the sample time.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import statistics
+import time
+
+import numba
+import numpy as np
+from scipy.integrate import solve_ivp
+
+import pkmlab
+from pkmlab.mechanisms import rrr3
+from pkmlab.simulation import _sampled_data_loop, choose_working_mode, rk4_sample
+from pkmlab.trajectory import desired_joint_motion, paper_trajectory
+
+BATCH_SPREAD = 0.15
+BATCH_SEED = 7
+
+# Floating-point operations of the kernels of one sample, counted by hand from the source (a
+# multiply-add counts 2; comparisons, copies and index arithmetic are not counted; sin and cos
+# are counted apart because they cost far more than a flop). One sample = the controller (branch
+# following + Mθ, Cθθ̇ + the law) and one RK4 step of the plant (stage 1 at the start configuration,
+# stages 2-4 and the end point each with branch following, stages 1-4 with forward dynamics).
+FLOP_COUNT = {
+    "constraints η (eqs. 2-6)": 40,
+    "constraint Jacobian Jηq": 30,
+    "LU of Jηφ (4x4, with det)": 41,
+    "one 4x4 solve from the LU": 28,
+    "Jqθ = [I; -Jηφ⁻¹Jηθ] (3 solves)": 84,
+    "predictor (q̇ along the chord, J̇ηq q̇, 1 solve, update)": 140,
+    "q̇ = Jqθ θ̇ and J̇qθ θ̇ (convective term + 1 solve)": 123,
+    "Mθ, Cθθ̇ body by body (12 terms, 7 bodies)": 816,
+    "θ̈ = Mθ⁻¹(τ - Cθθ̇) (3x3 LU + solve)": 33,
+    "control law τ = Mθ v + Cθθ̇": 30,
+    "RK4 combination per step": 60,
+}
+SINCOS_PER_CONFIGURATION = 14  # cos and sin of the 7 coordinates
+
+
+def flops_per_sample() -> tuple[int, int]:
+    """``(flops, sin/cos calls)`` of one sample, from :data:`FLOP_COUNT`.
+
+    Branch following = predictor + two corrector evaluations (one Newton step, then the
+    converged check, whose linearisation is kept): 2 × (η + Jηq + LU) + 1 solve + Jqθ.
+    Forward dynamics = q̇ and bias + body model + the 3x3 solve.
+    """
+    c = FLOP_COUNT
+    evaluation = c["constraints η (eqs. 2-6)"] + c["constraint Jacobian Jηq"] + c["LU of Jηφ (4x4, with det)"]
+    follow = c["predictor (q̇ along the chord, J̇ηq q̇, 1 solve, update)"] + 2 * evaluation + \
+        c["one 4x4 solve from the LU"] + c["Jqθ = [I; -Jηφ⁻¹Jηθ] (3 solves)"]
+    dynamics = c["q̇ = Jqθ θ̇ and J̇qθ θ̇ (convective term + 1 solve)"] + \
+        c["Mθ, Cθθ̇ body by body (12 terms, 7 bodies)"] + c["θ̈ = Mθ⁻¹(τ - Cθθ̇) (3x3 LU + solve)"]
+    controller = follow + dynamics - c["θ̈ = Mθ⁻¹(τ - Cθθ̇) (3x3 LU + solve)"] + c["control law τ = Mθ v + Cθθ̇"]
+    plant = 4 * dynamics + 4 * follow + c["RK4 combination per step"]
+    n_follow = 5
+    return controller + plant, n_follow * 2 * SINCOS_PER_CONFIGURATION
+
+
+@numba.njit(cache=False)
+def _independent_multiply_adds(n, x):
+    s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = x
+    for _ in range(n):
+        s0 = s0 * 0.999999 + 1e-9
+        s1 = s1 * 0.999998 + 1e-9
+        s2 = s2 * 0.999997 + 1e-9
+        s3 = s3 * 0.999996 + 1e-9
+        s4 = s4 * 0.999995 + 1e-9
+        s5 = s5 * 0.999994 + 1e-9
+        s6 = s6 * 0.999993 + 1e-9
+        s7 = s7 * 0.999992 + 1e-9
+    return s0 + s1 + s2 + s3 + s4 + s5 + s6 + s7
+
+
+@numba.njit(cache=False)
+def _dependent_multiply_adds(n, x):
+    s = x
+    for _ in range(n):
+        s = s * 0.999999 + 1e-9
+    return s
+
+
+@numba.njit(cache=False)
+def _sincos_calls(n, x):
+    s = 0.0
+    for k in range(n):
+        a = x + 1e-7 * k
+        s += math.cos(a) + math.sin(a)
+    return s
+
+
+def scalar_throughput(time_runs) -> dict:
+    """Measured scalar speed: independent and dependent multiply-adds, sin + cos pairs."""
+    n = 20_000_000
+    for f in (_independent_multiply_adds, _dependent_multiply_adds, _sincos_calls):
+        f(10, 1.0)
+    t_ind, _ = time_runs(lambda: _independent_multiply_adds(n, 1.0), 5)
+    t_dep, _ = time_runs(lambda: _dependent_multiply_adds(n, 1.0), 5)
+    t_sc, _ = time_runs(lambda: _sincos_calls(n // 4, 0.3), 5)
+    return {
+        "independent_gflops": 16 * n / statistics.median(t_ind) / 1e9,
+        "dependent_gflops": 2 * n / statistics.median(t_dep) / 1e9,
+        "ns_per_sin_or_cos": statistics.median(t_sc) / (n // 4) / 2 * 1e9,
+    }
+
+
+# ------------------------------------------------------------------ NumPy/SciPy path
+class NumpySampledData:
+    """The nominal case in NumPy/SciPy: computed torque, plant by solve_ivp over each sample.
+
+    The passive variables of both the controller and the plant come from ``fsolve`` started at
+    the previous solution (single-solution branch following); ``(Mθ, Cθθ̇)`` from the NumPy
+    baseline model; the plant's θ̈ = Mθ⁻¹(τ - Cθθ̇) by ``np.linalg.solve``.
+    """
+
+    def __init__(self, closure, numpy_model):
+        self.closure, self.model = closure, numpy_model
+
+    def _passive(self, theta, q_guess):
+        x, _ier = self.closure.solve(theta, q_guess[3:])
+        return np.concatenate([theta, x])
+
+    def run(self, desired, q0, ts, n, kp, kv):
+        theta, theta_dot = q0[:3].copy(), np.zeros(3)
+        q_ctrl = q_plant = q0.copy()
+        out = np.empty((n, 3))
+        for k in range(n):
+            out[k] = theta
+            q_ctrl = self._passive(theta, q_ctrl)
+            m_theta, c_theta = self.model(q_ctrl, theta_dot)
+            e, e_dot = theta - desired.theta[k], theta_dot - desired.theta_dot[k]
+            tau = m_theta[0] @ (desired.theta_ddot[k] - kp * e - kv * e_dot) + c_theta[0]
+            if k == n - 1:
+                break
+            guess = [q_plant]
+
+            def rhs(_t, y, tau=tau, guess=guess):
+                q = self._passive(y[:3], guess[0])
+                guess[0] = q
+                m, c = self.model(q, y[3:])
+                return np.concatenate([y[3:], np.linalg.solve(m[0], tau - c[0])])
+
+            sol = solve_ivp(rhs, (0.0, ts), np.concatenate([theta, theta_dot]), method="DOP853", rtol=1e-10,
+                            atol=1e-12)
+            theta, theta_dot = sol.y[:3, -1].copy(), sol.y[3:, -1].copy()
+            q_plant = self._passive(theta, guess[0])
+        return out
+
+
+def compile_cache_behaviour() -> dict:
+    """Wall time of a new process importing pkmlab and simulating the nominal case: with an empty
+    compile cache (everything compiled), then again with the cache that run left (loaded)."""
+    import subprocess
+    import sys
+    import tempfile
+
+    code = "import pkmlab; pkmlab.simulate(pkmlab.paper_scenario('nominal'))"
+    out = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "PKMLAB_CACHE_DIR": cache}
+        for label in ("empty", "warm"):
+            start = time.perf_counter()
+            subprocess.run([sys.executable, "-c", code], env=env, check=True)
+            out[label] = time.perf_counter() - start
+    return out
+
+
+# ------------------------------------------------------------------ the section
+def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
+    """Rows and checks of the simulation section; ``h`` is the ``run`` module (its helpers)."""
+    rows, checks = [h.section_row("closed-loop simulation (vs baseline: NumPy/SciPy solve_ivp path)")], {}
+    repeats = 3 if quick else 9
+    nominal = pkmlab.paper_scenario("nominal")
+    seconds, result = h.time_once(lambda: pkmlab.simulate(nominal))
+    rows.append(h.first_call_row("first_call_simulate", "first call in this process: simulate(nominal)", seconds))
+    seconds, _ = h.time_once(lambda: pkmlab.simulate_batch([nominal, nominal]))
+    rows.append(h.first_call_row("first_call_simulate_batch", "first call in this process: simulate_batch", seconds))
+    if not quick:
+        for label, seconds in compile_cache_behaviour().items():
+            rows.append(h.first_call_row(f"new_process_{label}", f"new process, import + simulate(nominal), {label} "
+                                         "compile cache", seconds))
+    n = result.t.size
+    times, _ = h.time_runs(lambda: pkmlab.simulate(nominal), repeats)
+    rows.append(h.rate_row("sim_nominal_inprocess", f"nominal case, simulate() in-process ({n} samples)", times, 1,
+                           "run", baseline="numpy_solve_ivp_run"))
+
+    t = result.t
+    mode, _ = choose_working_mode(nominal, t)
+    d = desired_joint_motion(nominal.model, nominal.trajectory, mode, t)
+    P = nominal.model.packed
+    kv = nominal.controller.velocity_gain
+    buffers = (np.zeros((n, 7)), np.zeros((n, 3)), np.zeros((n, 3)))
+
+    def loop(n_sub=1, ts=1e-3, dd=d):
+        return _sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot, result.q[0], dd.q[0], P, P, 0,
+                                  1000.0, kv, 0.01, *(b[: dd.theta.shape[0]] for b in buffers))
+
+    times, _ = h.time_runs(loop, repeats)
+    rows.append(h.rate_row("sim_nominal_loop", f"nominal case, compiled sampled-data loop only ({n} samples)", times,
+                           1, "run", baseline="numpy_solve_ivp_run"))
+    rows[-1]["us_per_sample"] = rows[-1]["median_s"] / (n - 1) * 1e6
+
+    # NumPy/SciPy path (slow: a prefix of the run in --quick mode, scaled to the whole run)
+    n_np = 100 if quick else n
+    numpy_path = NumpySampledData(h.NumpyLoopClosure(nominal.model), h.NumpyActuatorSpaceModel(nominal.model))
+    seconds, theta_np = h.time_once(lambda: numpy_path.run(d, result.q[0], 1e-3, n_np, 1000.0, kv))
+    rows.append(h.rate_row("numpy_solve_ivp_run", f"baseline: NumPy + fsolve + solve_ivp path ({n_np} samples"
+                           f"{', scaled to ' + str(n) if n_np < n else ''})", [seconds * (n - 1) / (n_np - 1)], 1,
+                           "run", compare=False))
+    checks["numpy_path_max_theta_diff_rad"] = float(np.abs(theta_np - result.theta[:n_np]).max())
+
+    # MuJoCo on the same mechanism and steps
+    try:
+        import mujoco_model
+    except ImportError as exc:  # MuJoCo is optional
+        checks["mujoco"] = f"not measured: {exc}"
+    else:
+        fig = mujoco_model.time_nominal_case(repeats, result=result)
+        key = "rollout" if "rollout_ms" in fig else "python_loop"
+        rows.append(h.rate_row("mujoco_nominal", f"MuJoCo {fig['mujoco_version']} same mechanism, {fig['steps']} RK4 "
+                               f"steps of 1 ms ({key.replace('_', ' ')})", [fig[f"{key}_ms"] / 1e3], 1, "run",
+                               baseline="numpy_solve_ivp_run"))
+        rows[-1]["min_s"] = fig[f"{key}_min_ms"] / 1e3
+        checks["mujoco"] = fig
+        checks["ratio_pkmlab_simulate_to_mujoco"] = rows[1]["median_s"] / (fig[f"{key}_ms"] / 1e3)
+        checks["ratio_pkmlab_loop_to_mujoco"] = rows[2]["median_s"] / (fig[f"{key}_ms"] / 1e3)
+        rows.append(h.metric_row("ratio_simulate_to_mujoco", "ratio: simulate() nominal / MuJoCo same steps",
+                                 checks["ratio_pkmlab_simulate_to_mujoco"], "x"))
+
+    # batch of disturbed runs, ±15 % plant parameters
+    n_batch = 100 if quick else 1000
+    rng = np.random.default_rng(BATCH_SEED)
+    disturbed = pkmlab.paper_scenario("disturbed")
+    scenarios = [disturbed.replace(plant=pkmlab.perturbed_model(disturbed.model, rng, BATCH_SPREAD), name=f"draw {i}")
+                 for i in range(n_batch)]
+    pkmlab.simulate_batch(scenarios[:2])
+    threads = numba.get_num_threads()
+    seconds, batch = h.time_once(lambda: pkmlab.simulate_batch(scenarios, on_error="none"))
+    rows.append(h.rate_row("batch_disturbed", f"batch: {n_batch} disturbed runs ±15 %, {threads} threads", [seconds],
+                           n_batch, "run", compare=False))
+    numba.set_num_threads(1)
+    try:
+        seconds1, _ = h.time_once(lambda: pkmlab.simulate_batch(scenarios[: n_batch // 4], on_error="none"))
+    finally:
+        numba.set_num_threads(threads)
+    rows.append(h.rate_row("batch_disturbed_1_thread", f"batch: {n_batch // 4} of those runs on 1 thread",
+                           [seconds1], n_batch // 4, "run", compare=False))
+    failed = sum(r is None for r in batch)
+    diffs = []
+    for i in range(0, n_batch, max(1, n_batch // 10)):
+        if batch[i] is not None:
+            alone = pkmlab.simulate(scenarios[i])
+            diffs.append(max(float(np.abs(getattr(batch[i], k) - getattr(alone, k)).max()) for k in ("q", "tau")))
+    checks["batch_failed_runs"] = failed
+    checks["batch_vs_alone_max_diff"] = max(diffs)
+    rows.append(h.metric_row("batch_vs_alone_max_diff", f"batch: max |batch - alone| over {len(diffs)} runs",
+                             max(diffs), "rad, N·m"))
+
+    # integrator: error and order per sample against DOP853 at rtol 1e-13, fast case's fastest state
+    fast = pkmlab.simulate(pkmlab.paper_scenario("fast"))
+    k = int(np.argmax(np.abs(fast.theta_dot).max(axis=1)))
+    fm = fast.scenario.model
+    ref = pkmlab.ReducedPlant(fm, rtol=1e-13, atol=1e-15).simulate(fast.q[k], fast.theta_dot[k], fast.tau[k], 1e-3,
+                                                                    t_eval=[0.0, 1e-3])
+    ref_x = np.concatenate([ref.q[-1, :3], ref.theta_dot[-1]])
+    errors = {}
+    for n_sub in (1, 2, 4):
+        ws = rrr3.make_workspace(fm.packed)
+        ws.q[rrr3.BASE_SLOT, :] = fast.q[k]
+        rrr3.linearize(ws, rrr3.BASE_SLOT, fm.packed)
+        x = np.concatenate([fast.q[k, :3], fast.theta_dot[k]])
+        rk4_sample(ws, x, fast.tau[k], fm.packed, 1e-3, n_sub, 1e-3, np.empty((5, 6)))
+        errors[n_sub] = float(np.abs(x - ref_x).max())
+        rows.append(h.metric_row(f"rk4_error_{n_sub}_steps", f"plant RK4, {n_sub} step(s) per 1 ms sample: error "
+                                 "vs DOP853 1e-13 (fast case, fastest state)", errors[n_sub], "rad, rad/s"))
+    checks["rk4_observed_order_1_to_2"] = math.log2(errors[1] / errors[2]) if errors[2] > 0 else float("nan")
+    whole = {s: pkmlab.simulate(nominal.replace(substeps=s)) for s in (1, 8)}
+    checks["nominal_substeps_1_vs_8_max_theta_diff"] = float(np.abs(whole[1].theta - whole[8].theta).max())
+    rows.append(h.metric_row("nominal_substeps_1_vs_8", "nominal case: max |θ(1 step/sample) - θ(8 steps)|",
+                             checks["nominal_substeps_1_vs_8_max_theta_diff"], "rad"))
+
+    # arithmetic limit
+    speed = scalar_throughput(h.time_runs)
+    flops, sincos = flops_per_sample()
+    limit_sample = flops / (speed["independent_gflops"] * 1e9) + sincos * speed["ns_per_sin_or_cos"] * 1e-9
+    checks["flop_count"] = {"per_sample_flops": flops, "per_sample_sin_cos": sincos, "kernels": FLOP_COUNT, **speed,
+                            "limit_per_sample_us": limit_sample * 1e6, "limit_nominal_ms": limit_sample * (n - 1) * 1e3}
+    rows.append(h.metric_row("arith_limit_nominal", f"arithmetic limit, nominal case: {flops} flops + {sincos} sin/cos "
+                             f"per sample at {speed['independent_gflops']:.1f} Gflop/s, "
+                             f"{speed['ns_per_sin_or_cos']:.0f} ns per sin/cos", limit_sample * (n - 1) * 1e3, "ms"))
+
+    # cost growth
+    scale = {}
+    length = 2 * math.pi * 0.05
+    for duration in (0.5, 1.0, 2.0, 4.0, 8.0):
+        speed_v = length / duration  # the paper's trajectory lasts L / v
+        sc = nominal.replace(trajectory=paper_trajectory(speed_v))
+        tt = np.arange(int(math.ceil(sc.trajectory.duration / 1e-3 - 1e-9)) + 1) * 1e-3
+        dd = desired_joint_motion(sc.model, sc.trajectory, mode, tt)
+        buffers = (np.zeros((tt.size, 7)), np.zeros((tt.size, 3)), np.zeros((tt.size, 3)))
+        tm, _ = h.time_runs(lambda dd=dd: loop(dd=dd), 3)
+        scale[f"duration_{sc.trajectory.duration:.2f}s"] = statistics.median(tm)
+    for ts in (0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3):
+        tt = np.arange(int(math.ceil(nominal.trajectory.duration / ts - 1e-9)) + 1) * ts
+        dd = desired_joint_motion(nominal.model, nominal.trajectory, mode, tt)
+        buffers = (np.zeros((tt.size, 7)), np.zeros((tt.size, 3)), np.zeros((tt.size, 3)))
+        tm, _ = h.time_runs(lambda dd=dd, ts=ts: loop(ts=ts, dd=dd), 3)
+        scale[f"Ts_{ts * 1e3:g}ms"] = statistics.median(tm)
+    for size in (1, 10, 100) + (() if quick else (1000,)):
+        if size == n_batch:
+            scale[f"batch_{size}"] = rows[[r.get("key") for r in rows].index("batch_disturbed")]["median_s"]
+            continue
+        tm, _ = h.time_runs(lambda size=size: pkmlab.simulate_batch(scenarios[:size], on_error="none"), 1)
+        scale[f"batch_{size}"] = statistics.median(tm)
+    checks["cost_growth_s"] = scale
+    for key, value in scale.items():
+        rows.append(h.metric_row(f"growth_{key}", f"cost growth: {key.replace('_', ' ')}", value * 1e3, "ms"))
+    checks["threads"] = threads
+    checks["cpu_count"] = os.cpu_count()
+    return rows, checks
+
