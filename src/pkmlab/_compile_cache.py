@@ -47,3 +47,7 @@ CACHE_DIR = configure()
 #: (measured: a 3×3 solve called with a workspace, 280 ns with it, 43 ns without). Kernels
 #: compiled with these options must not allocate or return arrays.
 NO_REFCOUNT = {"cache": True, "_nrt": False}
+
+#: The same, inlined into the caller by Numba: for the small kernels that take a whole
+#: workspace, whose ~20 arrays would otherwise be passed by value at every call.
+NO_REFCOUNT_INLINE = {**NO_REFCOUNT, "inline": "always"}

@@ -26,8 +26,9 @@ def lu_factor(a, lu, piv):
     """Factor ``P a = L U`` by Gaussian elimination with partial pivoting, into ``lu`` and ``piv``.
 
     ``a`` (m, m) is left unchanged (it may be a view, e.g. the passive columns of ``Jηq``);
-    ``lu`` (m, m) receives ``L`` (unit diagonal, below) and ``U`` (on and above the diagonal),
-    ``piv`` (m,) the row swapped with row ``k`` at step ``k``. Returns ``(ok, det)``; ``ok`` is
+    ``lu`` (m, m) receives ``L`` (unit diagonal, below) and ``U`` (above the diagonal), with
+    ``1 / U_kk`` on the diagonal so that solves need no division; ``piv`` (m,) the row swapped
+    with row ``k`` at step ``k``. Returns ``(ok, det)``; ``ok`` is
     False when a pivot is below ``1e-14 max|a|`` (singular to working precision). Allocates
     nothing: this is the workhorse of the simulation loop.
     """
@@ -59,6 +60,7 @@ def lu_factor(a, lu, piv):
             if f != 0.0:
                 for j in range(col + 1, m):
                     lu[row, j] -= f * lu[col, j]
+        lu[col, col] = inv
     return ok, det
 
 
@@ -77,7 +79,7 @@ def lu_solve_factored(lu, piv, b):
         acc = b[col]
         for c in range(col + 1, m):
             acc -= lu[col, c] * b[c]
-        b[col] = acc / lu[col, col]
+        b[col] = acc * lu[col, col]  # the diagonal holds 1 / U_kk
 
 
 @njit(cache=True)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from . import closed_chain
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError
 from .geometry import WORKING_MODES, Planar3RRR
 from .mechanisms import rrr3
@@ -144,11 +145,11 @@ def _first_order_batch(qs, P, residual, j_eta_q, j_pose_q, j_q_theta, det, ok):
 
 @njit(cache=True)
 def _determinant_batch(qs, P, det):
-    ws = rrr3.make_workspace(P)
+    sc, jac, lu, piv = np.empty((7, 2)), np.empty((4, 7)), np.empty((4, 4)), np.empty(4, np.int64)
     for k in range(qs.shape[0]):
-        ws.q[0, :] = qs[k]
-        rrr3.linearize(ws, 0, P)
-        det[k] = ws.det[0]
+        rrr3.angle_sincos(qs[k], sc)
+        rrr3.constraint_jacobian_from_sincos(sc, P, jac)
+        _ok, det[k] = closed_chain.lu_factor(jac[:, 3:], lu, piv)
 
 
 @njit(cache=True)

@@ -179,6 +179,11 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, i
     comes within ``singularity_margin`` of ``S = 0`` in every admissible mode.
     """
     pose, _pd, _pdd = scenario.trajectory.desired(t)
+    if scenario.working_mode == "auto":
+        found = _best_working_mode(scenario.model, pose, scenario.singularity_margin)
+        if found is not None:
+            return found
+    # a fixed mode, or no mode passes: the full evaluation, which also names the failure
     modes = WORKING_MODES if scenario.working_mode == "auto" else np.array([scenario.working_mode])
     ik = inverse_kinematics(scenario.model, pose, on_unreachable="nan")
     s_all = ik.S if scenario.working_mode == "auto" else None
@@ -211,6 +216,31 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, i
         )
     chosen = modes[best] if scenario.working_mode == "auto" else modes[0]
     return tuple(int(v) for v in chosen), float(min_s[best])
+
+
+def _best_working_mode(model: Planar3RRR, pose: np.ndarray, margin: float, stride: int = 8):
+    """The mode maximising ``min |S|`` along ``pose`` (as the full evaluation finds it), cheaply.
+
+    ``min |S|`` over every ``stride``-th sample bounds each mode's ``min |S|`` from above, so the
+    modes are evaluated on the whole path in decreasing order of that bound until the best
+    found is at least the bound of the next. Returns ``(mode, min |S|)``, or None when no mode
+    reaches the whole path with ``min |S| >= margin`` (the caller then reports why).
+    """
+    coarse = inverse_kinematics(model, pose[::stride], on_unreachable="nan").S
+    bound = np.where(np.isnan(coarse).any(axis=0), -np.inf, np.abs(np.nan_to_num(coarse)).min(axis=0))
+    best, best_min = None, -np.inf
+    for m in np.argsort(-bound, kind="stable"):
+        if bound[m] == -np.inf or bound[m] < best_min:
+            break
+        s = inverse_kinematics(model, pose, mode=WORKING_MODES[m], on_unreachable="nan").S
+        if np.isnan(s).any():
+            continue
+        min_s = float(np.abs(s).min())
+        if min_s > best_min or (min_s == best_min and m < best):  # ties: the first mode, as np.argmax
+            best, best_min = m, min_s
+    if best is None or best_min < margin:
+        return None
+    return tuple(int(v) for v in WORKING_MODES[best]), best_min
 
 
 # ------------------------------------------------------------------ compiled sampled-data loop

@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 from .. import closed_chain, lagrangian
-from .._compile_cache import NO_REFCOUNT
+from .._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE
 from ..geometry import (
     ACTIVE_COM,
     ACTIVE_INERTIA,
@@ -531,7 +531,7 @@ def make_workspace(P):
     )
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def copy_slot(ws, source, target):
     """Copy a configuration and its linearisation from one slot to another."""
     for i in range(7):
@@ -549,13 +549,13 @@ def copy_slot(ws, source, target):
     ws.det[target] = ws.det[source]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def slot_singularity_measure(ws, slot):
     """``S`` (eq. 19) of the configuration in ``slot``, from its LU factors."""
     return -ws.det[slot] / ws.constants[_S_SCALE]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def _fill_actuated_jacobian(ws, slot):
     """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) of ``slot`` from its LU factors."""
     jac, lu, piv, out = ws.jac[slot], ws.lu[slot], ws.piv[slot], ws.j_q_theta[slot]
@@ -570,7 +570,7 @@ def _fill_actuated_jacobian(ws, slot):
             out[3 + k, col] = rhs[k]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def linearize(ws, slot, P):
     """Linearise the configuration ``ws.q[slot]``: ``(cos, sin)``, ``Jηq``, LU of ``Jηφ``, ``Jqθ``.
 
@@ -586,7 +586,7 @@ def linearize(ws, slot, P):
     return ok
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def correct_passive(ws, slot, P, max_iter):
     """Newton's method on ``η(θ, φ) = 0`` for the passive coordinates of ``ws.q[slot]``, ``θ`` fixed.
 
@@ -622,7 +622,7 @@ def correct_passive(ws, slot, P, max_iter):
     return NOT_CONVERGED
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def _predict(ws, source, target, theta, P):
     """Second-order Taylor predictor of the branch from ``source`` to actuated angles ``theta``.
 
@@ -648,7 +648,7 @@ def _predict(ws, source, target, theta, P):
     q1[6] = q0[6] + qd[6] + 0.5 * ws.eta[3]  # α stays continuous
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def _chord(ws, theta, P, s_ref, min_abs_s):
     """Predict from ``BASE`` to ``theta`` into ``TRIAL`` and correct; ``S`` must keep the sign of ``s_ref``."""
     _predict(ws, BASE_SLOT, TRIAL_SLOT, theta, P)
@@ -783,7 +783,7 @@ def constraint_jacobian_rate(q, qd, P, out):
             out[r + 1, j] = x * qd[j]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def evaluate_velocities(ws, slot, theta_dot, P):
     """``q̇ = Jqθ θ̇`` (eq. 31) and ``J̇qθ θ̇`` (from eq. 32) at the linearised ``slot``, into ``ws.qd``, ``ws.bias_q``."""
     jqt, qd, bias_q = ws.j_q_theta[slot], ws.qd, ws.bias_q
@@ -798,7 +798,7 @@ def evaluate_velocities(ws, slot, theta_dot, P):
         bias_q[3 + k] = ws.eta[k]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def evaluate_dynamics(ws, slot, theta_dot, P):
     """``Mθ`` and ``Cθ θ̇`` (eq. 35) at the linearised configuration of ``slot``, into ``ws``.
 
@@ -810,7 +810,7 @@ def evaluate_dynamics(ws, slot, theta_dot, P):
                                               ws.body_scratch, ws.m_theta, ws.c_theta)
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_INLINE)
 def solve_accelerations(ws, tau):
     """``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (eq. 35) into ``ws.theta_ddot`` after :func:`evaluate_dynamics`."""
     ok, _det = closed_chain.lu_factor(ws.m_theta, ws.m_lu, ws.m_piv)
