@@ -82,6 +82,40 @@ def lu_solve_factored(lu, piv, b):
         b[col] = acc * lu[col, col]  # the diagonal holds 1 / U_kk
 
 
+@njit(**NO_REFCOUNT)
+def ldlt_solve(a, work, b):
+    """Overwrite ``b`` (m,) with ``a⁻¹ b`` for a symmetric positive-definite ``a`` (m, m), by ``L D Lᵀ``.
+
+    For mass matrices: no pivoting and no square roots, about half the work of an LU.
+    ``work`` (m, m) receives ``L`` below its diagonal and ``D`` on it. Returns False (``b``
+    then meaningless) when a pivot of ``D`` is not above ``1e-14`` times its diagonal entry:
+    ``a`` is not positive definite to working precision.
+    """
+    m = a.shape[0]
+    for j in range(m):
+        d = a[j, j]
+        for k in range(j):
+            d -= work[j, k] * work[j, k] * work[k, k]
+        if not d > 1e-14 * abs(a[j, j]):
+            return False
+        work[j, j] = d
+        inv = 1.0 / d
+        for i in range(j + 1, m):
+            acc = a[i, j]
+            for k in range(j):
+                acc -= work[i, k] * work[j, k] * work[k, k]
+            work[i, j] = acc * inv
+    for i in range(m):  # L y = b
+        for k in range(i):
+            b[i] -= work[i, k] * b[k]
+    for i in range(m):  # D z = y
+        b[i] /= work[i, i]
+    for i in range(m - 1, -1, -1):  # Lᵀ x = z
+        for k in range(i + 1, m):
+            b[i] -= work[k, i] * b[k]
+    return True
+
+
 @njit(cache=True)
 def lu_solve(a, b):
     """Solve ``a x = b`` for small dense systems; ``a`` (m, m), ``b`` (m, k), both left unchanged.

@@ -79,13 +79,13 @@ def elbows(theta, P):
 
 
 @njit(**NO_REFCOUNT)
-def angle_sincos(q, sc):
-    """Write ``(cos q_j, sin q_j)`` of the 7 coordinates into ``sc`` (7, 2).
+def angle_sincos(q, sc, first=0):
+    """Write ``(cos q_j, sin q_j)`` of the coordinates ``j >= first`` into ``sc`` (7, 2).
 
     Every term of ``η``, of its Jacobian and of the bodies is ``k u(q_j)`` or ``R(q_j) v``: the
     functions below take these once-computed values instead of calling ``cos``/``sin`` again.
     """
-    for j in range(N_COORDINATES):
+    for j in range(first, N_COORDINATES):
         sc[j, 0] = math.cos(q[j])
         sc[j, 1] = math.sin(q[j])
 
@@ -493,8 +493,7 @@ class Workspace(NamedTuple):
     bias_q: np.ndarray  # (7,) J̇qθ θ̇
     m_theta: np.ndarray  # (3, 3)
     c_theta: np.ndarray  # (3,) Cθ θ̇
-    m_lu: np.ndarray  # (3, 3) LU factors of Mθ
-    m_piv: np.ndarray  # (3,)
+    m_factor: np.ndarray  # (3, 3) L D Lᵀ factors of Mθ
     theta_ddot: np.ndarray  # (3,)
     theta_target: np.ndarray  # (3,) intermediate actuated angles of a sub-stepped branch following
     body_scratch: np.ndarray  # (3, 4)
@@ -525,7 +524,7 @@ def make_workspace(P):
     return Workspace(
         np.zeros((3, 7)), np.zeros((3, 7, 2)), np.zeros((3, 4, 7)), np.zeros((3, 4, 4)),
         np.zeros((3, 4), np.int64), np.zeros(3), np.zeros((3, 7, 3)), np.zeros(4), np.zeros(7), np.zeros(7),
-        np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros(3, np.int64), np.zeros(3), np.zeros(3),
+        np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros(3),
         np.zeros((3, 4)),
         term_body, term_coord, term_vec, body_angle, D, constants,
     )
@@ -597,7 +596,7 @@ def correct_passive(ws, slot, P, max_iter):
     q, sc, jac, lu, piv, eta = ws.q[slot], ws.sincos[slot], ws.jac[slot], ws.lu[slot], ws.piv[slot], ws.eta
     tiny_step = False
     for it in range(max_iter + 1):
-        angle_sincos(q, sc)
+        angle_sincos(q, sc, 0 if it == 0 else N_ACTIVE)  # θ is fixed: its sines once
         residual = constraints_from_sincos(sc, P, eta)
         constraint_jacobian_from_sincos(sc, P, jac)
         ok, det = closed_chain.lu_factor(jac[:, 3:], lu, piv)
@@ -813,12 +812,9 @@ def evaluate_dynamics(ws, slot, theta_dot, P):
 @njit(**NO_REFCOUNT_INLINE)
 def solve_accelerations(ws, tau):
     """``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (eq. 35) into ``ws.theta_ddot`` after :func:`evaluate_dynamics`."""
-    ok, _det = closed_chain.lu_factor(ws.m_theta, ws.m_lu, ws.m_piv)
     for i in range(3):
         ws.theta_ddot[i] = tau[i] - ws.c_theta[i]
-    if ok:
-        closed_chain.lu_solve_factored(ws.m_lu, ws.m_piv, ws.theta_ddot)
-    return ok
+    return closed_chain.ldlt_solve(ws.m_theta, ws.m_factor, ws.theta_ddot)  # Mθ is symmetric positive definite
 
 
 @njit(cache=True)
