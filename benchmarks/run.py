@@ -35,9 +35,13 @@ Dynamics (paper §3, eq. 35), in working mode (-, +, -):
   against pkmlab to 1e-10. Rows called once per state are compared with the per-state
   baseline, batched rows and compiled loops with the vectorized one.
 
+Closed-loop simulation (the paper's nominal case in-process, the NumPy/SciPy ``solve_ivp``
+path, MuJoCo on the same mechanism, a batch of 1,000 disturbed runs, the plant integrator's
+error and order, the arithmetic limit, cost growth): :mod:`simulation_bench`, whose rows follow.
+
 Usage::
 
-    .venv/bin/python benchmarks/run.py            # full run (about 50 s + any compilation of pkmlab)
+    .venv/bin/python benchmarks/run.py            # full run (a few minutes + any compilation of pkmlab)
     .venv/bin/python benchmarks/run.py --quick    # smoke test
 
 The benchmark's own njit loops are not cached (a cached loop would keep stale copies of

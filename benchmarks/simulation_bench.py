@@ -2,6 +2,8 @@
 
 Rows
 ----
+* the simulation loop's kernels along the paper's circle: branch following, and branch
+  following + forward dynamics (one right-hand side of the plant), from a workspace;
 * the paper's nominal case in-process, ``pkmlab.simulate(paper_scenario("nominal"))`` after
   warm-up, and its compiled sampled-data loop alone;
 * the same case through a pure NumPy/SciPy path: the computed-torque controller and the plant
@@ -169,6 +171,66 @@ class NumpySampledData:
         return out
 
 
+@numba.njit(cache=False)
+def follow_path_workspace(thetas, P, q_start, q_out):
+    """Branch following along ``thetas`` with one workspace, as the simulation loop does it."""
+    ws = rrr3.make_workspace(P)
+    ws.q[rrr3.BASE_SLOT, :] = q_start
+    rrr3.linearize(ws, rrr3.BASE_SLOT, P)
+    status = 0
+    for k in range(1, thetas.shape[0]):
+        status |= rrr3.follow_branch(ws, thetas[k], P, 1e-6)
+        rrr3.copy_slot(ws, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
+        for i in range(7):
+            q_out[k, i] = ws.q[rrr3.BASE_SLOT, i]
+    return status
+
+
+@numba.njit(cache=False)
+def follow_and_accelerations_workspace(thetas, theta_dots, taus, P, q_start, out):
+    """Per step: branch following to ``θ_k`` then ``θ̈`` there — one evaluation of the plant's right-hand side."""
+    ws = rrr3.make_workspace(P)
+    ws.q[rrr3.BASE_SLOT, :] = q_start
+    rrr3.linearize(ws, rrr3.BASE_SLOT, P)
+    status = 0
+    for k in range(1, thetas.shape[0]):
+        status |= rrr3.follow_branch(ws, thetas[k], P, 1e-6)
+        rrr3.copy_slot(ws, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
+        rrr3.evaluate_dynamics(ws, rrr3.BASE_SLOT, theta_dots[k], P)
+        if not rrr3.solve_accelerations(ws, taus[k]):
+            status |= rrr3.SINGULAR
+        for i in range(3):
+            out[k, i] = ws.theta_ddot[i]
+    return status
+
+
+def kernel_rows(h, repeats: int) -> tuple[list[dict], dict]:
+    """The simulation loop's own kernels along the paper's circle (1,571 samples, one call per sample)."""
+    model = pkmlab.Planar3RRR.paper()
+    _path, q_path, thetas = h.circle_path(model)
+    rng = np.random.default_rng(3)
+    theta_dots = rng.normal(0.0, 1.0, thetas.shape)
+    taus = rng.normal(0.0, 0.1, thetas.shape)
+    q_out = np.empty_like(q_path)
+    acc = np.zeros_like(thetas)
+    P = model.packed
+    n = thetas.shape[0] - 1
+    rows, checks = [], {}
+    times, status = h.time_runs(lambda: follow_path_workspace(thetas, P, q_path[0], q_out), repeats)
+    rows.append(h.rate_row("bf_workspace_kernel", f"branch following, simulation kernel (workspace), {n} circle "
+                           "steps", times, n, "step", baseline="fsolve"))
+    checks["bf_workspace_status"] = int(status)
+    checks["bf_workspace_max_diff_vs_ik"] = float(np.abs(h.wrapped(q_out[1:, 3:] - q_path[1:, 3:])).max())
+    times, status = h.time_runs(lambda: follow_and_accelerations_workspace(thetas, theta_dots, taus, P, q_path[0],
+                                                                             acc), repeats)
+    rows.append(h.rate_row("fd_bf_workspace_kernel", f"forward dynamics + branch following, simulation kernels, {n} "
+                           "circle steps", times, n, "step", baseline="numpy_dyn_batched"))
+    reference = pkmlab.dynamics.forward_dynamics(model, q_path[1:], theta_dots[1:], taus[1:])
+    checks["fd_bf_workspace_status"] = int(status)
+    checks["fd_bf_workspace_max_rel_diff"] = float(np.abs(acc[1:] - reference).max() / np.abs(reference).max())
+    return rows, checks
+
+
 def compile_cache_behaviour() -> dict:
     """Wall time of a new process importing pkmlab and simulating the nominal case: with an empty
     compile cache (everything compiled), then again with the cache that run left (loaded)."""
@@ -190,8 +252,9 @@ def compile_cache_behaviour() -> dict:
 # ------------------------------------------------------------------ the section
 def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     """Rows and checks of the simulation section; ``h`` is the ``run`` module (its helpers)."""
-    rows, checks = [h.section_row("closed-loop simulation (vs baseline: NumPy/SciPy solve_ivp path)")], {}
     repeats = 3 if quick else 9
+    rows, checks = kernel_rows(h, 5 if quick else 31)
+    rows.append(h.section_row("closed-loop simulation (vs baseline: NumPy/SciPy solve_ivp path)"))
     nominal = pkmlab.paper_scenario("nominal")
     seconds, result = h.time_once(lambda: pkmlab.simulate(nominal))
     rows.append(h.first_call_row("first_call_simulate", "first call in this process: simulate(nominal)", seconds))

@@ -9,9 +9,13 @@ time series of SPEC §8 and its summary. The paper's three cases are
 Sampled-data control (SPEC §5, default ``Ts = 1 ms``): the torque computed from the measured
 ``θ, θ̇`` at ``t_k = k Ts`` is held until ``t_{k+1}``; the plant integrates the reduced model
 (eq. 35) over each sample with classical Runge–Kutta in ``substeps`` equal steps (the torque
-is constant inside the sample, so the solution is smooth there), branch-following its passive
-variables at every stage. The whole loop is compiled. Continuous-time control re-evaluates
-the controller at every stage of an adaptive DOP853 integration.
+is constant inside the sample, so the solution is smooth there and a fixed-step high-order
+method needs no error control: one RK4 step per 1 ms sample is off a DOP853 reference at rtol
+1e-13 by about 1e-12 rad at the fast case's highest speed, and the error falls 16-fold per
+halving), branch-following its passive variables at every stage from the start of the step.
+The whole loop is compiled and allocation-free (a :class:`~pkmlab.mechanisms.rrr3.Workspace`
+per model); :func:`simulate_batch` runs many scenarios over all cores. Continuous-time control
+re-evaluates the controller at every stage of an adaptive DOP853 integration.
 """
 
 from __future__ import annotations
