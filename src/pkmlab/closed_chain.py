@@ -83,6 +83,29 @@ def lu_solve_factored(lu, piv, b):
 
 
 @njit(**NO_REFCOUNT)
+def lu_solve_factored_matrix(lu, piv, b):
+    """Overwrite ``b`` (m, k) with ``a⁻¹ b`` from the factors of :func:`lu_factor`, all columns at once."""
+    m, k = b.shape
+    for col in range(m):
+        p = piv[col]
+        if p != col:
+            for j in range(k):
+                b[col, j], b[p, j] = b[p, j], b[col, j]
+    for col in range(m):
+        for row in range(col + 1, m):
+            f = lu[row, col]
+            for j in range(k):
+                b[row, j] -= f * b[col, j]
+    for col in range(m - 1, -1, -1):
+        inv = lu[col, col]  # the diagonal holds 1 / U_kk
+        for j in range(k):
+            acc = b[col, j]
+            for c in range(col + 1, m):
+                acc -= lu[col, c] * b[c, j]
+            b[col, j] = acc * inv
+
+
+@njit(**NO_REFCOUNT)
 def ldlt_solve(a, work, b):
     """Overwrite ``b`` (m,) with ``a⁻¹ b`` for a symmetric positive-definite ``a`` (m, m), by ``L D Lᵀ``.
 

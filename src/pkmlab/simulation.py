@@ -300,10 +300,11 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work):
 
 @njit(cache=True)
 def _sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                       kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau):
+                       kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_pose, out_s):
     """Run the whole sampled-data loop; returns ``(status, k)`` (``k`` = sample of a failure, else -1).
 
-    Status ``10 + s`` means the controller's own model lost its branch (status ``s``).
+    Status ``10 + s`` means the controller's own model lost its branch (status ``s``). Besides
+    the state and torque, records the plant's platform pose and ``S`` at every sample.
     """
     n = theta_d.shape[0]
     plant = rrr3.make_workspace(P_plant)
@@ -320,6 +321,8 @@ def _sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, 
     tau = np.zeros(3)
     for k in range(n):
         out_q[k] = plant.q[rrr3.BASE_SLOT]
+        rrr3.platform_pose(out_q[k], P_plant, out_pose[k])
+        out_s[k] = rrr3.slot_singularity_measure(plant, rrr3.BASE_SLOT)
         out_theta_dot[k] = x[3:]
         status = control_torque(kind, kp, kv, x[:3], x[3:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
                                 min_abs_s, ctrl, tau)
@@ -336,7 +339,7 @@ def _sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, 
 
 @njit(cache=True, parallel=True)
 def _sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                        kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_status, out_k):
+                        kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_pose, out_s, out_status, out_k):
     """:func:`_sampled_data_loop` for a batch of runs (leading axis), spread over the CPU cores.
 
     Each run executes exactly the code of a single run, so its result is bit-for-bit the same.
@@ -344,7 +347,7 @@ def _sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0,
     for r in prange(theta_d.shape[0]):
         status, k = _sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
                                        q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], min_abs_s[r],
-                                       out_q[r], out_theta_dot[r], out_tau[r])
+                                       out_q[r], out_theta_dot[r], out_tau[r], out_pose[r], out_s[r])
         out_status[r] = status
         out_k[r] = k
 
@@ -491,13 +494,14 @@ def _loop_failure(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarra
             f"singularity near pose ({pose[0]:.4f}, {pose[1]:.4f}, {pose[2]:.4f})")
 
 
-def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau) -> SimulationResult:
+def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau, pose=None, s=None) -> SimulationResult:
+    """The result of a run; ``pose`` and ``S`` of the plant are computed unless the loop recorded them."""
     desired = prep.desired
-    pose = platform_pose(scenario.plant_model, q)
+    pose = platform_pose(scenario.plant_model, q) if pose is None else pose
+    s = singularity_measure(scenario.plant_model, q) if s is None else s
     pose[:, 2] = desired.pose[:, 2] + np.angle(np.exp(1j * (pose[:, 2] - desired.pose[:, 2])))
     theta_d = desired.theta + 2 * np.pi * np.round((q[:, :3] - desired.theta) / (2 * np.pi))
-    return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, desired.pose,
-                            singularity_measure(scenario.plant_model, q))
+    return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, desired.pose, s)
 
 
 def simulate(scenario: Scenario) -> SimulationResult:
@@ -511,16 +515,17 @@ def simulate(scenario: Scenario) -> SimulationResult:
     n = prep.t.size
     if scenario.sample_time > 0:
         q, theta_dot, tau = np.zeros((n, 7)), np.zeros((n, 3)), np.zeros((n, 3))
+        pose, s = np.zeros((n, 3)), np.zeros(n)
         d = prep.desired
         status, k_fail = _sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
                                             d.theta_ddot, prep.q_plant0, prep.q_ctrl0, scenario.plant_model.packed,
                                             scenario.model.packed, prep.kind, prep.kp, prep.kv, prep.guard,
-                                            q, theta_dot, tau)
+                                            q, theta_dot, tau, pose, s)
         if status != rrr3.OK:
             raise BranchFollowingError(_loop_failure(scenario, prep, status, q, k_fail))
-    else:
-        q, theta_dot, tau = _continuous_time(scenario, prep.mode, prep.t, prep.q_plant0, prep.q_ctrl0, prep.kind,
-                                             prep.kp, prep.kv, prep.guard)
+        return _result(scenario, prep, q, theta_dot, tau, pose, s)
+    q, theta_dot, tau = _continuous_time(scenario, prep.mode, prep.t, prep.q_plant0, prep.q_ctrl0, prep.kind,
+                                         prep.kp, prep.kv, prep.guard)
     return _result(scenario, prep, q, theta_dot, tau)
 
 
@@ -587,16 +592,17 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list[SimulationResu
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
         kp[r], kv[r], guard[r] = p.kp, p.kv, p.guard
     q, theta_dot, tau = np.zeros((m, n, 7)), np.zeros((m, n, 3)), np.zeros((m, n, 3))
+    pose, s = np.zeros((m, n, 3)), np.zeros((m, n))
     status, k_fail = np.zeros(m, np.int64), np.zeros(m, np.int64)
     _sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant, P_ctrl,
-                        kind, kp, kv, guard, q, theta_dot, tau, status, k_fail)
+                        kind, kp, kv, guard, q, theta_dot, tau, pose, s, status, k_fail)
     for r, i in enumerate(live):
         sc, p = scenarios[i], preps[i]
         if status[r] != rrr3.OK:
             if on_error == "raise":
                 raise BranchFollowingError(f"run {i} ({sc.name}): " + _loop_failure(sc, p, status[r], q[r], k_fail[r]))
             continue
-        results[i] = _result(sc, p, q[r], theta_dot[r], tau[r])
+        results[i] = _result(sc, p, q[r], theta_dot[r], tau[r], pose[r], s[r])
     return results
 
 

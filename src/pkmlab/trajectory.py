@@ -19,10 +19,13 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
-from .errors import InvalidParameterError
+from . import closed_chain
+from .errors import InvalidParameterError, SingularityError
 from .geometry import Planar3RRR
-from .kinematics import _first_order, _second_order, inverse_kinematics, platform_jacobian
+from .kinematics import _mode_array, inverse_kinematics, platform_jacobian
+from .mechanisms import rrr3
 
 
 # ------------------------------------------------------------------ time laws
@@ -214,22 +217,68 @@ class JointMotion:
     theta_ddot: np.ndarray
 
 
+@njit(cache=True)
+def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_ddot):
+    """Per sample: IK, ``θ̇`` from ``ẋ = J θ̇``, ``θ̈`` from ``ẍ = J θ̈ + Jpq J̇qθ θ̇ + J̇pq q̇`` (eqs. 14–17, 32).
+
+    ``J = Jpq Jqθ`` is the platform Jacobian. Returns the first sample that is out of reach or
+    singular, or -1.
+    """
+    ws = rrr3.make_workspace(P)
+    jp, jac, lu = np.empty((3, 7)), np.empty((3, 3)), np.empty((3, 3))
+    piv, bias, b = np.empty(3, np.int64), np.empty(3), np.empty(3)
+    for k in range(pose.shape[0]):
+        if rrr3.inverse_kinematics(pose[k], mode, P, q[k]) != 0:
+            return k
+        ws.q[0, :] = q[k]
+        if not rrr3.linearize(ws, 0, P):
+            return k
+        rrr3.pose_jacobian(q[k], P, jp)
+        jqt = ws.j_q_theta[0]
+        for i in range(3):
+            for j in range(3):
+                acc = 0.0
+                for c in range(7):
+                    acc += jp[i, c] * jqt[c, j]
+                jac[i, j] = acc
+        ok, _det = closed_chain.lu_factor(jac, lu, piv)
+        if not ok:
+            return k
+        for i in range(3):
+            b[i] = pose_dot[k, i]
+        closed_chain.lu_solve_factored(lu, piv, b)
+        for i in range(3):
+            theta_dot[k, i] = b[i]
+        rrr3.evaluate_velocities(ws, 0, b, P)
+        rrr3.pose_convective(q[k], ws.qd, P, bias)
+        for i in range(3):
+            acc = pose_ddot[k, i] - bias[i]
+            for c in range(7):
+                acc -= jp[i, c] * ws.bias_q[c]
+            b[i] = acc
+        closed_chain.lu_solve_factored(lu, piv, b)
+        for i in range(3):
+            theta_ddot[k, i] = b[i]
+    return -1
+
+
 def desired_joint_motion(model: Planar3RRR, trajectory, mode, t) -> JointMotion:
     """Exact inverse kinematics of a trajectory and its first and second time derivatives.
 
     ``θ`` is unwrapped along ``t`` so that it is continuous (IK returns angles in (-π, π]).
+    Raises the error of :func:`~pkmlab.kinematics.inverse_kinematics` or
+    :func:`~pkmlab.kinematics.platform_jacobian` for the first sample out of reach or singular.
     """
     t = np.atleast_1d(np.asarray(t, dtype=float))
-    pose, pose_dot, pose_ddot = trajectory.desired(t)
-    q = inverse_kinematics(model, pose, mode=mode).q
-    jac = platform_jacobian(model, q)  # ẋ = J θ̇
-    theta_dot = np.linalg.solve(jac, pose_dot[..., None])[..., 0]
-    _shape, _qd, bias, pose_bias = _second_order(model, q, theta_dot)
-    _s, _r, _je, j_pose_q, _jq, _d, _ok = _first_order(model, q)
-    # ẍ = J θ̈ + (Jpq J̇qθ θ̇ + J̇pq q̇)
-    pose_acc_bias = np.einsum("nij,nj->ni", j_pose_q, bias) + pose_bias
-    theta_ddot = np.linalg.solve(jac, (pose_ddot - pose_acc_bias)[..., None])[..., 0]
+    pose, pose_dot, pose_ddot = (np.ascontiguousarray(a, dtype=float) for a in trajectory.desired(t))
+    mode = _mode_array(mode)
+    n = t.size
+    q, theta_dot, theta_ddot = np.empty((n, 7)), np.empty((n, 3)), np.empty((n, 3))
+    k = _joint_motion_batch(pose, pose_dot, pose_ddot, mode, model.packed, q, theta_dot, theta_ddot)
+    if k >= 0:  # the public functions name the problem
+        q_k = inverse_kinematics(model, pose[k], mode=mode).q
+        platform_jacobian(model, q_k)
+        raise SingularityError(f"the platform Jacobian is singular at t = {t[k]:.4f} s")
     theta = np.unwrap(q[:, :3], axis=0)
-    q = q.copy()
     q[:, :3] = theta
     return JointMotion(t, q, pose, theta, theta_dot, theta_ddot)

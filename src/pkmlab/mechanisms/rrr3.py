@@ -557,16 +557,14 @@ def slot_singularity_measure(ws, slot):
 @njit(**NO_REFCOUNT_INLINE)
 def _fill_actuated_jacobian(ws, slot):
     """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) of ``slot`` from its LU factors."""
-    jac, lu, piv, out = ws.jac[slot], ws.lu[slot], ws.piv[slot], ws.j_q_theta[slot]
-    rhs = ws.eta
-    for col in range(3):
-        for i in range(3):
+    jac, out = ws.jac[slot], ws.j_q_theta[slot]
+    for i in range(3):
+        for col in range(3):
             out[i, col] = 1.0 if i == col else 0.0
-        for k in range(4):
-            rhs[k] = -jac[k, col]
-        closed_chain.lu_solve_factored(lu, piv, rhs)
-        for k in range(4):
-            out[3 + k, col] = rhs[k]
+    for k in range(4):
+        for col in range(3):
+            out[3 + k, col] = -jac[k, col]
+    closed_chain.lu_solve_factored_matrix(ws.lu[slot], ws.piv[slot], out[3:, :])
 
 
 @njit(**NO_REFCOUNT_INLINE)
