@@ -252,7 +252,7 @@ def compile_cache_behaviour() -> dict:
 # ------------------------------------------------------------------ the section
 def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     """Rows and checks of the simulation section; ``h`` is the ``run`` module (its helpers)."""
-    repeats = 3 if quick else 9
+    repeats = 3 if quick else 21
     rows, checks = kernel_rows(h, 5 if quick else 31)
     rows.append(h.section_row("closed-loop simulation (vs baseline: NumPy/SciPy solve_ivp path)"))
     nominal = pkmlab.paper_scenario("nominal")

@@ -99,8 +99,11 @@ def rotating_vector_actuator_model(sc, qd, term_body, term_coord, term_vec, body
             for i in range(na):
                 wa = w * scratch[r, i]
                 c_theta[i] += wa * scratch[r, na]
-                for j2 in range(na):
+                for j2 in range(i, na):  # the upper triangle; Mθ is symmetric
                     m_theta[i, j2] += wa * scratch[r, j2]
+    for i in range(na):
+        for j2 in range(i):
+            m_theta[i, j2] = m_theta[j2, i]
 
 
 # ------------------------------------------------------------------ full-space model

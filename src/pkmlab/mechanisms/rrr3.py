@@ -61,6 +61,8 @@ TWO_PI = 2.0 * math.pi
 @njit(**NO_REFCOUNT)
 def wrap_angle(x):
     """``x`` mapped to ``(-π, π]``."""
+    if -math.pi < x <= math.pi:  # the common case costs a comparison, not a division
+        return x
     y = x - TWO_PI * math.floor((x + math.pi) / TWO_PI)  # in [-π, π)
     if y <= -math.pi:
         y += TWO_PI
