@@ -174,9 +174,7 @@ class NumpySampledData:
 @numba.njit(cache=False)
 def follow_path_workspace(thetas, P, q_start, q_out):
     """Branch following along ``thetas`` with one workspace, as the simulation loop does it."""
-    ws = rrr3.make_workspace(P)
-    ws.q[rrr3.BASE_SLOT, :] = q_start
-    rrr3.linearize(ws, rrr3.BASE_SLOT, P)
+    ws = rrr3.workspace_at(q_start, P)
     status = 0
     for k in range(1, thetas.shape[0]):
         status |= rrr3.follow_branch(ws, thetas[k], P, 1e-6)
@@ -189,9 +187,7 @@ def follow_path_workspace(thetas, P, q_start, q_out):
 @numba.njit(cache=False)
 def follow_and_accelerations_workspace(thetas, theta_dots, taus, P, q_start, out):
     """Per step: branch following to ``θ_k`` then ``θ̈`` there — one evaluation of the plant's right-hand side."""
-    ws = rrr3.make_workspace(P)
-    ws.q[rrr3.BASE_SLOT, :] = q_start
-    rrr3.linearize(ws, rrr3.BASE_SLOT, P)
+    ws = rrr3.workspace_at(q_start, P)
     status = 0
     for k in range(1, thetas.shape[0]):
         status |= rrr3.follow_branch(ws, thetas[k], P, 1e-6)
@@ -352,9 +348,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     ref_x = np.concatenate([ref.q[-1, :3], ref.theta_dot[-1]])
     errors = {}
     for n_sub in (1, 2, 4):
-        ws = rrr3.make_workspace(fm.packed)
-        ws.q[rrr3.BASE_SLOT, :] = fast.q[k]
-        rrr3.linearize(ws, rrr3.BASE_SLOT, fm.packed)
+        ws = rrr3.workspace_at(fast.q[k], fm.packed)
         x = np.concatenate([fast.q[k, :3], fast.theta_dot[k]])
         rk4_sample(ws, x, fast.tau[k], fm.packed, 1e-3, n_sub, 1e-3, np.empty((5, 6)))
         errors[n_sub] = float(np.abs(x - ref_x).max())

@@ -291,9 +291,7 @@ def test_plant_integrator_is_fourth_order_and_one_step_per_sample_is_below_1e_12
     errors = []
     steps = (1, 2, 4, 8)
     for n_sub in steps:
-        ws = rrr3.make_workspace(P)
-        ws.q[rrr3.BASE_SLOT, :] = q0
-        assert rrr3.linearize(ws, rrr3.BASE_SLOT, P)
+        ws = rrr3.workspace_at(q0, P)
         x = np.concatenate([q0[:3], w0])
         assert rk4_sample(ws, x, tau, P, span, n_sub, 1e-3, np.empty((5, 6))) == rrr3.OK
         errors.append(np.abs(x - ref_state).max())

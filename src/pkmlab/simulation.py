@@ -307,13 +307,11 @@ def _sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, 
     the state and torque, records the plant's platform pose and ``S`` at every sample.
     """
     n = theta_d.shape[0]
-    plant = rrr3.make_workspace(P_plant)
-    ctrl = rrr3.make_workspace(P_ctrl)
-    plant.q[rrr3.BASE_SLOT, :] = q_plant0
-    ctrl.q[rrr3.BASE_SLOT, :] = q_ctrl0
-    if not rrr3.linearize(plant, rrr3.BASE_SLOT, P_plant):
+    plant = rrr3.workspace_at(q_plant0, P_plant)
+    ctrl = rrr3.workspace_at(q_ctrl0, P_ctrl)
+    if plant.det[rrr3.BASE_SLOT] == 0.0:  # Jηφ singular at the start
         return rrr3.SINGULAR, 0
-    if not rrr3.linearize(ctrl, rrr3.BASE_SLOT, P_ctrl):
+    if ctrl.det[rrr3.BASE_SLOT] == 0.0:
         return 10 + rrr3.SINGULAR, 0
     x = np.zeros(6)
     x[:3] = q_plant0[:3]
@@ -609,7 +607,7 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list[SimulationResu
 def _continuous_time(scenario, mode, t, q_plant0, q_ctrl0, kind, kp, kv, guard):
     """Continuous-time control: the controller is evaluated at every stage of DOP853."""
     P_plant, P_ctrl = scenario.plant_model.packed, scenario.model.packed
-    plant, ctrl = _linearised_workspace(P_plant, q_plant0), _linearised_workspace(P_ctrl, q_ctrl0)
+    plant, ctrl = rrr3.workspace_at(q_plant0, P_plant), rrr3.workspace_at(q_ctrl0, P_ctrl)
     tau = np.zeros(3)
 
     def control(time, theta, theta_dot, ws):
@@ -635,17 +633,10 @@ def _continuous_time(scenario, mode, t, q_plant0, q_ctrl0, kind, kp, kv, guard):
     n = t.size
     q = np.empty((n, 7))
     torques = np.empty((n, 3))
-    plant, ctrl = _linearised_workspace(P_plant, q_plant0), _linearised_workspace(P_ctrl, q_ctrl0)
+    plant, ctrl = rrr3.workspace_at(q_plant0, P_plant), rrr3.workspace_at(q_ctrl0, P_ctrl)
     for k in range(n):
         rrr3.follow_branch(plant, sol.y[:3, k].copy(), P_plant, guard)
         rrr3.copy_slot(plant, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
         q[k] = plant.q[rrr3.BASE_SLOT]
         torques[k] = control(t[k], sol.y[:3, k].copy(), sol.y[3:, k].copy(), ctrl)
     return q, sol.y[3:].T.copy(), torques
-
-
-def _linearised_workspace(P, q):
-    ws = rrr3.make_workspace(P)
-    ws.q[rrr3.BASE_SLOT, :] = q
-    rrr3.linearize(ws, rrr3.BASE_SLOT, P)
-    return ws

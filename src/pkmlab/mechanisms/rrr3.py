@@ -532,6 +532,18 @@ def make_workspace(P):
     )
 
 
+@njit(cache=True)
+def workspace_at(q, P):
+    """A :class:`Workspace` for ``P`` whose ``BASE`` slot is ``q``, linearised (the start of a branch).
+
+    ``ws.det[BASE_SLOT]`` is 0 when ``Jηφ`` is singular there (nothing can be followed from it).
+    """
+    ws = make_workspace(P)
+    ws.q[BASE_SLOT, :] = q
+    linearize(ws, BASE_SLOT, P)
+    return ws
+
+
 @njit(**NO_REFCOUNT_INLINE)
 def copy_slot(ws, source, target):
     """Copy a configuration and its linearisation from one slot to another."""
