@@ -318,7 +318,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
                  for i in range(n_batch)]
     pkmlab.simulate_batch(scenarios[:2])
     threads = numba.get_num_threads()
-    seconds, batch = h.time_once(lambda: pkmlab.simulate_batch(scenarios, on_error="none"))
+    seconds, batch = h.time_once(lambda: pkmlab.simulate_batch(scenarios, on_error="return"))
     rows.append(h.rate_row("batch_disturbed", f"batch: {n_batch} disturbed runs ±15 %, {threads} threads", [seconds],
                            n_batch, "run", compare=False))
     numba.set_num_threads(1)
@@ -328,13 +328,17 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
         numba.set_num_threads(threads)
     rows.append(h.rate_row("batch_disturbed_1_thread", f"batch: {n_batch // 4} of those runs on 1 thread",
                            [seconds1], n_batch // 4, "run", compare=False))
-    failed = sum(r is None for r in batch)
+    failed = [r for r in batch if not isinstance(r, pkmlab.SimulationResult)]
     diffs = []
     for i in range(0, n_batch, max(1, n_batch // 10)):
-        if batch[i] is not None:
+        if isinstance(batch[i], pkmlab.SimulationResult):
             alone = pkmlab.simulate(scenarios[i])
             diffs.append(max(float(np.abs(getattr(batch[i], k) - getattr(alone, k)).max()) for k in ("q", "tau")))
-    checks["batch_failed_runs"] = failed
+    checks["batch_failed_runs"] = len(failed)
+    checks["batch_failures_by_kind"] = {
+        "plant cannot be assembled at the start angles": sum("cannot be assembled" in str(e) for e in failed),
+        "plant met a gain-type singularity during the run": sum("gain-type singularity" in str(e) for e in failed),
+    }
     checks["batch_vs_alone_max_diff"] = max(diffs)
     rows.append(h.metric_row("batch_vs_alone_max_diff", f"batch: max |batch - alone| over {len(diffs)} runs",
                              max(diffs), "rad, N·m"))

@@ -9,7 +9,13 @@ import pytest
 import pkmlab
 from pkmlab.cli import main
 from pkmlab.control import ControllerSpec
-from pkmlab.errors import InvalidParameterError, PkmlabError, SingularityError, UnreachablePoseError
+from pkmlab.errors import (
+    BranchFollowingError,
+    InvalidParameterError,
+    PkmlabError,
+    SingularityError,
+    UnreachablePoseError,
+)
 from pkmlab.plant import ReducedPlant
 from pkmlab.simulation import COLUMNS, Scenario, paper_scenario, scaled_model, simulate
 from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory, desired_joint_motion, paper_trajectory
@@ -272,6 +278,18 @@ def test_batch_refuses_runs_of_different_lengths_and_names_a_failed_run():
     results = pkmlab.simulate_batch([nominal, far], on_error="none")
     assert results[1] is None and results[0].summary() == simulate(nominal).summary()
     assert pkmlab.simulate_batch([]) == []
+    # a plant that the ±15 % draw cannot assemble at the start, and one that meets a singularity mid-run
+    scenarios = _uncertainty_study(1000, seed=7)
+    unassemblable, singular = scenarios[988], scenarios[999]
+    returned = pkmlab.simulate_batch([unassemblable, nominal, singular], on_error="return")
+    assert isinstance(returned[0], InvalidParameterError) and "run 0 (draw 988)" in str(returned[0])
+    assert "cannot be assembled" in str(returned[0])
+    assert isinstance(returned[2], BranchFollowingError) and "run 2 (draw 999)" in str(returned[2])
+    assert "t = 0.3090 s" in str(returned[2])
+    with pytest.raises(BranchFollowingError, match=r"run 2 \(draw 999\)"):
+        pkmlab.simulate_batch([nominal, nominal, singular])
+    with pytest.raises(InvalidParameterError, match="on_error"):
+        pkmlab.simulate_batch([nominal], on_error="ignore")
 
 
 # ------------------------------------------------------------------ the plant's integrator

@@ -527,7 +527,7 @@ def simulate(scenario: Scenario) -> SimulationResult:
     return _result(scenario, prep, q, theta_dot, tau)
 
 
-def simulate_batch(scenarios, *, on_error: str = "raise") -> list[SimulationResult | None]:
+def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     """Run many sampled-data scenarios in one call, spread over the CPU cores.
 
     The scenarios may differ in anything — plants, controller models, gains, speeds, paths,
@@ -538,7 +538,9 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list[SimulationResu
     (an uncertainty study of the plant, a gain sweep) is done once.
 
     ``on_error="raise"`` raises the first run's error, naming the run; ``"none"`` puts ``None``
-    in place of a failed run and keeps the others. Use ``NUMBA_NUM_THREADS`` (or
+    in place of a failed run and keeps the others; ``"return"`` puts the run's error (a
+    :class:`~pkmlab.errors.PkmlabError` naming the run, the time and the pose) in its place, so
+    that a study can count why runs failed. Use ``NUMBA_NUM_THREADS`` (or
     :func:`numba.set_num_threads`) to choose how many cores.
 
     >>> from pkmlab import ControllerSpec, paper_scenario, simulate_batch
@@ -547,13 +549,14 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list[SimulationResu
     >>> len(runs)
     2
     """
-    if on_error not in ("raise", "none"):
-        raise InvalidParameterError(f'on_error must be "raise" or "none", got {on_error!r}')
+    if on_error not in ("raise", "none", "return"):
+        raise InvalidParameterError(f'on_error must be "raise", "none" or "return", got {on_error!r}')
     scenarios = list(scenarios)
     if not scenarios:
         return []
     cache: dict = {}
     preps: list[_Prepared | None] = []
+    errors: dict[int, PkmlabError] = {}
     for i, sc in enumerate(scenarios):
         if not isinstance(sc, Scenario):
             raise InvalidParameterError(f"run {i}: expected a Scenario, got {type(sc).__name__}")
@@ -563,14 +566,15 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list[SimulationResu
         try:
             preps.append(_prepare(sc, cache))
         except PkmlabError as exc:
+            errors[i] = type(exc)(f"run {i} ({sc.name}): {exc}")
             if on_error == "raise":
-                raise type(exc)(f"run {i} ({sc.name}): {exc}") from None
+                raise errors[i] from None
             preps.append(None)
     sizes = {p.t.size for p in preps if p is not None}
     if len(sizes) > 1:
         raise InvalidParameterError(f"all runs of a batch need the same number of samples, got {sorted(sizes)}")
     live = [i for i, p in enumerate(preps) if p is not None]
-    results: list[SimulationResult | None] = [None] * len(scenarios)
+    results: list = [errors.get(i) if on_error == "return" else None for i in range(len(scenarios))]
     if not live:
         return results
     n, m = sizes.pop(), len(live)
@@ -597,8 +601,11 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list[SimulationResu
     for r, i in enumerate(live):
         sc, p = scenarios[i], preps[i]
         if status[r] != rrr3.OK:
+            error = BranchFollowingError(f"run {i} ({sc.name}): " + _loop_failure(sc, p, status[r], q[r], k_fail[r]))
             if on_error == "raise":
-                raise BranchFollowingError(f"run {i} ({sc.name}): " + _loop_failure(sc, p, status[r], q[r], k_fail[r]))
+                raise error
+            if on_error == "return":
+                results[i] = error
             continue
         results[i] = _result(sc, p, q[r], theta_dot[r], tau[r], pose[r], s[r])
     return results
