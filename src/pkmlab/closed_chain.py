@@ -170,39 +170,49 @@ def determinant(a):
     return det
 
 
-@njit(cache=True)
-def passive_jacobian(j_eta_q, n_active):
-    """``Jφθ = -Jηφ⁻¹ Jηθ`` (eq. 15): passive rates per unit actuated rate, ``(m, n_a)``.
+@njit(**NO_REFCOUNT)
+def actuated_jacobian_from_lu(j_eta_q, lu, piv, out):
+    """Write ``Jqθ = [I; Jφθ]`` (eq. 31), ``Jφθ = -Jηφ⁻¹ Jηθ`` (eq. 15), into ``out`` (n, n_a).
 
-    Returns ``(Jφθ, ok)``; ``ok`` is False at a gain-type singularity (``det Jηφ = 0``).
+    ``lu``, ``piv`` are the factors of ``Jηφ`` from :func:`lu_factor`; ``n_a = out.shape[1]``.
     """
-    j_eta_theta = j_eta_q[:, :n_active]
-    j_eta_phi = j_eta_q[:, n_active:]
-    x, ok = lu_solve(j_eta_phi, j_eta_theta)
-    return -x, ok
+    n_active = out.shape[1]
+    for i in range(n_active):
+        for col in range(n_active):
+            out[i, col] = 1.0 if i == col else 0.0
+    for k in range(j_eta_q.shape[0]):
+        for col in range(n_active):
+            out[n_active + k, col] = -j_eta_q[k, col]
+    lu_solve_factored_matrix(lu, piv, out[n_active:, :])
+
+
+@njit(**NO_REFCOUNT)
+def passive_acceleration_bias_from_lu(lu, piv, gamma):
+    """Overwrite ``gamma = J̇ηq q̇`` with ``J̇φθ θ̇ = -Jηφ⁻¹ (J̇ηq q̇)``: passive accelerations when ``θ̈ = 0``.
+
+    Differentiating ``Jηq q̇ = 0`` (eq. 32) gives ``Jηφ φ̈ = -Jηθ θ̈ - J̇ηq q̇``, hence
+    ``φ̈ = Jφθ θ̈ + J̇φθ θ̇``. ``lu``, ``piv`` are the factors of ``Jηφ`` from :func:`lu_factor`.
+    """
+    for k in range(gamma.shape[0]):
+        gamma[k] = -gamma[k]
+    lu_solve_factored(lu, piv, gamma)
 
 
 @njit(cache=True)
 def actuated_jacobian(j_eta_q, n_active):
-    """``Jqθ = [I; Jφθ]`` (eq. 31): all coordinate rates per unit actuated rate, ``(n, n_a)``."""
-    m, n = j_eta_q.shape
-    j_phi_theta, ok = passive_jacobian(j_eta_q, n_active)
-    out = np.zeros((n, n_active))
-    for i in range(n_active):
-        out[i, i] = 1.0
-    out[n_active:, :] = j_phi_theta
+    """``Jqθ = [I; Jφθ]`` (eq. 31) as a new ``(n, n_a)`` array, and ``ok`` (False when ``det Jηφ = 0``)."""
+    m = j_eta_q.shape[0]
+    lu = np.empty((m, m))
+    piv = np.empty(m, np.int64)
+    out = np.zeros((j_eta_q.shape[1], n_active))
+    ok, _det = lu_factor(j_eta_q[:, n_active:], lu, piv)
+    if ok:
+        actuated_jacobian_from_lu(j_eta_q, lu, piv, out)
     return out, ok
 
 
 @njit(cache=True)
-def passive_acceleration_bias(j_eta_q, gamma, n_active):
-    """``J̇φθ θ̇ = -Jηφ⁻¹ (J̇ηq q̇)``: passive accelerations when ``θ̈ = 0`` (from eq. 32).
-
-    Differentiating ``Jηq q̇ = 0`` gives ``Jηφ φ̈ = -Jηθ θ̈ - J̇ηq q̇``, hence
-    ``φ̈ = Jφθ θ̈ + J̇φθ θ̇`` with the bias returned here. ``gamma = J̇ηq q̇``.
-    """
-    m = gamma.shape[0]
-    rhs = np.empty((m, 1))
-    rhs[:, 0] = gamma
-    x, ok = lu_solve(j_eta_q[:, n_active:], rhs)
-    return -x[:, 0], ok
+def passive_jacobian(j_eta_q, n_active):
+    """``Jφθ = -Jηφ⁻¹ Jηθ`` (eq. 15): passive rates per unit actuated rate, ``(m, n_a)``, and ``ok``."""
+    out, ok = actuated_jacobian(j_eta_q, n_active)
+    return out[n_active:].copy(), ok

@@ -119,8 +119,9 @@ def _inverse_kinematics_batch(poses, modes, P, q_out, unreachable):
 
 @njit(cache=True)
 def _forward_kinematics_batch(thetas, P, q_out, s_out, count, status):
+    ws = rrr3.make_workspace(P)
     for k in range(thetas.shape[0]):
-        count[k], status[k] = rrr3.forward_kinematics(thetas[k], P, q_out[k], s_out[k])
+        count[k], status[k] = rrr3.forward_kinematics(thetas[k], P, q_out[k], s_out[k], ws)
 
 
 @njit(cache=True)

@@ -67,10 +67,10 @@ def rotating_vector_actuator_model(sc, qd, term_body, term_coord, term_vec, body
 
         Mθ = Σ_b A_bᵀ D_b A_b = Jqθᵀ M Jqθ,     Cθ θ̇ = Σ_b A_bᵀ D_b a_b = Jqθᵀ (M J̇qθ θ̇ + C q̇),
 
-    the same reduction as :func:`actuator_space_model` without forming the ``n × n`` matrix
-    ``M``: each body touches only the few coordinates it depends on. ``sc`` (n, 2) holds
-    ``(cos q_j, sin q_j)``, ``qd = Jqθ θ̇``, ``bias_q = J̇qθ θ̇``; terms must be grouped by body
-    (``term_body`` non-decreasing). ``scratch`` is a (3, n_a + 1) work array. Allocates nothing.
+    without forming the ``n × n`` matrix ``M``: each body touches only the few coordinates it
+    depends on. ``sc`` (n, 2) holds ``(cos q_j, sin q_j)``, ``qd = Jqθ θ̇``, ``bias_q = J̇qθ θ̇``;
+    terms must be grouped by body (``term_body`` non-decreasing). ``scratch`` is a (3, n_a + 1)
+    work array. Allocates nothing.
     """
     na = j_q_theta.shape[1]
     m_theta[:, :] = 0.0
@@ -215,35 +215,6 @@ def lagrange_multipliers(M, h, j_eta_q, gamma, tau):
 
 
 # ------------------------------------------------------------------ actuator space
-@njit(cache=True)
-def actuator_space_model(M, h, j_q_theta, bias_q):
-    """``Mθ = Jqθᵀ M Jqθ`` and ``Cθ θ̇ = Jqθᵀ (M J̇qθ θ̇ + C q̇)`` (eq. 35).
-
-    ``bias_q = J̇qθ θ̇`` and ``h = C q̇`` are evaluated at ``q̇ = Jqθ θ̇``.
-    """
-    # explicit loops: for these small sizes they beat the BLAS calls behind `@`
-    n, na = j_q_theta.shape
-    mj = np.zeros((n, na))
-    f = h.copy()
-    for i in range(n):
-        for k in range(n):
-            mik = M[i, k]
-            if mik != 0.0:
-                f[i] += mik * bias_q[k]
-                for j in range(na):
-                    mj[i, j] += mik * j_q_theta[k, j]
-    m_theta = np.zeros((na, na))
-    c_theta = np.zeros(na)
-    for a in range(na):
-        for i in range(n):
-            jia = j_q_theta[i, a]
-            if jia != 0.0:
-                c_theta[a] += jia * f[i]
-                for b in range(na):
-                    m_theta[a, b] += jia * mj[i, b]
-    return m_theta, c_theta
-
-
 @njit(cache=True)
 def actuator_space_coriolis_matrix(M, C, j_q_theta, j_q_theta_dot):
     """``Cθ = Jqθᵀ (M J̇qθ + C Jqθ)`` (eq. 35) as a matrix."""
