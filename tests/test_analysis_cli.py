@@ -239,7 +239,7 @@ def test_animate_disturbed_case_uses_the_scaled_plant(capsys, tmp_path, reproduc
                       "--stride", stride)
     assert result["frames"] == 1
     assert result["max_centroid_deviation_m"] < 1e-9
-    assert "1.15" in result["manipulator"]
+    assert result["manipulator"].endswith("disturbed_plant.toml")  # the case's own plant, written by reproduce
     # The paper's machine did not produce that run: the rebuilt centroid is far from the CSV's.
     paper = tmp_path / "paper.toml"
     paper.write_text('[manipulator]\npreset = "paper"\n')
@@ -337,7 +337,7 @@ MAP_ERRORS = [
     (["--resolution", 100000], "--resolution"),
     (["--alpha", "nan"], "alpha must be finite"),
     (["--x-range", 0.3, 0.1], "x_range"),
-    (["--y-range", 0.2, "inf"], "y_range"),
+    (["--y-range", 0.2, "inf"], "--y-range must be finite"),
     (["--x-range", 5.0, 6.0], "no pose of the region"),
     (["--params", "missing.toml"], "missing.toml"),
 ]

@@ -576,8 +576,9 @@ def test_demo_writes_the_singularity_map(capsys, tmp_path):
     assert data.startswith(PNG_SIGNATURE)
     assert "working mode" in out
     assert str(figure) in out
-    # No temporary file is left behind.
-    assert sorted(p.name for p in out_dir.iterdir()) == ["fig03_singularity_map.png"]
+    # No temporary file is left behind; the manifest says pkmlab wrote the folder.
+    assert sorted(p.name for p in out_dir.iterdir()) == ["fig03_singularity_map.png", "pkmlab-manifest.json"]
+    assert sorted(p.name for p in out_dir.parent.iterdir()) == ["nested"]
 
 
 def test_demo_json_is_machine_readable(capsys, tmp_path):

@@ -393,10 +393,9 @@ def test_interrupt_during_the_simulation_leaves_nothing(tmp_path, capsys, monkey
 
 def test_interrupt_while_writing_keeps_the_previous_results(tmp_path, capsys, monkeypatch, fast_result):
     out = tmp_path / "results"
-    out.mkdir()
-    (out / "summary.json").write_text("{}")  # results of an earlier run: may be replaced
-    (out / "old.txt").write_text("previous run")
     monkeypatch.setattr(pkmlab.simulation, "simulate", lambda _scenario: fast_result)
+    assert run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out, "--no-figures")[0] == 0  # an earlier run
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
 
     def interrupted(self, path):
         Path(path).write_text("half")  # something was already written in the temporary folder
@@ -405,8 +404,7 @@ def test_interrupt_while_writing_keeps_the_previous_results(tmp_path, capsys, mo
     monkeypatch.setattr(pkmlab.simulation.SimulationResult, "to_csv", interrupted)
     code, _stdout, err = run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out, "--no-figures")
     assert code == 130 and "interrupted" in err
-    assert sorted(p.name for p in out.iterdir()) == ["old.txt", "summary.json"]
-    assert (out / "old.txt").read_text() == "previous run"
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     assert leftovers(tmp_path) == []
 
 
@@ -418,6 +416,9 @@ def test_simulate_fast_example_gives_the_library_summary(tmp_path, capsys, fast_
     assert f"results in {out}/" in stdout
     summary = json.loads((out / "summary.json").read_text())
     assert summary.pop("scenario") == "fast"
+    provenance = summary.pop("provenance")
+    assert provenance["control"] == "sampled" and provenance["sample_time_s"] == 1e-3
+    assert provenance["scenario"] == str(EXAMPLES / "fast.toml") and provenance["pkmlab_version"] == pkmlab.__version__
     assert summary == json.loads(json.dumps(fast_result.summary()))
     assert set(summary) == SUMMARY_KEYS
     rows = (out / "run.csv").read_text().splitlines()
@@ -429,23 +430,23 @@ def test_simulate_fast_example_gives_the_library_summary(tmp_path, capsys, fast_
     np.testing.assert_allclose(table[:, 0], np.arange(len(table)) * 1e-3, rtol=0, atol=1e-12)
     assert abs(table[-1, 0] - duration) < 1e-3
     assert load_manipulator(out / "plant.toml") == Planar3RRR.paper()
-    assert sorted(p.name for p in out.iterdir()) == ["REPORT.md", "plant.toml", "run.csv", "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["REPORT.md", "pkmlab-manifest.json", "plant.toml", "run.csv",
+                                                     "scenario.toml", "summary.json"]
+    assert (out / "scenario.toml").read_bytes() == (EXAMPLES / "fast.toml").read_bytes()
     report = (out / "REPORT.md").read_text()
+    assert "sampled-data, Ts = 1 ms" in report
     assert "scenario `fast`" in report and "| (-1, 1, -1) |" in report and ".png" not in report
     assert leftovers(tmp_path) == []
 
 
 def test_simulate_disturbed_with_figures_and_json(tmp_path, capsys):
     out = tmp_path / "disturbed"
-    out.mkdir()
-    (out / "summary.json").write_text("{}")
-    (out / "stale.txt").write_text("from an older run")
+    out.mkdir()  # an empty folder may be used
     code, stdout, err = run(capsys, "simulate", EXAMPLES / "disturbed.toml", "--out", out, "--json")
     assert code == 0 and err == ""
     printed = json.loads(stdout)
     assert printed == json.loads((out / "summary.json").read_text())
-    assert printed["scenario"] == "disturbed" and set(printed) == SUMMARY_KEYS | {"scenario"}
-    assert not (out / "stale.txt").exists()  # the folder was replaced as a whole
+    assert printed["scenario"] == "disturbed" and set(printed) == SUMMARY_KEYS | {"scenario", "provenance"}
     figures = ["path.png", "path_error.png", "alpha.png", "torques.png", "singularity_along_path.png"]
     report = (out / "REPORT.md").read_text()
     for name in figures:

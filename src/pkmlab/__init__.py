@@ -10,54 +10,57 @@ control of a planar 3-RRR parallel manipulator". Start with :class:`Planar3RRR`:
 2
 """
 
-from . import (
-    _compile_cache,  # noqa: F401  (must precede the compiled modules)
-    dynamics,
-)
-from .analysis import SingularityMap, singularity_map
-from .errors import (
-    AssemblyError,
-    BranchFollowingError,
-    InvalidParameterError,
-    PkmlabError,
-    SingularityError,
-    UnreachablePoseError,
-)
-from .geometry import WORKING_MODES, Planar3RRR
-from .kinematics import (
-    AssemblyMode,
-    ForwardKinematicsSolution,
-    InverseKinematicsSolution,
-    acceleration_bias,
-    actuated_jacobian,
-    branch_following,
-    constraint_jacobian,
-    constraint_residual,
-    coordinate_accelerations,
-    coordinate_rates,
-    forward_kinematics,
-    forward_singularity_determinant,
-    inverse_kinematics,
-    passive_jacobian,
-    passive_rates,
-    platform_jacobian,
-    platform_pose,
-    singularity_measure,
-    velocity_jacobian,
-    working_mode_of,
-)
-from .plant import FullPlant, PlantRun, ReducedPlant
-from .scenario_io import load_scenario
-from .simulation import Scenario, SimulationResult, paper_scenario, perturbed_model, simulate, simulate_batch
+from ._version import __version__
 
-__version__ = "0.1.0"
+# The public names and the module that defines each. They are imported on first use (PEP 562),
+# so that `import pkmlab` and `pkmlab --version` are instant, and Ctrl-C during start-up is
+# handled by the command line rather than shown as a traceback.
+_WHERE = {
+    "dynamics": None,  # a module
+    "SingularityMap": "analysis", "singularity_map": "analysis",
+    **dict.fromkeys(("AssemblyError", "BranchFollowingError", "InvalidParameterError", "PkmlabError",
+                     "SingularityError", "UnreachablePoseError", "UnstableControlError"), "errors"),
+    "WORKING_MODES": "geometry", "Planar3RRR": "geometry",
+    **dict.fromkeys(("AssemblyMode", "ForwardKinematicsSolution", "InverseKinematicsSolution", "acceleration_bias",
+                     "actuated_jacobian", "branch_following", "constraint_jacobian", "constraint_residual",
+                     "coordinate_accelerations", "coordinate_rates", "forward_kinematics",
+                     "forward_singularity_determinant", "inverse_kinematics", "passive_jacobian", "passive_rates",
+                     "platform_jacobian", "platform_pose", "singularity_measure", "velocity_jacobian",
+                     "working_mode_of"), "kinematics"),
+    **dict.fromkeys(("FullPlant", "PlantRun", "ReducedPlant"), "plant"),
+    "load_scenario": "scenario_io",
+    "ControllerSpec": "control",
+    **dict.fromkeys(("Scenario", "SimulationResult", "paper_scenario", "perturbed_model", "simulate",
+                     "simulate_batch"), "simulation"),
+}
+
+
+def __getattr__(name: str):
+    import importlib
+
+    if name not in _WHERE:
+        raise AttributeError(f"module 'pkmlab' has no attribute {name!r}")
+    importlib.import_module("._compile_cache", __name__)  # the kernel cache, before any kernel is defined
+    module = _WHERE[name]
+    value = (importlib.import_module(f".{name}", __name__) if module is None
+             else getattr(importlib.import_module(f".{module}", __name__), name))
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_WHERE})
+
 
 __all__ = [
+    "__version__",
+    "ControllerSpec",
     "Planar3RRR",
     "WORKING_MODES",
     "PkmlabError",
     "InvalidParameterError",
     "UnreachablePoseError",
+    "UnstableControlError",
     "SingularityError",
     "BranchFollowingError",
     "AssemblyError",

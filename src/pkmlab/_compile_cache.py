@@ -40,6 +40,12 @@ def configure() -> Path:
 
 CACHE_DIR = configure()
 
+
+def is_cold() -> bool:
+    """True when no kernel of this version of pkmlab has been compiled and cached yet: the next
+    calls compile (about a minute in all)."""
+    return not any(CACHE_DIR.rglob("*.nbi"))
+
 #: Numba options of the allocation-free kernels of the hot path (they only read and write
 #: arrays they are given, typically a workspace's). Numba's reference counting, on by
 #: default, makes every call that passes arrays pay an atomic increment and decrement per

@@ -13,9 +13,8 @@ import re
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from .errors import AssemblyError, PkmlabError
+from ._version import __version__
+from .errors import AssemblyError, InvalidParameterError, PkmlabError, SingularityError
 
 
 def _model(args):
@@ -36,6 +35,8 @@ def _table(header: list[str], rows: list[list]) -> str:
 
 
 def cmd_ik(args) -> dict:
+    import numpy as np
+
     from .kinematics import inverse_kinematics
 
     model = _model(args)
@@ -80,12 +81,9 @@ def cmd_demo(args) -> dict:
     """Kinematics demo on the paper's circle: IK, FK, branch following and figure 3."""
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .outputs import atomic_output_dir
 
-    from .analysis import singularity_map
-    from .kinematics import branch_following, forward_kinematics, inverse_kinematics
-    from .plotting import plot_singularity_map, save
+    matplotlib.use("Agg")
 
     def say(text: str) -> None:  # progress report, kept off stdout with --json
         if not args.json:
@@ -93,10 +91,21 @@ def cmd_demo(args) -> dict:
 
     model = _model(args)
     out_dir = Path(args.out)
-    try:  # fail before the computation, not after it
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise PkmlabError(f"cannot create output folder {out_dir}: {exc.strerror or exc}") from None
+    with atomic_output_dir(out_dir, "demo", inputs=[args.params] if args.params else []) as tmp:
+        mode = _demo(args, model, say, tmp)
+    out = out_dir / "fig03_singularity_map.png"
+    say(f"wrote {out}")
+    return {"working_mode": list(mode), "figure": str(out)}
+
+
+def _demo(args, model, say, folder: Path) -> tuple:
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from .analysis import singularity_map
+    from .kinematics import branch_following, forward_kinematics, inverse_kinematics
+    from .plotting import plot_singularity_map
+
     start = np.array([0.20, 0.21, 0.0])
     s_path = np.linspace(0.0, 2 * np.pi, 721)
     path = np.stack([0.25 + 0.05 * np.cos(np.pi + s_path), 0.21 + 0.05 * np.sin(np.pi + s_path),
@@ -124,15 +133,12 @@ def cmd_demo(args) -> dict:
     say(f"branch following around the circle: largest deviation from IK passive angles {worst:.2e} rad")
     smap = singularity_map(model, alpha=0.0, mode=mode, resolution=args.resolution)
     ax = plot_singularity_map(smap, model=model, path_xy=path[:, :2])
-    out = out_dir / "fig03_singularity_map.png"
     try:
-        save(ax.figure, out)
-    except OSError as exc:
-        raise PkmlabError(f"cannot write {out}: {exc.strerror or exc}") from None
+        ax.figure.savefig(folder / "fig03_singularity_map.png", dpi=150)
     finally:
         plt.close(ax.figure)
-    say(f"wrote {out}")
-    return {"working_mode": list(mode), "figure": str(out)}
+    return mode
+
 
 
 # argparse reads only "-1" and "-1.5" as negative numbers: "-1e-3", "-1.2E+00" or "-inf" would be
@@ -146,25 +152,48 @@ def _accept_negative_numbers(parser: argparse.ArgumentParser) -> argparse.Argume
     return parser
 
 
-def _dynamics_record(model, sol_q, theta_dot) -> dict:
-    from . import dynamics
-    from .kinematics import coordinate_rates, platform_pose
+#: Below this |S| the actuator-space model is refused: Mθ grows as 1/S², and a change of θ in its
+#: 8th digit (more than the input's precision) changes it completely — its numbers mean nothing.
+SINGULAR_S = 1e-8
+#: Below this |S| (the default run-time singularity guard) the model is reported with a warning.
+NEAR_SINGULAR_S = 1e-2
 
-    q_dot = coordinate_rates(model, sol_q, theta_dot)
-    m_theta, c_theta = dynamics.actuator_space_model(model, sol_q, theta_dot)
-    _qdd, lam = dynamics.constrained_accelerations(model, sol_q, q_dot, [0.0, 0.0, 0.0])
+
+def _dynamics_record(model, sol_q, theta_dot) -> dict:
+    import numpy as np
+
+    from . import dynamics
+    from .kinematics import coordinate_rates, platform_pose, singularity_measure
+
     x, y, alpha = platform_pose(model, sol_q).tolist()
-    return {
-        "pose": {"x": x, "y": y, "alpha": alpha},
-        "q": sol_q.tolist(),
-        "q_dot": q_dot.tolist(),
-        "M_theta": m_theta.tolist(),
-        "c_theta": c_theta.tolist(),
-        "C_theta": dynamics.actuator_space_coriolis_matrix(model, sol_q, theta_dot).tolist(),
-        "M": dynamics.mass_matrix(model, sol_q).tolist(),
-        "lambda": lam.tolist(),
-        "kinetic_energy": float(dynamics.kinetic_energy(model, sol_q, q_dot)),
-    }
+    where = f"the assembly mode at pose ({x:.6f}, {y:.6f}, {alpha:.6f})"
+    s = float(singularity_measure(model, sol_q))
+    if abs(s) < SINGULAR_S:
+        raise SingularityError(f"{where} is at a gain-type singularity (S = {s:.3g}): the actuator-space model "
+                               "(eq. 35) and the loop-closure forces do not exist there")
+    with np.errstate(all="ignore"):
+        q_dot = coordinate_rates(model, sol_q, theta_dot)
+        m_theta, c_theta = dynamics.actuator_space_model(model, sol_q, theta_dot)
+        _qdd, lam = dynamics.constrained_accelerations(model, sol_q, q_dot, [0.0, 0.0, 0.0])
+        record = {
+            "pose": {"x": x, "y": y, "alpha": alpha},
+            "S": s,
+            "q": sol_q.tolist(),
+            "q_dot": q_dot.tolist(),
+            "M_theta": m_theta.tolist(),
+            "c_theta": c_theta.tolist(),
+            "C_theta": dynamics.actuator_space_coriolis_matrix(model, sol_q, theta_dot).tolist(),
+            "M": dynamics.mass_matrix(model, sol_q).tolist(),
+            "lambda": lam.tolist(),
+            "kinetic_energy": float(dynamics.kinetic_energy(model, sol_q, q_dot)),
+        }
+    if not all(np.all(np.isfinite(v)) for v in record.values() if not isinstance(v, dict)):
+        raise InvalidParameterError(f"{where}: the dynamic model overflows at --theta-dot "
+                                    f"{' '.join(f'{w:g}' for w in theta_dot)} (beyond floating-point range)")
+    if abs(s) < NEAR_SINGULAR_S:
+        record["warning"] = (f"near a gain-type singularity (S = {s:.3g}): M_theta and lambda grow as 1/S^2 "
+                             "and are very sensitive to theta")
+    return record
 
 
 def cmd_dynamics(args) -> dict:
@@ -178,10 +207,16 @@ def cmd_dynamics(args) -> dict:
         raise AssemblyError(f"theta = {theta} cannot be assembled: forward kinematics has no real solution")
     chosen = [fk.nearest(args.near)] if args.near else list(fk)
     records = [_dynamics_record(model, sol.q, theta_dot) for sol in chosen]
+    for rec in records:
+        if "warning" in rec:
+            p = rec["pose"]
+            print(f"pkmlab dynamics: warning: the assembly mode at pose ({p['x']:.6f}, {p['y']:.6f}, "
+                  f"{p['alpha']:.6f}) is {rec['warning']}", file=sys.stderr)
     if not args.json:
         for rec in records:
             p = rec["pose"]
-            print(f"assembly mode at x = {p['x']:+.6f} m, y = {p['y']:+.6f} m, alpha = {p['alpha']:+.6f} rad")
+            print(f"assembly mode at x = {p['x']:+.6f} m, y = {p['y']:+.6f} m, alpha = {p['alpha']:+.6f} rad, "
+                  f"S = {rec['S']:+.6f}")
             print("  M_theta (kg m^2):")
             for row in rec["M_theta"]:
                 print("    " + "  ".join(f"{v:+.6e}" for v in row))
@@ -202,13 +237,15 @@ def cmd_reproduce(args) -> dict:
     from .report import reproduce
 
     progress = _status_messages(args)
-    summary = reproduce(args.out, control=args.control, figures=not args.no_figures, progress=progress)
+    summary = reproduce(args.out, control=args.control, figures=not args.no_figures, progress=progress,
+                        params=args.params)
     if not args.json:
         print(f"{'case':<10} {'max path error (m)':>19} {'rms path error (m)':>19} {'peak torque (N m)':>18}")
         for name, s in summary["cases"].items():
             print(f"{name:<10} {s['max_path_error_m']:>19.4e} {s['rms_path_error_m']:>19.4e} "
                   f"{max(s['peak_torque_Nm']):>18.4f}")
-        print(f"results in {args.out}/")
+        prov = summary["provenance"]
+        print(f"results in {args.out}/ ({prov['control']} control, manipulator: {prov['manipulator']})")
     return summary
 
 
@@ -219,7 +256,8 @@ def cmd_simulate(args) -> dict:
 
     scenario = load_scenario(args.scenario)
     progress = _status_messages(args)
-    summary = simulation_report(scenario, args.out, figures=not args.no_figures, progress=progress)
+    summary = simulation_report(scenario, args.out, figures=not args.no_figures, progress=progress,
+                                source=args.scenario)
     if not args.json:
         s = summary
         print(f"scenario {s['scenario']}: max path error {s['max_path_error_m']:.4e} m, "
@@ -368,6 +406,7 @@ def cmd_singularity_map(args) -> dict:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from .analysis import singularity_map
     from .plotting import plot_singularity_map
@@ -441,17 +480,17 @@ def cmd_workspace(args) -> dict:
 
 
 def _animation_model(args, folder: Path, case: str):
-    """The machine that produced the run: --params, else RESULT_DIR/plant.toml, else the paper's (scaled
-    for the reproduced 'disturbed' case)."""
+    """The machine that produced the run: --params, else RESULT_DIR/CASE_plant.toml (reproduce) or
+    RESULT_DIR/plant.toml (simulate), else the paper's (scaled for a reproduced 'disturbed' case)."""
     from .geometry import Planar3RRR
     from .io import load_manipulator
     from .simulation import scaled_model
 
-    plant = folder / "plant.toml"
     if args.params:
         return load_manipulator(args.params), Path(args.params).name
-    if plant.is_file():
-        return load_manipulator(plant), f"{folder.name}/plant.toml"
+    for plant in (folder / f"{case}_plant.toml", folder / "plant.toml"):  # pkmlab reproduce, pkmlab simulate
+        if plant.is_file():
+            return load_manipulator(plant), f"{folder.name}/{plant.name}"
     if case == "disturbed":
         return scaled_model(Planar3RRR.paper(), 1.15, 1.15), "paper preset, masses and lengths x1.15"
     return Planar3RRR.paper(), "paper preset"
@@ -460,6 +499,8 @@ def _animation_model(args, folder: Path, case: str):
 def cmd_animate(args) -> dict:
     """A GIF of a recorded run: the mechanism rebuilt from theta1..3, the desired path, the centroid's trail."""
     import math
+
+    import numpy as np
 
     from .animation import rebuild_configurations, write_gif
     from .errors import InvalidParameterError
@@ -519,6 +560,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
                                      "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
     _accept_negative_numbers(parser)
+    parser.add_argument("--version", action="version", version=f"pkmlab {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     def actuated_angles(p):
@@ -561,16 +603,18 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.set_defaults(func=cmd_reproduce)
 
+
     p = sub.add_parser("simulate", help="simulate a scenario file: summary, time series, figures, REPORT.md")
     p.add_argument("scenario", metavar="SCENARIO.toml", help="the scenario (format: README, 'Scenario files')")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (replaced when the run succeeds)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder: new, empty, or an earlier result of "
+                   "pkmlab simulate (replaced when the run succeeds; anything else in it is refused, never deleted)")
     p.add_argument("--no-figures", action="store_true", help="skip the figures")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
-    p.add_argument("--out", default="out", help="output folder (default: out)")
+    p.add_argument("--out", default="demo", help="output folder (default: demo)")
     p.add_argument("--resolution", type=int, default=241, help="grid points per axis of the S map")
     common(p)
     p.set_defaults(func=cmd_demo)
@@ -614,23 +658,104 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def _check_finite(parser: argparse.ArgumentParser, args) -> None:
+    """Every number of the command line must be finite: NaN or infinity is refused naming its argument."""
+    import math
+
+    command = parser._subparsers._group_actions[0].choices[args.command]  # argparse keeps no public handle
+    names = {a.dest: (a.option_strings[0] if a.option_strings else str(a.metavar or a.dest))
+             for a in command._actions}
+    for dest, value in vars(args).items():
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, float) and not math.isfinite(v) for v in values):
+            shown = " ".join(str(v) for v in values)
+            raise InvalidParameterError(f"{names.get(dest, dest)} must be finite, got {shown}")
+
+
+def _compile_notice(args) -> None:
+    """Say once, on a terminal, why the first run after installing pkmlab is slow."""
+    from . import _compile_cache
+
+    if _compile_cache.is_cold() and sys.stderr.isatty() and not getattr(args, "quiet", False):
+        print("pkmlab: first run of this version: compiling its numerical kernels for this machine "
+              "(about a minute, once) ...", file=sys.stderr, flush=True)
+
+
+def _quiet_stdout() -> None:
+    """After a closed pipe (`pkmlab fk ... | head -1`), send what is left of stdout nowhere, so that
+    Python's final flush does not report the broken pipe again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+def _strict_json(value):
+    """``value`` for ``json.dumps(allow_nan=False)``: non-finite numbers (which strict JSON parsers
+    reject) become ``null``."""
+    import math
+
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict_json(v) for v in value]
+    return value
+
+
+def _note_printer(args):
+    """``warnings.showwarning`` for the command: one line on stderr, ``pkmlab CMD: note: ...``;
+    --quiet drops them."""
+
+    def show(message, *_args, **_kwargs):
+        if not getattr(args, "quiet", False):
+            print(f"pkmlab {args.command}: note: {message}", file=sys.stderr)
+
+    return show
+
+
+def _run(argv: list[str] | None) -> int:
+    import warnings
+
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        result = args.func(args)
-    except PkmlabError as exc:
-        if getattr(args, "json", False):
-            print(json.dumps({"error": {"type": type(exc).__name__, "message": str(exc)}}))
-        else:
-            print(f"pkmlab {args.command}: error: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print(f"pkmlab {args.command}: interrupted", file=sys.stderr)
-        return 130
+    with warnings.catch_warnings():
+        warnings.showwarning = _note_printer(args)
+        try:
+            _check_finite(parser, args)
+            _compile_notice(args)
+            result = args.func(args)
+        except PkmlabError as exc:
+            if getattr(args, "json", False):
+                print(json.dumps({"error": {"type": type(exc).__name__, "message": str(exc)}}))
+            else:
+                print(f"pkmlab {args.command}: error: {exc}", file=sys.stderr)
+            return 1
+        except KeyboardInterrupt:
+            print(f"pkmlab {args.command}: interrupted", file=sys.stderr)
+            return 130
     if getattr(args, "json", False):
-        print(json.dumps(result, indent=2))
+        print(json.dumps(_strict_json(result), indent=2, allow_nan=False))
+    sys.stdout.flush()
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The ``pkmlab`` command. Exit codes: 0 success, 1 a problem with the input (one line on stderr),
+    2 a malformed command line, 130 interrupted (Ctrl-C, at any moment, start-up included), 141 the
+    reader of the output went away (a closed pipe, as ``| head``), quietly."""
+    try:
+        return _run(argv)
+    except KeyboardInterrupt:
+        print("pkmlab: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        _quiet_stdout()
+        return 141
 
 
 if __name__ == "__main__":

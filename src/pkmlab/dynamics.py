@@ -25,7 +25,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from . import closed_chain, lagrangian
+from . import (
+    _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
+    closed_chain,
+    lagrangian,
+)
 from .geometry import Planar3RRR
 from .kinematics import _batch, _broadcast, _pair, _require_regular
 from .mechanisms import rrr3

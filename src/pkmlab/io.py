@@ -91,14 +91,27 @@ def manipulator_from_dict(table: dict, where: str = "[manipulator]") -> Planar3R
     return Planar3RRR.from_params(**params)
 
 
+def _manipulator_table(path: str | Path) -> tuple[dict, str]:
+    """The ``[manipulator]`` table of a parameter file and the name its errors start with."""
+    data = read_toml(path)
+    if "manipulator" not in data:  # a file of parameter keys only
+        return {"params": data}, Path(path).name
+    if not isinstance(data["manipulator"], dict):
+        raise FileFormatError(f"{path}: [manipulator] must be a table")
+    return data["manipulator"], f"{Path(path).name}: [manipulator]"
+
+
 def load_manipulator(path: str | Path) -> Planar3RRR:
     """The manipulator described by a TOML file (see the module docstring)."""
-    data = read_toml(path)
-    if "manipulator" in data:
-        if not isinstance(data["manipulator"], dict):
-            raise FileFormatError(f"{path}: [manipulator] must be a table")
-        return manipulator_from_dict(data["manipulator"], f"{Path(path).name}: [manipulator]")
-    return manipulator_from_dict({"params": data}, f"{Path(path).name}")
+    return manipulator_from_dict(*_manipulator_table(path))
+
+
+def read_manipulator_table(path: str | Path) -> dict:
+    """The ``[manipulator]`` table (``preset``, ``params``) of a parameter file, as a scenario file
+    holds it; the machine it describes is checked first, so a bad file is refused here."""
+    table, where = _manipulator_table(path)
+    manipulator_from_dict(table, where)
+    return table
 
 
 def _toml_number(value: float) -> str:

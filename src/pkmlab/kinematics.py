@@ -26,7 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from . import closed_chain
+from . import (
+    _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
+    closed_chain,
+)
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError
 from .geometry import WORKING_MODES, Planar3RRR
 from .mechanisms import rrr3

@@ -1,23 +1,51 @@
-"""Writing a folder of results all at once: it appears complete, or not at all.
+"""Writing results safely: a file or a folder appears complete, or not at all, and nothing of a
+user's is ever deleted.
+
+:func:`atomic_file` writes one file through a temporary file beside it.
 
 :func:`atomic_output_dir` hands out a temporary folder beside the target; the caller writes
-everything into it, and only when the ``with`` block finishes without an error is it moved
-into place (replacing a previous folder of the same name). An error, or Ctrl-C, removes the
-temporary folder — and any parent folders it had to create — so no half-written results are
-ever left behind. A folder that holds something other than earlier results is never
-replaced. Used by ``pkmlab reproduce`` and ``pkmlab simulate``.
+everything into it, and only when the ``with`` block finishes without an error does it take the
+target's place. Every result folder carries a manifest (:data:`MANIFEST`): the command that
+wrote it, pkmlab's version and the SHA-256 of every file. An existing target is replaced only
+when it is empty, or when it holds exactly the files its manifest lists, unchanged since pkmlab
+wrote them, and was written by the same command — a folder holding anything else (a notebook,
+notes, an edited report, the run's own input file) is refused with a one-line
+:class:`~pkmlab.errors.PkmlabError`, never deleted.
+
+The new folder takes the old one's place in one atomic step (Linux ``renameat2`` with
+``RENAME_EXCHANGE``; elsewhere two renames, the old folder kept until the new one is in place),
+so that a run killed at any moment — even ``kill -9`` — leaves either the old result or the new
+one, never a mix. Temporary folders left behind by a killed run are removed by the next run
+into the same target. Used by ``pkmlab reproduce`` and ``pkmlab simulate``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import ctypes.util
+import datetime
+import hashlib
+import json
 import os
+import re
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from .errors import PkmlabError
+
+#: The manifest of a result folder: which command wrote it, and the SHA-256 of every file.
+MANIFEST = "pkmlab-manifest.json"
+
+
+class OutputFolderError(PkmlabError):
+    """An output folder that cannot be written, or that holds something pkmlab must not replace."""
+
+
+class ResultReplacedWarning(UserWarning):
+    """An earlier result of the same command is being replaced (the command line prints it as a note)."""
 
 
 @contextlib.contextmanager
@@ -34,77 +62,274 @@ def atomic_file(path: str | os.PathLike) -> Iterator[Path]:
     tmp = Path(name)
     try:
         yield tmp
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     finally:
         if tmp.exists():
             tmp.unlink()
 
 
+def _umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
 def _reason(exc: OSError) -> str:
     return exc.strerror or str(exc) or type(exc).__name__
 
 
+def sha256_of(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _entries(folder: Path) -> tuple[list[str], list[str]]:
+    """Relative paths of the regular files of ``folder`` and of everything else in it (folders
+    excepted): symbolic links, sockets, ... Symbolic links are never followed."""
+    files, others = [], []
+    for root, dirs, names in os.walk(folder):
+        for name in names + [d for d in dirs if os.path.islink(os.path.join(root, d))]:
+            full = Path(root, name)
+            rel = full.relative_to(folder).as_posix()
+            (files if full.is_file() and not full.is_symlink() else others).append(rel)
+    return sorted(files), sorted(others)
+
+
+def read_manifest(folder: str | os.PathLike) -> dict:
+    """The manifest of a result folder, checked against the folder's content.
+
+    Raises :class:`OutputFolderError` naming what does not match: no manifest, a file that is
+    not listed (the user's), a listed file missing or changed since pkmlab wrote it.
+    """
+    folder = Path(folder)
+    try:
+        manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+        listed = manifest["files"]
+        if not (isinstance(manifest["command"], str) and isinstance(listed, dict)):
+            raise TypeError
+    except FileNotFoundError:
+        raise OutputFolderError(f"{folder} has no {MANIFEST}: it was not written by pkmlab") from None
+    except (OSError, ValueError, KeyError, TypeError):
+        raise OutputFolderError(f"{folder}/{MANIFEST} is not a pkmlab manifest") from None
+    files, others = _entries(folder)
+    foreign = [f for f in files if f != MANIFEST and f not in listed] + others
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+        raise OutputFolderError(f"{folder} holds files pkmlab did not write: {shown}")
+    for name, digest in listed.items():
+        path = folder / name
+        if not path.is_file():
+            raise OutputFolderError(f"{folder}: {name}, listed in {MANIFEST}, is missing")
+        if sha256_of(path) != digest:
+            raise OutputFolderError(f"{folder}: {name} was changed since pkmlab wrote it")
+    return manifest
+
+
+def _check_replaceable(out: Path, command: str) -> dict | None:
+    """Refuse a target folder that is not empty and is not an unchanged result of ``command``;
+    return the manifest of the result it holds (None if empty)."""
+    if not any(out.iterdir()):
+        return None
+    try:
+        manifest = read_manifest(out)
+    except OutputFolderError as exc:
+        raise OutputFolderError(f"cannot write results to {out}: it is not empty and {_after_folder(exc, out)}; "
+                                "pkmlab replaces only its own unchanged results: choose a new or empty folder"
+                                ) from None
+    if manifest["command"] != command:
+        raise OutputFolderError(f"cannot write results to {out}: it holds the results of `pkmlab "
+                                f"{manifest['command']}`, not of `pkmlab {command}`: choose another folder")
+    return manifest
+
+
+def _describe(manifest: dict) -> str:
+    prov = manifest.get("provenance")
+    details = [f"pkmlab {manifest['command']}"]
+    if isinstance(prov, dict):
+        details += [f"{prov[k]}" + (" control" if k == "control" else "") for k in ("scenario", "control") if k in prov]
+    return ", ".join(details) + f", written {manifest.get('created', '?')}"
+
+
+def _after_folder(exc: Exception, out: Path) -> str:
+    """The reason of a manifest error, without the folder name it starts with."""
+    text = str(exc)
+    for prefix in (f"{out}/", f"{out}: ", f"{out} "):
+        if text.startswith(prefix):
+            return text[len(prefix):] if prefix != f"{out}/" else f"its {text[len(prefix):]}"
+    return text
+
+
+def _check_inputs(out: Path, inputs: Iterable) -> None:
+    """An input file inside the output folder would be deleted by the replacement: refuse it."""
+    target = Path(os.path.realpath(out))
+    for item in inputs:
+        path = Path(os.path.realpath(item))
+        if path == target or target in path.parents:
+            raise OutputFolderError(f"cannot write results to {out}: it holds the input {item}, which the "
+                                    "results would replace; choose another folder")
+
+
+def _temp_prefix(out: Path) -> str:
+    return f".{out.name}.pkmlab-tmp-"
+
+
+def _remove_stale_temporaries(out: Path) -> None:
+    """Remove the temporary folders of earlier runs into ``out`` that were killed (their process is gone)."""
+    pattern = re.compile(re.escape(_temp_prefix(out)) + r"(\d+)-")
+    with contextlib.suppress(OSError):
+        for sibling in out.parent.iterdir():
+            match = pattern.match(sibling.name)
+            if match and sibling.is_dir() and not sibling.is_symlink() and not _alive(int(match.group(1))):
+                shutil.rmtree(sibling, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
 @contextlib.contextmanager
-def atomic_output_dir(out: str | os.PathLike, marker: str = "summary.json") -> Iterator[Path]:
+def atomic_output_dir(out: str | os.PathLike, command: str, inputs: Iterable = (),
+                      provenance: dict | None = None) -> Iterator[Path]:
     """Yield a temporary folder that becomes ``out`` when the block succeeds.
 
-    An existing ``out`` is replaced as a whole, so it must be empty or hold earlier results
-    (a ``marker`` file): a folder of other files is refused rather than deleted. A target that
-    cannot be written (it is a file, its parent is a file, a read-only folder, ...) is reported
-    as a one-line :class:`PkmlabError` before anything is computed. An ``OSError`` while
-    writing inside the block is reported the same way.
+    ``command`` names what writes the results (``"simulate"``, ``"reproduce"``); it goes into the
+    manifest with ``provenance`` (any JSON-able details) and the SHA-256 of every file. An
+    existing ``out`` must be empty or an unchanged result of the same command; ``inputs`` (files
+    the run reads) must not lie inside it. Everything that makes the target unusable (it is a
+    file, its parent is a file, a read-only folder, a folder of the user's files, ...) is reported
+    as a one-line :class:`OutputFolderError` before anything is computed. An ``OSError`` while
+    writing inside the block is reported the same way; an error or Ctrl-C leaves the target as
+    it was and removes the temporary folder (and any parent folders made for it).
     """
     out = Path(out)
     if out.name in ("", ".", ".."):
-        raise PkmlabError(f"cannot write results to {out}: name a folder to create or replace")
+        raise OutputFolderError(f"cannot write results to {out}: name a folder to create or replace")
     created: list[Path] = []
     try:
+        if out.is_symlink():
+            raise OutputFolderError(f"cannot write results to {out}: it is a symbolic link; name the folder itself")
         if out.exists() and not out.is_dir():
-            raise PkmlabError(f"cannot write results to {out}: it exists and is not a folder")
-        if out.is_dir() and not (out / marker).is_file() and any(out.iterdir()):
-            raise PkmlabError(f"cannot write results to {out}: it is a folder of other files (it has no "
-                              f"{marker}) and would be replaced; choose a new or empty folder")
+            raise OutputFolderError(f"cannot write results to {out}: it exists and is not a folder")
+        _check_inputs(out, inputs)
+        earlier = _check_replaceable(out, command) if out.is_dir() else None
         created = [p for p in (out.parent, *out.parent.parents) if not p.exists()]
         out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}-tmp-"))
+        _remove_stale_temporaries(out)
+        tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{_temp_prefix(out)}{os.getpid()}-"))
     except OSError as exc:
         _remove_empty(created)
-        raise PkmlabError(f"cannot write results to {out}: {_reason(exc)}") from None
+        raise OutputFolderError(f"cannot write results to {out}: {_reason(exc)}") from None
+    if earlier is not None:
+        import warnings
+
+        warnings.warn(f"replacing the earlier results in {out} ({_describe(earlier)})", ResultReplacedWarning,
+                      stacklevel=3)
     moved = False
     try:
         try:
             yield tmp
+            _write_manifest(tmp, command, provenance or {})
             for path in tmp.rglob("*"):
                 os.chmod(path, 0o755 if path.is_dir() else 0o644)
             os.chmod(tmp, 0o755)
             if out.exists():
+                _check_replaceable(out, command)  # again: the run took a while
                 _swap(tmp, out)
             else:
-                os.replace(tmp, out)
+                os.rename(tmp, out)
             moved = True
         except OSError as exc:
-            raise PkmlabError(f"cannot write results to {out}: {_reason(exc)}") from None
+            raise OutputFolderError(f"cannot write results to {out}: {_reason(exc)}") from None
     finally:
         if not moved:
             shutil.rmtree(tmp, ignore_errors=True)
             _remove_empty(created)
 
 
+def _write_manifest(folder: Path, command: str, provenance: dict) -> None:
+    from . import __version__
+
+    files, others = _entries(folder)
+    if others or MANIFEST in files:
+        raise OutputFolderError(f"internal error: a result may hold only regular files, got {others or MANIFEST}")
+    manifest = {
+        "written_by": "pkmlab",
+        "pkmlab_version": __version__,
+        "command": command,
+        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "provenance": provenance,
+        "files": {name: sha256_of(folder / name) for name in files},
+    }
+    (folder / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+
+
+# Linux renameat2(2) with RENAME_EXCHANGE swaps two paths atomically; None where unavailable.
+_RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+
+
+def _renameat2():
+    with contextlib.suppress(OSError, AttributeError, TypeError):
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        fn = libc.renameat2
+        fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+        fn.restype = ctypes.c_int
+        return fn
+    return None
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap the paths ``a`` and ``b`` in one atomic step; False where the system cannot."""
+    fn = _renameat2()
+    if fn is None:
+        return False
+    if fn(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (22, 38, 95):  # EINVAL, ENOSYS, EOPNOTSUPP: the file system or kernel cannot exchange
+        return False
+    raise OSError(err, os.strerror(err))
+
+
 def _swap(new: Path, out: Path) -> None:
-    """Replace the folder ``out`` by ``new``, putting the old one back if that fails."""
-    old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}-old-"))
-    try:
-        os.replace(out, old / out.name)
+    """Put the folder ``new`` in the place of the folder ``out`` and remove the old one.
+
+    The old folder is removed only if it still holds nothing but pkmlab's own files (it was
+    checked before, but a user may have added a file since); otherwise it is kept beside ``out``.
+    """
+    if _exchange(new, out):
+        old = new
+    else:
+        old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{_temp_prefix(out)}{os.getpid()}-old-")) / out.name
+        os.rename(out, old)
         try:
-            os.replace(new, out)
+            os.rename(new, out)
         except BaseException:
-            os.replace(old / out.name, out)
+            os.rename(old, out)
             raise
-    finally:
-        shutil.rmtree(old, ignore_errors=True)
+    if not any(old.iterdir()):
+        old.rmdir()
+    else:
+        try:
+            read_manifest(old)
+        except OutputFolderError:
+            keep = out.parent / f"{out.name}.previous-{datetime.datetime.now():%Y%m%d-%H%M%S}"
+            os.rename(old, keep)
+            return
+        shutil.rmtree(old)
+    if old.parent != out.parent:
+        with contextlib.suppress(OSError):
+            old.parent.rmdir()
 
 
 def _remove_empty(folders: list[Path]) -> None:

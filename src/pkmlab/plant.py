@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate import solve_ivp
 
+from . import _compile_cache  # noqa: F401  (sets the kernel cache before any kernel is defined)
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError
 from .geometry import Planar3RRR
 from .kinematics import _batch, constraint_residual

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from . import _compile_cache  # noqa: F401  (sets the kernel cache before any kernel is defined)
+
 
 @njit(cache=True)
 def horner(c, x):

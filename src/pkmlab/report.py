@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
+from pathlib import Path
 
 from . import simulation
 from .errors import PkmlabError
@@ -53,17 +54,62 @@ RUN_FIGURES = (
 )
 
 
-def run_cases(control: str = "sampled") -> dict[str, SimulationResult]:
-    """Simulate the paper's three cases (SPEC §7) with sampled-data or continuous-time control."""
+def case_scenarios(control: str = "sampled", manipulator: dict | None = None) -> dict[str, Scenario]:
+    """The paper's three cases (SPEC §7), with sampled-data or continuous-time control.
+
+    ``manipulator`` (a ``[manipulator]`` table: ``preset`` and ``params``, as
+    :func:`~pkmlab.io.read_manipulator_table` reads it from a parameter file) puts the cases on
+    another machine: it becomes the controller's model, and the plant of each case is derived
+    from it as the case's scenario file says (``disturbed``: masses and lengths ×1.15).
+    """
+    from .io import read_toml
+    from .scenario_io import scenario_from_dict
+
     if control not in ("sampled", "continuous"):
         raise PkmlabError(f"control must be 'sampled' or 'continuous', got {control!r}")
-    results = {}
+    scenarios = {}
     for name in PAPER_CASES:
-        scenario = paper_scenario(name)
+        if manipulator is None:
+            scenario = paper_scenario(name)
+        else:
+            data = read_toml(simulation.SCENARIO_DIR / f"{name}.toml")
+            data["manipulator"] = manipulator
+            scenario = scenario_from_dict(data, f"case {name} on your manipulator", name)
         if control == "continuous":
             scenario = scenario.replace(sample_time=0.0)
-        results[name] = simulate(scenario)
+        scenarios[name] = scenario
+    return scenarios
+
+
+def run_cases(control: str = "sampled", manipulator: dict | None = None) -> dict[str, SimulationResult]:
+    """Simulate the paper's three cases (:func:`case_scenarios`); an error names the case."""
+    results = {}
+    for name, scenario in case_scenarios(control, manipulator).items():
+        try:
+            results[name] = simulate(scenario)
+        except PkmlabError as exc:
+            raise type(exc)(f"case {name}: {exc}") from None
     return results
+
+
+def provenance(control: str, sample_time: float, manipulator_source: str) -> dict:
+    """How a result was made: pkmlab's version, the control mode, the machine, the software."""
+    import platform
+
+    import numpy as np
+    import scipy
+
+    from ._version import __version__
+
+    return {
+        "pkmlab_version": __version__,
+        "control": control,
+        "sample_time_s": sample_time if control == "sampled" else None,
+        "manipulator": manipulator_source,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+    }
 
 
 def _draw(kind: str, results: dict, case: str | None):
@@ -87,14 +133,35 @@ def _draw(kind: str, results: dict, case: str | None):
     return fig
 
 
-def _report(results: dict, summary: dict, figures: bool) -> str:
+def _provenance_lines(prov: dict) -> list[str]:
+    control = ("sampled-data, Ts = " f"{prov['sample_time_s'] * 1e3:g} ms (zero-order hold)"
+               if prov["control"] == "sampled" else "continuous-time (torque re-evaluated at every integrator stage)")
+    return [
+        "| how this was made | |",
+        "| --- | --- |",
+        f"| control | {control} |",
+        f"| manipulator | {prov['manipulator']} |",
+        *([f"| scenario | {prov['scenario']} |"] if "scenario" in prov else []),
+        f"| software | pkmlab {prov['pkmlab_version']}, Python {prov['python']}, NumPy {prov['numpy']}, "
+        f"SciPy {prov['scipy']} |",
+        "",
+    ]
+
+
+def _report(results: dict, summary: dict, figures: bool, prov: dict) -> str:
     nominal = summary["nominal"]
+    paper = prov["manipulator"] == PAPER_MANIPULATOR
     lines = [
-        "# pkmlab: reproduction of the paper's simulated cases",
+        "# pkmlab: reproduction of the paper's simulated cases" if paper
+        else "# pkmlab: the paper's simulated cases on another manipulator",
         "",
         "Planar 3-RRR, computed-torque control (kp = 1000, kv = 2√kp), the circle of SPEC §4. "
         "Path error: distance between the plant's actual centroid (its own geometry) and the desired one.",
         "",
+        *([] if paper else ["**These are not the paper's numbers**: the cases run on the manipulator of "
+                            f"{prov['manipulator']} (`manipulator.toml`; each case's plant in "
+                            "`<case>_plant.toml`).", ""]),
+        *_provenance_lines(prov),
         "| case | speed (m/s) | max path error (mm) | rms path error (mm) | max α error (rad) | "
         "peak torques (N·m) | peak torque / nominal | min abs(S) | working mode |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
@@ -108,7 +175,8 @@ def _report(results: dict, summary: dict, figures: bool) -> str:
             f"{s['max_alpha_error_rad']:.3g} | {', '.join(f'{v:.3f}' for v in s['peak_torque_Nm'])} | "
             f"{ratio:.2f} | {s['min_abs_S']:.3f} | {tuple(s['working_mode'])} |"
         )
-    lines += ["", "Data: `summary.json`, `nominal.csv`, `disturbed.csv`, `fast.csv` (one row per sample).", ""]
+    lines += ["", "Data: `summary.json`, `nominal.csv`, `disturbed.csv`, `fast.csv` (one row per sample); the "
+              "controller's model in `manipulator.toml` and each case's plant in `<case>_plant.toml`.", ""]
     if figures:
         lines += ["## Figures", ""]
         for fname, number, caption, _case, _kind in FIGURES:
@@ -117,17 +185,36 @@ def _report(results: dict, summary: dict, figures: bool) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: How the report names the paper's own manipulator.
+PAPER_MANIPULATOR = "the paper's (SPEC §1)"
+
+
 def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures: bool = True,
-              progress: Callable[[str], None] | None = None) -> dict:
-    """Run the three cases and write their results into ``out``; return the summary dict."""
+              progress: Callable[[str], None] | None = None, params: str | os.PathLike | None = None) -> dict:
+    """Run the three cases and write their results into ``out``; return the summary dict.
+
+    ``params`` (a parameter file) runs the cases on that manipulator instead of the paper's; the
+    report says so in its title. ``summary.json`` records how the results were made
+    (``"provenance"``: control mode, sample time, manipulator, versions).
+    """
+    from .io import manipulator_to_toml, read_manipulator_table
+
     say = progress or (lambda _msg: None)
-    with atomic_output_dir(out) as tmp:
+    manipulator = None if params is None else read_manipulator_table(params)
+    scenarios = case_scenarios(control, manipulator)  # a bad parameter file is refused before anything is written
+    prov = provenance(control, scenarios["nominal"].sample_time or 1e-3,
+                      PAPER_MANIPULATOR if params is None else f"your parameter file {params}")
+    with atomic_output_dir(out, "reproduce", inputs=[params] if params else [], provenance=prov) as tmp:
         say(f"simulating the paper's cases ({control} control) ...")
-        results = run_cases(control)
-        summary = {"cases": {name: results[name].summary() for name in PAPER_CASES}}
+        results = run_cases(control, manipulator)
+        summary = {"cases": {name: results[name].summary() for name in PAPER_CASES}, "provenance": prov}
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        (tmp / "manipulator.toml").write_text(manipulator_to_toml(
+            scenarios["nominal"].model, "The controller's model of the paper's cases, written by pkmlab."))
         for name, result in results.items():
             result.to_csv(tmp / f"{name}.csv")
+            (tmp / f"{name}_plant.toml").write_text(manipulator_to_toml(
+                result.scenario.plant_model, f"The plant (the real machine) of case {name!r}, written by pkmlab."))
         if figures:
             import matplotlib
 
@@ -139,10 +226,9 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
                 fig.savefig(tmp / fname, dpi=150)
                 plt.close(fig)
             say(f"drew {len(FIGURES)} figures")
-        (tmp / "REPORT.md").write_text(_report(results, summary["cases"], figures))
+        (tmp / "REPORT.md").write_text(_report(results, summary["cases"], figures, prov))
     say(f"wrote {out}/")
     return summary
-
 
 
 # ------------------------------------------------------------------ one scenario
@@ -174,6 +260,7 @@ def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
     s = summary
     lines = [f"# pkmlab: scenario `{result.scenario.name}`", "", "| | |", "| --- | --- |"]
     lines += [f"| {key} | {value} |" for key, value in _describe(result.scenario)]
+    lines += ["", *_provenance_lines(summary["provenance"])]
     lines += [
         "",
         "## Summary",
@@ -185,7 +272,8 @@ def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
         f"{s['max_joint_error_rad']:.3g} | {', '.join(f'{v:.3f}' for v in s['peak_torque_Nm'])} | "
         f"{s['min_abs_S']:.3f} | {tuple(s['working_mode'])} |",
         "",
-        "Data: `summary.json`, `run.csv` (one row per sample), `plant.toml` (the plant's parameters).",
+        "Data: `summary.json`, `run.csv` (one row per sample), `plant.toml` (the plant's parameters)"
+        + (", `scenario.toml` (the scenario file, as it was read)." if "scenario" in s["provenance"] else "."),
         "",
     ]
     if figures:
@@ -196,21 +284,30 @@ def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
 
 
 def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool = True,
-                      progress: Callable[[str], None] | None = None) -> dict:
+                      progress: Callable[[str], None] | None = None,
+                      source: str | os.PathLike | None = None) -> dict:
     """Simulate ``scenario`` and write its results into the folder ``out``; return the summary.
 
-    ``out`` receives ``summary.json`` (SPEC §8 fields and ``"scenario"``, the name), ``run.csv``,
-    ``plant.toml``, the figures of :data:`RUN_FIGURES` and ``REPORT.md`` — all at once, when
-    everything succeeded (:func:`~pkmlab.outputs.atomic_output_dir`).
+    ``out`` receives ``summary.json`` (SPEC §8 fields, ``"scenario"``, the name, and
+    ``"provenance"``), ``run.csv``, ``plant.toml``, the figures of :data:`RUN_FIGURES` and
+    ``REPORT.md`` — all at once, when everything succeeded
+    (:func:`~pkmlab.outputs.atomic_output_dir`). ``source``, the scenario file the scenario was
+    read from, is copied as ``scenario.toml``; it may not lie inside ``out``.
     """
-    from .io import manipulator_to_toml
+    from .io import manipulator_to_toml, read_text
 
+    text = None if source is None else read_text(Path(source))
+    control = "sampled" if scenario.sample_time > 0 else "continuous"
+    prov = {**provenance(control, scenario.sample_time, "the scenario's [manipulator]; the plant in plant.toml"),
+            **({"scenario": str(source)} if source is not None else {})}
     say = progress or (lambda _msg: None)
-    with atomic_output_dir(out) as tmp:
+    with atomic_output_dir(out, "simulate", inputs=[source] if source else [], provenance=prov) as tmp:
         say(f"simulating {scenario.name} ...")
         result = simulation.simulate(scenario)
-        summary = {"scenario": scenario.name, **result.summary()}
+        summary = {"scenario": scenario.name, **result.summary(), "provenance": prov}
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        if text is not None:
+            (tmp / "scenario.toml").write_text(text)
         result.to_csv(tmp / "run.csv")
         (tmp / "plant.toml").write_text(manipulator_to_toml(
             scenario.plant_model, f"The plant (the real machine) of scenario {scenario.name!r}, written by pkmlab."))

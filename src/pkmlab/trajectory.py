@@ -21,7 +21,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from . import closed_chain
+from . import (
+    _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
+    closed_chain,
+)
 from .errors import InvalidParameterError, SingularityError
 from .geometry import Planar3RRR
 from .kinematics import _mode_array, inverse_kinematics, platform_jacobian

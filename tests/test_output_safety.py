@@ -1,0 +1,397 @@
+"""Nothing lost, nothing silently wrong: output folders, provenance, refusals that tell the truth.
+
+Each test names the promise it backs (README "Scenario files and pkmlab simulate", "Command
+line", "Quick start") or the failure it guards against.
+"""
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import assert_user_error, run
+
+import pkmlab
+import pkmlab.report
+from pkmlab import outputs
+from pkmlab.io import load_manipulator
+from pkmlab.simulation import paper_scenario, scaled_model, simulate
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "examples"
+MANIFEST = "pkmlab-manifest.json"
+
+
+def snapshot(folder: Path) -> dict:
+    """Every file under ``folder`` (relative path -> bytes), hidden ones included."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def user_folder(folder: Path) -> dict:
+    """A folder of a user's files: a notebook, notes, data in a subfolder, and a summary.json of their own."""
+    (folder / "data").mkdir(parents=True)
+    (folder / "analysis.ipynb").write_text('{"cells": []}')
+    (folder / "notes.md").write_text("thesis notes\n")
+    (folder / "data" / "measured.csv").write_text("t,x\n0,1\n")
+    (folder / "summary.json").write_text("{}")
+    return snapshot(folder)
+
+
+def hidden(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+
+
+@pytest.fixture(scope="module")
+def results():
+    """The paper's three cases, simulated once for the tests that only write them."""
+    return {name: simulate(paper_scenario(name)) for name in ("nominal", "disturbed", "fast")}
+
+
+@pytest.fixture
+def quick(monkeypatch, results):
+    """pkmlab reproduce/simulate with the simulation replaced by the precomputed results."""
+    monkeypatch.setattr(pkmlab.report, "simulate", lambda scenario: results[scenario.name])
+    monkeypatch.setattr(pkmlab.simulation, "simulate", lambda scenario: results["fast"])
+
+
+# ------------------------------------------------------------------ a user's files are never deleted
+@pytest.mark.parametrize("command", [
+    ["simulate", EXAMPLES / "fast.toml", "--no-figures"],
+    ["reproduce", "--no-figures"],
+    ["demo", "--resolution", 5],
+])
+def test_readme_promise_a_folder_holding_anything_else_is_refused_never_deleted(capsys, tmp_path, quick, command):
+    """README: "a folder holding anything else is refused, never deleted" — even one with a summary.json."""
+    out = tmp_path / "results"
+    before = user_folder(out)
+    message = assert_user_error(*run(capsys, *command, "--out", out))
+    assert "not empty" in message and str(out) in message
+    assert snapshot(out) == before
+    assert hidden(tmp_path) == []
+
+
+def test_an_earlier_result_with_a_file_added_or_changed_is_refused(capsys, tmp_path, quick):
+    out = tmp_path / "r"
+    argv = ["simulate", EXAMPLES / "fast.toml", "--out", out, "--no-figures", "--quiet"]
+    assert run(capsys, *argv)[0] == 0
+    (out / "my_notes.txt").write_text("mine")
+    before = snapshot(out)
+    assert "my_notes.txt" in assert_user_error(*run(capsys, *argv))
+    assert snapshot(out) == before
+    (out / "my_notes.txt").unlink()
+    with open(out / "REPORT.md", "a") as f:
+        f.write("\nMy conclusions.\n")
+    before = snapshot(out)
+    assert "REPORT.md was changed" in assert_user_error(*run(capsys, *argv))
+    assert snapshot(out) == before
+
+
+def test_an_input_inside_the_output_folder_survives(capsys, tmp_path, quick):
+    """`pkmlab simulate D/my_scenario.toml --out D` must not delete its own input."""
+    folder = tmp_path / "D"
+    folder.mkdir()
+    scenario = folder / "my_scenario.toml"
+    scenario.write_bytes((EXAMPLES / "fast.toml").read_bytes())
+    before = snapshot(folder)
+    message = assert_user_error(*run(capsys, "simulate", scenario, "--out", folder))
+    assert "my_scenario.toml" in message
+    assert snapshot(folder) == before
+    # the same for a parameter file of pkmlab reproduce
+    params = folder / "params.toml"
+    params.write_text('[manipulator]\npreset = "paper"\n')
+    before = snapshot(folder)
+    assert "params.toml" in assert_user_error(*run(capsys, "reproduce", "--params", params, "--out", folder))
+    assert snapshot(folder) == before
+
+
+def test_an_input_inside_an_earlier_result_survives(capsys, tmp_path, quick):
+    out = tmp_path / "r"
+    assert run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out, "--quiet")[0] == 0
+    # pkmlab's own copy of the scenario, run again into the folder that holds it
+    before = snapshot(out)
+    assert "scenario.toml" in assert_user_error(*run(capsys, "simulate", out / "scenario.toml", "--out", out))
+    assert snapshot(out) == before
+
+
+def test_results_of_another_command_are_not_replaced(capsys, tmp_path, quick):
+    out = tmp_path / "out"
+    assert run(capsys, "reproduce", "--out", out, "--no-figures", "--quiet")[0] == 0
+    before = snapshot(out)
+    message = assert_user_error(*run(capsys, "demo", "--out", out, "--resolution", 5))
+    assert "pkmlab reproduce" in message
+    message = assert_user_error(*run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out))
+    assert "pkmlab reproduce" in message
+    assert snapshot(out) == before
+
+
+def test_replacing_an_earlier_result_of_the_same_command_is_said(capsys, tmp_path, quick):
+    """README: an earlier result is replaced — not silently: a note names what it was."""
+    out = tmp_path / "out"
+    assert run(capsys, "reproduce", "--out", out, "--no-figures")[0] == 0
+    code, _stdout, err = run(capsys, "reproduce", "--out", out, "--no-figures", "--control", "continuous")
+    assert code == 0
+    assert err.count("\n") == 1 and "note: replacing the earlier results" in err and "sampled control" in err
+    assert outputs.read_manifest(out)["provenance"]["control"] == "continuous"
+    assert run(capsys, "reproduce", "--out", out, "--no-figures", "--quiet")[2] == ""  # --quiet: no note
+
+
+def test_a_symbolic_link_inside_a_result_is_not_followed_or_deleted(capsys, tmp_path, quick):
+    out = tmp_path / "r"
+    assert run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out, "--quiet", "--no-figures")[0] == 0
+    precious = tmp_path / "precious"
+    precious.mkdir()
+    (precious / "data.txt").write_text("keep me")
+    (out / "link").symlink_to(precious)
+    assert "link" in assert_user_error(*run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out))
+    assert (precious / "data.txt").read_text() == "keep me" and (out / "link").is_symlink()
+
+
+def test_read_manifest_checks_every_file(tmp_path):
+    out = tmp_path / "r"
+    with outputs.atomic_output_dir(out, "test", provenance={"k": 1}) as tmp:
+        (tmp / "a.txt").write_text("a")
+        (tmp / "sub").mkdir()
+        (tmp / "sub" / "b.txt").write_text("b")
+    manifest = outputs.read_manifest(out)
+    assert set(manifest["files"]) == {"a.txt", "sub/b.txt"} and manifest["provenance"] == {"k": 1}
+    (out / "sub" / "b.txt").unlink()
+    with pytest.raises(outputs.OutputFolderError, match="sub/b.txt.*missing"):
+        outputs.read_manifest(out)
+
+
+# ------------------------------------------------------------------ kill -9: the old result or the new one
+WRITER = textwrap.dedent("""
+    import sys, time
+    from pkmlab.outputs import atomic_output_dir
+    out, tag = sys.argv[1], sys.argv[2]
+    with atomic_output_dir(out, "test") as tmp:
+        for i in range(40):
+            (tmp / f"part{i:02d}.txt").write_text(tag * 1000)
+            time.sleep(0.002)
+    print("done", flush=True)
+""")
+
+
+def _is_complete(out: Path, tag: str) -> bool:
+    outputs.read_manifest(out)  # raises unless every listed file is there, unchanged, and nothing else
+    return all((out / f"part{i:02d}.txt").read_text() == tag * 1000 for i in range(40))
+
+
+def test_kill_9_mid_write_leaves_the_old_result_or_the_new_one(tmp_path):
+    """Killed at random moments while writing, a result folder is always a whole result."""
+    out = tmp_path / "r"
+    script = tmp_path / "writer.py"
+    script.write_text(WRITER)
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    subprocess.run([sys.executable, str(script), str(out), "A"], check=True, env=env, capture_output=True)
+    rng = random.Random(1)
+    outcomes = {"old": 0, "new": 0}
+    current = "A"
+    for attempt in range(12):
+        new = "B" if current == "A" else "A"
+        proc = subprocess.Popen([sys.executable, str(script), str(out), new], env=env, stdout=subprocess.PIPE)
+        time.sleep(rng.uniform(0.05, 0.4))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        if _is_complete(out, new):
+            outcomes["new"] += 1
+            current = new
+        else:
+            assert _is_complete(out, current), f"attempt {attempt}: a mix of two results"
+            outcomes["old"] += 1
+    assert outcomes["old"] > 0  # the kills did land while writing
+    # the next run into the same folder removes the temporary folders the killed runs left
+    subprocess.run([sys.executable, str(script), str(out), "C"], check=True, env=env, capture_output=True)
+    assert _is_complete(out, "C") and hidden(tmp_path) == []
+
+
+def test_kill_9_of_a_real_simulation_keeps_the_earlier_result(tmp_path):
+    out = tmp_path / "r"
+    argv = [sys.executable, "-m", "pkmlab.cli", "simulate", str(EXAMPLES / "fast.toml"), "--out", str(out)]
+    subprocess.run(argv + ["--no-figures"], check=True, capture_output=True)
+    before = snapshot(out)
+    for delay in (0.5, 1.5, 3.0):
+        proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        now = snapshot(out)
+        if now != before:  # the new run had finished: then it is whole
+            outputs.read_manifest(out)
+            assert "path.png" in now
+            before = now
+
+
+# ------------------------------------------------------------------ reproduce --params is honoured
+def test_reproduce_refuses_an_impossible_parameter_file_before_writing(capsys, tmp_path):
+    params = tmp_path / "p.toml"
+    params.write_text("a = 5\n")
+    out = tmp_path / "out"
+    assert_user_error(*run(capsys, "reproduce", "--params", params, "--out", out, "--no-figures"))
+    assert not out.exists() and hidden(tmp_path) == []
+
+
+def test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so(capsys, tmp_path):
+    params = tmp_path / "mine.toml"
+    params.write_text("[manipulator]\npreset = \"paper\"\n[manipulator.params]\nl = 0.26\nmass_a = 0.3\n")
+    out = tmp_path / "out"
+    code, stdout, _err = run(capsys, "reproduce", "--params", params, "--out", out, "--no-figures", "--json")
+    assert code == 0
+    summary = json.loads(stdout)
+    assert summary["provenance"]["manipulator"].endswith("mine.toml")
+    mine = load_manipulator(params)
+    assert load_manipulator(out / "manipulator.toml") == mine
+    assert load_manipulator(out / "disturbed_plant.toml") == scaled_model(mine, 1.15, 1.15)  # SPEC §7
+    assert load_manipulator(out / "nominal_plant.toml") == mine
+    report = (out / "REPORT.md").read_text()
+    assert "not the paper's numbers" in report and "mine.toml" in report
+    # the numbers are those of the user's machine, not the paper's
+    own = simulate(paper_scenario("nominal").replace(model=mine))
+    assert summary["cases"]["nominal"]["peak_torque_Nm"] == own.summary()["peak_torque_Nm"]
+    assert summary["cases"]["nominal"]["peak_torque_Nm"] != simulate(paper_scenario("nominal")).summary()[
+        "peak_torque_Nm"]
+
+
+# ------------------------------------------------------------------ provenance
+def test_results_record_how_they_were_made(capsys, tmp_path, quick):
+    out = tmp_path / "continuous"
+    assert run(capsys, "reproduce", "--out", out, "--control", "continuous", "--no-figures", "--quiet")[0] == 0
+    summary = json.loads((out / "summary.json").read_text())
+    prov = summary["provenance"]
+    assert prov["control"] == "continuous" and prov["sample_time_s"] is None
+    assert prov["pkmlab_version"] == pkmlab.__version__ and prov["manipulator"] == "the paper's (SPEC §1)"
+    report = (out / "REPORT.md").read_text()
+    assert "continuous-time" in report and f"pkmlab {pkmlab.__version__}" in report
+    manifest = outputs.read_manifest(out)
+    assert manifest["command"] == "reproduce" and manifest["provenance"] == prov
+    assert load_manipulator(out / "manipulator.toml") == pkmlab.Planar3RRR.paper()
+
+
+# ------------------------------------------------------------------ dynamics at a singularity
+def _singular_configuration():
+    """A configuration of the paper's machine at a gain-type singularity, by bisection on alpha:
+    S changes sign between alpha = -2.87 and -2.86 at (0.25, 0.21) in working mode (-, +, -)."""
+    model, mode = pkmlab.Planar3RRR.paper(), (-1, 1, -1)
+
+    def s(alpha):
+        return float(pkmlab.inverse_kinematics(model, [0.25, 0.21, alpha], mode=mode).S)
+
+    lo, hi = -2.875, -2.86
+    assert s(lo) * s(hi) < 0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if s(mid) * s(lo) > 0 else (lo, mid)
+    pose = [0.25, 0.21, 0.5 * (lo + hi)]
+    return pose, pkmlab.inverse_kinematics(model, pose, mode=mode)
+
+
+def test_dynamics_at_a_singularity_is_refused(capsys):
+    pose, ik = _singular_configuration()
+    assert abs(float(ik.S)) < 1e-10
+    message = assert_user_error(*run(capsys, "dynamics", *ik.theta, "--near", *pose))
+    assert "singularity" in message
+
+
+def test_dynamics_near_a_singularity_warns(capsys):
+    pose, ik = _singular_configuration()
+    near = [pose[0], pose[1], pose[2] + 2e-3]
+    theta = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), near, mode=(-1, 1, -1)).theta
+    code, out, err = run(capsys, "dynamics", *theta, "--near", *near, "--json")
+    assert code == 0
+    record = json.loads(out)
+    assert 1e-8 < abs(record["S"]) < 1e-2
+    assert "near a gain-type singularity" in record["warning"] and "warning" in err
+
+
+def _strict(text: str):
+    def refuse(constant):
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.mark.parametrize("argv", [
+    ["dynamics", 0.19, 3.11, -2.64, "--theta-dot", "1e200", 0, 0, "--json"],
+    ["dynamics", 0.19, 3.11, -2.64, "--theta-dot", "nan", 0, 0, "--json"],
+    ["ik", 0.09, 0.06, 0, "--json"],
+])
+def test_json_output_is_strict_json_even_for_errors(capsys, argv):
+    code, out, err = run(capsys, *argv)
+    assert code == 1 and err == ""
+    error = _strict(out)["error"]
+    assert "\n" not in error["message"]
+
+
+def test_overflowing_dynamics_is_an_error_not_nan(capsys):
+    message = assert_user_error(*run(capsys, "dynamics", 0.19, 3.11, -2.64, "--theta-dot", "1e200", 0, 0))
+    assert "overflow" in message and "--theta-dot" in message
+
+
+# ------------------------------------------------------------------ the command line itself
+def test_version():
+    proc = subprocess.run([sys.executable, "-m", "pkmlab.cli", "--version"], capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stdout.strip() == f"pkmlab {pkmlab.__version__}"
+
+
+def test_a_closed_pipe_ends_quietly():
+    """`pkmlab fk ... --json | head -1`: no traceback when the reader goes away."""
+    proc = subprocess.Popen([sys.executable, "-m", "pkmlab.cli", "fk", "0.189", "3.112", "-2.642", "--json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader is gone before anything is written
+    err = proc.stderr.read().decode()
+    assert proc.wait() == 141
+    assert "Traceback" not in err and "BrokenPipe" not in err and err == ""
+
+
+def test_ctrl_c_during_start_up_is_no_traceback():
+    for delay in (0.05, 0.15, 0.3, 0.6):
+        proc = subprocess.Popen([sys.executable, "-m", "pkmlab.cli", "fk", "0.189", "3.112", "-2.642"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate()
+        assert "Traceback" not in err.decode(), (delay, err.decode())
+        assert proc.returncode in (0, 130, -signal.SIGINT), (delay, proc.returncode)
+
+
+def test_first_run_says_it_compiles(capsys, monkeypatch):
+    """The first run compiles for about a minute: a person watching is told, once, on stderr."""
+    from pkmlab import _compile_cache
+
+    monkeypatch.setattr(_compile_cache, "is_cold", lambda: True)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    code, _out, err = run(capsys, "ik", 0.2, 0.21, 0, "--mode", "+", "+", "+")
+    assert code == 0 and err.count("compiling") == 1
+    monkeypatch.setattr(_compile_cache, "is_cold", lambda: False)
+    assert run(capsys, "ik", 0.2, 0.21, 0)[2] == ""
+
+
+def test_is_cold_reads_the_kernel_cache(tmp_path, monkeypatch):
+    from pkmlab import _compile_cache
+
+    monkeypatch.setattr(_compile_cache, "CACHE_DIR", tmp_path)
+    assert _compile_cache.is_cold()
+    (tmp_path / "kinematics._ik-1.py311.nbi").write_bytes(b"")
+    assert not _compile_cache.is_cold()
+
+
+def test_every_non_finite_number_of_the_command_line_is_named(capsys):
+    for argv, name in [(["dynamics", 0.19, 3.11, -2.64, "--near", 0.2, "inf", 0], "--near"),
+                       (["ik", 0.2, 0.21, "nan"], "alpha"),
+                       (["fk", "-inf", 3.11, -2.64], "T1")]:
+        message = assert_user_error(*run(capsys, *argv))
+        assert f"{name} must be finite" in message, message
+
+
+def test_json_helper_never_writes_nan():
+    from pkmlab.cli import _strict_json
+
+    value = {"a": [1.0, float("nan")], "b": {"c": float("inf")}, "d": np.float64(2.0).item()}
+    assert json.dumps(_strict_json(value), allow_nan=False) == '{"a": [1.0, null], "b": {"c": null}, "d": 2.0}'
