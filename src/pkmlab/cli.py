@@ -143,8 +143,9 @@ def _demo(args, model, say, folder: Path) -> tuple:
 
 # argparse reads only "-1" and "-1.5" as negative numbers: "-1e-3", "-1.2E+00" or "-inf" would be
 # taken for unknown options and the positional argument reported missing. Widen its matcher (a
-# private attribute of the parser) so every negative float is read as a value.
-_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+# private attribute of the parser) so every negative float is read as a value — and a working
+# mode written as one word that starts with a minus ("-+-", "--+").
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$|^-(inf|infinity|nan)$|^-[+-]{2}$", re.IGNORECASE)
 
 
 def _accept_negative_numbers(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
@@ -576,7 +577,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("x", type=float)
     p.add_argument("y", type=float)
     p.add_argument("alpha", type=float)
-    p.add_argument("--mode", nargs=3, metavar=("S1", "S2", "S3"), help="one working mode, e.g. + - +")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: three signs (+ - +) or one word (+-+)")
     common(p)
     p.set_defaults(func=cmd_ik)
 
@@ -632,7 +633,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("singularity-map", help="S over x-y at one orientation and working mode, S = 0 drawn "
                        "(paper figure 3)")
     figure_region(p, "map")
-    p.add_argument("--mode", nargs=3, metavar=("S1", "S2", "S3"), help="working mode, e.g. + - + (default + + +)")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="working mode: three signs (+ - +) or one word (+-+); "
+                   "default + + +")
     p.add_argument("--csv", metavar="FILE.csv", help="also write the grid: columns x, y, S (NaN out of reach)")
     common(p)
     p.set_defaults(func=cmd_singularity_map)
@@ -670,6 +672,21 @@ def _check_finite(parser: argparse.ArgumentParser, args) -> None:
         if any(isinstance(v, float) and not math.isfinite(v) for v in values):
             shown = " ".join(str(v) for v in values)
             raise InvalidParameterError(f"{names.get(dest, dest)} must be finite, got {shown}")
+
+
+def _check_mode(args) -> None:
+    """``--mode`` as three signs (``+ - +``, ``1 -1 1``) or one word (``+-+``), the spellings the Python API
+    takes; normalised to three ints."""
+    tokens = getattr(args, "mode", None)
+    if tokens is None:
+        return
+    from .kinematics import _mode_array
+
+    try:
+        args.mode = tuple(int(v) for v in _mode_array(tokens[0] if len(tokens) == 1 else tokens))
+    except InvalidParameterError:
+        raise InvalidParameterError(f"--mode must be three signs such as + - + (or one word such as +-+), got "
+                                    f"{' '.join(tokens)}") from None
 
 
 def _compile_notice(args) -> None:
@@ -727,6 +744,7 @@ def _run(argv: list[str] | None) -> int:
         warnings.showwarning = _note_printer(args)
         try:
             _check_finite(parser, args)
+            _check_mode(args)
             _compile_notice(args)
             result = args.func(args)
         except PkmlabError as exc:

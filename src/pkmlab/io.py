@@ -40,15 +40,27 @@ def _unknown_key(key: str, valid, where: str) -> FileFormatError:
 
 
 def read_text(path: Path) -> str:
-    """The UTF-8 text of a file; every failure is a one-line :class:`FileFormatError`."""
+    """The UTF-8 text of a file; every failure is a one-line :class:`FileFormatError`.
+
+    A UTF-8 byte-order mark (which some editors write) is skipped; a file in another encoding is
+    refused for that reason, with the line of the first byte that is not UTF-8.
+    """
     try:
-        return path.read_bytes().decode("utf-8")
+        data = path.read_bytes()
     except FileNotFoundError:
         raise FileFormatError(f"cannot read {path}: no such file") from None
     except IsADirectoryError:
         raise FileFormatError(f"cannot read {path}: it is a directory") from None
-    except (OSError, ValueError) as exc:  # ValueError: undecodable bytes, a NUL in the path
-        raise FileFormatError(f"cannot read {path}: {exc}") from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
+        raise FileFormatError(f"cannot read {path}: {exc.strerror if isinstance(exc, OSError) else exc}") from None
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise FileFormatError(f"cannot read {path}: it is UTF-16 text; save it as UTF-8")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise FileFormatError(f"cannot read {path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at line {line}); "
+                              "save it as UTF-8") from None
 
 
 def read_toml(path: str | Path) -> dict:
