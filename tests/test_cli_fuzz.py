@@ -169,3 +169,22 @@ def test_another_encoding_is_refused_for_that_reason(capsys, tmp_path, content, 
     message = assert_user_error(*run(capsys, "ik", 0.2, 0.21, 0, "--params", path))
     assert reason in message and "malformed" not in message
 
+
+
+# ------------------------------------------------------------------ two keys, one of them silently ignored
+def test_b_and_base_points_together_are_refused_everywhere(capsys, tmp_path):
+    path = tmp_path / "both.toml"
+    path.write_text("b = 0.6\nbase_points = [[0, 0], [0.52, 0], [0.26, 0.45]]\n")
+    message = assert_user_error(*run(capsys, "ik", 0.2, 0.21, 0, "--params", path))
+    assert "both.toml" in message and "not both" in message
+    with pytest.raises(pkmlab.InvalidParameterError, match="not both"):
+        pkmlab.Planar3RRR.from_params(b=0.6, base_points=[[0, 0], [0.52, 0], [0.26, 0.45]])
+
+
+def test_substeps_with_continuous_time_control_is_refused(capsys, tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text('[trajectory]\ntype = "circle"\ncenter = [0.25, 0.21]\nradius = 0.05\nspeed = 0.2\n'
+                    "[controller]\nsample_time = 0\n[simulation]\nsubsteps = 4\n")
+    out = tmp_path / "out"
+    message = assert_user_error(*run(capsys, "simulate", path, "--out", out))
+    assert "[simulation].substeps" in message and "sample_time" in message and not out.exists()

@@ -171,7 +171,7 @@ class Planar3RRR:
     def from_params(
         cls,
         *,
-        b: float = 0.52,
+        b: float | None = None,
         l=0.25,
         r=0.1667,
         a: float = 0.125,
@@ -185,12 +185,16 @@ class Planar3RRR:
     ) -> Planar3RRR:
         """Build a 3-RRR from the paper's parameter names (defaults: the ``paper`` preset).
 
-        ``b`` is the side of the equilateral base (``b1 = (0, 0)``, ``b2 = (b, 0)``,
-        ``b3 = (b/2, √3/2·b)``) unless ``base_points`` gives the three points explicitly.
-        ``l, r`` and the per-link masses/inertias accept one number or one per leg.
+        ``b`` (default 0.52) is the side of the equilateral base (``b1 = (0, 0)``, ``b2 = (b, 0)``,
+        ``b3 = (b/2, √3/2·b)``), or ``base_points`` gives the three points explicitly — not both,
+        since one would be ignored. ``l, r`` and the per-link masses/inertias accept one number
+        or one per leg.
         """
-        _check_number("b", b, positive=True)
+        if b is not None and base_points is not None:
+            raise InvalidParameterError("give either b (an equilateral base) or base_points, not both")
         if base_points is None:
+            b = 0.52 if b is None else b
+            _check_number("b", b, positive=True)
             base_points = [(0.0, 0.0), (b, 0.0), (b / 2, math.sqrt(3) / 2 * b)]
         return cls(
             base_points=base_points,

@@ -100,7 +100,10 @@ def manipulator_from_dict(table: dict, where: str = "[manipulator]") -> Planar3R
             raise _unknown_key(key, PARAM_KEYS, f"{where}.params")
         if not _is_numeric(value):
             raise InvalidParameterError(f"{where}.params.{key} must be a number or a list of numbers")
-    return Planar3RRR.from_params(**params)
+    try:
+        return Planar3RRR.from_params(**params)
+    except InvalidParameterError as exc:  # name the file (and table) the impossible values came from
+        raise InvalidParameterError(f"{where}: {exc}") from None
 
 
 def _manipulator_table(path: str | Path) -> tuple[dict, str]:
