@@ -91,6 +91,7 @@ def test_fuzz_the_command_line(data, playground, capsys, monkeypatch):
 
     monkeypatch.setattr(pkmlab.report, "run_cases", no_simulation)
     monkeypatch.setattr(pkmlab.simulation, "simulate", no_simulation)
+    monkeypatch.chdir(playground)  # default output folders (demo, out) land here
     argv = _argv(data.draw, playground)
     TRIED["argv"] += 1
     user_before = (playground / "user" / "thesis.txt").read_bytes()
@@ -111,6 +112,7 @@ def test_fuzz_the_command_line(data, playground, capsys, monkeypatch):
     assert (playground / "user" / "thesis.txt").read_bytes() == user_before
     assert sorted(p.name for p in (playground / "user").iterdir()) == ["thesis.txt"]
     assert not [p for p in playground.rglob(".*tmp*")], argv  # no temporary file left behind
+    assert not (playground / "out").exists()  # reproduce never ran: nothing written
 
 
 def test_zz_report_how_many_command_lines_were_tried():

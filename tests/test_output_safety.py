@@ -292,22 +292,36 @@ def _singular_configuration():
     return pose, pkmlab.inverse_kinematics(model, pose, mode=mode)
 
 
-def test_dynamics_at_a_singularity_is_refused(capsys):
-    pose, ik = _singular_configuration()
-    assert abs(float(ik.S)) < 1e-10
+def _near_singular(offset):
+    pose, _ik = _singular_configuration()
+    near = [pose[0], pose[1], pose[2] + offset]
+    return near, pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), near, mode=(-1, 1, -1))
+
+
+@pytest.mark.parametrize("offset", [0.0, -1e-10, -1e-8])
+def test_dynamics_at_a_singularity_is_refused(capsys, offset):
+    """At S = 0, and where S is so small that M_theta ~ 1/S^2 means nothing (it printed 1e13 with exit 0)."""
+    pose, ik = _near_singular(offset)
+    assert abs(float(ik.S)) < 1e-7
     message = assert_user_error(*run(capsys, "dynamics", *ik.theta, "--near", *pose))
     assert "singularity" in message
 
 
 def test_dynamics_near_a_singularity_warns(capsys):
-    pose, ik = _singular_configuration()
-    near = [pose[0], pose[1], pose[2] + 2e-3]
-    theta = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), near, mode=(-1, 1, -1)).theta
-    code, out, err = run(capsys, "dynamics", *theta, "--near", *near, "--json")
+    pose, ik = _near_singular(-1e-4)
+    code, out, err = run(capsys, "dynamics", *ik.theta, "--near", *pose, "--json")
     assert code == 0
     record = json.loads(out)
-    assert 1e-8 < abs(record["S"]) < 1e-2
+    assert abs(record["S"] - float(ik.S)) < 1e-9 and 1e-6 < abs(record["S"]) < 1e-2
     assert "near a gain-type singularity" in record["warning"] and "warning" in err
+
+
+def test_dynamics_says_when_no_assembly_mode_is_near_the_pose_asked_for(capsys):
+    theta = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), [0.2, 0.21, 0.0], mode=(-1, 1, -1)).theta
+    code, _out, err = run(capsys, "dynamics", *theta, "--near", 0.2, 0.21, 0.0)
+    assert code == 0 and err == ""
+    code, _out, err = run(capsys, "dynamics", *theta, "--near", 0.3, 0.21, 0.0)
+    assert code == 0 and "no assembly mode is within" in err and "(0.200000, 0.210000" in err
 
 
 def _strict(text: str):
@@ -395,3 +409,51 @@ def test_json_helper_never_writes_nan():
 
     value = {"a": [1.0, float("nan")], "b": {"c": float("inf")}, "d": np.float64(2.0).item()}
     assert json.dumps(_strict_json(value), allow_nan=False) == '{"a": [1.0, null], "b": {"c": null}, "d": 2.0}'
+
+
+def test_readme_promise_refused_before_anything_is_computed(capsys, tmp_path, monkeypatch):
+    """README: "Anything else is refused, with exit code 1, before anything is computed"."""
+    def must_not_run(*_args, **_kwargs):
+        raise AssertionError("simulated although the output folder is refused")
+
+    monkeypatch.setattr(pkmlab.simulation, "simulate", must_not_run)
+    monkeypatch.setattr(pkmlab.report, "simulate", must_not_run)
+    out = tmp_path / "mine"
+    before = user_folder(out)
+    for argv in (["simulate", EXAMPLES / "fast.toml"], ["reproduce"]):
+        assert_user_error(*run(capsys, *argv, "--out", out))
+    assert snapshot(out) == before
+
+
+# ------------------------------------------------------------------ every promise of the README has its test
+PROMISES = {
+    "a folder holding\nanything else is refused, never deleted":
+        "test_readme_promise_a_folder_holding_anything_else_is_refused_never_deleted",
+    "before anything is computed, and\nnothing is touched": "test_readme_promise_refused_before_anything_is_computed",
+    "a result in which you edited or added a file": "test_an_earlier_result_with_a_file_added_or_changed_is_refused",
+    "a result of another command": "test_results_of_another_command_are_not_replaced",
+    "a folder\nthat holds the run's own input file": "test_an_input_inside_the_output_folder_survives",
+    "a note on stderr says what\nwas replaced": "test_replacing_an_earlier_result_of_the_same_command_is_said",
+    "never a mix": "test_kill_9_mid_write_leaves_the_old_result_or_the_new_one",
+    "removed by the next run into `DIR`": "test_kill_9_mid_write_leaves_the_old_result_or_the_new_one",
+    "an error or Ctrl-C leaves nothing behind": "test_interrupt_during_the_simulation_leaves_nothing",
+    "JSON output is strict JSON": "test_json_output_is_strict_json_even_for_errors",
+    "`141` the reader of the\noutput went away": "test_a_closed_pipe_ends_quietly",
+    "`130` interrupted (Ctrl-C, start-up included)": "test_ctrl_c_during_start_up_is_no_traceback",
+    "`2` a\nmalformed command line": "test_malformed_command_line_exits_2",
+    "a number that is NaN or infinite": "test_every_non_finite_number_of_the_command_line_is_named",
+    "A mistake in the file is reported in one line that names the file and the key, and nothing is\nwritten":
+        "test_bad_scenario_is_refused_with_one_line_and_writes_nothing",
+    "at a gain-type singularity (`|S| < 1e-6`) it\n  refuses": "test_dynamics_at_a_singularity_is_refused",
+    "that these are not the paper's numbers": "test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so",
+    "said once on the terminal": "test_first_run_says_it_compiles",
+}
+
+
+def test_every_readme_promise_about_outputs_errors_and_exit_codes_has_a_test():
+    readme = " ".join((ROOT / "README.md").read_text().split())
+    tests = " ".join((ROOT / "tests" / name).read_text() for name in sorted(os.listdir(ROOT / "tests"))
+                     if name.startswith("test_") and name.endswith(".py"))
+    for promise, test in PROMISES.items():
+        assert " ".join(promise.split()) in readme, f"the README no longer says: {promise!r}"
+        assert f"def {test}(" in tests, f"no test {test} backs the README's {promise!r}"

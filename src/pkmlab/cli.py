@@ -153,9 +153,14 @@ def _accept_negative_numbers(parser: argparse.ArgumentParser) -> argparse.Argume
     return parser
 
 
-#: Below this |S| the actuator-space model is refused: Mθ grows as 1/S², and a change of θ in its
-#: 8th digit (more than the input's precision) changes it completely — its numbers mean nothing.
-SINGULAR_S = 1e-8
+#: Below this |S| the actuator-space model is refused. Near a singularity two assembly modes
+#: merge into a double root of the forward-kinematics polynomial, found only to about √ε ≈ 1e-8
+#: (measured: S = 2e-8 where inverse kinematics gives 9e-11); Mθ grows as 1/S², so below 1e-6 its
+#: numbers are off by more than 1 % — and a change of θ in the 7th digit changes them completely.
+SINGULAR_S = 1e-6
+#: ``--near`` farther than this (metres and radians, as ``nearest`` measures) from every assembly
+#: mode is said: the mode reported is not the one asked for.
+NEAR_TOLERANCE = 1e-3
 #: Below this |S| (the default run-time singularity guard) the model is reported with a warning.
 NEAR_SINGULAR_S = 1e-2
 
@@ -164,6 +169,7 @@ def _dynamics_record(model, sol_q, theta_dot) -> dict:
     import numpy as np
 
     from . import dynamics
+    from ._format import apart
     from .kinematics import coordinate_rates, platform_pose, singularity_measure
 
     x, y, alpha = platform_pose(model, sol_q).tolist()
@@ -192,12 +198,15 @@ def _dynamics_record(model, sol_q, theta_dot) -> dict:
         raise InvalidParameterError(f"{where}: the dynamic model overflows at --theta-dot "
                                     f"{' '.join(f'{w:g}' for w in theta_dot)} (beyond floating-point range)")
     if abs(s) < NEAR_SINGULAR_S:
-        record["warning"] = (f"near a gain-type singularity (S = {s:.3g}): M_theta and lambda grow as 1/S^2 "
-                             "and are very sensitive to theta")
+        shown, limit = apart(abs(s), NEAR_SINGULAR_S)
+        record["warning"] = (f"near a gain-type singularity (|S| = {shown} < {limit}): M_theta and lambda grow as "
+                             "1/S^2 and are very sensitive to theta")
     return record
 
 
 def cmd_dynamics(args) -> dict:
+    import math
+
     from .kinematics import forward_kinematics
 
     model = _model(args)
@@ -207,6 +216,14 @@ def cmd_dynamics(args) -> dict:
     if len(fk) == 0:
         raise AssemblyError(f"theta = {theta} cannot be assembled: forward kinematics has no real solution")
     chosen = [fk.nearest(args.near)] if args.near else list(fk)
+    if args.near:
+        gap = chosen[0].pose - args.near
+        gap[2] = math.remainder(gap[2], 2 * math.pi)
+        if math.hypot(*gap) > NEAR_TOLERANCE:
+            x, y, alpha = chosen[0].pose.tolist()
+            print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near "
+                  f"{' '.join(f'{v:g}' for v in args.near)}; the nearest, reported, is at pose ({x:.6f}, {y:.6f}, "
+                  f"{alpha:.6f})", file=sys.stderr)
     records = [_dynamics_record(model, sol.q, theta_dot) for sol in chosen]
     for rec in records:
         if "warning" in rec:
