@@ -147,7 +147,7 @@ time_law = "quintic"
 type = "pd"
 kp = 30.0
 kv = 1.5
-sample_time = 0.0
+sample_time = 0.002
 [simulation]
 working_mode = [-1, 1, -1]
 singularity_margin = 0.02
@@ -163,7 +163,7 @@ substeps = 3
     np.testing.assert_array_equal(s.trajectory.points, [[0.2, 0.2, 0.0], [0.25, 0.2, 0.1], [0.25, 0.25, 0.0]])
     assert s.trajectory.law == "quintic" and s.trajectory.speed == 0.1
     assert s.controller == ControllerSpec("pd", kp=30.0, kv=1.5)
-    assert s.sample_time == 0.0
+    assert s.sample_time == 0.002  # (substeps apply to sampled-data control only: not with sample_time = 0)
     assert (s.working_mode, s.singularity_margin, s.singularity_guard, s.substeps) == ((-1, 1, -1), 0.02, 0.005, 3)
     line = scenario_from_dict({"trajectory": {"type": "line", "start": [0.2, 0.2, 0], "end": [0.23, 0.24, 0.1],
                                               "speed": 0.05}}, "l.toml")

@@ -90,6 +90,7 @@ def cmd_demo(args) -> dict:
             print(text)
 
     model = _model(args)
+    _resolution(args.resolution)  # refused before anything is computed or printed
     out_dir = Path(args.out)
     with atomic_output_dir(out_dir, "demo", inputs=[args.params] if args.params else []) as tmp:
         mode = _demo(args, model, say, tmp)

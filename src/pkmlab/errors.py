@@ -16,6 +16,11 @@ class InvalidParameterError(PkmlabError, ValueError):
     """An architecture or option value that is impossible (non-finite, non-positive, ...)."""
 
 
+class UnstableControlError(InvalidParameterError):
+    """Controller gains and a sample time that make the sampled-data closed loop unstable: refused
+    before running (spectral-radius check), or a run whose tracking error diverged."""
+
+
 class UnreachablePoseError(PkmlabError, ValueError):
     """A platform pose that one or more legs cannot reach (inverse kinematics).
 
@@ -39,3 +44,12 @@ class BranchFollowingError(SingularityError):
 
 class AssemblyError(PkmlabError, ValueError):
     """Actuated angles for which the mechanism cannot be assembled (no forward solution)."""
+
+
+def shown(value, limit: int = 80) -> str:
+    """``repr(value)`` on one line, shortened: whatever a user passes, the message stays one line."""
+    try:
+        text = " ".join(repr(value).split())
+    except Exception:  # a repr that fails (an int of more than 4300 digits...)
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -21,6 +21,8 @@ Examples
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,7 +32,7 @@ from . import (
     _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
     closed_chain,
 )
-from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError
+from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError, shown
 from .geometry import WORKING_MODES, Planar3RRR
 from .mechanisms import rrr3
 
@@ -59,12 +61,20 @@ __all__ = [
 
 
 # ------------------------------------------------------------------ input handling
-def _batch(name: str, value, n: int) -> tuple[np.ndarray, tuple[int, ...]]:
-    """``value`` as a C-contiguous ``(N, n)`` float array, and its leading shape."""
+def _batch(name: str, value, n: int, *, single: bool = False) -> tuple[np.ndarray, tuple[int, ...]]:
+    """``value`` as a C-contiguous ``(N, n)`` float array, and its leading shape.
+
+    ``single=True`` accepts exactly one vector, shape ``(n,)`` (the leading shape is then ``()``).
+    """
+    complex_ = getattr(value, "dtype", None) is not None and np.dtype(value.dtype).kind == "c"
     try:
+        if complex_:  # NumPy would drop the imaginary part with a mere warning
+            raise TypeError
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(f"{name} must be numbers, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidParameterError(f"{name} must be real numbers, got {shown(value)}") from None
+    if single and arr.shape != (n,):
+        raise InvalidParameterError(f"{name} must be {n} numbers (shape ({n},)), got shape {arr.shape}")
     if arr.ndim == 0 or arr.shape[-1] != n:
         raise InvalidParameterError(f"{name} must have {n} components (shape (..., {n})), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -103,13 +113,59 @@ def _index_text(flat: int, shape: tuple[int, ...]) -> str:
     return "" if shape == () else f" at index {tuple(int(i) for i in np.unravel_index(flat, shape))}"
 
 
-def _mode_array(mode) -> np.ndarray:
+def _mode_array(mode, name: str = "mode") -> np.ndarray:
+    """A working mode as an int64 array of three signs, from ``"+-+"``, ``("+", "-", "+")``, ``(1, -1, 1)``..."""
     symbols = {"+": 1, "-": -1, "+1": 1, "-1": -1, "1": 1}
-    values = [symbols.get(m, m) if isinstance(m, str) else m for m in mode]
-    arr = np.asarray(values)
-    if arr.shape != (3,) or not np.all(np.isin(arr, (1, -1))):
-        raise InvalidParameterError(f"working mode must be three signs (+1 or -1), got {mode!r}")
+    try:
+        values = [symbols.get(m, m) if isinstance(m, str) else m for m in mode]
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        arr = None
+    if arr is None or arr.shape != (3,) or not np.all(np.isin(arr, (1, -1))):
+        raise InvalidParameterError(f"{name} must be three signs such as (1, -1, 1) or '+-+', got {shown(mode)}")
     return arr.astype(np.int64)
+
+
+def _model(model, name: str = "model") -> Planar3RRR:
+    """``model`` itself if it is a :class:`Planar3RRR`: anything else would fail deep inside, unnamed."""
+    if not isinstance(model, Planar3RRR):
+        raise InvalidParameterError(f"{name} must be a Planar3RRR (e.g. Planar3RRR.paper()), "
+                                    f"got {type(model).__name__} {shown(model, 50)}")
+    return model
+
+
+def _real(name: str, value, sign: str = "") -> float:
+    """A scalar option as a finite float, ``sign`` ``"positive"`` or ``"non-negative"`` when required.
+
+    Bools, strings and arrays are refused, not converted: ``True`` or ``"0.1"`` are slips, not numbers.
+    """
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    v = math.nan
+    if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
+        try:
+            v = float(value)
+        except OverflowError:  # an int beyond the float range
+            v = math.inf
+    if not math.isfinite(v) or (sign == "positive" and v <= 0) or (sign == "non-negative" and v < 0):
+        raise InvalidParameterError(f"{name} must be a {sign or 'finite'} number, got {shown(value)}")
+    return v
+
+
+def _count(name: str, value, low: int = 1, high: int | None = None) -> int:
+    """An integer option within ``[low, high]`` (bools refused)."""
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+    if not ok or value < low or (high is not None and value > high):
+        limits = f"at least {low}" if high is None else f"from {low} to {high}"
+        raise InvalidParameterError(f"{name} must be an integer {limits}, got {shown(value)}")
+    return int(value)
+
+
+def _choice(name: str, value, choices: tuple[str, ...]) -> str:
+    """A string option among ``choices`` (an array or a dict is refused, not compared elementwise)."""
+    if not isinstance(value, str) or value not in choices:
+        raise InvalidParameterError(f"{name} must be {' or '.join(map(repr, choices))}, got {shown(value)}")
+    return value
 
 
 # ------------------------------------------------------------------ compiled batch drivers
@@ -225,13 +281,12 @@ def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: st
     -------
     InverseKinematicsSolution
     """
-    if on_unreachable not in ("raise", "nan"):
-        raise InvalidParameterError(f"on_unreachable must be 'raise' or 'nan', got {on_unreachable!r}")
+    _choice("on_unreachable", on_unreachable, ("raise", "nan"))
     poses, shape = _batch("pose", pose, 3)
     modes = WORKING_MODES if mode is None else _mode_array(mode)[None, :]
     q = np.empty((poses.shape[0], modes.shape[0], 7))
     unreachable = np.zeros((poses.shape[0], modes.shape[0]), dtype=np.int64)
-    _inverse_kinematics_batch(poses, modes, model.packed, q, unreachable)
+    _inverse_kinematics_batch(poses, modes, _model(model).packed, q, unreachable)
     bad = np.flatnonzero(unreachable.any(axis=1))
     if bad.size and on_unreachable == "raise":
         k = int(bad[0])
@@ -250,6 +305,8 @@ def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: st
 
 
 def _unreachable_error(model, pose, mask, flat, shape) -> UnreachablePoseError:
+    from ._format import apart
+
     legs = tuple(i + 1 for i in range(3) if mask & (1 << i))
     x, y, alpha = pose
     c, s = np.cos(alpha), np.sin(alpha)
@@ -262,7 +319,13 @@ def _unreachable_error(model, pose, mask, flat, shape) -> UnreachablePoseError:
         rho = float(np.hypot(*(p - model.base_points[i])))
         lo = abs(model.active_lengths[i] - model.passive_lengths[i])
         hi = model.active_lengths[i] + model.passive_lengths[i]
-        details.append(f"leg {leg}: |p{leg} - b{leg}| = {rho:.4g} m, reach {lo:.4g}..{hi:.4g} m")
+        # enough digits that a distance just beyond the reach never shows as equal to it
+        rho_text, hi_text = apart(rho, hi, 4, 4)
+        if rho <= hi:
+            rho_text, lo_text = apart(rho, lo, 4, 4)
+        else:
+            lo_text = f"{lo:.4g}"
+        details.append(f"leg {leg}: |p{leg} - b{leg}| = {rho_text} m, reach {lo_text}..{hi_text} m")
     which = f"leg {legs[0]}" if len(legs) == 1 else "legs " + ", ".join(map(str, legs[:-1])) + f" and {legs[-1]}"
     return UnreachablePoseError(
         f"pose (x={x:.6g}, y={y:.6g}, alpha={alpha:.6g}){_index_text(flat, shape)} is out of reach of "
@@ -275,7 +338,7 @@ def _unreachable_error(model, pose, mask, flat, shape) -> UnreachablePoseError:
 def working_mode_of(model: Planar3RRR, q) -> np.ndarray:
     """Working mode ``σ`` (..., 3) of configurations ``q``: the sign of ``(p_i - b_i) × (e_i - b_i)``."""
     qs, shape = _batch("q", q, 7)
-    b = model.base_points
+    b = _model(model).base_points
     e = b + model.active_lengths[:, None] * np.stack([np.cos(qs[:, :3]), np.sin(qs[:, :3])], axis=-1)
     p = e + model.passive_lengths[:, None] * np.stack([np.cos(qs[:, 3:6]), np.sin(qs[:, 3:6])], axis=-1)
     u, v = p - b, e - b
@@ -332,7 +395,7 @@ class ForwardKinematicsSolution:
         n = len(self)
         if n == 0:
             raise IndexError("no assembly mode")
-        target = np.asarray(pose, dtype=float)
+        target = _batch("pose", pose, 3, single=True)[0][0]
         d = self.pose[:n] - target
         d[:, 2] = np.angle(np.exp(1j * d[:, 2]))
         return self[int(np.argmin(np.linalg.norm(d, axis=1)))]
@@ -351,7 +414,7 @@ def forward_kinematics(model: Planar3RRR, theta) -> ForwardKinematicsSolution:
     s = np.full((n, 6), np.nan)
     count = np.zeros(n, dtype=np.int64)
     status = np.zeros(n, dtype=np.int64)
-    _forward_kinematics_batch(thetas, model.packed, q, s, count, status)
+    _forward_kinematics_batch(thetas, _model(model).packed, q, s, count, status)
     if np.any(status == rrr3.DEGENERATE):
         k = int(np.flatnonzero(status == rrr3.DEGENERATE)[0])
         raise SingularityError(
@@ -384,14 +447,18 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
     q_prev, thetas, shape = _pair("q_previous", q_previous, 7, "theta", theta, 3)
     q_out = np.empty_like(q_prev)
     status = np.zeros(q_prev.shape[0], dtype=np.int64)
-    _branch_following_batch(q_prev, thetas, model.packed, float(min_abs_S), q_out, status)
+    _branch_following_batch(q_prev, thetas, _model(model).packed, _real("min_abs_S", min_abs_S, "non-negative"), q_out,
+                            status)
     if np.any(status != rrr3.OK):
         k = int(np.flatnonzero(status != rrr3.OK)[0])
         s_prev = float(singularity_measure(model, q_prev[k]))
+        from ._format import apart
+
+        s_text, limit_text = apart(abs(s_prev), min_abs_S)  # |S| = 0.009996 is never shown as the limit 0.01
         raise BranchFollowingError(
-            f"cannot follow the assembly mode from theta = {np.round(q_prev[k, :3], 6).tolist()} "
+            f"cannot follow the assembly mode from q_previous (theta = {np.round(q_prev[k, :3], 6).tolist()}) "
             f"to {np.round(thetas[k], 6).tolist()}{_index_text(k, shape)}: a gain-type singularity "
-            f"(S = {s_prev:.3g} at the start, |S| limit {min_abs_S:g})"
+            f"(S = {'-' if s_prev < 0 else ''}{s_text} at the start, limit min_abs_S = {limit_text})"
         )
     return q_out.reshape(*shape, 7)
 
@@ -406,15 +473,15 @@ def _first_order(model, q):
     j_q_theta = np.empty((n, 7, 3))
     det = np.empty(n)
     ok = np.zeros(n, dtype=np.bool_)
-    _first_order_batch(qs, model.packed, residual, j_eta_q, j_pose_q, j_q_theta, det, ok)
+    _first_order_batch(qs, _model(model).packed, residual, j_eta_q, j_pose_q, j_q_theta, det, ok)
     return shape, residual, j_eta_q, j_pose_q, j_q_theta, det, ok
 
 
-def _require_regular(ok, shape, what):
+def _require_regular(ok, shape, what, name: str = "q"):
     if not np.all(ok):
         k = int(np.flatnonzero(~ok)[0])
         raise SingularityError(
-            f"{what} is undefined{_index_text(k, shape)}: det(J_eta_phi) = 0 (gain-type singularity)"
+            f"{what} is undefined{_index_text(k, shape)}: {name} is at a gain-type singularity, det(J_eta_phi) = 0"
         )
 
 
@@ -422,7 +489,7 @@ def platform_pose(model: Planar3RRR, q) -> np.ndarray:
     """Platform pose ``(x, y, α)`` (..., 3) of configurations ``q`` (eq. 13, centroid position)."""
     qs, shape = _batch("q", q, 7)
     out = np.empty((qs.shape[0], 3))
-    _pose_batch(qs, model.packed, out)
+    _pose_batch(qs, _model(model).packed, out)
     return out.reshape(*shape, 3)
 
 
@@ -471,7 +538,7 @@ def _second_order(model, q, theta_dot):
     bias = np.empty((n, 7))
     pose_bias = np.empty((n, 3))
     ok = np.zeros(n, dtype=np.bool_)
-    _second_order_batch(qs, tds, model.packed, q_dot, bias, pose_bias, ok)
+    _second_order_batch(qs, tds, _model(model).packed, q_dot, bias, pose_bias, ok)
     _require_regular(ok, shape, "the passive rates")
     return shape, q_dot, bias, pose_bias
 
@@ -495,16 +562,18 @@ def acceleration_bias(model: Planar3RRR, q, theta_dot) -> np.ndarray:
 
 def coordinate_accelerations(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
     """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., 7), eq. (32)."""
-    bias = acceleration_bias(model, q, theta_dot)
-    j_q_theta = actuated_jacobian(model, q)
-    return bias + np.einsum("...ij,...j->...i", j_q_theta, np.asarray(theta_ddot, dtype=float))
+    qs, tds, tdds, shape = _broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("theta_ddot", theta_ddot, 3))
+    qs, tds, tdds = qs.reshape(*shape, 7), tds.reshape(*shape, 3), tdds.reshape(*shape, 3)
+    bias = acceleration_bias(model, qs, tds)
+    j_q_theta = actuated_jacobian(model, qs)
+    return bias + np.einsum("...ij,...j->...i", j_q_theta, tdds)
 
 
 def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
     """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity."""
     qs, shape = _batch("q", q, 7)
     det = np.empty(qs.shape[0])
-    _determinant_batch(qs, model.packed, det)
+    _determinant_batch(qs, _model(model).packed, det)
     return det.reshape(shape)
 
 

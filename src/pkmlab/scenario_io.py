@@ -50,9 +50,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ._format import apart
 from .control import CONTROLLER_TYPES, ControllerSpec
 from .errors import InvalidParameterError, PkmlabError
 from .io import PARAM_KEYS, PRESETS, FileFormatError, manipulator_from_dict, read_toml
+from .kinematics import _mode_array
 from .simulation import Scenario, scaled_model
 from .trajectory import Circle, Line, Trajectory, WaypointTrajectory
 
@@ -218,10 +220,7 @@ def _manipulator(rd: _Reader, table: dict):
                 rd.vector(point, f"{where}[{i}]", 2, "[x, y]")
     if "b" in params and "base_points" in params:
         raise rd.format_error("[manipulator.params] has both b and base_points: give one of them")
-    try:
-        return manipulator_from_dict({"preset": preset, "params": params}, f"{rd.source}: [manipulator]")
-    except InvalidParameterError as exc:
-        raise rd.value_error(f"[manipulator.params]: {exc}") from None
+    return manipulator_from_dict({"preset": preset, "params": params}, f"{rd.source}: [manipulator.params]")
 
 
 def _plant(rd: _Reader, table: dict, model):
@@ -299,13 +298,15 @@ def _simulation(rd: _Reader, table: dict) -> dict:
     rd.known_keys(table, name, TABLES[name])
     out = {}
     mode = table.get("working_mode", "auto")
-    if mode != "auto":
-        ok = (isinstance(mode, list) and len(mode) == 3
-              and all(isinstance(m, int) and not isinstance(m, bool) and m in (1, -1) for m in mode))
-        if not ok:
+    if mode != "auto":  # the spellings inverse_kinematics(mode=...) and --mode take: [1, -1, 1], "+-+", ...
+        ok = isinstance(mode, str) or (isinstance(mode, list) and not any(isinstance(m, bool) for m in mode))
+        try:
+            mode = tuple(int(v) for v in _mode_array(mode)) if ok else None
+        except InvalidParameterError:
+            mode = None
+        if mode is None:
             raise rd.value_error(f"{rd.where(name, 'working_mode')} must be \"auto\" or three signs such as "
-                                 f"[1, -1, 1], got {show(mode)}")
-        mode = tuple(mode)
+                                 f"[1, -1, 1] or \"+-+\", got {show(table['working_mode'])}")
     out["working_mode"] = mode
     out["singularity_margin"] = rd.number(table, name, "singularity_margin", 0.05, "non-negative")
     out["singularity_guard"] = rd.number(table, name, "singularity_guard", 0.01, "non-negative")
@@ -352,14 +353,20 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
     trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True))
     controller, sample_time = _controller(rd, rd.table(data, "controller"))
     options = _simulation(rd, rd.table(data, "simulation"))
+    if sample_time == 0 and "substeps" in rd.table(data, "simulation"):  # it would be silently ignored
+        raise rd.format_error("[simulation].substeps applies to sampled-data control only, but "
+                              "[controller].sample_time = 0 selects continuous-time control: remove one of them")
     step = sample_time or 1e-3
     samples = trajectory.duration / step
+    # enough digits that a value just past its limit is never shown equal to it (0.0009996 s is not "0.001 s")
     if samples < 1:
-        raise rd.value_error(f"[trajectory]: the motion would last {trajectory.duration:.3g} s, less than one "
-                             f"sample ({step:g} s): lengthen the path or lower [trajectory].speed")
+        duration, one = apart(trajectory.duration, step)
+        raise rd.value_error(f"[trajectory]: the motion would last {duration} s, less than one "
+                             f"sample ({one} s): lengthen the path or lower [trajectory].speed")
     if samples > MAX_SAMPLES:
-        raise rd.value_error(f"the run would take {samples:.3g} samples ({trajectory.duration:.4g} s at "
-                             f"{step:g} s per sample; at most {MAX_SAMPLES:.0e}): "
+        count, most = apart(samples, MAX_SAMPLES)
+        raise rd.value_error(f"the run would take {count} samples ({trajectory.duration:.4g} s at "
+                             f"{step:g} s per sample; at most {most}): "
                              f"raise [trajectory].speed or [controller].sample_time")
     if name is None:
         name = Path(str(source)).stem or "scenario"

@@ -32,16 +32,38 @@ from numba import njit, prange
 from scipy.integrate import solve_ivp
 
 from ._compile_cache import NO_REFCOUNT
-from .control import CONTROLLER_TYPES, ControllerSpec, control_torque
+from ._format import apart
+from .control import (
+    CONTROLLER_TYPES,
+    PD,
+    STABILITY_TOLERANCE,
+    ControllerSpec,
+    control_torque,
+    largest_stable_kp,
+    largest_stable_sample_time,
+    sampled_data_spectral_radius,
+)
 from .errors import (
     BranchFollowingError,
     InvalidParameterError,
     PkmlabError,
     SingularityError,
     UnreachablePoseError,
+    UnstableControlError,
+    shown,
 )
 from .geometry import WORKING_MODES, Planar3RRR
-from .kinematics import forward_kinematics, inverse_kinematics, platform_pose, singularity_measure
+from .kinematics import (
+    _choice,
+    _count,
+    _mode_array,
+    _model,
+    _real,
+    forward_kinematics,
+    inverse_kinematics,
+    platform_pose,
+    singularity_measure,
+)
 from .mechanisms import rrr3
 from .outputs import atomic_file
 from .trajectory import desired_joint_motion, paper_trajectory
@@ -49,6 +71,8 @@ from .trajectory import desired_joint_motion, paper_trajectory
 #: Columns of the per-sample time series (SPEC §8).
 COLUMNS = ("t", "theta1", "theta2", "theta3", "theta1_d", "theta2_d", "theta3_d", "tau1", "tau2", "tau3",
            "x", "y", "alpha", "x_d", "y_d", "alpha_d", "S")
+#: A scenario of more samples than this is refused (memory: ~200 bytes per sample).
+MAX_SAMPLES = 10_000_000
 
 
 @dataclass(frozen=True)
@@ -68,7 +92,9 @@ class Scenario:
     sample_time : float
         ``Ts`` in seconds; ``0`` selects continuous-time control.
     working_mode : "auto" or 3 signs
-        ``"auto"`` picks the mode maximising ``min |S|`` along the path (SPEC §3).
+        ``"auto"`` picks the mode maximising ``min |S|`` along the path (SPEC §3). Three signs are
+        spelt as for :func:`~pkmlab.kinematics.inverse_kinematics` (``"+-+"``, ``(1, -1, 1)``...)
+        and stored as a tuple of ints.
     singularity_margin : float
         Paths with ``min |S|`` below this in every admissible mode are refused before simulating.
     singularity_guard : float
@@ -90,21 +116,47 @@ class Scenario:
     name: str = "scenario"
 
     def __post_init__(self):
-        ts = self.sample_time
-        if not isinstance(ts, (int, float)) or not math.isfinite(ts) or ts < 0:
-            raise InvalidParameterError(f"sample_time must be a non-negative number of seconds, got {ts!r}")
-        if not isinstance(self.substeps, int) or self.substeps < 1:
-            raise InvalidParameterError(f"substeps must be a positive integer, got {self.substeps!r}")
+        set_ = object.__setattr__  # a frozen dataclass: the normalised values are stored so
+        _model(self.model, "model")
+        if self.plant is not None:
+            _model(self.plant, "plant")
+        if not callable(getattr(self.trajectory, "desired", None)):
+            raise InvalidParameterError(
+                "trajectory must be a Trajectory or WaypointTrajectory (an object with desired(t) and duration), "
+                f"got {type(self.trajectory).__name__} {shown(self.trajectory, 50)}"
+            )
+        duration = _real("trajectory duration", getattr(self.trajectory, "duration", None), "positive")
+        if not isinstance(self.controller, ControllerSpec):
+            raise InvalidParameterError(f"controller must be a ControllerSpec, got {type(self.controller).__name__} "
+                                        f"{shown(self.controller, 50)}")
+        set_(self, "sample_time", _real("sample_time", self.sample_time, "non-negative"))
+        set_(self, "substeps", _count("substeps", self.substeps))
         for name in ("singularity_margin", "singularity_guard"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise InvalidParameterError(f"{name} must be a non-negative number, got {v!r}")
+            set_(self, name, _real(name, getattr(self, name), "non-negative"))
+        if not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
+            try:
+                mode = tuple(int(v) for v in _mode_array(self.working_mode, "working_mode"))
+            except InvalidParameterError:
+                raise InvalidParameterError(f'working_mode must be "auto" or three signs such as (1, -1, 1) or '
+                                            f'"+-+", got {shown(self.working_mode)}') from None
+            set_(self, "working_mode", mode)
+        if not isinstance(self.name, str):
+            raise InvalidParameterError(f"name must be a string, got {shown(self.name)}")
+        samples = duration / (self.sample_time or 1e-3)
+        if samples > MAX_SAMPLES:
+            raise InvalidParameterError(f"sample_time = {self.sample_time:g} s gives {samples:.3g} samples over the "
+                                        f"trajectory's {duration:.4g} s, more than {MAX_SAMPLES:.0e}")
 
     @property
     def plant_model(self) -> Planar3RRR:
         return self.model if self.plant is None else self.plant
 
     def replace(self, **changes) -> Scenario:
+        """A copy with some fields changed (validated again)."""
+        for name in changes:
+            if name not in self.__dataclass_fields__:
+                raise InvalidParameterError(f"{name} is not a field of Scenario "
+                                            f"(fields: {', '.join(self.__dataclass_fields__)})")
         return replace(self, **changes)
 
 
@@ -133,23 +185,31 @@ def perturbed_model(model: Planar3RRR, rng: np.random.Generator, spread: float =
     """A machine whose every mass, inertia and link length (``l_i``, ``r_i``, ``a``) is multiplied by
     its own factor drawn uniformly from ``[1 - spread, 1 + spread]`` — one draw of an uncertainty
     study. The base points are unchanged. Raises if the draw cannot be assembled."""
+    _model(model)
+    if not isinstance(rng, (np.random.Generator, np.random.RandomState)):
+        raise InvalidParameterError(f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), "
+                                    f"got {type(rng).__name__} {shown(rng, 50)}")
+    spread = _real("spread", spread)
     if not 0.0 <= spread < 1.0:
         raise InvalidParameterError(f"spread must be in [0, 1), got {spread!r}")
 
     def factor(size=None):
         return rng.uniform(1.0 - spread, 1.0 + spread, size)
 
-    return model.replace(
-        active_lengths=model.active_lengths * factor(3),
-        passive_lengths=model.passive_lengths * factor(3),
-        platform_side=float(model.platform_side * factor()),
-        active_masses=model.active_masses * factor(3),
-        passive_masses=model.passive_masses * factor(3),
-        platform_mass=float(model.platform_mass * factor()),
-        active_inertias=model.active_inertias * factor(3),
-        passive_inertias=model.passive_inertias * factor(3),
-        platform_inertia=float(model.platform_inertia * factor()),
-    )
+    try:
+        return model.replace(
+            active_lengths=model.active_lengths * factor(3),
+            passive_lengths=model.passive_lengths * factor(3),
+            platform_side=float(model.platform_side * factor()),
+            active_masses=model.active_masses * factor(3),
+            passive_masses=model.passive_masses * factor(3),
+            platform_mass=float(model.platform_mass * factor()),
+            active_inertias=model.active_inertias * factor(3),
+            passive_inertias=model.passive_inertias * factor(3),
+            platform_inertia=float(model.platform_inertia * factor()),
+        )
+    except InvalidParameterError as exc:
+        raise InvalidParameterError(f"the machine drawn with spread = {spread:g} is impossible: {exc}") from None
 
 
 def paper_scenario(name: str = "nominal") -> Scenario:
@@ -163,15 +223,15 @@ def paper_scenario(name: str = "nominal") -> Scenario:
     * ``fast``: 0.4 m/s, plant = model;
     * ``disturbed_dynamics``: masses and inertias ×1.15, lengths unchanged (a variant).
     """
-    if name in PAPER_CASES:
+    if isinstance(name, str) and name in PAPER_CASES:
         from .scenario_io import load_scenario
 
         return load_scenario(SCENARIO_DIR / f"{name}.toml")
     model = Planar3RRR.paper()
-    if name == "disturbed_dynamics":
+    if isinstance(name, str) and name == "disturbed_dynamics":
         return Scenario(model, paper_trajectory(0.2), plant=scaled_model(model, 1.15, 1.0), name=name)
     raise InvalidParameterError(
-        f"unknown paper scenario {name!r}: choose one of nominal, disturbed, fast, disturbed_dynamics"
+        f"unknown paper scenario name {shown(name)}: choose one of nominal, disturbed, fast, disturbed_dynamics"
     )
 
 
@@ -213,9 +273,10 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, i
     best = int(np.argmax(min_s))
     if min_s[best] < scenario.singularity_margin:
         k = int(np.nanargmin(np.abs(s_all[:, best])))
+        closest, margin = apart(min_s[best], scenario.singularity_margin)
         raise SingularityError(
-            f"the path comes within {min_s[best]:.3g} of a gain-type singularity (margin "
-            f"{scenario.singularity_margin:g}) in every admissible working mode; closest at t = {t[k]:.4f} s, "
+            f"the path comes within {closest} of a gain-type singularity (margin "
+            f"{margin}) in every admissible working mode; closest at t = {t[k]:.4f} s, "
             f"pose ({pose[k, 0]:.4f}, {pose[k, 1]:.4f}, {pose[k, 2]:.4f})"
         )
     chosen = modes[best] if scenario.working_mode == "auto" else modes[0]
@@ -481,8 +542,133 @@ def _prepare(scenario: Scenario, desired_cache: dict | None = None) -> _Prepared
     q_ctrl0 = desired.q[0].copy()
     q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
     spec = scenario.controller
-    return _Prepared(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
+    prep = _Prepared(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
                      float(spec.velocity_gain), float(scenario.singularity_guard))
+    if scenario.sample_time > 0:
+        _check_sampled_data_stability(scenario, prep)
+    return prep
+
+
+# ------------------------------------------------------------------ sampled-data stability
+#: The pre-flight stability check evaluates the mass matrices at every this-many samples of the path
+#: (6 mm apart at 0.4 m/s and 1 ms; they vary on the scale of the links, away from singularities).
+STABILITY_STRIDE = 16
+
+
+def _modal_gains(scenario: Scenario, kind: int, q_ctrl: np.ndarray, q_plant: np.ndarray) -> np.ndarray:
+    """The gains ``μ`` (n, 3) of the loop's modal directions (:func:`~pkmlab.control.sampled_data_spectral_radius`)
+    with the controller's model at ``q_ctrl`` (n, 7) and the plant at ``q_plant`` (n, 7): the eigenvalues of
+    ``Mθ_plant⁻¹ M̂θ`` for computed torque, of ``Mθ_plant⁻¹`` for the PD law."""
+    from .dynamics import actuator_space_model
+
+    plant = scenario.plant_model
+    if kind != PD and (plant is scenario.model or plant == scenario.model):
+        return np.ones((q_ctrl.shape[0], 3))  # the model is exact: M̂θ = Mθ
+    m_plant, _c = actuator_space_model(plant, q_plant, np.zeros(3))
+    if kind == PD:
+        return 1.0 / np.linalg.eigvalsh(m_plant)
+    m_ctrl, _c = actuator_space_model(scenario.model, q_ctrl, np.zeros(3))
+    # Mθ_plant⁻¹ M̂θ is similar to L⁻¹ M̂θ L⁻ᵀ (Mθ_plant = L Lᵀ): symmetric, real positive eigenvalues
+    inv_l = np.linalg.inv(np.linalg.cholesky(m_plant))
+    return np.linalg.eigvalsh(inv_l @ m_ctrl @ np.swapaxes(inv_l, -1, -2))
+
+
+def _round_down(x: float, digits: int = 3) -> str:
+    """``x`` shown with ``digits`` significant digits, rounded down (a limit the user can safely use)."""
+    unit = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return f"{math.floor(x * (1.0 + 1e-9) / unit) * unit:.{digits}g}"
+
+
+def _stability_advice(scenario: Scenario, prep: _Prepared, mu: np.ndarray) -> str:
+    """What would be stable instead: the largest sample time for these gains, the largest ``kp`` at this ``Ts``."""
+    ts = scenario.sample_time
+    options = []
+    ts_max = largest_stable_sample_time(prep.kp, prep.kv, mu)
+    if ts_max is not None and math.isfinite(ts_max):
+        options.append(f"Ts <= {_round_down(ts_max * 1e3)} ms with these gains")
+    kp_max = largest_stable_kp(ts, mu)
+    if kp_max is not None and math.isfinite(kp_max):
+        options.append(f"kp <= {_round_down(kp_max)} with kv = 2*sqrt(kp) at this Ts")
+    stable = f" (stable: {', or '.join(options)})" if options else ""
+    if prep.kv <= 0 < prep.kp:  # no sample time makes a loop without damping stable
+        return f"; add damping, kv > kp*Ts/2{stable}"
+    return f"; lower the gains or the sample time{stable}"
+
+
+def _check_sampled_data_stability(scenario: Scenario, prep: _Prepared) -> None:
+    """Refuse, before running, gains and a sample time whose sampled-data loop is unstable along the path.
+
+    The spectral radius of :func:`~pkmlab.control.sampled_data_spectral_radius` is evaluated at every
+    :data:`STABILITY_STRIDE`-th sample with the modal gains of :func:`_modal_gains`; above 1 (beyond
+    round-off) the joint error would grow by that factor every sample, and an
+    :class:`~pkmlab.errors.UnstableControlError` says so.
+    """
+    n = prep.t.size
+    idx = np.unique(np.append(np.arange(0, n, STABILITY_STRIDE), n - 1))
+    desired = prep.desired
+    q_ctrl, q_plant, k = desired.q[idx], desired.q[idx], idx
+    if scenario.plant_model is not scenario.model and scenario.plant_model != scenario.model:
+        # The plant's configurations are known only once it has run. A tracking plant's platform
+        # follows the desired poses, so the plant's own inverse kinematics of those poses, in the run's
+        # working mode, puts it on its own constraint manifold next to where it will be (the mass matrix
+        # is smooth: μ is off by the order of the tracking error); its start, q_plant0, is exact. Poses it
+        # cannot reach, or only within the singularity guard, are skipped: the run-time guard stops a run
+        # there, and near S = 0 the plant's Mθ grows without bound (μ → 0: sluggish, not unstable).
+        ik = inverse_kinematics(scenario.plant_model, desired.pose[idx], mode=prep.mode, on_unreachable="nan")
+        ok = np.abs(np.nan_to_num(ik.S)) >= max(prep.guard, 1e-6)
+        q_plant = np.vstack([prep.q_plant0, ik.q[ok]])
+        q_ctrl, k = np.vstack([prep.q_ctrl0, desired.q[idx][ok]]), np.append(0, idx[ok])
+    mu = _modal_gains(scenario, prep.kind, q_ctrl, q_plant)
+    rho = sampled_data_spectral_radius(prep.kp, prep.kv, scenario.sample_time, mu).max(axis=-1)
+    worst = int(np.argmax(rho))
+    if rho[worst] <= 1.0 + STABILITY_TOLERANCE:
+        return
+    law = "PD" if prep.kind == PD else "computed torque"
+    radius, _one = apart(rho[worst], 1.0)
+    raise UnstableControlError(
+        f"the sampled-data loop is unstable: {law} with kp = {prep.kp:g}, kv = {prep.kv:g} at "
+        f"Ts = {scenario.sample_time * 1e3:g} ms has spectral radius {radius} > 1 (the joint error would grow "
+        f"that much per sample; worst at t = {prep.t[k[worst]]:.4f} s)" + _stability_advice(scenario, prep, mu)
+    )
+
+
+def _divergence(scenario: Scenario, prep: _Prepared, q: np.ndarray, k_fail: int) -> str | None:
+    """Why a run that stopped at sample ``k_fail`` diverged, or ``None`` if it did not.
+
+    It diverged when the loop is unstable at its last configuration (the plant where it was recorded,
+    the controller's model on the desired path), or when its joint error grew a hundredfold or more
+    over its last samples to beyond 0.01 rad — a plant meeting a singularity while tracking does not.
+    """
+    if k_fail < 1:
+        return None
+    e = np.abs(np.angle(np.exp(1j * (q[:k_fail + 1, :3] - prep.desired.theta[:k_fail + 1])))).max(axis=1)
+    window = max(1, min(50, k_fail // 2))
+    before = float(e[max(0, k_fail - 2 * window):k_fail - window + 1].max())
+    growth = (f"the joint error grew from {before:.2g} to {e[k_fail]:.2g} rad in {window} "
+              f"sample{'s' if window > 1 else ''}")
+    try:
+        mu = _modal_gains(scenario, prep.kind, prep.desired.q[k_fail:k_fail + 1], q[k_fail:k_fail + 1])
+        rho = float(sampled_data_spectral_radius(prep.kp, prep.kv, scenario.sample_time, mu).max())
+    except (PkmlabError, np.linalg.LinAlgError):  # the plant at a singularity: no model there
+        rho = 0.0
+    if rho > 1.0 + STABILITY_TOLERANCE:
+        radius, _one = apart(rho, 1.0)
+        return (f"the run diverged ({growth}): the sampled-data loop is unstable there (spectral radius {radius} "
+                f"> 1 with kp = {prep.kp:g}, kv = {prep.kv:g}, Ts = {scenario.sample_time * 1e3:g} ms)"
+                + _stability_advice(scenario, prep, mu))
+    if e[k_fail] >= 0.01 and e[k_fail] >= 100.0 * before:
+        return (f"the run diverged ({growth}): the controller with kp = {prep.kp:g}, kv = {prep.kv:g} at "
+                f"Ts = {scenario.sample_time * 1e3:g} ms does not hold this plant; lower the gains or the sample time")
+    return None
+
+
+def _loop_error(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int,
+                prefix: str = "") -> PkmlabError:
+    """The error of a run stopped in the compiled loop: diverged (unstable) or near a singularity."""
+    diverged = _divergence(scenario, prep, q, k_fail)
+    if diverged is not None:
+        return UnstableControlError(f"{prefix}run stopped at t = {prep.t[k_fail]:.4f} s: {diverged}")
+    return BranchFollowingError(prefix + _loop_failure(scenario, prep, status, q, k_fail))
 
 
 def _loop_failure(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int) -> str:
@@ -509,6 +695,10 @@ def simulate(scenario: Scenario) -> SimulationResult:
     >>> result.summary()["working_mode"]
     [-1, 1, -1]
     """
+    if not isinstance(scenario, Scenario):
+        hint = f" (a paper case: simulate(paper_scenario({scenario!r})))" if isinstance(scenario, str) else ""
+        raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__} "
+                                    f"{shown(scenario, 50)}{hint}")
     prep = _prepare(scenario)
     n = prep.t.size
     if scenario.sample_time > 0:
@@ -520,7 +710,7 @@ def simulate(scenario: Scenario) -> SimulationResult:
                                             scenario.model.packed, prep.kind, prep.kp, prep.kv, prep.guard,
                                             q, theta_dot, tau, pose, s)
         if status != rrr3.OK:
-            raise BranchFollowingError(_loop_failure(scenario, prep, status, q, k_fail))
+            raise _loop_error(scenario, prep, status, q, k_fail)
         return _result(scenario, prep, q, theta_dot, tau, pose, s)
     q, theta_dot, tau = _continuous_time(scenario, prep.mode, prep.t, prep.q_plant0, prep.q_ctrl0, prep.kind,
                                          prep.kp, prep.kv, prep.guard)
@@ -549,8 +739,10 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     >>> len(runs)
     2
     """
-    if on_error not in ("raise", "none", "return"):
-        raise InvalidParameterError(f'on_error must be "raise", "none" or "return", got {on_error!r}')
+    _choice("on_error", on_error, ("raise", "none", "return"))
+    if isinstance(scenarios, (Scenario, str, bytes)) or not hasattr(scenarios, "__iter__"):
+        raise InvalidParameterError(f"scenarios must be a list of Scenario objects, got {type(scenarios).__name__} "
+                                    f"{shown(scenarios, 50)}")
     scenarios = list(scenarios)
     if not scenarios:
         return []
@@ -559,7 +751,7 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     errors: dict[int, PkmlabError] = {}
     for i, sc in enumerate(scenarios):
         if not isinstance(sc, Scenario):
-            raise InvalidParameterError(f"run {i}: expected a Scenario, got {type(sc).__name__}")
+            raise InvalidParameterError(f"scenarios[{i}] must be a Scenario, got {type(sc).__name__} {shown(sc, 50)}")
         if sc.sample_time <= 0:
             raise InvalidParameterError(f"run {i} ({sc.name}): simulate_batch runs sampled-data control only "
                                         "(sample_time > 0); use simulate for continuous-time control")
@@ -601,7 +793,7 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     for r, i in enumerate(live):
         sc, p = scenarios[i], preps[i]
         if status[r] != rrr3.OK:
-            error = BranchFollowingError(f"run {i} ({sc.name}): " + _loop_failure(sc, p, status[r], q[r], k_fail[r]))
+            error = _loop_error(sc, p, status[r], q[r], k_fail[r], f"run {i} ({sc.name}): ")
             if on_error == "raise":
                 raise error
             if on_error == "return":
