@@ -12,11 +12,14 @@ import subprocess
 import sys
 import textwrap
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import assert_user_error, run
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import pkmlab
 import pkmlab.report
@@ -457,3 +460,82 @@ def test_every_readme_promise_about_outputs_errors_and_exit_codes_has_a_test():
     for promise, test in PROMISES.items():
         assert " ".join(promise.split()) in readme, f"the README no longer says: {promise!r}"
         assert f"def {test}(" in tests, f"no test {test} backs the README's {promise!r}"
+
+
+# ------------------------------------------------------------------ output folders fuzzed
+FOLDER_FUZZ = {"runs": 0, "replaced": 0, "refused": 0}
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_fuzz_output_folders(tmp_path_factory, data):
+    """Random histories of a folder — results written by pkmlab commands, then a user's edits — and one
+    more write: it succeeds only into an empty folder or an unchanged result of the same command, and
+    otherwise leaves every byte as it was."""
+    base = tmp_path_factory.mktemp("folders")
+    out = base / "out"
+    pristine = None  # the command of the unchanged pkmlab result the folder holds, if any
+    for _ in range(data.draw(st.integers(0, 5), label="steps")):
+        step = data.draw(st.sampled_from(["write", "add", "change", "delete", "subfolder", "link", "manifest",
+                                          "mkdir"]), label="step")
+        if step == "write":
+            command = data.draw(st.sampled_from(["simulate", "reproduce"]), label="command")
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", outputs.ResultReplacedWarning)
+                    with outputs.atomic_output_dir(out, command) as tmp:
+                        (tmp / "summary.json").write_text(data.draw(st.text(max_size=20), label="content"))
+                pristine = command
+            except outputs.OutputFolderError:
+                pass
+            continue
+        if step == "mkdir":
+            out.mkdir(exist_ok=True)
+            continue
+        if not out.is_dir():
+            continue
+        files = sorted(p for p in out.rglob("*") if p.is_file() and not p.is_symlink())
+        if step == "add":
+            (out / data.draw(st.sampled_from(["notes.md", "summary.json.bak", "x.ipynb"]))).write_text("mine")
+        elif step == "change" and files:
+            with open(data.draw(st.sampled_from(files)), "a") as f:
+                f.write("edited")
+        elif step == "delete" and files:
+            data.draw(st.sampled_from(files)).unlink()
+        elif step == "subfolder":
+            (out / "data").mkdir(exist_ok=True)
+            (out / "data" / "raw.csv").write_text("1,2")
+        elif step == "link":
+            if not (out / "link").exists():
+                (out / "link").symlink_to(base)
+        elif step == "manifest" and (out / MANIFEST).exists():
+            (out / MANIFEST).write_text(data.draw(st.sampled_from(["{}", "not json", '{"files": {}, "command": 1}'])))
+        else:
+            continue
+        pristine = None
+    command = data.draw(st.sampled_from(["simulate", "reproduce"]), label="final command")
+    empty = out.is_dir() and not any(out.iterdir())
+    before = snapshot(out) if out.is_dir() else None
+    links = sorted(p.name for p in out.iterdir() if p.is_symlink()) if out.is_dir() else []
+    FOLDER_FUZZ["runs"] += 1
+    try:
+        with warnings.catch_warnings(record=True) as notes:
+            warnings.simplefilter("always")
+            with outputs.atomic_output_dir(out, command) as tmp:
+                (tmp / "summary.json").write_text("new")
+    except outputs.OutputFolderError:
+        FOLDER_FUZZ["refused"] += 1
+        assert before is not None and not empty and pristine != command
+        assert snapshot(out) == before and sorted(p.name for p in out.iterdir() if p.is_symlink()) == links
+    else:
+        replaced = before is not None and not empty
+        FOLDER_FUZZ["replaced"] += replaced
+        assert before is None or empty or pristine == command, (before, pristine, command)
+        assert [n.category for n in notes] == [outputs.ResultReplacedWarning] * replaced  # said, not silent
+        assert (out / "summary.json").read_text() == "new"
+    assert hidden(base) == []
+
+
+def test_zz_report_how_many_folders_were_fuzzed():
+    print(f"\noutput-folder fuzzer: {FOLDER_FUZZ}")
+    assert FOLDER_FUZZ["runs"] == 0 or (FOLDER_FUZZ["refused"] > 10 and FOLDER_FUZZ["replaced"] > 10)
