@@ -539,3 +539,30 @@ def test_fuzz_output_folders(tmp_path_factory, data):
 def test_zz_report_how_many_folders_were_fuzzed():
     print(f"\noutput-folder fuzzer: {FOLDER_FUZZ}")
     assert FOLDER_FUZZ["runs"] == 0 or (FOLDER_FUZZ["refused"] > 10 and FOLDER_FUZZ["replaced"] > 10)
+
+
+def test_a_file_added_while_the_run_writes_is_never_deleted(tmp_path, monkeypatch):
+    out = tmp_path / "r"
+    with outputs.atomic_output_dir(out, "test") as tmp:
+        (tmp / "a.txt").write_text("old")
+    # during the run: refused at the end, the new result is dropped, the user's file kept
+    with pytest.raises(outputs.OutputFolderError, match="late.txt"):
+        with pytest.warns(outputs.ResultReplacedWarning), outputs.atomic_output_dir(out, "test") as tmp:
+            (out / "late.txt").write_text("mine")
+            (tmp / "a.txt").write_text("new")
+    assert (out / "late.txt").read_text() == "mine" and (out / "a.txt").read_text() == "old"
+    (out / "late.txt").unlink()
+    # in the instant between the last check and the swap: the earlier folder is kept beside, announced
+    exchange = outputs._exchange
+
+    def user_writes_first(a, b):
+        (out / "later.txt").write_text("mine")
+        return exchange(a, b)
+
+    monkeypatch.setattr(outputs, "_exchange", user_writes_first)
+    with pytest.warns(outputs.ResultReplacedWarning) as notes, outputs.atomic_output_dir(out, "test") as tmp:
+        (tmp / "a.txt").write_text("new")
+    assert "changed while the run was writing" in str(notes[-1].message)
+    kept = [p for p in tmp_path.iterdir() if p.name.startswith("r.previous-")]
+    assert len(kept) == 1 and (kept[0] / "later.txt").read_text() == "mine"
+    assert (out / "a.txt").read_text() == "new"

@@ -323,8 +323,12 @@ def _swap(new: Path, out: Path) -> None:
         try:
             read_manifest(old)
         except OutputFolderError:
+            import warnings
+
             keep = out.parent / f"{out.name}.previous-{datetime.datetime.now():%Y%m%d-%H%M%S}"
             os.rename(old, keep)
+            warnings.warn(f"{out} changed while the run was writing; its earlier content is kept in {keep}",
+                          ResultReplacedWarning, stacklevel=4)
             return
         shutil.rmtree(old)
     if old.parent != out.parent:
