@@ -139,7 +139,7 @@ def test_a_working_mode_starting_with_a_minus_is_a_value_not_an_option(capsys, t
 
 def test_a_bad_working_mode_names_the_option(capsys):
     message = assert_user_error(*run(capsys, "ik", 0.2, 0.21, 0, "--mode", "+", "x", "+"))
-    assert "--mode" in message
+    assert "--mode" in message and "working mode" in message
 
 
 def test_scenario_working_mode_takes_the_same_spellings(tmp_path):

@@ -368,14 +368,24 @@ def test_a_closed_pipe_ends_quietly():
 
 
 def test_ctrl_c_during_start_up_is_no_traceback():
-    for delay in (0.05, 0.15, 0.3, 0.6):
-        proc = subprocess.Popen([sys.executable, "-m", "pkmlab.cli", "fk", "0.189", "3.112", "-2.642"],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    """Ctrl-C while pkmlab starts (imports, loading or compiling its kernels, whose compiler calls back
+    into Python) ends with exit code 130 and one line, never a traceback. (The first few milliseconds,
+    while the Python interpreter itself starts, are the interpreter's own.)"""
+    pkmlab_exe = Path(sys.executable).parent / "pkmlab"
+    argv = [str(pkmlab_exe)] if pkmlab_exe.exists() else [sys.executable, "-m", "pkmlab.cli"]
+    codes = []
+    for delay in (0.3, 0.5, 0.8, 1.2, 1.6):
+        proc = subprocess.Popen([*argv, "fk", "0.189", "3.112", "-2.642"], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE)
         time.sleep(delay)
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate()
-        assert "Traceback" not in err.decode(), (delay, err.decode())
-        assert proc.returncode in (0, 130, -signal.SIGINT), (delay, proc.returncode)
+        _out, err = proc.communicate()
+        assert "Traceback" not in err.decode() and "Exception ignored" not in err.decode(), (delay, err.decode())
+        assert proc.returncode in (0, 130), (delay, proc.returncode)
+        if proc.returncode == 130:
+            assert err.decode().endswith("interrupted\n")
+        codes.append(proc.returncode)
+    assert 130 in codes  # the signal did arrive during the start-up
 
 
 def test_first_run_says_it_compiles(capsys, monkeypatch):

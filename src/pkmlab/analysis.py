@@ -9,9 +9,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InvalidParameterError
+from .errors import InvalidParameterError, shown
 from .geometry import WORKING_MODES, Planar3RRR
-from .kinematics import _mode_array, inverse_kinematics
+from .kinematics import _count, _mode_array, _model, _real, inverse_kinematics
 
 
 @dataclass(frozen=True)
@@ -33,6 +33,10 @@ class SingularityMap:
         return np.isfinite(self.S)
 
 
+#: Grid points per axis at most (10⁸ points: beyond, the arrays no longer fit in memory).
+MAX_RESOLUTION = 10_000
+
+
 def default_extent(model: Planar3RRR) -> tuple[tuple[float, float], tuple[float, float]]:
     """A square region covering the base triangle and every leg's reach."""
     reach = float(np.max(model.active_lengths + model.passive_lengths))
@@ -45,24 +49,21 @@ def _axis(name: str, bounds, default, resolution: int) -> np.ndarray:
     bounds = default if bounds is None else bounds
     try:
         lo, hi = (float(v) for v in bounds)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(f"{name} must be two numbers (min, max), got {bounds!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)) or not lo < hi:
-        raise InvalidParameterError(f"{name} must be two finite numbers with min < max, got ({lo:g}, {hi:g})")
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidParameterError(f"{name} must be two numbers (min, max), got {shown(bounds)}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)) or not lo < hi:
+        raise InvalidParameterError(f"{name} must be two finite numbers with min < max (and a finite span), "
+                                    f"got ({lo:g}, {hi:g})")
     return np.linspace(lo, hi, resolution)
 
 
-def _grid(model, alpha, x_range, y_range, resolution) -> tuple[np.ndarray, np.ndarray, float]:
+def _grid(model, alpha, x_range, y_range, resolution, progress) -> tuple[np.ndarray, np.ndarray, float]:
     """Validated grid axes ``x``, ``y`` and orientation for the maps below."""
-    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or resolution < 2:
-        raise InvalidParameterError(f"resolution must be an integer of at least 2, got {resolution!r}")
-    try:
-        alpha = float(alpha)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(f"alpha must be a number, got {alpha!r}") from None
-    if not math.isfinite(alpha):
-        raise InvalidParameterError(f"alpha must be finite, got {alpha}")
-    default_x, default_y = default_extent(model)
+    _count("resolution", resolution, 2, MAX_RESOLUTION)
+    alpha = _real("alpha", alpha)
+    if progress is not None and not callable(progress):
+        raise InvalidParameterError(f"progress must be a function of the number of rows done, got {shown(progress)}")
+    default_x, default_y = default_extent(_model(model))
     x = _axis("x_range", x_range, default_x, int(resolution))
     y = _axis("y_range", y_range, default_y, int(resolution))
     return x, y, alpha
@@ -99,7 +100,7 @@ def singularity_map(
     (11, 11)
     """
     mode = tuple(int(m) for m in _mode_array(mode))
-    x, y, alpha = _grid(model, alpha, x_range, y_range, resolution)
+    x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
     s, _unreachable = _inverse_kinematics_rows(model, x, y, alpha, mode, progress)
     return SingularityMap(x, y, s, alpha, mode)
 
@@ -150,7 +151,7 @@ def workspace(
     >>> round(float(ws.area[0]) * 1e4)  # cm², on this coarse grid
     1052
     """
-    x, y, alpha = _grid(model, alpha, x_range, y_range, resolution)
+    x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
     s, unreachable = _inverse_kinematics_rows(model, x, y, alpha, None, progress)
     reachable = np.moveaxis(unreachable == 0, -1, 0)
     s = np.moveaxis(s, -1, 0)

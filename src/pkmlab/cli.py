@@ -692,19 +692,22 @@ def _check_finite(parser: argparse.ArgumentParser, args) -> None:
             raise InvalidParameterError(f"{names.get(dest, dest)} must be finite, got {shown}")
 
 
-def _check_mode(args) -> None:
+def _check_mode(parser: argparse.ArgumentParser, args) -> None:
     """``--mode`` as three signs (``+ - +``, ``1 -1 1``) or one word (``+-+``), the spellings the Python API
-    takes; normalised to three ints."""
+    takes; normalised to three ints. Another number of words is a malformed command line (exit 2)."""
     tokens = getattr(args, "mode", None)
     if tokens is None:
         return
     from .kinematics import _mode_array
 
+    if len(tokens) not in (1, 3):
+        command = parser._subparsers._group_actions[0].choices[args.command]
+        command.error(f"argument --mode: expected three signs (+ - +) or one word (+-+), got {' '.join(tokens)}")
     try:
         args.mode = tuple(int(v) for v in _mode_array(tokens[0] if len(tokens) == 1 else tokens))
     except InvalidParameterError:
-        raise InvalidParameterError(f"--mode must be three signs such as + - + (or one word such as +-+), got "
-                                    f"{' '.join(tokens)}") from None
+        raise InvalidParameterError(f"--mode: a working mode is three signs such as + - + (or one word such as "
+                                    f"+-+), got {' '.join(tokens)}") from None
 
 
 def _compile_notice(args) -> None:
@@ -762,7 +765,7 @@ def _run(argv: list[str] | None) -> int:
         warnings.showwarning = _note_printer(args)
         try:
             _check_finite(parser, args)
-            _check_mode(args)
+            _check_mode(parser, args)
             _compile_notice(args)
             result = args.func(args)
         except PkmlabError as exc:
@@ -794,5 +797,37 @@ def main(argv: list[str] | None = None) -> int:
         return 141
 
 
+def _interrupt_from_callbacks(hook=sys.unraisablehook):
+    """``sys.unraisablehook`` that turns a Ctrl-C caught inside a callback from compiled code (Numba's
+    LLVM engine calls back into Python while it compiles; an exception there cannot propagate and would
+    be printed as "Exception ignored", then lost) into a Ctrl-C delivered again to the main program."""
+    import signal
+
+    def interrupt(*_args):
+        raise KeyboardInterrupt
+
+    def unraisable(info):
+        if isinstance(info.exc_value, KeyboardInterrupt) and hasattr(signal, "setitimer"):
+            # raised here it would be caught again: deliver it a moment later, once out of the callback
+            signal.signal(signal.SIGALRM, interrupt)
+            signal.setitimer(signal.ITIMER_REAL, 0.005)
+        else:
+            hook(info)
+
+    return unraisable
+
+
+def entry() -> int:
+    """The ``pkmlab`` executable: :func:`main` with Ctrl-C honoured everywhere, even inside callbacks of
+    compiled code; ignored only once the work is done and the interpreter shuts down (its exit handlers
+    would otherwise print a traceback, and there is nothing left to interrupt)."""
+    import signal
+
+    sys.unraisablehook = _interrupt_from_callbacks()
+    code = main()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return code
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(entry())

@@ -50,9 +50,9 @@ class ControllerSpec:
         if not isinstance(self.kind, str) or self.kind not in CONTROLLER_TYPES:
             raise InvalidParameterError(f"controller kind must be one of {sorted(CONTROLLER_TYPES)}, "
                                         f"got {shown(self.kind)}")
-        for name in ("kp", "kv"):
-            if getattr(self, name) is not None:
-                _real(f"controller {name}", getattr(self, name), "non-negative")
+        _real("controller kp", self.kp, "non-negative")
+        if self.kv is not None:
+            _real("controller kv", self.kv, "non-negative")
 
     @property
     def velocity_gain(self) -> float:

@@ -31,7 +31,7 @@ from . import (
     lagrangian,
 )
 from .geometry import Planar3RRR
-from .kinematics import _batch, _broadcast, _pair, _require_regular
+from .kinematics import _batch, _broadcast, _model, _pair, _require_regular
 from .mechanisms import rrr3
 
 __all__ = [
@@ -118,7 +118,7 @@ def _full_space(model, q, q_dot):
     C = np.empty((n, 7, 7))
     h = np.empty((n, 7))
     T = np.empty(n)
-    _full_space_batch(qs, qds, model.packed, M, C, h, T)
+    _full_space_batch(qs, qds, _model(model).packed, M, C, h, T)
     return shape, M, C, h, T
 
 
@@ -154,7 +154,7 @@ def _constrained(model, q, q_dot, tau, explicit=False):
     lam = np.empty((n, 4))
     lam_explicit = np.empty((n, 4))
     ok = np.zeros(n, dtype=np.bool_)
-    _constrained_batch(qs, qds, taus, model.packed, explicit, qdd, lam, lam_explicit, ok)
+    _constrained_batch(qs, qds, taus, _model(model).packed, explicit, qdd, lam, lam_explicit, ok)
     _require_regular(ok, shape, "the constrained dynamics")
     return shape, qdd, lam, lam_explicit
 
@@ -184,7 +184,7 @@ def actuator_space_model(model: Planar3RRR, q, theta_dot) -> tuple[np.ndarray, n
     m = np.empty((n, 3, 3))
     c = np.empty((n, 3))
     ok = np.zeros(n, dtype=np.bool_)
-    _actuator_space_batch(qs, tds, model.packed, m, c, ok)
+    _actuator_space_batch(qs, tds, _model(model).packed, m, c, ok)
     _require_regular(ok, shape, "the actuator-space model")
     return m.reshape(*shape, 3, 3), c.reshape(*shape, 3)
 
@@ -194,15 +194,16 @@ def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarra
     qs, tds, shape = _pair("q", q, 7, "theta_dot", theta_dot, 3)
     out = np.empty((qs.shape[0], 3, 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
-    _coriolis_theta_batch(qs, tds, model.packed, out, ok)
+    _coriolis_theta_batch(qs, tds, _model(model).packed, out, ok)
     _require_regular(ok, shape, "C_theta")
     return out.reshape(*shape, 3, 3)
 
 
 def inverse_dynamics(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
     """Actuator torques ``τ = Mθ θ̈ + Cθ θ̇`` (..., 3) that produce ``θ̈`` (eq. 35)."""
-    m_theta, c_theta = actuator_space_model(model, q, theta_dot)
-    return np.einsum("...ij,...j->...i", m_theta, np.asarray(theta_ddot, dtype=float)) + c_theta
+    qs, tds, tdds, shape = _broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("theta_ddot", theta_ddot, 3))
+    m_theta, c_theta = actuator_space_model(model, qs.reshape(*shape, 7), tds.reshape(*shape, 3))
+    return np.einsum("...ij,...j->...i", m_theta, tdds.reshape(*shape, 3)) + c_theta
 
 
 def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
@@ -210,6 +211,6 @@ def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
     qs, tds, taus, shape = _broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("tau", tau, 3))
     out = np.empty((qs.shape[0], 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
-    _forward_dynamics_batch(qs, tds, taus, model.packed, out, ok)
+    _forward_dynamics_batch(qs, tds, taus, _model(model).packed, out, ok)
     _require_regular(ok, shape, "the forward dynamics")
     return out.reshape(*shape, 3)

@@ -29,7 +29,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .errors import InvalidParameterError
+from .errors import InvalidParameterError, shown
 
 # --- layout of the packed parameter vector read by the compiled kernels -------------------
 BASE = 0  # 6: b1x, b1y, b2x, b2y, b3x, b3y
@@ -60,8 +60,8 @@ COORDINATE_NAMES = ("theta1", "theta2", "theta3", "phi1", "phi2", "phi3", "alpha
 def _per_leg(name: str, value) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(f"{name} must be a number or a list of 3 numbers, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidParameterError(f"{name} must be a number or a list of 3 numbers, got {shown(value)}") from None
     if arr.ndim == 0:
         arr = np.full(3, float(arr))
     if arr.shape != (3,):
@@ -73,8 +73,8 @@ def _float_array(label: str, value) -> np.ndarray:
     """``value`` as a float array; a non-numeric or ragged value is an :class:`InvalidParameterError`."""
     try:
         return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(f"{label} must be numeric, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidParameterError(f"{label} must be numeric, got {shown(value)}") from None
 
 
 def _frozen(arr: np.ndarray) -> np.ndarray:
@@ -147,7 +147,7 @@ class Planar3RRR:
                             ("platform_inertia", "inertia_a")):
             value = _float_array(label, getattr(self, name))
             if value.ndim != 0:
-                raise InvalidParameterError(f"{label} must be a single number, got {getattr(self, name)!r}")
+                raise InvalidParameterError(f"{label} must be a single number, got {shown(getattr(self, name))}")
             set_(self, name, float(value))
         if self.active_com is None:
             set_(self, "active_com", np.column_stack([self.active_lengths / 2, np.zeros(3)]))
@@ -194,7 +194,7 @@ class Planar3RRR:
             raise InvalidParameterError("give either b (an equilateral base) or base_points, not both")
         if base_points is None:
             b = 0.52 if b is None else b
-            _check_number("b", b, positive=True)
+            b = _check_number("b", b, positive=True)
             base_points = [(0.0, 0.0), (b, 0.0), (b / 2, math.sqrt(3) / 2 * b)]
         return cls(
             base_points=base_points,
@@ -216,6 +216,10 @@ class Planar3RRR:
         lengths; explicitly set ones are kept.
         """
         current = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        for name in changes:
+            if name not in current:
+                raise InvalidParameterError(f"{name} is not an attribute of Planar3RRR "
+                                            f"(attributes: {', '.join(current)})")
         defaults = Planar3RRR(self.base_points, self.active_lengths, self.passive_lengths, self.platform_side)
         for name in ("active_com", "passive_com", "platform_com"):
             if name not in changes and np.allclose(current[name], getattr(defaults, name)):
@@ -302,15 +306,16 @@ class Planar3RRR:
             )
 
 
-def _check_number(label: str, value, positive: bool) -> None:
+def _check_number(label: str, value, positive: bool) -> float:
     try:
         v = float(value)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(f"{label} must be a number, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidParameterError(f"{label} must be a number, got {shown(value)}") from None
     if not math.isfinite(v):
         raise InvalidParameterError(f"{label} must be finite, got {v}")
     if positive and v <= 0:
         raise InvalidParameterError(f"{label} must be positive, got {v:g}")
+    return v
 
 
 def _check_array(label: str, short: str, values: np.ndarray, positive: bool) -> None:

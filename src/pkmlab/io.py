@@ -39,6 +39,12 @@ def _unknown_key(key: str, valid, where: str) -> FileFormatError:
     return FileFormatError(f"unknown key '{key}' in {where}{hint}")
 
 
+def _path_text(path: Path) -> str:
+    """``path`` as typed, or quoted with escapes if it holds a line break: a message stays one line."""
+    text = str(path)
+    return text if text.isprintable() else repr(text)
+
+
 def read_text(path: Path) -> str:
     """The UTF-8 text of a file; every failure is a one-line :class:`FileFormatError`.
 
@@ -48,11 +54,12 @@ def read_text(path: Path) -> str:
     try:
         data = path.read_bytes()
     except FileNotFoundError:
-        raise FileFormatError(f"cannot read {path}: no such file") from None
+        raise FileFormatError(f"cannot read {_path_text(path)}: no such file") from None
     except IsADirectoryError:
-        raise FileFormatError(f"cannot read {path}: it is a directory") from None
+        raise FileFormatError(f"cannot read {_path_text(path)}: it is a directory") from None
     except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
-        raise FileFormatError(f"cannot read {path}: {exc.strerror if isinstance(exc, OSError) else exc}") from None
+        reason = exc.strerror if isinstance(exc, OSError) else exc
+        raise FileFormatError(f"cannot read {_path_text(path)}: {reason}") from None
     if data.startswith((b"\xff\xfe", b"\xfe\xff")):
         raise FileFormatError(f"cannot read {path}: it is UTF-16 text; save it as UTF-8")
     try:

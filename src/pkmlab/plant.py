@@ -25,9 +25,9 @@ from numba import njit
 from scipy.integrate import solve_ivp
 
 from . import _compile_cache  # noqa: F401  (sets the kernel cache before any kernel is defined)
-from .errors import BranchFollowingError, InvalidParameterError, SingularityError
+from .errors import BranchFollowingError, InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
-from .kinematics import _batch, constraint_residual
+from .kinematics import _batch, _model, _real, constraint_residual
 from .mechanisms import rrr3
 
 
@@ -62,30 +62,46 @@ def _loop_residual(model, qs):
 
 def _torque_function(torque) -> Callable[[float, np.ndarray, np.ndarray], np.ndarray]:
     if callable(torque):
-        return torque
-    value, _shape = _batch("torque", torque, 3)
-    if value.shape[0] != 1:
-        raise InvalidParameterError("a constant torque must have exactly 3 components")
-    constant = value[0].copy()
+        def checked(t, theta, theta_dot):  # the compiled dynamics would read past a short array
+            tau = torque(t, theta, theta_dot)
+            try:
+                tau = np.asarray(tau, dtype=float)
+            except (TypeError, ValueError, OverflowError):
+                tau = None
+            if tau is None or tau.shape != (3,):
+                raise InvalidParameterError(f"torque(t, theta, theta_dot) must return 3 numbers, got {shown(tau)}")
+            return tau
+
+        return checked
+    constant = _batch("torque", torque, 3, single=True)[0][0].copy()
     return lambda t, theta, theta_dot: constant
 
 
-def _initial(q0, rate_name, rate0, n_rate, torque, t_final, t_eval):
-    """Validated ``(q0, rate0, torque function, t_eval)`` of a simulation request."""
-    q0 = _batch("q0", q0, 7)[0][0]
-    rate0 = _batch(rate_name, rate0, n_rate)[0][0]
-    return q0, rate0, _torque_function(torque), _check_times(t_final, t_eval)
+def _initial(model, q0, rate_name, rate0, n_rate, torque, t_final, t_eval):
+    """Validated ``(q0, rate0, torque function, t_final, t_eval)`` of a simulation request."""
+    q0 = _batch("q0", q0, 7, single=True)[0][0]
+    residual = float(_loop_residual(model, q0))
+    if residual > 1e-3 * float(np.max(model.active_lengths + model.passive_lengths)):
+        raise InvalidParameterError(f"q0 is not a configuration of this machine: its loop-closure residual is "
+                                    f"{residual:.3g} m (take it from inverse or forward kinematics)")
+    rate0 = _batch(rate_name, rate0, n_rate, single=True)[0][0]
+    return (q0, rate0, _torque_function(torque), *_check_times(t_final, t_eval))
 
 
 def _check_times(t_final, t_eval):
-    if not np.isfinite(t_final) or t_final <= 0:
-        raise InvalidParameterError(f"t_final must be a positive number of seconds, got {t_final}")
+    t_final = _real("t_final", t_final, "positive")
     if t_eval is None:
-        return None
-    t_eval = np.asarray(t_eval, dtype=float)
-    if t_eval.ndim != 1 or np.any(np.diff(t_eval) <= 0) or t_eval[0] < 0 or t_eval[-1] > t_final:
-        raise InvalidParameterError("t_eval must increase strictly within [0, t_final]")
-    return t_eval
+        return t_final, None
+    complex_ = getattr(t_eval, "dtype", None) is not None and np.dtype(t_eval.dtype).kind == "c"
+    try:
+        arr = None if complex_ else np.asarray(t_eval, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        arr = None
+    if (arr is None or arr.ndim != 1 or arr.size == 0 or not np.all(np.isfinite(arr))
+            or np.any(np.diff(arr) <= 0) or arr[0] < 0 or arr[-1] > t_final):
+        raise InvalidParameterError(f"t_eval must be times increasing strictly within [0, t_final], "
+                                    f"got {shown(t_eval)}")
+    return t_final, arr
 
 
 @njit(cache=True)
@@ -125,12 +141,14 @@ class ReducedPlant:
     """
 
     def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, min_abs_S: float = 1e-6):
-        self.model = model
-        self.rtol, self.atol, self.min_abs_S = float(rtol), float(atol), float(min_abs_S)
+        self.model = _model(model)
+        self.rtol, self.atol = _real("rtol", rtol, "positive"), _real("atol", atol, "non-negative")
+        self.min_abs_S = _real("min_abs_S", min_abs_S, "non-negative")
 
     def simulate(self, q0, theta_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from configuration ``q0`` (on the manifold) and actuated rates ``θ̇0``."""
-        q0, theta_dot0, torque_fn, t_eval = _initial(q0, "theta_dot0", theta_dot0, 3, torque, t_final, t_eval)
+        q0, theta_dot0, torque_fn, t_final, t_eval = _initial(self.model, q0, "theta_dot0", theta_dot0, 3, torque,
+                                                              t_final, t_eval)
         P = self.model.packed
         q_last = q0.copy()
         q_work = np.empty(7)
@@ -144,7 +162,7 @@ class ReducedPlant:
             if status != rrr3.OK:
                 raise BranchFollowingError(
                     f"the plant reached a gain-type singularity at t = {t:.6g} s "
-                    f"(theta = {np.round(y[:3], 6).tolist()})"
+                    f"(theta = {np.round(y[:3], 6).tolist()}, |S| < min_abs_S = {self.min_abs_S:g})"
                 )
             q_last[:] = q_work
             return ydot
@@ -153,7 +171,7 @@ class ReducedPlant:
         sol = solve_ivp(rhs, (0.0, float(t_final)), y0, method="DOP853", rtol=self.rtol, atol=self.atol,
                         t_eval=t_eval)
         if sol.status != 0:
-            raise SingularityError(f"integration failed: {sol.message}")
+            raise SingularityError(f"integration failed: {sol.message} (rtol = {self.rtol:g}, atol = {self.atol:g})")
         # rebuild the passive variables at the output times, following the branch from q0
         qs = np.empty((sol.t.size, 7))
         q_prev = q0
@@ -175,12 +193,14 @@ class FullPlant:
     """
 
     def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, stabilization: float = 20.0):
-        self.model = model
-        self.rtol, self.atol, self.stabilization = float(rtol), float(atol), float(stabilization)
+        self.model = _model(model)
+        self.rtol, self.atol = _real("rtol", rtol, "positive"), _real("atol", atol, "non-negative")
+        self.stabilization = _real("stabilization", stabilization, "non-negative")
 
     def simulate(self, q0, q_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from ``q0`` and ``q̇0`` (both consistent with the constraints)."""
-        q0, q_dot0, torque_fn, t_eval = _initial(q0, "q_dot0", q_dot0, 7, torque, t_final, t_eval)
+        q0, q_dot0, torque_fn, t_final, t_eval = _initial(self.model, q0, "q_dot0", q_dot0, 7, torque, t_final,
+                                                          t_eval)
         P = self.model.packed
         evaluations = 0
 
@@ -196,6 +216,6 @@ class FullPlant:
         sol = solve_ivp(rhs, (0.0, float(t_final)), np.concatenate([q0, q_dot0]), method="DOP853",
                         rtol=self.rtol, atol=self.atol, t_eval=t_eval)
         if sol.status != 0:
-            raise SingularityError(f"integration failed: {sol.message}")
+            raise SingularityError(f"integration failed: {sol.message} (rtol = {self.rtol:g}, atol = {self.atol:g})")
         qs = np.ascontiguousarray(sol.y[:7].T)
         return PlantRun(sol.t, qs, np.ascontiguousarray(sol.y[7:].T), _loop_residual(self.model, qs), evaluations)

@@ -52,7 +52,7 @@ import numpy as np
 
 from ._format import apart
 from .control import CONTROLLER_TYPES, ControllerSpec
-from .errors import InvalidParameterError, PkmlabError
+from .errors import InvalidParameterError, PkmlabError, shown
 from .io import PARAM_KEYS, PRESETS, FileFormatError, manipulator_from_dict, read_toml
 from .kinematics import _mode_array
 from .simulation import Scenario, scaled_model
@@ -379,5 +379,8 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read a scenario file (format: this module's docstring); its name is the file's stem."""
+    if not isinstance(path, str) and not hasattr(path, "__fspath__"):
+        raise InvalidParameterError(f"path must be a file name (a str or a pathlib.Path), got {type(path).__name__} "
+                                    f"{shown(path, 50)}")
     data = read_toml(path)
     return scenario_from_dict(data, str(path), Path(path).stem)

@@ -73,6 +73,8 @@ COLUMNS = ("t", "theta1", "theta2", "theta3", "theta1_d", "theta2_d", "theta3_d"
            "x", "y", "alpha", "x_d", "y_d", "alpha_d", "S")
 #: A scenario of more samples than this is refused (memory: ~200 bytes per sample).
 MAX_SAMPLES = 10_000_000
+#: Runge–Kutta steps per sample at most (as in scenario files).
+MAX_SUBSTEPS = 1000
 
 
 @dataclass(frozen=True)
@@ -100,7 +102,7 @@ class Scenario:
     singularity_guard : float
         A run stops with an error when the plant's ``|S|`` falls below this.
     substeps : int
-        Runge–Kutta steps per sample for the plant (sampled-data control).
+        Runge–Kutta steps per sample for the plant (sampled-data control), 1 to :data:`MAX_SUBSTEPS`.
     name : str
     """
 
@@ -130,7 +132,7 @@ class Scenario:
             raise InvalidParameterError(f"controller must be a ControllerSpec, got {type(self.controller).__name__} "
                                         f"{shown(self.controller, 50)}")
         set_(self, "sample_time", _real("sample_time", self.sample_time, "non-negative"))
-        set_(self, "substeps", _count("substeps", self.substeps))
+        set_(self, "substeps", _count("substeps", self.substeps, 1, MAX_SUBSTEPS))
         for name in ("singularity_margin", "singularity_guard"):
             set_(self, name, _real(name, getattr(self, name), "non-negative"))
         if not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
@@ -143,9 +145,9 @@ class Scenario:
         if not isinstance(self.name, str):
             raise InvalidParameterError(f"name must be a string, got {shown(self.name)}")
         samples = duration / (self.sample_time or 1e-3)
-        if samples > MAX_SAMPLES:
+        if not 1 <= samples <= MAX_SAMPLES:
             raise InvalidParameterError(f"sample_time = {self.sample_time:g} s gives {samples:.3g} samples over the "
-                                        f"trajectory's {duration:.4g} s, more than {MAX_SAMPLES:.0e}")
+                                        f"trajectory's {duration:.4g} s: from 1 to {MAX_SAMPLES:.0e} are allowed")
 
     @property
     def plant_model(self) -> Planar3RRR:
@@ -740,10 +742,13 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     2
     """
     _choice("on_error", on_error, ("raise", "none", "return"))
-    if isinstance(scenarios, (Scenario, str, bytes)) or not hasattr(scenarios, "__iter__"):
+    try:
+        if isinstance(scenarios, (Scenario, str, bytes)):
+            raise TypeError
+        scenarios = list(scenarios)
+    except TypeError:
         raise InvalidParameterError(f"scenarios must be a list of Scenario objects, got {type(scenarios).__name__} "
-                                    f"{shown(scenarios, 50)}")
-    scenarios = list(scenarios)
+                                    f"{shown(scenarios, 50)}") from None
     if not scenarios:
         return []
     cache: dict = {}

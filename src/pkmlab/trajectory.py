@@ -25,9 +25,9 @@ from . import (
     _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
     closed_chain,
 )
-from .errors import InvalidParameterError, SingularityError
+from .errors import InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
-from .kinematics import _mode_array, inverse_kinematics, platform_jacobian
+from .kinematics import _batch, _choice, _mode_array, _real, inverse_kinematics, platform_jacobian
 from .mechanisms import rrr3
 
 
@@ -52,16 +52,22 @@ def time_law(kind: str, tau):
 
 
 def _positive(name, value):
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise InvalidParameterError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
+    return _real(name, value, "positive")
 
 
 def _finite_vector(name, value, n):
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (n,) or not np.all(np.isfinite(arr)):
-        raise InvalidParameterError(f"{name} must be {n} finite numbers, got {value!r}")
-    return arr
+    return _batch(name, value, n, single=True)[0][0]
+
+
+def _times(t) -> np.ndarray:
+    """Times ``t`` (any shape) as a float array."""
+    try:
+        t = np.asarray(t, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidParameterError(f"t must be times in seconds, got {shown(t)}") from None
+    if not np.all(np.isfinite(t)):
+        raise InvalidParameterError(f"t must be finite times in seconds, got {shown(t)}")
+    return t
 
 
 # ------------------------------------------------------------------ paths
@@ -84,6 +90,12 @@ class Circle:
         _finite_vector("circle center", self.center, 2)
         _positive("circle radius", self.radius)
         _positive("circle turns", self.turns)
+        _real("circle start_angle", self.start_angle)
+        _real("circle alpha", self.alpha)
+        if self.alpha_end is not None:
+            _real("circle alpha_end", self.alpha_end)
+        if not math.isfinite(self.length):
+            raise InvalidParameterError(f"circle radius × turns is too large: the length is {self.length}")
 
     @property
     def length(self) -> float:
@@ -146,8 +158,15 @@ class Trajectory:
     law: str = "cubic"
 
     def __post_init__(self):
-        _positive("speed", self.speed)
-        time_law(self.law, 0.0)
+        if not callable(getattr(self.path, "at", None)):
+            raise InvalidParameterError(f"path must be a Circle or a Line, got {type(self.path).__name__} "
+                                        f"{shown(self.path, 50)}")
+        length = _positive("path length", getattr(self.path, "length", None))
+        speed = _positive("speed", self.speed)
+        _choice("law", self.law, ("cubic", "quintic"))
+        if not math.isfinite(length / speed):
+            raise InvalidParameterError(f"speed = {speed:g} m/s is too low for a path of {length:g} m: "
+                                        "the motion would never end")
 
     @property
     def duration(self) -> float:
@@ -157,7 +176,7 @@ class Trajectory:
         """``(pose, pose_dot, pose_ddot)``, each (..., 3), at times ``t`` (clamped to [0, T])."""
         T = self.duration
         L = self.path.length
-        sigma, dsigma, ddsigma = time_law(self.law, np.asarray(t, dtype=float) / T)
+        sigma, dsigma, ddsigma = time_law(self.law, _times(t) / T)
         s, s_dot, s_ddot = L * sigma, L * dsigma / T, L * ddsigma / T**2
         pose, d1, d2 = self.path.at(s)
         return pose, d1 * s_dot[..., None], d2 * (s_dot**2)[..., None] + d1 * s_ddot[..., None]
@@ -177,9 +196,12 @@ class WaypointTrajectory:
     segments: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
-        pts = np.asarray(self.points, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] < 2 or not np.all(np.isfinite(pts)):
-            raise InvalidParameterError("waypoints must be at least two finite poses [x, y, alpha]")
+        pts, shape = _batch("points", self.points, 3)
+        if len(shape) != 1 or shape[0] < 2:
+            raise InvalidParameterError(f"points must be at least two poses [x, y, alpha], got shape {(*shape, 3)}")
+        for i in range(1, len(pts)):
+            if np.allclose(pts[i - 1], pts[i]):
+                raise InvalidParameterError(f"points[{i}] repeats the previous pose {pts[i].tolist()}")
         segments = tuple(Trajectory(Line(tuple(a), tuple(b)), self.speed, self.law)
                          for a, b in zip(pts[:-1], pts[1:], strict=True))
         object.__setattr__(self, "segments", segments)
@@ -189,7 +211,7 @@ class WaypointTrajectory:
         return sum(seg.duration for seg in self.segments)
 
     def desired(self, t):
-        t = np.asarray(t, dtype=float)
+        t = _times(t)
         starts = np.cumsum([0.0] + [seg.duration for seg in self.segments])
         idx = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.segments) - 1)
         out = [np.empty((*t.shape, 3)) for _ in range(3)]

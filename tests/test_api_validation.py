@@ -1,0 +1,333 @@
+"""The public API refuses wrong arguments with a one-line PkmlabError that names the argument.
+
+A Hypothesis fuzzer calls every public function and class the way a careless user would: one
+argument at a time replaced by ``None``, a string, a dict, a bool, a wrong-shaped or ragged
+array, NaN, infinity, a huge number, or an object of the wrong class (a Scenario where a model
+belongs...). The property: the call succeeds, or raises a :class:`pkmlab.PkmlabError` whose
+message is a single line naming the argument by its parameter name (for :class:`Planar3RRR`,
+the paper's names ``l``, ``r``, ``a``... are accepted too). Never an AttributeError, a
+TypeError, a raw NumPy error. A value accepted must also be usable: what a constructor
+returns is put to use (a scenario is prepared for its run, a trajectory evaluated...), which
+must then succeed or raise a one-line PkmlabError. ``pytest -s`` prints how many inputs each
+target received.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+import pkmlab
+from pkmlab import dynamics
+from pkmlab.control import ControllerSpec
+from pkmlab.simulation import SCENARIO_DIR, _prepare
+from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory
+
+# ------------------------------------------------------------------ valid arguments
+MODEL = pkmlab.Planar3RRR.paper()
+_IK = pkmlab.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=(-1, 1, -1))
+Q = _IK.q
+THETA = _IK.theta
+THETA_DOT = np.array([0.3, -0.2, 0.5])
+THETA_DDOT = np.array([1.0, 0.0, -1.0])
+TAU = np.array([0.1, -0.2, 0.3])
+Q_DOT = pkmlab.coordinate_rates(MODEL, Q, THETA_DOT)
+CIRCLE = Circle((0.25, 0.21), 0.05)
+TRAJECTORY = Trajectory(CIRCLE, 0.2)
+CONTROLLER = ControllerSpec("computed_torque", kp=400.0)
+SCENARIO = pkmlab.paper_scenario("nominal").replace(sample_time=0.01, name="coarse")  # 158 samples: quick
+RNG = np.random.default_rng(0)
+
+# ------------------------------------------------------------------ careless arguments
+NAN, INF = float("nan"), float("inf")
+FIXED = [
+    None, True, False, 0, -1, 1, 3, 10**20, -(10**20), 10**400, 0.0, -1.0, 1e-320, 1e308, -1e308, NAN, INF, -INF,
+    1 + 2j, "", "abc", "nominal", "auto", "+-+", "0.5", "two\nlines", b"abc", {}, {"kp": 1.0}, {"x": 1.0},
+    {1, 2, 3}, (), [], [[]], [None], [None] * 3, [1.0, 2.0], [1.0, 2.0, 3.0], [1.0] * 4, [1.0] * 7,
+    [[1.0, 2.0], [3.0]], [[1.0] * 3] * 2, [1.0, "a", 3.0], [1, [2], 3], [NAN] * 3, [INF] * 7, [1e308] * 3,
+    [10**400] * 3, [True, False, True], np.float64(NAN), np.int64(-5), np.zeros(()), np.zeros(2), np.zeros(3),
+    np.zeros(4), np.zeros(7), np.zeros((3, 3)), np.zeros((7, 3)), np.zeros((0, 3)), np.zeros((2, 7)),
+    np.zeros((3, 2)), np.zeros((2, 1, 3)), np.full(3, NAN), np.full(7, INF), np.ones(3) + 1j,
+    np.array(["a", "b", "c"]), np.array([["a", "b"], ["c", "d"]]), np.zeros(3, dtype=bool),
+    np.arange(3, dtype=np.int64), MODEL, SCENARIO, CONTROLLER, CIRCLE, TRAJECTORY, RNG, object(),
+    lambda *args: [1.0, 2.0], Path("no-such-file.toml"), Ellipsis,
+]
+_floats = st.floats(allow_nan=True, allow_infinity=True)
+CARELESS = st.one_of(
+    st.sampled_from(FIXED),
+    _floats,
+    st.integers(),
+    st.text(max_size=6),
+    st.lists(_floats, max_size=8),
+    st.lists(st.lists(_floats, max_size=4), max_size=4),
+    hnp.arrays(np.float64, hnp.array_shapes(min_dims=0, max_dims=3, min_side=0, max_side=8), elements=_floats),
+)
+#: For the plants, no huge finite numbers: a torque of 1e47 N·m or a t_final of 1e20 s is well formed, and
+#: integrating it takes forever (the wrong types and shapes are the same).
+CARELESS_TYPES = st.one_of(
+    st.sampled_from([v for v in FIXED if not (isinstance(v, (int, float)) and 1e3 < abs(v) < INF)]),
+    st.integers(-10, 10),
+    st.text(max_size=6),
+)
+
+
+# ------------------------------------------------------------------ targets
+@dataclass
+class Target:
+    """A public callable, valid keyword arguments, and which of them to corrupt.
+
+    ``names`` maps a parameter to the regular expressions that count as naming it (default: the
+    parameter's own name as a word); ``examples`` is the number of inputs Hypothesis tries.
+    """
+
+    name: str
+    call: Callable
+    valid: dict
+    params: tuple = ()
+    names: dict = field(default_factory=dict)
+    examples: int = 250
+    then: Callable | None = None  # puts an accepted result to use
+    careless: st.SearchStrategy = CARELESS
+
+    def __post_init__(self):
+        self.params = tuple(self.params) or tuple(self.valid)
+
+
+def _fields(cls) -> tuple[str, ...]:
+    return tuple(f.name for f in dataclasses.fields(cls) if f.init)
+
+
+def _sig(func, **valid) -> Target:
+    return Target(f"{func.__module__.removeprefix('pkmlab.')}.{func.__name__}", func, valid)
+
+
+# the paper's parameter names stand for the model's attributes in Planar3RRR's messages
+PAPER_NAMES = {
+    "base_points": [r"\bbase_points\b", r"\bbase point"],
+    "active_lengths": [r"\bactive_lengths\b", r"\bl\b"],
+    "passive_lengths": [r"\bpassive_lengths\b", r"\br\b"],
+    "platform_side": [r"\bplatform_side\b", r"\ba \(platform side\)", r"\ba = "],
+    "active_masses": [r"\bactive_masses\b", r"\bmass_l\b"],
+    "passive_masses": [r"\bpassive_masses\b", r"\bmass_r\b"],
+    "platform_mass": [r"\bplatform_mass\b", r"\bmass_a\b"],
+    "active_inertias": [r"\bactive_inertias\b", r"\binertia_l\b"],
+    "passive_inertias": [r"\bpassive_inertias\b", r"\binertia_r\b"],
+    "platform_inertia": [r"\bplatform_inertia\b", r"\binertia_a\b"],
+    "a": [r"\ba \(platform side\)", r"\ba = "],  # "a" alone would match the article
+    "b": [r"\bb\b", r"\bbase point", r"\bthe base\b"],
+}
+_MODEL_ARGS = dict(base_points=MODEL.base_points, active_lengths=MODEL.active_lengths,
+                   passive_lengths=MODEL.passive_lengths, platform_side=MODEL.platform_side,
+                   active_masses=MODEL.active_masses, passive_masses=MODEL.passive_masses,
+                   platform_mass=MODEL.platform_mass, active_inertias=MODEL.active_inertias,
+                   passive_inertias=MODEL.passive_inertias, platform_inertia=MODEL.platform_inertia,
+                   active_com=None, passive_com=None, platform_com=None)
+_PAPER_PARAMS = dict(b=0.52, l=0.25, r=0.1667, a=0.125, mass_l=0.468, mass_r=0.312, mass_a=0.234,
+                     inertia_l=2.438e-3, inertia_r=0.722e-3, inertia_a=0.305e-3, base_points=None)
+
+
+def _reduced_plant(model, rtol, atol, min_abs_S, q0, theta_dot0, torque, t_final, t_eval):
+    plant = pkmlab.ReducedPlant(model, rtol=rtol, atol=atol, min_abs_S=min_abs_S)
+    return plant.simulate(q0, theta_dot0, torque, t_final, t_eval=t_eval)
+
+
+def _full_plant(model, rtol, atol, stabilization, q0, q_dot0, torque, t_final, t_eval):
+    plant = pkmlab.FullPlant(model, rtol=rtol, atol=atol, stabilization=stabilization)
+    return plant.simulate(q0, q_dot0, torque, t_final, t_eval=t_eval)
+
+
+_PLANT = dict(model=MODEL, rtol=1e-9, atol=1e-10, q0=Q, torque=np.zeros(3), t_final=1e-3, t_eval=None)
+# a well-formed but wild state, torque or rate blows the integration up: the error names the time
+_BLOW_UP = [r"\bt = "]
+_PLANT_NAMES = {name: [rf"\b{name}\b", *_BLOW_UP] for name in
+                ("theta_dot0", "q_dot0", "torque", "t_final", "stabilization", "rtol", "atol")}
+
+
+def _use_trajectory(trajectory):
+    return trajectory.desired(np.linspace(0.0, trajectory.duration, 5))
+
+
+def _use_path(path):
+    return path.at(np.linspace(0.0, path.length, 5))
+
+TARGETS = [
+    # kinematics
+    _sig(pkmlab.inverse_kinematics, model=MODEL, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
+    _sig(pkmlab.forward_kinematics, model=MODEL, theta=THETA),
+    _sig(pkmlab.branch_following, model=MODEL, q_previous=Q, theta=THETA + 0.01, min_abs_S=1e-6),
+    *(_sig(f, model=MODEL, q=Q) for f in (
+        pkmlab.platform_pose, pkmlab.constraint_residual, pkmlab.constraint_jacobian, pkmlab.passive_jacobian,
+        pkmlab.actuated_jacobian, pkmlab.velocity_jacobian, pkmlab.platform_jacobian,
+        pkmlab.forward_singularity_determinant, pkmlab.singularity_measure, pkmlab.working_mode_of)),
+    *(_sig(f, model=MODEL, q=Q, theta_dot=THETA_DOT) for f in (
+        pkmlab.passive_rates, pkmlab.coordinate_rates, pkmlab.acceleration_bias)),
+    _sig(pkmlab.coordinate_accelerations, model=MODEL, q=Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
+    # dynamics
+    _sig(dynamics.mass_matrix, model=MODEL, q=Q),
+    *(_sig(f, model=MODEL, q=Q, q_dot=Q_DOT) for f in (
+        dynamics.coriolis_matrix, dynamics.velocity_product, dynamics.kinetic_energy)),
+    *(_sig(f, model=MODEL, q=Q, q_dot=Q_DOT, tau=TAU) for f in (
+        dynamics.constrained_accelerations, dynamics.lagrange_multipliers)),
+    *(_sig(f, model=MODEL, q=Q, theta_dot=THETA_DOT) for f in (
+        dynamics.actuator_space_model, dynamics.actuator_space_coriolis_matrix)),
+    _sig(dynamics.inverse_dynamics, model=MODEL, q=Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
+    _sig(dynamics.forward_dynamics, model=MODEL, q=Q, theta_dot=THETA_DOT, tau=TAU),
+    # the model
+    Target("Planar3RRR", pkmlab.Planar3RRR, _MODEL_ARGS, names=PAPER_NAMES, examples=150),
+    Target("Planar3RRR.from_params", pkmlab.Planar3RRR.from_params, _PAPER_PARAMS, names=PAPER_NAMES, examples=150),
+    Target("Planar3RRR.replace", MODEL.replace, {}, _fields(pkmlab.Planar3RRR), names=PAPER_NAMES, examples=150),
+    # analyses
+    _sig(pkmlab.singularity_map, model=MODEL, alpha=0.0, mode=(-1, 1, -1), x_range=None, y_range=None,
+         resolution=5, progress=None),
+    # trajectories and controllers
+    Target("Circle", Circle, dict(center=(0.25, 0.21), radius=0.05, start_angle=math.pi, alpha=0.0, alpha_end=None,
+                                  turns=1.0), then=_use_path),
+    Target("Line", Line, dict(start=(0.2, 0.2, 0.0), end=(0.3, 0.2, 0.1)), then=_use_path),
+    Target("Trajectory", Trajectory, dict(path=CIRCLE, speed=0.2, law="cubic"), then=_use_trajectory),
+    Target("WaypointTrajectory", WaypointTrajectory, dict(points=((0.2, 0.2, 0.0), (0.3, 0.2, 0.1)), speed=0.1,
+                                                          law="cubic"), then=_use_trajectory),
+    Target("ControllerSpec", ControllerSpec, dict(kind="computed_torque", kp=400.0, kv=None),
+           then=lambda spec: spec.velocity_gain),
+    # scenarios and simulation (an accepted scenario is prepared for its run: pre-flight, desired motion)
+    Target("Scenario", pkmlab.Scenario, dict(model=MODEL, trajectory=TRAJECTORY, plant=None, controller=CONTROLLER,
+                                             sample_time=0.01, working_mode="auto", singularity_margin=0.05,
+                                             singularity_guard=0.01, substeps=1, name="mine"), then=_prepare),
+    Target("Scenario.replace", SCENARIO.replace, {}, _fields(pkmlab.Scenario), then=_prepare),
+    _sig(pkmlab.simulate, scenario=SCENARIO),
+    _sig(pkmlab.simulate_batch, scenarios=[SCENARIO], on_error="raise"),
+    _sig(pkmlab.perturbed_model, model=MODEL, rng=RNG, spread=0.15),
+    _sig(pkmlab.paper_scenario, name="nominal"),
+    _sig(pkmlab.load_scenario, path=SCENARIO_DIR / "nominal.toml"),
+    # plants
+    Target("ReducedPlant.simulate", _reduced_plant, {**_PLANT, "min_abs_S": 1e-6, "theta_dot0": np.zeros(3)},
+           names=_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
+    Target("FullPlant.simulate", _full_plant, {**_PLANT, "stabilization": 20.0, "q_dot0": np.zeros(7)},
+           names=_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
+]
+
+#: Inputs tried per target (printed at the end of the module with ``pytest -s``).
+TRIED: collections.Counter = collections.Counter()
+
+
+def _patterns(target: Target, param: str, bad) -> list[str]:
+    patterns = list(target.names.get(param, [rf"\b{re.escape(param)}\b"]))
+    if param == "path" and isinstance(bad, (str, PathLike)):  # a file's errors name the file itself
+        patterns += [re.escape(text) for text in (str(bad), str(Path(bad)), repr(str(Path(bad))))]
+    return patterns
+
+
+def check(target: Target, param: str, bad) -> None:
+    """Call ``target`` with ``param`` replaced by ``bad``: success, or a one-line PkmlabError naming ``param``."""
+    TRIED[target.name] += 1
+    try:
+        result = target.call(**{**target.valid, param: bad})
+    except pkmlab.PkmlabError as exc:
+        message = str(exc)
+        where = f"{target.name}({param}={bad!r}) raised {type(exc).__name__}({message!r})"
+        assert message and "\n" not in message, f"{where}: the message is not one line"
+        assert any(re.search(p, message) for p in _patterns(target, param, bad)), f"{where}: {param!r} is not named"
+        return
+    if target.then is not None:  # accepted: then it must be usable (or refused later, in one line)
+        try:
+            target.then(result)
+        except pkmlab.PkmlabError as exc:
+            assert str(exc) and "\n" not in str(exc), f"{target.name}({param}={bad!r}), then: {exc!r}"
+
+
+FUZZ = settings(derandomize=True, database=None, deadline=None, suppress_health_check=list(HealthCheck))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def report_counts():
+    yield
+    print(f"\napi fuzzer: {sum(TRIED.values())} inputs over {len(TRIED)} targets")
+    for name, n in sorted(TRIED.items()):
+        print(f"  {name:45s} {n:5d}")
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # overflow inside NumPy on the huge values is expected
+@pytest.mark.parametrize("target", TARGETS, ids=lambda t: t.name)
+def test_wrong_arguments_are_refused_by_name(target):
+    @settings(FUZZ, max_examples=target.examples)
+    @given(param=st.sampled_from(target.params), bad=target.careless)
+    def fuzz(param, bad):
+        check(target, param, bad)
+
+    fuzz()
+
+
+def test_every_public_callable_is_fuzzed():
+    """A new public function or class must get a target here."""
+    fuzzed = {t.name.split(".")[-1] for t in TARGETS} | {t.name.split(".")[0] for t in TARGETS}
+    fuzzed |= {"ReducedPlant", "FullPlant"}
+    # results, built by pkmlab, not by users
+    exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
+              "PlantRun", "SingularityMap"}
+    public = {name: getattr(pkmlab, name) for name in pkmlab.__all__}
+    callables = [name for name, obj in public.items()
+                 if callable(obj) and not (isinstance(obj, type) and issubclass(obj, Exception))]
+    missing = [name for name in callables if name not in fuzzed | exempt]
+    missing += [f"dynamics.{name}" for name in dynamics.__all__ if name not in fuzzed]
+    assert not missing, f"public callables without a fuzz target: {missing}"
+
+
+# ------------------------------------------------------------------ the issue's instances
+def test_simulate_names_a_wrong_scenario():
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"^scenario must be a Scenario.*paper_scenario"):
+        pkmlab.simulate("nominal")
+
+
+@pytest.mark.parametrize(("changes", "name"), [
+    ({"controller": {"kp": 400.0}}, "controller"),
+    ({"model": None}, "model"),
+    ({"plant": SCENARIO}, "plant"),
+    ({"trajectory": CIRCLE}, "trajectory"),
+    ({"working_mode": "bad"}, "working_mode"),
+    ({"name": 3}, "name"),
+    ({"sample_tim": 0.01}, "sample_tim"),
+])
+def test_scenario_replace_names_a_wrong_value(changes, name):
+    with pytest.raises(pkmlab.InvalidParameterError, match=rf"\b{name}\b"):
+        SCENARIO.replace(**changes)
+
+
+@pytest.mark.parametrize("spelling", ["-+-", ("-", "+", "-"), (-1, 1, -1), ["-1", "+1", "-1"], np.array([-1, 1, -1])])
+def test_scenario_working_mode_takes_the_spellings_of_inverse_kinematics(spelling):
+    scenario = SCENARIO.replace(working_mode=spelling)
+    assert scenario.working_mode == (-1, 1, -1)
+    assert all(type(s) is int for s in scenario.working_mode)
+    np.testing.assert_array_equal(pkmlab.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=spelling).q, Q)
+
+
+def test_planar3rrr_replace_names_an_unknown_attribute():
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"^platform_sid is not an attribute"):
+        MODEL.replace(platform_sid=0.1)
+
+
+@pytest.mark.parametrize("bad", [[1.0, 2.0], [1.0, 2.0, 3.0, 4.0], np.zeros((3, 2)), None, "abc"])
+def test_theta_ddot_is_validated_like_the_other_arrays(bad):
+    for call in (lambda: pkmlab.coordinate_accelerations(MODEL, Q, THETA_DOT, bad),
+                 lambda: dynamics.inverse_dynamics(MODEL, Q, THETA_DOT, bad)):
+        with pytest.raises(pkmlab.InvalidParameterError, match=r"\btheta_ddot\b"):
+            call()
+
+
+def test_a_torque_function_of_the_wrong_shape_is_refused():
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"^torque\(t, theta, theta_dot\) must return 3 numbers"):
+        pkmlab.ReducedPlant(MODEL).simulate(Q, np.zeros(3), lambda t, theta, theta_dot: [1.0, 2.0], 1e-3)
+
+
+def test_a_scenario_with_a_string_working_mode_runs():
+    assert pkmlab.simulate(SCENARIO.replace(working_mode="-+-")).working_mode == (-1, 1, -1)
