@@ -75,7 +75,7 @@ def test_readme_promise_a_folder_holding_anything_else_is_refused_never_deleted(
     out = tmp_path / "results"
     before = user_folder(out)
     message = assert_user_error(*run(capsys, *command, "--out", out))
-    assert "not empty" in message and str(out) in message
+    assert "pkmlab did not write" in message and str(out) in message
     assert snapshot(out) == before
     assert hidden(tmp_path) == []
 
@@ -269,7 +269,7 @@ def test_results_record_how_they_were_made(capsys, tmp_path, quick):
     summary = json.loads((out / "summary.json").read_text())
     prov = summary["provenance"]
     assert prov["control"] == "continuous" and prov["sample_time_s"] is None
-    assert prov["pkmlab_version"] == pkmlab.__version__ and prov["manipulator"] == "the paper's (SPEC §1)"
+    assert prov["pkmlab_version"] == pkmlab.__version__ and prov["manipulator"] == "the paper's (its section 5)"
     report = (out / "REPORT.md").read_text()
     assert "continuous-time" in report and f"pkmlab {pkmlab.__version__}" in report
     manifest = outputs.read_manifest(out)

@@ -112,20 +112,20 @@ def read_manifest(folder: str | os.PathLike) -> dict:
         if not (isinstance(manifest["command"], str) and isinstance(listed, dict)):
             raise TypeError
     except FileNotFoundError:
-        raise OutputFolderError(f"{folder} has no {MANIFEST}: it was not written by pkmlab") from None
+        raise OutputFolderError(f"{folder}: it has no {MANIFEST} (pkmlab did not write it)") from None
     except (OSError, ValueError, KeyError, TypeError):
-        raise OutputFolderError(f"{folder}/{MANIFEST} is not a pkmlab manifest") from None
+        raise OutputFolderError(f"{folder}: its {MANIFEST} is not a pkmlab manifest") from None
     files, others = _entries(folder)
     foreign = [f for f in files if f != MANIFEST and f not in listed] + others
     if foreign:
         shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
-        raise OutputFolderError(f"{folder} holds files pkmlab did not write: {shown}")
+        raise OutputFolderError(f"{folder}: it holds files pkmlab did not write: {shown}")
     for name, digest in listed.items():
         path = folder / name
         if not path.is_file():
-            raise OutputFolderError(f"{folder}: {name}, listed in {MANIFEST}, is missing")
+            raise OutputFolderError(f"{folder}: its {name}, listed in {MANIFEST}, is missing")
         if sha256_of(path) != digest:
-            raise OutputFolderError(f"{folder}: {name} was changed since pkmlab wrote it")
+            raise OutputFolderError(f"{folder}: its {name} was changed since pkmlab wrote it")
     return manifest
 
 
@@ -137,9 +137,9 @@ def _check_replaceable(out: Path, command: str) -> dict | None:
     try:
         manifest = read_manifest(out)
     except OutputFolderError as exc:
-        raise OutputFolderError(f"cannot write results to {out}: it is not empty and {_after_folder(exc, out)}; "
-                                "pkmlab replaces only its own unchanged results: choose a new or empty folder"
-                                ) from None
+        reason = str(exc).removeprefix(f"{out}: ")
+        raise OutputFolderError(f"cannot write results to {out}: {reason}; pkmlab replaces only a folder of its "
+                                "own unchanged results: choose a new or empty folder") from None
     if manifest["command"] != command:
         raise OutputFolderError(f"cannot write results to {out}: it holds the results of `pkmlab "
                                 f"{manifest['command']}`, not of `pkmlab {command}`: choose another folder")
@@ -152,15 +152,6 @@ def _describe(manifest: dict) -> str:
     if isinstance(prov, dict):
         details += [f"{prov[k]}" + (" control" if k == "control" else "") for k in ("scenario", "control") if k in prov]
     return ", ".join(details) + f", written {manifest.get('created', '?')}"
-
-
-def _after_folder(exc: Exception, out: Path) -> str:
-    """The reason of a manifest error, without the folder name it starts with."""
-    text = str(exc)
-    for prefix in (f"{out}/", f"{out}: ", f"{out} "):
-        if text.startswith(prefix):
-            return text[len(prefix):] if prefix != f"{out}/" else f"its {text[len(prefix):]}"
-    return text
 
 
 def _check_inputs(out: Path, inputs: Iterable) -> None:

@@ -186,7 +186,7 @@ def _report(results: dict, summary: dict, figures: bool, prov: dict) -> str:
 
 
 #: How the report names the paper's own manipulator.
-PAPER_MANIPULATOR = "the paper's (SPEC §1)"
+PAPER_MANIPULATOR = "the paper's (its section 5)"
 
 
 def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures: bool = True,
@@ -243,12 +243,10 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
     else:
         shape = f"{len(traj.segments) + 1} waypoints"
     spec = scenario.controller
-    ts = scenario.sample_time
     return [
         ("trajectory", f"{shape}; average speed {traj.speed:g} m/s, {traj.law} time law, "
                        f"duration {traj.duration:.4g} s"),
         ("controller", f"{spec.kind}, kp = {spec.kp:g}, kv = {spec.velocity_gain:.4g}"),
-        ("control", f"sampled-data, Ts = {ts * 1e3:g} ms" if ts > 0 else "continuous-time"),
         ("plant", "identical to the controller's model" if scenario.plant is None
          else "its own parameters, see `plant.toml`"),
         ("working mode", "chosen automatically (max min abs(S) along the path)"
