@@ -140,7 +140,7 @@ def test_replacing_an_earlier_result_of_the_same_command_is_said(capsys, tmp_pat
     assert run(capsys, "reproduce", "--out", out, "--no-figures")[0] == 0
     code, _stdout, err = run(capsys, "reproduce", "--out", out, "--no-figures", "--control", "continuous")
     assert code == 0
-    assert err.count("\n") == 1 and "note: replacing the earlier results" in err and "sampled control" in err
+    assert err.count("\n") == 1 and "note: replaced the earlier results" in err and "sampled control" in err
     assert outputs.read_manifest(out)["provenance"]["control"] == "continuous"
     assert run(capsys, "reproduce", "--out", out, "--no-figures", "--quiet")[2] == ""  # --quiet: no note
 
@@ -220,16 +220,39 @@ def test_kill_9_of_a_real_simulation_keeps_the_earlier_result(tmp_path):
     argv = [sys.executable, "-m", "pkmlab.cli", "simulate", str(EXAMPLES / "fast.toml"), "--out", str(out)]
     subprocess.run(argv + ["--no-figures"], check=True, capture_output=True)
     before = snapshot(out)
-    for delay in (0.5, 1.5, 3.0):
+    landed = 0
+    for delay in (0.5, 1.5, 3.0, 4.5):
         proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
-        proc.wait()
+        killed = proc.wait() == -signal.SIGKILL
         now = snapshot(out)
-        if now != before:  # the new run had finished: then it is whole
+        if now != before:  # the new run had finished: then it is whole, with its figures
             outputs.read_manifest(out)
             assert "path.png" in now
             before = now
+        landed += killed and now == before
+    assert landed > 0  # at least one kill struck a run in progress, and the earlier result stood
+    subprocess.run(argv, check=True, capture_output=True)  # the next run cleans up after the killed ones
+    assert hidden(tmp_path) == [] and "path.png" in snapshot(out)
+
+
+def test_without_an_atomic_exchange_the_two_step_swap_is_safe_too(tmp_path, monkeypatch):
+    """Where the system cannot exchange two folders atomically, the old folder is moved aside first; a run
+    killed between the two renames leaves it aside, and the next run puts it back before anything else."""
+    monkeypatch.setattr(outputs, "_exchange", lambda a, b: False)
+    out = tmp_path / "r"
+    for tag in ("A", "B"):
+        with outputs.atomic_output_dir(out, "test", note=lambda _m: None) as tmp:
+            (tmp / "a.txt").write_text(tag)
+        assert (out / "a.txt").read_text() == tag and hidden(tmp_path) == []
+    # killed between the renames: the earlier result is aside under a temporary name, `out` is missing
+    aside = tmp_path / ".r.pkmlab-tmp-999999999-old-x"
+    os.rename(out, aside)
+    notes = []
+    with pytest.raises(outputs.OutputFolderError), outputs.atomic_output_dir(out, "other", note=notes.append):
+        pass  # a run of another command: refused, since the earlier result is back in place
+    assert (out / "a.txt").read_text() == "B" and "restored" in notes[0] and hidden(tmp_path) == []
 
 
 # ------------------------------------------------------------------ reproduce --params is honoured
@@ -557,7 +580,7 @@ def test_a_file_added_while_the_run_writes_is_never_deleted(tmp_path, monkeypatc
         (tmp / "a.txt").write_text("old")
     # during the run: refused at the end, the new result is dropped, the user's file kept
     with pytest.raises(outputs.OutputFolderError, match="late.txt"):
-        with pytest.warns(outputs.ResultReplacedWarning), outputs.atomic_output_dir(out, "test") as tmp:
+        with outputs.atomic_output_dir(out, "test") as tmp:
             (out / "late.txt").write_text("mine")
             (tmp / "a.txt").write_text("new")
     assert (out / "late.txt").read_text() == "mine" and (out / "a.txt").read_text() == "old"
@@ -570,9 +593,10 @@ def test_a_file_added_while_the_run_writes_is_never_deleted(tmp_path, monkeypatc
         return exchange(a, b)
 
     monkeypatch.setattr(outputs, "_exchange", user_writes_first)
-    with pytest.warns(outputs.ResultReplacedWarning) as notes, outputs.atomic_output_dir(out, "test") as tmp:
+    notes = []
+    with outputs.atomic_output_dir(out, "test", note=notes.append) as tmp:
         (tmp / "a.txt").write_text("new")
-    assert "changed while the run was writing" in str(notes[-1].message)
+    assert "changed while the run was writing" in notes[0] and "replaced the earlier results" in notes[1]
     kept = [p for p in tmp_path.iterdir() if p.name.startswith("r.previous-")]
     assert len(kept) == 1 and (kept[0] / "later.txt").read_text() == "mine"
     assert (out / "a.txt").read_text() == "new"

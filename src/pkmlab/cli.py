@@ -92,7 +92,10 @@ def cmd_demo(args) -> dict:
     model = _model(args)
     _resolution(args.resolution)  # refused before anything is computed or printed
     out_dir = Path(args.out)
-    with atomic_output_dir(out_dir, "demo", inputs=[args.params] if args.params else []) as tmp:
+    provenance = {"pkmlab_version": __version__, "resolution": args.resolution,
+                  "manipulator": f"your parameter file {args.params}" if args.params else "the paper's"}
+    with atomic_output_dir(out_dir, "demo", inputs=[args.params] if args.params else [], provenance=provenance,
+                           note=_note(args)) as tmp:
         mode = _demo(args, model, say, tmp)
     out = out_dir / "fig03_singularity_map.png"
     say(f"wrote {out}")
@@ -257,7 +260,7 @@ def cmd_reproduce(args) -> dict:
 
     progress = _status_messages(args)
     summary = reproduce(args.out, control=args.control, figures=not args.no_figures, progress=progress,
-                        params=args.params)
+                        params=args.params, note=_note(args))
     if not args.json:
         print(f"{'case':<10} {'max path error (m)':>19} {'rms path error (m)':>19} {'peak torque (N m)':>18}")
         for name, s in summary["cases"].items():
@@ -270,13 +273,15 @@ def cmd_reproduce(args) -> dict:
 
 def cmd_simulate(args) -> dict:
     """One scenario file: summary.json, run.csv, plant.toml, figures and REPORT.md in --out."""
+    from .io import read_text
     from .report import simulation_report
-    from .scenario_io import load_scenario
+    from .scenario_io import scenario_from_text
 
-    scenario = load_scenario(args.scenario)
+    text = read_text(Path(args.scenario))  # once: what is simulated is what is kept as scenario.toml
+    scenario = scenario_from_text(text, args.scenario)
     progress = _status_messages(args)
     summary = simulation_report(scenario, args.out, figures=not args.no_figures, progress=progress,
-                                source=args.scenario)
+                                source=args.scenario, source_text=text, note=_note(args))
     if not args.json:
         s = summary
         print(f"scenario {s['scenario']}: max path error {s['max_path_error_m']:.4e} m, "
@@ -745,38 +750,34 @@ def _strict_json(value):
     return value
 
 
-def _note_printer(args):
-    """``warnings.showwarning`` for the command: one line on stderr, ``pkmlab CMD: note: ...``;
-    --quiet drops them."""
+def _note(args):
+    """What a command says besides its result (an earlier result replaced, ...): one line on stderr,
+    ``pkmlab CMD: note: ...``; nothing with --quiet."""
 
-    def show(message, *_args, **_kwargs):
+    def say(message: str) -> None:
         if not getattr(args, "quiet", False):
             print(f"pkmlab {args.command}: note: {message}", file=sys.stderr)
 
-    return show
+    return say
 
 
 def _run(argv: list[str] | None) -> int:
-    import warnings
-
     parser = build_parser()
     args = parser.parse_args(argv)
-    with warnings.catch_warnings():
-        warnings.showwarning = _note_printer(args)
-        try:
-            _check_finite(parser, args)
-            _check_mode(parser, args)
-            _compile_notice(args)
-            result = args.func(args)
-        except PkmlabError as exc:
-            if getattr(args, "json", False):
-                print(json.dumps({"error": {"type": type(exc).__name__, "message": str(exc)}}))
-            else:
-                print(f"pkmlab {args.command}: error: {exc}", file=sys.stderr)
-            return 1
-        except KeyboardInterrupt:
-            print(f"pkmlab {args.command}: interrupted", file=sys.stderr)
-            return 130
+    try:
+        _check_finite(parser, args)
+        _check_mode(parser, args)
+        _compile_notice(args)
+        result = args.func(args)
+    except PkmlabError as exc:
+        if getattr(args, "json", False):
+            print(json.dumps({"error": {"type": type(exc).__name__, "message": str(exc)}}))
+        else:
+            print(f"pkmlab {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"pkmlab {args.command}: interrupted", file=sys.stderr)
+        return 130
     if getattr(args, "json", False):
         print(json.dumps(_strict_json(result), indent=2, allow_nan=False))
     sys.stdout.flush()
@@ -826,6 +827,8 @@ def entry() -> int:
     sys.unraisablehook = _interrupt_from_callbacks()
     code = main()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "setitimer"):
+        signal.setitimer(signal.ITIMER_REAL, 0)  # a Ctrl-C still to be delivered: the work is done
     return code
 
 

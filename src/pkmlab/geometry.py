@@ -307,10 +307,12 @@ class Planar3RRR:
 
 
 def _check_number(label: str, value, positive: bool) -> float:
-    try:
-        v = float(value)
+    try:  # "0.52" or True are slips, not numbers, though float() takes them
+        v = None if isinstance(value, (str, bytes, bool, np.bool_)) else float(value)
     except (TypeError, ValueError, OverflowError):
-        raise InvalidParameterError(f"{label} must be a number, got {shown(value)}") from None
+        v = None
+    if v is None:
+        raise InvalidParameterError(f"{label} must be a number, got {shown(value)}")
     if not math.isfinite(v):
         raise InvalidParameterError(f"{label} must be finite, got {v}")
     if positive and v <= 0:

@@ -61,25 +61,29 @@ def read_text(path: Path) -> str:
         reason = exc.strerror if isinstance(exc, OSError) else exc
         raise FileFormatError(f"cannot read {_path_text(path)}: {reason}") from None
     if data.startswith((b"\xff\xfe", b"\xfe\xff")):
-        raise FileFormatError(f"cannot read {path}: it is UTF-16 text; save it as UTF-8")
+        raise FileFormatError(f"cannot read {_path_text(path)}: it is UTF-16 text; save it as UTF-8")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
-        raise FileFormatError(f"cannot read {path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at line {line}); "
-                              "save it as UTF-8") from None
+        raise FileFormatError(f"cannot read {_path_text(path)}: not UTF-8 text (byte 0x{data[exc.start]:02x} at "
+                              f"line {line}); save it as UTF-8") from None
 
 
 def read_toml(path: str | Path) -> dict:
     """Parse a TOML file, turning every failure into a one-line :class:`FileFormatError`."""
-    path = Path(path)
-    text = read_text(path)
+    return parse_toml(read_text(Path(path)), path)
+
+
+def parse_toml(text: str, source: str | Path) -> dict:
+    """Parse TOML ``text`` read from ``source`` (named in the one-line :class:`FileFormatError`)."""
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise FileFormatError(f"{path}: malformed TOML: {exc}") from None
+        raise FileFormatError(f"{_path_text(Path(source))}: malformed TOML: {exc}") from None
     except RecursionError:
-        raise FileFormatError(f"{path}: malformed TOML: arrays or tables nested too deeply") from None
+        raise FileFormatError(f"{_path_text(Path(source))}: malformed TOML: arrays or tables nested too deeply"
+                              ) from None
 
 
 def _is_numeric(value) -> bool:

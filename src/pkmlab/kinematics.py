@@ -118,7 +118,8 @@ def _mode_array(mode, name: str = "mode") -> np.ndarray:
     symbols = {"+": 1, "-": -1, "+1": 1, "-1": -1, "1": 1}
     try:
         values = [symbols.get(m, m) if isinstance(m, str) else m for m in mode]
-        arr = np.asarray(values, dtype=float)
+        # True/False are slips (a mask?), not signs, though Python counts True as 1
+        arr = None if any(isinstance(v, (bool, np.bool_)) for v in values) else np.asarray(values, dtype=float)
     except (TypeError, ValueError, OverflowError):
         arr = None
     if arr is None or arr.shape != (3,) or not np.all(np.isin(arr, (1, -1))):

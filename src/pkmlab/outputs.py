@@ -25,6 +25,7 @@ import contextlib
 import ctypes
 import ctypes.util
 import datetime
+import functools
 import hashlib
 import json
 import os
@@ -91,7 +92,11 @@ def _entries(folder: Path) -> tuple[list[str], list[str]]:
     """Relative paths of the regular files of ``folder`` and of everything else in it (folders
     excepted): symbolic links, sockets, ... Symbolic links are never followed."""
     files, others = [], []
-    for root, dirs, names in os.walk(folder):
+
+    def unreadable(exc: OSError) -> None:  # a subfolder that cannot be read is not known to be empty
+        raise exc
+
+    for root, dirs, names in os.walk(folder, onerror=unreadable):
         for name in names + [d for d in dirs if os.path.islink(os.path.join(root, d))]:
             full = Path(root, name)
             rel = full.relative_to(folder).as_posix()
@@ -115,7 +120,10 @@ def read_manifest(folder: str | os.PathLike) -> dict:
         raise OutputFolderError(f"{folder}: it has no {MANIFEST} (pkmlab did not write it)") from None
     except (OSError, ValueError, KeyError, TypeError):
         raise OutputFolderError(f"{folder}: its {MANIFEST} is not a pkmlab manifest") from None
-    files, others = _entries(folder)
+    try:
+        files, others = _entries(folder)
+    except OSError as exc:
+        raise OutputFolderError(f"{folder}: {exc.filename or 'a subfolder'} cannot be read ({_reason(exc)})") from None
     foreign = [f for f in files if f != MANIFEST and f not in listed] + others
     if foreign:
         shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
@@ -168,14 +176,27 @@ def _temp_prefix(out: Path) -> str:
     return f".{out.name}.pkmlab-tmp-"
 
 
-def _remove_stale_temporaries(out: Path) -> None:
-    """Remove the temporary folders of earlier runs into ``out`` that were killed (their process is gone)."""
-    pattern = re.compile(re.escape(_temp_prefix(out)) + r"(\d+)-")
-    with contextlib.suppress(OSError):
-        for sibling in out.parent.iterdir():
-            match = pattern.match(sibling.name)
-            if match and sibling.is_dir() and not sibling.is_symlink() and not _alive(int(match.group(1))):
-                shutil.rmtree(sibling, ignore_errors=True)
+def _clean_up_after_killed_runs(out: Path, note) -> None:
+    """Deal with the temporary folders that earlier runs into ``out`` left when they were killed
+    (their process is gone): a half-written result (no manifest) or a complete result that was not
+    needed any more is removed; an earlier ``out`` moved aside by a run killed in the middle of its
+    two-step swap is put back; anything else is kept beside ``out`` as ``out.previous-*``."""
+    pattern = re.compile(re.escape(_temp_prefix(out)) + r"(\d+)-(old-)?")
+    try:
+        siblings = sorted(out.parent.iterdir())
+    except OSError:
+        return
+    for folder in siblings:
+        match = pattern.match(folder.name)
+        if not match or folder.is_symlink() or not folder.is_dir() or _alive(int(match.group(1))):
+            continue
+        if match.group(2) and not out.exists() and not out.is_symlink():
+            os.rename(folder, out)  # the earlier result, moved aside when the run was killed
+            note(f"restored the earlier results in {out}, moved aside by a run that was killed")
+        elif not (folder / MANIFEST).exists() and not match.group(2):
+            shutil.rmtree(folder, ignore_errors=True)  # a result killed while being written
+        else:
+            _dispose_of_old(folder, out, note)
 
 
 def _alive(pid: int) -> bool:
@@ -188,9 +209,15 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def _warn(message: str) -> None:
+    import warnings
+
+    warnings.warn(message, ResultReplacedWarning, stacklevel=4)
+
+
 @contextlib.contextmanager
 def atomic_output_dir(out: str | os.PathLike, command: str, inputs: Iterable = (),
-                      provenance: dict | None = None) -> Iterator[Path]:
+                      provenance: dict | None = None, note=None) -> Iterator[Path]:
     """Yield a temporary folder that becomes ``out`` when the block succeeds.
 
     ``command`` names what writes the results (``"simulate"``, ``"reproduce"``); it goes into the
@@ -198,10 +225,13 @@ def atomic_output_dir(out: str | os.PathLike, command: str, inputs: Iterable = (
     existing ``out`` must be empty or an unchanged result of the same command; ``inputs`` (files
     the run reads) must not lie inside it. Everything that makes the target unusable (it is a
     file, its parent is a file, a read-only folder, a folder of the user's files, ...) is reported
-    as a one-line :class:`OutputFolderError` before anything is computed. An ``OSError`` while
-    writing inside the block is reported the same way; an error or Ctrl-C leaves the target as
-    it was and removes the temporary folder (and any parent folders made for it).
+    as a one-line :class:`OutputFolderError` before anything is computed; a file the user adds
+    while the run writes makes it refuse at the end. An ``OSError`` while writing inside the block
+    is reported the same way; an error or Ctrl-C leaves the target as it was and removes the
+    temporary folder (and any parent folders made for it). ``note(message)`` is told what else
+    happens (an earlier result replaced, ...); by default it is a :class:`ResultReplacedWarning`.
     """
+    note = note or _warn
     out = Path(out)
     if out.name in ("", ".", ".."):
         raise OutputFolderError(f"cannot write results to {out}: name a folder to create or replace")
@@ -212,39 +242,39 @@ def atomic_output_dir(out: str | os.PathLike, command: str, inputs: Iterable = (
         if out.exists() and not out.is_dir():
             raise OutputFolderError(f"cannot write results to {out}: it exists and is not a folder")
         _check_inputs(out, inputs)
-        earlier = _check_replaceable(out, command) if out.is_dir() else None
         created = [p for p in (out.parent, *out.parent.parents) if not p.exists()]
         out.parent.mkdir(parents=True, exist_ok=True)
-        _remove_stale_temporaries(out)
+        _clean_up_after_killed_runs(out, note)
+        earlier = _check_replaceable(out, command) if out.is_dir() else None
         tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{_temp_prefix(out)}{os.getpid()}-"))
     except OSError as exc:
         _remove_empty(created)
         raise OutputFolderError(f"cannot write results to {out}: {_reason(exc)}") from None
-    if earlier is not None:
-        import warnings
-
-        warnings.warn(f"replacing the earlier results in {out} ({_describe(earlier)})", ResultReplacedWarning,
-                      stacklevel=3)
-    moved = False
+    swapped = False  # from then on, `tmp` may hold the earlier `out`: it is never removed unchecked
     try:
         try:
             yield tmp
             _write_manifest(tmp, command, provenance or {})
+            umask = _umask()
             for path in tmp.rglob("*"):
-                os.chmod(path, 0o755 if path.is_dir() else 0o644)
-            os.chmod(tmp, 0o755)
+                os.chmod(path, (0o777 if path.is_dir() else 0o666) & ~umask)
+            os.chmod(tmp, 0o777 & ~umask)
             if out.exists():
                 _check_replaceable(out, command)  # again: the run took a while
-                _swap(tmp, out)
+                old = _swap(tmp, out)
+                swapped = True
+                _dispose_of_old(old, out, note)
             else:
                 os.rename(tmp, out)
-            moved = True
+                swapped = True
         except OSError as exc:
             raise OutputFolderError(f"cannot write results to {out}: {_reason(exc)}") from None
     finally:
-        if not moved:
+        if not swapped:
             shutil.rmtree(tmp, ignore_errors=True)
             _remove_empty(created)
+    if earlier is not None:
+        note(f"replaced the earlier results in {out} ({_describe(earlier)})")
 
 
 def _write_manifest(folder: Path, command: str, provenance: dict) -> None:
@@ -269,6 +299,7 @@ _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 
 
+@functools.cache
 def _renameat2():
     with contextlib.suppress(OSError, AttributeError, TypeError):
         libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
@@ -292,39 +323,43 @@ def _exchange(a: Path, b: Path) -> bool:
     raise OSError(err, os.strerror(err))
 
 
-def _swap(new: Path, out: Path) -> None:
-    """Put the folder ``new`` in the place of the folder ``out`` and remove the old one.
+def _swap(new: Path, out: Path) -> Path:
+    """Put the folder ``new`` in the place of the folder ``out``; return where the old one now is.
 
-    The old folder is removed only if it still holds nothing but pkmlab's own files (it was
-    checked before, but a user may have added a file since); otherwise it is kept beside ``out``.
+    One atomic exchange where the system has it; otherwise two renames, the old folder moved
+    aside (a ``-old-`` temporary name that a later run puts back if this one is killed between
+    the two) and put back if the second fails.
     """
     if _exchange(new, out):
-        old = new
-    else:
-        old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{_temp_prefix(out)}{os.getpid()}-old-")) / out.name
-        os.rename(out, old)
-        try:
-            os.rename(new, out)
-        except BaseException:
-            os.rename(old, out)
-            raise
-    if not any(old.iterdir()):
-        old.rmdir()
-    else:
-        try:
-            read_manifest(old)
-        except OutputFolderError:
-            import warnings
+        return new
+    old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{_temp_prefix(out)}{os.getpid()}-old-"))
+    os.rename(out, old)  # onto the empty folder just made: POSIX replaces it
+    try:
+        os.rename(new, out)
+    except BaseException:
+        os.rename(old, out)
+        raise
+    return old
 
-            keep = out.parent / f"{out.name}.previous-{datetime.datetime.now():%Y%m%d-%H%M%S}"
-            os.rename(old, keep)
-            warnings.warn(f"{out} changed while the run was writing; its earlier content is kept in {keep}",
-                          ResultReplacedWarning, stacklevel=4)
-            return
-        shutil.rmtree(old)
-    if old.parent != out.parent:
-        with contextlib.suppress(OSError):
-            old.parent.rmdir()
+
+def _dispose_of_old(old: Path, out: Path, note) -> None:
+    """Remove the earlier content of ``out``, now at ``old``, if it is empty or an unchanged pkmlab
+    result; otherwise (a file added since it was checked, an unreadable one, an interruption) keep it
+    beside ``out`` as ``out.previous-TIME`` and say so."""
+    try:
+        if any(old.iterdir()):
+            read_manifest(old)
+            shutil.rmtree(old)
+        else:
+            old.rmdir()
+        return
+    except BaseException as exc:
+        stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+        keep = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{out.name}.previous-{stamp}-"))
+        os.rename(old, keep)
+        note(f"{out} changed while the run was writing; its earlier content is kept in {keep}")
+        if not isinstance(exc, OutputFolderError):
+            raise
 
 
 def _remove_empty(folders: list[Path]) -> None:

@@ -1,19 +1,15 @@
 """Figures: publication-ready Matplotlib plots of pkmlab results.
 
 Each function draws on a given ``ax`` (or a new figure) and returns the ``Axes``, so users
-can combine and restyle them; :func:`save` writes a figure atomically.
+can combine and restyle them.
 """
 
 from __future__ import annotations
-
-import os
-from pathlib import Path
 
 import numpy as np
 
 from .analysis import SingularityMap, Workspace
 from .geometry import Planar3RRR
-from .outputs import atomic_file
 
 
 def _axes(ax):
@@ -107,13 +103,6 @@ def plot_workspace(ws: Workspace, model: Planar3RRR | None = None, fig=None):
     fig.suptitle(f"Reachable workspace at α = {ws.alpha:g} rad for each working mode "
                  f"(grid {ws.x.size} × {ws.y.size})", fontsize=12)
     return fig
-
-
-def save(fig, path: str | os.PathLike, dpi: int = 150) -> Path:
-    """Write ``fig`` to ``path`` through a temporary file, so no half-written image is left."""
-    with atomic_file(path) as tmp:
-        fig.savefig(tmp, dpi=dpi)
-    return Path(path)
 
 
 # ------------------------------------------------------------------ closed-loop results

@@ -150,7 +150,7 @@ def _provenance_lines(prov: dict) -> list[str]:
 
 def _report(results: dict, summary: dict, figures: bool, prov: dict) -> str:
     nominal = summary["nominal"]
-    paper = prov["manipulator"] == PAPER_MANIPULATOR
+    paper = prov["parameter_file"] is None
     lines = [
         "# pkmlab: reproduction of the paper's simulated cases" if paper
         else "# pkmlab: the paper's simulated cases on another manipulator",
@@ -190,21 +190,24 @@ PAPER_MANIPULATOR = "the paper's (its section 5)"
 
 
 def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures: bool = True,
-              progress: Callable[[str], None] | None = None, params: str | os.PathLike | None = None) -> dict:
+              progress: Callable[[str], None] | None = None, params: str | os.PathLike | None = None,
+              note: Callable[[str], None] | None = None) -> dict:
     """Run the three cases and write their results into ``out``; return the summary dict.
 
     ``params`` (a parameter file) runs the cases on that manipulator instead of the paper's; the
     report says so in its title. ``summary.json`` records how the results were made
-    (``"provenance"``: control mode, sample time, manipulator, versions).
+    (``"provenance"``: control mode, sample time, manipulator, versions). ``note`` is told when an
+    earlier result is replaced (:func:`~pkmlab.outputs.atomic_output_dir`).
     """
     from .io import manipulator_to_toml, read_manipulator_table
 
     say = progress or (lambda _msg: None)
     manipulator = None if params is None else read_manipulator_table(params)
     scenarios = case_scenarios(control, manipulator)  # a bad parameter file is refused before anything is written
-    prov = provenance(control, scenarios["nominal"].sample_time or 1e-3,
-                      PAPER_MANIPULATOR if params is None else f"your parameter file {params}")
-    with atomic_output_dir(out, "reproduce", inputs=[params] if params else [], provenance=prov) as tmp:
+    prov = {**provenance(control, scenarios["nominal"].sample_time or 1e-3,
+                         PAPER_MANIPULATOR if params is None else f"your parameter file {params}"),
+            "parameter_file": None if params is None else str(params)}
+    with atomic_output_dir(out, "reproduce", inputs=[params] if params else [], provenance=prov, note=note) as tmp:
         say(f"simulating the paper's cases ({control} control) ...")
         results = run_cases(control, manipulator)
         summary = {"cases": {name: results[name].summary() for name in PAPER_CASES}, "provenance": prov}
@@ -283,23 +286,25 @@ def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
 
 def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool = True,
                       progress: Callable[[str], None] | None = None,
-                      source: str | os.PathLike | None = None) -> dict:
+                      source: str | os.PathLike | None = None, source_text: str | None = None,
+                      note: Callable[[str], None] | None = None) -> dict:
     """Simulate ``scenario`` and write its results into the folder ``out``; return the summary.
 
     ``out`` receives ``summary.json`` (SPEC §8 fields, ``"scenario"``, the name, and
     ``"provenance"``), ``run.csv``, ``plant.toml``, the figures of :data:`RUN_FIGURES` and
     ``REPORT.md`` — all at once, when everything succeeded
-    (:func:`~pkmlab.outputs.atomic_output_dir`). ``source``, the scenario file the scenario was
-    read from, is copied as ``scenario.toml``; it may not lie inside ``out``.
+    (:func:`~pkmlab.outputs.atomic_output_dir`, which tells ``note`` when an earlier result is
+    replaced). ``source``, the scenario file the scenario was read from, may not lie inside
+    ``out``; its text (``source_text``, as it was read, else read again) is kept as ``scenario.toml``.
     """
     from .io import manipulator_to_toml, read_text
 
-    text = None if source is None else read_text(Path(source))
+    text = source_text if source_text is not None or source is None else read_text(Path(source))
     control = "sampled" if scenario.sample_time > 0 else "continuous"
     prov = {**provenance(control, scenario.sample_time, "the scenario's [manipulator]; the plant in plant.toml"),
             **({"scenario": str(source)} if source is not None else {})}
     say = progress or (lambda _msg: None)
-    with atomic_output_dir(out, "simulate", inputs=[source] if source else [], provenance=prov) as tmp:
+    with atomic_output_dir(out, "simulate", inputs=[source] if source else [], provenance=prov, note=note) as tmp:
         say(f"simulating {scenario.name} ...")
         result = simulation.simulate(scenario)
         summary = {"scenario": scenario.name, **result.summary(), "provenance": prov}

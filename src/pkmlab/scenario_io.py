@@ -53,9 +53,9 @@ import numpy as np
 from ._format import apart
 from .control import CONTROLLER_TYPES, ControllerSpec
 from .errors import InvalidParameterError, PkmlabError, shown
-from .io import PARAM_KEYS, PRESETS, FileFormatError, manipulator_from_dict, read_toml
+from .io import PARAM_KEYS, PRESETS, FileFormatError, manipulator_from_dict, parse_toml, read_toml
 from .kinematics import _mode_array
-from .simulation import Scenario, scaled_model
+from .simulation import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
 from .trajectory import Circle, Line, Trajectory, WaypointTrajectory
 
 #: The tables of a scenario file and their keys.
@@ -75,8 +75,6 @@ TRAJECTORY_KEYS = {
 }
 TIME_LAWS = ("cubic", "quintic")
 #: Runs longer than this many samples are refused (memory: ~200 bytes per sample).
-MAX_SAMPLES = 10_000_000
-MAX_SUBSTEPS = 1000
 _PER_LEG = ("l", "r", "mass_l", "mass_r", "inertia_l", "inertia_r")
 _SCALAR = ("b", "a", "mass_a", "inertia_a")
 
@@ -375,6 +373,11 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
                         name=name, **options)
     except PkmlabError as exc:  # every value was checked above: a safety net for the message's file name
         raise rd.value_error(str(exc)) from None
+
+
+def scenario_from_text(text: str, source: str | Path) -> Scenario:
+    """The scenario of a scenario file's ``text``, already read from ``source`` (named in errors)."""
+    return scenario_from_dict(parse_toml(text, source), str(source), Path(source).stem)
 
 
 def load_scenario(path: str | Path) -> Scenario:
