@@ -5,7 +5,8 @@ import importlib
 
 import pytest
 
-MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics"]
+MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
+           "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description"]
 
 
 @pytest.mark.parametrize("name", MODULES)
