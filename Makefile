@@ -28,6 +28,7 @@ bench: install
 
 derive: install
 	$(BIN)/python -m pkmlab.derivations.rrr3_sextic
+	$(BIN)/python -m pkmlab.derivations.planar
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info

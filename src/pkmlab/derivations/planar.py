@@ -1,0 +1,250 @@
+"""Symbolic derivation of a planar mechanism's kinematics, generated as compiled kernels.
+
+From a :class:`~pkmlab.mechanisms.description.Mechanism` this module derives, with SymPy, in
+the coordinates
+
+    q = (actuator values, passive joint coordinates leg by leg, pose)
+
+(the actuated ones first, as the paper orders ``q = (θ, φ)``; the pose ``(x, y[, alpha])`` is
+part of the passive set, so every leg closes on the platform by two equations):
+
+* the loop-closure constraints ``η(q) = 0`` — for each leg, the end of its chain minus its
+  platform attachment point, x then y (2 per leg);
+* their Jacobian ``Jηq = ∂η/∂q`` and the bias ``J̇ηq q̇`` that the acceleration kinematics
+  (paper eq. 32) needs;
+* for every body (the legs' bodies, then the platform): the pose of its mass centre
+  ``(x, y, angle)``, its Jacobian ``J_b = ∂(x, y, angle)/∂q`` (rows: linear velocity, angular
+  velocity) and the bias ``J̇_b q̇`` — everything the constrained Lagrangian model (paper eqs.
+  20–26) and its reduction to the actuator space (eq. 35) are built from, written once, for any
+  mechanism.
+
+Only the *structure* of the mechanism (its legs' joints and its platform's kind) enters the
+code; every number (base points, tips, mass centres, masses, inertias, attachment points,
+gravity) is read from a packed parameter vector (:func:`pack`), so one generated module serves
+every machine of the same structure. Common subexpressions are shared (``sympy.cse``) and the
+code is straight-line, which Numba keeps in registers.
+
+Run ``python -m pkmlab.derivations.planar`` to regenerate the modules of pkmlab's presets in
+``pkmlab/mechanisms/generated/``; ``--check`` exits non-zero when a committed file is not
+current (the test suite checks it too).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+from ..mechanisms.description import Mechanism
+
+GENERATED_DIR = Path(__file__).resolve().parents[1] / "mechanisms" / "generated"
+
+
+# ------------------------------------------------------------------ structure and parameters
+def structure(mechanism: Mechanism) -> str:
+    """The name of the mechanism's structure, which is all the generated code depends on:
+    ``"RaRR_RaRR_RaRR_rigid"`` for the 3-RRR (``a`` marks the actuated joint)."""
+    return "_".join(leg.notation.replace("*", "a") for leg in mechanism.legs) + "_" + mechanism.platform.kind
+
+
+def coordinate_names(mechanism: Mechanism) -> tuple[str, ...]:
+    """Names of ``q``: ``a1..an`` (actuators), ``q<leg>_<joint>`` (passive joints), then the pose."""
+    names = [f"a{i + 1}" for i in range(len(mechanism.legs))]
+    for i, leg in enumerate(mechanism.legs):
+        names += [f"q{i + 1}_{k + 1}" for k, j in enumerate(leg.joints[:-1]) if not j.actuated]
+    return (*names, *mechanism.pose_names)
+
+
+def parameter_names(mechanism: Mechanism) -> tuple[str, ...]:
+    """Names of the packed parameter vector, in order (:func:`pack`)."""
+    names = []
+    for i, leg in enumerate(mechanism.legs):
+        names += [f"base{i + 1}_x", f"base{i + 1}_y"]
+        if leg.joints[0].axis is not None:
+            names.append(f"axis{i + 1}")
+        for k in range(len(leg.bodies)):
+            pre = f"body{i + 1}_{k + 1}"
+            names += [f"{pre}_tip_x", f"{pre}_tip_y", f"{pre}_com_x", f"{pre}_com_y", f"{pre}_mass", f"{pre}_inertia"]
+    if mechanism.platform.kind == "rigid":
+        for i in range(len(mechanism.legs)):
+            names += [f"attach{i + 1}_x", f"attach{i + 1}_y"]
+        names += ["platform_com_x", "platform_com_y"]
+    names += ["platform_mass", "platform_inertia", "gravity_x", "gravity_y"]
+    return tuple(names)
+
+
+def pack(mechanism: Mechanism) -> np.ndarray:
+    """The parameter vector of ``mechanism`` read by its generated kernels (:func:`parameter_names`)."""
+    values = []
+    for leg in mechanism.legs:
+        values += [*leg.base]
+        if leg.joints[0].axis is not None:
+            values.append(leg.joints[0].axis)
+        for body in leg.bodies:
+            values += [*body.tip, *body.com, body.mass, body.inertia]
+    if mechanism.platform.kind == "rigid":
+        for point in mechanism.platform.attachments:
+            values += [*point]
+        values += [*mechanism.platform.com]
+    values += [mechanism.platform.mass, mechanism.platform.inertia, *mechanism.gravity]
+    return np.array(values, dtype=float)
+
+
+# ------------------------------------------------------------------ the derivation
+def derive(mechanism: Mechanism) -> dict:
+    """The symbolic kinematics of ``mechanism``'s structure.
+
+    Returns ``{"q", "qd", "P": symbols; "eta": (m,), "bodies": [(x, y, angle), ...] (mass
+    centres, legs' bodies then the platform)}`` as SymPy expressions of ``q`` and ``P``.
+    """
+    q = sp.symbols(" ".join(coordinate_names(mechanism)), real=True)
+    qd = sp.symbols(" ".join(f"{n}_dot" for n in coordinate_names(mechanism)), real=True)
+    P = dict(zip(parameter_names(mechanism), sp.symbols(" ".join(parameter_names(mechanism)), real=True),
+                 strict=True))
+    n = len(mechanism.legs)
+    pose = q[len(q) - mechanism.dof:]
+    alpha = pose[2] if mechanism.dof == 3 else sp.Integer(0)
+    passive = iter(q[n:len(q) - mechanism.dof])
+    eta, bodies = [], []
+    for i, leg in enumerate(mechanism.legs):
+        point = sp.Matrix([P[f"base{i + 1}_x"], P[f"base{i + 1}_y"]])
+        direction = sp.Integer(0)
+        for k, (joint, _body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
+            coordinate = q[i] if joint.actuated else next(passive)
+            if joint.kind == "R":  # the following body's absolute angle
+                direction, origin = coordinate, point
+            else:  # a slide along the rail (first joint) or along the preceding body
+                axis = P[f"axis{i + 1}"] if k == 0 else direction
+                origin, direction = point + coordinate * sp.Matrix([sp.cos(axis), sp.sin(axis)]), axis
+            rot = sp.Matrix([[sp.cos(direction), -sp.sin(direction)], [sp.sin(direction), sp.cos(direction)]])
+            pre = f"body{i + 1}_{k + 1}"
+            com = origin + rot * sp.Matrix([P[f"{pre}_com_x"], P[f"{pre}_com_y"]])
+            bodies.append((com[0], com[1], direction))
+            point = origin + rot * sp.Matrix([P[f"{pre}_tip_x"], P[f"{pre}_tip_y"]])
+        rot = sp.Matrix([[sp.cos(alpha), -sp.sin(alpha)], [sp.sin(alpha), sp.cos(alpha)]])
+        attach = (sp.Matrix([P[f"attach{i + 1}_x"], P[f"attach{i + 1}_y"]]) if mechanism.platform.kind == "rigid"
+                  else sp.zeros(2, 1))
+        target = sp.Matrix(pose[:2]) + rot * attach
+        eta += [point[0] - target[0], point[1] - target[1]]
+    if mechanism.platform.kind == "rigid":
+        com = sp.Matrix(pose[:2]) + rot * sp.Matrix([P["platform_com_x"], P["platform_com_y"]])
+        bodies.append((com[0], com[1], alpha))
+    else:
+        bodies.append((pose[0], pose[1], sp.Integer(0)))  # a payload at the point: it does not turn
+    return {"q": q, "qd": qd, "P": P, "eta": eta, "bodies": bodies}
+
+
+def _jacobian_and_bias(exprs, q, qd):
+    """``J = ∂exprs/∂q`` and ``J̇ q̇ = Σ_k (∂(J q̇)/∂q_k) q̇_k`` (the terms of the acceleration that do
+    not multiply ``q̈``)."""
+    jac = sp.Matrix(exprs).jacobian(q)
+    velocity = jac * sp.Matrix(qd)
+    bias = velocity.jacobian(q) * sp.Matrix(qd)
+    return jac, bias
+
+
+# ------------------------------------------------------------------ code generation
+def _emit(lines, name, args, doc, outputs, indices):
+    lines += ["", "", "@njit(cache=True)", f"def {name}({args}):", f'    """{doc}"""']
+    nonzero = [(ix, e) for ix, e in zip(indices, outputs, strict=True) if e != 0]
+    replacements, reduced = sp.cse([e for _ix, e in nonzero], symbols=sp.numbered_symbols("w"), order="canonical")
+    for sym, expr in replacements:
+        lines.append(f"    {sym} = {sp.pycode(expr)}")
+    zero = [ix for ix, e in zip(indices, outputs, strict=True) if e == 0]
+    if zero:
+        lines.append("    out[:] = 0.0")
+    for (ix, _e), expr in zip(nonzero, reduced, strict=True):
+        lines.append(f"    out[{ix}] = {sp.pycode(expr)}")
+
+
+def generate_source(mechanism: Mechanism) -> str:
+    """The text of the generated module of ``mechanism``'s structure."""
+    d = derive(mechanism)
+    q, qd = d["q"], d["qd"]
+    nq, m, nb = len(q), len(d["eta"]), len(d["bodies"])
+    unpack = [f"{name} = q[{k}]" for k, name in enumerate(coordinate_names(mechanism))]
+    unpack_qd = [f"{sym} = qd[{k}]" for k, sym in enumerate(qd)]
+    unpack_p = [f"{name} = P[{k}]" for k, name in enumerate(parameter_names(mechanism))]
+    j_eta, b_eta = _jacobian_and_bias(d["eta"], q, qd)
+    body_exprs = [e for body in d["bodies"] for e in body]
+    j_body, b_body = _jacobian_and_bias(body_exprs, q, qd)
+    lines = [
+        '"""GENERATED by ``python -m pkmlab.derivations.planar`` -- do not edit.',
+        "",
+        f"Kinematics of the planar structure {structure(mechanism)} (legs {mechanism.notation}, "
+        f"{mechanism.platform.kind} platform);",
+        "see ``pkmlab.derivations.planar`` for the coordinates q, the parameters P and the meaning of each output.",
+        f"Derived with SymPy {sp.__version__}.",
+        '"""',
+        "",
+        "import math",
+        "",
+        "from numba import njit",
+        "",
+        f"COORDINATES = {coordinate_names(mechanism)!r}",
+        f"PARAMETERS = {parameter_names(mechanism)!r}",
+        f"N_COORDINATES, N_CONSTRAINTS, N_BODIES = {nq}, {m}, {nb}",
+    ]
+
+    def emit(name, args, doc, outputs, indices, needs_qd=False):
+        start = len(lines)
+        _emit(lines, name, args, doc, outputs, indices)
+        body_start = start + 5
+        prelude = [f"    {line}" for line in unpack + (unpack_qd if needs_qd else []) + unpack_p]
+        used = "\n".join(lines[body_start:])
+        prelude = [p for p in prelude if _used(p, used)]
+        lines[body_start:body_start] = prelude
+
+    emit("constraints", "q, P, out", "Write the loop-closure residual eta(q) (N_CONSTRAINTS,) into out.",
+         d["eta"], [str(k) for k in range(m)])
+    emit("constraint_jacobian", "q, P, out", "Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out.",
+         list(j_eta), [f"{r}, {c}" for r in range(m) for c in range(nq)])
+    emit("constraint_bias", "q, qd, P, out", "Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out.",
+         list(b_eta), [str(k) for k in range(m)], needs_qd=True)
+    emit("body_poses", "q, P, out", "Write each body's mass-centre pose (x, y, angle) (N_BODIES, 3) into out.",
+         body_exprs, [f"{b}, {k}" for b in range(nb) for k in range(3)])
+    emit("body_jacobians", "q, P, out", "Write each body's d(x, y, angle)/dq (N_BODIES, 3, N_COORDINATES) into out.",
+         list(j_body), [f"{b}, {k}, {c}" for b in range(nb) for k in range(3) for c in range(nq)])
+    emit("body_bias", "q, qd, P, out", "Write each body's dJ_b/dt qd (N_BODIES, 3) into out.",
+         list(b_body), [f"{b}, {k}" for b in range(nb) for k in range(3)], needs_qd=True)
+    text = "\n".join(lines) + "\n"
+    return text.replace("\n\n\n\n", "\n\n\n")
+
+
+def _used(assignment: str, code: str) -> bool:
+    import re
+
+    name = assignment.strip().split(" = ")[0]
+    return re.search(rf"\b{re.escape(name)}\b", code) is not None
+
+
+def generated_path(mechanism: Mechanism) -> Path:
+    return GENERATED_DIR / f"planar_{structure(mechanism)}.py"
+
+
+def main(argv: list[str] | None = None) -> int:
+    from ..mechanisms.presets import PRESETS
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--check", action="store_true", help="fail if a file is not current")
+    args = parser.parse_args(argv)
+    stale = 0
+    for make in PRESETS.values():
+        mechanism = make()
+        path, source = generated_path(mechanism), generate_source(mechanism)
+        if args.check:
+            if not path.exists() or path.read_text() != source:
+                print(f"{path} is not current: run python -m pkmlab.derivations.planar")
+                stale += 1
+            continue
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(source)
+        print(f"wrote {path}")
+    return 1 if stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
