@@ -6,7 +6,7 @@ import importlib
 import pytest
 
 MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
-           "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description"]
+           "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanism_model"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -1,0 +1,171 @@
+"""Any described mechanism bound to its generated kernels, and its dynamics — written once.
+
+A :class:`MechanismModel` is the immutable pair (description, packed parameters) plus the
+compiled kernels generated for its structure (:mod:`pkmlab.derivations.planar`): the same role as
+:class:`~pkmlab.geometry.Planar3RRR` plays for the paper's 3-RRR, for every mechanism. The
+functions below are the paper's formulation applied to it through the mechanism-agnostic
+algebra of :mod:`pkmlab.closed_chain` and :mod:`pkmlab.lagrangian`:
+
+* the constrained Lagrangian model in the full coordinates ``q`` (eqs. 20–26) with gravity:
+  ``M(q) q̈ + C(q, q̇) q̇ + g(q) = τ + Jηqᵀ λ``;
+* its exact reduction to the actuator space (eq. 35, with gravity):
+  ``Mθ θ̈ + cθ + gθ = τθ``, ``Mθ = Jqθᵀ M Jqθ``, ``cθ = Jqθᵀ (M J̇qθ θ̇ + C q̇)``,
+  ``gθ = Jqθᵀ g = ∂V/∂θ``.
+
+Coordinates are those of the generated kernels: ``q = (actuators, passive joints, pose)``.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from types import ModuleType
+
+import numpy as np
+
+from . import closed_chain, lagrangian
+from .derivations import planar
+from .errors import InvalidParameterError, SingularityError
+from .mechanisms.description import Mechanism
+from .mechanisms.presets import preset
+
+
+@dataclass(frozen=True)
+class MechanismModel:
+    """A described mechanism with its packed parameters and generated kernels.
+
+    >>> model = MechanismModel.from_preset("five_bar")
+    >>> model.coordinates
+    ('a1', 'a2', 'q1_2', 'q2_2', 'x', 'y')
+    """
+
+    description: Mechanism
+    P: np.ndarray = field(compare=False, repr=False)
+    kernels: ModuleType = field(compare=False, repr=False)
+
+    @classmethod
+    def from_description(cls, description: Mechanism) -> MechanismModel:
+        if not isinstance(description, Mechanism):
+            raise InvalidParameterError(f"description must be a Mechanism, got {type(description).__name__}")
+        name = planar.generated_path(description).stem
+        try:
+            kernels = importlib.import_module(f".mechanisms.generated.{name}", __package__)
+        except ModuleNotFoundError:
+            raise InvalidParameterError(f"no generated kernels for the structure {planar.structure(description)} "
+                                        "yet (pkmlab generates those of its presets)") from None
+        P = planar.pack(description)
+        P.setflags(write=False)
+        return cls(description, P, kernels)
+
+    @classmethod
+    def from_preset(cls, name: str) -> MechanismModel:
+        return cls.from_description(preset(name))
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        return self.kernels.COORDINATES
+
+    @property
+    def n_actuators(self) -> int:
+        return len(self.description.legs)
+
+    @property
+    def body_weights(self) -> np.ndarray:
+        """``D`` (n_bodies, 3): ``(m, m, I)`` of every body (legs' bodies, then the platform)."""
+        rows = [(b.mass, b.mass, b.inertia) for leg in self.description.legs for b in leg.bodies]
+        platform = self.description.platform
+        return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
+
+
+def _evaluate(fn, shape, *args) -> np.ndarray:
+    out = np.empty(shape)
+    fn(*args, out)
+    return out
+
+
+def _q(model: MechanismModel, q) -> np.ndarray:
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(model.coordinates),):
+        raise InvalidParameterError(f"q must be the {len(model.coordinates)} coordinates "
+                                    f"({', '.join(model.coordinates)}), got shape {q.shape}")
+    return q
+
+
+def constraint_residual(model: MechanismModel, q) -> np.ndarray:
+    """``η(q)``: for each leg, the end of its chain minus its platform attachment point."""
+    k = model.kernels
+    return _evaluate(k.constraints, (k.N_CONSTRAINTS,), _q(model, q), model.P)
+
+
+def constraint_jacobian(model: MechanismModel, q) -> np.ndarray:
+    """``Jηq = ∂η/∂q`` (n_constraints, n_coordinates)."""
+    k = model.kernels
+    return _evaluate(k.constraint_jacobian, (k.N_CONSTRAINTS, k.N_COORDINATES), _q(model, q), model.P)
+
+
+def _bodies(model: MechanismModel, q, q_dot):
+    k = model.kernels
+    J = _evaluate(k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q, model.P)
+    bias = _evaluate(k.body_bias, (k.N_BODIES, 3), q, q_dot, model.P)
+    return J, bias
+
+
+def gravity_vector(model: MechanismModel, q) -> np.ndarray:
+    """``g(q) = ∂V/∂q``: the generalised forces that hold the machine still against gravity."""
+    q = _q(model, q)
+    k = model.kernels
+    J = _evaluate(k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q, model.P)
+    weights = model.body_weights[:, 0]
+    gx, gy = model.description.gravity
+    return -(weights[:, None] * (gx * J[:, 0, :] + gy * J[:, 1, :])).sum(axis=0)
+
+
+def full_space_model(model: MechanismModel, q, q_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(M, C q̇, g)`` of the unconstrained bodies in the coordinates ``q`` (eqs. 23–24, with gravity)."""
+    q, q_dot = _q(model, q), _q(model, q_dot)
+    J, bias = _bodies(model, q, q_dot)
+    D = model.body_weights
+    return lagrangian.mass_matrix(J, D), lagrangian.velocity_product(J, D, bias), gravity_vector(model, q)
+
+
+def _actuated_jacobian(model: MechanismModel, q) -> tuple[np.ndarray, np.ndarray]:
+    j_eta_q = constraint_jacobian(model, q)
+    j_q_theta, ok = closed_chain.actuated_jacobian(j_eta_q, model.n_actuators)
+    if not ok:
+        raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
+    return j_eta_q, j_q_theta
+
+
+def actuator_space_model(model: MechanismModel, q, theta_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(Mθ, cθ, gθ)`` of ``Mθ θ̈ + cθ + gθ = τθ`` (eq. 35, with gravity) at a configuration ``q`` on
+    the loop-closure manifold and actuator rates ``θ̇``."""
+    q = _q(model, q)
+    theta_dot = np.asarray(theta_dot, dtype=float)
+    if theta_dot.shape != (model.n_actuators,):
+        raise InvalidParameterError(f"theta_dot must be {model.n_actuators} actuator rates, got shape "
+                                    f"{theta_dot.shape}")
+    _j_eta_q, j_q_theta = _actuated_jacobian(model, q)
+    q_dot = j_q_theta @ theta_dot
+    k, na = model.kernels, model.n_actuators
+    gamma = _evaluate(k.constraint_bias, (k.N_CONSTRAINTS,), q, q_dot, model.P)
+    # J̇qθ θ̇ = [0; -Jηφ⁻¹ J̇ηq q̇] (eq. 32)
+    bias_q = np.zeros(len(q))
+    bias_q[na:] = -np.linalg.solve(_j_eta_q[:, na:], gamma)
+    M, h, g = full_space_model(model, q, q_dot)
+    m_theta = j_q_theta.T @ M @ j_q_theta
+    return 0.5 * (m_theta + m_theta.T), j_q_theta.T @ (M @ bias_q + h), j_q_theta.T @ g
+
+
+def constrained_accelerations(model: MechanismModel, q, q_dot, tau) -> tuple[np.ndarray, np.ndarray]:
+    """``(q̈, λ)`` of the full model ``M q̈ + C q̇ + g = Q + Jηqᵀ λ`` with ``Jηq q̈ + J̇ηq q̇ = 0`` (eq. 26),
+    where ``Q`` applies the actuator efforts ``τ`` to the actuated coordinates."""
+    q, q_dot = _q(model, q), _q(model, q_dot)
+    k = model.kernels
+    M, h, g = full_space_model(model, q, q_dot)
+    Q = np.zeros(len(q))
+    Q[:model.n_actuators] = tau
+    gamma = _evaluate(k.constraint_bias, (k.N_CONSTRAINTS,), q, q_dot, model.P)
+    q_ddot, lam, ok = lagrangian.constrained_accelerations(M, h + g, constraint_jacobian(model, q), gamma, Q)
+    if not ok:
+        raise SingularityError("the constrained model is singular at this configuration")
+    return q_ddot, lam

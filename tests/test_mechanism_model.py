@@ -1,0 +1,107 @@
+"""The dynamics of any described mechanism, written once on its generated kernels: the paper's
+3-RRR as pkmlab's own 3-RRR model gives it, and for every preset the invariants — symmetric
+positive-definite mass matrices, the reduced model against the full multiplier model, gravity
+as the gradient of the potential energy."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+import pkmlab
+from pkmlab import mechanism_model as mm
+from pkmlab.mechanisms.presets import preset
+
+# a pose of each preset well inside its workspace, and a guess of its leg coordinates near one branch
+POSES = {
+    "paper": ([0.22, 0.2, 0.1], None),
+    "five_bar": ([0.02, 0.36], [1.9, 1.2, 0.6, 2.4]),
+    "3rpr": ([0.25, 0.21, -math.pi / 2], [0.3, 0.3, 0.3, 0.7, 2.8, -1.5]),
+    "3prr": ([0.26, 0.15, 0.0], [0.2, 0.2, 0.2, 1.5, 0.0, -1.9]),
+}
+
+
+def configuration(name):
+    """A configuration on the loop-closure manifold: the pose fixed, the other coordinates by Newton."""
+    model = mm.MechanismModel.from_preset(name)
+    pose, guess = POSES[name]
+    if name == "paper":  # pkmlab's 3-RRR inverse kinematics: q = (theta, phi, alpha)
+        q_old = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), pose, mode=(-1, 1, -1)).q
+        return model, np.array([*q_old[:6], *pose]), q_old
+    q = np.array([*guess, *pose], dtype=float)
+    free = len(q) - len(pose)
+    for _ in range(60):
+        eta = mm.constraint_residual(model, q)
+        if np.max(np.abs(eta)) < 1e-15:
+            break
+        q[:free] -= np.linalg.solve(mm.constraint_jacobian(model, q)[:, :free], eta)
+    assert np.max(np.abs(mm.constraint_residual(model, q))) < 1e-13
+    return model, q, None
+
+
+def test_the_paper_preset_has_pkmlabs_3rrr_dynamics():
+    model, q, q_old = configuration("paper")
+    paper = pkmlab.Planar3RRR.paper()
+    for theta_dot in ([0.0, 0.0, 0.0], [0.3, -0.2, 0.5], [-1.1, 0.7, 0.2]):
+        m_theta, c_theta, g_theta = mm.actuator_space_model(model, q, theta_dot)
+        m_ref, c_ref = pkmlab.dynamics.actuator_space_model(paper, q_old, theta_dot)
+        np.testing.assert_allclose(m_theta, m_ref, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(c_theta, c_ref, rtol=1e-11, atol=1e-15)
+        assert np.all(g_theta == 0.0)  # the horizontal plane
+
+
+@pytest.mark.parametrize("name", sorted(POSES))
+def test_mass_matrices_are_symmetric_positive_definite(name):
+    model, q, _ = configuration(name)
+    M, _h, _g = mm.full_space_model(model, q, np.zeros_like(q))
+    m_theta, _c, _gt = mm.actuator_space_model(model, q, np.zeros(model.n_actuators))
+    for A in (M, m_theta):
+        np.testing.assert_allclose(A, A.T, atol=1e-15)
+        assert np.linalg.eigvalsh(A).min() > 0
+
+
+@pytest.mark.parametrize("name", sorted(POSES))
+def test_reduced_model_equals_the_full_multiplier_model(name):
+    """theta_ddot from eq. (35) is the actuated part of q_ddot from eq. (26), with gravity on."""
+    model, q, _ = configuration(name)
+    heavy = mm.MechanismModel.from_description(dataclasses.replace(model.description, gravity=(0.0, -9.81)))
+    rng = np.random.default_rng(2)
+    for m in (model, heavy):
+        _j, j_q_theta = mm._actuated_jacobian(m, q)
+        for _ in range(5):
+            theta_dot, tau = rng.normal(size=m.n_actuators), rng.normal(size=m.n_actuators)
+            m_theta, c_theta, g_theta = mm.actuator_space_model(m, q, theta_dot)
+            reduced = np.linalg.solve(m_theta, tau - c_theta - g_theta)
+            q_ddot, _lam = mm.constrained_accelerations(m, q, j_q_theta @ theta_dot, tau)
+            np.testing.assert_allclose(q_ddot[:m.n_actuators], reduced, rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", sorted(POSES))
+def test_gravity_is_the_gradient_of_the_potential_energy(name):
+    model, q, _ = configuration(name)
+    heavy = mm.MechanismModel.from_description(dataclasses.replace(model.description, gravity=(0.0, -9.81)))
+    masses = heavy.body_weights[:, 0]
+
+    def potential(q):
+        poses = np.empty((heavy.kernels.N_BODIES, 3))
+        heavy.kernels.body_poses(q, heavy.P, poses)
+        return float(np.sum(masses * 9.81 * poses[:, 1]))  # V = sum m g y
+
+    h = 1e-6
+    fd = np.array([(potential(q + h * e) - potential(q - h * e)) / (2 * h) for e in np.eye(len(q))])
+    np.testing.assert_allclose(mm.gravity_vector(heavy, q), fd, atol=1e-7)
+    _j, j_q_theta = mm._actuated_jacobian(heavy, q)
+    np.testing.assert_allclose(mm.actuator_space_model(heavy, q, np.zeros(heavy.n_actuators))[2], j_q_theta.T @ fd,
+                               atol=1e-7)
+
+
+def test_bad_arguments_are_named():
+    model = mm.MechanismModel.from_preset("five_bar")
+    with pytest.raises(pkmlab.InvalidParameterError, match="q must be the 6 coordinates"):
+        mm.constraint_residual(model, [0.0, 1.0])
+    with pytest.raises(pkmlab.InvalidParameterError, match="description must be a Mechanism"):
+        mm.MechanismModel.from_description("five_bar")
+    with pytest.raises(pkmlab.InvalidParameterError, match="unknown mechanism preset"):
+        mm.MechanismModel.from_preset("delta")
+    assert preset("five_bar") == model.description
