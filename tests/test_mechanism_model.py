@@ -105,3 +105,74 @@ def test_bad_arguments_are_named():
     with pytest.raises(pkmlab.InvalidParameterError, match="unknown mechanism preset"):
         mm.MechanismModel.from_preset("delta")
     assert preset("five_bar") == model.description
+
+
+# ------------------------------------------------------------------ inverse kinematics in closed form
+IK_POSES = {"paper": [0.2, 0.21, 0.0], "five_bar": [0.0, 0.35], "3rpr": [0.25, 0.21, -math.pi / 2],
+            "3prr": [0.26, 0.2, 0.0]}
+
+
+@pytest.mark.parametrize("name", sorted(IK_POSES))
+def test_inverse_kinematics_closes_every_loop_in_every_working_mode(name):
+    from pkmlab.mechanisms.description import leg_chain
+
+    model = mm.MechanismModel.from_preset(name)
+    modes = mm.working_modes(model)
+    assert len(modes) == {"paper": 8, "five_bar": 4, "3rpr": 1, "3prr": 8}[name]
+    reached = 0
+    for mode in modes:
+        try:
+            q = mm.inverse_kinematics(model, IK_POSES[name], mode)
+        except pkmlab.UnreachablePoseError as exc:
+            assert "stroke" in str(exc) and name == "3prr"
+            continue
+        reached += 1
+        np.testing.assert_allclose(mm.constraint_residual(model, q), 0.0, atol=1e-15)
+        legs = model.description.legs
+        two_branch = [i for i, leg in enumerate(legs) if leg.notation != "RP*R"]
+        for sigma, i in zip(mode, two_branch, strict=True):
+            leg = legs[i]
+            coords = [q[i] if j.actuated else None for j in leg.joints[:-1]]
+            passive = iter(q[model.n_actuators + sum(len(lg.joints) - 2 for lg in legs[:i]):])
+            coords = [c if c is not None else next(passive) for c in coords]
+            chain = leg_chain(leg, coords)
+            end = np.array(chain[-1][0])
+            if leg.notation == "R*RR":  # sigma = +1: the elbow left of base -> attachment point
+                d, e = end - np.array(leg.base), np.array(chain[1][0]) - np.array(leg.base)
+                assert np.sign(d[0] * e[1] - d[1] * e[0]) == sigma
+    assert reached > 0
+
+
+def test_inverse_kinematics_of_the_paper_preset_is_pkmlabs():
+    model = mm.MechanismModel.from_preset("paper")
+    ik = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), [0.23, 0.19, 0.2])
+    for mode, q_old in zip(mm.working_modes(model), ik.q, strict=True):
+        q = mm.inverse_kinematics(model, [0.23, 0.19, 0.2], mode)
+        np.testing.assert_allclose(np.angle(np.exp(1j * (q[:6] - q_old[:6]))), 0.0, atol=1e-12)
+
+
+def test_the_3prr_working_mode_picks_the_farther_slider():
+    model = mm.MechanismModel.from_preset("3prr")
+    pose = [0.26, 0.2, 0.0]
+    far = mm.inverse_kinematics(model, pose, (1, 1, 1))
+    # flip leg 1 only, where the nearer root stays on the rail
+    for mode in ((-1, 1, 1), (1, -1, 1), (1, 1, -1)):
+        try:
+            near = mm.inverse_kinematics(model, pose, mode)
+        except pkmlab.UnreachablePoseError:
+            continue
+        k = mode.index(-1)
+        assert near[k] < far[k]
+
+
+def test_unreachable_poses_name_the_leg_and_the_stroke():
+    model = mm.MechanismModel.from_preset("3rpr")
+    with pytest.raises(pkmlab.UnreachablePoseError, match=r"leg \d needs its actuator at .* outside its stroke "
+                                                          r"\[0.1, 0.45\] m"):
+        mm.inverse_kinematics(model, [0.25, 0.6, -math.pi / 2], ())
+    # leg 2 at (0.1, 0): sqrt(0.6^2 + 0.3^2) = 0.67082 m away, beyond 0.25 + 0.30
+    with pytest.raises(pkmlab.UnreachablePoseError, match="leg 2: the attachment point is 0.67082 m from its base, "
+                                                          "beyond its reach"):
+        mm.inverse_kinematics(mm.MechanismModel.from_preset("five_bar"), [-0.5, 0.3], (1, 1))
+    with pytest.raises(pkmlab.InvalidParameterError, match="one sign"):
+        mm.inverse_kinematics(mm.MechanismModel.from_preset("five_bar"), [0.0, 0.35], (1,))

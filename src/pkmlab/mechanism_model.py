@@ -169,3 +169,40 @@ def constrained_accelerations(model: MechanismModel, q, q_dot, tau) -> tuple[np.
     if not ok:
         raise SingularityError("the constrained model is singular at this configuration")
     return q_ddot, lam
+
+
+# ------------------------------------------------------------------ inverse kinematics
+def working_modes(model: MechanismModel) -> list[tuple[int, ...]]:
+    """Every working mode: one sign per two-branch leg, +1 before -1, in lexicographic order
+    (``[()]`` when no leg has two branches, as for the 3-RPR)."""
+    import itertools
+
+    from .mechanisms.leg_types import working_modes as leg_modes
+
+    return list(itertools.product(*[leg_modes(leg) for leg in model.description.legs if leg_modes(leg)]))
+
+
+def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
+    """The configuration ``q`` (actuators, passive joints, pose) of ``pose`` in working ``mode`` (one sign
+    per two-branch leg, :func:`working_modes`), in closed form per leg type
+    (:mod:`pkmlab.mechanisms.leg_types`). Raises naming the leg that cannot reach."""
+    from .mechanisms.description import attachment_point
+    from .mechanisms.leg_types import leg_inverse_kinematics
+    from .mechanisms.leg_types import working_modes as leg_modes
+
+    m = model.description
+    pose = np.asarray(pose, dtype=float)
+    if pose.shape != (m.dof,) or not np.all(np.isfinite(pose)):
+        raise InvalidParameterError(f"pose must be ({', '.join(m.pose_names)}), finite, got {pose.tolist()}")
+    signs = iter(tuple(mode))
+    actuators, passive = [], []
+    for i, leg in enumerate(m.legs):
+        sigma = next(signs, None) if leg_modes(leg) else 1
+        if sigma not in (1, -1):
+            raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg, got {tuple(mode)}")
+        coordinates = leg_inverse_kinematics(leg, i, attachment_point(m, i, pose), sigma)
+        actuators.append(coordinates[leg.actuated])
+        passive += [c for k, c in enumerate(coordinates) if k != leg.actuated]
+    if next(signs, None) is not None:
+        raise InvalidParameterError(f"mode has more signs than two-branch legs, got {tuple(mode)}")
+    return np.array([*actuators, *passive, *pose])
