@@ -176,3 +176,32 @@ def test_unreachable_poses_name_the_leg_and_the_stroke():
         mm.inverse_kinematics(mm.MechanismModel.from_preset("five_bar"), [-0.5, 0.3], (1, 1))
     with pytest.raises(pkmlab.InvalidParameterError, match="one sign"):
         mm.inverse_kinematics(mm.MechanismModel.from_preset("five_bar"), [0.0, 0.35], (1,))
+
+
+# ------------------------------------------------------------------ singularity measure
+def test_the_paper_presets_S_is_the_papers():
+    model = mm.MechanismModel.from_preset("paper")
+    paper = pkmlab.Planar3RRR.paper()
+    for pose in ([0.2, 0.21, 0.0], [0.28, 0.17, -0.5], [0.24, 0.25, 0.9]):
+        for mode, s_old in zip(mm.working_modes(model), pkmlab.inverse_kinematics(paper, pose).S, strict=True):
+            q = mm.inverse_kinematics(model, pose, mode)
+            assert mm.singularity_measure(model, q) == pytest.approx(float(s_old), rel=1e-12, abs=1e-14)
+
+
+def test_3rpr_is_singular_everywhere_at_alpha_zero_and_S_vanishes_with_det_J_eta_phi():
+    """Similar base and platform: at alpha = 0 the three legs meet in one point wherever the platform is."""
+    model = mm.MechanismModel.from_preset("3rpr")
+    for x, y in ((0.25, 0.21), (0.22, 0.16), (0.3, 0.2)):
+        q = mm.inverse_kinematics(model, [x, y, 0.0], ())
+        assert abs(mm.singularity_measure(model, q)) < 1e-12
+        j = mm.constraint_jacobian(model, q)[:, model.n_actuators:]
+        assert abs(np.linalg.det(j)) < 1e-12 * np.linalg.norm(j) ** j.shape[0]
+        q = mm.inverse_kinematics(model, [x, y, -math.pi / 2], ())
+        assert abs(mm.singularity_measure(model, q)) > 0.1
+
+
+def test_five_bar_S_is_the_sine_between_its_distal_links():
+    model = mm.MechanismModel.from_preset("five_bar")
+    q = mm.inverse_kinematics(model, [0.0, 0.35], (1, -1))
+    phi1, phi2 = q[2], q[3]  # the distal links' absolute angles (passive coordinates)
+    assert mm.singularity_measure(model, q) == pytest.approx(math.sin(phi1 - phi2), abs=1e-15)

@@ -206,3 +206,37 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
     if next(signs, None) is not None:
         raise InvalidParameterError(f"mode has more signs than two-branch legs, got {tuple(mode)}")
     return np.array([*actuators, *passive, *pose])
+
+
+# ------------------------------------------------------------------ singularity measure
+def singularity_measure(model: MechanismModel, q) -> float:
+    """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
+
+    With ``u_i`` the direction of the last body of leg ``i`` (the line along which it pushes the
+    platform) and ``p_i`` its attachment point:
+
+    * a rigid platform on three legs: ``S = det[u_i, (p_i - p) × u_i] / ℓ`` — zero when the three
+      lines meet in a point or are parallel; ``ℓ`` is the mean distance between the attachment
+      points. For the paper's equilateral platform this is the paper's eq. (19),
+      ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, with ``φ_i`` the legs' last
+      angles (``ψ_i`` for a telescopic leg);
+    * a point platform on two legs (the five-bar): ``S = sin(φ1 - φ2)`` — zero when the distal
+      links are aligned.
+    """
+    from .mechanisms.description import attachment_point
+
+    q = _q(model, q)
+    m, k = model.description, model.kernels
+    poses = _evaluate(k.body_poses, (k.N_BODIES, 3), q, model.P)
+    last = np.cumsum([len(leg.bodies) for leg in m.legs]) - 1
+    d = poses[last, 2]
+    if m.platform.kind == "point":
+        return float(np.sin(d[0] - d[1]))
+    pose = q[-m.dof:]
+    rows = []
+    for i, di in enumerate(d):
+        px, py = np.subtract(attachment_point(m, i, pose), pose[:2])
+        rows.append([np.cos(di), np.sin(di), px * np.sin(di) - py * np.cos(di)])
+    points = np.array(m.platform.attachments)
+    size = np.mean([np.linalg.norm(points[i] - points[j]) for i in range(len(points)) for j in range(i)])
+    return float(np.linalg.det(np.array(rows)) / size)
