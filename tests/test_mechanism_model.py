@@ -205,3 +205,40 @@ def test_five_bar_S_is_the_sine_between_its_distal_links():
     q = mm.inverse_kinematics(model, [0.0, 0.35], (1, -1))
     phi1, phi2 = q[2], q[3]  # the distal links' absolute angles (passive coordinates)
     assert mm.singularity_measure(model, q) == pytest.approx(math.sin(phi1 - phi2), abs=1e-15)
+
+
+# ------------------------------------------------------------------ forward kinematics
+def test_five_bar_forward_kinematics_finds_both_assembly_modes_and_ik_round_trips():
+    model = mm.MechanismModel.from_preset("five_bar")
+    for point in ([0.0, 0.35], [0.05, 0.3], [-0.06, 0.4]):
+        for mode in mm.working_modes(model):
+            q = mm.inverse_kinematics(model, point, mode)
+            solutions = mm.forward_kinematics_five_bar(model, q[:2])
+            assert len(solutions) == 2  # two circles meet twice away from the singularity
+            for s in solutions:
+                np.testing.assert_allclose(mm.constraint_residual(model, s), 0.0, atol=1e-15)
+            # FK of IK: one assembly mode is the pose itself
+            assert min(np.hypot(*(s[-2:] - point)) for s in solutions) < 1e-14
+
+
+@pytest.mark.parametrize("name", sorted(IK_POSES))
+def test_branch_following_tracks_inverse_kinematics_along_a_path(name):
+    """Driven by the actuators of the IK of a path, branch following stays on that IK's branch."""
+    model = mm.MechanismModel.from_preset(name)
+    mode = mm.working_modes(model)[0] if name != "3prr" else (1, 1, 1)
+    start = np.array(IK_POSES[name])
+    path = [start + t * np.array([0.02, 0.01, 0.05][:len(start)]) for t in np.linspace(0.0, 1.0, 11)]
+    q = mm.inverse_kinematics(model, path[0], mode)
+    for pose in path[1:]:
+        expected = mm.inverse_kinematics(model, pose, mode)
+        q = mm.branch_following(model, q, expected[:model.n_actuators])
+        np.testing.assert_allclose(np.angle(np.exp(1j * (q - expected))), 0.0, atol=1e-10)
+
+
+def test_branch_following_stops_at_a_singularity():
+    """The 3-RPR turned through alpha = 0 (singular there, wherever the platform is): refused on the way."""
+    model = mm.MechanismModel.from_preset("3rpr")
+    q = mm.inverse_kinematics(model, [0.25, 0.21, -0.3], ())
+    with pytest.raises(pkmlab.BranchFollowingError, match="gain-type singularity"):
+        for alpha in np.linspace(-0.3, 0.3, 13)[1:]:
+            q = mm.branch_following(model, q, mm.inverse_kinematics(model, [0.25, 0.21, alpha], ())[:3])

@@ -18,6 +18,7 @@ Coordinates are those of the generated kernels: ``q = (actuators, passive joints
 from __future__ import annotations
 
 import importlib
+import math
 from dataclasses import dataclass, field
 from types import ModuleType
 
@@ -240,3 +241,72 @@ def singularity_measure(model: MechanismModel, q) -> float:
     points = np.array(m.platform.attachments)
     size = np.mean([np.linalg.norm(points[i] - points[j]) for i in range(len(points)) for j in range(i)])
     return float(np.linalg.det(np.array(rows)) / size)
+
+
+# ------------------------------------------------------------------ forward kinematics
+def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S: float = 1e-3,
+                     max_step: float = 0.05) -> np.ndarray:
+    """The configuration at ``actuators`` continuously connected to ``q_previous`` (paper §3.2).
+
+    Sub-steps of at most ``max_step`` in the actuators, each a first-order predictor along
+    ``Jφθ`` (eq. 15) and Newton's method on ``η = 0`` for the passive coordinates. Raises
+    :class:`~pkmlab.errors.BranchFollowingError` where the path nears a gain-type singularity
+    (``|S| < min_abs_S``) or Newton does not converge.
+    """
+    from .errors import BranchFollowingError
+
+    q = _q(model, q_previous).copy()
+    target = np.asarray(actuators, dtype=float)
+    na = model.n_actuators
+    if target.shape != (na,) or not np.all(np.isfinite(target)):
+        raise InvalidParameterError(f"actuators must be {na} finite values, got {np.asarray(actuators).tolist()}")
+    steps = max(1, int(np.ceil(np.max(np.abs(target - q[:na])) / max_step)))
+    start = q[:na].copy()
+    for k in range(1, steps + 1):
+        theta = start + (target - start) * k / steps
+        j_eta_q = constraint_jacobian(model, q)
+        q[na:] += np.linalg.lstsq(j_eta_q[:, na:], -j_eta_q[:, :na] @ (theta - q[:na]), rcond=None)[0]
+        q[:na] = theta
+        for _ in range(30):
+            eta = constraint_residual(model, q)
+            if np.max(np.abs(eta)) < 1e-14:
+                break
+            j_eta_phi = constraint_jacobian(model, q)[:, na:]
+            q[na:] -= np.linalg.lstsq(j_eta_phi, eta, rcond=None)[0]
+        else:
+            raise BranchFollowingError(f"cannot follow the assembly mode to actuators {np.round(theta, 6).tolist()}: "
+                                       "Newton's method does not converge (out of reach?)")
+        s = singularity_measure(model, q)
+        if abs(s) < min_abs_S:
+            raise BranchFollowingError(f"cannot follow the assembly mode to actuators {np.round(theta, 6).tolist()}: "
+                                       f"a gain-type singularity (|S| = {abs(s):.3g} < {min_abs_S:g})")
+    return q
+
+
+def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.ndarray]:
+    """Both assembly modes of a point platform on two R*RR legs: the end point is where the circles of
+    radius ``r_i`` about the elbows ``E_i`` meet (none, one or two configurations)."""
+    from .mechanisms.description import leg_chain
+
+    m = model.description
+    if m.platform.kind != "point" or any(leg.notation != "R*RR" for leg in m.legs):
+        raise InvalidParameterError(f"{m.notation} is not a five-bar (a point platform on two R*RR legs)")
+    theta = np.asarray(actuators, dtype=float)
+    elbows, radii = [], []
+    for leg, t in zip(m.legs, theta, strict=True):
+        elbows.append(np.array(leg_chain(leg, [t, 0.0])[1][0]))
+        radii.append(math.hypot(*leg.bodies[1].tip))
+    d = elbows[1] - elbows[0]
+    dist = float(np.hypot(*d))
+    if dist == 0 or dist > radii[0] + radii[1] or dist < abs(radii[0] - radii[1]):
+        return []
+    along = (radii[0] ** 2 - radii[1] ** 2 + dist**2) / (2 * dist)
+    across = math.sqrt(max(radii[0] ** 2 - along**2, 0.0))
+    ex, n = d / dist, np.array([-d[1], d[0]]) / dist
+    out = []
+    for sign in ((1.0, -1.0) if across > 0 else (1.0,)):
+        point = elbows[0] + along * ex + sign * across * n
+        passive = [math.atan2(*(point - e)[::-1]) - math.atan2(leg.bodies[1].tip[1], leg.bodies[1].tip[0])
+                   for e, leg in zip(elbows, m.legs, strict=True)]
+        out.append(np.array([*theta, *passive, *point]))
+    return out
