@@ -242,3 +242,15 @@ def test_branch_following_stops_at_a_singularity():
     with pytest.raises(pkmlab.BranchFollowingError, match="gain-type singularity"):
         for alpha in np.linspace(-0.3, 0.3, 13)[1:]:
             q = mm.branch_following(model, q, mm.inverse_kinematics(model, [0.25, 0.21, alpha], ())[:3])
+
+
+def test_the_readme_example_runs(tmp_path, monkeypatch):
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    section = readme[readme.index("## Beyond the paper"):]
+    block = section[section.index("```python\n") + len("```python\n"):]
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    exec(block[: block.index("```")], namespace)  # noqa: S102 - the README's own example
+    assert namespace["mine"] == preset("3rpr") and namespace["M"].shape == (2, 2) and len(namespace["both"]) == 2
