@@ -254,3 +254,117 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
     namespace = {}
     exec(block[: block.index("```")], namespace)  # noqa: S102 - the README's own example
     assert namespace["mine"] == preset("3rpr") and namespace["M"].shape == (2, 2) and len(namespace["both"]) == 2
+
+
+# ------------------------------------------------------------------ forward kinematics: every assembly mode
+def circles_of(mechanism, theta):
+    """Each leg's circle for the platform's attachment point, written from the leg formulas (independent
+    of pkmlab's leg_types): R*RR elbow b + l u(theta), radius r; RP*R centre b, radius rho; P*RR slider
+    pivot b + s u(beta), radius r."""
+    out = []
+    for leg, t in zip(mechanism.legs, theta, strict=True):
+        b = np.array(leg.base)
+        if leg.notation == "R*RR":
+            out.append((b + leg.bodies[0].tip[0] * np.array([math.cos(t), math.sin(t)]), leg.bodies[1].tip[0]))
+        elif leg.notation == "RP*R":
+            out.append((b, t))
+        else:
+            beta = leg.joints[0].axis
+            out.append((b + t * np.array([math.cos(beta), math.sin(beta)]), leg.bodies[1].tip[0]))
+    return out
+
+
+def independent_count(mechanism, theta, n=20000):
+    """How many placements put every attachment point on its circle — by scanning alpha, no polynomial:
+    vertex 1 on circles 1 and (2 shifted by the platform), then the sign changes of leg 3's misfit."""
+    (c1, r1), (c2, r2), (c3, r3) = circles_of(mechanism, theta)
+    att = np.array(mechanism.platform.attachments)
+    alpha = np.linspace(-math.pi, math.pi, n, endpoint=False)
+    rot = np.stack([np.stack([np.cos(alpha), -np.sin(alpha)], -1), np.stack([np.sin(alpha), np.cos(alpha)], -1)], -2)
+    v2, v3 = rot @ (att[1] - att[0]), rot @ (att[2] - att[0])
+    centre = c2 - v2  # vertex 1 lies on this circle of radius r2 too
+    d = centre - c1
+    dist = np.hypot(d[:, 0], d[:, 1])
+    along = (r1**2 - r2**2 + dist**2) / (2 * dist)
+    h = np.sqrt(np.where(r1**2 - along**2 >= 0, r1**2 - along**2, np.nan))
+    count, misfit = 0, []
+    for sign in (1.0, -1.0):
+        normal = np.stack([-d[:, 1], d[:, 0]], -1) / dist[:, None]
+        p1 = c1 + along[:, None] * d / dist[:, None] + sign * h[:, None] * normal
+        f = np.hypot(*(p1 + v3 - c3).T) - r3
+        g = np.roll(f, -1)
+        count += int(np.sum(np.isfinite(f) & np.isfinite(g) & (np.sign(f) != np.sign(g))))
+        misfit.append(f)
+    # the two branches join where circles 1 and 2 touch: a root in that turn shows as a sign change
+    # between the branches at the last sample before the join
+    finite = np.isfinite(h)
+    ends = finite & ~(np.roll(finite, 1) & np.roll(finite, -1))
+    return count + int(np.sum(ends & (np.sign(misfit[0]) != np.sign(misfit[1]))))
+
+
+def test_the_paper_presets_assembly_modes_are_pkmlabs():
+    model = mm.MechanismModel.from_preset("paper")
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        theta = rng.uniform(-math.pi, math.pi, 3)
+        ours = mm.forward_kinematics(model, theta)
+        ref = pkmlab.forward_kinematics(pkmlab.Planar3RRR.paper(), theta)
+        assert len(ours) == len(ref)
+        for (q, s), sol in zip(ours, ref, strict=True):
+            np.testing.assert_allclose(q[-3:], sol.pose, atol=1e-10)
+            assert s == pytest.approx(sol.S, abs=1e-10)
+
+
+def _six_modes(mechanism, rng, draw, tries=4000):
+    """Actuator values with 6 real assembly modes, well apart (the test looks for them itself)."""
+    model = mm.MechanismModel.from_description(mechanism)
+    for _ in range(tries):
+        theta = draw(rng)
+        if independent_count(mechanism, theta, 4000) == 6:
+            solutions = mm.forward_kinematics(model, theta)
+            if len(solutions) == 6 and min(abs(s) for _q, s in solutions) > 0.02:
+                return model, theta, solutions
+    raise AssertionError("no input with 6 assembly modes found")
+
+
+def test_3prr_has_inputs_with_six_assembly_modes_and_fk_finds_them_all():
+    m = preset("3prr")
+    model, theta, solutions = _six_modes(m, np.random.default_rng(1), lambda r: r.uniform(0.0, 0.52, 3))
+    assert independent_count(m, theta) == 6
+    for q, _s in solutions:
+        np.testing.assert_allclose(mm.constraint_residual(model, q), 0.0, atol=1e-12)
+
+
+def test_a_3rpr_whose_platform_is_not_similar_to_its_base_has_six_assembly_modes():
+    base = preset("3rpr")
+    platform = dataclasses.replace(base.platform, attachments=((-0.3, 0.0), (0.3, 0.0), (0.0, 0.1)))
+    legs = tuple(dataclasses.replace(leg, stroke=(0.05, 0.8)) for leg in base.legs)
+    m = dataclasses.replace(base, name="my 3-RPR", platform=platform, legs=legs)
+    model, theta, solutions = _six_modes(m, np.random.default_rng(2), lambda r: r.uniform(0.05, 0.8, 3))
+    assert independent_count(m, theta) == 6 and len(solutions) == 6
+
+
+def test_the_3rpr_preset_similar_triangles_have_at_most_four_assembly_modes():
+    model = mm.MechanismModel.from_preset("3rpr")
+    rng = np.random.default_rng(3)
+    counts = []
+    for _ in range(400):  # leg lengths past the preset's stroke too: the 4-mode region needs long legs
+        theta = rng.uniform(0.05, 0.8, 3)
+        n = independent_count(model.description, theta, 8000)
+        solutions = mm.forward_kinematics(model, theta)
+        if min((abs(s) for _q, s in solutions), default=1.0) > 0.02:
+            assert len(solutions) == n
+        counts.append(len(solutions))
+    assert max(counts) <= 4 and 4 in counts
+
+
+@pytest.mark.parametrize("name", sorted(IK_POSES))
+def test_forward_kinematics_of_inverse_kinematics_finds_the_pose(name):
+    model = mm.MechanismModel.from_preset(name)
+    for mode in mm.working_modes(model):
+        try:
+            q = mm.inverse_kinematics(model, IK_POSES[name], mode)
+        except pkmlab.UnreachablePoseError:
+            continue
+        poses = [sol[-model.description.dof:] for sol, _s in mm.forward_kinematics(model, q[:model.n_actuators])]
+        assert min(np.max(np.abs(np.angle(np.exp(1j * (p - q[-len(p):]))))) for p in poses) < 1e-10

@@ -310,3 +310,72 @@ def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.nda
                    for e, leg in zip(elbows, m.legs, strict=True)]
         out.append(np.array([*theta, *passive, *point]))
     return out
+
+
+def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarray, float]]:
+    """Every assembly mode ``[(q, S), ...]`` (sorted by the platform's angle) at ``actuators``.
+
+    A rigid platform on three legs each holding its attachment point on a circle
+    (:func:`~pkmlab.mechanisms.leg_types.leg_circle`): the roots of one degree-6 polynomial
+    (:func:`~pkmlab.mechanisms.rrr3.three_circles`, the paper's eq. 12 in Gosselin's general
+    form), each polished by Newton's method on ``η = 0``; a five-bar: two circles.
+    """
+    from .mechanisms import rrr3
+    from .mechanisms.description import attachment_point
+    from .mechanisms.leg_types import leg_circle, leg_coordinates
+
+    m = model.description
+    theta = np.asarray(actuators, dtype=float)
+    if theta.shape != (model.n_actuators,) or not np.all(np.isfinite(theta)):
+        raise InvalidParameterError(f"actuators must be {model.n_actuators} finite values, got "
+                                    f"{np.asarray(actuators).tolist()}")
+    if m.platform.kind == "point":
+        return [(q, singularity_measure(model, q)) for q in forward_kinematics_five_bar(model, theta)]
+    circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
+    centres = np.array([c for c, _r in circles])
+    radii = np.array([r for _c, r in circles])
+    a = np.array(m.platform.attachments)
+    vertices = np.array([*(a[1] - a[0]), *(a[2] - a[0])])
+    alphas, p1 = np.empty(6), np.empty((6, 2))
+    count, status = rrr3.three_circles(centres, radii, vertices, alphas, p1)
+    if status != rrr3.OK:
+        raise SingularityError(f"actuators {theta.tolist()}: the forward-kinematics polynomial vanishes "
+                               "identically (a continuum of assembly modes)")
+    na, solutions = model.n_actuators, []
+    for j in range(count):
+        alpha = alphas[j]
+        c, s = math.cos(alpha), math.sin(alpha)
+        x, y = p1[j] - (c * a[0, 0] - s * a[0, 1], s * a[0, 0] + c * a[0, 1])
+        pose = np.array([x, y, alpha])
+        passive = []
+        for i, leg in enumerate(m.legs):
+            coords = leg_coordinates(leg, theta[i], attachment_point(m, i, pose))
+            passive += [v for k, v in enumerate(coords) if k != leg.actuated]
+        q = np.array([*theta, *passive, *pose])
+        for _ in range(30):  # polish: Newton on the passive coordinates
+            eta = constraint_residual(model, q)
+            if np.max(np.abs(eta)) < 1e-15:
+                break
+            q[na:] -= np.linalg.lstsq(constraint_jacobian(model, q)[:, na:], eta, rcond=None)[0]
+        if np.max(np.abs(constraint_residual(model, q))) > 1e-12:
+            continue
+        wrapped = q.copy()
+        angular = [k for k, name in enumerate(model.coordinates) if k >= na and _is_angle(model, k)]
+        wrapped[angular] = np.angle(np.exp(1j * wrapped[angular]))
+        if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-8 for other, _s in solutions):
+            solutions.append((wrapped, singularity_measure(model, wrapped)))
+    return sorted(solutions, key=lambda sol: sol[0][-1])
+
+
+def _is_angle(model: MechanismModel, k: int) -> bool:
+    """Whether coordinate ``k`` is an angle (a revolute joint's, or the platform's alpha)."""
+    name = model.coordinates[k]
+    if name == "alpha":
+        return True
+    if name in ("x", "y"):
+        return False
+    if name.startswith("a"):
+        leg = model.description.legs[int(name[1:]) - 1]
+        return leg.joints[leg.actuated].kind == "R"
+    leg_no, joint_no = (int(v) for v in name[1:].split("_"))
+    return model.description.legs[leg_no - 1].joints[joint_no - 1].kind == "R"

@@ -110,3 +110,31 @@ def leg_inverse_kinematics(leg: Leg, number: int, point, sigma: int = 1) -> list
     """The joint coordinates (joint order, the last joint's excluded) of leg ``number`` (0-based) whose
     end is at ``point``, in working mode ``sigma`` (ignored by single-solution legs)."""
     return _solver(leg, number)(leg, number, point, sigma)
+
+
+# ------------------------------------------------------------------ forward kinematics: the circle of a leg
+def leg_circle(leg: Leg, actuator: float) -> tuple[tuple[float, float], float]:
+    """With its actuator at ``actuator``, every leg type here holds its platform attachment point on a
+    circle: ``(centre, radius)`` — the elbow and the passive link (``R*RR``), the base pivot and the
+    leg's length (``RP*R``), the slider's pivot and the passive link (``P*RR``)."""
+    from .description import leg_chain
+
+    _solver(leg, 0)
+    if leg.notation == "RP*R":
+        tx = leg.bodies[0].tip[0] + leg.bodies[1].tip[0] + actuator
+        return leg.base, math.hypot(tx, leg.bodies[0].tip[1] + leg.bodies[1].tip[1])
+    centre = leg_chain(leg, [actuator, 0.0])[1][0]
+    return centre, math.hypot(*leg.bodies[1].tip)
+
+
+def leg_coordinates(leg: Leg, actuator: float, point) -> list[float]:
+    """The joint coordinates (joint order, the last joint's excluded) of a leg whose actuator is at
+    ``actuator`` and whose end is at ``point`` (on its :func:`leg_circle`)."""
+    _solver(leg, 0)
+    if leg.notation == "RP*R":
+        tx = leg.bodies[0].tip[0] + leg.bodies[1].tip[0] + actuator
+        ty = leg.bodies[0].tip[1] + leg.bodies[1].tip[1]
+        return [math.atan2(point[1] - leg.base[1], point[0] - leg.base[0]) - math.atan2(ty, tx), actuator]
+    (cx, cy), _r = leg_circle(leg, actuator)
+    passive = math.atan2(point[1] - cy, point[0] - cx) - math.atan2(leg.bodies[1].tip[1], leg.bodies[1].tip[0])
+    return [actuator, passive]
