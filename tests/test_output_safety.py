@@ -435,7 +435,7 @@ def test_is_cold_reads_the_kernel_cache(tmp_path, monkeypatch):
 def test_every_non_finite_number_of_the_command_line_is_named(capsys):
     for argv, name in [(["dynamics", 0.19, 3.11, -2.64, "--near", 0.2, "inf", 0], "--near"),
                        (["ik", 0.2, 0.21, "nan"], "alpha"),
-                       (["fk", "-inf", 3.11, -2.64], "T1")]:
+                       (["fk", "-inf", 3.11, -2.64], "T1"), (["ik", "--mechanism", "five_bar", "nan", 0.3], "x")]:
         message = assert_user_error(*run(capsys, *argv))
         assert f"{name} must be finite" in message, message
 
@@ -499,6 +499,17 @@ def test_every_readme_promise_about_outputs_errors_and_exit_codes_has_a_test():
 FOLDER_FUZZ = {"runs": 0, "replaced": 0, "refused": 0}
 
 
+def state(folder: Path) -> dict:
+    """Everything in ``folder``, links not followed: relative path -> bytes, "folder" or "link"."""
+    out = {}
+    for root, dirs, files in os.walk(folder):
+        for name in dirs + files:
+            p = Path(root, name)
+            out[p.relative_to(folder).as_posix()] = ("link" if p.is_symlink() else "folder" if p.is_dir()
+                                                     else p.read_bytes())
+    return out
+
+
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_fuzz_output_folders(tmp_path_factory, data):
@@ -507,7 +518,7 @@ def test_fuzz_output_folders(tmp_path_factory, data):
     otherwise leaves every byte as it was."""
     base = tmp_path_factory.mktemp("folders")
     out = base / "out"
-    pristine = None  # the command of the unchanged pkmlab result the folder holds, if any
+    written = None  # (command, state) of the last result pkmlab wrote there
     for _ in range(data.draw(st.integers(0, 5), label="steps")):
         step = data.draw(st.sampled_from(["write", "add", "change", "delete", "subfolder", "link", "manifest",
                                           "mkdir"]), label="step")
@@ -518,7 +529,7 @@ def test_fuzz_output_folders(tmp_path_factory, data):
                     warnings.simplefilter("ignore", outputs.ResultReplacedWarning)
                     with outputs.atomic_output_dir(out, command) as tmp:
                         (tmp / "summary.json").write_text(data.draw(st.text(max_size=20), label="content"))
-                pristine = command
+                written = (command, state(out))
             except outputs.OutputFolderError:
                 pass
             continue
@@ -543,10 +554,9 @@ def test_fuzz_output_folders(tmp_path_factory, data):
                 (out / "link").symlink_to(base)
         elif step == "manifest" and (out / MANIFEST).exists():
             (out / MANIFEST).write_text(data.draw(st.sampled_from(["{}", "not json", '{"files": {}, "command": 1}'])))
-        else:
-            continue
-        pristine = None
     command = data.draw(st.sampled_from(["simulate", "reproduce"]), label="final command")
+    # the oracle: the folder holds an unchanged result of `command` when it is exactly as pkmlab left it
+    pristine = written[0] if written is not None and out.is_dir() and state(out) == written[1] else None
     empty = out.is_dir() and not any(out.iterdir())
     before = snapshot(out) if out.is_dir() else None
     links = sorted(p.name for p in out.iterdir() if p.is_symlink()) if out.is_dir() else []
@@ -600,3 +610,12 @@ def test_a_file_added_while_the_run_writes_is_never_deleted(tmp_path, monkeypatc
     kept = [p for p in tmp_path.iterdir() if p.name.startswith("r.previous-")]
     assert len(kept) == 1 and (kept[0] / "later.txt").read_text() == "mine"
     assert (out / "a.txt").read_text() == "new"
+
+
+def test_an_empty_folder_of_the_users_inside_a_result_is_kept(capsys, tmp_path, quick):
+    out = tmp_path / "r"
+    argv = ["simulate", EXAMPLES / "fast.toml", "--out", out, "--no-figures", "--quiet"]
+    assert run(capsys, *argv)[0] == 0
+    (out / "figures-to-come").mkdir()
+    assert "figures-to-come" in assert_user_error(*run(capsys, *argv))
+    assert (out / "figures-to-come").is_dir()

@@ -34,11 +34,89 @@ def _table(header: list[str], rows: list[list]) -> str:
     return "\n".join("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in cells)
 
 
+def _mechanism(args):
+    """The machine of ``--mechanism``: a preset name or a description file (``[mechanism]`` table)."""
+    from .mechanism_model import MechanismModel
+    from .mechanisms.description import load_mechanism
+    from .mechanisms.presets import PRESETS
+
+    if args.params:
+        raise InvalidParameterError("--params describes the paper's 3-RRR; with --mechanism, give a description "
+                                    "file instead")
+    if args.mechanism in PRESETS:
+        return MechanismModel.from_preset(args.mechanism)
+    if not Path(args.mechanism).suffix:
+        raise InvalidParameterError(f"--mechanism {args.mechanism}: not a preset ({', '.join(PRESETS)}) nor a "
+                                    ".toml file")
+    return MechanismModel.from_description(load_mechanism(args.mechanism))
+
+
+def _count(args, values, n: int, what: str) -> None:
+    """As many numbers as the machine needs, or a malformed command line (usage, exit code 2)."""
+    if len(values) != n:
+        args.parser.error(f"{what} takes {n} numbers for this machine, got {len(values)}")
+
+
+def cmd_ik_mechanism(args) -> dict:
+    """``ik --mechanism M POSE...``: ``{"solutions": [{"mode", "actuators", "S"}, ...]}``, one per working mode
+    that reaches the pose (SPEC-style contract for every machine)."""
+    from . import mechanism_model as mm
+    from .errors import UnreachablePoseError
+
+    model = _mechanism(args)
+    names = model.description.pose_names
+    _count(args, args.pose, len(names), f"the pose ({', '.join(names)})")
+    modes = mm.working_modes(model)
+    if args.mode is not None:
+        if args.mode not in modes:
+            raise InvalidParameterError(f"--mode must be one of {', '.join(_signs(m) for m in modes)} for a "
+                                        f"{model.description.notation}, got {_signs(args.mode)}")
+        modes = [args.mode]
+    solutions, reasons = [], []
+    for mode in modes:
+        try:
+            q = mm.inverse_kinematics(model, args.pose, mode)
+        except UnreachablePoseError as exc:
+            reasons.append(str(exc))
+            continue
+        solutions.append({"mode": list(mode), "actuators": q[:model.n_actuators].tolist(),
+                          "S": mm.singularity_measure(model, q)})
+    if not solutions:
+        raise UnreachablePoseError(f"pose {args.pose} is out of reach in every working mode: {reasons[0]}")
+    if not args.json:
+        print(f"inverse kinematics of the {model.description.name} ({model.description.notation}) at "
+              + ", ".join(f"{n} = {v:g}" for n, v in zip(names, args.pose, strict=True)))
+        header = ["mode", *(f"actuator{i + 1}" for i in range(model.n_actuators)), "S"]
+        print(_table(header, [[_signs(s["mode"]) if s["mode"] else "-", *s["actuators"], s["S"]] for s in solutions]))
+    return {"solutions": solutions}
+
+
+def cmd_fk_mechanism(args) -> dict:
+    """``fk --mechanism M ACTUATORS...``: ``{"solutions": [{"pose", "S"}, ...]}``, every assembly mode."""
+    from . import mechanism_model as mm
+
+    model = _mechanism(args)
+    _count(args, args.actuators, model.n_actuators, "the actuators")
+    found = mm.forward_kinematics(model, args.actuators)
+    dof = model.description.dof
+    solutions = [{"pose": q[-dof:].tolist(), "S": s} for q, s in found]
+    if not args.json:
+        print(f"forward kinematics of the {model.description.name} ({model.description.notation}) at actuators "
+              f"{' '.join(f'{v:g}' for v in args.actuators)}: {len(solutions)} assembly mode(s)")
+        rows = [[str(j + 1), *sol["pose"], sol["S"]] for j, sol in enumerate(solutions)]
+        print(_table(["#", *model.description.pose_names, "S"], rows))
+    return {"solutions": solutions}
+
+
 def cmd_ik(args) -> dict:
     import numpy as np
 
     from .kinematics import inverse_kinematics
 
+    if args.mechanism is not None:
+        return cmd_ik_mechanism(args)
+    _count(args, args.pose, 3, "ik of the paper's 3-RRR (x y alpha)")
+    args.x, args.y, args.alpha = args.pose
     model = _model(args)
     pose = [args.x, args.y, args.alpha]
     ik = inverse_kinematics(model, pose, mode=args.mode)
@@ -59,6 +137,10 @@ def cmd_ik(args) -> dict:
 def cmd_fk(args) -> dict:
     from .kinematics import forward_kinematics
 
+    if args.mechanism is not None:
+        return cmd_fk_mechanism(args)
+    _count(args, args.actuators, 3, "fk of the paper's 3-RRR (theta1 theta2 theta3)")
+    args.t1, args.t2, args.t3 = args.actuators
     model = _model(args)
     theta = [args.t1, args.t2, args.t3]
     fk = forward_kinematics(model, theta)
@@ -596,18 +678,24 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--params", metavar="FILE.toml", help="manipulator parameters (default: the paper preset)")
         p.add_argument("--json", action="store_true", help="machine-readable output")
 
+    def mechanism(p):
+        p.add_argument("--mechanism", metavar="NAME|FILE.toml", help="another machine: a preset (paper, five_bar, "
+                       "3rpr, 3prr) or a description file; default: the paper's 3-RRR as today")
+
     p = sub.add_parser("ik", help="inverse kinematics: every working mode of a platform pose")
-    p.add_argument("x", type=float)
-    p.add_argument("y", type=float)
-    p.add_argument("alpha", type=float)
-    p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: three signs (+ - +) or one word (+-+)")
+    p.add_argument("pose", nargs="+", type=float, metavar="X Y ALPHA",
+                   help="the platform pose (x, y, alpha; x, y for a point platform)")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: signs (+ - +) or one word (+-+)")
+    mechanism(p)
     common(p)
-    p.set_defaults(func=cmd_ik)
+    p.set_defaults(func=cmd_ik, parser=p)
 
     p = sub.add_parser("fk", help="forward kinematics: every assembly mode of actuated angles")
-    actuated_angles(p)
+    p.add_argument("actuators", nargs="+", type=float, metavar="T1 T2 T3",
+                   help="the actuator values (angles in rad, slides in m)")
+    mechanism(p)
     common(p)
-    p.set_defaults(func=cmd_fk)
+    p.set_defaults(func=cmd_fk, parser=p)
 
     p = sub.add_parser("dynamics", help="actuator-space and full dynamic model at a state (paper eq. 26, 35)")
     actuated_angles(p)
@@ -684,17 +772,23 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check_finite(parser: argparse.ArgumentParser, args) -> None:
-    """Every number of the command line must be finite: NaN or infinity is refused naming its argument."""
+    """Every number of the command line must be finite: NaN or infinity is refused naming its argument
+    (for a list of positional numbers, the one at fault: ``alpha``, ``T1``...)."""
     import math
 
-    command = parser._subparsers._group_actions[0].choices[args.command]  # argparse keeps no public handle
-    names = {a.dest: (a.option_strings[0] if a.option_strings else str(a.metavar or a.dest))
-             for a in command._actions}
+    command = args.parser if hasattr(args, "parser") else parser._subparsers._group_actions[0].choices[args.command]
+    actions = {a.dest: a for a in command._actions}
     for dest, value in vars(args).items():
         values = value if isinstance(value, list) else [value]
-        if any(isinstance(v, float) and not math.isfinite(v) for v in values):
-            shown = " ".join(str(v) for v in values)
-            raise InvalidParameterError(f"{names.get(dest, dest)} must be finite, got {shown}")
+        bad = [k for k, v in enumerate(values) if isinstance(v, float) and not math.isfinite(v)]
+        if not bad:
+            continue
+        action = actions.get(dest)
+        name = dest if action is None else action.option_strings[0] if action.option_strings else str(action.metavar)
+        parts = name.split()
+        if len(parts) > 1 and isinstance(value, list):  # "X Y ALPHA": name the one at fault
+            name = parts[bad[0]].lower() if parts[bad[0]] in ("X", "Y", "ALPHA") else parts[min(bad[0], len(parts) - 1)]
+        raise InvalidParameterError(f"{name} must be finite, got {' '.join(str(v) for v in values)}")
 
 
 def _check_mode(parser: argparse.ArgumentParser, args) -> None:
@@ -704,6 +798,14 @@ def _check_mode(parser: argparse.ArgumentParser, args) -> None:
     if tokens is None:
         return
     from .kinematics import _mode_array
+
+    if getattr(args, "mechanism", None) is not None:  # any number of signs: the machine decides
+        text = "".join(tokens).replace("+1", "+").replace("-1", "-").replace("1", "+")
+        if text.strip("+-"):
+            raise InvalidParameterError(f"--mode: a working mode is signs such as + - (or one word such as +-), "
+                                        f"got {' '.join(tokens)}")
+        args.mode = tuple(1 if c == "+" else -1 for c in text)
+        return
 
     if len(tokens) not in (1, 3):
         command = parser._subparsers._group_actions[0].choices[args.command]

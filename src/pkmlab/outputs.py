@@ -89,18 +89,22 @@ def sha256_of(path: Path) -> str:
 
 
 def _entries(folder: Path) -> tuple[list[str], list[str]]:
-    """Relative paths of the regular files of ``folder`` and of everything else in it (folders
-    excepted): symbolic links, sockets, ... Symbolic links are never followed."""
+    """Relative paths of the regular files of ``folder`` and of everything else in it: symbolic links,
+    sockets, ... and subfolders that hold no file (a user's, even empty, is theirs). Symbolic links
+    are never followed."""
     files, others = [], []
 
     def unreadable(exc: OSError) -> None:  # a subfolder that cannot be read is not known to be empty
         raise exc
 
-    for root, dirs, names in os.walk(folder, onerror=unreadable):
-        for name in names + [d for d in dirs if os.path.islink(os.path.join(root, d))]:
+    for root, dirs, names in os.walk(folder, onerror=unreadable, topdown=False):
+        for name in names + dirs:
             full = Path(root, name)
             rel = full.relative_to(folder).as_posix()
-            (files if full.is_file() and not full.is_symlink() else others).append(rel)
+            if full.is_file() and not full.is_symlink():
+                files.append(rel)
+            elif full.is_symlink() or not full.is_dir() or not any(f.startswith(rel + "/") for f in files):
+                others.append(rel)
     return sorted(files), sorted(others)
 
 
@@ -124,7 +128,9 @@ def read_manifest(folder: str | os.PathLike) -> dict:
         files, others = _entries(folder)
     except OSError as exc:
         raise OutputFolderError(f"{folder}: {exc.filename or 'a subfolder'} cannot be read ({_reason(exc)})") from None
-    foreign = [f for f in files if f != MANIFEST and f not in listed] + others
+    ours = {name.rsplit("/", k)[0] for name in listed for k in range(1, name.count("/") + 1)}  # listed files' folders
+    foreign = [f for f in files if f != MANIFEST and f not in listed] + [
+        o for o in others if o not in ours or (folder / o).is_symlink()]
     if foreign:
         shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
         raise OutputFolderError(f"{folder}: it holds files pkmlab did not write: {shown}")

@@ -1,0 +1,73 @@
+"""`pkmlab ik` and `pkmlab fk` for every machine (`--mechanism NAME|FILE.toml`), with their JSON contracts:
+ik gives {"solutions": [{"mode", "actuators", "S"}]}, fk {"solutions": [{"pose", "S"}]}."""
+
+import json
+import math
+
+import pytest
+from conftest import assert_user_error, run
+
+from pkmlab.mechanisms.description import mechanism_to_toml
+from pkmlab.mechanisms.presets import preset
+
+POSES = {"paper": [0.2, 0.21, 0.0], "five_bar": [0.0, 0.35], "3rpr": [0.25, 0.21, -math.pi / 2],
+         "3prr": [0.26, 0.2, 0.0]}
+
+
+def run_json(capsys, *argv):
+    code, out, err = run(capsys, *argv, "--json")
+    assert code == 0, err
+    return json.loads(out)
+
+
+@pytest.mark.parametrize("name", sorted(POSES))
+def test_ik_then_fk_gives_back_the_pose_for_every_working_mode(capsys, name):
+    pose = POSES[name]
+    solutions = run_json(capsys, "ik", "--mechanism", name, *pose)["solutions"]
+    assert solutions and all(set(s) == {"mode", "actuators", "S"} for s in solutions)
+    assert len(solutions[0]["mode"]) == {"paper": 3, "five_bar": 2, "3rpr": 0, "3prr": 3}[name]
+    for s in solutions:
+        assert len(s["actuators"]) == len(pose) and math.isfinite(s["S"])
+        found = run_json(capsys, "fk", "--mechanism", name, *s["actuators"])["solutions"]
+        assert all(set(f) == {"pose", "S"} and len(f["pose"]) == len(pose) for f in found)
+        gaps = [max(abs(math.remainder(a - b, 2 * math.pi)) for a, b in zip(f["pose"], pose, strict=True))
+                for f in found]
+        assert min(gaps) < 1e-10
+
+
+def test_the_paper_through_mechanism_gives_todays_angles(capsys):
+    today = run_json(capsys, "ik", 0.2, 0.21, 0)["solutions"]
+    generic = run_json(capsys, "ik", "--mechanism", "paper", 0.2, 0.21, 0)["solutions"]
+    assert [s["mode"] for s in generic] == [s["mode"] for s in today]
+    for a, b in zip(generic, today, strict=True):
+        assert all(abs(math.remainder(x - y, 2 * math.pi)) < 1e-12 for x, y in zip(a["actuators"], b["theta"],
+                                                                                     strict=True))
+
+
+def test_a_description_file_is_a_mechanism(capsys, tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text(mechanism_to_toml(preset("3rpr")).replace("0.45]", "0.5]"))
+    solutions = run_json(capsys, "ik", "--mechanism", path, 0.25, 0.21, -1.5)["solutions"]
+    assert len(solutions) == 1 and solutions[0]["mode"] == []
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["ik", "--mechanism", "five_bar", 0.0, 0.35, 0.0], "the pose (x, y) takes 2 numbers"),
+    (["fk", "--mechanism", "3rpr", 0.3, 0.3], "the actuators takes 3 numbers"),
+    (["ik", 0.2, 0.21], "takes 3 numbers"),
+])
+def test_a_wrong_count_of_numbers_is_a_malformed_command_line(capsys, argv, expected):
+    with pytest.raises(SystemExit) as info:
+        run(capsys, *argv)
+    assert info.value.code == 2 and expected in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["ik", "--mechanism", "delta", 0.0, 0.0, 0.0], "not a preset"),
+    (["ik", "--mechanism", "five_bar", 0.0, 0.35, "--mode", "+"], "--mode must be one of"),
+    (["ik", "--mechanism", "3rpr", 0.25, 0.6, -1.57], "leg 1 needs its actuator at 0.696137 m, outside its stroke"),
+    (["ik", "--mechanism", "missing.toml", 0.0, 0.0, 0.0], "missing.toml"),
+])
+def test_errors_are_one_line(capsys, argv, expected):
+    message = assert_user_error(*run(capsys, *argv))
+    assert expected in message, message
