@@ -71,3 +71,52 @@ def test_a_wrong_count_of_numbers_is_a_malformed_command_line(capsys, argv, expe
 def test_errors_are_one_line(capsys, argv, expected):
     message = assert_user_error(*run(capsys, *argv))
     assert expected in message, message
+
+
+# ------------------------------------------------------------------ dynamics --mechanism
+def test_dynamics_of_the_paper_through_mechanism_is_todays(capsys):
+    argv = [0.189, 3.112, -2.642, "--theta-dot", 0.3, -0.2, 0.5, "--near", 0.2, 0.21, 0]
+    today = run_json(capsys, "dynamics", *argv)
+    generic = run_json(capsys, "dynamics", "--mechanism", "paper", *argv)
+    assert set(generic) == {"M", "c", "g", "S", "pose"}
+    for a, b in zip(generic["M"], today["M_theta"], strict=True):
+        assert all(abs(x - y) <= 1e-12 * abs(y) + 1e-15 for x, y in zip(a, b, strict=True))
+    assert all(abs(x - y) <= 1e-11 * abs(y) + 1e-15 for x, y in zip(generic["c"], today["c_theta"], strict=True))
+    assert generic["g"] == [0.0, 0.0, 0.0] and abs(generic["S"] - today["S"]) < 1e-10
+
+
+def test_gravity_effort_is_the_slope_of_the_potential_energy(capsys, tmp_path):
+    """A five-bar in a vertical plane: g = dV/dtheta, V summed over the bodies at the forward kinematics."""
+    import dataclasses
+
+    import numpy as np
+
+    from pkmlab import mechanism_model as mm
+
+    vertical = dataclasses.replace(preset("five_bar"), name="vertical five-bar", gravity=(0.0, -9.81))
+    path = tmp_path / "vertical.toml"
+    path.write_text(mechanism_to_toml(vertical))
+    model = mm.MechanismModel.from_description(vertical)
+    q0 = mm.inverse_kinematics(model, [0.02, 0.33], (1, -1))
+    theta = q0[:2]
+    record = run_json(capsys, "dynamics", "--mechanism", path, *theta, "--near", 0.02, 0.33)
+    masses = model.body_weights[:, 0]
+
+    def potential(t):
+        q = min((q for q, _s in mm.forward_kinematics(model, t)), key=lambda q: np.hypot(*(q[-2:] - q0[-2:])))
+        poses = np.empty((model.kernels.N_BODIES, 3))
+        model.kernels.body_poses(q, model.P, poses)
+        return float(np.sum(masses * 9.81 * poses[:, 1]))
+
+    h = 1e-6
+    slope = [(potential(theta + h * e) - potential(theta - h * e)) / (2 * h) for e in np.eye(2)]
+    np.testing.assert_allclose(record["g"], slope, rtol=1e-6, atol=1e-9)
+    assert max(abs(v) for v in record["g"]) > 0.1  # it does hold something up
+
+
+def test_dynamics_mechanism_errors(capsys):
+    with pytest.raises(SystemExit) as info:
+        run(capsys, "dynamics", "--mechanism", "five_bar", 2.2, 0.9, "--rates", 1.0)
+    assert info.value.code == 2 and "--rates takes 2 numbers" in capsys.readouterr().err
+    message = assert_user_error(*run(capsys, "dynamics", "--mechanism", "five_bar", 2.2, 0.9, "--rates", "1e200", 0))
+    assert "overflows" in message

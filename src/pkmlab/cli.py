@@ -290,11 +290,69 @@ def _dynamics_record(model, sol_q, theta_dot) -> dict:
     return record
 
 
+def cmd_dynamics_mechanism(args) -> dict:
+    """``dynamics --mechanism M ACTUATORS... [--rates W...] [--near POSE...]``: ``{"M", "c", "g", "S", "pose"}``
+    of ``M θ̈ + c + g = τ`` (eq. 35 with gravity) for the assembly mode nearest ``--near`` (else every mode,
+    under ``"solutions"``)."""
+    import math
+
+    import numpy as np
+
+    from . import mechanism_model as mm
+
+    model = _mechanism(args)
+    n, names = model.n_actuators, model.description.pose_names
+    _count(args, args.actuators, n, "the actuators")
+    rates = [0.0] * n if args.theta_dot is None else args.theta_dot
+    _count(args, rates, n, "--rates")
+    found = mm.forward_kinematics(model, args.actuators)
+    if not found:
+        raise AssemblyError(f"actuators {args.actuators} cannot be assembled: forward kinematics has no real solution")
+    if args.near is not None:
+        _count(args, args.near, len(names), f"--near ({', '.join(names)})")
+        gaps = [math.hypot(*[math.remainder(a - b, 2 * math.pi) if name == "alpha" else a - b
+                             for a, b, name in zip(q[-len(names):], args.near, names, strict=True)])
+                for q, _s in found]
+        found = [found[int(np.argmin(gaps))]]
+        if min(gaps) > NEAR_TOLERANCE:
+            print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near; the nearest, "
+                  f"reported, is at pose {np.round(found[0][0][-len(names):], 6).tolist()}", file=sys.stderr)
+    records = []
+    for q, s in found:
+        pose = q[-len(names):].tolist()
+        if abs(s) < SINGULAR_S:
+            raise SingularityError(f"the assembly mode at pose {np.round(pose, 6).tolist()} is at a gain-type "
+                                   f"singularity (S = {s:.3g}): the actuator-space model does not exist there")
+        with np.errstate(all="ignore"):
+            m_theta, c_theta, g_theta = mm.actuator_space_model(model, q, rates)
+        if not all(np.all(np.isfinite(v)) for v in (m_theta, c_theta, g_theta)):
+            raise InvalidParameterError(f"the dynamic model overflows at --rates {' '.join(f'{w:g}' for w in rates)}")
+        records.append({"M": m_theta.tolist(), "c": c_theta.tolist(), "g": g_theta.tolist(), "S": s, "pose": pose})
+    if not args.json:
+        for rec in records:
+            print(f"assembly mode at {', '.join(f'{k} = {v:+.6f}' for k, v in zip(names, rec['pose'], strict=True))}, "
+                  f"S = {rec['S']:+.6f}")
+            print("  M (actuator space):")
+            for row in rec["M"]:
+                print("    " + "  ".join(f"{v:+.6e}" for v in row))
+            print("  c = C rates: " + "  ".join(f"{v:+.6e}" for v in rec["c"]))
+            print("  g (gravity): " + "  ".join(f"{v:+.6e}" for v in rec["g"]))
+    return records[0] if args.near is not None else {"solutions": records}
+
+
 def cmd_dynamics(args) -> dict:
     import math
 
     from .kinematics import forward_kinematics
 
+    if args.mechanism is not None:
+        return cmd_dynamics_mechanism(args)
+    _count(args, args.actuators, 3, "dynamics of the paper's 3-RRR (theta1 theta2 theta3)")
+    args.t1, args.t2, args.t3 = args.actuators
+    args.theta_dot = [0.0, 0.0, 0.0] if args.theta_dot is None else args.theta_dot
+    _count(args, args.theta_dot, 3, "--theta-dot")
+    if args.near is not None:
+        _count(args, args.near, 3, "--near (x y alpha)")
     model = _model(args)
     theta = [args.t1, args.t2, args.t3]
     theta_dot = args.theta_dot
@@ -669,10 +727,6 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"pkmlab {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    def actuated_angles(p):
-        for k in (1, 2, 3):
-            p.add_argument(f"t{k}", type=float, metavar=f"T{k}")
-
     def common(p):
         _accept_negative_numbers(p)
         p.add_argument("--params", metavar="FILE.toml", help="manipulator parameters (default: the paper preset)")
@@ -698,13 +752,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_fk, parser=p)
 
     p = sub.add_parser("dynamics", help="actuator-space and full dynamic model at a state (paper eq. 26, 35)")
-    actuated_angles(p)
-    p.add_argument("--theta-dot", nargs=3, type=float, metavar=("W1", "W2", "W3"), default=[0.0, 0.0, 0.0],
-                   help="actuated rates (rad/s), default 0")
-    p.add_argument("--near", nargs=3, type=float, metavar=("X", "Y", "ALPHA"),
-                   help="only the assembly mode whose platform pose is nearest to (X, Y, ALPHA)")
+    p.add_argument("actuators", nargs="+", type=float, metavar="T1 T2 T3",
+                   help="the actuator values (angles in rad, slides in m)")
+    p.add_argument("--theta-dot", "--rates", dest="theta_dot", nargs="+", type=float, metavar="W",
+                   help="actuator rates (rad/s or m/s), default 0")
+    p.add_argument("--near", nargs="+", type=float, metavar="X Y ALPHA",
+                   help="only the assembly mode whose platform pose is nearest to this pose")
+    mechanism(p)
     common(p)
-    p.set_defaults(func=cmd_dynamics)
+    p.set_defaults(func=cmd_dynamics, parser=p)
 
     p = sub.add_parser("reproduce", help="the paper's three simulated cases with every figure (paper §5)")
     p.add_argument("--out", default="out", help="output folder (default: out)")
