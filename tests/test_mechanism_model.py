@@ -345,10 +345,12 @@ def test_a_3rpr_whose_platform_is_not_similar_to_its_base_has_six_assembly_modes
 
 
 def test_the_3rpr_preset_similar_triangles_have_at_most_four_assembly_modes():
-    model = mm.MechanismModel.from_preset("3rpr")
+    base = preset("3rpr")  # its geometry, with longer strokes: the 4-mode region needs long legs
+    model = mm.MechanismModel.from_description(
+        dataclasses.replace(base, legs=tuple(dataclasses.replace(leg, stroke=(0.05, 0.8)) for leg in base.legs)))
     rng = np.random.default_rng(3)
     counts = []
-    for _ in range(400):  # leg lengths past the preset's stroke too: the 4-mode region needs long legs
+    for _ in range(400):
         theta = rng.uniform(0.05, 0.8, 3)
         n = independent_count(model.description, theta, 8000)
         solutions = mm.forward_kinematics(model, theta)
@@ -368,3 +370,87 @@ def test_forward_kinematics_of_inverse_kinematics_finds_the_pose(name):
             continue
         poses = [sol[-model.description.dof:] for sol, _s in mm.forward_kinematics(model, q[:model.n_actuators])]
         assert min(np.max(np.abs(np.angle(np.exp(1j * (p - q[-len(p):]))))) for p in poses) < 1e-10
+
+
+def test_double_roots_at_a_singularity_are_one_assembly_mode():
+    """At alpha = 0 the 3-RPR preset is singular: its pose is a double root of the polynomial, reported once."""
+    model = mm.MechanismModel.from_preset("3rpr")
+    q = mm.inverse_kinematics(model, [0.24, 0.17, 0.0], ())
+    found = mm.forward_kinematics(model, q[:3])
+    near = [s for s in found if np.hypot(*(s[0][-3:-1] - [0.24, 0.17])) < 1e-5]
+    assert len(near) == 1
+
+
+def test_forward_kinematics_refuses_actuators_outside_their_strokes():
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"leg 1: actuator value -0.3 m is outside its stroke"):
+        mm.forward_kinematics(mm.MechanismModel.from_preset("3rpr"), [-0.3, 0.3, 0.3])
+
+
+def test_S_of_3rpr_and_3prr_is_the_formula_of_their_specification():
+    """S = sin(d1 - alpha) sin(d2 - d3) + sin(d1 - d2) sin(alpha + 2 pi/3 - d3), d_i the legs' last angles:
+    psi_i = angle of b_i -> p_i for the 3-RPR, phi_i = angle of C_i -> p_i for the 3-PRR (written out here)."""
+    rng = np.random.default_rng(8)
+    b = np.array([(0.0, 0.0), (0.52, 0.0), (0.26, math.sqrt(3) / 2 * 0.52)])
+    beta = (0.0, 2 * math.pi / 3, 4 * math.pi / 3)
+    for name in ("3rpr", "3prr"):
+        model = mm.MechanismModel.from_preset(name)
+        checked = 0
+        while checked < 30:
+            pose = [rng.uniform(0.15, 0.35), rng.uniform(0.1, 0.3), rng.uniform(-math.pi, math.pi)]
+            mode = () if name == "3rpr" else (1, 1, 1)
+            try:
+                q = mm.inverse_kinematics(model, pose, mode)
+            except pkmlab.UnreachablePoseError:
+                continue
+            x, y, alpha = pose
+            p1 = np.array([x, y]) - 0.125 / math.sqrt(3) * np.array([math.cos(alpha + math.pi / 6),
+                                                                     math.sin(alpha + math.pi / 6)])
+            p = [p1, p1 + 0.125 * np.array([math.cos(alpha), math.sin(alpha)]),
+                 p1 + 0.125 * np.array([math.cos(alpha + math.pi / 3), math.sin(alpha + math.pi / 3)])]
+            if name == "3rpr":
+                d = [math.atan2(*(p[i] - b[i])[::-1]) for i in range(3)]
+            else:
+                c = [b[i] + q[i] * np.array([math.cos(beta[i]), math.sin(beta[i])]) for i in range(3)]
+                d = [math.atan2(*(p[i] - c[i])[::-1]) for i in range(3)]
+            s = (math.sin(d[0] - alpha) * math.sin(d[1] - d[2])
+                 + math.sin(d[0] - d[1]) * math.sin(alpha + 2 * math.pi / 3 - d[2]))
+            assert mm.singularity_measure(model, q) == pytest.approx(s, abs=1e-12)
+            checked += 1
+
+
+def test_3rpr_kinetic_energy_from_its_specification():
+    """T = 1/2 rho_dot' M rho_dot against the kinetic energy of the bodies as the specification places them:
+    cylinder 0.50 kg at 0.08 m from b_i (1.5e-3), rod 0.25 kg at 0.06 m from p_i towards b_i (0.6e-3), the
+    platform 0.234 kg at its centroid (0.305e-3) — velocities by central differences along a pose motion."""
+    model = mm.MechanismModel.from_preset("3rpr")
+    b = np.array([(0.0, 0.0), (0.52, 0.0), (0.26, math.sqrt(3) / 2 * 0.52)])
+    pose0, pose_dot = np.array([0.25, 0.21, -1.3]), np.array([0.3, -0.2, 0.7])
+
+    def bodies(pose):
+        x, y, alpha = pose
+        p1 = np.array([x, y]) - 0.125 / math.sqrt(3) * np.array([math.cos(alpha + math.pi / 6),
+                                                                 math.sin(alpha + math.pi / 6)])
+        p = [p1, p1 + 0.125 * np.array([math.cos(alpha), math.sin(alpha)]),
+             p1 + 0.125 * np.array([math.cos(alpha + math.pi / 3), math.sin(alpha + math.pi / 3)])]
+        out, rho = [], []
+        for i in range(3):
+            d = p[i] - b[i]
+            psi, r = math.atan2(d[1], d[0]), math.hypot(*d)
+            u = d / r
+            out += [(b[i] + 0.08 * u, psi), (b[i] + (r - 0.06) * u, psi)]
+            rho.append(r)
+        out.append((np.array([x, y]), alpha))
+        return out, np.array(rho)
+
+    h = 1e-6
+    plus, rho_plus = bodies(pose0 + h * pose_dot)
+    minus, rho_minus = bodies(pose0 - h * pose_dot)
+    data = [(0.50, 1.5e-3), (0.25, 0.6e-3)] * 3 + [(0.234, 0.305e-3)]
+    energy = 0.0
+    for (m, inertia), (c1, a1), (c0, a0) in zip(data, plus, minus, strict=True):
+        v, w = (c1 - c0) / (2 * h), (a1 - a0) / (2 * h)
+        energy += 0.5 * m * v @ v + 0.5 * inertia * w * w
+    rho_dot = (rho_plus - rho_minus) / (2 * h)
+    q = mm.inverse_kinematics(model, pose0, ())
+    m_theta = mm.actuator_space_model(model, q, np.zeros(3))[0]
+    assert 0.5 * rho_dot @ m_theta @ rho_dot == pytest.approx(energy, rel=1e-7)

@@ -82,7 +82,8 @@ def cmd_ik_mechanism(args) -> dict:
         solutions.append({"mode": list(mode), "actuators": q[:model.n_actuators].tolist(),
                           "S": mm.singularity_measure(model, q)})
     if not solutions:
-        raise UnreachablePoseError(f"pose {args.pose} is out of reach in every working mode: {reasons[0]}")
+        where = f"in working mode {_signs(args.mode)}" if args.mode is not None else "in every working mode"
+        raise UnreachablePoseError(f"pose {args.pose} is out of reach {where}: {reasons[0]}")
     if not args.json:
         print(f"inverse kinematics of the {model.description.name} ({model.description.notation}) at "
               + ", ".join(f"{n} = {v:g}" for n, v in zip(names, args.pose, strict=True)))

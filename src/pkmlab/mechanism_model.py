@@ -227,13 +227,19 @@ def singularity_measure(model: MechanismModel, q) -> float:
     from .mechanisms.description import attachment_point
 
     q = _q(model, q)
-    m, k = model.description, model.kernels
-    poses = _evaluate(k.body_poses, (k.N_BODIES, 3), q, model.P)
-    last = np.cumsum([len(leg.bodies) for leg in m.legs]) - 1
-    d = poses[last, 2]
+    from .mechanisms.leg_types import leg_circle
+
+    m = model.description
+    pose = q[-m.dof:]
+    # each leg pushes the platform along the line from its circle's centre (the last passive pivot, or
+    # the base pivot of a telescopic leg) to its attachment point
+    d = []
+    for i, leg in enumerate(m.legs):
+        (cx, cy), _r = leg_circle(leg, q[i])
+        px, py = attachment_point(m, i, pose)
+        d.append(math.atan2(py - cy, px - cx))
     if m.platform.kind == "point":
         return float(np.sin(d[0] - d[1]))
-    pose = q[-m.dof:]
     rows = []
     for i, di in enumerate(d):
         px, py = np.subtract(attachment_point(m, i, pose), pose[:2])
@@ -298,6 +304,9 @@ def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.nda
         radii.append(math.hypot(*leg.bodies[1].tip))
     d = elbows[1] - elbows[0]
     dist = float(np.hypot(*d))
+    if dist == 0 and radii[0] == radii[1]:
+        raise SingularityError(f"actuators {theta.tolist()}: both elbows coincide and the links are equal: "
+                               "a continuum of assembly modes")
     if dist == 0 or dist > radii[0] + radii[1] or dist < abs(radii[0] - radii[1]):
         return []
     along = (radii[0] ** 2 - radii[1] ** 2 + dist**2) / (2 * dist)
@@ -329,6 +338,10 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
     if theta.shape != (model.n_actuators,) or not np.all(np.isfinite(theta)):
         raise InvalidParameterError(f"actuators must be {model.n_actuators} finite values, got "
                                     f"{np.asarray(actuators).tolist()}")
+    for i, (leg, t) in enumerate(zip(m.legs, theta, strict=True)):
+        if leg.stroke is not None and leg.joints[leg.actuated].kind == "P" and not leg.stroke[0] <= t <= leg.stroke[1]:
+            raise InvalidParameterError(f"leg {i + 1}: actuator value {t:g} m is outside its stroke "
+                                        f"[{leg.stroke[0]:g}, {leg.stroke[1]:g}] m")
     if m.platform.kind == "point":
         return [(q, singularity_measure(model, q)) for q in forward_kinematics_five_bar(model, theta)]
     circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
@@ -362,7 +375,8 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
         wrapped = q.copy()
         angular = [k for k, name in enumerate(model.coordinates) if k >= na and _is_angle(model, k)]
         wrapped[angular] = np.angle(np.exp(1j * wrapped[angular]))
-        if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-8 for other, _s in solutions):
+        # a double root (at a singularity) is found only to about sqrt(eps): closer than 1e-6 is one mode
+        if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-6 for other, _s in solutions):
             solutions.append((wrapped, singularity_measure(model, wrapped)))
     return sorted(solutions, key=lambda sol: sol[0][-1])
 

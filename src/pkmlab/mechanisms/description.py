@@ -357,10 +357,11 @@ def _required(table: dict, key: str, where: str):
 
 
 def _joints(text, where: str) -> tuple[Joint, ...]:
-    if not isinstance(text, str) or not _JOINTS.match(text.replace(" ", "")):
+    compact = text.replace(" ", "") if isinstance(text, str) else None
+    if compact is None or not _JOINTS.match(compact):
         raise InvalidParameterError(f"{where}.joints must be letters R (revolute) and P (prismatic) from the base to "
                                     f"the platform, the actuated one starred, e.g. \"R*RR\" or \"RP*R\"; got {text!r}")
-    return tuple(Joint(m.group(0)[0], m.group(0).endswith("*")) for m in re.finditer(r"[RP]\*?", text))
+    return tuple(Joint(m.group(0)[0], m.group(0).endswith("*")) for m in re.finditer(r"[RP]\*?", compact))
 
 
 def mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mechanism:
