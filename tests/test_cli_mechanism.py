@@ -120,3 +120,12 @@ def test_dynamics_mechanism_errors(capsys):
     assert info.value.code == 2 and "--rates takes 2 numbers" in capsys.readouterr().err
     message = assert_user_error(*run(capsys, "dynamics", "--mechanism", "five_bar", 2.2, 0.9, "--rates", "1e200", 0))
     assert "overflows" in message
+
+
+def test_dynamics_mechanism_warns_near_a_singularity(capsys):
+    from pkmlab import mechanism_model as mm
+
+    model = mm.MechanismModel.from_preset("3rpr")
+    q = mm.inverse_kinematics(model, [0.24, 0.17, 0.003], ())  # alpha = 0 is singular for this 3-RPR
+    code, out, err = run(capsys, "dynamics", "--mechanism", "3rpr", *q[:3], "--near", 0.24, 0.17, 0.003, "--json")
+    assert code == 0 and "near a gain-type singularity" in json.loads(out)["warning"] and "warning" in err

@@ -300,6 +300,7 @@ def cmd_dynamics_mechanism(args) -> dict:
     import numpy as np
 
     from . import mechanism_model as mm
+    from ._format import apart
 
     model = _mechanism(args)
     n, names = model.n_actuators, model.description.pose_names
@@ -328,7 +329,14 @@ def cmd_dynamics_mechanism(args) -> dict:
             m_theta, c_theta, g_theta = mm.actuator_space_model(model, q, rates)
         if not all(np.all(np.isfinite(v)) for v in (m_theta, c_theta, g_theta)):
             raise InvalidParameterError(f"the dynamic model overflows at --rates {' '.join(f'{w:g}' for w in rates)}")
-        records.append({"M": m_theta.tolist(), "c": c_theta.tolist(), "g": g_theta.tolist(), "S": s, "pose": pose})
+        record = {"M": m_theta.tolist(), "c": c_theta.tolist(), "g": g_theta.tolist(), "S": s, "pose": pose}
+        if abs(s) < NEAR_SINGULAR_S:
+            shown, limit = apart(abs(s), NEAR_SINGULAR_S)
+            record["warning"] = (f"near a gain-type singularity (|S| = {shown} < {limit}): M grows as 1/S^2 and is "
+                                 "very sensitive to the actuators")
+            print(f"pkmlab dynamics: warning: the assembly mode at pose {np.round(pose, 6).tolist()} is "
+                  f"{record['warning']}", file=sys.stderr)
+        records.append(record)
     if not args.json:
         for rec in records:
             print(f"assembly mode at {', '.join(f'{k} = {v:+.6f}' for k, v in zip(names, rec['pose'], strict=True))}, "

@@ -115,7 +115,11 @@ def gravity_vector(model: MechanismModel, q) -> np.ndarray:
     """``g(q) = ∂V/∂q``: the generalised forces that hold the machine still against gravity."""
     q = _q(model, q)
     k = model.kernels
-    J = _evaluate(k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q, model.P)
+    return _gravity(model, _evaluate(k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q, model.P))
+
+
+def _gravity(model: MechanismModel, J: np.ndarray) -> np.ndarray:
+    """``g = -Σ_b m_b J_b,linᵀ gravity`` from the bodies' Jacobians ``J`` (n_bodies, 3, n)."""
     weights = model.body_weights[:, 0]
     gx, gy = model.description.gravity
     return -(weights[:, None] * (gx * J[:, 0, :] + gy * J[:, 1, :])).sum(axis=0)
@@ -126,7 +130,7 @@ def full_space_model(model: MechanismModel, q, q_dot) -> tuple[np.ndarray, np.nd
     q, q_dot = _q(model, q), _q(model, q_dot)
     J, bias = _bodies(model, q, q_dot)
     D = model.body_weights
-    return lagrangian.mass_matrix(J, D), lagrangian.velocity_product(J, D, bias), gravity_vector(model, q)
+    return lagrangian.mass_matrix(J, D), lagrangian.velocity_product(J, D, bias), _gravity(model, J)
 
 
 def _actuated_jacobian(model: MechanismModel, q) -> tuple[np.ndarray, np.ndarray]:

@@ -107,6 +107,7 @@ def derive(mechanism: Mechanism) -> dict:
     n = len(mechanism.legs)
     pose = q[len(q) - mechanism.dof:]
     alpha = pose[2] if mechanism.dof == 3 else sp.Integer(0)
+    platform_rot = sp.Matrix([[sp.cos(alpha), -sp.sin(alpha)], [sp.sin(alpha), sp.cos(alpha)]])
     passive = iter(q[n:len(q) - mechanism.dof])
     eta, bodies = [], []
     for i, leg in enumerate(mechanism.legs):
@@ -124,13 +125,12 @@ def derive(mechanism: Mechanism) -> dict:
             com = origin + rot * sp.Matrix([P[f"{pre}_com_x"], P[f"{pre}_com_y"]])
             bodies.append((com[0], com[1], direction))
             point = origin + rot * sp.Matrix([P[f"{pre}_tip_x"], P[f"{pre}_tip_y"]])
-        rot = sp.Matrix([[sp.cos(alpha), -sp.sin(alpha)], [sp.sin(alpha), sp.cos(alpha)]])
         attach = (sp.Matrix([P[f"attach{i + 1}_x"], P[f"attach{i + 1}_y"]]) if mechanism.platform.kind == "rigid"
                   else sp.zeros(2, 1))
-        target = sp.Matrix(pose[:2]) + rot * attach
+        target = sp.Matrix(pose[:2]) + platform_rot * attach
         eta += [point[0] - target[0], point[1] - target[1]]
     if mechanism.platform.kind == "rigid":
-        com = sp.Matrix(pose[:2]) + rot * sp.Matrix([P["platform_com_x"], P["platform_com_y"]])
+        com = sp.Matrix(pose[:2]) + platform_rot * sp.Matrix([P["platform_com_x"], P["platform_com_y"]])
         bodies.append((com[0], com[1], alpha))
     else:
         bodies.append((pose[0], pose[1], sp.Integer(0)))  # a payload at the point: it does not turn
