@@ -291,11 +291,19 @@ def _dynamics_record(model, sol_q, theta_dot) -> dict:
     return record
 
 
+def _pose_gap(pose, other, names) -> float:
+    """How far apart two poses are, metres and radians together (angles the short way round), as
+    ``--near`` measures it."""
+    import math
+
+    return math.hypot(*[math.remainder(a - b, 2 * math.pi) if name == "alpha" else a - b
+                        for a, b, name in zip(pose, other, names, strict=True)])
+
+
 def cmd_dynamics_mechanism(args) -> dict:
     """``dynamics --mechanism M ACTUATORS... [--rates W...] [--near POSE...]``: ``{"M", "c", "g", "S", "pose"}``
     of ``M θ̈ + c + g = τ`` (eq. 35 with gravity) for the assembly mode nearest ``--near`` (else every mode,
     under ``"solutions"``)."""
-    import math
 
     import numpy as np
 
@@ -312,9 +320,7 @@ def cmd_dynamics_mechanism(args) -> dict:
         raise AssemblyError(f"actuators {args.actuators} cannot be assembled: forward kinematics has no real solution")
     if args.near is not None:
         _count(args, args.near, len(names), f"--near ({', '.join(names)})")
-        gaps = [math.hypot(*[math.remainder(a - b, 2 * math.pi) if name == "alpha" else a - b
-                             for a, b, name in zip(q[-len(names):], args.near, names, strict=True)])
-                for q, _s in found]
+        gaps = [_pose_gap(q[-len(names):], args.near, names) for q, _s in found]
         found = [found[int(np.argmin(gaps))]]
         if min(gaps) > NEAR_TOLERANCE:
             print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near; the nearest, "
@@ -350,7 +356,6 @@ def cmd_dynamics_mechanism(args) -> dict:
 
 
 def cmd_dynamics(args) -> dict:
-    import math
 
     from .kinematics import forward_kinematics
 
@@ -370,9 +375,7 @@ def cmd_dynamics(args) -> dict:
         raise AssemblyError(f"theta = {theta} cannot be assembled: forward kinematics has no real solution")
     chosen = [fk.nearest(args.near)] if args.near else list(fk)
     if args.near:
-        gap = chosen[0].pose - args.near
-        gap[2] = math.remainder(gap[2], 2 * math.pi)
-        if math.hypot(*gap) > NEAR_TOLERANCE:
+        if _pose_gap(chosen[0].pose, args.near, ("x", "y", "alpha")) > NEAR_TOLERANCE:
             x, y, alpha = chosen[0].pose.tolist()
             print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near "
                   f"{' '.join(f'{v:g}' for v in args.near)}; the nearest, reported, is at pose ({x:.6f}, {y:.6f}, "

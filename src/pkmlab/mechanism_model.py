@@ -377,23 +377,10 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
         if np.max(np.abs(constraint_residual(model, q))) > 1e-12:
             continue
         wrapped = q.copy()
-        angular = [k for k, name in enumerate(model.coordinates) if k >= na and _is_angle(model, k)]
+        angular = np.array(model.kernels.ANGLES)
+        angular[:na] = False  # the actuators stay as given
         wrapped[angular] = np.angle(np.exp(1j * wrapped[angular]))
         # a double root (at a singularity) is found only to about sqrt(eps): closer than 1e-6 is one mode
         if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-6 for other, _s in solutions):
             solutions.append((wrapped, singularity_measure(model, wrapped)))
     return sorted(solutions, key=lambda sol: sol[0][-1])
-
-
-def _is_angle(model: MechanismModel, k: int) -> bool:
-    """Whether coordinate ``k`` is an angle (a revolute joint's, or the platform's alpha)."""
-    name = model.coordinates[k]
-    if name == "alpha":
-        return True
-    if name in ("x", "y"):
-        return False
-    if name.startswith("a"):
-        leg = model.description.legs[int(name[1:]) - 1]
-        return leg.joints[leg.actuated].kind == "R"
-    leg_no, joint_no = (int(v) for v in name[1:].split("_"))
-    return model.description.legs[leg_no - 1].joints[joint_no - 1].kind == "R"

@@ -58,6 +58,14 @@ def coordinate_names(mechanism: Mechanism) -> tuple[str, ...]:
     return (*names, *mechanism.pose_names)
 
 
+def coordinate_angles(mechanism: Mechanism) -> tuple[bool, ...]:
+    """For each coordinate of :func:`coordinate_names`, whether it is an angle (a revolute joint's, or alpha)."""
+    angles = [leg.joints[leg.actuated].kind == "R" for leg in mechanism.legs]
+    for leg in mechanism.legs:
+        angles += [j.kind == "R" for j in leg.joints[:-1] if not j.actuated]
+    return (*angles, *(name == "alpha" for name in mechanism.pose_names))
+
+
 def parameter_names(mechanism: Mechanism) -> tuple[str, ...]:
     """Names of the packed parameter vector, in order (:func:`pack`)."""
     names = []
@@ -185,6 +193,7 @@ def generate_source(mechanism: Mechanism) -> str:
         "from numba import njit",
         "",
         f"COORDINATES = {coordinate_names(mechanism)!r}",
+        f"ANGLES = {coordinate_angles(mechanism)!r}  # which coordinates are angles (wrapped modulo 2 pi)",
         f"PARAMETERS = {parameter_names(mechanism)!r}",
         f"N_COORDINATES, N_CONSTRAINTS, N_BODIES = {nq}, {m}, {nb}",
     ]
