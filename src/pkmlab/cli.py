@@ -252,19 +252,49 @@ NEAR_TOLERANCE = 1e-3
 NEAR_SINGULAR_S = 1e-2
 
 
+def _screen_model(where: str, s: float, values, flag: str, rates) -> None:
+    """Refuse an actuator-space model that means nothing: at a singularity (``|S| < SINGULAR_S``) or
+    overflowed (``values`` not finite, for the rates given with ``flag``)."""
+    import numpy as np
+
+    if abs(s) < SINGULAR_S:
+        raise SingularityError(f"{where} is at a gain-type singularity (S = {s:.3g}): the actuator-space model "
+                               "(eq. 35) does not exist there")
+    if not all(np.all(np.isfinite(v)) for v in values):
+        raise InvalidParameterError(f"{where}: the dynamic model overflows at {flag} "
+                                    f"{' '.join(f'{w:g}' for w in rates)} (beyond floating-point range)")
+
+
+def _near_singularity(where: str, s: float, grows: str) -> str | None:
+    """The warning for ``|S| < NEAR_SINGULAR_S`` (also said on stderr), or None."""
+    from ._format import apart
+
+    if abs(s) >= NEAR_SINGULAR_S:
+        return None
+    shown, limit = apart(abs(s), NEAR_SINGULAR_S)
+    warning = (f"near a gain-type singularity (|S| = {shown} < {limit}): {grows} grow as 1/S^2 and are very "
+               "sensitive to the actuators")
+    print(f"pkmlab dynamics: warning: {where} is {warning}", file=sys.stderr)
+    return warning
+
+
+def _far_from_near(near, pose) -> None:
+    """Say on stderr that the assembly mode reported is not near the pose ``--near`` asked for."""
+    print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near "
+          f"{' '.join(f'{v:g}' for v in near)}; the nearest, reported, is at pose "
+          f"({', '.join(f'{v:.6f}' for v in pose)})", file=sys.stderr)
+
+
 def _dynamics_record(model, sol_q, theta_dot) -> dict:
     import numpy as np
 
     from . import dynamics
-    from ._format import apart
     from .kinematics import coordinate_rates, platform_pose, singularity_measure
 
     x, y, alpha = platform_pose(model, sol_q).tolist()
     where = f"the assembly mode at pose ({x:.6f}, {y:.6f}, {alpha:.6f})"
     s = float(singularity_measure(model, sol_q))
-    if abs(s) < SINGULAR_S:
-        raise SingularityError(f"{where} is at a gain-type singularity (S = {s:.3g}): the actuator-space model "
-                               "(eq. 35) and the loop-closure forces do not exist there")
+    _screen_model(where, s, (), "--theta-dot", theta_dot)
     with np.errstate(all="ignore"):
         q_dot = coordinate_rates(model, sol_q, theta_dot)
         m_theta, c_theta = dynamics.actuator_space_model(model, sol_q, theta_dot)
@@ -281,13 +311,10 @@ def _dynamics_record(model, sol_q, theta_dot) -> dict:
             "lambda": lam.tolist(),
             "kinetic_energy": float(dynamics.kinetic_energy(model, sol_q, q_dot)),
         }
-    if not all(np.all(np.isfinite(v)) for v in record.values() if not isinstance(v, dict)):
-        raise InvalidParameterError(f"{where}: the dynamic model overflows at --theta-dot "
-                                    f"{' '.join(f'{w:g}' for w in theta_dot)} (beyond floating-point range)")
-    if abs(s) < NEAR_SINGULAR_S:
-        shown, limit = apart(abs(s), NEAR_SINGULAR_S)
-        record["warning"] = (f"near a gain-type singularity (|S| = {shown} < {limit}): M_theta and lambda grow as "
-                             "1/S^2 and are very sensitive to theta")
+    _screen_model(where, s, [v for v in record.values() if not isinstance(v, dict)], "--theta-dot", theta_dot)
+    warning = _near_singularity(where, s, "M_theta and lambda")
+    if warning:
+        record["warning"] = warning
     return record
 
 
@@ -308,7 +335,6 @@ def cmd_dynamics_mechanism(args) -> dict:
     import numpy as np
 
     from . import mechanism_model as mm
-    from ._format import apart
 
     model = _mechanism(args)
     n, names = model.n_actuators, model.description.pose_names
@@ -323,25 +349,19 @@ def cmd_dynamics_mechanism(args) -> dict:
         gaps = [_pose_gap(q[-len(names):], args.near, names) for q, _s in found]
         found = [found[int(np.argmin(gaps))]]
         if min(gaps) > NEAR_TOLERANCE:
-            print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near; the nearest, "
-                  f"reported, is at pose {np.round(found[0][0][-len(names):], 6).tolist()}", file=sys.stderr)
+            _far_from_near(args.near, found[0][0][-len(names):])
     records = []
     for q, s in found:
         pose = q[-len(names):].tolist()
-        if abs(s) < SINGULAR_S:
-            raise SingularityError(f"the assembly mode at pose {np.round(pose, 6).tolist()} is at a gain-type "
-                                   f"singularity (S = {s:.3g}): the actuator-space model does not exist there")
+        where = f"the assembly mode at pose ({', '.join(f'{v:.6f}' for v in pose)})"
+        _screen_model(where, s, (), "--rates", rates)
         with np.errstate(all="ignore"):
             m_theta, c_theta, g_theta = mm.actuator_space_model(model, q, rates)
-        if not all(np.all(np.isfinite(v)) for v in (m_theta, c_theta, g_theta)):
-            raise InvalidParameterError(f"the dynamic model overflows at --rates {' '.join(f'{w:g}' for w in rates)}")
+        _screen_model(where, s, (m_theta, c_theta, g_theta), "--rates", rates)
         record = {"M": m_theta.tolist(), "c": c_theta.tolist(), "g": g_theta.tolist(), "S": s, "pose": pose}
-        if abs(s) < NEAR_SINGULAR_S:
-            shown, limit = apart(abs(s), NEAR_SINGULAR_S)
-            record["warning"] = (f"near a gain-type singularity (|S| = {shown} < {limit}): M grows as 1/S^2 and is "
-                                 "very sensitive to the actuators")
-            print(f"pkmlab dynamics: warning: the assembly mode at pose {np.round(pose, 6).tolist()} is "
-                  f"{record['warning']}", file=sys.stderr)
+        warning = _near_singularity(where, s, "M and c")
+        if warning:
+            record["warning"] = warning
         records.append(record)
     if not args.json:
         for rec in records:
@@ -356,7 +376,6 @@ def cmd_dynamics_mechanism(args) -> dict:
 
 
 def cmd_dynamics(args) -> dict:
-
     from .kinematics import forward_kinematics
 
     if args.mechanism is not None:
@@ -374,18 +393,9 @@ def cmd_dynamics(args) -> dict:
     if len(fk) == 0:
         raise AssemblyError(f"theta = {theta} cannot be assembled: forward kinematics has no real solution")
     chosen = [fk.nearest(args.near)] if args.near else list(fk)
-    if args.near:
-        if _pose_gap(chosen[0].pose, args.near, ("x", "y", "alpha")) > NEAR_TOLERANCE:
-            x, y, alpha = chosen[0].pose.tolist()
-            print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near "
-                  f"{' '.join(f'{v:g}' for v in args.near)}; the nearest, reported, is at pose ({x:.6f}, {y:.6f}, "
-                  f"{alpha:.6f})", file=sys.stderr)
+    if args.near and _pose_gap(chosen[0].pose, args.near, ("x", "y", "alpha")) > NEAR_TOLERANCE:
+        _far_from_near(args.near, chosen[0].pose)
     records = [_dynamics_record(model, sol.q, theta_dot) for sol in chosen]
-    for rec in records:
-        if "warning" in rec:
-            p = rec["pose"]
-            print(f"pkmlab dynamics: warning: the assembly mode at pose ({p['x']:.6f}, {p['y']:.6f}, "
-                  f"{p['alpha']:.6f}) is {rec['warning']}", file=sys.stderr)
     if not args.json:
         for rec in records:
             p = rec["pose"]
@@ -754,14 +764,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: signs (+ - +) or one word (+-+)")
     mechanism(p)
     common(p)
-    p.set_defaults(func=cmd_ik, parser=p)
+    p.set_defaults(func=cmd_ik)
 
     p = sub.add_parser("fk", help="forward kinematics: every assembly mode of actuated angles")
     p.add_argument("actuators", nargs="+", type=float, metavar="T1 T2 T3",
                    help="the actuator values (angles in rad, slides in m)")
     mechanism(p)
     common(p)
-    p.set_defaults(func=cmd_fk, parser=p)
+    p.set_defaults(func=cmd_fk)
 
     p = sub.add_parser("dynamics", help="actuator-space and full dynamic model at a state (paper eq. 26, 35)")
     p.add_argument("actuators", nargs="+", type=float, metavar="T1 T2 T3",
@@ -772,7 +782,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="only the assembly mode whose platform pose is nearest to this pose")
     mechanism(p)
     common(p)
-    p.set_defaults(func=cmd_dynamics, parser=p)
+    p.set_defaults(func=cmd_dynamics)
 
     p = sub.add_parser("reproduce", help="the paper's three simulated cases with every figure (paper §5)")
     p.add_argument("--out", default="out", help="output folder (default: out)")
@@ -836,16 +846,17 @@ def build_parser() -> argparse.ArgumentParser:
                    "RESULT_DIR/plant.toml if present, else the paper's, x1.15 for the reproduced 'disturbed' case)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=cmd_animate)
+    for command in sub.choices.values():  # each command knows its parser: its errors show its usage
+        command.set_defaults(parser=command)
     return parser
 
 
-def _check_finite(parser: argparse.ArgumentParser, args) -> None:
+def _check_finite(args) -> None:
     """Every number of the command line must be finite: NaN or infinity is refused naming its argument
     (for a list of positional numbers, the one at fault: ``alpha``, ``T1``...)."""
     import math
 
-    command = args.parser if hasattr(args, "parser") else parser._subparsers._group_actions[0].choices[args.command]
-    actions = {a.dest: a for a in command._actions}
+    actions = {a.dest: a for a in args.parser._actions}
     for dest, value in vars(args).items():
         values = value if isinstance(value, list) else [value]
         bad = [k for k, v in enumerate(values) if isinstance(v, float) and not math.isfinite(v)]
@@ -859,7 +870,7 @@ def _check_finite(parser: argparse.ArgumentParser, args) -> None:
         raise InvalidParameterError(f"{name} must be finite, got {' '.join(str(v) for v in values)}")
 
 
-def _check_mode(parser: argparse.ArgumentParser, args) -> None:
+def _check_mode(args) -> None:
     """``--mode`` as three signs (``+ - +``, ``1 -1 1``) or one word (``+-+``), the spellings the Python API
     takes; normalised to three ints. Another number of words is a malformed command line (exit 2)."""
     tokens = getattr(args, "mode", None)
@@ -876,8 +887,7 @@ def _check_mode(parser: argparse.ArgumentParser, args) -> None:
         return
 
     if len(tokens) not in (1, 3):
-        command = parser._subparsers._group_actions[0].choices[args.command]
-        command.error(f"argument --mode: expected three signs (+ - +) or one word (+-+), got {' '.join(tokens)}")
+        args.parser.error(f"argument --mode: expected three signs (+ - +) or one word (+-+), got {' '.join(tokens)}")
     try:
         args.mode = tuple(int(v) for v in _mode_array(tokens[0] if len(tokens) == 1 else tokens))
     except InvalidParameterError:
@@ -935,8 +945,8 @@ def _run(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        _check_finite(parser, args)
-        _check_mode(parser, args)
+        _check_finite(args)
+        _check_mode(args)
         _compile_notice(args)
         result = args.func(args)
     except PkmlabError as exc:

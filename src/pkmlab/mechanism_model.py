@@ -296,16 +296,15 @@ def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S:
 def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.ndarray]:
     """Both assembly modes of a point platform on two R*RR legs: the end point is where the circles of
     radius ``r_i`` about the elbows ``E_i`` meet (none, one or two configurations)."""
-    from .mechanisms.description import leg_chain
+    from .mechanisms.leg_types import leg_circle, leg_coordinates
 
     m = model.description
     if m.platform.kind != "point" or any(leg.notation != "R*RR" for leg in m.legs):
         raise InvalidParameterError(f"{m.notation} is not a five-bar (a point platform on two R*RR legs)")
     theta = np.asarray(actuators, dtype=float)
-    elbows, radii = [], []
-    for leg, t in zip(m.legs, theta, strict=True):
-        elbows.append(np.array(leg_chain(leg, [t, 0.0])[1][0]))
-        radii.append(math.hypot(*leg.bodies[1].tip))
+    circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
+    elbows = [np.array(c) for c, _r in circles]
+    radii = [r for _c, r in circles]
     d = elbows[1] - elbows[0]
     dist = float(np.hypot(*d))
     if dist == 0 and radii[0] == radii[1]:
@@ -319,8 +318,7 @@ def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.nda
     out = []
     for sign in ((1.0, -1.0) if across > 0 else (1.0,)):
         point = elbows[0] + along * ex + sign * across * n
-        passive = [math.atan2(*(point - e)[::-1]) - math.atan2(leg.bodies[1].tip[1], leg.bodies[1].tip[0])
-                   for e, leg in zip(elbows, m.legs, strict=True)]
+        passive = [leg_coordinates(leg, t, point)[1] for leg, t in zip(m.legs, theta, strict=True)]
         out.append(np.array([*theta, *passive, *point]))
     return out
 
