@@ -190,3 +190,9 @@ def test_substeps_with_continuous_time_control_is_refused(capsys, tmp_path):
     out = tmp_path / "out"
     message = assert_user_error(*run(capsys, "simulate", path, "--out", out))
     assert "[simulation].substeps" in message and "sample_time" in message and not out.exists()
+
+
+def test_a_non_finite_number_beyond_the_expected_count_is_named(capsys):
+    """Found by the fuzzer: `ik 0 0 0 nan` once failed with an IndexError while naming the argument."""
+    message = assert_user_error(*run(capsys, "ik", 0, 0, 0, "nan"))
+    assert "must be finite" in message

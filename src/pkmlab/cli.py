@@ -865,8 +865,8 @@ def _check_finite(args) -> None:
         action = actions.get(dest)
         name = dest if action is None else action.option_strings[0] if action.option_strings else str(action.metavar)
         parts = name.split()
-        if len(parts) > 1 and isinstance(value, list):  # "X Y ALPHA": name the one at fault
-            name = parts[bad[0]].lower() if parts[bad[0]] in ("X", "Y", "ALPHA") else parts[min(bad[0], len(parts) - 1)]
+        if len(parts) > 1 and isinstance(value, list) and bad[0] < len(parts):  # "X Y ALPHA": the one at fault
+            name = parts[bad[0]].lower() if parts[bad[0]] in ("X", "Y", "ALPHA") else parts[bad[0]]
         raise InvalidParameterError(f"{name} must be finite, got {' '.join(str(v) for v in values)}")
 
 
