@@ -81,10 +81,10 @@ def case_scenarios(control: str = "sampled", manipulator: dict | None = None) ->
     return scenarios
 
 
-def run_cases(control: str = "sampled", manipulator: dict | None = None) -> dict[str, SimulationResult]:
-    """Simulate the paper's three cases (:func:`case_scenarios`); an error names the case."""
+def run_cases(scenarios: dict[str, Scenario]) -> dict[str, SimulationResult]:
+    """Simulate the paper's three cases (as :func:`case_scenarios` gives them); an error names the case."""
     results = {}
-    for name, scenario in case_scenarios(control, manipulator).items():
+    for name, scenario in scenarios.items():
         try:
             results[name] = simulate(scenario)
         except PkmlabError as exc:
@@ -209,7 +209,7 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
             "parameter_file": None if params is None else str(params)}
     with atomic_output_dir(out, "reproduce", inputs=[params] if params else [], provenance=prov, note=note) as tmp:
         say(f"simulating the paper's cases ({control} control) ...")
-        results = run_cases(control, manipulator)
+        results = run_cases(scenarios)
         summary = {"cases": {name: results[name].summary() for name in PAPER_CASES}, "provenance": prov}
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         (tmp / "manipulator.toml").write_text(manipulator_to_toml(
