@@ -1,7 +1,7 @@
 """The paper's 3-RRR as a MuJoCo model, for a speed benchmark and an accuracy comparison with pkmlab.
 
 MuJoCo simulates kinematic *trees*; a closed chain is a spanning tree plus equality
-constraints that close its loops. For the 3-RRR (SPEC §1):
+constraints that close its loops. For the 3-RRR (conventions §1):
 
 * the tree holds the three legs, each an actuated hinge ``theta_i`` at its base point ``b_i``
   (axis z), the proximal link ``l_i``, the passive elbow hinge ``elbow_i`` and the distal link
@@ -12,7 +12,7 @@ constraints that close its loops. For the 3-RRR (SPEC §1):
   (2 loops; a ``connect`` is 3 scalar rows, its z row is identically satisfied in the plane).
 
 MuJoCo's joint angles are *relative* (each hinge turns its body with respect to its parent),
-pkmlab's are absolute (SPEC §1): ``qpos = (θ1, φ1 - θ1, α - φ1, θ2, φ2 - θ2, θ3, φ3 - θ3)`` in
+pkmlab's are absolute (conventions §1): ``qpos = (θ1, φ1 - θ1, α - φ1, θ2, φ2 - θ2, θ3, φ3 - θ3)`` in
 the tree order :data:`JOINT_NAMES`; :func:`qpos_from_q` is that linear map (it maps the rates
 ``q̇`` to ``qvel`` as well).
 

@@ -37,7 +37,9 @@ Dynamics (paper §3, eq. 35), in working mode (-, +, -):
 
 Closed-loop simulation (the paper's nominal case in-process, the NumPy/SciPy ``solve_ivp``
 path, MuJoCo on the same mechanism, a batch of 1,000 disturbed runs, the plant integrator's
-error and order, the arithmetic limit, cost growth): :mod:`simulation_bench`, whose rows follow.
+error and order, the arithmetic limit, cost growth): :mod:`simulation_bench`, whose rows follow;
+then every preset mechanism (forward kinematics, one dynamics evaluation, the default run):
+:mod:`mechanism_bench`.
 
 Usage::
 
@@ -891,6 +893,15 @@ def main(argv: list[str] | None = None) -> int:
     sim_rows, sim_checks = simulation_bench.simulation_rows(sys.modules[__name__], args.quick)
     rows += sim_rows
     checks["simulation"] = sim_checks
+
+    progress("every mechanism: forward kinematics, dynamics, default runs")
+    import mechanism_bench
+
+    own_loop = next((r for r in rows if r.get("key") == "sim_nominal_loop"), None)
+    per_sample = own_loop["us_per_sample"] * 1e-6 if own_loop else None
+    mech_rows, mech_checks = mechanism_bench.mechanism_rows(sys.modules[__name__], args.quick, per_sample)
+    rows += mech_rows
+    checks["mechanisms"] = mech_checks
 
     for row in rows:
         if row["kind"] == "per_op" and row["key"] == BASELINES.get(row["baseline"]):

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 from hypothesis import settings
 
-# CI runs must not depend on luck: a fixed example sequence, no example database.
+# Test runs must not depend on luck: a fixed example sequence, no example database, unless
+# PKMLAB_EXPLORE=1 asks hypothesis to explore new examples (then fix what it finds).
 settings.register_profile("ci", derandomize=True, database=None, deadline=None)
-if os.environ.get("CI"):
-    settings.load_profile("ci")
+settings.register_profile("explore", deadline=None)
+settings.load_profile("explore" if os.environ.get("PKMLAB_EXPLORE") else "ci")
 
 sys.path.insert(0, str(Path(__file__).parent))
 

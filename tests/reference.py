@@ -1,6 +1,6 @@
 """An independent, deliberately plain NumPy statement of the paper's equations.
 
-Written from the paper and SPEC §1–§2 only (not from pkmlab's kernels), for the tests to
+Written from the paper and conventions §1–§2 only (not from pkmlab's kernels), for the tests to
 check pkmlab against: loop closure (eqs. 2, 3, 5, 6), platform pose, eq. (19), and a
 polynomial-free count of assembly modes by scanning the loop-closure residual over α.
 """
@@ -33,7 +33,7 @@ def eta(q, base=BASE, l=(L, L, L), r=(R, R, R), a=A):
 
 
 def pose(q, base=BASE, l=(L, L, L), r=(R, R, R), a=A):
-    """Centroid and orientation: p1 + (a/√3) u(α + π/6) (SPEC §1)."""
+    """Centroid and orientation: p1 + (a/√3) u(α + π/6) (conventions §1)."""
     p1 = base[0] + l[0] * u(q[0]) + r[0] * u(q[3])
     c = p1 + a / np.sqrt(3) * u(q[6] + np.pi / 6)
     return np.array([c[0], c[1], q[6]])

@@ -38,7 +38,7 @@ def u(angle):
 
 
 def vertices(x, y, alpha, a=A):
-    """Platform vertices p1, p2, p3 of the centroid pose (x, y, alpha) (SPEC §1)."""
+    """Platform vertices p1, p2, p3 of the centroid pose (x, y, alpha) (conventions §1)."""
     p1 = np.array([x, y]) - a / math.sqrt(3) * u(alpha + math.pi / 6)
     return np.array([p1, p1 + a * u(alpha), p1 + a * u(alpha + math.pi / 3)])
 

@@ -30,7 +30,7 @@ ALL_MODES = set(itertools.product((1, -1), repeat=3))
 # ------------------------------------------------------------------ independent geometry
 @dataclass(frozen=True)
 class Geometry:
-    """The planar 3-RRR as the paper/SPEC describes it, independent of pkmlab."""
+    """The planar 3-RRR as the paper and docs/conventions.md describe it, independent of pkmlab."""
 
     b: float = 0.52
     l: tuple[float, float, float] = (0.25, 0.25, 0.25)
@@ -267,7 +267,7 @@ def test_fk_recovers_the_ik_pose_and_closes_the_loops(capsys, pose):
 
 
 def test_fk_singularity_measure_follows_the_paper_formula(capsys):
-    # SPEC: S = sin(phi1 - alpha) sin(phi2 - phi3) + sin(phi1 - phi2) sin(alpha + 2 pi/3 - phi3)
+    # conventions §2: S = sin(phi1 - alpha) sin(phi2 - phi3) + sin(phi1 - phi2) sin(alpha + 2 pi/3 - phi3)
     # for the paper's geometry (equal r_i, equilateral platform).
     theta = ik_solutions(capsys, (0.2, 0.21, 0.0), "--mode", "-", "+", "-")[0]["theta"]
     solutions = fk_solutions(capsys, theta)

@@ -129,3 +129,48 @@ def test_dynamics_mechanism_warns_near_a_singularity(capsys):
     q = mm.inverse_kinematics(model, [0.24, 0.17, 0.003], ())  # alpha = 0 is singular for this 3-RPR
     code, out, err = run(capsys, "dynamics", "--mechanism", "3rpr", *q[:3], "--near", 0.24, 0.17, 0.003, "--json")
     assert code == 0 and "near a gain-type singularity" in json.loads(out)["warning"] and "warning" in err
+
+
+def test_simulate_then_animate_a_five_bar_run(capsys, tmp_path):
+    from pathlib import Path
+
+    from pkmlab.mechanisms.description import load_mechanism
+
+    example = Path(__file__).parents[1] / "examples" / "five_bar_circle.toml"
+    out = tmp_path / "run"
+    summary = run_json(capsys, "simulate", example, "--out", out, "--quiet")
+    assert summary["working_mode"] == [1, -1] and len(summary["peak_effort"]) == 2
+    assert "max_orientation_error_rad" not in summary  # a point has no orientation
+    header = (out / "run.csv").read_text().splitlines()[0]
+    assert header == "t,theta1,theta2,theta1_d,theta2_d,tau1,tau2,x,y,x_d,y_d,S"
+    assert load_mechanism(out / "plant.toml") == preset("five_bar")
+    assert (out / "machine.png").stat().st_size > 0 and not (out / "alpha.png").exists()
+    gif = tmp_path / "run.gif"
+    made = run_json(capsys, "animate", out, "--out", gif, "--stride", 200, "--quiet")
+    assert made["frames"] == 7 and gif.stat().st_size > 0
+    # the machine rebuilt from the recorded actuators puts the end point where the run recorded it
+    assert made["max_centroid_deviation_m"] < 1e-9
+
+
+def test_a_scenario_runs_on_another_machine_with_mechanism(capsys, tmp_path):
+    from pathlib import Path
+
+    example = Path(__file__).parents[1] / "examples" / "3prr_circle.toml"
+    on_five_bar = run_json(capsys, "simulate", example, "--mechanism", "five_bar", "--out", tmp_path / "x", "--quiet",
+                           "--no-figures")
+    assert len(on_five_bar["working_mode"]) == 2 and on_five_bar["max_path_error_m"] < 1e-4
+    assert "max_orientation_error_rad" not in on_five_bar  # the five-bar tracks the path's points only
+    # the 3-RPR is singular everywhere at this path's alpha = 0: refused before simulating, nothing written
+    code, _out, err = run(capsys, "simulate", example, "--mechanism", "3rpr", "--out", tmp_path / "y", "--quiet")
+    assert code == 1 and "whole path lies within |S| < 0.05" in err and not (tmp_path / "y").exists()
+
+
+@pytest.mark.parametrize("name", ["five_bar", "3rpr"])
+def test_maps_of_other_machines(capsys, tmp_path, name):
+    smap = run_json(capsys, "singularity-map", "--mechanism", name, "--resolution", 31, "--out",
+                    tmp_path / "s.png", "--quiet", *(["--alpha", -1.5] if name == "3rpr" else []))
+    assert smap["mode"] == ([1, 1] if name == "five_bar" else []) and 0 < smap["reachable_fraction"] < 1
+    ws = run_json(capsys, "workspace", "--mechanism", name, "--resolution", 31, "--out", tmp_path / "w.png",
+                  "--quiet")
+    assert len(ws["areas"]) == (4 if name == "five_bar" else 1)
+    assert all(a["area_m2"] > 0 for a in ws["areas"])

@@ -1,4 +1,4 @@
-"""Dynamics checked by invariants and by independent formulations (paper §3, SPEC §6)."""
+"""Dynamics checked by invariants and by independent formulations (paper §3, conventions §6)."""
 
 import json
 

@@ -1,7 +1,7 @@
 """Tests of :class:`pkmlab.geometry.Planar3RRR`: the paper preset, immutability, ``replace``,
 per-leg parameters, validation and equality.
 
-Expected numbers are the SPEC/paper values written out here, never read back from pkmlab.
+Expected numbers are the paper's values (docs/conventions.md) written out here, never read back from pkmlab.
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ def test_inverse_kinematics_satisfies_loop_closure_and_reaches_the_pose(paper, p
             continue
         assert np.max(np.abs(ref.eta(q))) < 1e-12
         np.testing.assert_allclose(ref.pose(q), pose, atol=1e-12)
-        # SPEC §3: σ_i = +1 when the elbow lies to the left of b_i → p_i
+        # conventions §3: σ_i = +1 when the elbow lies to the left of b_i → p_i
         e = ref.BASE + ref.L * np.stack([np.cos(q[:3]), np.sin(q[:3])], axis=-1)
         p = e + ref.R * np.stack([np.cos(q[3:6]), np.sin(q[3:6])], axis=-1)
         np.testing.assert_array_equal(np.sign(cross2(p - ref.BASE, e - ref.BASE)), mode)
@@ -295,6 +295,9 @@ def test_rates_and_accelerations_match_differences_along_a_motion(paper, pose, s
     good = np.flatnonzero(np.abs(ik.S) > 0.1)
     assume(good.size)
     q0 = ik.q[good[0]]
+    # away from singularities: where a unit actuated rate moves a passive joint at tens of rad/s, the
+    # differences' truncation error (∝ the fifth derivative) outgrows the tolerances below
+    assume(np.abs(pkmlab.passive_jacobian(paper, q0)).max() < 10)
     rng = np.random.default_rng(seed)
     td, tdd = rng.normal(size=3), rng.normal(size=3)
 

@@ -63,7 +63,7 @@ def test_loops_close_and_the_platform_pose_matches_at_ik_configurations(paper, s
         for i in (2, 3):
             gap = _site_pos(m, d, f"vertex{i}") - _site_pos(m, d, f"tip{i}")
             assert np.abs(gap).max() < 1e-12
-        for i in range(3):  # the tree itself, from SPEC §1 written out here
+        for i in range(3):  # the tree itself, from conventions §1 written out here
             e = b[i] + 0.25 * _u(q[i])
             np.testing.assert_allclose(_body_pos(m, d, f"distal{i + 1}"), e, rtol=0, atol=1e-14)
         p1 = b[0] + 0.25 * _u(q[0]) + 0.1667 * _u(q[3])

@@ -274,7 +274,7 @@ def test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so(capsys
     assert summary["provenance"]["manipulator"].endswith("mine.toml")
     mine = load_manipulator(params)
     assert load_manipulator(out / "manipulator.toml") == mine
-    assert load_manipulator(out / "disturbed_plant.toml") == scaled_model(mine, 1.15, 1.15)  # SPEC §7
+    assert load_manipulator(out / "disturbed_plant.toml") == scaled_model(mine, 1.15, 1.15)  # conventions §7
     assert load_manipulator(out / "nominal_plant.toml") == mine
     report = (out / "REPORT.md").read_text()
     assert "not the paper's numbers" in report and "mine.toml" in report

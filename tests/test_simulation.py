@@ -1,4 +1,4 @@
-"""Trajectories, controllers and closed-loop runs (paper §4–5, SPEC §3–§8)."""
+"""Trajectories, controllers and closed-loop runs (paper §4–5, conventions §3–§8)."""
 
 import csv
 import json
@@ -97,7 +97,7 @@ def test_sampled_data_results_show_what_the_paper_reports(paper_runs):
     assert disturbed["max_path_error_m"] > nominal["max_path_error_m"]
     assert max(disturbed["peak_torque_Nm"]) > max(nominal["peak_torque_Nm"])
     for s in (nominal, disturbed, fast):
-        assert s["working_mode"] == [-1, 1, -1]  # SPEC §3: the mode maximising min |S| on the circle
+        assert s["working_mode"] == [-1, 1, -1]  # conventions §3: the mode maximising min |S| on the circle
 
 
 def test_sampled_run_is_self_consistent(paper, paper_runs):
@@ -107,7 +107,7 @@ def test_sampled_run_is_self_consistent(paper, paper_runs):
     assert np.abs(pkmlab.constraint_residual(paper, r.q)).max() < 1e-13
     np.testing.assert_allclose(r.pose[:, :2], pkmlab.platform_pose(paper, r.q)[:, :2], atol=1e-15)
     np.testing.assert_allclose(r.S, pkmlab.singularity_measure(paper, r.q), atol=1e-15)
-    # torque really is the computed-torque law of SPEC §5 evaluated at each sample
+    # torque really is the computed-torque law of conventions §5 evaluated at each sample
     k = 700
     q_ctrl = pkmlab.branch_following(paper, r.q[k], r.theta[k])
     m_theta, c_theta = pkmlab.dynamics.actuator_space_model(paper, q_ctrl, r.theta_dot[k])
@@ -189,7 +189,9 @@ def test_reproduce_cli_writes_everything(tmp_path, capsys):
     assert set(summary["cases"]) == {"nominal", "disturbed", "fast"}
     for case in summary["cases"].values():
         assert set(case) == {"max_path_error_m", "rms_path_error_m", "max_alpha_error_rad", "max_joint_error_rad",
-                             "peak_torque_Nm", "min_abs_S", "working_mode"}
+                             "peak_torque_Nm", "min_abs_S", "working_mode",
+                             # the names of every mechanism's summary (conventions §8)
+                             "max_orientation_error_rad", "max_joint_error", "peak_effort"}
     for name in ("nominal", "disturbed", "fast"):
         header = (out / f"{name}.csv").read_text().splitlines()[0]
         assert header == ",".join(COLUMNS)

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InvalidParameterError, shown
-from .geometry import WORKING_MODES, Planar3RRR
+from .geometry import WORKING_MODES, Planar3RRR  # noqa: F401 (the examples below use it)
 from .kinematics import _count, _mode_array, _model, _real, inverse_kinematics
 
 
@@ -26,7 +26,7 @@ class SingularityMap:
     y: np.ndarray
     S: np.ndarray
     alpha: float
-    mode: tuple[int, int, int]
+    mode: tuple[int, ...]
 
     @property
     def reachable(self) -> np.ndarray:
@@ -37,12 +37,32 @@ class SingularityMap:
 MAX_RESOLUTION = 10_000
 
 
-def default_extent(model: Planar3RRR) -> tuple[tuple[float, float], tuple[float, float]]:
-    """A square region covering the base triangle and every leg's reach."""
+def default_extent(model) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A region covering the base and every leg's reach (for a described mechanism: its base points, rails
+    and strokes, grown by its longest leg)."""
+    if _is_machine(model):
+        legs = model.description.legs
+        points = [leg.base for leg in legs]
+        for leg in legs:  # a rail's far end
+            if leg.joints[0].kind == "P" and leg.stroke is not None:
+                a = leg.joints[0].axis
+                points.append((leg.base[0] + leg.stroke[1] * math.cos(a), leg.base[1] + leg.stroke[1] * math.sin(a)))
+        reach = max(sum(math.hypot(*b.tip) for b in leg.bodies) + (leg.stroke[1] if leg.stroke else 0.0)
+                    for leg in legs)
+        lo, hi = np.min(points, axis=0) - 0.25 * reach, np.max(points, axis=0) + 0.25 * reach
+        if len(legs) == 2:  # the five-bar works above its base line: reach all around it
+            lo, hi = np.min(points, axis=0) - reach, np.max(points, axis=0) + reach
+        return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
     reach = float(np.max(model.active_lengths + model.passive_lengths))
     lo = model.base_points.min(axis=0) - 0.25 * reach
     hi = model.base_points.max(axis=0) + 0.25 * reach
     return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
+
+
+def _is_machine(model) -> bool:
+    from .mechanism_model import MechanismModel
+
+    return isinstance(model, MechanismModel)
 
 
 def _axis(name: str, bounds, default, resolution: int) -> np.ndarray:
@@ -63,10 +83,26 @@ def _grid(model, alpha, x_range, y_range, resolution, progress) -> tuple[np.ndar
     alpha = _real("alpha", alpha)
     if progress is not None and not callable(progress):
         raise InvalidParameterError(f"progress must be a function of the number of rows done, got {shown(progress)}")
-    default_x, default_y = default_extent(_model(model))
+    default_x, default_y = default_extent(model if _is_machine(model) else _model(model))
     x = _axis("x_range", x_range, default_x, int(resolution))
     y = _axis("y_range", y_range, default_y, int(resolution))
     return x, y, alpha
+
+
+def _machine_rows(model, x, y, alpha, modes, progress):
+    """``S`` (rows, columns, modes) of a described mechanism's inverse kinematics over the grid, NaN out of
+    reach, a row at a time."""
+    from .mechanism_model import path_inverse_kinematics
+
+    dof = model.description.dof
+    out = np.full((y.size, x.size, len(modes)), np.nan)
+    for j, yj in enumerate(y):
+        poses = np.column_stack([x, np.full_like(x, yj)] + ([np.full_like(x, alpha)] if dof == 3 else []))
+        for k, mode in enumerate(modes):
+            out[j, :, k] = path_inverse_kinematics(model, poses, mode)[1]
+        if progress is not None:
+            progress(1)
+    return out
 
 
 def _inverse_kinematics_rows(model, x, y, alpha, mode, progress, rows_per_chunk: int = 16):
@@ -83,9 +119,9 @@ def _inverse_kinematics_rows(model, x, y, alpha, mode, progress, rows_per_chunk:
 
 
 def singularity_map(
-    model: Planar3RRR,
+    model,
     alpha: float = 0.0,
-    mode=(1, 1, 1),
+    mode=None,
     x_range: tuple[float, float] | None = None,
     y_range: tuple[float, float] | None = None,
     resolution: int = 201,
@@ -93,13 +129,23 @@ def singularity_map(
 ) -> SingularityMap:
     """``S(φ)`` of inverse-kinematics solutions over an ``x``–``y`` grid (eq. 19, figure 3).
 
-    ``progress``, when given, is called with the number of grid rows just computed.
+    ``model`` is the paper's :class:`~pkmlab.geometry.Planar3RRR` or any
+    :class:`~pkmlab.mechanism_model.MechanismModel`; ``mode`` its working mode (default: the first,
+    ``(1, 1, 1)`` for the 3-RRR); ``alpha`` is ignored by a 2-DOF machine. ``progress``, when given, is
+    called with the number of grid rows just computed.
 
     >>> m = singularity_map(Planar3RRR.paper(), resolution=11)
     >>> m.S.shape
     (11, 11)
     """
-    mode = tuple(int(m) for m in _mode_array(mode))
+    if _is_machine(model):
+        from .simulation import _machine_mode
+
+        mode = _machine_mode(model, "auto" if mode is None else mode)
+        mode = _machine_modes(model)[0] if mode == "auto" else mode
+        x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
+        return SingularityMap(x, y, _machine_rows(model, x, y, alpha, [mode], progress)[..., 0], alpha, mode)
+    mode = tuple(int(m) for m in _mode_array((1, 1, 1) if mode is None else mode))
     x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
     s, _unreachable = _inverse_kinematics_rows(model, x, y, alpha, mode, progress)
     return SingularityMap(x, y, s, alpha, mode)
@@ -107,7 +153,7 @@ def singularity_map(
 
 @dataclass(frozen=True)
 class Workspace:
-    """The reachable region at a fixed orientation ``α``, for each of the 8 working modes.
+    """The reachable region at a fixed orientation ``α``, for each working mode (8 for the 3-RRR).
 
     ``reachable[k, j, i]`` says whether ``(x[i], y[j], α)`` can be reached in working mode
     ``modes[k]`` (a leg reaches its platform vertex whatever its working mode, so the masks
@@ -130,8 +176,14 @@ class Workspace:
         return float((self.x[1] - self.x[0]) * (self.y[1] - self.y[0]))
 
 
+def _machine_modes(model) -> list[tuple[int, ...]]:
+    from .mechanism_model import working_modes
+
+    return working_modes(model)
+
+
 def workspace(
-    model: Planar3RRR,
+    model,
     alpha: float = 0.0,
     resolution: int = 201,
     x_range: tuple[float, float] | None = None,
@@ -152,6 +204,12 @@ def workspace(
     1052
     """
     x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
+    if _is_machine(model):
+        modes = _machine_modes(model)
+        s = np.moveaxis(_machine_rows(model, x, y, alpha, modes, progress), -1, 0)
+        reachable = np.isfinite(s)
+        area = reachable.sum(axis=(1, 2)) * float((x[1] - x[0]) * (y[1] - y[0]))
+        return Workspace(x, y, alpha, np.array(modes, dtype=np.int64).reshape(len(modes), -1), reachable, s, area)
     s, unreachable = _inverse_kinematics_rows(model, x, y, alpha, None, progress)
     reachable = np.moveaxis(unreachable == 0, -1, 0)
     s = np.moveaxis(s, -1, 0)

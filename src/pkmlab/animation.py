@@ -170,3 +170,70 @@ def write_gif(model: Planar3RRR, t, q, desired_xy, path: str | os.PathLike, fram
     finally:
         plt.close(fig)
     return path
+
+
+# ------------------------------------------------------------------ any described mechanism
+def rebuild_machine_configurations(model, theta, pose0) -> np.ndarray:
+    """:func:`rebuild_configurations` for a described mechanism
+    (:class:`~pkmlab.mechanism_model.MechanismModel`): the assembly mode nearest ``pose0`` at the first
+    sample, then branch following (:func:`~pkmlab.mechanism_model.branch_following`)."""
+    from . import mechanism_model as mm
+
+    theta = np.asarray(theta, dtype=float)
+    solutions = mm.forward_kinematics(model, theta[0])
+    if not solutions:
+        raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} cannot be assembled "
+                            "with this machine: is it the one that produced the run?")
+    dof = model.description.dof
+    pose0 = np.asarray(pose0, dtype=float)
+    q = np.empty((theta.shape[0], len(model.coordinates)))
+    q[0] = min((sol for sol, _s in solutions), key=lambda sol: float(np.abs(sol[-dof:] - pose0).max()))
+    for k in range(1, theta.shape[0]):
+        try:
+            q[k] = mm.branch_following(model, q[k - 1], theta[k], min_abs_S=1e-6)
+        except BranchFollowingError as exc:
+            raise BranchFollowingError(f"sample {k + 1}: {exc}") from None
+    return q
+
+
+def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: Sequence[int], fps: int = 20,
+                      title: str = "", dpi: int = 90, on_frame: Callable[[], None] | None = None) -> Path:
+    """:func:`write_gif` for a described mechanism: each frame draws the machine as it is
+    (:func:`~pkmlab.plotting.draw_mechanism`), the desired path and the tracked point's trail."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import PillowWriter
+
+    from .plotting import draw_mechanism
+
+    path = Path(path)
+    t, q, desired_xy = (np.asarray(a, dtype=float) for a in (t, q, desired_xy))
+    frames = [int(k) for k in frames]
+    dof = model.description.dof
+    points = np.empty((len(frames), model.description.legs.__len__(), model.kernels.JOINTS_PER_LEG, 2))
+    for i, k in enumerate(frames):
+        model.kernels.joint_points(q[k], model.P, points[i])
+    shown = np.vstack([points.reshape(-1, 2), desired_xy])
+    lo, hi = shown.min(axis=0), shown.max(axis=0)
+    pad = 0.08 * float(np.max(hi - lo))
+    fig, ax = plt.subplots(figsize=(6.0, 5.6), dpi=dpi, layout="constrained")
+    try:
+        with atomic_file(path) as tmp:
+            writer = PillowWriter(fps=fps)
+            writer.setup(fig, str(tmp), dpi=dpi)
+            for k in frames:
+                ax.cla()
+                ax.plot(desired_xy[:, 0], desired_xy[:, 1], "--", color="tab:gray", lw=1.2, label="desired path")
+                ax.plot(q[:k + 1, -dof], q[:k + 1, -dof + 1], color="tab:red", lw=1.5, label="actual path")
+                draw_mechanism(model, q[k], ax=ax, title=f"{title}\nt = {t[k]:7.3f} s")
+                ax.set_xlim(lo[0] - pad, hi[0] + pad)
+                ax.set_ylim(lo[1] - pad, hi[1] + pad)
+                writer.grab_frame()
+                if on_frame is not None:
+                    on_frame()
+            writer.finish()  # only after the last frame: a failure leaves no GIF
+    finally:
+        plt.close(fig)
+    return path

@@ -59,7 +59,7 @@ def _count(args, values, n: int, what: str) -> None:
 
 def cmd_ik_mechanism(args) -> dict:
     """``ik --mechanism M POSE...``: ``{"solutions": [{"mode", "actuators", "S"}, ...]}``, one per working mode
-    that reaches the pose (SPEC-style contract for every machine)."""
+    that reaches the pose (one contract for every machine)."""
     from . import mechanism_model as mm
     from .errors import UnreachablePoseError
 
@@ -433,6 +433,11 @@ def cmd_reproduce(args) -> dict:
     return summary
 
 
+def _effort_unit(scenario) -> str:
+    kinds = set(getattr(getattr(scenario.model, "description", None), "actuator_kinds", ("R",)))
+    return "N m" if kinds == {"R"} else ("N" if kinds == {"P"} else "N m or N")
+
+
 def cmd_simulate(args) -> dict:
     """One scenario file: summary.json, run.csv, plant.toml, figures and REPORT.md in --out."""
     from .io import read_text
@@ -441,13 +446,22 @@ def cmd_simulate(args) -> dict:
 
     text = read_text(Path(args.scenario))  # once: what is simulated is what is kept as scenario.toml
     scenario = scenario_from_text(text, args.scenario)
+    if args.mechanism:  # another machine on the same scenario: the plant is that machine too
+        args.params = None
+        machine = _mechanism(args)
+        if machine.description.name == "paper" and args.mechanism == "paper":
+            from .geometry import Planar3RRR
+
+            machine = Planar3RRR.paper()
+        scenario = scenario.replace(model=machine, plant=None, working_mode="auto")
     progress = _status_messages(args)
     summary = simulation_report(scenario, args.out, figures=not args.no_figures, progress=progress,
                                 source=args.scenario, source_text=text, note=_note(args))
     if not args.json:
         s = summary
         print(f"scenario {s['scenario']}: max path error {s['max_path_error_m']:.4e} m, "
-              f"rms path error {s['rms_path_error_m']:.4e} m, peak torque {max(s['peak_torque_Nm']):.4f} N m, "
+              f"rms path error {s['rms_path_error_m']:.4e} m, peak effort {max(s['peak_effort']):.4f} "
+              f"{_effort_unit(scenario)}, "
               f"min |S| {s['min_abs_S']:.4f}, working mode {_signs(s['working_mode'])}")
         print(f"results in {args.out}/")
     return summary
@@ -597,13 +611,13 @@ def cmd_singularity_map(args) -> dict:
     from .analysis import singularity_map
     from .plotting import plot_singularity_map
 
-    model = _model(args)
+    model = _mechanism(args) if args.mechanism else _model(args)
     out = _output_path(args.out, "--out", _figure_suffixes())
     csv_path = _output_path(args.csv, "--csv", {".csv"}) if args.csv else None
     resolution = _resolution(args.resolution)
     with _progress(args, resolution, "singularity map") as bar:
-        smap = singularity_map(model, args.alpha, args.mode or ("+", "+", "+"), args.x_range, args.y_range,
-                               resolution, progress=bar.update)
+        smap = singularity_map(model, args.alpha, args.mode, args.x_range, args.y_range, resolution,
+                               progress=bar.update)
     reachable = smap.reachable
     if not reachable.any():
         raise _nothing_reachable(smap.x, smap.y, smap.alpha)
@@ -641,7 +655,7 @@ def cmd_workspace(args) -> dict:
     from .analysis import workspace
     from .plotting import plot_workspace
 
-    model = _model(args)
+    model = _mechanism(args) if args.mechanism else _model(args)
     out = _output_path(args.out, "--out", _figure_suffixes())
     resolution = _resolution(args.resolution)
     with _progress(args, resolution, "workspace") as bar:
@@ -682,10 +696,75 @@ def _animation_model(args, folder: Path, case: str):
     return Planar3RRR.paper(), "paper preset"
 
 
-def cmd_animate(args) -> dict:
-    """A GIF of a recorded run: the mechanism rebuilt from theta1..3, the desired path, the centroid's trail."""
+def _animation_machine(args, folder: Path):
+    """The described machine of a run — ``--mechanism``, else the run's plant.toml when it holds a
+    ``[mechanism]`` table — or None for the paper's 3-RRR."""
+    from .io import read_text
+    from .mechanism_model import MechanismModel
+    from .mechanisms.description import load_mechanism
+
+    if getattr(args, "mechanism", None):
+        args.params = None
+        return _mechanism(args), args.mechanism
+    plant = folder / "plant.toml"
+    if plant.is_file() and re.search(r"^\[mechanism\]", read_text(plant), re.MULTILINE):
+        return MechanismModel.from_description(load_mechanism(plant)), f"{folder.name}/plant.toml"
+    return None
+
+
+def _animate_machine(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:
+    """``pkmlab animate`` of a described machine's run: rebuilt by branch following, drawn as it is."""
+    import numpy as np
+
+    from .animation import rebuild_machine_configurations, write_machine_gif
+    from .io import read_result_csv
+
+    model, source = machine
+    n_act, names = len(model.description.legs), model.description.pose_names
+    columns = ("t", *(f"theta{i + 1}" for i in range(n_act)), *names, "x_d", "y_d")
+    data = read_result_csv(csv_path, columns)
+    theta = np.column_stack([data[f"theta{i + 1}"] for i in range(n_act)])
+    pose = np.column_stack([data[v] for v in names])
+    q = rebuild_machine_configurations(model, theta, pose[0])
+    tracked = q[:, -len(names):][:, :2]
+    title = f"{folder.name}/{csv_path.name}, {model.description.name} ({model.description.notation})"
+    return _write_animation(args, data, tracked, source, csv_path, out, title, "--mechanism",
+                            lambda frames, bar: write_machine_gif(model, data["t"], q, np.column_stack(
+                                [data["x_d"], data["y_d"]]), out, frames, fps=args.fps, title=title,
+                                on_frame=bar.update))
+
+
+def _write_animation(args, data: dict, tracked, source: str, csv_path: Path, out: Path, title: str, option: str,
+                     write) -> dict:
+    """The part of ``pkmlab animate`` every machine shares: warn when the machine rebuilt from the recorded
+    actuators does not put the tracked point ``tracked`` (N, 2) where the CSV says, then draw about 100
+    frames with ``write(frames, bar)`` and report."""
     import math
 
+    import numpy as np
+
+    deviation = float(np.max(np.hypot(tracked[:, 0] - data["x"], tracked[:, 1] - data["y"])))
+    if deviation > 1e-3:
+        print(f"pkmlab animate: warning: the machine rebuilt from the recorded actuators puts the tracked point up "
+              f"to {deviation * 1e3:.3g} mm from the CSV's (x, y); is the machine ({source}) the one that produced "
+              f"this run? ({option})", file=sys.stderr)
+    count = tracked.shape[0]
+    stride = args.stride or max(1, math.ceil(count / 100))
+    frames = range(0, count, stride)
+    with _progress(args, len(frames), "frames") as bar, _NewFolders(out):
+        try:
+            write(frames, bar)
+        except OSError as exc:
+            raise PkmlabError(f"cannot write {out}: {exc.strerror or exc}") from None
+    if not args.json:
+        print(f"wrote {out}: {len(frames)} frames (one every {stride} of {count} samples) at {args.fps} fps "
+              f"from {csv_path}, machine: {source}")
+    return {"gif": str(out), "csv": str(csv_path), "frames": len(frames), "stride": stride, "fps": args.fps,
+            "samples": count, "manipulator": source, "max_centroid_deviation_m": deviation}
+
+
+def cmd_animate(args) -> dict:
+    """A GIF of a recorded run: the machine rebuilt from its recorded actuators, the desired path, the trail."""
     import numpy as np
 
     from .animation import rebuild_configurations, write_gif
@@ -715,31 +794,19 @@ def cmd_animate(args) -> dict:
         hint = (f"cases found: {', '.join(found)}" if found else
                 "expected nominal.csv, disturbed.csv, fast.csv (pkmlab reproduce) or run.csv (pkmlab simulate)")
         raise PkmlabError(f"no {csv_path.name} in {folder} ({hint})")
+    machine = _animation_machine(args, folder)
+    if machine is not None:
+        return _animate_machine(args, machine, folder, csv_path, out)
     data = read_result_csv(csv_path, ANIMATION_COLUMNS)
     model, source = _animation_model(args, folder, case)
     theta = np.column_stack([data["theta1"], data["theta2"], data["theta3"]])
     q = rebuild_configurations(model, theta, [data["x"][0], data["y"][0], data["alpha"][0]])
     centroid = platform_pose(model, q)[:, :2]
-    deviation = float(np.max(np.hypot(centroid[:, 0] - data["x"], centroid[:, 1] - data["y"])))
-    if deviation > 1e-3:
-        print(f"pkmlab animate: warning: the mechanism rebuilt from theta1..3 puts the centroid up to "
-              f"{deviation * 1e3:.3g} mm from the CSV's (x, y); is the manipulator ({source}) the one that "
-              "produced this run? (--params)", file=sys.stderr)
-    n = theta.shape[0]
-    stride = args.stride or max(1, math.ceil(n / 100))
-    frames = range(0, n, stride)
     title = f"{folder.name}/{csv_path.name}, manipulator: {source}"
-    with _progress(args, len(frames), "frames") as bar, _NewFolders(out):
-        try:
-            write_gif(model, data["t"], q, np.column_stack([data["x_d"], data["y_d"]]), out, frames, fps=args.fps,
-                      title=title, on_frame=bar.update)
-        except OSError as exc:
-            raise PkmlabError(f"cannot write {out}: {exc.strerror or exc}") from None
-    if not args.json:
-        print(f"wrote {out}: {len(frames)} frames (one every {stride} of {n} samples) at {args.fps} fps "
-              f"from {csv_path}, manipulator: {source}")
-    return {"gif": str(out), "csv": str(csv_path), "frames": len(frames), "stride": stride, "fps": args.fps,
-            "samples": n, "manipulator": source, "max_centroid_deviation_m": deviation}
+    return _write_animation(args, data, centroid, source, csv_path, out, title, "--params",
+                            lambda frames, bar: write_gif(model, data["t"], q, np.column_stack(
+                                [data["x_d"], data["y_d"]]), out, frames, fps=args.fps, title=title,
+                                on_frame=bar.update))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -801,6 +868,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-figures", action="store_true", help="skip the figures")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    mechanism(p)
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
@@ -825,11 +893,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="working mode: three signs (+ - +) or one word (+-+); "
                    "default + + +")
     p.add_argument("--csv", metavar="FILE.csv", help="also write the grid: columns x, y, S (NaN out of reach)")
+    mechanism(p)
     common(p)
     p.set_defaults(func=cmd_singularity_map)
 
-    p = sub.add_parser("workspace", help="reachable region at one orientation for each of the 8 working modes")
-    figure_region(p, "8 working modes")
+    p = sub.add_parser("workspace", help="reachable region at one orientation for each working mode")
+    figure_region(p, "working modes")
+    mechanism(p)
     common(p)
     p.set_defaults(func=cmd_workspace)
 
@@ -845,6 +915,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--params", metavar="FILE.toml", help="the manipulator that produced the run (default: "
                    "RESULT_DIR/plant.toml if present, else the paper's, x1.15 for the reproduced 'disturbed' case)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--mechanism", metavar="NAME|FILE.toml", help="the described machine that produced the run "
+                   "(default: RESULT_DIR/plant.toml when it holds a [mechanism] table)")
     p.set_defaults(func=cmd_animate)
     for command in sub.choices.values():  # each command knows its parser: its errors show its usage
         command.set_defaults(parser=command)

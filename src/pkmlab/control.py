@@ -5,7 +5,7 @@ given the desired motion ``(θ_d, θ̇_d, θ̈_d)``. The computed-torque control
 model of the manipulator, which may differ from the plant's; it recovers its passive
 variables by branch-following forward kinematics from the measured ``θ`` (paper figure 2)::
 
-    e = θ - θ_d,   τ = M̂θ (θ̈_d - kp e - kv ė) + Ĉθ θ̇       (eqs. 36–39, SPEC §5)
+    e = θ - θ_d,   τ = M̂θ (θ̈_d - kp e - kv ė) + Ĉθ θ̇       (eqs. 36–39, conventions §5)
 
 with critical damping ``kv = 2√kp`` by default (eq. 41).
 

@@ -1,10 +1,10 @@
-"""The immutable description of a planar 3-RRR parallel manipulator (paper §2.1, SPEC §1).
+"""The immutable description of a planar 3-RRR parallel manipulator (paper §2.1, conventions §1).
 
 A :class:`Planar3RRR` is a *model* in the MuJoCo/Pinocchio sense: architecture and inertia
 parameters only, validated once, never mutated. Configurations ``q`` are plain NumPy arrays
 kept apart from it.
 
-Conventions (SPEC §1):
+Conventions (conventions §1):
 
 * all angles are absolute, measured from the base x axis, counter-clockwise;
 * ``q = (θ1, θ2, θ3, φ1, φ2, φ3, α)``: the three actuated angles first, then the passive
@@ -48,7 +48,7 @@ PASSIVE_COM = 38  # 6
 PLATFORM_COM = 44  # 2: platform frame
 N_PACKED = 46
 
-#: Working modes of inverse kinematics, in the order pkmlab reports them (SPEC §3).
+#: Working modes of inverse kinematics, in the order pkmlab reports them (conventions §3).
 WORKING_MODES = np.array(
     [(s1, s2, s3) for s1 in (1, -1) for s2 in (1, -1) for s3 in (1, -1)], dtype=np.int64
 )
@@ -164,7 +164,7 @@ class Planar3RRR:
 
     @classmethod
     def paper(cls) -> Planar3RRR:
-        """The manipulator of the paper's section 5 with SPEC §1's choices (the ``paper`` preset)."""
+        """The manipulator of the paper's section 5 with conventions §1's choices (the ``paper`` preset)."""
         return cls.from_params()
 
     @classmethod
@@ -236,7 +236,7 @@ class Planar3RRR:
 
     @property
     def reference_point(self) -> np.ndarray:
-        """The platform point whose position is reported as ``(x, y)``: its centroid (SPEC §1)."""
+        """The platform point whose position is reported as ``(x, y)``: its centroid (conventions §1)."""
         return self.platform_vertices.mean(axis=0)
 
     @cached_property

@@ -263,7 +263,7 @@ class InverseKinematicsSolution:
 
 
 def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: str = "raise"):
-    """Actuated and passive angles that put the platform at ``pose = (x, y, α)`` (SPEC §3).
+    """Actuated and passive angles that put the platform at ``pose = (x, y, α)`` (conventions §3).
 
     Parameters
     ----------
@@ -579,7 +579,7 @@ def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
 
 
 def singularity_measure(model: Planar3RRR, q) -> np.ndarray:
-    """``S = -det(Jηφ) / (a r1 r2 r3)`` (...), eq. (19) with SPEC §2's sign.
+    """``S = -det(Jηφ) / (a r1 r2 r3)`` (...), eq. (19) with conventions §2's sign.
 
     For the paper's geometry (equal ``r_i``, equilateral platform) this is
     ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``.

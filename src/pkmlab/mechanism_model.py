@@ -52,8 +52,7 @@ class MechanismModel:
         try:
             kernels = importlib.import_module(f".mechanisms.generated.{name}", __package__)
         except ModuleNotFoundError:
-            raise InvalidParameterError(f"no generated kernels for the structure {planar.structure(description)} "
-                                        "yet (pkmlab generates those of its presets)") from None
+            kernels = _user_structure_kernels(description)
         P = planar.pack(description)
         P.setflags(write=False)
         return cls(description, P, kernels)
@@ -76,6 +75,37 @@ class MechanismModel:
         rows = [(b.mass, b.mass, b.inertia) for leg in self.description.legs for b in leg.bodies]
         platform = self.description.platform
         return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
+
+
+def _user_structure_kernels(description: Mechanism) -> ModuleType:
+    """The kernels of a structure pkmlab does not ship: derived and generated once (SymPy, a few seconds),
+    kept in pkmlab's cache folder beside the compiled kernels, and imported from there — so a later
+    process neither derives nor compiles them again. Written atomically: a concurrent process reads
+    either nothing or the whole module."""
+    import importlib.util
+    import os
+    import sys
+    import tempfile
+
+    from ._compile_cache import CACHE_DIR
+
+    name = f"pkmlab_kernels_{planar.structure(description)}"
+    if name in sys.modules:
+        return sys.modules[name]
+    folder = CACHE_DIR / "kernels"
+    path = folder / f"{name}.py"
+    if not path.exists():
+        source = planar.generate_source(description)
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}-", suffix=".tmp")
+        with os.fdopen(fd, "w") as f:
+            f.write(source)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
 
 
 def _evaluate(fn, shape, *args) -> np.ndarray:
@@ -191,66 +221,60 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
     """The configuration ``q`` (actuators, passive joints, pose) of ``pose`` in working ``mode`` (one sign
     per two-branch leg, :func:`working_modes`), in closed form per leg type
     (:mod:`pkmlab.mechanisms.leg_types`). Raises naming the leg that cannot reach."""
-    from .mechanisms.description import attachment_point
-    from .mechanisms.leg_types import leg_inverse_kinematics
-    from .mechanisms.leg_types import working_modes as leg_modes
+    from .errors import UnreachablePoseError
 
     m = model.description
     pose = np.asarray(pose, dtype=float)
     if pose.shape != (m.dof,) or not np.all(np.isfinite(pose)):
         raise InvalidParameterError(f"pose must be ({', '.join(m.pose_names)}), finite, got {pose.tolist()}")
+    q, failure = _inverse_kinematics_batch(model, pose[None, :], mode)
+    if failure is not None:
+        _k, leg, message = failure
+        raise UnreachablePoseError(message, legs=(leg + 1,))
+    return q[0]
+
+
+def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
+    """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach,
+    and the first failure ``(k, leg, message)`` (else None)."""
+    from .mechanisms.leg_types import leg_inverse_kinematics_batch
+    from .mechanisms.leg_types import working_modes as leg_modes
+
+    m = model.description
     signs = iter(tuple(mode))
-    actuators, passive = [], []
+    alpha = poses[:, 2] if m.dof == 3 else np.zeros(len(poses))
+    c, s = np.cos(alpha), np.sin(alpha)
+    actuators, passive, bad = [], [], np.zeros(len(poses), dtype=bool)
+    first = None
     for i, leg in enumerate(m.legs):
         sigma = next(signs, None) if leg_modes(leg) else 1
         if sigma not in (1, -1):
             raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg, got {tuple(mode)}")
-        coordinates = leg_inverse_kinematics(leg, i, attachment_point(m, i, pose), sigma)
-        actuators.append(coordinates[leg.actuated])
-        passive += [c for k, c in enumerate(coordinates) if k != leg.actuated]
+        ax, ay = m.platform.attachments[i] if m.platform.kind == "rigid" else (0.0, 0.0)
+        points = np.column_stack([poses[:, 0] + c * ax - s * ay, poses[:, 1] + s * ax + c * ay])
+        solved = leg_inverse_kinematics_batch(leg, i, points, sigma)
+        if solved.bad.any():
+            k = int(np.argmax(solved.bad))
+            if first is None or k < first[0]:
+                first = (k, i, solved.why(k))
+            bad |= solved.bad
+        actuators.append(solved.coordinates[:, leg.actuated])
+        passive += [solved.coordinates[:, k] for k in range(solved.coordinates.shape[1]) if k != leg.actuated]
     if next(signs, None) is not None:
         raise InvalidParameterError(f"mode has more signs than two-branch legs, got {tuple(mode)}")
-    return np.array([*actuators, *passive, *pose])
+    q = np.column_stack([*actuators, *passive, poses])
+    q[bad] = np.nan
+    return q, first
 
 
 # ------------------------------------------------------------------ singularity measure
 def singularity_measure(model: MechanismModel, q) -> float:
-    """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
-
-    With ``u_i`` the direction of the last body of leg ``i`` (the line along which it pushes the
-    platform) and ``p_i`` its attachment point:
-
-    * a rigid platform on three legs: ``S = det[u_i, (p_i - p) × u_i] / ℓ`` — zero when the three
-      lines meet in a point or are parallel; ``ℓ`` is the mean distance between the attachment
-      points. For the paper's equilateral platform this is the paper's eq. (19),
-      ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, with ``φ_i`` the legs' last
-      angles (``ψ_i`` for a telescopic leg);
-    * a point platform on two legs (the five-bar): ``S = sin(φ1 - φ2)`` — zero when the distal
-      links are aligned.
-    """
-    from .mechanisms.description import attachment_point
-
+    """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined
+    (:func:`pkmlab.machine_core.singularity_measure`: for three legs on a rigid platform, the
+    determinant of the legs' lines of action, the paper's eq. (19) for its machine; for the five-bar,
+    ``sin(φ1 - φ2)``)."""
     q = _q(model, q)
-    from .mechanisms.leg_types import leg_circle
-
-    m = model.description
-    pose = q[-m.dof:]
-    # each leg pushes the platform along the line from its circle's centre (the last passive pivot, or
-    # the base pivot of a telescopic leg) to its attachment point
-    d = []
-    for i, leg in enumerate(m.legs):
-        (cx, cy), _r = leg_circle(leg, q[i])
-        px, py = attachment_point(m, i, pose)
-        d.append(math.atan2(py - cy, px - cx))
-    if m.platform.kind == "point":
-        return float(np.sin(d[0] - d[1]))
-    rows = []
-    for i, di in enumerate(d):
-        px, py = np.subtract(attachment_point(m, i, pose), pose[:2])
-        rows.append([np.cos(di), np.sin(di), px * np.sin(di) - py * np.cos(di)])
-    points = np.array(m.platform.attachments)
-    size = np.mean([np.linalg.norm(points[i] - points[j]) for i in range(len(points)) for j in range(i)])
-    return float(np.linalg.det(np.array(rows)) / size)
+    return float(model.kernels.singularity_measure(q, model.P, np.empty((model.n_actuators, 4))))
 
 
 # ------------------------------------------------------------------ forward kinematics
@@ -294,13 +318,15 @@ def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S:
 
 
 def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.ndarray]:
-    """Both assembly modes of a point platform on two R*RR legs: the end point is where the circles of
-    radius ``r_i`` about the elbows ``E_i`` meet (none, one or two configurations)."""
+    """Both assembly modes of a point platform on two legs (the five-bar's two R*RR legs, or any leg
+    types of :mod:`~pkmlab.mechanisms.leg_types`): the end point is where the two legs' circles
+    (:func:`~pkmlab.mechanisms.leg_types.leg_circle`, about the elbows ``E_i`` for the five-bar)
+    meet — none, one or two configurations."""
     from .mechanisms.leg_types import leg_circle, leg_coordinates
 
     m = model.description
-    if m.platform.kind != "point" or any(leg.notation != "R*RR" for leg in m.legs):
-        raise InvalidParameterError(f"{m.notation} is not a five-bar (a point platform on two R*RR legs)")
+    if m.platform.kind != "point" or len(m.legs) != 2:
+        raise InvalidParameterError(f"{m.notation} is not a point platform on two legs")
     theta = np.asarray(actuators, dtype=float)
     circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
     elbows = [np.array(c) for c, _r in circles]
@@ -382,3 +408,46 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
         if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-6 for other, _s in solutions):
             solutions.append((wrapped, singularity_measure(model, wrapped)))
     return sorted(solutions, key=lambda sol: sol[0][-1])
+
+
+# ------------------------------------------------------------------ along a path
+def path_inverse_kinematics(model: MechanismModel, poses, mode) -> tuple[np.ndarray, np.ndarray, tuple | None]:
+    """Inverse kinematics of many poses ``(K, dof)`` in one working ``mode``, at once.
+
+    Returns ``(q (K, n_coordinates), S (K,), failure)``: rows that cannot be reached are NaN, and
+    ``failure`` is ``(k, error)`` for the first of them (the error names the leg), else None.
+    """
+    from .errors import UnreachablePoseError
+
+    poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
+    q, first = _inverse_kinematics_batch(model, poses, mode)
+    s = np.empty(poses.shape[0])
+    model.kernels.singularity_measures(q, model.P, s)
+    failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))
+    return q, s, failure
+
+
+def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarray, np.ndarray, int]:
+    """Actuator rates and accelerations along configurations ``q`` (K, n_coordinates) whose pose moves
+    with ``pose_dot``, ``pose_ddot`` (K, dof): differentiating ``η(q) = 0`` once and twice,
+
+        ``A u̇ = -B ẋ``,   ``A ü = -B ẍ - J̇ηq q̇``
+
+    with ``u`` the actuators and passive joints, ``A = ∂η/∂u``, ``B = ∂η/∂pose`` (paper eqs. 14–17, 32).
+    Returns ``(θ̇, θ̈, k)``: ``k`` the first sample where ``A`` is singular (the pose at the edge of the
+    workspace: an inverse-kinematic singularity), else -1.
+    """
+    k_ = model.kernels
+    count, n, N, dof = q.shape[0], model.n_actuators, k_.N_COORDINATES, model.description.dof
+    j_eta, gamma = np.empty((count, k_.N_CONSTRAINTS, N)), np.empty((count, k_.N_CONSTRAINTS))
+    k_.constraint_jacobians(np.ascontiguousarray(q), model.P, j_eta)
+    a, b = j_eta[:, :, :N - dof], j_eta[:, :, N - dof:]
+    singular = ~(np.linalg.cond(a) < 1e12)
+    if singular.any():
+        k = int(np.argmax(singular))
+        return np.empty((count, n)), np.empty((count, n)), k
+    u_dot = np.linalg.solve(a, -np.einsum("kij,kj->ki", b, pose_dot)[..., None])[..., 0]
+    q_dot = np.concatenate([u_dot, pose_dot], axis=1)
+    k_.constraint_biases(np.ascontiguousarray(q), q_dot, model.P, gamma)
+    u_ddot = np.linalg.solve(a, (-np.einsum("kij,kj->ki", b, pose_ddot) - gamma)[..., None])[..., 0]
+    return u_dot[:, :n].copy(), u_ddot[:, :n].copy(), -1

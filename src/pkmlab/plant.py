@@ -1,6 +1,6 @@
 """Plants: the simulated machine, advancing its state under actuator torques.
 
-Two independent formulations of the same physics (SPEC §6):
+Two independent formulations of the same physics (conventions §6):
 
 * :class:`ReducedPlant` integrates the actuator-space model (eq. 35) in the state
   ``(θ, θ̇)``; after every evaluation the passive variables are recovered by

@@ -25,7 +25,14 @@ def _sign(m: int) -> str:
     return "+" if m > 0 else "−"
 
 
-def plot_singularity_map(smap: SingularityMap, ax=None, model: Planar3RRR | None = None,
+def _base_points(model) -> np.ndarray:
+    """The base pivots (3-RRR) or the legs' base points (a described mechanism), (n, 2)."""
+    if isinstance(model, Planar3RRR):
+        return model.base_points
+    return np.array([leg.base for leg in model.description.legs], dtype=float)
+
+
+def plot_singularity_map(smap: SingularityMap, ax=None, model=None,
                          path_xy: np.ndarray | None = None, levels: int = 21):
     """Filled contours of ``S`` with the singular contour ``S = 0`` drawn bold (paper figure 3).
 
@@ -40,25 +47,28 @@ def plot_singularity_map(smap: SingularityMap, ax=None, model: Planar3RRR | None
         zero = ax.contour(smap.x, smap.y, smap.S, levels=[0.0], colors="k", linewidths=2.0)
         ax.clabel(zero, fmt={0.0: "S = 0"}, fontsize=8)
     if model is not None:
-        b = np.vstack([model.base_points, model.base_points[:1]])
+        base = _base_points(model)
+        b = np.vstack([base, base[:1]])
         ax.plot(b[:, 0], b[:, 1], "k--", lw=1.0, label="base")
-        ax.plot(model.base_points[:, 0], model.base_points[:, 1], "ko", ms=5)
+        ax.plot(base[:, 0], base[:, 1], "ko", ms=5)
     if path_xy is not None:
         ax.plot(path_xy[:, 0], path_xy[:, 1], color="tab:green", lw=2.0, label="desired path")
     if model is not None or path_xy is not None:
         ax.legend(loc="upper right", fontsize=8)
     mode = ", ".join(_sign(m) for m in smap.mode)
-    ax.set_title(f"Singularity measure S at α = {smap.alpha:g} rad\nworking mode ({mode})", fontsize=11)
+    where = f" at α = {smap.alpha:g} rad" if not (model is not None and getattr(model, "description", None)
+                                                   and model.description.dof == 2) else ""
+    ax.set_title(f"Singularity measure S{where}\nworking mode ({mode})", fontsize=11)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_aspect("equal")
     return ax
 
 
-def plot_workspace(ws: Workspace, model: Planar3RRR | None = None, fig=None):
-    """The reachable region at orientation ``ws.alpha`` for each of the 8 working modes.
+def plot_workspace(ws: Workspace, model=None, fig=None):
+    """The reachable region at orientation ``ws.alpha`` for each working mode (8 for the 3-RRR).
 
-    A 2×4 grid of panels, one per mode: the reachable region shaded by the sign of ``S``, its
+    A grid of panels (2×4 for 8 modes), one per mode: the reachable region shaded by the sign of ``S``, its
     boundary, and the curves ``S = 0`` where that mode is singular; titles give the mode's signs
     and the reachable area in cm². ``model`` adds the base triangle. Returns the ``Figure``.
     """
@@ -68,9 +78,14 @@ def plot_workspace(ws: Workspace, model: Planar3RRR | None = None, fig=None):
 
     if fig is None:
         fig = plt.figure(figsize=(13.0, 7.2), layout="constrained")
-    axes = fig.subplots(2, 4, sharex=True, sharey=True)
+    count = len(ws.modes)
+    rows = 1 if count <= 2 else 2
+    axes = np.atleast_2d(fig.subplots(rows, max(1, -(-count // rows)), sharex=True, sharey=True, squeeze=False))
     colours = {"neg": "#9ecae1", "pos": "#fcae91"}
     for k, ax in enumerate(axes.flat):
+        if k >= count:
+            ax.set_visible(False)
+            continue
         s = ws.S[k]
         finite = s[np.isfinite(s)]
         if finite.size:
@@ -82,9 +97,10 @@ def plot_workspace(ws: Workspace, model: Planar3RRR | None = None, fig=None):
         if 0 < mask.sum() < mask.size:
             ax.contour(ws.x, ws.y, mask, levels=[0.5], colors="0.35", linewidths=0.8)
         if model is not None:
-            b = np.vstack([model.base_points, model.base_points[:1]])
+            base = _base_points(model)
+            b = np.vstack([base, base[:1]])
             ax.plot(b[:, 0], b[:, 1], "k--", lw=0.8)
-            ax.plot(model.base_points[:, 0], model.base_points[:, 1], "ks", ms=4)
+            ax.plot(base[:, 0], base[:, 1], "ks", ms=4)
         mode = ", ".join(_sign(m) for m in ws.modes[k])
         ax.set_title(f"mode ({mode}): {ws.area[k] * 1e4:.1f} cm²", fontsize=10)
         ax.set_aspect("equal")
@@ -136,6 +152,65 @@ def plot_configuration(model: Planar3RRR, q, ax=None, title: str | None = None):
     return ax
 
 
+def draw_mechanism(model, q, ax=None, title: str | None = None):
+    """Draw a described mechanism (:class:`~pkmlab.mechanism_model.MechanismModel`) at configuration ``q``
+    as it is: base pivots, each leg through its joints (actuated body bold; a prismatic actuator's rail
+    over its stroke with the slider on it, a telescopic leg's cylinder and rod), the platform and the
+    tracked point. The joint positions come from the structure's generated ``joint_points``."""
+    ax = _axes(ax)
+    q = np.asarray(q, dtype=float)
+    m = model.description
+    k = model.kernels
+    points = np.empty((len(m.legs), k.JOINTS_PER_LEG, 2))
+    k.joint_points(q, model.P, points)
+    for i, leg in enumerate(m.legs):
+        pts = points[i, :len(leg.joints)]
+        first = i == 0
+        if leg.joints[0].kind == "P":  # a rail from its base point along its axis, over the stroke
+            u = np.array([np.cos(leg.joints[0].axis), np.sin(leg.joints[0].axis)])
+            lo, hi = leg.stroke if leg.stroke is not None else (0.0, float(np.hypot(*(pts[1] - pts[0]))))
+            rail = np.array([pts[0] + lo * u, pts[0] + hi * u])
+            ax.plot(rail[:, 0], rail[:, 1], color="0.5", lw=4, alpha=0.5, solid_capstyle="butt",
+                    label="rails" if first else None)
+            ax.plot(*pts[1], "s", color="tab:blue", ms=9, label="actuated sliders" if first else None)
+            ax.plot(pts[1:, 0], pts[1:, 1], color="tab:orange", lw=2, label="passive links" if first else None)
+        elif leg.joints[1].kind == "P":  # telescopic: the cylinder from the base, the rod to the platform
+            end = pts[-1]
+            along = end - pts[0]
+            reach = float(np.hypot(*along))
+            sleeve = pts[0] + along / reach * min(reach, 2 * abs(leg.bodies[0].com[0]) or 0.5 * reach)
+            ax.plot([pts[0, 0], sleeve[0]], [pts[0, 1], sleeve[1]], color="tab:blue", lw=6, alpha=0.7,
+                    solid_capstyle="butt", label="cylinders" if first else None)
+            ax.plot([pts[0, 0], end[0]], [pts[0, 1], end[1]], color="tab:orange", lw=2,
+                    label="actuated rods" if first else None)
+        else:  # R*RR: the actuated link, then the passive one
+            ax.plot(pts[:2, 0], pts[:2, 1], color="tab:blue", lw=3, label="actuated links" if first else None)
+            ax.plot(pts[1:, 0], pts[1:, 1], color="tab:orange", lw=2, label="passive links" if first else None)
+            ax.plot(*pts[1], "o", color="tab:blue", ms=5)
+        ax.plot(*pts[0], "ks", ms=7, label="base" if first else None)
+        ax.annotate(f"{i + 1}", pts[0], textcoords="offset points", xytext=(-10, -12), fontsize=8)
+    pose = q[-m.dof:]
+    if m.platform.kind == "rigid":
+        plat = np.vstack([points[:, -1], points[:1, -1]])
+        ax.fill(plat[:, 0], plat[:, 1], color="tab:green", alpha=0.4, label="platform")
+    ax.plot(pose[0], pose[1], "k+", ms=10, mew=1.5, label="tracked point")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(loc="upper right", fontsize=7)
+    where = ", ".join(f"{n} = {v:.3f}" for n, v in zip(m.pose_names, pose, strict=True))
+    ax.set_title(title or f"{m.name} ({m.notation}) at {where}")
+    return ax
+
+
+def plot_start_configuration(result, ax=None):
+    """The plant at the start of the run, drawn as it is (:func:`draw_mechanism`, or
+    :func:`plot_configuration` for the paper's 3-RRR)."""
+    plant = result.scenario.plant_model
+    draw = plot_configuration if isinstance(plant, Planar3RRR) else draw_mechanism
+    return draw(plant, result.q[0], ax=ax, title=f"the machine at the start ({_case(result)})")
+
+
 def _case(result) -> str:
     return result.scenario.name
 
@@ -178,15 +253,17 @@ def plot_alpha(result, ax=None):
 
 
 def plot_torques(result, ax=None):
-    """Actuator torques vs time (paper figures 9, 12, 15)."""
+    """Actuator efforts vs time (paper figures 9, 12, 15): torques in N·m, forces (prismatic actuators) in N."""
     ax = _axes(ax)
-    for i in range(3):
+    plant = result.scenario.plant_model
+    kinds = ("R",) * 3 if isinstance(plant, Planar3RRR) else plant.description.actuator_kinds
+    for i in range(result.tau.shape[1]):
         ax.plot(result.t, result.tau[:, i], label=f"τ{i + 1}")
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("torque (N·m)")
+    ax.set_ylabel({"R": "torque (N·m)", "P": "force (N)"}.get("".join(sorted(set(kinds))), "effort (N·m, N)"))
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    ax.set_title(f"joint torques ({_case(result)})")
+    ax.set_title(f"actuator {'torques' if set(kinds) == {'R'} else 'efforts'} ({_case(result)})")
     return ax
 
 

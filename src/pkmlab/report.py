@@ -1,6 +1,6 @@
 """The paper's reproduction: the three simulated cases, their data, figures and a report.
 
-:func:`reproduce` writes into a folder: ``summary.json``, one CSV per case (SPEC §8
+:func:`reproduce` writes into a folder: ``summary.json``, one CSV per case (conventions §8
 columns), a PNG per figure of the paper (3–15) and ``REPORT.md`` comparing the cases. All
 files are written into a temporary folder beside the target and moved into place only when
 everything succeeded, so an error or Ctrl-C leaves no half-written results.
@@ -42,7 +42,7 @@ FIGURES = (
 
 #: Plots of one closed-loop result, by kind: the names of their functions in :mod:`pkmlab.plotting`.
 _RESULT_PLOTS = {"S": "plot_singularity_along_path", "path": "plot_path", "error": "plot_path_error",
-                 "alpha": "plot_alpha", "torques": "plot_torques"}
+                 "alpha": "plot_alpha", "torques": "plot_torques", "machine": "plot_start_configuration"}
 
 #: Figures of one scenario's run (``pkmlab simulate``): (file name, caption, plot kind).
 RUN_FIGURES = (
@@ -54,8 +54,27 @@ RUN_FIGURES = (
 )
 
 
+def run_figures(scenario: Scenario) -> tuple[tuple[str, str, str], ...]:
+    """The figures of one run: :data:`RUN_FIGURES` for the paper's 3-RRR; for a described mechanism the
+    same, its efforts named as they are, without the orientation for a 2-DOF machine, and a drawing of
+    the machine at the start."""
+    from .mechanism_model import MechanismModel
+
+    if not isinstance(scenario.model, MechanismModel):
+        return RUN_FIGURES
+    kinds = set(scenario.model.description.actuator_kinds)
+    out = [("machine.png", "The machine at the start of the run", "machine")]
+    for fname, caption, kind in RUN_FIGURES:
+        if kind == "alpha" and scenario.model.description.dof == 2:
+            continue
+        if kind == "torques" and kinds != {"R"}:
+            fname, caption = "efforts.png", "Actuator efforts (forces of prismatic actuators in N)"
+        out.append((fname, caption, kind))
+    return tuple(out)
+
+
 def case_scenarios(control: str = "sampled", manipulator: dict | None = None) -> dict[str, Scenario]:
-    """The paper's three cases (SPEC §7), with sampled-data or continuous-time control.
+    """The paper's three cases (conventions §7), with sampled-data or continuous-time control.
 
     ``manipulator`` (a ``[manipulator]`` table: ``preset`` and ``params``, as
     :func:`~pkmlab.io.read_manipulator_table` reads it from a parameter file) puts the cases on
@@ -155,7 +174,7 @@ def _report(results: dict, summary: dict, figures: bool, prov: dict) -> str:
         "# pkmlab: reproduction of the paper's simulated cases" if paper
         else "# pkmlab: the paper's simulated cases on another manipulator",
         "",
-        "Planar 3-RRR, computed-torque control (kp = 1000, kv = 2√kp), the circle of SPEC §4. "
+        "Planar 3-RRR, computed-torque control (kp = 1000, kv = 2√kp), the circle of conventions §4. "
         "Path error: distance between the plant's actual centroid (its own geometry) and the desired one.",
         "",
         *([] if paper else ["**These are not the paper's numbers**: the cases run on the manipulator of "
@@ -246,7 +265,10 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
     else:
         shape = f"{len(traj.segments) + 1} waypoints"
     spec = scenario.controller
+    machine = getattr(scenario.model, "description", None)
     return [
+        *([("machine", f"{machine.name} ({machine.notation}), pose ({', '.join(machine.pose_names)})")]
+          if machine is not None else []),
         ("trajectory", f"{shape}; average speed {traj.speed:g} m/s, {traj.law} time law, "
                        f"duration {traj.duration:.4g} s"),
         ("controller", f"{spec.kind}, kp = {spec.kp:g}, kv = {spec.velocity_gain:.4g}"),
@@ -255,6 +277,21 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
         ("working mode", "chosen automatically (max min abs(S) along the path)"
          if scenario.working_mode == "auto" else str(tuple(scenario.working_mode))),
     ]
+
+
+def _summary_table(result: SimulationResult, s: dict) -> list[str]:
+    """The summary as a Markdown table (units as the machine's: rad or m, N·m or N)."""
+    kinds = set(getattr(getattr(result.scenario.model, "description", None), "actuator_kinds", ("R",)))
+    joint_unit = "rad" if kinds == {"R"} else ("m" if kinds == {"P"} else "rad or m")
+    effort = "peak torques (N·m)" if kinds == {"R"} else ("peak forces (N)" if kinds == {"P"} else "peak efforts")
+    alpha = "max_orientation_error_rad" in s
+    head = (["max path error (mm)", "rms path error (mm)"] + (["max α error (rad)"] if alpha else [])
+            + [f"max joint error ({joint_unit})", effort, "min abs(S)", "working mode"])
+    row = ([f"{s['max_path_error_m'] * 1e3:.4g}", f"{s['rms_path_error_m'] * 1e3:.4g}"]
+           + ([f"{s['max_orientation_error_rad']:.3g}"] if alpha else [])
+           + [f"{s['max_joint_error']:.3g}", ", ".join(f"{v:.3f}" for v in s["peak_effort"]), f"{s['min_abs_S']:.3f}",
+              str(tuple(s["working_mode"]))])
+    return ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head), "| " + " | ".join(row) + " |"]
 
 
 def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
@@ -266,12 +303,7 @@ def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
         "",
         "## Summary",
         "",
-        "| max path error (mm) | rms path error (mm) | max α error (rad) | max joint error (rad) | "
-        "peak torques (N·m) | min abs(S) | working mode |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
-        f"| {s['max_path_error_m'] * 1e3:.4g} | {s['rms_path_error_m'] * 1e3:.4g} | {s['max_alpha_error_rad']:.3g} | "
-        f"{s['max_joint_error_rad']:.3g} | {', '.join(f'{v:.3f}' for v in s['peak_torque_Nm'])} | "
-        f"{s['min_abs_S']:.3f} | {tuple(s['working_mode'])} |",
+        *_summary_table(result, s),
         "",
         "Data: `summary.json`, `run.csv` (one row per sample), `plant.toml` (the plant's parameters)"
         + (", `scenario.toml` (the scenario file, as it was read)." if "scenario" in s["provenance"] else "."),
@@ -279,7 +311,7 @@ def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
     ]
     if figures:
         lines += ["## Figures", ""]
-        for fname, caption, _kind in RUN_FIGURES:
+        for fname, caption, _kind in run_figures(result.scenario):
             lines += [f"### {caption}", "", f"![{caption}]({fname})", ""]
     return "\n".join(lines) + "\n"
 
@@ -290,18 +322,21 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
                       note: Callable[[str], None] | None = None) -> dict:
     """Simulate ``scenario`` and write its results into the folder ``out``; return the summary.
 
-    ``out`` receives ``summary.json`` (SPEC §8 fields, ``"scenario"``, the name, and
+    ``out`` receives ``summary.json`` (conventions §8 fields, ``"scenario"``, the name, and
     ``"provenance"``), ``run.csv``, ``plant.toml``, the figures of :data:`RUN_FIGURES` and
     ``REPORT.md`` — all at once, when everything succeeded
     (:func:`~pkmlab.outputs.atomic_output_dir`, which tells ``note`` when an earlier result is
     replaced). ``source``, the scenario file the scenario was read from, may not lie inside
     ``out``; its text (``source_text``, as it was read, else read again) is kept as ``scenario.toml``.
     """
+    from .geometry import Planar3RRR
     from .io import manipulator_to_toml, read_text
+    from .mechanisms.description import mechanism_to_toml
 
     text = source_text if source_text is not None or source is None else read_text(Path(source))
     control = "sampled" if scenario.sample_time > 0 else "continuous"
-    prov = {**provenance(control, scenario.sample_time, "the scenario's [manipulator]; the plant in plant.toml"),
+    table = "[mechanism]" if hasattr(scenario.model, "description") else "[manipulator]"
+    prov = {**provenance(control, scenario.sample_time, f"the scenario's {table}; the plant in plant.toml"),
             **({"scenario": str(source)} if source is not None else {})}
     say = progress or (lambda _msg: None)
     with atomic_output_dir(out, "simulate", inputs=[source] if source else [], provenance=prov, note=note) as tmp:
@@ -312,8 +347,10 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
         if text is not None:
             (tmp / "scenario.toml").write_text(text)
         result.to_csv(tmp / "run.csv")
-        (tmp / "plant.toml").write_text(manipulator_to_toml(
-            scenario.plant_model, f"The plant (the real machine) of scenario {scenario.name!r}, written by pkmlab."))
+        comment = f"The plant (the real machine) of scenario {scenario.name!r}, written by pkmlab."
+        plant = scenario.plant_model
+        (tmp / "plant.toml").write_text(manipulator_to_toml(plant, comment) if isinstance(plant, Planar3RRR)
+                                        else mechanism_to_toml(plant.description, comment))
         if figures:
             import matplotlib
 
@@ -322,14 +359,15 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
 
             from . import plotting
 
-            for fname, _caption, kind in RUN_FIGURES:
-                fig, ax = plt.subplots(figsize=(6.0, 5.2) if kind == "path" else (6.4, 4.8), layout="constrained")
+            for fname, _caption, kind in run_figures(scenario):
+                size = (6.0, 5.2) if kind in ("path", "machine") else (6.4, 4.8)
+                fig, ax = plt.subplots(figsize=size, layout="constrained")
                 try:
                     getattr(plotting, _RESULT_PLOTS[kind])(result, ax=ax)
                     fig.savefig(tmp / fname, dpi=150)
                 finally:
                     plt.close(fig)
-            say(f"drew {len(RUN_FIGURES)} figures")
+            say(f"drew {len(run_figures(scenario))} figures")
         (tmp / "REPORT.md").write_text(_run_report(result, summary, figures))
     say(f"wrote {out}/")
     return summary

@@ -7,7 +7,7 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     [manipulator.params]        # optional overrides: b, l, r, a, mass_l, mass_r, mass_a,
     l = [0.25, 0.24, 0.26]      # inertia_l, inertia_r, inertia_a (per-leg lists), base_points
 
-    [plant]                     # the real machine relative to the model (SPEC §7)
+    [plant]                     # the real machine relative to the model (conventions §7)
     mass_scale = 1.15           # masses ×; inertias × mass_scale·length_scale²
     length_scale = 1.15         # link lengths l, r, a ×; the base is unchanged
 
@@ -53,6 +53,7 @@ import numpy as np
 from ._format import apart
 from .control import CONTROLLER_TYPES, ControllerSpec
 from .errors import InvalidParameterError, PkmlabError, shown
+from .geometry import Planar3RRR
 from .io import PARAM_KEYS, PRESETS, FileFormatError, manipulator_from_dict, parse_toml, read_toml
 from .kinematics import _mode_array
 from .simulation import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
@@ -61,6 +62,7 @@ from .trajectory import Circle, Line, Trajectory, WaypointTrajectory
 #: The tables of a scenario file and their keys.
 TABLES = {
     "manipulator": ("preset", "params"),
+    "mechanism": ("preset", "file", "name", "gravity", "platform", "leg"),
     "plant": ("mass_scale", "length_scale"),
     "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
                    "start", "end", "points"),
@@ -221,6 +223,29 @@ def _manipulator(rd: _Reader, table: dict):
     return manipulator_from_dict({"preset": preset, "params": params}, f"{rd.source}: [manipulator.params]")
 
 
+def _mechanism(rd: _Reader, table: dict, folder: Path):
+    """The controller's model of a ``[mechanism]`` table: ``preset = "NAME"``, ``file = "PATH"`` (a
+    mechanism file, relative to the scenario's folder) or a description inline. The paper's preset is
+    served by pkmlab's 3-RRR model (the same numbers, and the paper's reproduction's report)."""
+    from .mechanism_model import MechanismModel
+    from .mechanisms.description import load_mechanism, mechanism_from_dict
+
+    if set(table) == {"preset"} and table["preset"] == "paper":
+        return manipulator_from_dict({"preset": "paper"}, f"{rd.source}: [mechanism]")
+    try:
+        if "file" in table:
+            others = sorted(set(table) - {"file"})
+            if others:
+                raise InvalidParameterError(f"[mechanism] has file and {', '.join(others)}: give one of them")
+            path = table["file"]
+            if not isinstance(path, str) or not path:
+                raise InvalidParameterError(f"[mechanism].file must be a file name, got {show(path)}")
+            return MechanismModel.from_description(load_mechanism(folder / path))
+        return MechanismModel.from_description(mechanism_from_dict(table, "[mechanism]"))
+    except PkmlabError as exc:
+        raise rd.value_error(str(exc)) from None
+
+
 def _plant(rd: _Reader, table: dict, model):
     rd.known_keys(table, "plant", TABLES["plant"])
     mass = rd.number(table, "plant", "mass_scale", 1.0, "positive")
@@ -229,6 +254,11 @@ def _plant(rd: _Reader, table: dict, model):
         return None
     try:
         with np.errstate(all="ignore"):
+            if not isinstance(model, Planar3RRR):
+                from .mechanism_model import MechanismModel
+                from .mechanisms.description import scaled_mechanism
+
+                return MechanismModel.from_description(scaled_mechanism(model.description, mass, length))
             return scaled_model(model, mass, length)
     except (InvalidParameterError, OverflowError) as exc:
         raise rd.value_error(f"[plant]: the scaled machine is impossible (mass_scale = {mass:g}, "
@@ -291,12 +321,14 @@ def _controller(rd: _Reader, table: dict) -> tuple[ControllerSpec, float]:
     return ControllerSpec(kind, kp=kp, kv=kv), sample_time
 
 
-def _simulation(rd: _Reader, table: dict) -> dict:
+def _simulation(rd: _Reader, table: dict, machine: bool) -> dict:
     name = "simulation"
     rd.known_keys(table, name, TABLES[name])
     out = {}
     mode = table.get("working_mode", "auto")
-    if mode != "auto":  # the spellings inverse_kinematics(mode=...) and --mode take: [1, -1, 1], "+-+", ...
+    # the spellings inverse_kinematics(mode=...) and --mode take: [1, -1, 1], "+-+", ... (a described
+    # mechanism's modes, one sign per two-branch leg, are checked against its legs by Scenario)
+    if mode != "auto" and not machine:
         ok = isinstance(mode, str) or (isinstance(mode, list) and not any(isinstance(m, bool) for m in mode))
         try:
             mode = tuple(int(v) for v in _mode_array(mode)) if ok else None
@@ -346,11 +378,16 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         else:
             hint = f" (a scenario holds only the tables {', '.join(f'[{t}]' for t in TABLES)})"
         raise rd.format_error(f"unknown {'table' if isinstance(value, dict) else 'key'} '{_key(key)}'{hint}")
-    model = _manipulator(rd, rd.table(data, "manipulator"))
+    if "mechanism" in data and "manipulator" in data:
+        raise rd.format_error("the scenario has both [manipulator] and [mechanism]: give one of them")
+    if "mechanism" in data:
+        model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent)
+    else:
+        model = _manipulator(rd, rd.table(data, "manipulator"))
     plant = _plant(rd, rd.table(data, "plant"), model)
     trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True))
     controller, sample_time = _controller(rd, rd.table(data, "controller"))
-    options = _simulation(rd, rd.table(data, "simulation"))
+    options = _simulation(rd, rd.table(data, "simulation"), not isinstance(model, Planar3RRR))
     if sample_time == 0 and "substeps" in rd.table(data, "simulation"):  # it would be silently ignored
         raise rd.format_error("[simulation].substeps applies to sampled-data control only, but "
                               "[controller].sample_time = 0 selects continuous-time control: remove one of them")

@@ -3,10 +3,10 @@
 A :class:`Scenario` is a plain value — the controller's model of the manipulator, the real
 machine (the plant, possibly different), the trajectory, the controller and its gains, the
 sample time — and :func:`simulate` turns it into a :class:`SimulationResult` holding every
-time series of SPEC §8 and its summary. The paper's three cases are
+time series of conventions §8 and its summary. The paper's three cases are
 :func:`paper_scenario` ``("nominal" | "disturbed" | "fast")``.
 
-Sampled-data control (SPEC §5, default ``Ts = 1 ms``): the torque computed from the measured
+Sampled-data control (conventions §5, default ``Ts = 1 ms``): the torque computed from the measured
 ``θ, θ̇`` at ``t_k = k Ts`` is held until ``t_{k+1}``; the plant integrates the reduced model
 (eq. 35) over each sample with classical Runge–Kutta in ``substeps`` equal steps (the torque
 is constant inside the sample, so the solution is smooth there and a fixed-step high-order
@@ -24,6 +24,7 @@ import csv
 import io
 import json
 import math
+import numbers
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -64,11 +65,12 @@ from .kinematics import (
     platform_pose,
     singularity_measure,
 )
+from .mechanism_model import MechanismModel
 from .mechanisms import rrr3
 from .outputs import atomic_file
 from .trajectory import desired_joint_motion, paper_trajectory
 
-#: Columns of the per-sample time series (SPEC §8).
+#: Columns of the per-sample time series (conventions §8).
 COLUMNS = ("t", "theta1", "theta2", "theta3", "theta1_d", "theta2_d", "theta3_d", "tau1", "tau2", "tau3",
            "x", "y", "alpha", "x_d", "y_d", "alpha_d", "S")
 #: A scenario of more samples than this is refused (memory: ~200 bytes per sample).
@@ -94,7 +96,7 @@ class Scenario:
     sample_time : float
         ``Ts`` in seconds; ``0`` selects continuous-time control.
     working_mode : "auto" or 3 signs
-        ``"auto"`` picks the mode maximising ``min |S|`` along the path (SPEC §3). Three signs are
+        ``"auto"`` picks the mode maximising ``min |S|`` along the path (conventions §3). Three signs are
         spelt as for :func:`~pkmlab.kinematics.inverse_kinematics` (``"+-+"``, ``(1, -1, 1)``...)
         and stored as a tuple of ints.
     singularity_margin : float
@@ -119,9 +121,14 @@ class Scenario:
 
     def __post_init__(self):
         set_ = object.__setattr__  # a frozen dataclass: the normalised values are stored so
-        _model(self.model, "model")
+        _scenario_model(self.model, "model")
         if self.plant is not None:
-            _model(self.plant, "plant")
+            _scenario_model(self.plant, "plant")
+            if isinstance(self.model, MechanismModel) != isinstance(self.plant, MechanismModel) or (
+                    isinstance(self.model, MechanismModel) and self.plant.kernels is not self.model.kernels):
+                raise InvalidParameterError(f"the plant ({_structure(self.plant)}) must have the structure of the "
+                                            f"controller's model ({_structure(self.model)}): only its numbers may "
+                                            "differ")
         if not callable(getattr(self.trajectory, "desired", None)):
             raise InvalidParameterError(
                 "trajectory must be a Trajectory or WaypointTrajectory (an object with desired(t) and duration), "
@@ -135,7 +142,9 @@ class Scenario:
         set_(self, "substeps", _count("substeps", self.substeps, 1, MAX_SUBSTEPS))
         for name in ("singularity_margin", "singularity_guard"):
             set_(self, name, _real(name, getattr(self, name), "non-negative"))
-        if not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
+        if isinstance(self.model, MechanismModel):
+            set_(self, "working_mode", _machine_mode(self.model, self.working_mode))
+        elif not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
             try:
                 mode = tuple(int(v) for v in _mode_array(self.working_mode, "working_mode"))
             except InvalidParameterError:
@@ -155,7 +164,7 @@ class Scenario:
                                         + ("" if samples < 1 else f" (the limit is {limit})"))
 
     @property
-    def plant_model(self) -> Planar3RRR:
+    def plant_model(self) -> Planar3RRR | MechanismModel:
         return self.model if self.plant is None else self.plant
 
     def replace(self, **changes) -> Scenario:
@@ -167,9 +176,41 @@ class Scenario:
         return replace(self, **changes)
 
 
+def _scenario_model(model, name: str):
+    if not isinstance(model, (Planar3RRR, MechanismModel)):
+        raise InvalidParameterError(f"{name} must be a Planar3RRR or a MechanismModel (e.g. "
+                                    f"MechanismModel.from_preset('five_bar')), got {type(model).__name__} "
+                                    f"{shown(model, 50)}")
+
+
+def _structure(model) -> str:
+    return model.description.notation if isinstance(model, MechanismModel) else "3-RRR"
+
+
+def _machine_mode(model: MechanismModel, mode):
+    """A described mechanism's working mode: ``"auto"``, or one sign per two-branch leg as a tuple of ints
+    (``"+-"``, ``(1, -1)``, ``()`` for a machine with one working mode)."""
+    from .mechanism_model import working_modes
+
+    if isinstance(mode, str) and mode == "auto":
+        return mode
+    modes = working_modes(model)
+    symbols = {"+": 1, "-": -1, "+1": 1, "-1": -1, "1": 1}
+    try:
+        signs = tuple(int(symbols.get(v, v)) if isinstance(v, str) or isinstance(v, numbers.Integral) else v
+                      for v in mode)
+    except (TypeError, ValueError):
+        signs = None
+    if signs not in modes or any(isinstance(v, (bool, np.bool_)) for v in mode):
+        spelt = ", ".join("".join("+" if v > 0 else "-" for v in m) or "[]" for m in modes)
+        raise InvalidParameterError(f'working_mode must be "auto" or one of the modes of {model.description.name} '
+                                    f"({spelt}), got {shown(mode)}")
+    return signs
+
+
 def scaled_model(model: Planar3RRR, mass: float = 1.0, length: float = 1.0) -> Planar3RRR:
     """A machine whose link lengths ``l, r, a`` are ×``length`` and masses ×``mass``, with
-    inertias ×``mass·length²`` (I ∝ m L²); the base is unchanged (SPEC §7)."""
+    inertias ×``mass·length²`` (I ∝ m L²); the base is unchanged (conventions §7)."""
     return model.replace(
         active_lengths=model.active_lengths * length,
         passive_lengths=model.passive_lengths * length,
@@ -220,7 +261,7 @@ def perturbed_model(model: Planar3RRR, rng: np.random.Generator, spread: float =
 
 
 def paper_scenario(name: str = "nominal") -> Scenario:
-    """The paper's simulated cases (SPEC §7).
+    """The paper's simulated cases (conventions §7).
 
     The three cases of the paper are the scenario files ``scenarios/<name>.toml`` shipped in
     the package (``examples/`` links to them):
@@ -244,12 +285,14 @@ def paper_scenario(name: str = "nominal") -> Scenario:
 
 # ------------------------------------------------------------------ pre-flight
 def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, int, int], float]:
-    """The working mode of SPEC §3 and its ``min |S|`` along the desired path at times ``t``.
+    """The working mode of conventions §3 and its ``min |S|`` along the desired path at times ``t``.
 
     Raises a one-line error naming the time and pose where the path leaves the workspace or
     comes within ``singularity_margin`` of ``S = 0`` in every admissible mode.
     """
     pose, _pd, _pdd = scenario.trajectory.desired(t)
+    if isinstance(scenario.model, MechanismModel):
+        return _machine_working_mode(scenario, t, pose[:, :scenario.model.description.dof])
     if scenario.working_mode == "auto":
         found = _best_working_mode(scenario.model, pose, scenario.singularity_margin)
         if found is not None:
@@ -288,6 +331,43 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, i
         )
     chosen = modes[best] if scenario.working_mode == "auto" else modes[0]
     return tuple(int(v) for v in chosen), float(min_s[best])
+
+
+def _pose_text(pose) -> str:
+    return "(" + ", ".join(f"{v:.4f}" for v in pose) + ")"
+
+
+def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -> tuple[tuple[int, ...], float]:
+    """:func:`choose_working_mode` for a described mechanism: every mode's ``min |S|`` along the path."""
+    from .mechanism_model import path_inverse_kinematics, working_modes
+
+    model = scenario.model
+    modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
+    best, best_min, first_failure, closest = None, -np.inf, None, None
+    for mode in modes:  # in lexicographic order, +1 before -1: a tie keeps the first (conventions §3)
+        _q, s, failure = path_inverse_kinematics(model, pose, mode)
+        if failure is not None:
+            if first_failure is None or failure[0] > first_failure[0]:
+                first_failure = failure  # the mode that gets furthest names the problem
+            continue
+        k = int(np.argmin(np.abs(s)))
+        if abs(s[k]) > best_min + 1e-9 or best is None:
+            best, best_min, closest = mode, float(abs(s[k])), k
+    if best is None:
+        k, exc = first_failure
+        raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {_pose_text(pose[k])}: "
+                                   f"{exc}") from None
+    if best_min < scenario.singularity_margin:
+        near, margin = apart(best_min, scenario.singularity_margin)
+        every = "in every admissible working mode" if len(modes) > 1 else "in its working mode"
+        _q, s = path_inverse_kinematics(model, pose, best)[:2]
+        if np.all(np.abs(s) < scenario.singularity_margin):
+            raise SingularityError(f"the whole path lies within |S| < {margin} of a gain-type singularity {every} "
+                                   f"(max |S| = {np.abs(s).max():.3g}, at pose {_pose_text(pose[0])} and on)")
+        raise SingularityError(
+            f"the path comes within {near} of a gain-type singularity (margin {margin}) {every}; closest at "
+            f"t = {t[closest]:.4f} s, pose {_pose_text(pose[closest])}")
+    return tuple(best), best_min
 
 
 def _best_working_mode(model: Planar3RRR, pose: np.ndarray, margin: float, stride: int = 8):
@@ -421,15 +501,18 @@ def _sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0,
 # ------------------------------------------------------------------ results
 @dataclass(frozen=True)
 class SimulationResult:
-    """Every time series of SPEC §8, one row per sample ``t = 0 … T`` (inclusive).
+    """Every time series of a run, one row per sample ``t = 0 … T`` (inclusive).
 
-    ``q`` (N, 7) is the plant's configuration, ``pose`` (N, 3) its platform pose from its own
-    geometry, ``pose_d`` the desired pose, ``theta_d`` the desired actuated angles (controller's
-    model), ``tau`` (N, 3) the torques, ``S`` (N,) the plant's singularity measure.
+    ``q`` (N, n_coordinates) is the plant's configuration, ``theta`` its first ``n`` columns (the
+    actuator values: angles in rad, or lengths in m for prismatic actuators), ``pose`` (N, dof) the
+    plant's pose from its own geometry (``(x, y, alpha)``, or ``(x, y)`` for a 2-DOF machine),
+    ``pose_d`` the desired pose, ``theta_d`` the desired actuator values (controller's model), ``tau``
+    (N, n) the actuator efforts (N·m, or N for prismatic actuators), ``S`` (N,) the plant's
+    singularity measure.
     """
 
     scenario: Scenario
-    working_mode: tuple[int, int, int]
+    working_mode: tuple[int, ...]
     t: np.ndarray
     q: np.ndarray
     theta_dot: np.ndarray
@@ -441,43 +524,65 @@ class SimulationResult:
 
     @property
     def theta(self) -> np.ndarray:
-        return self.q[:, :3]
+        return self.q[:, :self.tau.shape[1]]
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Names of the columns of :meth:`table`: :data:`COLUMNS` for the paper's 3-RRR; for every machine
+        ``t``, ``theta1..n``, ``theta1_d..``, ``tau1..n``, the pose's coordinates, their desired values, ``S``."""
+        if not isinstance(self.scenario.model, MechanismModel):
+            return COLUMNS
+        n = self.tau.shape[1]
+        names = self.scenario.model.description.pose_names
+        return ("t", *(f"theta{i + 1}" for i in range(n)), *(f"theta{i + 1}_d" for i in range(n)),
+                *(f"tau{i + 1}" for i in range(n)), *names, *(f"{v}_d" for v in names), "S")
 
     @property
     def path_error(self) -> np.ndarray:
-        """Euclidean distance (m) between the actual and the desired centroid."""
+        """Euclidean distance (m) between the actual and the desired tracked point."""
         return np.hypot(*(self.pose[:, :2] - self.pose_d[:, :2]).T)
 
     def summary(self) -> dict:
-        """The summary fields of SPEC §8."""
+        """The run's summary: ``max_path_error_m``, ``rms_path_error_m``, ``max_orientation_error_rad``
+        (where the pose has an orientation), ``max_joint_error`` (rad, or m for prismatic actuators),
+        ``peak_effort`` (per actuator, N·m or N), ``min_abs_S``, ``working_mode``. The paper's 3-RRR
+        reports the same under the names of the paper's reproduction too: ``max_alpha_error_rad``,
+        ``max_joint_error_rad``, ``peak_torque_Nm``."""
         err = self.path_error
-        joint = np.angle(np.exp(1j * (self.theta - self.theta_d)))
-        return {
+        joint = _actuator_errors(self.scenario.plant_model, self.theta, self.theta_d)
+        out = {
             "max_path_error_m": float(err.max()),
             "rms_path_error_m": float(np.sqrt(np.mean(err**2))),
-            "max_alpha_error_rad": float(np.abs(np.angle(np.exp(1j * (self.pose[:, 2] - self.pose_d[:, 2])))).max()),
-            "max_joint_error_rad": float(np.abs(joint).max()),
-            "peak_torque_Nm": np.abs(self.tau).max(axis=0).tolist(),
-            "min_abs_S": float(np.abs(self.S).min()),
-            "working_mode": list(self.working_mode),
         }
+        if self.pose.shape[1] == 3:
+            alpha = float(np.abs(np.angle(np.exp(1j * (self.pose[:, 2] - self.pose_d[:, 2])))).max())
+            out["max_orientation_error_rad"] = alpha
+        out["max_joint_error"] = float(np.abs(joint).max())
+        out["peak_effort"] = np.abs(self.tau).max(axis=0).tolist()
+        out["min_abs_S"] = float(np.abs(self.S).min())
+        out["working_mode"] = list(self.working_mode)
+        if not isinstance(self.scenario.model, MechanismModel):
+            out["max_alpha_error_rad"] = out["max_orientation_error_rad"]
+            out["max_joint_error_rad"] = out["max_joint_error"]
+            out["peak_torque_Nm"] = out["peak_effort"]
+        return out
 
     def table(self) -> np.ndarray:
-        """The (N, 17) array of :data:`COLUMNS`."""
+        """The (N, len(columns)) array of :attr:`columns`."""
         return np.column_stack([self.t, self.theta, self.theta_d, self.tau, self.pose, self.pose_d, self.S])
 
     def to_csv(self, path) -> Path:
-        """Write the time series (columns :data:`COLUMNS`) atomically."""
+        """Write the time series (columns :attr:`columns`) atomically."""
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(COLUMNS)
+        writer.writerow(self.columns)
         for row in self.table():
             writer.writerow([repr(float(v)) for v in row])
         return _write_atomic(path, buf.getvalue())
 
     def to_json(self, path) -> Path:
         """Write the summary and the time series as JSON, atomically."""
-        data = {"summary": self.summary(), "columns": list(COLUMNS), "rows": self.table().tolist()}
+        data = {"summary": self.summary(), "columns": list(self.columns), "rows": self.table().tolist()}
         return _write_atomic(path, json.dumps(data))
 
 
@@ -489,7 +594,10 @@ def _write_atomic(path, text: str) -> Path:
 
 # ------------------------------------------------------------------ simulate
 def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray) -> np.ndarray:
-    """The plant at rest at the controller's IK angles, in its assembly mode nearest the controller's (SPEC §5)."""
+    """The plant at rest at the controller's IK angles, in its assembly mode nearest the controller's
+    (conventions §5)."""
+    if isinstance(scenario.model, MechanismModel):
+        return _machine_initial_plant(scenario, q_ctrl0)
     fk = forward_kinematics(scenario.plant_model, q_ctrl0[:3])
     if len(fk) == 0:
         raise InvalidParameterError(
@@ -498,6 +606,27 @@ def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray) -> np.
     dist = np.max(np.abs(np.angle(np.exp(1j * (fk.q[: len(fk), 3:] - q_ctrl0[3:])))), axis=1)
     q = fk.q[int(np.argmin(dist))].copy()
     q[:3] = q_ctrl0[:3]
+    return q
+
+
+def _machine_initial_plant(scenario: Scenario, q_ctrl0: np.ndarray) -> np.ndarray:
+    from .mechanism_model import forward_kinematics as machine_fk
+
+    model = scenario.model
+    n = model.n_actuators
+    if scenario.plant is None or scenario.plant_model == model:
+        return q_ctrl0.copy()
+    solutions = machine_fk(scenario.plant_model, q_ctrl0[:n])
+    if not solutions:
+        raise InvalidParameterError(f"the plant cannot be assembled at the start actuators "
+                                    f"{np.round(q_ctrl0[:n], 6).tolist()}")
+    angles = np.array(model.kernels.ANGLES)
+    gaps = [np.max(np.where(angles, np.abs(np.angle(np.exp(1j * (q - q_ctrl0)))), np.abs(q - q_ctrl0))[n:])
+            for q, _s in solutions]
+    q = solutions[int(np.argmin(gaps))][0].copy()
+    # the passive angles on the controller's side of 2π (the FK wraps them)
+    q[angles] = q_ctrl0[angles] + np.angle(np.exp(1j * (q[angles] - q_ctrl0[angles])))
+    q[:n] = q_ctrl0[:n]
     return q
 
 
@@ -526,7 +655,32 @@ def _sample_times(scenario: Scenario) -> np.ndarray:
 
 def _desired_motion(scenario: Scenario, t: np.ndarray):
     mode, _min_s = choose_working_mode(scenario, t)
+    if isinstance(scenario.model, MechanismModel):
+        return mode, _machine_joint_motion(scenario.model, scenario.trajectory, mode, t)
     return mode, desired_joint_motion(scenario.model, scenario.trajectory, mode, t)
+
+
+def _machine_joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray):
+    """The desired actuator motion of a described mechanism: exact inverse kinematics of the path and its
+    first and second derivatives (:func:`~pkmlab.mechanism_model.path_rates`), angles unwrapped along it."""
+    from .mechanism_model import path_inverse_kinematics, path_rates
+    from .trajectory import JointMotion
+
+    dof = model.description.dof
+    pose, pose_dot, pose_ddot = (np.ascontiguousarray(np.asarray(a, dtype=float)[:, :dof])
+                                 for a in trajectory.desired(t))
+    q, _s, failure = path_inverse_kinematics(model, pose, mode)
+    if failure is not None:
+        k, exc = failure
+        raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s: {exc}") from None
+    theta_dot, theta_ddot, k = path_rates(model, q, pose_dot, pose_ddot)
+    if k >= 0:
+        raise SingularityError(f"the path meets an inverse-kinematic singularity (a leg at the edge of its reach) "
+                               f"at t = {t[k]:.4f} s, pose {_pose_text(pose[k])}")
+    n = model.n_actuators
+    angles = np.array(model.kernels.ANGLES[:n])
+    q[:, :n][:, angles] = np.unwrap(q[:, :n][:, angles], axis=0)
+    return JointMotion(t, q, pose, q[:, :n].copy(), theta_dot, theta_ddot)
 
 
 def _prepare(scenario: Scenario, desired_cache: dict | None = None) -> _Prepared:
@@ -569,18 +723,37 @@ def _modal_gains(scenario: Scenario, kind: int, q_ctrl: np.ndarray, q_plant: np.
     """The gains ``μ`` (n, 3) of the loop's modal directions (:func:`~pkmlab.control.sampled_data_spectral_radius`)
     with the controller's model at ``q_ctrl`` (n, 7) and the plant at ``q_plant`` (n, 7): the eigenvalues of
     ``Mθ_plant⁻¹ M̂θ`` for computed torque, of ``Mθ_plant⁻¹`` for the PD law."""
-    from .dynamics import actuator_space_model
-
     plant = scenario.plant_model
+    n = _actuator_count(plant)
     if kind != PD and (plant is scenario.model or plant == scenario.model):
-        return np.ones((q_ctrl.shape[0], 3))  # the model is exact: M̂θ = Mθ
-    m_plant, _c = actuator_space_model(plant, q_plant, np.zeros(3))
+        return np.ones((q_ctrl.shape[0], n))  # the model is exact: M̂θ = Mθ
+    m_plant = _mass_matrices(plant, q_plant)
     if kind == PD:
         return 1.0 / np.linalg.eigvalsh(m_plant)
-    m_ctrl, _c = actuator_space_model(scenario.model, q_ctrl, np.zeros(3))
+    m_ctrl = _mass_matrices(scenario.model, q_ctrl)
     # Mθ_plant⁻¹ M̂θ is similar to L⁻¹ M̂θ L⁻ᵀ (Mθ_plant = L Lᵀ): symmetric, real positive eigenvalues
     inv_l = np.linalg.inv(np.linalg.cholesky(m_plant))
     return np.linalg.eigvalsh(inv_l @ m_ctrl @ np.swapaxes(inv_l, -1, -2))
+
+
+def _actuator_count(model) -> int:
+    return model.n_actuators if isinstance(model, MechanismModel) else 3
+
+
+def _mass_matrices(model, qs: np.ndarray) -> np.ndarray:
+    """``Mθ`` (K, n, n) at configurations ``qs`` (K, n_coordinates) on the manifold."""
+    if not isinstance(model, MechanismModel):
+        from .dynamics import actuator_space_model
+
+        return actuator_space_model(model, qs, np.zeros(3))[0]
+    k_ = model.kernels
+    ws, zeros = k_.make_workspace(), np.zeros(model.n_actuators)
+    out = np.empty((qs.shape[0], model.n_actuators, model.n_actuators))
+    for k, q in enumerate(qs):
+        if not k_.actuator_space_model(ws, q, zeros, model.P):
+            raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
+        out[k] = ws.m_theta
+    return out
 
 
 def _round_down(x: float, digits: int = 3) -> str:
@@ -625,9 +798,15 @@ def _check_sampled_data_stability(scenario: Scenario, prep: _Prepared) -> None:
         # is smooth: μ is off by the order of the tracking error); its start, q_plant0, is exact. Poses it
         # cannot reach, or only within the singularity guard, are skipped: the run-time guard stops a run
         # there, and near S = 0 the plant's Mθ grows without bound (μ → 0: sluggish, not unstable).
-        ik = inverse_kinematics(scenario.plant_model, desired.pose[idx], mode=prep.mode, on_unreachable="nan")
-        ok = np.abs(np.nan_to_num(ik.S)) >= max(prep.guard, 1e-6)
-        q_plant = np.vstack([prep.q_plant0, ik.q[ok]])
+        if isinstance(scenario.model, MechanismModel):
+            from .mechanism_model import path_inverse_kinematics
+
+            ik_q, ik_s, _failure = path_inverse_kinematics(scenario.plant_model, desired.pose[idx], prep.mode)
+        else:
+            ik = inverse_kinematics(scenario.plant_model, desired.pose[idx], mode=prep.mode, on_unreachable="nan")
+            ik_q, ik_s = ik.q, ik.S
+        ok = np.abs(np.nan_to_num(ik_s)) >= max(prep.guard, 1e-6)
+        q_plant = np.vstack([prep.q_plant0, ik_q[ok]])
         q_ctrl, k = np.vstack([prep.q_ctrl0, desired.q[idx][ok]]), np.append(0, idx[ok])
     mu = _modal_gains(scenario, prep.kind, q_ctrl, q_plant)
     rho = sampled_data_spectral_radius(prep.kp, prep.kv, scenario.sample_time, mu).max(axis=-1)
@@ -652,7 +831,8 @@ def _divergence(scenario: Scenario, prep: _Prepared, q: np.ndarray, k_fail: int)
     """
     if k_fail < 1:
         return None
-    e = np.abs(np.angle(np.exp(1j * (q[:k_fail + 1, :3] - prep.desired.theta[:k_fail + 1])))).max(axis=1)
+    n = _actuator_count(scenario.model)
+    e = np.abs(_actuator_errors(scenario.model, q[:k_fail + 1, :n], prep.desired.theta[:k_fail + 1])).max(axis=1)
     window = max(1, min(50, k_fail // 2))
     before = float(e[max(0, k_fail - 2 * window):k_fail - window + 1].max())
     growth = (f"the joint error grew from {before:.2g} to {e[k_fail]:.2g} rad in {window} "
@@ -673,6 +853,20 @@ def _divergence(scenario: Scenario, prep: _Prepared, q: np.ndarray, k_fail: int)
     return None
 
 
+def _actuator_errors(model, theta: np.ndarray, theta_d: np.ndarray) -> np.ndarray:
+    """``θ - θ_d``, angles wrapped to (-π, π] (a prismatic actuator's error is a length)."""
+    e = theta - theta_d
+    angles = np.array(model.kernels.ANGLES[:model.n_actuators]) if isinstance(model, MechanismModel) else True
+    return np.where(angles, np.angle(np.exp(1j * e)), e)
+
+
+def _pose_of(model, q: np.ndarray) -> np.ndarray:
+    """The plant's pose at configurations ``q``: ``(x, y[, alpha])``."""
+    if isinstance(model, MechanismModel):
+        return q[..., -model.description.dof:].copy()
+    return platform_pose(model, q)
+
+
 def _loop_error(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int,
                 prefix: str = "") -> PkmlabError:
     """The error of a run stopped in the compiled loop: diverged (unstable) or near a singularity."""
@@ -684,18 +878,30 @@ def _loop_error(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray,
 
 def _loop_failure(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int) -> str:
     who = "the controller's model" if status >= 10 else "the plant"
-    pose = platform_pose(scenario.plant_model, q[k_fail])
+    pose = _pose_of(scenario.plant_model, q[k_fail])
     return (f"run stopped at t = {prep.t[k_fail]:.4f} s: {who} came within |S| < {prep.guard:g} of a gain-type "
-            f"singularity near pose ({pose[0]:.4f}, {pose[1]:.4f}, {pose[2]:.4f})")
+            f"singularity near pose {_pose_text(pose)}")
 
 
 def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau, pose=None, s=None) -> SimulationResult:
     """The result of a run; ``pose`` and ``S`` of the plant are computed unless the loop recorded them."""
     desired = prep.desired
-    pose = platform_pose(scenario.plant_model, q) if pose is None else pose
-    s = singularity_measure(scenario.plant_model, q) if s is None else s
-    pose[:, 2] = desired.pose[:, 2] + np.angle(np.exp(1j * (pose[:, 2] - desired.pose[:, 2])))
-    theta_d = desired.theta + 2 * np.pi * np.round((q[:, :3] - desired.theta) / (2 * np.pi))
+    model = scenario.plant_model
+    pose = _pose_of(model, q) if pose is None else pose
+    if s is None:
+        if isinstance(model, MechanismModel):
+            from .mechanism_model import singularity_measure as machine_s
+
+            s = np.array([machine_s(model, qk) for qk in q])
+        else:
+            s = singularity_measure(model, q)
+    if pose.shape[1] == 3:
+        pose[:, 2] = desired.pose[:, 2] + np.angle(np.exp(1j * (pose[:, 2] - desired.pose[:, 2])))
+    n = _actuator_count(model)
+    turns = np.round((q[:, :n] - desired.theta) / (2 * np.pi))  # θ_d on θ's side of 2π
+    if isinstance(model, MechanismModel):
+        turns[:, ~np.array(model.kernels.ANGLES[:n])] = 0.0
+    theta_d = desired.theta + 2 * np.pi * turns
     return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, desired.pose, s)
 
 
@@ -712,6 +918,8 @@ def simulate(scenario: Scenario) -> SimulationResult:
                                     f"{shown(scenario, 50)}{hint}")
     prep = _prepare(scenario)
     n = prep.t.size
+    if isinstance(scenario.model, MechanismModel):
+        return _machine_simulate(scenario, prep)
     if scenario.sample_time > 0:
         q, theta_dot, tau = np.zeros((n, 7)), np.zeros((n, 3)), np.zeros((n, 3))
         pose, s = np.zeros((n, 3)), np.zeros(n)
@@ -726,6 +934,85 @@ def simulate(scenario: Scenario) -> SimulationResult:
     q, theta_dot, tau = _continuous_time(scenario, prep.mode, prep.t, prep.q_plant0, prep.q_ctrl0, prep.kind,
                                          prep.kp, prep.kv, prep.guard)
     return _result(scenario, prep, q, theta_dot, tau)
+
+
+def _machine_simulate(scenario: Scenario, prep: _Prepared) -> SimulationResult:
+    """:func:`simulate` for a described mechanism: its structure's compiled loop (:mod:`pkmlab.machine_core`)."""
+    k_, n, N = scenario.model.kernels, scenario.model.n_actuators, len(prep.q_ctrl0)
+    count = prep.t.size
+    if scenario.sample_time == 0:
+        q, theta_dot, tau = _machine_continuous_time(scenario, prep)
+        return _result(scenario, prep, q, theta_dot, tau)
+    q, theta_dot, tau, s = np.zeros((count, N)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
+    d = prep.desired
+    status, k_fail = k_.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
+                                          d.theta_ddot, prep.q_plant0, prep.q_ctrl0, scenario.plant_model.P,
+                                          scenario.model.P, prep.kind, prep.kp, prep.kv, prep.guard, q, theta_dot,
+                                          tau, s)
+    if status != k_.OK:
+        raise _loop_error(scenario, prep, status, q, k_fail)
+    return _result(scenario, prep, q, theta_dot, tau, None, s)
+
+
+def _machine_continuous_time(scenario: Scenario, prep: _Prepared):
+    """Continuous-time control of a described mechanism: the controller evaluated at every stage of DOP853."""
+    k_, n = scenario.model.kernels, scenario.model.n_actuators
+    P_plant, P_ctrl = scenario.plant_model.P, scenario.model.P
+    plant, ctrl = k_.make_workspace(), k_.make_workspace()
+    k_.set_base(plant, prep.q_plant0, P_plant)
+    k_.set_base(ctrl, prep.q_ctrl0, P_ctrl)
+    tau = np.zeros(n)
+    dof = scenario.model.description.dof
+
+    def control(time, theta, theta_dot):
+        d = _machine_joint_motion_at(scenario, prep, time, dof)
+        status = k_.control_effort(prep.kind, prep.kp, prep.kv, theta, theta_dot, *d, P_ctrl, prep.guard, ctrl, tau)
+        if status != k_.OK:
+            raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model came within "
+                                       f"|S| < {prep.guard:g} of a gain-type singularity")
+        return tau
+
+    def rhs(time, y):
+        control(time, y[:n], y[n:])
+        y_dot, status = k_.reduced_rhs(plant, y, tau, P_plant, prep.guard)
+        if status != k_.OK:
+            raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant came within "
+                                       f"|S| < {prep.guard:g} of a gain-type singularity")
+        return y_dot
+
+    sol = solve_ivp(rhs, (0.0, float(prep.t[-1])), np.concatenate([prep.q_plant0[:n], np.zeros(n)]),
+                    method="DOP853", rtol=1e-12, atol=1e-13, t_eval=prep.t)
+    if sol.status != 0:
+        raise SingularityError(f"integration failed: {sol.message}")
+    # the reported samples: configurations by branch following along the solution, efforts re-evaluated
+    q, efforts = np.empty((prep.t.size, len(prep.q_plant0))), np.empty((prep.t.size, n))
+    k_.set_base(plant, prep.q_plant0, P_plant)
+    k_.set_base(ctrl, prep.q_ctrl0, P_ctrl)
+    for k in range(prep.t.size):
+        if k_.follow_branch(plant, sol.y[:n, k].copy(), P_plant, prep.guard) != k_.OK:
+            raise BranchFollowingError(f"run stopped at t = {prep.t[k]:.4f} s: the plant lost its assembly mode")
+        k_.accept_trial(plant)
+        q[k] = plant.q[k_.BASE]
+        efforts[k] = control(prep.t[k], sol.y[:n, k].copy(), sol.y[n:, k].copy())
+    return q, sol.y[n:].T.copy(), efforts
+
+
+def _machine_joint_motion_at(scenario: Scenario, prep: _Prepared, time: float, dof: int):
+    """``(θ_d, θ̇_d, θ̈_d)`` at one time, from the configuration of the nearest sample (the same branch)."""
+    from .mechanism_model import inverse_kinematics as machine_ik
+    from .mechanism_model import path_rates
+
+    model = scenario.model
+    pose, pose_dot, pose_ddot = (np.asarray(a, dtype=float)[:, :dof] for a in scenario.trajectory.desired([time]))
+    q = machine_ik(model, pose[0], prep.mode)[None, :]
+    theta_dot, theta_ddot, k = path_rates(model, q, pose_dot, pose_ddot)
+    if k >= 0:
+        raise SingularityError(f"the path meets an inverse-kinematic singularity at t = {time:.4f} s")
+    nearest = min(int(round(time / (prep.t[1] - prep.t[0]))) if prep.t.size > 1 else 0, prep.t.size - 1)
+    n = model.n_actuators
+    theta = q[0, :n] + np.where(np.array(model.kernels.ANGLES[:n]),
+                                2 * np.pi * np.round((prep.desired.theta[nearest] - q[0, :n]) / (2 * np.pi)), 0.0)
+    return theta, theta_dot[0], theta_ddot[0]
 
 
 def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
@@ -781,40 +1068,58 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
         raise InvalidParameterError(f"all runs of a batch need the same number of samples, got {sorted(sizes)}")
     live = [i for i, p in enumerate(preps) if p is not None]
     results: list = [errors.get(i) if on_error == "return" else None for i in range(len(scenarios))]
-    if not live:
-        return results
-    n, m = sizes.pop(), len(live)
-    P_len = scenarios[live[0]].model.packed.size
-    stack = {name: np.empty((m, n, 3)) for name in ("theta", "theta_dot", "theta_ddot")}
-    q0 = np.empty((m, 7))
-    qc0 = np.empty((m, 7))
+    groups: dict = {}  # one compiled call per structure (the 3-RRR's own loop, or a structure's generated one)
+    for i in live:
+        model = scenarios[i].model
+        groups.setdefault(model.kernels if isinstance(model, MechanismModel) else None, []).append(i)
+    for kernels, members in groups.items():
+        outcome = _run_batch(kernels, [scenarios[i] for i in members], [preps[i] for i in members])
+        for i, (status, q, theta_dot, tau, pose, s, k_fail) in zip(members, outcome, strict=True):
+            sc, p = scenarios[i], preps[i]
+            if status != rrr3.OK:
+                error = _loop_error(sc, p, status, q, k_fail, f"run {i} ({sc.name}): ")
+                if on_error == "raise":
+                    raise error
+                if on_error == "return":
+                    results[i] = error
+                continue
+            results[i] = _result(sc, p, q, theta_dot, tau, pose, s)
+    return results
+
+
+def _run_batch(kernels, scenarios: list, preps: list) -> list:
+    """Run prepared scenarios of one structure in one parallel compiled call (``kernels`` None: the 3-RRR's
+    own loop); per run ``(status, q, θ̇, τ, pose or None, S, k_fail)``."""
+    m, n = len(scenarios), preps[0].t.size
+    model = scenarios[0].model
+    n_act, n_q = _actuator_count(model), len(preps[0].q_ctrl0)
+    P_len = (model.P if kernels is not None else model.packed).size
+    stack = {name: np.empty((m, n, n_act)) for name in ("theta", "theta_dot", "theta_ddot")}
+    q0, qc0 = np.empty((m, n_q)), np.empty((m, n_q))
     P_plant, P_ctrl = np.empty((m, P_len)), np.empty((m, P_len))
     ts, n_sub, kind = np.empty(m), np.empty(m, np.int64), np.empty(m, np.int64)
     kp, kv, guard = np.empty(m), np.empty(m), np.empty(m)
-    for r, i in enumerate(live):
-        sc, p = scenarios[i], preps[i]
+    for r, (sc, p) in enumerate(zip(scenarios, preps, strict=True)):
         for name in stack:
             stack[name][r] = getattr(p.desired, name)
         q0[r], qc0[r] = p.q_plant0, p.q_ctrl0
-        P_plant[r], P_ctrl[r] = sc.plant_model.packed, sc.model.packed
+        if kernels is None:
+            P_plant[r], P_ctrl[r] = sc.plant_model.packed, sc.model.packed
+        else:
+            P_plant[r], P_ctrl[r] = sc.plant_model.P, sc.model.P
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
         kp[r], kv[r], guard[r] = p.kp, p.kv, p.guard
-    q, theta_dot, tau = np.zeros((m, n, 7)), np.zeros((m, n, 3)), np.zeros((m, n, 3))
-    pose, s = np.zeros((m, n, 3)), np.zeros((m, n))
+    q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
+    s = np.zeros((m, n))
     status, k_fail = np.zeros(m, np.int64), np.zeros(m, np.int64)
-    _sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant, P_ctrl,
-                        kind, kp, kv, guard, q, theta_dot, tau, pose, s, status, k_fail)
-    for r, i in enumerate(live):
-        sc, p = scenarios[i], preps[i]
-        if status[r] != rrr3.OK:
-            error = _loop_error(sc, p, status[r], q[r], k_fail[r], f"run {i} ({sc.name}): ")
-            if on_error == "raise":
-                raise error
-            if on_error == "return":
-                results[i] = error
-            continue
-        results[i] = _result(sc, p, q[r], theta_dot[r], tau[r], pose[r], s[r])
-    return results
+    args = (ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant, P_ctrl, kind, kp,
+            kv, guard)
+    if kernels is None:
+        pose = np.zeros((m, n, 3))
+        _sampled_data_batch(*args, q, theta_dot, tau, pose, s, status, k_fail)
+        return [(status[r], q[r], theta_dot[r], tau[r], pose[r], s[r], k_fail[r]) for r in range(m)]
+    kernels.sampled_data_batch(*args, q, theta_dot, tau, s, status, k_fail)
+    return [(status[r], q[r], theta_dot[r], tau[r], None, s[r], k_fail[r]) for r in range(m)]
 
 
 def _continuous_time(scenario, mode, t, q_plant0, q_ctrl0, kind, kp, kv, guard):

@@ -2,7 +2,7 @@
 
 A trajectory is a geometric path of platform poses ``(x, y, α)`` parametrised by arc length
 ``s ∈ [0, L]`` (a pure rotation is measured in radians), traversed with a time law
-``s(t)`` that starts and ends at rest (SPEC §4: the paper's "third-order polynomial").
+``s(t)`` that starts and ends at rest (conventions §4: the paper's "third-order polynomial").
 :meth:`Trajectory.desired` gives pose, velocity and acceleration at any time;
 :func:`desired_joint_motion` turns them into ``θ_d, θ̇_d, θ̈_d`` with exact inverse kinematics
 and its exact first and second derivatives (no finite differences)::
@@ -150,7 +150,7 @@ class Line:
 class Trajectory:
     """A path traversed with a rest-to-rest time law at average speed ``speed`` (m/s).
 
-    ``duration = length / speed`` (SPEC §4: ``T = L / v``).
+    ``duration = length / speed`` (conventions §4: ``T = L / v``).
     """
 
     path: Circle | Line
@@ -224,7 +224,7 @@ class WaypointTrajectory:
 
 
 def paper_trajectory(speed: float = 0.2) -> Trajectory:
-    """The paper's circle (SPEC §4): centre (0.25, 0.21), radius 0.05, from the leftmost point."""
+    """The paper's circle (conventions §4): centre (0.25, 0.21), radius 0.05, from the leftmost point."""
     return Trajectory(Circle((0.25, 0.21), 0.05, start_angle=math.pi, alpha=0.0), speed, "cubic")
 
 

@@ -36,7 +36,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 
 from ..mechanisms.description import Mechanism
 
@@ -108,6 +107,8 @@ def derive(mechanism: Mechanism) -> dict:
     Returns ``{"q", "qd", "P": symbols; "eta": (m,), "bodies": [(x, y, angle), ...] (mass
     centres, legs' bodies then the platform)}`` as SymPy expressions of ``q`` and ``P``.
     """
+    import sympy as sp
+
     q = sp.symbols(" ".join(coordinate_names(mechanism)), real=True)
     qd = sp.symbols(" ".join(f"{n}_dot" for n in coordinate_names(mechanism)), real=True)
     P = dict(zip(parameter_names(mechanism), sp.symbols(" ".join(parameter_names(mechanism)), real=True),
@@ -117,11 +118,13 @@ def derive(mechanism: Mechanism) -> dict:
     alpha = pose[2] if mechanism.dof == 3 else sp.Integer(0)
     platform_rot = sp.Matrix([[sp.cos(alpha), -sp.sin(alpha)], [sp.sin(alpha), sp.cos(alpha)]])
     passive = iter(q[n:len(q) - mechanism.dof])
-    eta, bodies = [], []
+    eta, bodies, joints = [], [], []
     for i, leg in enumerate(mechanism.legs):
         point = sp.Matrix([P[f"base{i + 1}_x"], P[f"base{i + 1}_y"]])
         direction = sp.Integer(0)
+        joints.append([])
         for k, (joint, _body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
+            joints[i].append(point)
             coordinate = q[i] if joint.actuated else next(passive)
             if joint.kind == "R":  # the following body's absolute angle
                 direction, origin = coordinate, point
@@ -137,17 +140,46 @@ def derive(mechanism: Mechanism) -> dict:
                   else sp.zeros(2, 1))
         target = sp.Matrix(pose[:2]) + platform_rot * attach
         eta += [point[0] - target[0], point[1] - target[1]]
+        joints[i].append(target)  # the last joint: on the platform
     if mechanism.platform.kind == "rigid":
         com = sp.Matrix(pose[:2]) + platform_rot * sp.Matrix([P["platform_com_x"], P["platform_com_y"]])
         bodies.append((com[0], com[1], alpha))
     else:
         bodies.append((pose[0], pose[1], sp.Integer(0)))  # a payload at the point: it does not turn
-    return {"q": q, "qd": qd, "P": P, "eta": eta, "bodies": bodies}
+    return {"q": q, "qd": qd, "P": P, "eta": eta, "bodies": bodies, "joints": joints,
+            "lines": _leg_lines(mechanism, P, pose, joints)}
+
+
+def _leg_lines(mechanism: Mechanism, P: dict, pose, joints):
+    """The lines along which the legs push the platform, and the platform's size.
+
+    Leg ``i`` pushes along the line through its attachment point ``p_i`` and its last revolute
+    joint before it, ``c_i`` (the elbow of an RRR or PRR leg, the base pivot of a telescopic RPR
+    leg). Returns, per leg, ``(p_i - p, p_i - c_i)`` (``p`` the tracked point) as 4 expressions, and
+    ``ℓ``, the mean distance between the attachment points (1 for a point platform): what
+    :func:`pkmlab.machine_core.singularity_measure` needs.
+    """
+    import sympy as sp
+
+    lines = []
+    for leg, points in zip(mechanism.legs, joints, strict=True):
+        last_r = max(k for k, j in enumerate(leg.joints[:-1]) if j.kind == "R")
+        d = points[-1] - points[last_r]
+        lines += [points[-1][0] - pose[0], points[-1][1] - pose[1], d[0], d[1]]
+    if mechanism.platform.kind == "point":
+        return lines, sp.Integer(1)
+    count = len(mechanism.legs)
+    pairs = [(i, j) for i in range(count) for j in range(i)]
+    size = sum(sp.sqrt((P[f"attach{i + 1}_x"] - P[f"attach{j + 1}_x"]) ** 2
+                       + (P[f"attach{i + 1}_y"] - P[f"attach{j + 1}_y"]) ** 2) for i, j in pairs) / len(pairs)
+    return lines, size
 
 
 def _jacobian_and_bias(exprs, q, qd):
     """``J = ∂exprs/∂q`` and ``J̇ q̇ = Σ_k (∂(J q̇)/∂q_k) q̇_k`` (the terms of the acceleration that do
     not multiply ``q̈``)."""
+    import sympy as sp
+
     jac = sp.Matrix(exprs).jacobian(q)
     velocity = jac * sp.Matrix(qd)
     bias = velocity.jacobian(q) * sp.Matrix(qd)
@@ -156,6 +188,8 @@ def _jacobian_and_bias(exprs, q, qd):
 
 # ------------------------------------------------------------------ code generation
 def _emit(lines, name, args, doc, outputs, indices):
+    import sympy as sp
+
     lines += ["", "", "@njit(cache=True)", f"def {name}({args}):", f'    """{doc}"""']
     nonzero = [(ix, e) for ix, e in zip(indices, outputs, strict=True) if e != 0]
     replacements, reduced = sp.cse([e for _ix, e in nonzero], symbols=sp.numbered_symbols("w"), order="canonical")
@@ -165,11 +199,13 @@ def _emit(lines, name, args, doc, outputs, indices):
     if zero:
         lines.append("    out[:] = 0.0")
     for (ix, _e), expr in zip(nonzero, reduced, strict=True):
-        lines.append(f"    out[{ix}] = {sp.pycode(expr)}")
+        lines.append(f"    return {sp.pycode(expr)}" if ix == "return" else f"    out[{ix}] = {sp.pycode(expr)}")
 
 
 def generate_source(mechanism: Mechanism) -> str:
     """The text of the generated module of ``mechanism``'s structure."""
+    import sympy as sp
+
     d = derive(mechanism)
     q, qd = d["q"], d["qd"]
     nq, m, nb = len(q), len(d["eta"]), len(d["bodies"])
@@ -179,6 +215,8 @@ def generate_source(mechanism: Mechanism) -> str:
     j_eta, b_eta = _jacobian_and_bias(d["eta"], q, qd)
     body_exprs = [e for body in d["bodies"] for e in body]
     j_body, b_body = _jacobian_and_bias(body_exprs, q, qd)
+    # the body Jacobians' structural non-zeros: a leg's bodies move with that leg's coordinates only
+    nonzero = [(b, r, c) for b in range(nb) for r in range(3) for c in range(nq) if j_body[3 * b + r, c] != 0]
     lines = [
         '"""GENERATED by ``python -m pkmlab.derivations.planar`` -- do not edit.',
         "",
@@ -196,6 +234,17 @@ def generate_source(mechanism: Mechanism) -> str:
         f"ANGLES = {coordinate_angles(mechanism)!r}  # which coordinates are angles (wrapped modulo 2 pi)",
         f"PARAMETERS = {parameter_names(mechanism)!r}",
         f"N_COORDINATES, N_CONSTRAINTS, N_BODIES = {nq}, {m}, {nb}",
+        f"N_ACTUATORS, DOF = {len(mechanism.legs)}, {mechanism.dof}",
+        "# where each body's mass and inertia (legs' bodies, then the platform) and the gravity are in P",
+        f"MASS_INDEX = {_indices(mechanism, 'mass')!r}",
+        f"INERTIA_INDEX = {_indices(mechanism, 'inertia')!r}",
+        f"GRAVITY_INDEX = {_indices(mechanism, 'gravity')!r}",
+        f"JOINTS_PER_LEG = {max(len(leg.joints) for leg in mechanism.legs)}",
+        "# the non-zeros of the bodies' Jacobians, in the order of body_jacobian_values: body, row, coordinate",
+        f"JB_BODY = {tuple(b for b, _r, _c in nonzero)!r}",
+        f"JB_ROW = {tuple(r for _b, r, _c in nonzero)!r}",
+        f"JB_COL = {tuple(c for _b, _r, c in nonzero)!r}",
+        f"N_JB = {len(nonzero)}",
     ]
 
     def emit(name, args, doc, outputs, indices, needs_qd=False):
@@ -217,10 +266,45 @@ def generate_source(mechanism: Mechanism) -> str:
          body_exprs, [f"{b}, {k}" for b in range(nb) for k in range(3)])
     emit("body_jacobians", "q, P, out", "Write each body's d(x, y, angle)/dq (N_BODIES, 3, N_COORDINATES) into out.",
          list(j_body), [f"{b}, {k}, {c}" for b in range(nb) for k in range(3) for c in range(nq)])
+    emit("body_jacobian_values", "q, P, out", "Write the non-zeros of the bodies' Jacobians (N_JB,) into out "
+         "(positions: JB_BODY, JB_ROW, JB_COL).", [j_body[3 * b + r, c] for b, r, c in nonzero],
+         [str(z) for z in range(len(nonzero))])
     emit("body_bias", "q, qd, P, out", "Write each body's dJ_b/dt qd (N_BODIES, 3) into out.",
          list(b_body), [f"{b}, {k}" for b in range(nb) for k in range(3)], needs_qd=True)
-    text = "\n".join(lines) + "\n"
+    width = max(len(leg.joints) for leg in mechanism.legs)
+    points, where = [], []
+    for i, leg_points in enumerate(d["joints"]):
+        padded = leg_points + [leg_points[-1]] * (width - len(leg_points))  # short legs repeat their end
+        points += [c for point in padded for c in point]
+        where += [f"{i}, {k}, {c}" for k in range(width) for c in range(2)]
+    emit("joint_points", "q, P, out", "Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, "
+         "base to platform.", points, where)
+    lines_, size = d["lines"]
+    emit("leg_lines", "q, P, out", "Write each leg's line of action (N_ACTUATORS, 4): its attachment point "
+         "minus the tracked point, and its direction (unnormalised).", lines_,
+         [f"{i}, {k}" for i in range(len(mechanism.legs)) for k in range(4)])
+    emit("platform_size", "P", "The mean distance between the platform's attachment points (1 for a point).",
+         [size], ["return"])
+    text = "\n".join(lines) + "\n" + _template()
     return text.replace("\n\n\n\n", "\n\n\n")
+
+
+def _indices(mechanism: Mechanism, what: str) -> tuple[int, ...]:
+    """Positions in ``P`` of every body's mass or inertia, or of the gravity vector."""
+    names = parameter_names(mechanism)
+    if what == "gravity":
+        return names.index("gravity_x"), names.index("gravity_y")
+    bodies = [f"body{i + 1}_{k + 1}" for i, leg in enumerate(mechanism.legs) for k in range(len(leg.bodies))]
+    return tuple(names.index(f"{b}_{what}") for b in [*bodies, "platform"])
+
+
+def _template() -> str:
+    """The text of :mod:`pkmlab.machine_core` below its TEMPLATE marker: the compiled core every
+    structure's module carries, bound there to the structure's kernels."""
+    text = (Path(__file__).resolve().parents[1] / "machine_core.py").read_text()
+    marker = text.index("\n# ==== TEMPLATE")
+    body = text[text.index("\n", marker + 1) + 1:]
+    return "\n\n# ---- the compiled core of pkmlab.machine_core, bound to the kernels above ----\n" + body
 
 
 def _used(assignment: str, code: str) -> bool:

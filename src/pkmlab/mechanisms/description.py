@@ -339,6 +339,22 @@ BODY_KEYS = ("tip", "mass", "com", "inertia")
 _JOINTS = re.compile(r"^([RP]\*?)+$")
 
 
+def scaled_mechanism(mechanism: Mechanism, mass: float = 1.0, length: float = 1.0) -> Mechanism:
+    """The same machine with every body's mass ×``mass``, its inertia ×``mass·length²`` (I ∝ m L²), and
+    every length of its bodies and platform ×``length`` (tips, mass centres, attachment points); the
+    base points, rail directions and actuator strokes are unchanged — the paper's disturbed plant
+    (its section 5) for any mechanism."""
+    def body(b: Body) -> Body:
+        return Body((b.tip[0] * length, b.tip[1] * length), b.mass * mass, (b.com[0] * length, b.com[1] * length),
+                    b.inertia * mass * length**2)
+
+    legs = tuple(Leg(leg.base, leg.joints, tuple(body(b) for b in leg.bodies), leg.stroke) for leg in mechanism.legs)
+    p = mechanism.platform
+    platform = Platform(p.kind, tuple((x * length, y * length) for x, y in p.attachments), p.mass * mass,
+                        (p.com[0] * length, p.com[1] * length), p.inertia * mass * length**2)
+    return Mechanism(mechanism.name, legs, platform, mechanism.gravity)
+
+
 def _known(table, valid, where: str) -> dict:
     if not isinstance(table, dict):
         raise InvalidParameterError(f"{where} must be a table, got {table!r}")

@@ -4,7 +4,7 @@ Every function here works on one configuration and reads the architecture from t
 parameter vector ``P`` (:attr:`pkmlab.geometry.Planar3RRR.packed`, layout in
 :mod:`pkmlab.geometry`). They are compiled with Numba (``cache=True``), written once and
 used both by the public API (:mod:`pkmlab.kinematics`, which broadcasts over batches) and by
-the simulation loop. Conventions are those of SPEC §1–§3 and :mod:`pkmlab.geometry`:
+the simulation loop. Conventions are those of conventions §1–§3 and :mod:`pkmlab.geometry`:
 ``q = (θ1, θ2, θ3, φ1, φ2, φ3, α)``, absolute angles.
 
 Loop-closure constraints (paper eqs. (2), (3), (5), (6), in that order)::
@@ -249,14 +249,14 @@ def forward_singularity_determinant(q, P):
 
 @njit(cache=True)
 def singularity_measure(q, P):
-    """``S = -det(Jηφ) / (a r1 r2 r3)`` (eq. 19 with SPEC §2's sign)."""
+    """``S = -det(Jηφ) / (a r1 r2 r3)`` (eq. 19 with conventions §2's sign)."""
     return -forward_singularity_determinant(q, P) / singularity_scale(P)
 
 
 # ------------------------------------------------------------------ inverse kinematics
 @njit(cache=True)
 def inverse_kinematics(pose, mode, P, q):
-    """Inverse kinematics of one pose for one working mode (paper §2, SPEC §3).
+    """Inverse kinematics of one pose for one working mode (paper §2, conventions §3).
 
     ``pose = (x, y, α)``; ``mode = (σ1, σ2, σ3)``, ``σ_i = +1`` when elbow ``e_i`` lies to the
     left of the directed line ``b_i → p_i``. Writes ``q`` (7,) and returns a bit mask of the

@@ -13,6 +13,17 @@ COORDINATES = ('a1', 'a2', 'a3', 'q1_2', 'q2_2', 'q3_2', 'x', 'y', 'alpha')
 ANGLES = (False, False, False, True, True, True, False, False, True)  # which coordinates are angles (wrapped modulo 2 pi)
 PARAMETERS = ('base1_x', 'base1_y', 'axis1', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_mass', 'body1_1_inertia', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_mass', 'body1_2_inertia', 'base2_x', 'base2_y', 'axis2', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_mass', 'body2_1_inertia', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_mass', 'body2_2_inertia', 'base3_x', 'base3_y', 'axis3', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_mass', 'body3_1_inertia', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_mass', 'body3_2_inertia', 'attach1_x', 'attach1_y', 'attach2_x', 'attach2_y', 'attach3_x', 'attach3_y', 'platform_com_x', 'platform_com_y', 'platform_mass', 'platform_inertia', 'gravity_x', 'gravity_y')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 9, 6, 7
+N_ACTUATORS, DOF = 3, 3
+# where each body's mass and inertia (legs' bodies, then the platform) and the gravity are in P
+MASS_INDEX = (7, 13, 22, 28, 37, 43, 53)
+INERTIA_INDEX = (8, 14, 23, 29, 38, 44, 54)
+GRAVITY_INDEX = (55, 56)
+JOINTS_PER_LEG = 3
+# the non-zeros of the bodies' Jacobians, in the order of body_jacobian_values: body, row, coordinate
+JB_BODY = (0, 0, 1, 1, 1, 1, 1, 2, 2, 3, 3, 3, 3, 3, 4, 4, 5, 5, 5, 5, 5, 6, 6, 6, 6, 6)
+JB_ROW = (0, 1, 0, 0, 1, 1, 2, 0, 1, 0, 0, 1, 1, 2, 0, 1, 0, 0, 1, 1, 2, 0, 0, 1, 1, 2)
+JB_COL = (0, 0, 0, 3, 0, 3, 3, 1, 1, 1, 4, 1, 4, 4, 2, 2, 2, 5, 2, 5, 5, 6, 8, 7, 8, 8)
+N_JB = 26
 
 
 @njit(cache=True)
@@ -324,6 +335,66 @@ def body_jacobians(q, P, out):
 
 
 @njit(cache=True)
+def body_jacobian_values(q, P, out):
+    """Write the non-zeros of the bodies' Jacobians (N_JB,) into out (positions: JB_BODY, JB_ROW, JB_COL)."""
+    q1_2 = q[3]
+    q2_2 = q[4]
+    q3_2 = q[5]
+    alpha = q[8]
+    axis1 = P[2]
+    body1_2_com_x = P[11]
+    body1_2_com_y = P[12]
+    axis2 = P[17]
+    body2_2_com_x = P[26]
+    body2_2_com_y = P[27]
+    axis3 = P[32]
+    body3_2_com_x = P[41]
+    body3_2_com_y = P[42]
+    platform_com_x = P[51]
+    platform_com_y = P[52]
+    w0 = math.cos(axis1)
+    w1 = math.sin(axis1)
+    w2 = math.sin(q1_2)
+    w3 = math.cos(q1_2)
+    w4 = math.cos(axis2)
+    w5 = math.sin(axis2)
+    w6 = math.sin(q2_2)
+    w7 = math.cos(q2_2)
+    w8 = math.cos(axis3)
+    w9 = math.sin(axis3)
+    w10 = math.sin(q3_2)
+    w11 = math.cos(q3_2)
+    w12 = math.sin(alpha)
+    w13 = math.cos(alpha)
+    out[0] = w0
+    out[1] = w1
+    out[2] = w0
+    out[3] = -body1_2_com_x*w2 - body1_2_com_y*w3
+    out[4] = w1
+    out[5] = body1_2_com_x*w3 - body1_2_com_y*w2
+    out[6] = 1
+    out[7] = w4
+    out[8] = w5
+    out[9] = w4
+    out[10] = -body2_2_com_x*w6 - body2_2_com_y*w7
+    out[11] = w5
+    out[12] = body2_2_com_x*w7 - body2_2_com_y*w6
+    out[13] = 1
+    out[14] = w8
+    out[15] = w9
+    out[16] = w8
+    out[17] = -body3_2_com_x*w10 - body3_2_com_y*w11
+    out[18] = w9
+    out[19] = body3_2_com_x*w11 - body3_2_com_y*w10
+    out[20] = 1
+    out[21] = 1
+    out[22] = -platform_com_x*w12 - platform_com_y*w13
+    out[23] = 1
+    out[24] = platform_com_x*w13 - platform_com_y*w12
+    out[25] = 1
+
+
+@njit(cache=True)
 def body_bias(q, qd, P, out):
     """Write each body's dJ_b/dt qd (N_BODIES, 3) into out."""
     q1_2 = q[3]
@@ -363,3 +434,584 @@ def body_bias(q, qd, P, out):
     out[5, 1] = w6*(-body3_2_com_x*w8 - body3_2_com_y*w7)
     out[6, 0] = w9*(-platform_com_x*w10 + platform_com_y*w11)
     out[6, 1] = w9*(-platform_com_x*w11 - platform_com_y*w10)
+
+
+@njit(cache=True)
+def joint_points(q, P, out):
+    """Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, base to platform."""
+    a1 = q[0]
+    a2 = q[1]
+    a3 = q[2]
+    x = q[6]
+    y = q[7]
+    alpha = q[8]
+    base1_x = P[0]
+    base1_y = P[1]
+    axis1 = P[2]
+    body1_1_tip_x = P[3]
+    body1_1_tip_y = P[4]
+    base2_x = P[15]
+    base2_y = P[16]
+    axis2 = P[17]
+    body2_1_tip_x = P[18]
+    body2_1_tip_y = P[19]
+    base3_x = P[30]
+    base3_y = P[31]
+    axis3 = P[32]
+    body3_1_tip_x = P[33]
+    body3_1_tip_y = P[34]
+    attach1_x = P[45]
+    attach1_y = P[46]
+    attach2_x = P[47]
+    attach2_y = P[48]
+    attach3_x = P[49]
+    attach3_y = P[50]
+    w0 = math.cos(axis1)
+    w1 = math.sin(axis1)
+    w2 = math.cos(alpha)
+    w3 = math.sin(alpha)
+    w4 = math.cos(axis2)
+    w5 = math.sin(axis2)
+    w6 = math.cos(axis3)
+    w7 = math.sin(axis3)
+    out[0, 0, 0] = base1_x
+    out[0, 0, 1] = base1_y
+    out[0, 1, 0] = a1*w0 + base1_x + body1_1_tip_x*w0 - body1_1_tip_y*w1
+    out[0, 1, 1] = a1*w1 + base1_y + body1_1_tip_x*w1 + body1_1_tip_y*w0
+    out[0, 2, 0] = attach1_x*w2 - attach1_y*w3 + x
+    out[0, 2, 1] = attach1_x*w3 + attach1_y*w2 + y
+    out[1, 0, 0] = base2_x
+    out[1, 0, 1] = base2_y
+    out[1, 1, 0] = a2*w4 + base2_x + body2_1_tip_x*w4 - body2_1_tip_y*w5
+    out[1, 1, 1] = a2*w5 + base2_y + body2_1_tip_x*w5 + body2_1_tip_y*w4
+    out[1, 2, 0] = attach2_x*w2 - attach2_y*w3 + x
+    out[1, 2, 1] = attach2_x*w3 + attach2_y*w2 + y
+    out[2, 0, 0] = base3_x
+    out[2, 0, 1] = base3_y
+    out[2, 1, 0] = a3*w6 + base3_x + body3_1_tip_x*w6 - body3_1_tip_y*w7
+    out[2, 1, 1] = a3*w7 + base3_y + body3_1_tip_x*w7 + body3_1_tip_y*w6
+    out[2, 2, 0] = attach3_x*w2 - attach3_y*w3 + x
+    out[2, 2, 1] = attach3_x*w3 + attach3_y*w2 + y
+
+
+@njit(cache=True)
+def leg_lines(q, P, out):
+    """Write each leg's line of action (N_ACTUATORS, 4): its attachment point minus the tracked point, and its direction (unnormalised)."""
+    a1 = q[0]
+    a2 = q[1]
+    a3 = q[2]
+    x = q[6]
+    y = q[7]
+    alpha = q[8]
+    base1_x = P[0]
+    base1_y = P[1]
+    axis1 = P[2]
+    body1_1_tip_x = P[3]
+    body1_1_tip_y = P[4]
+    base2_x = P[15]
+    base2_y = P[16]
+    axis2 = P[17]
+    body2_1_tip_x = P[18]
+    body2_1_tip_y = P[19]
+    base3_x = P[30]
+    base3_y = P[31]
+    axis3 = P[32]
+    body3_1_tip_x = P[33]
+    body3_1_tip_y = P[34]
+    attach1_x = P[45]
+    attach1_y = P[46]
+    attach2_x = P[47]
+    attach2_y = P[48]
+    attach3_x = P[49]
+    attach3_y = P[50]
+    w0 = math.cos(alpha)
+    w1 = math.sin(alpha)
+    w2 = attach1_y*w1
+    w3 = -x
+    w4 = math.cos(axis1)
+    w5 = math.sin(axis1)
+    w6 = -y
+    w7 = attach2_y*w1
+    w8 = math.cos(axis2)
+    w9 = math.sin(axis2)
+    w10 = attach3_y*w1
+    w11 = math.cos(axis3)
+    w12 = math.sin(axis3)
+    out[0, 0] = attach1_x*w0 - w2
+    out[0, 1] = attach1_x*w1 + attach1_y*w0
+    out[0, 2] = -a1*w4 + attach1_x*w0 - base1_x - body1_1_tip_x*w4 + body1_1_tip_y*w5 - w2 - w3
+    out[0, 3] = -a1*w5 + attach1_x*w1 + attach1_y*w0 - base1_y - body1_1_tip_x*w5 - body1_1_tip_y*w4 - w6
+    out[1, 0] = attach2_x*w0 - w7
+    out[1, 1] = attach2_x*w1 + attach2_y*w0
+    out[1, 2] = -a2*w8 + attach2_x*w0 - base2_x - body2_1_tip_x*w8 + body2_1_tip_y*w9 - w3 - w7
+    out[1, 3] = -a2*w9 + attach2_x*w1 + attach2_y*w0 - base2_y - body2_1_tip_x*w9 - body2_1_tip_y*w8 - w6
+    out[2, 0] = attach3_x*w0 - w10
+    out[2, 1] = attach3_x*w1 + attach3_y*w0
+    out[2, 2] = -a3*w11 + attach3_x*w0 - base3_x - body3_1_tip_x*w11 + body3_1_tip_y*w12 - w10 - w3
+    out[2, 3] = -a3*w12 + attach3_x*w1 + attach3_y*w0 - base3_y - body3_1_tip_x*w12 - body3_1_tip_y*w11 - w6
+
+
+@njit(cache=True)
+def platform_size(P):
+    """The mean distance between the platform's attachment points (1 for a point)."""
+    attach1_x = P[45]
+    attach1_y = P[46]
+    attach2_x = P[47]
+    attach2_y = P[48]
+    attach3_x = P[49]
+    attach3_y = P[50]
+    w0 = -attach3_x
+    w1 = -attach3_y
+    return (1/3)*math.sqrt((-attach1_x + attach2_x)**2 + (-attach1_y + attach2_y)**2) + (1/3)*math.sqrt((-attach1_x - w0)**2 + (-attach1_y - w1)**2) + (1/3)*math.sqrt((-attach2_x - w0)**2 + (-attach2_y - w1)**2)
+
+
+# ---- the compiled core of pkmlab.machine_core, bound to the kernels above ----
+from typing import NamedTuple  # noqa: E402
+
+import numpy as np  # noqa: E402
+from numba import njit, prange  # noqa: E402
+
+from pkmlab._compile_cache import NO_REFCOUNT  # noqa: E402
+from pkmlab.closed_chain import (  # noqa: E402
+    actuated_jacobian_from_lu,
+    ldlt_solve,
+    lu_factor,
+    lu_solve_factored,
+)
+
+#: Status codes of the compiled functions (as :mod:`pkmlab.mechanisms.rrr3`'s).
+OK = 0
+NOT_CONVERGED = 1  # Newton's method did not converge (no nearby configuration)
+SINGULAR = 2  # |S| fell below the guard, S changed sign, or a matrix was singular
+CONTROLLER = 10  # added to a status of the controller's own model
+
+#: Newton's method on the passive coordinates: at most this many iterations, stopping when a
+#: step is below NEWTON_STEP (metres or radians; convergence is quadratic, so the residual is
+#: then at round-off).
+MAX_NEWTON = 12
+NEWTON_STEP = 1e-13
+#: Branch following first iterates with the base's Jacobian (the chord method: no Jacobian to
+#: evaluate or factor per iteration; it contracts by about the step's size in the actuators, so a
+#: sample's step converges in 2-4 iterations), and falls back to Newton's method after this many.
+MAX_CHORD = 8
+
+
+@njit(cache=True)
+def singularity_measures(qs, P, out):
+    """:func:`singularity_measure` of every configuration ``qs`` (K, N) into ``out`` (K,); NaN rows give NaN."""
+    lines = np.empty((N_ACTUATORS, 4))
+    for k in range(qs.shape[0]):
+        out[k] = singularity_measure(qs[k], P, lines)
+
+
+@njit(cache=True)
+def constraint_jacobians(qs, P, out):
+    """``Jηq`` of every configuration ``qs`` (K, N) into ``out`` (K, m, N)."""
+    for k in range(qs.shape[0]):
+        constraint_jacobian(qs[k], P, out[k])
+
+
+@njit(cache=True)
+def constraint_biases(qs, q_dots, P, out):
+    """``J̇ηq q̇`` of every configuration and rate (K, N) into ``out`` (K, m)."""
+    for k in range(qs.shape[0]):
+        constraint_bias(qs[k], q_dots[k], P, out[k])
+
+
+class Workspace(NamedTuple):
+    """Scratch arrays of one model's evaluations; ``q[0]`` holds the base configuration (the last
+    accepted one, from which branch following starts) and ``q[1]`` a trial configuration."""
+
+    q: np.ndarray  # (2, N) base and trial configurations
+    s: np.ndarray  # (2,) their singularity measures
+    j_eta: np.ndarray  # (m, N) Jηq
+    lu: np.ndarray  # (m, m) factors of Jηφ
+    piv: np.ndarray  # (m,)
+    eta: np.ndarray  # (m,)
+    j_q_theta: np.ndarray  # (N, n) Jqθ (eq. 31)
+    q_dot: np.ndarray  # (N,)
+    bias_q: np.ndarray  # (N,) J̇qθ θ̇ (eq. 32)
+    gamma: np.ndarray  # (m,) J̇ηq q̇
+    jb: np.ndarray  # (N_JB,) the non-zeros of the bodies' Jacobians
+    bb: np.ndarray  # (n_bodies, 3) bodies' J̇ q̇, then their accelerations at θ̈ = 0
+    jt: np.ndarray  # (n_bodies, 3, n) the bodies' Jacobians times Jqθ
+    m_theta: np.ndarray  # (n, n) Mθ
+    c_theta: np.ndarray  # (n,) cθ = Cθ θ̇
+    g_theta: np.ndarray  # (n,) gθ = ∂V/∂θ
+    theta_ddot: np.ndarray  # (n,)
+    ldl: np.ndarray  # (n, n) factor of Mθ
+    lines: np.ndarray  # (n, 4) the legs' lines of action
+    lu_base: np.ndarray  # (m, m) factors of Jηφ at the base, kept for branch following from it
+    piv_base: np.ndarray  # (m,)
+    j_q_theta_base: np.ndarray  # (N, n) Jqθ at the base
+    base_factored: np.ndarray  # (1,) 1 when the three above are the base's
+
+
+BASE = 0
+TRIAL = 1
+
+
+@njit(**NO_REFCOUNT)
+def singularity_measure(q, P, lines):
+    """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
+
+    With ``u_i`` the unit direction of the line along which leg ``i`` pushes the platform and ``r_i``
+    its attachment point relative to the tracked point (the generated ``leg_lines``):
+
+    * a rigid platform on three legs: ``S = det[u_i, r_i × u_i] / ℓ``, zero when the three lines meet
+      in a point or are parallel (``ℓ`` the mean distance between attachment points). For an
+      equilateral platform this is the paper's eq. (19),
+      ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, ``φ_i`` the angle of ``u_i``;
+    * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align.
+
+    ``lines`` is an (N_ACTUATORS, 4) scratch array.
+    """
+    leg_lines(q, P, lines)
+    for i in range(N_ACTUATORS):
+        norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
+        lines[i, 2] /= norm
+        lines[i, 3] /= norm
+    if N_ACTUATORS == 2:
+        return lines[0, 3] * lines[1, 2] - lines[0, 2] * lines[1, 3]
+    for i in range(3):  # the moment of each line about the tracked point, in place of r_i
+        lines[i, 0] = lines[i, 0] * lines[i, 3] - lines[i, 1] * lines[i, 2]
+    det = (lines[0, 2] * (lines[1, 3] * lines[2, 0] - lines[1, 0] * lines[2, 3])
+           - lines[0, 3] * (lines[1, 2] * lines[2, 0] - lines[1, 0] * lines[2, 2])
+           + lines[0, 0] * (lines[1, 2] * lines[2, 3] - lines[1, 3] * lines[2, 2]))
+    return det / platform_size(P)
+
+
+@njit(cache=True)
+def make_workspace():
+    N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
+    return Workspace(np.zeros((2, N)), np.zeros(2), np.zeros((m, N)), np.zeros((m, m)), np.zeros(m, np.int64),
+                     np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
+                     np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
+                     np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((m, m)),
+                     np.zeros(m, np.int64), np.zeros((N, n)), np.zeros(1, np.int64))
+
+
+@njit(**NO_REFCOUNT)
+def factor_passive(ws, q, P):
+    """``Jηq`` at ``q`` into ``ws.j_eta`` and the LU factors of its passive block ``Jηφ``; returns ok."""
+    constraint_jacobian(q, P, ws.j_eta)
+    ok, _det = lu_factor(ws.j_eta[:, N_ACTUATORS:], ws.lu, ws.piv)
+    return ok
+
+
+@njit(**NO_REFCOUNT)
+def correct_passive(ws, q, P):
+    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` (in place); returns the status."""
+    n = N_ACTUATORS
+    for _ in range(MAX_NEWTON):
+        constraints(q, P, ws.eta)
+        if not factor_passive(ws, q, P):
+            return SINGULAR
+        lu_solve_factored(ws.lu, ws.piv, ws.eta)
+        step = 0.0
+        for i in range(N_CONSTRAINTS):
+            q[n + i] -= ws.eta[i]
+            step = max(step, abs(ws.eta[i]))
+        if step < NEWTON_STEP:
+            return OK
+    return NOT_CONVERGED
+
+
+@njit(**NO_REFCOUNT)
+def keep_base_factors(ws):
+    """The factors just computed (``ws.lu``, ``ws.piv``, ``ws.j_q_theta``) are the base's: keep them for
+    branch following from the base."""
+    for i in range(N_CONSTRAINTS):
+        ws.piv_base[i] = ws.piv[i]
+        for j in range(N_CONSTRAINTS):
+            ws.lu_base[i, j] = ws.lu[i, j]
+    for i in range(N_COORDINATES):
+        for j in range(N_ACTUATORS):
+            ws.j_q_theta_base[i, j] = ws.j_q_theta[i, j]
+    ws.base_factored[0] = 1
+
+
+@njit(**NO_REFCOUNT)
+def follow_branch(ws, theta, P, min_abs_s):
+    """The configuration at actuators ``theta`` continuously connected to the base (paper §3.2), into
+    ``ws.q[TRIAL]``: a first-order predictor along ``Jφθ`` (eq. 15) from the base, then the chord method
+    with the base's ``Jηφ`` (Newton's method if that is slow to converge).
+
+    Fails (``SINGULAR``) when ``|S|`` falls below ``min_abs_s`` or changes sign on the way — the step
+    would have crossed a gain-type singularity into another assembly mode.
+    """
+    n = N_ACTUATORS
+    base = ws.q[BASE]
+    trial = ws.q[TRIAL]
+    if ws.base_factored[0] == 0:
+        if not factor_passive(ws, base, P):
+            return SINGULAR
+        actuated_jacobian_from_lu(ws.j_eta, ws.lu, ws.piv, ws.j_q_theta)
+        keep_base_factors(ws)
+    for i in range(N_COORDINATES):
+        acc = base[i]
+        for j in range(n):
+            acc += ws.j_q_theta_base[i, j] * (theta[j] - base[j])
+        trial[i] = acc
+    for j in range(n):
+        trial[j] = theta[j]
+    status = NOT_CONVERGED
+    for _ in range(MAX_CHORD):
+        constraints(trial, P, ws.eta)
+        lu_solve_factored(ws.lu_base, ws.piv_base, ws.eta)
+        step = 0.0
+        for i in range(N_CONSTRAINTS):
+            trial[n + i] -= ws.eta[i]
+            step = max(step, abs(ws.eta[i]))
+        if step < NEWTON_STEP:
+            status = OK
+            break
+    if status != OK:
+        status = correct_passive(ws, trial, P)
+        if status != OK:
+            return status
+    s = singularity_measure(trial, P, ws.lines)
+    ws.s[TRIAL] = s
+    if abs(s) < min_abs_s or s * ws.s[BASE] < 0.0:
+        return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def accept_trial(ws):
+    """The trial configuration becomes the base."""
+    for i in range(N_COORDINATES):
+        ws.q[BASE, i] = ws.q[TRIAL, i]
+    ws.s[BASE] = ws.s[TRIAL]
+    ws.base_factored[0] = 0
+
+
+@njit(**NO_REFCOUNT)
+def set_base(ws, q, P):
+    """Start branch following from the configuration ``q`` (on the constraint manifold)."""
+    for i in range(N_COORDINATES):
+        ws.q[BASE, i] = q[i]
+    ws.s[BASE] = singularity_measure(q, P, ws.lines)
+    ws.base_factored[0] = 0
+
+
+@njit(**NO_REFCOUNT)
+def actuator_space_model(ws, q, theta_dot, P):
+    """``Mθ``, ``cθ = Cθ θ̇`` and ``gθ = ∂V/∂θ`` of ``Mθ θ̈ + cθ + gθ = τ`` (eq. 35, with gravity) at ``q``
+    on the manifold, into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok (``det Jηφ ≠ 0``).
+
+    Body by body, with ``Jt = J_b Jqθ`` the body's velocity per actuator rate and
+    ``a_b = J_b J̇qθ θ̇ + J̇_b q̇`` its acceleration at ``θ̈ = 0``:
+    ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``).
+    """
+    n, N = N_ACTUATORS, N_COORDINATES
+    if not factor_passive(ws, q, P):
+        return False
+    actuated_jacobian_from_lu(ws.j_eta, ws.lu, ws.piv, ws.j_q_theta)
+    for i in range(N):
+        acc = 0.0
+        for j in range(n):
+            acc += ws.j_q_theta[i, j] * theta_dot[j]
+        ws.q_dot[i] = acc
+    constraint_bias(q, ws.q_dot, P, ws.gamma)
+    for k in range(N_CONSTRAINTS):  # φ̈ at θ̈ = 0: -Jηφ⁻¹ J̇ηq q̇ (eq. 32)
+        ws.gamma[k] = -ws.gamma[k]
+    lu_solve_factored(ws.lu, ws.piv, ws.gamma)
+    for i in range(n):
+        ws.bias_q[i] = 0.0
+    for k in range(N_CONSTRAINTS):
+        ws.bias_q[n + k] = ws.gamma[k]
+    body_jacobian_values(q, P, ws.jb)
+    body_bias(q, ws.q_dot, P, ws.bb)
+    for b in range(N_BODIES):
+        for r in range(3):
+            for j in range(n):
+                ws.jt[b, r, j] = 0.0
+    for z in range(N_JB):  # Jt = J_b Jqθ and a_b += J_b J̇qθ θ̇ over the non-zeros of J_b only
+        b, r, k, v = JB_BODY[z], JB_ROW[z], JB_COL[z], ws.jb[z]
+        for j in range(n):
+            ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
+        ws.bb[b, r] += v * ws.bias_q[k]
+    gx, gy = P[GRAVITY_INDEX[0]], P[GRAVITY_INDEX[1]]
+    for i in range(n):
+        ws.c_theta[i] = 0.0
+        ws.g_theta[i] = 0.0
+        for j in range(n):
+            ws.m_theta[i, j] = 0.0
+    for b in range(N_BODIES):
+        mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+        for r in range(3):
+            w = inertia if r == 2 else mass
+            for i in range(n):
+                wi = w * ws.jt[b, r, i]
+                ws.c_theta[i] += wi * ws.bb[b, r]
+                for j in range(i, n):
+                    ws.m_theta[i, j] += wi * ws.jt[b, r, j]
+        for i in range(n):
+            ws.g_theta[i] -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
+    for i in range(n):
+        for j in range(i):
+            ws.m_theta[i, j] = ws.m_theta[j, i]
+    return True
+
+
+@njit(**NO_REFCOUNT)
+def solve_accelerations(ws, tau):
+    """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model`."""
+    for i in range(N_ACTUATORS):
+        ws.theta_ddot[i] = tau[i] - ws.c_theta[i] - ws.g_theta[i]
+    return ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot)
+
+
+@njit(**NO_REFCOUNT)
+def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
+    """``θ̈`` of the reduced plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
+
+    ``slot = BASE``: ``θ`` is the base's own; otherwise the passive coordinates are first found by
+    branch following from the base.
+    """
+    if slot != BASE:
+        status = follow_branch(ws, theta, P, min_abs_s)
+        if status != OK:
+            return status
+    if not actuator_space_model(ws, ws.q[slot], theta_dot, P):
+        return SINGULAR
+    if slot == BASE:
+        keep_base_factors(ws)
+    if not solve_accelerations(ws, tau):
+        return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def actuator_error(theta, theta_d, i):
+    """``θ_i - θ_d,i``, wrapped to ``(-π, π]`` for an angle (a revolute actuator)."""
+    e = theta[i] - theta_d[i]
+    if ANGLES[i]:
+        e = (e + np.pi) % (2.0 * np.pi) - np.pi
+    return e
+
+
+@njit(**NO_REFCOUNT)
+def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws, tau):
+    """Efforts ``τ`` of one controller evaluation into ``tau``; returns the status.
+
+    ``kind = 0``, computed torque (eqs. 36–39 with gravity): ``τ = M̂θ v + ĉθ + ĝθ``,
+    ``v = θ̈_d - kp e - kv ė``, with the controller's own model (parameters ``P``, workspace ``ws``),
+    whose passive coordinates follow the measured ``θ`` by branch following (paper figure 2).
+    ``kind = 1``, PD: ``τ = -kp e - kv ė``.
+    """
+    n = N_ACTUATORS
+    if kind == 1:
+        for i in range(n):
+            tau[i] = -kp * actuator_error(theta, theta_d, i) - kv * (theta_dot[i] - theta_dot_d[i])
+        return OK
+    status = follow_branch(ws, theta, P, min_abs_s)
+    if status != OK:
+        return status
+    accept_trial(ws)
+    if not actuator_space_model(ws, ws.q[BASE], theta_dot, P):
+        return SINGULAR
+    keep_base_factors(ws)
+    for i in range(n):  # v, kept in theta_ddot
+        ws.theta_ddot[i] = (theta_ddot_d[i] - kp * actuator_error(theta, theta_d, i)
+                            - kv * (theta_dot[i] - theta_dot_d[i]))
+    for i in range(n):
+        acc = ws.c_theta[i] + ws.g_theta[i]
+        for j in range(n):
+            acc += ws.m_theta[i, j] * ws.theta_ddot[j]
+        tau[i] = acc
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work):
+    """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
+
+    ``x`` (2n,) = ``(θ, θ̇)`` is updated in place and the base configuration moved along; stages
+    find their passive coordinates by branch following from the start of the step. ``work`` is a
+    (5, 2n) scratch array. Returns the status.
+    """
+    n = N_ACTUATORS
+    h = dt / n_sub
+    k = work[:4]
+    y = work[4]
+    for _ in range(n_sub):
+        for stage in range(4):
+            c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
+            for i in range(2 * n):
+                y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
+            status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE if stage == 0 else TRIAL)
+            if status != OK:
+                return status
+            for i in range(n):
+                k[stage, i] = y[n + i]
+                k[stage, n + i] = ws.theta_ddot[i]
+        for i in range(2 * n):
+            x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+        status = follow_branch(ws, x[:n], P, min_abs_s)
+        if status != OK:
+            return status
+        accept_trial(ws)
+    return OK
+
+
+@njit(cache=True)
+def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
+                      kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
+    """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
+    returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
+    own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, efforts and ``S``."""
+    n = N_ACTUATORS
+    plant, ctrl = make_workspace(), make_workspace()
+    set_base(plant, q_plant0, P_plant)
+    set_base(ctrl, q_ctrl0, P_ctrl)
+    x = np.zeros(2 * n)
+    for i in range(n):
+        x[i] = q_plant0[i]
+    work = np.empty((5, 2 * n))
+    tau = np.zeros(n)
+    for k in range(theta_d.shape[0]):
+        out_q[k] = plant.q[BASE]
+        out_s[k] = plant.s[BASE]
+        out_theta_dot[k] = x[n:]
+        status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
+                                min_abs_s, ctrl, tau)
+        if status != OK:
+            return CONTROLLER + status, k
+        out_tau[k] = tau
+        if k == theta_d.shape[0] - 1:
+            break
+        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work)
+        if status != OK:
+            return status, k
+    return OK, -1
+
+
+@njit(cache=True, parallel=True)
+def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind,
+                       kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s, out_status, out_k):
+    """:func:`sampled_data_loop` for a batch of runs (leading axis) over the CPU cores; each run executes
+    exactly the code of a single run."""
+    for r in prange(theta_d.shape[0]):
+        status, k = sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
+                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], min_abs_s[r],
+                                      out_q[r], out_theta_dot[r], out_tau[r], out_s[r])
+        out_status[r] = status
+        out_k[r] = k
+
+
+@njit(cache=True)
+def reduced_rhs(ws, y, tau, P, min_abs_s):
+    """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` for an adaptive integrator (continuous-time
+    control); the passive coordinates follow from the base, which then moves there. Returns
+    ``(ẏ, status)``."""
+    n = N_ACTUATORS
+    out = np.empty(2 * n)
+    status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, TRIAL)
+    if status == OK:
+        accept_trial(ws)
+        keep_base_factors(ws)  # the stage's factors are the new base's
+        out[:n] = y[n:]
+        out[n:] = ws.theta_ddot
+    return out, status

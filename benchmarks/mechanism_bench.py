@@ -1,0 +1,118 @@
+"""Benchmarks per described mechanism (rows of ``make bench``, after the 3-RRR's own rows).
+
+For each preset — the paper's 3-RRR through the generic pipeline (its description's generated
+kernels and :mod:`pkmlab.machine_core`'s compiled loop), the five-bar, the 3-RPR and the 3-PRR:
+
+* forward kinematics, every assembly mode (:func:`pkmlab.mechanism_model.forward_kinematics`,
+  once per actuator vector, at actuators of random reachable poses): solves per second;
+* one evaluation of the actuator-space model ``(Mθ, cθ, gθ)``: the compiled kernel called from
+  Python once per state, and the public NumPy-level function;
+* the default run in-process (``simulate`` of the example scenario, or for the 3-RRR the paper's
+  nominal case through the generic pipeline), its compiled loop alone, and the loop's time per
+  sample against the 3-RRR's own loop per sample measured in the same run.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+import pkmlab
+from pkmlab import mechanism_model as mm
+from pkmlab.scenario_io import load_scenario
+from pkmlab.simulation import Scenario, _prepare, simulate
+from pkmlab.trajectory import paper_trajectory
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEFAULT_RUNS = {"paper": None, "five_bar": "five_bar_circle.toml", "3rpr": "3rpr_circle.toml",
+                "3prr": "3prr_circle.toml"}
+
+
+def _scenario(name: str) -> Scenario:
+    if DEFAULT_RUNS[name] is None:
+        return Scenario(mm.MechanismModel.from_preset("paper"), paper_trajectory(0.2), name="paper nominal")
+    return load_scenario(EXAMPLES / DEFAULT_RUNS[name])
+
+
+def _actuator_samples(model, scenario: Scenario, count: int, rng) -> list[np.ndarray]:
+    """Actuators of random poses near the default run's path, reachable in its working mode."""
+    prep = _prepare(scenario)
+    out = []
+    while len(out) < count:
+        k = int(rng.integers(prep.t.size))
+        pose = prep.desired.pose[k] + rng.normal(0.0, 0.01, prep.desired.pose.shape[1])
+        try:
+            out.append(mm.inverse_kinematics(model, pose, prep.mode)[:model.n_actuators])
+        except pkmlab.errors.PkmlabError:
+            continue
+    return out
+
+
+def _dynamics_calls(kernels, ws, model, q, rates):
+    return [kernels.actuator_space_model(ws, qq, w, model.P) for qq, w in zip(q, rates, strict=True)]
+
+
+def _rows_for(h, name: str, repeats: int, rng, rrr3_loop_per_sample_s: float | None) -> tuple[list[dict], dict]:
+    scenario = _scenario(name)
+    model = scenario.model
+    label = f"{name} ({model.description.notation})"
+    rows = []
+    seconds, result = h.time_once(lambda: simulate(scenario))
+    rows.append(h.first_call_row(f"mech_{name}_first_run", f"{label}: first default run in this process", seconds))
+    actuators = _actuator_samples(model, scenario, 20 if repeats < 5 else 200, rng)
+    times, _ = h.time_runs(lambda: [mm.forward_kinematics(model, t) for t in actuators], repeats)
+    rows.append(h.rate_row(f"mech_{name}_fk", f"{label}: forward kinematics, every assembly mode", times,
+                           len(actuators), "solve", compare=False))
+    stride = max(1, result.q.shape[0] // 100)
+    q, rates = result.q[::stride], result.theta_dot[::stride]
+    k = model.kernels
+    ws = k.make_workspace()
+    times, _ = h.time_runs(lambda: _dynamics_calls(k, ws, model, q, rates), repeats)
+    rows.append(h.rate_row(f"mech_{name}_dynamics_kernel", f"{label}: (Mθ, cθ, gθ), compiled kernel per call",
+                           times, len(q), "state", compare=False))
+    times, _ = h.time_runs(lambda: [mm.actuator_space_model(model, qq, w) for qq, w in zip(q, rates, strict=True)],
+                           repeats)
+    rows.append(h.rate_row(f"mech_{name}_dynamics_api", f"{label}: (Mθ, cθ, gθ), mechanism_model API per call",
+                           times, len(q), "state", compare=False))
+    times, _ = h.time_runs(lambda: simulate(scenario), repeats)
+    samples = result.t.size
+    rows.append(h.rate_row(f"mech_{name}_run", f"{label}: default run, simulate() in-process ({samples} samples)",
+                           times, 1, "run", compare=False))
+    prep = _prepare(scenario)
+    d = prep.desired
+    n, N = model.n_actuators, len(prep.q_ctrl0)
+
+    def loop():
+        return k.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot, d.theta_ddot,
+                                   prep.q_plant0, prep.q_ctrl0, scenario.plant_model.P, model.P, prep.kind, prep.kp,
+                                   prep.kv, prep.guard, np.zeros((samples, N)), np.zeros((samples, n)),
+                                   np.zeros((samples, n)), np.zeros(samples))
+
+    times, _ = h.time_runs(loop, repeats)
+    rows.append(h.rate_row(f"mech_{name}_loop", f"{label}: compiled sampled-data loop only", times, samples - 1,
+                           "sample", compare=False))
+    per_sample = float(np.median(times)) / (samples - 1)
+    summary = result.summary()
+    checks = {"samples": samples, "loop_per_sample_us": per_sample * 1e6,
+              "max_path_error_m": summary["max_path_error_m"], "peak_effort": summary["peak_effort"]}
+    if rrr3_loop_per_sample_s:
+        ratio = per_sample / rrr3_loop_per_sample_s
+        checks["loop_per_sample_vs_3rrr_own_loop"] = ratio
+        rows.append(h.metric_row(f"mech_{name}_loop_ratio", f"{label}: loop per sample / the 3-RRR's own loop "
+                                 "per sample", ratio, "x"))
+    return rows, checks
+
+
+def mechanism_rows(h, quick: bool, rrr3_loop_per_sample_s: float | None) -> tuple[list[dict], dict]:
+    """Rows per mechanism; ``rrr3_loop_per_sample_s`` is the 3-RRR's own loop per sample in this run."""
+    rng = np.random.default_rng(7)
+    rows: list[dict] = [h.section_row("every mechanism (generated kernels, one compiled core)")]
+    checks: dict = {}
+    for name in DEFAULT_RUNS:
+        more, checks[name] = _rows_for(h, name, 3 if quick else 7, rng, rrr3_loop_per_sample_s)
+        rows += more
+    if not all(math.isfinite(c["max_path_error_m"]) for c in checks.values()):
+        raise AssertionError("a default run did not finish")
+    return rows, checks
