@@ -5,8 +5,8 @@ kernels and :mod:`pkmlab.machine_core`'s compiled loop), the five-bar, the 3-RPR
 
 * forward kinematics, every assembly mode (:func:`pkmlab.mechanism_model.forward_kinematics`,
   once per actuator vector, at actuators of random reachable poses): solves per second;
-* one evaluation of the actuator-space model ``(Mθ, cθ, gθ)``: the compiled kernel called from
-  Python once per state, and the public NumPy-level function;
+* one evaluation of the actuator-space model ``(Mθ, cθ, gθ)``: the compiled core over a batch of
+  states, and the public function once per state;
 * the default run in-process (``simulate`` of the example scenario, or for the 3-RRR the paper's
   nominal case through the generic pipeline), its compiled loop alone, and the loop's time per
   sample against the 3-RRR's own loop per sample measured in the same run.
@@ -50,10 +50,6 @@ def _actuator_samples(model, scenario: Scenario, count: int, rng) -> list[np.nda
     return out
 
 
-def _dynamics_calls(kernels, ws, model, q, rates):
-    return [kernels.actuator_space_model(ws, qq, w, model.P) for qq, w in zip(q, rates, strict=True)]
-
-
 def _rows_for(h, name: str, repeats: int, rng, rrr3_loop_per_sample_s: float | None) -> tuple[list[dict], dict]:
     scenario = _scenario(name)
     model = scenario.model
@@ -68,9 +64,11 @@ def _rows_for(h, name: str, repeats: int, rng, rrr3_loop_per_sample_s: float | N
     stride = max(1, result.q.shape[0] // 100)
     q, rates = result.q[::stride], result.theta_dot[::stride]
     k = model.kernels
-    ws = k.make_workspace()
-    times, _ = h.time_runs(lambda: _dynamics_calls(k, ws, model, q, rates), repeats)
-    rows.append(h.rate_row(f"mech_{name}_dynamics_kernel", f"{label}: (Mθ, cθ, gθ), compiled kernel per call",
+    q, rates = np.ascontiguousarray(q), np.ascontiguousarray(rates)
+    n = model.n_actuators
+    out = (np.empty((len(q), n, n)), np.empty((len(q), n)), np.empty((len(q), n)))
+    times, _ = h.time_runs(lambda: k.actuator_space_models(q, rates, model.P, *out), repeats)
+    rows.append(h.rate_row(f"mech_{name}_dynamics_kernel", f"{label}: (Mθ, cθ, gθ), compiled core over a batch",
                            times, len(q), "state", compare=False))
     times, _ = h.time_runs(lambda: [mm.actuator_space_model(model, qq, w) for qq, w in zip(q, rates, strict=True)],
                            repeats)
@@ -82,7 +80,7 @@ def _rows_for(h, name: str, repeats: int, rng, rrr3_loop_per_sample_s: float | N
                            times, 1, "run", compare=False))
     prep = _prepare(scenario)
     d = prep.desired
-    n, N = model.n_actuators, len(prep.q_ctrl0)
+    N = len(prep.q_ctrl0)
 
     def loop():
         return k.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot, d.theta_ddot,

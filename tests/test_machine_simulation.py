@@ -259,3 +259,40 @@ def test_a_machine_of_a_new_structure_is_generated_and_controlled(tmp_path):
     result = simulate(scenario)
     summary = result.summary()
     assert summary["max_path_error_m"] < 1e-4 and len(summary["working_mode"]) == 2
+
+
+@pytest.mark.parametrize("name", list(EXAMPLES))
+def test_desired_actuator_rates_match_differences_of_inverse_kinematics(name):
+    from pkmlab.mechanism_model import inverse_kinematics, path_rates
+
+    _file, circle, speed = EXAMPLES[name]
+    trajectory = Trajectory(circle, speed, "cubic")
+    model = MechanismModel.from_preset(name)
+    mode = simulate(Scenario(model, trajectory)).working_mode
+    dof, n, h = model.description.dof, model.n_actuators, 1e-4
+    for t in np.linspace(0.1, trajectory.duration - 0.1, 5):
+        pose, pose_dot, pose_ddot = (np.asarray(a)[:, :dof] for a in trajectory.desired([t - h, t, t + h]))
+        theta = np.array([inverse_kinematics(model, p, mode)[:n] for p in pose])
+        q = inverse_kinematics(model, pose[1], mode)[None, :]
+        rate, acceleration, k = path_rates(model, q, pose_dot[1:2], pose_ddot[1:2])
+        assert k == -1
+        np.testing.assert_allclose(rate[0], (theta[2] - theta[0]) / (2 * h), rtol=1e-6, atol=1e-8)
+        np.testing.assert_allclose(acceleration[0], (theta[2] - 2 * theta[1] + theta[0]) / h**2, rtol=1e-4,
+                                   atol=1e-4)
+
+
+def test_a_platform_that_can_be_assembled_nowhere_is_refused_naming_the_leg():
+    import dataclasses
+
+    from pkmlab.mechanisms.description import Body
+    from pkmlab.mechanisms.presets import preset
+
+    paper = preset("paper")
+    tiny = (Body((0.05, 0.0), 0.1, (0.025, 0.0), 1e-4), Body((0.05, 0.0), 0.1, (0.025, 0.0), 1e-4))
+    short = dataclasses.replace(paper, legs=tuple(dataclasses.replace(leg, bodies=tiny) for leg in paper.legs))
+    with pytest.raises(InvalidParameterError, match=r"assembled nowhere: leg 2 reaches .* together with legs 1\.\.1"):
+        MechanismModel.from_description(short)
+    # one leg too far away is enough: the two others reach together, the third cannot join them
+    legs = (*paper.legs[:2], dataclasses.replace(paper.legs[2], base=(0.26, 2.0)))
+    with pytest.raises(InvalidParameterError, match=r"leg 3 reaches .* together with legs 1\.\.2"):
+        MechanismModel.from_description(dataclasses.replace(paper, legs=legs))

@@ -68,7 +68,8 @@ def test_reduced_model_equals_the_full_multiplier_model(name):
     heavy = mm.MechanismModel.from_description(dataclasses.replace(model.description, gravity=(0.0, -9.81)))
     rng = np.random.default_rng(2)
     for m in (model, heavy):
-        _j, j_q_theta = mm._actuated_jacobian(m, q)
+        j, n = mm.constraint_jacobian(m, q), m.n_actuators
+        j_q_theta = np.vstack([np.eye(n), -np.linalg.solve(j[:, n:], j[:, :n])])  # eqs. (15), (31)
         for _ in range(5):
             theta_dot, tau = rng.normal(size=m.n_actuators), rng.normal(size=m.n_actuators)
             m_theta, c_theta, g_theta = mm.actuator_space_model(m, q, theta_dot)
@@ -91,7 +92,10 @@ def test_gravity_is_the_gradient_of_the_potential_energy(name):
     h = 1e-6
     fd = np.array([(potential(q + h * e) - potential(q - h * e)) / (2 * h) for e in np.eye(len(q))])
     np.testing.assert_allclose(mm.gravity_vector(heavy, q), fd, atol=1e-7)
-    _j, j_q_theta = mm._actuated_jacobian(heavy, q)
+    # gθ = Jqθᵀ ∂V/∂q, with Jqθ = [I; -Jηφ⁻¹ Jηθ] (eqs. 15, 31) from the constraint Jacobian
+    n = heavy.n_actuators
+    j = mm.constraint_jacobian(heavy, q)
+    j_q_theta = np.vstack([np.eye(n), -np.linalg.solve(j[:, n:], j[:, :n])])
     np.testing.assert_allclose(mm.actuator_space_model(heavy, q, np.zeros(heavy.n_actuators))[2], j_q_theta.T @ fd,
                                atol=1e-7)
 

@@ -1,16 +1,19 @@
 """Any described mechanism bound to its generated kernels, and its dynamics — written once.
 
 A :class:`MechanismModel` is the immutable pair (description, packed parameters) plus the
-compiled kernels generated for its structure (:mod:`pkmlab.derivations.planar`): the same role as
-:class:`~pkmlab.geometry.Planar3RRR` plays for the paper's 3-RRR, for every mechanism. The
-functions below are the paper's formulation applied to it through the mechanism-agnostic
-algebra of :mod:`pkmlab.closed_chain` and :mod:`pkmlab.lagrangian`:
+compiled kernels generated for its structure (:mod:`pkmlab.derivations.planar`), which carry the
+compiled core of :mod:`pkmlab.machine_core`: the same role as :class:`~pkmlab.geometry.Planar3RRR`
+plays for the paper's 3-RRR, for every mechanism. The functions below are the paper's formulation
+applied to it:
 
-* the constrained Lagrangian model in the full coordinates ``q`` (eqs. 20–26) with gravity:
-  ``M(q) q̈ + C(q, q̇) q̇ + g(q) = τ + Jηqᵀ λ``;
-* its exact reduction to the actuator space (eq. 35, with gravity):
-  ``Mθ θ̈ + cθ + gθ = τθ``, ``Mθ = Jqθᵀ M Jqθ``, ``cθ = Jqθᵀ (M J̇qθ θ̇ + C q̇)``,
-  ``gθ = Jqθᵀ g = ∂V/∂θ``.
+* the constrained Lagrangian model in the full coordinates ``q`` (eqs. 20–26) with gravity,
+  ``M(q) q̈ + C(q, q̇) q̇ + g(q) = τ + Jηqᵀ λ``, through the mechanism-agnostic algebra of
+  :mod:`pkmlab.lagrangian` — the independent cross-check;
+* its exact reduction to the actuator space (eq. 35, with gravity), ``Mθ θ̈ + cθ + gθ = τθ``,
+  ``Mθ = Jqθᵀ M Jqθ``, ``cθ = Jqθᵀ (M J̇qθ θ̇ + C q̇)``, ``gθ = Jqθᵀ g = ∂V/∂θ``, computed body by body
+  by the compiled core (what the simulation evaluates);
+* inverse kinematics in every working mode, forward kinematics with every assembly mode, branch
+  following, the singularity measure, and the kinematics of a path.
 
 Coordinates are those of the generated kernels: ``q = (actuators, passive joints, pose)``.
 """
@@ -24,7 +27,7 @@ from types import ModuleType
 
 import numpy as np
 
-from . import closed_chain, lagrangian
+from . import lagrangian
 from .derivations import planar
 from .errors import InvalidParameterError, SingularityError
 from .mechanisms.description import Mechanism
@@ -55,7 +58,9 @@ class MechanismModel:
             kernels = _user_structure_kernels(description)
         P = planar.pack(description)
         P.setflags(write=False)
-        return cls(description, P, kernels)
+        model = cls(description, P, kernels)
+        _check_assembly(model)
+        return model
 
     @classmethod
     def from_preset(cls, name: str) -> MechanismModel:
@@ -75,6 +80,46 @@ class MechanismModel:
         rows = [(b.mass, b.mass, b.inertia) for leg in self.description.legs for b in leg.bodies]
         platform = self.description.platform
         return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
+
+
+#: Grid of the assembly check: positions per axis over the machine's region, and orientations.
+ASSEMBLY_GRID = (81, 24)
+
+
+def _check_assembly(model: MechanismModel) -> None:
+    """Refuse a machine whose platform can be assembled nowhere: no pose on a grid over its region
+    (:func:`~pkmlab.analysis.default_extent`, every orientation) where every leg reaches its attachment
+    point in some working mode, within its stroke. Names the first leg that cannot join the others."""
+    from .analysis import default_extent
+    from .mechanisms.leg_types import leg_inverse_kinematics_batch
+    from .mechanisms.leg_types import working_modes as leg_modes
+
+    m = model.description
+    (x0, x1), (y0, y1) = default_extent(model)
+    count, turns = ASSEMBLY_GRID
+    x, y = (a.ravel() for a in np.meshgrid(np.linspace(x0, x1, count), np.linspace(y0, y1, count)))
+    furthest = 0  # the most legs joined at one pose, over the orientations tried
+    # one orientation at a time: a machine that can be assembled is found so in the first one, usually
+    for alpha in (np.linspace(-np.pi, np.pi, turns, endpoint=False) if m.dof == 3 else (0.0,)):
+        c, s = np.cos(alpha), np.sin(alpha)
+        together = np.ones(x.size, dtype=bool)
+        for i, leg in enumerate(m.legs):
+            ax, ay = m.platform.attachments[i] if m.platform.kind == "rigid" else (0.0, 0.0)
+            points = np.column_stack([x + c * ax - s * ay, y + s * ax + c * ay])
+            reached = np.zeros(x.size, dtype=bool)
+            for sigma in leg_modes(leg) or (1,):
+                reached |= ~leg_inverse_kinematics_batch(leg, i, points, sigma).bad
+            together &= reached
+            if not together.any():
+                furthest = max(furthest, i)
+                break
+        else:
+            return
+    others = f" together with legs 1..{furthest}" if furthest > 0 else ""
+    raise InvalidParameterError(
+        f"{m.name}: the platform can be assembled nowhere: leg {furthest + 1} reaches its attachment point{others} "
+        f"at no pose with x in [{x0:.3g}, {x1:.3g}] m, y in [{y0:.3g}, {y1:.3g}] m and any orientation "
+        "(check the legs' lengths, strokes, bases and attachment points)")
 
 
 def _user_structure_kernels(description: Mechanism) -> ModuleType:
@@ -163,14 +208,6 @@ def full_space_model(model: MechanismModel, q, q_dot) -> tuple[np.ndarray, np.nd
     return lagrangian.mass_matrix(J, D), lagrangian.velocity_product(J, D, bias), _gravity(model, J)
 
 
-def _actuated_jacobian(model: MechanismModel, q) -> tuple[np.ndarray, np.ndarray]:
-    j_eta_q = constraint_jacobian(model, q)
-    j_q_theta, ok = closed_chain.actuated_jacobian(j_eta_q, model.n_actuators)
-    if not ok:
-        raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
-    return j_eta_q, j_q_theta
-
-
 def actuator_space_model(model: MechanismModel, q, theta_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(Mθ, cθ, gθ)`` of ``Mθ θ̈ + cθ + gθ = τθ`` (eq. 35, with gravity) at a configuration ``q`` on
     the loop-closure manifold and actuator rates ``θ̇``."""
@@ -179,16 +216,12 @@ def actuator_space_model(model: MechanismModel, q, theta_dot) -> tuple[np.ndarra
     if theta_dot.shape != (model.n_actuators,):
         raise InvalidParameterError(f"theta_dot must be {model.n_actuators} actuator rates, got shape "
                                     f"{theta_dot.shape}")
-    _j_eta_q, j_q_theta = _actuated_jacobian(model, q)
-    q_dot = j_q_theta @ theta_dot
-    k, na = model.kernels, model.n_actuators
-    gamma = _evaluate(k.constraint_bias, (k.N_CONSTRAINTS,), q, q_dot, model.P)
-    # J̇qθ θ̇ = [0; -Jηφ⁻¹ J̇ηq q̇] (eq. 32)
-    bias_q = np.zeros(len(q))
-    bias_q[na:] = -np.linalg.solve(_j_eta_q[:, na:], gamma)
-    M, h, g = full_space_model(model, q, q_dot)
-    m_theta = j_q_theta.T @ M @ j_q_theta
-    return 0.5 * (m_theta + m_theta.T), j_q_theta.T @ (M @ bias_q + h), j_q_theta.T @ g
+    n = model.n_actuators
+    m_theta, c_theta, g_theta = np.empty((1, n, n)), np.empty((1, n)), np.empty((1, n))
+    # the compiled core's (pkmlab.machine_core.actuator_space_model): the simulation's own numbers
+    if model.kernels.actuator_space_models(q[None, :], theta_dot[None, :], model.P, m_theta, c_theta, g_theta) >= 0:
+        raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
+    return m_theta[0], c_theta[0], g_theta[0]
 
 
 def constrained_accelerations(model: MechanismModel, q, q_dot, tau) -> tuple[np.ndarray, np.ndarray]:

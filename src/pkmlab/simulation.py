@@ -746,13 +746,10 @@ def _mass_matrices(model, qs: np.ndarray) -> np.ndarray:
         from .dynamics import actuator_space_model
 
         return actuator_space_model(model, qs, np.zeros(3))[0]
-    k_ = model.kernels
-    ws, zeros = k_.make_workspace(), np.zeros(model.n_actuators)
-    out = np.empty((qs.shape[0], model.n_actuators, model.n_actuators))
-    for k, q in enumerate(qs):
-        if not k_.actuator_space_model(ws, q, zeros, model.P):
-            raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
-        out[k] = ws.m_theta
+    n, count = model.n_actuators, qs.shape[0]
+    out, c, g = np.empty((count, n, n)), np.empty((count, n)), np.empty((count, n))
+    if model.kernels.actuator_space_models(np.ascontiguousarray(qs), np.zeros((count, n)), model.P, out, c, g) >= 0:
+        raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
     return out
 
 

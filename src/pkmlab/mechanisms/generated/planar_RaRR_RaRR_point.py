@@ -686,6 +686,20 @@ def actuator_space_model(ws, q, theta_dot, P):
     return True
 
 
+@njit(cache=True)
+def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
+    """:func:`actuator_space_model` of every configuration ``qs`` (K, N) and rates ``theta_dots`` (K, n) into
+    ``m_out`` (K, n, n), ``c_out`` and ``g_out`` (K, n); returns the first singular one's index, or -1."""
+    ws = make_workspace()
+    for k in range(qs.shape[0]):
+        if not actuator_space_model(ws, qs[k], theta_dots[k], P):
+            return k
+        m_out[k] = ws.m_theta
+        c_out[k] = ws.c_theta
+        g_out[k] = ws.g_theta
+    return -1
+
+
 @njit(**NO_REFCOUNT)
 def solve_accelerations(ws, tau):
     """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model`."""
