@@ -296,3 +296,10 @@ def test_a_platform_that_can_be_assembled_nowhere_is_refused_naming_the_leg():
     legs = (*paper.legs[:2], dataclasses.replace(paper.legs[2], base=(0.26, 2.0)))
     with pytest.raises(InvalidParameterError, match=r"leg 3 reaches .* together with legs 1\.\.2"):
         MechanismModel.from_description(dataclasses.replace(paper, legs=legs))
+
+
+def test_an_orientation_asked_of_a_point_is_refused_not_ignored():
+    data = {"mechanism": {"preset": "five_bar"},
+            "trajectory": {"type": "circle", "center": [0.0, 0.35], "radius": 0.06, "speed": 0.3, "alpha": 0.3}}
+    with pytest.raises(InvalidParameterError, match=r"tracks a point \(x, y\).*alpha = 0\.3 rad at t = 0\.0000 s"):
+        simulate(scenario_from_dict(data, "tilted.toml"))

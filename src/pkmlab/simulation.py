@@ -667,8 +667,13 @@ def _machine_joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray
     from .trajectory import JointMotion
 
     dof = model.description.dof
-    pose, pose_dot, pose_ddot = (np.ascontiguousarray(np.asarray(a, dtype=float)[:, :dof])
-                                 for a in trajectory.desired(t))
+    full = [np.asarray(a, dtype=float) for a in trajectory.desired(t)]
+    if dof == 2 and np.any(full[0][:, 2] != 0.0):  # a point has no orientation to track: never ignore one
+        k = int(np.argmax(full[0][:, 2] != 0.0))
+        raise InvalidParameterError(f"{model.description.name} tracks a point (x, y), but the trajectory asks for the "
+                                    f"orientation alpha = {full[0][k, 2]:.4g} rad at t = {t[k]:.4f} s: remove alpha "
+                                    "from the trajectory")
+    pose, pose_dot, pose_ddot = (np.ascontiguousarray(a[:, :dof]) for a in full)
     q, _s, failure = path_inverse_kinematics(model, pose, mode)
     if failure is not None:
         k, exc = failure

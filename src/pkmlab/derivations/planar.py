@@ -16,7 +16,13 @@ part of the passive set, so every leg closes on the platform by two equations):
   ``(x, y, angle)``, its Jacobian ``J_b = ∂(x, y, angle)/∂q`` (rows: linear velocity, angular
   velocity) and the bias ``J̇_b q̇`` — everything the constrained Lagrangian model (paper eqs.
   20–26) and its reduction to the actuator space (eq. 35) are built from, written once, for any
-  mechanism.
+  mechanism;
+* the legs' lines of action (for the singularity measure), every joint's position (for drawing)
+  and the structural non-zeros of the body Jacobians.
+
+The generated module then carries the compiled core of :mod:`pkmlab.machine_core` (branch
+following, actuator-space dynamics, control, the sampled-data loop), appended as text so that it
+is compiled against this structure's kernels.
 
 Only the *structure* of the mechanism (its legs' joints and its platform's kind) enters the
 code; every number (base points, tips, mass centres, masses, inertias, attachment points,

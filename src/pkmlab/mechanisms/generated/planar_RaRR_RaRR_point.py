@@ -587,6 +587,7 @@ def follow_branch(ws, theta, P, min_abs_s):
     for j in range(n):
         trial[j] = theta[j]
     status = NOT_CONVERGED
+    previous = np.inf
     for _ in range(MAX_CHORD):
         constraints(trial, P, ws.eta)
         lu_solve_factored(ws.lu_base, ws.piv_base, ws.eta)
@@ -594,9 +595,13 @@ def follow_branch(ws, theta, P, min_abs_s):
         for i in range(N_CONSTRAINTS):
             trial[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
-        if step < NEWTON_STEP:
+        # the chord method converges linearly with the ratio of successive steps, r: what remains after
+        # this step is at most step r / (1 - r)
+        ratio = step / previous  # 0 at the first step: no estimate yet
+        if step < NEWTON_STEP or (0.0 < ratio < 0.5 and step * ratio < 0.5 * NEWTON_STEP):
             status = OK
             break
+        previous = step
     if status != OK:
         status = correct_passive(ws, trial, P)
         if status != OK:
