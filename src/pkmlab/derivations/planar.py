@@ -219,6 +219,11 @@ def generate_source(mechanism: Mechanism) -> str:
     unpack_qd = [f"{sym} = qd[{k}]" for k, sym in enumerate(qd)]
     unpack_p = [f"{name} = P[{k}]" for k, name in enumerate(parameter_names(mechanism))]
     j_eta, b_eta = _jacobian_and_bias(d["eta"], q, qd)
+    # the compiled core eliminates x and y with the unit pivots every leg's two equations have
+    x_col = nq - mechanism.dof
+    for i in range(len(mechanism.legs)):
+        assert (j_eta[2 * i, x_col], j_eta[2 * i, x_col + 1]) == (-1, 0), "x-row of a leg: d/dx = -1, d/dy = 0"
+        assert (j_eta[2 * i + 1, x_col], j_eta[2 * i + 1, x_col + 1]) == (0, -1), "y-row: d/dx = 0, d/dy = -1"
     body_exprs = [e for body in d["bodies"] for e in body]
     j_body, b_body = _jacobian_and_bias(body_exprs, q, qd)
     # the body Jacobians' structural non-zeros: a leg's bodies move with that leg's coordinates only

@@ -571,9 +571,8 @@ from typing import NamedTuple  # noqa: E402
 import numpy as np  # noqa: E402
 from numba import njit, prange  # noqa: E402
 
-from pkmlab._compile_cache import NO_REFCOUNT  # noqa: E402
+from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE  # noqa: E402
 from pkmlab.closed_chain import (  # noqa: E402
-    actuated_jacobian_from_lu,
     ldlt_solve,
     lu_factor,
     lu_solve_factored,
@@ -625,8 +624,8 @@ class Workspace(NamedTuple):
     q: np.ndarray  # (2, N) base and trial configurations
     s: np.ndarray  # (2,) their singularity measures
     j_eta: np.ndarray  # (m, N) Jηq
-    lu: np.ndarray  # (m, m) factors of Jηφ
-    piv: np.ndarray  # (m,)
+    lu: np.ndarray  # (m - 2, m - 2) factors of Jηφ's reduced system (x and y eliminated)
+    piv: np.ndarray  # (m - 2,)
     eta: np.ndarray  # (m,)
     j_q_theta: np.ndarray  # (N, n) Jqθ (eq. 31)
     q_dot: np.ndarray  # (N,)
@@ -641,14 +640,50 @@ class Workspace(NamedTuple):
     theta_ddot: np.ndarray  # (n,)
     ldl: np.ndarray  # (n, n) factor of Mθ
     lines: np.ndarray  # (n, 4) the legs' lines of action
-    lu_base: np.ndarray  # (m, m) factors of Jηφ at the base, kept for branch following from it
-    piv_base: np.ndarray  # (m,)
+    lu_base: np.ndarray  # (m - 2, m - 2) the same factors at the base, kept for branch following from it
+    piv_base: np.ndarray  # (m - 2,)
     j_q_theta_base: np.ndarray  # (N, n) Jqθ at the base
     base_factored: np.ndarray  # (1,) 1 when the three above are the base's
+    top: np.ndarray  # (2, m - 2) rows 0 and 1 of Jηφ in the reduced system's columns
+    top_base: np.ndarray  # (2, m - 2) the same at the base
+    reduced: np.ndarray  # (m - 2, m - 2) the reduced system before factoring
+    work: np.ndarray  # (m - 2,)
+    rhs: np.ndarray  # (m,)
 
 
 BASE = 0
 TRIAL = 1
+
+# Every leg closes on the platform by 2 equations whose x and y derivatives are -1 and 0, 0 and -1
+# (η = end of the leg's chain - attachment point): eliminating the tracked point's x and y with these
+# unit pivots leaves a system of 2 equations fewer in the other passive coordinates (the passive
+# joints and alpha), to be factored instead of the whole of Jηφ. X_COLUMN is x's column in Jηφ.
+REDUCED = N_CONSTRAINTS - 2
+X_COLUMN = N_CONSTRAINTS - DOF
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def reduced_column(k):
+    """The column of Jηφ of the k-th coordinate of the reduced system (x and y skipped)."""
+    return k if k < X_COLUMN else k + 2
+
+
+@njit(**NO_REFCOUNT)
+def passive_solve(lu, piv, top, b, work):
+    """Overwrite ``b`` (m,) with ``Jηφ⁻¹ b`` from the factors of the reduced system (:func:`factor_passive`):
+    its rows are the constraints' rows 2.. minus row 0 (x) or 1 (y), free of x and y; then x and y from
+    rows 0 and 1 (``top``: their entries in the reduced system's columns)."""
+    for r in range(REDUCED):
+        work[r] = b[r + 2] - b[r % 2]
+    lu_solve_factored(lu, piv, work)
+    dx, dy = -b[0], -b[1]
+    for k in range(REDUCED):
+        dx += top[0, k] * work[k]
+        dy += top[1, k] * work[k]
+    for k in range(REDUCED):
+        b[reduced_column(k)] = work[k]
+    b[X_COLUMN] = dx
+    b[X_COLUMN + 1] = dy
 
 
 @njit(**NO_REFCOUNT)
@@ -684,19 +719,43 @@ def singularity_measure(q, P, lines):
 @njit(cache=True)
 def make_workspace():
     N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
-    return Workspace(np.zeros((2, N)), np.zeros(2), np.zeros((m, N)), np.zeros((m, m)), np.zeros(m, np.int64),
+    r = REDUCED
+    return Workspace(np.zeros((2, N)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)), np.zeros(r, np.int64),
                      np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
                      np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
-                     np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((m, m)),
-                     np.zeros(m, np.int64), np.zeros((N, n)), np.zeros(1, np.int64))
+                     np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((r, r)),
+                     np.zeros(r, np.int64), np.zeros((N, n)), np.zeros(1, np.int64), np.zeros((2, r)),
+                     np.zeros((2, r)), np.zeros((r, r)), np.zeros(r), np.zeros(m))
 
 
 @njit(**NO_REFCOUNT)
 def factor_passive(ws, q, P):
-    """``Jηq`` at ``q`` into ``ws.j_eta`` and the LU factors of its passive block ``Jηφ``; returns ok."""
+    """``Jηq`` at ``q`` into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the reduced system of
+    :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
     constraint_jacobian(q, P, ws.j_eta)
-    ok, _det = lu_factor(ws.j_eta[:, N_ACTUATORS:], ws.lu, ws.piv)
+    n = N_ACTUATORS
+    for k in range(REDUCED):
+        c = n + reduced_column(k)
+        ws.top[0, k] = ws.j_eta[0, c]
+        ws.top[1, k] = ws.j_eta[1, c]
+        for r in range(REDUCED):
+            ws.reduced[r, k] = ws.j_eta[r + 2, c] - ws.j_eta[r % 2, c]
+    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv)
     return ok
+
+
+@njit(**NO_REFCOUNT)
+def actuated_jacobian(ws, out):
+    """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) into ``out`` (N, n) from the last :func:`factor_passive`."""
+    n = N_ACTUATORS
+    for j in range(n):
+        for i in range(n):
+            out[i, j] = 1.0 if i == j else 0.0
+        for i in range(N_CONSTRAINTS):
+            ws.rhs[i] = -ws.j_eta[i, j]
+        passive_solve(ws.lu, ws.piv, ws.top, ws.rhs, ws.work)
+        for i in range(N_CONSTRAINTS):
+            out[n + i, j] = ws.rhs[i]
 
 
 @njit(**NO_REFCOUNT)
@@ -707,7 +766,7 @@ def correct_passive(ws, q, P):
         constraints(q, P, ws.eta)
         if not factor_passive(ws, q, P):
             return SINGULAR
-        lu_solve_factored(ws.lu, ws.piv, ws.eta)
+        passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             q[n + i] -= ws.eta[i]
@@ -721,9 +780,11 @@ def correct_passive(ws, q, P):
 def keep_base_factors(ws):
     """The factors just computed (``ws.lu``, ``ws.piv``, ``ws.j_q_theta``) are the base's: keep them for
     branch following from the base."""
-    for i in range(N_CONSTRAINTS):
+    for i in range(REDUCED):
         ws.piv_base[i] = ws.piv[i]
-        for j in range(N_CONSTRAINTS):
+        ws.top_base[0, i] = ws.top[0, i]
+        ws.top_base[1, i] = ws.top[1, i]
+        for j in range(REDUCED):
             ws.lu_base[i, j] = ws.lu[i, j]
     for i in range(N_COORDINATES):
         for j in range(N_ACTUATORS):
@@ -746,7 +807,7 @@ def follow_branch(ws, theta, P, min_abs_s):
     if ws.base_factored[0] == 0:
         if not factor_passive(ws, base, P):
             return SINGULAR
-        actuated_jacobian_from_lu(ws.j_eta, ws.lu, ws.piv, ws.j_q_theta)
+        actuated_jacobian(ws, ws.j_q_theta)
         keep_base_factors(ws)
     for i in range(N_COORDINATES):
         acc = base[i]
@@ -759,7 +820,7 @@ def follow_branch(ws, theta, P, min_abs_s):
     previous = np.inf
     for _ in range(MAX_CHORD):
         constraints(trial, P, ws.eta)
-        lu_solve_factored(ws.lu_base, ws.piv_base, ws.eta)
+        passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             trial[n + i] -= ws.eta[i]
@@ -812,7 +873,7 @@ def actuator_space_model(ws, q, theta_dot, P):
     n, N = N_ACTUATORS, N_COORDINATES
     if not factor_passive(ws, q, P):
         return False
-    actuated_jacobian_from_lu(ws.j_eta, ws.lu, ws.piv, ws.j_q_theta)
+    actuated_jacobian(ws, ws.j_q_theta)
     for i in range(N):
         acc = 0.0
         for j in range(n):
@@ -821,7 +882,7 @@ def actuator_space_model(ws, q, theta_dot, P):
     constraint_bias(q, ws.q_dot, P, ws.gamma)
     for k in range(N_CONSTRAINTS):  # φ̈ at θ̈ = 0: -Jηφ⁻¹ J̇ηq q̇ (eq. 32)
         ws.gamma[k] = -ws.gamma[k]
-    lu_solve_factored(ws.lu, ws.piv, ws.gamma)
+    passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
     for i in range(n):
         ws.bias_q[i] = 0.0
     for k in range(N_CONSTRAINTS):
