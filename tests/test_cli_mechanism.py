@@ -174,3 +174,16 @@ def test_maps_of_other_machines(capsys, tmp_path, name):
                   "--quiet")
     assert len(ws["areas"]) == (4 if name == "five_bar" else 1)
     assert all(a["area_m2"] > 0 for a in ws["areas"])
+
+
+def test_animate_refuses_params_with_mechanism(capsys, tmp_path):
+    from pathlib import Path
+
+    example = Path(__file__).parents[1] / "examples" / "five_bar_circle.toml"
+    out = tmp_path / "run"
+    run_json(capsys, "simulate", example, "--out", out, "--quiet", "--no-figures")
+    params = tmp_path / "p.toml"
+    params.write_text('[manipulator]\npreset = "paper"\n')
+    code, _out, err = run(capsys, "animate", out, "--mechanism", "five_bar", "--params", params, "--out",
+                          tmp_path / "x.gif")
+    assert code == 1 and "--params describes the paper's 3-RRR" in err and not (tmp_path / "x.gif").exists()

@@ -8,6 +8,7 @@ user-described machine end to end from its TOML file; bad scenarios refused befo
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -303,3 +304,29 @@ def test_an_orientation_asked_of_a_point_is_refused_not_ignored():
             "trajectory": {"type": "circle", "center": [0.0, 0.35], "radius": 0.06, "speed": 0.3, "alpha": 0.3}}
     with pytest.raises(InvalidParameterError, match=r"tracks a point \(x, y\).*alpha = 0\.3 rad at t = 0\.0000 s"):
         simulate(scenario_from_dict(data, "tilted.toml"))
+
+
+def test_the_working_mode_tie_rule_is_within_1e_9_of_the_best(monkeypatch):
+    # conventions §3: the largest min |S|; modes within 1e-9 of it tie, and the first of them wins — even when
+    # a mode in between is within 1e-9 of both its neighbours (a chain of near-ties)
+    from pkmlab import mechanism_model as mm
+    from pkmlab.simulation import _sample_times, choose_working_mode
+
+    scenario = load_scenario(Path(__file__).parents[1] / "examples" / "five_bar_circle.toml")
+    real = mm.path_inverse_kinematics
+    min_s = {(1, 1): 0.5, (1, -1): 0.5 + 0.6e-9, (-1, 1): 0.5 + 1.2e-9, (-1, -1): 0.1}
+
+    def stub(model, poses, mode):
+        q, _s, _failure = real(model, poses, (1, -1))
+        return q, np.full(len(poses), min_s[tuple(mode)]), None
+
+    monkeypatch.setattr(mm, "path_inverse_kinematics", stub)
+    mode, best = choose_working_mode(scenario, _sample_times(scenario))
+    assert mode == (1, -1) and best == min_s[(1, -1)]
+
+
+def test_a_working_mode_spelt_with_floats_is_kept_as_ints():
+    data = {"mechanism": {"preset": "five_bar"}, "simulation": {"working_mode": [1.0, -1.0]},
+            "trajectory": {"type": "circle", "center": [0.0, 0.35], "radius": 0.06, "speed": 0.3}}
+    mode = scenario_from_dict(data, "floats.toml").working_mode
+    assert mode == (1, -1) and all(type(v) is int for v in mode)

@@ -704,8 +704,7 @@ def _animation_machine(args, folder: Path):
     from .mechanisms.description import load_mechanism
 
     if getattr(args, "mechanism", None):
-        args.params = None
-        return _mechanism(args), args.mechanism
+        return _mechanism(args), args.mechanism  # refuses --params, which describes the paper's 3-RRR
     plant = folder / "plant.toml"
     if plant.is_file() and re.search(r"^\[mechanism\]", read_text(plant), re.MULTILINE):
         return MechanismModel.from_description(load_mechanism(plant)), f"{folder.name}/plant.toml"

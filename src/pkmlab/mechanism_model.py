@@ -82,8 +82,9 @@ class MechanismModel:
         return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
 
 
-#: Grid of the assembly check: positions per axis over the machine's region, and orientations.
-ASSEMBLY_GRID = (81, 24)
+#: Grids of the assembly check: positions per axis over the machine's region, and orientations; the
+#: finer one is searched only when the coarse one finds no pose (a machine with a small workspace).
+ASSEMBLY_GRIDS = ((81, 24), (241, 72))
 
 
 def _check_assembly(model: MechanismModel) -> None:
@@ -96,29 +97,31 @@ def _check_assembly(model: MechanismModel) -> None:
 
     m = model.description
     (x0, x1), (y0, y1) = default_extent(model)
-    count, turns = ASSEMBLY_GRID
-    x, y = (a.ravel() for a in np.meshgrid(np.linspace(x0, x1, count), np.linspace(y0, y1, count)))
     furthest = 0  # the most legs joined at one pose, over the orientations tried
-    # one orientation at a time: a machine that can be assembled is found so in the first one, usually
-    for alpha in (np.linspace(-np.pi, np.pi, turns, endpoint=False) if m.dof == 3 else (0.0,)):
-        c, s = np.cos(alpha), np.sin(alpha)
-        together = np.ones(x.size, dtype=bool)
-        for i, leg in enumerate(m.legs):
-            ax, ay = m.platform.attachments[i] if m.platform.kind == "rigid" else (0.0, 0.0)
-            points = np.column_stack([x + c * ax - s * ay, y + s * ax + c * ay])
-            reached = np.zeros(x.size, dtype=bool)
-            for sigma in leg_modes(leg) or (1,):
-                reached |= ~leg_inverse_kinematics_batch(leg, i, points, sigma).bad
-            together &= reached
-            if not together.any():
-                furthest = max(furthest, i)
-                break
-        else:
-            return
+    for count, turns in ASSEMBLY_GRIDS:
+        x, y = (a.ravel() for a in np.meshgrid(np.linspace(x0, x1, count), np.linspace(y0, y1, count)))
+        # one orientation at a time: a machine that can be assembled is found so in the first one, usually
+        for alpha in (np.linspace(-np.pi, np.pi, turns, endpoint=False) if m.dof == 3 else (0.0,)):
+            c, s = np.cos(alpha), np.sin(alpha)
+            together = np.ones(x.size, dtype=bool)
+            for i, leg in enumerate(m.legs):
+                ax, ay = m.platform.attachments[i] if m.platform.kind == "rigid" else (0.0, 0.0)
+                points = np.column_stack([x + c * ax - s * ay, y + s * ax + c * ay])
+                reached = np.zeros(x.size, dtype=bool)
+                for sigma in leg_modes(leg) or (1,):
+                    reached |= ~leg_inverse_kinematics_batch(leg, i, points, sigma).bad
+                together &= reached
+                if not together.any():
+                    furthest = max(furthest, i)
+                    break
+            else:
+                return
+    count, turns = ASSEMBLY_GRIDS[-1]
     others = f" together with legs 1..{furthest}" if furthest > 0 else ""
+    grid = f"{count} x {count} positions" + (f" x {turns} orientations" if m.dof == 3 else "")
     raise InvalidParameterError(
         f"{m.name}: the platform can be assembled nowhere: leg {furthest + 1} reaches its attachment point{others} "
-        f"at no pose with x in [{x0:.3g}, {x1:.3g}] m, y in [{y0:.3g}, {y1:.3g}] m and any orientation "
+        f"at no pose of a {grid} grid over x in [{x0:.3g}, {x1:.3g}] m, y in [{y0:.3g}, {y1:.3g}] m "
         "(check the legs' lengths, strokes, bases and attachment points)")
 
 

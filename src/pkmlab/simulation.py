@@ -205,7 +205,7 @@ def _machine_mode(model: MechanismModel, mode):
         spelt = ", ".join("".join("+" if v > 0 else "-" for v in m) or "[]" for m in modes)
         raise InvalidParameterError(f'working_mode must be "auto" or one of the modes of {model.description.name} '
                                     f"({spelt}), got {shown(mode)}")
-    return signs
+    return modes[modes.index(signs)]  # as ints, whatever numbers spelt them
 
 
 def scaled_model(model: Planar3RRR, mass: float = 1.0, length: float = 1.0) -> Planar3RRR:
@@ -343,16 +343,19 @@ def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -
 
     model = scenario.model
     modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
-    best, best_min, first_failure, closest = None, -np.inf, None, None
-    for mode in modes:  # in lexicographic order, +1 before -1: a tie keeps the first (conventions §3)
+    first_failure, reaching = None, []  # (mode, min |S|, its sample) of the modes reaching the whole path
+    for mode in modes:  # in lexicographic order, +1 before -1
         _q, s, failure = path_inverse_kinematics(model, pose, mode)
         if failure is not None:
             if first_failure is None or failure[0] > first_failure[0]:
                 first_failure = failure  # the mode that gets furthest names the problem
             continue
         k = int(np.argmin(np.abs(s)))
-        if abs(s[k]) > best_min + 1e-9 or best is None:
-            best, best_min, closest = mode, float(abs(s[k])), k
+        reaching.append((mode, float(abs(s[k])), k))
+    best = None
+    if reaching:  # the largest min |S|; a tie within 1e-9 of it goes to the first such mode (conventions §3)
+        top = max(m for _mode, m, _k in reaching)
+        best, best_min, closest = next(r for r in reaching if r[1] >= top - 1e-9)
     if best is None:
         k, exc = first_failure
         raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {_pose_text(pose[k])}: "
