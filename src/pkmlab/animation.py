@@ -158,18 +158,24 @@ def write_gif(model: Planar3RRR, t, q, desired_xy, path: str | os.PathLike, fram
             for artist in moving:
                 ax.draw_artist(artist)
 
-        with atomic_file(path) as tmp:
-            writer = _canvas_pillow_writer(fps)
-            writer.setup(fig, str(tmp), dpi=dpi)
-            for k in frames:
-                draw(k)
-                writer.grab_frame()
-                if on_frame is not None:
-                    on_frame()
-            writer.finish()  # only after the last frame: a failure leaves no GIF
+        _write_frames(fig, _canvas_pillow_writer(fps), path, frames, draw, dpi, on_frame)
     finally:
         plt.close(fig)
     return path
+
+
+def _write_frames(fig, writer, path: Path, frames, draw: Callable[[int], None], dpi: int,
+                  on_frame: Callable[[], None] | None) -> None:
+    """Draw each of ``frames`` with ``draw(k)`` and grab it with ``writer`` into a GIF written atomically:
+    the file appears at ``path`` only after the last frame (a failure leaves no GIF)."""
+    with atomic_file(path) as tmp:
+        writer.setup(fig, str(tmp), dpi=dpi)
+        for k in frames:
+            draw(k)
+            writer.grab_frame()
+            if on_frame is not None:
+                on_frame()
+        writer.finish()
 
 
 # ------------------------------------------------------------------ any described mechanism
@@ -212,28 +218,24 @@ def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: 
     t, q, desired_xy = (np.asarray(a, dtype=float) for a in (t, q, desired_xy))
     frames = [int(k) for k in frames]
     dof = model.description.dof
-    points = np.empty((len(frames), model.description.legs.__len__(), model.kernels.JOINTS_PER_LEG, 2))
+    points = np.empty((len(frames), len(model.description.legs), model.kernels.JOINTS_PER_LEG, 2))
     for i, k in enumerate(frames):
         model.kernels.joint_points(q[k], model.P, points[i])
     shown = np.vstack([points.reshape(-1, 2), desired_xy])
     lo, hi = shown.min(axis=0), shown.max(axis=0)
     pad = 0.08 * float(np.max(hi - lo))
     fig, ax = plt.subplots(figsize=(6.0, 5.6), dpi=dpi, layout="constrained")
+
+    def draw(k: int) -> None:  # the whole frame anew: a machine's parts differ from one structure to another
+        ax.cla()
+        ax.plot(desired_xy[:, 0], desired_xy[:, 1], "--", color="tab:gray", lw=1.2, label="desired path")
+        ax.plot(q[:k + 1, -dof], q[:k + 1, -dof + 1], color="tab:red", lw=1.5, label="actual path")
+        draw_mechanism(model, q[k], ax=ax, title=f"{title}\nt = {t[k]:7.3f} s")
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+
     try:
-        with atomic_file(path) as tmp:
-            writer = PillowWriter(fps=fps)
-            writer.setup(fig, str(tmp), dpi=dpi)
-            for k in frames:
-                ax.cla()
-                ax.plot(desired_xy[:, 0], desired_xy[:, 1], "--", color="tab:gray", lw=1.2, label="desired path")
-                ax.plot(q[:k + 1, -dof], q[:k + 1, -dof + 1], color="tab:red", lw=1.5, label="actual path")
-                draw_mechanism(model, q[k], ax=ax, title=f"{title}\nt = {t[k]:7.3f} s")
-                ax.set_xlim(lo[0] - pad, hi[0] + pad)
-                ax.set_ylim(lo[1] - pad, hi[1] + pad)
-                writer.grab_frame()
-                if on_frame is not None:
-                    on_frame()
-            writer.finish()  # only after the last frame: a failure leaves no GIF
+        _write_frames(fig, PillowWriter(fps=fps), path, frames, draw, dpi, on_frame)
     finally:
         plt.close(fig)
     return path
