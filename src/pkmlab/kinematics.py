@@ -113,8 +113,9 @@ def _index_text(flat: int, shape: tuple[int, ...]) -> str:
     return "" if shape == () else f" at index {tuple(int(i) for i in np.unravel_index(flat, shape))}"
 
 
-def _mode_array(mode, name: str = "mode") -> np.ndarray:
-    """A working mode as an int64 array of three signs, from ``"+-+"``, ``("+", "-", "+")``, ``(1, -1, 1)``..."""
+def _mode_array(mode, name: str = "mode", count: int = 3) -> np.ndarray:
+    """A working mode as an int64 array of ``count`` signs (three for the 3-RRR), from ``"+-+"``,
+    ``("+", "-", "+")``, ``(1, -1, 1)``..."""
     symbols = {"+": 1, "-": -1, "+1": 1, "-1": -1, "1": 1}
     try:
         values = [symbols.get(m, m) if isinstance(m, str) else m for m in mode]
@@ -122,8 +123,9 @@ def _mode_array(mode, name: str = "mode") -> np.ndarray:
         arr = None if any(isinstance(v, (bool, np.bool_)) for v in values) else np.asarray(values, dtype=float)
     except (TypeError, ValueError, OverflowError):
         arr = None
-    if arr is None or arr.shape != (3,) or not np.all(np.isin(arr, (1, -1))):
-        raise InvalidParameterError(f"{name} must be three signs such as (1, -1, 1) or '+-+', got {shown(mode)}")
+    if arr is None or arr.shape != (count,) or not np.all(np.isin(arr, (1, -1))):
+        many = "three" if count == 3 else count
+        raise InvalidParameterError(f"{name} must be {many} signs such as (1, -1, 1) or '+-+', got {shown(mode)}")
     return arr.astype(np.int64)
 
 

@@ -24,7 +24,6 @@ import csv
 import io
 import json
 import math
-import numbers
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -195,17 +194,15 @@ def _machine_mode(model: MechanismModel, mode):
     if isinstance(mode, str) and mode == "auto":
         return mode
     modes = working_modes(model)
-    symbols = {"+": 1, "-": -1, "+1": 1, "-1": -1, "1": 1}
     try:
-        signs = tuple(int(symbols.get(v, v)) if isinstance(v, str) or isinstance(v, numbers.Integral) else v
-                      for v in mode)
-    except (TypeError, ValueError):
+        signs = tuple(int(v) for v in _mode_array(mode, "working_mode", len(modes[0])))
+    except InvalidParameterError:
         signs = None
-    if signs not in modes or any(isinstance(v, (bool, np.bool_)) for v in mode):
+    if signs not in modes:
         spelt = ", ".join("".join("+" if v > 0 else "-" for v in m) or "[]" for m in modes)
         raise InvalidParameterError(f'working_mode must be "auto" or one of the modes of {model.description.name} '
                                     f"({spelt}), got {shown(mode)}")
-    return modes[modes.index(signs)]  # as ints, whatever numbers spelt them
+    return signs
 
 
 def scaled_model(model: Planar3RRR, mass: float = 1.0, length: float = 1.0) -> Planar3RRR:
