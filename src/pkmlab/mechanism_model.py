@@ -92,6 +92,7 @@ def _check_assembly(model: MechanismModel) -> None:
     (:func:`~pkmlab.analysis.default_extent`, every orientation) where every leg reaches its attachment
     point in some working mode, within its stroke. Names the first leg that cannot join the others."""
     from .analysis import default_extent
+    from .mechanisms.description import attachment_points
     from .mechanisms.leg_types import leg_inverse_kinematics_batch
     from .mechanisms.leg_types import working_modes as leg_modes
 
@@ -102,11 +103,10 @@ def _check_assembly(model: MechanismModel) -> None:
         x, y = (a.ravel() for a in np.meshgrid(np.linspace(x0, x1, count), np.linspace(y0, y1, count)))
         # one orientation at a time: a machine that can be assembled is found so in the first one, usually
         for alpha in (np.linspace(-np.pi, np.pi, turns, endpoint=False) if m.dof == 3 else (0.0,)):
-            c, s = np.cos(alpha), np.sin(alpha)
+            poses = np.column_stack([x, y, np.full(x.size, alpha)])[:, :m.dof]
             together = np.ones(x.size, dtype=bool)
             for i, leg in enumerate(m.legs):
-                ax, ay = m.platform.attachments[i] if m.platform.kind == "rigid" else (0.0, 0.0)
-                points = np.column_stack([x + c * ax - s * ay, y + s * ax + c * ay])
+                points = attachment_points(m, i, poses)
                 reached = np.zeros(x.size, dtype=bool)
                 for sigma in leg_modes(leg) or (1,):
                     reached |= ~leg_inverse_kinematics_batch(leg, i, points, sigma).bad
@@ -273,22 +273,19 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
 def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
     """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach,
     and the first failure ``(k, leg, message)`` (else None)."""
+    from .mechanisms.description import attachment_points
     from .mechanisms.leg_types import leg_inverse_kinematics_batch
     from .mechanisms.leg_types import working_modes as leg_modes
 
     m = model.description
     signs = iter(tuple(mode))
-    alpha = poses[:, 2] if m.dof == 3 else np.zeros(len(poses))
-    c, s = np.cos(alpha), np.sin(alpha)
     actuators, passive, bad = [], [], np.zeros(len(poses), dtype=bool)
     first = None
     for i, leg in enumerate(m.legs):
         sigma = next(signs, None) if leg_modes(leg) else 1
         if sigma not in (1, -1):
             raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg, got {tuple(mode)}")
-        ax, ay = m.platform.attachments[i] if m.platform.kind == "rigid" else (0.0, 0.0)
-        points = np.column_stack([poses[:, 0] + c * ax - s * ay, poses[:, 1] + s * ax + c * ay])
-        solved = leg_inverse_kinematics_batch(leg, i, points, sigma)
+        solved = leg_inverse_kinematics_batch(leg, i, attachment_points(m, i, poses), sigma)
         if solved.bad.any():
             k = int(np.argmax(solved.bad))
             if first is None or k < first[0]:
@@ -314,6 +311,18 @@ def singularity_measure(model: MechanismModel, q) -> float:
 
 
 # ------------------------------------------------------------------ forward kinematics
+def _newton_passive(model: MechanismModel, q: np.ndarray, tol: float, iterations: int = 30) -> bool:
+    """Newton's method on ``η = 0`` for the passive coordinates of ``q`` (in place); True once
+    ``max |η| < tol``, False when ``iterations`` steps were not enough."""
+    na = model.n_actuators
+    for _ in range(iterations):
+        eta = constraint_residual(model, q)
+        if np.max(np.abs(eta)) < tol:
+            return True
+        q[na:] -= np.linalg.lstsq(constraint_jacobian(model, q)[:, na:], eta, rcond=None)[0]
+    return False
+
+
 def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S: float = 1e-3,
                      max_step: float = 0.05) -> np.ndarray:
     """The configuration at ``actuators`` continuously connected to ``q_previous`` (paper §3.2).
@@ -337,13 +346,7 @@ def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S:
         j_eta_q = constraint_jacobian(model, q)
         q[na:] += np.linalg.lstsq(j_eta_q[:, na:], -j_eta_q[:, :na] @ (theta - q[:na]), rcond=None)[0]
         q[:na] = theta
-        for _ in range(30):
-            eta = constraint_residual(model, q)
-            if np.max(np.abs(eta)) < 1e-14:
-                break
-            j_eta_phi = constraint_jacobian(model, q)[:, na:]
-            q[na:] -= np.linalg.lstsq(j_eta_phi, eta, rcond=None)[0]
-        else:
+        if not _newton_passive(model, q, 1e-14):
             raise BranchFollowingError(f"cannot follow the assembly mode to actuators {np.round(theta, 6).tolist()}: "
                                        "Newton's method does not converge (out of reach?)")
         s = singularity_measure(model, q)
@@ -429,11 +432,7 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
             coords = leg_coordinates(leg, theta[i], attachment_point(m, i, pose))
             passive += [v for k, v in enumerate(coords) if k != leg.actuated]
         q = np.array([*theta, *passive, *pose])
-        for _ in range(30):  # polish: Newton on the passive coordinates
-            eta = constraint_residual(model, q)
-            if np.max(np.abs(eta)) < 1e-15:
-                break
-            q[na:] -= np.linalg.lstsq(constraint_jacobian(model, q)[:, na:], eta, rcond=None)[0]
+        _newton_passive(model, q, 1e-15)  # polish
         if np.max(np.abs(constraint_residual(model, q))) > 1e-12:
             continue
         wrapped = q.copy()

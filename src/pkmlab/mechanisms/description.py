@@ -38,6 +38,8 @@ import math
 import re
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import InvalidParameterError
 
 JOINT_KINDS = ("R", "P")
@@ -324,10 +326,16 @@ def attachment_point(mechanism: Mechanism, leg: int, pose) -> tuple[float, float
     pose = [float(v) for v in pose]
     if len(pose) != mechanism.dof:
         raise InvalidParameterError(f"pose must be ({', '.join(mechanism.pose_names)}), got {len(pose)} values")
-    alpha = pose[2] if mechanism.dof == 3 else 0.0
-    ax, ay = mechanism.platform.attachments[leg]
-    c, s = math.cos(alpha), math.sin(alpha)
-    return (pose[0] + c * ax - s * ay, pose[1] + s * ax + c * ay)
+    x, y = attachment_points(mechanism, leg, np.array([pose]))[0]
+    return (float(x), float(y))
+
+
+def attachment_points(mechanism: Mechanism, leg: int, poses: np.ndarray) -> np.ndarray:
+    """:func:`attachment_point` of many poses ``(K, dof)`` at once, ``(K, 2)``."""
+    alpha = poses[:, 2] if mechanism.dof == 3 else np.zeros(len(poses))
+    ax, ay = mechanism.platform.attachments[leg]  # (0, 0) for a point platform
+    c, s = np.cos(alpha), np.sin(alpha)
+    return np.column_stack([poses[:, 0] + c * ax - s * ay, poses[:, 1] + s * ax + c * ay])
 
 
 # ------------------------------------------------------------------ the TOML form
