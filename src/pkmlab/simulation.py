@@ -340,7 +340,7 @@ def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -
 
     model = scenario.model
     modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
-    first_failure, reaching = None, []  # (mode, min |S|, its sample) of the modes reaching the whole path
+    first_failure, reaching = None, []  # (mode, min |S|, its sample, |S|) of the modes reaching the whole path
     for mode in modes:  # in lexicographic order, +1 before -1
         _q, s, failure = path_inverse_kinematics(model, pose, mode)
         if failure is not None:
@@ -348,11 +348,11 @@ def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -
                 first_failure = failure  # the mode that gets furthest names the problem
             continue
         k = int(np.argmin(np.abs(s)))
-        reaching.append((mode, float(abs(s[k])), k))
+        reaching.append((mode, float(abs(s[k])), k, np.abs(s)))
     best = None
     if reaching:  # the largest min |S|; a tie within 1e-9 of it goes to the first such mode (conventions §3)
-        top = max(m for _mode, m, _k in reaching)
-        best, best_min, closest = next(r for r in reaching if r[1] >= top - 1e-9)
+        top = max(r[1] for r in reaching)
+        best, best_min, closest, abs_s = next(r for r in reaching if r[1] >= top - 1e-9)
     if best is None:
         k, exc = first_failure
         raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {_pose_text(pose[k])}: "
@@ -360,10 +360,9 @@ def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -
     if best_min < scenario.singularity_margin:
         near, margin = apart(best_min, scenario.singularity_margin)
         every = "in every admissible working mode" if len(modes) > 1 else "in its working mode"
-        _q, s = path_inverse_kinematics(model, pose, best)[:2]
-        if np.all(np.abs(s) < scenario.singularity_margin):
+        if np.all(abs_s < scenario.singularity_margin):
             raise SingularityError(f"the whole path lies within |S| < {margin} of a gain-type singularity {every} "
-                                   f"(max |S| = {np.abs(s).max():.3g}, at pose {_pose_text(pose[0])} and on)")
+                                   f"(max |S| = {abs_s.max():.3g}, at pose {_pose_text(pose[0])} and on)")
         raise SingularityError(
             f"the path comes within {near} of a gain-type singularity (margin {margin}) {every}; closest at "
             f"t = {t[closest]:.4f} s, pose {_pose_text(pose[closest])}")
