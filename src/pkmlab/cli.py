@@ -434,7 +434,9 @@ def cmd_reproduce(args) -> dict:
 
 
 def _effort_unit(scenario) -> str:
-    kinds = set(getattr(getattr(scenario.model, "description", None), "actuator_kinds", ("R",)))
+    from .simulation import actuator_kinds
+
+    kinds = actuator_kinds(scenario.model)
     return "N m" if kinds == {"R"} else ("N" if kinds == {"P"} else "N m or N")
 
 

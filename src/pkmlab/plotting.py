@@ -255,15 +255,16 @@ def plot_alpha(result, ax=None):
 def plot_torques(result, ax=None):
     """Actuator efforts vs time (paper figures 9, 12, 15): torques in N·m, forces (prismatic actuators) in N."""
     ax = _axes(ax)
-    plant = result.scenario.plant_model
-    kinds = ("R",) * 3 if isinstance(plant, Planar3RRR) else plant.description.actuator_kinds
+    from .simulation import actuator_kinds
+
+    kinds = actuator_kinds(result.scenario.plant_model)
     for i in range(result.tau.shape[1]):
         ax.plot(result.t, result.tau[:, i], label=f"τ{i + 1}")
     ax.set_xlabel("t (s)")
-    ax.set_ylabel({"R": "torque (N·m)", "P": "force (N)"}.get("".join(sorted(set(kinds))), "effort (N·m, N)"))
+    ax.set_ylabel({"R": "torque (N·m)", "P": "force (N)"}.get("".join(sorted(kinds)), "effort (N·m, N)"))
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    ax.set_title(f"actuator {'torques' if set(kinds) == {'R'} else 'efforts'} ({_case(result)})")
+    ax.set_title(f"actuator {'torques' if kinds == {'R'} else 'efforts'} ({_case(result)})")
     return ax
 
 

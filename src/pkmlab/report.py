@@ -62,7 +62,7 @@ def run_figures(scenario: Scenario) -> tuple[tuple[str, str, str], ...]:
 
     if not isinstance(scenario.model, MechanismModel):
         return RUN_FIGURES
-    kinds = set(scenario.model.description.actuator_kinds)
+    kinds = simulation.actuator_kinds(scenario.model)
     out = [("machine.png", "The machine at the start of the run", "machine")]
     for fname, caption, kind in RUN_FIGURES:
         if kind == "alpha" and scenario.model.description.dof == 2:
@@ -281,7 +281,7 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
 
 def _summary_table(result: SimulationResult, s: dict) -> list[str]:
     """The summary as a Markdown table (units as the machine's: rad or m, N·m or N)."""
-    kinds = set(getattr(getattr(result.scenario.model, "description", None), "actuator_kinds", ("R",)))
+    kinds = simulation.actuator_kinds(result.scenario.model)
     joint_unit = "rad" if kinds == {"R"} else ("m" if kinds == {"P"} else "rad or m")
     effort = "peak torques (N·m)" if kinds == {"R"} else ("peak forces (N)" if kinds == {"P"} else "peak efforts")
     alpha = "max_orientation_error_rad" in s

@@ -740,6 +740,12 @@ def _modal_gains(scenario: Scenario, kind: int, q_ctrl: np.ndarray, q_plant: np.
     return np.linalg.eigvalsh(inv_l @ m_ctrl @ np.swapaxes(inv_l, -1, -2))
 
 
+def actuator_kinds(model) -> frozenset[str]:
+    """The kinds of the machine's actuators: ``{"R"}`` (angles in rad, torques in N·m), ``{"P"}`` (lengths in
+    m, forces in N), or both."""
+    return frozenset(model.description.actuator_kinds if isinstance(model, MechanismModel) else ("R",))
+
+
 def _actuator_count(model) -> int:
     return model.n_actuators if isinstance(model, MechanismModel) else 3
 
