@@ -20,10 +20,10 @@ Figures
 
 Dynamics (paper §3, eq. 35), in working mode (-, +, -):
 
-* the actuator-space model ``(Mθ, Cθ θ̇)``: the compiled kernel
-  :func:`pkmlab.mechanisms.rrr3.actuator_space_dynamics` from a small ``@numba.njit`` loop,
-  :func:`pkmlab.dynamics.actuator_space_model` batched and once per state;
-* forward dynamics ``θ̈``: :func:`pkmlab.mechanisms.rrr3.forward_dynamics` from an njit loop
+* the actuator-space model ``(Mθ, Cθ θ̇)``: the compiled core's
+  :func:`pkmlab.machine_core.actuator_space_model` (on the machine's description) from a small
+  ``@numba.njit`` loop, :func:`pkmlab.dynamics.actuator_space_model` batched and once per state;
+* forward dynamics ``θ̈``: the same with its solve, from an njit loop
   over the states of the paper's circle, the same with branch following of the passive
   variables at every step (what :class:`pkmlab.plant.ReducedPlant` evaluates), and
   :func:`pkmlab.dynamics.forward_dynamics` once per state and batched;
@@ -77,6 +77,7 @@ import pkmlab
 from pkmlab import WORKING_MODES
 from pkmlab import dynamics as pk_dynamics
 from pkmlab import kinematics as pk_kinematics
+from pkmlab.mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
 from pkmlab.mechanisms import rrr3
 from pkmlab.plant import FullPlant, ReducedPlant
 
@@ -323,40 +324,63 @@ def dynamics_states(model: pkmlab.Planar3RRR, poses: np.ndarray, rng: np.random.
     return np.ascontiguousarray(ik.q), theta_dot, tau, float(np.abs(ik.S).min())
 
 
-@numba.njit(cache=False)
+# The dynamics are evaluated by the compiled core on the machine's description (the simulation's own):
+# its kernels, a workspace made once, configurations in its coordinates (θ, φ, x, y, α).
+PAPER_KERNELS = MechanismModel.from_preset("paper").kernels
+
+
+@numba.njit(cache=False, _nrt=False)
+def _actuator_space_loop(ws, sc, qs, theta_dots, P, m_out, c_out, taus, accelerations):
+    all_ok = True
+    for k in range(qs.shape[0]):
+        PAPER_KERNELS.trig(qs[k], sc)
+        ok = PAPER_KERNELS.actuator_space_model(ws, qs[k], sc, theta_dots[k], P)
+        for i in range(3):
+            c_out[k, i] = ws.c_theta[i]
+            for j in range(3):
+                m_out[k, i, j] = ws.m_theta[i, j]
+        if taus.shape[0] > 0:
+            ok = ok and PAPER_KERNELS.solve_accelerations(ws, taus[k])
+            for i in range(3):
+                accelerations[k, i] = ws.theta_ddot[i]
+        all_ok = all_ok and ok
+    return all_ok
+
+
 def actuator_space_kernel_loop(qs, theta_dots, P, m_out, c_out):
-    """``(Mθ, Cθ θ̇)`` at every state: one compiled kernel call per state. True when all were regular."""
-    all_ok = True
-    for k in range(qs.shape[0]):
-        m_theta, c_theta, _qd, ok = rrr3.actuator_space_dynamics(qs[k], theta_dots[k], P)
-        m_out[k] = m_theta
-        c_out[k] = c_theta
-        all_ok = all_ok and ok
-    return all_ok
+    """``(Mθ, Cθ θ̇)`` at every state (``qs`` in the core's coordinates): one compiled call per state. True when
+    all were regular."""
+    none = np.empty((0, 3))
+    return _actuator_space_loop(PAPER_KERNELS.make_workspace(), np.zeros((qs.shape[1], 2)), qs, theta_dots, P, m_out,
+                                c_out, none, none)
 
 
-@numba.njit(cache=False)
 def forward_dynamics_kernel_loop(qs, theta_dots, taus, P, out):
-    """``θ̈`` at every state: one compiled kernel call per state. True when all were regular."""
-    all_ok = True
-    for k in range(qs.shape[0]):
-        theta_ddot, ok = rrr3.forward_dynamics(qs[k], theta_dots[k], taus[k], P)
-        out[k] = theta_ddot
-        all_ok = all_ok and ok
-    return all_ok
+    """``θ̈`` at every state: one compiled evaluation of the model and its solve per state."""
+    n = qs.shape[0]
+    return _actuator_space_loop(PAPER_KERNELS.make_workspace(), np.zeros((qs.shape[1], 2)), qs, theta_dots, P,
+                                np.empty((n, 3, 3)), np.empty((n, 3)), taus, out)
 
 
-@numba.njit(cache=False)
-def follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, min_abs_s, q_path, out):
-    """Per step: branch-follow ``φ`` from ``q_path[k - 1]`` to ``θ_k``, then ``θ̈`` there (a reduced-plant RHS)."""
+@numba.njit(cache=False, _nrt=False)
+def _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, min_abs_s, q_path, out):
     status = 0
-    all_ok = True
     for k in range(1, thetas.shape[0]):
-        status |= rrr3.branch_following(q_path[k - 1], thetas[k], P, q_path[k], min_abs_s)
-        theta_ddot, ok = rrr3.forward_dynamics(q_path[k], theta_dots[k], taus[k], P)
-        out[k] = theta_ddot
-        all_ok = all_ok and ok
-    return status, all_ok
+        status |= PAPER_KERNELS.plant_stage(ws, thetas[k], theta_dots[k], taus[k], P, min_abs_s, PAPER_KERNELS.TRIAL)
+        PAPER_KERNELS.accept_trial(ws)
+        for i in range(3):
+            out[k, i] = ws.theta_ddot[i]
+        for i in range(q_path.shape[1]):
+            q_path[k, i] = ws.q[PAPER_KERNELS.BASE, i]
+    return status
+
+
+def follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, min_abs_s, q_path, out):
+    """Per step: branch-follow from ``q_path[k - 1]`` to ``θ_k``, then ``θ̈`` there (a reduced-plant RHS, as the
+    simulation's RK4 stages evaluate it). Returns the status."""
+    ws = PAPER_KERNELS.make_workspace()
+    PAPER_KERNELS.set_base(ws, q_path[0], P)
+    return _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, min_abs_s, q_path, out)
 
 
 # ------------------------------------------------------------------ baseline: NumPy + scipy.optimize.fsolve
@@ -623,6 +647,7 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(SEED)
     model = pkmlab.Planar3RRR.paper()
     P = model.packed
+    P_core = MechanismModel.from_3rrr(model).P  # the compiled core's parameters of the same machine
     rows: list[dict] = []
     checks: dict = {}
 
@@ -657,10 +682,11 @@ def main(argv: list[str] | None = None) -> int:
     rows.append(first_call_row("first_call_benchmark_njit_loop", "first call: benchmark's njit loop (compile)", dt))
 
     def compile_dynamics_loops():
-        qs, tds, taus = np.tile(q_free, (2, 1)), np.tile(theta_dot_free, (2, 1)), np.zeros((2, 3))
-        actuator_space_kernel_loop(qs, tds, P, np.empty((2, 3, 3)), np.empty((2, 3)))
-        forward_dynamics_kernel_loop(qs, tds, taus, P, np.empty((2, 3)))
-        follow_and_forward_dynamics_kernel_loop(qs[:, :3].copy(), tds, taus, P, MIN_ABS_S, qs.copy(),
+        qs = coordinates_from_3rrr(model, np.tile(q_free, (2, 1)))
+        tds, taus = np.tile(theta_dot_free, (2, 1)), np.zeros((2, 3))
+        actuator_space_kernel_loop(qs, tds, P_core, np.empty((2, 3, 3)), np.empty((2, 3)))
+        forward_dynamics_kernel_loop(qs, tds, taus, P_core, np.empty((2, 3)))
+        follow_and_forward_dynamics_kernel_loop(qs[:, :3].copy(), tds, taus, P_core, MIN_ABS_S, qs.copy(),
                                                 np.empty((2, 3)))
 
     dt, _ = time_once(compile_dynamics_loops)
@@ -783,8 +809,9 @@ def main(argv: list[str] | None = None) -> int:
     progress("actuator-space model ...")
     m_kernel = np.empty((n_dyn, 3, 3))
     c_kernel = np.empty((n_dyn, 3))
-    times, kernel_ok = time_runs(lambda: actuator_space_kernel_loop(dyn_q, dyn_theta_dot, P, m_kernel, c_kernel),
-                                 cfg["repeats_dyn_kernel"])
+    dyn_q_core = np.ascontiguousarray(coordinates_from_3rrr(model, dyn_q))
+    times, kernel_ok = time_runs(lambda: actuator_space_kernel_loop(dyn_q_core, dyn_theta_dot, P_core, m_kernel,
+                                                                    c_kernel), cfg["repeats_dyn_kernel"])
     rows.append(rate_row("dyn_model_kernel", f"Mθ, Cθθ̇: compiled kernel in njit loop ({n_dyn} states)", times, n_dyn,
                          "eval", baseline="numpy_dyn_batched"))
     checks["dyn_model_kernel_ok"] = bool(kernel_ok)
@@ -828,24 +855,24 @@ def main(argv: list[str] | None = None) -> int:
     circle_theta_dot = rng.normal(0.0, THETA_DOT_STD, (CIRCLE_SAMPLES, 3))
     circle_tau = rng.normal(0.0, TAU_STD, (CIRCLE_SAMPLES, 3))
     fd_kernel = np.empty((n_steps, 3))
-    q_steps = np.ascontiguousarray(q_ref[1:])
-    times, fd_ok = time_runs(lambda: forward_dynamics_kernel_loop(q_steps, circle_theta_dot[1:], circle_tau[1:], P,
+    q_steps = np.ascontiguousarray(coordinates_from_3rrr(model, q_ref[1:]))
+    times, fd_ok = time_runs(lambda: forward_dynamics_kernel_loop(q_steps, circle_theta_dot[1:], circle_tau[1:], P_core,
                                                                   fd_kernel), cfg["repeats_dyn_kernel"])
     rows.append(rate_row("fd_kernel", f"forward dynamics: compiled kernel in njit loop ({n_steps} circle states)",
                          times, n_steps, "call", compare=False))
     checks["fd_kernel_ok"] = bool(fd_ok)
-    q_fd_path = np.empty_like(q_ref)
-    q_fd_path[0] = q_ref[0]
+    q_fd_path = np.empty((q_ref.shape[0], q_steps.shape[1]))
+    q_fd_path[0] = coordinates_from_3rrr(model, q_ref[0])
     fd_bf = np.zeros((CIRCLE_SAMPLES, 3))
-    times, (fd_bf_status, fd_bf_ok) = time_runs(
-        lambda: follow_and_forward_dynamics_kernel_loop(path_thetas, circle_theta_dot, circle_tau, P, MIN_ABS_S,
+    times, fd_bf_status = time_runs(
+        lambda: follow_and_forward_dynamics_kernel_loop(path_thetas, circle_theta_dot, circle_tau, P_core, MIN_ABS_S,
                                                         q_fd_path, fd_bf),
         cfg["repeats_dyn_kernel"])
     rows.append(rate_row("fd_bf_kernel", f"forward dynamics + branch following, kernels in njit loop ({n_steps} "
                          "steps)", times, n_steps, "step", compare=False))
     checks["fd_bf_kernel_status"] = int(fd_bf_status)
-    checks["fd_bf_kernel_ok"] = bool(fd_bf_ok)
-    checks["fd_bf_max_dev_from_ik_rad"] = float(np.abs(wrapped(q_fd_path[:, 3:] - q_ref[:, 3:])).max())
+    checks["fd_bf_max_dev_from_ik_rad"] = float(np.abs(wrapped(coordinates_to_3rrr(q_fd_path)[:, 3:]
+                                                               - q_ref[:, 3:])).max())
     checks["fd_bf_vs_fd_at_ik_max_abs_diff"] = float(np.abs(fd_bf[1:] - fd_kernel).max())
 
     def fd_api_single():
@@ -897,8 +924,8 @@ def main(argv: list[str] | None = None) -> int:
     progress("every mechanism: forward kinematics, dynamics, default runs")
     import mechanism_bench
 
-    own_loop = next((r for r in rows if r.get("key") == "sim_nominal_loop"), None)
-    per_sample = own_loop["us_per_sample"] * 1e-6 if own_loop else None
+    paper_loop = next((r for r in rows if r.get("key") == "sim_nominal_loop"), None)
+    per_sample = paper_loop["us_per_sample"] * 1e-6 if paper_loop else None
     mech_rows, mech_checks = mechanism_bench.mechanism_rows(sys.modules[__name__], args.quick, per_sample)
     rows += mech_rows
     checks["mechanisms"] = mech_checks
@@ -934,7 +961,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"WARNING: branch following along the circle returned status {checks['bf_kernel_status']}")
     if checks["fd_bf_kernel_status"] != rrr3.OK:
         print(f"WARNING: branch following with forward dynamics returned status {checks['fd_bf_kernel_status']}")
-    for key in ("dyn_model_kernel_ok", "fd_kernel_ok", "fd_bf_kernel_ok", "dyn_baseline_agrees_to_rtol"):
+    for key in ("dyn_model_kernel_ok", "fd_kernel_ok", "dyn_baseline_agrees_to_rtol"):
         if not checks[key]:
             print(f"WARNING: {key} is False")
 

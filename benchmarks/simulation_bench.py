@@ -34,8 +34,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import pkmlab
-from pkmlab.mechanisms import rrr3
-from pkmlab.simulation import _sampled_data_loop, choose_working_mode, rk4_sample
+from pkmlab.mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
+from pkmlab.simulation import choose_working_mode
 from pkmlab.trajectory import desired_joint_motion, paper_trajectory
 
 BATCH_SPREAD = 0.15
@@ -171,33 +171,8 @@ class NumpySampledData:
         return out
 
 
-@numba.njit(cache=False)
-def follow_path_workspace(thetas, P, q_start, q_out):
-    """Branch following along ``thetas`` with one workspace, as the simulation loop does it."""
-    ws = rrr3.workspace_at(q_start, P)
-    status = 0
-    for k in range(1, thetas.shape[0]):
-        status |= rrr3.follow_branch(ws, thetas[k], P, 1e-6)
-        rrr3.copy_slot(ws, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
-        for i in range(7):
-            q_out[k, i] = ws.q[rrr3.BASE_SLOT, i]
-    return status
-
-
-@numba.njit(cache=False)
-def follow_and_accelerations_workspace(thetas, theta_dots, taus, P, q_start, out):
-    """Per step: branch following to ``θ_k`` then ``θ̈`` there — one evaluation of the plant's right-hand side."""
-    ws = rrr3.workspace_at(q_start, P)
-    status = 0
-    for k in range(1, thetas.shape[0]):
-        status |= rrr3.follow_branch(ws, thetas[k], P, 1e-6)
-        rrr3.copy_slot(ws, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
-        rrr3.evaluate_dynamics(ws, rrr3.BASE_SLOT, theta_dots[k], P)
-        if not rrr3.solve_accelerations(ws, taus[k]):
-            status |= rrr3.SINGULAR
-        for i in range(3):
-            out[k, i] = ws.theta_ddot[i]
-    return status
+#: The kernels the simulation runs the paper's machine on: its description's, with the compiled core.
+KERNELS = MechanismModel.from_preset("paper").kernels
 
 
 def kernel_rows(h, repeats: int) -> tuple[list[dict], dict]:
@@ -207,18 +182,23 @@ def kernel_rows(h, repeats: int) -> tuple[list[dict], dict]:
     rng = np.random.default_rng(3)
     theta_dots = rng.normal(0.0, 1.0, thetas.shape)
     taus = rng.normal(0.0, 0.1, thetas.shape)
-    q_out = np.empty_like(q_path)
+    q_out = np.empty((q_path.shape[0], KERNELS.N_COORDINATES))
     acc = np.zeros_like(thetas)
-    P = model.packed
+    P = MechanismModel.from_3rrr(model).P
+    q_start = coordinates_from_3rrr(model, q_path[0])
     n = thetas.shape[0] - 1
     rows, checks = [], {}
-    times, status = h.time_runs(lambda: follow_path_workspace(thetas, P, q_path[0], q_out), repeats)
+    # the compiled core's follow_path: one workspace along the path, as the simulation loop follows it
+    times, (status, _k) = h.time_runs(lambda: KERNELS.follow_path(q_start, thetas[1:], P, 1e-6, q_out[1:]), repeats)
     rows.append(h.rate_row("bf_workspace_kernel", f"branch following, simulation kernel (workspace), {n} circle "
                            "steps", times, n, "step", baseline="fsolve"))
     checks["bf_workspace_status"] = int(status)
-    checks["bf_workspace_max_diff_vs_ik"] = float(np.abs(h.wrapped(q_out[1:, 3:] - q_path[1:, 3:])).max())
-    times, status = h.time_runs(lambda: follow_and_accelerations_workspace(thetas, theta_dots, taus, P, q_path[0],
-                                                                             acc), repeats)
+    checks["bf_workspace_max_diff_vs_ik"] = float(np.abs(h.wrapped(coordinates_to_3rrr(q_out[1:])[:, 3:]
+                                                                   - q_path[1:, 3:])).max())
+    q_fd = np.empty_like(q_out)
+    q_fd[0] = q_start
+    times, status = h.time_runs(lambda: h.follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, 1e-6,
+                                                                                q_fd, acc), repeats)
     rows.append(h.rate_row("fd_bf_workspace_kernel", f"forward dynamics + branch following, simulation kernels, {n} "
                            "circle steps", times, n, "step", baseline="numpy_dyn_batched"))
     reference = pkmlab.dynamics.forward_dynamics(model, q_path[1:], theta_dots[1:], taus[1:])
@@ -268,13 +248,16 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     t = result.t
     mode, _ = choose_working_mode(nominal, t)
     d = desired_joint_motion(nominal.model, nominal.trajectory, mode, t)
-    P = nominal.model.packed
+    machine = MechanismModel.from_3rrr(nominal.model)  # the simulation's loop: its description's kernels
+    P, kernels = machine.P, machine.kernels
     kv = nominal.controller.velocity_gain
-    buffers = (np.zeros((n, 7)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n))
+    buffers = (np.zeros((n, kernels.N_COORDINATES)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n))
 
     def loop(n_sub=1, ts=1e-3, dd=d):
-        return _sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot, result.q[0], dd.q[0], P, P, 0,
-                                  1000.0, kv, 0.01, *(b[: dd.theta.shape[0]] for b in buffers))
+        return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot,
+                                         coordinates_from_3rrr(nominal.model, result.q[0]),
+                                         coordinates_from_3rrr(nominal.model, dd.q[0]), P, P, 0, 1000.0, kv, 0.01,
+                                         *(b[: dd.theta.shape[0]] for b in buffers))
 
     times, _ = h.time_runs(loop, repeats)
     rows.append(h.rate_row("sim_nominal_loop", f"nominal case, compiled sampled-data loop only ({n} samples)", times,
@@ -351,10 +334,12 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
                                                                     t_eval=[0.0, 1e-3])
     ref_x = np.concatenate([ref.q[-1, :3], ref.theta_dot[-1]])
     errors = {}
+    fast_machine = MechanismModel.from_3rrr(fm)
     for n_sub in (1, 2, 4):
-        ws = rrr3.workspace_at(fast.q[k], fm.packed)
+        ws = kernels.make_workspace()
+        kernels.set_base(ws, coordinates_from_3rrr(fm, fast.q[k]), fast_machine.P)
         x = np.concatenate([fast.q[k, :3], fast.theta_dot[k]])
-        rk4_sample(ws, x, fast.tau[k], fm.packed, 1e-3, n_sub, 1e-3, np.empty((5, 6)))
+        kernels.rk4_sample(ws, x, fast.tau[k], fast_machine.P, 1e-3, n_sub, 1e-3, np.empty((5, 6)))
         errors[n_sub] = float(np.abs(x - ref_x).max())
         rows.append(h.metric_row(f"rk4_error_{n_sub}_steps", f"plant RK4, {n_sub} step(s) per 1 ms sample: error "
                                  "vs DOP853 1e-13 (fast case, fastest state)", errors[n_sub], "rad, rad/s"))

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pkmlab import mechanism_model as mm
 from pkmlab.errors import InvalidParameterError, SingularityError, UnreachablePoseError
 from pkmlab.mechanism_model import MechanismModel, actuator_space_model
 from pkmlab.scenario_io import load_scenario, scenario_from_dict
@@ -106,7 +107,7 @@ def _energy(model, q, theta_dot):
     """Kinetic energy ½ θ̇ᵀ Mθ θ̇ and potential energy -Σ m g·c (bodies' mass centres from the kernels)."""
     k = model.kernels
     poses = np.empty((k.N_BODIES, 3))
-    k.body_poses(q, model.P, poses)
+    k.body_poses(q, mm.trig_table(model, q), model.P, poses)
     m_theta, _c, _g = actuator_space_model(model, q, theta_dot)
     masses = np.array([model.P[i] for i in k.MASS_INDEX])
     gravity = np.array(model.description.gravity)
@@ -235,7 +236,7 @@ bodies = [{ tip = [0.0, 0.0], mass = 0.6 },
 
 
 def test_a_machine_of_a_new_structure_is_generated_and_controlled(tmp_path):
-    from pkmlab import mechanism_model as mm
+
 
     (tmp_path / "mixed.toml").write_text(MIXED)
     scenario_file = tmp_path / "mixed_run.toml"
@@ -309,7 +310,7 @@ def test_an_orientation_asked_of_a_point_is_refused_not_ignored():
 def test_the_working_mode_tie_rule_is_within_1e_9_of_the_best(monkeypatch):
     # conventions §3: the largest min |S|; modes within 1e-9 of it tie, and the first of them wins — even when
     # a mode in between is within 1e-9 of both its neighbours (a chain of near-ties)
-    from pkmlab import mechanism_model as mm
+
     from pkmlab.simulation import _sample_times, choose_working_mode
 
     scenario = load_scenario(Path(__file__).parents[1] / "examples" / "five_bar_circle.toml")

@@ -297,23 +297,25 @@ def test_batch_refuses_runs_of_different_lengths_and_names_a_failed_run():
 # ------------------------------------------------------------------ the plant's integrator
 def test_plant_integrator_is_fourth_order_and_one_step_per_sample_is_below_1e_12():
     """RK4 over one held-torque sample against DOP853 at rtol 1e-13, at the fast case's highest speed."""
-    from pkmlab.mechanisms import rrr3
-    from pkmlab.simulation import rk4_sample
+    from pkmlab.mechanism_model import MechanismModel, coordinates_from_3rrr
 
     fast = simulate(paper_scenario("fast"))
     k = int(np.argmax(np.abs(fast.theta_dot).max(axis=1)))
     model = fast.scenario.model
-    P = model.packed
     q0, w0, tau = fast.q[k], fast.theta_dot[k], fast.tau[k]
     span = 4e-3  # four samples with the torque held, so the error is large enough to measure
     ref = ReducedPlant(model, rtol=1e-13, atol=1e-15).simulate(q0, w0, tau, span, t_eval=[0.0, span])
     ref_state = np.concatenate([ref.q[-1, :3], ref.theta_dot[-1]])
+    # the simulation's integrator: the compiled core's, on the kernels of the machine's description
+    machine = MechanismModel.from_3rrr(model)
+    kernels = machine.kernels
     errors = []
     steps = (1, 2, 4, 8)
     for n_sub in steps:
-        ws = rrr3.workspace_at(q0, P)
+        ws = kernels.make_workspace()
+        kernels.set_base(ws, coordinates_from_3rrr(model, q0), machine.P)
         x = np.concatenate([q0[:3], w0])
-        assert rk4_sample(ws, x, tau, P, span, n_sub, 1e-3, np.empty((5, 6))) == rrr3.OK
+        assert kernels.rk4_sample(ws, x, tau, machine.P, span, n_sub, 1e-3, np.empty((5, 6))) == kernels.OK
         errors.append(np.abs(x - ref_state).max())
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all((orders > 3.5) & (orders < 4.6)), (errors, orders)

@@ -83,7 +83,8 @@ def no_loop(monkeypatch):
     def loop(*args):
         raise AssertionError("the run was simulated")
 
-    monkeypatch.setattr(simulation, "_sampled_data_loop", loop)
+    kernels = simulation.MechanismModel.from_3rrr(paper_scenario("nominal").model).kernels
+    monkeypatch.setattr(kernels, "sampled_data_loop", loop)
 
 
 @pytest.mark.parametrize("controller, named", UNSTABLE.values(), ids=UNSTABLE)

@@ -212,6 +212,7 @@ def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: 
     import matplotlib.pyplot as plt
     from matplotlib.animation import PillowWriter
 
+    from . import mechanism_model as mm
     from .plotting import draw_mechanism
 
     path = Path(path)
@@ -220,7 +221,7 @@ def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: 
     dof = model.description.dof
     points = np.empty((len(frames), len(model.description.legs), model.kernels.JOINTS_PER_LEG, 2))
     for i, k in enumerate(frames):
-        model.kernels.joint_points(q[k], model.P, points[i])
+        model.kernels.joint_points(q[k], mm.trig_table(model, q[k]), model.P, points[i])
     shown = np.vstack([points.reshape(-1, 2), desired_xy])
     lo, hi = shown.min(axis=0), shown.max(axis=0)
     pad = 0.08 * float(np.max(hi - lo))

@@ -18,11 +18,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._compile_cache import NO_REFCOUNT
+from ._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE
+
+# The dense kernels below take the system's size ``m`` as an argument, and the solves are inlined: a
+# caller that passes a constant (a generated structure's size) gets loops of known trip count, which the
+# compiler unrolls, keeping the small system in registers (measured on a 4x4 system: the three solves of
+# Jqθ 2.5x faster than with the size read from the array's shape at run time). The factorization is
+# not inlined: unrolled, its pivot search and row swaps were measured slower (140 ns against 94 ns).
 
 
 @njit(**NO_REFCOUNT)
-def lu_factor(a, lu, piv):
+def lu_factor(a, lu, piv, m):
     """Factor ``P a = L U`` by Gaussian elimination with partial pivoting, into ``lu`` and ``piv``.
 
     ``a`` (m, m) is left unchanged (it may be a view, e.g. the passive columns of ``Jηq``);
@@ -32,7 +38,6 @@ def lu_factor(a, lu, piv):
     False when a pivot is below ``1e-14 max|a|`` (singular to working precision). Allocates
     nothing: this is the workhorse of the simulation loop.
     """
-    m = a.shape[0]
     scale = 0.0
     for i in range(m):
         for j in range(m):
@@ -64,10 +69,9 @@ def lu_factor(a, lu, piv):
     return ok, det
 
 
-@njit(**NO_REFCOUNT)
-def lu_solve_factored(lu, piv, b):
+@njit(**NO_REFCOUNT_INLINE)
+def lu_solve_factored(lu, piv, b, m):
     """Overwrite ``b`` (m,) with ``a⁻¹ b`` from the factors of :func:`lu_factor`."""
-    m = lu.shape[0]
     for col in range(m):  # the row interchanges first (they also reordered the stored multipliers)
         p = piv[col]
         if p != col:
@@ -82,10 +86,9 @@ def lu_solve_factored(lu, piv, b):
         b[col] = acc * lu[col, col]  # the diagonal holds 1 / U_kk
 
 
-@njit(**NO_REFCOUNT)
-def lu_solve_factored_matrix(lu, piv, b):
+@njit(**NO_REFCOUNT_INLINE)
+def lu_solve_factored_matrix(lu, piv, b, m, k):
     """Overwrite ``b`` (m, k) with ``a⁻¹ b`` from the factors of :func:`lu_factor`, all columns at once."""
-    m, k = b.shape
     for col in range(m):
         p = piv[col]
         if p != col:
@@ -150,13 +153,13 @@ def lu_solve(a, b):
     lu = np.empty((m, m))
     piv = np.empty(m, np.int64)
     x = b.copy()
-    ok, _det = lu_factor(a, lu, piv)
+    ok, _det = lu_factor(a, lu, piv, m)
     if ok:
         col = np.empty(m)
         for j in range(b.shape[1]):
             for i in range(m):
                 col[i] = b[i, j]
-            lu_solve_factored(lu, piv, col)
+            lu_solve_factored(lu, piv, col, m)
             for i in range(m):
                 x[i, j] = col[i]
     return x, ok
@@ -166,7 +169,7 @@ def lu_solve(a, b):
 def determinant(a):
     """Determinant of a small square matrix (from its LU factors; 0 when singular to working precision)."""
     m = a.shape[0]
-    _ok, det = lu_factor(a, np.empty((m, m)), np.empty(m, np.int64))
+    _ok, det = lu_factor(a, np.empty((m, m)), np.empty(m, np.int64), m)
     return det
 
 
@@ -183,7 +186,7 @@ def actuated_jacobian_from_lu(j_eta_q, lu, piv, out):
     for k in range(j_eta_q.shape[0]):
         for col in range(n_active):
             out[n_active + k, col] = -j_eta_q[k, col]
-    lu_solve_factored_matrix(lu, piv, out[n_active:, :])
+    lu_solve_factored_matrix(lu, piv, out[n_active:, :], j_eta_q.shape[0], n_active)
 
 
 @njit(**NO_REFCOUNT)
@@ -195,7 +198,7 @@ def passive_acceleration_bias_from_lu(lu, piv, gamma):
     """
     for k in range(gamma.shape[0]):
         gamma[k] = -gamma[k]
-    lu_solve_factored(lu, piv, gamma)
+    lu_solve_factored(lu, piv, gamma, gamma.shape[0])
 
 
 @njit(cache=True)
@@ -205,7 +208,7 @@ def actuated_jacobian(j_eta_q, n_active):
     lu = np.empty((m, m))
     piv = np.empty(m, np.int64)
     out = np.zeros((j_eta_q.shape[1], n_active))
-    ok, _det = lu_factor(j_eta_q[:, n_active:], lu, piv)
+    ok, _det = lu_factor(j_eta_q[:, n_active:], lu, piv, m)
     if ok:
         actuated_jacobian_from_lu(j_eta_q, lu, piv, out)
     return out, ok

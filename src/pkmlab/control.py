@@ -7,7 +7,8 @@ variables by branch-following forward kinematics from the measured ``θ`` (paper
 
     e = θ - θ_d,   τ = M̂θ (θ̈_d - kp e - kv ė) + Ĉθ θ̇       (eqs. 36–39, conventions §5)
 
-with critical damping ``kv = 2√kp`` by default (eq. 41).
+with critical damping ``kv = 2√kp`` by default (eq. 41). The law is compiled once for every mechanism,
+with gravity compensation, as :func:`pkmlab.machine_core.control_effort`.
 
 Under sampled-data control (zero-order hold) the gains and the sample time together decide
 whether the loop is stable: :func:`sampled_data_spectral_radius` gives the growth factor per
@@ -21,12 +22,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
-from ._compile_cache import NO_REFCOUNT
 from .errors import InvalidParameterError, shown
 from .kinematics import _real
-from .mechanisms import rrr3
 
 COMPUTED_TORQUE = 0
 PD = 1
@@ -149,36 +147,3 @@ def largest_stable_sample_time(kp: float, kv: float, mu) -> float | None:
         return None
     mu = np.asarray(mu, dtype=float)
     return _largest_stable(lambda ts: _stable(kp, kv, ts, mu), 1e-3)
-
-
-@njit(**NO_REFCOUNT)
-def control_torque(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws, tau):
-    """Torques ``τ`` (written into ``tau``) of one controller evaluation; returns the status.
-
-    ``ws`` is the controller's own :class:`~pkmlab.mechanisms.rrr3.Workspace` (model ``P``): its
-    ``BASE`` slot holds the controller's configuration at the previous evaluation, from which
-    branch following reaches the measured ``θ``; on success the new configuration becomes the
-    base. The status is that of the controller's branch following.
-    """
-    e0 = rrr3.wrap_angle(theta[0] - theta_d[0])
-    e1 = rrr3.wrap_angle(theta[1] - theta_d[1])
-    e2 = rrr3.wrap_angle(theta[2] - theta_d[2])
-    if kind == PD:
-        tau[0] = -kp * e0 - kv * (theta_dot[0] - theta_dot_d[0])
-        tau[1] = -kp * e1 - kv * (theta_dot[1] - theta_dot_d[1])
-        tau[2] = -kp * e2 - kv * (theta_dot[2] - theta_dot_d[2])
-        return rrr3.OK
-    tau[:] = 0.0
-    status = rrr3.follow_branch(ws, theta, P, min_abs_s)
-    if status != rrr3.OK:
-        return status
-    rrr3.copy_slot(ws, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
-    rrr3.evaluate_dynamics(ws, rrr3.BASE_SLOT, theta_dot, P)
-    # v = θ̈_d - kp e - kv ė (eq. 38), τ = M̂θ v + Ĉθ θ̇ (eq. 39)
-    v0 = theta_ddot_d[0] - kp * e0 - kv * (theta_dot[0] - theta_dot_d[0])
-    v1 = theta_ddot_d[1] - kp * e1 - kv * (theta_dot[1] - theta_dot_d[1])
-    v2 = theta_ddot_d[2] - kp * e2 - kv * (theta_dot[2] - theta_dot_d[2])
-    m = ws.m_theta
-    for i in range(3):
-        tau[i] = ws.c_theta[i] + m[i, 0] * v0 + m[i, 1] * v1 + m[i, 2] * v2
-    return rrr3.OK

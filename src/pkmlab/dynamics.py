@@ -1,6 +1,13 @@
 """Dynamics of the planar 3-RRR: the constrained Lagrangian model in the full configuration
 space (paper §3.1, eqs. 20–26) and its exact reduction to the actuator space (§3.2, eq. 35).
 
+The two are computed independently, so that each checks the other: the full-space model from
+the paper's seven coordinates and its bodies written as rotating vectors
+(:func:`pkmlab.mechanisms.rrr3.bodies`, :mod:`pkmlab.lagrangian`); the actuator-space model by the
+compiled core every mechanism shares (:func:`pkmlab.machine_core.actuator_space_model`, on the
+machine's description, :meth:`~pkmlab.mechanism_model.MechanismModel.from_3rrr`) — the model the
+simulation integrates and the computed-torque controller uses.
+
 Configurations ``q`` must lie on the constraint manifold (from inverse kinematics, forward
 kinematics or branch following); velocities are given as actuated rates ``θ̇`` and lifted
 with ``q̇ = Jqθ θ̇`` (eq. 31), except in the full-space functions that take ``q̇`` itself.
@@ -32,6 +39,7 @@ from . import (
 )
 from .geometry import Planar3RRR
 from .kinematics import _batch, _broadcast, _model, _pair, _require_regular
+from .mechanism_model import MechanismModel, coordinates_from_3rrr
 from .mechanisms import rrr3
 
 __all__ = [
@@ -78,12 +86,6 @@ def _constrained_batch(qs, qds, taus, P, explicit, qdd_out, lam_out, lam_explici
 
 
 @njit(cache=True)
-def _actuator_space_batch(qs, theta_dots, P, m_out, c_out, ok):
-    for k in range(qs.shape[0]):
-        m_out[k], c_out[k], _qd, ok[k] = rrr3.actuator_space_dynamics(qs[k], theta_dots[k], P)
-
-
-@njit(cache=True)
 def _coriolis_theta_batch(qs, theta_dots, P, out, ok):
     jac = np.empty((4, 7))
     jac_rate = np.empty((4, 7))
@@ -102,12 +104,6 @@ def _coriolis_theta_batch(qs, theta_dots, P, out, ok):
         C = lagrangian.christoffel_matrix(lagrangian.mass_matrix_partials(J, H, D), qd)
         out[k] = lagrangian.actuator_space_coriolis_matrix(M, C, j_q_theta, j_q_theta_dot)
         ok[k] = ok[k] and ok_solve
-
-
-@njit(cache=True)
-def _forward_dynamics_batch(qs, theta_dots, taus, P, out, ok):
-    for k in range(qs.shape[0]):
-        out[k], ok[k] = rrr3.forward_dynamics(qs[k], theta_dots[k], taus[k], P)
 
 
 # ------------------------------------------------------------------ full configuration space
@@ -180,13 +176,23 @@ def lagrange_multipliers(model: Planar3RRR, q, q_dot, tau) -> np.ndarray:
 def actuator_space_model(model: Planar3RRR, q, theta_dot) -> tuple[np.ndarray, np.ndarray]:
     """``(Mθ, Cθ θ̇)``: ``Mθ = Jqθᵀ M Jqθ`` (..., 3, 3) and ``Jqθᵀ (M J̇qθ + C Jqθ) θ̇`` (..., 3), eq. (35)."""
     qs, tds, shape = _pair("q", q, 7, "theta_dot", theta_dot, 3)
-    n = qs.shape[0]
-    m = np.empty((n, 3, 3))
-    c = np.empty((n, 3))
-    ok = np.zeros(n, dtype=np.bool_)
-    _actuator_space_batch(qs, tds, _model(model).packed, m, c, ok)
-    _require_regular(ok, shape, "the actuator-space model")
+    m, c = _reduced_model(model, qs, tds, shape, "the actuator-space model")
     return m.reshape(*shape, 3, 3), c.reshape(*shape, 3)
+
+
+def _reduced_model(model, qs, theta_dots, shape, what):
+    """``(Mθ, Cθ θ̇)`` (K, 3, 3), (K, 3) at configurations ``qs`` (K, 7): the compiled core's actuator-space model
+    (:func:`pkmlab.machine_core.actuator_space_model`) on the machine's description, the simulation's own."""
+    machine = MechanismModel.from_3rrr(_model(model))
+    n = qs.shape[0]
+    m, c, g = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))
+    first_singular = machine.kernels.actuator_space_models(np.ascontiguousarray(coordinates_from_3rrr(model, qs)),
+                                                           np.ascontiguousarray(theta_dots), machine.P, m, c, g)
+    ok = np.ones(n, dtype=np.bool_)
+    if first_singular >= 0:
+        ok[first_singular] = False
+    _require_regular(ok, shape, what)
+    return m, c  # no gravity: the paper's machine is horizontal
 
 
 def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarray:
@@ -209,8 +215,5 @@ def inverse_dynamics(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
 def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
     """Actuated accelerations ``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (..., 3) under torques ``τ`` (eq. 35)."""
     qs, tds, taus, shape = _broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("tau", tau, 3))
-    out = np.empty((qs.shape[0], 3))
-    ok = np.zeros(qs.shape[0], dtype=np.bool_)
-    _forward_dynamics_batch(qs, tds, taus, _model(model).packed, out, ok)
-    _require_regular(ok, shape, "the forward dynamics")
-    return out.reshape(*shape, 3)
+    m, c = _reduced_model(model, qs, tds, shape, "the forward dynamics")
+    return np.linalg.solve(m, (taus - c)[..., None])[..., 0].reshape(*shape, 3)

@@ -260,6 +260,25 @@ class Planar3RRR:
         p.setflags(write=False)
         return p
 
+    def to_mechanism(self, name: str = "paper"):
+        """This machine as a mechanism description (:class:`~pkmlab.mechanisms.description.Mechanism`), the
+        same numbers in the description's conventions: the platform frame's origin moved from ``P1`` to the
+        centroid (the tracked point), the x axis kept along ``P1 → P2``. What the generic pipeline
+        (:class:`~pkmlab.mechanism_model.MechanismModel`) models and simulates this machine from."""
+        from .mechanisms.description import Body, Joint, Leg, Mechanism, Platform
+
+        legs = tuple(
+            Leg(tuple(self.base_points[i]), (Joint("R", True), Joint("R"), Joint("R")),
+                (Body((self.active_lengths[i], 0.0), self.active_masses[i], tuple(self.active_com[i]),
+                      self.active_inertias[i]),
+                 Body((self.passive_lengths[i], 0.0), self.passive_masses[i], tuple(self.passive_com[i]),
+                      self.passive_inertias[i])))
+            for i in range(3))
+        c = self.reference_point
+        platform = Platform("rigid", tuple(tuple(v - c) for v in self.platform_vertices), self.platform_mass,
+                            tuple(self.platform_com - c), self.platform_inertia)
+        return Mechanism(name, legs, platform)
+
     def as_dict(self) -> dict:
         """Plain-Python description (lists and floats), e.g. for JSON output."""
         return {f.name: np.asarray(getattr(self, f.name)).tolist() for f in dataclasses.fields(self)}

@@ -212,7 +212,7 @@ def _determinant_batch(qs, P, det):
     for k in range(qs.shape[0]):
         rrr3.angle_sincos(qs[k], sc)
         rrr3.constraint_jacobian_from_sincos(sc, P, jac)
-        _ok, det[k] = closed_chain.lu_factor(jac[:, 3:], lu, piv)
+        _ok, det[k] = closed_chain.lu_factor(jac[:, 3:], lu, piv, 4)
 
 
 @njit(cache=True)

@@ -22,7 +22,6 @@ import numpy as np
 from numba import njit
 
 from . import closed_chain
-from ._compile_cache import NO_REFCOUNT
 
 
 # ------------------------------------------------------------------ planar bodies
@@ -55,55 +54,6 @@ def rotating_vector_bodies(q, qd, n_bodies, term_body, term_coord, term_vec, bod
             H[b, j, 1, j] -= ry
     for b in range(n_bodies):
         J[b, 2, body_angle[b]] = 1.0
-
-
-@njit(**NO_REFCOUNT)
-def rotating_vector_actuator_model(sc, qd, term_body, term_coord, term_vec, body_angle, D, j_q_theta, bias_q,
-                                   scratch, m_theta, c_theta):
-    """``Mθ`` and ``Cθ θ̇`` (eq. 35) body by body, for bodies of :func:`rotating_vector_bodies`.
-
-    With ``A_b = J_b Jqθ`` (body ``b``'s velocity per unit actuated rate) and
-    ``a_b = J_b J̇qθ θ̇ + J̇_b q̇`` (its acceleration when ``θ̈ = 0``)::
-
-        Mθ = Σ_b A_bᵀ D_b A_b = Jqθᵀ M Jqθ,     Cθ θ̇ = Σ_b A_bᵀ D_b a_b = Jqθᵀ (M J̇qθ θ̇ + C q̇),
-
-    without forming the ``n × n`` matrix ``M``: each body touches only the few coordinates it
-    depends on. ``sc`` (n, 2) holds ``(cos q_j, sin q_j)``, ``qd = Jqθ θ̇``, ``bias_q = J̇qθ θ̇``;
-    terms must be grouped by body (``term_body`` non-decreasing). ``scratch`` is a (3, n_a + 1)
-    work array. Allocates nothing.
-    """
-    na = j_q_theta.shape[1]
-    m_theta[:, :] = 0.0
-    c_theta[:] = 0.0
-    n_terms = term_body.shape[0]
-    t = 0
-    for b in range(D.shape[0]):
-        scratch[:, :] = 0.0  # columns 0..na-1: A_b, column na: a_b
-        while t < n_terms and term_body[t] == b:
-            j = term_coord[t]
-            vx, vy = term_vec[t, 0], term_vec[t, 1]
-            rx, ry = sc[j, 0] * vx - sc[j, 1] * vy, sc[j, 1] * vx + sc[j, 0] * vy  # R(q_j) v
-            for col in range(na):  # ∂x/∂q_j = R(q_j + π/2) v = (-ry, rx)
-                scratch[0, col] -= ry * j_q_theta[j, col]
-                scratch[1, col] += rx * j_q_theta[j, col]
-            w2 = qd[j] * qd[j]
-            scratch[0, na] += -ry * bias_q[j] - rx * w2
-            scratch[1, na] += rx * bias_q[j] - ry * w2
-            t += 1
-        k = body_angle[b]
-        for col in range(na):
-            scratch[2, col] = j_q_theta[k, col]
-        scratch[2, na] = bias_q[k]
-        for r in range(3):
-            w = D[b, r]
-            for i in range(na):
-                wa = w * scratch[r, i]
-                c_theta[i] += wa * scratch[r, na]
-                for j2 in range(i, na):  # the upper triangle; Mθ is symmetric
-                    m_theta[i, j2] += wa * scratch[r, j2]
-    for i in range(na):
-        for j2 in range(i):
-            m_theta[i, j2] = m_theta[j2, i]
 
 
 # ------------------------------------------------------------------ full-space model

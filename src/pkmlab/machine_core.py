@@ -12,6 +12,8 @@ generated text is checked to be current by the test suite, so this file is the o
 Conventions (as in the generated kernels): ``q = (θ, φ)`` with the ``n`` actuator values ``θ``
 first and the passive coordinates ``φ`` (the passive joints, then the pose) after them;
 ``η(q) = 0`` are the ``m = len(φ)`` loop-closure equations; ``P`` is the packed parameter vector.
+Every generated kernel reads the angles' cosines and sines from a trig table ``sc`` (N, 2) of its
+configuration (``trig``), computed once per configuration and shared by every kernel evaluated there.
 Every function is allocation-free and works in a :class:`Workspace`.
 """
 
@@ -41,6 +43,8 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
         constraints,
         leg_lines,
         platform_size,
+        trig,
+        trig_passive,
     )
 
 # ==== TEMPLATE: the text from here on is appended to every generated kernel module ====
@@ -76,23 +80,28 @@ MAX_CHORD = 8
 @njit(cache=True)
 def singularity_measures(qs, P, out):
     """:func:`singularity_measure` of every configuration ``qs`` (K, N) into ``out`` (K,); NaN rows give NaN."""
-    lines = np.empty((N_ACTUATORS, 4))
+    lines, sc = np.empty((N_ACTUATORS, 4)), np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        out[k] = singularity_measure(qs[k], P, lines)
+        trig(qs[k], sc)
+        out[k] = singularity_measure(qs[k], sc, P, lines)
 
 
 @njit(cache=True)
 def constraint_jacobians(qs, P, out):
     """``Jηq`` of every configuration ``qs`` (K, N) into ``out`` (K, m, N)."""
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        constraint_jacobian(qs[k], P, out[k])
+        trig(qs[k], sc)
+        constraint_jacobian(qs[k], sc, P, out[k])
 
 
 @njit(cache=True)
 def constraint_biases(qs, q_dots, P, out):
     """``J̇ηq q̇`` of every configuration and rate (K, N) into ``out`` (K, m)."""
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        constraint_bias(qs[k], q_dots[k], P, out[k])
+        trig(qs[k], sc)
+        constraint_bias(qs[k], sc, q_dots[k], P, out[k])
 
 
 class Workspace(NamedTuple):
@@ -100,6 +109,7 @@ class Workspace(NamedTuple):
     accepted one, from which branch following starts) and ``q[1]`` a trial configuration."""
 
     q: np.ndarray  # (2, N) base and trial configurations
+    sc: np.ndarray  # (2, N, 2) their trig tables
     s: np.ndarray  # (2,) their singularity measures
     j_eta: np.ndarray  # (m, N) Jηq
     lu: np.ndarray  # (m - 2, m - 2) factors of Jηφ's reduced system (x and y eliminated)
@@ -153,7 +163,7 @@ def passive_solve(lu, piv, top, b, work):
     rows 0 and 1 (``top``: their entries in the reduced system's columns)."""
     for r in range(REDUCED):
         work[r] = b[r + 2] - b[r % 2]
-    lu_solve_factored(lu, piv, work)
+    lu_solve_factored(lu, piv, work, REDUCED)
     dx, dy = -b[0], -b[1]
     for k in range(REDUCED):
         dx += top[0, k] * work[k]
@@ -165,7 +175,7 @@ def passive_solve(lu, piv, top, b, work):
 
 
 @njit(**NO_REFCOUNT)
-def singularity_measure(q, P, lines):
+def singularity_measure(q, sc, P, lines):
     """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
 
     With ``u_i`` the unit direction of the line along which leg ``i`` pushes the platform and ``r_i``
@@ -177,9 +187,9 @@ def singularity_measure(q, P, lines):
       ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, ``φ_i`` the angle of ``u_i``;
     * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align.
 
-    ``lines`` is an (N_ACTUATORS, 4) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, 4) scratch array.
     """
-    leg_lines(q, P, lines)
+    leg_lines(q, sc, P, lines)
     for i in range(N_ACTUATORS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
@@ -198,7 +208,8 @@ def singularity_measure(q, P, lines):
 def make_workspace():
     N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
     r = REDUCED
-    return Workspace(np.zeros((2, N)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)), np.zeros(r, np.int64),
+    return Workspace(np.zeros((2, N)), np.zeros((2, N, 2)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)),
+                     np.zeros(r, np.int64),
                      np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
                      np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
                      np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((r, r)),
@@ -207,10 +218,10 @@ def make_workspace():
 
 
 @njit(**NO_REFCOUNT)
-def factor_passive(ws, q, P):
-    """``Jηq`` at ``q`` into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the reduced system of
-    :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
-    constraint_jacobian(q, P, ws.j_eta)
+def factor_passive(ws, q, sc, P):
+    """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
+    reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
+    constraint_jacobian(q, sc, P, ws.j_eta)
     n = N_ACTUATORS
     for k in range(REDUCED):
         c = n + reduced_column(k)
@@ -218,7 +229,7 @@ def factor_passive(ws, q, P):
         ws.top[1, k] = ws.j_eta[1, c]
         for r in range(REDUCED):
             ws.reduced[r, k] = ws.j_eta[r + 2, c] - ws.j_eta[r % 2, c]
-    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv)
+    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 
 
@@ -237,18 +248,20 @@ def actuated_jacobian(ws, out):
 
 
 @njit(**NO_REFCOUNT)
-def correct_passive(ws, q, P):
-    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` (in place); returns the status."""
+def correct_passive(ws, q, sc, P):
+    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` and its trig table ``sc`` (both in
+    place); returns the status."""
     n = N_ACTUATORS
     for _ in range(MAX_NEWTON):
-        constraints(q, P, ws.eta)
-        if not factor_passive(ws, q, P):
+        constraints(q, sc, P, ws.eta)
+        if not factor_passive(ws, q, sc, P):
             return SINGULAR
         passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             q[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        trig_passive(q, sc)
         if step < NEWTON_STEP:
             return OK
     return NOT_CONVERGED
@@ -281,9 +294,9 @@ def follow_branch(ws, theta, P, min_abs_s):
     """
     n = N_ACTUATORS
     base = ws.q[BASE]
-    trial = ws.q[TRIAL]
+    trial, sc = ws.q[TRIAL], ws.sc[TRIAL]
     if ws.base_factored[0] == 0:
-        if not factor_passive(ws, base, P):
+        if not factor_passive(ws, base, ws.sc[BASE], P):
             return SINGULAR
         actuated_jacobian(ws, ws.j_q_theta)
         keep_base_factors(ws)
@@ -294,15 +307,17 @@ def follow_branch(ws, theta, P, min_abs_s):
         trial[i] = acc
     for j in range(n):
         trial[j] = theta[j]
+    trig(trial, sc)
     status = NOT_CONVERGED
     previous = np.inf
     for _ in range(MAX_CHORD):
-        constraints(trial, P, ws.eta)
+        constraints(trial, sc, P, ws.eta)
         passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             trial[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        trig_passive(trial, sc)
         # the chord method converges linearly with the ratio of successive steps, r: what remains after
         # this step is at most step r / (1 - r)
         ratio = step / previous  # 0 at the first step: no estimate yet
@@ -311,10 +326,10 @@ def follow_branch(ws, theta, P, min_abs_s):
             break
         previous = step
     if status != OK:
-        status = correct_passive(ws, trial, P)
+        status = correct_passive(ws, trial, sc, P)
         if status != OK:
             return status
-    s = singularity_measure(trial, P, ws.lines)
+    s = singularity_measure(trial, sc, P, ws.lines)
     ws.s[TRIAL] = s
     if abs(s) < min_abs_s or s * ws.s[BASE] < 0.0:
         return SINGULAR
@@ -326,6 +341,8 @@ def accept_trial(ws):
     """The trial configuration becomes the base."""
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = ws.q[TRIAL, i]
+        ws.sc[BASE, i, 0] = ws.sc[TRIAL, i, 0]
+        ws.sc[BASE, i, 1] = ws.sc[TRIAL, i, 1]
     ws.s[BASE] = ws.s[TRIAL]
     ws.base_factored[0] = 0
 
@@ -335,21 +352,23 @@ def set_base(ws, q, P):
     """Start branch following from the configuration ``q`` (on the constraint manifold)."""
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = q[i]
-    ws.s[BASE] = singularity_measure(q, P, ws.lines)
+    trig(q, ws.sc[BASE])
+    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines)
     ws.base_factored[0] = 0
 
 
 @njit(**NO_REFCOUNT)
-def actuator_space_model(ws, q, theta_dot, P):
+def actuator_space_model(ws, q, sc, theta_dot, P):
     """``Mθ``, ``cθ = Cθ θ̇`` and ``gθ = ∂V/∂θ`` of ``Mθ θ̈ + cθ + gθ = τ`` (eq. 35, with gravity) at ``q``
-    on the manifold, into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok (``det Jηφ ≠ 0``).
+    on the manifold (trig table ``sc``), into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok
+    (``det Jηφ ≠ 0``).
 
     Body by body, with ``Jt = J_b Jqθ`` the body's velocity per actuator rate and
     ``a_b = J_b J̇qθ θ̇ + J̇_b q̇`` its acceleration at ``θ̈ = 0``:
     ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``).
     """
     n, N = N_ACTUATORS, N_COORDINATES
-    if not factor_passive(ws, q, P):
+    if not factor_passive(ws, q, sc, P):
         return False
     actuated_jacobian(ws, ws.j_q_theta)
     for i in range(N):
@@ -357,7 +376,7 @@ def actuator_space_model(ws, q, theta_dot, P):
         for j in range(n):
             acc += ws.j_q_theta[i, j] * theta_dot[j]
         ws.q_dot[i] = acc
-    constraint_bias(q, ws.q_dot, P, ws.gamma)
+    constraint_bias(q, sc, ws.q_dot, P, ws.gamma)
     for k in range(N_CONSTRAINTS):  # φ̈ at θ̈ = 0: -Jηφ⁻¹ J̇ηq q̇ (eq. 32)
         ws.gamma[k] = -ws.gamma[k]
     passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
@@ -365,8 +384,8 @@ def actuator_space_model(ws, q, theta_dot, P):
         ws.bias_q[i] = 0.0
     for k in range(N_CONSTRAINTS):
         ws.bias_q[n + k] = ws.gamma[k]
-    body_jacobian_values(q, P, ws.jb)
-    body_bias(q, ws.q_dot, P, ws.bb)
+    body_jacobian_values(q, sc, P, ws.jb)
+    body_bias(q, sc, ws.q_dot, P, ws.bb)
     for b in range(N_BODIES):
         for r in range(3):
             for j in range(n):
@@ -377,25 +396,25 @@ def actuator_space_model(ws, q, theta_dot, P):
             ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
         ws.bb[b, r] += v * ws.bias_q[k]
     gx, gy = P[GRAVITY_INDEX[0]], P[GRAVITY_INDEX[1]]
+    # each entry summed in a register and stored once (accumulating into the workspace's arrays would
+    # load and store at every term: the compiler cannot rule out that they overlap)
     for i in range(n):
-        ws.c_theta[i] = 0.0
-        ws.g_theta[i] = 0.0
-        for j in range(n):
-            ws.m_theta[i, j] = 0.0
-    for b in range(N_BODIES):
-        mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
-        for r in range(3):
-            w = inertia if r == 2 else mass
-            for i in range(n):
-                wi = w * ws.jt[b, r, i]
-                ws.c_theta[i] += wi * ws.bb[b, r]
-                for j in range(i, n):
-                    ws.m_theta[i, j] += wi * ws.jt[b, r, j]
-        for i in range(n):
-            ws.g_theta[i] -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
-    for i in range(n):
-        for j in range(i):
-            ws.m_theta[i, j] = ws.m_theta[j, i]
+        c, g = 0.0, 0.0
+        for b in range(N_BODIES):
+            mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+            c += (mass * (ws.jt[b, 0, i] * ws.bb[b, 0] + ws.jt[b, 1, i] * ws.bb[b, 1])
+                  + inertia * ws.jt[b, 2, i] * ws.bb[b, 2])
+            g -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
+        ws.c_theta[i] = c
+        ws.g_theta[i] = g
+        for j in range(i, n):
+            acc = 0.0
+            for b in range(N_BODIES):
+                mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+                acc += (mass * (ws.jt[b, 0, i] * ws.jt[b, 0, j] + ws.jt[b, 1, i] * ws.jt[b, 1, j])
+                        + inertia * ws.jt[b, 2, i] * ws.jt[b, 2, j])
+            ws.m_theta[i, j] = acc
+            ws.m_theta[j, i] = acc
     return True
 
 
@@ -404,8 +423,10 @@ def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
     """:func:`actuator_space_model` of every configuration ``qs`` (K, N) and rates ``theta_dots`` (K, n) into
     ``m_out`` (K, n, n), ``c_out`` and ``g_out`` (K, n); returns the first singular one's index, or -1."""
     ws = make_workspace()
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        if not actuator_space_model(ws, qs[k], theta_dots[k], P):
+        trig(qs[k], sc)
+        if not actuator_space_model(ws, qs[k], sc, theta_dots[k], P):
             return k
         m_out[k] = ws.m_theta
         c_out[k] = ws.c_theta
@@ -432,7 +453,7 @@ def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
         status = follow_branch(ws, theta, P, min_abs_s)
         if status != OK:
             return status
-    if not actuator_space_model(ws, ws.q[slot], theta_dot, P):
+    if not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
         return SINGULAR
     if slot == BASE:
         keep_base_factors(ws)
@@ -468,7 +489,7 @@ def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_d
     if status != OK:
         return status
     accept_trial(ws)
-    if not actuator_space_model(ws, ws.q[BASE], theta_dot, P):
+    if not actuator_space_model(ws, ws.q[BASE], ws.sc[BASE], theta_dot, P):
         return SINGULAR
     keep_base_factors(ws)
     for i in range(n):  # v, kept in theta_ddot
@@ -559,17 +580,53 @@ def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, 
         out_k[r] = k
 
 
+# ---- entry points for callers outside compiled code (an adaptive integrator, a path's kinematics): plain
+# arrays in and out, the workspace made inside (a workspace passed in from Python costs ~0.3 ms per call
+# to type its ~30 arrays; making one costs a few microseconds)
 @njit(cache=True)
-def reduced_rhs(ws, y, tau, P, min_abs_s):
-    """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` for an adaptive integrator (continuous-time
-    control); the passive coordinates follow from the base, which then moves there. Returns
-    ``(ẏ, status)``."""
+def reduced_rhs(q_base, y, tau, P, min_abs_s, q_out):
+    """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
+    the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
+    configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
     n = N_ACTUATORS
-    out = np.empty(2 * n)
+    ws = make_workspace()
+    set_base(ws, q_base, P)
+    out = np.zeros(2 * n)
     status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, TRIAL)
+    for i in range(N_COORDINATES):
+        q_out[i] = ws.q[TRIAL, i]
     if status == OK:
-        accept_trial(ws)
-        keep_base_factors(ws)  # the stage's factors are the new base's
-        out[:n] = y[n:]
-        out[n:] = ws.theta_ddot
+        for i in range(n):
+            out[i] = y[n + i]
+            out[n + i] = ws.theta_ddot[i]
     return out, status
+
+
+@njit(cache=True)
+def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
+                        q_out, tau):
+    """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
+    configuration at the measured ``theta`` into ``q_out``. Returns the status."""
+    ws = make_workspace()
+    set_base(ws, q_base, P)
+    status = control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws,
+                            tau)
+    for i in range(N_COORDINATES):
+        q_out[i] = ws.q[BASE, i]
+    return status
+
+
+@njit(cache=True)
+def follow_path(q_start, thetas, P, min_abs_s, q_out):
+    """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn, into ``q_out``
+    (K, N); returns ``(status, k)``, ``k`` the first point not reached (else -1)."""
+    ws = make_workspace()
+    set_base(ws, q_start, P)
+    for k in range(thetas.shape[0]):
+        status = follow_branch(ws, thetas[k], P, min_abs_s)
+        if status != OK:
+            return status, k
+        accept_trial(ws)
+        for i in range(N_COORDINATES):
+            q_out[k, i] = ws.q[BASE, i]
+    return OK, -1

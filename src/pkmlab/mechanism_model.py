@@ -20,6 +20,7 @@ Coordinates are those of the generated kernels: ``q = (actuators, passive joints
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 from dataclasses import dataclass, field
@@ -66,6 +67,13 @@ class MechanismModel:
     def from_preset(cls, name: str) -> MechanismModel:
         return cls.from_description(preset(name))
 
+    @classmethod
+    def from_3rrr(cls, model) -> MechanismModel:
+        """The generic model of a :class:`~pkmlab.geometry.Planar3RRR`, from its
+        :meth:`~pkmlab.geometry.Planar3RRR.to_mechanism`: what runs its simulations. Cached: a study builds it
+        once per machine."""
+        return _from_3rrr(model)
+
     @property
     def coordinates(self) -> tuple[str, ...]:
         return self.kernels.COORDINATES
@@ -80,6 +88,31 @@ class MechanismModel:
         rows = [(b.mass, b.mass, b.inertia) for leg in self.description.legs for b in leg.bodies]
         platform = self.description.platform
         return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
+
+
+@functools.lru_cache(maxsize=64)
+def _from_3rrr(model) -> MechanismModel:
+    # the Planar3RRR checked already that its platform can be assembled
+    description = model.to_mechanism()
+    kernels = importlib.import_module(f".mechanisms.generated.{planar.generated_path(description).stem}", __package__)
+    P = planar.pack(description)
+    P.setflags(write=False)
+    return MechanismModel(description, P, kernels)
+
+
+def coordinates_from_3rrr(model, q: np.ndarray) -> np.ndarray:
+    """A :class:`~pkmlab.geometry.Planar3RRR`'s configurations ``q`` (..., 7) = ``(θ, φ, α)`` in the generic
+    model's coordinates (..., 9) = ``(θ, φ, x, y, α)`` (:meth:`MechanismModel.from_3rrr`)."""
+    from .kinematics import platform_pose
+
+    q = np.asarray(q, dtype=float)
+    pose = platform_pose(model, q)
+    return np.concatenate([q[..., :6], pose[..., :2], q[..., 6:]], axis=-1)
+
+
+def coordinates_to_3rrr(q: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`coordinates_from_3rrr`: ``(θ, φ, x, y, α)`` → ``(θ, φ, α)``."""
+    return np.concatenate([q[..., :6], q[..., 8:]], axis=-1)
 
 
 #: Grids of the assembly check: positions per axis over the machine's region, and orientations; the
@@ -156,9 +189,18 @@ def _user_structure_kernels(description: Mechanism) -> ModuleType:
     return module
 
 
-def _evaluate(fn, shape, *args) -> np.ndarray:
+def trig_table(model: MechanismModel, q: np.ndarray) -> np.ndarray:
+    """The trig table of ``q`` that every generated kernel reads: ``(cos q_k, sin q_k)`` (n_coordinates, 2)
+    for the angles (zeros elsewhere)."""
+    sc = np.zeros((len(model.coordinates), 2))
+    model.kernels.trig(q, sc)
+    return sc
+
+
+def _evaluate(model: MechanismModel, fn, shape, q, *args) -> np.ndarray:
+    """``fn``'s output (``shape``) at configuration ``q``; ``args`` between the trig table and ``P``."""
     out = np.empty(shape)
-    fn(*args, out)
+    fn(q, trig_table(model, q), *args, model.P, out)
     return out
 
 
@@ -173,19 +215,19 @@ def _q(model: MechanismModel, q) -> np.ndarray:
 def constraint_residual(model: MechanismModel, q) -> np.ndarray:
     """``η(q)``: for each leg, the end of its chain minus its platform attachment point."""
     k = model.kernels
-    return _evaluate(k.constraints, (k.N_CONSTRAINTS,), _q(model, q), model.P)
+    return _evaluate(model, k.constraints, (k.N_CONSTRAINTS,), _q(model, q))
 
 
 def constraint_jacobian(model: MechanismModel, q) -> np.ndarray:
     """``Jηq = ∂η/∂q`` (n_constraints, n_coordinates)."""
     k = model.kernels
-    return _evaluate(k.constraint_jacobian, (k.N_CONSTRAINTS, k.N_COORDINATES), _q(model, q), model.P)
+    return _evaluate(model, k.constraint_jacobian, (k.N_CONSTRAINTS, k.N_COORDINATES), _q(model, q))
 
 
 def _bodies(model: MechanismModel, q, q_dot):
     k = model.kernels
-    J = _evaluate(k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q, model.P)
-    bias = _evaluate(k.body_bias, (k.N_BODIES, 3), q, q_dot, model.P)
+    J = _evaluate(model, k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q)
+    bias = _evaluate(model, k.body_bias, (k.N_BODIES, 3), q, q_dot)
     return J, bias
 
 
@@ -193,7 +235,7 @@ def gravity_vector(model: MechanismModel, q) -> np.ndarray:
     """``g(q) = ∂V/∂q``: the generalised forces that hold the machine still against gravity."""
     q = _q(model, q)
     k = model.kernels
-    return _gravity(model, _evaluate(k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q, model.P))
+    return _gravity(model, _evaluate(model, k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q))
 
 
 def _gravity(model: MechanismModel, J: np.ndarray) -> np.ndarray:
@@ -235,7 +277,7 @@ def constrained_accelerations(model: MechanismModel, q, q_dot, tau) -> tuple[np.
     M, h, g = full_space_model(model, q, q_dot)
     Q = np.zeros(len(q))
     Q[:model.n_actuators] = tau
-    gamma = _evaluate(k.constraint_bias, (k.N_CONSTRAINTS,), q, q_dot, model.P)
+    gamma = _evaluate(model, k.constraint_bias, (k.N_CONSTRAINTS,), q, q_dot)
     q_ddot, lam, ok = lagrangian.constrained_accelerations(M, h + g, constraint_jacobian(model, q), gamma, Q)
     if not ok:
         raise SingularityError("the constrained model is singular at this configuration")
@@ -307,7 +349,7 @@ def singularity_measure(model: MechanismModel, q) -> float:
     determinant of the legs' lines of action, the paper's eq. (19) for its machine; for the five-bar,
     ``sin(φ1 - φ2)``)."""
     q = _q(model, q)
-    return float(model.kernels.singularity_measure(q, model.P, np.empty((model.n_actuators, 4))))
+    return float(model.kernels.singularity_measure(q, trig_table(model, q), model.P, np.empty((model.n_actuators, 4))))
 
 
 # ------------------------------------------------------------------ forward kinematics

@@ -6,6 +6,8 @@ Two independent formulations of the same physics (conventions §6):
   ``(θ, θ̇)``; after every evaluation the passive variables are recovered by
   branch-following forward kinematics (paper §3.2), so the configuration is always on the
   constraint manifold — the loop-closure residual stays at round-off level by construction.
+  Its model and branch following are the compiled core's (:mod:`pkmlab.machine_core`, on the
+  machine's description), the simulation's own plant, here under an adaptive integrator.
 * :class:`FullPlant` integrates the seven coordinates with Lagrange multipliers (eq. 26) as
   an index-1 differential-algebraic system, with Baumgarte stabilisation of the constraint
   drift. It shares no reduction step with the first and serves as its cross-check.
@@ -28,6 +30,7 @@ from . import _compile_cache  # noqa: F401  (sets the kernel cache before any ke
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
 from .kinematics import _batch, _model, _real, constraint_residual
+from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
 from .mechanisms import rrr3
 
 
@@ -105,19 +108,6 @@ def _check_times(t_final, t_eval):
 
 
 @njit(cache=True)
-def _reduced_rhs(y, q_guess, tau, P, min_abs_s, q_out):
-    """``(θ̇, θ̈)`` of eq. (35) at ``θ = y[:3]``, with ``φ`` branch-followed from ``q_guess``."""
-    status = rrr3.branch_following(q_guess, y[:3], P, q_out, min_abs_s)
-    out = np.empty(6)
-    out[:3] = y[3:]
-    theta_ddot, ok = rrr3.forward_dynamics(q_out, y[3:], tau, P)
-    out[3:] = theta_ddot
-    if status == rrr3.OK and not ok:
-        status = rrr3.SINGULAR
-    return out, status
-
-
-@njit(cache=True)
 def _full_rhs(y, tau, P, stabilization):
     out = np.empty(14)
     out[:7] = y[7:]
@@ -149,17 +139,19 @@ class ReducedPlant:
         """Integrate from configuration ``q0`` (on the manifold) and actuated rates ``θ̇0``."""
         q0, theta_dot0, torque_fn, t_final, t_eval = _initial(self.model, q0, "theta_dot0", theta_dot0, 3, torque,
                                                               t_final, t_eval)
-        P = self.model.packed
-        q_last = q0.copy()
-        q_work = np.empty(7)
+        # the compiled core's reduced model and branch following, on the machine's description
+        machine = MechanismModel.from_3rrr(self.model)
+        kernels, P = machine.kernels, machine.P
+        q_start = coordinates_from_3rrr(self.model, q0)
+        q_last, q_work = q_start.copy(), np.empty_like(q_start)
         evaluations = 0
 
         def rhs(t, y):
             nonlocal evaluations
             evaluations += 1
             tau = np.asarray(torque_fn(t, y[:3], y[3:]), dtype=float)
-            ydot, status = _reduced_rhs(y, q_last, tau, P, self.min_abs_S, q_work)
-            if status != rrr3.OK:
+            ydot, status = kernels.reduced_rhs(q_last, y, tau, P, self.min_abs_S, q_work)
+            if status != kernels.OK:
                 raise BranchFollowingError(
                     f"the plant reached a gain-type singularity at t = {t:.6g} s "
                     f"(theta = {np.round(y[:3], 6).tolist()}, |S| < min_abs_S = {self.min_abs_S:g})"
@@ -173,13 +165,11 @@ class ReducedPlant:
         if sol.status != 0:
             raise SingularityError(f"integration failed: {sol.message} (rtol = {self.rtol:g}, atol = {self.atol:g})")
         # rebuild the passive variables at the output times, following the branch from q0
-        qs = np.empty((sol.t.size, 7))
-        q_prev = q0
-        for k in range(sol.t.size):
-            q_next = np.empty(7)
-            if rrr3.branch_following(q_prev, sol.y[:3, k].copy(), P, q_next, self.min_abs_S) != rrr3.OK:
-                raise BranchFollowingError(f"lost the assembly mode at t = {sol.t[k]:.6g} s")
-            qs[k] = q_prev = q_next
+        path = np.empty((sol.t.size, q_start.size))
+        status, k = kernels.follow_path(q_start, np.ascontiguousarray(sol.y[:3].T), P, self.min_abs_S, path)
+        if status != kernels.OK:
+            raise BranchFollowingError(f"lost the assembly mode at t = {sol.t[k]:.6g} s")
+        qs = coordinates_to_3rrr(path)
         from .kinematics import coordinate_rates
 
         q_dot = coordinate_rates(self.model, qs, sol.y[3:].T)

@@ -157,12 +157,14 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     as it is: base pivots, each leg through its joints (actuated body bold; a prismatic actuator's rail
     over its stroke with the slider on it, a telescopic leg's cylinder and rod), the platform and the
     tracked point. The joint positions come from the structure's generated ``joint_points``."""
+    from . import mechanism_model as mm
+
     ax = _axes(ax)
     q = np.asarray(q, dtype=float)
     m = model.description
     k = model.kernels
     points = np.empty((len(m.legs), k.JOINTS_PER_LEG, 2))
-    k.joint_points(q, model.P, points)
+    k.joint_points(q, mm.trig_table(model, q), model.P, points)
     for i, leg in enumerate(m.legs):
         pts = points[i, :len(leg.joints)]
         first = i == 0

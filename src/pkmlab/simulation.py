@@ -13,8 +13,10 @@ is constant inside the sample, so the solution is smooth there and a fixed-step 
 method needs no error control: one RK4 step per 1 ms sample is off a DOP853 reference at rtol
 1e-13 by about 1e-12 rad at the fast case's highest speed, and the error falls 16-fold per
 halving), branch-following its passive variables at every stage from the start of the step.
-The whole loop is compiled and allocation-free (a :class:`~pkmlab.mechanisms.rrr3.Workspace`
-per model); :func:`simulate_batch` runs many scenarios over all cores. Continuous-time control
+The whole loop is compiled and allocation-free: the one written in :mod:`pkmlab.machine_core` and bound
+to each structure's generated kernels — the paper's 3-RRR runs on its description's
+(:meth:`~pkmlab.mechanism_model.MechanismModel.from_3rrr`); :func:`simulate_batch` runs many scenarios
+over all cores. Continuous-time control
 re-evaluates the controller at every stage of an adaptive DOP853 integration.
 """
 
@@ -28,17 +30,14 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-from numba import njit, prange
 from scipy.integrate import solve_ivp
 
-from ._compile_cache import NO_REFCOUNT
 from ._format import apart
 from .control import (
     CONTROLLER_TYPES,
     PD,
     STABILITY_TOLERANCE,
     ControllerSpec,
-    control_torque,
     largest_stable_kp,
     largest_stable_sample_time,
     sampled_data_spectral_radius,
@@ -64,8 +63,7 @@ from .kinematics import (
     platform_pose,
     singularity_measure,
 )
-from .mechanism_model import MechanismModel
-from .mechanisms import rrr3
+from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
 from .outputs import atomic_file
 from .trajectory import desired_joint_motion, paper_trajectory
 
@@ -392,109 +390,6 @@ def _best_working_mode(model: Planar3RRR, pose: np.ndarray, margin: float, strid
     if best is None or best_min < margin:
         return None
     return tuple(int(v) for v in WORKING_MODES[best]), best_min
-
-
-# ------------------------------------------------------------------ compiled sampled-data loop
-@njit(**NO_REFCOUNT)
-def _plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
-    """``θ̈`` of the reduced plant (eq. 35) at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
-
-    ``slot = BASE_SLOT``: ``θ`` is the base configuration's (already on the manifold);
-    otherwise the passive variables are first found by branch following from the base.
-    """
-    if slot != rrr3.BASE_SLOT:
-        status = rrr3.follow_branch(ws, theta, P, min_abs_s)
-        if status != rrr3.OK:
-            return status
-    rrr3.evaluate_dynamics(ws, slot, theta_dot, P)
-    if not rrr3.solve_accelerations(ws, tau):
-        return rrr3.SINGULAR
-    return rrr3.OK
-
-
-@njit(**NO_REFCOUNT)
-def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work):
-    """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
-
-    ``x`` (6,) = ``(θ, θ̇)`` is updated in place; ``ws.q[BASE_SLOT]`` holds the plant's
-    configuration at ``θ`` (linearised) and is moved along. The intermediate stages find their
-    passive variables by branch following from the start of the step. ``work`` is a (5, 6)
-    scratch array. Returns the status.
-    """
-    h = dt / n_sub
-    k = work[:4]
-    y = work[4]
-    for _ in range(n_sub):
-        for stage in range(4):
-            c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
-            for i in range(6):
-                y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
-            slot = rrr3.BASE_SLOT if stage == 0 else rrr3.TRIAL_SLOT
-            status = _plant_stage(ws, y[:3], y[3:], tau, P, min_abs_s, slot)
-            if status != rrr3.OK:
-                return status
-            for i in range(3):
-                k[stage, i] = y[3 + i]
-                k[stage, 3 + i] = ws.theta_ddot[i]
-        for i in range(6):
-            x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
-        status = rrr3.follow_branch(ws, x[:3], P, min_abs_s)
-        if status != rrr3.OK:
-            return status
-        rrr3.copy_slot(ws, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
-    return rrr3.OK
-
-
-@njit(cache=True)
-def _sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                       kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_pose, out_s):
-    """Run the whole sampled-data loop; returns ``(status, k)`` (``k`` = sample of a failure, else -1).
-
-    Status ``10 + s`` means the controller's own model lost its branch (status ``s``). Besides
-    the state and torque, records the plant's platform pose and ``S`` at every sample.
-    """
-    n = theta_d.shape[0]
-    plant = rrr3.workspace_at(q_plant0, P_plant)
-    ctrl = rrr3.workspace_at(q_ctrl0, P_ctrl)
-    if plant.det[rrr3.BASE_SLOT] == 0.0:  # Jηφ singular at the start
-        return rrr3.SINGULAR, 0
-    if ctrl.det[rrr3.BASE_SLOT] == 0.0:
-        return 10 + rrr3.SINGULAR, 0
-    x = np.zeros(6)
-    x[:3] = q_plant0[:3]
-    work = np.empty((5, 6))
-    tau = np.zeros(3)
-    for k in range(n):
-        out_q[k] = plant.q[rrr3.BASE_SLOT]
-        rrr3.platform_pose(out_q[k], P_plant, out_pose[k])
-        out_s[k] = rrr3.slot_singularity_measure(plant, rrr3.BASE_SLOT)
-        out_theta_dot[k] = x[3:]
-        status = control_torque(kind, kp, kv, x[:3], x[3:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
-                                min_abs_s, ctrl, tau)
-        if status != rrr3.OK:
-            return 10 + status, k
-        out_tau[k] = tau
-        if k == n - 1:
-            break
-        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work)
-        if status != rrr3.OK:
-            return status, k
-    return rrr3.OK, -1
-
-
-@njit(cache=True, parallel=True)
-def _sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                        kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_pose, out_s, out_status, out_k):
-    """:func:`_sampled_data_loop` for a batch of runs (leading axis), spread over the CPU cores.
-
-    Each run executes exactly the code of a single run, so its result is bit-for-bit the same.
-    """
-    for r in prange(theta_d.shape[0]):
-        status, k = _sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
-                                       q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], min_abs_s[r],
-                                       out_q[r], out_theta_dot[r], out_tau[r], out_pose[r], out_s[r])
-        out_status[r] = status
-        out_k[r] = k
 
 
 # ------------------------------------------------------------------ results
@@ -924,84 +819,100 @@ def simulate(scenario: Scenario) -> SimulationResult:
         raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__} "
                                     f"{shown(scenario, 50)}{hint}")
     prep = _prepare(scenario)
-    n = prep.t.size
-    if isinstance(scenario.model, MechanismModel):
-        return _machine_simulate(scenario, prep)
-    if scenario.sample_time > 0:
-        q, theta_dot, tau = np.zeros((n, 7)), np.zeros((n, 3)), np.zeros((n, 3))
-        pose, s = np.zeros((n, 3)), np.zeros(n)
-        d = prep.desired
-        status, k_fail = _sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
-                                            d.theta_ddot, prep.q_plant0, prep.q_ctrl0, scenario.plant_model.packed,
-                                            scenario.model.packed, prep.kind, prep.kp, prep.kv, prep.guard,
-                                            q, theta_dot, tau, pose, s)
-        if status != rrr3.OK:
-            raise _loop_error(scenario, prep, status, q, k_fail)
-        return _result(scenario, prep, q, theta_dot, tau, pose, s)
-    q, theta_dot, tau = _continuous_time(scenario, prep.mode, prep.t, prep.q_plant0, prep.q_ctrl0, prep.kind,
-                                         prep.kp, prep.kv, prep.guard)
-    return _result(scenario, prep, q, theta_dot, tau)
-
-
-def _machine_simulate(scenario: Scenario, prep: _Prepared) -> SimulationResult:
-    """:func:`simulate` for a described mechanism: its structure's compiled loop (:mod:`pkmlab.machine_core`)."""
-    k_, n, N = scenario.model.kernels, scenario.model.n_actuators, len(prep.q_ctrl0)
-    count = prep.t.size
+    ctrl, plant = _loop_model(scenario.model), _loop_model(scenario.plant_model)
+    q_plant0 = _loop_coordinates(scenario.plant_model, prep.q_plant0)
+    q_ctrl0 = _loop_coordinates(scenario.model, prep.q_ctrl0)
     if scenario.sample_time == 0:
-        q, theta_dot, tau = _machine_continuous_time(scenario, prep)
-        return _result(scenario, prep, q, theta_dot, tau)
-    q, theta_dot, tau, s = np.zeros((count, N)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
+        q, theta_dot, tau = _continuous_time(scenario, prep, ctrl, plant, q_plant0, q_ctrl0)
+        s = np.empty(q.shape[0])
+        plant.kernels.singularity_measures(q, plant.P, s)
+        return _result(scenario, prep, _scenario_coordinates(scenario.model, q), theta_dot, tau,
+                       q[:, -_dof(plant):].copy(), s)
+    k_, n = ctrl.kernels, ctrl.n_actuators
+    count = prep.t.size
+    q, theta_dot, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
     d = prep.desired
     status, k_fail = k_.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
-                                          d.theta_ddot, prep.q_plant0, prep.q_ctrl0, scenario.plant_model.P,
-                                          scenario.model.P, prep.kind, prep.kp, prep.kv, prep.guard, q, theta_dot,
-                                          tau, s)
+                                          d.theta_ddot, q_plant0, q_ctrl0, plant.P, ctrl.P, prep.kind, prep.kp,
+                                          prep.kv, prep.guard, q, theta_dot, tau, s)
+    pose, q = q[:, -_dof(plant):].copy(), _scenario_coordinates(scenario.model, q)
     if status != k_.OK:
         raise _loop_error(scenario, prep, status, q, k_fail)
-    return _result(scenario, prep, q, theta_dot, tau, None, s)
+    return _result(scenario, prep, q, theta_dot, tau, pose, s)
 
 
-def _machine_continuous_time(scenario: Scenario, prep: _Prepared):
-    """Continuous-time control of a described mechanism: the controller evaluated at every stage of DOP853."""
-    k_, n = scenario.model.kernels, scenario.model.n_actuators
-    P_plant, P_ctrl = scenario.plant_model.P, scenario.model.P
-    plant, ctrl = k_.make_workspace(), k_.make_workspace()
-    k_.set_base(plant, prep.q_plant0, P_plant)
-    k_.set_base(ctrl, prep.q_ctrl0, P_ctrl)
+def _loop_model(model) -> MechanismModel:
+    """The model whose generated kernels and compiled loop (:mod:`pkmlab.machine_core`) run ``model``: itself,
+    or for the paper's :class:`~pkmlab.geometry.Planar3RRR` its description's
+    (:meth:`~pkmlab.mechanism_model.MechanismModel.from_3rrr`): one loop for every machine."""
+    return model if isinstance(model, MechanismModel) else MechanismModel.from_3rrr(model)
+
+
+def _loop_coordinates(model, q: np.ndarray) -> np.ndarray:
+    """Configurations of ``model`` in its loop model's coordinates (the 3-RRR's ``(θ, φ, α)`` gain ``x, y``)."""
+    return q if isinstance(model, MechanismModel) else coordinates_from_3rrr(model, q)
+
+
+def _scenario_coordinates(model, q: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`_loop_coordinates`."""
+    return q if isinstance(model, MechanismModel) else coordinates_to_3rrr(q)
+
+
+def _dof(model: MechanismModel) -> int:
+    return model.description.dof
+
+
+def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, plant: MechanismModel,
+                     q_plant0: np.ndarray, q_ctrl0: np.ndarray):
+    """Continuous-time control: the controller evaluated at every stage of DOP853. Configurations in the loop
+    model's coordinates."""
+    k_, n = ctrl.kernels, ctrl.n_actuators
+    P_plant, P_ctrl = plant.P, ctrl.P
+    # the last configurations reached: each evaluation branch-follows from there
+    q_plant, q_ctrl, q_next = q_plant0.copy(), q_ctrl0.copy(), np.empty_like(q_plant0)
     tau = np.zeros(n)
-    dof = scenario.model.description.dof
 
     def control(time, theta, theta_dot):
-        d = _machine_joint_motion_at(scenario, prep, time, dof)
-        status = k_.control_effort(prep.kind, prep.kp, prep.kv, theta, theta_dot, *d, P_ctrl, prep.guard, ctrl, tau)
+        d = _joint_motion_at(scenario, prep, time)
+        status = k_.control_effort_from(q_ctrl, prep.kind, prep.kp, prep.kv, theta, theta_dot, *d, P_ctrl,
+                                        prep.guard, q_next, tau)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model came within "
                                        f"|S| < {prep.guard:g} of a gain-type singularity")
+        q_ctrl[:] = q_next
         return tau
 
     def rhs(time, y):
         control(time, y[:n], y[n:])
-        y_dot, status = k_.reduced_rhs(plant, y, tau, P_plant, prep.guard)
+        y_dot, status = k_.reduced_rhs(q_plant, y, tau, P_plant, prep.guard, q_next)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant came within "
                                        f"|S| < {prep.guard:g} of a gain-type singularity")
+        q_plant[:] = q_next
         return y_dot
 
-    sol = solve_ivp(rhs, (0.0, float(prep.t[-1])), np.concatenate([prep.q_plant0[:n], np.zeros(n)]),
+    sol = solve_ivp(rhs, (0.0, float(prep.t[-1])), np.concatenate([q_plant0[:n], np.zeros(n)]),
                     method="DOP853", rtol=1e-12, atol=1e-13, t_eval=prep.t)
     if sol.status != 0:
         raise SingularityError(f"integration failed: {sol.message}")
     # the reported samples: configurations by branch following along the solution, efforts re-evaluated
-    q, efforts = np.empty((prep.t.size, len(prep.q_plant0))), np.empty((prep.t.size, n))
-    k_.set_base(plant, prep.q_plant0, P_plant)
-    k_.set_base(ctrl, prep.q_ctrl0, P_ctrl)
+    q = np.empty((prep.t.size, len(q_plant0)))
+    status, k = k_.follow_path(q_plant0, np.ascontiguousarray(sol.y[:n].T), P_plant, prep.guard, q)
+    if status != k_.OK:
+        raise BranchFollowingError(f"run stopped at t = {prep.t[k]:.4f} s: the plant lost its assembly mode")
+    efforts = np.empty((prep.t.size, n))
+    q_ctrl[:] = q_ctrl0
     for k in range(prep.t.size):
-        if k_.follow_branch(plant, sol.y[:n, k].copy(), P_plant, prep.guard) != k_.OK:
-            raise BranchFollowingError(f"run stopped at t = {prep.t[k]:.4f} s: the plant lost its assembly mode")
-        k_.accept_trial(plant)
-        q[k] = plant.q[k_.BASE]
         efforts[k] = control(prep.t[k], sol.y[:n, k].copy(), sol.y[n:, k].copy())
     return q, sol.y[n:].T.copy(), efforts
+
+
+def _joint_motion_at(scenario: Scenario, prep: _Prepared, time: float):
+    """``(θ_d, θ̇_d, θ̈_d)`` at one time."""
+    if not isinstance(scenario.model, MechanismModel):
+        d = desired_joint_motion(scenario.model, scenario.trajectory, prep.mode, [time])
+        return d.theta[0], d.theta_dot[0], d.theta_ddot[0]
+    return _machine_joint_motion_at(scenario, prep, time, _dof(scenario.model))
 
 
 def _machine_joint_motion_at(scenario: Scenario, prep: _Prepared, time: float, dof: int):
@@ -1075,15 +986,14 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
         raise InvalidParameterError(f"all runs of a batch need the same number of samples, got {sorted(sizes)}")
     live = [i for i, p in enumerate(preps) if p is not None]
     results: list = [errors.get(i) if on_error == "return" else None for i in range(len(scenarios))]
-    groups: dict = {}  # one compiled call per structure (the 3-RRR's own loop, or a structure's generated one)
+    groups: dict = {}  # one compiled call per structure: its generated loop
     for i in live:
-        model = scenarios[i].model
-        groups.setdefault(model.kernels if isinstance(model, MechanismModel) else None, []).append(i)
+        groups.setdefault(_loop_model(scenarios[i].model).kernels, []).append(i)
     for kernels, members in groups.items():
         outcome = _run_batch(kernels, [scenarios[i] for i in members], [preps[i] for i in members])
         for i, (status, q, theta_dot, tau, pose, s, k_fail) in zip(members, outcome, strict=True):
             sc, p = scenarios[i], preps[i]
-            if status != rrr3.OK:
+            if status != kernels.OK:
                 error = _loop_error(sc, p, status, q, k_fail, f"run {i} ({sc.name}): ")
                 if on_error == "raise":
                     raise error
@@ -1095,12 +1005,11 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
 
 
 def _run_batch(kernels, scenarios: list, preps: list) -> list:
-    """Run prepared scenarios of one structure in one parallel compiled call (``kernels`` None: the 3-RRR's
-    own loop); per run ``(status, q, θ̇, τ, pose or None, S, k_fail)``."""
+    """Run prepared scenarios of one structure (``kernels``) in one parallel compiled call; per run
+    ``(status, q, θ̇, τ, pose, S, k_fail)``, configurations in each scenario's own coordinates."""
     m, n = len(scenarios), preps[0].t.size
-    model = scenarios[0].model
-    n_act, n_q = _actuator_count(model), len(preps[0].q_ctrl0)
-    P_len = (model.P if kernels is not None else model.packed).size
+    loop = _loop_model(scenarios[0].model)
+    n_act, n_q, P_len = loop.n_actuators, kernels.N_COORDINATES, loop.P.size
     stack = {name: np.empty((m, n, n_act)) for name in ("theta", "theta_dot", "theta_ddot")}
     q0, qc0 = np.empty((m, n_q)), np.empty((m, n_q))
     P_plant, P_ctrl = np.empty((m, P_len)), np.empty((m, P_len))
@@ -1109,59 +1018,15 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     for r, (sc, p) in enumerate(zip(scenarios, preps, strict=True)):
         for name in stack:
             stack[name][r] = getattr(p.desired, name)
-        q0[r], qc0[r] = p.q_plant0, p.q_ctrl0
-        if kernels is None:
-            P_plant[r], P_ctrl[r] = sc.plant_model.packed, sc.model.packed
-        else:
-            P_plant[r], P_ctrl[r] = sc.plant_model.P, sc.model.P
+        q0[r], qc0[r] = _loop_coordinates(sc.plant_model, p.q_plant0), _loop_coordinates(sc.model, p.q_ctrl0)
+        P_plant[r], P_ctrl[r] = _loop_model(sc.plant_model).P, _loop_model(sc.model).P
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
         kp[r], kv[r], guard[r] = p.kp, p.kv, p.guard
     q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
     s = np.zeros((m, n))
     status, k_fail = np.zeros(m, np.int64), np.zeros(m, np.int64)
-    args = (ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant, P_ctrl, kind, kp,
-            kv, guard)
-    if kernels is None:
-        pose = np.zeros((m, n, 3))
-        _sampled_data_batch(*args, q, theta_dot, tau, pose, s, status, k_fail)
-        return [(status[r], q[r], theta_dot[r], tau[r], pose[r], s[r], k_fail[r]) for r in range(m)]
-    kernels.sampled_data_batch(*args, q, theta_dot, tau, s, status, k_fail)
-    return [(status[r], q[r], theta_dot[r], tau[r], None, s[r], k_fail[r]) for r in range(m)]
-
-
-def _continuous_time(scenario, mode, t, q_plant0, q_ctrl0, kind, kp, kv, guard):
-    """Continuous-time control: the controller is evaluated at every stage of DOP853."""
-    P_plant, P_ctrl = scenario.plant_model.packed, scenario.model.packed
-    plant, ctrl = rrr3.workspace_at(q_plant0, P_plant), rrr3.workspace_at(q_ctrl0, P_ctrl)
-    tau = np.zeros(3)
-
-    def control(time, theta, theta_dot, ws):
-        d = desired_joint_motion(scenario.model, scenario.trajectory, mode, [time])
-        status = control_torque(kind, kp, kv, theta, theta_dot, d.theta[0], d.theta_dot[0], d.theta_ddot[0],
-                                P_ctrl, guard, ws, tau)
-        if status != rrr3.OK:
-            raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model lost its branch")
-        return tau
-
-    def rhs(time, y):
-        control(time, y[:3], y[3:], ctrl)
-        if _plant_stage(plant, y[:3], y[3:], tau, P_plant, guard, rrr3.TRIAL_SLOT) != rrr3.OK:
-            raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant approached a gain-type singularity")
-        rrr3.copy_slot(plant, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)  # the next evaluation starts from here
-        return np.concatenate([y[3:], plant.theta_ddot])
-
-    sol = solve_ivp(rhs, (0.0, float(t[-1])), np.concatenate([q_plant0[:3], np.zeros(3)]), method="DOP853",
-                    rtol=1e-12, atol=1e-13, t_eval=t)
-    if sol.status != 0:
-        raise SingularityError(f"integration failed: {sol.message}")
-    # the reported samples: configurations by branch following along the solution, torques re-evaluated
-    n = t.size
-    q = np.empty((n, 7))
-    torques = np.empty((n, 3))
-    plant, ctrl = rrr3.workspace_at(q_plant0, P_plant), rrr3.workspace_at(q_ctrl0, P_ctrl)
-    for k in range(n):
-        rrr3.follow_branch(plant, sol.y[:3, k].copy(), P_plant, guard)
-        rrr3.copy_slot(plant, rrr3.TRIAL_SLOT, rrr3.BASE_SLOT)
-        q[k] = plant.q[rrr3.BASE_SLOT]
-        torques[k] = control(t[k], sol.y[:3, k].copy(), sol.y[3:, k].copy(), ctrl)
-    return q, sol.y[3:].T.copy(), torques
+    kernels.sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant,
+                               P_ctrl, kind, kp, kv, guard, q, theta_dot, tau, s, status, k_fail)
+    dof = _dof(loop)
+    return [(status[r], _scenario_coordinates(sc.model, q[r]), theta_dot[r], tau[r], q[r, :, -dof:].copy(), s[r],
+             k_fail[r]) for r, sc in enumerate(scenarios)]

@@ -266,12 +266,12 @@ def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_
                 for c in range(7):
                     acc += jp[i, c] * jqt[c, j]
                 jac[i, j] = acc
-        ok, _det = closed_chain.lu_factor(jac, lu, piv)
+        ok, _det = closed_chain.lu_factor(jac, lu, piv, 3)
         if not ok:
             return k
         for i in range(3):
             b[i] = pose_dot[k, i]
-        closed_chain.lu_solve_factored(lu, piv, b)
+        closed_chain.lu_solve_factored(lu, piv, b, 3)
         for i in range(3):
             theta_dot[k, i] = b[i]
         rrr3.evaluate_velocities(ws, 0, b, P)
@@ -281,7 +281,7 @@ def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_
             for c in range(7):
                 acc -= jp[i, c] * ws.bias_q[c]
             b[i] = acc
-        closed_chain.lu_solve_factored(lu, piv, b)
+        closed_chain.lu_solve_factored(lu, piv, b, 3)
         for i in range(3):
             theta_ddot[k, i] = b[i]
     return -1

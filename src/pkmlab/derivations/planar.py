@@ -76,8 +76,8 @@ def parameter_names(mechanism: Mechanism) -> tuple[str, ...]:
     names = []
     for i, leg in enumerate(mechanism.legs):
         names += [f"base{i + 1}_x", f"base{i + 1}_y"]
-        if leg.joints[0].axis is not None:
-            names.append(f"axis{i + 1}")
+        if leg.joints[0].axis is not None:  # a rail: its unit direction (no trigonometry in the kernels)
+            names += [f"rail{i + 1}_x", f"rail{i + 1}_y"]
         for k in range(len(leg.bodies)):
             pre = f"body{i + 1}_{k + 1}"
             names += [f"{pre}_tip_x", f"{pre}_tip_y", f"{pre}_com_x", f"{pre}_com_y", f"{pre}_mass", f"{pre}_inertia"]
@@ -95,7 +95,7 @@ def pack(mechanism: Mechanism) -> np.ndarray:
     for leg in mechanism.legs:
         values += [*leg.base]
         if leg.joints[0].axis is not None:
-            values.append(leg.joints[0].axis)
+            values += [np.cos(leg.joints[0].axis), np.sin(leg.joints[0].axis)]
         for body in leg.bodies:
             values += [*body.tip, *body.com, body.mass, body.inertia]
     if mechanism.platform.kind == "rigid":
@@ -127,17 +127,19 @@ def derive(mechanism: Mechanism) -> dict:
     eta, bodies, joints = [], [], []
     for i, leg in enumerate(mechanism.legs):
         point = sp.Matrix([P[f"base{i + 1}_x"], P[f"base{i + 1}_y"]])
-        direction = sp.Integer(0)
+        direction, unit = sp.Integer(0), (sp.Integer(1), sp.Integer(0))  # the last body's angle, (cos, sin)
         joints.append([])
         for k, (joint, _body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
             joints[i].append(point)
             coordinate = q[i] if joint.actuated else next(passive)
             if joint.kind == "R":  # the following body's absolute angle
-                direction, origin = coordinate, point
-            else:  # a slide along the rail (first joint) or along the preceding body
-                axis = P[f"axis{i + 1}"] if k == 0 else direction
-                origin, direction = point + coordinate * sp.Matrix([sp.cos(axis), sp.sin(axis)]), axis
-            rot = sp.Matrix([[sp.cos(direction), -sp.sin(direction)], [sp.sin(direction), sp.cos(direction)]])
+                direction, unit, origin = coordinate, (sp.cos(coordinate), sp.sin(coordinate)), point
+            else:  # a slide along the rail (first joint) or along the preceding body, which keeps its direction
+                if k == 0:  # the rail's unit vector is a parameter: no trigonometry of a constant in the kernels
+                    unit = (P[f"rail{i + 1}_x"], P[f"rail{i + 1}_y"])
+                    direction = sp.atan2(unit[1], unit[0])
+                origin = point + coordinate * sp.Matrix(unit)
+            rot = sp.Matrix([[unit[0], -unit[1]], [unit[1], unit[0]]])
             pre = f"body{i + 1}_{k + 1}"
             com = origin + rot * sp.Matrix([P[f"{pre}_com_x"], P[f"{pre}_com_y"]])
             bodies.append((com[0], com[1], direction))
@@ -218,6 +220,16 @@ def generate_source(mechanism: Mechanism) -> str:
     unpack = [f"{name} = q[{k}]" for k, name in enumerate(coordinate_names(mechanism))]
     unpack_qd = [f"{sym} = qd[{k}]" for k, sym in enumerate(qd)]
     unpack_p = [f"{name} = P[{k}]" for k, name in enumerate(parameter_names(mechanism))]
+    # the kernels read every angle's cosine and sine from the trig table sc = (cos q, sin q) (N, 2), computed
+    # once per configuration (trig) and shared by all of them instead of recomputed in each
+    names = coordinate_names(mechanism)
+    angles = [k for k, is_angle in enumerate(coordinate_angles(mechanism)) if is_angle]
+    trig = {}
+    unpack_sc = []
+    for k in angles:
+        c, s = sp.symbols(f"c_{names[k]} s_{names[k]}", real=True)
+        trig[sp.cos(q[k])], trig[sp.sin(q[k])] = c, s
+        unpack_sc += [f"c_{names[k]} = sc[{k}, 0]", f"s_{names[k]} = sc[{k}, 1]"]
     j_eta, b_eta = _jacobian_and_bias(d["eta"], q, qd)
     # the compiled core eliminates x and y with the unit pivots every leg's two equations have
     x_col = nq - mechanism.dof
@@ -236,8 +248,6 @@ def generate_source(mechanism: Mechanism) -> str:
         "see ``pkmlab.derivations.planar`` for the coordinates q, the parameters P and the meaning of each output.",
         f"Derived with SymPy {sp.__version__}.",
         '"""',
-        "",
-        "import math",
         "",
         "from numba import njit",
         "",
@@ -260,27 +270,37 @@ def generate_source(mechanism: Mechanism) -> str:
 
     def emit(name, args, doc, outputs, indices, needs_qd=False):
         start = len(lines)
+        outputs = [sp.sympify(e).xreplace(trig) for e in outputs]
+        assert not any(e.has(sp.sin, sp.cos) for e in outputs), f"{name}: trigonometry left after the trig table"
         _emit(lines, name, args, doc, outputs, indices)
         body_start = start + 5
-        prelude = [f"    {line}" for line in unpack + (unpack_qd if needs_qd else []) + unpack_p]
+        prelude = [f"    {line}" for line in unpack + unpack_sc + (unpack_qd if needs_qd else []) + unpack_p]
         used = "\n".join(lines[body_start:])
         prelude = [p for p in prelude if _used(p, used)]
         lines[body_start:body_start] = prelude
 
-    emit("constraints", "q, P, out", "Write the loop-closure residual eta(q) (N_CONSTRAINTS,) into out.",
+    lines += ["", "", "@njit(cache=True)", "def trig(q, sc):",
+              '    """Write the trig table sc (N_COORDINATES, 2) of q: (cos, sin) of every angle."""']
+    lines += [f"    sc[{k}, 0], sc[{k}, 1] = math.cos(q[{k}]), math.sin(q[{k}])" for k in angles]
+    lines += ["", "", "@njit(cache=True)", "def trig_passive(q, sc):",
+              '    """Write the passive angles\' rows of the trig table sc (the actuators\' rows are kept)."""']
+    lines += [f"    sc[{k}, 0], sc[{k}, 1] = math.cos(q[{k}]), math.sin(q[{k}])" for k in angles
+              if k >= len(mechanism.legs)] or ["    pass"]
+    emit("constraints", "q, sc, P, out", "Write the loop-closure residual eta(q) (N_CONSTRAINTS,) into out.",
          d["eta"], [str(k) for k in range(m)])
-    emit("constraint_jacobian", "q, P, out", "Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out.",
+    emit("constraint_jacobian", "q, sc, P, out", "Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out.",
          list(j_eta), [f"{r}, {c}" for r in range(m) for c in range(nq)])
-    emit("constraint_bias", "q, qd, P, out", "Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out.",
+    emit("constraint_bias", "q, sc, qd, P, out", "Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out.",
          list(b_eta), [str(k) for k in range(m)], needs_qd=True)
-    emit("body_poses", "q, P, out", "Write each body's mass-centre pose (x, y, angle) (N_BODIES, 3) into out.",
+    emit("body_poses", "q, sc, P, out", "Write each body's mass-centre pose (x, y, angle) (N_BODIES, 3) into out.",
          body_exprs, [f"{b}, {k}" for b in range(nb) for k in range(3)])
-    emit("body_jacobians", "q, P, out", "Write each body's d(x, y, angle)/dq (N_BODIES, 3, N_COORDINATES) into out.",
+    emit("body_jacobians", "q, sc, P, out",
+         "Write each body's d(x, y, angle)/dq (N_BODIES, 3, N_COORDINATES) into out.",
          list(j_body), [f"{b}, {k}, {c}" for b in range(nb) for k in range(3) for c in range(nq)])
-    emit("body_jacobian_values", "q, P, out", "Write the non-zeros of the bodies' Jacobians (N_JB,) into out "
+    emit("body_jacobian_values", "q, sc, P, out", "Write the non-zeros of the bodies' Jacobians (N_JB,) into out "
          "(positions: JB_BODY, JB_ROW, JB_COL).", [j_body[3 * b + r, c] for b, r, c in nonzero],
          [str(z) for z in range(len(nonzero))])
-    emit("body_bias", "q, qd, P, out", "Write each body's dJ_b/dt qd (N_BODIES, 3) into out.",
+    emit("body_bias", "q, sc, qd, P, out", "Write each body's dJ_b/dt qd (N_BODIES, 3) into out.",
          list(b_body), [f"{b}, {k}" for b in range(nb) for k in range(3)], needs_qd=True)
     width = max(len(leg.joints) for leg in mechanism.legs)
     points, where = [], []
@@ -288,14 +308,16 @@ def generate_source(mechanism: Mechanism) -> str:
         padded = leg_points + [leg_points[-1]] * (width - len(leg_points))  # short legs repeat their end
         points += [c for point in padded for c in point]
         where += [f"{i}, {k}, {c}" for k in range(width) for c in range(2)]
-    emit("joint_points", "q, P, out", "Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, "
+    emit("joint_points", "q, sc, P, out", "Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, "
          "base to platform.", points, where)
     lines_, size = d["lines"]
-    emit("leg_lines", "q, P, out", "Write each leg's line of action (N_ACTUATORS, 4): its attachment point "
+    emit("leg_lines", "q, sc, P, out", "Write each leg's line of action (N_ACTUATORS, 4): its attachment point "
          "minus the tracked point, and its direction (unnormalised).", lines_,
          [f"{i}, {k}" for i in range(len(mechanism.legs)) for k in range(4)])
     emit("platform_size", "P", "The mean distance between the platform's attachment points (1 for a point).",
          [size], ["return"])
+    if any("math." in line for line in lines):
+        lines.insert(lines.index("from numba import njit"), "import math\n")
     text = "\n".join(lines) + "\n" + _template()
     return text.replace("\n\n\n\n", "\n\n\n")
 

@@ -493,18 +493,8 @@ class Workspace(NamedTuple):
     eta: np.ndarray  # (4,) constraint residual / right-hand sides
     qd: np.ndarray  # (7,) q̇ = Jqθ θ̇
     bias_q: np.ndarray  # (7,) J̇qθ θ̇
-    m_theta: np.ndarray  # (3, 3)
-    c_theta: np.ndarray  # (3,) Cθ θ̇
-    m_factor: np.ndarray  # (3, 3) L D Lᵀ factors of Mθ
-    theta_ddot: np.ndarray  # (3,)
     theta_target: np.ndarray  # (3,) intermediate actuated angles of a sub-stepped branch following
     dtheta: np.ndarray  # (3,) the predictor's step in the actuated angles
-    body_scratch: np.ndarray  # (3, 4)
-    term_body: np.ndarray  # body description (see body_description), fixed by P
-    term_coord: np.ndarray
-    term_vec: np.ndarray
-    body_angle: np.ndarray
-    D: np.ndarray
     constants: np.ndarray  # [a r1 r2 r3 (scale of S), tolerance on |η| (m)]
 
 
@@ -515,7 +505,6 @@ _S_SCALE, _ETA_TOL = 0, 1
 @njit(cache=True)
 def make_workspace(P):
     """A :class:`Workspace` for the model ``P``."""
-    term_body, term_coord, term_vec, body_angle, D = body_description(P)
     # |η| is a sum of a few lengths: its round-off is a few ulps of the largest reach
     reach = 0.0
     for i in range(3):
@@ -527,9 +516,7 @@ def make_workspace(P):
     return Workspace(
         np.zeros((3, 7)), np.zeros((3, 7, 2)), np.zeros((3, 4, 7)), np.zeros((3, 4, 4)),
         np.zeros((3, 4), np.int64), np.zeros(3), np.zeros((3, 7, 3)), np.zeros(4), np.zeros(7), np.zeros(7),
-        np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros(3), np.zeros(3),
-        np.zeros((3, 4)),
-        term_body, term_coord, term_vec, body_angle, D, constants,
+        np.zeros(3), np.zeros(3), constants,
     )
 
 
@@ -578,7 +565,7 @@ def linearize(ws, slot, P):
     sc = ws.sincos[slot]
     angle_sincos(ws.q[slot], sc)
     constraint_jacobian_from_sincos(sc, P, ws.jac[slot])
-    ok, det = closed_chain.lu_factor(ws.jac[slot, :, 3:], ws.lu[slot], ws.piv[slot])
+    ok, det = closed_chain.lu_factor(ws.jac[slot, :, 3:], ws.lu[slot], ws.piv[slot], 4)
     ws.det[slot] = det
     if ok:
         closed_chain.actuated_jacobian_from_lu(ws.jac[slot], ws.lu[slot], ws.piv[slot], ws.j_q_theta[slot])
@@ -599,7 +586,7 @@ def correct_passive(ws, slot, P, max_iter):
         angle_sincos(q, sc, 0 if it == 0 else N_ACTIVE)  # θ is fixed: its sines once
         residual = constraints_from_sincos(sc, P, eta)
         constraint_jacobian_from_sincos(sc, P, jac)
-        ok, det = closed_chain.lu_factor(jac[:, 3:], lu, piv)
+        ok, det = closed_chain.lu_factor(jac[:, 3:], lu, piv, 4)
         ws.det[slot] = det
         if not ok:
             return SINGULAR
@@ -610,7 +597,7 @@ def correct_passive(ws, slot, P, max_iter):
             break
         for k in range(4):
             eta[k] = -eta[k]
-        closed_chain.lu_solve_factored(lu, piv, eta)
+        closed_chain.lu_solve_factored(lu, piv, eta, 4)
         step = 0.0
         for k in range(4):
             q[3 + k] += eta[k]
@@ -787,47 +774,6 @@ def evaluate_velocities(ws, slot, theta_dot, P):
     bias_q[0] = bias_q[1] = bias_q[2] = 0.0
     for k in range(4):
         bias_q[3 + k] = ws.eta[k]
-
-
-@njit(**NO_REFCOUNT_INLINE)
-def evaluate_dynamics(ws, slot, theta_dot, P):
-    """``Mθ`` and ``Cθ θ̇`` (eq. 35) at the linearised configuration of ``slot``, into ``ws``.
-
-    Also leaves ``q̇`` and ``J̇qθ θ̇`` in ``ws`` (:func:`evaluate_velocities`).
-    """
-    evaluate_velocities(ws, slot, theta_dot, P)
-    lagrangian.rotating_vector_actuator_model(ws.sincos[slot], ws.qd, ws.term_body, ws.term_coord, ws.term_vec,
-                                              ws.body_angle, ws.D, ws.j_q_theta[slot], ws.bias_q,
-                                              ws.body_scratch, ws.m_theta, ws.c_theta)
-
-
-@njit(**NO_REFCOUNT_INLINE)
-def solve_accelerations(ws, tau):
-    """``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (eq. 35) into ``ws.theta_ddot`` after :func:`evaluate_dynamics`."""
-    for i in range(3):
-        ws.theta_ddot[i] = tau[i] - ws.c_theta[i]
-    return closed_chain.ldlt_solve(ws.m_theta, ws.m_factor, ws.theta_ddot)  # Mθ is symmetric positive definite
-
-
-@njit(cache=True)
-def actuator_space_dynamics(q, theta_dot, P):
-    """``(Mθ, Cθ θ̇, q̇, ok)`` at a configuration ``q`` on the constraint manifold (eq. 35)."""
-    ws = make_workspace(P)
-    ws.q[BASE_SLOT, :] = q
-    ok = linearize(ws, BASE_SLOT, P)
-    evaluate_dynamics(ws, BASE_SLOT, theta_dot, P)
-    return ws.m_theta.copy(), ws.c_theta.copy(), ws.qd.copy(), ok
-
-
-@njit(cache=True)
-def forward_dynamics(q, theta_dot, tau, P):
-    """``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (eq. 35) at ``q``; returns ``(θ̈, ok)``."""
-    ws = make_workspace(P)
-    ws.q[BASE_SLOT, :] = q
-    ok = linearize(ws, BASE_SLOT, P)
-    evaluate_dynamics(ws, BASE_SLOT, theta_dot, P)
-    ok_solve = solve_accelerations(ws, tau)
-    return ws.theta_ddot.copy(), ok and ok_solve
 
 
 @njit(cache=True)

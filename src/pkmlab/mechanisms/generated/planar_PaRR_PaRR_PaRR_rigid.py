@@ -11,13 +11,13 @@ from numba import njit
 
 COORDINATES = ('a1', 'a2', 'a3', 'q1_2', 'q2_2', 'q3_2', 'x', 'y', 'alpha')
 ANGLES = (False, False, False, True, True, True, False, False, True)  # which coordinates are angles (wrapped modulo 2 pi)
-PARAMETERS = ('base1_x', 'base1_y', 'axis1', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_mass', 'body1_1_inertia', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_mass', 'body1_2_inertia', 'base2_x', 'base2_y', 'axis2', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_mass', 'body2_1_inertia', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_mass', 'body2_2_inertia', 'base3_x', 'base3_y', 'axis3', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_mass', 'body3_1_inertia', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_mass', 'body3_2_inertia', 'attach1_x', 'attach1_y', 'attach2_x', 'attach2_y', 'attach3_x', 'attach3_y', 'platform_com_x', 'platform_com_y', 'platform_mass', 'platform_inertia', 'gravity_x', 'gravity_y')
+PARAMETERS = ('base1_x', 'base1_y', 'rail1_x', 'rail1_y', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_mass', 'body1_1_inertia', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_mass', 'body1_2_inertia', 'base2_x', 'base2_y', 'rail2_x', 'rail2_y', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_mass', 'body2_1_inertia', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_mass', 'body2_2_inertia', 'base3_x', 'base3_y', 'rail3_x', 'rail3_y', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_mass', 'body3_1_inertia', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_mass', 'body3_2_inertia', 'attach1_x', 'attach1_y', 'attach2_x', 'attach2_y', 'attach3_x', 'attach3_y', 'platform_com_x', 'platform_com_y', 'platform_mass', 'platform_inertia', 'gravity_x', 'gravity_y')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 9, 6, 7
 N_ACTUATORS, DOF = 3, 3
 # where each body's mass and inertia (legs' bodies, then the platform) and the gravity are in P
-MASS_INDEX = (7, 13, 22, 28, 37, 43, 53)
-INERTIA_INDEX = (8, 14, 23, 29, 38, 44, 54)
-GRAVITY_INDEX = (55, 56)
+MASS_INDEX = (8, 14, 24, 30, 40, 46, 56)
+INERTIA_INDEX = (9, 15, 25, 31, 41, 47, 57)
+GRAVITY_INDEX = (58, 59)
 JOINTS_PER_LEG = 3
 # the non-zeros of the bodies' Jacobians, in the order of body_jacobian_values: body, row, coordinate
 JB_BODY = (0, 0, 1, 1, 1, 1, 1, 2, 2, 3, 3, 3, 3, 3, 4, 4, 5, 5, 5, 5, 5, 6, 6, 6, 6, 6)
@@ -27,170 +27,176 @@ N_JB = 26
 
 
 @njit(cache=True)
-def constraints(q, P, out):
+def trig(q, sc):
+    """Write the trig table sc (N_COORDINATES, 2) of q: (cos, sin) of every angle."""
+    sc[3, 0], sc[3, 1] = math.cos(q[3]), math.sin(q[3])
+    sc[4, 0], sc[4, 1] = math.cos(q[4]), math.sin(q[4])
+    sc[5, 0], sc[5, 1] = math.cos(q[5]), math.sin(q[5])
+    sc[8, 0], sc[8, 1] = math.cos(q[8]), math.sin(q[8])
+
+
+@njit(cache=True)
+def trig_passive(q, sc):
+    """Write the passive angles' rows of the trig table sc (the actuators' rows are kept)."""
+    sc[3, 0], sc[3, 1] = math.cos(q[3]), math.sin(q[3])
+    sc[4, 0], sc[4, 1] = math.cos(q[4]), math.sin(q[4])
+    sc[5, 0], sc[5, 1] = math.cos(q[5]), math.sin(q[5])
+    sc[8, 0], sc[8, 1] = math.cos(q[8]), math.sin(q[8])
+
+
+@njit(cache=True)
+def constraints(q, sc, P, out):
     """Write the loop-closure residual eta(q) (N_CONSTRAINTS,) into out."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
-    q1_2 = q[3]
-    q2_2 = q[4]
-    q3_2 = q[5]
     x = q[6]
     y = q[7]
-    alpha = q[8]
+    c_q1_2 = sc[3, 0]
+    s_q1_2 = sc[3, 1]
+    c_q2_2 = sc[4, 0]
+    s_q2_2 = sc[4, 1]
+    c_q3_2 = sc[5, 0]
+    s_q3_2 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     base1_x = P[0]
     base1_y = P[1]
-    axis1 = P[2]
-    body1_1_tip_x = P[3]
-    body1_1_tip_y = P[4]
-    body1_2_tip_x = P[9]
-    body1_2_tip_y = P[10]
-    base2_x = P[15]
-    base2_y = P[16]
-    axis2 = P[17]
-    body2_1_tip_x = P[18]
-    body2_1_tip_y = P[19]
-    body2_2_tip_x = P[24]
-    body2_2_tip_y = P[25]
-    base3_x = P[30]
-    base3_y = P[31]
-    axis3 = P[32]
-    body3_1_tip_x = P[33]
-    body3_1_tip_y = P[34]
-    body3_2_tip_x = P[39]
-    body3_2_tip_y = P[40]
-    attach1_x = P[45]
-    attach1_y = P[46]
-    attach2_x = P[47]
-    attach2_y = P[48]
-    attach3_x = P[49]
-    attach3_y = P[50]
+    rail1_x = P[2]
+    rail1_y = P[3]
+    body1_1_tip_x = P[4]
+    body1_1_tip_y = P[5]
+    body1_2_tip_x = P[10]
+    body1_2_tip_y = P[11]
+    base2_x = P[16]
+    base2_y = P[17]
+    rail2_x = P[18]
+    rail2_y = P[19]
+    body2_1_tip_x = P[20]
+    body2_1_tip_y = P[21]
+    body2_2_tip_x = P[26]
+    body2_2_tip_y = P[27]
+    base3_x = P[32]
+    base3_y = P[33]
+    rail3_x = P[34]
+    rail3_y = P[35]
+    body3_1_tip_x = P[36]
+    body3_1_tip_y = P[37]
+    body3_2_tip_x = P[42]
+    body3_2_tip_y = P[43]
+    attach1_x = P[48]
+    attach1_y = P[49]
+    attach2_x = P[50]
+    attach2_y = P[51]
+    attach3_x = P[52]
+    attach3_y = P[53]
     w0 = -x
-    w1 = math.cos(axis1)
-    w2 = math.sin(alpha)
-    w3 = math.cos(q1_2)
-    w4 = math.cos(alpha)
-    w5 = math.sin(axis1)
-    w6 = math.sin(q1_2)
-    w7 = -y
-    w8 = math.cos(axis2)
-    w9 = math.cos(q2_2)
-    w10 = math.sin(axis2)
-    w11 = math.sin(q2_2)
-    w12 = math.cos(axis3)
-    w13 = math.cos(q3_2)
-    w14 = math.sin(axis3)
-    w15 = math.sin(q3_2)
-    out[0] = a1*w1 - attach1_x*w4 + attach1_y*w2 + base1_x + body1_1_tip_x*w1 - body1_1_tip_y*w5 + body1_2_tip_x*w3 - body1_2_tip_y*w6 + w0
-    out[1] = a1*w5 - attach1_x*w2 - attach1_y*w4 + base1_y + body1_1_tip_x*w5 + body1_1_tip_y*w1 + body1_2_tip_x*w6 + body1_2_tip_y*w3 + w7
-    out[2] = a2*w8 - attach2_x*w4 + attach2_y*w2 + base2_x + body2_1_tip_x*w8 - body2_1_tip_y*w10 + body2_2_tip_x*w9 - body2_2_tip_y*w11 + w0
-    out[3] = a2*w10 - attach2_x*w2 - attach2_y*w4 + base2_y + body2_1_tip_x*w10 + body2_1_tip_y*w8 + body2_2_tip_x*w11 + body2_2_tip_y*w9 + w7
-    out[4] = a3*w12 - attach3_x*w4 + attach3_y*w2 + base3_x + body3_1_tip_x*w12 - body3_1_tip_y*w14 + body3_2_tip_x*w13 - body3_2_tip_y*w15 + w0
-    out[5] = a3*w14 - attach3_x*w2 - attach3_y*w4 + base3_y + body3_1_tip_x*w14 + body3_1_tip_y*w12 + body3_2_tip_x*w15 + body3_2_tip_y*w13 + w7
+    w1 = -y
+    out[0] = a1*rail1_x - attach1_x*c_alpha + attach1_y*s_alpha + base1_x + body1_1_tip_x*rail1_x - body1_1_tip_y*rail1_y + body1_2_tip_x*c_q1_2 - body1_2_tip_y*s_q1_2 + w0
+    out[1] = a1*rail1_y - attach1_x*s_alpha - attach1_y*c_alpha + base1_y + body1_1_tip_x*rail1_y + body1_1_tip_y*rail1_x + body1_2_tip_x*s_q1_2 + body1_2_tip_y*c_q1_2 + w1
+    out[2] = a2*rail2_x - attach2_x*c_alpha + attach2_y*s_alpha + base2_x + body2_1_tip_x*rail2_x - body2_1_tip_y*rail2_y + body2_2_tip_x*c_q2_2 - body2_2_tip_y*s_q2_2 + w0
+    out[3] = a2*rail2_y - attach2_x*s_alpha - attach2_y*c_alpha + base2_y + body2_1_tip_x*rail2_y + body2_1_tip_y*rail2_x + body2_2_tip_x*s_q2_2 + body2_2_tip_y*c_q2_2 + w1
+    out[4] = a3*rail3_x - attach3_x*c_alpha + attach3_y*s_alpha + base3_x + body3_1_tip_x*rail3_x - body3_1_tip_y*rail3_y + body3_2_tip_x*c_q3_2 - body3_2_tip_y*s_q3_2 + w0
+    out[5] = a3*rail3_y - attach3_x*s_alpha - attach3_y*c_alpha + base3_y + body3_1_tip_x*rail3_y + body3_1_tip_y*rail3_x + body3_2_tip_x*s_q3_2 + body3_2_tip_y*c_q3_2 + w1
 
 
 @njit(cache=True)
-def constraint_jacobian(q, P, out):
+def constraint_jacobian(q, sc, P, out):
     """Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out."""
-    q1_2 = q[3]
-    q2_2 = q[4]
-    q3_2 = q[5]
-    alpha = q[8]
-    axis1 = P[2]
-    body1_2_tip_x = P[9]
-    body1_2_tip_y = P[10]
-    axis2 = P[17]
-    body2_2_tip_x = P[24]
-    body2_2_tip_y = P[25]
-    axis3 = P[32]
-    body3_2_tip_x = P[39]
-    body3_2_tip_y = P[40]
-    attach1_x = P[45]
-    attach1_y = P[46]
-    attach2_x = P[47]
-    attach2_y = P[48]
-    attach3_x = P[49]
-    attach3_y = P[50]
-    w0 = math.sin(q1_2)
-    w1 = math.cos(q1_2)
-    w2 = math.sin(alpha)
-    w3 = math.cos(alpha)
-    w4 = math.sin(q2_2)
-    w5 = math.cos(q2_2)
-    w6 = math.sin(q3_2)
-    w7 = math.cos(q3_2)
+    c_q1_2 = sc[3, 0]
+    s_q1_2 = sc[3, 1]
+    c_q2_2 = sc[4, 0]
+    s_q2_2 = sc[4, 1]
+    c_q3_2 = sc[5, 0]
+    s_q3_2 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
+    rail1_x = P[2]
+    rail1_y = P[3]
+    body1_2_tip_x = P[10]
+    body1_2_tip_y = P[11]
+    rail2_x = P[18]
+    rail2_y = P[19]
+    body2_2_tip_x = P[26]
+    body2_2_tip_y = P[27]
+    rail3_x = P[34]
+    rail3_y = P[35]
+    body3_2_tip_x = P[42]
+    body3_2_tip_y = P[43]
+    attach1_x = P[48]
+    attach1_y = P[49]
+    attach2_x = P[50]
+    attach2_y = P[51]
+    attach3_x = P[52]
+    attach3_y = P[53]
     out[:] = 0.0
-    out[0, 0] = math.cos(axis1)
-    out[0, 3] = -body1_2_tip_x*w0 - body1_2_tip_y*w1
+    out[0, 0] = rail1_x
+    out[0, 3] = -body1_2_tip_x*s_q1_2 - body1_2_tip_y*c_q1_2
     out[0, 6] = -1
-    out[0, 8] = attach1_x*w2 + attach1_y*w3
-    out[1, 0] = math.sin(axis1)
-    out[1, 3] = body1_2_tip_x*w1 - body1_2_tip_y*w0
+    out[0, 8] = attach1_x*s_alpha + attach1_y*c_alpha
+    out[1, 0] = rail1_y
+    out[1, 3] = body1_2_tip_x*c_q1_2 - body1_2_tip_y*s_q1_2
     out[1, 7] = -1
-    out[1, 8] = -attach1_x*w3 + attach1_y*w2
-    out[2, 1] = math.cos(axis2)
-    out[2, 4] = -body2_2_tip_x*w4 - body2_2_tip_y*w5
+    out[1, 8] = -attach1_x*c_alpha + attach1_y*s_alpha
+    out[2, 1] = rail2_x
+    out[2, 4] = -body2_2_tip_x*s_q2_2 - body2_2_tip_y*c_q2_2
     out[2, 6] = -1
-    out[2, 8] = attach2_x*w2 + attach2_y*w3
-    out[3, 1] = math.sin(axis2)
-    out[3, 4] = body2_2_tip_x*w5 - body2_2_tip_y*w4
+    out[2, 8] = attach2_x*s_alpha + attach2_y*c_alpha
+    out[3, 1] = rail2_y
+    out[3, 4] = body2_2_tip_x*c_q2_2 - body2_2_tip_y*s_q2_2
     out[3, 7] = -1
-    out[3, 8] = -attach2_x*w3 + attach2_y*w2
-    out[4, 2] = math.cos(axis3)
-    out[4, 5] = -body3_2_tip_x*w6 - body3_2_tip_y*w7
+    out[3, 8] = -attach2_x*c_alpha + attach2_y*s_alpha
+    out[4, 2] = rail3_x
+    out[4, 5] = -body3_2_tip_x*s_q3_2 - body3_2_tip_y*c_q3_2
     out[4, 6] = -1
-    out[4, 8] = attach3_x*w2 + attach3_y*w3
-    out[5, 2] = math.sin(axis3)
-    out[5, 5] = body3_2_tip_x*w7 - body3_2_tip_y*w6
+    out[4, 8] = attach3_x*s_alpha + attach3_y*c_alpha
+    out[5, 2] = rail3_y
+    out[5, 5] = body3_2_tip_x*c_q3_2 - body3_2_tip_y*s_q3_2
     out[5, 7] = -1
-    out[5, 8] = -attach3_x*w3 + attach3_y*w2
+    out[5, 8] = -attach3_x*c_alpha + attach3_y*s_alpha
 
 
 @njit(cache=True)
-def constraint_bias(q, qd, P, out):
+def constraint_bias(q, sc, qd, P, out):
     """Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out."""
-    q1_2 = q[3]
-    q2_2 = q[4]
-    q3_2 = q[5]
-    alpha = q[8]
+    c_q1_2 = sc[3, 0]
+    s_q1_2 = sc[3, 1]
+    c_q2_2 = sc[4, 0]
+    s_q2_2 = sc[4, 1]
+    c_q3_2 = sc[5, 0]
+    s_q3_2 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     q1_2_dot = qd[3]
     q2_2_dot = qd[4]
     q3_2_dot = qd[5]
     alpha_dot = qd[8]
-    body1_2_tip_x = P[9]
-    body1_2_tip_y = P[10]
-    body2_2_tip_x = P[24]
-    body2_2_tip_y = P[25]
-    body3_2_tip_x = P[39]
-    body3_2_tip_y = P[40]
-    attach1_x = P[45]
-    attach1_y = P[46]
-    attach2_x = P[47]
-    attach2_y = P[48]
-    attach3_x = P[49]
-    attach3_y = P[50]
+    body1_2_tip_x = P[10]
+    body1_2_tip_y = P[11]
+    body2_2_tip_x = P[26]
+    body2_2_tip_y = P[27]
+    body3_2_tip_x = P[42]
+    body3_2_tip_y = P[43]
+    attach1_x = P[48]
+    attach1_y = P[49]
+    attach2_x = P[50]
+    attach2_y = P[51]
+    attach3_x = P[52]
+    attach3_y = P[53]
     w0 = alpha_dot**2
-    w1 = math.cos(alpha)
-    w2 = math.sin(alpha)
-    w3 = q1_2_dot**2
-    w4 = math.cos(q1_2)
-    w5 = math.sin(q1_2)
-    w6 = q2_2_dot**2
-    w7 = math.cos(q2_2)
-    w8 = math.sin(q2_2)
-    w9 = q3_2_dot**2
-    w10 = math.cos(q3_2)
-    w11 = math.sin(q3_2)
-    out[0] = w0*(attach1_x*w1 - attach1_y*w2) + w3*(-body1_2_tip_x*w4 + body1_2_tip_y*w5)
-    out[1] = w0*(attach1_x*w2 + attach1_y*w1) + w3*(-body1_2_tip_x*w5 - body1_2_tip_y*w4)
-    out[2] = w0*(attach2_x*w1 - attach2_y*w2) + w6*(-body2_2_tip_x*w7 + body2_2_tip_y*w8)
-    out[3] = w0*(attach2_x*w2 + attach2_y*w1) + w6*(-body2_2_tip_x*w8 - body2_2_tip_y*w7)
-    out[4] = w0*(attach3_x*w1 - attach3_y*w2) + w9*(-body3_2_tip_x*w10 + body3_2_tip_y*w11)
-    out[5] = w0*(attach3_x*w2 + attach3_y*w1) + w9*(-body3_2_tip_x*w11 - body3_2_tip_y*w10)
+    w1 = q1_2_dot**2
+    w2 = q2_2_dot**2
+    w3 = q3_2_dot**2
+    out[0] = w0*(attach1_x*c_alpha - attach1_y*s_alpha) + w1*(-body1_2_tip_x*c_q1_2 + body1_2_tip_y*s_q1_2)
+    out[1] = w0*(attach1_x*s_alpha + attach1_y*c_alpha) + w1*(-body1_2_tip_x*s_q1_2 - body1_2_tip_y*c_q1_2)
+    out[2] = w0*(attach2_x*c_alpha - attach2_y*s_alpha) + w2*(-body2_2_tip_x*c_q2_2 + body2_2_tip_y*s_q2_2)
+    out[3] = w0*(attach2_x*s_alpha + attach2_y*c_alpha) + w2*(-body2_2_tip_x*s_q2_2 - body2_2_tip_y*c_q2_2)
+    out[4] = w0*(attach3_x*c_alpha - attach3_y*s_alpha) + w3*(-body3_2_tip_x*c_q3_2 + body3_2_tip_y*s_q3_2)
+    out[5] = w0*(attach3_x*s_alpha + attach3_y*c_alpha) + w3*(-body3_2_tip_x*s_q3_2 - body3_2_tip_y*c_q3_2)
 
 
 @njit(cache=True)
-def body_poses(q, P, out):
+def body_poses(q, sc, P, out):
     """Write each body's mass-centre pose (x, y, angle) (N_BODIES, 3) into out."""
     a1 = q[0]
     a2 = q[1]
@@ -201,365 +207,336 @@ def body_poses(q, P, out):
     x = q[6]
     y = q[7]
     alpha = q[8]
+    c_q1_2 = sc[3, 0]
+    s_q1_2 = sc[3, 1]
+    c_q2_2 = sc[4, 0]
+    s_q2_2 = sc[4, 1]
+    c_q3_2 = sc[5, 0]
+    s_q3_2 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     base1_x = P[0]
     base1_y = P[1]
-    axis1 = P[2]
-    body1_1_tip_x = P[3]
-    body1_1_tip_y = P[4]
-    body1_1_com_x = P[5]
-    body1_1_com_y = P[6]
-    body1_2_com_x = P[11]
-    body1_2_com_y = P[12]
-    base2_x = P[15]
-    base2_y = P[16]
-    axis2 = P[17]
-    body2_1_tip_x = P[18]
-    body2_1_tip_y = P[19]
-    body2_1_com_x = P[20]
-    body2_1_com_y = P[21]
-    body2_2_com_x = P[26]
-    body2_2_com_y = P[27]
-    base3_x = P[30]
-    base3_y = P[31]
-    axis3 = P[32]
-    body3_1_tip_x = P[33]
-    body3_1_tip_y = P[34]
-    body3_1_com_x = P[35]
-    body3_1_com_y = P[36]
-    body3_2_com_x = P[41]
-    body3_2_com_y = P[42]
-    platform_com_x = P[51]
-    platform_com_y = P[52]
-    w0 = math.cos(axis1)
-    w1 = math.sin(axis1)
-    w2 = a1*w0 + base1_x
-    w3 = a1*w1 + base1_y
-    w4 = math.cos(q1_2)
-    w5 = math.sin(q1_2)
-    w6 = math.cos(axis2)
-    w7 = math.sin(axis2)
-    w8 = a2*w6 + base2_x
-    w9 = a2*w7 + base2_y
-    w10 = math.cos(q2_2)
-    w11 = math.sin(q2_2)
-    w12 = math.cos(axis3)
-    w13 = math.sin(axis3)
-    w14 = a3*w12 + base3_x
-    w15 = a3*w13 + base3_y
-    w16 = math.cos(q3_2)
-    w17 = math.sin(q3_2)
-    w18 = math.cos(alpha)
-    w19 = math.sin(alpha)
-    out[0, 0] = body1_1_com_x*w0 - body1_1_com_y*w1 + w2
-    out[0, 1] = body1_1_com_x*w1 + body1_1_com_y*w0 + w3
-    out[0, 2] = axis1
-    out[1, 0] = body1_1_tip_x*w0 - body1_1_tip_y*w1 + body1_2_com_x*w4 - body1_2_com_y*w5 + w2
-    out[1, 1] = body1_1_tip_x*w1 + body1_1_tip_y*w0 + body1_2_com_x*w5 + body1_2_com_y*w4 + w3
+    rail1_x = P[2]
+    rail1_y = P[3]
+    body1_1_tip_x = P[4]
+    body1_1_tip_y = P[5]
+    body1_1_com_x = P[6]
+    body1_1_com_y = P[7]
+    body1_2_com_x = P[12]
+    body1_2_com_y = P[13]
+    base2_x = P[16]
+    base2_y = P[17]
+    rail2_x = P[18]
+    rail2_y = P[19]
+    body2_1_tip_x = P[20]
+    body2_1_tip_y = P[21]
+    body2_1_com_x = P[22]
+    body2_1_com_y = P[23]
+    body2_2_com_x = P[28]
+    body2_2_com_y = P[29]
+    base3_x = P[32]
+    base3_y = P[33]
+    rail3_x = P[34]
+    rail3_y = P[35]
+    body3_1_tip_x = P[36]
+    body3_1_tip_y = P[37]
+    body3_1_com_x = P[38]
+    body3_1_com_y = P[39]
+    body3_2_com_x = P[44]
+    body3_2_com_y = P[45]
+    platform_com_x = P[54]
+    platform_com_y = P[55]
+    w0 = a1*rail1_x + base1_x
+    w1 = a1*rail1_y + base1_y
+    w2 = a2*rail2_x + base2_x
+    w3 = a2*rail2_y + base2_y
+    w4 = a3*rail3_x + base3_x
+    w5 = a3*rail3_y + base3_y
+    out[0, 0] = body1_1_com_x*rail1_x - body1_1_com_y*rail1_y + w0
+    out[0, 1] = body1_1_com_x*rail1_y + body1_1_com_y*rail1_x + w1
+    out[0, 2] = math.atan2(rail1_y, rail1_x)
+    out[1, 0] = body1_1_tip_x*rail1_x - body1_1_tip_y*rail1_y + body1_2_com_x*c_q1_2 - body1_2_com_y*s_q1_2 + w0
+    out[1, 1] = body1_1_tip_x*rail1_y + body1_1_tip_y*rail1_x + body1_2_com_x*s_q1_2 + body1_2_com_y*c_q1_2 + w1
     out[1, 2] = q1_2
-    out[2, 0] = body2_1_com_x*w6 - body2_1_com_y*w7 + w8
-    out[2, 1] = body2_1_com_x*w7 + body2_1_com_y*w6 + w9
-    out[2, 2] = axis2
-    out[3, 0] = body2_1_tip_x*w6 - body2_1_tip_y*w7 + body2_2_com_x*w10 - body2_2_com_y*w11 + w8
-    out[3, 1] = body2_1_tip_x*w7 + body2_1_tip_y*w6 + body2_2_com_x*w11 + body2_2_com_y*w10 + w9
+    out[2, 0] = body2_1_com_x*rail2_x - body2_1_com_y*rail2_y + w2
+    out[2, 1] = body2_1_com_x*rail2_y + body2_1_com_y*rail2_x + w3
+    out[2, 2] = math.atan2(rail2_y, rail2_x)
+    out[3, 0] = body2_1_tip_x*rail2_x - body2_1_tip_y*rail2_y + body2_2_com_x*c_q2_2 - body2_2_com_y*s_q2_2 + w2
+    out[3, 1] = body2_1_tip_x*rail2_y + body2_1_tip_y*rail2_x + body2_2_com_x*s_q2_2 + body2_2_com_y*c_q2_2 + w3
     out[3, 2] = q2_2
-    out[4, 0] = body3_1_com_x*w12 - body3_1_com_y*w13 + w14
-    out[4, 1] = body3_1_com_x*w13 + body3_1_com_y*w12 + w15
-    out[4, 2] = axis3
-    out[5, 0] = body3_1_tip_x*w12 - body3_1_tip_y*w13 + body3_2_com_x*w16 - body3_2_com_y*w17 + w14
-    out[5, 1] = body3_1_tip_x*w13 + body3_1_tip_y*w12 + body3_2_com_x*w17 + body3_2_com_y*w16 + w15
+    out[4, 0] = body3_1_com_x*rail3_x - body3_1_com_y*rail3_y + w4
+    out[4, 1] = body3_1_com_x*rail3_y + body3_1_com_y*rail3_x + w5
+    out[4, 2] = math.atan2(rail3_y, rail3_x)
+    out[5, 0] = body3_1_tip_x*rail3_x - body3_1_tip_y*rail3_y + body3_2_com_x*c_q3_2 - body3_2_com_y*s_q3_2 + w4
+    out[5, 1] = body3_1_tip_x*rail3_y + body3_1_tip_y*rail3_x + body3_2_com_x*s_q3_2 + body3_2_com_y*c_q3_2 + w5
     out[5, 2] = q3_2
-    out[6, 0] = platform_com_x*w18 - platform_com_y*w19 + x
-    out[6, 1] = platform_com_x*w19 + platform_com_y*w18 + y
+    out[6, 0] = c_alpha*platform_com_x - platform_com_y*s_alpha + x
+    out[6, 1] = c_alpha*platform_com_y + platform_com_x*s_alpha + y
     out[6, 2] = alpha
 
 
 @njit(cache=True)
-def body_jacobians(q, P, out):
+def body_jacobians(q, sc, P, out):
     """Write each body's d(x, y, angle)/dq (N_BODIES, 3, N_COORDINATES) into out."""
-    q1_2 = q[3]
-    q2_2 = q[4]
-    q3_2 = q[5]
-    alpha = q[8]
-    axis1 = P[2]
-    body1_2_com_x = P[11]
-    body1_2_com_y = P[12]
-    axis2 = P[17]
-    body2_2_com_x = P[26]
-    body2_2_com_y = P[27]
-    axis3 = P[32]
-    body3_2_com_x = P[41]
-    body3_2_com_y = P[42]
-    platform_com_x = P[51]
-    platform_com_y = P[52]
-    w0 = math.cos(axis1)
-    w1 = math.sin(axis1)
-    w2 = math.sin(q1_2)
-    w3 = math.cos(q1_2)
-    w4 = math.cos(axis2)
-    w5 = math.sin(axis2)
-    w6 = math.sin(q2_2)
-    w7 = math.cos(q2_2)
-    w8 = math.cos(axis3)
-    w9 = math.sin(axis3)
-    w10 = math.sin(q3_2)
-    w11 = math.cos(q3_2)
-    w12 = math.sin(alpha)
-    w13 = math.cos(alpha)
+    c_q1_2 = sc[3, 0]
+    s_q1_2 = sc[3, 1]
+    c_q2_2 = sc[4, 0]
+    s_q2_2 = sc[4, 1]
+    c_q3_2 = sc[5, 0]
+    s_q3_2 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
+    rail1_x = P[2]
+    rail1_y = P[3]
+    body1_2_com_x = P[12]
+    body1_2_com_y = P[13]
+    rail2_x = P[18]
+    rail2_y = P[19]
+    body2_2_com_x = P[28]
+    body2_2_com_y = P[29]
+    rail3_x = P[34]
+    rail3_y = P[35]
+    body3_2_com_x = P[44]
+    body3_2_com_y = P[45]
+    platform_com_x = P[54]
+    platform_com_y = P[55]
     out[:] = 0.0
-    out[0, 0, 0] = w0
-    out[0, 1, 0] = w1
-    out[1, 0, 0] = w0
-    out[1, 0, 3] = -body1_2_com_x*w2 - body1_2_com_y*w3
-    out[1, 1, 0] = w1
-    out[1, 1, 3] = body1_2_com_x*w3 - body1_2_com_y*w2
+    out[0, 0, 0] = rail1_x
+    out[0, 1, 0] = rail1_y
+    out[1, 0, 0] = rail1_x
+    out[1, 0, 3] = -body1_2_com_x*s_q1_2 - body1_2_com_y*c_q1_2
+    out[1, 1, 0] = rail1_y
+    out[1, 1, 3] = body1_2_com_x*c_q1_2 - body1_2_com_y*s_q1_2
     out[1, 2, 3] = 1
-    out[2, 0, 1] = w4
-    out[2, 1, 1] = w5
-    out[3, 0, 1] = w4
-    out[3, 0, 4] = -body2_2_com_x*w6 - body2_2_com_y*w7
-    out[3, 1, 1] = w5
-    out[3, 1, 4] = body2_2_com_x*w7 - body2_2_com_y*w6
+    out[2, 0, 1] = rail2_x
+    out[2, 1, 1] = rail2_y
+    out[3, 0, 1] = rail2_x
+    out[3, 0, 4] = -body2_2_com_x*s_q2_2 - body2_2_com_y*c_q2_2
+    out[3, 1, 1] = rail2_y
+    out[3, 1, 4] = body2_2_com_x*c_q2_2 - body2_2_com_y*s_q2_2
     out[3, 2, 4] = 1
-    out[4, 0, 2] = w8
-    out[4, 1, 2] = w9
-    out[5, 0, 2] = w8
-    out[5, 0, 5] = -body3_2_com_x*w10 - body3_2_com_y*w11
-    out[5, 1, 2] = w9
-    out[5, 1, 5] = body3_2_com_x*w11 - body3_2_com_y*w10
+    out[4, 0, 2] = rail3_x
+    out[4, 1, 2] = rail3_y
+    out[5, 0, 2] = rail3_x
+    out[5, 0, 5] = -body3_2_com_x*s_q3_2 - body3_2_com_y*c_q3_2
+    out[5, 1, 2] = rail3_y
+    out[5, 1, 5] = body3_2_com_x*c_q3_2 - body3_2_com_y*s_q3_2
     out[5, 2, 5] = 1
     out[6, 0, 6] = 1
-    out[6, 0, 8] = -platform_com_x*w12 - platform_com_y*w13
+    out[6, 0, 8] = -c_alpha*platform_com_y - platform_com_x*s_alpha
     out[6, 1, 7] = 1
-    out[6, 1, 8] = platform_com_x*w13 - platform_com_y*w12
+    out[6, 1, 8] = c_alpha*platform_com_x - platform_com_y*s_alpha
     out[6, 2, 8] = 1
 
 
 @njit(cache=True)
-def body_jacobian_values(q, P, out):
+def body_jacobian_values(q, sc, P, out):
     """Write the non-zeros of the bodies' Jacobians (N_JB,) into out (positions: JB_BODY, JB_ROW, JB_COL)."""
-    q1_2 = q[3]
-    q2_2 = q[4]
-    q3_2 = q[5]
-    alpha = q[8]
-    axis1 = P[2]
-    body1_2_com_x = P[11]
-    body1_2_com_y = P[12]
-    axis2 = P[17]
-    body2_2_com_x = P[26]
-    body2_2_com_y = P[27]
-    axis3 = P[32]
-    body3_2_com_x = P[41]
-    body3_2_com_y = P[42]
-    platform_com_x = P[51]
-    platform_com_y = P[52]
-    w0 = math.cos(axis1)
-    w1 = math.sin(axis1)
-    w2 = math.sin(q1_2)
-    w3 = math.cos(q1_2)
-    w4 = math.cos(axis2)
-    w5 = math.sin(axis2)
-    w6 = math.sin(q2_2)
-    w7 = math.cos(q2_2)
-    w8 = math.cos(axis3)
-    w9 = math.sin(axis3)
-    w10 = math.sin(q3_2)
-    w11 = math.cos(q3_2)
-    w12 = math.sin(alpha)
-    w13 = math.cos(alpha)
-    out[0] = w0
-    out[1] = w1
-    out[2] = w0
-    out[3] = -body1_2_com_x*w2 - body1_2_com_y*w3
-    out[4] = w1
-    out[5] = body1_2_com_x*w3 - body1_2_com_y*w2
+    c_q1_2 = sc[3, 0]
+    s_q1_2 = sc[3, 1]
+    c_q2_2 = sc[4, 0]
+    s_q2_2 = sc[4, 1]
+    c_q3_2 = sc[5, 0]
+    s_q3_2 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
+    rail1_x = P[2]
+    rail1_y = P[3]
+    body1_2_com_x = P[12]
+    body1_2_com_y = P[13]
+    rail2_x = P[18]
+    rail2_y = P[19]
+    body2_2_com_x = P[28]
+    body2_2_com_y = P[29]
+    rail3_x = P[34]
+    rail3_y = P[35]
+    body3_2_com_x = P[44]
+    body3_2_com_y = P[45]
+    platform_com_x = P[54]
+    platform_com_y = P[55]
+    out[0] = rail1_x
+    out[1] = rail1_y
+    out[2] = rail1_x
+    out[3] = -body1_2_com_x*s_q1_2 - body1_2_com_y*c_q1_2
+    out[4] = rail1_y
+    out[5] = body1_2_com_x*c_q1_2 - body1_2_com_y*s_q1_2
     out[6] = 1
-    out[7] = w4
-    out[8] = w5
-    out[9] = w4
-    out[10] = -body2_2_com_x*w6 - body2_2_com_y*w7
-    out[11] = w5
-    out[12] = body2_2_com_x*w7 - body2_2_com_y*w6
+    out[7] = rail2_x
+    out[8] = rail2_y
+    out[9] = rail2_x
+    out[10] = -body2_2_com_x*s_q2_2 - body2_2_com_y*c_q2_2
+    out[11] = rail2_y
+    out[12] = body2_2_com_x*c_q2_2 - body2_2_com_y*s_q2_2
     out[13] = 1
-    out[14] = w8
-    out[15] = w9
-    out[16] = w8
-    out[17] = -body3_2_com_x*w10 - body3_2_com_y*w11
-    out[18] = w9
-    out[19] = body3_2_com_x*w11 - body3_2_com_y*w10
+    out[14] = rail3_x
+    out[15] = rail3_y
+    out[16] = rail3_x
+    out[17] = -body3_2_com_x*s_q3_2 - body3_2_com_y*c_q3_2
+    out[18] = rail3_y
+    out[19] = body3_2_com_x*c_q3_2 - body3_2_com_y*s_q3_2
     out[20] = 1
     out[21] = 1
-    out[22] = -platform_com_x*w12 - platform_com_y*w13
+    out[22] = -c_alpha*platform_com_y - platform_com_x*s_alpha
     out[23] = 1
-    out[24] = platform_com_x*w13 - platform_com_y*w12
+    out[24] = c_alpha*platform_com_x - platform_com_y*s_alpha
     out[25] = 1
 
 
 @njit(cache=True)
-def body_bias(q, qd, P, out):
+def body_bias(q, sc, qd, P, out):
     """Write each body's dJ_b/dt qd (N_BODIES, 3) into out."""
-    q1_2 = q[3]
-    q2_2 = q[4]
-    q3_2 = q[5]
-    alpha = q[8]
+    c_q1_2 = sc[3, 0]
+    s_q1_2 = sc[3, 1]
+    c_q2_2 = sc[4, 0]
+    s_q2_2 = sc[4, 1]
+    c_q3_2 = sc[5, 0]
+    s_q3_2 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     q1_2_dot = qd[3]
     q2_2_dot = qd[4]
     q3_2_dot = qd[5]
     alpha_dot = qd[8]
-    body1_2_com_x = P[11]
-    body1_2_com_y = P[12]
-    body2_2_com_x = P[26]
-    body2_2_com_y = P[27]
-    body3_2_com_x = P[41]
-    body3_2_com_y = P[42]
-    platform_com_x = P[51]
-    platform_com_y = P[52]
+    body1_2_com_x = P[12]
+    body1_2_com_y = P[13]
+    body2_2_com_x = P[28]
+    body2_2_com_y = P[29]
+    body3_2_com_x = P[44]
+    body3_2_com_y = P[45]
+    platform_com_x = P[54]
+    platform_com_y = P[55]
     w0 = q1_2_dot**2
-    w1 = math.cos(q1_2)
-    w2 = math.sin(q1_2)
-    w3 = q2_2_dot**2
-    w4 = math.cos(q2_2)
-    w5 = math.sin(q2_2)
-    w6 = q3_2_dot**2
-    w7 = math.cos(q3_2)
-    w8 = math.sin(q3_2)
-    w9 = alpha_dot**2
-    w10 = math.cos(alpha)
-    w11 = math.sin(alpha)
+    w1 = q2_2_dot**2
+    w2 = q3_2_dot**2
+    w3 = alpha_dot**2
     out[:] = 0.0
-    out[1, 0] = w0*(-body1_2_com_x*w1 + body1_2_com_y*w2)
-    out[1, 1] = w0*(-body1_2_com_x*w2 - body1_2_com_y*w1)
-    out[3, 0] = w3*(-body2_2_com_x*w4 + body2_2_com_y*w5)
-    out[3, 1] = w3*(-body2_2_com_x*w5 - body2_2_com_y*w4)
-    out[5, 0] = w6*(-body3_2_com_x*w7 + body3_2_com_y*w8)
-    out[5, 1] = w6*(-body3_2_com_x*w8 - body3_2_com_y*w7)
-    out[6, 0] = w9*(-platform_com_x*w10 + platform_com_y*w11)
-    out[6, 1] = w9*(-platform_com_x*w11 - platform_com_y*w10)
+    out[1, 0] = w0*(-body1_2_com_x*c_q1_2 + body1_2_com_y*s_q1_2)
+    out[1, 1] = w0*(-body1_2_com_x*s_q1_2 - body1_2_com_y*c_q1_2)
+    out[3, 0] = w1*(-body2_2_com_x*c_q2_2 + body2_2_com_y*s_q2_2)
+    out[3, 1] = w1*(-body2_2_com_x*s_q2_2 - body2_2_com_y*c_q2_2)
+    out[5, 0] = w2*(-body3_2_com_x*c_q3_2 + body3_2_com_y*s_q3_2)
+    out[5, 1] = w2*(-body3_2_com_x*s_q3_2 - body3_2_com_y*c_q3_2)
+    out[6, 0] = w3*(-c_alpha*platform_com_x + platform_com_y*s_alpha)
+    out[6, 1] = w3*(-c_alpha*platform_com_y - platform_com_x*s_alpha)
 
 
 @njit(cache=True)
-def joint_points(q, P, out):
+def joint_points(q, sc, P, out):
     """Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, base to platform."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
     x = q[6]
     y = q[7]
-    alpha = q[8]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     base1_x = P[0]
     base1_y = P[1]
-    axis1 = P[2]
-    body1_1_tip_x = P[3]
-    body1_1_tip_y = P[4]
-    base2_x = P[15]
-    base2_y = P[16]
-    axis2 = P[17]
-    body2_1_tip_x = P[18]
-    body2_1_tip_y = P[19]
-    base3_x = P[30]
-    base3_y = P[31]
-    axis3 = P[32]
-    body3_1_tip_x = P[33]
-    body3_1_tip_y = P[34]
-    attach1_x = P[45]
-    attach1_y = P[46]
-    attach2_x = P[47]
-    attach2_y = P[48]
-    attach3_x = P[49]
-    attach3_y = P[50]
-    w0 = math.cos(axis1)
-    w1 = math.sin(axis1)
-    w2 = math.cos(alpha)
-    w3 = math.sin(alpha)
-    w4 = math.cos(axis2)
-    w5 = math.sin(axis2)
-    w6 = math.cos(axis3)
-    w7 = math.sin(axis3)
+    rail1_x = P[2]
+    rail1_y = P[3]
+    body1_1_tip_x = P[4]
+    body1_1_tip_y = P[5]
+    base2_x = P[16]
+    base2_y = P[17]
+    rail2_x = P[18]
+    rail2_y = P[19]
+    body2_1_tip_x = P[20]
+    body2_1_tip_y = P[21]
+    base3_x = P[32]
+    base3_y = P[33]
+    rail3_x = P[34]
+    rail3_y = P[35]
+    body3_1_tip_x = P[36]
+    body3_1_tip_y = P[37]
+    attach1_x = P[48]
+    attach1_y = P[49]
+    attach2_x = P[50]
+    attach2_y = P[51]
+    attach3_x = P[52]
+    attach3_y = P[53]
     out[0, 0, 0] = base1_x
     out[0, 0, 1] = base1_y
-    out[0, 1, 0] = a1*w0 + base1_x + body1_1_tip_x*w0 - body1_1_tip_y*w1
-    out[0, 1, 1] = a1*w1 + base1_y + body1_1_tip_x*w1 + body1_1_tip_y*w0
-    out[0, 2, 0] = attach1_x*w2 - attach1_y*w3 + x
-    out[0, 2, 1] = attach1_x*w3 + attach1_y*w2 + y
+    out[0, 1, 0] = a1*rail1_x + base1_x + body1_1_tip_x*rail1_x - body1_1_tip_y*rail1_y
+    out[0, 1, 1] = a1*rail1_y + base1_y + body1_1_tip_x*rail1_y + body1_1_tip_y*rail1_x
+    out[0, 2, 0] = attach1_x*c_alpha - attach1_y*s_alpha + x
+    out[0, 2, 1] = attach1_x*s_alpha + attach1_y*c_alpha + y
     out[1, 0, 0] = base2_x
     out[1, 0, 1] = base2_y
-    out[1, 1, 0] = a2*w4 + base2_x + body2_1_tip_x*w4 - body2_1_tip_y*w5
-    out[1, 1, 1] = a2*w5 + base2_y + body2_1_tip_x*w5 + body2_1_tip_y*w4
-    out[1, 2, 0] = attach2_x*w2 - attach2_y*w3 + x
-    out[1, 2, 1] = attach2_x*w3 + attach2_y*w2 + y
+    out[1, 1, 0] = a2*rail2_x + base2_x + body2_1_tip_x*rail2_x - body2_1_tip_y*rail2_y
+    out[1, 1, 1] = a2*rail2_y + base2_y + body2_1_tip_x*rail2_y + body2_1_tip_y*rail2_x
+    out[1, 2, 0] = attach2_x*c_alpha - attach2_y*s_alpha + x
+    out[1, 2, 1] = attach2_x*s_alpha + attach2_y*c_alpha + y
     out[2, 0, 0] = base3_x
     out[2, 0, 1] = base3_y
-    out[2, 1, 0] = a3*w6 + base3_x + body3_1_tip_x*w6 - body3_1_tip_y*w7
-    out[2, 1, 1] = a3*w7 + base3_y + body3_1_tip_x*w7 + body3_1_tip_y*w6
-    out[2, 2, 0] = attach3_x*w2 - attach3_y*w3 + x
-    out[2, 2, 1] = attach3_x*w3 + attach3_y*w2 + y
+    out[2, 1, 0] = a3*rail3_x + base3_x + body3_1_tip_x*rail3_x - body3_1_tip_y*rail3_y
+    out[2, 1, 1] = a3*rail3_y + base3_y + body3_1_tip_x*rail3_y + body3_1_tip_y*rail3_x
+    out[2, 2, 0] = attach3_x*c_alpha - attach3_y*s_alpha + x
+    out[2, 2, 1] = attach3_x*s_alpha + attach3_y*c_alpha + y
 
 
 @njit(cache=True)
-def leg_lines(q, P, out):
+def leg_lines(q, sc, P, out):
     """Write each leg's line of action (N_ACTUATORS, 4): its attachment point minus the tracked point, and its direction (unnormalised)."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
     x = q[6]
     y = q[7]
-    alpha = q[8]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     base1_x = P[0]
     base1_y = P[1]
-    axis1 = P[2]
-    body1_1_tip_x = P[3]
-    body1_1_tip_y = P[4]
-    base2_x = P[15]
-    base2_y = P[16]
-    axis2 = P[17]
-    body2_1_tip_x = P[18]
-    body2_1_tip_y = P[19]
-    base3_x = P[30]
-    base3_y = P[31]
-    axis3 = P[32]
-    body3_1_tip_x = P[33]
-    body3_1_tip_y = P[34]
-    attach1_x = P[45]
-    attach1_y = P[46]
-    attach2_x = P[47]
-    attach2_y = P[48]
-    attach3_x = P[49]
-    attach3_y = P[50]
-    w0 = math.cos(alpha)
-    w1 = math.sin(alpha)
-    w2 = attach1_y*w1
-    w3 = -x
-    w4 = math.cos(axis1)
-    w5 = math.sin(axis1)
-    w6 = -y
-    w7 = attach2_y*w1
-    w8 = math.cos(axis2)
-    w9 = math.sin(axis2)
-    w10 = attach3_y*w1
-    w11 = math.cos(axis3)
-    w12 = math.sin(axis3)
-    out[0, 0] = attach1_x*w0 - w2
-    out[0, 1] = attach1_x*w1 + attach1_y*w0
-    out[0, 2] = -a1*w4 + attach1_x*w0 - base1_x - body1_1_tip_x*w4 + body1_1_tip_y*w5 - w2 - w3
-    out[0, 3] = -a1*w5 + attach1_x*w1 + attach1_y*w0 - base1_y - body1_1_tip_x*w5 - body1_1_tip_y*w4 - w6
-    out[1, 0] = attach2_x*w0 - w7
-    out[1, 1] = attach2_x*w1 + attach2_y*w0
-    out[1, 2] = -a2*w8 + attach2_x*w0 - base2_x - body2_1_tip_x*w8 + body2_1_tip_y*w9 - w3 - w7
-    out[1, 3] = -a2*w9 + attach2_x*w1 + attach2_y*w0 - base2_y - body2_1_tip_x*w9 - body2_1_tip_y*w8 - w6
-    out[2, 0] = attach3_x*w0 - w10
-    out[2, 1] = attach3_x*w1 + attach3_y*w0
-    out[2, 2] = -a3*w11 + attach3_x*w0 - base3_x - body3_1_tip_x*w11 + body3_1_tip_y*w12 - w10 - w3
-    out[2, 3] = -a3*w12 + attach3_x*w1 + attach3_y*w0 - base3_y - body3_1_tip_x*w12 - body3_1_tip_y*w11 - w6
+    rail1_x = P[2]
+    rail1_y = P[3]
+    body1_1_tip_x = P[4]
+    body1_1_tip_y = P[5]
+    base2_x = P[16]
+    base2_y = P[17]
+    rail2_x = P[18]
+    rail2_y = P[19]
+    body2_1_tip_x = P[20]
+    body2_1_tip_y = P[21]
+    base3_x = P[32]
+    base3_y = P[33]
+    rail3_x = P[34]
+    rail3_y = P[35]
+    body3_1_tip_x = P[36]
+    body3_1_tip_y = P[37]
+    attach1_x = P[48]
+    attach1_y = P[49]
+    attach2_x = P[50]
+    attach2_y = P[51]
+    attach3_x = P[52]
+    attach3_y = P[53]
+    w0 = attach1_y*s_alpha
+    w1 = -x
+    w2 = -y
+    w3 = attach2_y*s_alpha
+    w4 = attach3_y*s_alpha
+    out[0, 0] = attach1_x*c_alpha - w0
+    out[0, 1] = attach1_x*s_alpha + attach1_y*c_alpha
+    out[0, 2] = -a1*rail1_x + attach1_x*c_alpha - base1_x - body1_1_tip_x*rail1_x + body1_1_tip_y*rail1_y - w0 - w1
+    out[0, 3] = -a1*rail1_y + attach1_x*s_alpha + attach1_y*c_alpha - base1_y - body1_1_tip_x*rail1_y - body1_1_tip_y*rail1_x - w2
+    out[1, 0] = attach2_x*c_alpha - w3
+    out[1, 1] = attach2_x*s_alpha + attach2_y*c_alpha
+    out[1, 2] = -a2*rail2_x + attach2_x*c_alpha - base2_x - body2_1_tip_x*rail2_x + body2_1_tip_y*rail2_y - w1 - w3
+    out[1, 3] = -a2*rail2_y + attach2_x*s_alpha + attach2_y*c_alpha - base2_y - body2_1_tip_x*rail2_y - body2_1_tip_y*rail2_x - w2
+    out[2, 0] = attach3_x*c_alpha - w4
+    out[2, 1] = attach3_x*s_alpha + attach3_y*c_alpha
+    out[2, 2] = -a3*rail3_x + attach3_x*c_alpha - base3_x - body3_1_tip_x*rail3_x + body3_1_tip_y*rail3_y - w1 - w4
+    out[2, 3] = -a3*rail3_y + attach3_x*s_alpha + attach3_y*c_alpha - base3_y - body3_1_tip_x*rail3_y - body3_1_tip_y*rail3_x - w2
 
 
 @njit(cache=True)
 def platform_size(P):
     """The mean distance between the platform's attachment points (1 for a point)."""
-    attach1_x = P[45]
-    attach1_y = P[46]
-    attach2_x = P[47]
-    attach2_y = P[48]
-    attach3_x = P[49]
-    attach3_y = P[50]
+    attach1_x = P[48]
+    attach1_y = P[49]
+    attach2_x = P[50]
+    attach2_y = P[51]
+    attach3_x = P[52]
+    attach3_y = P[53]
     w0 = -attach3_x
     w1 = -attach3_y
     return (1/3)*math.sqrt((-attach1_x + attach2_x)**2 + (-attach1_y + attach2_y)**2) + (1/3)*math.sqrt((-attach1_x - w0)**2 + (-attach1_y - w1)**2) + (1/3)*math.sqrt((-attach2_x - w0)**2 + (-attach2_y - w1)**2)
@@ -598,23 +575,28 @@ MAX_CHORD = 8
 @njit(cache=True)
 def singularity_measures(qs, P, out):
     """:func:`singularity_measure` of every configuration ``qs`` (K, N) into ``out`` (K,); NaN rows give NaN."""
-    lines = np.empty((N_ACTUATORS, 4))
+    lines, sc = np.empty((N_ACTUATORS, 4)), np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        out[k] = singularity_measure(qs[k], P, lines)
+        trig(qs[k], sc)
+        out[k] = singularity_measure(qs[k], sc, P, lines)
 
 
 @njit(cache=True)
 def constraint_jacobians(qs, P, out):
     """``Jηq`` of every configuration ``qs`` (K, N) into ``out`` (K, m, N)."""
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        constraint_jacobian(qs[k], P, out[k])
+        trig(qs[k], sc)
+        constraint_jacobian(qs[k], sc, P, out[k])
 
 
 @njit(cache=True)
 def constraint_biases(qs, q_dots, P, out):
     """``J̇ηq q̇`` of every configuration and rate (K, N) into ``out`` (K, m)."""
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        constraint_bias(qs[k], q_dots[k], P, out[k])
+        trig(qs[k], sc)
+        constraint_bias(qs[k], sc, q_dots[k], P, out[k])
 
 
 class Workspace(NamedTuple):
@@ -622,6 +604,7 @@ class Workspace(NamedTuple):
     accepted one, from which branch following starts) and ``q[1]`` a trial configuration."""
 
     q: np.ndarray  # (2, N) base and trial configurations
+    sc: np.ndarray  # (2, N, 2) their trig tables
     s: np.ndarray  # (2,) their singularity measures
     j_eta: np.ndarray  # (m, N) Jηq
     lu: np.ndarray  # (m - 2, m - 2) factors of Jηφ's reduced system (x and y eliminated)
@@ -675,7 +658,7 @@ def passive_solve(lu, piv, top, b, work):
     rows 0 and 1 (``top``: their entries in the reduced system's columns)."""
     for r in range(REDUCED):
         work[r] = b[r + 2] - b[r % 2]
-    lu_solve_factored(lu, piv, work)
+    lu_solve_factored(lu, piv, work, REDUCED)
     dx, dy = -b[0], -b[1]
     for k in range(REDUCED):
         dx += top[0, k] * work[k]
@@ -687,7 +670,7 @@ def passive_solve(lu, piv, top, b, work):
 
 
 @njit(**NO_REFCOUNT)
-def singularity_measure(q, P, lines):
+def singularity_measure(q, sc, P, lines):
     """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
 
     With ``u_i`` the unit direction of the line along which leg ``i`` pushes the platform and ``r_i``
@@ -699,9 +682,9 @@ def singularity_measure(q, P, lines):
       ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, ``φ_i`` the angle of ``u_i``;
     * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align.
 
-    ``lines`` is an (N_ACTUATORS, 4) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, 4) scratch array.
     """
-    leg_lines(q, P, lines)
+    leg_lines(q, sc, P, lines)
     for i in range(N_ACTUATORS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
@@ -720,7 +703,8 @@ def singularity_measure(q, P, lines):
 def make_workspace():
     N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
     r = REDUCED
-    return Workspace(np.zeros((2, N)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)), np.zeros(r, np.int64),
+    return Workspace(np.zeros((2, N)), np.zeros((2, N, 2)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)),
+                     np.zeros(r, np.int64),
                      np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
                      np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
                      np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((r, r)),
@@ -729,10 +713,10 @@ def make_workspace():
 
 
 @njit(**NO_REFCOUNT)
-def factor_passive(ws, q, P):
-    """``Jηq`` at ``q`` into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the reduced system of
-    :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
-    constraint_jacobian(q, P, ws.j_eta)
+def factor_passive(ws, q, sc, P):
+    """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
+    reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
+    constraint_jacobian(q, sc, P, ws.j_eta)
     n = N_ACTUATORS
     for k in range(REDUCED):
         c = n + reduced_column(k)
@@ -740,7 +724,7 @@ def factor_passive(ws, q, P):
         ws.top[1, k] = ws.j_eta[1, c]
         for r in range(REDUCED):
             ws.reduced[r, k] = ws.j_eta[r + 2, c] - ws.j_eta[r % 2, c]
-    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv)
+    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 
 
@@ -759,18 +743,20 @@ def actuated_jacobian(ws, out):
 
 
 @njit(**NO_REFCOUNT)
-def correct_passive(ws, q, P):
-    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` (in place); returns the status."""
+def correct_passive(ws, q, sc, P):
+    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` and its trig table ``sc`` (both in
+    place); returns the status."""
     n = N_ACTUATORS
     for _ in range(MAX_NEWTON):
-        constraints(q, P, ws.eta)
-        if not factor_passive(ws, q, P):
+        constraints(q, sc, P, ws.eta)
+        if not factor_passive(ws, q, sc, P):
             return SINGULAR
         passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             q[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        trig_passive(q, sc)
         if step < NEWTON_STEP:
             return OK
     return NOT_CONVERGED
@@ -803,9 +789,9 @@ def follow_branch(ws, theta, P, min_abs_s):
     """
     n = N_ACTUATORS
     base = ws.q[BASE]
-    trial = ws.q[TRIAL]
+    trial, sc = ws.q[TRIAL], ws.sc[TRIAL]
     if ws.base_factored[0] == 0:
-        if not factor_passive(ws, base, P):
+        if not factor_passive(ws, base, ws.sc[BASE], P):
             return SINGULAR
         actuated_jacobian(ws, ws.j_q_theta)
         keep_base_factors(ws)
@@ -816,15 +802,17 @@ def follow_branch(ws, theta, P, min_abs_s):
         trial[i] = acc
     for j in range(n):
         trial[j] = theta[j]
+    trig(trial, sc)
     status = NOT_CONVERGED
     previous = np.inf
     for _ in range(MAX_CHORD):
-        constraints(trial, P, ws.eta)
+        constraints(trial, sc, P, ws.eta)
         passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             trial[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        trig_passive(trial, sc)
         # the chord method converges linearly with the ratio of successive steps, r: what remains after
         # this step is at most step r / (1 - r)
         ratio = step / previous  # 0 at the first step: no estimate yet
@@ -833,10 +821,10 @@ def follow_branch(ws, theta, P, min_abs_s):
             break
         previous = step
     if status != OK:
-        status = correct_passive(ws, trial, P)
+        status = correct_passive(ws, trial, sc, P)
         if status != OK:
             return status
-    s = singularity_measure(trial, P, ws.lines)
+    s = singularity_measure(trial, sc, P, ws.lines)
     ws.s[TRIAL] = s
     if abs(s) < min_abs_s or s * ws.s[BASE] < 0.0:
         return SINGULAR
@@ -848,6 +836,8 @@ def accept_trial(ws):
     """The trial configuration becomes the base."""
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = ws.q[TRIAL, i]
+        ws.sc[BASE, i, 0] = ws.sc[TRIAL, i, 0]
+        ws.sc[BASE, i, 1] = ws.sc[TRIAL, i, 1]
     ws.s[BASE] = ws.s[TRIAL]
     ws.base_factored[0] = 0
 
@@ -857,21 +847,23 @@ def set_base(ws, q, P):
     """Start branch following from the configuration ``q`` (on the constraint manifold)."""
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = q[i]
-    ws.s[BASE] = singularity_measure(q, P, ws.lines)
+    trig(q, ws.sc[BASE])
+    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines)
     ws.base_factored[0] = 0
 
 
 @njit(**NO_REFCOUNT)
-def actuator_space_model(ws, q, theta_dot, P):
+def actuator_space_model(ws, q, sc, theta_dot, P):
     """``Mθ``, ``cθ = Cθ θ̇`` and ``gθ = ∂V/∂θ`` of ``Mθ θ̈ + cθ + gθ = τ`` (eq. 35, with gravity) at ``q``
-    on the manifold, into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok (``det Jηφ ≠ 0``).
+    on the manifold (trig table ``sc``), into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok
+    (``det Jηφ ≠ 0``).
 
     Body by body, with ``Jt = J_b Jqθ`` the body's velocity per actuator rate and
     ``a_b = J_b J̇qθ θ̇ + J̇_b q̇`` its acceleration at ``θ̈ = 0``:
     ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``).
     """
     n, N = N_ACTUATORS, N_COORDINATES
-    if not factor_passive(ws, q, P):
+    if not factor_passive(ws, q, sc, P):
         return False
     actuated_jacobian(ws, ws.j_q_theta)
     for i in range(N):
@@ -879,7 +871,7 @@ def actuator_space_model(ws, q, theta_dot, P):
         for j in range(n):
             acc += ws.j_q_theta[i, j] * theta_dot[j]
         ws.q_dot[i] = acc
-    constraint_bias(q, ws.q_dot, P, ws.gamma)
+    constraint_bias(q, sc, ws.q_dot, P, ws.gamma)
     for k in range(N_CONSTRAINTS):  # φ̈ at θ̈ = 0: -Jηφ⁻¹ J̇ηq q̇ (eq. 32)
         ws.gamma[k] = -ws.gamma[k]
     passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
@@ -887,8 +879,8 @@ def actuator_space_model(ws, q, theta_dot, P):
         ws.bias_q[i] = 0.0
     for k in range(N_CONSTRAINTS):
         ws.bias_q[n + k] = ws.gamma[k]
-    body_jacobian_values(q, P, ws.jb)
-    body_bias(q, ws.q_dot, P, ws.bb)
+    body_jacobian_values(q, sc, P, ws.jb)
+    body_bias(q, sc, ws.q_dot, P, ws.bb)
     for b in range(N_BODIES):
         for r in range(3):
             for j in range(n):
@@ -899,25 +891,25 @@ def actuator_space_model(ws, q, theta_dot, P):
             ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
         ws.bb[b, r] += v * ws.bias_q[k]
     gx, gy = P[GRAVITY_INDEX[0]], P[GRAVITY_INDEX[1]]
+    # each entry summed in a register and stored once (accumulating into the workspace's arrays would
+    # load and store at every term: the compiler cannot rule out that they overlap)
     for i in range(n):
-        ws.c_theta[i] = 0.0
-        ws.g_theta[i] = 0.0
-        for j in range(n):
-            ws.m_theta[i, j] = 0.0
-    for b in range(N_BODIES):
-        mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
-        for r in range(3):
-            w = inertia if r == 2 else mass
-            for i in range(n):
-                wi = w * ws.jt[b, r, i]
-                ws.c_theta[i] += wi * ws.bb[b, r]
-                for j in range(i, n):
-                    ws.m_theta[i, j] += wi * ws.jt[b, r, j]
-        for i in range(n):
-            ws.g_theta[i] -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
-    for i in range(n):
-        for j in range(i):
-            ws.m_theta[i, j] = ws.m_theta[j, i]
+        c, g = 0.0, 0.0
+        for b in range(N_BODIES):
+            mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+            c += (mass * (ws.jt[b, 0, i] * ws.bb[b, 0] + ws.jt[b, 1, i] * ws.bb[b, 1])
+                  + inertia * ws.jt[b, 2, i] * ws.bb[b, 2])
+            g -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
+        ws.c_theta[i] = c
+        ws.g_theta[i] = g
+        for j in range(i, n):
+            acc = 0.0
+            for b in range(N_BODIES):
+                mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+                acc += (mass * (ws.jt[b, 0, i] * ws.jt[b, 0, j] + ws.jt[b, 1, i] * ws.jt[b, 1, j])
+                        + inertia * ws.jt[b, 2, i] * ws.jt[b, 2, j])
+            ws.m_theta[i, j] = acc
+            ws.m_theta[j, i] = acc
     return True
 
 
@@ -926,8 +918,10 @@ def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
     """:func:`actuator_space_model` of every configuration ``qs`` (K, N) and rates ``theta_dots`` (K, n) into
     ``m_out`` (K, n, n), ``c_out`` and ``g_out`` (K, n); returns the first singular one's index, or -1."""
     ws = make_workspace()
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        if not actuator_space_model(ws, qs[k], theta_dots[k], P):
+        trig(qs[k], sc)
+        if not actuator_space_model(ws, qs[k], sc, theta_dots[k], P):
             return k
         m_out[k] = ws.m_theta
         c_out[k] = ws.c_theta
@@ -954,7 +948,7 @@ def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
         status = follow_branch(ws, theta, P, min_abs_s)
         if status != OK:
             return status
-    if not actuator_space_model(ws, ws.q[slot], theta_dot, P):
+    if not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
         return SINGULAR
     if slot == BASE:
         keep_base_factors(ws)
@@ -990,7 +984,7 @@ def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_d
     if status != OK:
         return status
     accept_trial(ws)
-    if not actuator_space_model(ws, ws.q[BASE], theta_dot, P):
+    if not actuator_space_model(ws, ws.q[BASE], ws.sc[BASE], theta_dot, P):
         return SINGULAR
     keep_base_factors(ws)
     for i in range(n):  # v, kept in theta_ddot

@@ -27,17 +27,39 @@ N_JB = 29
 
 
 @njit(cache=True)
-def constraints(q, P, out):
+def trig(q, sc):
+    """Write the trig table sc (N_COORDINATES, 2) of q: (cos, sin) of every angle."""
+    sc[3, 0], sc[3, 1] = math.cos(q[3]), math.sin(q[3])
+    sc[4, 0], sc[4, 1] = math.cos(q[4]), math.sin(q[4])
+    sc[5, 0], sc[5, 1] = math.cos(q[5]), math.sin(q[5])
+    sc[8, 0], sc[8, 1] = math.cos(q[8]), math.sin(q[8])
+
+
+@njit(cache=True)
+def trig_passive(q, sc):
+    """Write the passive angles' rows of the trig table sc (the actuators' rows are kept)."""
+    sc[3, 0], sc[3, 1] = math.cos(q[3]), math.sin(q[3])
+    sc[4, 0], sc[4, 1] = math.cos(q[4]), math.sin(q[4])
+    sc[5, 0], sc[5, 1] = math.cos(q[5]), math.sin(q[5])
+    sc[8, 0], sc[8, 1] = math.cos(q[8]), math.sin(q[8])
+
+
+@njit(cache=True)
+def constraints(q, sc, P, out):
     """Write the loop-closure residual eta(q) (N_CONSTRAINTS,) into out."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
-    q1_1 = q[3]
-    q2_1 = q[4]
-    q3_1 = q[5]
     x = q[6]
     y = q[7]
-    alpha = q[8]
+    c_q1_1 = sc[3, 0]
+    s_q1_1 = sc[3, 1]
+    c_q2_1 = sc[4, 0]
+    s_q2_1 = sc[4, 1]
+    c_q3_1 = sc[5, 0]
+    s_q3_1 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     base1_x = P[0]
     base1_y = P[1]
     body1_1_tip_x = P[2]
@@ -63,33 +85,29 @@ def constraints(q, P, out):
     attach3_x = P[46]
     attach3_y = P[47]
     w0 = -x
-    w1 = math.cos(q1_1)
-    w2 = math.sin(alpha)
-    w3 = math.cos(alpha)
-    w4 = math.sin(q1_1)
-    w5 = -y
-    w6 = math.cos(q2_1)
-    w7 = math.sin(q2_1)
-    w8 = math.cos(q3_1)
-    w9 = math.sin(q3_1)
-    out[0] = a1*w1 - attach1_x*w3 + attach1_y*w2 + base1_x + body1_1_tip_x*w1 - body1_1_tip_y*w4 + body1_2_tip_x*w1 - body1_2_tip_y*w4 + w0
-    out[1] = a1*w4 - attach1_x*w2 - attach1_y*w3 + base1_y + body1_1_tip_x*w4 + body1_1_tip_y*w1 + body1_2_tip_x*w4 + body1_2_tip_y*w1 + w5
-    out[2] = a2*w6 - attach2_x*w3 + attach2_y*w2 + base2_x + body2_1_tip_x*w6 - body2_1_tip_y*w7 + body2_2_tip_x*w6 - body2_2_tip_y*w7 + w0
-    out[3] = a2*w7 - attach2_x*w2 - attach2_y*w3 + base2_y + body2_1_tip_x*w7 + body2_1_tip_y*w6 + body2_2_tip_x*w7 + body2_2_tip_y*w6 + w5
-    out[4] = a3*w8 - attach3_x*w3 + attach3_y*w2 + base3_x + body3_1_tip_x*w8 - body3_1_tip_y*w9 + body3_2_tip_x*w8 - body3_2_tip_y*w9 + w0
-    out[5] = a3*w9 - attach3_x*w2 - attach3_y*w3 + base3_y + body3_1_tip_x*w9 + body3_1_tip_y*w8 + body3_2_tip_x*w9 + body3_2_tip_y*w8 + w5
+    w1 = -y
+    out[0] = a1*c_q1_1 - attach1_x*c_alpha + attach1_y*s_alpha + base1_x + body1_1_tip_x*c_q1_1 - body1_1_tip_y*s_q1_1 + body1_2_tip_x*c_q1_1 - body1_2_tip_y*s_q1_1 + w0
+    out[1] = a1*s_q1_1 - attach1_x*s_alpha - attach1_y*c_alpha + base1_y + body1_1_tip_x*s_q1_1 + body1_1_tip_y*c_q1_1 + body1_2_tip_x*s_q1_1 + body1_2_tip_y*c_q1_1 + w1
+    out[2] = a2*c_q2_1 - attach2_x*c_alpha + attach2_y*s_alpha + base2_x + body2_1_tip_x*c_q2_1 - body2_1_tip_y*s_q2_1 + body2_2_tip_x*c_q2_1 - body2_2_tip_y*s_q2_1 + w0
+    out[3] = a2*s_q2_1 - attach2_x*s_alpha - attach2_y*c_alpha + base2_y + body2_1_tip_x*s_q2_1 + body2_1_tip_y*c_q2_1 + body2_2_tip_x*s_q2_1 + body2_2_tip_y*c_q2_1 + w1
+    out[4] = a3*c_q3_1 - attach3_x*c_alpha + attach3_y*s_alpha + base3_x + body3_1_tip_x*c_q3_1 - body3_1_tip_y*s_q3_1 + body3_2_tip_x*c_q3_1 - body3_2_tip_y*s_q3_1 + w0
+    out[5] = a3*s_q3_1 - attach3_x*s_alpha - attach3_y*c_alpha + base3_y + body3_1_tip_x*s_q3_1 + body3_1_tip_y*c_q3_1 + body3_2_tip_x*s_q3_1 + body3_2_tip_y*c_q3_1 + w1
 
 
 @njit(cache=True)
-def constraint_jacobian(q, P, out):
+def constraint_jacobian(q, sc, P, out):
     """Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
-    q1_1 = q[3]
-    q2_1 = q[4]
-    q3_1 = q[5]
-    alpha = q[8]
+    c_q1_1 = sc[3, 0]
+    s_q1_1 = sc[3, 1]
+    c_q2_1 = sc[4, 0]
+    s_q2_1 = sc[4, 1]
+    c_q3_1 = sc[5, 0]
+    s_q3_1 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     body1_1_tip_x = P[2]
     body1_1_tip_y = P[3]
     body1_2_tip_x = P[8]
@@ -108,51 +126,47 @@ def constraint_jacobian(q, P, out):
     attach2_y = P[45]
     attach3_x = P[46]
     attach3_y = P[47]
-    w0 = math.cos(q1_1)
-    w1 = math.sin(q1_1)
-    w2 = math.sin(alpha)
-    w3 = math.cos(alpha)
-    w4 = math.cos(q2_1)
-    w5 = math.sin(q2_1)
-    w6 = math.cos(q3_1)
-    w7 = math.sin(q3_1)
     out[:] = 0.0
-    out[0, 0] = w0
-    out[0, 3] = -a1*w1 - body1_1_tip_x*w1 - body1_1_tip_y*w0 - body1_2_tip_x*w1 - body1_2_tip_y*w0
+    out[0, 0] = c_q1_1
+    out[0, 3] = -a1*s_q1_1 - body1_1_tip_x*s_q1_1 - body1_1_tip_y*c_q1_1 - body1_2_tip_x*s_q1_1 - body1_2_tip_y*c_q1_1
     out[0, 6] = -1
-    out[0, 8] = attach1_x*w2 + attach1_y*w3
-    out[1, 0] = w1
-    out[1, 3] = a1*w0 + body1_1_tip_x*w0 - body1_1_tip_y*w1 + body1_2_tip_x*w0 - body1_2_tip_y*w1
+    out[0, 8] = attach1_x*s_alpha + attach1_y*c_alpha
+    out[1, 0] = s_q1_1
+    out[1, 3] = a1*c_q1_1 + body1_1_tip_x*c_q1_1 - body1_1_tip_y*s_q1_1 + body1_2_tip_x*c_q1_1 - body1_2_tip_y*s_q1_1
     out[1, 7] = -1
-    out[1, 8] = -attach1_x*w3 + attach1_y*w2
-    out[2, 1] = w4
-    out[2, 4] = -a2*w5 - body2_1_tip_x*w5 - body2_1_tip_y*w4 - body2_2_tip_x*w5 - body2_2_tip_y*w4
+    out[1, 8] = -attach1_x*c_alpha + attach1_y*s_alpha
+    out[2, 1] = c_q2_1
+    out[2, 4] = -a2*s_q2_1 - body2_1_tip_x*s_q2_1 - body2_1_tip_y*c_q2_1 - body2_2_tip_x*s_q2_1 - body2_2_tip_y*c_q2_1
     out[2, 6] = -1
-    out[2, 8] = attach2_x*w2 + attach2_y*w3
-    out[3, 1] = w5
-    out[3, 4] = a2*w4 + body2_1_tip_x*w4 - body2_1_tip_y*w5 + body2_2_tip_x*w4 - body2_2_tip_y*w5
+    out[2, 8] = attach2_x*s_alpha + attach2_y*c_alpha
+    out[3, 1] = s_q2_1
+    out[3, 4] = a2*c_q2_1 + body2_1_tip_x*c_q2_1 - body2_1_tip_y*s_q2_1 + body2_2_tip_x*c_q2_1 - body2_2_tip_y*s_q2_1
     out[3, 7] = -1
-    out[3, 8] = -attach2_x*w3 + attach2_y*w2
-    out[4, 2] = w6
-    out[4, 5] = -a3*w7 - body3_1_tip_x*w7 - body3_1_tip_y*w6 - body3_2_tip_x*w7 - body3_2_tip_y*w6
+    out[3, 8] = -attach2_x*c_alpha + attach2_y*s_alpha
+    out[4, 2] = c_q3_1
+    out[4, 5] = -a3*s_q3_1 - body3_1_tip_x*s_q3_1 - body3_1_tip_y*c_q3_1 - body3_2_tip_x*s_q3_1 - body3_2_tip_y*c_q3_1
     out[4, 6] = -1
-    out[4, 8] = attach3_x*w2 + attach3_y*w3
-    out[5, 2] = w7
-    out[5, 5] = a3*w6 + body3_1_tip_x*w6 - body3_1_tip_y*w7 + body3_2_tip_x*w6 - body3_2_tip_y*w7
+    out[4, 8] = attach3_x*s_alpha + attach3_y*c_alpha
+    out[5, 2] = s_q3_1
+    out[5, 5] = a3*c_q3_1 + body3_1_tip_x*c_q3_1 - body3_1_tip_y*s_q3_1 + body3_2_tip_x*c_q3_1 - body3_2_tip_y*s_q3_1
     out[5, 7] = -1
-    out[5, 8] = -attach3_x*w3 + attach3_y*w2
+    out[5, 8] = -attach3_x*c_alpha + attach3_y*s_alpha
 
 
 @njit(cache=True)
-def constraint_bias(q, qd, P, out):
+def constraint_bias(q, sc, qd, P, out):
     """Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
-    q1_1 = q[3]
-    q2_1 = q[4]
-    q3_1 = q[5]
-    alpha = q[8]
+    c_q1_1 = sc[3, 0]
+    s_q1_1 = sc[3, 1]
+    c_q2_1 = sc[4, 0]
+    s_q2_1 = sc[4, 1]
+    c_q3_1 = sc[5, 0]
+    s_q3_1 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     a1_dot = qd[0]
     a2_dot = qd[1]
     a3_dot = qd[2]
@@ -178,31 +192,23 @@ def constraint_bias(q, qd, P, out):
     attach2_y = P[45]
     attach3_x = P[46]
     attach3_y = P[47]
-    w0 = math.sin(q1_1)
-    w1 = a1_dot*w0
-    w2 = alpha_dot**2
-    w3 = math.cos(alpha)
-    w4 = math.sin(alpha)
-    w5 = math.cos(q1_1)
-    w6 = a1_dot*w5
-    w7 = math.sin(q2_1)
-    w8 = a2_dot*w7
-    w9 = math.cos(q2_1)
-    w10 = a2_dot*w9
-    w11 = math.sin(q3_1)
-    w12 = a3_dot*w11
-    w13 = math.cos(q3_1)
-    w14 = a3_dot*w13
-    out[0] = -q1_1_dot*w1 + q1_1_dot*(q1_1_dot*(-a1*w5 - body1_1_tip_x*w5 + body1_1_tip_y*w0 - body1_2_tip_x*w5 + body1_2_tip_y*w0) - w1) + w2*(attach1_x*w3 - attach1_y*w4)
-    out[1] = q1_1_dot*w6 + q1_1_dot*(q1_1_dot*(-a1*w0 - body1_1_tip_x*w0 - body1_1_tip_y*w5 - body1_2_tip_x*w0 - body1_2_tip_y*w5) + w6) + w2*(attach1_x*w4 + attach1_y*w3)
-    out[2] = -q2_1_dot*w8 + q2_1_dot*(q2_1_dot*(-a2*w9 - body2_1_tip_x*w9 + body2_1_tip_y*w7 - body2_2_tip_x*w9 + body2_2_tip_y*w7) - w8) + w2*(attach2_x*w3 - attach2_y*w4)
-    out[3] = q2_1_dot*w10 + q2_1_dot*(q2_1_dot*(-a2*w7 - body2_1_tip_x*w7 - body2_1_tip_y*w9 - body2_2_tip_x*w7 - body2_2_tip_y*w9) + w10) + w2*(attach2_x*w4 + attach2_y*w3)
-    out[4] = -q3_1_dot*w12 + q3_1_dot*(q3_1_dot*(-a3*w13 - body3_1_tip_x*w13 + body3_1_tip_y*w11 - body3_2_tip_x*w13 + body3_2_tip_y*w11) - w12) + w2*(attach3_x*w3 - attach3_y*w4)
-    out[5] = q3_1_dot*w14 + q3_1_dot*(q3_1_dot*(-a3*w11 - body3_1_tip_x*w11 - body3_1_tip_y*w13 - body3_2_tip_x*w11 - body3_2_tip_y*w13) + w14) + w2*(attach3_x*w4 + attach3_y*w3)
+    w0 = a1_dot*s_q1_1
+    w1 = alpha_dot**2
+    w2 = a1_dot*c_q1_1
+    w3 = a2_dot*s_q2_1
+    w4 = a2_dot*c_q2_1
+    w5 = a3_dot*s_q3_1
+    w6 = a3_dot*c_q3_1
+    out[0] = -q1_1_dot*w0 + q1_1_dot*(q1_1_dot*(-a1*c_q1_1 - body1_1_tip_x*c_q1_1 + body1_1_tip_y*s_q1_1 - body1_2_tip_x*c_q1_1 + body1_2_tip_y*s_q1_1) - w0) + w1*(attach1_x*c_alpha - attach1_y*s_alpha)
+    out[1] = q1_1_dot*w2 + q1_1_dot*(q1_1_dot*(-a1*s_q1_1 - body1_1_tip_x*s_q1_1 - body1_1_tip_y*c_q1_1 - body1_2_tip_x*s_q1_1 - body1_2_tip_y*c_q1_1) + w2) + w1*(attach1_x*s_alpha + attach1_y*c_alpha)
+    out[2] = -q2_1_dot*w3 + q2_1_dot*(q2_1_dot*(-a2*c_q2_1 - body2_1_tip_x*c_q2_1 + body2_1_tip_y*s_q2_1 - body2_2_tip_x*c_q2_1 + body2_2_tip_y*s_q2_1) - w3) + w1*(attach2_x*c_alpha - attach2_y*s_alpha)
+    out[3] = q2_1_dot*w4 + q2_1_dot*(q2_1_dot*(-a2*s_q2_1 - body2_1_tip_x*s_q2_1 - body2_1_tip_y*c_q2_1 - body2_2_tip_x*s_q2_1 - body2_2_tip_y*c_q2_1) + w4) + w1*(attach2_x*s_alpha + attach2_y*c_alpha)
+    out[4] = -q3_1_dot*w5 + q3_1_dot*(q3_1_dot*(-a3*c_q3_1 - body3_1_tip_x*c_q3_1 + body3_1_tip_y*s_q3_1 - body3_2_tip_x*c_q3_1 + body3_2_tip_y*s_q3_1) - w5) + w1*(attach3_x*c_alpha - attach3_y*s_alpha)
+    out[5] = q3_1_dot*w6 + q3_1_dot*(q3_1_dot*(-a3*s_q3_1 - body3_1_tip_x*s_q3_1 - body3_1_tip_y*c_q3_1 - body3_2_tip_x*s_q3_1 - body3_2_tip_y*c_q3_1) + w6) + w1*(attach3_x*s_alpha + attach3_y*c_alpha)
 
 
 @njit(cache=True)
-def body_poses(q, P, out):
+def body_poses(q, sc, P, out):
     """Write each body's mass-centre pose (x, y, angle) (N_BODIES, 3) into out."""
     a1 = q[0]
     a2 = q[1]
@@ -213,6 +219,14 @@ def body_poses(q, P, out):
     x = q[6]
     y = q[7]
     alpha = q[8]
+    c_q1_1 = sc[3, 0]
+    s_q1_1 = sc[3, 1]
+    c_q2_1 = sc[4, 0]
+    s_q2_1 = sc[4, 1]
+    c_q3_1 = sc[5, 0]
+    s_q3_1 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     base1_x = P[0]
     base1_y = P[1]
     body1_1_tip_x = P[2]
@@ -239,47 +253,43 @@ def body_poses(q, P, out):
     body3_2_com_y = P[39]
     platform_com_x = P[48]
     platform_com_y = P[49]
-    w0 = math.cos(q1_1)
-    w1 = math.sin(q1_1)
-    w2 = math.cos(q2_1)
-    w3 = math.sin(q2_1)
-    w4 = math.cos(q3_1)
-    w5 = math.sin(q3_1)
-    w6 = math.cos(alpha)
-    w7 = math.sin(alpha)
-    out[0, 0] = base1_x + body1_1_com_x*w0 - body1_1_com_y*w1
-    out[0, 1] = base1_y + body1_1_com_x*w1 + body1_1_com_y*w0
+    out[0, 0] = base1_x + body1_1_com_x*c_q1_1 - body1_1_com_y*s_q1_1
+    out[0, 1] = base1_y + body1_1_com_x*s_q1_1 + body1_1_com_y*c_q1_1
     out[0, 2] = q1_1
-    out[1, 0] = a1*w0 + base1_x + body1_1_tip_x*w0 - body1_1_tip_y*w1 + body1_2_com_x*w0 - body1_2_com_y*w1
-    out[1, 1] = a1*w1 + base1_y + body1_1_tip_x*w1 + body1_1_tip_y*w0 + body1_2_com_x*w1 + body1_2_com_y*w0
+    out[1, 0] = a1*c_q1_1 + base1_x + body1_1_tip_x*c_q1_1 - body1_1_tip_y*s_q1_1 + body1_2_com_x*c_q1_1 - body1_2_com_y*s_q1_1
+    out[1, 1] = a1*s_q1_1 + base1_y + body1_1_tip_x*s_q1_1 + body1_1_tip_y*c_q1_1 + body1_2_com_x*s_q1_1 + body1_2_com_y*c_q1_1
     out[1, 2] = q1_1
-    out[2, 0] = base2_x + body2_1_com_x*w2 - body2_1_com_y*w3
-    out[2, 1] = base2_y + body2_1_com_x*w3 + body2_1_com_y*w2
+    out[2, 0] = base2_x + body2_1_com_x*c_q2_1 - body2_1_com_y*s_q2_1
+    out[2, 1] = base2_y + body2_1_com_x*s_q2_1 + body2_1_com_y*c_q2_1
     out[2, 2] = q2_1
-    out[3, 0] = a2*w2 + base2_x + body2_1_tip_x*w2 - body2_1_tip_y*w3 + body2_2_com_x*w2 - body2_2_com_y*w3
-    out[3, 1] = a2*w3 + base2_y + body2_1_tip_x*w3 + body2_1_tip_y*w2 + body2_2_com_x*w3 + body2_2_com_y*w2
+    out[3, 0] = a2*c_q2_1 + base2_x + body2_1_tip_x*c_q2_1 - body2_1_tip_y*s_q2_1 + body2_2_com_x*c_q2_1 - body2_2_com_y*s_q2_1
+    out[3, 1] = a2*s_q2_1 + base2_y + body2_1_tip_x*s_q2_1 + body2_1_tip_y*c_q2_1 + body2_2_com_x*s_q2_1 + body2_2_com_y*c_q2_1
     out[3, 2] = q2_1
-    out[4, 0] = base3_x + body3_1_com_x*w4 - body3_1_com_y*w5
-    out[4, 1] = base3_y + body3_1_com_x*w5 + body3_1_com_y*w4
+    out[4, 0] = base3_x + body3_1_com_x*c_q3_1 - body3_1_com_y*s_q3_1
+    out[4, 1] = base3_y + body3_1_com_x*s_q3_1 + body3_1_com_y*c_q3_1
     out[4, 2] = q3_1
-    out[5, 0] = a3*w4 + base3_x + body3_1_tip_x*w4 - body3_1_tip_y*w5 + body3_2_com_x*w4 - body3_2_com_y*w5
-    out[5, 1] = a3*w5 + base3_y + body3_1_tip_x*w5 + body3_1_tip_y*w4 + body3_2_com_x*w5 + body3_2_com_y*w4
+    out[5, 0] = a3*c_q3_1 + base3_x + body3_1_tip_x*c_q3_1 - body3_1_tip_y*s_q3_1 + body3_2_com_x*c_q3_1 - body3_2_com_y*s_q3_1
+    out[5, 1] = a3*s_q3_1 + base3_y + body3_1_tip_x*s_q3_1 + body3_1_tip_y*c_q3_1 + body3_2_com_x*s_q3_1 + body3_2_com_y*c_q3_1
     out[5, 2] = q3_1
-    out[6, 0] = platform_com_x*w6 - platform_com_y*w7 + x
-    out[6, 1] = platform_com_x*w7 + platform_com_y*w6 + y
+    out[6, 0] = c_alpha*platform_com_x - platform_com_y*s_alpha + x
+    out[6, 1] = c_alpha*platform_com_y + platform_com_x*s_alpha + y
     out[6, 2] = alpha
 
 
 @njit(cache=True)
-def body_jacobians(q, P, out):
+def body_jacobians(q, sc, P, out):
     """Write each body's d(x, y, angle)/dq (N_BODIES, 3, N_COORDINATES) into out."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
-    q1_1 = q[3]
-    q2_1 = q[4]
-    q3_1 = q[5]
-    alpha = q[8]
+    c_q1_1 = sc[3, 0]
+    s_q1_1 = sc[3, 1]
+    c_q2_1 = sc[4, 0]
+    s_q2_1 = sc[4, 1]
+    c_q3_1 = sc[5, 0]
+    s_q3_1 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     body1_1_tip_x = P[2]
     body1_1_tip_y = P[3]
     body1_1_com_x = P[4]
@@ -300,56 +310,52 @@ def body_jacobians(q, P, out):
     body3_2_com_y = P[39]
     platform_com_x = P[48]
     platform_com_y = P[49]
-    w0 = math.sin(q1_1)
-    w1 = math.cos(q1_1)
-    w2 = math.sin(q2_1)
-    w3 = math.cos(q2_1)
-    w4 = math.sin(q3_1)
-    w5 = math.cos(q3_1)
-    w6 = math.sin(alpha)
-    w7 = math.cos(alpha)
     out[:] = 0.0
-    out[0, 0, 3] = -body1_1_com_x*w0 - body1_1_com_y*w1
-    out[0, 1, 3] = body1_1_com_x*w1 - body1_1_com_y*w0
+    out[0, 0, 3] = -body1_1_com_x*s_q1_1 - body1_1_com_y*c_q1_1
+    out[0, 1, 3] = body1_1_com_x*c_q1_1 - body1_1_com_y*s_q1_1
     out[0, 2, 3] = 1
-    out[1, 0, 0] = w1
-    out[1, 0, 3] = -a1*w0 - body1_1_tip_x*w0 - body1_1_tip_y*w1 - body1_2_com_x*w0 - body1_2_com_y*w1
-    out[1, 1, 0] = w0
-    out[1, 1, 3] = a1*w1 + body1_1_tip_x*w1 - body1_1_tip_y*w0 + body1_2_com_x*w1 - body1_2_com_y*w0
+    out[1, 0, 0] = c_q1_1
+    out[1, 0, 3] = -a1*s_q1_1 - body1_1_tip_x*s_q1_1 - body1_1_tip_y*c_q1_1 - body1_2_com_x*s_q1_1 - body1_2_com_y*c_q1_1
+    out[1, 1, 0] = s_q1_1
+    out[1, 1, 3] = a1*c_q1_1 + body1_1_tip_x*c_q1_1 - body1_1_tip_y*s_q1_1 + body1_2_com_x*c_q1_1 - body1_2_com_y*s_q1_1
     out[1, 2, 3] = 1
-    out[2, 0, 4] = -body2_1_com_x*w2 - body2_1_com_y*w3
-    out[2, 1, 4] = body2_1_com_x*w3 - body2_1_com_y*w2
+    out[2, 0, 4] = -body2_1_com_x*s_q2_1 - body2_1_com_y*c_q2_1
+    out[2, 1, 4] = body2_1_com_x*c_q2_1 - body2_1_com_y*s_q2_1
     out[2, 2, 4] = 1
-    out[3, 0, 1] = w3
-    out[3, 0, 4] = -a2*w2 - body2_1_tip_x*w2 - body2_1_tip_y*w3 - body2_2_com_x*w2 - body2_2_com_y*w3
-    out[3, 1, 1] = w2
-    out[3, 1, 4] = a2*w3 + body2_1_tip_x*w3 - body2_1_tip_y*w2 + body2_2_com_x*w3 - body2_2_com_y*w2
+    out[3, 0, 1] = c_q2_1
+    out[3, 0, 4] = -a2*s_q2_1 - body2_1_tip_x*s_q2_1 - body2_1_tip_y*c_q2_1 - body2_2_com_x*s_q2_1 - body2_2_com_y*c_q2_1
+    out[3, 1, 1] = s_q2_1
+    out[3, 1, 4] = a2*c_q2_1 + body2_1_tip_x*c_q2_1 - body2_1_tip_y*s_q2_1 + body2_2_com_x*c_q2_1 - body2_2_com_y*s_q2_1
     out[3, 2, 4] = 1
-    out[4, 0, 5] = -body3_1_com_x*w4 - body3_1_com_y*w5
-    out[4, 1, 5] = body3_1_com_x*w5 - body3_1_com_y*w4
+    out[4, 0, 5] = -body3_1_com_x*s_q3_1 - body3_1_com_y*c_q3_1
+    out[4, 1, 5] = body3_1_com_x*c_q3_1 - body3_1_com_y*s_q3_1
     out[4, 2, 5] = 1
-    out[5, 0, 2] = w5
-    out[5, 0, 5] = -a3*w4 - body3_1_tip_x*w4 - body3_1_tip_y*w5 - body3_2_com_x*w4 - body3_2_com_y*w5
-    out[5, 1, 2] = w4
-    out[5, 1, 5] = a3*w5 + body3_1_tip_x*w5 - body3_1_tip_y*w4 + body3_2_com_x*w5 - body3_2_com_y*w4
+    out[5, 0, 2] = c_q3_1
+    out[5, 0, 5] = -a3*s_q3_1 - body3_1_tip_x*s_q3_1 - body3_1_tip_y*c_q3_1 - body3_2_com_x*s_q3_1 - body3_2_com_y*c_q3_1
+    out[5, 1, 2] = s_q3_1
+    out[5, 1, 5] = a3*c_q3_1 + body3_1_tip_x*c_q3_1 - body3_1_tip_y*s_q3_1 + body3_2_com_x*c_q3_1 - body3_2_com_y*s_q3_1
     out[5, 2, 5] = 1
     out[6, 0, 6] = 1
-    out[6, 0, 8] = -platform_com_x*w6 - platform_com_y*w7
+    out[6, 0, 8] = -c_alpha*platform_com_y - platform_com_x*s_alpha
     out[6, 1, 7] = 1
-    out[6, 1, 8] = platform_com_x*w7 - platform_com_y*w6
+    out[6, 1, 8] = c_alpha*platform_com_x - platform_com_y*s_alpha
     out[6, 2, 8] = 1
 
 
 @njit(cache=True)
-def body_jacobian_values(q, P, out):
+def body_jacobian_values(q, sc, P, out):
     """Write the non-zeros of the bodies' Jacobians (N_JB,) into out (positions: JB_BODY, JB_ROW, JB_COL)."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
-    q1_1 = q[3]
-    q2_1 = q[4]
-    q3_1 = q[5]
-    alpha = q[8]
+    c_q1_1 = sc[3, 0]
+    s_q1_1 = sc[3, 1]
+    c_q2_1 = sc[4, 0]
+    s_q2_1 = sc[4, 1]
+    c_q3_1 = sc[5, 0]
+    s_q3_1 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     body1_1_tip_x = P[2]
     body1_1_tip_y = P[3]
     body1_1_com_x = P[4]
@@ -370,55 +376,51 @@ def body_jacobian_values(q, P, out):
     body3_2_com_y = P[39]
     platform_com_x = P[48]
     platform_com_y = P[49]
-    w0 = math.sin(q1_1)
-    w1 = math.cos(q1_1)
-    w2 = math.sin(q2_1)
-    w3 = math.cos(q2_1)
-    w4 = math.sin(q3_1)
-    w5 = math.cos(q3_1)
-    w6 = math.sin(alpha)
-    w7 = math.cos(alpha)
-    out[0] = -body1_1_com_x*w0 - body1_1_com_y*w1
-    out[1] = body1_1_com_x*w1 - body1_1_com_y*w0
+    out[0] = -body1_1_com_x*s_q1_1 - body1_1_com_y*c_q1_1
+    out[1] = body1_1_com_x*c_q1_1 - body1_1_com_y*s_q1_1
     out[2] = 1
-    out[3] = w1
-    out[4] = -a1*w0 - body1_1_tip_x*w0 - body1_1_tip_y*w1 - body1_2_com_x*w0 - body1_2_com_y*w1
-    out[5] = w0
-    out[6] = a1*w1 + body1_1_tip_x*w1 - body1_1_tip_y*w0 + body1_2_com_x*w1 - body1_2_com_y*w0
+    out[3] = c_q1_1
+    out[4] = -a1*s_q1_1 - body1_1_tip_x*s_q1_1 - body1_1_tip_y*c_q1_1 - body1_2_com_x*s_q1_1 - body1_2_com_y*c_q1_1
+    out[5] = s_q1_1
+    out[6] = a1*c_q1_1 + body1_1_tip_x*c_q1_1 - body1_1_tip_y*s_q1_1 + body1_2_com_x*c_q1_1 - body1_2_com_y*s_q1_1
     out[7] = 1
-    out[8] = -body2_1_com_x*w2 - body2_1_com_y*w3
-    out[9] = body2_1_com_x*w3 - body2_1_com_y*w2
+    out[8] = -body2_1_com_x*s_q2_1 - body2_1_com_y*c_q2_1
+    out[9] = body2_1_com_x*c_q2_1 - body2_1_com_y*s_q2_1
     out[10] = 1
-    out[11] = w3
-    out[12] = -a2*w2 - body2_1_tip_x*w2 - body2_1_tip_y*w3 - body2_2_com_x*w2 - body2_2_com_y*w3
-    out[13] = w2
-    out[14] = a2*w3 + body2_1_tip_x*w3 - body2_1_tip_y*w2 + body2_2_com_x*w3 - body2_2_com_y*w2
+    out[11] = c_q2_1
+    out[12] = -a2*s_q2_1 - body2_1_tip_x*s_q2_1 - body2_1_tip_y*c_q2_1 - body2_2_com_x*s_q2_1 - body2_2_com_y*c_q2_1
+    out[13] = s_q2_1
+    out[14] = a2*c_q2_1 + body2_1_tip_x*c_q2_1 - body2_1_tip_y*s_q2_1 + body2_2_com_x*c_q2_1 - body2_2_com_y*s_q2_1
     out[15] = 1
-    out[16] = -body3_1_com_x*w4 - body3_1_com_y*w5
-    out[17] = body3_1_com_x*w5 - body3_1_com_y*w4
+    out[16] = -body3_1_com_x*s_q3_1 - body3_1_com_y*c_q3_1
+    out[17] = body3_1_com_x*c_q3_1 - body3_1_com_y*s_q3_1
     out[18] = 1
-    out[19] = w5
-    out[20] = -a3*w4 - body3_1_tip_x*w4 - body3_1_tip_y*w5 - body3_2_com_x*w4 - body3_2_com_y*w5
-    out[21] = w4
-    out[22] = a3*w5 + body3_1_tip_x*w5 - body3_1_tip_y*w4 + body3_2_com_x*w5 - body3_2_com_y*w4
+    out[19] = c_q3_1
+    out[20] = -a3*s_q3_1 - body3_1_tip_x*s_q3_1 - body3_1_tip_y*c_q3_1 - body3_2_com_x*s_q3_1 - body3_2_com_y*c_q3_1
+    out[21] = s_q3_1
+    out[22] = a3*c_q3_1 + body3_1_tip_x*c_q3_1 - body3_1_tip_y*s_q3_1 + body3_2_com_x*c_q3_1 - body3_2_com_y*s_q3_1
     out[23] = 1
     out[24] = 1
-    out[25] = -platform_com_x*w6 - platform_com_y*w7
+    out[25] = -c_alpha*platform_com_y - platform_com_x*s_alpha
     out[26] = 1
-    out[27] = platform_com_x*w7 - platform_com_y*w6
+    out[27] = c_alpha*platform_com_x - platform_com_y*s_alpha
     out[28] = 1
 
 
 @njit(cache=True)
-def body_bias(q, qd, P, out):
+def body_bias(q, sc, qd, P, out):
     """Write each body's dJ_b/dt qd (N_BODIES, 3) into out."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
-    q1_1 = q[3]
-    q2_1 = q[4]
-    q3_1 = q[5]
-    alpha = q[8]
+    c_q1_1 = sc[3, 0]
+    s_q1_1 = sc[3, 1]
+    c_q2_1 = sc[4, 0]
+    s_q2_1 = sc[4, 1]
+    c_q3_1 = sc[5, 0]
+    s_q3_1 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     a1_dot = qd[0]
     a2_dot = qd[1]
     a3_dot = qd[2]
@@ -447,49 +449,45 @@ def body_bias(q, qd, P, out):
     platform_com_x = P[48]
     platform_com_y = P[49]
     w0 = q1_1_dot**2
-    w1 = math.cos(q1_1)
-    w2 = math.sin(q1_1)
-    w3 = a1_dot*w2
-    w4 = a1_dot*w1
-    w5 = q2_1_dot**2
-    w6 = math.cos(q2_1)
-    w7 = math.sin(q2_1)
-    w8 = a2_dot*w7
-    w9 = a2_dot*w6
-    w10 = q3_1_dot**2
-    w11 = math.cos(q3_1)
-    w12 = math.sin(q3_1)
-    w13 = a3_dot*w12
-    w14 = a3_dot*w11
-    w15 = alpha_dot**2
-    w16 = math.cos(alpha)
-    w17 = math.sin(alpha)
+    w1 = a1_dot*s_q1_1
+    w2 = a1_dot*c_q1_1
+    w3 = q2_1_dot**2
+    w4 = a2_dot*s_q2_1
+    w5 = a2_dot*c_q2_1
+    w6 = q3_1_dot**2
+    w7 = a3_dot*s_q3_1
+    w8 = a3_dot*c_q3_1
+    w9 = alpha_dot**2
     out[:] = 0.0
-    out[0, 0] = w0*(-body1_1_com_x*w1 + body1_1_com_y*w2)
-    out[0, 1] = w0*(-body1_1_com_x*w2 - body1_1_com_y*w1)
-    out[1, 0] = -q1_1_dot*w3 + q1_1_dot*(q1_1_dot*(-a1*w1 - body1_1_tip_x*w1 + body1_1_tip_y*w2 - body1_2_com_x*w1 + body1_2_com_y*w2) - w3)
-    out[1, 1] = q1_1_dot*w4 + q1_1_dot*(q1_1_dot*(-a1*w2 - body1_1_tip_x*w2 - body1_1_tip_y*w1 - body1_2_com_x*w2 - body1_2_com_y*w1) + w4)
-    out[2, 0] = w5*(-body2_1_com_x*w6 + body2_1_com_y*w7)
-    out[2, 1] = w5*(-body2_1_com_x*w7 - body2_1_com_y*w6)
-    out[3, 0] = -q2_1_dot*w8 + q2_1_dot*(q2_1_dot*(-a2*w6 - body2_1_tip_x*w6 + body2_1_tip_y*w7 - body2_2_com_x*w6 + body2_2_com_y*w7) - w8)
-    out[3, 1] = q2_1_dot*w9 + q2_1_dot*(q2_1_dot*(-a2*w7 - body2_1_tip_x*w7 - body2_1_tip_y*w6 - body2_2_com_x*w7 - body2_2_com_y*w6) + w9)
-    out[4, 0] = w10*(-body3_1_com_x*w11 + body3_1_com_y*w12)
-    out[4, 1] = w10*(-body3_1_com_x*w12 - body3_1_com_y*w11)
-    out[5, 0] = -q3_1_dot*w13 + q3_1_dot*(q3_1_dot*(-a3*w11 - body3_1_tip_x*w11 + body3_1_tip_y*w12 - body3_2_com_x*w11 + body3_2_com_y*w12) - w13)
-    out[5, 1] = q3_1_dot*w14 + q3_1_dot*(q3_1_dot*(-a3*w12 - body3_1_tip_x*w12 - body3_1_tip_y*w11 - body3_2_com_x*w12 - body3_2_com_y*w11) + w14)
-    out[6, 0] = w15*(-platform_com_x*w16 + platform_com_y*w17)
-    out[6, 1] = w15*(-platform_com_x*w17 - platform_com_y*w16)
+    out[0, 0] = w0*(-body1_1_com_x*c_q1_1 + body1_1_com_y*s_q1_1)
+    out[0, 1] = w0*(-body1_1_com_x*s_q1_1 - body1_1_com_y*c_q1_1)
+    out[1, 0] = -q1_1_dot*w1 + q1_1_dot*(q1_1_dot*(-a1*c_q1_1 - body1_1_tip_x*c_q1_1 + body1_1_tip_y*s_q1_1 - body1_2_com_x*c_q1_1 + body1_2_com_y*s_q1_1) - w1)
+    out[1, 1] = q1_1_dot*w2 + q1_1_dot*(q1_1_dot*(-a1*s_q1_1 - body1_1_tip_x*s_q1_1 - body1_1_tip_y*c_q1_1 - body1_2_com_x*s_q1_1 - body1_2_com_y*c_q1_1) + w2)
+    out[2, 0] = w3*(-body2_1_com_x*c_q2_1 + body2_1_com_y*s_q2_1)
+    out[2, 1] = w3*(-body2_1_com_x*s_q2_1 - body2_1_com_y*c_q2_1)
+    out[3, 0] = -q2_1_dot*w4 + q2_1_dot*(q2_1_dot*(-a2*c_q2_1 - body2_1_tip_x*c_q2_1 + body2_1_tip_y*s_q2_1 - body2_2_com_x*c_q2_1 + body2_2_com_y*s_q2_1) - w4)
+    out[3, 1] = q2_1_dot*w5 + q2_1_dot*(q2_1_dot*(-a2*s_q2_1 - body2_1_tip_x*s_q2_1 - body2_1_tip_y*c_q2_1 - body2_2_com_x*s_q2_1 - body2_2_com_y*c_q2_1) + w5)
+    out[4, 0] = w6*(-body3_1_com_x*c_q3_1 + body3_1_com_y*s_q3_1)
+    out[4, 1] = w6*(-body3_1_com_x*s_q3_1 - body3_1_com_y*c_q3_1)
+    out[5, 0] = -q3_1_dot*w7 + q3_1_dot*(q3_1_dot*(-a3*c_q3_1 - body3_1_tip_x*c_q3_1 + body3_1_tip_y*s_q3_1 - body3_2_com_x*c_q3_1 + body3_2_com_y*s_q3_1) - w7)
+    out[5, 1] = q3_1_dot*w8 + q3_1_dot*(q3_1_dot*(-a3*s_q3_1 - body3_1_tip_x*s_q3_1 - body3_1_tip_y*c_q3_1 - body3_2_com_x*s_q3_1 - body3_2_com_y*c_q3_1) + w8)
+    out[6, 0] = w9*(-c_alpha*platform_com_x + platform_com_y*s_alpha)
+    out[6, 1] = w9*(-c_alpha*platform_com_y - platform_com_x*s_alpha)
 
 
 @njit(cache=True)
-def joint_points(q, P, out):
+def joint_points(q, sc, P, out):
     """Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, base to platform."""
-    q1_1 = q[3]
-    q2_1 = q[4]
-    q3_1 = q[5]
     x = q[6]
     y = q[7]
-    alpha = q[8]
+    c_q1_1 = sc[3, 0]
+    s_q1_1 = sc[3, 1]
+    c_q2_1 = sc[4, 0]
+    s_q2_1 = sc[4, 1]
+    c_q3_1 = sc[5, 0]
+    s_q3_1 = sc[5, 1]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     base1_x = P[0]
     base1_y = P[1]
     body1_1_tip_x = P[2]
@@ -508,40 +506,33 @@ def joint_points(q, P, out):
     attach2_y = P[45]
     attach3_x = P[46]
     attach3_y = P[47]
-    w0 = math.cos(q1_1)
-    w1 = math.sin(q1_1)
-    w2 = math.cos(alpha)
-    w3 = math.sin(alpha)
-    w4 = math.cos(q2_1)
-    w5 = math.sin(q2_1)
-    w6 = math.cos(q3_1)
-    w7 = math.sin(q3_1)
     out[0, 0, 0] = base1_x
     out[0, 0, 1] = base1_y
-    out[0, 1, 0] = base1_x + body1_1_tip_x*w0 - body1_1_tip_y*w1
-    out[0, 1, 1] = base1_y + body1_1_tip_x*w1 + body1_1_tip_y*w0
-    out[0, 2, 0] = attach1_x*w2 - attach1_y*w3 + x
-    out[0, 2, 1] = attach1_x*w3 + attach1_y*w2 + y
+    out[0, 1, 0] = base1_x + body1_1_tip_x*c_q1_1 - body1_1_tip_y*s_q1_1
+    out[0, 1, 1] = base1_y + body1_1_tip_x*s_q1_1 + body1_1_tip_y*c_q1_1
+    out[0, 2, 0] = attach1_x*c_alpha - attach1_y*s_alpha + x
+    out[0, 2, 1] = attach1_x*s_alpha + attach1_y*c_alpha + y
     out[1, 0, 0] = base2_x
     out[1, 0, 1] = base2_y
-    out[1, 1, 0] = base2_x + body2_1_tip_x*w4 - body2_1_tip_y*w5
-    out[1, 1, 1] = base2_y + body2_1_tip_x*w5 + body2_1_tip_y*w4
-    out[1, 2, 0] = attach2_x*w2 - attach2_y*w3 + x
-    out[1, 2, 1] = attach2_x*w3 + attach2_y*w2 + y
+    out[1, 1, 0] = base2_x + body2_1_tip_x*c_q2_1 - body2_1_tip_y*s_q2_1
+    out[1, 1, 1] = base2_y + body2_1_tip_x*s_q2_1 + body2_1_tip_y*c_q2_1
+    out[1, 2, 0] = attach2_x*c_alpha - attach2_y*s_alpha + x
+    out[1, 2, 1] = attach2_x*s_alpha + attach2_y*c_alpha + y
     out[2, 0, 0] = base3_x
     out[2, 0, 1] = base3_y
-    out[2, 1, 0] = base3_x + body3_1_tip_x*w6 - body3_1_tip_y*w7
-    out[2, 1, 1] = base3_y + body3_1_tip_x*w7 + body3_1_tip_y*w6
-    out[2, 2, 0] = attach3_x*w2 - attach3_y*w3 + x
-    out[2, 2, 1] = attach3_x*w3 + attach3_y*w2 + y
+    out[2, 1, 0] = base3_x + body3_1_tip_x*c_q3_1 - body3_1_tip_y*s_q3_1
+    out[2, 1, 1] = base3_y + body3_1_tip_x*s_q3_1 + body3_1_tip_y*c_q3_1
+    out[2, 2, 0] = attach3_x*c_alpha - attach3_y*s_alpha + x
+    out[2, 2, 1] = attach3_x*s_alpha + attach3_y*c_alpha + y
 
 
 @njit(cache=True)
-def leg_lines(q, P, out):
+def leg_lines(q, sc, P, out):
     """Write each leg's line of action (N_ACTUATORS, 4): its attachment point minus the tracked point, and its direction (unnormalised)."""
     x = q[6]
     y = q[7]
-    alpha = q[8]
+    c_alpha = sc[8, 0]
+    s_alpha = sc[8, 1]
     base1_x = P[0]
     base1_y = P[1]
     base2_x = P[14]
@@ -554,26 +545,24 @@ def leg_lines(q, P, out):
     attach2_y = P[45]
     attach3_x = P[46]
     attach3_y = P[47]
-    w0 = math.cos(alpha)
-    w1 = math.sin(alpha)
-    w2 = attach1_x*w0 - attach1_y*w1
-    w3 = attach1_x*w1 + attach1_y*w0
-    w4 = attach2_x*w0 - attach2_y*w1
-    w5 = attach2_x*w1 + attach2_y*w0
-    w6 = attach3_x*w0 - attach3_y*w1
-    w7 = attach3_x*w1 + attach3_y*w0
-    out[0, 0] = w2
-    out[0, 1] = w3
-    out[0, 2] = -base1_x + w2 + x
-    out[0, 3] = -base1_y + w3 + y
-    out[1, 0] = w4
-    out[1, 1] = w5
-    out[1, 2] = -base2_x + w4 + x
-    out[1, 3] = -base2_y + w5 + y
-    out[2, 0] = w6
-    out[2, 1] = w7
-    out[2, 2] = -base3_x + w6 + x
-    out[2, 3] = -base3_y + w7 + y
+    w0 = attach1_x*c_alpha - attach1_y*s_alpha
+    w1 = attach1_x*s_alpha + attach1_y*c_alpha
+    w2 = attach2_x*c_alpha - attach2_y*s_alpha
+    w3 = attach2_x*s_alpha + attach2_y*c_alpha
+    w4 = attach3_x*c_alpha - attach3_y*s_alpha
+    w5 = attach3_x*s_alpha + attach3_y*c_alpha
+    out[0, 0] = w0
+    out[0, 1] = w1
+    out[0, 2] = -base1_x + w0 + x
+    out[0, 3] = -base1_y + w1 + y
+    out[1, 0] = w2
+    out[1, 1] = w3
+    out[1, 2] = -base2_x + w2 + x
+    out[1, 3] = -base2_y + w3 + y
+    out[2, 0] = w4
+    out[2, 1] = w5
+    out[2, 2] = -base3_x + w4 + x
+    out[2, 3] = -base3_y + w5 + y
 
 
 @njit(cache=True)
@@ -623,23 +612,28 @@ MAX_CHORD = 8
 @njit(cache=True)
 def singularity_measures(qs, P, out):
     """:func:`singularity_measure` of every configuration ``qs`` (K, N) into ``out`` (K,); NaN rows give NaN."""
-    lines = np.empty((N_ACTUATORS, 4))
+    lines, sc = np.empty((N_ACTUATORS, 4)), np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        out[k] = singularity_measure(qs[k], P, lines)
+        trig(qs[k], sc)
+        out[k] = singularity_measure(qs[k], sc, P, lines)
 
 
 @njit(cache=True)
 def constraint_jacobians(qs, P, out):
     """``Jηq`` of every configuration ``qs`` (K, N) into ``out`` (K, m, N)."""
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        constraint_jacobian(qs[k], P, out[k])
+        trig(qs[k], sc)
+        constraint_jacobian(qs[k], sc, P, out[k])
 
 
 @njit(cache=True)
 def constraint_biases(qs, q_dots, P, out):
     """``J̇ηq q̇`` of every configuration and rate (K, N) into ``out`` (K, m)."""
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        constraint_bias(qs[k], q_dots[k], P, out[k])
+        trig(qs[k], sc)
+        constraint_bias(qs[k], sc, q_dots[k], P, out[k])
 
 
 class Workspace(NamedTuple):
@@ -647,6 +641,7 @@ class Workspace(NamedTuple):
     accepted one, from which branch following starts) and ``q[1]`` a trial configuration."""
 
     q: np.ndarray  # (2, N) base and trial configurations
+    sc: np.ndarray  # (2, N, 2) their trig tables
     s: np.ndarray  # (2,) their singularity measures
     j_eta: np.ndarray  # (m, N) Jηq
     lu: np.ndarray  # (m - 2, m - 2) factors of Jηφ's reduced system (x and y eliminated)
@@ -700,7 +695,7 @@ def passive_solve(lu, piv, top, b, work):
     rows 0 and 1 (``top``: their entries in the reduced system's columns)."""
     for r in range(REDUCED):
         work[r] = b[r + 2] - b[r % 2]
-    lu_solve_factored(lu, piv, work)
+    lu_solve_factored(lu, piv, work, REDUCED)
     dx, dy = -b[0], -b[1]
     for k in range(REDUCED):
         dx += top[0, k] * work[k]
@@ -712,7 +707,7 @@ def passive_solve(lu, piv, top, b, work):
 
 
 @njit(**NO_REFCOUNT)
-def singularity_measure(q, P, lines):
+def singularity_measure(q, sc, P, lines):
     """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
 
     With ``u_i`` the unit direction of the line along which leg ``i`` pushes the platform and ``r_i``
@@ -724,9 +719,9 @@ def singularity_measure(q, P, lines):
       ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, ``φ_i`` the angle of ``u_i``;
     * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align.
 
-    ``lines`` is an (N_ACTUATORS, 4) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, 4) scratch array.
     """
-    leg_lines(q, P, lines)
+    leg_lines(q, sc, P, lines)
     for i in range(N_ACTUATORS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
@@ -745,7 +740,8 @@ def singularity_measure(q, P, lines):
 def make_workspace():
     N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
     r = REDUCED
-    return Workspace(np.zeros((2, N)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)), np.zeros(r, np.int64),
+    return Workspace(np.zeros((2, N)), np.zeros((2, N, 2)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)),
+                     np.zeros(r, np.int64),
                      np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
                      np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
                      np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((r, r)),
@@ -754,10 +750,10 @@ def make_workspace():
 
 
 @njit(**NO_REFCOUNT)
-def factor_passive(ws, q, P):
-    """``Jηq`` at ``q`` into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the reduced system of
-    :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
-    constraint_jacobian(q, P, ws.j_eta)
+def factor_passive(ws, q, sc, P):
+    """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
+    reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
+    constraint_jacobian(q, sc, P, ws.j_eta)
     n = N_ACTUATORS
     for k in range(REDUCED):
         c = n + reduced_column(k)
@@ -765,7 +761,7 @@ def factor_passive(ws, q, P):
         ws.top[1, k] = ws.j_eta[1, c]
         for r in range(REDUCED):
             ws.reduced[r, k] = ws.j_eta[r + 2, c] - ws.j_eta[r % 2, c]
-    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv)
+    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 
 
@@ -784,18 +780,20 @@ def actuated_jacobian(ws, out):
 
 
 @njit(**NO_REFCOUNT)
-def correct_passive(ws, q, P):
-    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` (in place); returns the status."""
+def correct_passive(ws, q, sc, P):
+    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` and its trig table ``sc`` (both in
+    place); returns the status."""
     n = N_ACTUATORS
     for _ in range(MAX_NEWTON):
-        constraints(q, P, ws.eta)
-        if not factor_passive(ws, q, P):
+        constraints(q, sc, P, ws.eta)
+        if not factor_passive(ws, q, sc, P):
             return SINGULAR
         passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             q[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        trig_passive(q, sc)
         if step < NEWTON_STEP:
             return OK
     return NOT_CONVERGED
@@ -828,9 +826,9 @@ def follow_branch(ws, theta, P, min_abs_s):
     """
     n = N_ACTUATORS
     base = ws.q[BASE]
-    trial = ws.q[TRIAL]
+    trial, sc = ws.q[TRIAL], ws.sc[TRIAL]
     if ws.base_factored[0] == 0:
-        if not factor_passive(ws, base, P):
+        if not factor_passive(ws, base, ws.sc[BASE], P):
             return SINGULAR
         actuated_jacobian(ws, ws.j_q_theta)
         keep_base_factors(ws)
@@ -841,15 +839,17 @@ def follow_branch(ws, theta, P, min_abs_s):
         trial[i] = acc
     for j in range(n):
         trial[j] = theta[j]
+    trig(trial, sc)
     status = NOT_CONVERGED
     previous = np.inf
     for _ in range(MAX_CHORD):
-        constraints(trial, P, ws.eta)
+        constraints(trial, sc, P, ws.eta)
         passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             trial[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        trig_passive(trial, sc)
         # the chord method converges linearly with the ratio of successive steps, r: what remains after
         # this step is at most step r / (1 - r)
         ratio = step / previous  # 0 at the first step: no estimate yet
@@ -858,10 +858,10 @@ def follow_branch(ws, theta, P, min_abs_s):
             break
         previous = step
     if status != OK:
-        status = correct_passive(ws, trial, P)
+        status = correct_passive(ws, trial, sc, P)
         if status != OK:
             return status
-    s = singularity_measure(trial, P, ws.lines)
+    s = singularity_measure(trial, sc, P, ws.lines)
     ws.s[TRIAL] = s
     if abs(s) < min_abs_s or s * ws.s[BASE] < 0.0:
         return SINGULAR
@@ -873,6 +873,8 @@ def accept_trial(ws):
     """The trial configuration becomes the base."""
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = ws.q[TRIAL, i]
+        ws.sc[BASE, i, 0] = ws.sc[TRIAL, i, 0]
+        ws.sc[BASE, i, 1] = ws.sc[TRIAL, i, 1]
     ws.s[BASE] = ws.s[TRIAL]
     ws.base_factored[0] = 0
 
@@ -882,21 +884,23 @@ def set_base(ws, q, P):
     """Start branch following from the configuration ``q`` (on the constraint manifold)."""
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = q[i]
-    ws.s[BASE] = singularity_measure(q, P, ws.lines)
+    trig(q, ws.sc[BASE])
+    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines)
     ws.base_factored[0] = 0
 
 
 @njit(**NO_REFCOUNT)
-def actuator_space_model(ws, q, theta_dot, P):
+def actuator_space_model(ws, q, sc, theta_dot, P):
     """``Mθ``, ``cθ = Cθ θ̇`` and ``gθ = ∂V/∂θ`` of ``Mθ θ̈ + cθ + gθ = τ`` (eq. 35, with gravity) at ``q``
-    on the manifold, into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok (``det Jηφ ≠ 0``).
+    on the manifold (trig table ``sc``), into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok
+    (``det Jηφ ≠ 0``).
 
     Body by body, with ``Jt = J_b Jqθ`` the body's velocity per actuator rate and
     ``a_b = J_b J̇qθ θ̇ + J̇_b q̇`` its acceleration at ``θ̈ = 0``:
     ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``).
     """
     n, N = N_ACTUATORS, N_COORDINATES
-    if not factor_passive(ws, q, P):
+    if not factor_passive(ws, q, sc, P):
         return False
     actuated_jacobian(ws, ws.j_q_theta)
     for i in range(N):
@@ -904,7 +908,7 @@ def actuator_space_model(ws, q, theta_dot, P):
         for j in range(n):
             acc += ws.j_q_theta[i, j] * theta_dot[j]
         ws.q_dot[i] = acc
-    constraint_bias(q, ws.q_dot, P, ws.gamma)
+    constraint_bias(q, sc, ws.q_dot, P, ws.gamma)
     for k in range(N_CONSTRAINTS):  # φ̈ at θ̈ = 0: -Jηφ⁻¹ J̇ηq q̇ (eq. 32)
         ws.gamma[k] = -ws.gamma[k]
     passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
@@ -912,8 +916,8 @@ def actuator_space_model(ws, q, theta_dot, P):
         ws.bias_q[i] = 0.0
     for k in range(N_CONSTRAINTS):
         ws.bias_q[n + k] = ws.gamma[k]
-    body_jacobian_values(q, P, ws.jb)
-    body_bias(q, ws.q_dot, P, ws.bb)
+    body_jacobian_values(q, sc, P, ws.jb)
+    body_bias(q, sc, ws.q_dot, P, ws.bb)
     for b in range(N_BODIES):
         for r in range(3):
             for j in range(n):
@@ -924,25 +928,25 @@ def actuator_space_model(ws, q, theta_dot, P):
             ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
         ws.bb[b, r] += v * ws.bias_q[k]
     gx, gy = P[GRAVITY_INDEX[0]], P[GRAVITY_INDEX[1]]
+    # each entry summed in a register and stored once (accumulating into the workspace's arrays would
+    # load and store at every term: the compiler cannot rule out that they overlap)
     for i in range(n):
-        ws.c_theta[i] = 0.0
-        ws.g_theta[i] = 0.0
-        for j in range(n):
-            ws.m_theta[i, j] = 0.0
-    for b in range(N_BODIES):
-        mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
-        for r in range(3):
-            w = inertia if r == 2 else mass
-            for i in range(n):
-                wi = w * ws.jt[b, r, i]
-                ws.c_theta[i] += wi * ws.bb[b, r]
-                for j in range(i, n):
-                    ws.m_theta[i, j] += wi * ws.jt[b, r, j]
-        for i in range(n):
-            ws.g_theta[i] -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
-    for i in range(n):
-        for j in range(i):
-            ws.m_theta[i, j] = ws.m_theta[j, i]
+        c, g = 0.0, 0.0
+        for b in range(N_BODIES):
+            mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+            c += (mass * (ws.jt[b, 0, i] * ws.bb[b, 0] + ws.jt[b, 1, i] * ws.bb[b, 1])
+                  + inertia * ws.jt[b, 2, i] * ws.bb[b, 2])
+            g -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
+        ws.c_theta[i] = c
+        ws.g_theta[i] = g
+        for j in range(i, n):
+            acc = 0.0
+            for b in range(N_BODIES):
+                mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+                acc += (mass * (ws.jt[b, 0, i] * ws.jt[b, 0, j] + ws.jt[b, 1, i] * ws.jt[b, 1, j])
+                        + inertia * ws.jt[b, 2, i] * ws.jt[b, 2, j])
+            ws.m_theta[i, j] = acc
+            ws.m_theta[j, i] = acc
     return True
 
 
@@ -951,8 +955,10 @@ def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
     """:func:`actuator_space_model` of every configuration ``qs`` (K, N) and rates ``theta_dots`` (K, n) into
     ``m_out`` (K, n, n), ``c_out`` and ``g_out`` (K, n); returns the first singular one's index, or -1."""
     ws = make_workspace()
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        if not actuator_space_model(ws, qs[k], theta_dots[k], P):
+        trig(qs[k], sc)
+        if not actuator_space_model(ws, qs[k], sc, theta_dots[k], P):
             return k
         m_out[k] = ws.m_theta
         c_out[k] = ws.c_theta
@@ -979,7 +985,7 @@ def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
         status = follow_branch(ws, theta, P, min_abs_s)
         if status != OK:
             return status
-    if not actuator_space_model(ws, ws.q[slot], theta_dot, P):
+    if not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
         return SINGULAR
     if slot == BASE:
         keep_base_factors(ws)
@@ -1015,7 +1021,7 @@ def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_d
     if status != OK:
         return status
     accept_trial(ws)
-    if not actuator_space_model(ws, ws.q[BASE], theta_dot, P):
+    if not actuator_space_model(ws, ws.q[BASE], ws.sc[BASE], theta_dot, P):
         return SINGULAR
     keep_base_factors(ws)
     for i in range(n):  # v, kept in theta_ddot

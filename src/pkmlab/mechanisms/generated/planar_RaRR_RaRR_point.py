@@ -27,14 +27,34 @@ N_JB = 18
 
 
 @njit(cache=True)
-def constraints(q, P, out):
+def trig(q, sc):
+    """Write the trig table sc (N_COORDINATES, 2) of q: (cos, sin) of every angle."""
+    sc[0, 0], sc[0, 1] = math.cos(q[0]), math.sin(q[0])
+    sc[1, 0], sc[1, 1] = math.cos(q[1]), math.sin(q[1])
+    sc[2, 0], sc[2, 1] = math.cos(q[2]), math.sin(q[2])
+    sc[3, 0], sc[3, 1] = math.cos(q[3]), math.sin(q[3])
+
+
+@njit(cache=True)
+def trig_passive(q, sc):
+    """Write the passive angles' rows of the trig table sc (the actuators' rows are kept)."""
+    sc[2, 0], sc[2, 1] = math.cos(q[2]), math.sin(q[2])
+    sc[3, 0], sc[3, 1] = math.cos(q[3]), math.sin(q[3])
+
+
+@njit(cache=True)
+def constraints(q, sc, P, out):
     """Write the loop-closure residual eta(q) (N_CONSTRAINTS,) into out."""
-    a1 = q[0]
-    a2 = q[1]
-    q1_2 = q[2]
-    q2_2 = q[3]
     x = q[4]
     y = q[5]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
+    c_q1_2 = sc[2, 0]
+    s_q1_2 = sc[2, 1]
+    c_q2_2 = sc[3, 0]
+    s_q2_2 = sc[3, 1]
     base1_x = P[0]
     base1_y = P[1]
     body1_1_tip_x = P[2]
@@ -48,28 +68,24 @@ def constraints(q, P, out):
     body2_2_tip_x = P[22]
     body2_2_tip_y = P[23]
     w0 = -x
-    w1 = math.cos(a1)
-    w2 = math.cos(q1_2)
-    w3 = math.sin(a1)
-    w4 = math.sin(q1_2)
-    w5 = -y
-    w6 = math.cos(a2)
-    w7 = math.cos(q2_2)
-    w8 = math.sin(a2)
-    w9 = math.sin(q2_2)
-    out[0] = base1_x + body1_1_tip_x*w1 - body1_1_tip_y*w3 + body1_2_tip_x*w2 - body1_2_tip_y*w4 + w0
-    out[1] = base1_y + body1_1_tip_x*w3 + body1_1_tip_y*w1 + body1_2_tip_x*w4 + body1_2_tip_y*w2 + w5
-    out[2] = base2_x + body2_1_tip_x*w6 - body2_1_tip_y*w8 + body2_2_tip_x*w7 - body2_2_tip_y*w9 + w0
-    out[3] = base2_y + body2_1_tip_x*w8 + body2_1_tip_y*w6 + body2_2_tip_x*w9 + body2_2_tip_y*w7 + w5
+    w1 = -y
+    out[0] = base1_x + body1_1_tip_x*c_a1 - body1_1_tip_y*s_a1 + body1_2_tip_x*c_q1_2 - body1_2_tip_y*s_q1_2 + w0
+    out[1] = base1_y + body1_1_tip_x*s_a1 + body1_1_tip_y*c_a1 + body1_2_tip_x*s_q1_2 + body1_2_tip_y*c_q1_2 + w1
+    out[2] = base2_x + body2_1_tip_x*c_a2 - body2_1_tip_y*s_a2 + body2_2_tip_x*c_q2_2 - body2_2_tip_y*s_q2_2 + w0
+    out[3] = base2_y + body2_1_tip_x*s_a2 + body2_1_tip_y*c_a2 + body2_2_tip_x*s_q2_2 + body2_2_tip_y*c_q2_2 + w1
 
 
 @njit(cache=True)
-def constraint_jacobian(q, P, out):
+def constraint_jacobian(q, sc, P, out):
     """Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out."""
-    a1 = q[0]
-    a2 = q[1]
-    q1_2 = q[2]
-    q2_2 = q[3]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
+    c_q1_2 = sc[2, 0]
+    s_q1_2 = sc[2, 1]
+    c_q2_2 = sc[3, 0]
+    s_q2_2 = sc[3, 1]
     body1_1_tip_x = P[2]
     body1_1_tip_y = P[3]
     body1_2_tip_x = P[8]
@@ -78,36 +94,32 @@ def constraint_jacobian(q, P, out):
     body2_1_tip_y = P[17]
     body2_2_tip_x = P[22]
     body2_2_tip_y = P[23]
-    w0 = math.sin(a1)
-    w1 = math.cos(a1)
-    w2 = math.sin(q1_2)
-    w3 = math.cos(q1_2)
-    w4 = math.sin(a2)
-    w5 = math.cos(a2)
-    w6 = math.sin(q2_2)
-    w7 = math.cos(q2_2)
     out[:] = 0.0
-    out[0, 0] = -body1_1_tip_x*w0 - body1_1_tip_y*w1
-    out[0, 2] = -body1_2_tip_x*w2 - body1_2_tip_y*w3
+    out[0, 0] = -body1_1_tip_x*s_a1 - body1_1_tip_y*c_a1
+    out[0, 2] = -body1_2_tip_x*s_q1_2 - body1_2_tip_y*c_q1_2
     out[0, 4] = -1
-    out[1, 0] = body1_1_tip_x*w1 - body1_1_tip_y*w0
-    out[1, 2] = body1_2_tip_x*w3 - body1_2_tip_y*w2
+    out[1, 0] = body1_1_tip_x*c_a1 - body1_1_tip_y*s_a1
+    out[1, 2] = body1_2_tip_x*c_q1_2 - body1_2_tip_y*s_q1_2
     out[1, 5] = -1
-    out[2, 1] = -body2_1_tip_x*w4 - body2_1_tip_y*w5
-    out[2, 3] = -body2_2_tip_x*w6 - body2_2_tip_y*w7
+    out[2, 1] = -body2_1_tip_x*s_a2 - body2_1_tip_y*c_a2
+    out[2, 3] = -body2_2_tip_x*s_q2_2 - body2_2_tip_y*c_q2_2
     out[2, 4] = -1
-    out[3, 1] = body2_1_tip_x*w5 - body2_1_tip_y*w4
-    out[3, 3] = body2_2_tip_x*w7 - body2_2_tip_y*w6
+    out[3, 1] = body2_1_tip_x*c_a2 - body2_1_tip_y*s_a2
+    out[3, 3] = body2_2_tip_x*c_q2_2 - body2_2_tip_y*s_q2_2
     out[3, 5] = -1
 
 
 @njit(cache=True)
-def constraint_bias(q, qd, P, out):
+def constraint_bias(q, sc, qd, P, out):
     """Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out."""
-    a1 = q[0]
-    a2 = q[1]
-    q1_2 = q[2]
-    q2_2 = q[3]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
+    c_q1_2 = sc[2, 0]
+    s_q1_2 = sc[2, 1]
+    c_q2_2 = sc[3, 0]
+    s_q2_2 = sc[3, 1]
     a1_dot = qd[0]
     a2_dot = qd[1]
     q1_2_dot = qd[2]
@@ -121,25 +133,17 @@ def constraint_bias(q, qd, P, out):
     body2_2_tip_x = P[22]
     body2_2_tip_y = P[23]
     w0 = a1_dot**2
-    w1 = math.cos(a1)
-    w2 = math.sin(a1)
-    w3 = q1_2_dot**2
-    w4 = math.cos(q1_2)
-    w5 = math.sin(q1_2)
-    w6 = a2_dot**2
-    w7 = math.cos(a2)
-    w8 = math.sin(a2)
-    w9 = q2_2_dot**2
-    w10 = math.cos(q2_2)
-    w11 = math.sin(q2_2)
-    out[0] = w0*(-body1_1_tip_x*w1 + body1_1_tip_y*w2) + w3*(-body1_2_tip_x*w4 + body1_2_tip_y*w5)
-    out[1] = w0*(-body1_1_tip_x*w2 - body1_1_tip_y*w1) + w3*(-body1_2_tip_x*w5 - body1_2_tip_y*w4)
-    out[2] = w6*(-body2_1_tip_x*w7 + body2_1_tip_y*w8) + w9*(-body2_2_tip_x*w10 + body2_2_tip_y*w11)
-    out[3] = w6*(-body2_1_tip_x*w8 - body2_1_tip_y*w7) + w9*(-body2_2_tip_x*w11 - body2_2_tip_y*w10)
+    w1 = q1_2_dot**2
+    w2 = a2_dot**2
+    w3 = q2_2_dot**2
+    out[0] = w0*(-body1_1_tip_x*c_a1 + body1_1_tip_y*s_a1) + w1*(-body1_2_tip_x*c_q1_2 + body1_2_tip_y*s_q1_2)
+    out[1] = w0*(-body1_1_tip_x*s_a1 - body1_1_tip_y*c_a1) + w1*(-body1_2_tip_x*s_q1_2 - body1_2_tip_y*c_q1_2)
+    out[2] = w2*(-body2_1_tip_x*c_a2 + body2_1_tip_y*s_a2) + w3*(-body2_2_tip_x*c_q2_2 + body2_2_tip_y*s_q2_2)
+    out[3] = w2*(-body2_1_tip_x*s_a2 - body2_1_tip_y*c_a2) + w3*(-body2_2_tip_x*s_q2_2 - body2_2_tip_y*c_q2_2)
 
 
 @njit(cache=True)
-def body_poses(q, P, out):
+def body_poses(q, sc, P, out):
     """Write each body's mass-centre pose (x, y, angle) (N_BODIES, 3) into out."""
     a1 = q[0]
     a2 = q[1]
@@ -147,6 +151,14 @@ def body_poses(q, P, out):
     q2_2 = q[3]
     x = q[4]
     y = q[5]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
+    c_q1_2 = sc[2, 0]
+    s_q1_2 = sc[2, 1]
+    c_q2_2 = sc[3, 0]
+    s_q2_2 = sc[3, 1]
     base1_x = P[0]
     base1_y = P[1]
     body1_1_tip_x = P[2]
@@ -163,38 +175,34 @@ def body_poses(q, P, out):
     body2_1_com_y = P[19]
     body2_2_com_x = P[24]
     body2_2_com_y = P[25]
-    w0 = math.cos(a1)
-    w1 = math.sin(a1)
-    w2 = math.cos(q1_2)
-    w3 = math.sin(q1_2)
-    w4 = math.cos(a2)
-    w5 = math.sin(a2)
-    w6 = math.cos(q2_2)
-    w7 = math.sin(q2_2)
     out[:] = 0.0
-    out[0, 0] = base1_x + body1_1_com_x*w0 - body1_1_com_y*w1
-    out[0, 1] = base1_y + body1_1_com_x*w1 + body1_1_com_y*w0
+    out[0, 0] = base1_x + body1_1_com_x*c_a1 - body1_1_com_y*s_a1
+    out[0, 1] = base1_y + body1_1_com_x*s_a1 + body1_1_com_y*c_a1
     out[0, 2] = a1
-    out[1, 0] = base1_x + body1_1_tip_x*w0 - body1_1_tip_y*w1 + body1_2_com_x*w2 - body1_2_com_y*w3
-    out[1, 1] = base1_y + body1_1_tip_x*w1 + body1_1_tip_y*w0 + body1_2_com_x*w3 + body1_2_com_y*w2
+    out[1, 0] = base1_x + body1_1_tip_x*c_a1 - body1_1_tip_y*s_a1 + body1_2_com_x*c_q1_2 - body1_2_com_y*s_q1_2
+    out[1, 1] = base1_y + body1_1_tip_x*s_a1 + body1_1_tip_y*c_a1 + body1_2_com_x*s_q1_2 + body1_2_com_y*c_q1_2
     out[1, 2] = q1_2
-    out[2, 0] = base2_x + body2_1_com_x*w4 - body2_1_com_y*w5
-    out[2, 1] = base2_y + body2_1_com_x*w5 + body2_1_com_y*w4
+    out[2, 0] = base2_x + body2_1_com_x*c_a2 - body2_1_com_y*s_a2
+    out[2, 1] = base2_y + body2_1_com_x*s_a2 + body2_1_com_y*c_a2
     out[2, 2] = a2
-    out[3, 0] = base2_x + body2_1_tip_x*w4 - body2_1_tip_y*w5 + body2_2_com_x*w6 - body2_2_com_y*w7
-    out[3, 1] = base2_y + body2_1_tip_x*w5 + body2_1_tip_y*w4 + body2_2_com_x*w7 + body2_2_com_y*w6
+    out[3, 0] = base2_x + body2_1_tip_x*c_a2 - body2_1_tip_y*s_a2 + body2_2_com_x*c_q2_2 - body2_2_com_y*s_q2_2
+    out[3, 1] = base2_y + body2_1_tip_x*s_a2 + body2_1_tip_y*c_a2 + body2_2_com_x*s_q2_2 + body2_2_com_y*c_q2_2
     out[3, 2] = q2_2
     out[4, 0] = x
     out[4, 1] = y
 
 
 @njit(cache=True)
-def body_jacobians(q, P, out):
+def body_jacobians(q, sc, P, out):
     """Write each body's d(x, y, angle)/dq (N_BODIES, 3, N_COORDINATES) into out."""
-    a1 = q[0]
-    a2 = q[1]
-    q1_2 = q[2]
-    q2_2 = q[3]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
+    c_q1_2 = sc[2, 0]
+    s_q1_2 = sc[2, 1]
+    c_q2_2 = sc[3, 0]
+    s_q2_2 = sc[3, 1]
     body1_1_tip_x = P[2]
     body1_1_tip_y = P[3]
     body1_1_com_x = P[4]
@@ -207,42 +215,38 @@ def body_jacobians(q, P, out):
     body2_1_com_y = P[19]
     body2_2_com_x = P[24]
     body2_2_com_y = P[25]
-    w0 = math.sin(a1)
-    w1 = math.cos(a1)
-    w2 = math.sin(q1_2)
-    w3 = math.cos(q1_2)
-    w4 = math.sin(a2)
-    w5 = math.cos(a2)
-    w6 = math.sin(q2_2)
-    w7 = math.cos(q2_2)
     out[:] = 0.0
-    out[0, 0, 0] = -body1_1_com_x*w0 - body1_1_com_y*w1
-    out[0, 1, 0] = body1_1_com_x*w1 - body1_1_com_y*w0
+    out[0, 0, 0] = -body1_1_com_x*s_a1 - body1_1_com_y*c_a1
+    out[0, 1, 0] = body1_1_com_x*c_a1 - body1_1_com_y*s_a1
     out[0, 2, 0] = 1
-    out[1, 0, 0] = -body1_1_tip_x*w0 - body1_1_tip_y*w1
-    out[1, 0, 2] = -body1_2_com_x*w2 - body1_2_com_y*w3
-    out[1, 1, 0] = body1_1_tip_x*w1 - body1_1_tip_y*w0
-    out[1, 1, 2] = body1_2_com_x*w3 - body1_2_com_y*w2
+    out[1, 0, 0] = -body1_1_tip_x*s_a1 - body1_1_tip_y*c_a1
+    out[1, 0, 2] = -body1_2_com_x*s_q1_2 - body1_2_com_y*c_q1_2
+    out[1, 1, 0] = body1_1_tip_x*c_a1 - body1_1_tip_y*s_a1
+    out[1, 1, 2] = body1_2_com_x*c_q1_2 - body1_2_com_y*s_q1_2
     out[1, 2, 2] = 1
-    out[2, 0, 1] = -body2_1_com_x*w4 - body2_1_com_y*w5
-    out[2, 1, 1] = body2_1_com_x*w5 - body2_1_com_y*w4
+    out[2, 0, 1] = -body2_1_com_x*s_a2 - body2_1_com_y*c_a2
+    out[2, 1, 1] = body2_1_com_x*c_a2 - body2_1_com_y*s_a2
     out[2, 2, 1] = 1
-    out[3, 0, 1] = -body2_1_tip_x*w4 - body2_1_tip_y*w5
-    out[3, 0, 3] = -body2_2_com_x*w6 - body2_2_com_y*w7
-    out[3, 1, 1] = body2_1_tip_x*w5 - body2_1_tip_y*w4
-    out[3, 1, 3] = body2_2_com_x*w7 - body2_2_com_y*w6
+    out[3, 0, 1] = -body2_1_tip_x*s_a2 - body2_1_tip_y*c_a2
+    out[3, 0, 3] = -body2_2_com_x*s_q2_2 - body2_2_com_y*c_q2_2
+    out[3, 1, 1] = body2_1_tip_x*c_a2 - body2_1_tip_y*s_a2
+    out[3, 1, 3] = body2_2_com_x*c_q2_2 - body2_2_com_y*s_q2_2
     out[3, 2, 3] = 1
     out[4, 0, 4] = 1
     out[4, 1, 5] = 1
 
 
 @njit(cache=True)
-def body_jacobian_values(q, P, out):
+def body_jacobian_values(q, sc, P, out):
     """Write the non-zeros of the bodies' Jacobians (N_JB,) into out (positions: JB_BODY, JB_ROW, JB_COL)."""
-    a1 = q[0]
-    a2 = q[1]
-    q1_2 = q[2]
-    q2_2 = q[3]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
+    c_q1_2 = sc[2, 0]
+    s_q1_2 = sc[2, 1]
+    c_q2_2 = sc[3, 0]
+    s_q2_2 = sc[3, 1]
     body1_1_tip_x = P[2]
     body1_1_tip_y = P[3]
     body1_1_com_x = P[4]
@@ -255,41 +259,37 @@ def body_jacobian_values(q, P, out):
     body2_1_com_y = P[19]
     body2_2_com_x = P[24]
     body2_2_com_y = P[25]
-    w0 = math.sin(a1)
-    w1 = math.cos(a1)
-    w2 = math.sin(q1_2)
-    w3 = math.cos(q1_2)
-    w4 = math.sin(a2)
-    w5 = math.cos(a2)
-    w6 = math.sin(q2_2)
-    w7 = math.cos(q2_2)
-    out[0] = -body1_1_com_x*w0 - body1_1_com_y*w1
-    out[1] = body1_1_com_x*w1 - body1_1_com_y*w0
+    out[0] = -body1_1_com_x*s_a1 - body1_1_com_y*c_a1
+    out[1] = body1_1_com_x*c_a1 - body1_1_com_y*s_a1
     out[2] = 1
-    out[3] = -body1_1_tip_x*w0 - body1_1_tip_y*w1
-    out[4] = -body1_2_com_x*w2 - body1_2_com_y*w3
-    out[5] = body1_1_tip_x*w1 - body1_1_tip_y*w0
-    out[6] = body1_2_com_x*w3 - body1_2_com_y*w2
+    out[3] = -body1_1_tip_x*s_a1 - body1_1_tip_y*c_a1
+    out[4] = -body1_2_com_x*s_q1_2 - body1_2_com_y*c_q1_2
+    out[5] = body1_1_tip_x*c_a1 - body1_1_tip_y*s_a1
+    out[6] = body1_2_com_x*c_q1_2 - body1_2_com_y*s_q1_2
     out[7] = 1
-    out[8] = -body2_1_com_x*w4 - body2_1_com_y*w5
-    out[9] = body2_1_com_x*w5 - body2_1_com_y*w4
+    out[8] = -body2_1_com_x*s_a2 - body2_1_com_y*c_a2
+    out[9] = body2_1_com_x*c_a2 - body2_1_com_y*s_a2
     out[10] = 1
-    out[11] = -body2_1_tip_x*w4 - body2_1_tip_y*w5
-    out[12] = -body2_2_com_x*w6 - body2_2_com_y*w7
-    out[13] = body2_1_tip_x*w5 - body2_1_tip_y*w4
-    out[14] = body2_2_com_x*w7 - body2_2_com_y*w6
+    out[11] = -body2_1_tip_x*s_a2 - body2_1_tip_y*c_a2
+    out[12] = -body2_2_com_x*s_q2_2 - body2_2_com_y*c_q2_2
+    out[13] = body2_1_tip_x*c_a2 - body2_1_tip_y*s_a2
+    out[14] = body2_2_com_x*c_q2_2 - body2_2_com_y*s_q2_2
     out[15] = 1
     out[16] = 1
     out[17] = 1
 
 
 @njit(cache=True)
-def body_bias(q, qd, P, out):
+def body_bias(q, sc, qd, P, out):
     """Write each body's dJ_b/dt qd (N_BODIES, 3) into out."""
-    a1 = q[0]
-    a2 = q[1]
-    q1_2 = q[2]
-    q2_2 = q[3]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
+    c_q1_2 = sc[2, 0]
+    s_q1_2 = sc[2, 1]
+    c_q2_2 = sc[3, 0]
+    s_q2_2 = sc[3, 1]
     a1_dot = qd[0]
     a2_dot = qd[1]
     q1_2_dot = qd[2]
@@ -307,35 +307,29 @@ def body_bias(q, qd, P, out):
     body2_2_com_x = P[24]
     body2_2_com_y = P[25]
     w0 = a1_dot**2
-    w1 = math.cos(a1)
-    w2 = math.sin(a1)
-    w3 = q1_2_dot**2
-    w4 = math.cos(q1_2)
-    w5 = math.sin(q1_2)
-    w6 = a2_dot**2
-    w7 = math.cos(a2)
-    w8 = math.sin(a2)
-    w9 = q2_2_dot**2
-    w10 = math.cos(q2_2)
-    w11 = math.sin(q2_2)
+    w1 = q1_2_dot**2
+    w2 = a2_dot**2
+    w3 = q2_2_dot**2
     out[:] = 0.0
-    out[0, 0] = w0*(-body1_1_com_x*w1 + body1_1_com_y*w2)
-    out[0, 1] = w0*(-body1_1_com_x*w2 - body1_1_com_y*w1)
-    out[1, 0] = w0*(-body1_1_tip_x*w1 + body1_1_tip_y*w2) + w3*(-body1_2_com_x*w4 + body1_2_com_y*w5)
-    out[1, 1] = w0*(-body1_1_tip_x*w2 - body1_1_tip_y*w1) + w3*(-body1_2_com_x*w5 - body1_2_com_y*w4)
-    out[2, 0] = w6*(-body2_1_com_x*w7 + body2_1_com_y*w8)
-    out[2, 1] = w6*(-body2_1_com_x*w8 - body2_1_com_y*w7)
-    out[3, 0] = w6*(-body2_1_tip_x*w7 + body2_1_tip_y*w8) + w9*(-body2_2_com_x*w10 + body2_2_com_y*w11)
-    out[3, 1] = w6*(-body2_1_tip_x*w8 - body2_1_tip_y*w7) + w9*(-body2_2_com_x*w11 - body2_2_com_y*w10)
+    out[0, 0] = w0*(-body1_1_com_x*c_a1 + body1_1_com_y*s_a1)
+    out[0, 1] = w0*(-body1_1_com_x*s_a1 - body1_1_com_y*c_a1)
+    out[1, 0] = w0*(-body1_1_tip_x*c_a1 + body1_1_tip_y*s_a1) + w1*(-body1_2_com_x*c_q1_2 + body1_2_com_y*s_q1_2)
+    out[1, 1] = w0*(-body1_1_tip_x*s_a1 - body1_1_tip_y*c_a1) + w1*(-body1_2_com_x*s_q1_2 - body1_2_com_y*c_q1_2)
+    out[2, 0] = w2*(-body2_1_com_x*c_a2 + body2_1_com_y*s_a2)
+    out[2, 1] = w2*(-body2_1_com_x*s_a2 - body2_1_com_y*c_a2)
+    out[3, 0] = w2*(-body2_1_tip_x*c_a2 + body2_1_tip_y*s_a2) + w3*(-body2_2_com_x*c_q2_2 + body2_2_com_y*s_q2_2)
+    out[3, 1] = w2*(-body2_1_tip_x*s_a2 - body2_1_tip_y*c_a2) + w3*(-body2_2_com_x*s_q2_2 - body2_2_com_y*c_q2_2)
 
 
 @njit(cache=True)
-def joint_points(q, P, out):
+def joint_points(q, sc, P, out):
     """Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, base to platform."""
-    a1 = q[0]
-    a2 = q[1]
     x = q[4]
     y = q[5]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
     base1_x = P[0]
     base1_y = P[1]
     body1_1_tip_x = P[2]
@@ -344,31 +338,29 @@ def joint_points(q, P, out):
     base2_y = P[15]
     body2_1_tip_x = P[16]
     body2_1_tip_y = P[17]
-    w0 = math.cos(a1)
-    w1 = math.sin(a1)
-    w2 = math.cos(a2)
-    w3 = math.sin(a2)
     out[0, 0, 0] = base1_x
     out[0, 0, 1] = base1_y
-    out[0, 1, 0] = base1_x + body1_1_tip_x*w0 - body1_1_tip_y*w1
-    out[0, 1, 1] = base1_y + body1_1_tip_x*w1 + body1_1_tip_y*w0
+    out[0, 1, 0] = base1_x + body1_1_tip_x*c_a1 - body1_1_tip_y*s_a1
+    out[0, 1, 1] = base1_y + body1_1_tip_x*s_a1 + body1_1_tip_y*c_a1
     out[0, 2, 0] = x
     out[0, 2, 1] = y
     out[1, 0, 0] = base2_x
     out[1, 0, 1] = base2_y
-    out[1, 1, 0] = base2_x + body2_1_tip_x*w2 - body2_1_tip_y*w3
-    out[1, 1, 1] = base2_y + body2_1_tip_x*w3 + body2_1_tip_y*w2
+    out[1, 1, 0] = base2_x + body2_1_tip_x*c_a2 - body2_1_tip_y*s_a2
+    out[1, 1, 1] = base2_y + body2_1_tip_x*s_a2 + body2_1_tip_y*c_a2
     out[1, 2, 0] = x
     out[1, 2, 1] = y
 
 
 @njit(cache=True)
-def leg_lines(q, P, out):
+def leg_lines(q, sc, P, out):
     """Write each leg's line of action (N_ACTUATORS, 4): its attachment point minus the tracked point, and its direction (unnormalised)."""
-    a1 = q[0]
-    a2 = q[1]
     x = q[4]
     y = q[5]
+    c_a1 = sc[0, 0]
+    s_a1 = sc[0, 1]
+    c_a2 = sc[1, 0]
+    s_a2 = sc[1, 1]
     base1_x = P[0]
     base1_y = P[1]
     body1_1_tip_x = P[2]
@@ -378,16 +370,12 @@ def leg_lines(q, P, out):
     body2_1_tip_x = P[16]
     body2_1_tip_y = P[17]
     w0 = -x
-    w1 = math.cos(a1)
-    w2 = math.sin(a1)
-    w3 = -y
-    w4 = math.cos(a2)
-    w5 = math.sin(a2)
+    w1 = -y
     out[:] = 0.0
-    out[0, 2] = -base1_x - body1_1_tip_x*w1 + body1_1_tip_y*w2 - w0
-    out[0, 3] = -base1_y - body1_1_tip_x*w2 - body1_1_tip_y*w1 - w3
-    out[1, 2] = -base2_x - body2_1_tip_x*w4 + body2_1_tip_y*w5 - w0
-    out[1, 3] = -base2_y - body2_1_tip_x*w5 - body2_1_tip_y*w4 - w3
+    out[0, 2] = -base1_x - body1_1_tip_x*c_a1 + body1_1_tip_y*s_a1 - w0
+    out[0, 3] = -base1_y - body1_1_tip_x*s_a1 - body1_1_tip_y*c_a1 - w1
+    out[1, 2] = -base2_x - body2_1_tip_x*c_a2 + body2_1_tip_y*s_a2 - w0
+    out[1, 3] = -base2_y - body2_1_tip_x*s_a2 - body2_1_tip_y*c_a2 - w1
 
 
 @njit(cache=True)
@@ -429,23 +417,28 @@ MAX_CHORD = 8
 @njit(cache=True)
 def singularity_measures(qs, P, out):
     """:func:`singularity_measure` of every configuration ``qs`` (K, N) into ``out`` (K,); NaN rows give NaN."""
-    lines = np.empty((N_ACTUATORS, 4))
+    lines, sc = np.empty((N_ACTUATORS, 4)), np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        out[k] = singularity_measure(qs[k], P, lines)
+        trig(qs[k], sc)
+        out[k] = singularity_measure(qs[k], sc, P, lines)
 
 
 @njit(cache=True)
 def constraint_jacobians(qs, P, out):
     """``Jηq`` of every configuration ``qs`` (K, N) into ``out`` (K, m, N)."""
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        constraint_jacobian(qs[k], P, out[k])
+        trig(qs[k], sc)
+        constraint_jacobian(qs[k], sc, P, out[k])
 
 
 @njit(cache=True)
 def constraint_biases(qs, q_dots, P, out):
     """``J̇ηq q̇`` of every configuration and rate (K, N) into ``out`` (K, m)."""
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        constraint_bias(qs[k], q_dots[k], P, out[k])
+        trig(qs[k], sc)
+        constraint_bias(qs[k], sc, q_dots[k], P, out[k])
 
 
 class Workspace(NamedTuple):
@@ -453,6 +446,7 @@ class Workspace(NamedTuple):
     accepted one, from which branch following starts) and ``q[1]`` a trial configuration."""
 
     q: np.ndarray  # (2, N) base and trial configurations
+    sc: np.ndarray  # (2, N, 2) their trig tables
     s: np.ndarray  # (2,) their singularity measures
     j_eta: np.ndarray  # (m, N) Jηq
     lu: np.ndarray  # (m - 2, m - 2) factors of Jηφ's reduced system (x and y eliminated)
@@ -506,7 +500,7 @@ def passive_solve(lu, piv, top, b, work):
     rows 0 and 1 (``top``: their entries in the reduced system's columns)."""
     for r in range(REDUCED):
         work[r] = b[r + 2] - b[r % 2]
-    lu_solve_factored(lu, piv, work)
+    lu_solve_factored(lu, piv, work, REDUCED)
     dx, dy = -b[0], -b[1]
     for k in range(REDUCED):
         dx += top[0, k] * work[k]
@@ -518,7 +512,7 @@ def passive_solve(lu, piv, top, b, work):
 
 
 @njit(**NO_REFCOUNT)
-def singularity_measure(q, P, lines):
+def singularity_measure(q, sc, P, lines):
     """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
 
     With ``u_i`` the unit direction of the line along which leg ``i`` pushes the platform and ``r_i``
@@ -530,9 +524,9 @@ def singularity_measure(q, P, lines):
       ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, ``φ_i`` the angle of ``u_i``;
     * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align.
 
-    ``lines`` is an (N_ACTUATORS, 4) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, 4) scratch array.
     """
-    leg_lines(q, P, lines)
+    leg_lines(q, sc, P, lines)
     for i in range(N_ACTUATORS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
@@ -551,7 +545,8 @@ def singularity_measure(q, P, lines):
 def make_workspace():
     N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
     r = REDUCED
-    return Workspace(np.zeros((2, N)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)), np.zeros(r, np.int64),
+    return Workspace(np.zeros((2, N)), np.zeros((2, N, 2)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)),
+                     np.zeros(r, np.int64),
                      np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
                      np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
                      np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((r, r)),
@@ -560,10 +555,10 @@ def make_workspace():
 
 
 @njit(**NO_REFCOUNT)
-def factor_passive(ws, q, P):
-    """``Jηq`` at ``q`` into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the reduced system of
-    :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
-    constraint_jacobian(q, P, ws.j_eta)
+def factor_passive(ws, q, sc, P):
+    """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
+    reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
+    constraint_jacobian(q, sc, P, ws.j_eta)
     n = N_ACTUATORS
     for k in range(REDUCED):
         c = n + reduced_column(k)
@@ -571,7 +566,7 @@ def factor_passive(ws, q, P):
         ws.top[1, k] = ws.j_eta[1, c]
         for r in range(REDUCED):
             ws.reduced[r, k] = ws.j_eta[r + 2, c] - ws.j_eta[r % 2, c]
-    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv)
+    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 
 
@@ -590,18 +585,20 @@ def actuated_jacobian(ws, out):
 
 
 @njit(**NO_REFCOUNT)
-def correct_passive(ws, q, P):
-    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` (in place); returns the status."""
+def correct_passive(ws, q, sc, P):
+    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` and its trig table ``sc`` (both in
+    place); returns the status."""
     n = N_ACTUATORS
     for _ in range(MAX_NEWTON):
-        constraints(q, P, ws.eta)
-        if not factor_passive(ws, q, P):
+        constraints(q, sc, P, ws.eta)
+        if not factor_passive(ws, q, sc, P):
             return SINGULAR
         passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             q[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        trig_passive(q, sc)
         if step < NEWTON_STEP:
             return OK
     return NOT_CONVERGED
@@ -634,9 +631,9 @@ def follow_branch(ws, theta, P, min_abs_s):
     """
     n = N_ACTUATORS
     base = ws.q[BASE]
-    trial = ws.q[TRIAL]
+    trial, sc = ws.q[TRIAL], ws.sc[TRIAL]
     if ws.base_factored[0] == 0:
-        if not factor_passive(ws, base, P):
+        if not factor_passive(ws, base, ws.sc[BASE], P):
             return SINGULAR
         actuated_jacobian(ws, ws.j_q_theta)
         keep_base_factors(ws)
@@ -647,15 +644,17 @@ def follow_branch(ws, theta, P, min_abs_s):
         trial[i] = acc
     for j in range(n):
         trial[j] = theta[j]
+    trig(trial, sc)
     status = NOT_CONVERGED
     previous = np.inf
     for _ in range(MAX_CHORD):
-        constraints(trial, P, ws.eta)
+        constraints(trial, sc, P, ws.eta)
         passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
             trial[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        trig_passive(trial, sc)
         # the chord method converges linearly with the ratio of successive steps, r: what remains after
         # this step is at most step r / (1 - r)
         ratio = step / previous  # 0 at the first step: no estimate yet
@@ -664,10 +663,10 @@ def follow_branch(ws, theta, P, min_abs_s):
             break
         previous = step
     if status != OK:
-        status = correct_passive(ws, trial, P)
+        status = correct_passive(ws, trial, sc, P)
         if status != OK:
             return status
-    s = singularity_measure(trial, P, ws.lines)
+    s = singularity_measure(trial, sc, P, ws.lines)
     ws.s[TRIAL] = s
     if abs(s) < min_abs_s or s * ws.s[BASE] < 0.0:
         return SINGULAR
@@ -679,6 +678,8 @@ def accept_trial(ws):
     """The trial configuration becomes the base."""
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = ws.q[TRIAL, i]
+        ws.sc[BASE, i, 0] = ws.sc[TRIAL, i, 0]
+        ws.sc[BASE, i, 1] = ws.sc[TRIAL, i, 1]
     ws.s[BASE] = ws.s[TRIAL]
     ws.base_factored[0] = 0
 
@@ -688,21 +689,23 @@ def set_base(ws, q, P):
     """Start branch following from the configuration ``q`` (on the constraint manifold)."""
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = q[i]
-    ws.s[BASE] = singularity_measure(q, P, ws.lines)
+    trig(q, ws.sc[BASE])
+    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines)
     ws.base_factored[0] = 0
 
 
 @njit(**NO_REFCOUNT)
-def actuator_space_model(ws, q, theta_dot, P):
+def actuator_space_model(ws, q, sc, theta_dot, P):
     """``Mθ``, ``cθ = Cθ θ̇`` and ``gθ = ∂V/∂θ`` of ``Mθ θ̈ + cθ + gθ = τ`` (eq. 35, with gravity) at ``q``
-    on the manifold, into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok (``det Jηφ ≠ 0``).
+    on the manifold (trig table ``sc``), into ``ws.m_theta``, ``ws.c_theta``, ``ws.g_theta``; returns ok
+    (``det Jηφ ≠ 0``).
 
     Body by body, with ``Jt = J_b Jqθ`` the body's velocity per actuator rate and
     ``a_b = J_b J̇qθ θ̇ + J̇_b q̇`` its acceleration at ``θ̈ = 0``:
     ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``).
     """
     n, N = N_ACTUATORS, N_COORDINATES
-    if not factor_passive(ws, q, P):
+    if not factor_passive(ws, q, sc, P):
         return False
     actuated_jacobian(ws, ws.j_q_theta)
     for i in range(N):
@@ -710,7 +713,7 @@ def actuator_space_model(ws, q, theta_dot, P):
         for j in range(n):
             acc += ws.j_q_theta[i, j] * theta_dot[j]
         ws.q_dot[i] = acc
-    constraint_bias(q, ws.q_dot, P, ws.gamma)
+    constraint_bias(q, sc, ws.q_dot, P, ws.gamma)
     for k in range(N_CONSTRAINTS):  # φ̈ at θ̈ = 0: -Jηφ⁻¹ J̇ηq q̇ (eq. 32)
         ws.gamma[k] = -ws.gamma[k]
     passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
@@ -718,8 +721,8 @@ def actuator_space_model(ws, q, theta_dot, P):
         ws.bias_q[i] = 0.0
     for k in range(N_CONSTRAINTS):
         ws.bias_q[n + k] = ws.gamma[k]
-    body_jacobian_values(q, P, ws.jb)
-    body_bias(q, ws.q_dot, P, ws.bb)
+    body_jacobian_values(q, sc, P, ws.jb)
+    body_bias(q, sc, ws.q_dot, P, ws.bb)
     for b in range(N_BODIES):
         for r in range(3):
             for j in range(n):
@@ -730,25 +733,25 @@ def actuator_space_model(ws, q, theta_dot, P):
             ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
         ws.bb[b, r] += v * ws.bias_q[k]
     gx, gy = P[GRAVITY_INDEX[0]], P[GRAVITY_INDEX[1]]
+    # each entry summed in a register and stored once (accumulating into the workspace's arrays would
+    # load and store at every term: the compiler cannot rule out that they overlap)
     for i in range(n):
-        ws.c_theta[i] = 0.0
-        ws.g_theta[i] = 0.0
-        for j in range(n):
-            ws.m_theta[i, j] = 0.0
-    for b in range(N_BODIES):
-        mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
-        for r in range(3):
-            w = inertia if r == 2 else mass
-            for i in range(n):
-                wi = w * ws.jt[b, r, i]
-                ws.c_theta[i] += wi * ws.bb[b, r]
-                for j in range(i, n):
-                    ws.m_theta[i, j] += wi * ws.jt[b, r, j]
-        for i in range(n):
-            ws.g_theta[i] -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
-    for i in range(n):
-        for j in range(i):
-            ws.m_theta[i, j] = ws.m_theta[j, i]
+        c, g = 0.0, 0.0
+        for b in range(N_BODIES):
+            mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+            c += (mass * (ws.jt[b, 0, i] * ws.bb[b, 0] + ws.jt[b, 1, i] * ws.bb[b, 1])
+                  + inertia * ws.jt[b, 2, i] * ws.bb[b, 2])
+            g -= mass * (ws.jt[b, 0, i] * gx + ws.jt[b, 1, i] * gy)
+        ws.c_theta[i] = c
+        ws.g_theta[i] = g
+        for j in range(i, n):
+            acc = 0.0
+            for b in range(N_BODIES):
+                mass, inertia = P[MASS_INDEX[b]], P[INERTIA_INDEX[b]]
+                acc += (mass * (ws.jt[b, 0, i] * ws.jt[b, 0, j] + ws.jt[b, 1, i] * ws.jt[b, 1, j])
+                        + inertia * ws.jt[b, 2, i] * ws.jt[b, 2, j])
+            ws.m_theta[i, j] = acc
+            ws.m_theta[j, i] = acc
     return True
 
 
@@ -757,8 +760,10 @@ def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
     """:func:`actuator_space_model` of every configuration ``qs`` (K, N) and rates ``theta_dots`` (K, n) into
     ``m_out`` (K, n, n), ``c_out`` and ``g_out`` (K, n); returns the first singular one's index, or -1."""
     ws = make_workspace()
+    sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
-        if not actuator_space_model(ws, qs[k], theta_dots[k], P):
+        trig(qs[k], sc)
+        if not actuator_space_model(ws, qs[k], sc, theta_dots[k], P):
             return k
         m_out[k] = ws.m_theta
         c_out[k] = ws.c_theta
@@ -785,7 +790,7 @@ def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
         status = follow_branch(ws, theta, P, min_abs_s)
         if status != OK:
             return status
-    if not actuator_space_model(ws, ws.q[slot], theta_dot, P):
+    if not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
         return SINGULAR
     if slot == BASE:
         keep_base_factors(ws)
@@ -821,7 +826,7 @@ def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_d
     if status != OK:
         return status
     accept_trial(ws)
-    if not actuator_space_model(ws, ws.q[BASE], theta_dot, P):
+    if not actuator_space_model(ws, ws.q[BASE], ws.sc[BASE], theta_dot, P):
         return SINGULAR
     keep_base_factors(ws)
     for i in range(n):  # v, kept in theta_ddot
