@@ -1147,17 +1147,53 @@ def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, 
         out_k[r] = k
 
 
+# ---- entry points for callers outside compiled code (an adaptive integrator, a path's kinematics): plain
+# arrays in and out, the workspace made inside (a workspace passed in from Python costs ~0.3 ms per call
+# to type its ~30 arrays; making one costs a few microseconds)
 @njit(cache=True)
-def reduced_rhs(ws, y, tau, P, min_abs_s):
-    """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` for an adaptive integrator (continuous-time
-    control); the passive coordinates follow from the base, which then moves there. Returns
-    ``(ẏ, status)``."""
+def reduced_rhs(q_base, y, tau, P, min_abs_s, q_out):
+    """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
+    the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
+    configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
     n = N_ACTUATORS
-    out = np.empty(2 * n)
+    ws = make_workspace()
+    set_base(ws, q_base, P)
+    out = np.zeros(2 * n)
     status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, TRIAL)
+    for i in range(N_COORDINATES):
+        q_out[i] = ws.q[TRIAL, i]
     if status == OK:
-        accept_trial(ws)
-        keep_base_factors(ws)  # the stage's factors are the new base's
-        out[:n] = y[n:]
-        out[n:] = ws.theta_ddot
+        for i in range(n):
+            out[i] = y[n + i]
+            out[n + i] = ws.theta_ddot[i]
     return out, status
+
+
+@njit(cache=True)
+def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
+                        q_out, tau):
+    """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
+    configuration at the measured ``theta`` into ``q_out``. Returns the status."""
+    ws = make_workspace()
+    set_base(ws, q_base, P)
+    status = control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws,
+                            tau)
+    for i in range(N_COORDINATES):
+        q_out[i] = ws.q[BASE, i]
+    return status
+
+
+@njit(cache=True)
+def follow_path(q_start, thetas, P, min_abs_s, q_out):
+    """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn, into ``q_out``
+    (K, N); returns ``(status, k)``, ``k`` the first point not reached (else -1)."""
+    ws = make_workspace()
+    set_base(ws, q_start, P)
+    for k in range(thetas.shape[0]):
+        status = follow_branch(ws, thetas[k], P, min_abs_s)
+        if status != OK:
+            return status, k
+        accept_trial(ws)
+        for i in range(N_COORDINATES):
+            q_out[k, i] = ws.q[BASE, i]
+    return OK, -1
