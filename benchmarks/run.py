@@ -11,8 +11,8 @@ Figures
 * forward kinematics, every assembly mode: batched (one call for the whole batch), the
   compiled batch driver alone, and one call per ``θ`` (python API in a loop);
 * branch-following forward kinematics along the paper's circle: the python API once per
-  sample, and the compiled kernel :func:`pkmlab.mechanisms.rrr3.branch_following` called
-  from a small ``@numba.njit`` loop (no Python overhead per call);
+  sample, and the compiled core's :func:`pkmlab.machine_core.follow_branch_in_steps` (what the
+  API calls) from a small ``@numba.njit`` loop (no Python overhead per call);
 * inverse kinematics, all 8 working modes, batched;
 * a baseline measured in the same run: ``scipy.optimize.fsolve`` on the loop-closure
   equations written in plain NumPy. The "vs baseline" column of these rows is the baseline's
@@ -302,15 +302,6 @@ def circle_path(model: pkmlab.Planar3RRR):
     return path, np.ascontiguousarray(ik.q), np.ascontiguousarray(ik.theta)
 
 
-@numba.njit(cache=False)
-def follow_path_kernel(thetas, P, min_abs_s, q_path):
-    """Branch following along ``thetas`` from ``q_path[0]``: one compiled kernel call per sample."""
-    status = 0
-    for k in range(1, thetas.shape[0]):
-        status |= rrr3.branch_following(q_path[k - 1], thetas[k], P, q_path[k], min_abs_s)
-    return status
-
-
 def wrapped(x: np.ndarray) -> np.ndarray:
     return np.angle(np.exp(1j * x))
 
@@ -345,6 +336,22 @@ def _actuator_space_loop(ws, sc, qs, theta_dots, P, m_out, c_out, taus, accelera
                 accelerations[k, i] = ws.theta_ddot[i]
         all_ok = all_ok and ok
     return all_ok
+
+
+@numba.njit(cache=False, _nrt=False)
+def _follow_path(ws, thetas, P, min_abs_s, q_path):
+    status = 0
+    for k in range(1, thetas.shape[0]):
+        status |= PAPER_KERNELS.follow_branch_in_steps(ws, q_path[k - 1], thetas[k], P, min_abs_s, np.inf)
+        for i in range(q_path.shape[1]):
+            q_path[k, i] = ws.q[PAPER_KERNELS.BASE, i]
+    return status
+
+
+def follow_path_kernel(thetas, P, min_abs_s, q_path):
+    """Branch following along ``thetas`` from ``q_path[0]`` (the core's coordinates): one compiled call per sample,
+    each started afresh from the previous configuration, as the public API's kernel does."""
+    return _follow_path(PAPER_KERNELS.make_workspace(), thetas, P, min_abs_s, q_path)
 
 
 def actuator_space_kernel_loop(qs, theta_dots, P, m_out, c_out):
@@ -678,7 +685,8 @@ def main(argv: list[str] | None = None) -> int:
     rows.append(first_call_row("first_call_full_plant", "first call: FullPlant.simulate (1 ms)", dt))
     files_after = cache_files()
     scratch = np.tile(q1, (2, 1))
-    dt, _ = time_once(lambda: follow_path_kernel(np.tile(th1, (2, 1)), P, MIN_ABS_S, scratch))
+    scratch = coordinates_from_3rrr(model, scratch)
+    dt, _ = time_once(lambda: follow_path_kernel(np.tile(th1, (2, 1)), P_core, MIN_ABS_S, scratch))
     rows.append(first_call_row("first_call_benchmark_njit_loop", "first call: benchmark's njit loop (compile)", dt))
 
     def compile_dynamics_loops():
@@ -760,14 +768,15 @@ def main(argv: list[str] | None = None) -> int:
     rows.append(rate_row("bf_api_batched", f"branch following, batched API ({n_steps} steps)", times, n_steps,
                          "call"))
 
-    q_path = np.empty_like(q_ref)
-    q_path[0] = q_ref[0]
-    times, status = time_runs(lambda: follow_path_kernel(path_thetas, P, MIN_ABS_S, q_path),
+    q_path = np.empty((q_ref.shape[0], PAPER_KERNELS.N_COORDINATES))
+    q_path[0] = coordinates_from_3rrr(model, q_ref[0])
+    times, status = time_runs(lambda: follow_path_kernel(path_thetas, P_core, MIN_ABS_S, q_path),
                               cfg["repeats_path_kernel"])
     rows.append(rate_row("bf_kernel_per_call", f"branch following, compiled kernel in njit loop ({n_steps} steps)",
                          times, n_steps, "call"))
     checks["bf_kernel_status"] = int(status)
-    checks["bf_kernel_max_dev_from_ik_rad"] = float(np.abs(wrapped(q_path[:, 3:] - q_ref[:, 3:])).max())
+    checks["bf_kernel_max_dev_from_ik_rad"] = float(np.abs(wrapped(coordinates_to_3rrr(q_path)[:, 3:]
+                                                                   - q_ref[:, 3:])).max())
     checks["bf_api_max_dev_from_ik_rad"] = float(np.abs(wrapped(q_last[3:] - q_ref[-1, 3:])).max())
 
     # (3) inverse kinematics, all 8 working modes

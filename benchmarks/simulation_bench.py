@@ -251,7 +251,11 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     machine = MechanismModel.from_3rrr(nominal.model)  # the simulation's loop: its description's kernels
     P, kernels = machine.P, machine.kernels
     kv = nominal.controller.velocity_gain
-    buffers = (np.zeros((n, kernels.N_COORDINATES)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n))
+
+    def outputs(count):  # the loop's records: configurations, rates, efforts, S
+        return np.zeros((count, kernels.N_COORDINATES)), np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count)
+
+    buffers = outputs(n)
 
     def loop(n_sub=1, ts=1e-3, dd=d):
         return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot,
@@ -367,15 +371,13 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
         sc = nominal.replace(trajectory=paper_trajectory(speed_v))
         tt = np.arange(int(math.ceil(sc.trajectory.duration / 1e-3 - 1e-9)) + 1) * 1e-3
         dd = desired_joint_motion(sc.model, sc.trajectory, mode, tt)
-        buffers = (np.zeros((tt.size, 7)), np.zeros((tt.size, 3)), np.zeros((tt.size, 3)), np.zeros((tt.size, 3)),
-                   np.zeros(tt.size))
+        buffers = outputs(tt.size)
         tm, _ = h.time_runs(lambda dd=dd: loop(dd=dd), 3)
         scale[f"duration_{sc.trajectory.duration:.2f}s"] = statistics.median(tm)
     for ts in (0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3):
         tt = np.arange(int(math.ceil(nominal.trajectory.duration / ts - 1e-9)) + 1) * ts
         dd = desired_joint_motion(nominal.model, nominal.trajectory, mode, tt)
-        buffers = (np.zeros((tt.size, 7)), np.zeros((tt.size, 3)), np.zeros((tt.size, 3)), np.zeros((tt.size, 3)),
-                   np.zeros(tt.size))
+        buffers = outputs(tt.size)
         tm, _ = h.time_runs(lambda dd=dd, ts=ts: loop(ts=ts, dd=dd), 3)
         scale[f"Ts_{ts * 1e3:g}ms"] = statistics.median(tm)
     for size in (1, 10, 100) + (() if quick else (1000,)):

@@ -187,13 +187,6 @@ def _forward_kinematics_batch(thetas, P, q_out, s_out, count, status):
 
 
 @njit(cache=True)
-def _branch_following_batch(q_prev, thetas, P, min_abs_s, q_out, status):
-    ws = rrr3.make_workspace(P)
-    for k in range(thetas.shape[0]):
-        status[k] = rrr3.branch_following_in(ws, q_prev[k], thetas[k], P, q_out[k], min_abs_s)
-
-
-@njit(cache=True)
 def _first_order_batch(qs, P, residual, j_eta_q, j_pose_q, j_q_theta, det, ok):
     ws = rrr3.make_workspace(P)
     for k in range(qs.shape[0]):
@@ -448,12 +441,18 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
         the way (a gain-type singularity), or the corrector does not converge.
     """
     q_prev, thetas, shape = _pair("q_previous", q_previous, 7, "theta", theta, 3)
-    q_out = np.empty_like(q_prev)
+    from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
+
+    # the compiled core's branch following on the machine's description: the simulation's own
+    machine = MechanismModel.from_3rrr(_model(model))
+    q_out = np.empty((q_prev.shape[0], machine.kernels.N_COORDINATES))
     status = np.zeros(q_prev.shape[0], dtype=np.int64)
-    _branch_following_batch(q_prev, thetas, _model(model).packed, _real("min_abs_S", min_abs_S, "non-negative"), q_out,
-                            status)
-    if np.any(status != rrr3.OK):
-        k = int(np.flatnonzero(status != rrr3.OK)[0])
+    machine.kernels.branch_following_batch(np.ascontiguousarray(coordinates_from_3rrr(model, q_prev)), thetas,
+                                           machine.P, _real("min_abs_S", min_abs_S, "non-negative"), np.inf, q_out,
+                                           status)
+    q_out = coordinates_to_3rrr(q_out)
+    if np.any(status != machine.kernels.OK):
+        k = int(np.flatnonzero(status != machine.kernels.OK)[0])
         s_prev = float(singularity_measure(model, q_prev[k]))
         from ._format import apart
 

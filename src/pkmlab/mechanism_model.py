@@ -367,35 +367,30 @@ def _newton_passive(model: MechanismModel, q: np.ndarray, tol: float, iterations
 
 def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S: float = 1e-3,
                      max_step: float = 0.05) -> np.ndarray:
-    """The configuration at ``actuators`` continuously connected to ``q_previous`` (paper §3.2).
-
-    Sub-steps of at most ``max_step`` in the actuators, each a first-order predictor along
-    ``Jφθ`` (eq. 15) and Newton's method on ``η = 0`` for the passive coordinates. Raises
-    :class:`~pkmlab.errors.BranchFollowingError` where the path nears a gain-type singularity
-    (``|S| < min_abs_S``) or Newton does not converge.
+    """The configuration at ``actuators`` continuously connected to ``q_previous`` (paper §3.2): the compiled
+    core's :func:`~pkmlab.machine_core.follow_branch_in_steps`, the simulation's own branch following, in
+    sub-steps of at most ``max_step`` in the actuators (halved where one fails). Raises
+    :class:`~pkmlab.errors.BranchFollowingError` where the way nears a gain-type singularity
+    (``|S| < min_abs_S``) or the passive coordinates cannot be found (out of reach).
     """
     from .errors import BranchFollowingError
 
-    q = _q(model, q_previous).copy()
+    q = _q(model, q_previous)
     target = np.asarray(actuators, dtype=float)
     na = model.n_actuators
     if target.shape != (na,) or not np.all(np.isfinite(target)):
         raise InvalidParameterError(f"actuators must be {na} finite values, got {np.asarray(actuators).tolist()}")
-    steps = max(1, int(np.ceil(np.max(np.abs(target - q[:na])) / max_step)))
-    start = q[:na].copy()
-    for k in range(1, steps + 1):
-        theta = start + (target - start) * k / steps
-        j_eta_q = constraint_jacobian(model, q)
-        q[na:] += np.linalg.lstsq(j_eta_q[:, na:], -j_eta_q[:, :na] @ (theta - q[:na]), rcond=None)[0]
-        q[:na] = theta
-        if not _newton_passive(model, q, 1e-14):
-            raise BranchFollowingError(f"cannot follow the assembly mode to actuators {np.round(theta, 6).tolist()}: "
-                                       "Newton's method does not converge (out of reach?)")
-        s = singularity_measure(model, q)
-        if abs(s) < min_abs_S:
-            raise BranchFollowingError(f"cannot follow the assembly mode to actuators {np.round(theta, 6).tolist()}: "
-                                       f"a gain-type singularity (|S| = {abs(s):.3g} < {min_abs_S:g})")
-    return q
+    k = model.kernels
+    out, status = np.empty((1, q.size)), np.zeros(1, dtype=np.int64)
+    k.branch_following_batch(q[None, :], target[None, :], model.P, float(min_abs_S), float(max_step), out, status)
+    if status[0] != k.OK:
+        why = ("a gain-type singularity on the way" if status[0] == k.SINGULAR else
+               "the passive coordinates cannot be found on the way: out of reach, or at a gain-type singularity")
+        s_reached = abs(singularity_measure(model, out[0]))
+        reached = f"|S| = {s_reached:.3g} at actuators {np.round(out[0, :na], 6).tolist()}"
+        raise BranchFollowingError(f"cannot follow the assembly mode to actuators {np.round(target, 6).tolist()}: "
+                                   f"{why} ({reached}, the last configuration reached; limit |S| >= {min_abs_S:g})")
+    return out[0]
 
 
 def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.ndarray]:

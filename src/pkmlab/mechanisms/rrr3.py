@@ -1,10 +1,14 @@
-"""Compiled kernels of the planar 3-RRR: constraints, Jacobians, inverse and forward kinematics.
+"""The paper's own formulation of its planar 3-RRR, compiled: constraints, Jacobians, inverse and
+forward kinematics, and the bodies of the full-space model.
 
 Every function here works on one configuration and reads the architecture from the packed
 parameter vector ``P`` (:attr:`pkmlab.geometry.Planar3RRR.packed`, layout in
-:mod:`pkmlab.geometry`). They are compiled with Numba (``cache=True``), written once and
-used both by the public API (:mod:`pkmlab.kinematics`, which broadcasts over batches) and by
-the simulation loop. Conventions are those of conventions §1–§3 and :mod:`pkmlab.geometry`:
+:mod:`pkmlab.geometry`). They are compiled with Numba (``cache=True``) and serve the public API
+in the paper's coordinates (:mod:`pkmlab.kinematics`, :mod:`pkmlab.dynamics`, which broadcast
+over batches), the reproduction's reference and the independent cross-check of the generic
+pipeline; the simulation, the controller, the reduced model and branch following run on the
+compiled core of every mechanism (:mod:`pkmlab.machine_core`, on the machine's description).
+Conventions are those of conventions §1–§3 and :mod:`pkmlab.geometry`:
 ``q = (θ1, θ2, θ3, φ1, φ2, φ3, α)``, absolute angles.
 
 Loop-closure constraints (paper eqs. (2), (3), (5), (6), in that order)::
@@ -475,30 +479,28 @@ class Workspace(NamedTuple):
     """Mutable scratch of the compiled kernels for one model (MuJoCo's ``mjData``, Pinocchio's ``Data``).
 
     The model (the packed parameter vector ``P``) never changes; everything a kernel computes
-    lands here, so that the simulation loop allocates nothing. Build it with
-    :func:`make_workspace` for the ``P`` it will be used with. Configuration slots (first index
-    of the per-configuration fields): ``BASE`` — where branch following starts, ``TRIAL`` —
-    where it ends, ``SAVED`` — a copy kept while marching in sub-steps. Each slot holds the
+    lands here, so that a batch allocates nothing. Build it with :func:`make_workspace` for the
+    ``P`` it will be used with. Configuration slots (first index of the per-configuration
+    fields): ``BASE`` and ``TRIAL``, e.g. a configuration and its Newton-polished neighbour
+    (:func:`correct_passive`). Each slot holds the
     configuration ``q`` and its linearisation: ``(cos q, sin q)``, ``Jηq``, the LU factors of
     ``Jηφ``, ``det Jηφ`` and ``Jqθ``.
     """
 
-    q: np.ndarray  # (3, 7)
-    sincos: np.ndarray  # (3, 7, 2)
-    jac: np.ndarray  # (3, 4, 7) Jηq
-    lu: np.ndarray  # (3, 4, 4) LU factors of Jηφ
-    piv: np.ndarray  # (3, 4)
-    det: np.ndarray  # (3,) det Jηφ
-    j_q_theta: np.ndarray  # (3, 7, 3)
+    q: np.ndarray  # (2, 7)
+    sincos: np.ndarray  # (2, 7, 2)
+    jac: np.ndarray  # (2, 4, 7) Jηq
+    lu: np.ndarray  # (2, 4, 4) LU factors of Jηφ
+    piv: np.ndarray  # (2, 4)
+    det: np.ndarray  # (2,) det Jηφ
+    j_q_theta: np.ndarray  # (2, 7, 3)
     eta: np.ndarray  # (4,) constraint residual / right-hand sides
     qd: np.ndarray  # (7,) q̇ = Jqθ θ̇
     bias_q: np.ndarray  # (7,) J̇qθ θ̇
-    theta_target: np.ndarray  # (3,) intermediate actuated angles of a sub-stepped branch following
-    dtheta: np.ndarray  # (3,) the predictor's step in the actuated angles
     constants: np.ndarray  # [a r1 r2 r3 (scale of S), tolerance on |η| (m)]
 
 
-BASE_SLOT, TRIAL_SLOT, SAVED_SLOT = 0, 1, 2
+BASE_SLOT, TRIAL_SLOT = 0, 1
 _S_SCALE, _ETA_TOL = 0, 1
 
 
@@ -514,46 +516,10 @@ def make_workspace(P):
     reach += max(math.hypot(P[PLATFORM], P[PLATFORM + 1]), math.hypot(P[PLATFORM + 2], P[PLATFORM + 3]))
     constants = np.array([singularity_scale(P), 4.0 * 2.220446049250313e-16 * reach])
     return Workspace(
-        np.zeros((3, 7)), np.zeros((3, 7, 2)), np.zeros((3, 4, 7)), np.zeros((3, 4, 4)),
-        np.zeros((3, 4), np.int64), np.zeros(3), np.zeros((3, 7, 3)), np.zeros(4), np.zeros(7), np.zeros(7),
-        np.zeros(3), np.zeros(3), constants,
+        np.zeros((2, 7)), np.zeros((2, 7, 2)), np.zeros((2, 4, 7)), np.zeros((2, 4, 4)),
+        np.zeros((2, 4), np.int64), np.zeros(2), np.zeros((2, 7, 3)), np.zeros(4), np.zeros(7), np.zeros(7),
+        constants,
     )
-
-
-@njit(cache=True)
-def workspace_at(q, P):
-    """A :class:`Workspace` for ``P`` whose ``BASE`` slot is ``q``, linearised (the start of a branch).
-
-    ``ws.det[BASE_SLOT]`` is 0 when ``Jηφ`` is singular there (nothing can be followed from it).
-    """
-    ws = make_workspace(P)
-    ws.q[BASE_SLOT, :] = q
-    linearize(ws, BASE_SLOT, P)
-    return ws
-
-
-@njit(**NO_REFCOUNT_INLINE)
-def copy_slot(ws, source, target):
-    """Copy a configuration and its linearisation from one slot to another."""
-    for i in range(7):
-        ws.q[target, i] = ws.q[source, i]
-        ws.sincos[target, i, 0] = ws.sincos[source, i, 0]
-        ws.sincos[target, i, 1] = ws.sincos[source, i, 1]
-        for j in range(3):
-            ws.j_q_theta[target, i, j] = ws.j_q_theta[source, i, j]
-    for k in range(4):
-        ws.piv[target, k] = ws.piv[source, k]
-        for j in range(7):
-            ws.jac[target, k, j] = ws.jac[source, k, j]
-        for j in range(4):
-            ws.lu[target, k, j] = ws.lu[source, k, j]
-    ws.det[target] = ws.det[source]
-
-
-@njit(**NO_REFCOUNT_INLINE)
-def slot_singularity_measure(ws, slot):
-    """``S`` (eq. 19) of the configuration in ``slot``, from its LU factors."""
-    return -ws.det[slot] / ws.constants[_S_SCALE]
 
 
 @njit(**NO_REFCOUNT_INLINE)
@@ -606,101 +572,6 @@ def correct_passive(ws, slot, P, max_iter):
             return NOT_CONVERGED
         tiny_step = step <= 1e-15
     return NOT_CONVERGED
-
-
-@njit(**NO_REFCOUNT_INLINE)
-def _predict(ws, source, target, theta, P):
-    """Second-order Taylor predictor of the branch from ``source`` to actuated angles ``theta``.
-
-    Along the chord ``θ(s) = θ0 + s Δθ``: ``φ(1) ≈ φ0 + Jφθ Δθ + ½ J̇φθ(Δθ) Δθ``, where the
-    second-order term is the passive acceleration of eq. (32) at ``θ̇ = Δθ``, ``θ̈ = 0``
-    (``-Jηφ⁻¹ J̇ηq q̇`` with ``q̇ = Jqθ Δθ``). Its error is third order in ``|Δθ|``, so one
-    Newton step usually reaches round-off. Angles march the shorter way round.
-    """
-    q0, q1, dtheta = ws.q[source], ws.q[target], ws.dtheta
-    for i in range(3):
-        dtheta[i] = wrap_angle(theta[i] - q0[i])
-    evaluate_velocities(ws, source, dtheta, P)  # q̇ = Jqθ Δθ and the passive acceleration at θ̇ = Δθ
-    qd, bias = ws.qd, ws.bias_q
-    q1[0], q1[1], q1[2] = theta[0], theta[1], theta[2]
-    for k in range(3, 6):
-        q1[k] = wrap_angle(q0[k] + qd[k] + 0.5 * bias[k])
-    q1[6] = q0[6] + qd[6] + 0.5 * bias[6]  # α stays continuous
-
-
-@njit(**NO_REFCOUNT_INLINE)
-def _chord(ws, theta, P, s_ref, min_abs_s):
-    """Predict from ``BASE`` to ``theta`` into ``TRIAL`` and correct; ``S`` must keep the sign of ``s_ref``."""
-    _predict(ws, BASE_SLOT, TRIAL_SLOT, theta, P)
-    status = correct_passive(ws, TRIAL_SLOT, P, 8)
-    if status != OK:
-        return status
-    s_now = slot_singularity_measure(ws, TRIAL_SLOT)
-    if s_now * s_ref <= 0.0 or abs(s_now) <= min_abs_s:
-        return SINGULAR
-    return OK
-
-
-@njit(**NO_REFCOUNT)
-def follow_branch(ws, theta, P, min_abs_s):
-    """Branch following (§3.2) from the linearised ``BASE`` slot to actuated angles ``theta`` into ``TRIAL``.
-
-    One chord in the common case; when its corrector fails, ``θ`` is marched in 2, 4, … 64
-    equal sub-steps. The branch is followed only while ``|S|`` stays above ``min_abs_s`` and
-    keeps its sign: a sign change means a gain-type singularity was crossed. ``BASE`` is left
-    unchanged. Returns the status (``OK``, ``NOT_CONVERGED`` or ``SINGULAR``).
-    """
-    s_ref = slot_singularity_measure(ws, BASE_SLOT)
-    if abs(s_ref) <= min_abs_s:
-        copy_slot(ws, BASE_SLOT, TRIAL_SLOT)
-        return SINGULAR
-    status = _chord(ws, theta, P, s_ref, min_abs_s)
-    if status == OK:
-        return OK
-    copy_slot(ws, BASE_SLOT, SAVED_SLOT)
-    target = ws.theta_target
-    n_sub = 2
-    while n_sub <= 64:
-        copy_slot(ws, SAVED_SLOT, BASE_SLOT)
-        for sub in range(n_sub):
-            frac = (sub + 1.0) / n_sub
-            for i in range(3):
-                target[i] = ws.q[SAVED_SLOT, i] + frac * wrap_angle(theta[i] - ws.q[SAVED_SLOT, i])
-            if sub == n_sub - 1:
-                for i in range(3):
-                    target[i] = theta[i]
-            status = _chord(ws, target, P, s_ref, min_abs_s)
-            if status != OK:
-                break
-            copy_slot(ws, TRIAL_SLOT, BASE_SLOT)
-        if status == OK:
-            break
-        n_sub *= 2
-    copy_slot(ws, BASE_SLOT, TRIAL_SLOT)  # the last point reached (the target on success)
-    copy_slot(ws, SAVED_SLOT, BASE_SLOT)
-    return status
-
-
-@njit(cache=True)
-def branch_following_in(ws, q_prev, theta, P, q_out, min_abs_s):
-    """:func:`branch_following` with a caller-owned :class:`Workspace` (no allocation)."""
-    ws.q[BASE_SLOT, :] = q_prev
-    if not linearize(ws, BASE_SLOT, P):
-        q_out[:] = q_prev
-        return SINGULAR
-    status = follow_branch(ws, theta, P, min_abs_s)
-    q_out[:] = ws.q[TRIAL_SLOT]
-    return status
-
-
-@njit(cache=True)
-def branch_following(q_prev, theta, P, q_out, min_abs_s):
-    """The assembly mode continuously connected to ``q_prev``, at actuated angles ``θ`` (§3.2).
-
-    See :func:`follow_branch`. Writes ``q_out`` (7,) — the configuration reached — and returns
-    the status (``OK``, ``NOT_CONVERGED`` or ``SINGULAR``).
-    """
-    return branch_following_in(make_workspace(P), q_prev, theta, P, q_out, min_abs_s)
 
 
 # ------------------------------------------------------------------ dynamics (paper §3)

@@ -632,6 +632,7 @@ class Workspace(NamedTuple):
     reduced: np.ndarray  # (m - 2, m - 2) the reduced system before factoring
     work: np.ndarray  # (m - 2,)
     rhs: np.ndarray  # (m,)
+    target: np.ndarray  # (n,) the actuators of a sub-step of follow_branch_in_steps
 
 
 BASE = 0
@@ -709,7 +710,7 @@ def make_workspace():
                      np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
                      np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((r, r)),
                      np.zeros(r, np.int64), np.zeros((N, n)), np.zeros(1, np.int64), np.zeros((2, r)),
-                     np.zeros((2, r)), np.zeros((r, r)), np.zeros(r), np.zeros(m))
+                     np.zeros((2, r)), np.zeros((r, r)), np.zeros(r), np.zeros(m), np.zeros(n))
 
 
 @njit(**NO_REFCOUNT)
@@ -850,6 +851,45 @@ def set_base(ws, q, P):
     trig(q, ws.sc[BASE])
     ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines)
     ws.base_factored[0] = 0
+
+
+#: Branch following over a step it cannot make at once retries it in 2, 4, ... up to this many sub-steps.
+MAX_SUBSTEPS = 64
+
+
+@njit(**NO_REFCOUNT)
+def follow_branch_in_steps(ws, q_previous, theta, P, min_abs_s, max_step):
+    """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take
+    large steps: the actuators moved in equal sub-steps of at most ``max_step`` (rad or m; angles the shorter
+    way round), each by :func:`follow_branch`, the whole retried in twice as many sub-steps when one fails
+    (up to :data:`MAX_SUBSTEPS` times as many). The configuration reached is left in ``ws.q[BASE]``: the
+    target's on success, else the last one reached. Returns the status; ``SINGULAR`` at once when ``|S|``
+    is below ``min_abs_s`` at ``q_previous``."""
+    n = N_ACTUATORS
+    largest = 0.0
+    for j in range(n):
+        largest = max(largest, abs(actuator_error(theta, q_previous, j)))
+    steps = 1 if largest <= max_step else int(np.ceil(largest / max_step))
+    status = OK
+    for _ in range(7):  # steps, 2 steps, ..., 64 steps
+        set_base(ws, q_previous, P)
+        if abs(ws.s[BASE]) < min_abs_s:
+            return SINGULAR
+        for k in range(1, steps + 1):
+            for j in range(n):  # the sub-step's target, on q_previous's side of 2π
+                ws.target[j] = q_previous[j] + actuator_error(theta, q_previous, j) * (k / steps)
+            status = follow_branch(ws, ws.target, P, min_abs_s)
+            if status != OK:
+                break
+            accept_trial(ws)
+        if status == OK:
+            for j in range(n):  # the actuators as asked (an angle may differ by whole turns)
+                ws.q[BASE, j] = theta[j]
+            return status
+        if steps >= MAX_SUBSTEPS:
+            return status
+        steps *= 2
+    return status
 
 
 @njit(**NO_REFCOUNT)
@@ -1109,6 +1149,17 @@ def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_d
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     return status
+
+
+@njit(cache=True)
+def branch_following_batch(q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+    """:func:`follow_branch_in_steps` from each ``q_previous[k]`` (K, N) to ``thetas[k]`` (K, n), into ``q_out``
+    (K, N) and ``status`` (K,)."""
+    ws = make_workspace()
+    for k in range(thetas.shape[0]):
+        status[k] = follow_branch_in_steps(ws, q_previous[k], thetas[k], P, min_abs_s, max_step)
+        for i in range(N_COORDINATES):
+            q_out[k, i] = ws.q[BASE, i]
 
 
 @njit(cache=True)
