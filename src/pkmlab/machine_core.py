@@ -138,6 +138,7 @@ class Workspace(NamedTuple):
     work: np.ndarray  # (m - 2,)
     rhs: np.ndarray  # (m,)
     target: np.ndarray  # (n,) the actuators of a sub-step of follow_branch_in_steps
+    step: np.ndarray  # (n,) the actuators' step of follow_branch's predictor
 
 
 BASE = 0
@@ -215,7 +216,7 @@ def make_workspace():
                      np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
                      np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((r, r)),
                      np.zeros(r, np.int64), np.zeros((N, n)), np.zeros(1, np.int64), np.zeros((2, r)),
-                     np.zeros((2, r)), np.zeros((r, r)), np.zeros(r), np.zeros(m), np.zeros(n))
+                     np.zeros((2, r)), np.zeros((r, r)), np.zeros(r), np.zeros(m), np.zeros(n), np.zeros(n))
 
 
 @njit(**NO_REFCOUNT)
@@ -291,7 +292,8 @@ def follow_branch(ws, theta, P, min_abs_s):
     with the base's ``Jηφ`` (Newton's method if that is slow to converge).
 
     Fails (``SINGULAR``) when ``|S|`` falls below ``min_abs_s`` or changes sign on the way — the step
-    would have crossed a gain-type singularity into another assembly mode.
+    would have crossed a gain-type singularity into another assembly mode. Actuator angles may be given
+    modulo 2π: the step is taken the shorter way round.
     """
     n = N_ACTUATORS
     base = ws.q[BASE]
@@ -301,10 +303,18 @@ def follow_branch(ws, theta, P, min_abs_s):
             return SINGULAR
         actuated_jacobian(ws, ws.j_q_theta)
         keep_base_factors(ws)
+    for j in range(n):
+        d = theta[j] - base[j]
+        if ANGLES[j]:  # an angle may be given modulo 2π: the step the shorter way round (exact when it is)
+            if d > np.pi:
+                d -= 2.0 * np.pi
+            elif d < -np.pi:
+                d += 2.0 * np.pi
+        ws.step[j] = d
     for i in range(N_COORDINATES):
         acc = base[i]
         for j in range(n):
-            acc += ws.j_q_theta_base[i, j] * (theta[j] - base[j])
+            acc += ws.j_q_theta_base[i, j] * ws.step[j]
         trial[i] = acc
     for j in range(n):
         trial[j] = theta[j]
