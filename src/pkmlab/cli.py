@@ -1014,6 +1014,24 @@ def _note(args):
     return say
 
 
+def _with_notes(args):
+    """Run the command; what pkmlab's general methods warn of (an assembly mode that may be missing) is
+    said as one note line each, other warnings as Python shows them."""
+    import warnings
+
+    from .errors import IncompleteSolutionWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", IncompleteSolutionWarning)
+        result = args.func(args)
+    for w in caught:
+        if issubclass(w.category, IncompleteSolutionWarning):
+            _note(args)(str(w.message))
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    return result
+
+
 def _run(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -1021,7 +1039,7 @@ def _run(argv: list[str] | None) -> int:
         _check_finite(args)
         _check_mode(args)
         _compile_notice(args)
-        result = args.func(args)
+        result = _with_notes(args)
     except PkmlabError as exc:
         if getattr(args, "json", False):
             print(json.dumps({"error": {"type": type(exc).__name__, "message": str(exc)}}))

@@ -46,6 +46,11 @@ class AssemblyError(PkmlabError, ValueError):
     """Actuated angles for which the mechanism cannot be assembled (no forward solution)."""
 
 
+class IncompleteSolutionWarning(UserWarning):
+    """A general method found solutions but cannot guarantee that it found all of them (e.g. forward
+    kinematics near a double root): the message says where."""
+
+
 def shown(value, limit: int = 80) -> str:
     """``repr(value)`` on one line, shortened: whatever a user passes, the message stays one line."""
     try:

@@ -429,10 +429,25 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
     """Every assembly mode ``[(q, S), ...]`` (sorted by the platform's angle) at ``actuators``.
 
     A rigid platform on three legs each holding its attachment point on a circle
-    (:func:`~pkmlab.mechanisms.leg_types.leg_circle`): the roots of one degree-6 polynomial
-    (:func:`~pkmlab.mechanisms.rrr3.three_circles`, the paper's eq. 12 in Gosselin's general
-    form), each polished by Newton's method on ``η = 0``; a five-bar: two circles.
+    (:func:`~pkmlab.mechanisms.leg_types.leg_circle`: the leg types with a closed form): the roots of
+    one degree-6 polynomial (:func:`~pkmlab.mechanisms.rrr3.three_circles`, the paper's eq. 12 in
+    Gosselin's general form), each polished by Newton's method on ``η = 0``; a five-bar: two circles.
+    Any other machine: the general method of :func:`forward_kinematics_general`, which warns
+    (:class:`~pkmlab.errors.IncompleteSolutionWarning`) where it cannot guarantee that it found every
+    assembly mode.
     """
+    from .mechanisms.leg_types import _SOLVERS
+
+    if any(leg.notation not in _SOLVERS for leg in model.description.legs):
+        solutions, doubt = forward_kinematics_general(model, actuators)
+        if doubt:
+            import warnings
+
+            from .errors import IncompleteSolutionWarning
+
+            warnings.warn(f"forward kinematics at actuators {np.round(np.asarray(actuators, float), 6).tolist()}: "
+                          f"{doubt}: an assembly mode there may be missing", IncompleteSolutionWarning, stacklevel=2)
+        return solutions
     from .mechanisms import rrr3
     from .mechanisms.description import attachment_point
     from .mechanisms.leg_types import leg_circle, leg_coordinates
@@ -480,6 +495,175 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
         if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-6 for other, _s in solutions):
             solutions.append((wrapped, singularity_measure(model, wrapped)))
     return sorted(solutions, key=lambda sol: sol[0][-1])
+
+
+#: The general forward kinematics samples the platform's orientation at this many points in a turn.
+FK_SAMPLES = 2881
+
+
+def _intersections(first, second):
+    """Points (..., 2 branches, 2) common to two loci given as ``(kind, A (..., 2), B (..., 2))`` (a circle of
+    centre ``A`` and radius ``|B|``, or the line through ``A`` along ``B``); NaN where there is none. The
+    branches keep their identity as the loci move (the sign of the square root)."""
+    kind1, a1, b1 = first
+    kind2, a2, b2 = second
+    if kind1 == "line" and kind2 == "circle":
+        return _intersections(second, first)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if kind1 == "circle" and kind2 == "circle":
+            r1, r2 = np.hypot(*np.moveaxis(b1, -1, 0)), np.hypot(*np.moveaxis(b2, -1, 0))
+            d = a2 - a1
+            dist = np.hypot(d[..., 0], d[..., 1])
+            along = (r1 * r1 - r2 * r2 + dist * dist) / (2 * dist)
+            across = np.sqrt(r1 * r1 - along * along)
+            e = d / dist[..., None]
+            n = np.stack([-e[..., 1], e[..., 0]], axis=-1)
+            base = a1 + along[..., None] * e
+            return np.stack([base + across[..., None] * n, base - across[..., None] * n], axis=-2)
+        if kind1 == "circle":  # the line a2 + t b2 on the circle (a1, |b1|)
+            w = a2 - a1
+            uu = (b2 * b2).sum(axis=-1)
+            half = (b2 * w).sum(axis=-1)
+            disc = np.sqrt(half * half - uu * ((w * w).sum(axis=-1) - (b1 * b1).sum(axis=-1)))
+            return np.stack([a2 + ((-half + disc) / uu)[..., None] * b2, a2 + ((-half - disc) / uu)[..., None] * b2],
+                            axis=-2)
+        cross = b1[..., 0] * b2[..., 1] - b1[..., 1] * b2[..., 0]  # two lines: one point, or none if parallel
+        w = a2 - a1
+        t = (w[..., 0] * b2[..., 1] - w[..., 1] * b2[..., 0]) / cross
+        point = np.where(np.abs(cross)[..., None] > 0, a1 + t[..., None] * b1, np.nan)
+        return np.stack([point, np.full_like(point, np.nan)], axis=-2)
+
+
+def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[tuple[np.ndarray, float]], str]:
+    """Every assembly mode of any machine whose legs hold their ends on circles or lines
+    (:class:`~pkmlab.mechanisms.leg_types.Locus`), and a doubt: ``""`` when the method guarantees that it
+    found all of them, else where it cannot.
+
+    A point platform on two legs: the intersections of their two loci (complete). A rigid platform on three
+    legs: for each orientation ``α`` of a fine grid over a turn, the attachment point ``p1`` is where leg 1's
+    locus meets leg 2's moved by ``-R(α)(a2 - a1)`` (at most two branches), and ``f(α)``, how far
+    ``p1 + R(α)(a3 - a1)`` is off leg 3's locus, vanishes at the assembly modes: every sign change of ``f``
+    along a branch is refined by bisection in ``α`` and polished by Newton's method on ``η = 0``. What a
+    grid cannot see is said: ``|f|`` touching zero without changing sign (a double root, at a singularity),
+    or a sign change where a branch ends (a root where two of the loci become tangent).
+    """
+    from .mechanisms.description import attachment_points
+    from .mechanisms.leg_types import Locus
+
+    m = model.description
+    theta = np.asarray(actuators, dtype=float)
+    if theta.shape != (model.n_actuators,) or not np.all(np.isfinite(theta)):
+        raise InvalidParameterError(f"actuators must be {model.n_actuators} finite values, got "
+                                    f"{np.asarray(actuators).tolist()}")
+    loci = [Locus(leg, i) for i, leg in enumerate(m.legs)]
+    shapes = [(locus.kind, *locus.at(t)) for locus, t in zip(loci, theta, strict=True)]
+    na, doubt, candidates = model.n_actuators, "", []
+    if m.platform.kind == "point":
+        for point in _intersections(*shapes):
+            if np.all(np.isfinite(point)):
+                candidates.append(np.array([*point, 0.0]))
+    else:
+        a = np.array(m.platform.attachments)
+        kind3, c3, b3 = shapes[2]
+        scale = np.hypot(*b3) if kind3 == "circle" else 1.0
+
+        def branches(alpha):
+            c, s = np.cos(alpha)[..., None], np.sin(alpha)[..., None]
+
+            def turn(v):
+                return np.concatenate([c * v[0] - s * v[1], s * v[0] + c * v[1]], axis=-1)
+
+            kind2, a2, b2 = shapes[1]
+            moved = a2 - turn(a[1] - a[0])
+            p1 = _intersections(shapes[0], (kind2, moved, np.broadcast_to(b2, moved.shape)))
+            q3 = p1 + turn(a[2] - a[0])[..., None, :]
+            d = q3 - c3
+            off = ((d * d).sum(axis=-1) - (b3 * b3).sum()) / (2 * scale) if kind3 == "circle" else \
+                (b3[0] * d[..., 1] - b3[1] * d[..., 0]) / np.hypot(*b3)
+            return p1, off  # (..., 2, 2), (..., 2)
+
+        grid = np.linspace(-np.pi, np.pi, FK_SAMPLES)
+        _p1, f = branches(grid)  # (G, 2)
+        size = float(np.ptp(a, axis=0).max()) or 1.0
+
+        def value(alpha, b):
+            return branches(np.array(alpha))[1][b]
+
+        def root(b, start, end):
+            """Bisection on branch ``b`` between orientations where ``f`` has opposite signs (``end`` may be
+            where the branch ends): the pose there."""
+            f_start = value(start, b)
+            for _ in range(60):
+                mid = 0.5 * (start + end)
+                f_mid = value(mid, b)
+                if np.isfinite(f_mid) and np.sign(f_mid) == np.sign(f_start):
+                    start, f_start = mid, f_mid
+                else:
+                    end = mid
+            alpha = 0.5 * (start + end) if np.isfinite(value(0.5 * (start + end), b)) else start
+            p1 = branches(np.array(alpha))[0][b]
+            c, s = math.cos(alpha), math.sin(alpha)
+            return np.array([p1[0] - (c * a[0, 0] - s * a[0, 1]), p1[1] - (s * a[0, 0] + c * a[0, 1]), alpha])
+
+        for b in range(2):
+            fb = f[:, b]
+            finite = np.isfinite(fb)
+            both = finite[:-1] & finite[1:]
+            for k in np.flatnonzero(both & (np.sign(fb[:-1]) * np.sign(fb[1:]) <= 0) & (fb[:-1] != fb[1:])):
+                candidates.append(root(b, grid[k], grid[k + 1]))
+            # where the branch ends (two legs' loci become tangent), between the last sample and the end
+            for k in np.flatnonzero(finite[:-1] != finite[1:]):
+                inside, outside = (k, k + 1) if finite[k] else (k + 1, k)
+                last, gone = grid[inside], grid[outside]
+                for _ in range(60):  # the end of the branch
+                    mid = 0.5 * (last + gone)
+                    last, gone = (mid, gone) if np.isfinite(value(mid, b)) else (last, mid)
+                f_end = value(last, b)
+                if np.sign(f_end) != np.sign(fb[inside]):
+                    candidates.append(root(b, grid[inside], last))
+                elif abs(f_end) < 1e-7 * size and not doubt:
+                    doubt = f"|f| nearly vanishes at alpha = {last:.6g} rad, where two legs' loci become tangent"
+            # what the grid cannot see: f dipping towards zero between samples of one sign, where two roots
+            # may lie closer than the grid's step, or one double root (at a singularity)
+            inner = both[:-1] & both[1:]
+            dips = np.flatnonzero(inner & (np.abs(fb[1:-1]) <= np.abs(fb[:-2])) & (np.abs(fb[1:-1]) <= np.abs(fb[2:]))
+                                  & (np.sign(fb[:-2]) == np.sign(fb[1:-1])) & (np.sign(fb[1:-1]) == np.sign(fb[2:])))
+            for k in dips + 1:
+                sign = np.sign(fb[k])
+                lo, hi = grid[k - 1], grid[k + 1]
+                for _ in range(80):  # golden section for the dip's bottom
+                    x1, x2 = hi - 0.618034 * (hi - lo), lo + 0.618034 * (hi - lo)
+                    if sign * value(x1, b) < sign * value(x2, b):
+                        hi = x2
+                    else:
+                        lo = x1
+                bottom = 0.5 * (lo + hi)
+                depth = sign * value(bottom, b)
+                if depth < 0:  # two roots in one step of the grid
+                    candidates += [root(b, grid[k - 1], bottom), root(b, bottom, grid[k + 1])]
+                elif depth < 1e-10 * size:  # a double root: one assembly mode, at a singularity
+                    candidates.append(root(b, bottom, bottom))
+    solutions = []
+    for pose in candidates:
+        pose = pose[:m.dof]
+        passive = []
+        for i, (leg, locus) in enumerate(zip(m.legs, loci, strict=True)):
+            points = attachment_points(m, i, pose[None, :])
+            coords = [0.0, 0.0]
+            coords[leg.actuated], coords[locus.passive] = theta[i], float(locus.passive_coordinate(theta[i],
+                                                                                                   points)[0])
+            passive += [v for k, v in enumerate(coords) if k != leg.actuated]
+        q = np.array([*theta, *passive, *pose])
+        _newton_passive(model, q, 1e-15)  # polish
+        if np.max(np.abs(constraint_residual(model, q))) > 1e-12:
+            continue
+        wrapped = q.copy()
+        angular = np.array(model.kernels.ANGLES)
+        angular[:na] = False  # the actuators stay as given
+        wrapped[angular] = np.angle(np.exp(1j * wrapped[angular]))
+        if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-6 for other, _s in solutions):
+            solutions.append((wrapped, singularity_measure(model, wrapped)))
+    return sorted(solutions, key=lambda sol: sol[0][-1]), doubt
 
 
 # ------------------------------------------------------------------ along a path

@@ -174,7 +174,8 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
             rail = np.array([pts[0] + lo * u, pts[0] + hi * u])
             ax.plot(rail[:, 0], rail[:, 1], color="0.5", lw=4, alpha=0.5, solid_capstyle="butt",
                     label="rails" if first else None)
-            ax.plot(*pts[1], "s", color="tab:blue", ms=9, label="actuated sliders" if first else None)
+            ax.plot(*pts[1], "s", color="tab:blue", ms=9,
+                    label=("actuated sliders" if leg.joints[0].actuated else "sliders") if first else None)
             ax.plot(pts[1:, 0], pts[1:, 1], color="tab:orange", lw=2, label="passive links" if first else None)
         elif leg.joints[1].kind == "P":  # telescopic: the cylinder from the base, the rod to the platform
             end = pts[-1]
@@ -184,7 +185,7 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
             ax.plot([pts[0, 0], sleeve[0]], [pts[0, 1], sleeve[1]], color="tab:blue", lw=6, alpha=0.7,
                     solid_capstyle="butt", label="cylinders" if first else None)
             ax.plot([pts[0, 0], end[0]], [pts[0, 1], end[1]], color="tab:orange", lw=2,
-                    label="actuated rods" if first else None)
+                    label=("actuated rods" if leg.joints[1].actuated else "rods") if first else None)
         else:  # R*RR: the actuated link, then the passive one
             ax.plot(pts[:2, 0], pts[:2, 1], color="tab:blue", lw=3, label="actuated links" if first else None)
             ax.plot(pts[1:, 0], pts[1:, 1], color="tab:orange", lw=2, label="passive links" if first else None)

@@ -124,11 +124,12 @@ def derive(mechanism: Mechanism) -> dict:
     alpha = pose[2] if mechanism.dof == 3 else sp.Integer(0)
     platform_rot = sp.Matrix([[sp.cos(alpha), -sp.sin(alpha)], [sp.sin(alpha), sp.cos(alpha)]])
     passive = iter(q[n:len(q) - mechanism.dof])
-    eta, bodies, joints = [], [], []
+    eta, bodies, joints, slides = [], [], [], []
     for i, leg in enumerate(mechanism.legs):
         point = sp.Matrix([P[f"base{i + 1}_x"], P[f"base{i + 1}_y"]])
         direction, unit = sp.Integer(0), (sp.Integer(1), sp.Integer(0))  # the last body's angle, (cos, sin)
         joints.append([])
+        slides.append({})  # the direction of each prismatic joint's slide
         for k, (joint, _body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
             joints[i].append(point)
             coordinate = q[i] if joint.actuated else next(passive)
@@ -139,6 +140,7 @@ def derive(mechanism: Mechanism) -> dict:
                     unit = (P[f"rail{i + 1}_x"], P[f"rail{i + 1}_y"])
                     direction = sp.atan2(unit[1], unit[0])
                 origin = point + coordinate * sp.Matrix(unit)
+                slides[i][k] = unit
             rot = sp.Matrix([[unit[0], -unit[1]], [unit[1], unit[0]]])
             pre = f"body{i + 1}_{k + 1}"
             com = origin + rot * sp.Matrix([P[f"{pre}_com_x"], P[f"{pre}_com_y"]])
@@ -155,24 +157,26 @@ def derive(mechanism: Mechanism) -> dict:
     else:
         bodies.append((pose[0], pose[1], sp.Integer(0)))  # a payload at the point: it does not turn
     return {"q": q, "qd": qd, "P": P, "eta": eta, "bodies": bodies, "joints": joints,
-            "lines": _leg_lines(mechanism, P, pose, joints)}
+            "lines": _leg_lines(mechanism, P, pose, joints, slides)}
 
 
-def _leg_lines(mechanism: Mechanism, P: dict, pose, joints):
+def _leg_lines(mechanism: Mechanism, P: dict, pose, joints, slides):
     """The lines along which the legs push the platform, and the platform's size.
 
-    Leg ``i`` pushes along the line through its attachment point ``p_i`` and its last revolute
-    joint before it, ``c_i`` (the elbow of an RRR or PRR leg, the base pivot of a telescopic RPR
-    leg). Returns, per leg, ``(p_i - p, p_i - c_i)`` (``p`` the tracked point) as 4 expressions, and
-    ``ℓ``, the mean distance between the attachment points (1 for a point platform): what
+    With its actuator held, a leg is its passive joint and the platform's revolute: a two-force member.
+    Its passive joint a revolute at ``c_i`` (the elbow of an RRR or PRR leg, the base pivot of a
+    telescopic RPR leg), it pushes along the line from ``c_i`` through the attachment point ``p_i``; a
+    prismatic joint sliding along ``u_i``, across the slide: along ``u_i`` turned by 90°, through ``p_i``.
+    Returns, per leg, ``(p_i - p, direction)`` (``p`` the tracked point) as 4 expressions, and ``ℓ``, the
+    mean distance between the attachment points (1 for a point platform): what
     :func:`pkmlab.machine_core.singularity_measure` needs.
     """
     import sympy as sp
 
     lines = []
-    for leg, points in zip(mechanism.legs, joints, strict=True):
-        last_r = max(k for k, j in enumerate(leg.joints[:-1]) if j.kind == "R")
-        d = points[-1] - points[last_r]
+    for leg, points, slide in zip(mechanism.legs, joints, slides, strict=True):
+        k = max(k for k, j in enumerate(leg.joints[:-1]) if not j.actuated)  # the passive joint before the platform
+        d = points[-1] - points[k] if leg.joints[k].kind == "R" else sp.Matrix([-slide[k][1], slide[k][0]])
         lines += [points[-1][0] - pose[0], points[-1][1] - pose[1], d[0], d[1]]
     if mechanism.platform.kind == "point":
         return lines, sp.Integer(1)

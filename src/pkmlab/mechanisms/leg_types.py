@@ -11,6 +11,11 @@ machines has a closed-form solution, with at most two branches:
   slider beyond the foot of the perpendicular from the attachment point to the rail (the larger
   displacement), ``-1`` for the smaller.
 
+Any other leg of an actuator, one passive joint and the platform's revolute (``R*PR``, ``RR*R``,
+``PR*R``, ...) is solved by a general method (:class:`Locus`, :func:`_general`): with its actuator
+held the leg's end lies on a circle or a line, and the actuator values that put the attachment point
+on it are bracketed on a fine grid and bisected; checked against the three closed forms by the tests.
+
 Each solver returns the leg's joint coordinates in joint order (the actuated one included), or
 raises :class:`~pkmlab.errors.UnreachablePoseError` naming the leg (out of reach, or outside its
 actuator's stroke).
@@ -30,17 +35,18 @@ BRANCHES = {"R*RR": 2, "RP*R": 1, "P*RR": 2}
 
 
 def working_modes(leg: Leg) -> tuple[int, ...]:
-    """The working modes of ``leg``: ``(1, -1)`` for a two-branch leg, ``()`` for a single solution."""
+    """The working modes of ``leg``: ``(1, -1)`` for a two-branch leg (every leg solved by the general method
+    is one), ``()`` for a single solution."""
     _solver(leg, 0)
-    return (1, -1) if BRANCHES[leg.notation] == 2 else ()
+    return (1, -1) if BRANCHES.get(leg.notation, 2) == 2 else ()
 
 
 def _solver(leg: Leg, number: int):
-    try:
+    """The leg type's closed form, or for any other leg the general method (:func:`_general`)."""
+    if leg.notation in _SOLVERS:
         return _SOLVERS[leg.notation]
-    except KeyError:
-        raise InvalidParameterError(f"leg {number + 1}: no closed-form inverse kinematics for a {leg.notation} leg "
-                                    f"(known: {', '.join(_SOLVERS)})") from None
+    Locus(leg, number)  # refuses a leg the general method cannot take, naming it
+    return _general
 
 
 def _polar(tip) -> tuple[float, float]:
@@ -134,6 +140,134 @@ def _prr(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
 
 
 _SOLVERS = {"R*RR": _rrr, "RP*R": _rpr, "P*RR": _prr}
+
+
+# ------------------------------------------------------------------ any other leg: its locus and a general method
+class Locus:
+    """Where the end of a leg can be with its actuator held, as a function of the actuator value ``a``.
+
+    A leg whose joints are its actuator, one passive joint and the platform's revolute has its end on a
+    **circle** when that passive joint is a revolute (``end = centre + R(φ) v``, ``φ`` the passive angle)
+    and on a **line** when it is prismatic (``end = point + s u``, ``s`` the slide). The centre or point
+    ``A(a)`` and the vector ``B(a)`` (``v`` or ``u``) are ``X0 + R(a) X1`` for a revolute actuator (an
+    absolute angle turns what follows it) and ``X0 + a X1`` for a prismatic one: both are read off the
+    leg's chain (:func:`~pkmlab.mechanisms.description.leg_chain`) at two actuator values, for any leg type.
+    """
+
+    def __init__(self, leg: Leg, number: int):
+        from .description import leg_chain
+
+        passive = [k for k, j in enumerate(leg.joints[:-1]) if not j.actuated]
+        if len(passive) != 1:
+            raise InvalidParameterError(f"leg {number + 1} ({leg.notation}): a leg of pkmlab has its actuator, one "
+                                        f"passive joint and the platform's revolute, got {len(passive)} passive "
+                                        "joints before the platform")
+        self.leg, self.number, self.passive = leg, number, passive[0]
+        self.kind = "circle" if leg.joints[self.passive].kind == "R" else "line"
+        self.angle = leg.joints[leg.actuated].kind == "R"
+
+        def end(a, phi):
+            coords = [0.0, 0.0]
+            coords[leg.actuated], coords[self.passive] = a, phi
+            return np.array(leg_chain(leg, coords)[-1][0])
+
+        def parts(a):  # (A, B) at actuator a
+            if self.kind == "circle":
+                e0, e_pi = end(a, 0.0), end(a, math.pi)
+                return (e0 + e_pi) / 2, (e0 - e_pi) / 2
+            e0 = end(a, 0.0)
+            return e0, end(a, 1.0) - e0
+
+        (a0, b0), (a1, b1) = parts(0.0), parts(math.pi if self.angle else 1.0)
+        if self.angle:  # f(0) = X0 + X1, f(π) = X0 - X1
+            self.A, self.B = ((a0 + a1) / 2, (a0 - a1) / 2), ((b0 + b1) / 2, (b0 - b1) / 2)
+        else:  # f(0) = X0, f(1) = X0 + X1
+            self.A, self.B = (a0, a1 - a0), (b0, b1 - b0)
+        if np.hypot(*self.B[0]) + np.hypot(*self.B[1]) == 0.0:
+            raise InvalidParameterError(f"leg {number + 1} ({leg.notation}): its passive joint does not move its end")
+
+    def at(self, a) -> tuple[np.ndarray, np.ndarray]:
+        """``A(a)``, ``B(a)`` (..., 2) for actuator values ``a`` (...)."""
+        a = np.asarray(a, dtype=float)[..., None]
+        out = []
+        for x0, x1 in (self.A, self.B):
+            if self.angle:
+                c, s = np.cos(a), np.sin(a)
+                out.append(x0 + np.concatenate([c * x1[0] - s * x1[1], s * x1[0] + c * x1[1]], axis=-1))
+            else:
+                out.append(x0 + a * x1)
+        return out[0], out[1]
+
+    def gap(self, a, points) -> np.ndarray:
+        """How far ``points`` (..., 2) are off the locus at actuator ``a`` (...): ``|p - A|² - |B|²`` for a circle,
+        ``B × (p - A)`` for a line (zero on the locus, changing sign across it)."""
+        centre, b = self.at(a)
+        d = points - centre
+        if self.kind == "circle":
+            return (d * d).sum(axis=-1) - (b * b).sum(axis=-1)
+        return b[..., 0] * d[..., 1] - b[..., 1] * d[..., 0]
+
+    def passive_coordinate(self, a, points) -> np.ndarray:
+        """The passive coordinate that puts the end at ``points``, on the locus at ``a``."""
+        centre, b = self.at(a)
+        d = points - centre
+        if self.kind == "circle":
+            return np.arctan2(d[..., 1], d[..., 0]) - np.arctan2(b[..., 1], b[..., 0])
+        return (d * b).sum(axis=-1) / (b * b).sum(axis=-1)
+
+    def domain(self) -> tuple[float, float]:
+        """The actuator values searched: its stroke, else a full turn (an angle) or the leg's reach (a slide)."""
+        if self.leg.stroke is not None:
+            return self.leg.stroke
+        if self.angle:
+            return -math.pi, math.pi
+        reach = sum(math.hypot(*b.tip) for b in self.leg.bodies) + 10.0 * (1.0 + math.hypot(*self.leg.base))
+        return -reach, reach
+
+
+#: The general method samples the actuator's domain at this many points before bisecting each sign change.
+GENERAL_SAMPLES = 1441
+
+
+def _general(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
+    """Inverse kinematics of any leg of :class:`Locus` form, by a general method: the attachment point lies on
+    the leg's locus for the actuator values where :meth:`Locus.gap` vanishes; they are bracketed by its sign
+    changes on a fine grid over the actuator's domain and refined by bisection to round-off. A leg has two
+    such values in general: working mode ``σ = +1`` for the one where the gap grows with the actuator value,
+    ``-1`` where it falls. More than one value of the asked sign is refused (the working mode would be
+    ambiguous)."""
+    locus = Locus(leg, number)
+    lo, hi = locus.domain()
+    grid = np.linspace(lo, hi, GENERAL_SAMPLES)
+    gaps = locus.gap(grid[None, :], point[:, None, :])  # (K, G)
+    crossing = np.sign(gaps[:, :-1]) * np.sign(gaps[:, 1:]) < 0
+    rising = gaps[:, 1:] > gaps[:, :-1]
+    wanted = crossing & (rising if sigma > 0 else ~rising)
+    count = wanted.sum(axis=1)
+    first = np.argmax(wanted, axis=1)
+    k_all = np.arange(point.shape[0])
+    left, right = grid[first], grid[first + 1]
+    g_left = gaps[k_all, first]
+    for _ in range(60):  # bisection to the last bit
+        middle = 0.5 * (left + right)
+        g_mid = locus.gap(middle, point)
+        same = np.sign(g_mid) == np.sign(g_left)
+        left, g_left = np.where(same, middle, left), np.where(same, g_mid, g_left)
+        right = np.where(same, right, middle)
+    actuator = 0.5 * (left + right)
+    passive = locus.passive_coordinate(actuator, point)
+    bad = count != 1
+
+    def why(k):
+        if count[k] == 0:
+            return (f"leg {number + 1} ({leg.notation}) reaches the attachment point ({point[k, 0]:.6g}, "
+                    f"{point[k, 1]:.6g}) in working mode {sigma:+d} with no actuator value in [{lo:.6g}, {hi:.6g}]")
+        return (f"leg {number + 1} ({leg.notation}) reaches ({point[k, 0]:.6g}, {point[k, 1]:.6g}) with {count[k]} "
+                f"actuator values of working mode {sigma:+d}: its working mode is ambiguous there")
+
+    coordinates = np.empty((point.shape[0], 2))
+    coordinates[:, leg.actuated], coordinates[:, locus.passive] = actuator, passive
+    return _Solved(coordinates, bad, why)
 
 
 def leg_inverse_kinematics_batch(leg: Leg, number: int, points, sigma: int = 1) -> _Solved:

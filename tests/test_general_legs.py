@@ -1,0 +1,193 @@
+"""Legs with no closed form of their own: pkmlab's general method — each leg's locus (a circle or a
+line), its inverse kinematics by bracketing and bisection, forward kinematics by a sweep of the
+platform's orientation. Checked against the closed forms of the presets' leg types, and on a 3-R*PR
+machine read from its own file against a multi-start Newton search and the geometry of its legs' lines."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import pkmlab
+from pkmlab import mechanism_model as mm
+from pkmlab.mechanisms import leg_types as lt
+from pkmlab.mechanisms.description import load_mechanism
+from pkmlab.mechanisms.presets import PRESETS, preset
+from pkmlab.scenario_io import scenario_from_dict
+from pkmlab.simulation import simulate
+
+# actuated revolutes at the paper's base pivots, a passive slide along each leg: a 3-R*PR
+R_PR = """
+[mechanism]
+name = "3-R*PR"
+
+[mechanism.platform]
+kind = "rigid"
+attachments = [[-0.0625, -0.036084391824351615], [0.0625, -0.036084391824351615], [0.0, 0.07216878364870323]]
+mass = 0.234
+inertia = 0.305e-3
+
+[[mechanism.leg]]
+base = [0.0, 0.0]
+joints = "R*PR"
+bodies = [{ tip = [0.02, 0.0], mass = 0.5, com = [0.08, 0.0], inertia = 1.5e-3 },
+          { tip = [0.0, 0.0], mass = 0.25, com = [-0.06, 0.0], inertia = 0.6e-3 }]
+
+[[mechanism.leg]]
+base = [0.52, 0.0]
+joints = "R*PR"
+bodies = [{ tip = [0.02, 0.0], mass = 0.5, com = [0.08, 0.0], inertia = 1.5e-3 },
+          { tip = [0.0, 0.0], mass = 0.25, com = [-0.06, 0.0], inertia = 0.6e-3 }]
+
+[[mechanism.leg]]
+base = [0.26, 0.45033320996790803]
+joints = "R*PR"
+bodies = [{ tip = [0.02, 0.0], mass = 0.5, com = [0.08, 0.0], inertia = 1.5e-3 },
+          { tip = [0.0, 0.0], mass = 0.25, com = [-0.06, 0.0], inertia = 0.6e-3 }]
+"""
+
+
+@pytest.fixture(scope="module")
+def r_pr(tmp_path_factory):
+    path = tmp_path_factory.mktemp("machine") / "r_pr.toml"
+    path.write_text(R_PR)
+    return path, mm.MechanismModel.from_description(load_mechanism(path))
+
+
+def _wrapped_gap(a, b, angles):
+    d = np.abs(a - b)
+    return np.where(angles, np.abs(np.angle(np.exp(1j * (a - b)))), d)
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_the_general_leg_method_finds_exactly_the_closed_forms_solutions(name):
+    rng = np.random.default_rng(11)
+    m = preset(name)
+    for i, leg in enumerate(m.legs):
+        angles = np.array([j.kind == "R" for j in leg.joints[:-1]])
+        points = np.array(leg.base) + rng.uniform(-0.45, 0.45, (300, 2))
+        closed = [lt._SOLVERS[leg.notation](leg, i, points, sigma) for sigma in (lt.working_modes(leg) or (1,))]
+        general = [lt._general(leg, i, points, sigma) for sigma in (1, -1)]
+        for k in range(len(points)):
+            mine = {tuple(np.round(g.coordinates[k], 9)) for g in general if not g.bad[k]}
+            theirs = [c.coordinates[k] for c in closed if not c.bad[k]]
+            # every closed-form solution is one of the general method's, and no more of them
+            assert len(mine) == len({tuple(np.round(c, 9)) for c in theirs}), (name, i, k)
+            for c in theirs:
+                assert min(_wrapped_gap(np.array(g), c, angles).max() for g in mine) < 1e-9
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_the_general_forward_kinematics_finds_the_polynomials_assembly_modes(name):
+    model = mm.MechanismModel.from_preset(name)
+    rng = np.random.default_rng(5)
+    centre = {"paper": [0.2, 0.2, 0.0], "five_bar": [0.0, 0.35], "3rpr": [0.25, 0.2, -1.2],
+              "3prr": [0.26, 0.15, 0.0]}[name]
+    modes, checked = mm.working_modes(model), 0
+    for trial in range(80):
+        if checked == 6:
+            break
+        pose = np.array(centre) + rng.normal(0.0, 0.03, len(centre))
+        try:
+            q = mm.inverse_kinematics(model, pose, modes[trial % len(modes)])
+        except pkmlab.UnreachablePoseError:
+            continue
+        closed = mm.forward_kinematics(model, q[:model.n_actuators])
+        general, doubt = mm.forward_kinematics_general(model, q[:model.n_actuators])
+        assert doubt == "" and len(general) == len(closed)
+        for qc, _s in closed:
+            gaps = [np.abs(np.angle(np.exp(1j * (qg - qc)))).max() for qg, _s in general]
+            assert min(gaps) < 1e-9
+        checked += 1
+    assert checked == 6
+
+
+def test_the_general_forward_kinematics_reports_a_double_root_once():
+    """At alpha = 0 the 3-RPR preset is singular: the pose is a double root, which no sign change shows."""
+    model = mm.MechanismModel.from_preset("3rpr")
+    q = mm.inverse_kinematics(model, [0.24, 0.17, 0.0], ())
+    found, _doubt = mm.forward_kinematics_general(model, q[:3])
+    near = [s for s in found if np.hypot(*(s[0][-3:-1] - [0.24, 0.17])) < 1e-5]
+    assert len(near) == 1
+
+
+def _newton_search(model, theta, starts, rng):
+    """Assembly modes by Newton's method from many random starts: an independent, polynomial-free search."""
+    found = []
+    for _ in range(starts):
+        q = np.array([*theta, *rng.uniform(-math.pi, math.pi, 3), *rng.uniform(0.0, 0.45, 2), rng.uniform(-3, 3)])
+        q[3:6] = rng.uniform(-0.6, 0.6, 3)  # the slides
+        for _ in range(40):
+            eta = mm.constraint_residual(model, q)
+            if np.max(np.abs(eta)) < 1e-13:
+                break
+            q[3:] -= np.linalg.lstsq(mm.constraint_jacobian(model, q)[:, 3:], eta, rcond=None)[0]
+        if np.all(np.isfinite(q)) and np.max(np.abs(mm.constraint_residual(model, q))) < 1e-12:
+            pose = q[-3:].copy()
+            pose[2] = math.remainder(pose[2], 2 * math.pi)
+            if all(np.max(np.abs(pose - p)) > 1e-7 for p in found):
+                found.append(pose)
+    return found
+
+
+def test_a_3_rpr_with_actuated_revolutes_round_trips_in_every_working_mode(r_pr):
+    _path, model = r_pr
+    assert len(mm.working_modes(model)) == 8
+    pose = np.array([0.26, 0.17, 0.3])
+    rng = np.random.default_rng(3)
+    for mode in mm.working_modes(model):
+        q = mm.inverse_kinematics(model, pose, mode)
+        assert np.max(np.abs(mm.constraint_residual(model, q))) < 1e-14
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no doubt about completeness here
+            modes = mm.forward_kinematics(model, q[:3])
+        poses = [p[-3:] for p, _s in modes]
+        assert min(np.abs(np.angle(np.exp(1j * (p - pose)))).max() for p in poses) < 1e-12
+        # every assembly mode a many-start Newton search finds is among them
+        for other in _newton_search(model, q[:3], 150, rng):
+            assert min(np.abs(np.angle(np.exp(1j * (p - other)))).max() for p in poses) < 1e-8
+
+
+def test_a_3_rpr_with_actuated_revolutes_has_the_singularity_of_its_legs_lines(r_pr):
+    """With its actuator held, an R*PR leg pushes the platform across its slide, through its attachment
+    point: S vanishes where the three such lines meet (written out here from the geometry)."""
+    _path, model = r_pr
+    m = model.description
+    rng = np.random.default_rng(8)
+    size = 0.125
+    for _ in range(20):
+        pose = np.array([0.26, 0.17, 0.0]) + rng.normal(0.0, [0.03, 0.03, 0.6])
+        q = mm.inverse_kinematics(model, pose, (1, -1, 1))
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        rows = []
+        for i in range(3):
+            ax, ay = m.platform.attachments[i]
+            r = np.array([c * ax - s * ay, s * ax + c * ay])  # attachment point from the tracked point
+            u = np.array([-math.sin(q[i]), math.cos(q[i])])  # across the slide, along which the leg points
+            rows.append([u[0], u[1], r[0] * u[1] - r[1] * u[0]])
+        expected = np.linalg.det(np.array(rows)) / size
+        assert abs(mm.singularity_measure(model, q)) == pytest.approx(abs(expected), rel=1e-9, abs=1e-12)
+
+
+def test_a_3_rpr_with_actuated_revolutes_is_controlled_from_its_file(r_pr):
+    path, _model = r_pr
+    scenario = scenario_from_dict({
+        "mechanism": {"file": str(path)},
+        "trajectory": {"type": "circle", "center": [0.26, 0.17], "radius": 0.02, "alpha": 0.3, "speed": 0.1},
+        "controller": {"kp": 1000.0, "sample_time": 0.001},
+    }, str(path.parent / "scenario.toml"))
+    result = simulate(scenario)
+    summary = result.summary()
+    assert summary["max_path_error_m"] < 1e-4 and summary["min_abs_S"] > 0.1
+    np.testing.assert_allclose(result.pose[:, :2], result.pose_d[:, :2], atol=1e-4)
+
+
+def test_a_leg_whose_actuator_does_not_move_its_end_is_refused():
+    from pkmlab.mechanisms.description import Body, Joint, Leg
+
+    leg = Leg((0.0, 0.0), (Joint("P", True, axis=0.0), Joint("P"), Joint("R")),
+              (Body((0.0, 0.0), 0.5, (0.0, 0.0), 1e-3), Body((0.1, 0.0), 0.2, (0.05, 0.0), 1e-3)), stroke=(0.0, 0.5))
+    solved = lt.leg_inverse_kinematics_batch(leg, 1, np.array([[0.3, 0.0], [0.3, 0.1]]), 1)
+    assert solved.bad.all()
+    assert "leg 2 (P*PR)" in solved.why(1)
