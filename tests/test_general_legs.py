@@ -191,3 +191,60 @@ def test_a_leg_whose_actuator_does_not_move_its_end_is_refused():
     solved = lt.leg_inverse_kinematics_batch(leg, 1, np.array([[0.3, 0.0], [0.3, 0.1]]), 1)
     assert solved.bad.all()
     assert "leg 2 (P*PR)" in solved.why(1)
+
+
+def test_an_rr_star_r_legs_line_is_its_first_link_and_S_vanishes_with_det_j_eta_phi():
+    """An RR*R leg holds its second body's angle: its first link, pinned at both ends, is a two-force member,
+    so the leg pushes the platform along the line base -> elbow (through its attachment point). S must then
+    vanish exactly where the passive coordinates stop being determined (det Jηφ = 0)."""
+    from pkmlab.mechanisms.description import Body, Joint, Leg, Mechanism
+    from pkmlab.mechanisms.presets import equilateral_base, equilateral_platform
+
+    legs = tuple(Leg(b, (Joint("R"), Joint("R", True), Joint("R")),
+                     (Body((0.25, 0.0), 0.4, (0.12, 0.0), 2e-3), Body((0.17, 0.0), 0.3, (0.08, 0.0), 7e-4)))
+                 for b in equilateral_base())
+    model = mm.MechanismModel.from_description(Mechanism("3-RR*R", legs, equilateral_platform()))
+    m = model.description
+    rng = np.random.default_rng(4)
+    signs, seen = [], 0
+    for _ in range(60):
+        pose = np.array([0.26, 0.15, 0.0]) + rng.normal(0.0, [0.03, 0.03, 0.8])
+        try:
+            q = mm.inverse_kinematics(model, pose, (1, -1, 1))
+        except pkmlab.UnreachablePoseError:
+            continue
+        seen += 1
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        rows = []
+        for i, (ax, ay) in enumerate(m.platform.attachments):
+            r = np.array([c * ax - s * ay, s * ax + c * ay])
+            u = np.array([math.cos(q[3 + i]), math.sin(q[3 + i])])  # the first link's direction (passive angle)
+            rows.append([u[0], u[1], r[0] * u[1] - r[1] * u[0]])
+        expected = np.linalg.det(np.array(rows)) / 0.125
+        measured = mm.singularity_measure(model, q)
+        assert abs(measured) == pytest.approx(abs(expected), rel=1e-9, abs=1e-12)
+        det = np.linalg.det(mm.constraint_jacobian(model, q)[:, 3:])
+        signs.append(np.sign(measured * det))
+    assert seen >= 20 and len(set(signs)) == 1  # S and det Jηφ change sign together
+
+
+def test_branch_following_refuses_a_step_rather_than_land_in_another_assembly_mode():
+    """A short step near a singularity where the chord iteration diverges: Newton's method, started from the far
+    point it reached, used to converge to a configuration whole turns away in another assembly mode."""
+    model = pkmlab.Planar3RRR.paper()
+    q_prev = np.array([0.35857836, 3.26478706, -2.08201745, 1.89909434, 1.83196474, -0.01415614, -1.17227581])
+    q_prev = pkmlab.branch_following(model, q_prev, q_prev[:3])  # onto the manifold to round-off
+    target = q_prev[:3] + np.array([0.005037, 0.00186, 0.001426])
+    try:
+        q = pkmlab.branch_following(model, q_prev, target)
+    except pkmlab.BranchFollowingError:
+        return
+    assert np.abs(np.angle(np.exp(1j * (q - q_prev)))).max() < 0.2  # if it follows, it stays near
+
+
+def test_branch_following_refuses_a_step_size_that_is_not_positive():
+    model = mm.MechanismModel.from_preset("five_bar")
+    q = mm.inverse_kinematics(model, [0.0, 0.35], (1, -1))
+    for bad in (0.0, -0.05, float("nan")):
+        with pytest.raises(pkmlab.InvalidParameterError, match="max_step"):
+            mm.branch_following(model, q, q[:2] + 0.01, max_step=bad)

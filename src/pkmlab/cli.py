@@ -1021,15 +1021,17 @@ def _with_notes(args):
 
     from .errors import IncompleteSolutionWarning
 
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", IncompleteSolutionWarning)
-        result = args.func(args)
-    for w in caught:
-        if issubclass(w.category, IncompleteSolutionWarning):
-            _note(args)(str(w.message))
-        else:
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
-    return result
+    caught: list = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", IncompleteSolutionWarning)
+            return args.func(args)
+    finally:  # said also when the command then fails, once the recording has stopped
+        for w in caught:
+            if issubclass(w.category, IncompleteSolutionWarning):
+                _note(args)(str(w.message))
+            else:
+                warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
 def _run(argv: list[str] | None) -> int:

@@ -457,9 +457,11 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
         from ._format import apart
 
         s_text, limit_text = apart(abs(s_prev), min_abs_S)  # |S| = 0.009996 is never shown as the limit 0.01
+        why = ("a gain-type singularity" if status[k] == machine.kernels.SINGULAR else
+               "no configuration found on the way (too near a singularity, or out of reach)")
         raise BranchFollowingError(
             f"cannot follow the assembly mode from q_previous (theta = {np.round(q_prev[k, :3], 6).tolist()}) "
-            f"to {np.round(thetas[k], 6).tolist()}{_index_text(k, shape)}: a gain-type singularity "
+            f"to {np.round(thetas[k], 6).tolist()}{_index_text(k, shape)}: {why} "
             f"(S = {'-' if s_prev < 0 else ''}{s_text} at the start, limit min_abs_S = {limit_text})"
         )
     return q_out.reshape(*shape, 7)

@@ -111,8 +111,11 @@ def coordinates_from_3rrr(model, q: np.ndarray) -> np.ndarray:
 
 
 def coordinates_to_3rrr(q: np.ndarray) -> np.ndarray:
-    """The inverse of :func:`coordinates_from_3rrr`: ``(θ, φ, x, y, α)`` → ``(θ, φ, α)``."""
-    return np.concatenate([q[..., :6], q[..., 8:]], axis=-1)
+    """The inverse of :func:`coordinates_from_3rrr`: ``(θ, φ, x, y, α)`` → ``(θ, φ, α)``, the passive angles ``φ``
+    in (-π, π] as the 3-RRR's kinematics gives them (``α`` stays continuous)."""
+    out = np.concatenate([q[..., :6], q[..., 8:]], axis=-1)
+    out[..., 3:6] = np.angle(np.exp(1j * out[..., 3:6]))
+    return out
 
 
 #: Grids of the assembly check: positions per axis over the machine's region, and orientations; the
@@ -369,7 +372,8 @@ def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S:
                      max_step: float = 0.05) -> np.ndarray:
     """The configuration at ``actuators`` continuously connected to ``q_previous`` (paper §3.2): the compiled
     core's :func:`~pkmlab.machine_core.follow_branch_in_steps`, the simulation's own branch following, in
-    sub-steps of at most ``max_step`` in the actuators (halved where one fails). Raises
+    sub-steps of at most ``max_step`` in the actuators (halved where one fails; an actuator angle moves the
+    shorter way round, by at most π). Raises
     :class:`~pkmlab.errors.BranchFollowingError` where the way nears a gain-type singularity
     (``|S| < min_abs_S``) or the passive coordinates cannot be found (out of reach).
     """
@@ -380,6 +384,11 @@ def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S:
     na = model.n_actuators
     if target.shape != (na,) or not np.all(np.isfinite(target)):
         raise InvalidParameterError(f"actuators must be {na} finite values, got {np.asarray(actuators).tolist()}")
+    for name, value, low in (("max_step", max_step, 0.0), ("min_abs_S", min_abs_S, -1.0)):
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+                and value > low):
+            raise InvalidParameterError(f"{name} must be a finite number {'above 0' if low == 0 else 'of 0 or more'}, "
+                                        f"got {value!r}")
     k = model.kernels
     out, status = np.empty((1, q.size)), np.zeros(1, dtype=np.int64)
     k.branch_following_batch(q[None, :], target[None, :], model.P, float(min_abs_S), float(max_step), out, status)
@@ -501,21 +510,25 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
 FK_SAMPLES = 2881
 
 
-def _intersections(first, second):
+def _intersections(first, second, touching: float = 0.0):
     """Points (..., 2 branches, 2) common to two loci given as ``(kind, A (..., 2), B (..., 2))`` (a circle of
     centre ``A`` and radius ``|B|``, or the line through ``A`` along ``B``); NaN where there is none. The
-    branches keep their identity as the loci move (the sign of the square root)."""
+    branches keep their identity as the loci move (the sign of the square root). Loci that miss each other
+    by less than ``touching`` (m) are taken as tangent: one point, on both branches."""
     kind1, a1, b1 = first
     kind2, a2, b2 = second
     if kind1 == "line" and kind2 == "circle":
-        return _intersections(second, first)
+        return _intersections(second, first, touching)
+
+    def root(square, scale):  # √square, with a round-off's worth below zero read as zero
+        return np.sqrt(np.where((square < 0) & (square > -touching * scale), 0.0, square))
     with np.errstate(invalid="ignore", divide="ignore"):
         if kind1 == "circle" and kind2 == "circle":
             r1, r2 = np.hypot(*np.moveaxis(b1, -1, 0)), np.hypot(*np.moveaxis(b2, -1, 0))
             d = a2 - a1
             dist = np.hypot(d[..., 0], d[..., 1])
             along = (r1 * r1 - r2 * r2 + dist * dist) / (2 * dist)
-            across = np.sqrt(r1 * r1 - along * along)
+            across = root(r1 * r1 - along * along, 2 * np.maximum(r1, 1e-300))
             e = d / dist[..., None]
             n = np.stack([-e[..., 1], e[..., 0]], axis=-1)
             base = a1 + along[..., None] * e
@@ -524,7 +537,8 @@ def _intersections(first, second):
             w = a2 - a1
             uu = (b2 * b2).sum(axis=-1)
             half = (b2 * w).sum(axis=-1)
-            disc = np.sqrt(half * half - uu * ((w * w).sum(axis=-1) - (b1 * b1).sum(axis=-1)))
+            disc = root(half * half - uu * ((w * w).sum(axis=-1) - (b1 * b1).sum(axis=-1)),
+                        2 * uu * np.hypot(*np.moveaxis(b1, -1, 0)))
             return np.stack([a2 + ((-half + disc) / uu)[..., None] * b2, a2 + ((-half - disc) / uu)[..., None] * b2],
                             axis=-2)
         cross = b1[..., 0] * b2[..., 1] - b1[..., 1] * b2[..., 0]  # two lines: one point, or none if parallel
@@ -543,9 +557,11 @@ def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[t
     legs: for each orientation ``α`` of a fine grid over a turn, the attachment point ``p1`` is where leg 1's
     locus meets leg 2's moved by ``-R(α)(a2 - a1)`` (at most two branches), and ``f(α)``, how far
     ``p1 + R(α)(a3 - a1)`` is off leg 3's locus, vanishes at the assembly modes: every sign change of ``f``
-    along a branch is refined by bisection in ``α`` and polished by Newton's method on ``η = 0``. What a
-    grid cannot see is said: ``|f|`` touching zero without changing sign (a double root, at a singularity),
-    or a sign change where a branch ends (a root where two of the loci become tangent).
+    along a branch is refined by bisection in ``α``; every dip of ``|f|`` between samples of one sign is
+    searched for its bottom, which holds two roots closer than the grid's step or a double root (a
+    singularity: one assembly mode); a root between a branch's last sample and its end (two loci tangent)
+    is bisected there. Each is polished by Newton's method on ``η = 0``. What remains unsure is said: ``f``
+    nearly zero exactly where a branch ends.
     """
     from .mechanisms.description import attachment_points
     from .mechanisms.leg_types import Locus
@@ -559,7 +575,8 @@ def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[t
     shapes = [(locus.kind, *locus.at(t)) for locus, t in zip(loci, theta, strict=True)]
     na, doubt, candidates = model.n_actuators, "", []
     if m.platform.kind == "point":
-        for point in _intersections(*shapes):
+        reach = max(float(np.hypot(*shape[2])) if shape[0] == "circle" else 1.0 for shape in shapes)
+        for point in _intersections(*shapes, touching=1e-12 * reach):
             if np.all(np.isfinite(point)):
                 candidates.append(np.array([*point, 0.0]))
     else:

@@ -152,10 +152,9 @@ class ReducedPlant:
             tau = np.asarray(torque_fn(t, y[:3], y[3:]), dtype=float)
             ydot, status = kernels.reduced_rhs(q_last, y, tau, P, self.min_abs_S, q_work)
             if status != kernels.OK:
-                raise BranchFollowingError(
-                    f"the plant reached a gain-type singularity at t = {t:.6g} s "
-                    f"(theta = {np.round(y[:3], 6).tolist()}, |S| < min_abs_S = {self.min_abs_S:g})"
-                )
+                why = (f"reached a gain-type singularity (|S| < min_abs_S = {self.min_abs_S:g})"
+                       if status == kernels.SINGULAR else "could not follow its assembly mode")
+                raise BranchFollowingError(f"the plant {why} at t = {t:.6g} s (theta = {np.round(y[:3], 6).tolist()})")
             q_last[:] = q_work
             return ydot
 

@@ -778,11 +778,18 @@ def _loop_error(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray,
     return BranchFollowingError(prefix + _loop_failure(scenario, prep, status, q, k_fail))
 
 
+def _branch_failure(status: int, guard: float) -> str:
+    """What a branch-following status of the compiled core means, as the end of a sentence."""
+    if status % 10 == 2:  # SINGULAR
+        return f"came within |S| < {guard:g} of a gain-type singularity"
+    return "could not follow its assembly mode (no configuration found near the last one)"
+
+
 def _loop_failure(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int) -> str:
     who = "the controller's model" if status >= 10 else "the plant"
     pose = _pose_of(scenario.plant_model, q[k_fail])
-    return (f"run stopped at t = {prep.t[k_fail]:.4f} s: {who} came within |S| < {prep.guard:g} of a gain-type "
-            f"singularity near pose {_pose_text(pose)}")
+    return (f"run stopped at t = {prep.t[k_fail]:.4f} s: {who} {_branch_failure(status, prep.guard)} "
+            f"near pose {_pose_text(pose)}")
 
 
 def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau, pose=None, s=None) -> SimulationResult:
@@ -877,8 +884,8 @@ def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, 
         status = k_.control_effort_from(q_ctrl, prep.kind, prep.kp, prep.kv, theta, theta_dot, *d, P_ctrl,
                                         prep.guard, q_next, tau)
         if status != k_.OK:
-            raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model came within "
-                                       f"|S| < {prep.guard:g} of a gain-type singularity")
+            raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model "
+                                       f"{_branch_failure(status, prep.guard)}")
         q_ctrl[:] = q_next
         return tau
 
@@ -886,8 +893,8 @@ def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, 
         control(time, y[:n], y[n:])
         y_dot, status = k_.reduced_rhs(q_plant, y, tau, P_plant, prep.guard, q_next)
         if status != k_.OK:
-            raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant came within "
-                                       f"|S| < {prep.guard:g} of a gain-type singularity")
+            raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant "
+                                       f"{_branch_failure(status, prep.guard)}")
         q_plant[:] = q_next
         return y_dot
 
@@ -899,7 +906,8 @@ def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, 
     q = np.empty((prep.t.size, len(q_plant0)))
     status, k = k_.follow_path(q_plant0, np.ascontiguousarray(sol.y[:n].T), P_plant, prep.guard, q)
     if status != k_.OK:
-        raise BranchFollowingError(f"run stopped at t = {prep.t[k]:.4f} s: the plant lost its assembly mode")
+        raise BranchFollowingError(f"run stopped at t = {prep.t[k]:.4f} s: the plant "
+                                   f"{_branch_failure(status, prep.guard)}")
     efforts = np.empty((prep.t.size, n))
     q_ctrl[:] = q_ctrl0
     for k in range(prep.t.size):

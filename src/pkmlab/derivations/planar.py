@@ -163,10 +163,12 @@ def derive(mechanism: Mechanism) -> dict:
 def _leg_lines(mechanism: Mechanism, P: dict, pose, joints, slides):
     """The lines along which the legs push the platform, and the platform's size.
 
-    With its actuator held, a leg is its passive joint and the platform's revolute: a two-force member.
-    Its passive joint a revolute at ``c_i`` (the elbow of an RRR or PRR leg, the base pivot of a
-    telescopic RPR leg), it pushes along the line from ``c_i`` through the attachment point ``p_i``; a
-    prismatic joint sliding along ``u_i``, across the slide: along ``u_i`` turned by 90°, through ``p_i``.
+    With its actuator held, a leg pushes the platform through its attachment point ``p_i`` along a line
+    its passive joint decides. A passive revolute at ``c_i`` and the next revolute joint ``d_i`` (the
+    platform's own, or an actuated one that holds the next body's angle) pin a two-force member: the line
+    is parallel to ``d_i - c_i`` (``p_i - c_i`` for the elbow of an RRR or PRR leg and the base pivot of
+    a telescopic RPR leg). A passive prismatic joint sliding along ``u_i`` carries no force along it: the
+    line is across the slide, ``u_i`` turned by 90°.
     Returns, per leg, ``(p_i - p, direction)`` (``p`` the tracked point) as 4 expressions, and ``ℓ``, the
     mean distance between the attachment points (1 for a point platform): what
     :func:`pkmlab.machine_core.singularity_measure` needs.
@@ -176,7 +178,11 @@ def _leg_lines(mechanism: Mechanism, P: dict, pose, joints, slides):
     lines = []
     for leg, points, slide in zip(mechanism.legs, joints, slides, strict=True):
         k = max(k for k, j in enumerate(leg.joints[:-1]) if not j.actuated)  # the passive joint before the platform
-        d = points[-1] - points[k] if leg.joints[k].kind == "R" else sp.Matrix([-slide[k][1], slide[k][0]])
+        if leg.joints[k].kind == "R":
+            after = next(j for j in range(k + 1, len(leg.joints)) if leg.joints[j].kind == "R")
+            d = points[after] - points[k]
+        else:
+            d = sp.Matrix([-slide[k][1], slide[k][0]])
         lines += [points[-1][0] - pose[0], points[-1][1] - pose[1], d[0], d[1]]
     if mechanism.platform.kind == "point":
         return lines, sp.Integer(1)

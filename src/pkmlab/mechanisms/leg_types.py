@@ -240,8 +240,12 @@ def _general(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
     lo, hi = locus.domain()
     grid = np.linspace(lo, hi, GENERAL_SAMPLES)
     gaps = locus.gap(grid[None, :], point[:, None, :])  # (K, G)
-    crossing = np.sign(gaps[:, :-1]) * np.sign(gaps[:, 1:]) < 0
-    rising = gaps[:, 1:] > gaps[:, :-1]
+    if locus.angle and leg.stroke is None:  # a whole turn: -π and π are one actuator value
+        gaps[:, -1] = gaps[:, 0]
+    left, right = gaps[:, :-1], gaps[:, 1:]
+    # a sign change, a root on a sample counted once (as the right end of its interval)
+    crossing = ((left < 0) & (right >= 0)) | ((left > 0) & (right <= 0))
+    rising = right > left
     wanted = crossing & (rising if sigma > 0 else ~rising)
     count = wanted.sum(axis=1)
     first = np.argmax(wanted, axis=1)

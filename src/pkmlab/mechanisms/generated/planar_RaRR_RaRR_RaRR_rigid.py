@@ -638,6 +638,9 @@ CONTROLLER = 10  # added to a status of the controller's own model
 #: then at round-off).
 MAX_NEWTON = 12
 NEWTON_STEP = 1e-13
+#: A Newton step longer than this (m or rad) means the iteration is heading for another solution (another
+#: assembly mode, or the same one whole turns away): refused, so that the caller takes a smaller step.
+MAX_NEWTON_STEP = 1.0
 #: Branch following first iterates with the base's Jacobian (the chord method: no Jacobian to
 #: evaluate or factor per iteration; it contracts by about the step's size in the actuators, so a
 #: sample's step converges in 2-4 iterations), and falls back to Newton's method after this many.
@@ -828,8 +831,11 @@ def correct_passive(ws, q, sc, P):
         passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
-            q[n + i] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
+        if not step <= MAX_NEWTON_STEP:  # (NaN included)
+            return NOT_CONVERGED
+        for i in range(N_CONSTRAINTS):
+            q[n + i] -= ws.eta[i]
         trig_passive(q, sc)
         if step < NEWTON_STEP:
             return OK
@@ -852,6 +858,21 @@ def keep_base_factors(ws):
     ws.base_factored[0] = 1
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def predict(ws, theta):
+    """The first-order predictor of :func:`follow_branch`: ``q[TRIAL] = q[BASE] + Jqθ(base) Δθ`` with
+    ``Δθ = ws.step``, the actuators set to ``theta``, and its trig table."""
+    base, trial = ws.q[BASE], ws.q[TRIAL]
+    for i in range(N_COORDINATES):
+        acc = base[i]
+        for j in range(N_ACTUATORS):
+            acc += ws.j_q_theta_base[i, j] * ws.step[j]
+        trial[i] = acc
+    for j in range(N_ACTUATORS):
+        trial[j] = theta[j]
+    trig(trial, ws.sc[TRIAL])
+
+
 @njit(**NO_REFCOUNT)
 def follow_branch(ws, theta, P, min_abs_s):
     """The configuration at actuators ``theta`` continuously connected to the base (paper §3.2), into
@@ -859,8 +880,10 @@ def follow_branch(ws, theta, P, min_abs_s):
     with the base's ``Jηφ`` (Newton's method if that is slow to converge).
 
     Fails (``SINGULAR``) when ``|S|`` falls below ``min_abs_s`` or changes sign on the way — the step
-    would have crossed a gain-type singularity into another assembly mode. Actuator angles may be given
-    modulo 2π: the step is taken the shorter way round.
+    would have crossed a gain-type singularity into another assembly mode; ``NOT_CONVERGED`` when the
+    passive coordinates cannot be found near the prediction (the step is too large: take smaller ones,
+    :func:`follow_branch_in_steps`). An actuator angle given across ±π from the base's is stepped the
+    shorter way round.
     """
     n = N_ACTUATORS
     base = ws.q[BASE]
@@ -872,20 +895,13 @@ def follow_branch(ws, theta, P, min_abs_s):
         keep_base_factors(ws)
     for j in range(n):
         d = theta[j] - base[j]
-        if ANGLES[j]:  # an angle may be given modulo 2π: the step the shorter way round (exact when it is)
+        if ANGLES[j]:  # an angle given across ±π: the step the shorter way round (exact when it is not)
             if d > np.pi:
                 d -= 2.0 * np.pi
             elif d < -np.pi:
                 d += 2.0 * np.pi
         ws.step[j] = d
-    for i in range(N_COORDINATES):
-        acc = base[i]
-        for j in range(n):
-            acc += ws.j_q_theta_base[i, j] * ws.step[j]
-        trial[i] = acc
-    for j in range(n):
-        trial[j] = theta[j]
-    trig(trial, sc)
+    predict(ws, theta)
     status = NOT_CONVERGED
     previous = np.inf
     for _ in range(MAX_CHORD):
@@ -902,8 +918,11 @@ def follow_branch(ws, theta, P, min_abs_s):
         if step < NEWTON_STEP or (0.0 < ratio < 0.5 and step * ratio < 0.5 * NEWTON_STEP):
             status = OK
             break
+        if not ratio < 1.0:  # not contracting (or NaN): leave it to Newton's method, from the predictor
+            break
         previous = step
     if status != OK:
+        predict(ws, theta)
         status = correct_passive(ws, trial, sc, P)
         if status != OK:
             return status
@@ -935,25 +954,25 @@ def set_base(ws, q, P):
     ws.base_factored[0] = 0
 
 
-#: Branch following over a step it cannot make at once retries it in 2, 4, ... up to this many sub-steps.
-MAX_SUBSTEPS = 64
-
-
 @njit(**NO_REFCOUNT)
 def follow_branch_in_steps(ws, q_previous, theta, P, min_abs_s, max_step):
     """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take
-    large steps: the actuators moved in equal sub-steps of at most ``max_step`` (rad or m; angles the shorter
-    way round), each by :func:`follow_branch`, the whole retried in twice as many sub-steps when one fails
-    (up to :data:`MAX_SUBSTEPS` times as many). The configuration reached is left in ``ws.q[BASE]``: the
-    target's on success, else the last one reached. Returns the status; ``SINGULAR`` at once when ``|S|``
-    is below ``min_abs_s`` at ``q_previous``."""
+    large steps: the actuators moved in equal sub-steps of at most ``max_step`` (rad or m, > 0; an angle the
+    shorter way round, so by at most π), each by :func:`follow_branch`, the whole retried in twice as many
+    sub-steps when one fails, six times (up to 64 times as many). The configuration reached is left in
+    ``ws.q[BASE]``: the target's on success, else the last one reached. ``q_previous`` must not be a view
+    of the workspace. Returns the status; ``SINGULAR`` at once when ``|S|`` is below ``min_abs_s`` at
+    ``q_previous``."""
     n = N_ACTUATORS
     largest = 0.0
     for j in range(n):
         largest = max(largest, abs(actuator_error(theta, q_previous, j)))
-    steps = 1 if largest <= max_step else int(np.ceil(largest / max_step))
+    if not max_step > 0.0:
+        return NOT_CONVERGED
+    ratio = largest / max_step
+    steps = 1 if ratio <= 1.0 else int(np.ceil(min(ratio, 1e6)))
     status = OK
-    for _ in range(7):  # steps, 2 steps, ..., 64 steps
+    for _ in range(7):  # steps, 2 steps, ..., 64 times as many
         set_base(ws, q_previous, P)
         if abs(ws.s[BASE]) < min_abs_s:
             return SINGULAR
@@ -967,8 +986,6 @@ def follow_branch_in_steps(ws, q_previous, theta, P, min_abs_s, max_step):
         if status == OK:
             for j in range(n):  # the actuators as asked (an angle may differ by whole turns)
                 ws.q[BASE, j] = theta[j]
-            return status
-        if steps >= MAX_SUBSTEPS:
             return status
         steps *= 2
     return status
@@ -1207,11 +1224,13 @@ def reduced_rhs(q_base, y, tau, P, min_abs_s, q_out):
     configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
     n = N_ACTUATORS
     ws = make_workspace()
-    set_base(ws, q_base, P)
     out = np.zeros(2 * n)
-    status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, TRIAL)
+    # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
+    status = follow_branch_in_steps(ws, q_base, y[:n], P, min_abs_s, np.inf)
+    if status == OK:
+        status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE)
     for i in range(N_COORDINATES):
-        q_out[i] = ws.q[TRIAL, i]
+        q_out[i] = ws.q[BASE, i]
     if status == OK:
         for i in range(n):
             out[i] = y[n + i]
@@ -1226,8 +1245,12 @@ def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_d
     configuration at the measured ``theta`` into ``q_out``. Returns the status."""
     ws = make_workspace()
     set_base(ws, q_base, P)
-    status = control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws,
-                            tau)
+    status = OK
+    if kind != 1:  # computed torque: its model follows the measurement, in sub-steps where needed
+        status = follow_branch_in_steps(ws, q_base, theta, P, min_abs_s, np.inf)
+    if status == OK:
+        status = control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws,
+                                tau)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     return status
@@ -1246,15 +1269,15 @@ def branch_following_batch(q_previous, thetas, P, min_abs_s, max_step, q_out, st
 
 @njit(cache=True)
 def follow_path(q_start, thetas, P, min_abs_s, q_out):
-    """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn, into ``q_out``
-    (K, N); returns ``(status, k)``, ``k`` the first point not reached (else -1)."""
+    """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn
+    (:func:`follow_branch_in_steps`), into ``q_out`` (K, N); returns ``(status, k)``, ``k`` the first point
+    not reached (else -1)."""
     ws = make_workspace()
-    set_base(ws, q_start, P)
+    previous = q_start.copy()
     for k in range(thetas.shape[0]):
-        status = follow_branch(ws, thetas[k], P, min_abs_s)
+        status = follow_branch_in_steps(ws, previous, thetas[k], P, min_abs_s, np.inf)
         if status != OK:
             return status, k
-        accept_trial(ws)
         for i in range(N_COORDINATES):
-            q_out[k, i] = ws.q[BASE, i]
+            q_out[k, i] = previous[i] = ws.q[BASE, i]
     return OK, -1
