@@ -482,7 +482,7 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
     if status != rrr3.OK:
         raise SingularityError(f"actuators {theta.tolist()}: the forward-kinematics polynomial vanishes "
                                "identically (a continuum of assembly modes)")
-    na, solutions = model.n_actuators, []
+    configurations = []
     for j in range(count):
         alpha = alphas[j]
         c, s = math.cos(alpha), math.sin(alpha)
@@ -492,17 +492,26 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
         for i, leg in enumerate(m.legs):
             coords = leg_coordinates(leg, theta[i], attachment_point(m, i, pose))
             passive += [v for k, v in enumerate(coords) if k != leg.actuated]
-        q = np.array([*theta, *passive, *pose])
+        configurations.append(np.array([*theta, *passive, *pose]))
+    return _assembly_modes(model, configurations)
+
+
+def _assembly_modes(model: MechanismModel, configurations) -> list[tuple[np.ndarray, float]]:
+    """The distinct assembly modes ``[(q, S), ...]`` among approximate ``configurations``: each polished by
+    Newton's method on ``η = 0`` (dropped if that fails), its passive angles wrapped to (-π, π], sorted by
+    the pose's last coordinate."""
+    na, solutions = model.n_actuators, []
+    angular = np.array(model.kernels.ANGLES)
+    angular[:na] = False  # the actuators stay as given
+    for q in configurations:
+        q = q.copy()
         _newton_passive(model, q, 1e-15)  # polish
         if np.max(np.abs(constraint_residual(model, q))) > 1e-12:
             continue
-        wrapped = q.copy()
-        angular = np.array(model.kernels.ANGLES)
-        angular[:na] = False  # the actuators stay as given
-        wrapped[angular] = np.angle(np.exp(1j * wrapped[angular]))
+        q[angular] = np.angle(np.exp(1j * q[angular]))
         # a double root (at a singularity) is found only to about sqrt(eps): closer than 1e-6 is one mode
-        if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-6 for other, _s in solutions):
-            solutions.append((wrapped, singularity_measure(model, wrapped)))
+        if all(np.max(np.abs(np.angle(np.exp(1j * (q - other))))) > 1e-6 for other, _s in solutions):
+            solutions.append((q, singularity_measure(model, q)))
     return sorted(solutions, key=lambda sol: sol[0][-1])
 
 
@@ -573,7 +582,7 @@ def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[t
                                     f"{np.asarray(actuators).tolist()}")
     loci = [Locus(leg, i) for i, leg in enumerate(m.legs)]
     shapes = [(locus.kind, *locus.at(t)) for locus, t in zip(loci, theta, strict=True)]
-    na, doubt, candidates = model.n_actuators, "", []
+    doubt, candidates = "", []
     if m.platform.kind == "point":
         reach = max(float(np.hypot(*shape[2])) if shape[0] == "circle" else 1.0 for shape in shapes)
         for point in _intersections(*shapes, touching=1e-12 * reach):
@@ -660,7 +669,7 @@ def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[t
                     candidates += [root(b, grid[k - 1], bottom), root(b, bottom, grid[k + 1])]
                 elif depth < 1e-10 * size:  # a double root: one assembly mode, at a singularity
                     candidates.append(root(b, bottom, bottom))
-    solutions = []
+    configurations = []
     for pose in candidates:
         pose = pose[:m.dof]
         passive = []
@@ -670,17 +679,8 @@ def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[t
             coords[leg.actuated], coords[locus.passive] = theta[i], float(locus.passive_coordinate(theta[i],
                                                                                                    points)[0])
             passive += [v for k, v in enumerate(coords) if k != leg.actuated]
-        q = np.array([*theta, *passive, *pose])
-        _newton_passive(model, q, 1e-15)  # polish
-        if np.max(np.abs(constraint_residual(model, q))) > 1e-12:
-            continue
-        wrapped = q.copy()
-        angular = np.array(model.kernels.ANGLES)
-        angular[:na] = False  # the actuators stay as given
-        wrapped[angular] = np.angle(np.exp(1j * wrapped[angular]))
-        if all(np.max(np.abs(np.angle(np.exp(1j * (wrapped - other))))) > 1e-6 for other, _s in solutions):
-            solutions.append((wrapped, singularity_measure(model, wrapped)))
-    return sorted(solutions, key=lambda sol: sol[0][-1]), doubt
+        configurations.append(np.array([*theta, *passive, *pose]))
+    return _assembly_modes(model, configurations), doubt
 
 
 # ------------------------------------------------------------------ along a path
