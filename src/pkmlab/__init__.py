@@ -18,8 +18,8 @@ from ._version import __version__
 _WHERE = {
     "dynamics": None,  # a module
     "SingularityMap": "analysis", "singularity_map": "analysis",
-    **dict.fromkeys(("AssemblyError", "BranchFollowingError", "InvalidParameterError", "PkmlabError",
-                     "SingularityError", "UnreachablePoseError", "UnstableControlError"), "errors"),
+    **dict.fromkeys(("AssemblyError", "BranchFollowingError", "IncompleteSolutionWarning", "InvalidParameterError",
+                     "PkmlabError", "SingularityError", "UnreachablePoseError", "UnstableControlError"), "errors"),
     "WORKING_MODES": "geometry", "Planar3RRR": "geometry",
     **dict.fromkeys(("AssemblyMode", "ForwardKinematicsSolution", "InverseKinematicsSolution", "acceleration_bias",
                      "actuated_jacobian", "branch_following", "constraint_jacobian", "constraint_residual",
@@ -64,6 +64,7 @@ __all__ = [
     "SingularityError",
     "BranchFollowingError",
     "AssemblyError",
+    "IncompleteSolutionWarning",
     "InverseKinematicsSolution",
     "ForwardKinematicsSolution",
     "AssemblyMode",
