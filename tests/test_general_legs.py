@@ -248,3 +248,23 @@ def test_branch_following_refuses_a_step_size_that_is_not_positive():
     for bad in (0.0, -0.05, float("nan")):
         with pytest.raises(pkmlab.InvalidParameterError, match="max_step"):
             mm.branch_following(model, q, q[:2] + 0.01, max_step=bad)
+
+
+def test_the_cli_solves_a_machine_of_general_legs_both_ways(r_pr, capsys):
+    """``pkmlab ik`` then ``pkmlab fk`` with ``--mechanism FILE``: every working mode's actuators lead back to
+    the pose, JSON as for the presets."""
+    import json
+
+    from conftest import run
+
+    path, _model = r_pr
+    pose = [0.26, 0.17, 0.3]
+    code, out, err = run(capsys, "ik", "--mechanism", path, "--json", *pose)
+    assert code == 0 and err == ""
+    solutions = json.loads(out)["solutions"]
+    assert len(solutions) == 8
+    for sol in solutions:
+        code, out, err = run(capsys, "fk", "--mechanism", path, "--json", "--", *sol["actuators"])
+        assert code == 0 and err == ""
+        poses = [s["pose"] for s in json.loads(out)["solutions"]]
+        assert min(max(abs(a - b) for a, b in zip(p, pose, strict=True)) for p in poses) < 1e-9
