@@ -268,3 +268,20 @@ def test_the_cli_solves_a_machine_of_general_legs_both_ways(r_pr, capsys):
         assert code == 0 and err == ""
         poses = [s["pose"] for s in json.loads(out)["solutions"]]
         assert min(max(abs(a - b) for a, b in zip(p, pose, strict=True)) for p in poses) < 1e-9
+
+
+def test_forward_kinematics_by_the_general_method_refuses_actuators_outside_their_strokes():
+    """Two telescopic legs (strokes 0.10-0.45 m) and one R*PR leg: the general method serves the machine, and a
+    leg length outside its stroke is refused before it, as for the presets."""
+    from pkmlab.mechanisms.description import Body, Joint, Leg, Mechanism
+    from pkmlab.mechanisms.presets import equilateral_base, equilateral_platform, preset
+
+    telescopic = preset("3rpr").legs
+    bodies = (Body((0.02, 0.0), 0.5, (0.08, 0.0), 1.5e-3), Body((0.0, 0.0), 0.25, (-0.06, 0.0), 0.6e-3))
+    r_pr = Leg(equilateral_base()[2], (Joint("R", True), Joint("P"), Joint("R")), bodies)
+    model = mm.MechanismModel.from_description(Mechanism("mixed", (*telescopic[:2], r_pr), equilateral_platform()))
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"leg 1: actuator value 0.5 m is outside its stroke"):
+        mm.forward_kinematics(model, [0.5, 0.3, 1.0])
+    q = mm.inverse_kinematics(model, [0.25, 0.2, -1.2], (1,))
+    poses = [p[-3:] for p, _s in mm.forward_kinematics(model, q[:3])]
+    assert min(np.abs(p - [0.25, 0.2, -1.2]).max() for p in poses) < 1e-9

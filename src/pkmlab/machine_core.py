@@ -556,6 +556,14 @@ def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_d
     if status != OK:
         return status
     accept_trial(ws)
+    return computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau)
+
+
+@njit(**NO_REFCOUNT)
+def computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau):
+    """The computed-torque law of :func:`control_effort` with the controller's model already at the measured
+    ``theta`` (``ws.q[BASE]``); returns the status."""
+    n = N_ACTUATORS
     if not actuator_space_model(ws, ws.q[BASE], ws.sc[BASE], theta_dot, P):
         return SINGULAR
     keep_base_factors(ws)
@@ -676,14 +684,15 @@ def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_d
                         q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
     configuration at the measured ``theta`` into ``q_out``. Returns the status."""
+    if kind == 1:  # PD: no model to move
+        q_out[:] = q_base
+        return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
+                              make_workspace(), tau)
     ws = make_workspace()
-    set_base(ws, q_base, P)
-    status = OK
-    if kind != 1:  # computed torque: its model follows the measurement, in sub-steps where needed
-        status = follow_branch_in_steps(ws, q_base, theta, P, min_abs_s, np.inf)
+    # computed torque: the model follows the measurement, in sub-steps where needed
+    status = follow_branch_in_steps(ws, q_base, theta, P, min_abs_s, np.inf)
     if status == OK:
-        status = control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws,
-                                tau)
+        status = computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     return status

@@ -52,14 +52,7 @@ class MechanismModel:
     def from_description(cls, description: Mechanism) -> MechanismModel:
         if not isinstance(description, Mechanism):
             raise InvalidParameterError(f"description must be a Mechanism, got {type(description).__name__}")
-        name = planar.generated_path(description).stem
-        try:
-            kernels = importlib.import_module(f".mechanisms.generated.{name}", __package__)
-        except ModuleNotFoundError:
-            kernels = _user_structure_kernels(description)
-        P = planar.pack(description)
-        P.setflags(write=False)
-        model = cls(description, P, kernels)
+        model = _bind(description)
         _check_assembly(model)
         return model
 
@@ -90,14 +83,21 @@ class MechanismModel:
         return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
 
 
-@functools.lru_cache(maxsize=64)
-def _from_3rrr(model) -> MechanismModel:
-    # the Planar3RRR checked already that its platform can be assembled
-    description = model.to_mechanism()
-    kernels = importlib.import_module(f".mechanisms.generated.{planar.generated_path(description).stem}", __package__)
+def _bind(description: Mechanism) -> MechanismModel:
+    """The description with its packed parameters and its structure's kernels (shipped, or generated once)."""
+    try:
+        kernels = importlib.import_module(f".mechanisms.generated.{planar.generated_path(description).stem}",
+                                          __package__)
+    except ModuleNotFoundError:
+        kernels = _user_structure_kernels(description)
     P = planar.pack(description)
     P.setflags(write=False)
     return MechanismModel(description, P, kernels)
+
+
+@functools.lru_cache(maxsize=64)
+def _from_3rrr(model) -> MechanismModel:
+    return _bind(model.to_mechanism())  # the Planar3RRR checked already that its platform can be assembled
 
 
 def coordinates_from_3rrr(model, q: np.ndarray) -> np.ndarray:
@@ -447,8 +447,9 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
     """
     from .mechanisms.leg_types import _SOLVERS
 
+    theta = _actuator_values(model, actuators)
     if any(leg.notation not in _SOLVERS for leg in model.description.legs):
-        solutions, doubt = forward_kinematics_general(model, actuators)
+        solutions, doubt = forward_kinematics_general(model, theta)
         if doubt:
             import warnings
 
@@ -462,14 +463,6 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
     from .mechanisms.leg_types import leg_circle, leg_coordinates
 
     m = model.description
-    theta = np.asarray(actuators, dtype=float)
-    if theta.shape != (model.n_actuators,) or not np.all(np.isfinite(theta)):
-        raise InvalidParameterError(f"actuators must be {model.n_actuators} finite values, got "
-                                    f"{np.asarray(actuators).tolist()}")
-    for i, (leg, t) in enumerate(zip(m.legs, theta, strict=True)):
-        if leg.stroke is not None and leg.joints[leg.actuated].kind == "P" and not leg.stroke[0] <= t <= leg.stroke[1]:
-            raise InvalidParameterError(f"leg {i + 1}: actuator value {t:g} m is outside its stroke "
-                                        f"[{leg.stroke[0]:g}, {leg.stroke[1]:g}] m")
     if m.platform.kind == "point":
         return [(q, singularity_measure(model, q)) for q in forward_kinematics_five_bar(model, theta)]
     circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
@@ -494,6 +487,20 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
             passive += [v for k, v in enumerate(coords) if k != leg.actuated]
         configurations.append(np.array([*theta, *passive, *pose]))
     return _assembly_modes(model, configurations)
+
+
+def _actuator_values(model: MechanismModel, actuators) -> np.ndarray:
+    """The actuator values of a forward-kinematics request: one finite value per leg, within its stroke."""
+    m = model.description
+    theta = np.asarray(actuators, dtype=float)
+    if theta.shape != (model.n_actuators,) or not np.all(np.isfinite(theta)):
+        raise InvalidParameterError(f"actuators must be {model.n_actuators} finite values, got "
+                                    f"{np.asarray(actuators).tolist()}")
+    for i, (leg, t) in enumerate(zip(m.legs, theta, strict=True)):
+        if leg.stroke is not None and leg.joints[leg.actuated].kind == "P" and not leg.stroke[0] <= t <= leg.stroke[1]:
+            raise InvalidParameterError(f"leg {i + 1}: actuator value {t:g} m is outside its stroke "
+                                        f"[{leg.stroke[0]:g}, {leg.stroke[1]:g}] m")
+    return theta
 
 
 def _assembly_modes(model: MechanismModel, configurations) -> list[tuple[np.ndarray, float]]:
@@ -576,10 +583,7 @@ def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[t
     from .mechanisms.leg_types import Locus
 
     m = model.description
-    theta = np.asarray(actuators, dtype=float)
-    if theta.shape != (model.n_actuators,) or not np.all(np.isfinite(theta)):
-        raise InvalidParameterError(f"actuators must be {model.n_actuators} finite values, got "
-                                    f"{np.asarray(actuators).tolist()}")
+    theta = _actuator_values(model, actuators)
     loci = [Locus(leg, i) for i, leg in enumerate(m.legs)]
     shapes = [(locus.kind, *locus.at(t)) for locus, t in zip(loci, theta, strict=True)]
     doubt, candidates = "", []

@@ -646,14 +646,13 @@ def _actuator_count(model) -> int:
 
 
 def _mass_matrices(model, qs: np.ndarray) -> np.ndarray:
-    """``Mθ`` (K, n, n) at configurations ``qs`` (K, n_coordinates) on the manifold."""
-    if not isinstance(model, MechanismModel):
-        from .dynamics import actuator_space_model
-
-        return actuator_space_model(model, qs, np.zeros(3))[0]
-    n, count = model.n_actuators, qs.shape[0]
+    """``Mθ`` (K, n, n) at configurations ``qs`` (K, n_coordinates) on the manifold: the compiled core's, as the
+    loop evaluates it."""
+    loop = _loop_model(model)
+    n, count = loop.n_actuators, qs.shape[0]
     out, c, g = np.empty((count, n, n)), np.empty((count, n)), np.empty((count, n))
-    if model.kernels.actuator_space_models(np.ascontiguousarray(qs), np.zeros((count, n)), model.P, out, c, g) >= 0:
+    qs = np.ascontiguousarray(_loop_coordinates(model, qs))
+    if loop.kernels.actuator_space_models(qs, np.zeros((count, n)), loop.P, out, c, g) >= 0:
         raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
     return out
 
