@@ -266,6 +266,8 @@ def generate_source(mechanism: Mechanism) -> str:
         f"PARAMETERS = {parameter_names(mechanism)!r}",
         f"N_COORDINATES, N_CONSTRAINTS, N_BODIES = {nq}, {m}, {nb}",
         f"N_ACTUATORS, DOF = {len(mechanism.legs)}, {mechanism.dof}",
+        "# in the plane: 2 linear and 1 angular rows per body Jacobian, lines of action (point, direction) of 4",
+        "DIM, ANGULAR, BODY_ROWS, LINE_WIDTH = 2, 1, 3, 4",
         "# where each body's mass and inertia (legs' bodies, then the platform) and the gravity are in P",
         f"MASS_INDEX = {_indices(mechanism, 'mass')!r}",
         f"INERTIA_INDEX = {_indices(mechanism, 'inertia')!r}",

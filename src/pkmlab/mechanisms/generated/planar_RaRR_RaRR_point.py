@@ -14,6 +14,8 @@ ANGLES = (True, True, True, True, False, False)  # which coordinates are angles 
 PARAMETERS = ('base1_x', 'base1_y', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_mass', 'body1_1_inertia', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_mass', 'body1_2_inertia', 'base2_x', 'base2_y', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_mass', 'body2_1_inertia', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_mass', 'body2_2_inertia', 'platform_mass', 'platform_inertia', 'gravity_x', 'gravity_y')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 6, 4, 5
 N_ACTUATORS, DOF = 2, 2
+# in the plane: 2 linear and 1 angular rows per body Jacobian, lines of action (point, direction) of 4
+DIM, ANGULAR, BODY_ROWS, LINE_WIDTH = 2, 1, 3, 4
 # where each body's mass and inertia (legs' bodies, then the platform) and the gravity are in P
 MASS_INDEX = (6, 12, 20, 26, 28)
 INERTIA_INDEX = (7, 13, 21, 27, 29)
@@ -420,7 +422,7 @@ MAX_CHORD = 8
 @njit(cache=True)
 def singularity_measures(qs, P, out):
     """:func:`singularity_measure` of every configuration ``qs`` (K, N) into ``out`` (K,); NaN rows give NaN."""
-    lines, sc = np.empty((N_ACTUATORS, 4)), np.zeros((N_COORDINATES, 2))
+    lines, sc = np.empty((N_ACTUATORS, LINE_WIDTH)), np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
         trig(qs[k], sc)
         out[k] = singularity_measure(qs[k], sc, P, lines)
@@ -452,30 +454,30 @@ class Workspace(NamedTuple):
     sc: np.ndarray  # (2, N, 2) their trig tables
     s: np.ndarray  # (2,) their singularity measures
     j_eta: np.ndarray  # (m, N) Jηq
-    lu: np.ndarray  # (m - 2, m - 2) factors of Jηφ's reduced system (x and y eliminated)
-    piv: np.ndarray  # (m - 2,)
+    lu: np.ndarray  # (m - DIM, m - DIM) factors of Jηφ's reduced system (the tracked point eliminated)
+    piv: np.ndarray  # (m - DIM,)
     eta: np.ndarray  # (m,)
     j_q_theta: np.ndarray  # (N, n) Jqθ (eq. 31)
     q_dot: np.ndarray  # (N,)
     bias_q: np.ndarray  # (N,) J̇qθ θ̇ (eq. 32)
     gamma: np.ndarray  # (m,) J̇ηq q̇
     jb: np.ndarray  # (N_JB,) the non-zeros of the bodies' Jacobians
-    bb: np.ndarray  # (n_bodies, 3) bodies' J̇ q̇, then their accelerations at θ̈ = 0
-    jt: np.ndarray  # (n_bodies, 3, n) the bodies' Jacobians times Jqθ
+    bb: np.ndarray  # (n_bodies, BODY_ROWS) bodies' J̇ q̇, then their accelerations at θ̈ = 0
+    jt: np.ndarray  # (n_bodies, BODY_ROWS, n) the bodies' Jacobians times Jqθ
     m_theta: np.ndarray  # (n, n) Mθ
     c_theta: np.ndarray  # (n,) cθ = Cθ θ̇
     g_theta: np.ndarray  # (n,) gθ = ∂V/∂θ
     theta_ddot: np.ndarray  # (n,)
     ldl: np.ndarray  # (n, n) factor of Mθ
-    lines: np.ndarray  # (n, 4) the legs' lines of action
-    lu_base: np.ndarray  # (m - 2, m - 2) the same factors at the base, kept for branch following from it
-    piv_base: np.ndarray  # (m - 2,)
+    lines: np.ndarray  # (n, LINE_WIDTH) the legs' lines of action
+    lu_base: np.ndarray  # (m - DIM, m - DIM) the same factors at the base, kept for branch following from it
+    piv_base: np.ndarray  # (m - DIM,)
     j_q_theta_base: np.ndarray  # (N, n) Jqθ at the base
     base_factored: np.ndarray  # (1,) 1 when the three above are the base's
-    top: np.ndarray  # (2, m - 2) rows 0 and 1 of Jηφ in the reduced system's columns
-    top_base: np.ndarray  # (2, m - 2) the same at the base
-    reduced: np.ndarray  # (m - 2, m - 2) the reduced system before factoring
-    work: np.ndarray  # (m - 2,)
+    top: np.ndarray  # (DIM, m - DIM) rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
+    top_base: np.ndarray  # (DIM, m - DIM) the same at the base
+    reduced: np.ndarray  # (m - DIM, m - DIM) the reduced system before factoring
+    work: np.ndarray  # (m,) the reduced system's right-hand side, then the tracked point's DIM values
     rhs: np.ndarray  # (m,)
     target: np.ndarray  # (n,) the actuators of a sub-step of follow_branch_in_steps
     step: np.ndarray  # (n,) the actuators' step of follow_branch's predictor
@@ -484,36 +486,39 @@ class Workspace(NamedTuple):
 BASE = 0
 TRIAL = 1
 
-# Every leg closes on the platform by 2 equations whose x and y derivatives are -1 and 0, 0 and -1
-# (η = end of the leg's chain - attachment point): eliminating the tracked point's x and y with these
-# unit pivots leaves a system of 2 equations fewer in the other passive coordinates (the passive
-# joints and alpha), to be factored instead of the whole of Jηφ. X_COLUMN is x's column in Jηφ.
-REDUCED = N_CONSTRAINTS - 2
+# Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
+# respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
+# point): eliminating the tracked point with these unit pivots leaves a system of DIM equations fewer in
+# the other passive coordinates (the passive joints and the orientation), to be factored instead of the
+# whole of Jηφ. X_COLUMN is x's column in Jηφ.
+REDUCED = N_CONSTRAINTS - DIM
 X_COLUMN = N_CONSTRAINTS - DOF
 
 
 @njit(**NO_REFCOUNT_INLINE)
 def reduced_column(k):
-    """The column of Jηφ of the k-th coordinate of the reduced system (x and y skipped)."""
-    return k if k < X_COLUMN else k + 2
+    """The column of Jηφ of the k-th coordinate of the reduced system (the tracked point skipped)."""
+    return k if k < X_COLUMN else k + DIM
 
 
 @njit(**NO_REFCOUNT)
 def passive_solve(lu, piv, top, b, work):
     """Overwrite ``b`` (m,) with ``Jηφ⁻¹ b`` from the factors of the reduced system (:func:`factor_passive`):
-    its rows are the constraints' rows 2.. minus row 0 (x) or 1 (y), free of x and y; then x and y from
-    rows 0 and 1 (``top``: their entries in the reduced system's columns)."""
+    its rows are the constraints' rows DIM.. minus row 0 (x), 1 (y) or 2 (z), free of the tracked point;
+    then the tracked point from rows 0 .. DIM - 1 (``top``: their entries in the reduced system's columns).
+    ``work`` is an (m,) scratch array."""
     for r in range(REDUCED):
-        work[r] = b[r + 2] - b[r % 2]
+        work[r] = b[r + DIM] - b[r % DIM]
     lu_solve_factored(lu, piv, work, REDUCED)
-    dx, dy = -b[0], -b[1]
-    for k in range(REDUCED):
-        dx += top[0, k] * work[k]
-        dy += top[1, k] * work[k]
+    for d in range(DIM):
+        acc = -b[d]
+        for k in range(REDUCED):
+            acc += top[d, k] * work[k]
+        work[REDUCED + d] = acc
     for k in range(REDUCED):
         b[reduced_column(k)] = work[k]
-    b[X_COLUMN] = dx
-    b[X_COLUMN + 1] = dy
+    for d in range(DIM):
+        b[X_COLUMN + d] = work[REDUCED + d]
 
 
 @njit(**NO_REFCOUNT)
@@ -523,15 +528,18 @@ def singularity_measure(q, sc, P, lines):
     With ``u_i`` the unit direction of the line along which leg ``i`` pushes the platform and ``r_i``
     its attachment point relative to the tracked point (the generated ``leg_lines``):
 
-    * a rigid platform on three legs: ``S = det[u_i, r_i × u_i] / ℓ``, zero when the three lines meet
-      in a point or are parallel (``ℓ`` the mean distance between attachment points). For an
+    * a rigid planar platform on three legs: ``S = det[u_i, r_i × u_i] / ℓ``, zero when the three lines
+      meet in a point or are parallel (``ℓ`` the mean distance between attachment points). For an
       equilateral platform this is the paper's eq. (19),
       ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, ``φ_i`` the angle of ``u_i``;
-    * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align.
+    * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align;
+    * in space, :func:`spatial_singularity_measure`.
 
-    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, 4) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array.
     """
     leg_lines(q, sc, P, lines)
+    if DIM == 3:
+        return spatial_singularity_measure(P, lines)
     for i in range(N_ACTUATORS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
@@ -546,6 +554,51 @@ def singularity_measure(q, sc, P, lines):
     return det / platform_size(P)
 
 
+@njit(**NO_REFCOUNT)
+def spatial_singularity_measure(P, lines):
+    """``S`` of a spatial machine from its legs' lines (N_ACTUATORS, 6) = ``(r_i, direction_i)`` (overwritten):
+
+    * a translating platform on three legs (the Delta): ``S = det[u_1, u_2, u_3]``, zero when the three
+      lines are parallel to one plane (for the Delta's forearms, ``det[P_i - E_i] / L_b³``);
+    * a platform with six degrees of freedom on six legs (the Stewart-Gough platform): the determinant
+      of the legs' normalised Plücker lines ``[u_i, (r_i × u_i) / ℓ]`` — the 6×6 forward Jacobian of
+      the leg lengths — zero when the six lines are linearly dependent (Merlet's line geometry).
+    """
+    for i in range(N_ACTUATORS):
+        norm = np.sqrt(lines[i, 3] ** 2 + lines[i, 4] ** 2 + lines[i, 5] ** 2)
+        for k in range(3, 6):
+            lines[i, k] /= norm
+    if N_ACTUATORS == 3:
+        return (lines[0, 3] * (lines[1, 4] * lines[2, 5] - lines[1, 5] * lines[2, 4])
+                - lines[0, 4] * (lines[1, 3] * lines[2, 5] - lines[1, 5] * lines[2, 3])
+                + lines[0, 5] * (lines[1, 3] * lines[2, 4] - lines[1, 4] * lines[2, 3]))
+    size = platform_size(P)
+    for i in range(N_ACTUATORS):  # rows [moment / ℓ, u]: a column permutation of [u, moment], same |det|
+        rx, ry, rz = lines[i, 0], lines[i, 1], lines[i, 2]
+        ux, uy, uz = lines[i, 3], lines[i, 4], lines[i, 5]
+        lines[i, 0] = (ry * uz - rz * uy) / size
+        lines[i, 1] = (rz * ux - rx * uz) / size
+        lines[i, 2] = (rx * uy - ry * ux) / size
+    det = -1.0  # three column swaps turn [moment, u] into [u, moment]
+    for c in range(N_ACTUATORS):  # Gaussian elimination with partial pivoting, in place
+        p = c
+        for r in range(c + 1, N_ACTUATORS):
+            if abs(lines[r, c]) > abs(lines[p, c]):
+                p = r
+        if lines[p, c] == 0.0:
+            return 0.0
+        if p != c:
+            det = -det
+            for k in range(N_ACTUATORS):
+                lines[c, k], lines[p, k] = lines[p, k], lines[c, k]
+        det *= lines[c, c]
+        for r in range(c + 1, N_ACTUATORS):
+            f = lines[r, c] / lines[c, c]
+            for k in range(c + 1, N_ACTUATORS):
+                lines[r, k] -= f * lines[c, k]
+    return det
+
+
 @njit(cache=True)
 def make_workspace():
     N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
@@ -553,10 +606,11 @@ def make_workspace():
     return Workspace(np.zeros((2, N)), np.zeros((2, N, 2)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)),
                      np.zeros(r, np.int64),
                      np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
-                     np.zeros(N_JB), np.zeros((N_BODIES, 3)), np.zeros((N_BODIES, 3, n)), np.zeros((n, n)),
-                     np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)), np.zeros((n, 4)), np.zeros((r, r)),
-                     np.zeros(r, np.int64), np.zeros((N, n)), np.zeros(1, np.int64), np.zeros((2, r)),
-                     np.zeros((2, r)), np.zeros((r, r)), np.zeros(r), np.zeros(m), np.zeros(n), np.zeros(n))
+                     np.zeros(N_JB), np.zeros((N_BODIES, BODY_ROWS)), np.zeros((N_BODIES, BODY_ROWS, n)),
+                     np.zeros((n, n)), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)),
+                     np.zeros((n, LINE_WIDTH)), np.zeros((r, r)), np.zeros(r, np.int64), np.zeros((N, n)),
+                     np.zeros(1, np.int64), np.zeros((DIM, r)), np.zeros((DIM, r)), np.zeros((r, r)), np.zeros(m),
+                     np.zeros(m), np.zeros(n), np.zeros(n))
 
 
 @njit(**NO_REFCOUNT)
@@ -567,10 +621,10 @@ def factor_passive(ws, q, sc, P):
     n = N_ACTUATORS
     for k in range(REDUCED):
         c = n + reduced_column(k)
-        ws.top[0, k] = ws.j_eta[0, c]
-        ws.top[1, k] = ws.j_eta[1, c]
+        for d in range(DIM):
+            ws.top[d, k] = ws.j_eta[d, c]
         for r in range(REDUCED):
-            ws.reduced[r, k] = ws.j_eta[r + 2, c] - ws.j_eta[r % 2, c]
+            ws.reduced[r, k] = ws.j_eta[r + DIM, c] - ws.j_eta[r % DIM, c]
     ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 
@@ -618,8 +672,8 @@ def keep_base_factors(ws):
     branch following from the base."""
     for i in range(REDUCED):
         ws.piv_base[i] = ws.piv[i]
-        ws.top_base[0, i] = ws.top[0, i]
-        ws.top_base[1, i] = ws.top[1, i]
+        for d in range(DIM):
+            ws.top_base[d, i] = ws.top[d, i]
         for j in range(REDUCED):
             ws.lu_base[i, j] = ws.lu[i, j]
     for i in range(N_COORDINATES):
@@ -769,7 +823,8 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
 
     Body by body, with ``Jt = J_b Jqθ`` the body's velocity per actuator rate and
     ``a_b = J_b J̇qθ θ̇ + J̇_b q̇`` its acceleration at ``θ̈ = 0``:
-    ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``).
+    ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``; in
+    space :func:`spatial_body_sums`).
     """
     n, N = N_ACTUATORS, N_COORDINATES
     if not factor_passive(ws, q, sc, P):
@@ -791,7 +846,7 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
     body_jacobian_values(q, sc, P, ws.jb)
     body_bias(q, sc, ws.q_dot, P, ws.bb)
     for b in range(N_BODIES):
-        for r in range(3):
+        for r in range(BODY_ROWS):
             for j in range(n):
                 ws.jt[b, r, j] = 0.0
     for z in range(N_JB):  # Jt = J_b Jqθ and a_b += J_b J̇qθ θ̇ over the non-zeros of J_b only
@@ -799,6 +854,9 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         for j in range(n):
             ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
         ws.bb[b, r] += v * ws.bias_q[k]
+    if ANGULAR == 3:
+        spatial_body_sums(ws, theta_dot, P)
+        return True
     gx, gy = P[GRAVITY_INDEX[0]], P[GRAVITY_INDEX[1]]
     # each entry summed in a register and stored once (accumulating into the workspace's arrays would
     # load and store at every term: the compiler cannot rule out that they overlap)
@@ -820,6 +878,55 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
             ws.m_theta[i, j] = acc
             ws.m_theta[j, i] = acc
     return True
+
+
+@njit(**NO_REFCOUNT)
+def spatial_body_sums(ws, theta_dot, P):
+    """The body sums of :func:`actuator_space_model` for spatial bodies, whose Jacobian rows are the mass
+    centre's velocity (3) and the angular velocity in the body's own frame ``ω`` (3), with the inertia
+    tensor ``I`` about the mass centre in that frame (6 parameters from ``INERTIA_INDEX``: xx, yy, zz,
+    xy, xz, yz): Newton–Euler projected on the actuators,
+    ``Mθ = Σ m Jt_vᵀ Jt_v + Jt_ωᵀ I Jt_ω``, ``cθ = Σ m Jt_vᵀ a_v + Jt_ωᵀ (I a_ω + ω × I ω)``,
+    ``gθ = -Σ m Jt_vᵀ g``. The gyroscopic term ``ω × I ω`` is what a planar body never has."""
+    n = N_ACTUATORS
+    for b in range(N_BODIES):  # the angular rows of bb become I a_ω + ω × I ω
+        k = INERTIA_INDEX[b]
+        ixx, iyy, izz, ixy, ixz, iyz = P[k], P[k + 1], P[k + 2], P[k + 3], P[k + 4], P[k + 5]
+        wx, wy, wz = 0.0, 0.0, 0.0
+        for j in range(n):
+            wx += ws.jt[b, 3, j] * theta_dot[j]
+            wy += ws.jt[b, 4, j] * theta_dot[j]
+            wz += ws.jt[b, 5, j] * theta_dot[j]
+        hx = ixx * wx + ixy * wy + ixz * wz
+        hy = ixy * wx + iyy * wy + iyz * wz
+        hz = ixz * wx + iyz * wy + izz * wz
+        ax, ay, az = ws.bb[b, 3], ws.bb[b, 4], ws.bb[b, 5]
+        ws.bb[b, 3] = ixx * ax + ixy * ay + ixz * az + (wy * hz - wz * hy)
+        ws.bb[b, 4] = ixy * ax + iyy * ay + iyz * az + (wz * hx - wx * hz)
+        ws.bb[b, 5] = ixz * ax + iyz * ay + izz * az + (wx * hy - wy * hx)
+    for i in range(n):
+        c, g = 0.0, 0.0
+        for b in range(N_BODIES):
+            mass = P[MASS_INDEX[b]]
+            c += (mass * (ws.jt[b, 0, i] * ws.bb[b, 0] + ws.jt[b, 1, i] * ws.bb[b, 1] + ws.jt[b, 2, i] * ws.bb[b, 2])
+                  + ws.jt[b, 3, i] * ws.bb[b, 3] + ws.jt[b, 4, i] * ws.bb[b, 4] + ws.jt[b, 5, i] * ws.bb[b, 5])
+            for d in range(DIM):
+                g -= mass * ws.jt[b, d, i] * P[GRAVITY_INDEX[d]]
+        ws.c_theta[i] = c
+        ws.g_theta[i] = g
+        for j in range(i, n):
+            acc = 0.0
+            for b in range(N_BODIES):
+                mass, k = P[MASS_INDEX[b]], INERTIA_INDEX[b]
+                ixx, iyy, izz, ixy, ixz, iyz = P[k], P[k + 1], P[k + 2], P[k + 3], P[k + 4], P[k + 5]
+                ux, uy, uz = ws.jt[b, 3, j], ws.jt[b, 4, j], ws.jt[b, 5, j]
+                acc += (mass * (ws.jt[b, 0, i] * ws.jt[b, 0, j] + ws.jt[b, 1, i] * ws.jt[b, 1, j]
+                                + ws.jt[b, 2, i] * ws.jt[b, 2, j])
+                        + ws.jt[b, 3, i] * (ixx * ux + ixy * uy + ixz * uz)
+                        + ws.jt[b, 4, i] * (ixy * ux + iyy * uy + iyz * uz)
+                        + ws.jt[b, 5, i] * (ixz * ux + iyz * uy + izz * uz))
+            ws.m_theta[i, j] = acc
+            ws.m_theta[j, i] = acc
 
 
 @njit(cache=True)
