@@ -83,14 +83,25 @@ class MechanismModel:
         return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
 
 
+def derivation(description) -> ModuleType:
+    """The derivation of a description: :mod:`pkmlab.derivations.spatial` for a spatial machine, else
+    :mod:`pkmlab.derivations.planar`."""
+    if getattr(description, "spatial", False):
+        from .derivations import spatial
+
+        return spatial
+    return planar
+
+
 def _bind(description: Mechanism) -> MechanismModel:
     """The description with its packed parameters and its structure's kernels (shipped, or generated once)."""
+    derived = derivation(description)
     try:
-        kernels = importlib.import_module(f".mechanisms.generated.{planar.generated_path(description).stem}",
+        kernels = importlib.import_module(f".mechanisms.generated.{derived.generated_path(description).stem}",
                                           __package__)
     except ModuleNotFoundError:
         kernels = _user_structure_kernels(description)
-    P = planar.pack(description)
+    P = derived.pack(description)
     P.setflags(write=False)
     return MechanismModel(description, P, kernels)
 
@@ -173,13 +184,14 @@ def _user_structure_kernels(description: Mechanism) -> ModuleType:
 
     from ._compile_cache import CACHE_DIR
 
-    name = f"pkmlab_kernels_{planar.structure(description)}"
+    derived = derivation(description)
+    name = f"pkmlab_kernels_{derived.generated_path(description).stem}"
     if name in sys.modules:
         return sys.modules[name]
     folder = CACHE_DIR / "kernels"
     path = folder / f"{name}.py"
     if not path.exists():
-        source = planar.generate_source(description)
+        source = derived.generate_source(description)
         folder.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}-", suffix=".tmp")
         with os.fdopen(fd, "w") as f:
@@ -293,9 +305,29 @@ def working_modes(model: MechanismModel) -> list[tuple[int, ...]]:
     (``[()]`` when no leg has two branches, as for the 3-RPR)."""
     import itertools
 
-    from .mechanisms.leg_types import working_modes as leg_modes
-
+    leg_modes = _leg_solver(model.description).working_modes
     return list(itertools.product(*[leg_modes(leg) for leg in model.description.legs if leg_modes(leg)]))
+
+
+def _leg_solver(description) -> ModuleType:
+    """The module of closed-form leg inverse kinematics for the description's kind (planar or spatial)."""
+    if getattr(description, "spatial", False):
+        from .mechanisms import spatial_legs
+
+        return spatial_legs
+    from .mechanisms import leg_types
+
+    return leg_types
+
+
+def _attachment_points(description, leg: int, poses: np.ndarray) -> np.ndarray:
+    if getattr(description, "spatial", False):
+        from .mechanisms.spatial import attachment_points
+
+        return attachment_points(description, leg, poses)
+    from .mechanisms.description import attachment_points
+
+    return attachment_points(description, leg, poses)
 
 
 def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
@@ -308,6 +340,10 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
     pose = np.asarray(pose, dtype=float)
     if pose.shape != (m.dof,) or not np.all(np.isfinite(pose)):
         raise InvalidParameterError(f"pose must be ({', '.join(m.pose_names)}), finite, got {pose.tolist()}")
+    if getattr(m, "spatial", False):
+        from .mechanisms.spatial import check_pose
+
+        check_pose(m, pose)
     q, failure = _inverse_kinematics_batch(model, pose[None, :], mode)
     if failure is not None:
         _k, leg, message = failure
@@ -318,11 +354,9 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
 def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
     """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach,
     and the first failure ``(k, leg, message)`` (else None)."""
-    from .mechanisms.description import attachment_points
-    from .mechanisms.leg_types import leg_inverse_kinematics_batch
-    from .mechanisms.leg_types import working_modes as leg_modes
-
     m = model.description
+    solver = _leg_solver(m)
+    leg_inverse_kinematics_batch, leg_modes = solver.leg_inverse_kinematics_batch, solver.working_modes
     signs = iter(tuple(mode))
     actuators, passive, bad = [], [], np.zeros(len(poses), dtype=bool)
     first = None
@@ -330,7 +364,7 @@ def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
         sigma = next(signs, None) if leg_modes(leg) else 1
         if sigma not in (1, -1):
             raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg, got {tuple(mode)}")
-        solved = leg_inverse_kinematics_batch(leg, i, attachment_points(m, i, poses), sigma)
+        solved = leg_inverse_kinematics_batch(leg, i, _attachment_points(m, i, poses), sigma)
         if solved.bad.any():
             k = int(np.argmax(solved.bad))
             if first is None or k < first[0]:
@@ -352,7 +386,8 @@ def singularity_measure(model: MechanismModel, q) -> float:
     determinant of the legs' lines of action, the paper's eq. (19) for its machine; for the five-bar,
     ``sin(φ1 - φ2)``)."""
     q = _q(model, q)
-    return float(model.kernels.singularity_measure(q, trig_table(model, q), model.P, np.empty((model.n_actuators, 4))))
+    return float(model.kernels.singularity_measure(q, trig_table(model, q), model.P,
+                                                    np.empty((model.n_actuators, model.kernels.LINE_WIDTH))))
 
 
 # ------------------------------------------------------------------ forward kinematics
@@ -448,6 +483,8 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
     from .mechanisms.leg_types import _SOLVERS
 
     theta = _actuator_values(model, actuators)
+    if getattr(model.description, "spatial", False):
+        return _spatial_forward_kinematics(model, theta)
     if any(leg.notation not in _SOLVERS for leg in model.description.legs):
         solutions, doubt = forward_kinematics_general(model, theta)
         if doubt:
@@ -486,6 +523,32 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
             coords = leg_coordinates(leg, theta[i], attachment_point(m, i, pose))
             passive += [v for k, v in enumerate(coords) if k != leg.actuated]
         configurations.append(np.array([*theta, *passive, *pose]))
+    return _assembly_modes(model, configurations)
+
+
+def _spatial_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """Every assembly mode of a spatial machine: for a translating platform on three R*US legs (the Delta)
+    the two points where three spheres meet (:func:`~pkmlab.mechanisms.spatial_legs.delta_forward_kinematics`),
+    the forearms' universal-joint angles from them, each polished by Newton's method on ``η = 0``."""
+    from .mechanisms.spatial_legs import delta_forward_kinematics, rotate, universal_angles
+
+    m = model.description
+    if m.platform.kind != "translating" or any(leg.notation != "R*US" for leg in m.legs):
+        raise InvalidParameterError(f"{m.name} ({m.notation}, {m.platform.kind} platform): pkmlab's closed-form "
+                                    "forward kinematics is for a translating platform on three R*US legs; follow "
+                                    "a branch from a known configuration instead (branch_following)")
+    configurations = []
+    for point in delta_forward_kinematics(m, theta):
+        passive = []
+        for i, leg in enumerate(m.legs):
+            axis = np.array(leg.joints[0].axes[0])
+            turn = np.array([theta[i]])
+            elbow = np.array(leg.base) + rotate(axis, turn, np.array([leg.bodies[0].tip]))[0]
+            target = point + np.array(m.platform.attachments[i])
+            v = rotate(axis, -turn, (target - elbow)[None, :])
+            q1, q2, _ = universal_angles(leg.joints[1].axes, leg.bodies[1].tip, v)
+            passive += [q1[0], q2[0]]
+        configurations.append(np.array([*theta, *passive, *point]))
     return _assembly_modes(model, configurations)
 
 

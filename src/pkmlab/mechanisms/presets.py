@@ -5,7 +5,9 @@
 * ``five_bar`` — a planar 2-RRRRR (five-bar) with a payload at its end point;
 * ``3rpr`` — a 3-RPR with telescopic actuated legs on the paper's base and platform (similar
   triangles: singular wherever the platform is at alpha = 0 or pi);
-* ``3prr`` — a 3-PRR whose actuated sliders run along the sides of the paper's base.
+* ``3prr`` — a 3-PRR whose actuated sliders run along the sides of the paper's base;
+* ``delta`` — the Delta robot (spatial, three translations, with gravity), described as three
+  R*US legs on a translating platform (:mod:`pkmlab.mechanisms.spatial`).
 
 Every number is a parameter of the description: write a preset out with
 :func:`~pkmlab.mechanisms.description.mechanism_to_toml`, edit it, and load it back.
@@ -16,6 +18,7 @@ from __future__ import annotations
 import math
 
 from .description import Body, Joint, Leg, Mechanism, Platform
+from .spatial import SpatialBody, SpatialJoint, SpatialLeg, SpatialMechanism, SpatialPlatform
 
 #: The paper's base side and platform side (m).
 BASE_SIDE = 0.52
@@ -78,11 +81,48 @@ def prr3() -> Mechanism:
     return Mechanism("3prr", legs, equilateral_platform())
 
 
-#: The presets by name.
-PRESETS = {"paper": paper, "five_bar": five_bar, "3rpr": rpr3, "3prr": prr3}
+def delta(base_radius: float = 0.20, arm: float = 0.35, forearm: float = 0.80,
+          platform_radius: float = 0.05) -> SpatialMechanism:
+    """The Delta robot: arms at azimuths ``γ_i = (i - 1)·2π/3`` (``w_i = (cos γ_i, sin γ_i, 0)``), actuated
+    revolutes at ``B_i = R_b w_i`` about ``e_z × w_i``, so that the arm angle ``θ_i`` turns the arm below the
+    horizontal: elbow ``E_i = B_i + L_a (cos θ_i w_i - sin θ_i e_z)``. Upper arm 0.40 kg, mass centre at
+    ``L_a/2``, 0.0183 kg m² about its joint axis (arm and the motor's reflected rotor). Each forearm, a
+    parallelogram of two thin uniform rods (0.10 kg together) whose ends translate with ``E_i`` and
+    ``P_i = P + R_p w_i``, is one body from a universal joint at the elbow to a spherical joint on the
+    platform: mass centre at its middle, inertia ``(m L_b²/12)`` across it and none along it, which
+    gives exactly the rods' kinetic energy ``(m/6)(|Ė_i|² + Ė_i·Ṗ_i + |Ṗ_i|²)``. Platform and payload
+    0.30 kg, translating. Gravity 9.81 m/s² along -z; the base plane is z = 0."""
+    arm_mass, arm_inertia_at_axis, forearm_mass = 0.40, 0.0183, 0.10
+    # the arm's inertia about its mass centre, about the joint axis (parallel axes: minus m (L_a/2)²)
+    arm_inertia = arm_inertia_at_axis - arm_mass * (arm / 2) ** 2
+    rod = forearm_mass * forearm**2 / 12
+    legs = []
+    for i in range(3):
+        gamma = i * 2 * math.pi / 3
+        w = (math.cos(gamma), math.sin(gamma), 0.0)
+        axis = (-math.sin(gamma), math.cos(gamma), 0.0)  # e_z x w: positive turns take the arm down
+        # a rod along w: no inertia along it, the same across it (only the part about the axis moves it)
+        arm_tensor = tuple(tuple(arm_inertia * ((r == c) - w[r] * w[c]) for c in range(3)) for r in range(3))
+        legs.append(SpatialLeg(
+            tuple(base_radius * c for c in w),
+            (SpatialJoint("R", True, (axis,)), SpatialJoint("U", False, (axis, w)), SpatialJoint("S")),
+            (SpatialBody(tuple(arm * c for c in w), arm_mass, tuple(arm / 2 * c for c in w), arm_tensor),
+             # the forearm hangs along -z at zero joint angles
+             SpatialBody((0.0, 0.0, -forearm), forearm_mass, (0.0, 0.0, -forearm / 2),
+                         ((rod, 0.0, 0.0), (0.0, rod, 0.0), (0.0, 0.0, 0.0))))))
+    attachments = tuple((platform_radius * math.cos(i * 2 * math.pi / 3), platform_radius * math.sin(i * 2 * math.pi / 3),
+                         0.0) for i in range(3))
+    return SpatialMechanism("delta", tuple(legs), SpatialPlatform("translating", attachments, 0.30),
+                            (0.0, 0.0, -9.81))
 
 
-def preset(name: str) -> Mechanism:
+#: The presets by name: the planar ones, then the spatial ones.
+PLANAR_PRESETS = {"paper": paper, "five_bar": five_bar, "3rpr": rpr3, "3prr": prr3}
+SPATIAL_PRESETS = {"delta": delta}
+PRESETS = {**PLANAR_PRESETS, **SPATIAL_PRESETS}
+
+
+def preset(name: str) -> Mechanism | SpatialMechanism:
     """The preset ``name`` (one of :data:`PRESETS`)."""
     from ..errors import InvalidParameterError
 

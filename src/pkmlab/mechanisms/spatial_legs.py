@@ -1,0 +1,162 @@
+"""Closed-form inverse kinematics of spatial legs, and the Delta's forward kinematics.
+
+Legs of a :class:`~pkmlab.mechanisms.spatial.SpatialMechanism` that pkmlab solves in closed form:
+
+* ``R*US`` — an actuated arm, then a forearm from a universal joint at the arm's tip to a spherical
+  joint on the platform (the Delta's leg). The arm angle is a root of ``α cos θ + β sin θ = γ``:
+  two working modes. ``σ = +1`` is the root for which the turn from the arm to the line from the arm's
+  joint to the platform point is positive about the actuated axis — for the Delta, whose axes are
+  ``e_z × w_i``, the elbow farther from the z axis ("knee out").
+* ``UP*S`` — a universal joint on the base, an actuated prismatic joint, a spherical joint on the
+  platform (the Stewart–Gough platform's leg): the slide is the larger root of a quadratic (one
+  working mode).
+
+A universal joint's two angles turn its body's tip onto a given direction; of the two solutions (the
+body spun half a turn about itself), pkmlab takes the one whose second angle is nearer zero.
+Functions act on many points at once, ``(K, 3)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+from .leg_types import _Solved, _stroke
+from .spatial import SpatialLeg, SpatialMechanism
+
+SOLVED = ("R*US", "UP*S")
+
+
+def working_modes(leg: SpatialLeg) -> tuple[int, ...]:
+    """``(+1, -1)`` for a leg with two inverse-kinematic branches (R*US), ``()`` for one (UP*S)."""
+    return (1, -1) if leg.notation == "R*US" else ()
+
+
+def rotate(axis, angle, v):
+    """Rodrigues' rotation of vectors ``v`` (K, 3) by ``angle`` (K,) about the unit ``axis`` (3,)."""
+    a = np.asarray(axis, dtype=float)
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    return c * v + s * np.cross(a, v) + (1.0 - c) * (v @ a)[:, None] * a
+
+
+def universal_angles(axes, tip, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The angles ``(q1, q2)`` of a universal joint (perpendicular ``axes``) with
+    ``Rot(a1, q1) Rot(a2, q2) tip = v`` (``v`` (K, 3) of the tip's length), and where no angle does it."""
+    a1, a2 = (np.asarray(a, dtype=float) for a in axes)
+    tip = np.asarray(tip, dtype=float)
+    # a1 · Rot(a2, q2) tip = a1 · v  (the first turn keeps the a1 component): α cos q2 + β sin q2 = γ
+    alpha, beta = a1 @ tip, a1 @ np.cross(a2, tip)
+    gamma = v @ a1
+    rho = np.hypot(alpha, beta)
+    ratio = np.clip(gamma / rho, -1.0, 1.0) if rho > 0 else np.zeros(len(v))
+    bad = np.abs(gamma) > rho * (1 + 1e-12) if rho > 0 else np.abs(gamma) > 0
+    centre = np.arctan2(beta, alpha)
+    roots = np.stack([centre + np.arccos(ratio), centre - np.arccos(ratio)])
+    roots = np.angle(np.exp(1j * roots))
+    q2 = np.where(np.abs(roots[0]) <= np.abs(roots[1]), roots[0], roots[1])
+    w = rotate(a2, q2, np.broadcast_to(tip, v.shape).copy())
+    # the turn about a1 that takes w to v: the signed angle between their parts across a1
+    q1 = np.arctan2(np.cross(w, v) @ a1, np.einsum("ki,ki->k", w, v) - (w @ a1) * (v @ a1))
+    return q1, q2, bad
+
+
+def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int) -> _Solved:
+    arm_joint, universal = leg.joints[0], leg.joints[1]
+    axis = np.array(arm_joint.axes[0])
+    arm, forearm = leg.bodies
+    tip = np.array(arm.tip)
+    along = (tip @ axis) * axis
+    across = tip - along
+    length = float(np.linalg.norm(forearm.tip))
+    d = points - np.array(leg.base) - along
+    # |d - Rot(axis, θ) across| = L_forearm:  α cos θ + β sin θ = γ
+    alpha, beta = d @ across, d @ np.cross(axis, across)
+    gamma = (np.einsum("ki,ki->k", d, d) + across @ across - length**2) / 2
+    rho = np.hypot(alpha, beta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = gamma / rho
+    bad = ~(np.abs(ratio) <= 1.0)
+    # σ = +1: the arm turned back from the line to the point (module docstring)
+    theta = np.arctan2(beta, alpha) - sigma * np.arccos(np.clip(ratio, -1.0, 1.0))
+    theta = np.angle(np.exp(1j * theta))
+    elbow = np.array(leg.base) + along + rotate(axis, theta, np.broadcast_to(across, points.shape).copy())
+    # the forearm's direction in the arm's frame: the arm's turn undone
+    v = rotate(axis, -theta, points - elbow)
+    q1, q2, _ = universal_angles(universal.axes, forearm.tip, v)
+
+    def why(k):
+        return (f"leg {number + 1} (R*US) cannot reach the point ({', '.join(f'{c:.4g}' for c in points[k])}): "
+                f"its forearm of {length:.4g} m cannot join the circle of its arm's tip")
+
+    bad, why = _stroke(leg, number, theta, bad, why)
+    return _Solved(np.column_stack([theta, q1, q2]), bad, why)
+
+
+def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int) -> _Solved:
+    universal, slide = leg.joints[0], leg.joints[1]
+    cylinder, rod = leg.bodies
+    d = np.array(slide.axes[0])
+    offset = np.array(cylinder.tip) + np.array(rod.tip)
+    v = points - np.array(leg.base)
+    span2 = np.einsum("ki,ki->k", v, v)
+    # |offset + s d| = |v|: s² + 2 s (d·offset) + |offset|² - |v|² = 0, the larger root
+    b = d @ offset
+    disc = b * b - offset @ offset + span2
+    bad = ~(disc >= 0.0)
+    s = -b + np.sqrt(np.maximum(disc, 0.0))
+    q1, q2, _ = universal_angles(universal.axes, offset + s[:, None] * d, v)
+
+    def why(k):
+        return f"leg {number + 1} (UP*S) cannot reach the point ({', '.join(f'{c:.4g}' for c in points[k])})"
+
+    bad, why = _stroke(leg, number, s, bad, why)
+    return _Solved(np.column_stack([q1, q2, s]), bad, why)
+
+
+def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1) -> _Solved:
+    """The leg's three joint coordinates (K, 3), in the order of its joints, for its S joint at ``points``
+    (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why)."""
+    solver = {"R*US": _rus, "UP*S": _ups}.get(leg.notation)
+    if solver is None:
+        raise InvalidParameterError(f"leg {number + 1} ({leg.notation}): pkmlab solves the inverse kinematics of "
+                                    f"spatial legs {' and '.join(SOLVED)} in closed form, not {leg.notation}")
+    return solver(leg, number, np.asarray(points, dtype=float).reshape(-1, 3), sigma)
+
+
+def delta_forward_kinematics(mechanism: SpatialMechanism, actuators) -> list[np.ndarray]:
+    """Every position of a translating platform on three R*US legs at the actuator angles: the platform
+    point lies at the forearm's length from each elbow, shifted by the leg's attachment point — three
+    spheres, which meet in at most two points (below and above the elbows). Returns the positions,
+    lowest first; a touching pair (the spheres tangent, a singular pose) is returned once."""
+    centres, radii = [], []
+    for leg, theta, a in zip(mechanism.legs, actuators, mechanism.platform.attachments, strict=True):
+        axis = np.array(leg.joints[0].axes[0])
+        elbow = np.array(leg.base) + rotate(axis, np.array([float(theta)]), np.array([leg.bodies[0].tip]))[0]
+        centres.append(elbow - np.array(a))
+        radii.append(float(np.linalg.norm(leg.bodies[1].tip)))
+    c1, c2, c3 = centres
+    r1, r2, r3 = radii
+    # trilateration in the frame of the three centres
+    ex = c2 - c1
+    d = np.linalg.norm(ex)
+    ex = ex / d
+    i = ex @ (c3 - c1)
+    ey = c3 - c1 - i * ex
+    ey_norm = np.linalg.norm(ey)
+    if d == 0 or ey_norm < 1e-12 * max(d, 1.0):
+        return []  # the centres are aligned: a circle of poses or none (a singular pair of actuator sets)
+    ey = ey / ey_norm
+    ez = np.cross(ex, ey)
+    j = ey @ (c3 - c1)
+    x = (r1**2 - r2**2 + d**2) / (2 * d)
+    y = (r1**2 - r3**2 + i**2 + j**2) / (2 * j) - i / j * x
+    z2 = r1**2 - x**2 - y**2
+    scale = r1**2
+    if z2 < -1e-12 * scale:
+        return []
+    base = c1 + x * ex + y * ey
+    if z2 <= 1e-12 * scale:
+        return [base]
+    z = np.sqrt(z2)
+    found = sorted([base + z * ez, base - z * ez], key=lambda p: p[2])
+    return found
