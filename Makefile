@@ -29,6 +29,7 @@ bench: install
 derive: install
 	$(BIN)/python -m pkmlab.derivations.rrr3_sextic
 	$(BIN)/python -m pkmlab.derivations.planar
+	$(BIN)/python -m pkmlab.derivations.spatial
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info

@@ -13,7 +13,7 @@ import pkmlab
 from pkmlab import mechanism_model as mm
 from pkmlab.mechanisms import leg_types as lt
 from pkmlab.mechanisms.description import load_mechanism
-from pkmlab.mechanisms.presets import PRESETS, preset
+from pkmlab.mechanisms.presets import PLANAR_PRESETS, preset
 from pkmlab.scenario_io import scenario_from_dict
 from pkmlab.simulation import simulate
 
@@ -60,7 +60,7 @@ def _wrapped_gap(a, b, angles):
     return np.where(angles, np.abs(np.angle(np.exp(1j * (a - b)))), d)
 
 
-@pytest.mark.parametrize("name", sorted(PRESETS))
+@pytest.mark.parametrize("name", sorted(PLANAR_PRESETS))
 def test_the_general_leg_method_finds_exactly_the_closed_forms_solutions(name):
     rng = np.random.default_rng(11)
     m = preset(name)
@@ -78,7 +78,7 @@ def test_the_general_leg_method_finds_exactly_the_closed_forms_solutions(name):
                 assert min(_wrapped_gap(np.array(g), c, angles).max() for g in mine) < 1e-9
 
 
-@pytest.mark.parametrize("name", sorted(PRESETS))
+@pytest.mark.parametrize("name", sorted(PLANAR_PRESETS))
 def test_the_general_forward_kinematics_finds_the_polynomials_assembly_modes(name):
     model = mm.MechanismModel.from_preset(name)
     rng = np.random.default_rng(5)

@@ -10,9 +10,9 @@ import sympy as sp
 
 from pkmlab.derivations import planar
 from pkmlab.mechanisms.description import attachment_point, leg_chain
-from pkmlab.mechanisms.presets import PRESETS, preset
+from pkmlab.mechanisms.presets import PLANAR_PRESETS, preset
 
-NAMES = sorted(PRESETS)
+NAMES = sorted(PLANAR_PRESETS)
 
 
 def kernels(name):

@@ -50,8 +50,11 @@ class MechanismModel:
 
     @classmethod
     def from_description(cls, description: Mechanism) -> MechanismModel:
-        if not isinstance(description, Mechanism):
-            raise InvalidParameterError(f"description must be a Mechanism, got {type(description).__name__}")
+        from .mechanisms.spatial import SpatialMechanism
+
+        if not isinstance(description, Mechanism | SpatialMechanism):
+            raise InvalidParameterError(f"description must be a Mechanism or a SpatialMechanism, got "
+                                        f"{type(description).__name__}")
         model = _bind(description)
         _check_assembly(model)
         return model
@@ -144,6 +147,9 @@ def _check_assembly(model: MechanismModel) -> None:
     from .mechanisms.leg_types import working_modes as leg_modes
 
     m = model.description
+    if getattr(m, "spatial", False):
+        _check_spatial_assembly(model)
+        return
     (x0, x1), (y0, y1) = default_extent(model)
     furthest = 0  # the most legs joined at one pose, over the orientations tried
     for count, turns in ASSEMBLY_GRIDS:
@@ -170,6 +176,47 @@ def _check_assembly(model: MechanismModel) -> None:
         f"{m.name}: the platform can be assembled nowhere: leg {furthest + 1} reaches its attachment point{others} "
         f"at no pose of a {grid} grid over x in [{x0:.3g}, {x1:.3g}] m, y in [{y0:.3g}, {y1:.3g}] m "
         "(check the legs' lengths, strokes, bases and attachment points)")
+
+
+#: Positions per axis of the spatial assembly check's grid (the platform level, over the legs' reach).
+SPATIAL_ASSEMBLY_GRID = 41
+
+
+def spatial_extent(description) -> np.ndarray:
+    """The box (3, 2) a spatial machine's platform point can reach at most: around the legs' bases, as far
+    as the longest leg reaches (its bodies' tips, its slide's upper stroke) plus the platform's size."""
+    bases = np.array([leg.base for leg in description.legs])
+    reach = max(sum(float(np.linalg.norm(b.tip)) for b in leg.bodies)
+                + (max(abs(v) for v in leg.stroke) if leg.stroke and leg.joints[leg.actuated].kind == "P" else 0.0)
+                for leg in description.legs)
+    size = max(float(np.linalg.norm(a)) for a in description.platform.attachments)
+    return np.column_stack([bases.min(0) - reach - size, bases.max(0) + reach + size])
+
+
+def _check_spatial_assembly(model: MechanismModel) -> None:
+    """:func:`_check_assembly` for a spatial machine: some platform position of a grid over
+    :func:`spatial_extent` (the platform level) where every leg reaches its attachment point."""
+    from .mechanisms import spatial_legs
+
+    m = model.description
+    box = spatial_extent(m)
+    axes = [np.linspace(lo, hi, SPATIAL_ASSEMBLY_GRID) for lo, hi in box]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    poses = np.column_stack([points, np.zeros((len(points), m.dof - 3))])
+    together = np.ones(len(poses), dtype=bool)
+    for i, leg in enumerate(m.legs):
+        reached = np.zeros(len(poses), dtype=bool)
+        for sigma in spatial_legs.working_modes(leg) or (1,):
+            reached |= ~spatial_legs.leg_inverse_kinematics_batch(leg, i, _attachment_points(m, i, poses), sigma).bad
+        together &= reached
+        if not together.any():
+            others = f" together with legs 1..{i}" if i > 0 else ""
+            raise InvalidParameterError(
+                f"{m.name}: the platform can be assembled nowhere: leg {i + 1} reaches its attachment point{others} "
+                f"at no position of a {SPATIAL_ASSEMBLY_GRID}^3 grid over "
+                + ", ".join(f"{c} in [{lo:.3g}, {hi:.3g}] m" for c, (lo, hi) in zip("xyz", box, strict=True))
+                + (" (level platform)" if m.dof == 6 else "") + " (check the legs' lengths, strokes, bases and "
+                "attachment points)")
 
 
 def _user_structure_kernels(description: Mechanism) -> ModuleType:
@@ -249,6 +296,8 @@ def _bodies(model: MechanismModel, q, q_dot):
 def gravity_vector(model: MechanismModel, q) -> np.ndarray:
     """``g(q) = ∂V/∂q``: the generalised forces that hold the machine still against gravity."""
     q = _q(model, q)
+    if getattr(model.description, "spatial", False):
+        return _spatial_full_space_model(model, q, np.zeros_like(q))[2]
     k = model.kernels
     return _gravity(model, _evaluate(model, k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q))
 
@@ -263,9 +312,33 @@ def _gravity(model: MechanismModel, J: np.ndarray) -> np.ndarray:
 def full_space_model(model: MechanismModel, q, q_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(M, C q̇, g)`` of the unconstrained bodies in the coordinates ``q`` (eqs. 23–24, with gravity)."""
     q, q_dot = _q(model, q), _q(model, q_dot)
+    if getattr(model.description, "spatial", False):
+        return _spatial_full_space_model(model, q, q_dot)
     J, bias = _bodies(model, q, q_dot)
     D = model.body_weights
     return lagrangian.mass_matrix(J, D), lagrangian.velocity_product(J, D, bias), _gravity(model, J)
+
+
+def _spatial_full_space_model(model: MechanismModel, q, q_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`full_space_model` of spatial bodies (rows: mass-centre velocity, angular velocity ``ω`` in the
+    body's frame): ``M = Σ m J_vᵀ J_v + J_ωᵀ I J_ω``, ``C q̇ = Σ m J_vᵀ J̇_v q̇ + J_ωᵀ (I J̇_ω q̇ + ω × I ω)``,
+    ``g = -Σ m J_vᵀ gravity`` — the Newton–Euler equations of every body in the coordinates ``q``."""
+    k = model.kernels
+    J = _evaluate(model, k.body_jacobians, (k.N_BODIES, 6, k.N_COORDINATES), q)
+    bias = _evaluate(model, k.body_bias, (k.N_BODIES, 6), q, q_dot)
+    m = model.description
+    bodies = [b for leg in m.legs for b in leg.bodies] + [m.platform]
+    gravity = np.array(m.gravity)
+    n = len(q)
+    M, h, g = np.zeros((n, n)), np.zeros(n), np.zeros(n)
+    for body, jb, bb in zip(bodies, J, bias, strict=True):
+        jv, jw = jb[:3], jb[3:]
+        inertia = np.array(body.inertia)
+        omega = jw @ q_dot
+        M += body.mass * jv.T @ jv + jw.T @ inertia @ jw
+        h += body.mass * jv.T @ bb[:3] + jw.T @ (inertia @ bb[3:] + np.cross(omega, inertia @ omega))
+        g -= body.mass * jv.T @ gravity
+    return M, h, g
 
 
 def actuator_space_model(model: MechanismModel, q, theta_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

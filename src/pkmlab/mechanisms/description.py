@@ -340,7 +340,7 @@ def attachment_points(mechanism: Mechanism, leg: int, poses: np.ndarray) -> np.n
 
 # ------------------------------------------------------------------ the TOML form
 #: Keys of the TOML form, by table.
-MECHANISM_KEYS = ("preset", "name", "gravity", "platform", "leg")
+MECHANISM_KEYS = ("preset", "name", "dimension", "gravity", "platform", "leg")
 PLATFORM_KEYS = ("kind", "attachments", "mass", "com", "inertia")
 LEG_KEYS = ("base", "joints", "axis", "stroke", "bodies")
 BODY_KEYS = ("tip", "mass", "com", "inertia")
@@ -405,6 +405,14 @@ def mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mechanism:
         from .presets import preset
 
         return preset(table["preset"])
+    dimension = table.get("dimension", 2)
+    if dimension not in (2, 3) or isinstance(dimension, bool):
+        raise InvalidParameterError(f"{where}.dimension must be 2 (a planar machine) or 3 (a spatial one), got "
+                                    f"{dimension!r}")
+    if dimension == 3:
+        from .spatial import spatial_mechanism_from_dict
+
+        return spatial_mechanism_from_dict({k: v for k, v in table.items() if k != "dimension"}, source)
     platform = _known(_required(table, "platform", where), PLATFORM_KEYS, f"{where}.platform")
     kind = platform.get("kind", "rigid")
     if kind not in PLATFORM_KINDS:
@@ -454,6 +462,10 @@ def mechanism_to_toml(mechanism: Mechanism, comment: str | None = None) -> str:
     >>> mechanism_from_dict(tomllib.loads(mechanism_to_toml(preset("3prr")))["mechanism"]) == preset("3prr")
     True
     """
+    if getattr(mechanism, "spatial", False):
+        from .spatial import spatial_mechanism_to_toml
+
+        return spatial_mechanism_to_toml(mechanism, comment)
     lines = [f"# {line}" for line in (comment or "").splitlines()]
     lines += [""] if lines else []
     m = mechanism
@@ -477,7 +489,7 @@ def mechanism_to_toml(mechanism: Mechanism, comment: str | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def load_mechanism(path) -> Mechanism:
+def load_mechanism(path):
     """The mechanism of a TOML file holding a ``[mechanism]`` table; every error names the file."""
     from pathlib import Path
 

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidParameterError
-from .description import _known, _number, _required
+from .description import _known, _number, _required, _toml
 
 SPATIAL_JOINTS = ("R", "P", "U", "S")
 SPATIAL_PLATFORMS = ("translating", "rigid")
@@ -68,6 +68,8 @@ def _unit(where: str, value) -> tuple[float, float, float]:
     norm = float(np.linalg.norm(v))
     if norm == 0.0:
         raise InvalidParameterError(f"{where} must be a non-zero direction, got {list(value)!r}")
+    if abs(norm - 1.0) <= 1e-15:  # unit already (to round-off): kept as given, so that a description reads back equal
+        return tuple(float(c) for c in v)
     return tuple(float(c) for c in v / norm)
 
 
@@ -357,7 +359,7 @@ def attachment_points(mechanism: SpatialMechanism, leg: int, poses: np.ndarray) 
 
 
 # ------------------------------------------------------------------ the TOML form
-MECHANISM_KEYS = ("name", "dimension", "gravity", "platform", "leg")
+MECHANISM_KEYS = ("name", "gravity", "platform", "leg")
 PLATFORM_KEYS = ("kind", "attachments", "mass", "com", "inertia")
 LEG_KEYS = ("base", "joints", "axes", "stroke", "bodies")
 BODY_KEYS = ("tip", "mass", "com", "inertia")
@@ -441,3 +443,26 @@ def scaled_spatial_mechanism(mechanism: SpatialMechanism, mass: float = 1.0, len
     platform = SpatialPlatform(p.kind, tuple(scale(a) for a in p.attachments), p.mass * mass, scale(p.com),
                                tensor(p.inertia))
     return SpatialMechanism(mechanism.name, legs, platform, mechanism.gravity)
+
+
+def spatial_mechanism_to_toml(mechanism: SpatialMechanism, comment: str | None = None) -> str:
+    """The TOML form of a spatial mechanism (``dimension = 3``); it reads back as an equal value."""
+    lines = [f"# {line}" for line in (comment or "").splitlines()]
+    lines += [""] if lines else []
+    m = mechanism
+    lines += ["[mechanism]", f"name = {_toml(m.name)}", "dimension = 3", f"gravity = {_toml(m.gravity)}", "",
+              "[mechanism.platform]", f"kind = {_toml(m.platform.kind)}",
+              f"attachments = {_toml(m.platform.attachments)}   # platform frame, one per leg",
+              f"mass = {_toml(m.platform.mass)}", f"com = {_toml(m.platform.com)}",
+              f"inertia = {_toml(m.platform.inertia)}"]
+    for leg in m.legs:
+        axes = [list(j.axes) if j.kind == "U" else j.axes[0] for j in leg.joints if j.kind != "S"]
+        lines += ["", "[[mechanism.leg]]", f"base = {_toml(leg.base)}", f"joints = {_toml(leg.notation)}",
+                  f"axes = {_toml(axes)}"]
+        if leg.stroke is not None:
+            lines += [f"stroke = {_toml(leg.stroke)}"]
+        lines += ["bodies = ["]
+        lines += [f"  {{ tip = {_toml(b.tip)}, mass = {_toml(b.mass)}, com = {_toml(b.com)}, "
+                  f"inertia = {_toml(b.inertia)} }}," for b in leg.bodies]
+        lines += ["]"]
+    return "\n".join(lines) + "\n"

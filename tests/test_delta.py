@@ -1,0 +1,185 @@
+"""The Delta robot (``delta`` preset) against an independent statement of its geometry and energy
+(tests/reference_delta.py), and the invariants every mechanism must satisfy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import reference_delta as ref
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from pkmlab import mechanism_model as mm
+from pkmlab.errors import InvalidParameterError, UnreachablePoseError
+from pkmlab.mechanism_model import MechanismModel
+from pkmlab.mechanisms.presets import preset
+
+MODEL = MechanismModel.from_preset("delta")
+MODES = mm.working_modes(MODEL)
+SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+positions = st.tuples(st.floats(-0.2, 0.2), st.floats(-0.2, 0.2), st.floats(-0.95, -0.5))
+
+
+def configuration(p, mode):
+    try:
+        q = mm.inverse_kinematics(MODEL, p, mode)
+    except UnreachablePoseError:
+        assume(False)
+    assume(abs(mm.singularity_measure(MODEL, q)) > 0.05)
+    return q
+
+
+def forward(theta, p_near):
+    """The reference's assembly mode nearest ``p_near`` (to follow it by finite differences)."""
+    found = ref.positions(theta)
+    return min(found, key=lambda p: np.linalg.norm(p - p_near))
+
+
+def test_eight_working_modes_knee_out_first():
+    assert len(MODES) == 8 and MODES[0] == (1, 1, 1) and MODES[-1] == (-1, -1, -1)
+    q = mm.inverse_kinematics(MODEL, [0.03, 0.02, -0.7], (1, 1, 1))
+    elbows = ref.elbows(q[:3])
+    other = ref.elbows(mm.inverse_kinematics(MODEL, [0.03, 0.02, -0.7], (-1, -1, -1))[:3])
+    # knee out: each elbow farther from the z axis than in the other branch
+    assert np.all(np.hypot(elbows[:, 0], elbows[:, 1]) > np.hypot(other[:, 0], other[:, 1]))
+
+
+@SETTINGS
+@given(positions, st.sampled_from(MODES))
+def test_inverse_kinematics_against_reference(p, mode):
+    q = configuration(p, mode)
+    assert np.allclose(q[:3], ref.inverse_kinematics(p, tuple(s > 0 for s in mode)), atol=1e-12)
+    assert np.max(np.abs(mm.constraint_residual(MODEL, q))) < 1e-12
+    assert np.allclose(q[-3:], p)
+
+
+@SETTINGS
+@given(positions, st.sampled_from(MODES))
+def test_forward_kinematics_of_inverse_finds_the_pose_and_both_assembly_modes(p, mode):
+    q = configuration(p, mode)
+    found = mm.forward_kinematics(MODEL, q[:3])
+    expected = ref.positions(q[:3])  # an independent count: the three spheres' real intersections
+    assert len(found) == len(expected) == 2
+    for (qf, s), pe in zip(found, expected, strict=True):
+        assert np.allclose(qf[-3:], pe, atol=1e-10)
+        assert np.max(np.abs(mm.constraint_residual(MODEL, qf))) < 1e-12
+        assert s == pytest.approx(ref.singularity_measure(q[:3], pe), abs=1e-12)
+    assert min(np.linalg.norm(qf[-3:] - p) for qf, _s in found) < 1e-10
+
+
+@SETTINGS
+@given(positions, st.sampled_from(MODES))
+def test_constraint_jacobian_against_finite_differences(p, mode):
+    q = configuration(p, mode)
+    jac = mm.constraint_jacobian(MODEL, q)
+    h = 1e-6
+    fd = np.column_stack([(mm.constraint_residual(MODEL, q + h * e) - mm.constraint_residual(MODEL, q - h * e))
+                          / (2 * h) for e in np.eye(len(q))])
+    assert np.allclose(jac, fd, atol=1e-8)
+
+
+@SETTINGS
+@given(positions, st.sampled_from(MODES), st.lists(st.floats(-3, 3), min_size=3, max_size=3))
+def test_actuator_space_model_against_the_energy(p, mode, rates):
+    q = configuration(p, mode)
+    theta, theta_dot = q[:3], np.array(rates)
+    M, c, g = mm.actuator_space_model(MODEL, q, theta_dot)
+    assert np.allclose(M, M.T, atol=1e-15) and np.all(np.linalg.eigvalsh(M) > 0)
+    assert np.allclose(M, ref.mass_matrix(theta, p), atol=1e-13)
+    h = 1e-6
+    grad_v, m_dot, grad_t = np.zeros(3), np.zeros((3, 3)), np.zeros(3)
+    for i, e in enumerate(np.eye(3)):
+        hi, lo = theta + h * e, theta - h * e
+        phi, plo = forward(hi, p), forward(lo, p)
+        grad_v[i] = (ref.potential(hi, phi) - ref.potential(lo, plo)) / (2 * h)
+        grad_t[i] = 0.5 * theta_dot @ (ref.mass_matrix(hi, phi) - ref.mass_matrix(lo, plo)) @ theta_dot / (2 * h)
+    hi, lo = theta + h * theta_dot, theta - h * theta_dot
+    m_dot = (ref.mass_matrix(hi, forward(hi, p)) - ref.mass_matrix(lo, forward(lo, p))) / (2 * h)
+    assert np.allclose(g, grad_v, atol=1e-7)  # g = ∂V/∂θ
+    # Lagrange: c = Ṁ θ̇ - ∂T/∂θ
+    assert np.allclose(c, m_dot @ theta_dot - grad_t, atol=1e-6 * (1 + np.abs(theta_dot).max() ** 2))
+
+
+@SETTINGS
+@given(positions, st.sampled_from(MODES), st.lists(st.floats(-3, 3), min_size=3, max_size=3),
+       st.lists(st.floats(-20, 20), min_size=3, max_size=3))
+def test_power_balance_with_gravity(p, mode, rates, efforts):
+    """τ·θ̇ = dT/dt + dV/dt along the motion the model predicts under τ."""
+    q = configuration(p, mode)
+    theta, theta_dot, tau = q[:3], np.array(rates), np.array(efforts)
+    M, c, g = mm.actuator_space_model(MODEL, q, theta_dot)
+    theta_ddot = np.linalg.solve(M, tau - c - g)
+    h = 1e-6
+    hi, lo = theta + h * theta_dot, theta - h * theta_dot
+    phi, plo = forward(hi, p), forward(lo, p)
+    m_dot = (ref.mass_matrix(hi, phi) - ref.mass_matrix(lo, plo)) / (2 * h)
+    dT = theta_dot @ M @ theta_ddot + 0.5 * theta_dot @ m_dot @ theta_dot
+    dV = (ref.potential(hi, phi) - ref.potential(lo, plo)) / (2 * h)
+    assert tau @ theta_dot == pytest.approx(dT + dV, abs=1e-6 * (1 + np.abs(tau @ theta_dot)))
+
+
+@SETTINGS
+@given(positions, st.sampled_from(MODES), st.lists(st.floats(-3, 3), min_size=3, max_size=3),
+       st.lists(st.floats(-20, 20), min_size=3, max_size=3))
+def test_reduced_model_equals_full_multiplier_model(p, mode, rates, efforts):
+    q = configuration(p, mode)
+    theta_dot, tau = np.array(rates), np.array(efforts)
+    M, c, g = mm.actuator_space_model(MODEL, q, theta_dot)
+    theta_ddot = np.linalg.solve(M, tau - c - g)
+    jac = mm.constraint_jacobian(MODEL, q)
+    passive = np.linalg.solve(jac[:, 3:], -jac[:, :3] @ theta_dot)
+    q_dot = np.concatenate([theta_dot, passive])
+    q_ddot, _lam = mm.constrained_accelerations(MODEL, q, q_dot, tau)
+    assert np.allclose(q_ddot[:3], theta_ddot, atol=1e-9 * (1 + np.abs(theta_ddot).max()))
+
+
+def test_gravity_holds_the_platform_still():
+    """The efforts g(θ) hold the machine at rest: no acceleration, and the vertical force they make on
+    the platform through the legs carries the weight of everything."""
+    q = mm.inverse_kinematics(MODEL, [0.0, 0.0, -0.75], (1, 1, 1))
+    M, c, g = mm.actuator_space_model(MODEL, q, np.zeros(3))
+    assert np.allclose(np.linalg.solve(M, g - c - g), 0.0)
+    assert np.allclose(g, g[0])  # symmetric pose, symmetric efforts
+    assert g[0] < 0  # the arms are held up (θ positive down)
+
+
+def test_bad_poses_name_the_leg():
+    with pytest.raises(UnreachablePoseError, match="leg 1 .*R\\*US"):
+        mm.inverse_kinematics(MODEL, [0.05, -0.03, -0.2], (1, 1, 1))
+    with pytest.raises(InvalidParameterError, match=r"pose must be \(x, y, z\)"):
+        mm.inverse_kinematics(MODEL, [0.0, 0.0, float("nan")], (1, 1, 1))
+    with pytest.raises(InvalidParameterError, match="actuators must be 3 finite values"):
+        mm.forward_kinematics(MODEL, [0.1, 0.2])
+
+
+def test_singularity_measure_is_bounded_and_keeps_its_sign_down_the_axis():
+    """S is a determinant of unit vectors (|S| <= 1); straight below the base, in the knee-out mode, the
+    forearms never become coplanar, so S keeps one sign all the way down."""
+    zs = np.linspace(-0.3, -1.1, 161)
+    s = np.array([mm.singularity_measure(MODEL, mm.inverse_kinematics(MODEL, [0.0, 0.0, z], (1, 1, 1)))
+                  if _reachable([0.0, 0.0, z]) else np.nan for z in zs])
+    ok = np.isfinite(s)
+    assert ok.sum() > 50
+    assert np.all(np.abs(s[ok]) <= 1.0 + 1e-12)
+    assert np.all(s[ok] < 0)
+
+
+def _reachable(p):
+    try:
+        mm.inverse_kinematics(MODEL, p, (1, 1, 1))
+    except UnreachablePoseError:
+        return False
+    return True
+
+
+def test_description_refuses_degenerate_universal_joint():
+    from dataclasses import replace
+
+    from pkmlab.mechanisms.spatial import SpatialJoint, SpatialMechanism
+
+    delta = preset("delta")
+    leg = delta.legs[1]
+    skew = replace(leg, joints=(leg.joints[0], SpatialJoint("U", False, (leg.joints[0].axes[0],
+                                                                         leg.joints[0].axes[0])), leg.joints[2]))
+    with pytest.raises(InvalidParameterError, match="leg 2, joint 2 \\(U\\): its two axes must be perpendicular"):
+        SpatialMechanism("bad", (delta.legs[0], skew, delta.legs[2]), delta.platform, delta.gravity)

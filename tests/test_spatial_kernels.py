@@ -1,0 +1,85 @@
+"""The generated kernels of spatial structures against the plain statement of the chain conventions
+(:func:`pkmlab.mechanisms.spatial.leg_frames`), finite differences and the file on disk."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from pkmlab.derivations import spatial
+from pkmlab.mechanism_model import MechanismModel, _evaluate, constraint_residual
+from pkmlab.mechanisms.presets import SPATIAL_PRESETS, preset
+from pkmlab.mechanisms.spatial import attachment_point, leg_frames
+
+NAMES = sorted(SPATIAL_PRESETS)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_generated_file_is_current(name):
+    m = preset(name)
+    committed = spatial.generated_path(m).read_text()
+    if f"Derived with SymPy {sp.__version__}." not in committed:
+        pytest.skip("another SymPy: the numeric checks below still hold")
+    assert committed == spatial.generate_source(m), "run `make derive` to regenerate the kernels"
+
+
+def _legs(m, q):
+    n, passive, out = len(m.legs), iter(q[len(m.legs):len(q) - m.dof]), []
+    for i, leg in enumerate(m.legs):
+        coords = []
+        for j in leg.joints[:-1]:
+            coords += [q[i]] if j.actuated else [next(passive) for _ in range(j.coordinates)]
+        out.append(coords)
+    assert n == len(out)
+    return out
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_constraints_and_body_positions_are_the_described_chains(name):
+    model = MechanismModel.from_preset(name)
+    m, k = model.description, model.kernels
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q = rng.uniform(-np.pi, np.pi, k.N_COORDINATES)
+        eta = constraint_residual(model, q)
+        coms = _evaluate(model, k.body_poses, (k.N_BODIES, 3), q)
+        b = 0
+        for i, (leg, coords) in enumerate(zip(m.legs, _legs(m, q), strict=True)):
+            frames = leg_frames(leg, coords)
+            end = frames[-1][0]
+            np.testing.assert_allclose(eta[3 * i:3 * i + 3], end - attachment_point(m, i, q[-m.dof:]), atol=1e-12)
+            for (origin, rot), body in zip(frames, leg.bodies, strict=False):
+                np.testing.assert_allclose(coms[b], origin + rot @ np.array(body.com), atol=1e-12)
+                b += 1
+
+
+def _body_rotations(m, q):
+    out = []
+    for leg, coords in zip(m.legs, _legs(m, q), strict=True):
+        out += [rot for _origin, rot in leg_frames(leg, coords)[:-1]]
+    return out
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_body_jacobians_against_finite_differences(name):
+    """Linear rows: the mass centres' derivatives; angular rows: ω in the body frame, from Rᵀ Ṙ."""
+    model = MechanismModel.from_preset(name)
+    m, k = model.description, model.kernels
+    rng = np.random.default_rng(8)
+    h = 1e-6
+    for _ in range(5):
+        q, q_dot = rng.uniform(-np.pi, np.pi, k.N_COORDINATES), rng.normal(size=k.N_COORDINATES)
+        J = _evaluate(model, k.body_jacobians, (k.N_BODIES, 6, k.N_COORDINATES), q)
+        bias = _evaluate(model, k.body_bias, (k.N_BODIES, 6), q, q_dot)
+        com = _evaluate(model, k.body_poses, (k.N_BODIES, 3), q + h * q_dot)
+        com -= _evaluate(model, k.body_poses, (k.N_BODIES, 3), q - h * q_dot)
+        np.testing.assert_allclose(J[:, :3] @ q_dot, com / (2 * h), atol=1e-7)
+        plus, minus, here = _body_rotations(m, q + h * q_dot), _body_rotations(m, q - h * q_dot), _body_rotations(m, q)
+        for b, (rp, rm, r) in enumerate(zip(plus, minus, here, strict=True)):
+            w = r.T @ (rp - rm) / (2 * h)
+            np.testing.assert_allclose(J[b, 3:] @ q_dot, [w[2, 1], w[0, 2], w[1, 0]], atol=1e-7)
+        # the bias is the acceleration at q̈ = 0: d/dt (J q̇) along q̇
+        jp = _evaluate(model, k.body_jacobians, (k.N_BODIES, 6, k.N_COORDINATES), q + h * q_dot)
+        jm = _evaluate(model, k.body_jacobians, (k.N_BODIES, 6, k.N_COORDINATES), q - h * q_dot)
+        np.testing.assert_allclose(bias, (jp - jm) @ q_dot / (2 * h), atol=1e-6)
