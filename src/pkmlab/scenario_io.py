@@ -57,15 +57,15 @@ from .geometry import Planar3RRR
 from .io import PARAM_KEYS, PRESETS, FileFormatError, manipulator_from_dict, parse_toml, read_toml
 from .kinematics import _mode_array
 from .simulation import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
-from .trajectory import Circle, Line, Trajectory, WaypointTrajectory
+from .trajectory import Circle, Line, TimedWaypoints, Trajectory, WaypointTrajectory
 
 #: The tables of a scenario file and their keys.
 TABLES = {
     "manipulator": ("preset", "params"),
-    "mechanism": ("preset", "file", "name", "gravity", "platform", "leg"),
+    "mechanism": ("preset", "file", "name", "dimension", "gravity", "platform", "leg"),
     "plant": ("mass_scale", "length_scale"),
     "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
-                   "start", "end", "points"),
+                   "start", "end", "points", "durations"),
     "controller": ("type", "kp", "kv", "sample_time"),
     "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps"),
 }
@@ -73,7 +73,7 @@ TABLES = {
 TRAJECTORY_KEYS = {
     "circle": ("center", "radius", "start_angle", "alpha", "alpha_end", "turns"),
     "line": ("start", "end"),
-    "waypoints": ("points",),
+    "waypoints": ("points", "durations"),
 }
 TIME_LAWS = ("cubic", "quintic")
 #: Runs longer than this many samples are refused (memory: ~200 bytes per sample).
@@ -276,6 +276,8 @@ def _trajectory(rd: _Reader, table: dict):
             raise rd.format_error(f"{rd.where(name, key)} does not apply to a {kind} trajectory "
                                   f"(its keys: {', '.join(valid)})")
         raise rd.format_error(f"unknown key '{_key(key)}' in [{name}]{_suggest(key, valid)}")
+    if kind == "waypoints" and "durations" in table:
+        return _timed_waypoints(rd, table)
     speed = rd.check_number(rd.required(table, name, "speed", "the average speed in m/s"),
                             rd.where(name, "speed"), "positive")
     law = rd.choice(table, name, "time_law", TIME_LAWS, "cubic")
@@ -309,6 +311,34 @@ def _trajectory(rd: _Reader, table: dict):
     if not math.isfinite(duration):
         raise rd.value_error(f"[trajectory]: the motion would last forever (length / speed is {duration})")
     return trajectory
+
+
+def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
+    """``type = "waypoints"`` with ``durations``: poses of the machine's own coordinates (``[x, y, z]`` for the
+    Delta), one time per segment, ``time_law`` quintic unless said otherwise."""
+    name = "trajectory"
+    if "speed" in table:
+        raise rd.format_error(f"{rd.where(name, 'speed')}: give either speed or durations, not both")
+    points = rd.required(table, name, "points", "a list of poses")
+    where = rd.where(name, "points")
+    if not isinstance(points, list) or len(points) < 2:
+        raise rd.value_error(f"{where} must be a list of at least two poses, got {show(points)}")
+    width = len(points[0]) if isinstance(points[0], list) else 0
+    if not 2 <= width <= 6:
+        raise rd.value_error(f"{where}[0] must be a pose of 2 to 6 numbers ([x, y, z] for a Delta), got "
+                             f"{show(points[0])}")
+    poses = [rd.vector(p, f"{where}[{i}]", width, f"a pose of {width} numbers like points[0]")
+             for i, p in enumerate(points)]
+    for i in range(1, len(poses)):
+        if np.allclose(poses[i - 1], poses[i]):
+            raise rd.value_error(f"{where}[{i}] repeats the previous pose {show(points[i])}")
+    durations = table["durations"]
+    dwhere = rd.where(name, "durations")
+    if not isinstance(durations, list) or len(durations) != len(poses) - 1:
+        raise rd.value_error(f"{dwhere} must be {len(poses) - 1} times in s, one per segment, got {show(durations)}")
+    times = [rd.check_number(d, f"{dwhere}[{i}]", "positive") for i, d in enumerate(durations)]
+    law = rd.choice(table, name, "time_law", TIME_LAWS, "quintic")
+    return TimedWaypoints(tuple(poses), tuple(times), law)
 
 
 def _controller(rd: _Reader, table: dict) -> tuple[ControllerSpec, float]:

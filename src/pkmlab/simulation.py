@@ -140,6 +140,7 @@ class Scenario:
         for name in ("singularity_margin", "singularity_guard"):
             set_(self, name, _real(name, getattr(self, name), "non-negative"))
         if isinstance(self.model, MechanismModel):
+            _check_pose_dimension(self.model, self.trajectory)
             set_(self, "working_mode", _machine_mode(self.model, self.working_mode))
         elif not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
             try:
@@ -171,6 +172,24 @@ class Scenario:
                 raise InvalidParameterError(f"{name} is not a field of Scenario "
                                             f"(fields: {', '.join(self.__dataclass_fields__)})")
         return replace(self, **changes)
+
+
+def _check_pose_dimension(model: MechanismModel, trajectory) -> None:
+    """The trajectory's poses are the machine's: a spatial machine's path is given in its own coordinates
+    (:class:`~pkmlab.trajectory.TimedWaypoints` of ``(x, y, z[, roll, pitch, yaw])``); a planar path
+    ``(x, y, alpha)`` serves a planar machine."""
+    from .trajectory import TimedWaypoints
+
+    m = model.description
+    width = trajectory.dimension if isinstance(trajectory, TimedWaypoints) else 3
+    spatial = getattr(m, "spatial", False)
+    if spatial and not isinstance(trajectory, TimedWaypoints):
+        raise InvalidParameterError(f"the {m.name} is spatial (pose {', '.join(m.pose_names)}): give its path as "
+                                    "waypoints in those coordinates with durations (a planar path of (x, y, alpha) "
+                                    "does not apply)")
+    if width < m.dof or (spatial and width != m.dof):
+        raise InvalidParameterError(f"the trajectory's poses have {width} coordinates, but the {m.name}'s pose is "
+                                    f"({', '.join(m.pose_names)})")
 
 
 def _scenario_model(model, name: str):
@@ -434,7 +453,35 @@ class SimulationResult:
     @property
     def path_error(self) -> np.ndarray:
         """Euclidean distance (m) between the actual and the desired tracked point."""
-        return np.hypot(*(self.pose[:, :2] - self.pose_d[:, :2]).T)
+        position = 3 if getattr(self.scenario.model, "description", None) is not None and \
+            getattr(self.scenario.model.description, "spatial", False) else 2
+        return np.linalg.norm(self.pose[:, :position] - self.pose_d[:, :position], axis=1)
+
+    @property
+    def orientation_error(self) -> np.ndarray | None:
+        """The angle (rad) between the actual and the desired orientation of the platform, None where the pose
+        has no orientation: ``|alpha - alpha_d|`` wrapped in the plane; in space the angle of the rotation
+        ``R_dᵀ R`` (from the roll, pitch and yaw of docs/conventions.md)."""
+        names = self.columns_pose
+        if "alpha" in names:
+            k = names.index("alpha")
+            return np.abs(np.angle(np.exp(1j * (self.pose[:, k] - self.pose_d[:, k]))))
+        if "roll" in names:
+            from .mechanisms.spatial import orientation
+
+            out = np.empty(len(self.pose))
+            for k, (p, d) in enumerate(zip(self.pose[:, 3:6], self.pose_d[:, 3:6], strict=True)):
+                cos = (np.trace(orientation(*d).T @ orientation(*p)) - 1) / 2
+                out[k] = np.arccos(np.clip(cos, -1.0, 1.0))
+            return out
+        return None
+
+    @property
+    def columns_pose(self) -> tuple[str, ...]:
+        """The names of the pose's coordinates."""
+        if isinstance(self.scenario.model, MechanismModel):
+            return self.scenario.model.description.pose_names
+        return ("x", "y", "alpha")
 
     def summary(self) -> dict:
         """The run's summary: ``max_path_error_m``, ``rms_path_error_m``, ``max_orientation_error_rad``
@@ -448,9 +495,9 @@ class SimulationResult:
             "max_path_error_m": float(err.max()),
             "rms_path_error_m": float(np.sqrt(np.mean(err**2))),
         }
-        if self.pose.shape[1] == 3:
-            alpha = float(np.abs(np.angle(np.exp(1j * (self.pose[:, 2] - self.pose_d[:, 2])))).max())
-            out["max_orientation_error_rad"] = alpha
+        orientation = self.orientation_error
+        if orientation is not None:
+            out["max_orientation_error_rad"] = float(orientation.max())
         out["max_joint_error"] = float(np.abs(joint).max())
         out["peak_effort"] = np.abs(self.tau).max(axis=0).tolist()
         out["min_abs_S"] = float(np.abs(self.S).min())
@@ -562,7 +609,7 @@ def _machine_joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray
 
     dof = model.description.dof
     full = [np.asarray(a, dtype=float) for a in trajectory.desired(t)]
-    if dof == 2 and np.any(full[0][:, 2] != 0.0):  # a point has no orientation to track: never ignore one
+    if dof == 2 and full[0].shape[1] > 2 and np.any(full[0][:, 2] != 0.0):  # a point has no orientation to track: never ignore one
         k = int(np.argmax(full[0][:, 2] != 0.0))
         raise InvalidParameterError(f"{model.description.name} tracks a point (x, y), but the trajectory asks for the "
                                     f"orientation alpha = {full[0][k, 2]:.4g} rad at t = {t[k]:.4f} s: remove alpha "

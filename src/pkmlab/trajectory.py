@@ -223,6 +223,62 @@ class WaypointTrajectory:
         return tuple(out)
 
 
+@dataclass(frozen=True)
+class TimedWaypoints:
+    """Straight segments through poses ``points`` (K, d) of any dimension — ``(x, y, z)`` for the Delta,
+    ``(x, y, z, roll, pitch, yaw)`` for a six-degree-of-freedom platform, ``(x, y, alpha)`` in the plane —
+    each traversed in its own time ``durations[k]`` (s) with a rest-to-rest ``law``, at rest at every
+    waypoint: the pick-and-place cycle of industry, whose segments have prescribed times.
+
+    On segment ``k``, ``pose = p_k + σ(τ) (p_k+1 - p_k)``, ``τ = (t - t_k) / D_k``: every coordinate,
+    orientation angles included, moves in proportion (a straight line in pose space).
+    """
+
+    points: tuple
+    durations: tuple
+    law: str = "quintic"
+
+    def __post_init__(self):
+        try:
+            pts = np.asarray(self.points, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(f"points must be a list of poses, got {shown(self.points, 60)}") from None
+        if pts.ndim != 2 or len(pts) < 2 or not 2 <= pts.shape[1] <= 6 or not np.all(np.isfinite(pts)):
+            raise InvalidParameterError(f"points must be at least two finite poses of 2 to 6 coordinates, got "
+                                        f"{shown(self.points, 60)}")
+        durations = np.asarray(self.durations, dtype=float)
+        if durations.shape != (len(pts) - 1,) or not np.all(np.isfinite(durations)) or np.any(durations <= 0):
+            raise InvalidParameterError(f"durations must be {len(pts) - 1} positive times in s (one per segment), "
+                                        f"got {shown(self.durations, 60)}")
+        for i in range(1, len(pts)):
+            if np.array_equal(pts[i - 1], pts[i]):
+                raise InvalidParameterError(f"points[{i}] repeats the previous pose {pts[i].tolist()}")
+        _choice("law", self.law, ("cubic", "quintic"))
+        object.__setattr__(self, "points", tuple(tuple(float(v) for v in p) for p in pts))
+        object.__setattr__(self, "durations", tuple(float(d) for d in durations))
+
+    @property
+    def dimension(self) -> int:
+        """The number of the poses' coordinates."""
+        return len(self.points[0])
+
+    @property
+    def duration(self) -> float:
+        return float(sum(self.durations))
+
+    def desired(self, t):
+        """``(pose, pose_dot, pose_ddot)``, each (..., d), at times ``t`` (at rest before 0 and after the end)."""
+        t = _times(t)
+        pts, durations = np.asarray(self.points), np.asarray(self.durations)
+        starts = np.concatenate([[0.0], np.cumsum(durations)])
+        k = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(durations) - 1)
+        span = durations[k]
+        sigma, d1, d2 = time_law(self.law, (t - starts[k]) / span)
+        delta = pts[k + 1] - pts[k]
+        return (pts[k] + sigma[..., None] * delta, (d1 / span)[..., None] * delta,
+                (d2 / span**2)[..., None] * delta)
+
+
 def paper_trajectory(speed: float = 0.2) -> Trajectory:
     """The paper's circle (conventions §4): centre (0.25, 0.21), radius 0.05, from the leftmost point."""
     return Trajectory(Circle((0.25, 0.21), 0.05, start_angle=math.pi, alpha=0.0), speed, "cubic")
