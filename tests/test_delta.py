@@ -183,3 +183,80 @@ def test_description_refuses_degenerate_universal_joint():
                                                                          leg.joints[0].axes[0])), leg.joints[2]))
     with pytest.raises(InvalidParameterError, match="leg 2, joint 2 \\(U\\): its two axes must be perpendicular"):
         SpatialMechanism("bad", (delta.legs[0], skew, delta.legs[2]), delta.platform, delta.gravity)
+
+
+# ------------------------------------------------------------------ the pick-and-place cycle
+from pathlib import Path  # noqa: E402
+
+from pkmlab import load_scenario, simulate  # noqa: E402
+from pkmlab.trajectory import TimedWaypoints  # noqa: E402
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "delta_pick_and_place.toml"
+
+
+@pytest.fixture(scope="module")
+def cycle():
+    return simulate(load_scenario(EXAMPLE))
+
+
+def test_pick_and_place_reports_what_every_machine_reports(cycle):
+    s = cycle.summary()
+    assert set(s) == {"max_path_error_m", "rms_path_error_m", "max_joint_error", "peak_effort", "min_abs_S",
+                      "working_mode"}  # no orientation: the platform translates
+    assert cycle.columns[10:17] == ("x", "y", "z", "x_d", "y_d", "z_d", "S")
+    assert s["working_mode"] == [1, 1, 1] and len(s["peak_effort"]) == 3
+    # the path error is the distance in space between the actual and the desired point
+    assert s["max_path_error_m"] == pytest.approx(np.linalg.norm(cycle.pose - cycle.pose_d, axis=1).max())
+    # the cycle ends where it began, at rest
+    assert np.allclose(cycle.pose_d[0], [-0.1525, 0.0, -0.75]) and np.allclose(cycle.pose_d[-1], cycle.pose_d[0])
+    assert cycle.t[-1] == pytest.approx(0.5)
+
+
+def test_pick_and_place_starts_gravity_compensated(cycle):
+    """At rest on the start's IK, the first effort is the gravity effort g = ∂V/∂θ (the quintic starts with
+    no acceleration, and there is no error yet), checked against the reference's potential energy."""
+    theta = cycle.theta[0]
+    p = cycle.pose[0]
+    h, grad = 1e-6, np.zeros(3)
+    for i, e in enumerate(np.eye(3)):
+        grad[i] = (ref.potential(theta + h * e, forward(theta + h * e, p))
+                   - ref.potential(theta - h * e, forward(theta - h * e, p))) / (2 * h)
+    assert np.allclose(cycle.tau[0], grad, atol=1e-6)
+    assert np.allclose(cycle.theta[0], ref.inverse_kinematics(p))
+
+
+def test_pick_and_place_plant_is_integrated_far_below_the_tracking_error(cycle):
+    fine = simulate(load_scenario(EXAMPLE).replace(substeps=8))
+    assert np.abs(fine.q - cycle.q).max() < 1e-9
+    assert cycle.summary()["max_path_error_m"] > 1e4 * np.abs(fine.pose - cycle.pose).max()
+
+
+def test_continuous_time_control_with_the_exact_model_tracks_to_integration_level():
+    scenario = load_scenario(EXAMPLE)
+    first = TimedWaypoints(scenario.trajectory.points[:3], scenario.trajectory.durations[:2])
+    run = simulate(scenario.replace(trajectory=first, sample_time=0.0))
+    assert run.summary()["max_path_error_m"] < 1e-9
+
+
+def test_a_path_out_of_reach_names_the_time_and_the_leg():
+    scenario = load_scenario(EXAMPLE)
+    far = TimedWaypoints(((0.0, 0.0, -0.75), (0.0, 0.0, -0.3)), (0.2,))
+    with pytest.raises(UnreachablePoseError, match=r"t = 0\.\d+ s.*leg \d \(R\*US\)"):
+        simulate(scenario.replace(trajectory=far))
+
+
+def test_a_planar_path_is_refused_for_the_delta():
+    from pkmlab.trajectory import paper_trajectory
+
+    with pytest.raises(InvalidParameterError, match="delta is spatial"):
+        load_scenario(EXAMPLE).replace(trajectory=paper_trajectory())
+
+
+def test_the_controllers_own_model_may_differ_from_the_plant():
+    from pkmlab.mechanisms.spatial import scaled_spatial_mechanism
+
+    scenario = load_scenario(EXAMPLE)
+    plant = MechanismModel.from_description(scaled_spatial_mechanism(preset("delta"), mass=1.15))
+    run = simulate(scenario.replace(plant=plant))
+    nominal = simulate(scenario).summary()["max_path_error_m"]
+    assert nominal < run.summary()["max_path_error_m"] < 0.01

@@ -206,11 +206,83 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     return ax
 
 
+def _axes3d(ax):
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        ax = plt.figure(figsize=(6.0, 5.6), layout="constrained").add_subplot(projection="3d")
+    if getattr(ax, "name", "") != "3d":
+        raise ValueError("a spatial machine is drawn on 3-D axes: fig.add_subplot(projection='3d')")
+    return ax
+
+
+def _equal_box(ax, points: np.ndarray) -> None:
+    """Equal scales on the three axes around ``points`` (K, 3)."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-3) * 1.05
+    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre, strict=True):
+        setter(c - half, c + half)
+    ax.set_box_aspect((1, 1, 1))
+
+
+def draw_spatial_mechanism(model, q, ax=None, title: str | None = None):
+    """Draw a spatial mechanism at configuration ``q`` on 3-D axes: base (its legs' base points joined),
+    each leg through its joints (the actuated body bold), the platform and the tracked point."""
+    from . import mechanism_model as mm
+
+    ax = _axes3d(ax)
+    q = np.asarray(q, dtype=float)
+    m, k = model.description, model.kernels
+    points = np.empty((len(m.legs), k.JOINTS_PER_LEG, 3))
+    k.joint_points(q, mm.trig_table(model, q), model.P, points)
+    base = np.array([leg.base for leg in m.legs] + [m.legs[0].base])
+    ax.plot(*base.T, color="0.3", lw=2.5, label="base")
+    for i, leg in enumerate(m.legs):
+        pts = points[i, :len(leg.joints)]
+        first = i == 0
+        a = leg.actuated
+        ax.plot(*pts[a:a + 2].T, color="tab:blue", lw=4, label="actuated bodies" if first else None)
+        ax.plot(*pts[a + 1:].T, color="tab:orange", lw=2, label="passive bodies" if first else None)
+        if a > 0:
+            ax.plot(*pts[:a + 1].T, color="tab:orange", lw=2)
+        ax.scatter(*pts[1:-1].T, color="k", s=8)
+    plat = np.vstack([points[:, -1], points[:1, -1]])
+    ax.plot(*plat.T, color="tab:green", lw=2.5, label="platform")
+    pose = q[-m.dof:]
+    ax.scatter(*pose[:3], color="k", marker="+", s=60, label="tracked point")
+    _equal_box(ax, np.vstack([points.reshape(-1, 3), base]))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.legend(loc="upper left", fontsize=7)
+    where = ", ".join(f"{n} = {v:.3f}" for n, v in zip(m.pose_names, pose, strict=True))
+    ax.set_title(title or f"{m.name} ({m.notation}) at {where}", fontsize=9)
+    return ax
+
+
+def plot_path_3d(result, ax=None):
+    """The tracked point's path in space, tracked vs desired, with the path's projections on the walls
+    of the box (where the tracking error, too small to see in 3-D, shows as a gap)."""
+    ax = _axes3d(ax)
+    d, p = result.pose_d[:, :3], result.pose[:, :3]
+    ax.plot(*d.T, "k--", lw=1.5, label="desired")
+    ax.plot(*p.T, color="tab:red", lw=1.2, label="tracked")
+    ax.scatter(*d[0], color="k", s=15, label="start")
+    _equal_box(ax, np.vstack([d, p]))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.legend(fontsize=8)
+    ax.set_title(f"path tracked vs desired ({_case(result)})")
+    return ax
+
+
 def plot_start_configuration(result, ax=None):
-    """The plant at the start of the run, drawn as it is (:func:`draw_mechanism`, or
-    :func:`plot_configuration` for the paper's 3-RRR)."""
+    """The plant at the start of the run, drawn as it is (:func:`draw_mechanism`, :func:`draw_spatial_mechanism`,
+    or :func:`plot_configuration` for the paper's 3-RRR)."""
     plant = result.scenario.plant_model
-    draw = plot_configuration if isinstance(plant, Planar3RRR) else draw_mechanism
+    draw = (plot_configuration if isinstance(plant, Planar3RRR) else
+            draw_spatial_mechanism if getattr(plant.description, "spatial", False) else draw_mechanism)
     return draw(plant, result.q[0], ax=ax, title=f"the machine at the start ({_case(result)})")
 
 
@@ -261,8 +333,8 @@ def plot_torques(result, ax=None):
     from .simulation import actuator_kinds
 
     kinds = actuator_kinds(result.scenario.plant_model)
-    for i in range(result.tau.shape[1]):
-        ax.plot(result.t, result.tau[:, i], label=f"τ{i + 1}")
+    for i in range(result.tau.shape[1]):  # line styles apart, so that equal efforts (a symmetric path) both show
+        ax.plot(result.t, result.tau[:, i], ls=("-", "--", "-.", ":")[i % 4], label=f"τ{i + 1}")
     ax.set_xlabel("t (s)")
     ax.set_ylabel({"R": "torque (N·m)", "P": "force (N)"}.get("".join(sorted(kinds)), "effort (N·m, N)"))
     ax.legend(fontsize=8)

@@ -42,7 +42,10 @@ FIGURES = (
 
 #: Plots of one closed-loop result, by kind: the names of their functions in :mod:`pkmlab.plotting`.
 _RESULT_PLOTS = {"S": "plot_singularity_along_path", "path": "plot_path", "error": "plot_path_error",
-                 "alpha": "plot_alpha", "torques": "plot_torques", "machine": "plot_start_configuration"}
+                 "alpha": "plot_alpha", "torques": "plot_torques", "machine": "plot_start_configuration",
+                 "path3d": "plot_path_3d", "machine3d": "plot_start_configuration"}
+#: The plot kinds drawn on 3-D axes.
+_SPATIAL_PLOTS = ("path3d", "machine3d")
 
 #: Figures of one scenario's run (``pkmlab simulate``): (file name, caption, plot kind).
 RUN_FIGURES = (
@@ -63,10 +66,14 @@ def run_figures(scenario: Scenario) -> tuple[tuple[str, str, str], ...]:
     if not isinstance(scenario.model, MechanismModel):
         return RUN_FIGURES
     kinds = simulation.actuator_kinds(scenario.model)
-    out = [("machine.png", "The machine at the start of the run", "machine")]
+    m = scenario.model.description
+    spatial = getattr(m, "spatial", False)
+    out = [("machine.png", "The machine at the start of the run", "machine3d" if spatial else "machine")]
     for fname, caption, kind in RUN_FIGURES:
-        if kind == "alpha" and scenario.model.description.dof == 2:
+        if kind == "alpha" and "alpha" not in m.pose_names:
             continue
+        if kind == "path" and spatial:
+            caption, kind = "Path tracked vs desired, in space", "path3d"
         if kind == "torques" and kinds != {"R"}:
             fname, caption = "efforts.png", "Actuator efforts (forces of prismatic actuators in N)"
         out.append((fname, caption, kind))
@@ -262,15 +269,19 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
                  f"{path.turns:g} turn(s)")
     elif path is not None:
         shape = f"line from {list(path.start)} to {list(path.end)}"
+    elif hasattr(traj, "durations"):
+        shape = (f"{len(traj.points)} waypoints from {list(traj.points[0])}, segment times "
+                 f"{', '.join(f'{d:g}' for d in traj.durations)} s")
     else:
         shape = f"{len(traj.segments) + 1} waypoints"
+    timing = (f"{traj.law} time law per segment" if hasattr(traj, "durations")
+              else f"average speed {traj.speed:g} m/s, {traj.law} time law")
     spec = scenario.controller
     machine = getattr(scenario.model, "description", None)
     return [
         *([("machine", f"{machine.name} ({machine.notation}), pose ({', '.join(machine.pose_names)})")]
           if machine is not None else []),
-        ("trajectory", f"{shape}; average speed {traj.speed:g} m/s, {traj.law} time law, "
-                       f"duration {traj.duration:.4g} s"),
+        ("trajectory", f"{shape}; {timing}, duration {traj.duration:.4g} s"),
         ("controller", f"{spec.kind}, kp = {spec.kp:g}, kv = {spec.velocity_gain:.4g}"),
         ("plant", "identical to the controller's model" if scenario.plant is None
          else "its own parameters, see `plant.toml`"),
@@ -360,8 +371,13 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
             from . import plotting
 
             for fname, _caption, kind in run_figures(scenario):
-                size = (6.0, 5.2) if kind in ("path", "machine") else (6.4, 4.8)
-                fig, ax = plt.subplots(figsize=size, layout="constrained")
+                size = (6.0, 5.2) if kind in ("path", "machine") else (6.0, 5.6) if kind in _SPATIAL_PLOTS \
+                    else (6.4, 4.8)
+                if kind in _SPATIAL_PLOTS:
+                    fig = plt.figure(figsize=size, layout="constrained")
+                    ax = fig.add_subplot(projection="3d")
+                else:
+                    fig, ax = plt.subplots(figsize=size, layout="constrained")
                 try:
                     getattr(plotting, _RESULT_PLOTS[kind])(result, ax=ax)
                     fig.savefig(tmp / fname, dpi=150)
