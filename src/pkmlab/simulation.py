@@ -609,7 +609,8 @@ def _machine_joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray
 
     dof = model.description.dof
     full = [np.asarray(a, dtype=float) for a in trajectory.desired(t)]
-    if dof == 2 and full[0].shape[1] > 2 and np.any(full[0][:, 2] != 0.0):  # a point has no orientation to track: never ignore one
+    # a point has no orientation to track: never ignore one
+    if dof == 2 and full[0].shape[1] > 2 and np.any(full[0][:, 2] != 0.0):
         k = int(np.argmax(full[0][:, 2] != 0.0))
         raise InvalidParameterError(f"{model.description.name} tracks a point (x, y), but the trajectory asks for the "
                                     f"orientation alpha = {full[0][k, 2]:.4g} rad at t = {t[k]:.4f} s: remove alpha "

@@ -110,8 +110,8 @@ def delta(base_radius: float = 0.20, arm: float = 0.35, forearm: float = 0.80,
              # the forearm hangs along -z at zero joint angles
              SpatialBody((0.0, 0.0, -forearm), forearm_mass, (0.0, 0.0, -forearm / 2),
                          ((rod, 0.0, 0.0), (0.0, rod, 0.0), (0.0, 0.0, 0.0))))))
-    attachments = tuple((platform_radius * math.cos(i * 2 * math.pi / 3), platform_radius * math.sin(i * 2 * math.pi / 3),
-                         0.0) for i in range(3))
+    attachments = tuple((platform_radius * math.cos(g), platform_radius * math.sin(g), 0.0)
+                        for g in (i * 2 * math.pi / 3 for i in range(3)))
     return SpatialMechanism("delta", tuple(legs), SpatialPlatform("translating", attachments, 0.30),
                             (0.0, 0.0, -9.81))
 

@@ -249,7 +249,8 @@ class SpatialMechanism:
                 raise InvalidParameterError(f"{where}: stroke must be [lower, upper], got {stroke!r}")
             lo, hi = (_number(f"{where}: stroke[{k}]", v) for k, v in enumerate(stroke))
             if not lo < hi:
-                raise InvalidParameterError(f"{where}: the stroke [{lo:g}, {hi:g}] is empty (lower must be below upper)")
+                raise InvalidParameterError(f"{where}: the stroke [{lo:g}, {hi:g}] is empty (lower must be below "
+                                            "upper)")
             stroke = (lo, hi)
         return SpatialLeg(_vector(f"{where}: base", leg.base), tuple(checked), tuple(checked_bodies), stroke)
 
