@@ -63,7 +63,7 @@ def test_a_wrong_count_of_numbers_is_a_malformed_command_line(capsys, argv, expe
 
 
 @pytest.mark.parametrize("argv, expected", [
-    (["ik", "--mechanism", "delta", 0.0, 0.0, 0.0], "not a preset"),
+    (["ik", "--mechanism", "scara", 0.0, 0.0, 0.0], "not a preset"),
     (["ik", "--mechanism", "five_bar", 0.0, 0.35, "--mode", "+"], "--mode must be one of"),
     (["ik", "--mechanism", "3rpr", 0.25, 0.6, -1.57], "leg 1 needs its actuator at 0.696137 m, outside its stroke"),
     (["ik", "--mechanism", "missing.toml", 0.0, 0.0, 0.0], "missing.toml"),

@@ -51,7 +51,7 @@ def test_presets_are_the_specified_machines():
         assert (m.notation, m.dof, m.actuator_kinds, m.name) == (notation, dof, actuators, name)
         assert m.gravity == (0.0, 0.0)  # all in the horizontal plane
     assert preset("3rpr").legs[0].stroke == (0.10, 0.45) and preset("3prr").legs[2].stroke == (0.0, B)
-    assert set(PRESETS) == {"paper", "five_bar", "3rpr", "3prr", "delta"}
+    assert set(PRESETS) == {"paper", "five_bar", "3rpr", "3prr", "delta", "stewart"}
     delta = preset("delta")
     assert (delta.notation, delta.dof, delta.actuator_kinds, delta.pose_names) == ("3-R*US", 3, ("R",) * 3,
                                                                                  ("x", "y", "z"))

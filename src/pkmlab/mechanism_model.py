@@ -443,8 +443,10 @@ def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
             if first is None or k < first[0]:
                 first = (k, i, solved.why(k))
             bad |= solved.bad
-        actuators.append(solved.coordinates[:, leg.actuated])
-        passive += [solved.coordinates[:, k] for k in range(solved.coordinates.shape[1]) if k != leg.actuated]
+        # the actuator's column among the leg's joint coordinates (a spatial U joint before it has two)
+        column = sum(getattr(j, "coordinates", 1) for j in leg.joints[:leg.actuated])
+        actuators.append(solved.coordinates[:, column])
+        passive += [solved.coordinates[:, k] for k in range(solved.coordinates.shape[1]) if k != column]
     if next(signs, None) is not None:
         raise InvalidParameterError(f"mode has more signs than two-branch legs, got {tuple(mode)}")
     q = np.column_stack([*actuators, *passive, poses])

@@ -467,13 +467,11 @@ class SimulationResult:
             k = names.index("alpha")
             return np.abs(np.angle(np.exp(1j * (self.pose[:, k] - self.pose_d[:, k]))))
         if "roll" in names:
-            from .mechanisms.spatial import orientation
+            from .mechanisms.spatial import orientations
 
-            out = np.empty(len(self.pose))
-            for k, (p, d) in enumerate(zip(self.pose[:, 3:6], self.pose_d[:, 3:6], strict=True)):
-                cos = (np.trace(orientation(*d).T @ orientation(*p)) - 1) / 2
-                out[k] = np.arccos(np.clip(cos, -1.0, 1.0))
-            return out
+            # the angle of R_dᵀ R from its trace, 1 + 2 cos(angle)
+            trace = np.einsum("kij,kij->k", orientations(self.pose_d[:, 3:6]), orientations(self.pose[:, 3:6]))
+            return np.arccos(np.clip((trace - 1) / 2, -1.0, 1.0))
         return None
 
     @property

@@ -7,7 +7,9 @@
   triangles: singular wherever the platform is at alpha = 0 or pi);
 * ``3prr`` — a 3-PRR whose actuated sliders run along the sides of the paper's base;
 * ``delta`` — the Delta robot (spatial, three translations, with gravity), described as three
-  R*US legs on a translating platform (:mod:`pkmlab.mechanisms.spatial`).
+  R*US legs on a translating platform (:mod:`pkmlab.mechanisms.spatial`);
+* ``stewart`` — a Stewart–Gough platform (hexapod): six UP*S legs, each a cylinder and a rod, a
+  platform with six degrees of freedom, against gravity.
 
 Every number is a parameter of the description: write a preset out with
 :func:`~pkmlab.mechanisms.description.mechanism_to_toml`, edit it, and load it back.
@@ -116,9 +118,38 @@ def delta(base_radius: float = 0.20, arm: float = 0.35, forearm: float = 0.80,
                             (0.0, 0.0, -9.81))
 
 
+def stewart(base_radius: float = 0.50, platform_radius: float = 0.30, base_spread: float = 12.0,
+            platform_spread: float = 48.0) -> SpatialMechanism:
+    """A hexapod: base joints in pairs at azimuths ``120° k ± base_spread`` on a circle of ``base_radius`` (z = 0),
+    platform joints at ``120° k ± platform_spread`` on a circle of ``platform_radius`` (platform frame).
+    Each leg: a universal joint on the base (axes tangential, then radial), a cylinder (1.2 kg, mass centre
+    0.2 m up the leg), an actuated prismatic joint along the leg (stroke 0.55 to 1.15 m) and a rod (0.6 kg,
+    mass centre 0.25 m from the platform's spherical joint down the leg) that ends at that joint. Platform
+    8 kg, mass centre 0.02 m above its frame's origin. Gravity 9.81 m/s² along -z."""
+    cylinder = SpatialBody((0.0, 0.0, 0.0), 1.2, (0.0, 0.0, 0.2),
+                           ((0.02, 0.0, 0.0), (0.0, 0.02, 0.0), (0.0, 0.0, 1e-3)))
+    rod = SpatialBody((0.0, 0.0, 0.0), 0.6, (0.0, 0.0, -0.25),
+                      ((0.012, 0.0, 0.0), (0.0, 0.012, 0.0), (0.0, 0.0, 4e-4)))
+    legs, attachments = [], []
+    for k in range(3):
+        for side in (-1, 1):
+            g = math.radians(120 * k + side * base_spread)
+            tangential, radial = (-math.sin(g), math.cos(g), 0.0), (math.cos(g), math.sin(g), 0.0)
+            # the leg points up (+z) at zero joint angles; the rod slides out of the cylinder along it
+            legs.append(SpatialLeg((base_radius * math.cos(g), base_radius * math.sin(g), 0.0),
+                                   (SpatialJoint("U", False, (tangential, radial)),
+                                    SpatialJoint("P", True, ((0.0, 0.0, 1.0),)), SpatialJoint("S")),
+                                   (cylinder, rod), stroke=(0.55, 1.15)))
+            a = math.radians(120 * k + side * platform_spread)
+            attachments.append((platform_radius * math.cos(a), platform_radius * math.sin(a), 0.0))
+    platform = SpatialPlatform("rigid", tuple(attachments), 8.0, (0.0, 0.0, 0.02),
+                               ((0.12, 0.0, 0.0), (0.0, 0.12, 0.0), (0.0, 0.0, 0.2)))
+    return SpatialMechanism("stewart", tuple(legs), platform, (0.0, 0.0, -9.81))
+
+
 #: The presets by name: the planar ones, then the spatial ones.
 PLANAR_PRESETS = {"paper": paper, "five_bar": five_bar, "3rpr": rpr3, "3prr": prr3}
-SPATIAL_PRESETS = {"delta": delta}
+SPATIAL_PRESETS = {"delta": delta, "stewart": stewart}
 PRESETS = {**PLANAR_PRESETS, **SPATIAL_PRESETS}
 
 

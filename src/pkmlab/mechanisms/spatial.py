@@ -301,8 +301,19 @@ def axis_rotation(axis, angle: float) -> np.ndarray:
 
 def orientation(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """``Rz(yaw)·Ry(pitch)·Rx(roll)`` (module docstring)."""
-    return (axis_rotation((0, 0, 1), yaw) @ axis_rotation((0, 1, 0), pitch)
-            @ axis_rotation((1, 0, 0), roll))
+    return orientations(np.array([[roll, pitch, yaw]], dtype=float))[0]
+
+
+def orientations(angles) -> np.ndarray:
+    """:func:`orientation` of many ``(roll, pitch, yaw)`` (K, 3) at once, (K, 3, 3)."""
+    angles = np.asarray(angles, dtype=float)
+    cr, sr = np.cos(angles[:, 0]), np.sin(angles[:, 0])
+    cp, sp = np.cos(angles[:, 1]), np.sin(angles[:, 1])
+    cy, sy = np.cos(angles[:, 2]), np.sin(angles[:, 2])
+    return np.stack([
+        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], axis=-1),
+        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], axis=-1),
+        np.stack([-sp, cp * sr, cp * cr], axis=-1)], axis=-2)
 
 
 def check_pose(mechanism: SpatialMechanism, pose, where: str = "pose") -> np.ndarray:
@@ -356,7 +367,7 @@ def attachment_points(mechanism: SpatialMechanism, leg: int, poses: np.ndarray) 
     a = np.array(mechanism.platform.attachments[leg])
     if mechanism.platform.kind != "rigid":
         return poses[:, :3] + a
-    return poses[:, :3] + np.einsum("kij,j->ki", np.array([orientation(*p[3:6]) for p in poses]), a)
+    return poses[:, :3] + np.einsum("kij,j->ki", orientations(poses[:, 3:6]), a)
 
 
 # ------------------------------------------------------------------ the TOML form

@@ -43,18 +43,20 @@ def universal_angles(axes, tip, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The angles ``(q1, q2)`` of a universal joint (perpendicular ``axes``) with
     ``Rot(a1, q1) Rot(a2, q2) tip = v`` (``v`` (K, 3) of the tip's length), and where no angle does it."""
     a1, a2 = (np.asarray(a, dtype=float) for a in axes)
-    tip = np.asarray(tip, dtype=float)
+    tip = np.broadcast_to(np.asarray(tip, dtype=float), v.shape)  # one tip, or one per row
     # a1 · Rot(a2, q2) tip = a1 · v  (the first turn keeps the a1 component): α cos q2 + β sin q2 = γ
-    alpha, beta = a1 @ tip, a1 @ np.cross(a2, tip)
+    alpha, beta = tip @ a1, np.cross(a2, tip) @ a1
     gamma = v @ a1
     rho = np.hypot(alpha, beta)
-    ratio = np.clip(gamma / rho, -1.0, 1.0) if rho > 0 else np.zeros(len(v))
-    bad = np.abs(gamma) > rho * (1 + 1e-12) if rho > 0 else np.abs(gamma) > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(rho > 0, gamma / np.where(rho > 0, rho, 1.0), 0.0)
+    bad = np.abs(gamma) > rho * (1 + 1e-12)
+    ratio = np.clip(ratio, -1.0, 1.0)
     centre = np.arctan2(beta, alpha)
     roots = np.stack([centre + np.arccos(ratio), centre - np.arccos(ratio)])
     roots = np.angle(np.exp(1j * roots))
     q2 = np.where(np.abs(roots[0]) <= np.abs(roots[1]), roots[0], roots[1])
-    w = rotate(a2, q2, np.broadcast_to(tip, v.shape).copy())
+    w = rotate(a2, q2, tip.copy())
     # the turn about a1 that takes w to v: the signed angle between their parts across a1
     q1 = np.arctan2(np.cross(w, v) @ a1, np.einsum("ki,ki->k", w, v) - (w @ a1) * (v @ a1))
     return q1, q2, bad
