@@ -55,9 +55,9 @@ from ..errors import IncompleteSolutionWarning, InvalidParameterError, shown
 __all__ = ["assembly_modes"]
 
 #: Number of paths of the total-degree homotopy (Bézout number of seven quadrics in P⁷).
-N_PATHS = 128
+_N_PATHS = 128
 #: Largest number of finite solutions of a general platform.
-MAX_SOLUTIONS = 40
+_MAX_SOLUTIONS = 40
 #: Runs with a new gamma and patch when a run fails a completeness check.
 _ATTEMPTS = 3
 #: The paths stop at this t; the end game then works at t = 0.
@@ -278,8 +278,8 @@ def _track(hom: _Homotopy, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _start_points(patch: np.ndarray) -> np.ndarray:
     """The 128 solutions ``(±1, ..., ±1, 1)`` of ``G = 0``, scaled onto the patch ``c·x = 1``."""
-    signs = 1 - 2 * ((np.arange(N_PATHS)[:, None] >> np.arange(7)) & 1)
-    x = np.concatenate((signs, np.ones((N_PATHS, 1))), axis=1).astype(complex)
+    signs = 1 - 2 * ((np.arange(_N_PATHS)[:, None] >> np.arange(7)) & 1)
+    x = np.concatenate((signs, np.ones((_N_PATHS, 1))), axis=1).astype(complex)
     return x / (x @ patch)[:, None]
 
 
@@ -360,8 +360,8 @@ def _run(Q: np.ndarray, rng: np.random.Generator, real_ratio: float):
     unique = _distinct(sols, 1e-6)
     if len(unique) < len(sols):
         problems.append(f"{len(sols) - len(unique)} path(s) jumped to a solution already found")
-    if len(unique) > MAX_SOLUTIONS:
-        problems.append(f"{len(unique)} finite solutions, more than {MAX_SOLUTIONS}")
+    if len(unique) > _MAX_SOLUTIONS:
+        problems.append(f"{len(unique)} finite solutions, more than {_MAX_SOLUTIONS}")
     if unique:
         arr = np.array(unique)
         lonely = sum(_projective_distance(arr, np.conj(v)).min() > 1e-6 for v in arr)
@@ -376,30 +376,32 @@ def _run(Q: np.ndarray, rng: np.random.Generator, real_ratio: float):
 def _polish(base, platform, lengths, R, p, iterations: int = 30):
     """Newton's method on the six leg equations ``|p + R a_i − b_i|² = rho_i²`` from ``(R, p)``.
 
-    The rotation moves as ``R exp([δ]×)``. Returns ``(R, p, max_i ||p + R a_i − b_i| − rho_i|)``.
+    The rotation moves as ``R exp([δ]×)``. Returns the best iterate ``(R, p, err)``,
+    ``err = max_i ||p + R a_i − b_i| − rho_i|``; stops when ``err`` stops decreasing.
     """
     best = None
+    stalled = 0
     for _ in range(iterations + 1):
-        d = p + platform @ R.T - base
+        Ra = platform @ R.T  # rows R a_i
+        d = p + Ra - base
         dist = np.linalg.norm(d, axis=1)
-        err = np.abs(dist - lengths).max()
-        if best is None or err < best[2]:
-            best = (R, p, err)
+        err = float(np.abs(dist - lengths).max())
         if not np.isfinite(err):
             break
-        f = dist**2 - lengths**2
-        Ra = platform @ R.T  # R a_i
-        J = np.empty((6, 6))
-        J[:, :3] = 2 * np.cross(Ra, d)  # d/dδ of |d|²: 2 dᵀ R [δ]× a = 2 (R a × d)·δ
-        J[:, 3:] = 2 * d
+        if best is None or err < best[2]:
+            best, stalled = (R, p, err), 0
+        else:
+            stalled += 1
+            if stalled >= 2:
+                break
+        # d(|d_i|²) = 2 d_i·(R (δ × a_i) + dp) = 2 (Rᵀ (R a_i × d_i))·δ + 2 d_i·dp
+        J = 2 * np.concatenate((np.cross(Ra, d) @ R, d), axis=1)
         try:
-            step = np.linalg.solve(J, -f)
+            step = np.linalg.solve(J, lengths**2 - dist**2)
         except np.linalg.LinAlgError:
             break
         R = R @ _expm_so3(step[:3])
         p = p + step[3:]
-        if np.abs(step).max() < 1e-16 * (1 + np.abs(p).max()):
-            break
     return best
 
 
