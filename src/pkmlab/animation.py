@@ -186,7 +186,16 @@ def rebuild_machine_configurations(model, theta, pose0) -> np.ndarray:
     from . import mechanism_model as mm
 
     theta = np.asarray(theta, dtype=float)
-    solutions = mm.forward_kinematics(model, theta[0])
+    m = model.description
+    if getattr(m, "spatial", False) and m.platform.kind == "rigid":
+        # a six-degree-of-freedom platform: the recorded start pose's inverse kinematics (its one working
+        # mode), the recorded actuators checked against it below
+        solutions = [(mm.inverse_kinematics(model, pose0, mm.working_modes(model)[0]), 0.0)]
+        if np.abs(solutions[0][0][:len(m.legs)] - theta[0]).max() > 1e-6:
+            raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} do not hold the "
+                                "recorded start pose with this machine: is it the one that produced the run?")
+    else:
+        solutions = mm.forward_kinematics(model, theta[0])
     if not solutions:
         raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} cannot be assembled "
                             "with this machine: is it the one that produced the run?")
@@ -234,6 +243,45 @@ def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: 
         draw_mechanism(model, q[k], ax=ax, title=f"{title}\nt = {t[k]:7.3f} s")
         ax.set_xlim(lo[0] - pad, hi[0] + pad)
         ax.set_ylim(lo[1] - pad, hi[1] + pad)
+
+    try:
+        _write_frames(fig, PillowWriter(fps=fps), path, frames, draw, dpi, on_frame)
+    finally:
+        plt.close(fig)
+    return path
+
+
+def write_spatial_gif(model, t, q, desired, path: str | os.PathLike, frames: Sequence[int], fps: int = 20,
+                      title: str = "", dpi: int = 90, on_frame: Callable[[], None] | None = None) -> Path:
+    """:func:`write_machine_gif` for a spatial machine: each frame draws it in 3-D
+    (:func:`~pkmlab.plotting.draw_spatial_mechanism`) with the desired path (K, 3) and the trail, seen from
+    one fixed viewpoint with the whole motion in the box."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import PillowWriter
+
+    from . import mechanism_model as mm
+    from .plotting import _equal_box, draw_spatial_mechanism
+
+    path = Path(path)
+    t, q, desired = (np.asarray(a, dtype=float) for a in (t, q, desired))
+    frames = [int(k) for k in frames]
+    dof = model.description.dof
+    points = np.empty((len(frames), len(model.description.legs), model.kernels.JOINTS_PER_LEG, 3))
+    for i, k in enumerate(frames):
+        model.kernels.joint_points(q[k], mm.trig_table(model, q[k]), model.P, points[i])
+    box = np.vstack([points.reshape(-1, 3), desired, [leg.base for leg in model.description.legs]])
+    fig = plt.figure(figsize=(6.0, 5.6), dpi=dpi, layout="constrained")
+    ax = fig.add_subplot(projection="3d")
+
+    def draw(k: int) -> None:
+        ax.cla()
+        ax.plot(*desired.T, "--", color="tab:gray", lw=1.2, label="desired path")
+        ax.plot(*q[:k + 1, -dof:][:, :3].T, color="tab:red", lw=1.5, label="actual path")
+        draw_spatial_mechanism(model, q[k], ax=ax, title=f"{title}\nt = {t[k]:7.3f} s")
+        _equal_box(ax, box)
 
     try:
         _write_frames(fig, PillowWriter(fps=fps), path, frames, draw, dpi, on_frame)

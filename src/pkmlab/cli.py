@@ -717,37 +717,40 @@ def _animate_machine(args, machine, folder: Path, csv_path: Path, out: Path) -> 
     """``pkmlab animate`` of a described machine's run: rebuilt by branch following, drawn as it is."""
     import numpy as np
 
-    from .animation import rebuild_machine_configurations, write_machine_gif
+    from .animation import rebuild_machine_configurations, write_machine_gif, write_spatial_gif
     from .io import read_result_csv
 
     model, source = machine
     n_act, names = len(model.description.legs), model.description.pose_names
-    columns = ("t", *(f"theta{i + 1}" for i in range(n_act)), *names, "x_d", "y_d")
+    position = ("x", "y", "z") if getattr(model.description, "spatial", False) else ("x", "y")
+    columns = ("t", *(f"theta{i + 1}" for i in range(n_act)), *names, *(f"{c}_d" for c in position))
     data = read_result_csv(csv_path, columns)
     theta = np.column_stack([data[f"theta{i + 1}"] for i in range(n_act)])
     pose = np.column_stack([data[v] for v in names])
     q = rebuild_machine_configurations(model, theta, pose[0])
-    tracked = q[:, -len(names):][:, :2]
+    tracked = q[:, -len(names):][:, :len(position)]
+    desired = np.column_stack([data[f"{c}_d"] for c in position])
     title = f"{folder.name}/{csv_path.name}, {model.description.name} ({model.description.notation})"
+    writer = write_spatial_gif if len(position) == 3 else write_machine_gif
     return _write_animation(args, data, tracked, source, csv_path, out, title, "--mechanism",
-                            lambda frames, bar: write_machine_gif(model, data["t"], q, np.column_stack(
-                                [data["x_d"], data["y_d"]]), out, frames, fps=args.fps, title=title,
-                                on_frame=bar.update))
+                            lambda frames, bar: writer(model, data["t"], q, desired, out, frames, fps=args.fps,
+                                                       title=title, on_frame=bar.update))
 
 
 def _write_animation(args, data: dict, tracked, source: str, csv_path: Path, out: Path, title: str, option: str,
                      write) -> dict:
     """The part of ``pkmlab animate`` every machine shares: warn when the machine rebuilt from the recorded
-    actuators does not put the tracked point ``tracked`` (N, 2) where the CSV says, then draw about 100
+    actuators does not put the tracked point ``tracked`` (N, 2 or 3) where the CSV says, then draw about 100
     frames with ``write(frames, bar)`` and report."""
     import math
 
     import numpy as np
 
-    deviation = float(np.max(np.hypot(tracked[:, 0] - data["x"], tracked[:, 1] - data["y"])))
+    recorded = np.column_stack([data[c] for c in ("x", "y", "z")[:tracked.shape[1]]])
+    deviation = float(np.max(np.linalg.norm(tracked - recorded, axis=1)))
     if deviation > 1e-3:
         print(f"pkmlab animate: warning: the machine rebuilt from the recorded actuators puts the tracked point up "
-              f"to {deviation * 1e3:.3g} mm from the CSV's (x, y); is the machine ({source}) the one that produced "
+              f"to {deviation * 1e3:.3g} mm from the CSV's; is the machine ({source}) the one that produced "
               f"this run? ({option})", file=sys.stderr)
     count = tracked.shape[0]
     stride = args.stride or max(1, math.ceil(count / 100))
