@@ -185,3 +185,68 @@ def test_a_short_six_degree_of_freedom_motion_is_tracked():
     # at rest at the start: the efforts hold the platform against gravity
     _M, _c, g = mm.actuator_space_model(MODEL, run.q[0], np.zeros(6))
     assert np.allclose(run.tau[0], g, atol=1e-6)
+
+
+# ------------------------------------------------------------------ forward kinematics: every assembly mode
+def _multistart_poses(lengths, starts=3000, seed=2):
+    """An independent count of the real assembly modes: Newton's method on the six leg equations in (p, roll,
+    pitch, yaw) from many random starts, the distinct converged poses (told apart by their platform points)."""
+    rng = np.random.default_rng(seed)
+    x = np.column_stack([rng.uniform(-1, 1, (starts, 2)), rng.uniform(-1.2, 1.2, starts),
+                         rng.uniform(-np.pi, np.pi, (starts, 3)) * [1, 0.5, 1]])
+
+    def residual(x):
+        from pkmlab.mechanisms.spatial import orientations
+
+        points = x[:, None, :3] + np.einsum("kij,lj->kli", orientations(x[:, 3:]), A)
+        return np.linalg.norm(points - B, axis=2) - lengths, points
+
+    for _ in range(40):
+        r, _p = residual(x)
+        jac = np.empty((len(x), 6, 6))
+        for j in range(6):
+            step = np.zeros(6)
+            step[j] = 1e-7
+            jac[:, :, j] = (residual(x + step)[0] - r) / 1e-7
+        with np.errstate(all="ignore"):
+            dx = np.linalg.solve(jac + 1e-12 * np.eye(6), r[..., None])[..., 0]
+        x = x - np.clip(dx, -0.3, 0.3)
+    r, points = residual(x)
+    good = np.all(np.abs(r) < 1e-10, axis=1)
+    distinct = []
+    for p in points[good]:
+        if all(np.abs(p - other).max() > 1e-6 for other in distinct):
+            distinct.append(p)
+    return distinct
+
+
+def test_forward_kinematics_finds_every_assembly_mode_of_the_hexapod():
+    pose = [0.03, -0.02, 0.88, 0.08, -0.05, 0.2]
+    q = mm.inverse_kinematics(MODEL, pose, ())
+    found = mm.forward_kinematics(MODEL, q[:6])
+    assert min(np.abs(qf[18:] - pose).max() for qf, _s in found) < 1e-10  # FK∘IK
+    for qf, s in found:
+        assert np.max(np.abs(mm.constraint_residual(MODEL, qf))) < 1e-12
+        assert np.allclose(qf[:6], q[:6]) and s == pytest.approx(mm.singularity_measure(MODEL, qf))
+    points = [qf[18:21] + A @ orientation(*qf[21:24]).T for qf, _s in found]
+    independent = _multistart_poses(q[:6])
+    assert len(independent) == len(found) == 8
+    for p in independent:
+        assert min(np.abs(p - other).max() for other in points) < 1e-8
+
+
+def test_dietmaiers_platform_has_forty_real_assembly_modes_from_the_command_line(capsys):
+    import json
+
+    from pkmlab.cli import main
+
+    lengths = [1.0, 0.645275, 1.086284, 1.503439, 1.281933, 0.771071]
+    assert main(["fk", "--mechanism", str(EXAMPLES / "stewart_dietmaier.toml"), *map(str, lengths), "--json"]) == 0
+    solutions = json.loads(capsys.readouterr().out)["solutions"]
+    assert len(solutions) == 40
+    machine = load_mechanism(EXAMPLES / "stewart_dietmaier.toml")
+    base, attach = np.array([leg.base for leg in machine.legs]), np.array(machine.platform.attachments)
+    for sol in solutions:
+        p, angles = np.array(sol["pose"][:3]), sol["pose"][3:]
+        legs = np.linalg.norm(p + attach @ orientation(*angles).T - base, axis=1)
+        assert np.allclose(legs, lengths, atol=1e-9)

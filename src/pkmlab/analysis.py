@@ -216,3 +216,73 @@ def workspace(
     cell = float((x[1] - x[0]) * (y[1] - y[0]))
     area = reachable.sum(axis=(1, 2)) * cell
     return Workspace(x, y, alpha, WORKING_MODES.copy(), reachable, s, area)
+
+
+# ------------------------------------------------------------------ spatial machines
+@dataclass(frozen=True)
+class SpatialWorkspace:
+    """A spatial machine's reachable region and singularity measure in horizontal slices, in one working
+    mode, at a fixed orientation (a translating platform has no other).
+
+    ``reachable[k, j, i]`` says whether ``(x[i], y[j], z[k])`` can be reached; ``S[k]`` is the singularity
+    measure there (NaN out of reach), whose zero level is where the slice meets the ``S = 0`` surface;
+    ``area[k]`` (m²) is the reachable area of slice ``k`` on the grid.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    mode: tuple[int, ...]
+    orientation: tuple[float, ...]
+    reachable: np.ndarray
+    S: np.ndarray
+    area: np.ndarray
+
+
+def spatial_workspace(model, mode=None, z_levels=None, resolution: int = 121, x_range=None, y_range=None,
+                      orientation=(0.0, 0.0, 0.0), slices: int = 6,
+                      progress: Callable[[int], None] | None = None) -> SpatialWorkspace:
+    """:class:`SpatialWorkspace` of a spatial machine: ``slices`` levels spread over the heights it reaches
+    (or ``z_levels``), each on a ``resolution``² grid over ``x_range`` × ``y_range`` (default: the legs'
+    reach, :func:`~pkmlab.mechanism_model.spatial_extent`); ``mode`` defaults to the first working mode;
+    ``orientation`` (roll, pitch, yaw) applies to a six-degree-of-freedom platform. ``progress`` is told
+    each slice done."""
+    from .mechanism_model import path_inverse_kinematics, spatial_extent, working_modes
+
+    m = model.description
+    modes = working_modes(model)
+    mode = modes[0] if mode is None else tuple(int(v) for v in mode)
+    if mode not in modes:
+        raise InvalidParameterError(f"mode must be one of {modes} for the {m.name}, got {mode}")
+    resolution = _count("resolution", resolution, 2, 2001)
+    box = spatial_extent(m)
+    extra = list(orientation)[:m.dof - 3]
+
+    def poses(xs, ys, z):
+        gx, gy = np.meshgrid(xs, ys)
+        return np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, z), *(np.full(gx.size, v) for v in extra)])
+
+    if z_levels is None:  # the heights reached somewhere on a coarse grid, then levels spread over them
+        coarse = [np.linspace(lo, hi, 41) for lo, hi in box]
+        reached = [z for z in coarse[2]
+                   if np.isfinite(path_inverse_kinematics(model, poses(coarse[0], coarse[1], z), mode)[1]).any()]
+        if not reached:
+            raise InvalidParameterError(f"the {m.name} reaches no point of a 41^3 grid over its legs' reach in "
+                                        f"working mode {mode}")
+        step = (box[2, 1] - box[2, 0]) / 40
+        lo, hi = min(reached) - step / 2, max(reached) + step / 2
+        z_levels = lo + (np.arange(slices) + 0.5) * (hi - lo) / slices
+    z = np.asarray(z_levels, dtype=float).ravel()
+    if z.size == 0 or not np.all(np.isfinite(z)):
+        raise InvalidParameterError(f"z levels must be finite heights (m), got {shown(z_levels)}")
+    x = _axis("x_range", x_range, tuple(box[0]), resolution)
+    y = _axis("y_range", y_range, tuple(box[1]), resolution)
+    s = np.empty((z.size, y.size, x.size))
+    for k, level in enumerate(z):
+        _q, values, _failure = path_inverse_kinematics(model, poses(x, y, level), mode)
+        s[k] = values.reshape(y.size, x.size)
+        if progress is not None:
+            progress(1)
+    reachable = np.isfinite(s)
+    area = reachable.sum(axis=(1, 2)) * float((x[1] - x[0]) * (y[1] - y[0]))
+    return SpatialWorkspace(x, y, z, mode, tuple(float(v) for v in extra), reachable, s, area)

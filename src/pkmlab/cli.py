@@ -659,6 +659,10 @@ def cmd_workspace(args) -> dict:
 
     model = _mechanism(args) if args.mechanism else _model(args)
     out = _output_path(args.out, "--out", _figure_suffixes())
+    if getattr(getattr(model, "description", None), "spatial", False):
+        return _spatial_workspace(args, model, out)
+    if args.z is not None:
+        raise InvalidParameterError("--z gives the heights of a spatial machine's slices; this machine is planar")
     resolution = _resolution(args.resolution)
     with _progress(args, resolution, "workspace") as bar:
         ws = workspace(model, args.alpha, resolution, args.x_range, args.y_range, progress=bar.update)
@@ -679,6 +683,39 @@ def cmd_workspace(args) -> dict:
         print(f"wrote {out}")
     return {"alpha": ws.alpha, "resolution": resolution, "cell_area_m2": ws.cell_area, "areas": areas,
             "figure": str(out)}
+
+
+def _spatial_workspace(args, model, out: Path) -> dict:
+    """``workspace`` of a spatial machine: horizontal slices of its reachable region with ``S`` and ``S = 0``."""
+    import matplotlib.pyplot as plt
+
+    from .analysis import spatial_workspace
+    from .plotting import plot_spatial_workspace
+
+    if args.alpha != 0.0:
+        raise InvalidParameterError("--alpha is a planar platform's orientation; a spatial machine's slices are at "
+                                    "--z heights")
+    resolution = min(_resolution(args.resolution), 161) if args.resolution == 201 else _resolution(args.resolution)
+    mode = tuple(args.mode) if getattr(args, "mode", None) is not None else None
+    levels = args.z
+    with _progress(args, len(levels) if levels else 6, "slices") as bar:
+        ws = spatial_workspace(model, mode, levels, resolution, args.x_range, args.y_range, progress=bar.update)
+    if not ws.reachable.any():
+        raise PkmlabError(f"nothing is reachable at z = {', '.join(f'{z:g}' for z in ws.z)} m over the region asked")
+    fig = plot_spatial_workspace(ws, model=model)
+    try:
+        with _Staged(out) as temps:
+            fig.savefig(temps[0], dpi=150)
+    finally:
+        plt.close(fig)
+    slices = [{"z": float(z), "area_m2": float(a), "area_cm2": float(a) * 1e4} for z, a in zip(ws.z, ws.area,
+                                                                                            strict=True)]
+    if not args.json:
+        print(f"reachable workspace of the {model.description.name} in working mode {_signs(ws.mode)}, "
+              f"{resolution} x {resolution} grid per slice")
+        print(_table(["z (m)", "area (cm^2)"], [[f"{s['z']:.4f}", f"{s['area_cm2']:.1f}"] for s in slices]))
+        print(f"wrote {out}")
+    return {"mode": list(ws.mode), "resolution": resolution, "slices": slices, "figure": str(out)}
 
 
 def _animation_model(args, folder: Path, case: str):
@@ -901,8 +938,13 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.set_defaults(func=cmd_singularity_map)
 
-    p = sub.add_parser("workspace", help="reachable region at one orientation for each working mode")
+    p = sub.add_parser("workspace", help="reachable region at one orientation for each working mode (a spatial "
+                       "machine: horizontal slices in one working mode)")
     figure_region(p, "working modes")
+    p.add_argument("--z", nargs="+", type=float, metavar="Z", help="a spatial machine's slice heights (m), default "
+                   "six spread over the heights it reaches")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="a spatial machine's working mode (+ + +); default the "
+                   "first")
     mechanism(p)
     common(p)
     p.set_defaults(func=cmd_workspace)

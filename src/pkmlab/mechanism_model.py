@@ -608,10 +608,13 @@ def _spatial_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> lis
     from .mechanisms.spatial_legs import delta_forward_kinematics, rotate, universal_angles
 
     m = model.description
+    if m.platform.kind == "rigid" and all(leg.notation == "UP*S" for leg in m.legs):
+        return _stewart_forward_kinematics(model, theta)
     if m.platform.kind != "translating" or any(leg.notation != "R*US" for leg in m.legs):
-        raise InvalidParameterError(f"{m.name} ({m.notation}, {m.platform.kind} platform): pkmlab's closed-form "
-                                    "forward kinematics is for a translating platform on three R*US legs; follow "
-                                    "a branch from a known configuration instead (branch_following)")
+        raise InvalidParameterError(f"{m.name} ({m.notation}, {m.platform.kind} platform): pkmlab's forward "
+                                    "kinematics of every assembly mode is for a translating platform on three R*US "
+                                    "legs (the Delta) and a platform on six UP*S legs (the Stewart-Gough platform); "
+                                    "follow a branch from a known configuration instead (branch_following)")
     configurations = []
     for point in delta_forward_kinematics(m, theta):
         passive = []
@@ -625,6 +628,47 @@ def _spatial_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> lis
             passive += [q1[0], q2[0]]
         configurations.append(np.array([*theta, *passive, *point]))
     return _assembly_modes(model, configurations)
+
+
+def _stewart_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """Every real assembly mode of a platform on six UP*S legs (the general Stewart–Gough platform, up to 40):
+    each leg's slide gives the distance from its universal joint's centre to its spherical joint, and
+    :func:`~pkmlab.mechanisms.stewart_fk.assembly_modes` (polynomial homotopy continuation) returns every
+    real pose at those six distances; each becomes a configuration by the legs' inverse kinematics (the
+    universal joints' angles), polished by Newton's method on ``η = 0``. Sorted by the pose's last
+    coordinate (yaw)."""
+    from .mechanisms.spatial import orientations
+    from .mechanisms.stewart_fk import assembly_modes
+
+    m = model.description
+    lengths = []
+    for leg, s in zip(m.legs, theta, strict=True):
+        offset = np.array(leg.bodies[0].tip) + np.array(leg.bodies[1].tip)
+        lengths.append(float(np.linalg.norm(offset + s * np.array(leg.joints[1].axes[0]))))
+    configurations = []
+    poses = assembly_modes(np.array([leg.base for leg in m.legs]), np.array(m.platform.attachments),
+                           np.array(lengths))
+    for rot, p in poses:
+        # roll, pitch, yaw of R = Rz(yaw) Ry(pitch) Rx(roll)
+        pitch = -math.asin(max(-1.0, min(1.0, rot[2, 0])))
+        roll, yaw = math.atan2(rot[2, 1], rot[2, 2]), math.atan2(rot[1, 0], rot[0, 0])
+        pose = np.array([*p, roll, pitch, yaw])
+        assert np.allclose(orientations(pose[None, 3:])[0], rot, atol=1e-9), "the angles of a pose at gimbal lock"
+        q, failure = _inverse_kinematics_batch(model, pose[None, :], ())
+        if failure is None:
+            q = q[0]
+            q[:len(m.legs)] = theta
+            configurations.append(q)
+    found = _assembly_modes(model, configurations)
+    if len(found) < len(poses):
+        import warnings
+
+        from .errors import IncompleteSolutionWarning
+
+        warnings.warn(f"forward kinematics at actuators {np.round(theta, 6).tolist()}: {len(poses) - len(found)} of "
+                      f"the {len(poses)} poses could not be given joint coordinates (a universal joint at its own "
+                      "singularity: a leg along its first axis)", IncompleteSolutionWarning, stacklevel=3)
+    return found
 
 
 def _actuator_values(model: MechanismModel, actuators) -> np.ndarray:

@@ -354,3 +354,40 @@ def plot_singularity_along_path(result, ax=None):
     ax.grid(alpha=0.3)
     ax.set_title(f"S along the trajectory ({_case(result)})")
     return ax
+
+
+def plot_spatial_workspace(ws, model=None, fig=None):
+    """A spatial machine's workspace in horizontal slices (:func:`~pkmlab.analysis.spatial_workspace`): each
+    panel shades ``S`` over the reachable region of one height (grey outside) and draws ``S = 0``, where the
+    slice cuts the singular surface, in black."""
+    import matplotlib.pyplot as plt
+
+    count = len(ws.z)
+    cols = min(3, count)
+    rows = -(-count // cols)
+    if fig is None:
+        fig = plt.figure(figsize=(4.2 * cols, 3.9 * rows), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False)
+    finite = ws.S[np.isfinite(ws.S)]
+    bound = float(np.abs(finite).max()) if finite.size else 1.0
+    image = None
+    for k, ax in enumerate(axes.ravel()):
+        if k >= count:
+            ax.set_axis_off()
+            continue
+        extent = (ws.x[0], ws.x[-1], ws.y[0], ws.y[-1])
+        ax.imshow(~ws.reachable[k], extent=extent, origin="lower", cmap="Greys", vmin=0, vmax=4, aspect="equal")
+        image = ax.imshow(np.ma.masked_invalid(ws.S[k]), extent=extent, origin="lower", cmap="RdBu",
+                          vmin=-bound, vmax=bound, aspect="equal")
+        s = np.where(np.isfinite(ws.S[k]), ws.S[k], np.nan)
+        if np.nanmin(s, initial=np.inf) < 0 < np.nanmax(s, initial=-np.inf):
+            ax.contour(ws.x, ws.y, s, levels=[0.0], colors="k", linewidths=1.2)
+        ax.set_title(f"z = {ws.z[k]:.3f} m, reachable {ws.area[k] * 1e4:.0f} cm²", fontsize=9)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+    if image is not None:
+        fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8, label="singularity measure S")
+    name = f"{model.description.name} " if model is not None else ""
+    mode = "".join("+" if v > 0 else "-" for v in ws.mode) or "its one mode"
+    fig.suptitle(f"{name}workspace in horizontal slices, working mode {mode} (S = 0 in black)")
+    return fig

@@ -19,14 +19,16 @@ solutions counted with multiplicity, the finite ones (``e ≠ 0``) are the poses
 on the degenerate set ``e = 0, g·g = 0``, where every equation vanishes.
 
 Method. A total-degree homotopy ``H(x, t) = (1 − t) F(x) + γ t G(x)`` with ``G_k = x_k² − x_7²``
-(``k = 0..6``, 128 start points ``x = (±1, ..., ±1, 1)``), a random complex ``γ`` (the gamma trick: for
-all but finitely many ``γ`` no path meets a singularity for ``t ∈ (0, 1]``), on a random complex affine
-patch ``c·x = 1`` (no path then runs off to infinity). The 128 paths are tracked together, vectorised
-over paths, each with its own adaptive step: a fourth-order Runge–Kutta predictor on the
-Davidenko equation ``dx/dt = −H_x⁻¹ H_t`` and a Newton corrector that must contract fast, else the step
+(``k = 0..6``, 128 start points ``x = (±1, ..., ±1, 1)``), a random complex ``γ`` (the gamma trick:
+for all but finitely many ``γ`` on the unit circle no path meets a singularity for ``t ∈ (0, 1]``), on a
+random complex affine patch ``c·x = 1`` (no path then runs off to infinity). The 128 paths are tracked
+together, vectorised over paths, each with its own adaptive step: a fourth-order Runge–Kutta predictor
+on the Davidenko equation ``dx/dt = −H_x⁻¹ H_t`` and a Newton corrector that must contract fast, else the step
 is halved. The paths stop at a small ``t``; the end game is Newton's method on ``F`` at ``t = 0``: a
 path to a pose ends at a regular solution, where it converges quadratically and ``e`` is of the size of
-``x``; a path to the degenerate set ends where the Jacobian is singular and ``e → 0``. The finite
+``x``; a path to the degenerate set ends where the Jacobian is singular and ``e → 0`` (like ``√t``: its
+tracking stops near ``t ≈ 1e-8``, and ``|e| / |x|`` is then some 1e-4, against at least ``1 / √(1 + B²)``
+at a real pose, ``B`` a bound of ``|p|`` from the leg lengths). The finite
 solutions that are real (up to the projective scale) become ``(R, p)``, which Newton's method polishes
 on the six leg equations themselves (``R ← R exp([δ]×)``, ``p ← p + dp``).
 
@@ -491,7 +493,8 @@ def assembly_modes(base, platform, lengths, *, seed: int = 0) -> list[tuple[np.n
     size = max(np.linalg.norm(base - cb, axis=1).max(), np.linalg.norm(platform - ca, axis=1).max(), rho.max())
     nb, na, nr = (base - cb) / size, (platform - ca) / size, rho / size
     Q = _quadrics(nb, na, nr)
-    # A real pose has |p| <= |b_i| + rho_i + |a_i| (normalised): |e| / |x| = 1 / sqrt(1 + |p|²) is at least
+    # A real pose has |p| <= |b_i| + rho_i + |a_i| (normalised coordinates), so at its soma coordinates
+    # |e| / |x| = 1 / sqrt(1 + |p|²) is at least real_ratio.
     bound = float((np.linalg.norm(nb, axis=1) + nr + np.linalg.norm(na, axis=1)).min())
     real_ratio = 1 / math.sqrt(1 + bound**2)
 
