@@ -260,3 +260,37 @@ def test_the_controllers_own_model_may_differ_from_the_plant():
     run = simulate(scenario.replace(plant=plant))
     nominal = simulate(scenario).summary()["max_path_error_m"]
     assert nominal < run.summary()["max_path_error_m"] < 0.01
+
+
+# ------------------------------------------------------------------ the command line
+def test_cli_simulate_animate_and_workspace(tmp_path, capsys):
+    import json
+
+    from pkmlab.cli import main
+
+    out = tmp_path / "run"
+    assert main(["simulate", str(EXAMPLE), "--out", str(out), "--json"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["working_mode"] == [1, 1, 1] and "max_orientation_error_rad" not in summary
+    assert {"machine.png", "path.png", "path_error.png", "torques.png", "singularity_along_path.png"} <= {
+        p.name for p in out.iterdir()}
+    capsys.readouterr()
+    gif = tmp_path / "run.gif"
+    assert main(["animate", str(out), "--out", str(gif), "--stride", "200", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["frames"] == 6 and report["max_centroid_deviation_m"] < 1e-9 and gif.stat().st_size > 0
+    figure = tmp_path / "slices.png"
+    assert main(["workspace", "--mechanism", "delta", "--z", "-0.6", "-0.9", "--resolution", "41", "--out",
+                 str(figure), "--json"]) == 0
+    slices = json.loads(capsys.readouterr().out)["slices"]
+    # the reachable area shrinks as the platform goes down towards the forearms' full stretch
+    assert [s["z"] for s in slices] == [-0.6, -0.9] and slices[0]["area_m2"] > slices[1]["area_m2"] > 0
+    assert figure.stat().st_size > 0
+
+
+def test_cli_refuses_an_orientation_for_the_delta(tmp_path, capsys):
+    from pkmlab.cli import main
+
+    out = tmp_path / "x.png"
+    assert main(["workspace", "--mechanism", "delta", "--alpha", "0.3", "--out", str(out)]) == 1
+    assert "--alpha is a planar platform's orientation" in capsys.readouterr().err and not out.exists()

@@ -107,7 +107,7 @@ def test_bad_arguments_are_named():
     with pytest.raises(pkmlab.InvalidParameterError, match="description must be a Mechanism"):
         mm.MechanismModel.from_description("five_bar")
     with pytest.raises(pkmlab.InvalidParameterError, match="unknown mechanism preset"):
-        mm.MechanismModel.from_preset("delta")
+        mm.MechanismModel.from_preset("scara")
     assert preset("five_bar") == model.description
 
 
