@@ -83,3 +83,21 @@ def test_body_jacobians_against_finite_differences(name):
         jp = _evaluate(model, k.body_jacobians, (k.N_BODIES, 6, k.N_COORDINATES), q + h * q_dot)
         jm = _evaluate(model, k.body_jacobians, (k.N_BODIES, 6, k.N_COORDINATES), q - h * q_dot)
         np.testing.assert_allclose(bias, (jp - jm) @ q_dot / (2 * h), atol=1e-6)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_constraint_jacobian_and_bias_against_finite_differences(name):
+    model = MechanismModel.from_preset(name)
+    k = model.kernels
+    rng = np.random.default_rng(12)
+    h = 1e-6
+    for _ in range(5):
+        q, q_dot = rng.uniform(-np.pi, np.pi, k.N_COORDINATES), rng.normal(size=k.N_COORDINATES)
+        jac = _evaluate(model, k.constraint_jacobian, (k.N_CONSTRAINTS, k.N_COORDINATES), q)
+        fd = np.column_stack([(constraint_residual(model, q + h * e) - constraint_residual(model, q - h * e)) / (2 * h)
+                              for e in np.eye(k.N_COORDINATES)])
+        np.testing.assert_allclose(jac, fd, atol=1e-7)
+        bias = _evaluate(model, k.constraint_bias, (k.N_CONSTRAINTS,), q, q_dot)
+        jp = _evaluate(model, k.constraint_jacobian, (k.N_CONSTRAINTS, k.N_COORDINATES), q + h * q_dot)
+        jm = _evaluate(model, k.constraint_jacobian, (k.N_CONSTRAINTS, k.N_COORDINATES), q - h * q_dot)
+        np.testing.assert_allclose(bias, (jp - jm) @ q_dot / (2 * h), atol=1e-6)

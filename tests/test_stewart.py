@@ -250,3 +250,26 @@ def test_dietmaiers_platform_has_forty_real_assembly_modes_from_the_command_line
         p, angles = np.array(sol["pose"][:3]), sol["pose"][3:]
         legs = np.linalg.norm(p + attach @ orientation(*angles).T - base, axis=1)
         assert np.allclose(legs, lengths, atol=1e-9)
+
+
+def test_continuous_time_control_with_the_exact_model_tracks_to_integration_level():
+    from pkmlab.trajectory import TimedWaypoints
+
+    scenario = load_scenario(EXAMPLES / "stewart_motion.toml")
+    short = TimedWaypoints(((0.0, 0.0, 0.85, 0.0, 0.0, 0.0), (0.01, -0.01, 0.86, 0.02, -0.01, 0.03)), (0.15,))
+    s = simulate(scenario.replace(trajectory=short, sample_time=0.0)).summary()
+    assert s["max_path_error_m"] < 1e-9 and s["max_orientation_error_rad"] < 1e-9
+
+
+def test_orientation_error_is_exact_for_small_and_large_turns():
+    """The angle between two orientations, to round-off also when tiny (where arccos of the trace is not)."""
+    from dataclasses import replace
+
+    run = simulate(load_scenario(EXAMPLES / "stewart_motion.toml"))
+    pose_d = np.tile([0.0, 0.0, 0.85, 0.3, -0.2, 0.5], (3, 1))
+    pose = pose_d.copy()
+    for k, angle in enumerate((1e-9, 0.0, 2.5)):
+        rot = orientation(*pose_d[k, 3:]) @ orientation(angle, 0.0, 0.0)  # a turn about the platform's x axis
+        pose[k, 3:] = [np.arctan2(rot[2, 1], rot[2, 2]), -np.arcsin(rot[2, 0]), np.arctan2(rot[1, 0], rot[0, 0])]
+    fake = replace(run, pose=pose, pose_d=pose_d)
+    assert np.allclose(fake.orientation_error, [1e-9, 0.0, 2.5], rtol=1e-6, atol=1e-15)
