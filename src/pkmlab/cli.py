@@ -614,6 +614,10 @@ def cmd_singularity_map(args) -> dict:
     from .plotting import plot_singularity_map
 
     model = _mechanism(args) if args.mechanism else _model(args)
+    if getattr(getattr(model, "description", None), "spatial", False):
+        raise InvalidParameterError(f"singularity-map draws a planar machine's S over x-y; the "
+                                    f"{model.description.name} is spatial: `pkmlab workspace --mechanism ... --z Z...` "
+                                    "draws its S and S = 0 in horizontal slices")
     out = _output_path(args.out, "--out", _figure_suffixes())
     csv_path = _output_path(args.csv, "--csv", {".csv"}) if args.csv else None
     resolution = _resolution(args.resolution)
