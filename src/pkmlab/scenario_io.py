@@ -257,8 +257,10 @@ def _plant(rd: _Reader, table: dict, model):
             if not isinstance(model, Planar3RRR):
                 from .mechanism_model import MechanismModel
                 from .mechanisms.description import scaled_mechanism
+                from .mechanisms.spatial import scaled_spatial_mechanism
 
-                return MechanismModel.from_description(scaled_mechanism(model.description, mass, length))
+                scale = scaled_spatial_mechanism if getattr(model.description, "spatial", False) else scaled_mechanism
+                return MechanismModel.from_description(scale(model.description, mass, length))
             return scaled_model(model, mass, length)
     except (InvalidParameterError, OverflowError) as exc:
         raise rd.value_error(f"[plant]: the scaled machine is impossible (mass_scale = {mass:g}, "
