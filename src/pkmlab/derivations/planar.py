@@ -376,25 +376,32 @@ def generated_path(mechanism: Mechanism) -> Path:
     return GENERATED_DIR / f"planar_{structure(mechanism)}.py"
 
 
-def main(argv: list[str] | None = None) -> int:
-    from ..mechanisms.presets import PLANAR_PRESETS
-
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def regenerate(argv, presets, derivation, name: str) -> int:
+    """The command line of the derivation module ``name`` (``derivation``: its ``generated_path`` and
+    ``generate_source``): write the generated module of every one of ``presets``, or with ``--check`` exit
+    non-zero when a committed one is not current."""
+    parser = argparse.ArgumentParser(description=derivation.__doc__.splitlines()[0], prog=f"python -m {name}")
     parser.add_argument("--check", action="store_true", help="fail if a file is not current")
     args = parser.parse_args(argv)
     stale = 0
-    for make in PLANAR_PRESETS.values():
+    for make in presets.values():
         mechanism = make()
-        path, source = generated_path(mechanism), generate_source(mechanism)
+        path, source = derivation.generated_path(mechanism), derivation.generate_source(mechanism)
         if args.check:
             if not path.exists() or path.read_text() != source:
-                print(f"{path} is not current: run python -m pkmlab.derivations.planar")
+                print(f"{path} is not current: run python -m {name}")
                 stale += 1
             continue
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(source)
         print(f"wrote {path}")
     return 1 if stale else 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    from ..mechanisms.presets import PLANAR_PRESETS
+
+    return regenerate(argv, PLANAR_PRESETS, sys.modules[__name__], "pkmlab.derivations.planar")
 
 
 if __name__ == "__main__":

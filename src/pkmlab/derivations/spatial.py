@@ -28,14 +28,13 @@ Run ``python -m pkmlab.derivations.spatial`` to regenerate the shipped modules (
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from ..mechanisms.spatial import SpatialMechanism
-from .planar import GENERATED_DIR, _jacobian_and_bias, write_module
+from .planar import GENERATED_DIR, _jacobian_and_bias, regenerate, write_module
 
 _INERTIA = ("xx", "yy", "zz", "xy", "xz", "yz")
 
@@ -288,21 +287,7 @@ def generated_path(mechanism: SpatialMechanism) -> Path:
 def main(argv: list[str] | None = None) -> int:
     from ..mechanisms.presets import SPATIAL_PRESETS
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--check", action="store_true", help="fail if a file is not current")
-    args = parser.parse_args(argv)
-    stale = 0
-    for make in SPATIAL_PRESETS.values():
-        mechanism = make()
-        path, source = generated_path(mechanism), generate_source(mechanism)
-        if args.check:
-            if not path.exists() or path.read_text() != source:
-                print(f"{path} is not current: run python -m pkmlab.derivations.spatial")
-                stale += 1
-            continue
-        path.write_text(source)
-        print(f"wrote {path}")
-    return 1 if stale else 0
+    return regenerate(argv, SPATIAL_PRESETS, sys.modules[__name__], "pkmlab.derivations.spatial")
 
 
 if __name__ == "__main__":

@@ -62,6 +62,42 @@ def _number(where: str, value, *, positive: bool = False, non_negative: bool = F
     return v
 
 
+def _stroke(where: str, stroke) -> tuple[float, float] | None:
+    """A leg's actuator stroke ``(lower, upper)``, or None (no limit)."""
+    if stroke is None:
+        return None
+    if isinstance(stroke, (str, bytes)) or not hasattr(stroke, "__len__") or len(stroke) != 2:
+        raise InvalidParameterError(f"{where}: stroke must be [lower, upper], got {stroke!r}")
+    lo, hi = (_number(f"{where}: stroke[{k}]", v) for k, v in enumerate(stroke))
+    if not lo < hi:
+        raise InvalidParameterError(f"{where}: the stroke [{lo:g}, {hi:g}] is empty (lower must be below upper)")
+    return (lo, hi)
+
+
+class LegsAndPose:
+    """What every description (planar or spatial) derives from its legs and its platform's pose."""
+
+    @property
+    def dof(self) -> int:
+        """Degrees of freedom = number of actuators = the pose's dimension."""
+        return len(self.platform.pose_names)
+
+    @property
+    def pose_names(self) -> tuple[str, ...]:
+        return self.platform.pose_names
+
+    @property
+    def actuator_kinds(self) -> tuple[str, ...]:
+        """``"R"`` (an angle, torque in N·m) or ``"P"`` (a displacement, force in N) per leg."""
+        return tuple(leg.joints[leg.actuated].kind for leg in self.legs)
+
+    @property
+    def notation(self) -> str:
+        """E.g. ``"3-R*RR"``, ``"6-UP*S"``, or ``"R*RR + R*RR"`` for legs that differ."""
+        names = [leg.notation for leg in self.legs]
+        return f"{len(names)}-{names[0]}" if len(set(names)) == 1 else " + ".join(names)
+
+
 def _point(where: str, value) -> tuple[float, float]:
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
         raise InvalidParameterError(f"{where} must be a point [x, y], got {value!r}")
@@ -133,7 +169,7 @@ class Platform:
 
 
 @dataclass(frozen=True)
-class Mechanism:
+class Mechanism(LegsAndPose):
     """A planar parallel manipulator: its legs, its platform, gravity and a name.
 
     Validated on construction; every problem is one :class:`~pkmlab.errors.InvalidParameterError`
@@ -214,16 +250,8 @@ class Mechanism:
             if turns and body.inertia <= 0:
                 raise InvalidParameterError(f"{where}, body {k + 1}: it rotates, so its inertia must be positive, "
                                             f"got {body.inertia:g}")
-        stroke = leg.stroke
-        if stroke is not None:
-            if isinstance(stroke, (str, bytes)) or not hasattr(stroke, "__len__") or len(stroke) != 2:
-                raise InvalidParameterError(f"{where}: stroke must be [lower, upper], got {stroke!r}")
-            lo, hi = (_number(f"{where}: stroke[{k}]", v) for k, v in enumerate(stroke))
-            if not lo < hi:
-                raise InvalidParameterError(f"{where}: the stroke [{lo:g}, {hi:g}] is empty (lower must be below "
-                                            "upper)")
-            stroke = (lo, hi)
-        return Leg(_point(f"{where}: base", leg.base), tuple(checked_joints), tuple(checked_bodies), stroke)
+        return Leg(_point(f"{where}: base", leg.base), tuple(checked_joints), tuple(checked_bodies),
+                   _stroke(where, leg.stroke))
 
     def _checked_platform(self, platform: Platform) -> Platform:
         n = len(self.legs)
@@ -264,27 +292,6 @@ class Mechanism:
                 f"{' - 1, the point platform' if self.platform.kind == 'point' else ''} = {mobility}) is not the "
                 f"{dof} of its pose ({', '.join(self.platform.pose_names)}); {len(self.legs)} legs of "
                 f"{', '.join(leg.notation for leg in self.legs)}")
-
-    # -------------------------------------------------------------- derived facts
-    @property
-    def dof(self) -> int:
-        """Degrees of freedom = number of actuators = the pose's dimension."""
-        return len(self.platform.pose_names)
-
-    @property
-    def pose_names(self) -> tuple[str, ...]:
-        return self.platform.pose_names
-
-    @property
-    def actuator_kinds(self) -> tuple[str, ...]:
-        """``"R"`` (an angle, torque in N·m) or ``"P"`` (a displacement, force in N) per leg."""
-        return tuple(leg.joints[leg.actuated].kind for leg in self.legs)
-
-    @property
-    def notation(self) -> str:
-        """E.g. ``"3-R*RR"``, or ``"R*RR + R*RR"`` for legs that differ."""
-        names = [leg.notation for leg in self.legs]
-        return f"{len(names)}-{names[0]}" if len(set(names)) == 1 else " + ".join(names)
 
 
 # ------------------------------------------------------------------ leg kinematics (one numeric reference)

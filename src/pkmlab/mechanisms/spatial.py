@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidParameterError
-from .description import _known, _number, _required, _toml
+from .description import LegsAndPose, _known, _number, _required, _stroke, _toml
 
 SPATIAL_JOINTS = ("R", "P", "U", "S")
 SPATIAL_PLATFORMS = ("translating", "rigid")
@@ -165,7 +165,7 @@ class SpatialPlatform:
 
 
 @dataclass(frozen=True)
-class SpatialMechanism:
+class SpatialMechanism(LegsAndPose):
     """A spatial parallel manipulator: legs, platform, gravity (a 3-vector) and a name.
 
     Validated on construction: every problem is one :class:`~pkmlab.errors.InvalidParameterError` line
@@ -243,16 +243,8 @@ class SpatialMechanism:
             if not isinstance(body, SpatialBody):
                 raise InvalidParameterError(f"{where}, body {k + 1} must be a SpatialBody, got {type(body).__name__}")
             checked_bodies.append(body.checked(f"{where}, body {k + 1}"))
-        stroke = leg.stroke
-        if stroke is not None:
-            if isinstance(stroke, (str, bytes)) or not hasattr(stroke, "__len__") or len(stroke) != 2:
-                raise InvalidParameterError(f"{where}: stroke must be [lower, upper], got {stroke!r}")
-            lo, hi = (_number(f"{where}: stroke[{k}]", v) for k, v in enumerate(stroke))
-            if not lo < hi:
-                raise InvalidParameterError(f"{where}: the stroke [{lo:g}, {hi:g}] is empty (lower must be below "
-                                            "upper)")
-            stroke = (lo, hi)
-        return SpatialLeg(_vector(f"{where}: base", leg.base), tuple(checked), tuple(checked_bodies), stroke)
+        return SpatialLeg(_vector(f"{where}: base", leg.base), tuple(checked), tuple(checked_bodies),
+                          _stroke(where, leg.stroke))
 
     def _checked_platform(self, platform: SpatialPlatform) -> SpatialPlatform:
         n = len(self.legs)
@@ -268,27 +260,6 @@ class SpatialMechanism:
                                                     "platform of six legs needs them apart")
         return SpatialPlatform(platform.kind, attachments, _number("platform mass", platform.mass, positive=True),
                                _vector("platform com", platform.com), _tensor("platform inertia", platform.inertia))
-
-    # -------------------------------------------------------------- derived facts
-    @property
-    def dof(self) -> int:
-        """Degrees of freedom = number of actuators = the pose's dimension."""
-        return len(self.platform.pose_names)
-
-    @property
-    def pose_names(self) -> tuple[str, ...]:
-        return self.platform.pose_names
-
-    @property
-    def actuator_kinds(self) -> tuple[str, ...]:
-        """``"R"`` (an angle, torque in N·m) or ``"P"`` (a displacement, force in N) per leg."""
-        return tuple(leg.joints[leg.actuated].kind for leg in self.legs)
-
-    @property
-    def notation(self) -> str:
-        """E.g. ``"3-R*US"``, ``"6-UP*S"``."""
-        names = [leg.notation for leg in self.legs]
-        return f"{len(names)}-{names[0]}" if len(set(names)) == 1 else " + ".join(names)
 
 
 # ------------------------------------------------------------------ rotations (one numeric reference)
