@@ -6,7 +6,8 @@ import importlib
 import pytest
 
 MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
-           "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanism_model"]
+           "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanism_model",
+           "pkmlab.mechanisms.stewart_fk"]
 
 
 @pytest.mark.parametrize("name", MODULES)
