@@ -21,7 +21,8 @@ def elbows(theta):
 
 
 def inverse_kinematics(p, knee_out=(True, True, True)):
-    """θ_i such that |P + R_p w_i - E_i| = L_b, the elbow farther from the z axis where asked."""
+    """θ_i such that |P + R_p w_i - E_i| = L_b, the elbow farther from the z axis where asked (the other
+    root elsewhere)."""
     out = []
     for i in range(3):
         d = np.asarray(p) + R_P * W[i] - R_B * W[i]
@@ -29,7 +30,7 @@ def inverse_kinematics(p, knee_out=(True, True, True)):
         a, b = 2 * L_A * d @ W[i], -2 * L_A * d @ EZ
         c = d @ d + L_A**2 - L_B**2
         roots = np.arctan2(b, a) + np.array([1, -1]) * np.arccos(c / np.hypot(a, b))
-        reach = [(R_B + L_A * np.cos(t)) for t in roots]  # the elbow's distance along w_i from the axis
+        reach = [abs(R_B + L_A * np.cos(t)) for t in roots]  # the elbow's distance from the z axis
         out.append(roots[int(np.argmax(reach))] if knee_out[i] else roots[int(np.argmin(reach))])
     return np.angle(np.exp(1j * np.array(out)))
 
@@ -77,3 +78,17 @@ def potential(theta, p):
     z_e = elbows(theta)[:, 2]
     z_arm = (-L_A / 2 * np.sin(np.asarray(theta)))
     return G * (M_ARM * z_arm.sum() + M_FORE * ((z_e + p[2]) / 2).sum() + M_PLATFORM * p[2])
+
+
+def knee_gap(p) -> float:
+    """How much farther from the z axis the outer elbow is than the inner one, the smallest over the legs
+    (0 where a leg's two roots are as far: the working modes are not told apart there)."""
+    gaps = []
+    for i in range(3):
+        d = np.asarray(p) + R_P * W[i] - R_B * W[i]
+        a, b = 2 * L_A * d @ W[i], -2 * L_A * d @ EZ
+        c = d @ d + L_A**2 - L_B**2
+        roots = np.arctan2(b, a) + np.array([1, -1]) * np.arccos(np.clip(c / np.hypot(a, b), -1, 1))
+        reach = [abs(R_B + L_A * np.cos(t)) for t in roots]
+        gaps.append(abs(reach[0] - reach[1]))
+    return min(gaps)

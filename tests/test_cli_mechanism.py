@@ -52,9 +52,9 @@ def test_a_description_file_is_a_mechanism(capsys, tmp_path):
 
 
 @pytest.mark.parametrize("argv, expected", [
-    (["ik", "--mechanism", "five_bar", 0.0, 0.35, 0.0], "the pose (x, y) takes 2 numbers"),
-    (["fk", "--mechanism", "3rpr", 0.3, 0.3], "the actuators takes 3 numbers"),
-    (["ik", 0.2, 0.21], "takes 3 numbers"),
+    (["ik", "--mechanism", "five_bar", 0.0, 0.35, 0.0], "the pose (x, y): 2 numbers"),
+    (["fk", "--mechanism", "3rpr", 0.3, 0.3], "the actuator values: 3 numbers"),
+    (["ik", 0.2, 0.21], "(x y alpha): 3 numbers"),
 ])
 def test_a_wrong_count_of_numbers_is_a_malformed_command_line(capsys, argv, expected):
     with pytest.raises(SystemExit) as info:
@@ -117,7 +117,7 @@ def test_gravity_effort_is_the_slope_of_the_potential_energy(capsys, tmp_path):
 def test_dynamics_mechanism_errors(capsys):
     with pytest.raises(SystemExit) as info:
         run(capsys, "dynamics", "--mechanism", "five_bar", 2.2, 0.9, "--rates", 1.0)
-    assert info.value.code == 2 and "--rates takes 2 numbers" in capsys.readouterr().err
+    assert info.value.code == 2 and "--rates: 2 numbers" in capsys.readouterr().err
     message = assert_user_error(*run(capsys, "dynamics", "--mechanism", "five_bar", 2.2, 0.9, "--rates", "1e200", 0))
     assert "overflows" in message
 

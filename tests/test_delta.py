@@ -17,7 +17,8 @@ from pkmlab.mechanisms.presets import preset
 MODEL = MechanismModel.from_preset("delta")
 MODES = mm.working_modes(MODEL)
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-positions = st.tuples(st.floats(-0.2, 0.2), st.floats(-0.2, 0.2), st.floats(-0.95, -0.5))
+# the whole region below the base, where knee out and knee in differ by a millimetre at least
+positions = st.tuples(st.floats(-0.6, 0.6), st.floats(-0.6, 0.6), st.floats(-1.15, -0.05))
 
 
 def configuration(p, mode):
@@ -25,6 +26,7 @@ def configuration(p, mode):
         q = mm.inverse_kinematics(MODEL, p, mode)
     except UnreachablePoseError:
         assume(False)
+    assume(ref.knee_gap(p) > 1e-3)
     assume(abs(mm.singularity_measure(MODEL, q)) > 0.05)
     return q
 
@@ -133,14 +135,21 @@ def test_reduced_model_equals_full_multiplier_model(p, mode, rates, efforts):
     assert np.allclose(q_ddot[:3], theta_ddot, atol=1e-9 * (1 + np.abs(theta_ddot).max()))
 
 
-def test_gravity_holds_the_platform_still():
-    """The efforts g(θ) hold the machine at rest: no acceleration, and the vertical force they make on
-    the platform through the legs carries the weight of everything."""
+def test_gravity_effort_does_the_work_of_lifting():
+    """g = ∂V/∂θ, checked by virtual work: moving the arms by δθ lifts the bodies by δV = g·δθ, with the
+    platform's motion from the reference's three-sphere solution; on the axis the three efforts are equal
+    and hold the arms up (θ is positive down)."""
+    for p in ([0.0, 0.0, -0.75], [0.21, -0.13, -0.9], [-0.35, 0.2, -0.6]):
+        q = mm.inverse_kinematics(MODEL, p, (1, 1, 1))
+        _M, _c, g = mm.actuator_space_model(MODEL, q, np.zeros(3))
+        step = np.array([1.0, -0.6, 0.3]) * 1e-6
+        theta = q[:3]
+        lifted = ref.potential(theta + step, forward(theta + step, p)) - ref.potential(theta - step,
+                                                                                        forward(theta - step, p))
+        assert g @ (2 * step) == pytest.approx(lifted, rel=1e-6)
     q = mm.inverse_kinematics(MODEL, [0.0, 0.0, -0.75], (1, 1, 1))
-    M, c, g = mm.actuator_space_model(MODEL, q, np.zeros(3))
-    assert np.allclose(np.linalg.solve(M, g - c - g), 0.0)
-    assert np.allclose(g, g[0])  # symmetric pose, symmetric efforts
-    assert g[0] < 0  # the arms are held up (θ positive down)
+    g = mm.actuator_space_model(MODEL, q, np.zeros(3))[2]
+    assert np.allclose(g, g[0]) and g[0] < 0
 
 
 def test_bad_poses_name_the_leg():
@@ -294,3 +303,54 @@ def test_cli_refuses_an_orientation_for_the_delta(tmp_path, capsys):
     out = tmp_path / "x.png"
     assert main(["workspace", "--mechanism", "delta", "--alpha", "0.3", "--out", str(out)]) == 1
     assert "--alpha is a planar platform's orientation" in capsys.readouterr().err and not out.exists()
+
+
+def test_scenario_errors_name_the_file_and_the_key(tmp_path):
+    from pkmlab.errors import PkmlabError
+
+    text = EXAMPLE.read_text()
+    bad = tmp_path / "short.toml"
+    bad.write_text(text.replace("[-0.1525, 0.0, -0.725],\n  [0.1525, 0.0, -0.725],",
+                                "[-0.1525, 0.0],\n  [0.1525, 0.0],", 1))
+    with pytest.raises(PkmlabError, match=r"short\.toml: \[trajectory\]\.points\[1\] must be 3 numbers"):
+        load_scenario(bad)
+    flat = tmp_path / "flat.toml"  # the heights dropped: (x, z) pairs that differ, but two coordinates
+    flat.write_text(text.replace(", 0.0, -0.75]", ", -0.75]").replace(", 0.0, -0.725]", ", -0.725]"))
+    with pytest.raises(PkmlabError, match=r"flat\.toml: the trajectory's poses have 2 coordinates, but the delta's"):
+        load_scenario(flat)
+
+
+def test_a_heavier_plant_from_the_scenario_file(tmp_path):
+    path = tmp_path / "heavy.toml"
+    path.write_text(EXAMPLE.read_text() + "\n[plant]\nmass_scale = 1.15\n")
+    scenario = load_scenario(path)
+    legs = zip(scenario.plant.description.legs, preset("delta").legs, strict=True)
+    assert all(p.bodies[0].mass == pytest.approx(1.15 * d.bodies[0].mass) for p, d in legs)
+    assert scenario.plant.description.platform.mass == pytest.approx(0.345)
+    run = simulate(scenario).summary()
+    assert 1e-4 < run["max_path_error_m"] < 1e-2  # the controller's model is lighter than the machine
+
+
+def test_a_universal_joint_that_cannot_turn_the_forearm_is_a_leg_that_cannot_reach():
+    """A forearm whose tip is not across both axes of its universal joint reaches only some directions:
+    inverse kinematics says so for the leg, and never returns a configuration that does not close."""
+    from dataclasses import replace
+
+    from pkmlab.mechanisms.spatial import SpatialMechanism
+
+    delta = preset("delta")
+    legs = []
+    for leg in delta.legs:
+        w = np.array(leg.bodies[0].tip) / 0.35
+        forearm = replace(leg.bodies[1], tip=tuple(0.3 * w + np.array([0.0, 0.0, -0.74])))
+        legs.append(replace(leg, bodies=(leg.bodies[0], forearm)))
+    model = MechanismModel.from_description(SpatialMechanism("tilted", tuple(legs), delta.platform, delta.gravity))
+    refused = 0
+    for p in np.random.default_rng(1).uniform([-0.6, -0.6, -1.1], [0.6, 0.6, -0.05], (300, 3)):
+        try:
+            q = mm.inverse_kinematics(model, p, (1, 1, 1))
+        except UnreachablePoseError as exc:
+            refused += "universal joint cannot turn" in str(exc)
+            continue
+        assert np.max(np.abs(mm.constraint_residual(model, q))) < 1e-10
+    assert refused > 0

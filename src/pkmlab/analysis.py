@@ -59,6 +59,14 @@ def default_extent(model) -> tuple[tuple[float, float], tuple[float, float]]:
     return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
 
 
+def _planar(model, what: str):
+    """Refuse a spatial machine in a planar analysis (an x-y grid at one orientation alpha)."""
+    description = getattr(model, "description", None)
+    if getattr(description, "spatial", False):
+        raise InvalidParameterError(f"{what} is a planar machine's x-y grid at one orientation; the "
+                                    f"{description.name} is spatial: use spatial_workspace (horizontal slices)")
+
+
 def _is_machine(model) -> bool:
     from .mechanism_model import MechanismModel
 
@@ -143,6 +151,7 @@ def singularity_map(
 
         mode = _machine_mode(model, "auto" if mode is None else mode)
         mode = _machine_modes(model)[0] if mode == "auto" else mode
+        _planar(model, "singularity_map")
         x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
         return SingularityMap(x, y, _machine_rows(model, x, y, alpha, [mode], progress)[..., 0], alpha, mode)
     mode = tuple(int(m) for m in _mode_array((1, 1, 1) if mode is None else mode))
@@ -203,6 +212,7 @@ def workspace(
     >>> round(float(ws.area[0]) * 1e4)  # cm², on this coarse grid
     1052
     """
+    _planar(model, "workspace")
     x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
     if _is_machine(model):
         modes = _machine_modes(model)

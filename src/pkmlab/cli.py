@@ -54,7 +54,7 @@ def _mechanism(args):
 def _count(args, values, n: int, what: str) -> None:
     """As many numbers as the machine needs, or a malformed command line (usage, exit code 2)."""
     if len(values) != n:
-        args.parser.error(f"{what} takes {n} numbers for this machine, got {len(values)}")
+        args.parser.error(f"{what}: {n} numbers for this machine, got {len(values)}")
 
 
 def cmd_ik_mechanism(args) -> dict:
@@ -97,7 +97,7 @@ def cmd_fk_mechanism(args) -> dict:
     from . import mechanism_model as mm
 
     model = _mechanism(args)
-    _count(args, args.actuators, model.n_actuators, "the actuators")
+    _count(args, args.actuators, model.n_actuators, "the actuator values")
     found = mm.forward_kinematics(model, args.actuators)
     dof = model.description.dof
     solutions = [{"pose": q[-dof:].tolist(), "S": s} for q, s in found]
@@ -338,7 +338,7 @@ def cmd_dynamics_mechanism(args) -> dict:
 
     model = _mechanism(args)
     n, names = model.n_actuators, model.description.pose_names
-    _count(args, args.actuators, n, "the actuators")
+    _count(args, args.actuators, n, "the actuator values")
     rates = [0.0] * n if args.theta_dot is None else args.theta_dot
     _count(args, rates, n, "--rates")
     found = mm.forward_kinematics(model, args.actuators)
@@ -665,8 +665,9 @@ def cmd_workspace(args) -> dict:
     out = _output_path(args.out, "--out", _figure_suffixes())
     if getattr(getattr(model, "description", None), "spatial", False):
         return _spatial_workspace(args, model, out)
-    if args.z is not None:
-        raise InvalidParameterError("--z gives the heights of a spatial machine's slices; this machine is planar")
+    if args.z is not None or args.mode is not None:
+        raise InvalidParameterError("--z and --mode are for a spatial machine's slices; a planar machine's workspace "
+                                    "shows every working mode at one --alpha")
     resolution = _resolution(args.resolution)
     with _progress(args, resolution, "workspace") as bar:
         ws = workspace(model, args.alpha, resolution, args.x_range, args.y_range, progress=bar.update)
@@ -699,7 +700,7 @@ def _spatial_workspace(args, model, out: Path) -> dict:
     if args.alpha != 0.0:
         raise InvalidParameterError("--alpha is a planar platform's orientation; a spatial machine's slices are at "
                                     "--z heights")
-    resolution = min(_resolution(args.resolution), 161) if args.resolution == 201 else _resolution(args.resolution)
+    resolution = _resolution(args.resolution)
     mode = tuple(args.mode) if getattr(args, "mode", None) is not None else None
     levels = args.z
     with _progress(args, len(levels) if levels else 6, "slices") as bar:
@@ -868,11 +869,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     def mechanism(p):
         p.add_argument("--mechanism", metavar="NAME|FILE.toml", help="another machine: a preset (paper, five_bar, "
-                       "3rpr, 3prr) or a description file; default: the paper's 3-RRR as today")
+                       "3rpr, 3prr, delta, stewart) or a description file; default: the paper's 3-RRR as today")
 
     p = sub.add_parser("ik", help="inverse kinematics: every working mode of a platform pose")
-    p.add_argument("pose", nargs="+", type=float, metavar="X Y ALPHA",
-                   help="the platform pose (x, y, alpha; x, y for a point platform)")
+    p.add_argument("pose", nargs="+", type=float, metavar="POSE",
+                   help="the platform pose: x y alpha (the paper's 3-RRR, a planar rigid platform), x y (a point), "
+                   "x y z (the Delta), x y z roll pitch yaw (a six-DOF platform; R = Rz(yaw) Ry(pitch) Rx(roll))")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: signs (+ - +) or one word (+-+)")
     mechanism(p)
     common(p)
@@ -890,8 +892,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the actuator values (angles in rad, slides in m)")
     p.add_argument("--theta-dot", "--rates", dest="theta_dot", nargs="+", type=float, metavar="W",
                    help="actuator rates (rad/s or m/s), default 0")
-    p.add_argument("--near", nargs="+", type=float, metavar="X Y ALPHA",
-                   help="only the assembly mode whose platform pose is nearest to this pose")
+    p.add_argument("--near", nargs="+", type=float, metavar="POSE",
+                   help="only the assembly mode whose platform pose is nearest to this pose (as ik takes it)")
     mechanism(p)
     common(p)
     p.set_defaults(func=cmd_dynamics)

@@ -207,7 +207,8 @@ def _check_spatial_assembly(model: MechanismModel) -> None:
     for i, leg in enumerate(m.legs):
         reached = np.zeros(len(poses), dtype=bool)
         for sigma in spatial_legs.working_modes(leg) or (1,):
-            reached |= ~spatial_legs.leg_inverse_kinematics_batch(leg, i, _attachment_points(m, i, poses), sigma).bad
+            reached |= ~spatial_legs.leg_inverse_kinematics_batch(leg, i, _attachment_points(m, i, poses), sigma,
+                                                                  spatial_legs.central_axis(m)).bad
         together &= reached
         if not together.any():
             others = f" together with legs 1..{i}" if i > 0 else ""
@@ -430,6 +431,7 @@ def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
     m = model.description
     solver = _leg_solver(m)
     leg_inverse_kinematics_batch, leg_modes = solver.leg_inverse_kinematics_batch, solver.working_modes
+    extra = (solver.central_axis(m),) if getattr(m, "spatial", False) else ()
     signs = iter(tuple(mode))
     actuators, passive, bad = [], [], np.zeros(len(poses), dtype=bool)
     first = None
@@ -437,7 +439,7 @@ def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
         sigma = next(signs, None) if leg_modes(leg) else 1
         if sigma not in (1, -1):
             raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg, got {tuple(mode)}")
-        solved = leg_inverse_kinematics_batch(leg, i, _attachment_points(m, i, poses), sigma)
+        solved = leg_inverse_kinematics_batch(leg, i, _attachment_points(m, i, poses), sigma, *extra)
         if solved.bad.any():
             k = int(np.argmax(solved.bad))
             if first is None or k < first[0]:
@@ -653,7 +655,8 @@ def _stewart_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> lis
         pitch = -math.asin(max(-1.0, min(1.0, rot[2, 0])))
         roll, yaw = math.atan2(rot[2, 1], rot[2, 2]), math.atan2(rot[1, 0], rot[0, 0])
         pose = np.array([*p, roll, pitch, yaw])
-        assert np.allclose(orientations(pose[None, 3:])[0], rot, atol=1e-9), "the angles of a pose at gimbal lock"
+        if not np.allclose(orientations(pose[None, 3:])[0], rot, atol=1e-9):
+            continue  # at gimbal lock: no roll, pitch, yaw (said below, with the poses lost)
         q, failure = _inverse_kinematics_batch(model, pose[None, :], ())
         if failure is None:
             q = q[0]
@@ -666,8 +669,9 @@ def _stewart_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> lis
         from .errors import IncompleteSolutionWarning
 
         warnings.warn(f"forward kinematics at actuators {np.round(theta, 6).tolist()}: {len(poses) - len(found)} of "
-                      f"the {len(poses)} poses could not be given joint coordinates (a universal joint at its own "
-                      "singularity: a leg along its first axis)", IncompleteSolutionWarning, stacklevel=3)
+                      f"the {len(poses)} poses could not be given coordinates (a universal joint at its own "
+                      "singularity, a leg along its first axis; or pitch = ±pi/2, gimbal lock)",
+                      IncompleteSolutionWarning, stacklevel=3)
     return found
 
 

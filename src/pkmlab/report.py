@@ -296,7 +296,9 @@ def _summary_table(result: SimulationResult, s: dict) -> list[str]:
     joint_unit = "rad" if kinds == {"R"} else ("m" if kinds == {"P"} else "rad or m")
     effort = "peak torques (N·m)" if kinds == {"R"} else ("peak forces (N)" if kinds == {"P"} else "peak efforts")
     alpha = "max_orientation_error_rad" in s
-    head = (["max path error (mm)", "rms path error (mm)"] + (["max α error (rad)"] if alpha else [])
+    spatial = getattr(getattr(result.scenario.model, "description", None), "spatial", False)
+    turn = "max orientation error (rad)" if spatial else "max α error (rad)"
+    head = (["max path error (mm)", "rms path error (mm)"] + ([turn] if alpha else [])
             + [f"max joint error ({joint_unit})", effort, "min abs(S)", "working mode"])
     row = ([f"{s['max_path_error_m'] * 1e3:.4g}", f"{s['rms_path_error_m'] * 1e3:.4g}"]
            + ([f"{s['max_orientation_error_rad']:.3g}"] if alpha else [])

@@ -329,7 +329,7 @@ def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
     if not 2 <= width <= 6:
         raise rd.value_error(f"{where}[0] must be a pose of 2 to 6 numbers ([x, y, z] for a Delta), got "
                              f"{show(points[0])}")
-    poses = [rd.vector(p, f"{where}[{i}]", width, f"a pose of {width} numbers like points[0]")
+    poses = [rd.vector(p, f"{where}[{i}]", width, "(a pose, like points[0])")
              for i, p in enumerate(points)]
     for i in range(1, len(poses)):
         if np.allclose(poses[i - 1], poses[i]):

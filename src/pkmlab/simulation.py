@@ -141,6 +141,9 @@ class Scenario:
             set_(self, name, _real(name, getattr(self, name), "non-negative"))
         if isinstance(self.model, MechanismModel):
             _check_pose_dimension(self.model, self.trajectory)
+        elif getattr(self.trajectory, "dimension", 3) != 3:
+            raise InvalidParameterError(f"the trajectory's poses have {self.trajectory.dimension} coordinates, but "
+                                        "the paper's 3-RRR's pose is (x, y, alpha)")
             set_(self, "working_mode", _machine_mode(self.model, self.working_mode))
         elif not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
             try:
@@ -187,7 +190,8 @@ def _check_pose_dimension(model: MechanismModel, trajectory) -> None:
         raise InvalidParameterError(f"the {m.name} is spatial (pose {', '.join(m.pose_names)}): give its path as "
                                     "waypoints in those coordinates with durations (a planar path of (x, y, alpha) "
                                     "does not apply)")
-    if width < m.dof or (spatial and width != m.dof):
+    # a planar path (x, y, alpha) serves a point platform too, whose alpha must then stay 0 (checked on the path)
+    if width != m.dof and not (not spatial and m.dof == 2 and width == 3):
         raise InvalidParameterError(f"the trajectory's poses have {width} coordinates, but the {m.name}'s pose is "
                                     f"({', '.join(m.pose_names)})")
 

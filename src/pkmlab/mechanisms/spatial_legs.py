@@ -4,9 +4,10 @@ Legs of a :class:`~pkmlab.mechanisms.spatial.SpatialMechanism` that pkmlab solve
 
 * ``R*US`` — an actuated arm, then a forearm from a universal joint at the arm's tip to a spherical
   joint on the platform (the Delta's leg). The arm angle is a root of ``α cos θ + β sin θ = γ``:
-  two working modes. ``σ = +1`` is the root for which the turn from the arm to the line from the arm's
-  joint to the platform point is positive about the actuated axis — for the Delta, whose axes are
-  ``e_z × w_i``, the elbow farther from the z axis ("knee out").
+  two working modes. ``σ = +1`` is the root whose elbow (the arm's tip) lies farther from the
+  machine's central axis — the line through the centroid of the legs' base points, normal to their
+  plane (the Delta's z axis): "knee out". Where both elbows are as far (a measure-zero set), the root
+  with the larger ``θ - centre`` below is taken.
 * ``UP*S`` — a universal joint on the base, an actuated prismatic joint, a spherical joint on the
   platform (the Stewart–Gough platform's leg): the slide is the larger root of a quadratic (one
   working mode).
@@ -62,39 +63,68 @@ def universal_angles(axes, tip, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return q1, q2, bad
 
 
-def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int) -> _Solved:
+def central_axis(mechanism: SpatialMechanism) -> tuple[np.ndarray, np.ndarray]:
+    """The machine's central axis: a point (the centroid of the legs' base points) and a unit direction
+    (normal to the plane of the base points; ``e_z`` when they are on one line or fewer than three)."""
+    bases = np.array([leg.base for leg in mechanism.legs])
+    centre = bases.mean(axis=0)
+    if len(bases) >= 3:
+        _u, sv, vt = np.linalg.svd(bases - centre)
+        if sv[1] > 1e-12 * max(sv[0], 1e-300):
+            return centre, vt[2]
+    return centre, np.array([0.0, 0.0, 1.0])
+
+
+def _distance_from(axis, points: np.ndarray) -> np.ndarray:
+    centre, direction = axis
+    d = points - centre
+    return np.linalg.norm(d - (d @ direction)[:, None] * direction, axis=1)
+
+
+def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> _Solved:
     arm_joint, universal = leg.joints[0], leg.joints[1]
-    axis = np.array(arm_joint.axes[0])
+    axis_r = np.array(arm_joint.axes[0])
     arm, forearm = leg.bodies
     tip = np.array(arm.tip)
-    along = (tip @ axis) * axis
+    along = (tip @ axis_r) * axis_r
     across = tip - along
     length = float(np.linalg.norm(forearm.tip))
     d = points - np.array(leg.base) - along
     # |d - Rot(axis, θ) across| = L_forearm:  α cos θ + β sin θ = γ
-    alpha, beta = d @ across, d @ np.cross(axis, across)
+    alpha, beta = d @ across, d @ np.cross(axis_r, across)
     gamma = (np.einsum("ki,ki->k", d, d) + across @ across - length**2) / 2
     rho = np.hypot(alpha, beta)
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = gamma / rho
     bad = ~(np.abs(ratio) <= 1.0)
-    # σ = +1: the arm turned back from the line to the point (module docstring)
-    theta = np.arctan2(beta, alpha) - sigma * np.arccos(np.clip(ratio, -1.0, 1.0))
-    theta = np.angle(np.exp(1j * theta))
-    elbow = np.array(leg.base) + along + rotate(axis, theta, np.broadcast_to(across, points.shape).copy())
+    centre, half = np.arctan2(beta, alpha), np.arccos(np.clip(ratio, -1.0, 1.0))
+    roots = [np.angle(np.exp(1j * (centre + half))), np.angle(np.exp(1j * (centre - half)))]
+    elbows = [np.array(leg.base) + along + rotate(axis_r, r, np.broadcast_to(across, points.shape).copy())
+              for r in roots]
+    # σ = +1: the elbow farther from the machine's central axis ("knee out"), σ = -1 the other
+    outer = _distance_from(axis, elbows[0]) > _distance_from(axis, elbows[1])
+    first = outer if sigma > 0 else ~outer
+    theta = np.where(first, roots[0], roots[1])
+    elbow = np.where(first[:, None], elbows[0], elbows[1])
     # the forearm's direction in the arm's frame: the arm's turn undone
-    v = rotate(axis, -theta, points - elbow)
-    q1, q2, _ = universal_angles(universal.axes, forearm.tip, v)
+    v = rotate(axis_r, -theta, points - elbow)
+    q1, q2, u_bad = universal_angles(universal.axes, forearm.tip, v)
+
+    reach_bad = bad.copy()
 
     def why(k):
-        return (f"leg {number + 1} (R*US) cannot reach the point ({', '.join(f'{c:.4g}' for c in points[k])}): "
-                f"its forearm of {length:.4g} m cannot join the circle of its arm's tip")
+        where = ", ".join(f"{c:.4g}" for c in points[k])
+        if reach_bad[k]:
+            return (f"leg {number + 1} (R*US) cannot reach the point ({where}): its forearm of {length:.4g} m cannot "
+                    "join the circle of its arm's tip")
+        return (f"leg {number + 1} (R*US): its universal joint cannot turn the forearm towards the point ({where})")
 
+    bad = bad | u_bad
     bad, why = _stroke(leg, number, theta, bad, why)
     return _Solved(np.column_stack([theta, q1, q2]), bad, why)
 
 
-def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int) -> _Solved:
+def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -> _Solved:
     universal, slide = leg.joints[0], leg.joints[1]
     cylinder, rod = leg.bodies
     d = np.array(slide.axes[0])
@@ -106,23 +136,31 @@ def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int) -> _Solv
     disc = b * b - offset @ offset + span2
     bad = ~(disc >= 0.0)
     s = -b + np.sqrt(np.maximum(disc, 0.0))
-    q1, q2, _ = universal_angles(universal.axes, offset + s[:, None] * d, v)
+    q1, q2, u_bad = universal_angles(universal.axes, offset + s[:, None] * d, v)
+    reach_bad = bad.copy()
 
     def why(k):
-        return f"leg {number + 1} (UP*S) cannot reach the point ({', '.join(f'{c:.4g}' for c in points[k])})"
+        where = ", ".join(f"{c:.4g}" for c in points[k])
+        if reach_bad[k]:
+            return f"leg {number + 1} (UP*S) cannot reach the point ({where}): it is closer than the leg's offset"
+        return f"leg {number + 1} (UP*S): its universal joint cannot turn the leg towards the point ({where})"
 
-    bad, why = _stroke(leg, number, s, bad, why)
+    bad, why = _stroke(leg, number, s, bad | u_bad, why)
     return _Solved(np.column_stack([q1, q2, s]), bad, why)
 
 
-def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1) -> _Solved:
+def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None) -> _Solved:
     """The leg's three joint coordinates (K, 3), in the order of its joints, for its S joint at ``points``
-    (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why)."""
+    (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why). ``axis`` is
+    the machine's :func:`central_axis`, which tells an R*US leg's working modes apart (default: the z
+    axis)."""
+    if axis is None:
+        axis = (np.zeros(3), np.array([0.0, 0.0, 1.0]))
     solver = {"R*US": _rus, "UP*S": _ups}.get(leg.notation)
     if solver is None:
         raise InvalidParameterError(f"leg {number + 1} ({leg.notation}): pkmlab solves the inverse kinematics of "
                                     f"spatial legs {' and '.join(SOLVED)} in closed form, not {leg.notation}")
-    return solver(leg, number, np.asarray(points, dtype=float).reshape(-1, 3), sigma)
+    return solver(leg, number, np.asarray(points, dtype=float).reshape(-1, 3), sigma, axis)
 
 
 def delta_forward_kinematics(mechanism: SpatialMechanism, actuators) -> list[np.ndarray]:
