@@ -975,6 +975,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _pose_names(args) -> tuple[str, ...]:
+    """The names of the pose's coordinates of the machine on the command line (the paper's 3-RRR's by default;
+    a description that cannot be read yet names none: its error comes later, on its own)."""
+    mechanism = getattr(args, "mechanism", None)
+    if not mechanism:
+        return ("x", "y", "alpha")
+    try:
+        from .mechanisms.description import load_mechanism
+        from .mechanisms.presets import PRESETS, preset
+
+        return (preset(mechanism) if mechanism in PRESETS else load_mechanism(mechanism)).pose_names
+    except PkmlabError:
+        return ()
+
+
 def _check_finite(args) -> None:
     """Every number of the command line must be finite: NaN or infinity is refused naming its argument
     (for a list of positional numbers, the one at fault: ``alpha``, ``T1``...)."""
@@ -988,9 +1003,9 @@ def _check_finite(args) -> None:
             continue
         action = actions.get(dest)
         name = dest if action is None else action.option_strings[0] if action.option_strings else str(action.metavar)
-        parts = name.split()
+        parts = " ".join(_pose_names(args)).upper().split() if name == "POSE" else name.split()
         if len(parts) > 1 and isinstance(value, list) and bad[0] < len(parts):  # "X Y ALPHA": the one at fault
-            name = parts[bad[0]].lower() if parts[bad[0]] in ("X", "Y", "ALPHA") else parts[bad[0]]
+            name = parts[bad[0]].lower() if name == "POSE" or parts[bad[0]] in ("X", "Y", "ALPHA") else parts[bad[0]]
         raise InvalidParameterError(f"{name} must be finite, got {' '.join(str(v) for v in values)}")
 
 

@@ -141,10 +141,10 @@ class Scenario:
             set_(self, name, _real(name, getattr(self, name), "non-negative"))
         if isinstance(self.model, MechanismModel):
             _check_pose_dimension(self.model, self.trajectory)
+            set_(self, "working_mode", _machine_mode(self.model, self.working_mode))
         elif getattr(self.trajectory, "dimension", 3) != 3:
             raise InvalidParameterError(f"the trajectory's poses have {self.trajectory.dimension} coordinates, but "
                                         "the paper's 3-RRR's pose is (x, y, alpha)")
-            set_(self, "working_mode", _machine_mode(self.model, self.working_mode))
         elif not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
             try:
                 mode = tuple(int(v) for v in _mode_array(self.working_mode, "working_mode"))
