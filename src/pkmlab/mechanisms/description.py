@@ -130,15 +130,8 @@ class Joint:
     axis: float | None = None
 
 
-@dataclass(frozen=True)
-class Leg:
-    """A serial chain from ``base`` to the platform: ``joints`` (the last one carries the platform),
-    ``bodies`` (one after each joint but the last), the actuator's ``stroke`` (lower, upper) or None."""
-
-    base: tuple[float, float]
-    joints: tuple[Joint, ...]
-    bodies: tuple[Body, ...]
-    stroke: tuple[float, float] | None = None
+class JointChain:
+    """What every leg (planar or spatial) derives from its joints."""
 
     @property
     def actuated(self) -> int:
@@ -147,8 +140,19 @@ class Leg:
 
     @property
     def notation(self) -> str:
-        """The leg in the literature's notation, the actuated joint starred: ``"R*RR"``."""
+        """The leg in the literature's notation, the actuated joint starred: ``"R*RR"``, ``"UP*S"``."""
         return "".join(j.kind + ("*" if j.actuated else "") for j in self.joints)
+
+
+@dataclass(frozen=True)
+class Leg(JointChain):
+    """A serial chain from ``base`` to the platform: ``joints`` (the last one carries the platform),
+    ``bodies`` (one after each joint but the last), the actuator's ``stroke`` (lower, upper) or None."""
+
+    base: tuple[float, float]
+    joints: tuple[Joint, ...]
+    bodies: tuple[Body, ...]
+    stroke: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidParameterError
-from .description import LegsAndPose, _known, _number, _required, _stroke, _toml
+from .description import JointChain, LegsAndPose, _known, _number, _required, _stroke, _toml
 
 SPATIAL_JOINTS = ("R", "P", "U", "S")
 SPATIAL_PLATFORMS = ("translating", "rigid")
@@ -128,7 +128,7 @@ class SpatialJoint:
 
 
 @dataclass(frozen=True)
-class SpatialLeg:
+class SpatialLeg(JointChain):
     """A serial chain from ``base`` to the platform: ``joints`` (the last an S), ``bodies`` (one after each
     joint but the S), the actuator's ``stroke`` (lower, upper) or None."""
 
@@ -136,16 +136,6 @@ class SpatialLeg:
     joints: tuple[SpatialJoint, ...]
     bodies: tuple[SpatialBody, ...]
     stroke: tuple[float, float] | None = None
-
-    @property
-    def actuated(self) -> int:
-        """Index of the actuated joint."""
-        return next(i for i, j in enumerate(self.joints) if j.actuated)
-
-    @property
-    def notation(self) -> str:
-        """The leg in the literature's notation, the actuated joint starred: ``"R*US"``, ``"UP*S"``."""
-        return "".join(j.kind + ("*" if j.actuated else "") for j in self.joints)
 
 
 @dataclass(frozen=True)
