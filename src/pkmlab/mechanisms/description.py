@@ -77,6 +77,9 @@ def _stroke(where: str, stroke) -> tuple[float, float] | None:
 class LegsAndPose:
     """What every description (planar or spatial) derives from its legs and its platform's pose."""
 
+    #: Whether the machine is spatial (:class:`~pkmlab.mechanisms.spatial.SpatialMechanism`) or planar.
+    spatial = False
+
     @property
     def dof(self) -> int:
         """Degrees of freedom = number of actuators = the pose's dimension."""

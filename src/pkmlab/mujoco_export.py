@@ -1,0 +1,345 @@
+"""Any described mechanism as a MuJoCo model (MJCF), and the map between MuJoCo's coordinates and pkmlab's.
+
+MuJoCo simulates kinematic *trees*; a closed chain is a tree plus equality constraints that close its
+loops. pkmlab writes every mechanism the same way:
+
+* each leg is a chain of bodies from the world, one body per body of the description, each moved by its
+  joint: a ``hinge`` for ``R``, a ``slide`` for ``P``, two hinges in the same body for ``U`` (applied in
+  order, the second about its axis as the first turn carries it — pkmlab's universal joint);
+* the platform is a body of its own, a child of the world, moved by its pose's coordinates: slides
+  along x and y and a hinge about z (a rigid planar platform, ``x, y, alpha``), slides along x and y (a
+  planar point with its payload), slides along x, y and z (a translating spatial platform), or a free
+  joint (a six-degree-of-freedom platform: position and quaternion);
+* every leg is closed on the platform by an ``<equality><connect>`` between a site at the end of its
+  chain and a site at its platform attachment point (3 scalar rows; in the plane the z row is satisfied
+  identically). The spherical joint that ends a spatial leg is exactly such a point constraint; the
+  planar revolute that carries a platform is one too, its angle being free;
+* one ``motor`` (gear 1, unlimited) on each actuated joint: its control is the actuator effort in N·m
+  or N; gravity as the description says; contacts off.
+
+Masses, mass centres and inertias are the description's, in each body's frame. Two facts of MuJoCo shape
+the export, and both are stated in the written file:
+
+* a planar body's inertia about z is its moment of inertia; MuJoCo wants a full tensor, so the body is
+  given ``(I/2, I/2, I)`` — a flat plate, whose moments about x and y never enter planar motion;
+* MuJoCo refuses a tensor with a zero principal moment (a thin rod along its axis, a slider that never
+  turns). Such a moment is raised to :data:`INERTIA_FLOOR` times the body's largest one (or to
+  :data:`INERTIA_FLOOR` kg m² when all are zero). For a body that never turns about that axis (a slider;
+  a platform that only translates) this changes nothing; for a rod spinning about itself (the Delta's
+  forearms) it adds at most that fraction of its transverse inertia.
+
+Coordinates. MuJoCo's joint values are relative (each joint turns its body with respect to its parent);
+a planar description's angles are absolute. :func:`qpos_from_q` and :func:`q_from_qpos` map pkmlab's
+configuration ``q = (actuators, passive joints, pose)`` to MuJoCo's ``qpos`` (legs in order, joints in
+order, then the platform) and back; :func:`qvel_from_q_dot` maps the rates. ``mujoco`` itself is an
+optional dependency (``pip install pkmlab[mujoco]``): this module writes the text without it, and only
+:func:`load_mujoco` imports it.
+"""
+
+from __future__ import annotations
+
+import math
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from .errors import InvalidParameterError, PkmlabError
+
+#: A principal moment of inertia below this fraction of the body's largest (kg m² when all are zero) is
+#: raised to it: MuJoCo refuses tensors with a zero principal moment.
+INERTIA_FLOOR = 1e-9
+
+#: MuJoCo's defaults for the equality constraints, and the stiffest setting pkmlab uses (impedance at
+#: MuJoCo's cap 0.9999, time constant twice a 1 ms step, critical damping).
+DEFAULT_SOLREF, DEFAULT_SOLIMP = (0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0)
+STIFF_SOLREF, STIFF_SOLIMP = (0.002, 1.0), (0.9999, 0.9999, 0.001, 0.5, 2.0)
+
+
+def _spatial(description) -> bool:
+    return bool(getattr(description, "spatial", False))
+
+
+def _numbers(values) -> str:
+    return " ".join(repr(float(v)) for v in values)
+
+
+def _floored(tensor) -> tuple[np.ndarray, bool]:
+    """The tensor with its principal moments raised to the floor, and whether any was."""
+    t = np.asarray(tensor, dtype=float)
+    moments, axes = np.linalg.eigh(t)
+    floor = INERTIA_FLOOR * moments.max() if moments.max() > 0 else INERTIA_FLOOR
+    if moments.min() >= floor:
+        return t, False
+    return axes @ np.diag(np.maximum(moments, floor)) @ axes.T, True
+
+
+def _inertial(mass: float, com, tensor, notes: list, where: str) -> str:
+    t, floored = _floored(tensor)
+    if floored:
+        notes.append(where)
+    full = (t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2])
+    return f'<inertial pos="{_numbers(com)}" mass="{float(mass)!r}" fullinertia="{_numbers(full)}"/>'
+
+
+def _planar_tensor(inertia: float) -> np.ndarray:
+    return np.diag([inertia / 2, inertia / 2, inertia])
+
+
+def joint_names(model) -> tuple[str, ...]:
+    """MuJoCo's joints in tree order (the order of ``qpos``'s legs part, then the platform's): leg ``i``'s
+    joint ``k`` is ``leg<i>_j<k>`` (a universal joint's two hinges ``…a``, ``…b``)."""
+    m = model.description
+    names = []
+    for i, leg in enumerate(m.legs):
+        for k, joint in enumerate(leg.joints[:-1]):
+            base = f"leg{i + 1}_j{k + 1}"
+            names += [base + "a", base + "b"] if joint.kind == "U" else [base]
+    if _spatial(m) and m.platform.kind == "rigid":
+        return (*names, "platform_free")
+    return (*names, *(f"platform_{n}" for n in m.pose_names))
+
+
+def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", solref=DEFAULT_SOLREF,
+         solimp=DEFAULT_SOLIMP) -> str:
+    """The MJCF text of a :class:`~pkmlab.mechanism_model.MechanismModel` (module docstring), with a keyframe
+    ``"pkmlab"`` at configuration ``q`` (default :func:`home_configuration`). ``solref`` and ``solimp`` set
+    the loop-closure constraints' softness (MuJoCo's defaults unless given; :data:`STIFF_SOLREF`,
+    :data:`STIFF_SOLIMP` for the stiffest)."""
+    m = model.description
+    if integrator not in ("RK4", "Euler", "implicit", "implicitfast"):
+        raise InvalidParameterError(f"integrator must be RK4, Euler, implicit or implicitfast, got {integrator!r}")
+    if not (isinstance(timestep, float | int) and math.isfinite(timestep) and timestep > 0):
+        raise InvalidParameterError(f"timestep must be a positive number of seconds, got {timestep!r}")
+    if not _spatial(m) and m.platform.kind == "point" and m.platform.mass <= 0:
+        raise InvalidParameterError(f"{m.name}: a point platform without a payload has no mass for MuJoCo to move "
+                                    "(give its payload a mass)")
+    q = home_configuration(model) if q is None else np.asarray(q, dtype=float)
+    qpos = qpos_from_q(model, q)
+    notes: list[str] = []
+    gravity = (*m.gravity, 0.0) if not _spatial(m) else m.gravity
+    body_lines, actuators, equalities = [], [], []
+    joints = iter(joint_names(model))
+    for i, leg in enumerate(m.legs):
+        depth = 2
+        opened = 0
+        for k, (joint, body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
+            pad = "  " * depth
+            name = f"leg{i + 1}_body{k + 1}"
+            if k == 0:
+                pos = (*leg.base, 0.0) if not _spatial(m) else leg.base
+            else:
+                before = leg.bodies[k - 1].tip
+                pos = (*before, 0.0) if not _spatial(m) else before
+            quat = ""
+            if not _spatial(m) and joint.kind == "P" and k == 0:  # a rail: the body's frame along it
+                quat = f' quat="{_numbers((math.cos(joint.axis / 2), 0.0, 0.0, math.sin(joint.axis / 2)))}"'
+            body_lines.append(f'{pad}<body name="{name}" pos="{_numbers(pos)}"{quat}>')
+            if _spatial(m):
+                axes = joint.axes
+            else:
+                axes = ((0.0, 0.0, 1.0),) if joint.kind == "R" else ((1.0, 0.0, 0.0),)
+            for axis in axes:
+                jname = next(joints)
+                kind = "slide" if joint.kind == "P" else "hinge"
+                body_lines.append(f'{pad}  <joint name="{jname}" type="{kind}" axis="{_numbers(axis)}"/>')
+                if joint.actuated:
+                    actuators.append(f'    <motor name="actuator{i + 1}" joint="{jname}" gear="1"/>')
+            if _spatial(m):
+                body_lines.append(f"{pad}  " + _inertial(body.mass, body.com, body.inertia, notes,
+                                                          f"leg {i + 1}, body {k + 1}"))
+            else:
+                body_lines.append(f"{pad}  " + _inertial(body.mass, (*body.com, 0.0), _planar_tensor(body.inertia),
+                                                          notes, f"leg {i + 1}, body {k + 1}"))
+            depth += 1
+            opened += 1
+        last = leg.bodies[-1]
+        tip = (*last.tip, 0.0) if not _spatial(m) else last.tip
+        body_lines.append(f'{"  " * depth}<site name="leg{i + 1}_end" pos="{_numbers(tip)}"/>')
+        for _ in range(opened):
+            depth -= 1
+            body_lines.append(f'{"  " * depth}</body>')
+        equalities.append(f'    <connect name="close{i + 1}" site1="leg{i + 1}_end" site2="platform_a{i + 1}" '
+                          f'solref="{_numbers(solref)}" solimp="{_numbers(solimp)}"/>')
+    platform = m.platform
+    body_lines.append('    <body name="platform" pos="0 0 0">')
+    if _spatial(m) and platform.kind == "rigid":
+        body_lines.append('      <freejoint name="platform_free"/>')
+    else:
+        axes = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
+        for name in m.pose_names:
+            kind, axis = ("hinge", (0, 0, 1)) if name == "alpha" else ("slide", axes[name])
+            body_lines.append(f'      <joint name="platform_{name}" type="{kind}" axis="{_numbers(axis)}"/>')
+    if _spatial(m):
+        body_lines.append("      " + _inertial(platform.mass, platform.com, platform.inertia, notes, "platform"))
+        attachments = platform.attachments
+    else:
+        tensor = _planar_tensor(platform.inertia) if platform.kind == "rigid" else np.zeros((3, 3))
+        body_lines.append("      " + _inertial(platform.mass, (*platform.com, 0.0), tensor, notes, "platform"))
+        attachments = [(*a, 0.0) for a in platform.attachments]
+    for i, a in enumerate(attachments):
+        body_lines.append(f'      <site name="platform_a{i + 1}" pos="{_numbers(a)}"/>')
+    body_lines.append("    </body>")
+    comment = [f"pkmlab: the {m.name} ({m.notation}), {len(m.legs)} legs closed on the platform by connect "
+               "constraints; joint values relative (pkmlab's planar angles are absolute: see "
+               "pkmlab.mujoco_export.qpos_from_q)."]
+    if not _spatial(m):
+        comment.append("Planar bodies carry (I/2, I/2, I): their moments about x and y never enter planar motion.")
+    if notes:
+        comment.append(f"Principal moments of inertia raised to {INERTIA_FLOOR:g} x the body's largest (MuJoCo "
+                       f"refuses zero ones): {'; '.join(notes)}.")
+    lines = [f"<!-- {c.replace('--', '-')} -->" for c in comment]
+    lines += [f"<mujoco model={quoteattr(m.name)}>",
+              '  <compiler angle="radian" autolimits="true"/>',
+              f'  <option timestep="{float(timestep)!r}" integrator="{integrator}" gravity="{_numbers(gravity)}" '
+              'solver="Newton" tolerance="1e-10" iterations="50">',
+              '    <flag contact="disable"/>', "  </option>",
+              "  <worldbody>", *body_lines, "  </worldbody>",
+              "  <equality>", *equalities, "  </equality>",
+              "  <actuator>", *actuators, "  </actuator>",
+              "  <keyframe>", f'    <key name="pkmlab" qpos="{_numbers(qpos)}"/>', "  </keyframe>",
+              "</mujoco>"]
+    return "\n".join(lines) + "\n"
+
+
+def _leg_values(model, q: np.ndarray) -> list[list[float]]:
+    """Each leg's joint coordinates in joint order (a universal joint's two), from pkmlab's ``q``."""
+    m = model.description
+    n = len(m.legs)
+    passive = iter(q[n:len(q) - m.dof])
+    out = []
+    for i, leg in enumerate(m.legs):
+        values = []
+        for joint in leg.joints[:-1]:
+            count = getattr(joint, "coordinates", 1)
+            values += [float(q[i])] if joint.actuated else [float(next(passive)) for _ in range(count)]
+        out.append(values)
+    return out
+
+
+def _quaternion(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """The unit quaternion (w, x, y, z) of ``Rz(yaw) Ry(pitch) Rx(roll)``."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return np.array([cy * cp * cr + sy * sp * sr, cy * cp * sr - sy * sp * cr, cy * sp * cr + sy * cp * sr,
+                     sy * cp * cr - cy * sp * sr])
+
+
+def qpos_from_q(model, q) -> np.ndarray:
+    """MuJoCo's ``qpos`` of pkmlab's configuration ``q``: the legs' joint values (planar angles made relative
+    to the body before: ``φ - θ``), then the platform's pose (a quaternion for a six-DOF platform)."""
+    m = model.description
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(model.coordinates),):
+        raise InvalidParameterError(f"q must be the {len(model.coordinates)} coordinates "
+                                    f"({', '.join(model.coordinates)}), got shape {q.shape}")
+    out = []
+    for leg, values in zip(m.legs, _leg_values(model, q), strict=True):
+        if _spatial(m):
+            out += values
+            continue
+        direction = 0.0  # the absolute angle of the body before the joint (the world's, then a rail's)
+        for k, (joint, value) in enumerate(zip(leg.joints, values, strict=False)):
+            if joint.kind == "R":
+                out.append(value - direction)
+                direction = value
+            else:
+                out.append(value)
+                if k == 0:
+                    direction = joint.axis
+    pose = q[len(q) - m.dof:]
+    if _spatial(m) and m.platform.kind == "rigid":
+        return np.array([*out, *pose[:3], *_quaternion(*pose[3:])])
+    return np.array([*out, *pose])
+
+
+def q_from_qpos(model, qpos) -> np.ndarray:
+    """The inverse of :func:`qpos_from_q`."""
+    m = model.description
+    qpos = np.asarray(qpos, dtype=float)
+    n = len(m.legs)
+    actuators, passive, k = [0.0] * n, [], 0
+    for i, leg in enumerate(m.legs):
+        direction = 0.0
+        for j, joint in enumerate(leg.joints[:-1]):
+            count = getattr(joint, "coordinates", 1)
+            values = list(qpos[k:k + count])
+            k += count
+            if not _spatial(m):
+                if joint.kind == "R":
+                    values = [values[0] + direction]
+                    direction = values[0]
+                elif j == 0:
+                    direction = joint.axis
+            if joint.actuated:
+                actuators[i] = values[0]
+            else:
+                passive += values
+    rest = qpos[k:]
+    if _spatial(m) and m.platform.kind == "rigid":
+        w, x, y, z = rest[3:7] / np.linalg.norm(rest[3:7])
+        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        rest = np.array([*rest[:3], roll, pitch, yaw])
+    return np.array([*actuators, *passive, *rest])
+
+
+def qvel_from_q_dot(model, q, q_dot) -> np.ndarray:
+    """MuJoCo's ``qvel`` of pkmlab's rates ``q̇`` at ``q``: the relative rates of :func:`qpos_from_q` (a linear
+    map of ``q̇`` in the plane); a free joint's angular velocity in the platform's own frame."""
+    m = model.description
+    q_dot = np.asarray(q_dot, dtype=float)
+    if not (_spatial(m) and m.platform.kind == "rigid"):
+        # every entry of qpos is linear in q: its rates are the same map (a rail's constant angle drops out)
+        return qpos_from_q(model, q_dot) - qpos_from_q(model, np.zeros_like(q_dot))
+    from .mechanisms.spatial import orientation
+
+    legs = qpos_from_q(model, q_dot)[:-7]
+    roll, pitch, _yaw = np.asarray(q, dtype=float)[-3:]
+    rates = q_dot[-3:]
+    # ω in the platform frame from the z-y'-x'' rates (as the spatial derivation writes it)
+    rx, ry = orientation(roll, 0.0, 0.0), orientation(0.0, pitch, 0.0)
+    omega = rx.T @ ry.T @ np.array([0.0, 0.0, rates[2]]) + rx.T @ np.array([0.0, rates[1], 0.0]) + np.array(
+        [rates[0], 0.0, 0.0])
+    return np.array([*legs, *q_dot[-6:-3], *omega])
+
+
+def home_configuration(model) -> np.ndarray:
+    """A configuration to export the machine in: the pose of largest ``|S|`` on a grid over its region (planar:
+    over the assembly check's region and 12 orientations; spatial: over its legs' reach, level), in its first
+    working mode."""
+    from . import mechanism_model as mm
+
+    m = model.description
+    mode = mm.working_modes(model)[0]
+    if _spatial(m):
+        box = mm.spatial_extent(m)
+        axes = [np.linspace(lo, hi, 25) for lo, hi in box]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        poses = np.column_stack([grid, np.zeros((len(grid), m.dof - 3))])
+    else:
+        from .analysis import default_extent
+
+        (x0, x1), (y0, y1) = default_extent(model)
+        turns = np.linspace(-np.pi, np.pi, 12, endpoint=False) if m.dof == 3 else [0.0]
+        gx, gy, ga = np.meshgrid(np.linspace(x0, x1, 41), np.linspace(y0, y1, 41), turns)
+        poses = np.column_stack([gx.ravel(), gy.ravel(), ga.ravel()])[:, :m.dof]
+    q, s, _failure = mm.path_inverse_kinematics(model, poses, mode)
+    if not np.isfinite(s).any():
+        raise PkmlabError(f"{m.name}: no pose of the search grid can be assembled in working mode {mode}: give q")
+    return q[int(np.nanargmax(np.abs(s)))]
+
+
+def load_mujoco(model, q=None, **options):
+    """``(MjModel, MjData)`` of :func:`mjcf`, the data at the keyframe ``"pkmlab"`` (``q``). Needs ``mujoco``
+    (``pip install pkmlab[mujoco]``)."""
+    try:
+        import mujoco
+    except ImportError:
+        raise PkmlabError("MuJoCo is not installed: pip install 'pkmlab[mujoco]' (or pip install mujoco)") from None
+    mj_model = mujoco.MjModel.from_xml_string(mjcf(model, q, **options))
+    data = mujoco.MjData(mj_model)
+    mujoco.mj_resetDataKeyframe(mj_model, data, 0)
+    mujoco.mj_forward(mj_model, data)
+    return mj_model, data
