@@ -163,3 +163,28 @@ def test_a_point_platform_without_payload_is_refused():
     light = MechanismModel.from_description(replace(five_bar, platform=replace(five_bar.platform, mass=0.0)))
     with pytest.raises(InvalidParameterError, match="point platform without a payload"):
         mx.mjcf(light)
+
+
+def test_export_mjcf_from_the_command_line(tmp_path, capsys):
+    import json
+
+    from pkmlab.cli import main
+
+    out = tmp_path / "delta.xml"
+    assert main(["export-mjcf", "--mechanism", "delta", "--pose", "0.02", "-0.03", "-0.8", "--stiff", "--out",
+                 str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    m = mujoco.MjModel.from_xml_path(str(out))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    mujoco.mj_forward(m, d)
+    assert np.allclose(d.qpos, report["qpos"]) and np.abs(d.efc_pos).max() < 1e-12
+    assert np.allclose(report["pose"], [0.02, -0.03, -0.8]) and report["approximations"]
+    assert np.allclose(m.eq_solimp[:, 0], mx.STIFF_SOLIMP[0])
+    # bad input: one line, nothing written
+    bad = tmp_path / "bad.xml"
+    assert main(["export-mjcf", "--mechanism", "delta", "--pose", "0", "0", "-0.2", "--out", str(bad)]) == 1
+    assert "leg 1 (R*US) cannot reach" in capsys.readouterr().err and not bad.exists()
+    with pytest.raises(SystemExit) as usage:  # a malformed command line: usage, exit code 2
+        main(["export-mjcf", "--mechanism", "delta", "--pose", "0", "0", "--out", str(bad)])
+    assert usage.value.code == 2 and "--pose (x, y, z): 3 numbers" in capsys.readouterr().err and not bad.exists()

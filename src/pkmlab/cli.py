@@ -723,6 +723,45 @@ def _spatial_workspace(args, model, out: Path) -> dict:
     return {"mode": list(ws.mode), "resolution": resolution, "slices": slices, "figure": str(out)}
 
 
+def cmd_export_mjcf(args) -> dict:
+    """``export-mjcf``: the machine as a MuJoCo model (MJCF), at the pose ``--pose`` (its configuration in
+    ``--mode``) or at its home configuration (:func:`pkmlab.mujoco_export.home_configuration`)."""
+    from . import mechanism_model as mm
+    from . import mujoco_export as mx
+    from .mechanism_model import MechanismModel
+
+    if args.mechanism:
+        model = _mechanism(args)
+    else:
+        model = MechanismModel.from_3rrr(_model(args))
+    out = _output_path(args.out, "--out", {".xml"})
+    q = None
+    if args.pose is not None:
+        names = model.description.pose_names
+        _count(args, args.pose, len(names), f"--pose ({', '.join(names)})")
+        modes = mm.working_modes(model)
+        mode = tuple(args.mode) if args.mode is not None else modes[0]
+        if mode not in modes:
+            raise InvalidParameterError(f"--mode must be one of {', '.join(_signs(m) for m in modes)} for a "
+                                        f"{model.description.notation}, got {_signs(mode)}")
+        q = mm.inverse_kinematics(model, args.pose, mode)
+    options = {"timestep": args.timestep, "integrator": args.integrator}
+    if args.stiff:
+        options.update(solref=mx.STIFF_SOLREF, solimp=mx.STIFF_SOLIMP)
+    q = mx.home_configuration(model) if q is None else q
+    text = mx.mjcf(model, q, **options)
+    with _Staged(out) as temps:
+        temps[0].write_text(text)
+    approximations = [line[5:-4] for line in text.splitlines() if line.startswith("<!-- Principal")]
+    if not args.json:
+        print(f"wrote {out}: the {model.description.name} ({model.description.notation}) for MuJoCo, keyframe "
+              f"\"pkmlab\" at pose {', '.join(f'{v:.6g}' for v in q[-model.description.dof:])}")
+        for note in approximations:
+            print(f"note: {note}")
+    return {"mjcf": str(out), "pose": q[-model.description.dof:].tolist(), "qpos": mx.qpos_from_q(model, q).tolist(),
+            "joints": list(mx.joint_names(model)), "approximations": approximations}
+
+
 def _animation_model(args, folder: Path, case: str):
     """The machine that produced the run: --params, else RESULT_DIR/CASE_plant.toml (reproduce) or
     RESULT_DIR/plant.toml (simulate), else the paper's (scaled for a reproduced 'disturbed' case)."""
@@ -954,6 +993,21 @@ def build_parser() -> argparse.ArgumentParser:
     mechanism(p)
     common(p)
     p.set_defaults(func=cmd_workspace)
+
+    p = sub.add_parser("export-mjcf", help="the machine as a MuJoCo model (MJCF): its bodies, joints, loop "
+                       "closures, motors and gravity")
+    p.add_argument("--out", required=True, metavar="FILE.xml", help="the MJCF file")
+    p.add_argument("--pose", nargs="+", type=float, metavar="POSE", help="the configuration of the keyframe "
+                   "'pkmlab' (as ik takes it); default: the pose of largest |S| on a grid")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode of --pose (default the first)")
+    p.add_argument("--stiff", action="store_true", help="the stiffest loop closures MuJoCo accepts (solimp 0.9999, "
+                   "solref 2 ms) instead of its defaults")
+    p.add_argument("--timestep", type=float, default=0.001, metavar="DT", help="MuJoCo's time step (s), default 1 ms")
+    p.add_argument("--integrator", choices=("RK4", "implicitfast", "implicit", "Euler"), default="RK4",
+                   help="MuJoCo's integrator, default RK4")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=cmd_export_mjcf)
 
     p = sub.add_parser("animate", help="GIF of a run written by pkmlab reproduce or pkmlab simulate")
     p.add_argument("result_dir", metavar="RESULT_DIR", help="folder written by pkmlab reproduce or pkmlab simulate")

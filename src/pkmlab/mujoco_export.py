@@ -180,8 +180,10 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", sol
         body_lines.append(f'      <site name="platform_a{i + 1}" pos="{_numbers(a)}"/>')
     body_lines.append("    </body>")
     comment = [f"pkmlab: the {m.name} ({m.notation}), {len(m.legs)} legs closed on the platform by connect "
-               "constraints; joint values relative (pkmlab's planar angles are absolute: see "
-               "pkmlab.mujoco_export.qpos_from_q)."]
+               "constraints; " + ("joint values as pkmlab's (relative), the platform's pose last"
+                                  + (" (position, quaternion)" if m.platform.kind == "rigid" else "") if _spatial(m)
+                                  else "joint values relative where pkmlab's planar angles are absolute") +
+               ": see pkmlab.mujoco_export.qpos_from_q."]
     if not _spatial(m):
         comment.append("Planar bodies carry (I/2, I/2, I): their moments about x and y never enter planar motion.")
     if notes:
