@@ -457,14 +457,24 @@ def cmd_simulate(args) -> dict:
             machine = Planar3RRR.paper()
         scenario = scenario.replace(model=machine, plant=None, working_mode="auto")
     progress = _status_messages(args)
+    mujoco = None
+    if args.plant == "mujoco":
+        mujoco = {"timestep": args.mujoco_timestep, "integrator": args.mujoco_integrator, "stiff": args.mujoco_stiff}
+        try:
+            import mujoco as _mujoco  # noqa: F401
+        except ImportError:
+            raise PkmlabError("--plant mujoco needs MuJoCo: pip install 'pkmlab[mujoco]'") from None
+    elif args.mujoco_timestep is not None or args.mujoco_stiff or args.mujoco_integrator != "RK4":
+        raise InvalidParameterError("--mujoco-timestep, --mujoco-integrator and --mujoco-stiff go with --plant mujoco")
     summary = simulation_report(scenario, args.out, figures=not args.no_figures, progress=progress,
-                                source=args.scenario, source_text=text, note=_note(args))
+                                source=args.scenario, source_text=text, note=_note(args), mujoco=mujoco)
     if not args.json:
         s = summary
         print(f"scenario {s['scenario']}: max path error {s['max_path_error_m']:.4e} m, "
               f"rms path error {s['rms_path_error_m']:.4e} m, peak effort {max(s['peak_effort']):.4f} "
               f"{_effort_unit(scenario)}, "
-              f"min |S| {s['min_abs_S']:.4f}, working mode {_signs(s['working_mode'])}")
+              f"min |S| {s['min_abs_S']:.4f}, working mode {_signs(s['working_mode'])}"
+              + (f", MuJoCo's max loop-closure violation {s['max_closure_violation_m']:.3e} m" if mujoco else ""))
         print(f"results in {args.out}/")
     return summary
 
@@ -954,6 +964,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-figures", action="store_true", help="skip the figures")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--plant", choices=("pkmlab", "mujoco"), default="pkmlab", help="the plant the controller runs "
+                   "against: pkmlab's exact reduced model (default) or MuJoCo's integration of the exported machine")
+    p.add_argument("--mujoco-timestep", type=float, metavar="DT", help="MuJoCo's time step (s), dividing the sample "
+                   "time; default the sample time or 1 ms, whichever is smaller")
+    p.add_argument("--mujoco-integrator", choices=("RK4", "implicitfast", "implicit", "Euler"), default="RK4",
+                   help="MuJoCo's integrator, default RK4")
+    p.add_argument("--mujoco-stiff", action="store_true", help="MuJoCo's stiffest loop closures (solimp 0.9999, "
+                   "solref 2 ms) instead of its defaults")
     mechanism(p)
     p.set_defaults(func=cmd_simulate)
 

@@ -255,36 +255,59 @@ def qpos_from_q(model, q) -> np.ndarray:
     return np.array([*out, *pose])
 
 
-def q_from_qpos(model, qpos) -> np.ndarray:
-    """The inverse of :func:`qpos_from_q`."""
+def _legs_from_mujoco(model, values: np.ndarray, rates: bool) -> tuple[list[float], int]:
+    """pkmlab's actuators then passive joint coordinates (or their rates) from MuJoCo's leg values; and how
+    many of ``values`` the legs take."""
     m = model.description
-    qpos = np.asarray(qpos, dtype=float)
-    n = len(m.legs)
-    actuators, passive, k = [0.0] * n, [], 0
+    actuators, passive, k = [0.0] * len(m.legs), [], 0
     for i, leg in enumerate(m.legs):
-        direction = 0.0
+        direction = 0.0  # the absolute angle (rate) of the body before the joint
         for j, joint in enumerate(leg.joints[:-1]):
             count = getattr(joint, "coordinates", 1)
-            values = list(qpos[k:k + count])
+            got = list(values[k:k + count])
             k += count
             if not _spatial(m):
                 if joint.kind == "R":
-                    values = [values[0] + direction]
-                    direction = values[0]
+                    got = [got[0] + direction]
+                    direction = got[0]
                 elif j == 0:
-                    direction = joint.axis
+                    direction = 0.0 if rates else joint.axis  # a rail's angle is constant
             if joint.actuated:
-                actuators[i] = values[0]
+                actuators[i] = got[0]
             else:
-                passive += values
-    rest = qpos[k:]
+                passive += got
+    return [*actuators, *passive], k
+
+
+def q_from_qpos(model, qpos) -> np.ndarray:
+    """The inverse of :func:`qpos_from_q`."""
+    m = model.description
+    legs, k = _legs_from_mujoco(model, np.asarray(qpos, dtype=float), rates=False)
+    rest = np.asarray(qpos, dtype=float)[k:]
     if _spatial(m) and m.platform.kind == "rigid":
         w, x, y, z = rest[3:7] / np.linalg.norm(rest[3:7])
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
         yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
         rest = np.array([*rest[:3], roll, pitch, yaw])
-    return np.array([*actuators, *passive, *rest])
+    return np.array([*legs, *rest])
+
+
+def q_dot_from_qvel(model, q, qvel) -> np.ndarray:
+    """The inverse of :func:`qvel_from_q_dot`: pkmlab's rates ``q̇`` at ``q`` of MuJoCo's ``qvel``."""
+    m = model.description
+    qvel = np.asarray(qvel, dtype=float)
+    legs, k = _legs_from_mujoco(model, qvel, rates=True)
+    rest = qvel[k:]
+    if _spatial(m) and m.platform.kind == "rigid":
+        from .mechanisms.spatial import orientation
+
+        roll, pitch, _yaw = np.asarray(q, dtype=float)[-3:]
+        rx, ry = orientation(roll, 0.0, 0.0), orientation(0.0, pitch, 0.0)
+        # ω = E (roll, pitch, yaw rates), the map of qvel_from_q_dot, inverted
+        e = np.column_stack([[1.0, 0.0, 0.0], rx.T @ [0.0, 1.0, 0.0], rx.T @ ry.T @ [0.0, 0.0, 1.0]])
+        rest = np.array([*rest[:3], *np.linalg.solve(e, rest[3:])])
+    return np.array([*legs, *rest])
 
 
 def qvel_from_q_dot(model, q, q_dot) -> np.ndarray:

@@ -168,6 +168,7 @@ def _provenance_lines(prov: dict) -> list[str]:
         f"| control | {control} |",
         f"| manipulator | {prov['manipulator']} |",
         *([f"| scenario | {prov['scenario']} |"] if "scenario" in prov else []),
+        *([f"| plant | {prov['plant']} |"] if "plant" in prov else []),
         f"| software | pkmlab {prov['pkmlab_version']}, Python {prov['python']}, NumPy {prov['numpy']}, "
         f"SciPy {prov['scipy']} |",
         "",
@@ -332,12 +333,14 @@ def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
 def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool = True,
                       progress: Callable[[str], None] | None = None,
                       source: str | os.PathLike | None = None, source_text: str | None = None,
-                      note: Callable[[str], None] | None = None) -> dict:
+                      note: Callable[[str], None] | None = None, mujoco: dict | None = None) -> dict:
     """Simulate ``scenario`` and write its results into the folder ``out``; return the summary.
 
     ``out`` receives ``summary.json`` (conventions §8 fields, ``"scenario"``, the name, and
     ``"provenance"``), ``run.csv``, ``plant.toml``, the figures of :data:`RUN_FIGURES` and
-    ``REPORT.md`` — all at once, when everything succeeded
+    ``REPORT.md`` — all at once, when everything succeeded. ``mujoco`` (the options of
+    :func:`~pkmlab.mujoco_plant.simulate_mujoco`) makes MuJoCo the plant: the run then also records its
+    loop-closure violation
     (:func:`~pkmlab.outputs.atomic_output_dir`, which tells ``note`` when an earlier result is
     replaced). ``source``, the scenario file the scenario was read from, may not lie inside
     ``out``; its text (``source_text``, as it was read, else read again) is kept as ``scenario.toml``.
@@ -351,10 +354,19 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
     table = "[mechanism]" if hasattr(scenario.model, "description") else "[manipulator]"
     prov = {**provenance(control, scenario.sample_time, f"the scenario's {table}; the plant in plant.toml"),
             **({"scenario": str(source)} if source is not None else {})}
+    if mujoco is not None:
+        prov["plant"] = (f"MuJoCo, time step {mujoco.get('timestep') or min(scenario.sample_time, 1e-3):g} s, "
+                         f"{mujoco.get('integrator', 'RK4')}, {'stiffest' if mujoco.get('stiff') else 'default'} "
+                         "loop-closure constraints")
     say = progress or (lambda _msg: None)
     with atomic_output_dir(out, "simulate", inputs=[source] if source else [], provenance=prov, note=note) as tmp:
-        say(f"simulating {scenario.name} ...")
-        result = simulation.simulate(scenario)
+        say(f"simulating {scenario.name}{' on MuJoCo' if mujoco is not None else ''} ...")
+        if mujoco is not None:
+            from .mujoco_plant import simulate_mujoco
+
+            result = simulate_mujoco(scenario, **mujoco)
+        else:
+            result = simulation.simulate(scenario)
         summary = {"scenario": scenario.name, **result.summary(), "provenance": prov}
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         if text is not None:

@@ -438,6 +438,7 @@ class SimulationResult:
     pose: np.ndarray
     pose_d: np.ndarray
     S: np.ndarray
+    closure_violation: np.ndarray | None = None  # a MuJoCo plant's loop-closure violation (m), per sample
 
     @property
     def theta(self) -> np.ndarray:
@@ -447,12 +448,13 @@ class SimulationResult:
     def columns(self) -> tuple[str, ...]:
         """Names of the columns of :meth:`table`: :data:`COLUMNS` for the paper's 3-RRR; for every machine
         ``t``, ``theta1..n``, ``theta1_d..``, ``tau1..n``, the pose's coordinates, their desired values, ``S``."""
+        extra = ("closure_violation_m",) if self.closure_violation is not None else ()
         if not isinstance(self.scenario.model, MechanismModel):
-            return COLUMNS
+            return (*COLUMNS, *extra)
         n = self.tau.shape[1]
         names = self.scenario.model.description.pose_names
         return ("t", *(f"theta{i + 1}" for i in range(n)), *(f"theta{i + 1}_d" for i in range(n)),
-                *(f"tau{i + 1}" for i in range(n)), *names, *(f"{v}_d" for v in names), "S")
+                *(f"tau{i + 1}" for i in range(n)), *names, *(f"{v}_d" for v in names), "S", *extra)
 
     @property
     def path_error(self) -> np.ndarray:
@@ -506,6 +508,8 @@ class SimulationResult:
         out["peak_effort"] = np.abs(self.tau).max(axis=0).tolist()
         out["min_abs_S"] = float(np.abs(self.S).min())
         out["working_mode"] = list(self.working_mode)
+        if self.closure_violation is not None:
+            out["max_closure_violation_m"] = float(self.closure_violation.max())
         if not isinstance(self.scenario.model, MechanismModel):
             out["max_alpha_error_rad"] = out["max_orientation_error_rad"]
             out["max_joint_error_rad"] = out["max_joint_error"]
@@ -514,7 +518,8 @@ class SimulationResult:
 
     def table(self) -> np.ndarray:
         """The (N, len(columns)) array of :attr:`columns`."""
-        return np.column_stack([self.t, self.theta, self.theta_d, self.tau, self.pose, self.pose_d, self.S])
+        extra = [] if self.closure_violation is None else [self.closure_violation]
+        return np.column_stack([self.t, self.theta, self.theta_d, self.tau, self.pose, self.pose_d, self.S, *extra])
 
     def to_csv(self, path) -> Path:
         """Write the time series (columns :attr:`columns`) atomically."""
@@ -855,8 +860,10 @@ def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau, pose=None, s
             s = np.array([machine_s(model, qk) for qk in q])
         else:
             s = singularity_measure(model, q)
-    if pose.shape[1] == 3:
-        pose[:, 2] = desired.pose[:, 2] + np.angle(np.exp(1j * (pose[:, 2] - desired.pose[:, 2])))
+    names = model.description.pose_names if isinstance(model, MechanismModel) else ("x", "y", "alpha")
+    for k, name in enumerate(names):  # orientation angles on the desired one's side of 2π
+        if name in ("alpha", "roll", "pitch", "yaw"):
+            pose[:, k] = desired.pose[:, k] + np.angle(np.exp(1j * (pose[:, k] - desired.pose[:, k])))
     n = _actuator_count(model)
     turns = np.round((q[:, :n] - desired.theta) / (2 * np.pi))  # θ_d on θ's side of 2π
     if isinstance(model, MechanismModel):
