@@ -939,6 +939,13 @@ def main(argv: list[str] | None = None) -> int:
     rows += mech_rows
     checks["mechanisms"] = mech_checks
 
+    progress("two plants: pkmlab's and MuJoCo's, accuracy against speed")
+    import mujoco_frontier
+
+    frontier_rows, frontier_checks = mujoco_frontier.frontier_rows(sys.modules[__name__], args.quick)
+    rows += frontier_rows
+    checks["plants_frontier"] = frontier_checks
+
     for row in rows:
         if row["kind"] == "per_op" and row["key"] == BASELINES.get(row["baseline"]):
             row["is_baseline_reference"] = True
