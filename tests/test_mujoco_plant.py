@@ -64,3 +64,19 @@ def test_simulate_on_mujoco_from_the_command_line(tmp_path, capsys):
     bad = tmp_path / "bad"
     assert main(["simulate", str(EXAMPLES / "five_bar_circle.toml"), "--mujoco-stiff", "--out", str(bad)]) == 1
     assert "go with --plant mujoco" in capsys.readouterr().err and not bad.exists()
+
+
+def test_the_core_never_imports_mujoco_and_says_how_to_install_it(monkeypatch):
+    import subprocess
+    import sys
+
+    code = ("import sys, pkmlab, pkmlab.simulation, pkmlab.mujoco_export, pkmlab.cli\n"
+            "from pkmlab.mechanism_model import MechanismModel\n"
+            "pkmlab.mujoco_export.mjcf(MechanismModel.from_preset('five_bar'))\n"
+            "assert 'mujoco' not in sys.modules, 'mujoco was imported'\n")
+    subprocess.run([sys.executable, "-c", code], check=True)
+    from pkmlab.errors import PkmlabError
+
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # as if it were not installed
+    with pytest.raises(PkmlabError, match=r"pip install 'pkmlab\[mujoco\]'"):
+        simulate_mujoco(paper_scenario("nominal"))
