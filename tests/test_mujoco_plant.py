@@ -80,3 +80,23 @@ def test_the_core_never_imports_mujoco_and_says_how_to_install_it(monkeypatch):
     monkeypatch.setitem(sys.modules, "mujoco", None)  # as if it were not installed
     with pytest.raises(PkmlabError, match=r"pip install 'pkmlab\[mujoco\]'"):
         simulate_mujoco(paper_scenario("nominal"))
+
+
+def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch):
+    """MuJoCo's state turning non-finite (as an unstable integration leaves it) stops the run with one line
+    naming the sample interval, instead of NaN results."""
+    import mujoco
+
+    step, calls = mujoco.mj_step, {"n": 0}
+
+    def failing(model, data):
+        step(model, data)
+        calls["n"] += 1
+        if calls["n"] == 100:
+            data.qvel[0] = np.nan
+
+    monkeypatch.setattr(mujoco, "mj_step", failing)
+    from pkmlab.errors import UnstableControlError
+
+    with pytest.raises(UnstableControlError, match=r"MuJoCo's integration failed between t = 0\.0990 and 0\.1000 s"):
+        simulate_mujoco(paper_scenario("nominal"))
