@@ -293,6 +293,19 @@ def q_from_qpos(model, qpos) -> np.ndarray:
     return np.array([*legs, *rest])
 
 
+def affine_map(model) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(A, b)`` with ``q = A qpos + b`` and ``q̇ = A qvel`` — :func:`q_from_qpos` and :func:`q_dot_from_qvel`
+    as one matrix, for a loop that maps every sample — or None for a six-DOF platform (its quaternion does
+    not map linearly)."""
+    m = model.description
+    if _spatial(m) and m.platform.kind == "rigid":
+        return None
+    size = len(model.coordinates)
+    b = q_from_qpos(model, np.zeros(size))
+    a = np.column_stack([q_from_qpos(model, e) - b for e in np.eye(size)])
+    return a, b
+
+
 def q_dot_from_qvel(model, q, qvel) -> np.ndarray:
     """The inverse of :func:`qvel_from_q_dot`: pkmlab's rates ``q̇`` at ``q`` of MuJoCo's ``qvel``."""
     m = model.description

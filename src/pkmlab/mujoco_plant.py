@@ -80,10 +80,14 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     q_out, effort = np.empty_like(q_ctrl), np.zeros(n)
     from .mechanism_model import trig_table
 
+    affine = mx.affine_map(plant)  # the coordinate maps as one matrix where they are linear
     for k in range(count):
-        q[k] = mx.q_from_qpos(plant, data.qpos)
-        rates = mx.q_dot_from_qvel(plant, q[k], data.qvel)
-        theta_dot[k] = rates[:n]
+        if affine is None:
+            q[k] = mx.q_from_qpos(plant, data.qpos)
+            theta_dot[k] = mx.q_dot_from_qvel(plant, q[k], data.qvel)[:n]
+        else:
+            q[k] = affine[0] @ data.qpos + affine[1]
+            theta_dot[k] = affine[0][:n] @ data.qvel
         s[k] = plant.kernels.singularity_measure(q[k], trig_table(plant, q[k]), plant.P, lines)
         violation[k] = float(np.abs(data.efc_pos).max()) if data.nefc else 0.0
         status = ctrl.kernels.control_effort_from(q_ctrl, prep.kind, prep.kp, prep.kv, q[k, :n], theta_dot[k],
@@ -100,7 +104,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
         data.ctrl[:] = effort
         for _ in range(steps):
             mujoco.mj_step(model, data)
-        if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))) \
+        if not math.isfinite(float(data.qpos.sum() + data.qvel.sum())) \
                 or data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
             raise UnstableControlError(f"MuJoCo's integration failed between t = {prep.t[k]:.4f} and "
                                        f"{prep.t[k + 1]:.4f} s (non-finite state): try a smaller --mujoco-timestep "
