@@ -607,7 +607,7 @@ def _spatial_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> lis
     """Every assembly mode of a spatial machine: for a translating platform on three R*US legs (the Delta)
     the two points where three spheres meet (:func:`~pkmlab.mechanisms.spatial_legs.delta_forward_kinematics`),
     the forearms' universal-joint angles from them, each polished by Newton's method on ``η = 0``."""
-    from .mechanisms.spatial_legs import delta_forward_kinematics, rotate, universal_angles
+    from .mechanisms.spatial_legs import delta_forward_kinematics, forearm_angles
 
     m = model.description
     if m.platform.kind == "rigid" and all(leg.notation == "UP*S" for leg in m.legs):
@@ -621,12 +621,8 @@ def _spatial_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> lis
     for point in delta_forward_kinematics(m, theta):
         passive = []
         for i, leg in enumerate(m.legs):
-            axis = np.array(leg.joints[0].axes[0])
-            turn = np.array([theta[i]])
-            elbow = np.array(leg.base) + rotate(axis, turn, np.array([leg.bodies[0].tip]))[0]
             target = point + np.array(m.platform.attachments[i])
-            v = rotate(axis, -turn, (target - elbow)[None, :])
-            q1, q2, _ = universal_angles(leg.joints[1].axes, leg.bodies[1].tip, v)
+            q1, q2, _ = forearm_angles(leg, theta[i:i + 1], target[None, :])
             passive += [q1[0], q2[0]]
         configurations.append(np.array([*theta, *passive, *point]))
     return _assembly_modes(model, configurations)

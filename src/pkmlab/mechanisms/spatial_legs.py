@@ -81,8 +81,18 @@ def _distance_from(axis, points: np.ndarray) -> np.ndarray:
     return np.linalg.norm(d - (d @ direction)[:, None] * direction, axis=1)
 
 
+def forearm_angles(leg: SpatialLeg, theta: np.ndarray, points: np.ndarray, elbow: np.ndarray | None = None):
+    """The universal joint's angles ``(q1, q2, bad)`` of an R*US leg whose arm is at ``theta`` (K,) and whose
+    spherical joint is at ``points`` (K, 3): the forearm's direction in the arm's frame (the arm's turn
+    undone) turned onto by the universal joint. ``elbow`` (K, 3), the arm's tip, is computed unless given."""
+    axis = np.array(leg.joints[0].axes[0])
+    if elbow is None:
+        elbow = np.array(leg.base) + rotate(axis, theta, np.broadcast_to(leg.bodies[0].tip, points.shape).copy())
+    return universal_angles(leg.joints[1].axes, leg.bodies[1].tip, rotate(axis, -theta, points - elbow))
+
+
 def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> _Solved:
-    arm_joint, universal = leg.joints[0], leg.joints[1]
+    arm_joint = leg.joints[0]
     axis_r = np.array(arm_joint.axes[0])
     arm, forearm = leg.bodies
     tip = np.array(arm.tip)
@@ -105,10 +115,7 @@ def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> 
     outer = _distance_from(axis, elbows[0]) > _distance_from(axis, elbows[1])
     first = outer if sigma > 0 else ~outer
     theta = np.where(first, roots[0], roots[1])
-    elbow = np.where(first[:, None], elbows[0], elbows[1])
-    # the forearm's direction in the arm's frame: the arm's turn undone
-    v = rotate(axis_r, -theta, points - elbow)
-    q1, q2, u_bad = universal_angles(universal.axes, forearm.tip, v)
+    q1, q2, u_bad = forearm_angles(leg, theta, points, np.where(first[:, None], elbows[0], elbows[1]))
 
     reach_bad = bad.copy()
 
