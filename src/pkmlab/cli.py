@@ -666,7 +666,6 @@ def cmd_workspace(args) -> dict:
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     from .analysis import workspace
     from .plotting import plot_workspace
@@ -684,11 +683,7 @@ def cmd_workspace(args) -> dict:
     if not ws.reachable.any():
         raise _nothing_reachable(ws.x, ws.y, ws.alpha)
     fig = plot_workspace(ws, model=model)
-    try:
-        with _Staged(out) as temps:
-            fig.savefig(temps[0], dpi=150)
-    finally:
-        plt.close(fig)
+    _save_figure(fig, out)
     areas = [{"mode": [int(v) for v in m], "area_m2": float(a), "area_cm2": float(a) * 1e4}
              for m, a in zip(ws.modes, ws.area, strict=True)]
     if not args.json:
@@ -700,9 +695,19 @@ def cmd_workspace(args) -> dict:
             "figure": str(out)}
 
 
+def _save_figure(fig, out: Path) -> None:
+    """Write ``fig`` to ``out`` whole or not at all, and close it."""
+    import matplotlib.pyplot as plt
+
+    try:
+        with _Staged(out) as temps:
+            fig.savefig(temps[0], dpi=150)
+    finally:
+        plt.close(fig)
+
+
 def _spatial_workspace(args, model, out: Path) -> dict:
     """``workspace`` of a spatial machine: horizontal slices of its reachable region with ``S`` and ``S = 0``."""
-    import matplotlib.pyplot as plt
 
     from .analysis import spatial_workspace
     from .plotting import plot_spatial_workspace
@@ -718,11 +723,7 @@ def _spatial_workspace(args, model, out: Path) -> dict:
     if not ws.reachable.any():
         raise PkmlabError(f"nothing is reachable at z = {', '.join(f'{z:g}' for z in ws.z)} m over the region asked")
     fig = plot_spatial_workspace(ws, model=model)
-    try:
-        with _Staged(out) as temps:
-            fig.savefig(temps[0], dpi=150)
-    finally:
-        plt.close(fig)
+    _save_figure(fig, out)
     slices = [{"z": float(z), "area_m2": float(a), "area_cm2": float(a) * 1e4} for z, a in zip(ws.z, ws.area,
                                                                                             strict=True)]
     if not args.json:
