@@ -402,6 +402,23 @@ def _joints(text, where: str) -> tuple[Joint, ...]:
     return tuple(Joint(m.group(0)[0], m.group(0).endswith("*")) for m in re.finditer(r"[RP]\*?", compact))
 
 
+def platform_and_legs(table: dict, where: str, platform_keys, kinds, point: str):
+    """The ``[mechanism.platform]`` table checked (its keys, its ``kind`` among ``kinds``, its attachment list of
+    ``point``s) and the list of ``[[mechanism.leg]]`` tables: ``(platform, kind, attachments, legs)``."""
+    platform = _known(_required(table, "platform", where), platform_keys, f"{where}.platform")
+    kind = platform.get("kind", "rigid")
+    if kind not in kinds:
+        raise InvalidParameterError(f"{where}.platform.kind must be {' or '.join(repr(k) for k in kinds)}, got "
+                                    f"{kind!r}")
+    attachments = platform.get("attachments", ())
+    if not isinstance(attachments, list | tuple):
+        raise InvalidParameterError(f"{where}.platform.attachments must be a list of points {point}")
+    legs = _required(table, "leg", where)
+    if not isinstance(legs, list) or not legs:
+        raise InvalidParameterError(f"{where}.leg must be a list of legs ([[mechanism.leg]] tables)")
+    return platform, kind, attachments, legs
+
+
 def mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mechanism:
     """The mechanism of a ``[mechanism]`` table (module docstring; a preset by ``preset = "NAME"``).
 
@@ -427,16 +444,8 @@ def mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mechanism:
         from .spatial import spatial_mechanism_from_dict
 
         return spatial_mechanism_from_dict({k: v for k, v in table.items() if k != "dimension"}, source)
-    platform = _known(_required(table, "platform", where), PLATFORM_KEYS, f"{where}.platform")
-    kind = platform.get("kind", "rigid")
-    if kind not in PLATFORM_KINDS:
-        raise InvalidParameterError(f"{where}.platform.kind must be 'rigid' or 'point', got {kind!r}")
-    attachments = platform.get("attachments", ())
-    if not isinstance(attachments, list | tuple):
-        raise InvalidParameterError(f"{where}.platform.attachments must be a list of points [x, y]")
-    legs_table = _required(table, "leg", where)
-    if not isinstance(legs_table, list) or not legs_table:
-        raise InvalidParameterError(f"{where}.leg must be a list of legs ([[mechanism.leg]] tables)")
+    platform, kind, attachments, legs_table = platform_and_legs(table, where, PLATFORM_KEYS, PLATFORM_KINDS,
+                                                                "[x, y]")
     legs = []
     for i, leg in enumerate(legs_table):
         lw = f"{where}.leg[{i + 1}]"

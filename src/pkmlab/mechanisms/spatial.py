@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidParameterError
-from .description import JointChain, LegsAndPose, _known, _number, _required, _stroke, _toml
+from .description import JointChain, LegsAndPose, _known, _number, _required, _stroke, _toml, platform_and_legs
 
 SPATIAL_JOINTS = ("R", "P", "U", "S")
 SPATIAL_PLATFORMS = ("translating", "rigid")
@@ -348,16 +348,8 @@ def spatial_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Spa
     """
     where = source
     table = _known(table, MECHANISM_KEYS, where)
-    platform = _known(_required(table, "platform", where), PLATFORM_KEYS, f"{where}.platform")
-    kind = platform.get("kind", "rigid")
-    if kind not in SPATIAL_PLATFORMS:
-        raise InvalidParameterError(f"{where}.platform.kind must be 'translating' or 'rigid', got {kind!r}")
-    attachments = platform.get("attachments", ())
-    if not isinstance(attachments, list | tuple):
-        raise InvalidParameterError(f"{where}.platform.attachments must be a list of points [x, y, z]")
-    legs_table = _required(table, "leg", where)
-    if not isinstance(legs_table, list) or not legs_table:
-        raise InvalidParameterError(f"{where}.leg must be a list of legs ([[mechanism.leg]] tables)")
+    platform, kind, attachments, legs_table = platform_and_legs(table, where, PLATFORM_KEYS, SPATIAL_PLATFORMS,
+                                                                "[x, y, z]")
     legs = []
     for i, leg in enumerate(legs_table):
         lw = f"{where}.leg[{i + 1}]"
