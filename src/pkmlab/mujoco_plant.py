@@ -76,10 +76,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     q = np.zeros((count, q_plant0.size))
     theta_dot, tau, s, violation = (np.zeros((count, n)), np.zeros((count, n)), np.zeros(count),
                                     np.zeros(count))
-    lines = np.empty((n, plant.kernels.LINE_WIDTH))
     q_out, effort = np.empty_like(q_ctrl), np.zeros(n)
-    from .mechanism_model import trig_table
-
     affine = mx.affine_map(plant)  # the coordinate maps as one matrix where they are linear
     for k in range(count):
         if affine is None:
@@ -88,7 +85,6 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
         else:
             q[k] = affine[0] @ data.qpos + affine[1]
             theta_dot[k] = affine[0][:n] @ data.qvel
-        s[k] = plant.kernels.singularity_measure(q[k], trig_table(plant, q[k]), plant.P, lines)
         violation[k] = float(np.abs(data.efc_pos).max()) if data.nefc else 0.0
         status = ctrl.kernels.control_effort_from(q_ctrl, prep.kind, prep.kp, prep.kv, q[k, :n], theta_dot[k],
                                                   d.theta[k], d.theta_dot[k], d.theta_ddot[k], ctrl.P, prep.guard,
@@ -109,6 +105,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
             raise UnstableControlError(f"MuJoCo's integration failed between t = {prep.t[k]:.4f} and "
                                        f"{prep.t[k + 1]:.4f} s (non-finite state): try a smaller --mujoco-timestep "
                                        "or another integrator")
+    plant.kernels.singularity_measures(q, plant.P, s)  # of every recorded configuration, at once
     pose = q[:, -plant.description.dof:].copy()
     result = _result(scenario, prep, _scenario_coordinates(scenario.model, q), theta_dot, tau, pose, s)
     return replace(result, closure_violation=violation)

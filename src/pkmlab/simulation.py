@@ -459,8 +459,7 @@ class SimulationResult:
     @property
     def path_error(self) -> np.ndarray:
         """Euclidean distance (m) between the actual and the desired tracked point."""
-        position = 3 if getattr(self.scenario.model, "description", None) is not None and \
-            getattr(self.scenario.model.description, "spatial", False) else 2
+        position = 3 if "z" in self.columns_pose else 2
         return np.linalg.norm(self.pose[:, :position] - self.pose_d[:, :position], axis=1)
 
     @property
