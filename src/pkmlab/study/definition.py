@@ -1,0 +1,364 @@
+"""What a study is: a base scenario, axes crossed as a grid, Monte Carlo draws of the plant.
+
+A study file (``pkmlab sweep SWEEP.toml``) is declarative TOML, like a scenario file::
+
+    [study]
+    name = "fast_gain_sweep"
+    base = "fast.toml"        # a scenario file (relative to this file), or inline [base.*] tables
+    draws = 20                # plants drawn per grid point (0: the plant of the scenario, once)
+    seed = 2026
+
+    [grid]                    # every combination of the axes' values, the first axis slowest
+    "controller.kp" = [250.0, 500.0, 1000.0, 2000.0]
+    "trajectory.speed" = { start = 0.2, stop = 0.6, num = 5 }            # evenly spaced, ends included
+    "controller.sample_time" = { start = 5e-4, stop = 2e-3, num = 3, scale = "log" }
+
+    [uncertainty]             # per body, uniform (pkmlab.uncertainty): a spread or [low, high] factors
+    mass = 0.15
+    length = [0.9, 1.1]
+
+An axis is any value of a scenario file, written ``table.key`` (``controller.kp``,
+``trajectory.speed``, ``controller.sample_time``, ``plant.mass_scale``, ``simulation.substeps``,
+``manipulator.params.l`` ...); the machine itself is the base's. Runs are numbered grid point by grid
+point, draws innermost: run ``r`` is draw ``r % D`` of grid point ``r // D`` (``D = max(draws, 1)``).
+
+A :class:`Study` is immutable and self-contained (the base scenario and any mechanism file it names are
+read once, into the study), so it can be sent to the workers of a cluster that do not share the
+user's files; its :attr:`~Study.digest` identifies what it computes (base, axes, draws, seed, pkmlab's
+version), and a study folder is only ever resumed by the study that wrote it.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._version import __version__
+from ..errors import InvalidParameterError, PkmlabError, shown
+from ..io import PARAM_KEYS, FileFormatError, read_toml
+from ..scenario_io import TABLES, scenario_from_dict
+from ..uncertainty import check_bounds
+
+#: The keys of a study file's ``[study]`` table.
+STUDY_KEYS = ("name", "base", "draws", "seed")
+#: The tables of a study file.
+STUDY_TABLES = ("study", "base", "grid", "uncertainty")
+#: The keys of a range: ``{start, stop, num[, scale]}``.
+RANGE_KEYS = ("start", "stop", "num", "scale")
+#: At most this many runs in one study (the table's memory: about 1 kB per run).
+MAX_RUNS = 50_000_000
+
+
+def axis_keys() -> tuple[str, ...]:
+    """Every scenario value an axis may vary: ``table.key`` for the scenario tables' keys, and
+    ``manipulator.params.<name>``. The machine's structure (``[mechanism]``, ``manipulator.preset``)
+    is the base's: a study compares runs of one machine."""
+    keys = [f"{table}.{key}" for table, names in TABLES.items() if table not in ("mechanism", "manipulator")
+            for key in names]
+    return (*keys, *(f"manipulator.params.{k}" for k in PARAM_KEYS))
+
+
+def _error(source: str, text: str) -> InvalidParameterError:
+    return InvalidParameterError(f"{source}: {text}")
+
+
+def _finite_value(value) -> bool:
+    if isinstance(value, bool) or isinstance(value, str):
+        return True
+    if isinstance(value, (int, float)):
+        return math.isfinite(float(value))
+    if isinstance(value, list):
+        return all(_finite_value(v) for v in value)
+    return True
+
+
+def axis_values(key: str, spec, source: str = "<study>") -> tuple:
+    """The values of axis ``key``: a non-empty list as given, or a range ``{start, stop, num}``
+    (``scale = "linear"`` evenly spaced, ``"log"`` geometrically; ``num = 1`` gives ``start``)."""
+    where = f"[grid].{json.dumps(key)}"
+    if isinstance(spec, dict):
+        for k in spec:
+            if k not in RANGE_KEYS:
+                close = difflib.get_close_matches(str(k), RANGE_KEYS, n=1)
+                hint = f" (did you mean '{close[0]}'?)" if close else f" (a range has {', '.join(RANGE_KEYS)})"
+                raise _error(source, f"unknown key '{k}' in the range {where}{hint}")
+        missing = [k for k in ("start", "stop", "num") if k not in spec]
+        if missing:
+            raise _error(source, f"the range {where} needs {', '.join(missing)} (a range is {{start, stop, num}})")
+        start, stop, num = spec["start"], spec["stop"], spec["num"]
+        for name, v in (("start", start), ("stop", stop)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)):
+                raise _error(source, f"{where}.{name} must be a finite number, got {shown(v)}")
+        if isinstance(num, bool) or not isinstance(num, int) or num < 1:
+            raise _error(source, f"{where}.num must be a positive integer, got {shown(num)}")
+        scale = spec.get("scale", "linear")
+        if scale not in ("linear", "log"):
+            raise _error(source, f"{where}.scale must be \"linear\" or \"log\", got {shown(scale)}")
+        if scale == "log":
+            if start <= 0 or stop <= 0:
+                raise _error(source, f"the log range {where} needs start and stop > 0, got {start} and {stop}")
+            values = np.geomspace(float(start), float(stop), num)
+        else:
+            values = np.linspace(float(start), float(stop), num)
+        return tuple(float(v) for v in values)
+    if not isinstance(spec, list):
+        raise _error(source, f"{where} must be a list of values or a range {{start, stop, num}}, got {shown(spec)}")
+    if not spec:
+        raise _error(source, f"{where} is empty: give at least one value")
+    for i, v in enumerate(spec):
+        if not _finite_value(v):
+            raise _error(source, f"{where}[{i}] must be finite, got {shown(v)}")
+        if isinstance(v, dict):
+            raise _error(source, f"{where}[{i}] must be a value, got the table {shown(v)}")
+    values = tuple(float(v) if isinstance(v, int) and not isinstance(v, bool) and key != "simulation.substeps"
+                   else v for v in spec)
+    if len({json.dumps(v) for v in values}) != len(values):
+        raise _error(source, f"{where} repeats a value: {shown(list(spec))}")
+    return values
+
+
+def _set(data: dict, key: str, value) -> None:
+    *tables, last = key.split(".")
+    node = data
+    for name in tables:
+        node = node.setdefault(name, {})
+    node[last] = value
+
+
+def _self_contained(base: dict, folder: Path, source: str) -> dict:
+    """``base`` with a ``[mechanism].file`` read into it, so that the study needs no file of the user's."""
+    base = copy.deepcopy(base)
+    mechanism = base.get("mechanism")
+    if isinstance(mechanism, dict) and "file" in mechanism:
+        path = mechanism["file"]
+        if not isinstance(path, str) or not path:
+            raise _error(source, f"[mechanism].file must be a file name, got {shown(path)}")
+        data = read_toml(folder / path)
+        if not isinstance(data.get("mechanism"), dict):
+            raise _error(source, f"{path}: no [mechanism] table")
+        base["mechanism"] = data["mechanism"]
+    return base
+
+
+@dataclass(frozen=True)
+class Study:
+    """A study: runs of ``base`` (scenario data, as a scenario file's tables) at every point of the grid of
+    ``axes`` and, per point, ``draws`` plants drawn within ``uncertainty`` (see :mod:`pkmlab.uncertainty`).
+
+    Build one with :func:`load_study` (a study file) or directly::
+
+        Study.create("examples/fast.toml", grid={"controller.kp": [500.0, 1000.0]},
+                     uncertainty={"mass": 0.15}, draws=20, seed=1)
+    """
+
+    base: dict
+    axes: tuple[tuple[str, tuple], ...] = ()
+    uncertainty: dict = field(default_factory=dict)
+    draws: int = 0
+    seed: int = 0
+    name: str = "study"
+    source: str = "<study>"
+
+    # ---------------------------------------------------------------- construction
+    @classmethod
+    def create(cls, base, grid: dict | None = None, uncertainty: dict | None = None, draws: int = 0, seed: int = 0,
+               name: str | None = None, source: str = "<study>") -> Study:
+        """A checked study from ``base`` (a scenario file's path, or its tables as a dict), ``grid``
+        ({axis key: list of values or {start, stop, num[, scale]}}), ``uncertainty`` ({quantity: spread or
+        [low, high]}), ``draws`` and ``seed``. Every problem is one line naming the key and the value."""
+        if isinstance(base, (str, Path)):
+            path = Path(base)
+            data = _self_contained(read_toml(path), path.parent, str(path))
+            name = name or path.stem
+        elif isinstance(base, dict):
+            data = _self_contained(base, Path(source).parent, source)
+        else:
+            raise _error(source, f"base must be a scenario file or its tables (a dict), got {type(base).__name__}")
+        if not isinstance(grid if grid is not None else {}, dict):
+            raise _error(source, f"grid must be a table of axes, got {shown(grid)}")
+        valid = axis_keys()
+        axes = []
+        for key, spec in (grid or {}).items():
+            if key not in valid:
+                close = difflib.get_close_matches(str(key), valid, n=1, cutoff=0.5)
+                if not close:
+                    close = [k for k in valid if k.endswith(f".{key}")][:1]
+                hint = f" (did you mean '{close[0]}'?)" if close else f" (axes are table.key, e.g. {valid[0]})"
+                raise _error(source, f"[grid]: '{key}' is not a scenario value{hint}")
+            axes.append((key, axis_values(key, spec, source)))
+        if isinstance(draws, bool) or not isinstance(draws, int) or draws < 0:
+            raise _error(source, f"[study].draws must be a non-negative integer, got {shown(draws)}")
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise _error(source, f"[study].seed must be a non-negative integer, got {shown(seed)}")
+        try:
+            bounds = check_bounds(uncertainty or {}, "[uncertainty]")
+        except InvalidParameterError as exc:
+            raise _error(source, str(exc)) from None
+        if bounds and draws == 0:
+            raise _error(source, "[uncertainty] is given but [study].draws = 0: say how many plants to draw")
+        if draws and not bounds:
+            raise _error(source, f"[study].draws = {draws} but no [uncertainty]: give the quantities to draw "
+                         "(mass, length, inertia)")
+        study = cls(data, tuple(axes), bounds, draws, seed, name or Path(source).stem or "study", source)
+        study.check()
+        return study
+
+    def check(self) -> None:
+        """Refuse a study whose base, or base with one axis value, is not a valid scenario — naming the axis
+        and the value — or that has too many runs. (Combinations of valid values that fail — too many samples,
+        an unreachable path — are results of the study, recorded with their reason.)"""
+        if self.size > MAX_RUNS:
+            raise _error(self.source, f"the study has {self.size} runs, more than {MAX_RUNS}: split it")
+        try:
+            scenario_from_dict(copy.deepcopy(self.base), self.source, self.name)
+        except PkmlabError as exc:
+            raise _error(self.source, f"the base scenario: {exc}") from None
+        for key, values in self.axes:
+            for value in values:
+                data = copy.deepcopy(self.base)
+                _set(data, key, value)
+                try:
+                    scenario_from_dict(data, self.source, self.name)
+                except PkmlabError as exc:
+                    raise _error(self.source, f"[grid] {key} = {shown(value)}: {exc}") from None
+
+    # ---------------------------------------------------------------- the runs
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The grid's shape: one entry per axis."""
+        return tuple(len(values) for _key, values in self.axes)
+
+    @property
+    def points(self) -> int:
+        """The number of grid points."""
+        return math.prod(self.shape)
+
+    @property
+    def per_point(self) -> int:
+        """Runs per grid point: the draws, or the one plant of the scenario."""
+        return max(self.draws, 1)
+
+    @property
+    def size(self) -> int:
+        """The number of runs."""
+        return self.points * self.per_point
+
+    def locate(self, run: int) -> tuple[int, int]:
+        """``(grid point, draw)`` of ``run``."""
+        if not 0 <= run < self.size:
+            raise InvalidParameterError(f"run must be in [0, {self.size}), got {run}")
+        return divmod(int(run), self.per_point)
+
+    def point_values(self, point: int) -> dict:
+        """The axes' values at grid point ``point``, ``{key: value}``."""
+        index = np.unravel_index(point, self.shape) if self.axes else ()
+        return {key: values[i] for (key, values), i in zip(self.axes, index, strict=True)}
+
+    def point_data(self, point: int) -> dict:
+        """The scenario data (tables) of grid point ``point``."""
+        data = copy.deepcopy(self.base)
+        for key, value in self.point_values(point).items():
+            _set(data, key, value)
+        return data
+
+    def nominal_scenario(self, point: int):
+        """The scenario of grid point ``point`` with the plant it names (before any draw)."""
+        return scenario_from_dict(self.point_data(point), self.source, self.name)
+
+    def factors(self, run: int, scenario=None) -> dict[str, float]:
+        """The plant's factors of ``run`` (empty without draws): :func:`~pkmlab.uncertainty.draw_factors` of its
+        draw, seeded by the study's seed."""
+        from ..uncertainty import draw_factors
+
+        point, draw = self.locate(run)
+        if not self.draws:
+            return {}
+        scenario = self.nominal_scenario(point) if scenario is None else scenario
+        return draw_factors(scenario.plant_model, self.uncertainty, self.seed, draw)
+
+    def scenario(self, run: int, nominal=None):
+        """The :class:`~pkmlab.simulation.Scenario` of ``run`` — what ``simulate`` runs to reproduce its row.
+        ``nominal`` is its grid point's :meth:`nominal_scenario`, if already built."""
+        from ..uncertainty import perturbed_plant
+
+        point, _draw = self.locate(run)
+        nominal = self.nominal_scenario(point) if nominal is None else nominal
+        if not self.draws:
+            return nominal.replace(name=f"{self.name} run {run}")
+        plant = perturbed_plant(nominal.plant_model, self.factors(run, nominal))
+        return nominal.replace(plant=plant, name=f"{self.name} run {run}")
+
+    def factor_names(self) -> tuple[str, ...]:
+        """The names of the drawn factors (the table's ``plant.*`` columns)."""
+        from ..uncertainty import uncertain_parameters
+
+        if not self.draws:
+            return ()
+        return uncertain_parameters(self.nominal_scenario(0).plant_model, tuple(self.uncertainty))
+
+    # ---------------------------------------------------------------- identity
+    def definition(self) -> dict:
+        """The study as JSON-able data: what :attr:`digest` hashes and ``study.json`` keeps."""
+        return {"base": self.base, "grid": {k: list(v) for k, v in self.axes},
+                "uncertainty": {k: list(v) for k, v in self.uncertainty.items()}, "draws": self.draws,
+                "seed": self.seed, "pkmlab": __version__}
+
+    @property
+    def digest(self) -> str:
+        """SHA-256 of :meth:`definition`: equal for studies that compute the same runs."""
+        text = json.dumps(self.definition(), sort_keys=True, separators=(",", ":"), allow_nan=False)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def __hash__(self) -> int:
+        return hash(self.digest)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Study) and self.digest == other.digest and self.name == other.name
+
+
+def study_from_dict(data: dict, source: str = "<study>") -> Study:
+    """The :class:`Study` of a study file's parsed tables (the module docstring's format)."""
+    if not isinstance(data, dict):
+        raise FileFormatError(f"{source}: a study must be a TOML document of tables, got {shown(data)}")
+    for key in data:
+        if key not in STUDY_TABLES:
+            close = difflib.get_close_matches(str(key), STUDY_TABLES, n=1)
+            hint = f" (did you mean [{close[0]}]?)" if close else f" (tables: {', '.join(STUDY_TABLES)})"
+            raise FileFormatError(f"{source}: unknown table '{key}'{hint}")
+        if not isinstance(data[key], dict):
+            raise FileFormatError(f"{source}: [{key}] must be a table, got {shown(data[key])}")
+    head = data.get("study", {})
+    for key in head:
+        if key not in STUDY_KEYS:
+            close = difflib.get_close_matches(str(key), STUDY_KEYS, n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else f" (keys: {', '.join(STUDY_KEYS)})"
+            raise FileFormatError(f"{source}: unknown key '{key}' in [study]{hint}")
+    if ("base" in head) == ("base" in data):
+        raise FileFormatError(f"{source}: give the base scenario once: [study].base = \"FILE.toml\" or [base.*] "
+                              "tables")
+    folder = Path(source).parent
+    if "base" in head:
+        if not isinstance(head["base"], str) or not head["base"]:
+            raise FileFormatError(f"{source}: [study].base must be a scenario file name, got {shown(head['base'])}")
+        path = folder / head["base"]
+        base = _self_contained(read_toml(path), path.parent, str(path))
+    else:
+        base = _self_contained(data["base"], folder, source)
+    name = head.get("name", Path(source).stem or "study")
+    if not isinstance(name, str) or not name:
+        raise FileFormatError(f"{source}: [study].name must be a non-empty string, got {shown(name)}")
+    return Study.create(base, data.get("grid", {}), data.get("uncertainty", {}), head.get("draws", 0),
+                        head.get("seed", 0), name, source)
+
+
+def load_study(path) -> Study:
+    """Read a study file (format: this module's docstring)."""
+    return study_from_dict(read_toml(path), str(path))
+
