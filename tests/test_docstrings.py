@@ -7,7 +7,7 @@ import pytest
 
 MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
            "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanism_model",
-           "pkmlab.mechanisms.stewart_fk"]
+           "pkmlab.mechanisms.stewart_fk", "pkmlab.uncertainty", "pkmlab.progress"]
 
 
 @pytest.mark.parametrize("name", MODULES)

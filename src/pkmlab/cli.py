@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import sys
 from pathlib import Path
@@ -905,6 +906,95 @@ def cmd_animate(args) -> dict:
                                 on_frame=bar.update))
 
 
+def _execution(args) -> dict:
+    """Where a study's runs execute: ``--workers``, ``--scheduler``, ``--chunk-size`` (pkmlab.study.engine)."""
+    if args.scheduler is not None and args.workers is not None:
+        raise InvalidParameterError("--workers sizes the local cluster; with --scheduler the cluster's own workers "
+                                    "run the study: give one of them")
+    for name in ("workers", "chunk_size"):
+        value = getattr(args, name)
+        least = 0 if name == "workers" else 1
+        if value is not None and value < least:
+            raise InvalidParameterError(f"--{name.replace('_', '-')} must be {least} or more, got {value}")
+    return {"workers": args.workers, "scheduler": args.scheduler, "chunk_size": args.chunk_size}
+
+
+def cmd_sweep(args) -> dict:
+    """A study file: every run on a Dask cluster (local by default), its table, summary.json and figures."""
+    from .study import StudyInterrupted, load_study, sweep
+
+    study = load_study(args.study)
+    if args.heatmap is not None:
+        args.heatmap = tuple(args.heatmap)
+    quiet = args.quiet or args.json
+    note = None if quiet else _note(args)
+    try:
+        frame = sweep(study, args.out, resume=args.resume, csv=args.csv, figures=not args.no_figures,
+                      heatmap=args.heatmap, progress=not quiet, note=note, **_execution(args))
+    except StudyInterrupted as exc:
+        raise StudyInterrupted(f"{exc}: pkmlab sweep {args.study} --out {args.out} --resume") from None
+    summary = frame.attrs["summary"]
+    if not args.json:
+        run = summary["execution"]
+        print(f"{study.name}: {summary['runs']} runs, {summary['ok']} ok, {summary['failed']} failed"
+              + (f" ({', '.join(f'{k} {v}' for k, v in summary['failures'].items())})" if summary["failed"] else ""))
+        error = summary["metrics"].get("max_path_error_m")
+        if error:
+            print(f"max path error: median {error['median']:.3e} m, worst {error['max']:.3e} m")
+        best = summary.get("best_point")
+        if best:
+            values = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
+                               for k, v in best["values"].items())
+            print(f"least worst-case error: {values or 'the base'}: {best['worst_max_path_error_m']:.3e} m, "
+                  f"peak effort {best['worst_peak_effort']:.4g}")
+        print(f"{run['runs_run']} runs in {run['wall_time_s']:.1f} s ({run['runs_per_s']:.1f} runs/s on "
+              f"{run['workers']} worker{'s' if run['workers'] != 1 else ''}); table in {args.out}/runs.parquet")
+    return summary
+
+
+def cmd_tune(args) -> dict:
+    """A scenario's gains tuned for an effort limit over an uncertainty set: tuned.toml, trials.csv, tuning.json
+    and tradeoff.png in --out."""
+    from .outputs import atomic_output_dir
+    from .study.tuning import tune, write_tuning
+
+    if args.trials < 1 or args.draws < 0 or not 0 <= args.uncertainty < 1 or not 0 < args.quantile <= 1:
+        raise InvalidParameterError("--trials must be positive, --draws 0 or more, --uncertainty in [0, 1) and "
+                                    f"--quantile in (0, 1]; got {args.trials}, {args.draws}, {args.uncertainty:g}, "
+                                    f"{args.quantile:g}")
+    execution = _execution(args)
+    quiet = args.quiet or args.json
+    from .progress import Progress
+
+    bar = Progress(args.trials, "candidates", enabled=not quiet, unit="candidates")
+    # the folder is checked before the work, and receives the trials even when no gains keep within the limit
+    with atomic_output_dir(args.out, "tune", inputs=[args.scenario], note=_note(args)) as folder:
+        with bar:
+            result = tune(args.scenario, args.max_effort, uncertainty=args.uncertainty,
+                          quantities=tuple(args.uncertain), draws=args.draws, seed=args.seed, quantile=args.quantile,
+                          critical=args.critical, trials=args.trials, kp_range=tuple(args.kp_range),
+                          zeta_range=tuple(args.zeta_range), workers=execution["workers"],
+                          scheduler=execution["scheduler"], progress=lambda done, _total: bar.update(done - bar.count))
+        summary = write_tuning(result, folder, args.scenario)
+    if result.best is None:
+        raise InvalidParameterError(f"no gains tried keep the peak effort within {args.max_effort:g} on every plant "
+                                    f"(the least reached: {result.trials['worst_effort'].min():.4g}); the trials are "
+                                    f"in {args.out}/")
+    if not args.json:
+        best, base = result.best, result.baseline
+        what = "worst-case" if args.quantile == 1 else f"{args.quantile:g}-quantile"
+        print(f"tuned: kp = {best['kp']:.6g}, kv = {best['kv']:.6g} (zeta = {best['zeta']:.3g}): {what} max path "
+              f"error {best['error']:.4e} m, peak effort {best['worst_effort']:.4g} (limit {args.max_effort:g})")
+        if math.isfinite(base["error"]):
+            print(f"the scenario's gains (kp = {base['kp']:.6g}, kv = {base['kv']:.6g}): {base['error']:.4e} m, "
+                  f"peak effort {base['worst_effort']:.4g}")
+        else:
+            print(f"the scenario's gains (kp = {base['kp']:.6g}): some run failed")
+        print(f"{len(result.trials)} candidates x {max(args.draws, 1)} plants; pkmlab simulate {args.out}/tuned.toml "
+              "runs the tuned scenario")
+    return summary
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
                                      "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
@@ -975,6 +1065,56 @@ def build_parser() -> argparse.ArgumentParser:
                    "solref 2 ms) instead of its defaults")
     mechanism(p)
     p.set_defaults(func=cmd_simulate)
+
+    def execution(p):
+        p.add_argument("--workers", type=int, metavar="N", help="worker processes of the local Dask cluster started "
+                       "for the study (default: one per core; 0 runs in this process)")
+        p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on an existing Dask cluster instead")
+        p.add_argument("--chunk-size", type=int, metavar="K", help="runs per task (default: enough tasks to keep "
+                       "every worker busy, at most 64 runs each)")
+
+    p = sub.add_parser("sweep", help="a study: a scenario over a grid of values and drawn plants, on a Dask "
+                       "cluster; its table (Parquet), summary.json and figures")
+    p.add_argument("study", metavar="SWEEP.toml", help="the study (format: README, 'Studies')")
+    p.add_argument("--out", required=True, metavar="DIR", help="the study's folder: new or empty, or this study's "
+                   "(with --resume)")
+    p.add_argument("--resume", action="store_true", help="finish the study DIR holds, running only what is missing")
+    p.add_argument("--csv", action="store_true", help="also write the table as runs.csv")
+    p.add_argument("--heatmap", nargs=2, metavar=("Y", "X"), help="the two axes of the maps (default: the first "
+                   "two that vary)")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.add_argument("--quiet", action="store_true", help="no progress bar or notes")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    execution(p)
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("tune", help="the gains (kp, kv) minimising the worst-case path error over uncertain plants "
+                       "with the peak effort within a limit; writes a scenario of the tuned gains")
+    p.add_argument("scenario", metavar="SCENARIO.toml", help="the scenario whose gains are tuned")
+    p.add_argument("--max-effort", type=float, required=True, metavar="TAU", help="the limit on every actuator's "
+                   "peak effort (N m, or N for prismatic actuators) on every plant of the uncertainty set")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder: tuned.toml, trials.csv, tuning.json, "
+                   "tradeoff.png")
+    p.add_argument("--uncertainty", type=float, default=0.15, metavar="SPREAD", help="factors drawn in "
+                   "[1 - SPREAD, 1 + SPREAD] (default 0.15)")
+    p.add_argument("--uncertain", nargs="+", choices=("mass", "length", "inertia"), default=["mass", "inertia"],
+                   help="the quantities drawn per body (default: mass inertia)")
+    p.add_argument("--draws", type=int, default=16, metavar="N", help="plants in the uncertainty set (default 16; "
+                   "0: the scenario's plant alone)")
+    p.add_argument("--quantile", type=float, default=1.0, metavar="Q", help="minimise this quantile of the max path "
+                   "error over the plants (default 1: the worst case)")
+    p.add_argument("--critical", action="store_true", help="tune kp alone, kv = 2 sqrt(kp) (critical damping)")
+    p.add_argument("--kp-range", type=float, nargs=2, default=[10.0, 1e6], metavar=("LO", "HI"),
+                   help="the search box of kp, 1/s^2 (default 10 1e6): bound it by what the machine's sensors and "
+                   "drives allow, which the model does not know")
+    p.add_argument("--zeta-range", type=float, nargs=2, default=[0.3, 3.0], metavar=("LO", "HI"),
+                   help="the search box of the damping ratio, kv = 2 zeta sqrt(kp) (default 0.3 3)")
+    p.add_argument("--trials", type=int, default=48, metavar="N", help="candidate gains to evaluate (default 48)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the draws and the optimiser (default 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    execution(p)
+    p.set_defaults(func=cmd_tune)
 
     p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
     p.add_argument("--out", default="demo", help="output folder (default: demo)")
@@ -1187,8 +1327,8 @@ def _run(argv: list[str] | None) -> int:
         else:
             print(f"pkmlab {args.command}: error: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"pkmlab {args.command}: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # a study's says what it kept and how to finish
+        print(f"pkmlab {args.command}: interrupted" + (f": {exc}" if str(exc) else ""), file=sys.stderr)
         return 130
     if getattr(args, "json", False):
         print(json.dumps(_strict_json(result), indent=2, allow_nan=False))

@@ -444,6 +444,16 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         raise rd.value_error(str(exc)) from None
 
 
+def scenario_to_toml(data: dict, comment: str | None = None) -> str:
+    """A scenario file's text from its tables ``data`` (nested tables written inline), with ``comment`` on top;
+    :func:`scenario_from_dict` of the text read back gives the same scenario."""
+    lines = [f"# {line}" if line else "#" for line in (comment or "").splitlines()]
+    for table, values in data.items():
+        lines += ["" if lines else None, f"[{_key(table)}]"]
+        lines += [f"{_key(k)} = {_toml_value(v)}" for k, v in values.items()]
+    return "\n".join(line for line in lines if line is not None) + "\n"
+
+
 def scenario_from_text(text: str, source: str | Path) -> Scenario:
     """The scenario of a scenario file's ``text``, already read from ``source`` (named in errors)."""
     return scenario_from_dict(parse_toml(text, source), str(source), Path(source).stem)

@@ -17,6 +17,9 @@ A study file (``pkmlab sweep SWEEP.toml``) is declarative TOML, like a scenario 
     mass = 0.15
     length = [0.9, 1.1]
 
+With ``combine = "zip"`` in ``[study]`` the axes are not crossed but paired, value by value (all of
+one length): points ``(kp, kv)`` chosen together, as a tuner does.
+
 An axis is any value of a scenario file, written ``table.key`` (``controller.kp``,
 ``trajectory.speed``, ``controller.sample_time``, ``plant.mass_scale``, ``simulation.substeps``,
 ``manipulator.params.l`` ...); the machine itself is the base's. Runs are numbered grid point by grid
@@ -47,7 +50,9 @@ from ..scenario_io import TABLES, scenario_from_dict
 from ..uncertainty import check_bounds
 
 #: The keys of a study file's ``[study]`` table.
-STUDY_KEYS = ("name", "base", "draws", "seed")
+STUDY_KEYS = ("name", "base", "draws", "seed", "combine")
+#: How a study's axes make its points: every combination, or value by value.
+COMBINE = ("cross", "zip")
 #: The tables of a study file.
 STUDY_TABLES = ("study", "base", "grid", "uncertainty")
 #: The keys of a range: ``{start, stop, num[, scale]}``.
@@ -79,9 +84,10 @@ def _finite_value(value) -> bool:
     return True
 
 
-def axis_values(key: str, spec, source: str = "<study>") -> tuple:
+def axis_values(key: str, spec, source: str = "<study>", unique: bool = True) -> tuple:
     """The values of axis ``key``: a non-empty list as given, or a range ``{start, stop, num}``
-    (``scale = "linear"`` evenly spaced, ``"log"`` geometrically; ``num = 1`` gives ``start``)."""
+    (``scale = "linear"`` evenly spaced, ``"log"`` geometrically; ``num = 1`` gives ``start``). Crossed axes
+    (``unique``) may not repeat a value: the same runs twice."""
     where = f"[grid].{json.dumps(key)}"
     if isinstance(spec, dict):
         for k in spec:
@@ -119,7 +125,7 @@ def axis_values(key: str, spec, source: str = "<study>") -> tuple:
             raise _error(source, f"{where}[{i}] must be a value, got the table {shown(v)}")
     values = tuple(float(v) if isinstance(v, int) and not isinstance(v, bool) and key != "simulation.substeps"
                    else v for v in spec)
-    if len({json.dumps(v) for v in values}) != len(values):
+    if unique and len({json.dumps(v) for v in values}) != len(values):
         raise _error(source, f"{where} repeats a value: {shown(list(spec))}")
     return values
 
@@ -165,14 +171,16 @@ class Study:
     seed: int = 0
     name: str = "study"
     source: str = "<study>"
+    combine: str = "cross"
 
     # ---------------------------------------------------------------- construction
     @classmethod
     def create(cls, base, grid: dict | None = None, uncertainty: dict | None = None, draws: int = 0, seed: int = 0,
-               name: str | None = None, source: str = "<study>") -> Study:
+               name: str | None = None, source: str = "<study>", combine: str = "cross") -> Study:
         """A checked study from ``base`` (a scenario file's path, or its tables as a dict), ``grid``
         ({axis key: list of values or {start, stop, num[, scale]}}), ``uncertainty`` ({quantity: spread or
-        [low, high]}), ``draws`` and ``seed``. Every problem is one line naming the key and the value."""
+        [low, high]}), ``draws``, ``seed`` and ``combine`` (``"cross"``: every combination of the axes'
+        values; ``"zip"``: value by value). Every problem is one line naming the key and the value."""
         if isinstance(base, (str, Path)):
             path = Path(base)
             data = _self_contained(read_toml(path), path.parent, str(path))
@@ -192,7 +200,7 @@ class Study:
                     close = [k for k in valid if k.endswith(f".{key}")][:1]
                 hint = f" (did you mean '{close[0]}'?)" if close else f" (axes are table.key, e.g. {valid[0]})"
                 raise _error(source, f"[grid]: '{key}' is not a scenario value{hint}")
-            axes.append((key, axis_values(key, spec, source)))
+            axes.append((key, axis_values(key, spec, source, unique=combine == "cross")))
         if isinstance(draws, bool) or not isinstance(draws, int) or draws < 0:
             raise _error(source, f"[study].draws must be a non-negative integer, got {shown(draws)}")
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -206,7 +214,12 @@ class Study:
         if draws and not bounds:
             raise _error(source, f"[study].draws = {draws} but no [uncertainty]: give the quantities to draw "
                          "(mass, length, inertia)")
-        study = cls(data, tuple(axes), bounds, draws, seed, name or Path(source).stem or "study", source)
+        if combine not in COMBINE:
+            raise _error(source, f"[study].combine must be \"cross\" or \"zip\", got {shown(combine)}")
+        if combine == "zip" and len({len(values) for _key, values in axes}) > 1:
+            raise _error(source, "[study].combine = \"zip\" pairs the axes value by value: they need as many values "
+                         "each, got " + ", ".join(f"{key}: {len(values)}" for key, values in axes))
+        study = cls(data, tuple(axes), bounds, draws, seed, name or Path(source).stem or "study", source, combine)
         study.check()
         return study
 
@@ -232,7 +245,9 @@ class Study:
     # ---------------------------------------------------------------- the runs
     @property
     def shape(self) -> tuple[int, ...]:
-        """The grid's shape: one entry per axis."""
+        """The grid's shape: one entry per axis (one entry in all when the axes are zipped)."""
+        if self.combine == "zip":
+            return (len(self.axes[0][1]),) if self.axes else ()
         return tuple(len(values) for _key, values in self.axes)
 
     @property
@@ -258,6 +273,8 @@ class Study:
 
     def point_values(self, point: int) -> dict:
         """The axes' values at grid point ``point``, ``{key: value}``."""
+        if self.combine == "zip":
+            return {key: values[point] for key, values in self.axes}
         index = np.unravel_index(point, self.shape) if self.axes else ()
         return {key: values[i] for (key, values), i in zip(self.axes, index, strict=True)}
 
@@ -308,7 +325,7 @@ class Study:
         """The study as JSON-able data: what :attr:`digest` hashes and ``study.json`` keeps."""
         return {"base": self.base, "grid": {k: list(v) for k, v in self.axes},
                 "uncertainty": {k: list(v) for k, v in self.uncertainty.items()}, "draws": self.draws,
-                "seed": self.seed, "pkmlab": __version__}
+                "seed": self.seed, "combine": self.combine, "pkmlab": __version__}
 
     @property
     def digest(self) -> str:
@@ -355,7 +372,7 @@ def study_from_dict(data: dict, source: str = "<study>") -> Study:
     if not isinstance(name, str) or not name:
         raise FileFormatError(f"{source}: [study].name must be a non-empty string, got {shown(name)}")
     return Study.create(base, data.get("grid", {}), data.get("uncertainty", {}), head.get("draws", 0),
-                        head.get("seed", 0), name, source)
+                        head.get("seed", 0), name, source, head.get("combine", "cross"))
 
 
 def load_study(path) -> Study:

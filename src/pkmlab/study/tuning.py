@@ -1,0 +1,255 @@
+"""``pkmlab tune``: the gains that minimise the worst-case path error under an effort limit.
+
+The problem. A scenario's controller gains ``kp`` and ``kv = 2 ζ √kp`` (``ζ`` the damping ratio of the
+nominal error dynamics; ``ζ = 1`` with ``critical=True``) are chosen to minimise the ``quantile`` (1:
+the worst case) of the max path error over an *uncertainty set* — the plants of ``draws`` draws of
+:mod:`pkmlab.uncertainty` around the scenario's plant, the same draws for every candidate (common random
+numbers: the objective is a deterministic function of the gains, and two candidates are compared on
+the same machines) — subject to every run's peak effort being at most ``max_effort``. A run that fails
+(unstable sampled-data loop, lost branch) makes its candidate infeasible.
+
+The optimiser. Optuna's TPE sampler with its constraint handling (``Trial.set_constraint``): a well-kept
+library for expensive black-box problems of a few continuous variables, seeded and therefore
+reproducible, with an ask-and-tell interface that lets each batch of candidates run as one study on
+the cluster. (Nevergrad would do as well; Optuna's constraint support and its study records decided.)
+The scenario's own gains are the first candidate, so the tuned gains are never worse than them on
+this objective. ``kp`` is searched on a log scale, ``ζ`` too.
+
+The answer: the best feasible candidate, every candidate evaluated (``trials``), and the trade-off
+curve — for each effort limit, the least worst-case error among the candidates within it (the Pareto
+front of the evaluated candidates) — and a scenario file of the tuned gains that ``pkmlab simulate``
+runs.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+from ..outputs import atomic_file
+from .definition import Study
+from .engine import _dask_client, run_study
+
+#: Default search box: kp (1/s²) and the damping ratio ζ.
+KP_RANGE = (10.0, 1e6)
+ZETA_RANGE = (0.3, 3.0)
+
+
+@dataclass
+class TuningResult:
+    """What :func:`tune` found. ``trials`` is a ``pandas.DataFrame`` (one row per candidate: ``kp``, ``kv``,
+    ``zeta``, ``error`` (the objective, m), ``worst_error``, ``worst_effort``, ``failed`` runs, ``feasible``);
+    ``best`` and ``baseline`` are rows of it (the scenario's own gains are the baseline); ``tradeoff`` is the
+    Pareto front ``(effort limit, least error)``; ``scenario`` the tuned scenario's tables."""
+
+    max_effort: float
+    quantile: float
+    trials: object
+    best: dict | None
+    baseline: dict
+    tradeoff: list = field(default_factory=list)
+    scenario: dict = field(default_factory=dict)
+    uncertainty: dict = field(default_factory=dict)
+    draws: int = 0
+
+    def summary(self) -> dict:
+        return {"max_effort": self.max_effort, "quantile": self.quantile, "draws": self.draws,
+                "uncertainty": dict(self.uncertainty), "best": self.best,
+                "baseline": self.baseline, "tradeoff": [{"effort_limit": e, "error": v} for e, v in self.tradeoff],
+                "trials": len(self.trials)}
+
+
+def _objective(errors: np.ndarray, quantile: float) -> float:
+    return float(np.quantile(errors, quantile, method="higher"))
+
+
+def _pareto(trials) -> list[tuple[float, float]]:
+    """The least error for each effort limit among the candidates that never failed: ``(effort, error)`` of
+    each candidate that improves the error as the limit rises."""
+    front, best = [], math.inf
+    ok = trials[trials["failed"] == 0].sort_values(["worst_effort", "error"])
+    for effort, error in zip(ok["worst_effort"], ok["error"], strict=True):
+        if error < best:
+            best = error
+            front.append((float(effort), float(error)))
+    return front
+
+
+def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=("mass", "inertia"),
+         draws: int = 16, seed: int = 0, quantile: float = 1.0, critical: bool = False, trials: int = 48,
+         batch: int = 8, kp_range=KP_RANGE, zeta_range=ZETA_RANGE, workers: int | None = None,
+         scheduler: str | None = None, client=None, progress=None) -> TuningResult:
+    """Tune the gains of ``scenario`` (a scenario file or its tables) for peak effort ≤ ``max_effort``.
+
+    ``uncertainty`` is the spread of the factors drawn for ``quantities`` (0.15: ±15 %; lengths are left out
+    by default: a length the controller's model gets wrong is a kinematic error no gain removes); ``draws``
+    plants make the uncertainty set (0: the scenario's plant alone). ``trials`` candidates are evaluated in
+    batches of ``batch`` (one study each, on the cluster of ``workers``/``scheduler``/``client``).
+    ``progress(done, total)`` is called after each batch."""
+    import optuna
+
+    base = _base(scenario)
+    max_effort = _positive("max_effort", max_effort)
+    if not 0.0 < quantile <= 1.0:
+        raise InvalidParameterError(f"quantile must be in (0, 1], got {quantile!r}")
+    for name, value, low in (("trials", trials, 1), ("batch", batch, 1), ("draws", draws, 0)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise InvalidParameterError(f"{name} must be an integer ≥ {low}, got {value!r}")
+    bounds = {q: uncertainty for q in quantities} if draws else {}
+    kp_lo, kp_hi = (_positive("kp_range", v) for v in kp_range)
+    z_lo, z_hi = (_positive("zeta_range", v) for v in zeta_range)
+    controller = base.get("controller", {})
+    kp0 = float(controller.get("kp", 1000.0))
+    kv0 = float(controller.get("kv", 2.0 * math.sqrt(kp0)))
+    zeta0 = 1.0 if critical else kv0 / (2.0 * math.sqrt(kp0))
+    if not (kp_lo <= kp0 <= kp_hi and (critical or z_lo <= zeta0 <= z_hi)):
+        raise InvalidParameterError(f"the scenario's gains (kp = {kp0:g}, zeta = {zeta0:.3g}) lie outside the "
+                                    f"search box kp in [{kp_lo:g}, {kp_hi:g}], zeta in [{z_lo:g}, {z_hi:g}]")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=min(10, trials))
+    search = optuna.create_study(direction="minimize", sampler=sampler)
+    search.enqueue_trial({"log10_kp": math.log10(kp0), **({} if critical else {"zeta": zeta0})})
+    rows: list[dict] = []
+    with _dask_client(workers, scheduler, client) if workers != 0 or scheduler or client else _nothing() as dask:
+        while len(rows) < trials:
+            asked = [search.ask() for _ in range(min(batch, trials - len(rows)))]
+            gains = []
+            for trial in asked:
+                kp = 10.0 ** trial.suggest_float("log10_kp", math.log10(kp_lo), math.log10(kp_hi))
+                zeta = 1.0 if critical else trial.suggest_float("zeta", z_lo, z_hi, log=True)
+                gains.append((kp, 2.0 * zeta * math.sqrt(kp), zeta))
+            study = Study.create(base, {"controller.kp": [g[0] for g in gains], "controller.kv": [g[1] for g in gains]},
+                                 bounds, draws, seed, "tune", combine="zip")
+            table, _stats = run_study(study, workers=workers if dask is None else None, client=dask)
+            frame = table.to_pandas()
+            for point, (trial, (kp, kv, zeta)) in enumerate(zip(asked, gains, strict=True)):
+                runs = frame[frame["point"] == point]
+                failed = int((runs["status"] != "ok").sum())
+                errors = runs["max_path_error_m"].to_numpy()
+                efforts = runs["peak_effort"].to_numpy()
+                error = math.inf if failed else _objective(errors, quantile)
+                worst_effort = math.inf if failed else float(efforts.max())
+                trial.set_constraint("effort", 1.0 if failed else worst_effort - max_effort)
+                search.tell(trial, 1.0 if failed else error)  # a failed candidate: infeasible, and a poor value
+                rows.append({"trial": trial.number, "kp": kp, "kv": kv, "zeta": zeta, "error": error,
+                             "worst_error": math.inf if failed else float(errors.max()),
+                             "worst_effort": worst_effort, "failed": failed,
+                             "feasible": not failed and worst_effort <= max_effort})
+            if progress is not None:
+                progress(len(rows), trials)
+    import pandas as pd
+
+    frame = pd.DataFrame(rows)
+    feasible = frame[frame["feasible"]]
+    best = None
+    if not feasible.empty:
+        best = _plain(feasible.sort_values(["error", "trial"]).iloc[0].to_dict())
+    tuned = copy.deepcopy(base)
+    if best is not None:
+        tuned.setdefault("controller", {}).update(kp=best["kp"], kv=best["kv"])
+    return TuningResult(max_effort, quantile, frame, best, _plain(frame.iloc[0].to_dict()), _pareto(frame), tuned,
+                        bounds, draws)
+
+
+class _nothing:
+    def __enter__(self):
+        return None
+
+    def __exit__(self, *exc):
+        return False
+
+
+def _plain(row: dict) -> dict:
+    return {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
+
+
+def _positive(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        raise InvalidParameterError(f"{name} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def _base(scenario) -> dict:
+    from ..io import read_toml
+    from .definition import _self_contained
+
+    if isinstance(scenario, (str, Path)):
+        path = Path(scenario)
+        return _self_contained(read_toml(path), path.parent, str(path))
+    if isinstance(scenario, dict):
+        return copy.deepcopy(scenario)
+    raise InvalidParameterError(f"scenario must be a scenario file or its tables, got {type(scenario).__name__}")
+
+
+def write_tuning(result: TuningResult, out, source: str) -> dict:
+    """``tuned.toml`` (the scenario with the tuned gains), ``trials.csv``, ``tuning.json`` and ``tradeoff.png``
+    in ``out``, each written whole or not at all. Returns the summary."""
+    from ..scenario_io import scenario_to_toml
+
+    out = Path(out)
+    summary = result.summary()
+    best, base = result.best, result.baseline
+    if best is not None:
+        what = "worst-case" if result.quantile == 1 else f"{result.quantile:g}-quantile"
+        comment = (f"Tuned by pkmlab tune from {Path(source).name}: kp = {best['kp']:.6g}, kv = {best['kv']:.6g} "
+                   f"(zeta = {best['zeta']:.3g})\nminimise the {what} "
+                   f"max path error over {result.draws} plants drawn around the scenario's, peak effort <= "
+                   f"{result.max_effort:g}:\n{best['error']:.4e} m at peak effort {best['worst_effort']:.4g}; "
+                   f"the scenario's own gains gave {base['error']:.4e} m at {base['worst_effort']:.4g}")
+        with atomic_file(out / "tuned.toml") as tmp:
+            tmp.write_text(scenario_to_toml(result.scenario, comment))
+    with atomic_file(out / "trials.csv") as tmp:
+        result.trials.to_csv(tmp, index=False)
+    with atomic_file(out / "tuning.json") as tmp:
+        tmp.write_text(json.dumps(summary, indent=1, default=str).replace("Infinity", "null"))
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plot_tradeoff(result)
+    with atomic_file(out / "tradeoff.png") as tmp:
+        fig.savefig(tmp, dpi=130, format="png")
+    plt.close(fig)
+    return summary
+
+
+def plot_tradeoff(result: TuningResult):
+    """Every candidate's worst peak effort against its error, the trade-off curve (least error for each effort
+    limit), the limit, the scenario's own gains and the tuned ones."""
+    import matplotlib.pyplot as plt
+
+    trials = result.trials
+    ok = trials[trials["failed"] == 0]
+    fig, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
+    ax.scatter(ok["worst_effort"], ok["error"], c=np.log10(ok["kp"]), cmap="viridis", s=18, label="candidates")
+    if result.tradeoff:
+        e, v = np.array(result.tradeoff).T
+        ax.step(np.append(e, max(e[-1], result.max_effort) * 1.5), np.append(v, v[-1]), where="post", color="k",
+                lw=1.2, label="trade-off: least error within the effort limit")
+    ax.axvline(result.max_effort, color="tab:red", ls="--", lw=1, label=f"effort limit {result.max_effort:g}")
+    base = result.baseline
+    if math.isfinite(base["error"]):
+        ax.plot(base["worst_effort"], base["error"], "s", mfc="none", mec="tab:orange", ms=10,
+                label=f"scenario's gains (kp = {base['kp']:.4g})")
+    if result.best is not None:
+        best = result.best
+        ax.plot(best["worst_effort"], best["error"], "*", color="tab:red", ms=14,
+                label=f"tuned: kp = {best['kp']:.4g}, kv = {best['kv']:.4g}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("worst peak effort over the uncertainty set (N·m or N)")
+    what = "worst-case" if result.quantile == 1 else f"{result.quantile:g}-quantile"
+    ax.set_ylabel(f"{what} max path error (m)")
+    ax.set_title(f"gain tuning: {len(trials)} candidates × {max(result.draws, 1)} plants", fontsize=10)
+    ax.legend(fontsize=7)
+    return fig

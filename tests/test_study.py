@@ -1,0 +1,336 @@
+"""Studies (pkmlab.study): definitions, draws of the plant, rows against runs done alone, failures as
+results, chunk files and resumption, a real Dask cluster with a worker killed mid-study, the tuner."""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import run
+
+import pkmlab
+from pkmlab.errors import InvalidParameterError
+from pkmlab.mechanism_model import MechanismModel
+from pkmlab.scenario_io import load_scenario
+from pkmlab.study import Study, StudyError, StudyInterrupted, load_study, study_from_dict, sweep
+from pkmlab.uncertainty import draw_factors, perturbed_plant, uncertain_parameters
+
+pytest.importorskip("distributed")
+pytest.importorskip("pyarrow")
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
+FAST = EXAMPLES / "fast.toml"
+
+
+def small_study(**changes) -> Study:
+    """The paper's fast case, 2 gains x 2 speeds x 3 plants drawn (masses, inertias ±15 %): 12 runs."""
+    args = {"grid": {"controller.kp": [400.0, 2000.0], "trajectory.speed": [0.3, 0.4]},
+            "uncertainty": {"mass": 0.15, "inertia": 0.15}, "draws": 3, "seed": 7}
+    args.update(changes)
+    return Study.create(FAST, **args)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    """The small study run in this process, chunk by chunk: the table every other way must reproduce."""
+    return sweep(small_study(), workers=0, chunk_size=5)
+
+
+# ------------------------------------------------------------------ definitions
+@pytest.mark.parametrize("grid, message", [
+    ({"sample_time": [1e-3]}, "'sample_time' is not a scenario value (did you mean 'controller.sample_time'?)"),
+    ({"controller.kpp": [1.0]}, "did you mean 'controller.kp'?"),
+    ({"controller.kp": []}, "is empty"),
+    ({"controller.kp": [1.0, float("nan")]}, "[1] must be finite"),
+    ({"controller.kp": {"start": 1.0, "stop": float("inf"), "num": 3}}, "stop must be a finite number"),
+    ({"controller.kp": {"start": 1.0, "stop": 2.0}}, "needs num"),
+    ({"controller.kp": {"start": 1.0, "stop": 2.0, "num": 2, "step": 1}}, "unknown key 'step'"),
+    ({"controller.kp": [-5.0]}, "[grid] controller.kp = -5.0: "),
+    ({"controller.kp": [1.0, 1.0]}, "repeats a value"),
+    ({"mechanism.preset": ["delta"]}, "is not a scenario value"),
+])
+def test_bad_axes_are_refused_naming_the_key(grid, message):
+    with pytest.raises(InvalidParameterError) as info:
+        Study.create(FAST, grid=grid)
+    assert message in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_bad_study_files_are_refused(tmp_path):
+    base = {"trajectory": {"type": "circle", "center": [0.25, 0.21], "radius": 0.05, "speed": 0.2}}
+    cases = [
+        ({"study": {"draws": 2}, "base": base}, "no [uncertainty]"),
+        ({"study": {"base": "fast.toml"}, "base": base}, "give the base scenario once"),
+        ({"base": base, "uncertainty": {"mas": 0.1}, "study": {"draws": 2}}, "did you mean 'mass'?"),
+        ({"base": base, "uncertainty": {"mass": 1.5}, "study": {"draws": 2}}, "a spread must be a number in [0, 1)"),
+        ({"base": base, "grids": {}}, "did you mean [grid]?"),
+        ({"base": base, "study": {"combine": "zip"}, "grid": {"controller.kp": [1.0, 2.0],
+                                                                "controller.kv": [1.0]}}, "as many values"),
+    ]
+    for data, message in cases:
+        with pytest.raises(pkmlab.PkmlabError) as info:
+            study_from_dict(data, str(tmp_path / "s.toml"))
+        assert message in str(info.value), (data, str(info.value))
+
+
+def test_grid_order_ranges_and_zip():
+    study = Study.create(FAST, grid={"controller.kp": {"start": 100.0, "stop": 10000.0, "num": 3, "scale": "log"},
+                                     "trajectory.speed": {"start": 0.2, "stop": 0.4, "num": 3}},
+                         uncertainty={"mass": 0.1}, draws=2)
+    assert study.shape == (3, 3) and study.size == 18
+    assert study.axes[0][1] == pytest.approx((100.0, 1000.0, 10000.0), rel=1e-12)
+    assert study.axes[1][1] == pytest.approx((0.2, 0.3, 0.4), rel=1e-12)
+    # runs: grid point by grid point, the first axis slowest, draws innermost
+    assert study.locate(7) == (3, 1)
+    assert study.point_values(3) == {"controller.kp": study.axes[0][1][1], "trajectory.speed": 0.2}
+    zipped = Study.create(FAST, grid={"controller.kp": [100.0, 100.0], "controller.kv": [10.0, 30.0]},
+                          combine="zip")
+    assert zipped.size == 2 and zipped.point_values(1) == {"controller.kp": 100.0, "controller.kv": 30.0}
+    scenario = zipped.scenario(1)
+    assert (scenario.controller.kp, scenario.controller.kv) == (100.0, 30.0)
+    assert study.digest != Study.create(FAST, grid={"controller.kp": [1.0]}).digest
+    assert study.digest == Study.create(FAST, grid=dict((k, list(v)) for k, v in study.axes),
+                                        uncertainty={"mass": 0.1}, draws=2).digest
+
+
+# ------------------------------------------------------------------ drawn plants
+@pytest.mark.parametrize("name", ["paper", "3rpr", "delta"])
+def test_drawn_plants_scale_the_mass_matrix(name):
+    """Masses and inertias ×c, lengths unchanged: the same geometry, a mass matrix ×c (and gravity ×c) —
+    an independent check that every body's mass and inertia went through."""
+    model = pkmlab.Planar3RRR.paper() if name == "paper" else MechanismModel.from_preset(name)
+    c = 1.3
+    factors = {p: c for p in uncertain_parameters(model, ("mass", "inertia"))}
+    plant = perturbed_plant(model, factors)
+    if name == "paper":
+        from pkmlab import dynamics
+
+        q = pkmlab.inverse_kinematics(model, [0.25, 0.21, 0.0]).q[0]
+        m0, m1 = (dynamics.actuator_space_model(m, q, np.zeros(3))[0] for m in (model, plant))
+    else:
+        from pkmlab import mechanism_model as mm
+
+        pose = {"3rpr": [0.25, 0.21, -1.5707963267948966], "delta": [0.02, -0.01, -0.75]}[name]
+        q = mm.inverse_kinematics(model, pose, mm.working_modes(model)[0])
+        zero = np.zeros(model.n_actuators)
+        (m0, _c0, g0), (m1, _c1, g1) = (mm.actuator_space_model(m, q, zero) for m in (model, plant))
+        np.testing.assert_allclose(g1, c * g0, rtol=1e-12, atol=1e-15)
+        assert perturbed_plant(model, {}).description == model.description
+    np.testing.assert_allclose(m1, c * m0, rtol=1e-12)
+
+
+def test_draws_are_reproducible_and_independent_of_order():
+    model = MechanismModel.from_preset("five_bar")
+    bounds = {"mass": (0.8, 1.2), "length": 0.05}
+    later = draw_factors(model, bounds, seed=3, draw=5)
+    first = [draw_factors(model, bounds, seed=3, draw=k) for k in range(6)]
+    assert first[5] == later
+    assert first[0] != first[1]
+    values = np.array([list(f.values()) for f in first])
+    assert set(first[0]) == set(uncertain_parameters(model, ("mass", "length")))
+    masses = values[:, [i for i, n in enumerate(first[0]) if n.endswith("mass")]]
+    assert masses.min() >= 0.8 and masses.max() <= 1.2
+    with pytest.raises(InvalidParameterError, match="unknown uncertain parameter 'leg9.body1.mass'"):
+        perturbed_plant(model, {"leg9.body1.mass": 1.1})
+
+
+# ------------------------------------------------------------------ rows are runs
+def test_rows_equal_runs_done_alone(reference):
+    study = small_study()
+    assert list(reference["run"]) == list(range(study.size))
+    assert (reference["status"] == "ok").all()
+    for run_ in (0, 5, 11):
+        result = pkmlab.simulate(study.scenario(run_))
+        summary = result.summary()
+        row = reference.iloc[run_]
+        assert row["max_path_error_m"] == summary["max_path_error_m"]
+        assert row["rms_path_error_m"] == summary["rms_path_error_m"]
+        assert row["peak_effort"] == max(summary["peak_effort"])
+        assert row["min_abs_S"] == summary["min_abs_S"]
+    # the drawn plants differ, and their factors are the table's
+    assert reference["max_path_error_m"].nunique() == study.size
+    factors = study.factors(4)
+    assert all(reference.iloc[4][f"plant.{k}"] == v for k, v in factors.items())
+    assert reference.attrs["summary"]["ok"] == study.size
+
+
+def test_failures_are_results_with_their_reason():
+    # kp = 1e7 with Ts = 1 ms: the sampled-data loop is unstable; a radius of 0.2 m leaves the workspace
+    study = Study.create(FAST, grid={"controller.kp": [1000.0, 1e7], "trajectory.radius": [0.05, 0.2]})
+    frame = sweep(study, workers=0)
+    status = dict(zip(zip(frame["controller.kp"], frame["trajectory.radius"], strict=True),
+                      zip(frame["status"], frame["reason"], strict=True), strict=True))
+    assert status[(1000.0, 0.05)] == ("ok", "")
+    assert status[(1e7, 0.05)] == ("failed", "unstable")
+    assert status[(1000.0, 0.2)][1] in ("unreachable", "singular")
+    failed = frame[frame["status"] == "failed"]
+    assert failed["message"].str.len().min() > 20 and failed["max_path_error_m"].isna().all()
+    assert frame.attrs["summary"]["failed"] == 3
+
+
+def test_a_second_mechanism_study():
+    study = Study.create(EXAMPLES / "3rpr_circle.toml", grid={"controller.kp": [500.0, 2000.0]},
+                         uncertainty={"mass": 0.1, "length": 0.01}, draws=2, seed=1)
+    frame = sweep(study, workers=0)
+    assert (frame["status"] == "ok").all() and "peak_effort_3" in frame
+    summary = pkmlab.simulate(study.scenario(3)).summary()
+    assert frame.iloc[3]["max_path_error_m"] == summary["max_path_error_m"]
+    assert frame.iloc[3]["max_orientation_error_rad"] == summary["max_orientation_error_rad"]
+
+
+# ------------------------------------------------------------------ folders, chunks, resumption
+def test_interrupted_study_resumes_to_the_same_table(tmp_path, reference):
+    study = small_study()
+    out = tmp_path / "study"
+
+    def stop_after_two(done, total):
+        if done >= 4:
+            raise KeyboardInterrupt
+
+    with pytest.raises(StudyInterrupted, match=r"4 of 12 runs are kept"):
+        sweep(study, out, workers=0, chunk_size=2, on_chunk=stop_after_two)
+    assert len(list((out / "chunks").glob("*.parquet"))) == 2 and not (out / "runs.parquet").exists()
+    with pytest.raises(StudyError, match="unfinished: add --resume"):
+        sweep(study, out, workers=0)
+    counts = []
+    frame = sweep(study, out, workers=0, chunk_size=3, resume=True, on_chunk=lambda d, t: counts.append(t))
+    assert counts[-1] == 8  # only the runs not written
+    assert frame.equals(reference)
+    uninterrupted = tmp_path / "whole"
+    sweep(study, uninterrupted, workers=0, figures=False)
+    assert (out / "runs.parquet").read_bytes() == (uninterrupted / "runs.parquet").read_bytes()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["runs"] == 12 and summary["digest"] == study.digest
+    assert {p.name for p in (out / "figures").iterdir()} >= {"error_map.png", "effort_map.png",
+                                                             "distributions.png", "failures.png"}
+
+
+def test_study_folders_are_never_mixed(tmp_path):
+    study = small_study()
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "mine.txt").write_text("keep me")
+    with pytest.raises(StudyError, match="holds other files and no study"):
+        sweep(study, other, workers=0)
+    assert [p.name for p in other.iterdir()] == ["mine.txt"]
+    out = tmp_path / "s"
+    sweep(study, out, workers=0, figures=False)
+    with pytest.raises(StudyError, match="holds another study"):
+        sweep(small_study(seed=8), out, workers=0, resume=True)
+
+
+# ------------------------------------------------------------------ a real Dask cluster
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    import logging
+
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=logging.ERROR) as local, distributed.Client(local) as client:
+        yield client
+
+
+def test_a_killed_worker_loses_nothing(cluster, tmp_path, reference):
+    study = small_study()
+    killed = []
+
+    def kill_a_worker(done, total):
+        if not killed:
+            pids = cluster.run(os.getpid)
+            victim = sorted(pids.values())[0]
+            os.kill(victim, signal.SIGKILL)
+            killed.append(victim)
+
+    frame = sweep(study, tmp_path / "s", client=cluster, chunk_size=1, on_chunk=kill_a_worker, figures=False)
+    assert killed
+    assert frame.equals(reference)  # every run once, the same numbers
+    files = list((tmp_path / "s" / "chunks").glob("*.parquet"))
+    assert len(files) == study.size
+
+
+def test_interrupted_on_the_cluster_and_resumed(cluster, tmp_path, reference):
+    study = small_study()
+    out = tmp_path / "s"
+
+    def interrupt(done, total):
+        if done >= 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(StudyInterrupted):
+        sweep(study, out, client=cluster, chunk_size=3, on_chunk=interrupt, figures=False)
+    frame = sweep(study, out, client=cluster, chunk_size=4, resume=True, figures=False)
+    assert frame.equals(reference)
+
+
+def test_unreachable_scheduler_is_one_line():
+    with pytest.raises(StudyError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9 within 5 s"):
+        sweep(small_study(), scheduler="tcp://127.0.0.1:9")
+
+
+# ------------------------------------------------------------------ the command line
+def test_sweep_command(tmp_path, capsys):
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(f'[study]\nbase = "{FAST}"\n[grid]\n"controller.kp" = [400.0, 2000.0]\n')
+    code, out, err = run(capsys, "sweep", spec, "--out", tmp_path / "out", "--workers", "0", "--csv")
+    assert code == 0, err
+    assert "2 runs, 2 ok, 0 failed" in out
+    table = (tmp_path / "out" / "runs.csv").read_text().splitlines()
+    assert len(table) == 3 and table[0].startswith("run,point,draw,controller.kp,status")
+    spec.write_text(f'[study]\nbase = "{FAST}"\n[grid]\n"kp" = [400.0]\n')
+    code, out, err = run(capsys, "sweep", spec, "--out", tmp_path / "other", "--workers", "0")
+    assert code == 1 and err.count("\n") == 1 and "did you mean 'controller.kp'?" in err
+    assert not (tmp_path / "other").exists()
+
+
+def test_sweep_command_interrupted_then_resumed(tmp_path):
+    """Ctrl-C (SIGINT) during `pkmlab sweep` keeps the chunks written and says how to finish; --resume does."""
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(f'[study]\nbase = "{FAST}"\ndraws = 40\n[uncertainty]\nmass = 0.1\n')
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pkmlab.cli", "sweep", str(spec), "--out", str(out), "--workers", "0",
+           "--chunk-size", "1", "--no-figures"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    chunks = out / "chunks"
+    import time
+
+    while proc.poll() is None and len(list(chunks.glob("*.parquet")) if chunks.exists() else []) < 3:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _out, err = proc.communicate(timeout=120)
+    if proc.returncode == 0:  # finished before the signal came: nothing to resume
+        pytest.skip("the study finished before it could be interrupted")
+    assert proc.returncode == 130 and "--resume" in err and "Traceback" not in err
+    done = len(list(chunks.glob("*.parquet")))
+    resumed = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=300, check=False)
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"resuming: {done} of 40 runs" in resumed.stderr
+    whole = sweep(load_study(spec), workers=0)
+    import pyarrow.parquet as pq
+
+    assert pq.read_table(out / "runs.parquet").to_pandas().equals(whole)
+
+
+# ------------------------------------------------------------------ the tuner
+def test_tune_finds_gains_no_worse_than_the_scenarios(tmp_path, capsys):
+    code, out, err = run(capsys, "tune", FAST, "--max-effort", "1.6", "--out", tmp_path / "t", "--draws", "2",
+                         "--trials", "6", "--workers", "0", "--critical", "--kp-range", "100", "1e5")
+    assert code == 0, err
+    summary = json.loads((tmp_path / "t" / "tuning.json").read_text())
+    best, base = summary["best"], summary["baseline"]
+    assert base["kp"] == 1000.0 and best["error"] <= base["error"] and best["worst_effort"] <= 1.6
+    assert best["kv"] == pytest.approx(2 * math.sqrt(best["kp"]), rel=1e-12)
+    tuned = load_scenario(tmp_path / "t" / "tuned.toml")
+    assert (tuned.controller.kp, tuned.controller.kv) == (best["kp"], best["kv"])
+    front = summary["tradeoff"]
+    assert all(a["effort_limit"] <= b["effort_limit"] and a["error"] > b["error"] for a, b in zip(front, front[1:],
+                                                                                                  strict=False))
+    # the objective is the worst max path error of the tuned gains over the same drawn plants
+    check = sweep(Study.create(FAST, grid={"controller.kp": [best["kp"]], "controller.kv": [best["kv"]]},
+                               uncertainty={"mass": 0.15, "inertia": 0.15}, draws=2, seed=0), workers=0)
+    assert check["max_path_error_m"].max() == best["error"]
+    assert (tmp_path / "t" / "tradeoff.png").stat().st_size > 10_000
