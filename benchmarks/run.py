@@ -39,7 +39,8 @@ Closed-loop simulation (the paper's nominal case in-process, the NumPy/SciPy ``s
 path, MuJoCo on the same mechanism, a batch of 1,000 disturbed runs, the plant integrator's
 error and order, the arithmetic limit, cost growth): :mod:`simulation_bench`, whose rows follow;
 then every preset mechanism (forward kinematics, one dynamics evaluation, the default run):
-:mod:`mechanism_bench`.
+:mod:`mechanism_bench`; the two plants' accuracy against speed: :mod:`mujoco_frontier`; a 2,000-run
+study in-process and on Dask: :mod:`study_bench`.
 
 Usage::
 
@@ -945,6 +946,13 @@ def main(argv: list[str] | None = None) -> int:
     frontier_rows, frontier_checks = mujoco_frontier.frontier_rows(sys.modules[__name__], args.quick)
     rows += frontier_rows
     checks["plants_frontier"] = frontier_checks
+
+    progress("a study of 2,000 runs: in-process and on Dask")
+    import study_bench
+
+    study_rows, study_checks = study_bench.study_rows(sys.modules[__name__], args.quick)
+    rows += study_rows
+    checks["study"] = study_checks
 
     for row in rows:
         if row["kind"] == "per_op" and row["key"] == BASELINES.get(row["baseline"]):

@@ -69,6 +69,8 @@ def test_bad_study_files_are_refused(tmp_path):
         ({"base": base, "uncertainty": {"mas": 0.1}, "study": {"draws": 2}}, "did you mean 'mass'?"),
         ({"base": base, "uncertainty": {"mass": 1.5}, "study": {"draws": 2}}, "a spread must be a number in [0, 1)"),
         ({"base": base, "grids": {}}, "did you mean [grid]?"),
+        ({"base": base, "uncertainty": {"length": [0.3, 0.4]}, "study": {"draws": 20}},
+         "none of the first 8 plants drawn (length in [0.3, 0.4]) can be assembled: the platform cannot be"),
         ({"base": base, "study": {"combine": "zip"}, "grid": {"controller.kp": [1.0, 2.0],
                                                                 "controller.kv": [1.0]}}, "as many values"),
     ]
@@ -174,7 +176,7 @@ def test_failures_are_results_with_their_reason():
 
 
 def test_a_second_mechanism_study():
-    study = Study.create(EXAMPLES / "3rpr_circle.toml", grid={"controller.kp": [500.0, 2000.0]},
+    study = Study.create(EXAMPLES / "3prr_circle.toml", grid={"controller.kp": [500.0, 2000.0]},
                          uncertainty={"mass": 0.1, "length": 0.01}, draws=2, seed=1)
     frame = sweep(study, workers=0)
     assert (frame["status"] == "ok").all() and "peak_effort_3" in frame

@@ -32,6 +32,7 @@ _WHERE = {
     "ControllerSpec": "control",
     **dict.fromkeys(("Scenario", "SimulationResult", "paper_scenario", "perturbed_model", "simulate",
                      "simulate_batch"), "simulation"),
+    **dict.fromkeys(("Study", "load_study", "sweep", "tune"), "study"),
 }
 
 
@@ -98,4 +99,8 @@ __all__ = [
     "PlantRun",
     "SingularityMap",
     "singularity_map",
+    "Study",
+    "load_study",
+    "sweep",
+    "tune",
 ]

@@ -43,6 +43,7 @@ from .control import (
     sampled_data_spectral_radius,
 )
 from .errors import (
+    AssemblyError,
     BranchFollowingError,
     InvalidParameterError,
     PkmlabError,
@@ -549,7 +550,7 @@ def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray) -> np.
         return _machine_initial_plant(scenario, q_ctrl0)
     fk = forward_kinematics(scenario.plant_model, q_ctrl0[:3])
     if len(fk) == 0:
-        raise InvalidParameterError(
+        raise AssemblyError(
             f"the plant cannot be assembled at the start angles theta = {np.round(q_ctrl0[:3], 6).tolist()}"
         )
     dist = np.max(np.abs(np.angle(np.exp(1j * (fk.q[: len(fk), 3:] - q_ctrl0[3:])))), axis=1)
@@ -567,7 +568,7 @@ def _machine_initial_plant(scenario: Scenario, q_ctrl0: np.ndarray) -> np.ndarra
         return q_ctrl0.copy()
     solutions = machine_fk(scenario.plant_model, q_ctrl0[:n])
     if not solutions:
-        raise InvalidParameterError(f"the plant cannot be assembled at the start actuators "
+        raise AssemblyError(f"the plant cannot be assembled at the start actuators "
                                     f"{np.round(q_ctrl0[:n], 6).tolist()}")
     angles = np.array(model.kernels.ANGLES)
     gaps = [np.max(np.where(angles, np.abs(np.angle(np.exp(1j * (q - q_ctrl0)))), np.abs(q - q_ctrl0))[n:])

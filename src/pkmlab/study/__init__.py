@@ -14,5 +14,7 @@ Needs the ``study`` extra (``pip install 'pkmlab[study]'``: Dask, pandas, PyArro
 from .definition import Study, load_study, study_from_dict
 from .engine import StudyError, StudyInterrupted
 from .sweep import sweep
+from .tuning import TuningResult, tune
 
-__all__ = ["Study", "StudyError", "StudyInterrupted", "load_study", "study_from_dict", "sweep"]
+__all__ = ["Study", "StudyError", "StudyInterrupted", "TuningResult", "load_study", "study_from_dict", "sweep",
+           "tune"]

@@ -241,6 +241,38 @@ class Study:
                     scenario_from_dict(data, self.source, self.name)
                 except PkmlabError as exc:
                     raise _error(self.source, f"[grid] {key} = {shown(value)}: {exc}") from None
+        self._check_draws()
+
+    #: Plants drawn before a study starts, to refuse bounds that make none of them usable.
+    PREFLIGHT_DRAWS = 8
+
+    def _check_draws(self) -> None:
+        """Refuse uncertainty bounds that make every plant tried unassemblable (at the start of the first grid
+        point's run): the study would only record failures."""
+        from ..errors import AssemblyError, UnstableControlError
+        from ..simulation import _prepare
+
+        if not self.draws:
+            return
+        try:
+            nominal = self.nominal_scenario(0)
+            _prepare(nominal)
+        except PkmlabError:  # the grid point itself fails: a result of the study, not its bounds' doing
+            return
+        errors = []
+        for draw in range(min(self.draws, self.PREFLIGHT_DRAWS)):
+            try:
+                _prepare(self.scenario(draw, nominal))
+                return
+            except UnstableControlError:
+                return
+            except (AssemblyError, InvalidParameterError) as exc:
+                errors.append(exc)
+            except PkmlabError:
+                return
+        bounds = ", ".join(f"{q} in [{lo:g}, {hi:g}]" for q, (lo, hi) in self.uncertainty.items())
+        raise _error(self.source, f"[uncertainty]: none of the first {len(errors)} plants drawn ({bounds}) can be "
+                     f"assembled: {errors[0]}")
 
     # ---------------------------------------------------------------- the runs
     @property

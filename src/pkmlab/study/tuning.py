@@ -93,8 +93,10 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     plants make the uncertainty set (0: the scenario's plant alone). ``trials`` candidates are evaluated in
     batches of ``batch`` (one study each, on the cluster of ``workers``/``scheduler``/``client``).
     ``progress(done, total)`` is called after each batch."""
-    import optuna
+    from .engine import _needs
 
+    optuna = _needs("optuna")
+    _needs("pandas")
     base = _base(scenario)
     max_effort = _positive("max_effort", max_effort)
     if not 0.0 < quantile <= 1.0:
