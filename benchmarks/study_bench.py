@@ -6,7 +6,7 @@ each). Measured in the same run, medians of ``repeats``:
 
 * the baseline: every run in this process, one :func:`pkmlab.study.runs.run_chunk` call (its batches over
   both cores) — what the study costs without Dask;
-* the study on a local cluster of 1 worker (two compiled threads) and of 2 workers (one each), through
+* the study on a local cluster of 1 worker and of 2 workers (one core each), through
   :func:`pkmlab.study.sweep` without a folder: wall time and runs per second; the cluster's start is its
   own row (paid once per study);
 * the scheduler's overhead per chunk: the time of 200 empty tasks through the same cluster, per task,

@@ -11,7 +11,7 @@ order, so it is the same, bit for bit, whatever the workers, the chunk size or t
 Where the work runs:
 
 * by default a local cluster of worker processes, started and stopped here (one per core,
-  ``workers`` to choose), nothing to set up;
+  ``workers`` to choose; each runs one chunk at a time on one core), nothing to set up;
 * ``scheduler="tcp://HOST:PORT"``: an existing Dask cluster (its workers need pkmlab installed;
   they do not need the user's files: a study carries its scenario);
 * ``client=``: a ``distributed.Client`` already open (a notebook's);
@@ -273,8 +273,9 @@ def execute(study: Study, todo: list[int], *, folder: StudyFolder | None = None,
             count = max(1, len(dask.scheduler_info(n_workers=-1)["workers"])) if client is not None or scheduler \
                 else (workers or _cores())
             size = chunk_size or default_chunk_size(len(todo), count)
-            threads = max(1, _cores() // count) if client is None and scheduler is None else 1
-            _run_on_dask(dask, study, _chunks(todo, size), threads, finished)
+            # one compiled thread per task: a worker is one core (Dask runs one task per worker thread), and
+            # more threads per task would contend with the other workers and the scheduler for the cores
+            _run_on_dask(dask, study, _chunks(todo, size), 1, finished)
     wall = time.perf_counter() - start
     chunks = math.ceil(len(todo) / size) if todo else 0
     stats = {"workers": count, "chunk_size": size, "chunks": chunks, "wall_time_s": wall,

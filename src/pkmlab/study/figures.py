@@ -52,14 +52,15 @@ def plot_map(frame, metric: str, x: str, y: str, title: str):
     norm = LogNorm(finite.min(), finite.max()) if finite.size and finite.min() < finite.max() else None
     image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto", cmap="viridis", norm=norm)
     fig.colorbar(image, ax=ax, label=f"worst {LABELS.get(metric, metric)}")
+    light = image.norm(grid) > 0.6  # dark text on the colour map's light end
     for i in range(len(ys)):
         for j in range(len(xs)):
             text = f"{grid[i, j]:.2g}" if np.isfinite(grid[i, j]) else "—"
             if bad[i, j]:
                 ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch="//", edgecolor="red", lw=0))
                 text += f"\n{bad[i, j]} failed"
-            ax.text(j, i, text, ha="center", va="center", fontsize=7, color="white" if np.isfinite(grid[i, j])
-                    else "black")
+            dark = not np.isfinite(grid[i, j]) or bool(light[i, j])
+            ax.text(j, i, text, ha="center", va="center", fontsize=7, color="black" if dark else "white")
     ax.set_xticks(range(len(xs)), _ticks(xs), rotation=45 if len(xs) > 6 else 0)
     ax.set_yticks(range(len(ys)), _ticks(ys))
     ax.set_xlabel(x)
@@ -96,6 +97,7 @@ def plot_distributions(frame, by: str | None, title: str):
     """Empirical distributions (CDFs) of the max path error and the peak effort over the runs, one curve per
     value of axis ``by`` (at most eight; one curve for all runs without it)."""
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     ok = frame[frame["status"] == "ok"]
     fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.0), layout="constrained")
@@ -107,6 +109,7 @@ def plot_distributions(frame, by: str | None, title: str):
                 label = f"{_label(by)} = {value:.4g}" if by is not None and value != "all runs" else "all runs"
                 ax.step(data, np.arange(1, data.size + 1) / data.size, where="post", label=label)
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels of a short log range overlap
         ax.set_xlabel(LABELS[metric])
         ax.set_ylabel("fraction of runs ≤ value")
         ax.grid(alpha=0.3)

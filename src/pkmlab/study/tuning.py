@@ -233,11 +233,14 @@ def plot_tradeoff(result: TuningResult):
     trials = result.trials
     ok = trials[trials["failed"] == 0]
     fig, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
-    ax.scatter(ok["worst_effort"], ok["error"], c=np.log10(ok["kp"]), cmap="viridis", s=18, label="candidates")
+    points = ax.scatter(ok["worst_effort"], ok["error"], c=np.log10(ok["kp"]), cmap="viridis", s=18,
+                        label="candidates")
+    fig.colorbar(points, ax=ax, label="log10 kp")
+    right = max(result.max_effort, float(ok["worst_effort"].max()) if len(ok) else result.max_effort)
     if result.tradeoff:
         e, v = np.array(result.tradeoff).T
-        ax.step(np.append(e, max(e[-1], result.max_effort) * 1.5), np.append(v, v[-1]), where="post", color="k",
-                lw=1.2, label="trade-off: least error within the effort limit")
+        ax.step(np.append(e, right * 1.02), np.append(v, v[-1]), where="post", color="k", lw=1.2,
+                label="trade-off: least error within the effort limit")
     ax.axvline(result.max_effort, color="tab:red", ls="--", lw=1, label=f"effort limit {result.max_effort:g}")
     base = result.baseline
     if math.isfinite(base["error"]):
@@ -247,11 +250,10 @@ def plot_tradeoff(result: TuningResult):
         best = result.best
         ax.plot(best["worst_effort"], best["error"], "*", color="tab:red", ms=14,
                 label=f"tuned: kp = {best['kp']:.4g}, kv = {best['kv']:.4g}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
+    ax.set_yscale("log")  # efforts stay within a few per cent of the feed-forward's: a linear axis
     ax.set_xlabel("worst peak effort over the uncertainty set (N·m or N)")
     what = "worst-case" if result.quantile == 1 else f"{result.quantile:g}-quantile"
     ax.set_ylabel(f"{what} max path error (m)")
     ax.set_title(f"gain tuning: {len(trials)} candidates × {max(result.draws, 1)} plants", fontsize=10)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper right")
     return fig
