@@ -4,7 +4,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install reproduce test lint bench derive clean
+.PHONY: install reproduce test lint bench derive clean browser
 
 install: $(STAMP)
 
@@ -20,7 +20,15 @@ reproduce: install
 lint: install
 	$(BIN)/ruff check src tests benchmarks examples
 
-test: lint
+# The views' tests open pages in a real headless browser: Debian's Chromium (the tests skip without it).
+browser:
+	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || \
+	  { SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); export DEBIAN_FRONTEND=noninteractive; \
+	    $$SUDO apt-get install -y -q chromium >/dev/null 2>&1 || \
+	    { $$SUDO apt-get update -q >/dev/null && $$SUDO apt-get install -y -q chromium >/dev/null; } || \
+	    echo "make: could not install Chromium: the browser tests will be skipped"; }
+
+test: lint browser
 	$(BIN)/python -m pytest
 
 bench: install

@@ -210,6 +210,12 @@ TARGETS = [
     _sig(pkmlab.perturbed_model, model=MODEL, rng=RNG, spread=0.15),
     _sig(pkmlab.paper_scenario, name="nominal"),
     _sig(pkmlab.load_scenario, path=SCENARIO_DIR / "nominal.toml"),
+    # studies (pkmlab.sweep and pkmlab.tune run whole studies — processes, a cluster, files — and are checked
+    # argument by argument in tests/test_study.py)
+    Target("Study.create", pkmlab.Study.create, dict(base=SCENARIO_DIR / "fast.toml", grid={"controller.kp": [500.0]},
+                                                     uncertainty=None, draws=0, seed=0, name=None, source="<study>",
+                                                     combine="cross"), examples=60),
+    _sig(pkmlab.load_study, path=Path(__file__).parents[1] / "examples" / "fast_gain_sweep.toml"),
     # plants
     Target("ReducedPlant.simulate", _reduced_plant, {**_PLANT, "min_abs_S": 1e-6, "theta_dot0": np.zeros(3)},
            names=_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
@@ -274,7 +280,8 @@ def test_every_public_callable_is_fuzzed():
     fuzzed |= {"ReducedPlant", "FullPlant"}
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
-              "PlantRun", "SingularityMap"}
+              "PlantRun", "SingularityMap",
+              "sweep", "tune"}  # whole studies: their arguments are checked one by one in tests/test_study.py
     public = {name: getattr(pkmlab, name) for name in pkmlab.__all__}
     callables = [name for name, obj in public.items()
                  if callable(obj) and not (isinstance(obj, type) and issubclass(obj, Exception))]

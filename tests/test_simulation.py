@@ -284,7 +284,7 @@ def test_batch_refuses_runs_of_different_lengths_and_names_a_failed_run():
     scenarios = _uncertainty_study(1000, seed=7)
     unassemblable, singular = scenarios[988], scenarios[999]
     returned = pkmlab.simulate_batch([unassemblable, nominal, singular], on_error="return")
-    assert isinstance(returned[0], InvalidParameterError) and "run 0 (draw 988)" in str(returned[0])
+    assert isinstance(returned[0], AssemblyError) and "run 0 (draw 988)" in str(returned[0])
     assert "cannot be assembled" in str(returned[0])
     assert isinstance(returned[2], BranchFollowingError) and "run 2 (draw 999)" in str(returned[2])
     assert "t = 0.3090 s" in str(returned[2])

@@ -68,7 +68,7 @@ def test_bad_study_files_are_refused(tmp_path):
         ({"study": {"base": "fast.toml"}, "base": base}, "give the base scenario once"),
         ({"base": base, "uncertainty": {"mas": 0.1}, "study": {"draws": 2}}, "did you mean 'mass'?"),
         ({"base": base, "uncertainty": {"mass": 1.5}, "study": {"draws": 2}}, "a spread must be a number in [0, 1)"),
-        ({"base": base, "grids": {}}, "did you mean [grid]?"),
+        ({"base": base, "grids": {}}, "did you mean 'grid'?"),
         ({"base": base, "uncertainty": {"length": [0.3, 0.4]}, "study": {"draws": 20}},
          "none of the first 8 plants drawn (length in [0.3, 0.4]) can be assembled: the platform cannot be"),
         ({"base": base, "study": {"combine": "zip"}, "grid": {"controller.kp": [1.0, 2.0],
@@ -336,3 +336,22 @@ def test_tune_finds_gains_no_worse_than_the_scenarios(tmp_path, capsys):
                                uncertainty={"mass": 0.15, "inertia": 0.15}, draws=2, seed=0), workers=0)
     assert check["max_path_error_m"].max() == best["error"]
     assert (tmp_path / "t" / "tradeoff.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: sweep(42), "study must be a Study, a study file or its tables"),
+    (lambda: sweep(small_study(), chunk_size=0, workers=0), "chunk_size must be a positive integer"),
+    (lambda: sweep(small_study(), workers=-1), "workers must be a non-negative integer"),
+    (lambda: sweep(small_study(), workers="two"), "workers must be a non-negative integer"),
+    (lambda: sweep(small_study(), heatmap=("controller.kv", "draw"), workers=0), "heatmap: 'controller.kv' is not"),
+    (lambda: pkmlab.tune(FAST, -1.0), "max_effort must be a positive number"),
+    (lambda: pkmlab.tune(FAST, 1.0, quantile=2.0), "quantile must be in (0, 1]"),
+    (lambda: pkmlab.tune(FAST, 1.0, trials=0), "trials must be an integer"),
+    (lambda: pkmlab.tune(FAST, 1.0, draws=-1), "draws must be an integer"),
+    (lambda: pkmlab.tune(42, 1.0), "scenario must be a scenario file or its tables"),
+    (lambda: pkmlab.tune(FAST, 1.0, kp_range=(1.0, 10.0)), "lie outside the search box"),
+])
+def test_sweep_and_tune_refuse_bad_arguments_by_name(call, message):
+    with pytest.raises(pkmlab.PkmlabError) as info:
+        call()
+    assert message in str(info.value) and "\n" not in str(info.value)

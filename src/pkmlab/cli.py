@@ -995,6 +995,35 @@ def cmd_tune(args) -> dict:
     return summary
 
 
+def cmd_view(args) -> dict:
+    """The interactive HTML view of a result folder: RESULT_DIR/REPORT.html (listed in its manifest) or --out."""
+    from .views.folder import read_result_views
+    from .views.html import write_html
+
+    folder = Path(args.result_dir)
+    out = _output_path(args.out, "--out", {".html", ".htm"}) if args.out else folder / "REPORT.html"
+    views = read_result_views(folder)  # every file checked before anything is written
+    title = f"pkmlab view: {folder.resolve().name}"
+    if args.out:
+        with _NewFolders(out):
+            write_html(out, views, title)
+    else:
+        from .outputs import OutputFolderError, add_to_result
+        from .views.html import page
+
+        text = page(views, title)
+        try:
+            add_to_result(folder, "REPORT.html", lambda tmp: tmp.write_text(text, encoding="utf-8"))
+        except OutputFolderError as exc:
+            raise PkmlabError(f"{exc}; write the view elsewhere with --out FILE.html") from None
+    size = out.stat().st_size
+    result = {"html": str(out), "runs": [v.name for v in views], "bytes": size}
+    if not args.json:
+        print(f"wrote {out} ({size / 1e6:.1f} MB, {len(views)} run{'s' if len(views) > 1 else ''}: "
+              f"{', '.join(v.name for v in views)}); open it in a browser, it works offline")
+    return result
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
                                      "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
@@ -1115,6 +1144,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     execution(p)
     p.set_defaults(func=cmd_tune)
+
+    p = sub.add_parser("view", help="an interactive HTML view of a result folder: the machine animated in sync "
+                       "with its time series, offline")
+    p.add_argument("result_dir", metavar="RESULT_DIR", help="a folder of pkmlab simulate or pkmlab reproduce")
+    p.add_argument("--out", metavar="FILE.html", help="where to write it (default RESULT_DIR/REPORT.html, added to "
+                   "the folder's manifest)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=cmd_view)
 
     p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
     p.add_argument("--out", default="demo", help="output folder (default: demo)")

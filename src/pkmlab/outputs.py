@@ -300,6 +300,21 @@ def _write_manifest(folder: Path, command: str, provenance: dict) -> None:
     (folder / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
 
 
+def add_to_result(folder: str | os.PathLike, name: str, write) -> Path:
+    """Add the file ``name`` to the result folder ``folder`` (``pkmlab view`` adding ``REPORT.html``): the folder
+    is checked against its manifest first (refused, naming what does not match, if anything does),
+    ``write(tmp)`` writes the file atomically, and the manifest then lists it with its SHA-256 — so the folder
+    stays one that its command may replace."""
+    folder = Path(folder)
+    manifest = read_manifest(folder)
+    with atomic_file(folder / name) as tmp:
+        write(tmp)
+    manifest["files"][name] = sha256_of(folder / name)
+    with atomic_file(folder / MANIFEST) as tmp:
+        tmp.write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    return folder / name
+
+
 # Linux renameat2(2) with RENAME_EXCHANGE swaps two paths atomically; None where unavailable.
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100

@@ -1,12 +1,13 @@
 """The paper's reproduction: the three simulated cases, their data, figures and a report.
 
 :func:`reproduce` writes into a folder: ``summary.json``, one CSV per case (conventions §8
-columns), a PNG per figure of the paper (3–15) and ``REPORT.md`` comparing the cases. All
-files are written into a temporary folder beside the target and moved into place only when
+columns), a PNG per figure of the paper (3–15), ``REPORT.md`` comparing the cases and ``REPORT.html``
+(each case animated beside its time series, :mod:`pkmlab.views`). All files are written into a temporary folder beside the target and moved into place only when
 everything succeeded, so an error or Ctrl-C leaves no half-written results.
 
 :func:`simulation_report` does the same for one scenario (``pkmlab simulate``): ``summary.json``,
-``run.csv``, ``plant.toml`` (the real machine's parameters), five figures and ``REPORT.md``.
+``run.csv``, ``plant.toml`` (the real machine's parameters), five figures, ``REPORT.md`` and
+``REPORT.html``.
 """
 
 from __future__ import annotations
@@ -257,6 +258,16 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
                 plt.close(fig)
             say(f"drew {len(FIGURES)} figures")
         (tmp / "REPORT.md").write_text(_report(results, summary["cases"], figures, prov))
+        if figures:
+            from .simulation import SCENARIO_DIR
+            from .views.html import write_html
+            from .views.run import RunView
+
+            write_html(tmp / "REPORT.html", [RunView.from_result(results[name], name, (
+                SCENARIO_DIR / f"{name}.toml").read_text()) for name in PAPER_CASES],
+                "pkmlab reproduce: the paper's three cases", note=f"Manipulator: {prov['manipulator']}; "
+                f"{prov['control']} control.")
+            say("wrote the interactive report")
     say(f"wrote {out}/")
     return summary
 
@@ -399,5 +410,11 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
                     plt.close(fig)
             say(f"drew {len(run_figures(scenario))} figures")
         (tmp / "REPORT.md").write_text(_run_report(result, summary, figures))
+        if figures:
+            from .views.html import write_html
+            from .views.run import RunView
+
+            write_html(tmp / "REPORT.html", [RunView.from_result(result, scenario.name, text or "")],
+                       f"pkmlab simulate: {scenario.name}")
     say(f"wrote {out}/")
     return summary

@@ -68,11 +68,9 @@ def check_bounds(bounds: dict, where: str = "uncertainty") -> dict[str, tuple[fl
     out = {}
     for quantity, value in bounds.items():
         if quantity not in QUANTITIES:
-            import difflib
+            from .scenario_io import _suggest
 
-            close = difflib.get_close_matches(str(quantity), QUANTITIES, n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else f" (uncertain quantities: {', '.join(QUANTITIES)})"
-            raise InvalidParameterError(f"{where}: unknown quantity '{quantity}'{hint}")
+            raise InvalidParameterError(f"{where}: unknown quantity '{quantity}'{_suggest(str(quantity), QUANTITIES)}")
         key = f"{where}.{quantity}"
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             spread = float(value)

@@ -46,7 +46,7 @@ import numpy as np
 from .._version import __version__
 from ..errors import InvalidParameterError, PkmlabError, shown
 from ..io import PARAM_KEYS, FileFormatError, read_toml
-from ..scenario_io import TABLES, scenario_from_dict
+from ..scenario_io import TABLES, _suggest, scenario_from_dict
 from ..uncertainty import check_bounds
 
 #: The keys of a study file's ``[study]`` table.
@@ -92,9 +92,7 @@ def axis_values(key: str, spec, source: str = "<study>", unique: bool = True) ->
     if isinstance(spec, dict):
         for k in spec:
             if k not in RANGE_KEYS:
-                close = difflib.get_close_matches(str(k), RANGE_KEYS, n=1)
-                hint = f" (did you mean '{close[0]}'?)" if close else f" (a range has {', '.join(RANGE_KEYS)})"
-                raise _error(source, f"unknown key '{k}' in the range {where}{hint}")
+                raise _error(source, f"unknown key '{k}' in the range {where}{_suggest(str(k), RANGE_KEYS)}")
         missing = [k for k in ("start", "stop", "num") if k not in spec]
         if missing:
             raise _error(source, f"the range {where} needs {', '.join(missing)} (a range is {{start, stop, num}})")
@@ -181,14 +179,25 @@ class Study:
         ({axis key: list of values or {start, stop, num[, scale]}}), ``uncertainty`` ({quantity: spread or
         [low, high]}), ``draws``, ``seed`` and ``combine`` (``"cross"``: every combination of the axes'
         values; ``"zip"``: value by value). Every problem is one line naming the key and the value."""
-        if isinstance(base, (str, Path)):
-            path = Path(base)
-            data = _self_contained(read_toml(path), path.parent, str(path))
-            name = name or path.stem
-        elif isinstance(base, dict):
-            data = _self_contained(base, Path(source).parent, source)
-        else:
-            raise _error(source, f"base must be a scenario file or its tables (a dict), got {type(base).__name__}")
+        if not isinstance(source, str):
+            raise InvalidParameterError(f"source must be a string (the study file's name), got {shown(source)}")
+        if name is not None and not (isinstance(name, str) and name):
+            raise _error(source, f"name must be a non-empty string, got {shown(name)}")
+        if not (isinstance(combine, str) and combine in COMBINE):
+            raise _error(source, f"[study].combine must be \"cross\" or \"zip\", got {shown(combine)}")
+        try:
+            if isinstance(base, (str, Path)):
+                path = Path(base)
+                data = _self_contained(read_toml(path), path.parent, str(path))
+                name = name or path.stem
+            elif isinstance(base, dict):
+                data = _self_contained(base, Path(source).parent, source)
+            else:
+                raise InvalidParameterError(f"must be a scenario file or its tables (a dict), got "
+                                            f"{type(base).__name__} {shown(base, 40)}")
+        except (PkmlabError, ValueError) as exc:  # ValueError: a NUL in a path
+            raise InvalidParameterError(f"base: {exc}") if not isinstance(exc, PkmlabError) else \
+                type(exc)(f"base: {exc}") from None
         if not isinstance(grid if grid is not None else {}, dict):
             raise _error(source, f"grid must be a table of axes, got {shown(grid)}")
         valid = axis_keys()
@@ -214,8 +223,6 @@ class Study:
         if draws and not bounds:
             raise _error(source, f"[study].draws = {draws} but no [uncertainty]: give the quantities to draw "
                          "(mass, length, inertia)")
-        if combine not in COMBINE:
-            raise _error(source, f"[study].combine must be \"cross\" or \"zip\", got {shown(combine)}")
         if combine == "zip" and len({len(values) for _key, values in axes}) > 1:
             raise _error(source, "[study].combine = \"zip\" pairs the axes value by value: they need as many values "
                          "each, got " + ", ".join(f"{key}: {len(values)}" for key, values in axes))
@@ -228,7 +235,8 @@ class Study:
         and the value — or that has too many runs. (Combinations of valid values that fail — too many samples,
         an unreachable path — are results of the study, recorded with their reason.)"""
         if self.size > MAX_RUNS:
-            raise _error(self.source, f"the study has {self.size} runs, more than {MAX_RUNS}: split it")
+            raise _error(self.source, f"the study has {self.size} runs (grid points x draws), more than {MAX_RUNS}: "
+                         "split it")
         try:
             scenario_from_dict(copy.deepcopy(self.base), self.source, self.name)
         except PkmlabError as exc:
@@ -378,17 +386,13 @@ def study_from_dict(data: dict, source: str = "<study>") -> Study:
         raise FileFormatError(f"{source}: a study must be a TOML document of tables, got {shown(data)}")
     for key in data:
         if key not in STUDY_TABLES:
-            close = difflib.get_close_matches(str(key), STUDY_TABLES, n=1)
-            hint = f" (did you mean [{close[0]}]?)" if close else f" (tables: {', '.join(STUDY_TABLES)})"
-            raise FileFormatError(f"{source}: unknown table '{key}'{hint}")
+            raise FileFormatError(f"{source}: unknown table '{key}'{_suggest(str(key), STUDY_TABLES)}")
         if not isinstance(data[key], dict):
             raise FileFormatError(f"{source}: [{key}] must be a table, got {shown(data[key])}")
     head = data.get("study", {})
     for key in head:
         if key not in STUDY_KEYS:
-            close = difflib.get_close_matches(str(key), STUDY_KEYS, n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else f" (keys: {', '.join(STUDY_KEYS)})"
-            raise FileFormatError(f"{source}: unknown key '{key}' in [study]{hint}")
+            raise FileFormatError(f"{source}: unknown key '{key}' in [study]{_suggest(str(key), STUDY_KEYS)}")
     if ("base" in head) == ("base" in data):
         raise FileFormatError(f"{source}: give the base scenario once: [study].base = \"FILE.toml\" or [base.*] "
                               "tables")
@@ -409,5 +413,8 @@ def study_from_dict(data: dict, source: str = "<study>") -> Study:
 
 def load_study(path) -> Study:
     """Read a study file (format: this module's docstring)."""
+    if not isinstance(path, str) and not hasattr(path, "__fspath__"):
+        raise InvalidParameterError(f"path must be a file name (a str or a pathlib.Path), got {type(path).__name__} "
+                                    f"{shown(path, 50)}")
     return study_from_dict(read_toml(path), str(path))
 

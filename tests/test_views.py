@@ -1,0 +1,203 @@
+"""Interactive views (pkmlab.views): REPORT.html and ``pkmlab view``, opened in headless Chromium."""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import run
+
+import pkmlab
+from pkmlab.views.html import write_html
+from pkmlab.views.run import RunView
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+EXAMPLES = Path(__file__).parents[1] / "examples"
+
+
+@pytest.fixture(scope="module")
+def nominal_result():
+    return pkmlab.simulate(pkmlab.paper_scenario("nominal"))
+
+
+@pytest.fixture(scope="module")
+def result_dir(tmp_path_factory, nominal_result):
+    """A folder of `pkmlab simulate --no-figures` of the paper's nominal case."""
+    out = tmp_path_factory.mktemp("views") / "nominal"
+    code = pkmlab.cli.main(["simulate", str(EXAMPLES / "nominal.toml"), "--out", str(out), "--no-figures", "--quiet"])
+    assert code == 0
+    return out
+
+
+# ------------------------------------------------------------------ the view's data
+def test_the_view_draws_the_run_it_was_given(nominal_result):
+    view = RunView.from_result(nominal_result)
+    assert view.samples[0] == 0 and view.samples[-1] == len(nominal_result.t) - 1 and len(view.samples) <= 150
+    # the tracked point of the drawn machine is the platform's centroid: the mean of its vertices (the 3-RRR's
+    # attachment points form an equilateral triangle about it)
+    vertices = view.joints[:, :, -1, :]
+    np.testing.assert_allclose(vertices.mean(axis=1), nominal_result.pose[view.samples, :2], atol=1e-12)
+    # each leg's links keep their lengths in every frame
+    model = nominal_result.scenario.model
+    links = np.linalg.norm(np.diff(view.joints, axis=2), axis=-1)
+    np.testing.assert_allclose(links[:, :, 0], np.broadcast_to(model.active_lengths, links[:, :, 0].shape), rtol=1e-12)
+    np.testing.assert_allclose(links[:, :, 1], np.broadcast_to(model.passive_lengths, links[:, :, 1].shape), rtol=1e-12)
+    np.testing.assert_allclose(view.series["path error"][1]["|p - p_d|"], nominal_result.path_error, rtol=0, atol=0)
+
+
+def test_view_of_a_folder_is_the_view_of_the_run(result_dir, nominal_result):
+    from pkmlab.views.folder import read_result_views
+
+    (view,) = read_result_views(result_dir)
+    direct = RunView.from_result(nominal_result)
+    # rebuilt from the CSV's actuator angles by forward kinematics and branch following
+    np.testing.assert_allclose(view.joints, direct.joints, atol=1e-9)
+    assert view.summary["max_path_error_m"] == nominal_result.summary()["max_path_error_m"]
+    assert "[trajectory]" in view.scenario_text
+
+
+def test_view_command_adds_the_page_to_the_result(result_dir, capsys):
+    code, out, err = run(capsys, "view", result_dir, "--json")
+    assert code == 0, err
+    page = result_dir / "REPORT.html"
+    assert json.loads(out)["html"] == str(page) and page.stat().st_size > 4_000_000  # Plotly embedded
+    text = page.read_text()
+    assert "<script src=" not in text and "<link " not in text  # offline: Plotly's code is in the page
+    manifest = json.loads((result_dir / "pkmlab-manifest.json").read_text())
+    assert "REPORT.html" in manifest["files"]
+    # the folder stays a result that pkmlab simulate may replace
+    code, _out, err = run(capsys, "simulate", EXAMPLES / "nominal.toml", "--out", result_dir, "--no-figures",
+                          "--quiet")
+    assert code == 0, err
+
+
+@pytest.mark.parametrize("damage, message", [
+    ("truncate", "row 1572 (line 1573) has"),
+    ("rename", "missing column tau2"),
+    ("nothing", "is not a result folder: no run.csv"),
+])
+def test_view_of_a_damaged_result_is_one_line_and_writes_nothing(tmp_path, result_dir, capsys, damage, message):
+    folder = tmp_path / "r"
+    shutil.copytree(result_dir, folder)
+    (folder / "REPORT.html").unlink(missing_ok=True)
+    csv = folder / "run.csv"
+    text = csv.read_text()
+    if damage == "truncate":
+        csv.write_text(text[: len(text) - 40])
+    elif damage == "rename":
+        csv.write_text(text.replace("tau2", "torque2", 1))
+    else:
+        csv.unlink()
+    before = sorted(p.name for p in folder.iterdir())
+    code, _out, err = run(capsys, "view", folder)
+    assert code == 1 and err.count("\n") == 1 and message in err, err
+    assert sorted(p.name for p in folder.iterdir()) == before
+
+
+# ------------------------------------------------------------------ in a real browser
+@pytest.fixture(scope="module")
+def browser():
+    if CHROMIUM is None:
+        pytest.skip("Chromium is not installed (make test installs Debian's chromium)")
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=[
+            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", "--no-first-run", "--disable-quic"])
+        yield b
+        b.close()
+
+
+def _open(browser, path: Path):
+    page = browser.new_page(viewport={"width": 1400, "height": 1300})
+    errors = []
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    # offline: any request for something other than the file itself is an error
+    page.on("request", lambda r: errors.append(f"fetched {r.url}") if not r.url.startswith("file:") else None)
+    page.goto(path.as_uri())
+    page.wait_for_selector("#run-0 .main-svg")
+    return page, errors
+
+
+GEOMETRY = """() => {
+  const gd = document.getElementById('run-0'), L = gd._fullLayout, box = gd.getBoundingClientRect();
+  const area = a => ({x0: box.left + L[a.x]._offset, x1: box.left + L[a.x]._offset + L[a.x]._length,
+                      y0: box.top + L[a.y]._offset, y1: box.top + L[a.y]._offset + L[a.y]._length});
+  const series = [];
+  for (let i = 2; L['xaxis' + i]; i++) series.push({...area({x: 'xaxis' + i, y: 'yaxis' + i}), axis: 'xaxis' + i});
+  const rail = gd.querySelector('.slider-rail-rect').getBoundingClientRect();
+  const slider = gd.querySelector('.slider-container').getBoundingClientRect();
+  return {machine: area({x: 'xaxis', y: 'yaxis'}), series, rail: {x0: rail.left, x1: rail.right, y: rail.top +
+          rail.height / 2}, slider: {y0: slider.top, y1: slider.bottom}, scrollY: window.scrollY};
+}"""
+CURSOR = """(axis) => { const gd = document.getElementById('run-0'), L = gd._fullLayout;
+  const t = gd.data.filter(d => d.xaxis === axis.replace('axis', '') && d.hoverinfo === 'skip')[0].x[0];
+  return gd.getBoundingClientRect().left + L[axis]._offset + L[axis].l2p(t); }"""
+
+
+def _pixels(page) -> np.ndarray:
+    from io import BytesIO
+
+    from PIL import Image
+
+    return np.asarray(Image.open(BytesIO(page.screenshot())).convert("RGB")).astype(int)
+
+
+def test_the_slider_moves_the_machine_and_nothing_else(browser, tmp_path, nominal_result):
+    path = write_html(tmp_path / "nominal.html", [RunView.from_result(nominal_result)], "nominal")
+    page, errors = _open(browser, path)
+    geometry = page.evaluate(GEOMETRY)
+    cursors_before = [page.evaluate(CURSOR, s["axis"]) for s in geometry["series"]]
+    before = _pixels(page)
+    rail = geometry["rail"]
+    page.mouse.click(rail["x0"] + 0.6 * (rail["x1"] - rail["x0"]), rail["y"])
+    page.mouse.move(1, 1)  # away from the figure, whose tool bar shows while the mouse is over it
+    page.wait_for_timeout(500)
+    after = _pixels(page)
+    cursors_after = [page.evaluate(CURSOR, s["axis"]) for s in geometry["series"]]
+    assert errors == []
+    assert all(b < a for b, a in zip(cursors_before, cursors_after, strict=True))  # every cursor went forward
+    changed = np.abs(after - before).sum(axis=2) > 30
+    ys, xs = np.nonzero(changed)
+    m = geometry["machine"]
+    in_machine = (xs >= m["x0"] - 12) & (xs <= m["x1"] + 12) & (ys >= m["y0"] - 12) & (ys <= m["y1"] + 12)
+    assert in_machine.sum() > 500  # the machine moved
+    near_cursor = np.zeros_like(in_machine)
+    for s, x_old, x_new in zip(geometry["series"], cursors_before, cursors_after, strict=True):
+        rows = (ys >= s["y0"] - 2) & (ys <= s["y1"] + 2)
+        near_cursor |= rows & ((np.abs(xs - x_old) <= 3) | (np.abs(xs - x_new) <= 3))
+    on_slider = (ys >= geometry["slider"]["y0"] - 30) & (ys <= geometry["slider"]["y1"] + 5)
+    elsewhere = ~(in_machine | near_cursor | on_slider)
+    assert elsewhere.sum() == 0, f"{elsewhere.sum()} pixels changed away from the machine, cursors and slider, " \
+                                 f"e.g. at {list(zip(xs[elsewhere][:5], ys[elsewhere][:5], strict=True))}"
+
+
+def test_hover_shows_the_values(browser, tmp_path, nominal_result):
+    path = write_html(tmp_path / "nominal.html", [RunView.from_result(nominal_result)], "nominal")
+    page, errors = _open(browser, path)
+    k = 700
+    t, e = float(nominal_result.t[k]), float(nominal_result.path_error[k])
+    x, y = page.evaluate("""([t, e]) => { const gd = document.getElementById('run-0'), L = gd._fullLayout;
+        const box = gd.getBoundingClientRect();
+        return [box.left + L.xaxis2._offset + L.xaxis2.l2p(t), box.top + L.yaxis2._offset + L.yaxis2.l2p(e)]; }""",
+                         [t, e])
+    page.mouse.move(x, y)
+    page.wait_for_selector(".hoverlayer .hovertext", timeout=5000)
+    text = page.evaluate("() => document.querySelector('.hoverlayer').textContent")
+    assert "|p - p_d| =" in text and "t = " in text, text
+    shown = float(text.split("|p - p_d| = ")[1].split(" m")[0].replace("µ", "e-6").replace("μ", "e-6"))
+    assert shown == pytest.approx(e, rel=2e-3, abs=2e-8)
+    assert errors == []
+
+
+def test_a_spatial_machine_is_drawn_in_3d(browser, tmp_path):
+    scenario = pkmlab.load_scenario(EXAMPLES / "delta_pick_and_place.toml")
+    view = RunView.from_result(pkmlab.simulate(scenario))
+    assert view.spatial
+    path = write_html(tmp_path / "delta.html", [view], "delta")
+    page, errors = _open(browser, path)
+    assert page.evaluate("() => document.getElementById('run-0')._fullLayout.scene !== undefined")
+    assert page.evaluate("() => document.getElementById('run-0').data.filter(d => d.type === 'scatter3d').length") >= 5
+    assert errors == []
