@@ -10,6 +10,7 @@ import pkmlab
 from pkmlab.cli import main
 from pkmlab.control import ControllerSpec
 from pkmlab.errors import (
+    AssemblyError,
     BranchFollowingError,
     InvalidParameterError,
     PkmlabError,

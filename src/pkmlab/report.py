@@ -2,8 +2,9 @@
 
 :func:`reproduce` writes into a folder: ``summary.json``, one CSV per case (conventions §8
 columns), a PNG per figure of the paper (3–15), ``REPORT.md`` comparing the cases and ``REPORT.html``
-(each case animated beside its time series, :mod:`pkmlab.views`). All files are written into a temporary folder beside the target and moved into place only when
-everything succeeded, so an error or Ctrl-C leaves no half-written results.
+(each case animated beside its time series, :mod:`pkmlab.views`). All files are written into a
+temporary folder beside the target and moved into place only when everything succeeded, so an error
+or Ctrl-C leaves no half-written results.
 
 :func:`simulation_report` does the same for one scenario (``pkmlab simulate``): ``summary.json``,
 ``run.csv``, ``plant.toml`` (the real machine's parameters), five figures, ``REPORT.md`` and

@@ -30,7 +30,8 @@ class RunView:
     """Everything an interactive view draws of one run.
 
     ``t`` (N,); ``samples`` the samples the animation shows (:func:`frame_samples`); ``joints`` (len(samples),
-    legs, joints per leg, 2 or 3): every joint's position at those samples, the base joint first; ``actuated`` the index in a leg's joints of its actuated body's first joint (the body
+    legs, joints per leg, 2 or 3): every joint's position at those samples, the base joint first; ``actuated``
+    the index in a leg's joints of its actuated body's first joint (the body
     drawn bold); ``leg_joints`` how many joints each leg has; ``rigid`` whether the platform is a body joining
     the legs' last joints; ``desired`` and ``actual`` (N, 2 or 3) the tracked point; ``series`` the time series
     drawn beside it, ``{title: (unit, {name: (N,) values})}``; ``summary`` and ``scenario_text`` for the page.
@@ -203,7 +204,7 @@ def run_figure(view: RunView) -> dict:
                   row=1, col=1)
     palette = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"]
     bounds = []
-    for row, (title, (unit, curves)) in enumerate(view.series.items(), start=1):
+    for row, (_title, (unit, curves)) in enumerate(view.series.items(), start=1):
         values = np.concatenate([np.asarray(v, dtype=float) for v in curves.values()])
         finite = values[np.isfinite(values)]
         lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
@@ -228,7 +229,9 @@ def run_figure(view: RunView) -> dict:
     kind = "scatter3d" if spatial else "scatter"
 
     def points(xyz: np.ndarray) -> dict:
-        axes = dict(zip("xyz", xyz.T, strict=False)) if len(xyz) else {"x": [], "y": [], **({"z": []} if spatial else {})}
+        if not len(xyz):
+            return {"type": kind, "x": [], "y": [], **({"z": []} if spatial else {})}
+        axes = dict(zip("xyz", xyz.T, strict=False))
         return {"type": kind, **axes}
 
     figure_frames = []
