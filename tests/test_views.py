@@ -201,3 +201,50 @@ def test_a_spatial_machine_is_drawn_in_3d(browser, tmp_path):
     assert page.evaluate("() => document.getElementById('run-0')._fullLayout.scene !== undefined")
     assert page.evaluate("() => document.getElementById('run-0').data.filter(d => d.type === 'scatter3d').length") >= 5
     assert errors == []
+
+
+def test_singularity_map_is_interactive(browser, tmp_path, capsys):
+    out = tmp_path / "map.html"
+    code, _out, err = run(capsys, "singularity-map", "--mode", "-", "+", "-", "--resolution", "60", "--out", out)
+    assert code == 0, err
+    page, errors = _open_map(browser, out)
+    # hover the grid point nearest (0.25, 0.21): the paper's circle's centre, reachable in mode (-, +, -)
+    x, y = page.evaluate("""() => { const gd = document.getElementById('map'), L = gd._fullLayout;
+        const box = gd.getBoundingClientRect();
+        return [box.left + L.xaxis._offset + L.xaxis.l2p(0.25), box.top + L.yaxis._offset + L.yaxis.l2p(0.21)]; }""")
+    page.mouse.move(x, y)
+    page.wait_for_selector(".hoverlayer .hovertext", timeout=5000)
+    text = page.evaluate("() => document.querySelector('.hoverlayer').textContent")
+    assert "working mode (−, +, −)" in text and "S = " in text and "α = 0 rad" in text, text
+    s_shown = float(text.split("S = ")[1].split("working")[0])
+    model = pkmlab.Planar3RRR.paper()
+    ik = pkmlab.inverse_kinematics(model, [float(text.split("x = ")[1].split(" m")[0]),
+                                           float(text.split("y = ")[1].split(" m")[0]), 0.0], mode=(-1, 1, -1))
+    assert s_shown == pytest.approx(float(ik.S), abs=1e-4)  # the S of that pose, computed anew
+    assert errors == []
+
+
+def _open_map(browser, path: Path):
+    page = browser.new_page(viewport={"width": 900, "height": 800})
+    errors = []
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("request", lambda r: errors.append(f"fetched {r.url}") if not r.url.startswith("file:") else None)
+    page.goto(path.as_uri())
+    page.wait_for_selector("#map .main-svg")
+    return page, errors
+
+
+def test_the_tour_notebook_runs_clean():
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    notebook = nbformat.read(EXAMPLES / "tour.ipynb", as_version=4)
+    assert all(not cell.get("outputs") for cell in notebook.cells if cell.cell_type == "code")  # kept without outputs
+    nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
+                            resources={"metadata": {"path": str(EXAMPLES)}}).execute()
+    outputs = [o for cell in notebook.cells if cell.cell_type == "code" for o in cell.outputs]
+    assert not [o for o in outputs if o.output_type == "error"]
+    html = [o["data"]["text/html"] for o in outputs if "text/html" in o.get("data", {})]
+    assert any("Inverse kinematics" in h for h in html) and any("delta (3-R*US)" in h for h in html)
+    assert any("plotly" in h.lower() for h in html)  # pkmlab.show: the interactive view inline
+    assert any("application/vnd.plotly.v1+json" in o.get("data", {}) for o in outputs)  # run.plot()

@@ -33,6 +33,7 @@ _WHERE = {
     **dict.fromkeys(("Scenario", "SimulationResult", "paper_scenario", "perturbed_model", "simulate",
                      "simulate_batch"), "simulation"),
     **dict.fromkeys(("Study", "load_study", "sweep", "tune"), "study"),
+    "show": "views.notebook",
 }
 
 
@@ -103,4 +104,5 @@ __all__ = [
     "load_study",
     "sweep",
     "tune",
+    "show",
 ]

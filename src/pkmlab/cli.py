@@ -629,7 +629,7 @@ def cmd_singularity_map(args) -> dict:
         raise InvalidParameterError(f"singularity-map draws a planar machine's S over x-y; the "
                                     f"{model.description.name} is spatial: `pkmlab workspace --mechanism ... --z Z...` "
                                     "draws its S and S = 0 in horizontal slices")
-    out = _output_path(args.out, "--out", _figure_suffixes())
+    out = _output_path(args.out, "--out", _figure_suffixes() | {".html"})
     csv_path = _output_path(args.csv, "--csv", {".csv"}) if args.csv else None
     resolution = _resolution(args.resolution)
     with _progress(args, resolution, "singularity map") as bar:
@@ -645,7 +645,12 @@ def cmd_singularity_map(args) -> dict:
     ax = plot_singularity_map(smap, model=model)
     try:
         with _Staged(out, *([csv_path] if csv_path else [])) as temps:
-            ax.figure.savefig(temps[0], dpi=150)
+            if out.suffix.lower() == ".html":  # interactive: hover shows the pose, the working mode and S
+                from .views.maps import singularity_map_figure, write_map
+
+                write_map(temps[0], singularity_map_figure(smap), f"S at alpha = {smap.alpha:g}")
+            else:
+                ax.figure.savefig(temps[0], dpi=150)
             if csv_path:
                 xx, yy = np.meshgrid(smap.x, smap.y)
                 buf = io.StringIO()
@@ -672,8 +677,11 @@ def cmd_workspace(args) -> dict:
     from .plotting import plot_workspace
 
     model = _mechanism(args) if args.mechanism else _model(args)
-    out = _output_path(args.out, "--out", _figure_suffixes())
+    out = _output_path(args.out, "--out", _figure_suffixes() | {".html"})
     if getattr(getattr(model, "description", None), "spatial", False):
+        if out.suffix.lower() == ".html":
+            raise InvalidParameterError("--out: a spatial machine's slices are drawn as an image (PNG, SVG, PDF); "
+                                        "the interactive .html map is a planar machine's")
         return _spatial_workspace(args, model, out)
     if args.z is not None or args.mode is not None:
         raise InvalidParameterError("--z and --mode are for a spatial machine's slices; a planar machine's workspace "
@@ -684,7 +692,16 @@ def cmd_workspace(args) -> dict:
     if not ws.reachable.any():
         raise _nothing_reachable(ws.x, ws.y, ws.alpha)
     fig = plot_workspace(ws, model=model)
-    _save_figure(fig, out)
+    if out.suffix.lower() == ".html":  # interactive: hover shows the pose, the working mode and S
+        import matplotlib.pyplot as plt
+
+        from .views.maps import workspace_figure, write_map
+
+        plt.close(fig)
+        with _Staged(out) as temps:
+            write_map(temps[0], workspace_figure(ws), f"workspace at alpha = {ws.alpha:g}")
+    else:
+        _save_figure(fig, out)
     areas = [{"mode": [int(v) for v in m], "area_m2": float(a), "area_cm2": float(a) * 1e4}
              for m, a in zip(ws.modes, ws.area, strict=True)]
     if not args.json:

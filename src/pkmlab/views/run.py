@@ -92,7 +92,7 @@ class RunView:
         series["singularity measure S"] = ("", {"S": S})
         legs = description.legs
         return cls(name, t, samples, joints, [leg.actuated for leg in legs], [len(leg.joints) for leg in legs],
-                   description.platform.kind == "rigid", desired, actual, series, dict(summary or {}), scenario_text)
+                   description.platform.kind != "point", desired, actual, series, dict(summary or {}), scenario_text)
 
     @classmethod
     def from_result(cls, result, name: str | None = None, scenario_text: str = "") -> RunView:

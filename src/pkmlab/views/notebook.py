@@ -1,0 +1,168 @@
+"""pkmlab in Jupyter: rich HTML for its objects, and the interactive views inline.
+
+Models, kinematic solutions, scenarios and results show as tables (their ``_repr_html_`` calls the
+functions here); :func:`show` displays a result's interactive view (the same as ``REPORT.html``'s, with
+Plotly's code embedded: it works in a notebook opened offline), :func:`draw` a machine at one
+configuration, :func:`plot` a result's figure as a ``plotly`` object to restyle.
+"""
+
+from __future__ import annotations
+
+import html
+
+import numpy as np
+
+#: Rows of a table of solutions shown at most (a batch shows its first ones and says how many more).
+MAX_ROWS = 12
+
+
+def _f(v, digits: int = 6) -> str:
+    if isinstance(v, (float, np.floating)):
+        return "NaN" if np.isnan(v) else f"{float(v):.{digits}g}"
+    return html.escape(str(v))
+
+
+def _vector(values, digits: int = 6) -> str:
+    return "(" + ", ".join(_f(v, digits) for v in np.ravel(values)) + ")"
+
+
+def table(title: str, header: list[str], rows: list[list], note: str = "") -> str:
+    """A small HTML table with a caption (what every ``_repr_html_`` of pkmlab returns)."""
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in row) + "</tr>" for row in rows)
+    extra = f"<div style='color:#666;font-size:90%'>{html.escape(note)}</div>" if note else ""
+    return (f"<div><b>{html.escape(title)}</b><table style='border-collapse:collapse'><thead><tr>{head}</tr></thead>"
+            f"<tbody>{body}</tbody></table>{extra}</div>")
+
+
+def _signs(mode) -> str:
+    return "".join("+" if m > 0 else "−" for m in np.ravel(mode))
+
+
+def planar_3rrr_html(model) -> str:
+    """The paper's 3-RRR: its base, links, masses and inertias, leg by leg."""
+    rows = [[str(i + 1), _vector(model.base_points[i], 4), _f(model.active_lengths[i]), _f(model.passive_lengths[i]),
+             _f(model.active_masses[i]), _f(model.passive_masses[i]), _f(model.active_inertias[i]),
+             _f(model.passive_inertias[i])] for i in range(3)]
+    return table("Planar 3-RRR", ["leg", "base b (m)", "l (m)", "r (m)", "mass l (kg)", "mass r (kg)",
+                                  "inertia l (kg m²)", "inertia r (kg m²)"], rows,
+                 f"platform: side a = {_f(model.platform_side)} m, mass {_f(model.platform_mass)} kg, inertia "
+                 f"{_f(model.platform_inertia)} kg m²")
+
+
+def mechanism_html(model) -> str:
+    """A described machine: its legs (joints, base, bodies' masses) and platform."""
+    m = model.description
+    rows = [[str(i + 1), html.escape(leg.notation), _vector(leg.base, 4),
+             ", ".join(_f(b.mass, 4) for b in leg.bodies), "—" if leg.stroke is None else _vector(leg.stroke, 4)]
+            for i, leg in enumerate(m.legs)]
+    return table(f"{m.name} ({m.notation})", ["leg", "joints", "base (m)", "body masses (kg)", "stroke"], rows,
+                 f"pose ({', '.join(m.pose_names)}); platform {m.platform.kind}, mass {_f(m.platform.mass, 4)} kg; "
+                 f"gravity {_vector(m.gravity, 4)} m/s²")
+
+
+def ik_html(solution) -> str:
+    """An inverse-kinematics solution: one row per working mode (a batch: its first pose)."""
+    q = np.asarray(solution.q)
+    s = np.asarray(solution.S)
+    modes = np.asarray(solution.modes).reshape(-1, 3)
+    note = ""
+    if q.ndim > 2 or (q.ndim == 2 and len(modes) == 1 and q.shape[0] > 1):
+        note = f"a batch of shape {q.shape[:-1]}: the first pose shown"
+        q, s = q.reshape(-1, q.shape[-2] if len(modes) > 1 else 1, 7)[0], s.reshape(-1, len(modes))[0]
+    q, s = q.reshape(-1, 7), s.reshape(-1)
+    rows = [[_signs(mode), _vector(qi[:3]), _vector(qi[3:6]), _f(si)] for mode, qi, si in zip(modes, q, s,
+                                                                                                strict=False)]
+    return table("Inverse kinematics", ["working mode", "θ (rad)", "φ (rad)", "S"], rows, note)
+
+
+def fk_html(solution) -> str:
+    """A forward-kinematics solution: one row per assembly mode."""
+    count = np.asarray(solution.count)
+    if count.ndim:
+        return table("Forward kinematics", ["θ", "assembly modes"], [[str(i), str(int(c))] for i, c in
+                                                                     enumerate(count.ravel()[:MAX_ROWS])],
+                     f"a batch of {count.size}")
+    rows = [[str(j + 1), _vector(solution.pose[j]), _vector(solution.q[j][3:6]), _f(solution.S[j])]
+            for j in range(int(count))]
+    return table("Forward kinematics: every assembly mode", ["mode", "pose (x, y, α)", "φ (rad)", "S"], rows,
+                 "" if rows else "no assembly mode: these actuated angles cannot be assembled")
+
+
+def scenario_html(scenario) -> str:
+    """A scenario: its machine, path, controller and options."""
+    model = scenario.model
+    machine = (f"{model.description.name} ({model.description.notation})" if hasattr(model, "description")
+               else "the paper's 3-RRR")
+    trajectory = scenario.trajectory
+    controller = scenario.controller
+    rows = [["machine", html.escape(machine)], ["plant", "the model" if scenario.plant is None else "its own numbers"],
+            ["trajectory", f"{html.escape(type(trajectory).__name__)}, {_f(float(trajectory.duration), 4)} s"],
+            ["controller", f"{html.escape(controller.kind)}, kp = {_f(controller.kp)}, kv = "
+                           f"{_f(controller.velocity_gain)}"],
+            ["sample time", "continuous" if scenario.sample_time == 0 else f"{_f(scenario.sample_time * 1e3)} ms"],
+            ["working mode", html.escape(str(scenario.working_mode))]]
+    return table(f"Scenario {scenario.name}", ["", ""], rows)
+
+
+def result_html(result) -> str:
+    """A run's summary (``result.plot()`` or ``pkmlab.show(result)`` for the interactive view)."""
+    rows = [[html.escape(k), _vector(v) if isinstance(v, list) else _f(v)] for k, v in result.summary().items()]
+    return table(f"Run of {result.scenario.name}: {len(result.t)} samples over {_f(float(result.t[-1]), 4)} s",
+                 ["quantity", "value"], rows, "result.plot() or pkmlab.show(result): the interactive view")
+
+
+# ------------------------------------------------------------------ interactive, inline
+def plot(result):
+    """The interactive figure of a result as a ``plotly.graph_objects.Figure`` (shown inline by Jupyter)."""
+    import plotly.graph_objects as go
+
+    from .run import RunView, run_figure
+
+    return go.Figure(run_figure(RunView.from_result(result)))
+
+
+def draw(model, q, title: str | None = None):
+    """A machine at configuration ``q`` (in the model's coordinates) as a ``plotly`` figure: its bodies, the
+    platform and the tracked point — hover shows the joints' coordinates."""
+    import plotly.graph_objects as go
+
+    from ..geometry import Planar3RRR
+    from ..mechanism_model import MechanismModel, coordinates_from_3rrr
+    from .run import RunView, _machine_lines, _scatter, joint_positions
+
+    q = np.asarray(q, dtype=float)
+    if isinstance(model, Planar3RRR):
+        q = coordinates_from_3rrr(model, q)
+        model = MechanismModel.from_3rrr(model)
+    description = model.description
+    joints = joint_positions(model, q[None])
+    spatial = joints.shape[-1] == 3
+    pose = q[-description.dof:]
+    point = pose[None, :3 if spatial else 2]
+    one = RunView("", np.zeros(1), np.array([0]), joints, [leg.actuated for leg in description.legs],
+                  [len(leg.joints) for leg in description.legs], description.platform.kind != "point", point, point)
+    lines = _machine_lines(one, 0)
+    fig = go.Figure()
+    for part, colour, width in (("actuated", "#1f77b4", 7), ("passive", "#ff7f0e", 3), ("platform", "#2ca02c", 3)):
+        fig.add_trace(_scatter(go, lines[part], spatial, mode="lines+markers", name=part,
+                               line={"color": colour, "width": width}))
+    fig.add_trace(_scatter(go, lines["point"], spatial, mode="markers", name="tracked point",
+                           marker={"color": "black", "symbol": "cross", "size": 9}))
+    where = ", ".join(f"{n} = {v:.3f}" for n, v in zip(description.pose_names, pose, strict=True))
+    fig.update_layout(title=title or f"{description.name} at {where}", template="plotly_white", height=520)
+    if not spatial:
+        fig.update_yaxes(scaleanchor="x", scaleratio=1)
+    return fig
+
+
+def show(result) -> None:
+    """Display a result's interactive view in the notebook (Plotly's code embedded: works offline)."""
+    from IPython.display import HTML, display
+
+    import plotly.io as pio
+
+    from .run import RunView, run_figure
+
+    display(HTML(pio.to_html(run_figure(RunView.from_result(result)), validate=False, include_plotlyjs=True,
+                             full_html=False, auto_play=False)))
