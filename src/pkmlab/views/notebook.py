@@ -158,9 +158,8 @@ def draw(model, q, title: str | None = None):
 
 def show(result) -> None:
     """Display a result's interactive view in the notebook (Plotly's code embedded: works offline)."""
-    from IPython.display import HTML, display
-
     import plotly.io as pio
+    from IPython.display import HTML, display
 
     from .run import RunView, run_figure
 
