@@ -216,6 +216,8 @@ TARGETS = [
                                                      uncertainty=None, draws=0, seed=0, name=None, source="<study>",
                                                      combine="cross"), examples=60),
     _sig(pkmlab.load_study, path=Path(__file__).parents[1] / "examples" / "fast_gain_sweep.toml"),
+    # the notebook's interactive view of a run
+    Target("show", pkmlab.show, dict(result=pkmlab.simulate(SCENARIO)), examples=40),
     # plants
     Target("ReducedPlant.simulate", _reduced_plant, {**_PLANT, "min_abs_S": 1e-6, "theta_dot0": np.zeros(3)},
            names=_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),

@@ -113,8 +113,18 @@ def result_html(result) -> str:
 
 
 # ------------------------------------------------------------------ interactive, inline
+def _check_result(result) -> None:
+    from ..errors import InvalidParameterError, shown
+    from ..simulation import SimulationResult
+
+    if not isinstance(result, SimulationResult):
+        raise InvalidParameterError(f"result must be a SimulationResult (what pkmlab.simulate returns), got "
+                                    f"{type(result).__name__} {shown(result, 40)}")
+
+
 def plot(result):
     """The interactive figure of a result as a ``plotly.graph_objects.Figure`` (shown inline by Jupyter)."""
+    _check_result(result)
     import plotly.graph_objects as go
 
     from .run import RunView, run_figure
@@ -158,6 +168,7 @@ def draw(model, q, title: str | None = None):
 
 def show(result) -> None:
     """Display a result's interactive view in the notebook (Plotly's code embedded: works offline)."""
+    _check_result(result)
     import plotly.io as pio
     from IPython.display import HTML, display
 
