@@ -24,7 +24,7 @@ def _heat(go, x, y, S, mode, alpha, bound: float, show_scale: bool):
                        colorbar={"title": "S"}, hovertemplate="x = %{x:.4f} m<br>y = %{y:.4f} m<br>S = %{z:.4f}<br>"
                        f"working mode {_signs(mode)}{where}<extra></extra>"),
             go.Contour(x=x, y=y, z=S, showscale=False, contours={"start": 0, "end": 0, "size": 1, "coloring": "none"},
-                       line={"color": "black", "width": 2.5}, hoverinfo="skip", name="S = 0")]
+                       line={"color": "black", "width": 2.5}, hoverinfo="skip", name="S = 0", showlegend=False)]
 
 
 def singularity_map_figure(smap) -> dict:
