@@ -109,15 +109,17 @@ def browser():
         b.close()
 
 
-def _open(browser, path: Path):
-    page = browser.new_page(viewport={"width": 1400, "height": 1300})
+def _open(browser, path: Path, figure: str = "run-0", height: int = 1300):
+    """The page at ``path`` once its figure ``figure`` is drawn, and the list its console errors and any request
+    for something other than the file itself go to."""
+    page = browser.new_page(viewport={"width": 1400, "height": height})
     errors = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
     # offline: any request for something other than the file itself is an error
     page.on("request", lambda r: errors.append(f"fetched {r.url}") if not r.url.startswith("file:") else None)
     page.goto(path.as_uri())
-    page.wait_for_selector("#run-0 .main-svg")
+    page.wait_for_selector(f"#{figure} .main-svg")
     return page, errors
 
 
@@ -207,7 +209,7 @@ def test_singularity_map_is_interactive(browser, tmp_path, capsys):
     out = tmp_path / "map.html"
     code, _out, err = run(capsys, "singularity-map", "--mode", "-", "+", "-", "--resolution", "60", "--out", out)
     assert code == 0, err
-    page, errors = _open_map(browser, out)
+    page, errors = _open(browser, out, "map", 800)
     # hover the grid point nearest (0.25, 0.21): the paper's circle's centre, reachable in mode (-, +, -)
     x, y = page.evaluate("""() => { const gd = document.getElementById('map'), L = gd._fullLayout;
         const box = gd.getBoundingClientRect();
@@ -223,28 +225,3 @@ def test_singularity_map_is_interactive(browser, tmp_path, capsys):
     assert s_shown == pytest.approx(float(ik.S), abs=1e-4)  # the S of that pose, computed anew
     assert errors == []
 
-
-def _open_map(browser, path: Path):
-    page = browser.new_page(viewport={"width": 900, "height": 800})
-    errors = []
-    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.on("request", lambda r: errors.append(f"fetched {r.url}") if not r.url.startswith("file:") else None)
-    page.goto(path.as_uri())
-    page.wait_for_selector("#map .main-svg")
-    return page, errors
-
-
-def test_the_tour_notebook_runs_clean():
-    nbformat = pytest.importorskip("nbformat")
-    nbclient = pytest.importorskip("nbclient")
-    notebook = nbformat.read(EXAMPLES / "tour.ipynb", as_version=4)
-    assert all(not cell.get("outputs") for cell in notebook.cells if cell.cell_type == "code")  # kept without outputs
-    nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
-                            resources={"metadata": {"path": str(EXAMPLES)}}).execute()
-    outputs = [o for cell in notebook.cells if cell.cell_type == "code" for o in cell.outputs]
-    assert not [o for o in outputs if o.output_type == "error"]
-    html = [o["data"]["text/html"] for o in outputs if "text/html" in o.get("data", {})]
-    assert any("Inverse kinematics" in h for h in html) and any("delta (3-R*US)" in h for h in html)
-    assert any("plotly" in h.lower() for h in html)  # pkmlab.show: the interactive view inline
-    assert any("application/vnd.plotly.v1+json" in o.get("data", {}) for o in outputs)  # run.plot()

@@ -991,7 +991,8 @@ def cmd_tune(args) -> dict:
                           quantities=tuple(args.uncertain), draws=args.draws, seed=args.seed, quantile=args.quantile,
                           critical=args.critical, trials=args.trials, kp_range=tuple(args.kp_range),
                           zeta_range=tuple(args.zeta_range), workers=execution["workers"],
-                          scheduler=execution["scheduler"], progress=lambda done, _total: bar.update(done - bar.count))
+                          scheduler=execution["scheduler"], chunk_size=execution["chunk_size"],
+                          progress=lambda done, _total: bar.update(done - bar.count))
         summary = write_tuning(result, folder, args.scenario)
     if result.best is None:
         raise InvalidParameterError(f"no gains tried keep the peak effort within {args.max_effort:g} on every plant "
@@ -1112,7 +1113,9 @@ def build_parser() -> argparse.ArgumentParser:
     mechanism(p)
     p.set_defaults(func=cmd_simulate)
 
-    def execution(p):
+    def execution(p):  # a study's: where its runs execute, and what it says
+        p.add_argument("--quiet", action="store_true", help="no progress bar or notes")
+        p.add_argument("--json", action="store_true", help="print the summary as JSON")
         p.add_argument("--workers", type=int, metavar="N", help="worker processes of the local Dask cluster started "
                        "for the study (default: one per core; 0 runs in this process)")
         p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on an existing Dask cluster instead")
@@ -1129,8 +1132,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--heatmap", nargs=2, metavar=("Y", "X"), help="the two axes of the maps (default: the first "
                    "two that vary)")
     p.add_argument("--no-figures", action="store_true", help="skip the figures")
-    p.add_argument("--quiet", action="store_true", help="no progress bar or notes")
-    p.add_argument("--json", action="store_true", help="print the summary as JSON")
     execution(p)
     p.set_defaults(func=cmd_sweep)
 
@@ -1157,8 +1158,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the search box of the damping ratio, kv = 2 zeta sqrt(kp) (default 0.3 3)")
     p.add_argument("--trials", type=int, default=48, metavar="N", help="candidate gains to evaluate (default 48)")
     p.add_argument("--seed", type=int, default=0, help="seed of the draws and the optimiser (default 0)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
     execution(p)
     p.set_defaults(func=cmd_tune)
 

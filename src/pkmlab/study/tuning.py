@@ -85,13 +85,14 @@ def _pareto(trials) -> list[tuple[float, float]]:
 def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=("mass", "inertia"),
          draws: int = 16, seed: int = 0, quantile: float = 1.0, critical: bool = False, trials: int = 48,
          batch: int = 8, kp_range=KP_RANGE, zeta_range=ZETA_RANGE, workers: int | None = None,
-         scheduler: str | None = None, client=None, progress=None) -> TuningResult:
+         scheduler: str | None = None, client=None, chunk_size: int | None = None, progress=None) -> TuningResult:
     """Tune the gains of ``scenario`` (a scenario file or its tables) for peak effort ≤ ``max_effort``.
 
     ``uncertainty`` is the spread of the factors drawn for ``quantities`` (0.15: ±15 %; lengths are left out
     by default: a length the controller's model gets wrong is a kinematic error no gain removes); ``draws``
     plants make the uncertainty set (0: the scenario's plant alone). ``trials`` candidates are evaluated in
-    batches of ``batch`` (one study each, on the cluster of ``workers``/``scheduler``/``client``).
+    batches of ``batch`` (one study each, on the cluster of ``workers``/``scheduler``/``client``, in chunks of
+    ``chunk_size`` runs).
     ``progress(done, total)`` is called after each batch."""
     from .engine import _needs
 
@@ -131,7 +132,8 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
                 gains.append((kp, 2.0 * zeta * math.sqrt(kp), zeta))
             study = Study.create(base, {"controller.kp": [g[0] for g in gains], "controller.kv": [g[1] for g in gains]},
                                  bounds, draws, seed, "tune", combine="zip")
-            table, _stats = run_study(study, workers=workers if dask is None else None, client=dask)
+            table, _stats = run_study(study, workers=workers if dask is None else None, client=dask,
+                                      chunk_size=chunk_size)
             frame = table.to_pandas()
             for point, (trial, (kp, kv, zeta)) in enumerate(zip(asked, gains, strict=True)):
                 runs = frame[frame["point"] == point]
