@@ -66,7 +66,7 @@ def study_rows(h, quick: bool) -> tuple[list[dict], dict]:
     for workers in (1, 2):
         t0 = time.perf_counter()
         with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+                                      dashboard_address=":0", silence_logs=logging.ERROR) as cluster, \
                 distributed.Client(cluster) as client:
             start = time.perf_counter() - t0
             client.run(lambda: run_chunk(study, runs[:8]))  # every worker loads the kernels once

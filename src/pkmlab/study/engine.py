@@ -211,10 +211,22 @@ def _dask_client(workers: int | None, scheduler: str | None, client):
             connected.close()
         return
     import logging
+    import signal
 
     n = workers or _cores()
-    cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                                       silence_logs=logging.ERROR)
+    # Ctrl-C reaches every process of the terminal's group: the workers, started with SIGINT ignored (a
+    # disposition a new process inherits), leave it to this process, which stops them and keeps what is written
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread: nothing to protect
+        previous = None
+    try:
+        # dashboard_address=":0": a free port (None still takes 8787, and warns when another cluster holds it)
+        cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                           dashboard_address=":0", silence_logs=logging.ERROR)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
     try:
         local = distributed.Client(cluster, set_as_default=False)
         try:
@@ -290,6 +302,29 @@ def _timed_chunk(study: Study, chunk: list[int], threads: int) -> tuple[list[dic
     return rows, time.perf_counter() - t0
 
 
+@contextlib.contextmanager
+def _ctrl_c_as_flag():
+    """Ctrl-C sets the event yielded instead of raising at once: raised inside Dask's client calls, a
+    KeyboardInterrupt leaves its event loop logging errors; the caller raises it between two of them."""
+    import signal
+    import threading
+
+    stop = threading.Event()
+    try:
+        previous = signal.signal(signal.SIGINT, lambda _signum, _frame: stop.set())
+    except ValueError:  # not the main thread: Ctrl-C is not delivered here anyway
+        previous = None
+    try:
+        yield stop
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+#: How often the gathering loop looks for finished chunks and for Ctrl-C (s).
+POLL = 0.05
+
+
 def _run_on_dask(dask, study: Study, chunks: list[list[int]], threads: int, finished) -> None:
     distributed = _needs("distributed")
     tag = study.digest[:12]
@@ -297,14 +332,23 @@ def _run_on_dask(dask, study: Study, chunks: list[list[int]], threads: int, fini
                            pure=False) for chunk in chunks]
     first = {f.key: chunk for f, chunk in zip(futures, chunks, strict=True)}
     try:
-        for future in distributed.as_completed(futures, loop=dask.loop):
-            try:
-                rows, seconds = future.result()
-            except distributed.KilledWorker:
-                chunk = first[future.key]
-                raise StudyError(f"the chunk of runs {chunk[0]}..{chunk[-1]} killed the workers that ran it (out of "
-                                 "memory?); what is written is kept: --resume runs the rest") from None
-            finished(rows, seconds)
+        with _ctrl_c_as_flag() as stop:
+            pending = distributed.as_completed(futures, loop=dask.loop)
+            while not pending.is_empty():
+                if stop.is_set():
+                    raise KeyboardInterrupt
+                batch = pending.next_batch(block=False)
+                if not batch:
+                    time.sleep(POLL)
+                    continue
+                for future in batch:
+                    try:
+                        rows, seconds = future.result()
+                    except distributed.KilledWorker:
+                        chunk = first[future.key]
+                        raise StudyError(f"the chunk of runs {chunk[0]}..{chunk[-1]} killed the workers that ran it "
+                                         "(out of memory?); what is written is kept: --resume runs the rest") from None
+                    finished(rows, seconds)
     except (OSError, TimeoutError, distributed.comm.CommClosedError) as exc:
         raise StudyError(f"lost the Dask cluster ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}); "
                          "what is written is kept: --resume runs the rest") from None
