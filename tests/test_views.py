@@ -175,9 +175,9 @@ def test_the_slider_moves_the_machine_and_nothing_else(browser, tmp_path, nomina
     elsewhere = ~(in_machine | near_cursor | on_slider)
     # nowhere else: at most a few stray pixels of anti-aliasing where Plotly redraws a plot's curves under its
     # moving cursor (seen: 1 or 2 pixels in one run of five), against the thousands of the machine's
-    assert elsewhere.sum() <= 5, f"{elsewhere.sum()} pixels changed away from the machine, cursors and slider, " \
-                                 f"e.g. at {list(zip(xs[elsewhere][:5], ys[elsewhere][:5], strict=True))}; cursors {cursors_before} -> " \
-                                 f"{cursors_after}; plots {geometry['series']}"
+    stray = list(zip(xs[elsewhere][:5], ys[elsewhere][:5], strict=True))
+    assert elsewhere.sum() <= 5, (f"{elsewhere.sum()} pixels changed away from the machine, cursors and slider, "
+                                  f"e.g. at {stray}; cursors {cursors_before} -> {cursors_after}")
 
 
 def test_hover_shows_the_values(browser, tmp_path, nominal_result):
