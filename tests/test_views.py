@@ -157,7 +157,11 @@ def test_the_slider_moves_the_machine_and_nothing_else(browser, tmp_path, nomina
     rail = geometry["rail"]
     page.mouse.click(rail["x0"] + 0.6 * (rail["x1"] - rail["x0"]), rail["y"])
     page.mouse.move(1, 1)  # away from the figure, whose tool bar shows while the mouse is over it
-    page.wait_for_timeout(500)
+    for _ in range(50):  # the frame shown (a busy machine may take a moment), then its drawing settled
+        if page.evaluate(CURSOR, geometry["series"][0]["axis"]) > cursors_before[0]:
+            break
+        page.wait_for_timeout(100)
+    page.wait_for_timeout(400)
     after = _pixels(page)
     cursors_after = [page.evaluate(CURSOR, s["axis"]) for s in geometry["series"]]
     assert errors == []
