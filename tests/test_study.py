@@ -269,6 +269,19 @@ def test_interrupted_on_the_cluster_and_resumed(cluster, tmp_path, reference):
     assert frame.equals(reference)
 
 
+def test_a_study_on_an_existing_cluster_by_its_address(cluster, reference, tmp_path, capsys):
+    """`--scheduler tcp://HOST:PORT`: the same study on a cluster someone else started gives the same table."""
+    address = cluster.scheduler.address
+    assert address.startswith("tcp://")
+    assert sweep(small_study(), scheduler=address, chunk_size=4).equals(reference)
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(f'[study]\nbase = "{FAST}"\n[grid]\n"controller.kp" = [400.0, 2000.0]\n')
+    code, out, err = run(capsys, "sweep", spec, "--out", tmp_path / "out", "--scheduler", address, "--no-figures")
+    assert code == 0 and "2 runs, 2 ok" in out, err
+    code, _out, err = run(capsys, "sweep", spec, "--out", tmp_path / "o2", "--scheduler", address, "--workers", "2")
+    assert code == 1 and "give one of them" in err and not (tmp_path / "o2").exists()
+
+
 def test_unreachable_scheduler_is_one_line(monkeypatch):
     from pkmlab.study import engine
 
