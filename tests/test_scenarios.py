@@ -454,6 +454,8 @@ def test_simulate_disturbed_with_figures_and_json(tmp_path, capsys):
     for name in figures:
         assert (out / name).read_bytes().startswith(PNG_SIGNATURE)
         assert f"]({name})" in report
+    # and the interactive page beside them, Plotly embedded, linked from the report
+    assert "](REPORT.html)" in report and (out / "REPORT.html").stat().st_size > 4_000_000
     # plant.toml holds the real machine and reads back as exactly the same model
     plant = load_manipulator(out / "plant.toml")
     assert plant == paper_scenario("disturbed").plant

@@ -207,7 +207,8 @@ def _report(results: dict, summary: dict, figures: bool, prov: dict) -> str:
     lines += ["", "Data: `summary.json`, `nominal.csv`, `disturbed.csv`, `fast.csv` (one row per sample); the "
               "controller's model in `manipulator.toml` and each case's plant in `<case>_plant.toml`.", ""]
     if figures:
-        lines += ["## Figures", ""]
+        lines += ["## Figures", "", "[`REPORT.html`](REPORT.html): the three runs interactive — each machine animated "
+                  "beside its time series (open it in a browser; it works offline).", ""]
         for fname, number, caption, _case, _kind in FIGURES:
             label = f"Figure {number}" if number != "—" else "Extra figure"
             lines += [f"### {label}: {caption}", "", f"![{caption}]({fname})", ""]
@@ -336,7 +337,8 @@ def _run_report(result: SimulationResult, summary: dict, figures: bool) -> str:
         "",
     ]
     if figures:
-        lines += ["## Figures", ""]
+        lines += ["## Figures", "", "[`REPORT.html`](REPORT.html): the run interactive — the machine animated beside "
+                  "its time series (open it in a browser; it works offline).", ""]
         for fname, caption, _kind in run_figures(result.scenario):
             lines += [f"### {caption}", "", f"![{caption}]({fname})", ""]
     return "\n".join(lines) + "\n"
@@ -349,8 +351,8 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
     """Simulate ``scenario`` and write its results into the folder ``out``; return the summary.
 
     ``out`` receives ``summary.json`` (conventions §8 fields, ``"scenario"``, the name, and
-    ``"provenance"``), ``run.csv``, ``plant.toml``, the figures of :data:`RUN_FIGURES` and
-    ``REPORT.md`` — all at once, when everything succeeded. ``mujoco`` (the options of
+    ``"provenance"``), ``run.csv``, ``plant.toml``, the figures of :data:`RUN_FIGURES`, ``REPORT.md`` and
+    ``REPORT.html`` (:mod:`pkmlab.views`) — all at once, when everything succeeded. ``mujoco`` (the options of
     :func:`~pkmlab.mujoco_plant.simulate_mujoco`) makes MuJoCo the plant: the run then also records its
     loop-closure violation
     (:func:`~pkmlab.outputs.atomic_output_dir`, which tells ``note`` when an earlier result is
