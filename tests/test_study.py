@@ -53,6 +53,9 @@ def reference():
     ({"controller.kp": [-5.0]}, "[grid] controller.kp = -5.0: "),
     ({"controller.kp": [1.0, 1.0]}, "repeats a value"),
     ({"mechanism.preset": ["delta"]}, "is not a scenario value"),
+    ({"manipulator.params.l": [0.2, [0.2, 0.21, 0.2]]}, "mixes lists and numbers"),
+    ({"controller.kp": {"start": 500.0, "stop": 500.0, "num": 2}}, "repeats a value"),
+    ({"simulation.substeps": {"start": 1, "stop": 2, "num": 3}}, "must give whole numbers"),
 ])
 def test_bad_axes_are_refused_naming_the_key(grid, message):
     with pytest.raises(InvalidParameterError) as info:
@@ -98,6 +101,23 @@ def test_grid_order_ranges_and_zip():
     assert study.digest != Study.create(FAST, grid={"controller.kp": [1.0]}).digest
     assert study.digest == Study.create(FAST, grid=dict((k, list(v)) for k, v in study.axes),
                                         uncertainty={"mass": 0.1}, draws=2).digest
+
+
+def test_values_keep_their_kind_and_the_axes_their_order():
+    study = Study.create(FAST, grid={"simulation.substeps": {"start": 1, "stop": 3, "num": 3},
+                                     "controller.kp": list(np.array([100, 200]))})  # NumPy's integers too
+    assert study.axes == (("simulation.substeps", (1, 2, 3)), ("controller.kp", (100.0, 200.0)))
+    swapped = Study.create(FAST, grid={"controller.kp": [100.0, 200.0], "simulation.substeps": [1, 2, 3]})
+    # the order of the axes says which grid point a run is: another order is another study
+    assert swapped.digest != study.digest
+
+
+def test_a_combination_that_is_no_scenario_is_a_failed_row_even_first():
+    # each value is valid with the base, but continuous time (Ts = 0) takes no RK4 sub-steps: grid points 0, 1
+    study = Study.create(FAST, grid={"controller.sample_time": [0.0, 1e-3], "simulation.substeps": [2, 1]})
+    frame = sweep(study, workers=0)
+    assert list(frame["status"]) == ["failed", "failed", "ok", "ok"]
+    assert list(frame["reason"][:2]) == ["invalid"] * 2 and "substeps" in frame.iloc[0]["message"]
 
 
 # ------------------------------------------------------------------ drawn plants
@@ -224,6 +244,18 @@ def test_study_folders_are_never_mixed(tmp_path):
     sweep(study, out, workers=0, figures=False)
     with pytest.raises(StudyError, match="holds another study"):
         sweep(small_study(seed=8), out, workers=0, resume=True)
+    swapped = small_study(grid={"trajectory.speed": [0.3, 0.4], "controller.kp": [400.0, 2000.0]})
+    with pytest.raises(StudyError, match="holds another study"):  # the same values, the axes in another order
+        sweep(swapped, out, workers=0, resume=True)
+    # a study that cannot start (an unreachable cluster) leaves no folder behind
+    engine_timeout = pytest.MonkeyPatch()
+    from pkmlab.study import engine
+
+    engine_timeout.setattr(engine, "CONNECT_TIMEOUT", 1.0)
+    with pytest.raises(StudyError, match="cannot reach"):
+        sweep(study, tmp_path / "never", scheduler="tcp://127.0.0.1:9")
+    engine_timeout.undo()
+    assert not (tmp_path / "never").exists()
 
 
 # ------------------------------------------------------------------ a real Dask cluster

@@ -1003,11 +1003,12 @@ def cmd_tune(args) -> dict:
         what = "worst-case" if args.quantile == 1 else f"{args.quantile:g}-quantile"
         print(f"tuned: kp = {best['kp']:.6g}, kv = {best['kv']:.6g} (zeta = {best['zeta']:.3g}): {what} max path "
               f"error {best['error']:.4e} m, peak effort {best['worst_effort']:.4g} (limit {args.max_effort:g})")
+        which = "the scenario's kp, critically damped" if args.critical else "the scenario's gains"
         if math.isfinite(base["error"]):
-            print(f"the scenario's gains (kp = {base['kp']:.6g}, kv = {base['kv']:.6g}): {base['error']:.4e} m, "
+            print(f"{which} (kp = {base['kp']:.6g}, kv = {base['kv']:.6g}): {base['error']:.4e} m, "
                   f"peak effort {base['worst_effort']:.4g}")
         else:
-            print(f"the scenario's gains (kp = {base['kp']:.6g}): some run failed")
+            print(f"{which} (kp = {base['kp']:.6g}, kv = {base['kv']:.6g}): some run failed")
         print(f"{len(result.trials)} candidates x {max(args.draws, 1)} plants; pkmlab simulate {args.out}/tuned.toml "
               "runs the tuned scenario")
     return summary
@@ -1023,8 +1024,11 @@ def cmd_view(args) -> dict:
     views = read_result_views(folder)  # every file checked before anything is written
     title = f"pkmlab view: {folder.resolve().name}"
     if args.out:
-        with _NewFolders(out):
-            write_html(out, views, title)
+        try:
+            with _NewFolders(out):
+                write_html(out, views, title)
+        except OSError as exc:
+            raise PkmlabError(f"cannot write {out}: {exc.strerror or exc}") from None
     else:
         from .outputs import OutputFolderError, add_to_result
         from .views.html import page
@@ -1034,6 +1038,9 @@ def cmd_view(args) -> dict:
             add_to_result(folder, "REPORT.html", lambda tmp: tmp.write_text(text, encoding="utf-8"))
         except OutputFolderError as exc:
             raise PkmlabError(f"{exc}; write the view elsewhere with --out FILE.html") from None
+        except OSError as exc:  # a read-only result, a full disk
+            raise PkmlabError(f"cannot write {out}: {exc.strerror or exc}; write the view elsewhere with --out "
+                              "FILE.html") from None
     size = out.stat().st_size
     result = {"html": str(out), "runs": [v.name for v in views], "bytes": size}
     if not args.json:

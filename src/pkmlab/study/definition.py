@@ -59,6 +59,8 @@ STUDY_TABLES = ("study", "base", "grid", "uncertainty")
 RANGE_KEYS = ("start", "stop", "num", "scale")
 #: At most this many runs in one study (the table's memory: about 1 kB per run).
 MAX_RUNS = 50_000_000
+#: Axes whose values are counts (kept as integers).
+INTEGER_KEYS = ("simulation.substeps",)
 
 
 def axis_keys() -> tuple[str, ...]:
@@ -105,27 +107,50 @@ def axis_values(key: str, spec, source: str = "<study>", unique: bool = True) ->
         scale = spec.get("scale", "linear")
         if scale not in ("linear", "log"):
             raise _error(source, f"{where}.scale must be \"linear\" or \"log\", got {shown(scale)}")
+        if num > MAX_RUNS:
+            raise _error(source, f"{where}.num = {num}: more values than a study may run ({MAX_RUNS})")
         if scale == "log":
             if start <= 0 or stop <= 0:
                 raise _error(source, f"the log range {where} needs start and stop > 0, got {start} and {stop}")
             values = np.geomspace(float(start), float(stop), num)
         else:
             values = np.linspace(float(start), float(stop), num)
-        return tuple(float(v) for v in values)
-    if not isinstance(spec, list):
+        if key in INTEGER_KEYS:  # a count: the range's values must be whole
+            if not np.allclose(values, np.round(values), rtol=0, atol=1e-9):
+                raise _error(source, f"the range {where} must give whole numbers ({key} is a count), got "
+                             f"{shown([float(v) for v in values])}")
+            spec = [int(round(float(v))) for v in values]
+        else:
+            spec = [float(v) for v in values]
+    elif isinstance(spec, list):
+        spec = [v.item() if isinstance(v, np.generic) else v for v in spec]
+    else:
         raise _error(source, f"{where} must be a list of values or a range {{start, stop, num}}, got {shown(spec)}")
     if not spec:
         raise _error(source, f"{where} is empty: give at least one value")
     for i, v in enumerate(spec):
         if not _finite_value(v):
             raise _error(source, f"{where}[{i}] must be finite, got {shown(v)}")
-        if isinstance(v, dict):
-            raise _error(source, f"{where}[{i}] must be a value, got the table {shown(v)}")
-    values = tuple(float(v) if isinstance(v, int) and not isinstance(v, bool) and key != "simulation.substeps"
+        if not isinstance(v, (bool, int, float, str, list)):
+            raise _error(source, f"{where}[{i}] must be a number, a string, a boolean or a list, got {shown(v)}")
+    kinds = {_kind(v) for v in spec}
+    if len(kinds) > 1:
+        raise _error(source, f"{where} mixes {' and '.join(sorted(kinds))}: give values of one kind, got "
+                     f"{shown(list(spec))}")
+    values = tuple(float(v) if isinstance(v, int) and not isinstance(v, bool) and key not in INTEGER_KEYS
                    else v for v in spec)
     if unique and len({json.dumps(v) for v in values}) != len(values):
         raise _error(source, f"{where} repeats a value: {shown(list(spec))}")
     return values
+
+
+def _kind(value) -> str:
+    """The kind of an axis value, for the table's column type: numbers, booleans, strings or lists."""
+    if isinstance(value, bool):
+        return "booleans"
+    if isinstance(value, (int, float)):
+        return "numbers"
+    return "strings" if isinstance(value, str) else "lists"
 
 
 def _set(data: dict, key: str, value) -> None:
@@ -352,18 +377,23 @@ class Study:
         plant = perturbed_plant(nominal.plant_model, self.factors(run, nominal))
         return nominal.replace(plant=plant, name=f"{self.name} run {run}")
 
+    def base_scenario(self):
+        """The base scenario (checked when the study was made): the machine every run's table row describes."""
+        return scenario_from_dict(copy.deepcopy(self.base), self.source, self.name)
+
     def factor_names(self) -> tuple[str, ...]:
-        """The names of the drawn factors (the table's ``plant.*`` columns)."""
+        """The names of the drawn factors (the table's ``plant.*`` columns), from the base's plant."""
         from ..uncertainty import uncertain_parameters
 
         if not self.draws:
             return ()
-        return uncertain_parameters(self.nominal_scenario(0).plant_model, tuple(self.uncertainty))
+        return uncertain_parameters(self.base_scenario().plant_model, tuple(self.uncertainty))
 
     # ---------------------------------------------------------------- identity
     def definition(self) -> dict:
         """The study as JSON-able data: what :attr:`digest` hashes and ``study.json`` keeps."""
-        return {"base": self.base, "grid": {k: list(v) for k, v in self.axes},
+        # the axes in their order: it decides which grid point each run number is
+        return {"base": self.base, "grid": [[k, list(v)] for k, v in self.axes],
                 "uncertainty": {k: list(v) for k, v in self.uncertainty.items()}, "draws": self.draws,
                 "seed": self.seed, "combine": self.combine, "pkmlab": __version__}
 

@@ -132,11 +132,22 @@ class StudyFolder:
             if note is not None:
                 note(f"resuming: {len(self.done_runs())} of {study.size} runs already in {out}")
             return
-        self.chunks.mkdir(parents=True, exist_ok=True)
         text = json.dumps({"name": study.name, "digest": study.digest, "runs": study.size,
                            "columns": list(columns(study)), "definition": study.definition()}, indent=1)
-        with atomic_file(record) as tmp:
-            tmp.write_text(text)
+        try:
+            self.chunks.mkdir(parents=True, exist_ok=True)
+            with atomic_file(record) as tmp:
+                tmp.write_text(text)
+        except OSError as exc:
+            raise StudyError(f"cannot write the study's folder {out}: {exc.strerror or exc}") from None
+
+    def remove_if_unused(self) -> None:
+        """Remove what :meth:`open` made when no chunk was written since (a study that could not start)."""
+        with contextlib.suppress(OSError):
+            if not self.chunk_files():
+                (self.path / STUDY_FILE).unlink(missing_ok=True)
+                for folder in (self.chunks, self.path):
+                    folder.rmdir()  # only if empty: nothing of anyone's is removed
 
     def chunk_files(self) -> list[Path]:
         return sorted(self.chunks.glob("runs-*.parquet"))
@@ -158,15 +169,19 @@ class StudyFolder:
         pq = _needs("pyarrow.parquet").parquet
         runs = table.column("run").to_pylist()
         path = self.chunks / f"runs-{min(runs):09d}-{max(runs):09d}.parquet"
-        with atomic_file(path) as tmp:
-            pq.write_table(table, tmp)
+        try:
+            with atomic_file(path) as tmp:
+                pq.write_table(table, tmp)
+        except OSError as exc:  # a full disk, a folder removed: said as such, never as a lost cluster
+            raise StudyError(f"cannot write {path}: {exc.strerror or exc}; what is written is kept: --resume runs "
+                             "the rest") from None
         return path
 
     def table(self, types):
         """Every chunk's rows in run order; refuses a folder whose chunks miss or repeat a run."""
         pa = _needs("pyarrow")
         pq = _needs("pyarrow.parquet").parquet
-        parts = [pq.read_table(path).cast(types) for path in self.chunk_files()]
+        parts = [pq.read_table(path).select(types.names).cast(types) for path in self.chunk_files()]
         table = pa.concat_tables(parts) if parts else types.empty_table()
         return _in_run_order(table, self.study, str(self.path))
 
@@ -366,6 +381,11 @@ def run_study(study: Study, out=None, *, workers: int | None = None, scheduler: 
     run order) and :func:`execute`'s measurements. Without ``out`` nothing is written."""
     from ..progress import Progress
 
+    if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, int)
+                                   or chunk_size < 1):
+        raise StudyError(f"chunk_size must be a positive integer, got {chunk_size!r}")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
+        raise StudyError(f"workers must be a non-negative integer, got {workers!r}")
     folder = None
     if out is not None:
         folder = StudyFolder(out, study)
@@ -373,11 +393,6 @@ def run_study(study: Study, out=None, *, workers: int | None = None, scheduler: 
         todo = sorted(set(range(study.size)) - folder.done_runs())
     else:
         todo = list(range(study.size))
-    if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, int)
-                                   or chunk_size < 1):
-        raise StudyError(f"chunk_size must be a positive integer, got {chunk_size!r}")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
-        raise StudyError(f"workers must be a non-negative integer, got {workers!r}")
     bar = Progress(len(todo), study.name, enabled=progress, unit="runs")
     try:
         kept, stats = execute(study, todo, folder=folder, workers=workers, scheduler=scheduler, client=client,
@@ -386,9 +401,14 @@ def run_study(study: Study, out=None, *, workers: int | None = None, scheduler: 
         bar.close()
         if folder is None:
             raise
-        kept_runs = len(folder.done_runs())
+        folder.remove_if_unused()
+        kept_runs = len(folder.done_runs()) if folder.path.exists() else 0
         raise StudyInterrupted(f"{kept_runs} of {study.size} runs are kept in {folder.path}; resume to finish"
                                ) from None
+    except PkmlabError:  # a cluster that cannot be reached: a folder made for nothing is not left behind
+        if folder is not None:
+            folder.remove_if_unused()
+        raise
     finally:
         bar.close()
     if folder is not None:

@@ -1,9 +1,9 @@
 """Figures of a study's table: worst-case maps over two axes, distributions under uncertainty, failures.
 
 Each function takes the table (a ``pandas.DataFrame``, one row per run) and returns a Matplotlib
-``Figure``. The maps show, per cell of two axes, the worst value over everything else (the other
-axes and the drawn plants): what a controller must be designed for. A cell where some run failed is
-hatched, and says how many.
+``Figure``, made without pyplot (a notebook's own figures and backend are left alone). The maps show,
+per cell of two axes, the worst value over everything else (the other axes and the drawn plants):
+what a controller must be designed for. A cell where some run failed is hatched, and says how many.
 """
 
 from __future__ import annotations
@@ -12,6 +12,12 @@ import numpy as np
 
 #: The metrics drawn, with their labels.
 LABELS = {"max_path_error_m": "max path error (m)", "peak_effort": "peak effort (N·m or N)"}
+
+
+def _figure(size):
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=size, layout="constrained")
 
 
 def varying_axes(frame, axes: list[str]) -> list[str]:
@@ -36,8 +42,8 @@ def _worst(frame, by: list[str], metric: str):
 
 def plot_map(frame, metric: str, x: str, y: str, title: str):
     """Heat map of the worst ``metric`` over the cells of axes ``x`` and ``y`` (log colour scale)."""
-    import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
+    from matplotlib.patches import Rectangle
 
     worst, failed = _worst(frame, [y, x], metric)
     xs, ys = sorted(frame[x].unique()), sorted(frame[y].unique())
@@ -47,7 +53,8 @@ def plot_map(frame, metric: str, x: str, y: str, title: str):
         grid[ys.index(vy), xs.index(vx)] = value
     for (vy, vx), (count, _total) in failed.iterrows():
         bad[ys.index(vy), xs.index(vx)] = count
-    fig, ax = plt.subplots(figsize=(1.2 + 0.9 * len(xs) + 1.5, 1.2 + 0.55 * len(ys) + 0.8), layout="constrained")
+    fig = _figure((1.2 + 0.9 * len(xs) + 1.5, 1.2 + 0.55 * len(ys) + 0.8))
+    ax = fig.subplots()
     finite = grid[np.isfinite(grid) & (grid > 0)]
     norm = LogNorm(finite.min(), finite.max()) if finite.size and finite.min() < finite.max() else None
     image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto", cmap="viridis", norm=norm)
@@ -57,7 +64,7 @@ def plot_map(frame, metric: str, x: str, y: str, title: str):
         for j in range(len(xs)):
             text = f"{grid[i, j]:.2g}" if np.isfinite(grid[i, j]) else "—"
             if bad[i, j]:
-                ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch="//", edgecolor="red", lw=0))
+                ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch="//", edgecolor="red", lw=0))
                 text += f"\n{bad[i, j]} failed"
             dark = not np.isfinite(grid[i, j]) or bool(light[i, j])
             ax.text(j, i, text, ha="center", va="center", fontsize=7, color="black" if dark else "white")
@@ -71,11 +78,10 @@ def plot_map(frame, metric: str, x: str, y: str, title: str):
 
 def plot_line(frame, metric: str, x: str, title: str):
     """The worst, median and best ``metric`` against one axis (failed runs marked)."""
-    import matplotlib.pyplot as plt
-
     ok = frame[frame["status"] == "ok"]
     stats = ok.groupby(x, sort=True)[metric].agg(["min", "median", "max"])
-    fig, ax = plt.subplots(figsize=(6.0, 4.0), layout="constrained")
+    fig = _figure((6.0, 4.0))
+    ax = fig.subplots()
     xs = stats.index.to_numpy()
     ax.fill_between(xs, stats["min"], stats["max"], alpha=0.25, label="range over the other inputs")
     ax.plot(xs, stats["max"], "o-", label="worst")
@@ -96,11 +102,11 @@ def plot_line(frame, metric: str, x: str, title: str):
 def plot_distributions(frame, by: str | None, title: str):
     """Empirical distributions (CDFs) of the max path error and the peak effort over the runs, one curve per
     value of axis ``by`` (at most eight; one curve for all runs without it)."""
-    import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
     ok = frame[frame["status"] == "ok"]
-    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.0), layout="constrained")
+    fig = _figure((10.0, 4.0))
+    axes = fig.subplots(1, 2)
     groups = list(ok.groupby(by, sort=True)) if by is not None and ok[by].nunique() <= 8 else [("all runs", ok)]
     for ax, metric in zip(axes, LABELS, strict=True):
         for value, part in groups:
@@ -120,11 +126,9 @@ def plot_distributions(frame, by: str | None, title: str):
 
 def plot_failures(frame, axes: list[str], title: str):
     """The fraction of runs that failed over two axes (or one), and the count by reason."""
-    import matplotlib.pyplot as plt
-
     failed = frame["status"] != "ok"
-    fig, (ax, bars) = plt.subplots(1, 2, figsize=(10.0, 4.0), layout="constrained",
-                                   gridspec_kw={"width_ratios": [2, 1]})
+    fig = _figure((10.0, 4.0))
+    ax, bars = fig.subplots(1, 2, gridspec_kw={"width_ratios": [2, 1]})
     if len(axes) >= 2:
         x, y = axes[1], axes[0]
         rate = frame.assign(f=failed).groupby([y, x], sort=True)["f"].mean()

@@ -21,6 +21,7 @@ from ..errors import (
     UnreachablePoseError,
     UnstableControlError,
 )
+from ..io import FileFormatError
 from .definition import Study
 
 #: Why a run failed, by the class of its error (the first match counts: subclasses first).
@@ -31,6 +32,7 @@ REASONS = (
     (UnreachablePoseError, "unreachable"),     # the path leaves the workspace
     (AssemblyError, "unassemblable"),
     (InvalidParameterError, "invalid"),        # a combination of values that is no valid scenario
+    (FileFormatError, "invalid"),              # ... or that a scenario file could not hold
     (PkmlabError, "error"),
 )
 
@@ -50,7 +52,7 @@ def metric_columns(study: Study) -> tuple[str, ...]:
     per actuator and their maximum), ``min_abs_S`` and the number of samples."""
     from ..simulation import _actuator_count
 
-    model = study.nominal_scenario(0).model
+    model = study.base_scenario().model  # not grid point 0's: that one may be a combination that fails
     names = _pose_names(model)
     orientation = ("max_orientation_error_rad",) if {"alpha", "roll"} & set(names) else ()
     n = _actuator_count(model)

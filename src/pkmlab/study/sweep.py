@@ -107,17 +107,11 @@ def write_outputs(study: Study, table, frame, summary: dict, out: Path, *, csv: 
     with atomic_file(out / "summary.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=1, allow_nan=False, default=_jsonable))
     if figures and len(frame):
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
         from .figures import study_figures
 
         for name, fig in study_figures(frame, [k for k, _ in study.axes], study.name, heatmap).items():
             with atomic_file(out / "figures" / name) as tmp:
                 fig.savefig(tmp, dpi=130, format="png")
-            plt.close(fig)
 
 
 def _jsonable(value):

@@ -12,8 +12,8 @@ The optimiser. Optuna's TPE sampler with its constraint handling (``Trial.set_co
 library for expensive black-box problems of a few continuous variables, seeded and therefore
 reproducible, with an ask-and-tell interface that lets each batch of candidates run as one study on
 the cluster. (Nevergrad would do as well; Optuna's constraint support and its study records decided.)
-The scenario's own gains are the first candidate, so the tuned gains are never worse than them on
-this objective. ``kp`` is searched on a log scale, ``ζ`` too.
+The scenario's own gains are the first candidate (with ``critical=True`` its kp with ``kv = 2√kp``), so the
+tuned gains are never worse than them on this objective. ``kp`` is searched on a log scale, ``ζ`` too.
 
 The answer: the best feasible candidate, every candidate evaluated (``trials``), and the trade-off
 curve — for each effort limit, the least worst-case error among the candidates within it (the Pareto
@@ -207,34 +207,30 @@ def write_tuning(result: TuningResult, out, source: str) -> dict:
         comment = (f"Tuned by pkmlab tune from {Path(source).name}: kp = {best['kp']:.6g}, kv = {best['kv']:.6g} "
                    f"(zeta = {best['zeta']:.3g})\nminimise the {what} "
                    f"max path error over {result.draws} plants drawn around the scenario's, peak effort <= "
-                   f"{result.max_effort:g}:\n{best['error']:.4e} m at peak effort {best['worst_effort']:.4g}; "
-                   f"the scenario's own gains gave {base['error']:.4e} m at {base['worst_effort']:.4g}")
+                   f"{result.max_effort:g}:\n{best['error']:.4e} m at peak effort {best['worst_effort']:.4g}; the "
+                   f"first candidate, kp = {base['kp']:.6g}, kv = {base['kv']:.6g}, gave {base['error']:.4e} m at "
+                   f"{base['worst_effort']:.4g}")
         with atomic_file(out / "tuned.toml") as tmp:
             tmp.write_text(scenario_to_toml(result.scenario, comment))
     with atomic_file(out / "trials.csv") as tmp:
         result.trials.to_csv(tmp, index=False)
     with atomic_file(out / "tuning.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=1, default=str).replace("Infinity", "null"))
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fig = plot_tradeoff(result)
     with atomic_file(out / "tradeoff.png") as tmp:
         fig.savefig(tmp, dpi=130, format="png")
-    plt.close(fig)
     return summary
 
 
 def plot_tradeoff(result: TuningResult):
     """Every candidate's worst peak effort against its error, the trade-off curve (least error for each effort
     limit), the limit, the scenario's own gains and the tuned ones."""
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # not pyplot: a notebook's own figures and backend are left alone
 
     trials = result.trials
     ok = trials[trials["failed"] == 0]
-    fig, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
+    fig = Figure(figsize=(6.5, 4.5), layout="constrained")
+    ax = fig.subplots()
     points = ax.scatter(ok["worst_effort"], ok["error"], c=np.log10(ok["kp"]), cmap="viridis", s=18,
                         label="candidates")
     fig.colorbar(points, ax=ax, label="log10 kp")
