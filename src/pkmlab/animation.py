@@ -211,18 +211,6 @@ def rebuild_machine_configurations(model, theta, pose0) -> np.ndarray:
     return q
 
 
-def _joint_points(model, q: np.ndarray, frames: list[int]) -> np.ndarray:
-    """Every joint's position at each of ``frames`` (len(frames), legs, JOINTS_PER_LEG, 2 or 3): what the
-    frames draw, and the box they are drawn in."""
-    from . import mechanism_model as mm
-
-    k = model.kernels
-    points = np.empty((len(frames), len(model.description.legs), k.JOINTS_PER_LEG, k.DIM))
-    for i, frame in enumerate(frames):
-        k.joint_points(q[frame], mm.trig_table(model, q[frame]), model.P, points[i])
-    return points
-
-
 def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: Sequence[int], fps: int = 20,
                       title: str = "", dpi: int = 90, on_frame: Callable[[], None] | None = None) -> Path:
     """:func:`write_gif` for a described mechanism: each frame draws the machine as it is
@@ -233,13 +221,14 @@ def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: 
     import matplotlib.pyplot as plt
     from matplotlib.animation import PillowWriter
 
+    from .mechanism_model import joint_positions
     from .plotting import draw_mechanism
 
     path = Path(path)
     t, q, desired_xy = (np.asarray(a, dtype=float) for a in (t, q, desired_xy))
     frames = [int(k) for k in frames]
     dof = model.description.dof
-    points = _joint_points(model, q, frames)
+    points = joint_positions(model, q[frames])
     shown = np.vstack([points.reshape(-1, 2), desired_xy])
     lo, hi = shown.min(axis=0), shown.max(axis=0)
     pad = 0.08 * float(np.max(hi - lo))
@@ -271,13 +260,14 @@ def write_spatial_gif(model, t, q, desired, path: str | os.PathLike, frames: Seq
     import matplotlib.pyplot as plt
     from matplotlib.animation import PillowWriter
 
+    from .mechanism_model import joint_positions
     from .plotting import _equal_box, draw_spatial_mechanism
 
     path = Path(path)
     t, q, desired = (np.asarray(a, dtype=float) for a in (t, q, desired))
     frames = [int(k) for k in frames]
     dof = model.description.dof
-    points = _joint_points(model, q, frames)
+    points = joint_positions(model, q[frames])
     box = np.vstack([points.reshape(-1, 3), desired, [leg.base for leg in model.description.legs]])
     fig = plt.figure(figsize=(6.0, 5.6), dpi=dpi, layout="constrained")
     ax = fig.add_subplot(projection="3d")

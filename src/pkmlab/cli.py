@@ -792,35 +792,24 @@ def cmd_export_mjcf(args) -> dict:
 
 
 def _animation_model(args, folder: Path, case: str):
-    """The machine that produced the run: --params, else RESULT_DIR/CASE_plant.toml (reproduce) or
-    RESULT_DIR/plant.toml (simulate), else the paper's (scaled for a reproduced 'disturbed' case)."""
-    from .geometry import Planar3RRR
+    """The 3-RRR that produced the run: --params, else the folder's own
+    (:func:`~pkmlab.views.folder.result_manipulator`)."""
     from .io import load_manipulator
-    from .simulation import scaled_model
+    from .views.folder import result_manipulator
 
     if args.params:
         return load_manipulator(args.params), Path(args.params).name
-    for plant in (folder / f"{case}_plant.toml", folder / "plant.toml"):  # pkmlab reproduce, pkmlab simulate
-        if plant.is_file():
-            return load_manipulator(plant), f"{folder.name}/{plant.name}"
-    if case == "disturbed":
-        return scaled_model(Planar3RRR.paper(), 1.15, 1.15), "paper preset, masses and lengths x1.15"
-    return Planar3RRR.paper(), "paper preset"
+    return result_manipulator(folder, case)
 
 
 def _animation_machine(args, folder: Path):
     """The described machine of a run — ``--mechanism``, else the run's plant.toml when it holds a
     ``[mechanism]`` table — or None for the paper's 3-RRR."""
-    from .io import read_text
-    from .mechanism_model import MechanismModel
-    from .mechanisms.description import load_mechanism
+    from .views.folder import result_mechanism
 
     if getattr(args, "mechanism", None):
         return _mechanism(args), args.mechanism  # refuses --params, which describes the paper's 3-RRR
-    plant = folder / "plant.toml"
-    if plant.is_file() and re.search(r"^\[mechanism\]", read_text(plant), re.MULTILINE):
-        return MechanismModel.from_description(load_mechanism(plant)), f"{folder.name}/plant.toml"
-    return None
+    return result_mechanism(folder)
 
 
 def _animate_machine(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:

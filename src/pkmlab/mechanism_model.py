@@ -279,6 +279,19 @@ def trig_table(model: MechanismModel, q: np.ndarray) -> np.ndarray:
     return sc
 
 
+def joint_positions(model: MechanismModel, q) -> np.ndarray:
+    """Every joint's position at configurations ``q`` (..., n_coordinates): (..., legs, joints per leg, 2 or 3),
+    each leg's base joint first — from the structure's generated ``joint_points``; what every drawing of a
+    machine draws."""
+    q = np.ascontiguousarray(q, dtype=float)
+    k = model.kernels
+    flat = q.reshape(-1, q.shape[-1])
+    out = np.empty((len(flat), len(model.description.legs), k.JOINTS_PER_LEG, k.DIM))
+    for i, qi in enumerate(flat):
+        k.joint_points(qi, trig_table(model, qi), model.P, out[i])
+    return out.reshape(*q.shape[:-1], *out.shape[1:])
+
+
 def _evaluate(model: MechanismModel, fn, shape, q, *args) -> np.ndarray:
     """``fn``'s output (``shape``) at configuration ``q``; ``args`` between the trig table and ``P``."""
     out = np.empty(shape)

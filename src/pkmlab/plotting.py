@@ -162,9 +162,7 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     ax = _axes(ax)
     q = np.asarray(q, dtype=float)
     m = model.description
-    k = model.kernels
-    points = np.empty((len(m.legs), k.JOINTS_PER_LEG, 2))
-    k.joint_points(q, mm.trig_table(model, q), model.P, points)
+    points = mm.joint_positions(model, q)
     for i, leg in enumerate(m.legs):
         pts = points[i, :len(leg.joints)]
         first = i == 0
@@ -232,9 +230,8 @@ def draw_spatial_mechanism(model, q, ax=None, title: str | None = None):
 
     ax = _axes3d(ax)
     q = np.asarray(q, dtype=float)
-    m, k = model.description, model.kernels
-    points = np.empty((len(m.legs), k.JOINTS_PER_LEG, 3))
-    k.joint_points(q, mm.trig_table(model, q), model.P, points)
+    m = model.description
+    points = mm.joint_positions(model, q)
     base = np.array([leg.base for leg in m.legs] + [m.legs[0].base])
     ax.plot(*base.T, color="0.3", lw=2.5, label="base")
     for i, leg in enumerate(m.legs):

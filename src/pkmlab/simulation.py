@@ -265,21 +265,22 @@ def perturbed_model(model: Planar3RRR, rng: np.random.Generator, spread: float =
     if not 0.0 <= spread < 1.0:
         raise InvalidParameterError(f"spread must be in [0, 1), got {spread!r}")
 
+    from .uncertainty import perturbed_plant
+
     def factor(size=None):
         return rng.uniform(1.0 - spread, 1.0 + spread, size)
 
+    # drawn in this order (lengths, masses, inertias; actuated links, passive links, platform): a seed keeps
+    # giving the machine it gave
+    factors = {}
+    for quantity in ("length", "mass", "inertia"):
+        active, passive, platform = factor(3), factor(3), factor()
+        for i in range(3):
+            factors[f"leg{i + 1}.body1.{quantity}"] = active[i]
+            factors[f"leg{i + 1}.body2.{quantity}"] = passive[i]
+        factors[f"platform.{quantity}"] = platform
     try:
-        return model.replace(
-            active_lengths=model.active_lengths * factor(3),
-            passive_lengths=model.passive_lengths * factor(3),
-            platform_side=float(model.platform_side * factor()),
-            active_masses=model.active_masses * factor(3),
-            passive_masses=model.passive_masses * factor(3),
-            platform_mass=float(model.platform_mass * factor()),
-            active_inertias=model.active_inertias * factor(3),
-            passive_inertias=model.passive_inertias * factor(3),
-            platform_inertia=float(model.platform_inertia * factor()),
-        )
+        return perturbed_plant(model, factors)
     except InvalidParameterError as exc:
         raise InvalidParameterError(f"the machine drawn with spread = {spread:g} is impossible: {exc}") from None
 
@@ -465,27 +466,13 @@ class SimulationResult:
     @property
     def path_error(self) -> np.ndarray:
         """Euclidean distance (m) between the actual and the desired tracked point."""
-        position = 3 if "z" in self.columns_pose else 2
-        return np.linalg.norm(self.pose[:, :position] - self.pose_d[:, :position], axis=1)
+        return path_error(self.pose, self.pose_d, self.columns_pose)
 
     @property
     def orientation_error(self) -> np.ndarray | None:
         """The angle (rad) between the actual and the desired orientation of the platform, None where the pose
-        has no orientation: ``|alpha - alpha_d|`` wrapped in the plane; in space the angle of the rotation
-        ``R_dᵀ R`` (from the roll, pitch and yaw of docs/conventions.md)."""
-        names = self.columns_pose
-        if "alpha" in names:
-            k = names.index("alpha")
-            return np.abs(np.angle(np.exp(1j * (self.pose[:, k] - self.pose_d[:, k]))))
-        if "roll" in names:
-            from .mechanisms.spatial import orientations
-
-            # the angle of E = R_dᵀ R: cos from its trace (1 + 2 cos), sin from its skew part (|E - Eᵀ| = 2 sin·√2),
-            # together by atan2 — exact to round-off for small angles too, where arccos of the trace is not
-            e = np.einsum("kji,kjl->kil", orientations(self.pose_d[:, 3:6]), orientations(self.pose[:, 3:6]))
-            skew = np.stack([e[:, 2, 1] - e[:, 1, 2], e[:, 0, 2] - e[:, 2, 0], e[:, 1, 0] - e[:, 0, 1]], axis=1)
-            return np.arctan2(np.linalg.norm(skew, axis=1) / 2, (np.trace(e, axis1=1, axis2=2) - 1) / 2)
-        return None
+        has no orientation (:func:`orientation_error`)."""
+        return orientation_error(self.pose, self.pose_d, self.columns_pose)
 
     @property
     def columns_pose(self) -> tuple[str, ...]:
@@ -551,6 +538,32 @@ class SimulationResult:
         """Write the summary and the time series as JSON, atomically."""
         data = {"summary": self.summary(), "columns": list(self.columns), "rows": self.table().tolist()}
         return _write_atomic(path, json.dumps(data))
+
+
+def path_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray:
+    """Euclidean distance (m) between the actual and the desired tracked point of poses (N, dof) whose
+    coordinates are ``names``: in the plane, or in space when the pose has a ``z``."""
+    position = 3 if "z" in names else 2
+    return np.linalg.norm(pose[:, :position] - pose_d[:, :position], axis=1)
+
+
+def orientation_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray | None:
+    """The angle (rad) between the actual and the desired orientation of poses (N, dof) whose coordinates are
+    ``names``, None where the pose has no orientation: ``|alpha - alpha_d|`` wrapped in the plane; in space the
+    angle of the rotation ``R_dᵀ R`` (from the roll, pitch and yaw of docs/conventions.md)."""
+    names = tuple(names)
+    if "alpha" in names:
+        k = names.index("alpha")
+        return np.abs(np.angle(np.exp(1j * (pose[:, k] - pose_d[:, k]))))
+    if "roll" in names:
+        from .mechanisms.spatial import orientations
+
+        # the angle of E = R_dᵀ R: cos from its trace (1 + 2 cos), sin from its skew part (|E - Eᵀ| = 2 sin·√2),
+        # together by atan2 — exact to round-off for small angles too, where arccos of the trace is not
+        e = np.einsum("kji,kjl->kil", orientations(pose_d[:, 3:6]), orientations(pose[:, 3:6]))
+        skew = np.stack([e[:, 2, 1] - e[:, 1, 2], e[:, 0, 2] - e[:, 2, 0], e[:, 1, 0] - e[:, 0, 1]], axis=1)
+        return np.arctan2(np.linalg.norm(skew, axis=1) / 2, (np.trace(e, axis1=1, axis2=2) - 1) / 2)
+    return None
 
 
 def _write_atomic(path, text: str) -> Path:

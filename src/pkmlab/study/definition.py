@@ -176,6 +176,24 @@ def _self_contained(base: dict, folder: Path, source: str) -> dict:
     return base
 
 
+def scenario_tables(scenario, source: str = "<scenario>", what: str = "scenario") -> dict:
+    """A scenario's tables, from a scenario file or from its tables (a dict; a ``[mechanism].file`` in it is
+    relative to ``source``'s folder), with any mechanism file read into them: what a study or a tuning sends to
+    workers that do not share the user's files. Errors start with ``what``."""
+    if not isinstance(scenario, (str, Path, dict)):
+        raise InvalidParameterError(f"{what} must be a scenario file or its tables (a dict), got "
+                                    f"{type(scenario).__name__} {shown(scenario, 40)}")
+    try:
+        if isinstance(scenario, dict):
+            return _self_contained(scenario, Path(source).parent, source)
+        path = Path(scenario)
+        return _self_contained(read_toml(path), path.parent, str(path))
+    except PkmlabError as exc:
+        raise type(exc)(f"{what}: {exc}") from None
+    except ValueError as exc:  # a NUL in a path
+        raise InvalidParameterError(f"{what}: {exc}") from None
+
+
 @dataclass(frozen=True)
 class Study:
     """A study: runs of ``base`` (scenario data, as a scenario file's tables) at every point of the grid of
@@ -210,19 +228,9 @@ class Study:
             raise _error(source, f"name must be a non-empty string, got {shown(name)}")
         if not (isinstance(combine, str) and combine in COMBINE):
             raise _error(source, f"[study].combine must be \"cross\" or \"zip\", got {shown(combine)}")
-        try:
-            if isinstance(base, (str, Path)):
-                path = Path(base)
-                data = _self_contained(read_toml(path), path.parent, str(path))
-                name = name or path.stem
-            elif isinstance(base, dict):
-                data = _self_contained(base, Path(source).parent, source)
-            else:
-                raise InvalidParameterError(f"must be a scenario file or its tables (a dict), got "
-                                            f"{type(base).__name__} {shown(base, 40)}")
-        except (PkmlabError, ValueError) as exc:  # ValueError: a NUL in a path
-            raise InvalidParameterError(f"base: {exc}") if not isinstance(exc, PkmlabError) else \
-                type(exc)(f"base: {exc}") from None
+        data = scenario_tables(base, source, "base")
+        if isinstance(base, (str, Path)):
+            name = name or Path(base).stem
         if not isinstance(grid if grid is not None else {}, dict):
             raise _error(source, f"grid must be a table of axes, got {shown(grid)}")
         valid = axis_keys()
@@ -365,16 +373,17 @@ class Study:
         scenario = self.nominal_scenario(point) if scenario is None else scenario
         return draw_factors(scenario.plant_model, self.uncertainty, self.seed, draw)
 
-    def scenario(self, run: int, nominal=None):
+    def scenario(self, run: int, nominal=None, factors: dict | None = None):
         """The :class:`~pkmlab.simulation.Scenario` of ``run`` — what ``simulate`` runs to reproduce its row.
-        ``nominal`` is its grid point's :meth:`nominal_scenario`, if already built."""
+        ``nominal`` is its grid point's :meth:`nominal_scenario` and ``factors`` its :meth:`factors`, if already
+        known."""
         from ..uncertainty import perturbed_plant
 
         point, _draw = self.locate(run)
         nominal = self.nominal_scenario(point) if nominal is None else nominal
         if not self.draws:
             return nominal.replace(name=f"{self.name} run {run}")
-        plant = perturbed_plant(nominal.plant_model, self.factors(run, nominal))
+        plant = perturbed_plant(nominal.plant_model, self.factors(run, nominal) if factors is None else factors)
         return nominal.replace(plant=plant, name=f"{self.name} run {run}")
 
     def base_scenario(self):
@@ -426,14 +435,12 @@ def study_from_dict(data: dict, source: str = "<study>") -> Study:
     if ("base" in head) == ("base" in data):
         raise FileFormatError(f"{source}: give the base scenario once: [study].base = \"FILE.toml\" or [base.*] "
                               "tables")
-    folder = Path(source).parent
     if "base" in head:
         if not isinstance(head["base"], str) or not head["base"]:
             raise FileFormatError(f"{source}: [study].base must be a scenario file name, got {shown(head['base'])}")
-        path = folder / head["base"]
-        base = _self_contained(read_toml(path), path.parent, str(path))
+        base = Path(source).parent / head["base"]
     else:
-        base = _self_contained(data["base"], folder, source)
+        base = data["base"]  # inline tables: a mechanism file they name is relative to the study file
     name = head.get("name", Path(source).stem or "study")
     if not isinstance(name, str) or not name:
         raise FileFormatError(f"{source}: [study].name must be a non-empty string, got {shown(name)}")

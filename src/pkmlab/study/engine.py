@@ -87,11 +87,6 @@ def schema(study: Study):
     return pa.schema(fields)
 
 
-def _arrow_table(study: Study, rows: list[dict], types):
-    pa = _needs("pyarrow")
-    return pa.Table.from_pylist(rows, schema=types)
-
-
 # ------------------------------------------------------------------ the study folder
 class StudyFolder:
     """A study's folder: ``study.json``, ``chunks/``, and, once complete, ``runs.parquet``, ``summary.json``,
@@ -267,6 +262,7 @@ def execute(study: Study, todo: list[int], *, folder: StudyFolder | None = None,
     """Run ``todo`` (run numbers) of ``study`` in chunks; each chunk's Arrow table is written to ``folder`` as
     it finishes (or kept in memory without a folder). Returns the tables kept in memory and what was measured:
     ``{"workers", "chunk_size", "chunks", "wall_time_s", "runs_per_s", "task_overhead_s"}``."""
+    pa = _needs("pyarrow")
     types = schema(study)
     kept: list = []
     start = time.perf_counter()
@@ -275,7 +271,7 @@ def execute(study: Study, todo: list[int], *, folder: StudyFolder | None = None,
 
     def finished(rows: list[dict], seconds: float) -> None:
         nonlocal done, busy
-        table = _arrow_table(study, rows, types)
+        table = pa.Table.from_pylist(rows, schema=types)
         if folder is not None:
             folder.write_chunk(table)
         else:

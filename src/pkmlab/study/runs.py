@@ -133,7 +133,7 @@ def run_chunk(study: Study, runs, threads: int | None = None) -> list[dict]:
                 raise nominal[point]
             factors = study.factors(run, nominal[point])
             try:
-                scenario = study.scenario(run, nominal[point])
+                scenario = study.scenario(run, nominal[point], factors)
             except InvalidParameterError as exc:  # the plant drawn cannot be assembled
                 raise AssemblyError(f"the plant drawn cannot be assembled: {exc}") from None
         except PkmlabError as exc:

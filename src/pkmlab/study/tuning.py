@@ -23,6 +23,7 @@ runs.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
 import math
@@ -33,8 +34,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InvalidParameterError
+from ..kinematics import _count, _real
 from ..outputs import atomic_file
-from .definition import Study
+from .definition import Study, scenario_tables
 from .engine import _dask_client, run_study
 
 #: Default search box: kp (1/s²) and the damping ratio ζ.
@@ -98,16 +100,15 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
 
     optuna = _needs("optuna")
     _needs("pandas")
-    base = _base(scenario)
-    max_effort = _positive("max_effort", max_effort)
+    base = scenario_tables(scenario)
+    max_effort = _real("max_effort", max_effort, "positive")
     if not 0.0 < quantile <= 1.0:
         raise InvalidParameterError(f"quantile must be in (0, 1], got {quantile!r}")
     for name, value, low in (("trials", trials, 1), ("batch", batch, 1), ("draws", draws, 0)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise InvalidParameterError(f"{name} must be an integer ≥ {low}, got {value!r}")
+        _count(name, value, low)
     bounds = {q: uncertainty for q in quantities} if draws else {}
-    kp_lo, kp_hi = (_positive("kp_range", v) for v in kp_range)
-    z_lo, z_hi = (_positive("zeta_range", v) for v in zeta_range)
+    kp_lo, kp_hi = (_real("kp_range", v, "positive") for v in kp_range)
+    z_lo, z_hi = (_real("zeta_range", v, "positive") for v in zeta_range)
     controller = base.get("controller", {})
     kp0 = float(controller.get("kp", 1000.0))
     kv0 = float(controller.get("kv", 2.0 * math.sqrt(kp0)))
@@ -122,7 +123,8 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     search = optuna.create_study(direction="minimize", sampler=sampler)
     search.enqueue_trial({"log10_kp": math.log10(kp0), **({} if critical else {"zeta": zeta0})})
     rows: list[dict] = []
-    with _dask_client(workers, scheduler, client) if workers != 0 or scheduler or client else _nothing() as dask:
+    in_process = workers == 0 and not scheduler and client is None
+    with contextlib.nullcontext() if in_process else _dask_client(workers, scheduler, client) as dask:
         while len(rows) < trials:
             asked = [search.ask() for _ in range(min(batch, trials - len(rows)))]
             gains = []
@@ -164,34 +166,8 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
                         bounds, draws)
 
 
-class _nothing:
-    def __enter__(self):
-        return None
-
-    def __exit__(self, *exc):
-        return False
-
-
 def _plain(row: dict) -> dict:
     return {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
-
-
-def _positive(name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
-        raise InvalidParameterError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
-
-
-def _base(scenario) -> dict:
-    from ..io import read_toml
-    from .definition import _self_contained
-
-    if isinstance(scenario, (str, Path)):
-        path = Path(scenario)
-        return _self_contained(read_toml(path), path.parent, str(path))
-    if isinstance(scenario, dict):
-        return copy.deepcopy(scenario)
-    raise InvalidParameterError(f"scenario must be a scenario file or its tables, got {type(scenario).__name__}")
 
 
 def write_tuning(result: TuningResult, out, source: str) -> dict:

@@ -38,24 +38,38 @@ def result_cases(folder: Path) -> list[str]:
     return cases
 
 
-def result_machine(folder: Path, case: str):
-    """``(model, source)``: the machine that produced run ``case`` of ``folder`` — its ``<case>_plant.toml`` or
-    ``plant.toml`` (a ``[mechanism]`` or ``[manipulator]`` table), else the paper's 3-RRR (×1.15 for a
-    reproduced ``disturbed`` case)."""
-    from ..geometry import Planar3RRR
-    from ..io import load_manipulator, read_text
+def result_mechanism(folder: Path):
+    """``(model, source)`` of a described machine's run — its folder's ``plant.toml`` holding a ``[mechanism]``
+    table — or None (the paper's 3-RRR: :func:`result_manipulator`)."""
+    from ..io import read_text
     from ..mechanism_model import MechanismModel
     from ..mechanisms.description import load_mechanism
+
+    plant = folder / "plant.toml"
+    if plant.is_file() and re.search(r"^\[mechanism\]", read_text(plant), re.MULTILINE):
+        return MechanismModel.from_description(load_mechanism(plant)), f"{folder.name}/plant.toml"
+    return None
+
+
+def result_manipulator(folder: Path, case: str):
+    """``(model, source)``: the 3-RRR that produced run ``case`` of ``folder`` — its ``<case>_plant.toml``
+    (reproduce) or ``plant.toml`` (simulate), else the paper's (×1.15 for a reproduced ``disturbed`` case)."""
+    from ..geometry import Planar3RRR
+    from ..io import load_manipulator
     from ..simulation import scaled_model
 
     for plant in (folder / f"{case}_plant.toml", folder / "plant.toml"):
         if plant.is_file():
-            if re.search(r"^\[mechanism\]", read_text(plant), re.MULTILINE):
-                return MechanismModel.from_description(load_mechanism(plant)), f"{folder.name}/{plant.name}"
             return load_manipulator(plant), f"{folder.name}/{plant.name}"
     if case == "disturbed":
         return scaled_model(Planar3RRR.paper(), 1.15, 1.15), "paper preset, masses and lengths x1.15"
     return Planar3RRR.paper(), "paper preset"
+
+
+def result_machine(folder: Path, case: str):
+    """``(model, source)``: the machine that produced run ``case`` of ``folder`` (what ``pkmlab animate`` and
+    ``pkmlab view`` rebuild the run on)."""
+    return result_mechanism(folder) or result_manipulator(folder, case)
 
 
 def _columns(model) -> tuple[tuple[str, ...], int, tuple[str, ...]]:

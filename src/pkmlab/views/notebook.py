@@ -138,8 +138,8 @@ def draw(model, q, title: str | None = None):
     import plotly.graph_objects as go
 
     from ..geometry import Planar3RRR
-    from ..mechanism_model import MechanismModel, coordinates_from_3rrr
-    from .run import RunView, _machine_lines, _scatter, joint_positions
+    from ..mechanism_model import MechanismModel, coordinates_from_3rrr, joint_positions
+    from .run import RunView, _machine_lines, machine_traces
 
     q = np.asarray(q, dtype=float)
     if isinstance(model, Planar3RRR):
@@ -152,13 +152,7 @@ def draw(model, q, title: str | None = None):
     point = pose[None, :3 if spatial else 2]
     one = RunView("", np.zeros(1), np.array([0]), joints, [leg.actuated for leg in description.legs],
                   [len(leg.joints) for leg in description.legs], description.platform.kind != "point", point, point)
-    lines = _machine_lines(one, 0)
-    fig = go.Figure()
-    for part, colour, width in (("actuated", "#1f77b4", 7), ("passive", "#ff7f0e", 3), ("platform", "#2ca02c", 3)):
-        fig.add_trace(_scatter(go, lines[part], spatial, mode="lines+markers", name=part,
-                               line={"color": colour, "width": width}))
-    fig.add_trace(_scatter(go, lines["point"], spatial, mode="markers", name="tracked point",
-                           marker={"color": "black", "symbol": "cross", "size": 9}))
+    fig = go.Figure(machine_traces(go, _machine_lines(one, 0), spatial))
     where = ", ".join(f"{n} = {v:.3f}" for n, v in zip(description.pose_names, pose, strict=True))
     fig.update_layout(title=title or f"{description.name} at {where}", template="plotly_white", height=520)
     if not spatial:

@@ -61,7 +61,8 @@ class RunView:
         :class:`~pkmlab.mechanism_model.MechanismModel`) recorded as configurations ``q`` (N, n_q) in the model's
         own coordinates, poses, efforts and ``S``; ``frames`` animation frames at most (:data:`MAX_FRAMES`)."""
         from ..geometry import Planar3RRR
-        from ..mechanism_model import MechanismModel, coordinates_from_3rrr
+        from ..mechanism_model import MechanismModel, coordinates_from_3rrr, joint_positions
+        from ..simulation import orientation_error, path_error
 
         t, q, pose, pose_d, tau, S = (np.asarray(a, dtype=float) for a in (t, q, pose, pose_d, tau, S))
         if isinstance(model, Planar3RRR):
@@ -73,19 +74,11 @@ class RunView:
         spatial = joints.shape[-1] == 3
         position = 3 if spatial else 2
         desired, actual = pose_d[:, :position], pose[:, :position]
-        series = {"path error": ("m", {"|p - p_d|": np.linalg.norm(actual - desired, axis=1)})}
-        names = list(pose_names)
-        if "alpha" in names:
-            k = names.index("alpha")
-            series["orientation error"] = ("rad", {"|α - α_d|": np.abs(np.angle(np.exp(1j * (pose[:, k]
-                                                                                              - pose_d[:, k]))))})
-        elif "roll" in names:
-            from ..mechanisms.spatial import orientations
-
-            e = np.einsum("kji,kjl->kil", orientations(pose_d[:, 3:6]), orientations(pose[:, 3:6]))
-            skew = np.stack([e[:, 2, 1] - e[:, 1, 2], e[:, 0, 2] - e[:, 2, 0], e[:, 1, 0] - e[:, 0, 1]], axis=1)
-            series["orientation error"] = ("rad", {"angle of R_dᵀR": np.arctan2(
-                np.linalg.norm(skew, axis=1) / 2, (np.trace(e, axis1=1, axis2=2) - 1) / 2)})
+        series = {"path error": ("m", {"|p - p_d|": path_error(pose, pose_d, pose_names)})}
+        orientation = orientation_error(pose, pose_d, pose_names)
+        if orientation is not None:
+            label = "|α - α_d|" if "alpha" in pose_names else "angle of R_dᵀR"
+            series["orientation error"] = ("rad", {label: orientation})
         kinds = getattr(description, "actuator_kinds", None) or ("R",) * tau.shape[1]
         unit = "N·m" if all(k == "R" for k in kinds) else "N" if all(k == "P" for k in kinds) else "N·m or N"
         series["efforts"] = (unit, {f"τ{i + 1}": tau[:, i] for i in range(tau.shape[1])})
@@ -100,18 +93,6 @@ class RunView:
         return cls.from_run(name or result.scenario.name, result.scenario.plant_model, result.t, result.q,
                             result.pose, result.pose_d, result.tau, result.S, result.columns_pose, result.summary(),
                             scenario_text)
-
-
-def joint_positions(model, q: np.ndarray) -> np.ndarray:
-    """Every joint's position at every configuration (N, legs, joints per leg, 2 or 3), from the structure's
-    generated ``joint_points``."""
-    from .. import mechanism_model as mm
-
-    k = model.kernels
-    out = np.empty((len(q), len(model.description.legs), k.JOINTS_PER_LEG, k.DIM))
-    for i, qi in enumerate(q):
-        k.joint_points(qi, mm.trig_table(model, qi), model.P, out[i])
-    return out
 
 
 def frame_samples(n: int, frames: int = MAX_FRAMES) -> np.ndarray:
@@ -155,6 +136,22 @@ def _scatter(go, xyz: np.ndarray, spatial: bool, **kw):
     return go.Scatter(x=xyz[:, 0], y=xyz[:, 1], **kw)
 
 
+def machine_traces(go, lines: dict, spatial: bool) -> list:
+    """The machine's Plotly traces from :func:`_machine_lines`: its actuated bodies (bold), its passive ones,
+    the platform (filled in the plane) and the tracked point."""
+    width = {"actuated": 9 if spatial else 7, "passive": 5 if spatial else 3, "platform": 6 if spatial else 3}
+    traces = []
+    for part in ("actuated", "passive", "platform"):
+        fill = {"fill": "toself", "fillcolor": "rgba(44,160,44,0.35)"} if part == "platform" and not spatial else {}
+        traces.append(_scatter(go, lines[part], spatial, mode="lines+markers",
+                               name="platform" if part == "platform" else f"{part} bodies",
+                               line={"color": COLOURS[part], "width": width[part]},
+                               marker={"size": 3 if spatial else 6, "color": COLOURS[part]}, **fill))
+    traces.append(_scatter(go, lines["point"], spatial, mode="markers", name="tracked point",
+                           marker={"color": "black", "size": 4 if spatial else 10, "symbol": "cross"}))
+    return traces
+
+
 def run_figure(view: RunView) -> dict:
     """The interactive figure of ``view``: machine, paths, time series with cursors, slider and play button — a
     Plotly figure as a dict (``plotly.graph_objects.Figure(spec)`` makes it an object; ``plotly.io.to_html(spec,
@@ -183,25 +180,14 @@ def run_figure(view: RunView) -> dict:
                                                                                    "dash": "dash", "width": 2},
                            **mode_line), row=1, col=1)
     # animated: the machine, the trail, the cursors
-    lines = _machine_lines(view, 0)
-    animated = []
-    style = {"actuated": {"color": COLOURS["actuated"], "width": 7 if not spatial else 9},
-             "passive": {"color": COLOURS["passive"], "width": 3 if not spatial else 5},
-             "platform": {"color": COLOURS["platform"], "width": 3 if not spatial else 6}}
-    for part in ("actuated", "passive", "platform"):
-        fill = {"fill": "toself", "fillcolor": "rgba(44,160,44,0.35)"} if part == "platform" and not spatial else {}
-        animated.append(len(fig.data))
-        fig.add_trace(_scatter(go, lines[part], spatial, mode="lines+markers", name=f"{part} bodies"
-                               if part != "platform" else "platform", line=style[part],
-                               marker={"size": 3 if spatial else 6, "color": style[part]["color"]}, **fill),
-                      row=1, col=1)
-    animated.append(len(fig.data))
+    machine = machine_traces(go, _machine_lines(view, 0), spatial)
+    first_machine = len(fig.data)
+    for trace in machine:
+        fig.add_trace(trace, row=1, col=1)
     fig.add_trace(_scatter(go, view.actual[samples[:1]], spatial, name="actual path (trail)",
                            line={"color": COLOURS["actual"], "width": 2}, **mode_line), row=1, col=1)
-    animated.append(len(fig.data))
-    fig.add_trace(_scatter(go, lines["point"], spatial, mode="markers", name="tracked point",
-                           marker={"color": "black", "size": 4 if spatial else 10, "symbol": "cross"}),
-                  row=1, col=1)
+    # the frames' order: the bodies, the platform, the trail, the tracked point
+    animated = [first_machine, first_machine + 1, first_machine + 2, len(fig.data) - 1, first_machine + 3]
     palette = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"]
     bounds = []
     for row, (_title, (unit, curves)) in enumerate(view.series.items(), start=1):
