@@ -352,21 +352,21 @@ def _follow_path(ws, thetas, P, min_abs_s, q_path):
 def follow_path_kernel(thetas, P, min_abs_s, q_path):
     """Branch following along ``thetas`` from ``q_path[0]`` (the core's coordinates): one compiled call per sample,
     each started afresh from the previous configuration, as the public API's kernel does."""
-    return _follow_path(PAPER_KERNELS.make_workspace(), thetas, P, min_abs_s, q_path)
+    return _follow_path(PAPER_KERNELS.make_workspaces(1)[0], thetas, P, min_abs_s, q_path)
 
 
 def actuator_space_kernel_loop(qs, theta_dots, P, m_out, c_out):
     """``(Mθ, Cθ θ̇)`` at every state (``qs`` in the core's coordinates): one compiled call per state. True when
     all were regular."""
     none = np.empty((0, 3))
-    return _actuator_space_loop(PAPER_KERNELS.make_workspace(), np.zeros((qs.shape[1], 2)), qs, theta_dots, P, m_out,
-                                c_out, none, none)
+    return _actuator_space_loop(PAPER_KERNELS.make_workspaces(1)[0], np.zeros((qs.shape[1], 2)), qs, theta_dots, P,
+                                m_out, c_out, none, none)
 
 
 def forward_dynamics_kernel_loop(qs, theta_dots, taus, P, out):
     """``θ̈`` at every state: one compiled evaluation of the model and its solve per state."""
     n = qs.shape[0]
-    return _actuator_space_loop(PAPER_KERNELS.make_workspace(), np.zeros((qs.shape[1], 2)), qs, theta_dots, P,
+    return _actuator_space_loop(PAPER_KERNELS.make_workspaces(1)[0], np.zeros((qs.shape[1], 2)), qs, theta_dots, P,
                                 np.empty((n, 3, 3)), np.empty((n, 3)), taus, out)
 
 
@@ -386,7 +386,8 @@ def _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, min_abs_s, q_p
 def follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, min_abs_s, q_path, out):
     """Per step: branch-follow from ``q_path[k - 1]`` to ``θ_k``, then ``θ̈`` there (a reduced-plant RHS, as the
     simulation's RK4 stages evaluate it). Returns the status."""
-    ws = PAPER_KERNELS.make_workspace()
+    workspaces = PAPER_KERNELS.make_workspaces(1)  # kept alive: ws points into it
+    ws = workspaces[0]
     PAPER_KERNELS.set_base(ws, q_path[0], P)
     return _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, min_abs_s, q_path, out)
 

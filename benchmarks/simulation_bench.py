@@ -344,7 +344,8 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     errors = {}
     fast_machine = MechanismModel.from_3rrr(fm)
     for n_sub in (1, 2, 4):
-        ws = kernels.make_workspace()
+        workspaces = kernels.make_workspaces(1)  # kept alive: ws points into it
+        ws = workspaces[0]
         kernels.set_base(ws, coordinates_from_3rrr(fm, fast.q[k]), fast_machine.P)
         x = np.concatenate([fast.q[k, :3], fast.theta_dot[k]])
         kernels.rk4_sample(ws, x, fast.tau[k], fast_machine.P, 1e-3, n_sub, 1e-3, np.empty((5, 6)))

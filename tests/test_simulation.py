@@ -313,7 +313,8 @@ def test_plant_integrator_is_fourth_order_and_one_step_per_sample_is_below_1e_12
     errors = []
     steps = (1, 2, 4, 8)
     for n_sub in steps:
-        ws = kernels.make_workspace()
+        workspaces = kernels.make_workspaces(1)  # kept alive: ws points into it
+        ws = workspaces[0]
         kernels.set_base(ws, coordinates_from_3rrr(model, q0), machine.P)
         x = np.concatenate([q0[:3], w0])
         assert kernels.rk4_sample(ws, x, tau, machine.P, span, n_sub, 1e-3, np.empty((5, 6))) == kernels.OK

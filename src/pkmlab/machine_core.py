@@ -30,9 +30,6 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
         DOF,
         GRAVITY_INDEX,
         INERTIA_INDEX,
-        JB_BODY,
-        JB_COL,
-        JB_ROW,
         LINE_WIDTH,
         MASS_INDEX,
         N_ACTUATORS,
@@ -42,6 +39,7 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
         N_JB,
         body_bias,
         body_jacobian_values,
+        body_velocities,
         constraint_bias,
         constraint_jacobian,
         constraints,
@@ -52,8 +50,6 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
     )
 
 # ==== TEMPLATE: the text from here on is appended to every generated kernel module ====
-from typing import NamedTuple  # noqa: E402
-
 import numpy as np  # noqa: E402
 from numba import njit, prange  # noqa: E402
 
@@ -111,43 +107,6 @@ def constraint_biases(qs, q_dots, P, out):
         constraint_bias(qs[k], sc, q_dots[k], P, out[k])
 
 
-class Workspace(NamedTuple):
-    """Scratch arrays of one model's evaluations; ``q[0]`` holds the base configuration (the last
-    accepted one, from which branch following starts) and ``q[1]`` a trial configuration."""
-
-    q: np.ndarray  # (2, N) base and trial configurations
-    sc: np.ndarray  # (2, N, 2) their trig tables
-    s: np.ndarray  # (2,) their singularity measures
-    j_eta: np.ndarray  # (m, N) Jηq
-    lu: np.ndarray  # (m - DIM, m - DIM) factors of Jηφ's reduced system (the tracked point eliminated)
-    piv: np.ndarray  # (m - DIM,)
-    eta: np.ndarray  # (m,)
-    j_q_theta: np.ndarray  # (N, n) Jqθ (eq. 31)
-    q_dot: np.ndarray  # (N,)
-    bias_q: np.ndarray  # (N,) J̇qθ θ̇ (eq. 32)
-    gamma: np.ndarray  # (m,) J̇ηq q̇
-    jb: np.ndarray  # (N_JB,) the non-zeros of the bodies' Jacobians
-    bb: np.ndarray  # (n_bodies, BODY_ROWS) bodies' J̇ q̇, then their accelerations at θ̈ = 0
-    jt: np.ndarray  # (n_bodies, BODY_ROWS, n) the bodies' Jacobians times Jqθ
-    m_theta: np.ndarray  # (n, n) Mθ
-    c_theta: np.ndarray  # (n,) cθ = Cθ θ̇
-    g_theta: np.ndarray  # (n,) gθ = ∂V/∂θ
-    theta_ddot: np.ndarray  # (n,)
-    ldl: np.ndarray  # (n, n) factor of Mθ
-    lines: np.ndarray  # (n, LINE_WIDTH) the legs' lines of action
-    lu_base: np.ndarray  # (m - DIM, m - DIM) the same factors at the base, kept for branch following from it
-    piv_base: np.ndarray  # (m - DIM,)
-    j_q_theta_base: np.ndarray  # (N, n) Jqθ at the base
-    base_factored: np.ndarray  # (1,) 1 when the three above are the base's
-    top: np.ndarray  # (DIM, m - DIM) rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
-    top_base: np.ndarray  # (DIM, m - DIM) the same at the base
-    reduced: np.ndarray  # (m - DIM, m - DIM) the reduced system before factoring
-    work: np.ndarray  # (m,) the reduced system's right-hand side, then the tracked point's DIM values
-    rhs: np.ndarray  # (m,)
-    target: np.ndarray  # (n,) the actuators of a sub-step of follow_branch_in_steps
-    step: np.ndarray  # (n,) the actuators' step of follow_branch's predictor
-
-
 BASE = 0
 TRIAL = 1
 
@@ -158,6 +117,59 @@ TRIAL = 1
 # whole of Jηφ. X_COLUMN is x's column in Jηφ.
 REDUCED = N_CONSTRAINTS - DIM
 X_COLUMN = N_CONSTRAINTS - DOF
+
+
+def _workspace_fields(N, m, n, r):
+    """The fields ``(name, type, shape)`` of :data:`WORKSPACE` for ``N`` coordinates, ``m`` constraints, ``n``
+    actuators and a reduced system of ``r`` unknowns."""
+    return [
+        ("q", np.float64, (2, N)),  # base and trial configurations
+        ("sc", np.float64, (2, N, 2)),  # their trig tables
+        ("s", np.float64, (2,)),  # their singularity measures
+        ("j_eta", np.float64, (m, N)),  # Jηq
+        ("lu", np.float64, (r, r)),  # factors of Jηφ's reduced system (the tracked point eliminated)
+        ("piv", np.int64, (r,)),
+        ("eta", np.float64, (m,)),
+        ("j_q_theta", np.float64, (N, n)),  # Jqθ (eq. 31)
+        ("q_dot", np.float64, (N,)),
+        ("bias_q", np.float64, (N,)),  # J̇qθ θ̇ (eq. 32)
+        ("gamma", np.float64, (m,)),  # J̇ηq q̇
+        ("jb", np.float64, (N_JB,)),  # the non-zeros of the bodies' Jacobians
+        ("bb", np.float64, (N_BODIES, BODY_ROWS)),  # bodies' J̇ q̇, then their accelerations at θ̈ = 0
+        ("jt", np.float64, (N_BODIES, BODY_ROWS, n)),  # the bodies' Jacobians times Jqθ
+        ("m_theta", np.float64, (n, n)),  # Mθ
+        ("c_theta", np.float64, (n,)),  # cθ = Cθ θ̇
+        ("g_theta", np.float64, (n,)),  # gθ = ∂V/∂θ
+        ("theta_ddot", np.float64, (n,)),
+        ("ldl", np.float64, (n, n)),  # factor of Mθ
+        ("lines", np.float64, (n, LINE_WIDTH)),  # the legs' lines of action
+        ("lu_base", np.float64, (r, r)),  # the same factors at the base, kept for branch following from it
+        ("piv_base", np.int64, (r,)),
+        ("j_q_theta_base", np.float64, (N, n)),  # Jqθ at the base
+        ("base_factored", np.int64, (1,)),  # 1 when the three above are the base's
+        ("top", np.float64, (DIM, r)),  # rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
+        ("top_base", np.float64, (DIM, r)),  # the same at the base
+        ("reduced", np.float64, (r, r)),  # the reduced system before factoring
+        ("work", np.float64, (m,)),  # the reduced system's right-hand side, then the tracked point's DIM values
+        ("rhs", np.float64, (m,)),
+        ("target", np.float64, (n,)),  # the actuators of a sub-step of follow_branch_in_steps
+        ("step", np.float64, (n,)),  # the actuators' step of follow_branch's predictor
+    ]
+
+
+#: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
+#: (``q[BASE]`` is the base configuration — the last accepted one, from which branch following starts —
+#: and ``q[TRIAL]`` a trial configuration). A record is passed to a function by a single pointer and its
+#: arrays have shapes known at compile time; a tuple of ~30 arrays was copied, array by array, into
+#: every call that took it (which cost about a quarter of the simulation loop's time).
+WORKSPACE = np.dtype(_workspace_fields(N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS, REDUCED), align=True)
+
+
+@njit(cache=True)
+def make_workspaces(count):
+    """``count`` workspaces, a record array; a kernel takes one record (``workspaces[k]``), and the array must
+    outlive every use of it (so entry points allocate it and pass it to the function that does the work)."""
+    return np.zeros(count, WORKSPACE)
 
 
 @njit(**NO_REFCOUNT_INLINE)
@@ -262,20 +274,6 @@ def spatial_singularity_measure(P, lines):
             for k in range(c + 1, N_ACTUATORS):
                 lines[r, k] -= f * lines[c, k]
     return det
-
-
-@njit(cache=True)
-def make_workspace():
-    N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
-    r = REDUCED
-    return Workspace(np.zeros((2, N)), np.zeros((2, N, 2)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)),
-                     np.zeros(r, np.int64),
-                     np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
-                     np.zeros(N_JB), np.zeros((N_BODIES, BODY_ROWS)), np.zeros((N_BODIES, BODY_ROWS, n)),
-                     np.zeros((n, n)), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)),
-                     np.zeros((n, LINE_WIDTH)), np.zeros((r, r)), np.zeros(r, np.int64), np.zeros((N, n)),
-                     np.zeros(1, np.int64), np.zeros((DIM, r)), np.zeros((DIM, r)), np.zeros((r, r)), np.zeros(m),
-                     np.zeros(m), np.zeros(n), np.zeros(n))
 
 
 @njit(**NO_REFCOUNT)
@@ -510,15 +508,7 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         ws.bias_q[n + k] = ws.gamma[k]
     body_jacobian_values(q, sc, P, ws.jb)
     body_bias(q, sc, ws.q_dot, P, ws.bb)
-    for b in range(N_BODIES):
-        for r in range(BODY_ROWS):
-            for j in range(n):
-                ws.jt[b, r, j] = 0.0
-    for z in range(N_JB):  # Jt = J_b Jqθ and a_b += J_b J̇qθ θ̇ over the non-zeros of J_b only
-        b, r, k, v = JB_BODY[z], JB_ROW[z], JB_COL[z], ws.jb[z]
-        for j in range(n):
-            ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
-        ws.bb[b, r] += v * ws.bias_q[k]
+    body_velocities(ws.jb, ws.j_q_theta, ws.bias_q, ws.jt, ws.bb)  # over the non-zeros of J_b only
     if ANGULAR == 3:
         spatial_body_sums(ws, theta_dot, P)
         return True
@@ -598,7 +588,12 @@ def spatial_body_sums(ws, theta_dot, P):
 def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
     """:func:`actuator_space_model` of every configuration ``qs`` (K, N) and rates ``theta_dots`` (K, n) into
     ``m_out`` (K, n, n), ``c_out`` and ``g_out`` (K, n); returns the first singular one's index, or -1."""
-    ws = make_workspace()
+    return _actuator_space_models(make_workspaces(1), qs, theta_dots, P, m_out, c_out, g_out)
+
+
+@njit(cache=True)
+def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
+    ws = workspaces[0]
     sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
         trig(qs[k], sc)
@@ -725,8 +720,15 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
     returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
     own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, efforts and ``S``."""
+    return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
+                              P_plant, P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s)
+
+
+@njit(cache=True)
+def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant,
+                       P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
     n = N_ACTUATORS
-    plant, ctrl = make_workspace(), make_workspace()
+    plant, ctrl = workspaces[0], workspaces[1]
     set_base(plant, q_plant0, P_plant)
     set_base(ctrl, q_ctrl0, P_ctrl)
     x = np.zeros(2 * n)
@@ -765,15 +767,20 @@ def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, 
 
 
 # ---- entry points for callers outside compiled code (an adaptive integrator, a path's kinematics): plain
-# arrays in and out, the workspace made inside (a workspace passed in from Python costs ~0.3 ms per call
-# to type its ~30 arrays; making one costs a few microseconds)
+# arrays in and out, the workspace made inside (making one costs well under a microsecond), then passed
+# with the array that holds it to the function that does the work
 @njit(cache=True)
 def reduced_rhs(q_base, y, tau, P, min_abs_s, q_out):
     """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
     the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
     configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
+    return _reduced_rhs(make_workspaces(1), q_base, y, tau, P, min_abs_s, q_out)
+
+
+@njit(cache=True)
+def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
     n = N_ACTUATORS
-    ws = make_workspace()
+    ws = workspaces[0]
     out = np.zeros(2 * n)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, min_abs_s, np.inf)
@@ -793,11 +800,18 @@ def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_d
                         q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
     configuration at the measured ``theta`` into ``q_out``. Returns the status."""
+    return _control_effort_from(make_workspaces(1), q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
+                                theta_ddot_d, P, min_abs_s, q_out, tau)
+
+
+@njit(cache=True)
+def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
+                         min_abs_s, q_out, tau):
+    ws = workspaces[0]
     if kind == 1:  # PD: no model to move
         q_out[:] = q_base
         return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
-                              make_workspace(), tau)
-    ws = make_workspace()
+                              ws, tau)
     # computed torque: the model follows the measurement, in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, theta, P, min_abs_s, np.inf)
     if status == OK:
@@ -811,7 +825,12 @@ def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_d
 def branch_following_batch(q_previous, thetas, P, min_abs_s, max_step, q_out, status):
     """:func:`follow_branch_in_steps` from each ``q_previous[k]`` (K, N) to ``thetas[k]`` (K, n), into ``q_out``
     (K, N) and ``status`` (K,)."""
-    ws = make_workspace()
+    _branch_following_batch(make_workspaces(1), q_previous, thetas, P, min_abs_s, max_step, q_out, status)
+
+
+@njit(cache=True)
+def _branch_following_batch(workspaces, q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+    ws = workspaces[0]
     for k in range(thetas.shape[0]):
         status[k] = follow_branch_in_steps(ws, q_previous[k], thetas[k], P, min_abs_s, max_step)
         for i in range(N_COORDINATES):
@@ -823,7 +842,12 @@ def follow_path(q_start, thetas, P, min_abs_s, q_out):
     """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn
     (:func:`follow_branch_in_steps`), into ``q_out`` (K, N); returns ``(status, k)``, ``k`` the first point
     not reached (else -1)."""
-    ws = make_workspace()
+    return _follow_path(make_workspaces(1), q_start, thetas, P, min_abs_s, q_out)
+
+
+@njit(cache=True)
+def _follow_path(workspaces, q_start, thetas, P, min_abs_s, q_out):
+    ws = workspaces[0]
     previous = q_start.copy()
     for k in range(thetas.shape[0]):
         status = follow_branch_in_steps(ws, previous, thetas[k], P, min_abs_s, np.inf)

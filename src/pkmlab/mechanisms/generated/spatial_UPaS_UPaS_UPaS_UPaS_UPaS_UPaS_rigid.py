@@ -6313,9 +6313,558 @@ def platform_size(P):
     return (1/15)*math.sqrt((-attach1_x + attach2_x)**2 + (-attach1_y + attach2_y)**2 + (-attach1_z + attach2_z)**2) + (1/15)*math.sqrt((-attach1_x - w0)**2 + (-attach1_y - w1)**2 + (-attach1_z - w2)**2) + (1/15)*math.sqrt((-attach1_x - w3)**2 + (-attach1_y - w4)**2 + (-attach1_z - w5)**2) + (1/15)*math.sqrt((-attach1_x - w6)**2 + (-attach1_y - w7)**2 + (-attach1_z - w8)**2) + (1/15)*math.sqrt((-attach1_x - w9)**2 + (-attach1_y - w10)**2 + (-attach1_z - w11)**2) + (1/15)*math.sqrt((-attach2_x - w0)**2 + (-attach2_y - w1)**2 + (-attach2_z - w2)**2) + (1/15)*math.sqrt((-attach2_x - w3)**2 + (-attach2_y - w4)**2 + (-attach2_z - w5)**2) + (1/15)*math.sqrt((-attach2_x - w6)**2 + (-attach2_y - w7)**2 + (-attach2_z - w8)**2) + (1/15)*math.sqrt((-attach2_x - w9)**2 + (-attach2_y - w10)**2 + (-attach2_z - w11)**2) + (1/15)*math.sqrt((-attach3_x - w3)**2 + (-attach3_y - w4)**2 + (-attach3_z - w5)**2) + (1/15)*math.sqrt((-attach3_x - w6)**2 + (-attach3_y - w7)**2 + (-attach3_z - w8)**2) + (1/15)*math.sqrt((-attach3_x - w9)**2 + (-attach3_y - w10)**2 + (-attach3_z - w11)**2) + (1/15)*math.sqrt((-attach4_x - w6)**2 + (-attach4_y - w7)**2 + (-attach4_z - w8)**2) + (1/15)*math.sqrt((-attach4_x - w9)**2 + (-attach4_y - w10)**2 + (-attach4_z - w11)**2) + (1/15)*math.sqrt((-attach5_x - w9)**2 + (-attach5_y - w10)**2 + (-attach5_z - w11)**2)
 
 
-# ---- the compiled core of pkmlab.machine_core, bound to the kernels above ----
-from typing import NamedTuple  # noqa: E402
+@njit(cache=True)
+def body_velocities(jb, j_q_theta, bias_q, jt, bb):
+    """Write Jt = J_b Jq_theta (N_BODIES, BODY_ROWS, N_ACTUATORS) into jt and add J_b (dJq_theta/dt theta_dot) to bb (N_BODIES, BODY_ROWS), from the non-zeros jb of the bodies' Jacobians."""
+    jt[0, 0, 0] = jb[0] * j_q_theta[6, 0] + jb[1] * j_q_theta[7, 0]
+    jt[0, 0, 1] = jb[0] * j_q_theta[6, 1] + jb[1] * j_q_theta[7, 1]
+    jt[0, 0, 2] = jb[0] * j_q_theta[6, 2] + jb[1] * j_q_theta[7, 2]
+    jt[0, 0, 3] = jb[0] * j_q_theta[6, 3] + jb[1] * j_q_theta[7, 3]
+    jt[0, 0, 4] = jb[0] * j_q_theta[6, 4] + jb[1] * j_q_theta[7, 4]
+    jt[0, 0, 5] = jb[0] * j_q_theta[6, 5] + jb[1] * j_q_theta[7, 5]
+    bb[0, 0] = bb[0, 0] + jb[0] * bias_q[6] + jb[1] * bias_q[7]
+    jt[0, 1, 0] = jb[2] * j_q_theta[6, 0] + jb[3] * j_q_theta[7, 0]
+    jt[0, 1, 1] = jb[2] * j_q_theta[6, 1] + jb[3] * j_q_theta[7, 1]
+    jt[0, 1, 2] = jb[2] * j_q_theta[6, 2] + jb[3] * j_q_theta[7, 2]
+    jt[0, 1, 3] = jb[2] * j_q_theta[6, 3] + jb[3] * j_q_theta[7, 3]
+    jt[0, 1, 4] = jb[2] * j_q_theta[6, 4] + jb[3] * j_q_theta[7, 4]
+    jt[0, 1, 5] = jb[2] * j_q_theta[6, 5] + jb[3] * j_q_theta[7, 5]
+    bb[0, 1] = bb[0, 1] + jb[2] * bias_q[6] + jb[3] * bias_q[7]
+    jt[0, 2, 0] = jb[4] * j_q_theta[6, 0] + jb[5] * j_q_theta[7, 0]
+    jt[0, 2, 1] = jb[4] * j_q_theta[6, 1] + jb[5] * j_q_theta[7, 1]
+    jt[0, 2, 2] = jb[4] * j_q_theta[6, 2] + jb[5] * j_q_theta[7, 2]
+    jt[0, 2, 3] = jb[4] * j_q_theta[6, 3] + jb[5] * j_q_theta[7, 3]
+    jt[0, 2, 4] = jb[4] * j_q_theta[6, 4] + jb[5] * j_q_theta[7, 4]
+    jt[0, 2, 5] = jb[4] * j_q_theta[6, 5] + jb[5] * j_q_theta[7, 5]
+    bb[0, 2] = bb[0, 2] + jb[4] * bias_q[6] + jb[5] * bias_q[7]
+    jt[0, 3, 0] = jb[6] * j_q_theta[6, 0] + jb[7] * j_q_theta[7, 0]
+    jt[0, 3, 1] = jb[6] * j_q_theta[6, 1] + jb[7] * j_q_theta[7, 1]
+    jt[0, 3, 2] = jb[6] * j_q_theta[6, 2] + jb[7] * j_q_theta[7, 2]
+    jt[0, 3, 3] = jb[6] * j_q_theta[6, 3] + jb[7] * j_q_theta[7, 3]
+    jt[0, 3, 4] = jb[6] * j_q_theta[6, 4] + jb[7] * j_q_theta[7, 4]
+    jt[0, 3, 5] = jb[6] * j_q_theta[6, 5] + jb[7] * j_q_theta[7, 5]
+    bb[0, 3] = bb[0, 3] + jb[6] * bias_q[6] + jb[7] * bias_q[7]
+    jt[0, 4, 0] = jb[8] * j_q_theta[6, 0] + jb[9] * j_q_theta[7, 0]
+    jt[0, 4, 1] = jb[8] * j_q_theta[6, 1] + jb[9] * j_q_theta[7, 1]
+    jt[0, 4, 2] = jb[8] * j_q_theta[6, 2] + jb[9] * j_q_theta[7, 2]
+    jt[0, 4, 3] = jb[8] * j_q_theta[6, 3] + jb[9] * j_q_theta[7, 3]
+    jt[0, 4, 4] = jb[8] * j_q_theta[6, 4] + jb[9] * j_q_theta[7, 4]
+    jt[0, 4, 5] = jb[8] * j_q_theta[6, 5] + jb[9] * j_q_theta[7, 5]
+    bb[0, 4] = bb[0, 4] + jb[8] * bias_q[6] + jb[9] * bias_q[7]
+    jt[0, 5, 0] = jb[10] * j_q_theta[6, 0] + jb[11] * j_q_theta[7, 0]
+    jt[0, 5, 1] = jb[10] * j_q_theta[6, 1] + jb[11] * j_q_theta[7, 1]
+    jt[0, 5, 2] = jb[10] * j_q_theta[6, 2] + jb[11] * j_q_theta[7, 2]
+    jt[0, 5, 3] = jb[10] * j_q_theta[6, 3] + jb[11] * j_q_theta[7, 3]
+    jt[0, 5, 4] = jb[10] * j_q_theta[6, 4] + jb[11] * j_q_theta[7, 4]
+    jt[0, 5, 5] = jb[10] * j_q_theta[6, 5] + jb[11] * j_q_theta[7, 5]
+    bb[0, 5] = bb[0, 5] + jb[10] * bias_q[6] + jb[11] * bias_q[7]
+    jt[1, 0, 0] = jb[12] * j_q_theta[0, 0] + jb[13] * j_q_theta[6, 0] + jb[14] * j_q_theta[7, 0]
+    jt[1, 0, 1] = jb[12] * j_q_theta[0, 1] + jb[13] * j_q_theta[6, 1] + jb[14] * j_q_theta[7, 1]
+    jt[1, 0, 2] = jb[12] * j_q_theta[0, 2] + jb[13] * j_q_theta[6, 2] + jb[14] * j_q_theta[7, 2]
+    jt[1, 0, 3] = jb[12] * j_q_theta[0, 3] + jb[13] * j_q_theta[6, 3] + jb[14] * j_q_theta[7, 3]
+    jt[1, 0, 4] = jb[12] * j_q_theta[0, 4] + jb[13] * j_q_theta[6, 4] + jb[14] * j_q_theta[7, 4]
+    jt[1, 0, 5] = jb[12] * j_q_theta[0, 5] + jb[13] * j_q_theta[6, 5] + jb[14] * j_q_theta[7, 5]
+    bb[1, 0] = bb[1, 0] + jb[12] * bias_q[0] + jb[13] * bias_q[6] + jb[14] * bias_q[7]
+    jt[1, 1, 0] = jb[15] * j_q_theta[0, 0] + jb[16] * j_q_theta[6, 0] + jb[17] * j_q_theta[7, 0]
+    jt[1, 1, 1] = jb[15] * j_q_theta[0, 1] + jb[16] * j_q_theta[6, 1] + jb[17] * j_q_theta[7, 1]
+    jt[1, 1, 2] = jb[15] * j_q_theta[0, 2] + jb[16] * j_q_theta[6, 2] + jb[17] * j_q_theta[7, 2]
+    jt[1, 1, 3] = jb[15] * j_q_theta[0, 3] + jb[16] * j_q_theta[6, 3] + jb[17] * j_q_theta[7, 3]
+    jt[1, 1, 4] = jb[15] * j_q_theta[0, 4] + jb[16] * j_q_theta[6, 4] + jb[17] * j_q_theta[7, 4]
+    jt[1, 1, 5] = jb[15] * j_q_theta[0, 5] + jb[16] * j_q_theta[6, 5] + jb[17] * j_q_theta[7, 5]
+    bb[1, 1] = bb[1, 1] + jb[15] * bias_q[0] + jb[16] * bias_q[6] + jb[17] * bias_q[7]
+    jt[1, 2, 0] = jb[18] * j_q_theta[0, 0] + jb[19] * j_q_theta[6, 0] + jb[20] * j_q_theta[7, 0]
+    jt[1, 2, 1] = jb[18] * j_q_theta[0, 1] + jb[19] * j_q_theta[6, 1] + jb[20] * j_q_theta[7, 1]
+    jt[1, 2, 2] = jb[18] * j_q_theta[0, 2] + jb[19] * j_q_theta[6, 2] + jb[20] * j_q_theta[7, 2]
+    jt[1, 2, 3] = jb[18] * j_q_theta[0, 3] + jb[19] * j_q_theta[6, 3] + jb[20] * j_q_theta[7, 3]
+    jt[1, 2, 4] = jb[18] * j_q_theta[0, 4] + jb[19] * j_q_theta[6, 4] + jb[20] * j_q_theta[7, 4]
+    jt[1, 2, 5] = jb[18] * j_q_theta[0, 5] + jb[19] * j_q_theta[6, 5] + jb[20] * j_q_theta[7, 5]
+    bb[1, 2] = bb[1, 2] + jb[18] * bias_q[0] + jb[19] * bias_q[6] + jb[20] * bias_q[7]
+    jt[1, 3, 0] = jb[21] * j_q_theta[6, 0] + jb[22] * j_q_theta[7, 0]
+    jt[1, 3, 1] = jb[21] * j_q_theta[6, 1] + jb[22] * j_q_theta[7, 1]
+    jt[1, 3, 2] = jb[21] * j_q_theta[6, 2] + jb[22] * j_q_theta[7, 2]
+    jt[1, 3, 3] = jb[21] * j_q_theta[6, 3] + jb[22] * j_q_theta[7, 3]
+    jt[1, 3, 4] = jb[21] * j_q_theta[6, 4] + jb[22] * j_q_theta[7, 4]
+    jt[1, 3, 5] = jb[21] * j_q_theta[6, 5] + jb[22] * j_q_theta[7, 5]
+    bb[1, 3] = bb[1, 3] + jb[21] * bias_q[6] + jb[22] * bias_q[7]
+    jt[1, 4, 0] = jb[23] * j_q_theta[6, 0] + jb[24] * j_q_theta[7, 0]
+    jt[1, 4, 1] = jb[23] * j_q_theta[6, 1] + jb[24] * j_q_theta[7, 1]
+    jt[1, 4, 2] = jb[23] * j_q_theta[6, 2] + jb[24] * j_q_theta[7, 2]
+    jt[1, 4, 3] = jb[23] * j_q_theta[6, 3] + jb[24] * j_q_theta[7, 3]
+    jt[1, 4, 4] = jb[23] * j_q_theta[6, 4] + jb[24] * j_q_theta[7, 4]
+    jt[1, 4, 5] = jb[23] * j_q_theta[6, 5] + jb[24] * j_q_theta[7, 5]
+    bb[1, 4] = bb[1, 4] + jb[23] * bias_q[6] + jb[24] * bias_q[7]
+    jt[1, 5, 0] = jb[25] * j_q_theta[6, 0] + jb[26] * j_q_theta[7, 0]
+    jt[1, 5, 1] = jb[25] * j_q_theta[6, 1] + jb[26] * j_q_theta[7, 1]
+    jt[1, 5, 2] = jb[25] * j_q_theta[6, 2] + jb[26] * j_q_theta[7, 2]
+    jt[1, 5, 3] = jb[25] * j_q_theta[6, 3] + jb[26] * j_q_theta[7, 3]
+    jt[1, 5, 4] = jb[25] * j_q_theta[6, 4] + jb[26] * j_q_theta[7, 4]
+    jt[1, 5, 5] = jb[25] * j_q_theta[6, 5] + jb[26] * j_q_theta[7, 5]
+    bb[1, 5] = bb[1, 5] + jb[25] * bias_q[6] + jb[26] * bias_q[7]
+    jt[2, 0, 0] = jb[27] * j_q_theta[8, 0] + jb[28] * j_q_theta[9, 0]
+    jt[2, 0, 1] = jb[27] * j_q_theta[8, 1] + jb[28] * j_q_theta[9, 1]
+    jt[2, 0, 2] = jb[27] * j_q_theta[8, 2] + jb[28] * j_q_theta[9, 2]
+    jt[2, 0, 3] = jb[27] * j_q_theta[8, 3] + jb[28] * j_q_theta[9, 3]
+    jt[2, 0, 4] = jb[27] * j_q_theta[8, 4] + jb[28] * j_q_theta[9, 4]
+    jt[2, 0, 5] = jb[27] * j_q_theta[8, 5] + jb[28] * j_q_theta[9, 5]
+    bb[2, 0] = bb[2, 0] + jb[27] * bias_q[8] + jb[28] * bias_q[9]
+    jt[2, 1, 0] = jb[29] * j_q_theta[8, 0] + jb[30] * j_q_theta[9, 0]
+    jt[2, 1, 1] = jb[29] * j_q_theta[8, 1] + jb[30] * j_q_theta[9, 1]
+    jt[2, 1, 2] = jb[29] * j_q_theta[8, 2] + jb[30] * j_q_theta[9, 2]
+    jt[2, 1, 3] = jb[29] * j_q_theta[8, 3] + jb[30] * j_q_theta[9, 3]
+    jt[2, 1, 4] = jb[29] * j_q_theta[8, 4] + jb[30] * j_q_theta[9, 4]
+    jt[2, 1, 5] = jb[29] * j_q_theta[8, 5] + jb[30] * j_q_theta[9, 5]
+    bb[2, 1] = bb[2, 1] + jb[29] * bias_q[8] + jb[30] * bias_q[9]
+    jt[2, 2, 0] = jb[31] * j_q_theta[8, 0] + jb[32] * j_q_theta[9, 0]
+    jt[2, 2, 1] = jb[31] * j_q_theta[8, 1] + jb[32] * j_q_theta[9, 1]
+    jt[2, 2, 2] = jb[31] * j_q_theta[8, 2] + jb[32] * j_q_theta[9, 2]
+    jt[2, 2, 3] = jb[31] * j_q_theta[8, 3] + jb[32] * j_q_theta[9, 3]
+    jt[2, 2, 4] = jb[31] * j_q_theta[8, 4] + jb[32] * j_q_theta[9, 4]
+    jt[2, 2, 5] = jb[31] * j_q_theta[8, 5] + jb[32] * j_q_theta[9, 5]
+    bb[2, 2] = bb[2, 2] + jb[31] * bias_q[8] + jb[32] * bias_q[9]
+    jt[2, 3, 0] = jb[33] * j_q_theta[8, 0] + jb[34] * j_q_theta[9, 0]
+    jt[2, 3, 1] = jb[33] * j_q_theta[8, 1] + jb[34] * j_q_theta[9, 1]
+    jt[2, 3, 2] = jb[33] * j_q_theta[8, 2] + jb[34] * j_q_theta[9, 2]
+    jt[2, 3, 3] = jb[33] * j_q_theta[8, 3] + jb[34] * j_q_theta[9, 3]
+    jt[2, 3, 4] = jb[33] * j_q_theta[8, 4] + jb[34] * j_q_theta[9, 4]
+    jt[2, 3, 5] = jb[33] * j_q_theta[8, 5] + jb[34] * j_q_theta[9, 5]
+    bb[2, 3] = bb[2, 3] + jb[33] * bias_q[8] + jb[34] * bias_q[9]
+    jt[2, 4, 0] = jb[35] * j_q_theta[8, 0] + jb[36] * j_q_theta[9, 0]
+    jt[2, 4, 1] = jb[35] * j_q_theta[8, 1] + jb[36] * j_q_theta[9, 1]
+    jt[2, 4, 2] = jb[35] * j_q_theta[8, 2] + jb[36] * j_q_theta[9, 2]
+    jt[2, 4, 3] = jb[35] * j_q_theta[8, 3] + jb[36] * j_q_theta[9, 3]
+    jt[2, 4, 4] = jb[35] * j_q_theta[8, 4] + jb[36] * j_q_theta[9, 4]
+    jt[2, 4, 5] = jb[35] * j_q_theta[8, 5] + jb[36] * j_q_theta[9, 5]
+    bb[2, 4] = bb[2, 4] + jb[35] * bias_q[8] + jb[36] * bias_q[9]
+    jt[2, 5, 0] = jb[37] * j_q_theta[8, 0] + jb[38] * j_q_theta[9, 0]
+    jt[2, 5, 1] = jb[37] * j_q_theta[8, 1] + jb[38] * j_q_theta[9, 1]
+    jt[2, 5, 2] = jb[37] * j_q_theta[8, 2] + jb[38] * j_q_theta[9, 2]
+    jt[2, 5, 3] = jb[37] * j_q_theta[8, 3] + jb[38] * j_q_theta[9, 3]
+    jt[2, 5, 4] = jb[37] * j_q_theta[8, 4] + jb[38] * j_q_theta[9, 4]
+    jt[2, 5, 5] = jb[37] * j_q_theta[8, 5] + jb[38] * j_q_theta[9, 5]
+    bb[2, 5] = bb[2, 5] + jb[37] * bias_q[8] + jb[38] * bias_q[9]
+    jt[3, 0, 0] = jb[39] * j_q_theta[1, 0] + jb[40] * j_q_theta[8, 0] + jb[41] * j_q_theta[9, 0]
+    jt[3, 0, 1] = jb[39] * j_q_theta[1, 1] + jb[40] * j_q_theta[8, 1] + jb[41] * j_q_theta[9, 1]
+    jt[3, 0, 2] = jb[39] * j_q_theta[1, 2] + jb[40] * j_q_theta[8, 2] + jb[41] * j_q_theta[9, 2]
+    jt[3, 0, 3] = jb[39] * j_q_theta[1, 3] + jb[40] * j_q_theta[8, 3] + jb[41] * j_q_theta[9, 3]
+    jt[3, 0, 4] = jb[39] * j_q_theta[1, 4] + jb[40] * j_q_theta[8, 4] + jb[41] * j_q_theta[9, 4]
+    jt[3, 0, 5] = jb[39] * j_q_theta[1, 5] + jb[40] * j_q_theta[8, 5] + jb[41] * j_q_theta[9, 5]
+    bb[3, 0] = bb[3, 0] + jb[39] * bias_q[1] + jb[40] * bias_q[8] + jb[41] * bias_q[9]
+    jt[3, 1, 0] = jb[42] * j_q_theta[1, 0] + jb[43] * j_q_theta[8, 0] + jb[44] * j_q_theta[9, 0]
+    jt[3, 1, 1] = jb[42] * j_q_theta[1, 1] + jb[43] * j_q_theta[8, 1] + jb[44] * j_q_theta[9, 1]
+    jt[3, 1, 2] = jb[42] * j_q_theta[1, 2] + jb[43] * j_q_theta[8, 2] + jb[44] * j_q_theta[9, 2]
+    jt[3, 1, 3] = jb[42] * j_q_theta[1, 3] + jb[43] * j_q_theta[8, 3] + jb[44] * j_q_theta[9, 3]
+    jt[3, 1, 4] = jb[42] * j_q_theta[1, 4] + jb[43] * j_q_theta[8, 4] + jb[44] * j_q_theta[9, 4]
+    jt[3, 1, 5] = jb[42] * j_q_theta[1, 5] + jb[43] * j_q_theta[8, 5] + jb[44] * j_q_theta[9, 5]
+    bb[3, 1] = bb[3, 1] + jb[42] * bias_q[1] + jb[43] * bias_q[8] + jb[44] * bias_q[9]
+    jt[3, 2, 0] = jb[45] * j_q_theta[1, 0] + jb[46] * j_q_theta[8, 0] + jb[47] * j_q_theta[9, 0]
+    jt[3, 2, 1] = jb[45] * j_q_theta[1, 1] + jb[46] * j_q_theta[8, 1] + jb[47] * j_q_theta[9, 1]
+    jt[3, 2, 2] = jb[45] * j_q_theta[1, 2] + jb[46] * j_q_theta[8, 2] + jb[47] * j_q_theta[9, 2]
+    jt[3, 2, 3] = jb[45] * j_q_theta[1, 3] + jb[46] * j_q_theta[8, 3] + jb[47] * j_q_theta[9, 3]
+    jt[3, 2, 4] = jb[45] * j_q_theta[1, 4] + jb[46] * j_q_theta[8, 4] + jb[47] * j_q_theta[9, 4]
+    jt[3, 2, 5] = jb[45] * j_q_theta[1, 5] + jb[46] * j_q_theta[8, 5] + jb[47] * j_q_theta[9, 5]
+    bb[3, 2] = bb[3, 2] + jb[45] * bias_q[1] + jb[46] * bias_q[8] + jb[47] * bias_q[9]
+    jt[3, 3, 0] = jb[48] * j_q_theta[8, 0] + jb[49] * j_q_theta[9, 0]
+    jt[3, 3, 1] = jb[48] * j_q_theta[8, 1] + jb[49] * j_q_theta[9, 1]
+    jt[3, 3, 2] = jb[48] * j_q_theta[8, 2] + jb[49] * j_q_theta[9, 2]
+    jt[3, 3, 3] = jb[48] * j_q_theta[8, 3] + jb[49] * j_q_theta[9, 3]
+    jt[3, 3, 4] = jb[48] * j_q_theta[8, 4] + jb[49] * j_q_theta[9, 4]
+    jt[3, 3, 5] = jb[48] * j_q_theta[8, 5] + jb[49] * j_q_theta[9, 5]
+    bb[3, 3] = bb[3, 3] + jb[48] * bias_q[8] + jb[49] * bias_q[9]
+    jt[3, 4, 0] = jb[50] * j_q_theta[8, 0] + jb[51] * j_q_theta[9, 0]
+    jt[3, 4, 1] = jb[50] * j_q_theta[8, 1] + jb[51] * j_q_theta[9, 1]
+    jt[3, 4, 2] = jb[50] * j_q_theta[8, 2] + jb[51] * j_q_theta[9, 2]
+    jt[3, 4, 3] = jb[50] * j_q_theta[8, 3] + jb[51] * j_q_theta[9, 3]
+    jt[3, 4, 4] = jb[50] * j_q_theta[8, 4] + jb[51] * j_q_theta[9, 4]
+    jt[3, 4, 5] = jb[50] * j_q_theta[8, 5] + jb[51] * j_q_theta[9, 5]
+    bb[3, 4] = bb[3, 4] + jb[50] * bias_q[8] + jb[51] * bias_q[9]
+    jt[3, 5, 0] = jb[52] * j_q_theta[8, 0] + jb[53] * j_q_theta[9, 0]
+    jt[3, 5, 1] = jb[52] * j_q_theta[8, 1] + jb[53] * j_q_theta[9, 1]
+    jt[3, 5, 2] = jb[52] * j_q_theta[8, 2] + jb[53] * j_q_theta[9, 2]
+    jt[3, 5, 3] = jb[52] * j_q_theta[8, 3] + jb[53] * j_q_theta[9, 3]
+    jt[3, 5, 4] = jb[52] * j_q_theta[8, 4] + jb[53] * j_q_theta[9, 4]
+    jt[3, 5, 5] = jb[52] * j_q_theta[8, 5] + jb[53] * j_q_theta[9, 5]
+    bb[3, 5] = bb[3, 5] + jb[52] * bias_q[8] + jb[53] * bias_q[9]
+    jt[4, 0, 0] = jb[54] * j_q_theta[10, 0] + jb[55] * j_q_theta[11, 0]
+    jt[4, 0, 1] = jb[54] * j_q_theta[10, 1] + jb[55] * j_q_theta[11, 1]
+    jt[4, 0, 2] = jb[54] * j_q_theta[10, 2] + jb[55] * j_q_theta[11, 2]
+    jt[4, 0, 3] = jb[54] * j_q_theta[10, 3] + jb[55] * j_q_theta[11, 3]
+    jt[4, 0, 4] = jb[54] * j_q_theta[10, 4] + jb[55] * j_q_theta[11, 4]
+    jt[4, 0, 5] = jb[54] * j_q_theta[10, 5] + jb[55] * j_q_theta[11, 5]
+    bb[4, 0] = bb[4, 0] + jb[54] * bias_q[10] + jb[55] * bias_q[11]
+    jt[4, 1, 0] = jb[56] * j_q_theta[10, 0] + jb[57] * j_q_theta[11, 0]
+    jt[4, 1, 1] = jb[56] * j_q_theta[10, 1] + jb[57] * j_q_theta[11, 1]
+    jt[4, 1, 2] = jb[56] * j_q_theta[10, 2] + jb[57] * j_q_theta[11, 2]
+    jt[4, 1, 3] = jb[56] * j_q_theta[10, 3] + jb[57] * j_q_theta[11, 3]
+    jt[4, 1, 4] = jb[56] * j_q_theta[10, 4] + jb[57] * j_q_theta[11, 4]
+    jt[4, 1, 5] = jb[56] * j_q_theta[10, 5] + jb[57] * j_q_theta[11, 5]
+    bb[4, 1] = bb[4, 1] + jb[56] * bias_q[10] + jb[57] * bias_q[11]
+    jt[4, 2, 0] = jb[58] * j_q_theta[10, 0] + jb[59] * j_q_theta[11, 0]
+    jt[4, 2, 1] = jb[58] * j_q_theta[10, 1] + jb[59] * j_q_theta[11, 1]
+    jt[4, 2, 2] = jb[58] * j_q_theta[10, 2] + jb[59] * j_q_theta[11, 2]
+    jt[4, 2, 3] = jb[58] * j_q_theta[10, 3] + jb[59] * j_q_theta[11, 3]
+    jt[4, 2, 4] = jb[58] * j_q_theta[10, 4] + jb[59] * j_q_theta[11, 4]
+    jt[4, 2, 5] = jb[58] * j_q_theta[10, 5] + jb[59] * j_q_theta[11, 5]
+    bb[4, 2] = bb[4, 2] + jb[58] * bias_q[10] + jb[59] * bias_q[11]
+    jt[4, 3, 0] = jb[60] * j_q_theta[10, 0] + jb[61] * j_q_theta[11, 0]
+    jt[4, 3, 1] = jb[60] * j_q_theta[10, 1] + jb[61] * j_q_theta[11, 1]
+    jt[4, 3, 2] = jb[60] * j_q_theta[10, 2] + jb[61] * j_q_theta[11, 2]
+    jt[4, 3, 3] = jb[60] * j_q_theta[10, 3] + jb[61] * j_q_theta[11, 3]
+    jt[4, 3, 4] = jb[60] * j_q_theta[10, 4] + jb[61] * j_q_theta[11, 4]
+    jt[4, 3, 5] = jb[60] * j_q_theta[10, 5] + jb[61] * j_q_theta[11, 5]
+    bb[4, 3] = bb[4, 3] + jb[60] * bias_q[10] + jb[61] * bias_q[11]
+    jt[4, 4, 0] = jb[62] * j_q_theta[10, 0] + jb[63] * j_q_theta[11, 0]
+    jt[4, 4, 1] = jb[62] * j_q_theta[10, 1] + jb[63] * j_q_theta[11, 1]
+    jt[4, 4, 2] = jb[62] * j_q_theta[10, 2] + jb[63] * j_q_theta[11, 2]
+    jt[4, 4, 3] = jb[62] * j_q_theta[10, 3] + jb[63] * j_q_theta[11, 3]
+    jt[4, 4, 4] = jb[62] * j_q_theta[10, 4] + jb[63] * j_q_theta[11, 4]
+    jt[4, 4, 5] = jb[62] * j_q_theta[10, 5] + jb[63] * j_q_theta[11, 5]
+    bb[4, 4] = bb[4, 4] + jb[62] * bias_q[10] + jb[63] * bias_q[11]
+    jt[4, 5, 0] = jb[64] * j_q_theta[10, 0] + jb[65] * j_q_theta[11, 0]
+    jt[4, 5, 1] = jb[64] * j_q_theta[10, 1] + jb[65] * j_q_theta[11, 1]
+    jt[4, 5, 2] = jb[64] * j_q_theta[10, 2] + jb[65] * j_q_theta[11, 2]
+    jt[4, 5, 3] = jb[64] * j_q_theta[10, 3] + jb[65] * j_q_theta[11, 3]
+    jt[4, 5, 4] = jb[64] * j_q_theta[10, 4] + jb[65] * j_q_theta[11, 4]
+    jt[4, 5, 5] = jb[64] * j_q_theta[10, 5] + jb[65] * j_q_theta[11, 5]
+    bb[4, 5] = bb[4, 5] + jb[64] * bias_q[10] + jb[65] * bias_q[11]
+    jt[5, 0, 0] = jb[66] * j_q_theta[2, 0] + jb[67] * j_q_theta[10, 0] + jb[68] * j_q_theta[11, 0]
+    jt[5, 0, 1] = jb[66] * j_q_theta[2, 1] + jb[67] * j_q_theta[10, 1] + jb[68] * j_q_theta[11, 1]
+    jt[5, 0, 2] = jb[66] * j_q_theta[2, 2] + jb[67] * j_q_theta[10, 2] + jb[68] * j_q_theta[11, 2]
+    jt[5, 0, 3] = jb[66] * j_q_theta[2, 3] + jb[67] * j_q_theta[10, 3] + jb[68] * j_q_theta[11, 3]
+    jt[5, 0, 4] = jb[66] * j_q_theta[2, 4] + jb[67] * j_q_theta[10, 4] + jb[68] * j_q_theta[11, 4]
+    jt[5, 0, 5] = jb[66] * j_q_theta[2, 5] + jb[67] * j_q_theta[10, 5] + jb[68] * j_q_theta[11, 5]
+    bb[5, 0] = bb[5, 0] + jb[66] * bias_q[2] + jb[67] * bias_q[10] + jb[68] * bias_q[11]
+    jt[5, 1, 0] = jb[69] * j_q_theta[2, 0] + jb[70] * j_q_theta[10, 0] + jb[71] * j_q_theta[11, 0]
+    jt[5, 1, 1] = jb[69] * j_q_theta[2, 1] + jb[70] * j_q_theta[10, 1] + jb[71] * j_q_theta[11, 1]
+    jt[5, 1, 2] = jb[69] * j_q_theta[2, 2] + jb[70] * j_q_theta[10, 2] + jb[71] * j_q_theta[11, 2]
+    jt[5, 1, 3] = jb[69] * j_q_theta[2, 3] + jb[70] * j_q_theta[10, 3] + jb[71] * j_q_theta[11, 3]
+    jt[5, 1, 4] = jb[69] * j_q_theta[2, 4] + jb[70] * j_q_theta[10, 4] + jb[71] * j_q_theta[11, 4]
+    jt[5, 1, 5] = jb[69] * j_q_theta[2, 5] + jb[70] * j_q_theta[10, 5] + jb[71] * j_q_theta[11, 5]
+    bb[5, 1] = bb[5, 1] + jb[69] * bias_q[2] + jb[70] * bias_q[10] + jb[71] * bias_q[11]
+    jt[5, 2, 0] = jb[72] * j_q_theta[2, 0] + jb[73] * j_q_theta[10, 0] + jb[74] * j_q_theta[11, 0]
+    jt[5, 2, 1] = jb[72] * j_q_theta[2, 1] + jb[73] * j_q_theta[10, 1] + jb[74] * j_q_theta[11, 1]
+    jt[5, 2, 2] = jb[72] * j_q_theta[2, 2] + jb[73] * j_q_theta[10, 2] + jb[74] * j_q_theta[11, 2]
+    jt[5, 2, 3] = jb[72] * j_q_theta[2, 3] + jb[73] * j_q_theta[10, 3] + jb[74] * j_q_theta[11, 3]
+    jt[5, 2, 4] = jb[72] * j_q_theta[2, 4] + jb[73] * j_q_theta[10, 4] + jb[74] * j_q_theta[11, 4]
+    jt[5, 2, 5] = jb[72] * j_q_theta[2, 5] + jb[73] * j_q_theta[10, 5] + jb[74] * j_q_theta[11, 5]
+    bb[5, 2] = bb[5, 2] + jb[72] * bias_q[2] + jb[73] * bias_q[10] + jb[74] * bias_q[11]
+    jt[5, 3, 0] = jb[75] * j_q_theta[10, 0] + jb[76] * j_q_theta[11, 0]
+    jt[5, 3, 1] = jb[75] * j_q_theta[10, 1] + jb[76] * j_q_theta[11, 1]
+    jt[5, 3, 2] = jb[75] * j_q_theta[10, 2] + jb[76] * j_q_theta[11, 2]
+    jt[5, 3, 3] = jb[75] * j_q_theta[10, 3] + jb[76] * j_q_theta[11, 3]
+    jt[5, 3, 4] = jb[75] * j_q_theta[10, 4] + jb[76] * j_q_theta[11, 4]
+    jt[5, 3, 5] = jb[75] * j_q_theta[10, 5] + jb[76] * j_q_theta[11, 5]
+    bb[5, 3] = bb[5, 3] + jb[75] * bias_q[10] + jb[76] * bias_q[11]
+    jt[5, 4, 0] = jb[77] * j_q_theta[10, 0] + jb[78] * j_q_theta[11, 0]
+    jt[5, 4, 1] = jb[77] * j_q_theta[10, 1] + jb[78] * j_q_theta[11, 1]
+    jt[5, 4, 2] = jb[77] * j_q_theta[10, 2] + jb[78] * j_q_theta[11, 2]
+    jt[5, 4, 3] = jb[77] * j_q_theta[10, 3] + jb[78] * j_q_theta[11, 3]
+    jt[5, 4, 4] = jb[77] * j_q_theta[10, 4] + jb[78] * j_q_theta[11, 4]
+    jt[5, 4, 5] = jb[77] * j_q_theta[10, 5] + jb[78] * j_q_theta[11, 5]
+    bb[5, 4] = bb[5, 4] + jb[77] * bias_q[10] + jb[78] * bias_q[11]
+    jt[5, 5, 0] = jb[79] * j_q_theta[10, 0] + jb[80] * j_q_theta[11, 0]
+    jt[5, 5, 1] = jb[79] * j_q_theta[10, 1] + jb[80] * j_q_theta[11, 1]
+    jt[5, 5, 2] = jb[79] * j_q_theta[10, 2] + jb[80] * j_q_theta[11, 2]
+    jt[5, 5, 3] = jb[79] * j_q_theta[10, 3] + jb[80] * j_q_theta[11, 3]
+    jt[5, 5, 4] = jb[79] * j_q_theta[10, 4] + jb[80] * j_q_theta[11, 4]
+    jt[5, 5, 5] = jb[79] * j_q_theta[10, 5] + jb[80] * j_q_theta[11, 5]
+    bb[5, 5] = bb[5, 5] + jb[79] * bias_q[10] + jb[80] * bias_q[11]
+    jt[6, 0, 0] = jb[81] * j_q_theta[12, 0] + jb[82] * j_q_theta[13, 0]
+    jt[6, 0, 1] = jb[81] * j_q_theta[12, 1] + jb[82] * j_q_theta[13, 1]
+    jt[6, 0, 2] = jb[81] * j_q_theta[12, 2] + jb[82] * j_q_theta[13, 2]
+    jt[6, 0, 3] = jb[81] * j_q_theta[12, 3] + jb[82] * j_q_theta[13, 3]
+    jt[6, 0, 4] = jb[81] * j_q_theta[12, 4] + jb[82] * j_q_theta[13, 4]
+    jt[6, 0, 5] = jb[81] * j_q_theta[12, 5] + jb[82] * j_q_theta[13, 5]
+    bb[6, 0] = bb[6, 0] + jb[81] * bias_q[12] + jb[82] * bias_q[13]
+    jt[6, 1, 0] = jb[83] * j_q_theta[12, 0] + jb[84] * j_q_theta[13, 0]
+    jt[6, 1, 1] = jb[83] * j_q_theta[12, 1] + jb[84] * j_q_theta[13, 1]
+    jt[6, 1, 2] = jb[83] * j_q_theta[12, 2] + jb[84] * j_q_theta[13, 2]
+    jt[6, 1, 3] = jb[83] * j_q_theta[12, 3] + jb[84] * j_q_theta[13, 3]
+    jt[6, 1, 4] = jb[83] * j_q_theta[12, 4] + jb[84] * j_q_theta[13, 4]
+    jt[6, 1, 5] = jb[83] * j_q_theta[12, 5] + jb[84] * j_q_theta[13, 5]
+    bb[6, 1] = bb[6, 1] + jb[83] * bias_q[12] + jb[84] * bias_q[13]
+    jt[6, 2, 0] = jb[85] * j_q_theta[12, 0] + jb[86] * j_q_theta[13, 0]
+    jt[6, 2, 1] = jb[85] * j_q_theta[12, 1] + jb[86] * j_q_theta[13, 1]
+    jt[6, 2, 2] = jb[85] * j_q_theta[12, 2] + jb[86] * j_q_theta[13, 2]
+    jt[6, 2, 3] = jb[85] * j_q_theta[12, 3] + jb[86] * j_q_theta[13, 3]
+    jt[6, 2, 4] = jb[85] * j_q_theta[12, 4] + jb[86] * j_q_theta[13, 4]
+    jt[6, 2, 5] = jb[85] * j_q_theta[12, 5] + jb[86] * j_q_theta[13, 5]
+    bb[6, 2] = bb[6, 2] + jb[85] * bias_q[12] + jb[86] * bias_q[13]
+    jt[6, 3, 0] = jb[87] * j_q_theta[12, 0] + jb[88] * j_q_theta[13, 0]
+    jt[6, 3, 1] = jb[87] * j_q_theta[12, 1] + jb[88] * j_q_theta[13, 1]
+    jt[6, 3, 2] = jb[87] * j_q_theta[12, 2] + jb[88] * j_q_theta[13, 2]
+    jt[6, 3, 3] = jb[87] * j_q_theta[12, 3] + jb[88] * j_q_theta[13, 3]
+    jt[6, 3, 4] = jb[87] * j_q_theta[12, 4] + jb[88] * j_q_theta[13, 4]
+    jt[6, 3, 5] = jb[87] * j_q_theta[12, 5] + jb[88] * j_q_theta[13, 5]
+    bb[6, 3] = bb[6, 3] + jb[87] * bias_q[12] + jb[88] * bias_q[13]
+    jt[6, 4, 0] = jb[89] * j_q_theta[12, 0] + jb[90] * j_q_theta[13, 0]
+    jt[6, 4, 1] = jb[89] * j_q_theta[12, 1] + jb[90] * j_q_theta[13, 1]
+    jt[6, 4, 2] = jb[89] * j_q_theta[12, 2] + jb[90] * j_q_theta[13, 2]
+    jt[6, 4, 3] = jb[89] * j_q_theta[12, 3] + jb[90] * j_q_theta[13, 3]
+    jt[6, 4, 4] = jb[89] * j_q_theta[12, 4] + jb[90] * j_q_theta[13, 4]
+    jt[6, 4, 5] = jb[89] * j_q_theta[12, 5] + jb[90] * j_q_theta[13, 5]
+    bb[6, 4] = bb[6, 4] + jb[89] * bias_q[12] + jb[90] * bias_q[13]
+    jt[6, 5, 0] = jb[91] * j_q_theta[12, 0] + jb[92] * j_q_theta[13, 0]
+    jt[6, 5, 1] = jb[91] * j_q_theta[12, 1] + jb[92] * j_q_theta[13, 1]
+    jt[6, 5, 2] = jb[91] * j_q_theta[12, 2] + jb[92] * j_q_theta[13, 2]
+    jt[6, 5, 3] = jb[91] * j_q_theta[12, 3] + jb[92] * j_q_theta[13, 3]
+    jt[6, 5, 4] = jb[91] * j_q_theta[12, 4] + jb[92] * j_q_theta[13, 4]
+    jt[6, 5, 5] = jb[91] * j_q_theta[12, 5] + jb[92] * j_q_theta[13, 5]
+    bb[6, 5] = bb[6, 5] + jb[91] * bias_q[12] + jb[92] * bias_q[13]
+    jt[7, 0, 0] = jb[93] * j_q_theta[3, 0] + jb[94] * j_q_theta[12, 0] + jb[95] * j_q_theta[13, 0]
+    jt[7, 0, 1] = jb[93] * j_q_theta[3, 1] + jb[94] * j_q_theta[12, 1] + jb[95] * j_q_theta[13, 1]
+    jt[7, 0, 2] = jb[93] * j_q_theta[3, 2] + jb[94] * j_q_theta[12, 2] + jb[95] * j_q_theta[13, 2]
+    jt[7, 0, 3] = jb[93] * j_q_theta[3, 3] + jb[94] * j_q_theta[12, 3] + jb[95] * j_q_theta[13, 3]
+    jt[7, 0, 4] = jb[93] * j_q_theta[3, 4] + jb[94] * j_q_theta[12, 4] + jb[95] * j_q_theta[13, 4]
+    jt[7, 0, 5] = jb[93] * j_q_theta[3, 5] + jb[94] * j_q_theta[12, 5] + jb[95] * j_q_theta[13, 5]
+    bb[7, 0] = bb[7, 0] + jb[93] * bias_q[3] + jb[94] * bias_q[12] + jb[95] * bias_q[13]
+    jt[7, 1, 0] = jb[96] * j_q_theta[3, 0] + jb[97] * j_q_theta[12, 0] + jb[98] * j_q_theta[13, 0]
+    jt[7, 1, 1] = jb[96] * j_q_theta[3, 1] + jb[97] * j_q_theta[12, 1] + jb[98] * j_q_theta[13, 1]
+    jt[7, 1, 2] = jb[96] * j_q_theta[3, 2] + jb[97] * j_q_theta[12, 2] + jb[98] * j_q_theta[13, 2]
+    jt[7, 1, 3] = jb[96] * j_q_theta[3, 3] + jb[97] * j_q_theta[12, 3] + jb[98] * j_q_theta[13, 3]
+    jt[7, 1, 4] = jb[96] * j_q_theta[3, 4] + jb[97] * j_q_theta[12, 4] + jb[98] * j_q_theta[13, 4]
+    jt[7, 1, 5] = jb[96] * j_q_theta[3, 5] + jb[97] * j_q_theta[12, 5] + jb[98] * j_q_theta[13, 5]
+    bb[7, 1] = bb[7, 1] + jb[96] * bias_q[3] + jb[97] * bias_q[12] + jb[98] * bias_q[13]
+    jt[7, 2, 0] = jb[99] * j_q_theta[3, 0] + jb[100] * j_q_theta[12, 0] + jb[101] * j_q_theta[13, 0]
+    jt[7, 2, 1] = jb[99] * j_q_theta[3, 1] + jb[100] * j_q_theta[12, 1] + jb[101] * j_q_theta[13, 1]
+    jt[7, 2, 2] = jb[99] * j_q_theta[3, 2] + jb[100] * j_q_theta[12, 2] + jb[101] * j_q_theta[13, 2]
+    jt[7, 2, 3] = jb[99] * j_q_theta[3, 3] + jb[100] * j_q_theta[12, 3] + jb[101] * j_q_theta[13, 3]
+    jt[7, 2, 4] = jb[99] * j_q_theta[3, 4] + jb[100] * j_q_theta[12, 4] + jb[101] * j_q_theta[13, 4]
+    jt[7, 2, 5] = jb[99] * j_q_theta[3, 5] + jb[100] * j_q_theta[12, 5] + jb[101] * j_q_theta[13, 5]
+    bb[7, 2] = bb[7, 2] + jb[99] * bias_q[3] + jb[100] * bias_q[12] + jb[101] * bias_q[13]
+    jt[7, 3, 0] = jb[102] * j_q_theta[12, 0] + jb[103] * j_q_theta[13, 0]
+    jt[7, 3, 1] = jb[102] * j_q_theta[12, 1] + jb[103] * j_q_theta[13, 1]
+    jt[7, 3, 2] = jb[102] * j_q_theta[12, 2] + jb[103] * j_q_theta[13, 2]
+    jt[7, 3, 3] = jb[102] * j_q_theta[12, 3] + jb[103] * j_q_theta[13, 3]
+    jt[7, 3, 4] = jb[102] * j_q_theta[12, 4] + jb[103] * j_q_theta[13, 4]
+    jt[7, 3, 5] = jb[102] * j_q_theta[12, 5] + jb[103] * j_q_theta[13, 5]
+    bb[7, 3] = bb[7, 3] + jb[102] * bias_q[12] + jb[103] * bias_q[13]
+    jt[7, 4, 0] = jb[104] * j_q_theta[12, 0] + jb[105] * j_q_theta[13, 0]
+    jt[7, 4, 1] = jb[104] * j_q_theta[12, 1] + jb[105] * j_q_theta[13, 1]
+    jt[7, 4, 2] = jb[104] * j_q_theta[12, 2] + jb[105] * j_q_theta[13, 2]
+    jt[7, 4, 3] = jb[104] * j_q_theta[12, 3] + jb[105] * j_q_theta[13, 3]
+    jt[7, 4, 4] = jb[104] * j_q_theta[12, 4] + jb[105] * j_q_theta[13, 4]
+    jt[7, 4, 5] = jb[104] * j_q_theta[12, 5] + jb[105] * j_q_theta[13, 5]
+    bb[7, 4] = bb[7, 4] + jb[104] * bias_q[12] + jb[105] * bias_q[13]
+    jt[7, 5, 0] = jb[106] * j_q_theta[12, 0] + jb[107] * j_q_theta[13, 0]
+    jt[7, 5, 1] = jb[106] * j_q_theta[12, 1] + jb[107] * j_q_theta[13, 1]
+    jt[7, 5, 2] = jb[106] * j_q_theta[12, 2] + jb[107] * j_q_theta[13, 2]
+    jt[7, 5, 3] = jb[106] * j_q_theta[12, 3] + jb[107] * j_q_theta[13, 3]
+    jt[7, 5, 4] = jb[106] * j_q_theta[12, 4] + jb[107] * j_q_theta[13, 4]
+    jt[7, 5, 5] = jb[106] * j_q_theta[12, 5] + jb[107] * j_q_theta[13, 5]
+    bb[7, 5] = bb[7, 5] + jb[106] * bias_q[12] + jb[107] * bias_q[13]
+    jt[8, 0, 0] = jb[108] * j_q_theta[14, 0] + jb[109] * j_q_theta[15, 0]
+    jt[8, 0, 1] = jb[108] * j_q_theta[14, 1] + jb[109] * j_q_theta[15, 1]
+    jt[8, 0, 2] = jb[108] * j_q_theta[14, 2] + jb[109] * j_q_theta[15, 2]
+    jt[8, 0, 3] = jb[108] * j_q_theta[14, 3] + jb[109] * j_q_theta[15, 3]
+    jt[8, 0, 4] = jb[108] * j_q_theta[14, 4] + jb[109] * j_q_theta[15, 4]
+    jt[8, 0, 5] = jb[108] * j_q_theta[14, 5] + jb[109] * j_q_theta[15, 5]
+    bb[8, 0] = bb[8, 0] + jb[108] * bias_q[14] + jb[109] * bias_q[15]
+    jt[8, 1, 0] = jb[110] * j_q_theta[14, 0] + jb[111] * j_q_theta[15, 0]
+    jt[8, 1, 1] = jb[110] * j_q_theta[14, 1] + jb[111] * j_q_theta[15, 1]
+    jt[8, 1, 2] = jb[110] * j_q_theta[14, 2] + jb[111] * j_q_theta[15, 2]
+    jt[8, 1, 3] = jb[110] * j_q_theta[14, 3] + jb[111] * j_q_theta[15, 3]
+    jt[8, 1, 4] = jb[110] * j_q_theta[14, 4] + jb[111] * j_q_theta[15, 4]
+    jt[8, 1, 5] = jb[110] * j_q_theta[14, 5] + jb[111] * j_q_theta[15, 5]
+    bb[8, 1] = bb[8, 1] + jb[110] * bias_q[14] + jb[111] * bias_q[15]
+    jt[8, 2, 0] = jb[112] * j_q_theta[14, 0] + jb[113] * j_q_theta[15, 0]
+    jt[8, 2, 1] = jb[112] * j_q_theta[14, 1] + jb[113] * j_q_theta[15, 1]
+    jt[8, 2, 2] = jb[112] * j_q_theta[14, 2] + jb[113] * j_q_theta[15, 2]
+    jt[8, 2, 3] = jb[112] * j_q_theta[14, 3] + jb[113] * j_q_theta[15, 3]
+    jt[8, 2, 4] = jb[112] * j_q_theta[14, 4] + jb[113] * j_q_theta[15, 4]
+    jt[8, 2, 5] = jb[112] * j_q_theta[14, 5] + jb[113] * j_q_theta[15, 5]
+    bb[8, 2] = bb[8, 2] + jb[112] * bias_q[14] + jb[113] * bias_q[15]
+    jt[8, 3, 0] = jb[114] * j_q_theta[14, 0] + jb[115] * j_q_theta[15, 0]
+    jt[8, 3, 1] = jb[114] * j_q_theta[14, 1] + jb[115] * j_q_theta[15, 1]
+    jt[8, 3, 2] = jb[114] * j_q_theta[14, 2] + jb[115] * j_q_theta[15, 2]
+    jt[8, 3, 3] = jb[114] * j_q_theta[14, 3] + jb[115] * j_q_theta[15, 3]
+    jt[8, 3, 4] = jb[114] * j_q_theta[14, 4] + jb[115] * j_q_theta[15, 4]
+    jt[8, 3, 5] = jb[114] * j_q_theta[14, 5] + jb[115] * j_q_theta[15, 5]
+    bb[8, 3] = bb[8, 3] + jb[114] * bias_q[14] + jb[115] * bias_q[15]
+    jt[8, 4, 0] = jb[116] * j_q_theta[14, 0] + jb[117] * j_q_theta[15, 0]
+    jt[8, 4, 1] = jb[116] * j_q_theta[14, 1] + jb[117] * j_q_theta[15, 1]
+    jt[8, 4, 2] = jb[116] * j_q_theta[14, 2] + jb[117] * j_q_theta[15, 2]
+    jt[8, 4, 3] = jb[116] * j_q_theta[14, 3] + jb[117] * j_q_theta[15, 3]
+    jt[8, 4, 4] = jb[116] * j_q_theta[14, 4] + jb[117] * j_q_theta[15, 4]
+    jt[8, 4, 5] = jb[116] * j_q_theta[14, 5] + jb[117] * j_q_theta[15, 5]
+    bb[8, 4] = bb[8, 4] + jb[116] * bias_q[14] + jb[117] * bias_q[15]
+    jt[8, 5, 0] = jb[118] * j_q_theta[14, 0] + jb[119] * j_q_theta[15, 0]
+    jt[8, 5, 1] = jb[118] * j_q_theta[14, 1] + jb[119] * j_q_theta[15, 1]
+    jt[8, 5, 2] = jb[118] * j_q_theta[14, 2] + jb[119] * j_q_theta[15, 2]
+    jt[8, 5, 3] = jb[118] * j_q_theta[14, 3] + jb[119] * j_q_theta[15, 3]
+    jt[8, 5, 4] = jb[118] * j_q_theta[14, 4] + jb[119] * j_q_theta[15, 4]
+    jt[8, 5, 5] = jb[118] * j_q_theta[14, 5] + jb[119] * j_q_theta[15, 5]
+    bb[8, 5] = bb[8, 5] + jb[118] * bias_q[14] + jb[119] * bias_q[15]
+    jt[9, 0, 0] = jb[120] * j_q_theta[4, 0] + jb[121] * j_q_theta[14, 0] + jb[122] * j_q_theta[15, 0]
+    jt[9, 0, 1] = jb[120] * j_q_theta[4, 1] + jb[121] * j_q_theta[14, 1] + jb[122] * j_q_theta[15, 1]
+    jt[9, 0, 2] = jb[120] * j_q_theta[4, 2] + jb[121] * j_q_theta[14, 2] + jb[122] * j_q_theta[15, 2]
+    jt[9, 0, 3] = jb[120] * j_q_theta[4, 3] + jb[121] * j_q_theta[14, 3] + jb[122] * j_q_theta[15, 3]
+    jt[9, 0, 4] = jb[120] * j_q_theta[4, 4] + jb[121] * j_q_theta[14, 4] + jb[122] * j_q_theta[15, 4]
+    jt[9, 0, 5] = jb[120] * j_q_theta[4, 5] + jb[121] * j_q_theta[14, 5] + jb[122] * j_q_theta[15, 5]
+    bb[9, 0] = bb[9, 0] + jb[120] * bias_q[4] + jb[121] * bias_q[14] + jb[122] * bias_q[15]
+    jt[9, 1, 0] = jb[123] * j_q_theta[4, 0] + jb[124] * j_q_theta[14, 0] + jb[125] * j_q_theta[15, 0]
+    jt[9, 1, 1] = jb[123] * j_q_theta[4, 1] + jb[124] * j_q_theta[14, 1] + jb[125] * j_q_theta[15, 1]
+    jt[9, 1, 2] = jb[123] * j_q_theta[4, 2] + jb[124] * j_q_theta[14, 2] + jb[125] * j_q_theta[15, 2]
+    jt[9, 1, 3] = jb[123] * j_q_theta[4, 3] + jb[124] * j_q_theta[14, 3] + jb[125] * j_q_theta[15, 3]
+    jt[9, 1, 4] = jb[123] * j_q_theta[4, 4] + jb[124] * j_q_theta[14, 4] + jb[125] * j_q_theta[15, 4]
+    jt[9, 1, 5] = jb[123] * j_q_theta[4, 5] + jb[124] * j_q_theta[14, 5] + jb[125] * j_q_theta[15, 5]
+    bb[9, 1] = bb[9, 1] + jb[123] * bias_q[4] + jb[124] * bias_q[14] + jb[125] * bias_q[15]
+    jt[9, 2, 0] = jb[126] * j_q_theta[4, 0] + jb[127] * j_q_theta[14, 0] + jb[128] * j_q_theta[15, 0]
+    jt[9, 2, 1] = jb[126] * j_q_theta[4, 1] + jb[127] * j_q_theta[14, 1] + jb[128] * j_q_theta[15, 1]
+    jt[9, 2, 2] = jb[126] * j_q_theta[4, 2] + jb[127] * j_q_theta[14, 2] + jb[128] * j_q_theta[15, 2]
+    jt[9, 2, 3] = jb[126] * j_q_theta[4, 3] + jb[127] * j_q_theta[14, 3] + jb[128] * j_q_theta[15, 3]
+    jt[9, 2, 4] = jb[126] * j_q_theta[4, 4] + jb[127] * j_q_theta[14, 4] + jb[128] * j_q_theta[15, 4]
+    jt[9, 2, 5] = jb[126] * j_q_theta[4, 5] + jb[127] * j_q_theta[14, 5] + jb[128] * j_q_theta[15, 5]
+    bb[9, 2] = bb[9, 2] + jb[126] * bias_q[4] + jb[127] * bias_q[14] + jb[128] * bias_q[15]
+    jt[9, 3, 0] = jb[129] * j_q_theta[14, 0] + jb[130] * j_q_theta[15, 0]
+    jt[9, 3, 1] = jb[129] * j_q_theta[14, 1] + jb[130] * j_q_theta[15, 1]
+    jt[9, 3, 2] = jb[129] * j_q_theta[14, 2] + jb[130] * j_q_theta[15, 2]
+    jt[9, 3, 3] = jb[129] * j_q_theta[14, 3] + jb[130] * j_q_theta[15, 3]
+    jt[9, 3, 4] = jb[129] * j_q_theta[14, 4] + jb[130] * j_q_theta[15, 4]
+    jt[9, 3, 5] = jb[129] * j_q_theta[14, 5] + jb[130] * j_q_theta[15, 5]
+    bb[9, 3] = bb[9, 3] + jb[129] * bias_q[14] + jb[130] * bias_q[15]
+    jt[9, 4, 0] = jb[131] * j_q_theta[14, 0] + jb[132] * j_q_theta[15, 0]
+    jt[9, 4, 1] = jb[131] * j_q_theta[14, 1] + jb[132] * j_q_theta[15, 1]
+    jt[9, 4, 2] = jb[131] * j_q_theta[14, 2] + jb[132] * j_q_theta[15, 2]
+    jt[9, 4, 3] = jb[131] * j_q_theta[14, 3] + jb[132] * j_q_theta[15, 3]
+    jt[9, 4, 4] = jb[131] * j_q_theta[14, 4] + jb[132] * j_q_theta[15, 4]
+    jt[9, 4, 5] = jb[131] * j_q_theta[14, 5] + jb[132] * j_q_theta[15, 5]
+    bb[9, 4] = bb[9, 4] + jb[131] * bias_q[14] + jb[132] * bias_q[15]
+    jt[9, 5, 0] = jb[133] * j_q_theta[14, 0] + jb[134] * j_q_theta[15, 0]
+    jt[9, 5, 1] = jb[133] * j_q_theta[14, 1] + jb[134] * j_q_theta[15, 1]
+    jt[9, 5, 2] = jb[133] * j_q_theta[14, 2] + jb[134] * j_q_theta[15, 2]
+    jt[9, 5, 3] = jb[133] * j_q_theta[14, 3] + jb[134] * j_q_theta[15, 3]
+    jt[9, 5, 4] = jb[133] * j_q_theta[14, 4] + jb[134] * j_q_theta[15, 4]
+    jt[9, 5, 5] = jb[133] * j_q_theta[14, 5] + jb[134] * j_q_theta[15, 5]
+    bb[9, 5] = bb[9, 5] + jb[133] * bias_q[14] + jb[134] * bias_q[15]
+    jt[10, 0, 0] = jb[135] * j_q_theta[16, 0] + jb[136] * j_q_theta[17, 0]
+    jt[10, 0, 1] = jb[135] * j_q_theta[16, 1] + jb[136] * j_q_theta[17, 1]
+    jt[10, 0, 2] = jb[135] * j_q_theta[16, 2] + jb[136] * j_q_theta[17, 2]
+    jt[10, 0, 3] = jb[135] * j_q_theta[16, 3] + jb[136] * j_q_theta[17, 3]
+    jt[10, 0, 4] = jb[135] * j_q_theta[16, 4] + jb[136] * j_q_theta[17, 4]
+    jt[10, 0, 5] = jb[135] * j_q_theta[16, 5] + jb[136] * j_q_theta[17, 5]
+    bb[10, 0] = bb[10, 0] + jb[135] * bias_q[16] + jb[136] * bias_q[17]
+    jt[10, 1, 0] = jb[137] * j_q_theta[16, 0] + jb[138] * j_q_theta[17, 0]
+    jt[10, 1, 1] = jb[137] * j_q_theta[16, 1] + jb[138] * j_q_theta[17, 1]
+    jt[10, 1, 2] = jb[137] * j_q_theta[16, 2] + jb[138] * j_q_theta[17, 2]
+    jt[10, 1, 3] = jb[137] * j_q_theta[16, 3] + jb[138] * j_q_theta[17, 3]
+    jt[10, 1, 4] = jb[137] * j_q_theta[16, 4] + jb[138] * j_q_theta[17, 4]
+    jt[10, 1, 5] = jb[137] * j_q_theta[16, 5] + jb[138] * j_q_theta[17, 5]
+    bb[10, 1] = bb[10, 1] + jb[137] * bias_q[16] + jb[138] * bias_q[17]
+    jt[10, 2, 0] = jb[139] * j_q_theta[16, 0] + jb[140] * j_q_theta[17, 0]
+    jt[10, 2, 1] = jb[139] * j_q_theta[16, 1] + jb[140] * j_q_theta[17, 1]
+    jt[10, 2, 2] = jb[139] * j_q_theta[16, 2] + jb[140] * j_q_theta[17, 2]
+    jt[10, 2, 3] = jb[139] * j_q_theta[16, 3] + jb[140] * j_q_theta[17, 3]
+    jt[10, 2, 4] = jb[139] * j_q_theta[16, 4] + jb[140] * j_q_theta[17, 4]
+    jt[10, 2, 5] = jb[139] * j_q_theta[16, 5] + jb[140] * j_q_theta[17, 5]
+    bb[10, 2] = bb[10, 2] + jb[139] * bias_q[16] + jb[140] * bias_q[17]
+    jt[10, 3, 0] = jb[141] * j_q_theta[16, 0] + jb[142] * j_q_theta[17, 0]
+    jt[10, 3, 1] = jb[141] * j_q_theta[16, 1] + jb[142] * j_q_theta[17, 1]
+    jt[10, 3, 2] = jb[141] * j_q_theta[16, 2] + jb[142] * j_q_theta[17, 2]
+    jt[10, 3, 3] = jb[141] * j_q_theta[16, 3] + jb[142] * j_q_theta[17, 3]
+    jt[10, 3, 4] = jb[141] * j_q_theta[16, 4] + jb[142] * j_q_theta[17, 4]
+    jt[10, 3, 5] = jb[141] * j_q_theta[16, 5] + jb[142] * j_q_theta[17, 5]
+    bb[10, 3] = bb[10, 3] + jb[141] * bias_q[16] + jb[142] * bias_q[17]
+    jt[10, 4, 0] = jb[143] * j_q_theta[16, 0] + jb[144] * j_q_theta[17, 0]
+    jt[10, 4, 1] = jb[143] * j_q_theta[16, 1] + jb[144] * j_q_theta[17, 1]
+    jt[10, 4, 2] = jb[143] * j_q_theta[16, 2] + jb[144] * j_q_theta[17, 2]
+    jt[10, 4, 3] = jb[143] * j_q_theta[16, 3] + jb[144] * j_q_theta[17, 3]
+    jt[10, 4, 4] = jb[143] * j_q_theta[16, 4] + jb[144] * j_q_theta[17, 4]
+    jt[10, 4, 5] = jb[143] * j_q_theta[16, 5] + jb[144] * j_q_theta[17, 5]
+    bb[10, 4] = bb[10, 4] + jb[143] * bias_q[16] + jb[144] * bias_q[17]
+    jt[10, 5, 0] = jb[145] * j_q_theta[16, 0] + jb[146] * j_q_theta[17, 0]
+    jt[10, 5, 1] = jb[145] * j_q_theta[16, 1] + jb[146] * j_q_theta[17, 1]
+    jt[10, 5, 2] = jb[145] * j_q_theta[16, 2] + jb[146] * j_q_theta[17, 2]
+    jt[10, 5, 3] = jb[145] * j_q_theta[16, 3] + jb[146] * j_q_theta[17, 3]
+    jt[10, 5, 4] = jb[145] * j_q_theta[16, 4] + jb[146] * j_q_theta[17, 4]
+    jt[10, 5, 5] = jb[145] * j_q_theta[16, 5] + jb[146] * j_q_theta[17, 5]
+    bb[10, 5] = bb[10, 5] + jb[145] * bias_q[16] + jb[146] * bias_q[17]
+    jt[11, 0, 0] = jb[147] * j_q_theta[5, 0] + jb[148] * j_q_theta[16, 0] + jb[149] * j_q_theta[17, 0]
+    jt[11, 0, 1] = jb[147] * j_q_theta[5, 1] + jb[148] * j_q_theta[16, 1] + jb[149] * j_q_theta[17, 1]
+    jt[11, 0, 2] = jb[147] * j_q_theta[5, 2] + jb[148] * j_q_theta[16, 2] + jb[149] * j_q_theta[17, 2]
+    jt[11, 0, 3] = jb[147] * j_q_theta[5, 3] + jb[148] * j_q_theta[16, 3] + jb[149] * j_q_theta[17, 3]
+    jt[11, 0, 4] = jb[147] * j_q_theta[5, 4] + jb[148] * j_q_theta[16, 4] + jb[149] * j_q_theta[17, 4]
+    jt[11, 0, 5] = jb[147] * j_q_theta[5, 5] + jb[148] * j_q_theta[16, 5] + jb[149] * j_q_theta[17, 5]
+    bb[11, 0] = bb[11, 0] + jb[147] * bias_q[5] + jb[148] * bias_q[16] + jb[149] * bias_q[17]
+    jt[11, 1, 0] = jb[150] * j_q_theta[5, 0] + jb[151] * j_q_theta[16, 0] + jb[152] * j_q_theta[17, 0]
+    jt[11, 1, 1] = jb[150] * j_q_theta[5, 1] + jb[151] * j_q_theta[16, 1] + jb[152] * j_q_theta[17, 1]
+    jt[11, 1, 2] = jb[150] * j_q_theta[5, 2] + jb[151] * j_q_theta[16, 2] + jb[152] * j_q_theta[17, 2]
+    jt[11, 1, 3] = jb[150] * j_q_theta[5, 3] + jb[151] * j_q_theta[16, 3] + jb[152] * j_q_theta[17, 3]
+    jt[11, 1, 4] = jb[150] * j_q_theta[5, 4] + jb[151] * j_q_theta[16, 4] + jb[152] * j_q_theta[17, 4]
+    jt[11, 1, 5] = jb[150] * j_q_theta[5, 5] + jb[151] * j_q_theta[16, 5] + jb[152] * j_q_theta[17, 5]
+    bb[11, 1] = bb[11, 1] + jb[150] * bias_q[5] + jb[151] * bias_q[16] + jb[152] * bias_q[17]
+    jt[11, 2, 0] = jb[153] * j_q_theta[5, 0] + jb[154] * j_q_theta[16, 0] + jb[155] * j_q_theta[17, 0]
+    jt[11, 2, 1] = jb[153] * j_q_theta[5, 1] + jb[154] * j_q_theta[16, 1] + jb[155] * j_q_theta[17, 1]
+    jt[11, 2, 2] = jb[153] * j_q_theta[5, 2] + jb[154] * j_q_theta[16, 2] + jb[155] * j_q_theta[17, 2]
+    jt[11, 2, 3] = jb[153] * j_q_theta[5, 3] + jb[154] * j_q_theta[16, 3] + jb[155] * j_q_theta[17, 3]
+    jt[11, 2, 4] = jb[153] * j_q_theta[5, 4] + jb[154] * j_q_theta[16, 4] + jb[155] * j_q_theta[17, 4]
+    jt[11, 2, 5] = jb[153] * j_q_theta[5, 5] + jb[154] * j_q_theta[16, 5] + jb[155] * j_q_theta[17, 5]
+    bb[11, 2] = bb[11, 2] + jb[153] * bias_q[5] + jb[154] * bias_q[16] + jb[155] * bias_q[17]
+    jt[11, 3, 0] = jb[156] * j_q_theta[16, 0] + jb[157] * j_q_theta[17, 0]
+    jt[11, 3, 1] = jb[156] * j_q_theta[16, 1] + jb[157] * j_q_theta[17, 1]
+    jt[11, 3, 2] = jb[156] * j_q_theta[16, 2] + jb[157] * j_q_theta[17, 2]
+    jt[11, 3, 3] = jb[156] * j_q_theta[16, 3] + jb[157] * j_q_theta[17, 3]
+    jt[11, 3, 4] = jb[156] * j_q_theta[16, 4] + jb[157] * j_q_theta[17, 4]
+    jt[11, 3, 5] = jb[156] * j_q_theta[16, 5] + jb[157] * j_q_theta[17, 5]
+    bb[11, 3] = bb[11, 3] + jb[156] * bias_q[16] + jb[157] * bias_q[17]
+    jt[11, 4, 0] = jb[158] * j_q_theta[16, 0] + jb[159] * j_q_theta[17, 0]
+    jt[11, 4, 1] = jb[158] * j_q_theta[16, 1] + jb[159] * j_q_theta[17, 1]
+    jt[11, 4, 2] = jb[158] * j_q_theta[16, 2] + jb[159] * j_q_theta[17, 2]
+    jt[11, 4, 3] = jb[158] * j_q_theta[16, 3] + jb[159] * j_q_theta[17, 3]
+    jt[11, 4, 4] = jb[158] * j_q_theta[16, 4] + jb[159] * j_q_theta[17, 4]
+    jt[11, 4, 5] = jb[158] * j_q_theta[16, 5] + jb[159] * j_q_theta[17, 5]
+    bb[11, 4] = bb[11, 4] + jb[158] * bias_q[16] + jb[159] * bias_q[17]
+    jt[11, 5, 0] = jb[160] * j_q_theta[16, 0] + jb[161] * j_q_theta[17, 0]
+    jt[11, 5, 1] = jb[160] * j_q_theta[16, 1] + jb[161] * j_q_theta[17, 1]
+    jt[11, 5, 2] = jb[160] * j_q_theta[16, 2] + jb[161] * j_q_theta[17, 2]
+    jt[11, 5, 3] = jb[160] * j_q_theta[16, 3] + jb[161] * j_q_theta[17, 3]
+    jt[11, 5, 4] = jb[160] * j_q_theta[16, 4] + jb[161] * j_q_theta[17, 4]
+    jt[11, 5, 5] = jb[160] * j_q_theta[16, 5] + jb[161] * j_q_theta[17, 5]
+    bb[11, 5] = bb[11, 5] + jb[160] * bias_q[16] + jb[161] * bias_q[17]
+    jt[12, 0, 0] = jb[162] * j_q_theta[18, 0] + jb[163] * j_q_theta[21, 0] + jb[164] * j_q_theta[22, 0] + jb[165] * j_q_theta[23, 0]
+    jt[12, 0, 1] = jb[162] * j_q_theta[18, 1] + jb[163] * j_q_theta[21, 1] + jb[164] * j_q_theta[22, 1] + jb[165] * j_q_theta[23, 1]
+    jt[12, 0, 2] = jb[162] * j_q_theta[18, 2] + jb[163] * j_q_theta[21, 2] + jb[164] * j_q_theta[22, 2] + jb[165] * j_q_theta[23, 2]
+    jt[12, 0, 3] = jb[162] * j_q_theta[18, 3] + jb[163] * j_q_theta[21, 3] + jb[164] * j_q_theta[22, 3] + jb[165] * j_q_theta[23, 3]
+    jt[12, 0, 4] = jb[162] * j_q_theta[18, 4] + jb[163] * j_q_theta[21, 4] + jb[164] * j_q_theta[22, 4] + jb[165] * j_q_theta[23, 4]
+    jt[12, 0, 5] = jb[162] * j_q_theta[18, 5] + jb[163] * j_q_theta[21, 5] + jb[164] * j_q_theta[22, 5] + jb[165] * j_q_theta[23, 5]
+    bb[12, 0] = bb[12, 0] + jb[162] * bias_q[18] + jb[163] * bias_q[21] + jb[164] * bias_q[22] + jb[165] * bias_q[23]
+    jt[12, 1, 0] = jb[166] * j_q_theta[19, 0] + jb[167] * j_q_theta[21, 0] + jb[168] * j_q_theta[22, 0] + jb[169] * j_q_theta[23, 0]
+    jt[12, 1, 1] = jb[166] * j_q_theta[19, 1] + jb[167] * j_q_theta[21, 1] + jb[168] * j_q_theta[22, 1] + jb[169] * j_q_theta[23, 1]
+    jt[12, 1, 2] = jb[166] * j_q_theta[19, 2] + jb[167] * j_q_theta[21, 2] + jb[168] * j_q_theta[22, 2] + jb[169] * j_q_theta[23, 2]
+    jt[12, 1, 3] = jb[166] * j_q_theta[19, 3] + jb[167] * j_q_theta[21, 3] + jb[168] * j_q_theta[22, 3] + jb[169] * j_q_theta[23, 3]
+    jt[12, 1, 4] = jb[166] * j_q_theta[19, 4] + jb[167] * j_q_theta[21, 4] + jb[168] * j_q_theta[22, 4] + jb[169] * j_q_theta[23, 4]
+    jt[12, 1, 5] = jb[166] * j_q_theta[19, 5] + jb[167] * j_q_theta[21, 5] + jb[168] * j_q_theta[22, 5] + jb[169] * j_q_theta[23, 5]
+    bb[12, 1] = bb[12, 1] + jb[166] * bias_q[19] + jb[167] * bias_q[21] + jb[168] * bias_q[22] + jb[169] * bias_q[23]
+    jt[12, 2, 0] = jb[170] * j_q_theta[20, 0] + jb[171] * j_q_theta[21, 0] + jb[172] * j_q_theta[22, 0]
+    jt[12, 2, 1] = jb[170] * j_q_theta[20, 1] + jb[171] * j_q_theta[21, 1] + jb[172] * j_q_theta[22, 1]
+    jt[12, 2, 2] = jb[170] * j_q_theta[20, 2] + jb[171] * j_q_theta[21, 2] + jb[172] * j_q_theta[22, 2]
+    jt[12, 2, 3] = jb[170] * j_q_theta[20, 3] + jb[171] * j_q_theta[21, 3] + jb[172] * j_q_theta[22, 3]
+    jt[12, 2, 4] = jb[170] * j_q_theta[20, 4] + jb[171] * j_q_theta[21, 4] + jb[172] * j_q_theta[22, 4]
+    jt[12, 2, 5] = jb[170] * j_q_theta[20, 5] + jb[171] * j_q_theta[21, 5] + jb[172] * j_q_theta[22, 5]
+    bb[12, 2] = bb[12, 2] + jb[170] * bias_q[20] + jb[171] * bias_q[21] + jb[172] * bias_q[22]
+    jt[12, 3, 0] = jb[173] * j_q_theta[21, 0] + jb[174] * j_q_theta[23, 0]
+    jt[12, 3, 1] = jb[173] * j_q_theta[21, 1] + jb[174] * j_q_theta[23, 1]
+    jt[12, 3, 2] = jb[173] * j_q_theta[21, 2] + jb[174] * j_q_theta[23, 2]
+    jt[12, 3, 3] = jb[173] * j_q_theta[21, 3] + jb[174] * j_q_theta[23, 3]
+    jt[12, 3, 4] = jb[173] * j_q_theta[21, 4] + jb[174] * j_q_theta[23, 4]
+    jt[12, 3, 5] = jb[173] * j_q_theta[21, 5] + jb[174] * j_q_theta[23, 5]
+    bb[12, 3] = bb[12, 3] + jb[173] * bias_q[21] + jb[174] * bias_q[23]
+    jt[12, 4, 0] = jb[175] * j_q_theta[22, 0] + jb[176] * j_q_theta[23, 0]
+    jt[12, 4, 1] = jb[175] * j_q_theta[22, 1] + jb[176] * j_q_theta[23, 1]
+    jt[12, 4, 2] = jb[175] * j_q_theta[22, 2] + jb[176] * j_q_theta[23, 2]
+    jt[12, 4, 3] = jb[175] * j_q_theta[22, 3] + jb[176] * j_q_theta[23, 3]
+    jt[12, 4, 4] = jb[175] * j_q_theta[22, 4] + jb[176] * j_q_theta[23, 4]
+    jt[12, 4, 5] = jb[175] * j_q_theta[22, 5] + jb[176] * j_q_theta[23, 5]
+    bb[12, 4] = bb[12, 4] + jb[175] * bias_q[22] + jb[176] * bias_q[23]
+    jt[12, 5, 0] = jb[177] * j_q_theta[22, 0] + jb[178] * j_q_theta[23, 0]
+    jt[12, 5, 1] = jb[177] * j_q_theta[22, 1] + jb[178] * j_q_theta[23, 1]
+    jt[12, 5, 2] = jb[177] * j_q_theta[22, 2] + jb[178] * j_q_theta[23, 2]
+    jt[12, 5, 3] = jb[177] * j_q_theta[22, 3] + jb[178] * j_q_theta[23, 3]
+    jt[12, 5, 4] = jb[177] * j_q_theta[22, 4] + jb[178] * j_q_theta[23, 4]
+    jt[12, 5, 5] = jb[177] * j_q_theta[22, 5] + jb[178] * j_q_theta[23, 5]
+    bb[12, 5] = bb[12, 5] + jb[177] * bias_q[22] + jb[178] * bias_q[23]
 
+
+# ---- the compiled core of pkmlab.machine_core, bound to the kernels above ----
 import numpy as np  # noqa: E402
 from numba import njit, prange  # noqa: E402
 
@@ -6373,43 +6922,6 @@ def constraint_biases(qs, q_dots, P, out):
         constraint_bias(qs[k], sc, q_dots[k], P, out[k])
 
 
-class Workspace(NamedTuple):
-    """Scratch arrays of one model's evaluations; ``q[0]`` holds the base configuration (the last
-    accepted one, from which branch following starts) and ``q[1]`` a trial configuration."""
-
-    q: np.ndarray  # (2, N) base and trial configurations
-    sc: np.ndarray  # (2, N, 2) their trig tables
-    s: np.ndarray  # (2,) their singularity measures
-    j_eta: np.ndarray  # (m, N) Jηq
-    lu: np.ndarray  # (m - DIM, m - DIM) factors of Jηφ's reduced system (the tracked point eliminated)
-    piv: np.ndarray  # (m - DIM,)
-    eta: np.ndarray  # (m,)
-    j_q_theta: np.ndarray  # (N, n) Jqθ (eq. 31)
-    q_dot: np.ndarray  # (N,)
-    bias_q: np.ndarray  # (N,) J̇qθ θ̇ (eq. 32)
-    gamma: np.ndarray  # (m,) J̇ηq q̇
-    jb: np.ndarray  # (N_JB,) the non-zeros of the bodies' Jacobians
-    bb: np.ndarray  # (n_bodies, BODY_ROWS) bodies' J̇ q̇, then their accelerations at θ̈ = 0
-    jt: np.ndarray  # (n_bodies, BODY_ROWS, n) the bodies' Jacobians times Jqθ
-    m_theta: np.ndarray  # (n, n) Mθ
-    c_theta: np.ndarray  # (n,) cθ = Cθ θ̇
-    g_theta: np.ndarray  # (n,) gθ = ∂V/∂θ
-    theta_ddot: np.ndarray  # (n,)
-    ldl: np.ndarray  # (n, n) factor of Mθ
-    lines: np.ndarray  # (n, LINE_WIDTH) the legs' lines of action
-    lu_base: np.ndarray  # (m - DIM, m - DIM) the same factors at the base, kept for branch following from it
-    piv_base: np.ndarray  # (m - DIM,)
-    j_q_theta_base: np.ndarray  # (N, n) Jqθ at the base
-    base_factored: np.ndarray  # (1,) 1 when the three above are the base's
-    top: np.ndarray  # (DIM, m - DIM) rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
-    top_base: np.ndarray  # (DIM, m - DIM) the same at the base
-    reduced: np.ndarray  # (m - DIM, m - DIM) the reduced system before factoring
-    work: np.ndarray  # (m,) the reduced system's right-hand side, then the tracked point's DIM values
-    rhs: np.ndarray  # (m,)
-    target: np.ndarray  # (n,) the actuators of a sub-step of follow_branch_in_steps
-    step: np.ndarray  # (n,) the actuators' step of follow_branch's predictor
-
-
 BASE = 0
 TRIAL = 1
 
@@ -6420,6 +6932,59 @@ TRIAL = 1
 # whole of Jηφ. X_COLUMN is x's column in Jηφ.
 REDUCED = N_CONSTRAINTS - DIM
 X_COLUMN = N_CONSTRAINTS - DOF
+
+
+def _workspace_fields(N, m, n, r):
+    """The fields ``(name, type, shape)`` of :data:`WORKSPACE` for ``N`` coordinates, ``m`` constraints, ``n``
+    actuators and a reduced system of ``r`` unknowns."""
+    return [
+        ("q", np.float64, (2, N)),  # base and trial configurations
+        ("sc", np.float64, (2, N, 2)),  # their trig tables
+        ("s", np.float64, (2,)),  # their singularity measures
+        ("j_eta", np.float64, (m, N)),  # Jηq
+        ("lu", np.float64, (r, r)),  # factors of Jηφ's reduced system (the tracked point eliminated)
+        ("piv", np.int64, (r,)),
+        ("eta", np.float64, (m,)),
+        ("j_q_theta", np.float64, (N, n)),  # Jqθ (eq. 31)
+        ("q_dot", np.float64, (N,)),
+        ("bias_q", np.float64, (N,)),  # J̇qθ θ̇ (eq. 32)
+        ("gamma", np.float64, (m,)),  # J̇ηq q̇
+        ("jb", np.float64, (N_JB,)),  # the non-zeros of the bodies' Jacobians
+        ("bb", np.float64, (N_BODIES, BODY_ROWS)),  # bodies' J̇ q̇, then their accelerations at θ̈ = 0
+        ("jt", np.float64, (N_BODIES, BODY_ROWS, n)),  # the bodies' Jacobians times Jqθ
+        ("m_theta", np.float64, (n, n)),  # Mθ
+        ("c_theta", np.float64, (n,)),  # cθ = Cθ θ̇
+        ("g_theta", np.float64, (n,)),  # gθ = ∂V/∂θ
+        ("theta_ddot", np.float64, (n,)),
+        ("ldl", np.float64, (n, n)),  # factor of Mθ
+        ("lines", np.float64, (n, LINE_WIDTH)),  # the legs' lines of action
+        ("lu_base", np.float64, (r, r)),  # the same factors at the base, kept for branch following from it
+        ("piv_base", np.int64, (r,)),
+        ("j_q_theta_base", np.float64, (N, n)),  # Jqθ at the base
+        ("base_factored", np.int64, (1,)),  # 1 when the three above are the base's
+        ("top", np.float64, (DIM, r)),  # rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
+        ("top_base", np.float64, (DIM, r)),  # the same at the base
+        ("reduced", np.float64, (r, r)),  # the reduced system before factoring
+        ("work", np.float64, (m,)),  # the reduced system's right-hand side, then the tracked point's DIM values
+        ("rhs", np.float64, (m,)),
+        ("target", np.float64, (n,)),  # the actuators of a sub-step of follow_branch_in_steps
+        ("step", np.float64, (n,)),  # the actuators' step of follow_branch's predictor
+    ]
+
+
+#: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
+#: (``q[BASE]`` is the base configuration — the last accepted one, from which branch following starts —
+#: and ``q[TRIAL]`` a trial configuration). A record is passed to a function by a single pointer and its
+#: arrays have shapes known at compile time; a tuple of ~30 arrays was copied, array by array, into
+#: every call that took it (which cost about a quarter of the simulation loop's time).
+WORKSPACE = np.dtype(_workspace_fields(N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS, REDUCED), align=True)
+
+
+@njit(cache=True)
+def make_workspaces(count):
+    """``count`` workspaces, a record array; a kernel takes one record (``workspaces[k]``), and the array must
+    outlive every use of it (so entry points allocate it and pass it to the function that does the work)."""
+    return np.zeros(count, WORKSPACE)
 
 
 @njit(**NO_REFCOUNT_INLINE)
@@ -6524,20 +7089,6 @@ def spatial_singularity_measure(P, lines):
             for k in range(c + 1, N_ACTUATORS):
                 lines[r, k] -= f * lines[c, k]
     return det
-
-
-@njit(cache=True)
-def make_workspace():
-    N, m, n = N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS
-    r = REDUCED
-    return Workspace(np.zeros((2, N)), np.zeros((2, N, 2)), np.zeros(2), np.zeros((m, N)), np.zeros((r, r)),
-                     np.zeros(r, np.int64),
-                     np.zeros(m), np.zeros((N, n)), np.zeros(N), np.zeros(N), np.zeros(m),
-                     np.zeros(N_JB), np.zeros((N_BODIES, BODY_ROWS)), np.zeros((N_BODIES, BODY_ROWS, n)),
-                     np.zeros((n, n)), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, n)),
-                     np.zeros((n, LINE_WIDTH)), np.zeros((r, r)), np.zeros(r, np.int64), np.zeros((N, n)),
-                     np.zeros(1, np.int64), np.zeros((DIM, r)), np.zeros((DIM, r)), np.zeros((r, r)), np.zeros(m),
-                     np.zeros(m), np.zeros(n), np.zeros(n))
 
 
 @njit(**NO_REFCOUNT)
@@ -6772,15 +7323,7 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         ws.bias_q[n + k] = ws.gamma[k]
     body_jacobian_values(q, sc, P, ws.jb)
     body_bias(q, sc, ws.q_dot, P, ws.bb)
-    for b in range(N_BODIES):
-        for r in range(BODY_ROWS):
-            for j in range(n):
-                ws.jt[b, r, j] = 0.0
-    for z in range(N_JB):  # Jt = J_b Jqθ and a_b += J_b J̇qθ θ̇ over the non-zeros of J_b only
-        b, r, k, v = JB_BODY[z], JB_ROW[z], JB_COL[z], ws.jb[z]
-        for j in range(n):
-            ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
-        ws.bb[b, r] += v * ws.bias_q[k]
+    body_velocities(ws.jb, ws.j_q_theta, ws.bias_q, ws.jt, ws.bb)  # over the non-zeros of J_b only
     if ANGULAR == 3:
         spatial_body_sums(ws, theta_dot, P)
         return True
@@ -6860,7 +7403,12 @@ def spatial_body_sums(ws, theta_dot, P):
 def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
     """:func:`actuator_space_model` of every configuration ``qs`` (K, N) and rates ``theta_dots`` (K, n) into
     ``m_out`` (K, n, n), ``c_out`` and ``g_out`` (K, n); returns the first singular one's index, or -1."""
-    ws = make_workspace()
+    return _actuator_space_models(make_workspaces(1), qs, theta_dots, P, m_out, c_out, g_out)
+
+
+@njit(cache=True)
+def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
+    ws = workspaces[0]
     sc = np.zeros((N_COORDINATES, 2))
     for k in range(qs.shape[0]):
         trig(qs[k], sc)
@@ -6987,8 +7535,15 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
     returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
     own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, efforts and ``S``."""
+    return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
+                              P_plant, P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s)
+
+
+@njit(cache=True)
+def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant,
+                       P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
     n = N_ACTUATORS
-    plant, ctrl = make_workspace(), make_workspace()
+    plant, ctrl = workspaces[0], workspaces[1]
     set_base(plant, q_plant0, P_plant)
     set_base(ctrl, q_ctrl0, P_ctrl)
     x = np.zeros(2 * n)
@@ -7027,15 +7582,20 @@ def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, 
 
 
 # ---- entry points for callers outside compiled code (an adaptive integrator, a path's kinematics): plain
-# arrays in and out, the workspace made inside (a workspace passed in from Python costs ~0.3 ms per call
-# to type its ~30 arrays; making one costs a few microseconds)
+# arrays in and out, the workspace made inside (making one costs well under a microsecond), then passed
+# with the array that holds it to the function that does the work
 @njit(cache=True)
 def reduced_rhs(q_base, y, tau, P, min_abs_s, q_out):
     """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
     the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
     configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
+    return _reduced_rhs(make_workspaces(1), q_base, y, tau, P, min_abs_s, q_out)
+
+
+@njit(cache=True)
+def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
     n = N_ACTUATORS
-    ws = make_workspace()
+    ws = workspaces[0]
     out = np.zeros(2 * n)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, min_abs_s, np.inf)
@@ -7055,11 +7615,18 @@ def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_d
                         q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
     configuration at the measured ``theta`` into ``q_out``. Returns the status."""
+    return _control_effort_from(make_workspaces(1), q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
+                                theta_ddot_d, P, min_abs_s, q_out, tau)
+
+
+@njit(cache=True)
+def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
+                         min_abs_s, q_out, tau):
+    ws = workspaces[0]
     if kind == 1:  # PD: no model to move
         q_out[:] = q_base
         return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
-                              make_workspace(), tau)
-    ws = make_workspace()
+                              ws, tau)
     # computed torque: the model follows the measurement, in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, theta, P, min_abs_s, np.inf)
     if status == OK:
@@ -7073,7 +7640,12 @@ def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_d
 def branch_following_batch(q_previous, thetas, P, min_abs_s, max_step, q_out, status):
     """:func:`follow_branch_in_steps` from each ``q_previous[k]`` (K, N) to ``thetas[k]`` (K, n), into ``q_out``
     (K, N) and ``status`` (K,)."""
-    ws = make_workspace()
+    _branch_following_batch(make_workspaces(1), q_previous, thetas, P, min_abs_s, max_step, q_out, status)
+
+
+@njit(cache=True)
+def _branch_following_batch(workspaces, q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+    ws = workspaces[0]
     for k in range(thetas.shape[0]):
         status[k] = follow_branch_in_steps(ws, q_previous[k], thetas[k], P, min_abs_s, max_step)
         for i in range(N_COORDINATES):
@@ -7085,7 +7657,12 @@ def follow_path(q_start, thetas, P, min_abs_s, q_out):
     """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn
     (:func:`follow_branch_in_steps`), into ``q_out`` (K, N); returns ``(status, k)``, ``k`` the first point
     not reached (else -1)."""
-    ws = make_workspace()
+    return _follow_path(make_workspaces(1), q_start, thetas, P, min_abs_s, q_out)
+
+
+@njit(cache=True)
+def _follow_path(workspaces, q_start, thetas, P, min_abs_s, q_out):
+    ws = workspaces[0]
     previous = q_start.copy()
     for k in range(thetas.shape[0]):
         status = follow_branch_in_steps(ws, previous, thetas[k], P, min_abs_s, np.inf)

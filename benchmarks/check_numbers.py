@@ -1,0 +1,116 @@
+"""Every number a change to the compiled core could move, saved or compared .
+
+A performance change must not change results beyond round-off. This script runs the runs whose
+numbers users see — the paper's cases, every preset's default run (the example scenario files), a
+PD run, a continuous-time run, a batch of disturbed runs, one evaluation of the dynamics per preset —
+and either saves every array to an ``.npz`` file or compares them with one saved before::
+
+    .venv/bin/python benchmarks/check_numbers.py --save /tmp/before.npz     # on the code before the change
+    .venv/bin/python benchmarks/check_numbers.py --compare /tmp/before.npz  # after it: exits 1 above --rtol
+
+The difference of an array is normwise, ``max |new - old| / max |old|`` (so a component that passes
+through zero is not blown up), and every array must agree to ``--rtol`` (default 1e-12).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from pkmlab import mechanism_model as mm
+from pkmlab.control import ControllerSpec
+from pkmlab.scenario_io import load_scenario
+from pkmlab.simulation import paper_scenario, perturbed_model, simulate, simulate_batch
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+SCENARIO_FILES = ("nominal", "fast", "disturbed", "five_bar_circle", "3rpr_circle", "3prr_circle",
+                  "delta_pick_and_place", "stewart_motion")
+
+
+def _runs() -> dict[str, object]:
+    runs = {f"paper_{name}": paper_scenario(name) for name in ("nominal", "disturbed", "fast", "disturbed_dynamics")}
+    runs.update({f"file_{name}": load_scenario(EXAMPLES / f"{name}.toml") for name in SCENARIO_FILES})
+    nominal = runs["paper_nominal"]
+    runs["paper_pd"] = nominal.replace(controller=ControllerSpec(kind="pd", kp=400.0, kv=40.0))
+    runs["paper_continuous"] = nominal.replace(sample_time=0.0)
+    runs["paper_substeps_4"] = runs["paper_fast"].replace(substeps=4)
+    return runs
+
+
+def collect() -> dict[str, np.ndarray]:
+    """Every array of the runs above, by name."""
+    out: dict[str, np.ndarray] = {}
+    for name, scenario in _runs().items():
+        result = simulate(scenario)
+        for field in ("q", "theta_dot", "tau", "pose", "S"):
+            out[f"{name}.{field}"] = np.asarray(getattr(result, field), float)
+    batch = simulate_batch(_disturbed_batch(), on_error="none")  # a drawn plant may not assemble: None
+    for k, result in enumerate(r for r in batch if r is not None):
+        for field in ("q", "tau"):
+            out[f"batch{k}.{field}"] = np.asarray(getattr(result, field), float)
+    rng = np.random.default_rng(3)
+    for name in ("paper", "five_bar", "3rpr", "3prr", "delta", "stewart"):
+        model = mm.MechanismModel.from_preset(name)
+        q = _a_configuration(name)
+        theta_dot = rng.normal(0.0, 0.5, model.n_actuators)
+        m_theta, c_theta, g_theta = mm.actuator_space_model(model, q, theta_dot)
+        out[f"dyn_{name}.M"], out[f"dyn_{name}.c"], out[f"dyn_{name}.g"] = m_theta, c_theta, g_theta
+    return out
+
+
+def _disturbed_batch() -> list:
+    base = paper_scenario("nominal")
+    rng = np.random.default_rng(11)
+    return [base.replace(plant=perturbed_model(base.model, rng, 0.15)) for _ in range(12)]
+
+
+def _a_configuration(name: str) -> np.ndarray:
+    """The middle of the preset's default run, in its description's coordinates."""
+    files = {"paper": "nominal", "five_bar": "five_bar_circle", "3rpr": "3rpr_circle", "3prr": "3prr_circle",
+             "delta": "delta_pick_and_place", "stewart": "stewart_motion"}
+    scenario = load_scenario(EXAMPLES / f"{files[name]}.toml")
+    result = simulate(scenario)
+    q = np.asarray(result.q[len(result.q) // 2], float)
+    return q if isinstance(scenario.model, mm.MechanismModel) else mm.coordinates_from_3rrr(scenario.model, q)
+
+
+def compare(old: dict[str, np.ndarray], new: dict[str, np.ndarray], rtol: float) -> int:
+    worst, bad = 0.0, []
+    for key in sorted(old):
+        if key not in new or old[key].shape != new[key].shape:
+            bad.append(f"{key}: missing or reshaped")
+            continue
+        scale = np.max(np.abs(old[key])) if old[key].size else 0.0
+        diff = np.max(np.abs(new[key] - old[key])) if old[key].size else 0.0
+        rel = diff / scale if scale > 0 else diff
+        worst = max(worst, rel)
+        if not rel <= rtol:
+            bad.append(f"{key}: {rel:.2e}")
+    print(f"{len(old)} arrays compared; largest normwise relative difference {worst:.2e} (limit {rtol:g})")
+    for line in bad:
+        print("  differs:", line)
+    return 1 if bad else 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    group = parser.add_mutually_exclusive_group(required=True)
+    group.add_argument("--save", type=Path)
+    group.add_argument("--compare", type=Path)
+    parser.add_argument("--rtol", type=float, default=1e-12)
+    args = parser.parse_args(argv)
+    new = collect()
+    if args.save:
+        np.savez_compressed(args.save, **new)
+        print(f"{len(new)} arrays saved to {args.save}")
+        return 0
+    with np.load(args.compare) as data:
+        old = {key: data[key] for key in data.files}
+    return compare(old, new, args.rtol)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
