@@ -78,7 +78,7 @@ def _a_configuration(name: str) -> np.ndarray:
 
 
 def compare(old: dict[str, np.ndarray], new: dict[str, np.ndarray], rtol: float) -> int:
-    worst, bad = 0.0, []
+    worst, bad, diffs = 0.0, [], []
     for key in sorted(old):
         if key not in new or old[key].shape != new[key].shape:
             bad.append(f"{key}: missing or reshaped")
@@ -87,9 +87,11 @@ def compare(old: dict[str, np.ndarray], new: dict[str, np.ndarray], rtol: float)
         diff = np.max(np.abs(new[key] - old[key])) if old[key].size else 0.0
         rel = diff / scale if scale > 0 else diff
         worst = max(worst, rel)
+        diffs.append((rel, key))
         if not rel <= rtol:
             bad.append(f"{key}: {rel:.2e}")
     print(f"{len(old)} arrays compared; largest normwise relative difference {worst:.2e} (limit {rtol:g})")
+    print("  largest:", ", ".join(f"{key} {rel:.1e}" for rel, key in sorted(diffs, reverse=True)[:5]))
     for line in bad:
         print("  differs:", line)
     return 1 if bad else 0

@@ -374,7 +374,8 @@ def forward_dynamics_kernel_loop(qs, theta_dots, taus, P, out):
 def _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, min_abs_s, q_path, out):
     status = 0
     for k in range(1, thetas.shape[0]):
-        status |= PAPER_KERNELS.plant_stage(ws, thetas[k], theta_dots[k], taus[k], P, min_abs_s, PAPER_KERNELS.TRIAL)
+        status |= PAPER_KERNELS.plant_stage(ws, thetas[k], theta_dots[k], taus[k], P, min_abs_s, PAPER_KERNELS.TRIAL,
+                                            False)
         PAPER_KERNELS.accept_trial(ws)
         for i in range(3):
             out[k, i] = ws.theta_ddot[i]

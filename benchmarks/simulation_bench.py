@@ -348,7 +348,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
         ws = workspaces[0]
         kernels.set_base(ws, coordinates_from_3rrr(fm, fast.q[k]), fast_machine.P)
         x = np.concatenate([fast.q[k, :3], fast.theta_dot[k]])
-        kernels.rk4_sample(ws, x, fast.tau[k], fast_machine.P, 1e-3, n_sub, 1e-3, np.empty((5, 6)))
+        kernels.rk4_sample(ws, x, fast.tau[k], fast_machine.P, 1e-3, n_sub, 1e-3, np.empty((5, 6)), False)
         errors[n_sub] = float(np.abs(x - ref_x).max())
         rows.append(h.metric_row(f"rk4_error_{n_sub}_steps", f"plant RK4, {n_sub} step(s) per 1 ms sample: error "
                                  "vs DOP853 1e-13 (fast case, fastest state)", errors[n_sub], "rad, rad/s"))

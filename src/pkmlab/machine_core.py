@@ -30,6 +30,9 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
         DOF,
         GRAVITY_INDEX,
         INERTIA_INDEX,
+        JB_BODY,
+        JB_COL,
+        JB_ROW,
         LINE_WIDTH,
         MASS_INDEX,
         N_ACTUATORS,
@@ -39,7 +42,6 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
         N_JB,
         body_bias,
         body_jacobian_values,
-        body_velocities,
         constraint_bias,
         constraint_jacobian,
         constraints,
@@ -508,7 +510,15 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         ws.bias_q[n + k] = ws.gamma[k]
     body_jacobian_values(q, sc, P, ws.jb)
     body_bias(q, sc, ws.q_dot, P, ws.bb)
-    body_velocities(ws.jb, ws.j_q_theta, ws.bias_q, ws.jt, ws.bb)  # over the non-zeros of J_b only
+    for b in range(N_BODIES):
+        for r in range(BODY_ROWS):
+            for j in range(n):
+                ws.jt[b, r, j] = 0.0
+    for z in range(N_JB):  # Jt = J_b Jqθ and a_b += J_b J̇qθ θ̇ over the non-zeros of J_b only
+        b, r, k, v = JB_BODY[z], JB_ROW[z], JB_COL[z], ws.jb[z]
+        for j in range(n):
+            ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
+        ws.bb[b, r] += v * ws.bias_q[k]
     if ANGULAR == 3:
         spatial_body_sums(ws, theta_dot, P)
         return True
@@ -614,17 +624,18 @@ def solve_accelerations(ws, tau):
 
 
 @njit(**NO_REFCOUNT)
-def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
+def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot, known):
     """``θ̈`` of the reduced plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
 
     ``slot = BASE``: ``θ`` is the base's own; otherwise the passive coordinates are first found by
-    branch following from the base.
+    branch following from the base. ``known``: the workspace already holds the model there
+    (:func:`actuator_space_model` at the base and ``θ̇``, see :func:`copy_model`).
     """
     if slot != BASE:
         status = follow_branch(ws, theta, P, min_abs_s)
         if status != OK:
             return status
-    if not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
+    if not known and not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
         return SINGULAR
     if slot == BASE:
         keep_base_factors(ws)
@@ -683,23 +694,58 @@ def computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d
 
 
 @njit(**NO_REFCOUNT)
-def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work):
+def copy_base(source, destination):
+    """The base configuration of the workspace ``source`` (configuration, trig table, ``S``) made
+    ``destination``'s: for two workspaces of the same machine."""
+    for i in range(N_COORDINATES):
+        destination.q[BASE, i] = source.q[BASE, i]
+        destination.sc[BASE, i, 0] = source.sc[BASE, i, 0]
+        destination.sc[BASE, i, 1] = source.sc[BASE, i, 1]
+    destination.s[BASE] = source.s[BASE]
+    destination.base_factored[0] = 0
+
+
+@njit(**NO_REFCOUNT)
+def copy_model(source, destination):
+    """The model evaluated at the base (``Mθ``, ``cθ``, ``gθ``, ``Jqθ`` and the factors of ``Jηφ``) copied from
+    the workspace ``source`` to ``destination``: for two workspaces of the same machine at the same base
+    configuration and rates."""
+    for i in range(N_COORDINATES):
+        for j in range(N_ACTUATORS):
+            destination.j_q_theta[i, j] = source.j_q_theta[i, j]
+    for i in range(N_ACTUATORS):
+        destination.c_theta[i] = source.c_theta[i]
+        destination.g_theta[i] = source.g_theta[i]
+        for j in range(N_ACTUATORS):
+            destination.m_theta[i, j] = source.m_theta[i, j]
+    for i in range(REDUCED):
+        destination.piv[i] = source.piv[i]
+        for d in range(DIM):
+            destination.top[d, i] = source.top[d, i]
+        for j in range(REDUCED):
+            destination.lu[i, j] = source.lu[i, j]
+
+
+@njit(**NO_REFCOUNT)
+def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
     """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
 
     ``x`` (2n,) = ``(θ, θ̇)`` is updated in place and the base configuration moved along; stages
     find their passive coordinates by branch following from the start of the step. ``work`` is a
-    (5, 2n) scratch array. Returns the status.
+    (5, 2n) scratch array. ``known``: the workspace already holds the model at the sample's start
+    (its first stage). Returns the status.
     """
     n = N_ACTUATORS
     h = dt / n_sub
     k = work[:4]
     y = work[4]
-    for _ in range(n_sub):
+    for step in range(n_sub):
         for stage in range(4):
             c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
             for i in range(2 * n):
                 y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
-            status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE if stage == 0 else TRIAL)
+            status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE if stage == 0 else TRIAL,
+                                 known and step == 0 and stage == 0)
             if status != OK:
                 return status
             for i in range(n):
@@ -736,18 +782,33 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
         x[i] = q_plant0[i]
     work = np.empty((5, 2 * n))
     tau = np.zeros(n)
+    # a computed-torque controller whose model is the plant (the nominal cases): from the second sample on, its
+    # model's configuration at the measured θ is the plant's own (same machine, same branch: the plant's
+    # branch following has just reached it and checked its S), and the model it evaluates there is the plant's
+    # at the sample's start, the RK4 step's first stage: both taken over instead of computed twice
+    same = kind == 0
+    for i in range(P_plant.size):
+        same = same and P_plant[i] == P_ctrl[i]
     for k in range(theta_d.shape[0]):
         out_q[k] = plant.q[BASE]
         out_s[k] = plant.s[BASE]
         out_theta_dot[k] = x[n:]
-        status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
-                                min_abs_s, ctrl, tau)
+        shared = same and k > 0
+        if shared:
+            copy_base(plant, ctrl)
+            status = computed_torque(kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl, ctrl,
+                                     tau)
+        else:
+            status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
+                                    min_abs_s, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
         out_tau[k] = tau
         if k == theta_d.shape[0] - 1:
             break
-        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work)
+        if shared:
+            copy_model(ctrl, plant)
+        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work, shared)
         if status != OK:
             return status, k
     return OK, -1
@@ -785,7 +846,7 @@ def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, min_abs_s, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE)
+        status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE, False)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:

@@ -276,8 +276,7 @@ def generate_source(mechanism: Mechanism) -> str:
          [size], ["return"]),
     ]
     return write_module(header, q, qd, coordinate_names(mechanism), coordinate_angles(mechanism),
-                        parameter_names(mechanism), len(mechanism.legs), kernels,
-                        body_velocity_kernel(nonzero, nb, 3, len(mechanism.legs)))
+                        parameter_names(mechanism), len(mechanism.legs), kernels)
 
 
 def module_header(kind: str, mechanism, structure_name: str, names, angles, parameters, sizes, dims_comment: str,
@@ -320,38 +319,11 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
     ]
 
 
-def body_velocity_kernel(nonzero, n_bodies: int, body_rows: int, n_actuators: int) -> list[str]:
-    """The text of ``body_velocities``: ``Jt = J_b Jqθ`` and ``a_b += J_b J̇qθ θ̇`` of every body, unrolled
-    over the structural non-zeros of the bodies' Jacobians (``nonzero``: body, row, coordinate, in the order
-    of ``body_jacobian_values``), each entry one sum of its non-zeros' products in that order.
-
-    A loop over the non-zeros read from index tables accumulates through memory, one dependent load and
-    store per term; unrolled, every entry is a sum in registers, written once."""
-    rows: dict[tuple[int, int], list[tuple[int, int]]] = {}
-    for z, (b, r, c) in enumerate(nonzero):
-        rows.setdefault((b, r), []).append((z, c))
-    lines = ["", "", "@njit(cache=True)", "def body_velocities(jb, j_q_theta, bias_q, jt, bb):",
-             '    """Write Jt = J_b Jq_theta (N_BODIES, BODY_ROWS, N_ACTUATORS) into jt and add J_b (dJq_theta/dt '
-             'theta_dot) to bb (N_BODIES, BODY_ROWS), from the non-zeros jb of the bodies\' Jacobians."""']
-    for b in range(n_bodies):
-        for r in range(body_rows):
-            terms = rows.get((b, r), [])
-            for j in range(n_actuators):
-                total = " + ".join(f"jb[{z}] * j_q_theta[{c}, {j}]" for z, c in terms) or "0.0"
-                lines.append(f"    jt[{b}, {r}, {j}] = {total}")
-            if terms:
-                lines.append(f"    bb[{b}, {r}] = bb[{b}, {r}] + "
-                             + " + ".join(f"jb[{z}] * bias_q[{c}]" for z, c in terms))
-    return lines
-
-
-def write_module(header: list[str], q, qd, names, angle_flags, parameters, n_actuators: int, kernels,
-                 body_velocities: list[str]) -> str:
+def write_module(header: list[str], q, qd, names, angle_flags, parameters, n_actuators: int, kernels) -> str:
     """The text of a generated module: ``header`` (docstring, imports, constants), the trig-table kernels
     ``trig`` and ``trig_passive``, one compiled kernel per ``(name, args, doc, outputs, indices)`` of
     ``kernels`` (``out[index] = output``, or ``return output`` for the index ``"return"``; a kernel reads
-    ``qd`` when its arguments name it), ``body_velocities`` (:func:`body_velocity_kernel`), then the
-    compiled core of :mod:`pkmlab.machine_core`."""
+    ``qd`` when its arguments name it), then the compiled core of :mod:`pkmlab.machine_core`."""
     import sympy as sp
 
     lines = list(header)
@@ -385,7 +357,6 @@ def write_module(header: list[str], q, qd, names, angle_flags, parameters, n_act
         used = "\n".join(lines[body_start:])
         prelude = [p for p in prelude if _used(p, used)]
         lines[body_start:body_start] = prelude
-    lines += body_velocities
     if any("math." in line for line in lines):
         lines.insert(lines.index("from numba import njit"), "import math\n")
     text = "\n".join(lines) + "\n" + _template()

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..mechanisms.spatial import SpatialMechanism
-from .planar import GENERATED_DIR, _jacobian_and_bias, body_velocity_kernel, module_header, regenerate, write_module
+from .planar import GENERATED_DIR, _jacobian_and_bias, module_header, regenerate, write_module
 
 _INERTIA = ("xx", "yy", "zz", "xy", "xz", "yz")
 
@@ -254,7 +254,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
          [d["size"]], ["return"]),
     ]
     return write_module(header, q, qd, coordinate_names(mechanism), coordinate_angles(mechanism),
-                        parameter_names(mechanism), n, kernels, body_velocity_kernel(nonzero, nb, 6, n))
+                        parameter_names(mechanism), n, kernels)
 
 
 def generated_path(mechanism: SpatialMechanism) -> Path:

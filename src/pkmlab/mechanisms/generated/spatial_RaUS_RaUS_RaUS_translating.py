@@ -3866,176 +3866,6 @@ def platform_size(P):
     return 1
 
 
-@njit(cache=True)
-def body_velocities(jb, j_q_theta, bias_q, jt, bb):
-    """Write Jt = J_b Jq_theta (N_BODIES, BODY_ROWS, N_ACTUATORS) into jt and add J_b (dJq_theta/dt theta_dot) to bb (N_BODIES, BODY_ROWS), from the non-zeros jb of the bodies' Jacobians."""
-    jt[0, 0, 0] = jb[0] * j_q_theta[0, 0]
-    jt[0, 0, 1] = jb[0] * j_q_theta[0, 1]
-    jt[0, 0, 2] = jb[0] * j_q_theta[0, 2]
-    bb[0, 0] = bb[0, 0] + jb[0] * bias_q[0]
-    jt[0, 1, 0] = jb[1] * j_q_theta[0, 0]
-    jt[0, 1, 1] = jb[1] * j_q_theta[0, 1]
-    jt[0, 1, 2] = jb[1] * j_q_theta[0, 2]
-    bb[0, 1] = bb[0, 1] + jb[1] * bias_q[0]
-    jt[0, 2, 0] = jb[2] * j_q_theta[0, 0]
-    jt[0, 2, 1] = jb[2] * j_q_theta[0, 1]
-    jt[0, 2, 2] = jb[2] * j_q_theta[0, 2]
-    bb[0, 2] = bb[0, 2] + jb[2] * bias_q[0]
-    jt[0, 3, 0] = jb[3] * j_q_theta[0, 0]
-    jt[0, 3, 1] = jb[3] * j_q_theta[0, 1]
-    jt[0, 3, 2] = jb[3] * j_q_theta[0, 2]
-    bb[0, 3] = bb[0, 3] + jb[3] * bias_q[0]
-    jt[0, 4, 0] = jb[4] * j_q_theta[0, 0]
-    jt[0, 4, 1] = jb[4] * j_q_theta[0, 1]
-    jt[0, 4, 2] = jb[4] * j_q_theta[0, 2]
-    bb[0, 4] = bb[0, 4] + jb[4] * bias_q[0]
-    jt[0, 5, 0] = jb[5] * j_q_theta[0, 0]
-    jt[0, 5, 1] = jb[5] * j_q_theta[0, 1]
-    jt[0, 5, 2] = jb[5] * j_q_theta[0, 2]
-    bb[0, 5] = bb[0, 5] + jb[5] * bias_q[0]
-    jt[1, 0, 0] = jb[6] * j_q_theta[0, 0] + jb[7] * j_q_theta[3, 0] + jb[8] * j_q_theta[4, 0]
-    jt[1, 0, 1] = jb[6] * j_q_theta[0, 1] + jb[7] * j_q_theta[3, 1] + jb[8] * j_q_theta[4, 1]
-    jt[1, 0, 2] = jb[6] * j_q_theta[0, 2] + jb[7] * j_q_theta[3, 2] + jb[8] * j_q_theta[4, 2]
-    bb[1, 0] = bb[1, 0] + jb[6] * bias_q[0] + jb[7] * bias_q[3] + jb[8] * bias_q[4]
-    jt[1, 1, 0] = jb[9] * j_q_theta[0, 0] + jb[10] * j_q_theta[3, 0] + jb[11] * j_q_theta[4, 0]
-    jt[1, 1, 1] = jb[9] * j_q_theta[0, 1] + jb[10] * j_q_theta[3, 1] + jb[11] * j_q_theta[4, 1]
-    jt[1, 1, 2] = jb[9] * j_q_theta[0, 2] + jb[10] * j_q_theta[3, 2] + jb[11] * j_q_theta[4, 2]
-    bb[1, 1] = bb[1, 1] + jb[9] * bias_q[0] + jb[10] * bias_q[3] + jb[11] * bias_q[4]
-    jt[1, 2, 0] = jb[12] * j_q_theta[0, 0] + jb[13] * j_q_theta[3, 0] + jb[14] * j_q_theta[4, 0]
-    jt[1, 2, 1] = jb[12] * j_q_theta[0, 1] + jb[13] * j_q_theta[3, 1] + jb[14] * j_q_theta[4, 1]
-    jt[1, 2, 2] = jb[12] * j_q_theta[0, 2] + jb[13] * j_q_theta[3, 2] + jb[14] * j_q_theta[4, 2]
-    bb[1, 2] = bb[1, 2] + jb[12] * bias_q[0] + jb[13] * bias_q[3] + jb[14] * bias_q[4]
-    jt[1, 3, 0] = jb[15] * j_q_theta[0, 0] + jb[16] * j_q_theta[3, 0] + jb[17] * j_q_theta[4, 0]
-    jt[1, 3, 1] = jb[15] * j_q_theta[0, 1] + jb[16] * j_q_theta[3, 1] + jb[17] * j_q_theta[4, 1]
-    jt[1, 3, 2] = jb[15] * j_q_theta[0, 2] + jb[16] * j_q_theta[3, 2] + jb[17] * j_q_theta[4, 2]
-    bb[1, 3] = bb[1, 3] + jb[15] * bias_q[0] + jb[16] * bias_q[3] + jb[17] * bias_q[4]
-    jt[1, 4, 0] = jb[18] * j_q_theta[0, 0] + jb[19] * j_q_theta[3, 0] + jb[20] * j_q_theta[4, 0]
-    jt[1, 4, 1] = jb[18] * j_q_theta[0, 1] + jb[19] * j_q_theta[3, 1] + jb[20] * j_q_theta[4, 1]
-    jt[1, 4, 2] = jb[18] * j_q_theta[0, 2] + jb[19] * j_q_theta[3, 2] + jb[20] * j_q_theta[4, 2]
-    bb[1, 4] = bb[1, 4] + jb[18] * bias_q[0] + jb[19] * bias_q[3] + jb[20] * bias_q[4]
-    jt[1, 5, 0] = jb[21] * j_q_theta[0, 0] + jb[22] * j_q_theta[3, 0] + jb[23] * j_q_theta[4, 0]
-    jt[1, 5, 1] = jb[21] * j_q_theta[0, 1] + jb[22] * j_q_theta[3, 1] + jb[23] * j_q_theta[4, 1]
-    jt[1, 5, 2] = jb[21] * j_q_theta[0, 2] + jb[22] * j_q_theta[3, 2] + jb[23] * j_q_theta[4, 2]
-    bb[1, 5] = bb[1, 5] + jb[21] * bias_q[0] + jb[22] * bias_q[3] + jb[23] * bias_q[4]
-    jt[2, 0, 0] = jb[24] * j_q_theta[1, 0]
-    jt[2, 0, 1] = jb[24] * j_q_theta[1, 1]
-    jt[2, 0, 2] = jb[24] * j_q_theta[1, 2]
-    bb[2, 0] = bb[2, 0] + jb[24] * bias_q[1]
-    jt[2, 1, 0] = jb[25] * j_q_theta[1, 0]
-    jt[2, 1, 1] = jb[25] * j_q_theta[1, 1]
-    jt[2, 1, 2] = jb[25] * j_q_theta[1, 2]
-    bb[2, 1] = bb[2, 1] + jb[25] * bias_q[1]
-    jt[2, 2, 0] = jb[26] * j_q_theta[1, 0]
-    jt[2, 2, 1] = jb[26] * j_q_theta[1, 1]
-    jt[2, 2, 2] = jb[26] * j_q_theta[1, 2]
-    bb[2, 2] = bb[2, 2] + jb[26] * bias_q[1]
-    jt[2, 3, 0] = jb[27] * j_q_theta[1, 0]
-    jt[2, 3, 1] = jb[27] * j_q_theta[1, 1]
-    jt[2, 3, 2] = jb[27] * j_q_theta[1, 2]
-    bb[2, 3] = bb[2, 3] + jb[27] * bias_q[1]
-    jt[2, 4, 0] = jb[28] * j_q_theta[1, 0]
-    jt[2, 4, 1] = jb[28] * j_q_theta[1, 1]
-    jt[2, 4, 2] = jb[28] * j_q_theta[1, 2]
-    bb[2, 4] = bb[2, 4] + jb[28] * bias_q[1]
-    jt[2, 5, 0] = jb[29] * j_q_theta[1, 0]
-    jt[2, 5, 1] = jb[29] * j_q_theta[1, 1]
-    jt[2, 5, 2] = jb[29] * j_q_theta[1, 2]
-    bb[2, 5] = bb[2, 5] + jb[29] * bias_q[1]
-    jt[3, 0, 0] = jb[30] * j_q_theta[1, 0] + jb[31] * j_q_theta[5, 0] + jb[32] * j_q_theta[6, 0]
-    jt[3, 0, 1] = jb[30] * j_q_theta[1, 1] + jb[31] * j_q_theta[5, 1] + jb[32] * j_q_theta[6, 1]
-    jt[3, 0, 2] = jb[30] * j_q_theta[1, 2] + jb[31] * j_q_theta[5, 2] + jb[32] * j_q_theta[6, 2]
-    bb[3, 0] = bb[3, 0] + jb[30] * bias_q[1] + jb[31] * bias_q[5] + jb[32] * bias_q[6]
-    jt[3, 1, 0] = jb[33] * j_q_theta[1, 0] + jb[34] * j_q_theta[5, 0] + jb[35] * j_q_theta[6, 0]
-    jt[3, 1, 1] = jb[33] * j_q_theta[1, 1] + jb[34] * j_q_theta[5, 1] + jb[35] * j_q_theta[6, 1]
-    jt[3, 1, 2] = jb[33] * j_q_theta[1, 2] + jb[34] * j_q_theta[5, 2] + jb[35] * j_q_theta[6, 2]
-    bb[3, 1] = bb[3, 1] + jb[33] * bias_q[1] + jb[34] * bias_q[5] + jb[35] * bias_q[6]
-    jt[3, 2, 0] = jb[36] * j_q_theta[1, 0] + jb[37] * j_q_theta[5, 0] + jb[38] * j_q_theta[6, 0]
-    jt[3, 2, 1] = jb[36] * j_q_theta[1, 1] + jb[37] * j_q_theta[5, 1] + jb[38] * j_q_theta[6, 1]
-    jt[3, 2, 2] = jb[36] * j_q_theta[1, 2] + jb[37] * j_q_theta[5, 2] + jb[38] * j_q_theta[6, 2]
-    bb[3, 2] = bb[3, 2] + jb[36] * bias_q[1] + jb[37] * bias_q[5] + jb[38] * bias_q[6]
-    jt[3, 3, 0] = jb[39] * j_q_theta[1, 0] + jb[40] * j_q_theta[5, 0] + jb[41] * j_q_theta[6, 0]
-    jt[3, 3, 1] = jb[39] * j_q_theta[1, 1] + jb[40] * j_q_theta[5, 1] + jb[41] * j_q_theta[6, 1]
-    jt[3, 3, 2] = jb[39] * j_q_theta[1, 2] + jb[40] * j_q_theta[5, 2] + jb[41] * j_q_theta[6, 2]
-    bb[3, 3] = bb[3, 3] + jb[39] * bias_q[1] + jb[40] * bias_q[5] + jb[41] * bias_q[6]
-    jt[3, 4, 0] = jb[42] * j_q_theta[1, 0] + jb[43] * j_q_theta[5, 0] + jb[44] * j_q_theta[6, 0]
-    jt[3, 4, 1] = jb[42] * j_q_theta[1, 1] + jb[43] * j_q_theta[5, 1] + jb[44] * j_q_theta[6, 1]
-    jt[3, 4, 2] = jb[42] * j_q_theta[1, 2] + jb[43] * j_q_theta[5, 2] + jb[44] * j_q_theta[6, 2]
-    bb[3, 4] = bb[3, 4] + jb[42] * bias_q[1] + jb[43] * bias_q[5] + jb[44] * bias_q[6]
-    jt[3, 5, 0] = jb[45] * j_q_theta[1, 0] + jb[46] * j_q_theta[5, 0] + jb[47] * j_q_theta[6, 0]
-    jt[3, 5, 1] = jb[45] * j_q_theta[1, 1] + jb[46] * j_q_theta[5, 1] + jb[47] * j_q_theta[6, 1]
-    jt[3, 5, 2] = jb[45] * j_q_theta[1, 2] + jb[46] * j_q_theta[5, 2] + jb[47] * j_q_theta[6, 2]
-    bb[3, 5] = bb[3, 5] + jb[45] * bias_q[1] + jb[46] * bias_q[5] + jb[47] * bias_q[6]
-    jt[4, 0, 0] = jb[48] * j_q_theta[2, 0]
-    jt[4, 0, 1] = jb[48] * j_q_theta[2, 1]
-    jt[4, 0, 2] = jb[48] * j_q_theta[2, 2]
-    bb[4, 0] = bb[4, 0] + jb[48] * bias_q[2]
-    jt[4, 1, 0] = jb[49] * j_q_theta[2, 0]
-    jt[4, 1, 1] = jb[49] * j_q_theta[2, 1]
-    jt[4, 1, 2] = jb[49] * j_q_theta[2, 2]
-    bb[4, 1] = bb[4, 1] + jb[49] * bias_q[2]
-    jt[4, 2, 0] = jb[50] * j_q_theta[2, 0]
-    jt[4, 2, 1] = jb[50] * j_q_theta[2, 1]
-    jt[4, 2, 2] = jb[50] * j_q_theta[2, 2]
-    bb[4, 2] = bb[4, 2] + jb[50] * bias_q[2]
-    jt[4, 3, 0] = jb[51] * j_q_theta[2, 0]
-    jt[4, 3, 1] = jb[51] * j_q_theta[2, 1]
-    jt[4, 3, 2] = jb[51] * j_q_theta[2, 2]
-    bb[4, 3] = bb[4, 3] + jb[51] * bias_q[2]
-    jt[4, 4, 0] = jb[52] * j_q_theta[2, 0]
-    jt[4, 4, 1] = jb[52] * j_q_theta[2, 1]
-    jt[4, 4, 2] = jb[52] * j_q_theta[2, 2]
-    bb[4, 4] = bb[4, 4] + jb[52] * bias_q[2]
-    jt[4, 5, 0] = jb[53] * j_q_theta[2, 0]
-    jt[4, 5, 1] = jb[53] * j_q_theta[2, 1]
-    jt[4, 5, 2] = jb[53] * j_q_theta[2, 2]
-    bb[4, 5] = bb[4, 5] + jb[53] * bias_q[2]
-    jt[5, 0, 0] = jb[54] * j_q_theta[2, 0] + jb[55] * j_q_theta[7, 0] + jb[56] * j_q_theta[8, 0]
-    jt[5, 0, 1] = jb[54] * j_q_theta[2, 1] + jb[55] * j_q_theta[7, 1] + jb[56] * j_q_theta[8, 1]
-    jt[5, 0, 2] = jb[54] * j_q_theta[2, 2] + jb[55] * j_q_theta[7, 2] + jb[56] * j_q_theta[8, 2]
-    bb[5, 0] = bb[5, 0] + jb[54] * bias_q[2] + jb[55] * bias_q[7] + jb[56] * bias_q[8]
-    jt[5, 1, 0] = jb[57] * j_q_theta[2, 0] + jb[58] * j_q_theta[7, 0] + jb[59] * j_q_theta[8, 0]
-    jt[5, 1, 1] = jb[57] * j_q_theta[2, 1] + jb[58] * j_q_theta[7, 1] + jb[59] * j_q_theta[8, 1]
-    jt[5, 1, 2] = jb[57] * j_q_theta[2, 2] + jb[58] * j_q_theta[7, 2] + jb[59] * j_q_theta[8, 2]
-    bb[5, 1] = bb[5, 1] + jb[57] * bias_q[2] + jb[58] * bias_q[7] + jb[59] * bias_q[8]
-    jt[5, 2, 0] = jb[60] * j_q_theta[2, 0] + jb[61] * j_q_theta[7, 0] + jb[62] * j_q_theta[8, 0]
-    jt[5, 2, 1] = jb[60] * j_q_theta[2, 1] + jb[61] * j_q_theta[7, 1] + jb[62] * j_q_theta[8, 1]
-    jt[5, 2, 2] = jb[60] * j_q_theta[2, 2] + jb[61] * j_q_theta[7, 2] + jb[62] * j_q_theta[8, 2]
-    bb[5, 2] = bb[5, 2] + jb[60] * bias_q[2] + jb[61] * bias_q[7] + jb[62] * bias_q[8]
-    jt[5, 3, 0] = jb[63] * j_q_theta[2, 0] + jb[64] * j_q_theta[7, 0] + jb[65] * j_q_theta[8, 0]
-    jt[5, 3, 1] = jb[63] * j_q_theta[2, 1] + jb[64] * j_q_theta[7, 1] + jb[65] * j_q_theta[8, 1]
-    jt[5, 3, 2] = jb[63] * j_q_theta[2, 2] + jb[64] * j_q_theta[7, 2] + jb[65] * j_q_theta[8, 2]
-    bb[5, 3] = bb[5, 3] + jb[63] * bias_q[2] + jb[64] * bias_q[7] + jb[65] * bias_q[8]
-    jt[5, 4, 0] = jb[66] * j_q_theta[2, 0] + jb[67] * j_q_theta[7, 0] + jb[68] * j_q_theta[8, 0]
-    jt[5, 4, 1] = jb[66] * j_q_theta[2, 1] + jb[67] * j_q_theta[7, 1] + jb[68] * j_q_theta[8, 1]
-    jt[5, 4, 2] = jb[66] * j_q_theta[2, 2] + jb[67] * j_q_theta[7, 2] + jb[68] * j_q_theta[8, 2]
-    bb[5, 4] = bb[5, 4] + jb[66] * bias_q[2] + jb[67] * bias_q[7] + jb[68] * bias_q[8]
-    jt[5, 5, 0] = jb[69] * j_q_theta[2, 0] + jb[70] * j_q_theta[7, 0] + jb[71] * j_q_theta[8, 0]
-    jt[5, 5, 1] = jb[69] * j_q_theta[2, 1] + jb[70] * j_q_theta[7, 1] + jb[71] * j_q_theta[8, 1]
-    jt[5, 5, 2] = jb[69] * j_q_theta[2, 2] + jb[70] * j_q_theta[7, 2] + jb[71] * j_q_theta[8, 2]
-    bb[5, 5] = bb[5, 5] + jb[69] * bias_q[2] + jb[70] * bias_q[7] + jb[71] * bias_q[8]
-    jt[6, 0, 0] = jb[72] * j_q_theta[9, 0]
-    jt[6, 0, 1] = jb[72] * j_q_theta[9, 1]
-    jt[6, 0, 2] = jb[72] * j_q_theta[9, 2]
-    bb[6, 0] = bb[6, 0] + jb[72] * bias_q[9]
-    jt[6, 1, 0] = jb[73] * j_q_theta[10, 0]
-    jt[6, 1, 1] = jb[73] * j_q_theta[10, 1]
-    jt[6, 1, 2] = jb[73] * j_q_theta[10, 2]
-    bb[6, 1] = bb[6, 1] + jb[73] * bias_q[10]
-    jt[6, 2, 0] = jb[74] * j_q_theta[11, 0]
-    jt[6, 2, 1] = jb[74] * j_q_theta[11, 1]
-    jt[6, 2, 2] = jb[74] * j_q_theta[11, 2]
-    bb[6, 2] = bb[6, 2] + jb[74] * bias_q[11]
-    jt[6, 3, 0] = 0.0
-    jt[6, 3, 1] = 0.0
-    jt[6, 3, 2] = 0.0
-    jt[6, 4, 0] = 0.0
-    jt[6, 4, 1] = 0.0
-    jt[6, 4, 2] = 0.0
-    jt[6, 5, 0] = 0.0
-    jt[6, 5, 1] = 0.0
-    jt[6, 5, 2] = 0.0
-
-
 # ---- the compiled core of pkmlab.machine_core, bound to the kernels above ----
 import numpy as np  # noqa: E402
 from numba import njit, prange  # noqa: E402
@@ -4495,7 +4325,15 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         ws.bias_q[n + k] = ws.gamma[k]
     body_jacobian_values(q, sc, P, ws.jb)
     body_bias(q, sc, ws.q_dot, P, ws.bb)
-    body_velocities(ws.jb, ws.j_q_theta, ws.bias_q, ws.jt, ws.bb)  # over the non-zeros of J_b only
+    for b in range(N_BODIES):
+        for r in range(BODY_ROWS):
+            for j in range(n):
+                ws.jt[b, r, j] = 0.0
+    for z in range(N_JB):  # Jt = J_b Jqθ and a_b += J_b J̇qθ θ̇ over the non-zeros of J_b only
+        b, r, k, v = JB_BODY[z], JB_ROW[z], JB_COL[z], ws.jb[z]
+        for j in range(n):
+            ws.jt[b, r, j] += v * ws.j_q_theta[k, j]
+        ws.bb[b, r] += v * ws.bias_q[k]
     if ANGULAR == 3:
         spatial_body_sums(ws, theta_dot, P)
         return True
@@ -4601,17 +4439,18 @@ def solve_accelerations(ws, tau):
 
 
 @njit(**NO_REFCOUNT)
-def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot):
+def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot, known):
     """``θ̈`` of the reduced plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
 
     ``slot = BASE``: ``θ`` is the base's own; otherwise the passive coordinates are first found by
-    branch following from the base.
+    branch following from the base. ``known``: the workspace already holds the model there
+    (:func:`actuator_space_model` at the base and ``θ̇``, see :func:`copy_model`).
     """
     if slot != BASE:
         status = follow_branch(ws, theta, P, min_abs_s)
         if status != OK:
             return status
-    if not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
+    if not known and not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
         return SINGULAR
     if slot == BASE:
         keep_base_factors(ws)
@@ -4670,23 +4509,58 @@ def computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d
 
 
 @njit(**NO_REFCOUNT)
-def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work):
+def copy_base(source, destination):
+    """The base configuration of the workspace ``source`` (configuration, trig table, ``S``) made
+    ``destination``'s: for two workspaces of the same machine."""
+    for i in range(N_COORDINATES):
+        destination.q[BASE, i] = source.q[BASE, i]
+        destination.sc[BASE, i, 0] = source.sc[BASE, i, 0]
+        destination.sc[BASE, i, 1] = source.sc[BASE, i, 1]
+    destination.s[BASE] = source.s[BASE]
+    destination.base_factored[0] = 0
+
+
+@njit(**NO_REFCOUNT)
+def copy_model(source, destination):
+    """The model evaluated at the base (``Mθ``, ``cθ``, ``gθ``, ``Jqθ`` and the factors of ``Jηφ``) copied from
+    the workspace ``source`` to ``destination``: for two workspaces of the same machine at the same base
+    configuration and rates."""
+    for i in range(N_COORDINATES):
+        for j in range(N_ACTUATORS):
+            destination.j_q_theta[i, j] = source.j_q_theta[i, j]
+    for i in range(N_ACTUATORS):
+        destination.c_theta[i] = source.c_theta[i]
+        destination.g_theta[i] = source.g_theta[i]
+        for j in range(N_ACTUATORS):
+            destination.m_theta[i, j] = source.m_theta[i, j]
+    for i in range(REDUCED):
+        destination.piv[i] = source.piv[i]
+        for d in range(DIM):
+            destination.top[d, i] = source.top[d, i]
+        for j in range(REDUCED):
+            destination.lu[i, j] = source.lu[i, j]
+
+
+@njit(**NO_REFCOUNT)
+def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
     """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
 
     ``x`` (2n,) = ``(θ, θ̇)`` is updated in place and the base configuration moved along; stages
     find their passive coordinates by branch following from the start of the step. ``work`` is a
-    (5, 2n) scratch array. Returns the status.
+    (5, 2n) scratch array. ``known``: the workspace already holds the model at the sample's start
+    (its first stage). Returns the status.
     """
     n = N_ACTUATORS
     h = dt / n_sub
     k = work[:4]
     y = work[4]
-    for _ in range(n_sub):
+    for step in range(n_sub):
         for stage in range(4):
             c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
             for i in range(2 * n):
                 y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
-            status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE if stage == 0 else TRIAL)
+            status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE if stage == 0 else TRIAL,
+                                 known and step == 0 and stage == 0)
             if status != OK:
                 return status
             for i in range(n):
@@ -4723,18 +4597,33 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
         x[i] = q_plant0[i]
     work = np.empty((5, 2 * n))
     tau = np.zeros(n)
+    # a computed-torque controller whose model is the plant (the nominal cases): from the second sample on, its
+    # model's configuration at the measured θ is the plant's own (same machine, same branch: the plant's
+    # branch following has just reached it and checked its S), and the model it evaluates there is the plant's
+    # at the sample's start, the RK4 step's first stage: both taken over instead of computed twice
+    same = kind == 0
+    for i in range(P_plant.size):
+        same = same and P_plant[i] == P_ctrl[i]
     for k in range(theta_d.shape[0]):
         out_q[k] = plant.q[BASE]
         out_s[k] = plant.s[BASE]
         out_theta_dot[k] = x[n:]
-        status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
-                                min_abs_s, ctrl, tau)
+        shared = same and k > 0
+        if shared:
+            copy_base(plant, ctrl)
+            status = computed_torque(kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl, ctrl,
+                                     tau)
+        else:
+            status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
+                                    min_abs_s, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
         out_tau[k] = tau
         if k == theta_d.shape[0] - 1:
             break
-        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work)
+        if shared:
+            copy_model(ctrl, plant)
+        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work, shared)
         if status != OK:
             return status, k
     return OK, -1
@@ -4772,7 +4661,7 @@ def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, min_abs_s, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE)
+        status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE, False)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:
