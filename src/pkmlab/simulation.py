@@ -623,6 +623,8 @@ class _Prepared:
     kp: float
     kv: float
     guard: float
+    P_ctrl: np.ndarray  # the packed parameters of the controller's model and of the plant, as the loop reads them
+    P_plant: np.ndarray
 
 
 def _sample_times(scenario: Scenario) -> np.ndarray:
@@ -690,7 +692,8 @@ def _prepare(scenario: Scenario, desired_cache: dict | None = None) -> _Prepared
     q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
     spec = scenario.controller
     prep = _Prepared(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
-                     float(spec.velocity_gain), float(scenario.singularity_guard))
+                     float(spec.velocity_gain), float(scenario.singularity_guard), _loop_model(scenario.model).P,
+                     _loop_model(scenario.plant_model).P)
     if scenario.sample_time > 0:
         _check_sampled_data_stability(scenario, prep)
     return prep
@@ -1115,7 +1118,7 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
         for name in stack:
             stack[name][r] = getattr(p.desired, name)
         q0[r], qc0[r] = _loop_coordinates(sc.plant_model, p.q_plant0), _loop_coordinates(sc.model, p.q_ctrl0)
-        P_plant[r], P_ctrl[r] = _loop_model(sc.plant_model).P, _loop_model(sc.model).P
+        P_plant[r], P_ctrl[r] = p.P_plant, p.P_ctrl  # (a batch's plants are many: each converted once)
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
         kp[r], kv[r], guard[r] = p.kp, p.kv, p.guard
     q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
