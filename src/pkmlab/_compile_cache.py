@@ -1,9 +1,16 @@
-"""Where Numba keeps pkmlab's compiled kernels.
+"""Where Numba keeps pkmlab's compiled kernels, and the compiler every kernel is decorated with.
 
 Numba's on-disk cache (``cache=True``) revalidates a function against its own source file
 only: a kernel that calls a changed kernel in *another* module would be loaded stale. The
 cache directory is therefore keyed by a hash of all of pkmlab's sources, so that any change
 (an upgrade, a local edit) starts from a fresh cache, and the source tree stays clean.
+
+Kernels are decorated with this module's :func:`njit` (Numba's). A process started with
+``PKMLAB_INTERPRETED=1`` runs the same kernels interpreted instead: Numba is not imported and
+nothing is loaded from the cache. Importing Numba and loading the compiled kernels of a
+command costs about 0.4 s; one pose's kinematics interpreted costs a few milliseconds, so the
+command line's one-shot commands (``pkmlab ik`` ...) run that way (:func:`pkmlab.cli.entry`).
+Anything that loops over many samples must run compiled.
 
 Must run before any module that defines compiled kernels is imported.
 """
@@ -14,6 +21,9 @@ import hashlib
 import os
 import tempfile
 from pathlib import Path
+
+#: True in a process whose kernels run interpreted (``PKMLAB_INTERPRETED=1`` when pkmlab was imported).
+INTERPRETED = os.environ.get("PKMLAB_INTERPRETED") == "1"
 
 
 def configure() -> Path:
@@ -38,13 +48,25 @@ def configure() -> Path:
     return cache
 
 
-CACHE_DIR = configure()
+def _interpreted_njit(*args, **_options):
+    """``njit`` of an interpreted process: the function itself (``@njit`` and ``@njit(...)`` alike)."""
+    if len(args) == 1 and callable(args[0]):
+        return args[0]
+    return lambda function: function
+
+
+if INTERPRETED:
+    CACHE_DIR = None
+    njit, prange = _interpreted_njit, range
+else:
+    CACHE_DIR = configure()
+    from numba import njit, prange  # noqa: F401  (re-exported: every kernel module's compiler)
 
 
 def is_cold() -> bool:
     """True when no kernel of this version of pkmlab has been compiled and cached yet: the next
     calls compile (about a minute in all)."""
-    return not any(CACHE_DIR.rglob("*.nbi"))
+    return CACHE_DIR is not None and not any(CACHE_DIR.rglob("*.nbi"))
 
 #: Numba options of the allocation-free kernels of the hot path (they only read and write
 #: arrays they are given, typically a workspace's). Numba's reference counting, on by

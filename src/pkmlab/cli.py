@@ -1362,9 +1362,21 @@ def _with_notes(args):
                 warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
-def _run(argv: list[str] | None) -> int:
+def _interpreted(args) -> bool:
+    """Whether the command is a one-shot evaluation at a single pose or state, whose kernels are quicker to run
+    interpreted than to load compiled (:mod:`pkmlab._compile_cache`): ``ik`` of any machine, ``fk`` and
+    ``dynamics`` of the paper's 3-RRR (a described machine's forward kinematics solves a polynomial system:
+    compiled)."""
+    return args.command == "ik" or (args.command in ("fk", "dynamics") and getattr(args, "mechanism", None) is None)
+
+
+def _run(argv: list[str] | None, one_shot_interpreted: bool = False) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if one_shot_interpreted and _interpreted(args) and "pkmlab._compile_cache" not in sys.modules:
+        import os
+
+        os.environ.setdefault("PKMLAB_INTERPRETED", "1")  # before any kernel is defined; the user's choice kept
     try:
         _check_finite(args)
         _check_mode(args)
@@ -1385,12 +1397,16 @@ def _run(argv: list[str] | None) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, one_shot_interpreted: bool = False) -> int:
     """The ``pkmlab`` command. Exit codes: 0 success, 1 a problem with the input (one line on stderr),
     2 a malformed command line, 130 interrupted (Ctrl-C, at any moment, start-up included), 141 the
-    reader of the output went away (a closed pipe, as ``| head``), quietly."""
+    reader of the output went away (a closed pipe, as ``| head``), quietly.
+
+    ``one_shot_interpreted`` (the executable's choice, :func:`entry`): in a process that has not loaded any
+    kernel yet, the one-shot commands (``ik`` ...) run their kernels interpreted: the same code, without
+    the 0.4 s of importing Numba and loading compiled kernels."""
     try:
-        return _run(argv)
+        return _run(argv, one_shot_interpreted)
     except KeyboardInterrupt:
         print("pkmlab: interrupted", file=sys.stderr)
         return 130
@@ -1426,7 +1442,7 @@ def entry() -> int:
     import signal
 
     sys.unraisablehook = _interrupt_from_callbacks()
-    code = main()
+    code = main(one_shot_interpreted=True)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if hasattr(signal, "setitimer"):
         signal.setitimer(signal.ITIMER_REAL, 0)  # a Ctrl-C still to be delivered: the work is done

@@ -16,9 +16,8 @@ All functions are compiled with Numba and take single configurations; the public
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
-from ._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE
+from ._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit
 
 # The dense kernels below take the system's size ``m`` as an argument, and the solves are inlined: a
 # caller that passes a constant (a generated structure's size) gets loops of known trip count, which the

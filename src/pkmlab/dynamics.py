@@ -30,13 +30,13 @@ Examples
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from . import (
     _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
     closed_chain,
     lagrangian,
 )
+from ._compile_cache import njit
 from .geometry import Planar3RRR
 from .kinematics import _batch, _broadcast, _model, _pair, _require_regular
 from .mechanism_model import MechanismModel, coordinates_from_3rrr

@@ -26,12 +26,12 @@ import numbers
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from . import (
     _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
     closed_chain,
 )
+from ._compile_cache import njit
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError, shown
 from .geometry import WORKING_MODES, Planar3RRR
 from .mechanisms import rrr3

@@ -19,9 +19,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from . import closed_chain
+from ._compile_cache import njit
 
 
 # ------------------------------------------------------------------ planar bodies

@@ -53,9 +53,8 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
 
 # ==== TEMPLATE: the text from here on is appended to every generated kernel module ====
 import numpy as np  # noqa: E402
-from numba import njit, prange  # noqa: E402
 
-from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE  # noqa: E402
+from pkmlab._compile_cache import INTERPRETED, NO_REFCOUNT, NO_REFCOUNT_INLINE, njit, prange  # noqa: E402
 from pkmlab.closed_chain import (  # noqa: E402
     ldlt_solve,
     lu_factor,
@@ -172,6 +171,13 @@ def make_workspaces(count):
     """``count`` workspaces, a record array; a kernel takes one record (``workspaces[k]``), and the array must
     outlive every use of it (so entry points allocate it and pass it to the function that does the work)."""
     return np.zeros(count, WORKSPACE)
+
+
+if INTERPRETED:  # the kernels read a record's arrays by attribute (ws.q): a record array of NumPy's that does
+    _workspace_records = make_workspaces
+
+    def make_workspaces(count):  # noqa: F811
+        return _workspace_records(count).view(np.recarray)
 
 
 @njit(**NO_REFCOUNT_INLINE)

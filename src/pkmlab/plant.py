@@ -23,10 +23,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
-from scipy.integrate import solve_ivp
 
 from . import _compile_cache  # noqa: F401  (sets the kernel cache before any kernel is defined)
+from ._compile_cache import njit
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
 from .kinematics import _batch, _model, _real, constraint_residual
@@ -159,6 +158,7 @@ class ReducedPlant:
             return ydot
 
         y0 = np.concatenate([q0[:3], theta_dot0])
+        from scipy.integrate import solve_ivp  # (0.3 s to import: only where it is used)
         sol = solve_ivp(rhs, (0.0, float(t_final)), y0, method="DOP853", rtol=self.rtol, atol=self.atol,
                         t_eval=t_eval)
         if sol.status != 0:
@@ -202,6 +202,7 @@ class FullPlant:
                 raise SingularityError(f"the constrained dynamics became singular at t = {t:.6g} s")
             return ydot
 
+        from scipy.integrate import solve_ivp  # (0.3 s to import: only where it is used)
         sol = solve_ivp(rhs, (0.0, float(t_final)), np.concatenate([q0, q_dot0]), method="DOP853",
                         rtol=self.rtol, atol=self.atol, t_eval=t_eval)
         if sol.status != 0:

@@ -15,9 +15,9 @@ Coefficients are ordered highest degree first, as in :func:`numpy.roots`.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from . import _compile_cache  # noqa: F401  (sets the kernel cache before any kernel is defined)
+from ._compile_cache import njit
 
 
 @njit(cache=True)

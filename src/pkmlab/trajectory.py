@@ -19,12 +19,12 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
 from . import (
     _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
     closed_chain,
 )
+from ._compile_cache import njit
 from .errors import InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
 from .kinematics import _batch, _choice, _mode_array, _real, inverse_kinematics, platform_jacobian

@@ -297,7 +297,7 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
         f"Derived with SymPy {sp.__version__}.",
         '"""',
         "",
-        "from numba import njit",
+        "from pkmlab._compile_cache import njit",
         "",
         f"COORDINATES = {tuple(names)!r}",
         f"ANGLES = {tuple(angles)!r}  # which coordinates are angles (wrapped modulo 2 pi)",
@@ -358,7 +358,7 @@ def write_module(header: list[str], q, qd, names, angle_flags, parameters, n_act
         prelude = [p for p in prelude if _used(p, used)]
         lines[body_start:body_start] = prelude
     if any("math." in line for line in lines):
-        lines.insert(lines.index("from numba import njit"), "import math\n")
+        lines.insert(lines.index("from pkmlab._compile_cache import njit"), "import math\n")
     text = "\n".join(lines) + "\n" + _template()
     return text.replace("\n\n\n\n", "\n\n\n")
 

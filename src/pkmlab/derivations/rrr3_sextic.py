@@ -126,7 +126,7 @@ def generate_source() -> str:
         f"Derived with SymPy {sp.__version__}.",
         '"""',
         "",
-        "from numba import njit",
+        "from .._compile_cache import njit",
     ]
     _emit(
         lines,

@@ -5,7 +5,7 @@ Forward-kinematics sextic of the planar 3-RRR (paper eq. (12)); see
 Derived with SymPy 1.14.0.
 """
 
-from numba import njit
+from .._compile_cache import njit
 
 
 @njit(cache=True)

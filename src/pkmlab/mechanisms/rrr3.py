@@ -25,10 +25,9 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from .. import closed_chain, lagrangian
-from .._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE
+from .._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit
 from ..geometry import (
     ACTIVE_COM,
     ACTIVE_INERTIA,

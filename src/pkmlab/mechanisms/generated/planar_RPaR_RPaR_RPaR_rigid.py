@@ -7,7 +7,7 @@ Derived with SymPy 1.14.0.
 
 import math
 
-from numba import njit
+from pkmlab._compile_cache import njit
 
 COORDINATES = ('a1', 'a2', 'a3', 'q1_1', 'q2_1', 'q3_1', 'x', 'y', 'alpha')
 ANGLES = (False, False, False, True, True, True, False, False, True)  # which coordinates are angles (wrapped modulo 2 pi)
@@ -583,9 +583,8 @@ def platform_size(P):
 
 # ---- the compiled core of pkmlab.machine_core, bound to the kernels above ----
 import numpy as np  # noqa: E402
-from numba import njit, prange  # noqa: E402
 
-from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE  # noqa: E402
+from pkmlab._compile_cache import INTERPRETED, NO_REFCOUNT, NO_REFCOUNT_INLINE, njit, prange  # noqa: E402
 from pkmlab.closed_chain import (  # noqa: E402
     ldlt_solve,
     lu_factor,
@@ -702,6 +701,13 @@ def make_workspaces(count):
     """``count`` workspaces, a record array; a kernel takes one record (``workspaces[k]``), and the array must
     outlive every use of it (so entry points allocate it and pass it to the function that does the work)."""
     return np.zeros(count, WORKSPACE)
+
+
+if INTERPRETED:  # the kernels read a record's arrays by attribute (ws.q): a record array of NumPy's that does
+    _workspace_records = make_workspaces
+
+    def make_workspaces(count):  # noqa: F811
+        return _workspace_records(count).view(np.recarray)
 
 
 @njit(**NO_REFCOUNT_INLINE)
