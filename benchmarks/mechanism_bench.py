@@ -18,6 +18,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import operation_count
 
 import pkmlab
 from pkmlab import mechanism_model as mm
@@ -53,7 +54,8 @@ def _actuator_samples(model, scenario: Scenario, count: int, rng) -> list[np.nda
     return out
 
 
-def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | None) -> tuple[list[dict], dict]:
+def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | None,
+              count: dict | None, speed: dict | None) -> tuple[list[dict], dict]:
     scenario = _scenario(name)
     model = scenario.model
     label = f"{name} ({model.description.notation})"
@@ -98,6 +100,16 @@ def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | 
     summary = result.summary()
     checks = {"samples": samples, "loop_per_sample_us": per_sample * 1e6,
               "max_path_error_m": summary["max_path_error_m"], "peak_effort": summary["peak_effort"]}
+    if count and speed:
+        limit = operation_count.limit_per_sample(count, speed)
+        checks.update({"operations_per_sample": count["operations_per_sample"],
+                       "libm_calls_per_sample": count["libm_calls_per_sample"],
+                       "arithmetic_limit_per_sample_us": limit * 1e6, "loop_vs_arithmetic_limit": per_sample / limit})
+        rows.append(h.metric_row(f"mech_{name}_arith_limit", f"{label}: arithmetic limit per sample "
+                                 f"({count['operations_per_sample']:.0f} operations + "
+                                 f"{count['libm_calls_per_sample']:.0f} libm calls)", limit * 1e6, "us"))
+        rows.append(h.metric_row(f"mech_{name}_loop_vs_limit", f"{label}: loop per sample / its arithmetic limit",
+                                 per_sample / limit, "x"))
     if paper_loop_per_sample_s:
         ratio = per_sample / paper_loop_per_sample_s
         checks["loop_per_sample_vs_paper_nominal"] = ratio
@@ -106,13 +118,17 @@ def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | 
     return rows, checks
 
 
-def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None) -> tuple[list[dict], dict]:
-    """Rows per mechanism; ``paper_loop_per_sample_s`` is the paper's nominal loop per sample in this run."""
+def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None,
+                   speed: dict | None = None) -> tuple[list[dict], dict]:
+    """Rows per mechanism; ``paper_loop_per_sample_s`` is the paper's nominal loop per sample in this run,
+    ``speed`` this machine's measured scalar throughput (:func:`simulation_bench.scalar_throughput`)."""
     rng = np.random.default_rng(7)
     rows: list[dict] = [h.section_row("every mechanism (generated kernels, one compiled core)")]
     checks: dict = {}
+    counts = operation_count.counts_in_subprocess()
     for name in DEFAULT_RUNS:
-        more, checks[name] = _rows_for(h, name, 3 if quick else 7, rng, paper_loop_per_sample_s)
+        more, checks[name] = _rows_for(h, name, 3 if quick else 7, rng, paper_loop_per_sample_s, counts.get(name),
+                                       speed)
         rows += more
     if not all(math.isfinite(c["max_path_error_m"]) for c in checks.values()):
         raise AssertionError("a default run did not finish")

@@ -40,7 +40,7 @@ path, MuJoCo on the same mechanism, a batch of 1,000 disturbed runs, the plant i
 error and order, the arithmetic limit, cost growth): :mod:`simulation_bench`, whose rows follow;
 then every preset mechanism (forward kinematics, one dynamics evaluation, the default run):
 :mod:`mechanism_bench`; the two plants' accuracy against speed: :mod:`mujoco_frontier`; a 2,000-run
-study in-process and on Dask: :mod:`study_bench`.
+study in-process and on Dask: :mod:`study_bench`; the command line's start-up: :mod:`startup_bench`.
 
 Usage::
 
@@ -938,7 +938,8 @@ def main(argv: list[str] | None = None) -> int:
 
     paper_loop = next((r for r in rows if r.get("key") == "sim_nominal_loop"), None)
     per_sample = paper_loop["us_per_sample"] * 1e-6 if paper_loop else None
-    mech_rows, mech_checks = mechanism_bench.mechanism_rows(sys.modules[__name__], args.quick, per_sample)
+    mech_rows, mech_checks = mechanism_bench.mechanism_rows(sys.modules[__name__], args.quick, per_sample,
+                                                            sim_checks.get("operation_count"))
     rows += mech_rows
     checks["mechanisms"] = mech_checks
 
@@ -955,6 +956,12 @@ def main(argv: list[str] | None = None) -> int:
     study_rows, study_checks = study_bench.study_rows(sys.modules[__name__], args.quick)
     rows += study_rows
     checks["study"] = study_checks
+
+    progress("start-up of the command line")
+    import startup_bench
+
+    startup, checks["startup_ms"] = startup_bench.startup_rows(sys.modules[__name__], args.quick)
+    rows += startup
 
     for row in rows:
         if row["kind"] == "per_op" and row["key"] == BASELINES.get(row["baseline"]):

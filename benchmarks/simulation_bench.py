@@ -17,8 +17,8 @@ Rows
   batch runs and the same runs done alone;
 * the plant integrator: error of RK4 with 1, 2, 4 steps per sample against DOP853 at rtol
   1e-13 and its observed order;
-* the arithmetic limit: a hand count of the floating-point operations of one sample (listed in
-  :data:`FLOP_COUNT`) priced at this machine's measured scalar throughput;
+* the arithmetic limit: the operations of one sample counted from the code that runs
+  (:mod:`operation_count`) priced at this machine's measured scalar throughput;
 * how the cost grows with the simulated duration, the batch size and the sample time.
 """
 
@@ -31,6 +31,7 @@ import time
 
 import numba
 import numpy as np
+import operation_count
 from scipy.integrate import solve_ivp
 
 import pkmlab
@@ -40,50 +41,6 @@ from pkmlab.trajectory import desired_joint_motion, paper_trajectory
 
 BATCH_SPREAD = 0.15
 BATCH_SEED = 7
-
-# Floating-point operations of the kernels of one sample, counted by hand from the source (a
-# multiply-add counts 2; comparisons, copies and index arithmetic are not counted; sin and cos
-# are counted apart because they cost far more than a flop). One sample = the controller (branch
-# following + Mθ, Cθθ̇ + the law) and one RK4 step of the plant (stage 1 at the start configuration,
-# stages 2-4 and the end point each with branch following, stages 1-4 with forward dynamics).
-# NOTE: counted for the 3-RRR's former hand-written kernels (7 coordinates, eqs. 2-6); the loop now
-# runs on the generated kernels and the compiled core (9 coordinates, x and y eliminated in the
-# solves, one trig table per configuration), whose count is still to be made: the limit reported
-# from this table is indicative only.
-FLOP_COUNT = {
-    "constraints η (eqs. 2-6)": 40,
-    "constraint Jacobian Jηq": 30,
-    "LU of Jηφ (4x4, with det)": 41,
-    "one 4x4 solve from the LU": 28,
-    "Jqθ = [I; -Jηφ⁻¹Jηθ] (3 solves)": 84,
-    "predictor (q̇ along the chord, J̇ηq q̇, 1 solve, update)": 140,
-    "q̇ = Jqθ θ̇ and J̇qθ θ̇ (convective term + 1 solve)": 123,
-    "Mθ, Cθθ̇ body by body (12 terms, 7 bodies)": 816,
-    "θ̈ = Mθ⁻¹(τ - Cθθ̇) (3x3 LU + solve)": 33,
-    "control law τ = Mθ v + Cθθ̇": 30,
-    "RK4 combination per step": 60,
-}
-SINCOS_PER_CONFIGURATION = 14  # cos and sin of the 7 coordinates
-
-
-def flops_per_sample() -> tuple[int, int]:
-    """``(flops, sin/cos calls)`` of one sample, from :data:`FLOP_COUNT`.
-
-    Branch following = predictor + two corrector evaluations (one Newton step, then the
-    converged check, whose linearisation is kept): 2 × (η + Jηq + LU) + 1 solve + Jqθ.
-    Forward dynamics = q̇ and bias + body model + the 3x3 solve.
-    """
-    c = FLOP_COUNT
-    evaluation = c["constraints η (eqs. 2-6)"] + c["constraint Jacobian Jηq"] + c["LU of Jηφ (4x4, with det)"]
-    follow = c["predictor (q̇ along the chord, J̇ηq q̇, 1 solve, update)"] + 2 * evaluation + \
-        c["one 4x4 solve from the LU"] + c["Jqθ = [I; -Jηφ⁻¹Jηθ] (3 solves)"]
-    dynamics = c["q̇ = Jqθ θ̇ and J̇qθ θ̇ (convective term + 1 solve)"] + \
-        c["Mθ, Cθθ̇ body by body (12 terms, 7 bodies)"] + c["θ̈ = Mθ⁻¹(τ - Cθθ̇) (3x3 LU + solve)"]
-    controller = follow + dynamics - c["θ̈ = Mθ⁻¹(τ - Cθθ̇) (3x3 LU + solve)"] + c["control law τ = Mθ v + Cθθ̇"]
-    plant = 4 * dynamics + 4 * follow + c["RK4 combination per step"]
-    n_follow = 5
-    return controller + plant, n_follow * 2 * SINCOS_PER_CONFIGURATION
-
 
 @numba.njit(cache=False)
 def _independent_multiply_adds(n, x):
@@ -248,6 +205,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     times, _ = h.time_runs(lambda: pkmlab.simulate(nominal), repeats)
     rows.append(h.rate_row("sim_nominal_inprocess", f"nominal case, simulate() in-process ({n} samples)", times, 1,
                            "run", baseline="numpy_solve_ivp_run"))
+    checks["nominal_simulate_ms"] = rows[-1]["median_s"] * 1e3
 
     t = result.t
     mode, _ = choose_working_mode(nominal, t)
@@ -271,6 +229,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     rows.append(h.rate_row("sim_nominal_loop", f"nominal case, compiled sampled-data loop only ({n} samples)", times,
                            1, "run", baseline="numpy_solve_ivp_run"))
     rows[-1]["us_per_sample"] = rows[-1]["median_s"] / (n - 1) * 1e6
+    checks["nominal_loop_ms"] = rows[-1]["median_s"] * 1e3
 
     # NumPy/SciPy path (slow: a prefix of the run in --quick mode, scaled to the whole run)
     n_np = 100 if quick else n
@@ -312,6 +271,10 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     seconds, batch = h.time_once(lambda: pkmlab.simulate_batch(scenarios, on_error="return"))
     rows.append(h.rate_row("batch_disturbed", f"batch: {n_batch} disturbed runs ±15 %, {threads} threads", [seconds],
                            n_batch, "run", compare=False))
+    if isinstance(checks.get("mujoco"), dict):
+        mujoco_s = next(r["median_s"] for r in rows if r.get("key") == "mujoco_nominal")
+        rows.append(h.metric_row("ratio_batch_to_mujoco", f"ratio: the batch / {n_batch} MuJoCo steppings as above",
+                                 seconds / (n_batch * mujoco_s), "x"))
     numba.set_num_threads(1)
     try:
         seconds1, _ = h.time_once(lambda: pkmlab.simulate_batch(scenarios[: n_batch // 4], on_error="none"))
@@ -358,15 +321,27 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     rows.append(h.metric_row("nominal_substeps_1_vs_8", "nominal case: max |θ(1 step/sample) - θ(8 steps)|",
                              checks["nominal_substeps_1_vs_8_max_theta_diff"], "rad"))
 
-    # arithmetic limit
+    # arithmetic limit: the operations of one sample counted from the code that runs (operation_count)
     speed = scalar_throughput(h.time_runs)
-    flops, sincos = flops_per_sample()
-    limit_sample = flops / (speed["independent_gflops"] * 1e9) + sincos * speed["ns_per_sin_or_cos"] * 1e-9
-    checks["flop_count"] = {"per_sample_flops": flops, "per_sample_sin_cos": sincos, "kernels": FLOP_COUNT, **speed,
-                            "limit_per_sample_us": limit_sample * 1e6, "limit_nominal_ms": limit_sample * (n - 1) * 1e3}
-    rows.append(h.metric_row("arith_limit_nominal", f"arithmetic limit, nominal case: {flops} flops + {sincos} sin/cos "
-                             f"per sample at {speed['independent_gflops']:.1f} Gflop/s, "
-                             f"{speed['ns_per_sin_or_cos']:.0f} ns per sin/cos", limit_sample * (n - 1) * 1e3, "ms"))
+    count = operation_count.counts_in_subprocess()["paper"]
+    limit_sample = operation_count.limit_per_sample(count, speed)
+    limit_ms = limit_sample * (n - 1) * 1e3
+    checks["operation_count"] = {"per_sample_operations": count["operations_per_sample"],
+                                 "per_sample_libm_calls": count["libm_calls_per_sample"],
+                                 "bytes_streamed_per_sample": count["bytes_streamed_per_sample"],
+                                 "working_set_bytes": count["working_set_bytes"], "functions": count["functions"],
+                                 **speed, "limit_per_sample_us": limit_sample * 1e6, "limit_nominal_ms": limit_ms}
+    rows.append(h.metric_row("arith_limit_nominal", "arithmetic limit, nominal case: "
+                             f"{count['operations_per_sample']:.0f} operations + "
+                             f"{count['libm_calls_per_sample']:.0f} libm calls per sample at "
+                             f"{speed['independent_gflops']:.1f} Gflop/s, {speed['ns_per_sin_or_cos']:.0f} ns per call",
+                             limit_ms, "ms"))
+    loop_ms = checks.get("nominal_loop_ms")
+    if loop_ms:
+        rows.append(h.metric_row("ratio_loop_to_arith_limit", "ratio: compiled loop / arithmetic limit",
+                                 loop_ms / limit_ms, "x"))
+    rows.append(h.metric_row("ratio_simulate_to_arith_limit", "ratio: simulate() nominal / arithmetic limit",
+                             checks["nominal_simulate_ms"] / limit_ms, "x"))
 
     # cost growth
     scale = {}

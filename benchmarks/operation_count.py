@@ -1,0 +1,251 @@
+"""Floating-point operations and memory traffic of one sample of the simulation loop, counted for each
+preset from the code that runs (the arithmetic limit of ``make bench``).
+
+The count has two parts, neither estimated by hand:
+
+* **per call**, from the source text of every function the loop calls — the generated kernels of the
+  machine's structure (straight-line code from the SymPy derivation) and the compiled core appended to
+  them: each ``+ - * /`` (and ``+=``...) on values is one operation, ``x**k`` is ``k - 1``; index
+  arithmetic (inside subscripts and ``range``), comparisons and copies are not counted; ``sqrt`` is
+  counted as an operation, ``sin``/``cos``/``atan2``... apart (a libm call costs far more). Loops over the
+  structure's sizes (``range(N_ACTUATORS)``...) are unrolled with their true trip counts, branches on the
+  structure's constants (``if DIM == 3``) resolved; a data-dependent loop (the chord iterations) counts
+  one pass per call — its passes are the calls of the kernels inside it;
+* **calls per sample**, counted by running samples of the preset's default run with the kernels
+  interpreted (``PKMLAB_INTERPRETED=1``: the same source, run by Python) and every function wrapped by a
+  counter: the chord iterations, Newton fall-backs and the controller's reuse of the plant's model are
+  what the run really does.
+
+Memory: the loop's working set (two workspaces, the parameters) stays in the first-level cache; what
+streams per sample is the desired motion read and the record written (bytes reported).
+
+Run as a script in a process of its own (the kernels must be interpreted)::
+
+    PKMLAB_INTERPRETED=1 .venv/bin/python benchmarks/operation_count.py [--json]
+"""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import json
+import math
+import os
+import sys
+import textwrap
+from collections import Counter
+from pathlib import Path
+from types import SimpleNamespace
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DEFAULT_RUNS = {"paper": "nominal", "five_bar": "five_bar_circle", "3rpr": "3rpr_circle", "3prr": "3prr_circle",
+                "delta": "delta_pick_and_place", "stewart": "stewart_motion"}
+#: calls whose cost is a libm call, counted apart from the arithmetic
+TRANSCENDENTAL = {"sin", "cos", "atan2", "acos", "asin", "atan", "exp", "log", "hypot"}
+#: calls counted as one arithmetic operation
+ARITHMETIC_CALLS = {"sqrt", "abs", "max", "min"}
+
+
+class _Counter(ast.NodeVisitor):
+    """Operations of one function's own code (callees excluded), loops over constant ranges unrolled."""
+
+    def __init__(self, constants: dict):
+        self.constants = constants
+        self.env: dict[str, int] = {}
+        self.flops = 0
+        self.transcendental = 0
+
+    def _value(self, node):
+        try:
+            return eval(compile(ast.Expression(node), "<count>", "eval"), {"__builtins__": {}},
+                        {**self.constants, **self.env})
+        except Exception:  # data-dependent: not known before the run
+            return None
+
+    def visit_Assign(self, node):  # a local name for a size (n = N_ACTUATORS) or a structure constant
+        value = self._value(node.value)
+        targets = node.targets[0].elts if isinstance(node.targets[0], ast.Tuple) else [node.targets[0]]
+        if isinstance(value, int) and len(targets) == 1 and isinstance(targets[0], ast.Name):
+            self.env[targets[0].id] = value
+        elif isinstance(value, tuple) and len(value) == len(targets) and all(isinstance(v, int) for v in value):
+            self.env.update({t.id: v for t, v in zip(targets, value, strict=True) if isinstance(t, ast.Name)})
+        self.visit(node.value)
+
+    def visit_Subscript(self, node):  # the index is address arithmetic; only the subscripted value is visited
+        self.visit(node.value)
+
+    def visit_BinOp(self, node):
+        if isinstance(node.op, ast.Pow):
+            exponent = self._value(node.right)
+            self.flops += int(exponent) - 1 if isinstance(exponent, int | float) and exponent >= 1 else 1
+        elif isinstance(node.op, ast.Add | ast.Sub | ast.Mult | ast.Div):
+            self.flops += 1
+        self.generic_visit(node)
+
+    def visit_AugAssign(self, node):
+        if isinstance(node.op, ast.Add | ast.Sub | ast.Mult | ast.Div):
+            self.flops += 1
+        self.visit(node.value)
+
+    def visit_Compare(self, node):  # comparisons are not counted, nor their operands' index arithmetic
+        pass
+
+    def visit_Call(self, node):
+        name = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+        if name in TRANSCENDENTAL:
+            self.transcendental += 1
+        elif name in ARITHMETIC_CALLS:
+            self.flops += 1
+        if name == "range":
+            return
+        for arg in node.args:
+            self.visit(arg)
+
+    def visit_If(self, node):
+        test = self._value(node.test)
+        if test is None:  # data-dependent: the body's operations are counted (an upper bound)
+            self.generic_visit(node)
+        else:
+            for statement in (node.body if test else node.orelse):
+                self.visit(statement)
+
+    def visit_For(self, node):
+        bounds = None
+        if isinstance(node.iter, ast.Call) and getattr(node.iter.func, "id", "") in ("range", "prange"):
+            values = [self._value(a) for a in node.iter.args]
+            if all(isinstance(v, int) for v in values) and isinstance(node.target, ast.Name):
+                bounds = range(*values)
+            if any(isinstance(a, ast.Name) and a.id.startswith("MAX_") for a in node.iter.args):
+                bounds = None  # an iteration limit, not a size: one pass per call (its passes are counted calls)
+        if bounds is None:
+            for statement in node.body:
+                self.visit(statement)
+            return
+        for value in bounds:
+            self.env[node.target.id] = value
+            for statement in node.body:
+                self.visit(statement)
+        self.env.pop(node.target.id, None)
+
+
+def own_operations(function, constants: dict, sizes: dict | None = None) -> tuple[int, int]:
+    """``(arithmetic operations, libm calls)`` of one call of ``function``'s own code, its integer arguments
+    ``sizes`` (a dense kernel's ``m``) known."""
+    tree = ast.parse(textwrap.dedent(inspect.getsource(function)))
+    counter = _Counter(constants)
+    for name, value in (sizes or {}).items():  # an array argument is known by its shape only
+        counter.env[name] = value if isinstance(value, int) else SimpleNamespace(shape=value[1],
+                                                                                size=math.prod(value[1]))
+    for statement in tree.body[0].body:
+        counter.visit(statement)
+    return counter.flops, counter.transcendental
+
+
+def _wrap(module, names, calls: Counter):
+    """Every function ``names`` of ``module`` counted per call, by its name and integer arguments."""
+    originals = {}
+    for name in names:
+        function = getattr(module, name)
+        parameters = list(inspect.signature(function).parameters)
+
+        def counted(*args, _f=function, _name=name, _parameters=parameters, **kwargs):
+            sizes = tuple((p, a if isinstance(a, int) else ("shape", a.shape)) for p, a in
+                          zip(_parameters, args, strict=False)
+                          if isinstance(a, int) and not isinstance(a, bool) or hasattr(a, "shape"))
+            calls[(_name, sizes)] += 1
+            return _f(*args, **kwargs)
+
+        originals[name] = function
+        setattr(module, name, counted)
+    return originals
+
+
+def count_preset(name: str, samples: int = 12) -> dict:
+    """Operations per sample of ``name``'s default run (samples 1 .. ``samples`` of its loop)."""
+    import numpy as np
+
+    from pkmlab import closed_chain
+    from pkmlab.scenario_io import load_scenario
+    from pkmlab.simulation import _loop_coordinates, _loop_model, _prepare
+
+    scenario = load_scenario(EXAMPLES / f"{DEFAULT_RUNS[name]}.toml")
+    prep = _prepare(scenario)
+    ctrl, plant = _loop_model(scenario.model), _loop_model(scenario.plant_model)
+    kernels = ctrl.kernels
+    functions = {k: v for k, v in vars(kernels).items()
+                 if inspect.isfunction(v) and v.__module__ in (kernels.__name__, closed_chain.__name__)}
+    constants = {k: v for k, v in vars(kernels).items() if k.isupper() and isinstance(v, int | float | tuple)}
+    constants.update({"np": np, "math": math})
+    skip = {"make_workspaces", "sampled_data_loop", "sampled_data_batch", "reduced_column"}  # the last: an index
+    names = [k for k in functions if k not in skip and not k.startswith("_")]
+    q_plant0 = _loop_coordinates(scenario.plant_model, prep.q_plant0)
+    q_ctrl0 = _loop_coordinates(scenario.model, prep.q_ctrl0)
+    d = prep.desired
+    n, n_q = ctrl.n_actuators, kernels.N_COORDINATES
+
+    def run(count):
+        calls = Counter()
+        originals = _wrap(kernels, names, calls)
+        try:
+            outs = (np.zeros((count, n_q)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count))
+            status, _k = kernels.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta[:count],
+                                                   d.theta_dot[:count], d.theta_ddot[:count], q_plant0, q_ctrl0,
+                                                   plant.P, ctrl.P, prep.kind, prep.kp, prep.kv, prep.guard, *outs)
+        finally:
+            for key, function in originals.items():
+                setattr(kernels, key, function)
+        assert status == kernels.OK
+        return calls
+
+    # samples 2 .. samples + 1 (the first sample sets the loop up): the difference of two runs
+    few, many = run(2), run(samples + 2)
+    per_sample = {k: (many[k] - few[k]) / samples for k in many if many[k] != few[k]}
+    loop_own = own_operations(kernels._sampled_data_loop, constants)
+    flops, libm, rows = 0.0, 0.0, []
+    for (key, sizes), calls in sorted(per_sample.items()):
+        f, t = own_operations(functions[key], constants, dict(sizes))
+        flops += calls * f
+        libm += calls * t
+        rows.append({"function": key + "".join(f", {p}={v}" for p, v in sizes if isinstance(v, int)),
+                     "calls_per_sample": calls,
+                     "operations_per_call": f, "libm_per_call": t})
+    flops += loop_own[0]
+    streamed = 8 * (3 * n + n_q + 2 * n + 1)  # θd, θ̇d, θ̈d read; q, θ̇, τ, S written
+    return {"preset": name, "operations_per_sample": flops, "libm_calls_per_sample": libm,
+            "bytes_streamed_per_sample": streamed, "working_set_bytes": 2 * kernels.WORKSPACE.itemsize
+            + 8 * (2 * ctrl.P.size), "functions": rows}
+
+
+def counts_in_subprocess() -> dict[str, dict]:
+    """:func:`count_preset` of every preset, from a process of its own with the kernels interpreted."""
+    import subprocess
+
+    env = {**os.environ, "PKMLAB_INTERPRETED": "1"}
+    out = subprocess.run([sys.executable, __file__, "--json"], env=env, check=True, capture_output=True, text=True)
+    return {r["preset"]: r for r in json.loads(out.stdout)}
+
+
+def limit_per_sample(count: dict, speed: dict) -> float:
+    """The arithmetic limit of one sample (s): its operations at the measured independent multiply-add rate,
+    plus its libm calls at their measured cost."""
+    return (count["operations_per_sample"] / (speed["independent_gflops"] * 1e9)
+            + count["libm_calls_per_sample"] * speed["ns_per_sin_or_cos"] * 1e-9)
+
+
+def main(argv=None) -> int:
+    if os.environ.get("PKMLAB_INTERPRETED") != "1":
+        print("run with PKMLAB_INTERPRETED=1 (the kernels must be interpreted to count their calls)", file=sys.stderr)
+        return 2
+    results = [count_preset(name) for name in DEFAULT_RUNS]
+    if argv and "--json" in argv:
+        print(json.dumps(results))
+        return 0
+    for r in results:
+        print(f"{r['preset']:>9}: {r['operations_per_sample']:8.0f} operations + {r['libm_calls_per_sample']:5.1f} "
+              f"libm calls per sample; {r['bytes_streamed_per_sample']} bytes streamed, working set "
+              f"{r['working_set_bytes']} bytes")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
