@@ -312,11 +312,18 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, i
     Raises a one-line error naming the time and pose where the path leaves the workspace or
     comes within ``singularity_margin`` of ``S = 0`` in every admissible mode.
     """
-    pose, _pd, _pdd = scenario.trajectory.desired(t)
+    mode, min_s, _motion = _working_mode_and_motion(scenario, t, scenario.trajectory.desired(t))
+    return mode, min_s
+
+
+def _working_mode_and_motion(scenario: Scenario, t: np.ndarray, desired):
+    """:func:`choose_working_mode` from the trajectory's ``desired = (pose, pose_dot, pose_ddot)`` at ``t``; also
+    the desired joint motion in that mode when it was computed on the way (else None)."""
+    pose = desired[0]
     if isinstance(scenario.model, MechanismModel):
-        return _machine_working_mode(scenario, t, pose[:, :scenario.model.description.dof])
+        return *_machine_working_mode(scenario, t, pose[:, :scenario.model.description.dof]), None
     if scenario.working_mode == "auto":
-        found = _best_working_mode(scenario.model, pose, scenario.singularity_margin)
+        found = _best_working_mode(scenario.model, desired, t, scenario.singularity_margin)
         if found is not None:
             return found
     # a fixed mode, or no mode passes: the full evaluation, which also names the failure
@@ -352,7 +359,7 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, i
             f"pose ({pose[k, 0]:.4f}, {pose[k, 1]:.4f}, {pose[k, 2]:.4f})"
         )
     chosen = modes[best] if scenario.working_mode == "auto" else modes[0]
-    return tuple(int(v) for v in chosen), float(min_s[best])
+    return tuple(int(v) for v in chosen), float(min_s[best]), None
 
 
 def _pose_text(pose) -> str:
@@ -394,29 +401,37 @@ def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -
     return tuple(best), best_min
 
 
-def _best_working_mode(model: Planar3RRR, pose: np.ndarray, margin: float, stride: int = 8):
-    """The mode maximising ``min |S|`` along ``pose`` (as the full evaluation finds it), cheaply.
+def _best_working_mode(model: Planar3RRR, desired, t: np.ndarray, margin: float, stride: int = 8):
+    """The mode maximising ``min |S|`` along the desired ``(pose, pose_dot, pose_ddot)`` at ``t`` (as the full
+    evaluation finds it), cheaply.
 
     ``min |S|`` over every ``stride``-th sample bounds each mode's ``min |S|`` from above, so the
     modes are evaluated on the whole path in decreasing order of that bound until the best
-    found is at least the bound of the next. Returns ``(mode, min |S|)``, or None when no mode
-    reaches the whole path with ``min |S| >= margin`` (the caller then reports why).
+    found is at least the bound of the next. A mode is evaluated on the whole path by computing
+    its desired joint motion, which gives ``S`` along it (the run then needs no second pass).
+    Returns ``(mode, min |S|, its joint motion or None)``, or None when no mode reaches the whole
+    path with ``min |S| >= margin`` (the caller then reports why).
     """
+    pose = desired[0]
     coarse = inverse_kinematics(model, pose[::stride], on_unreachable="nan").S
     bound = np.where(np.isnan(coarse).any(axis=0), -np.inf, np.abs(np.nan_to_num(coarse)).min(axis=0))
-    best, best_min = None, -np.inf
+    best, best_min, best_motion = None, -np.inf, None
     for m in np.argsort(-bound, kind="stable"):
         if bound[m] == -np.inf or bound[m] < best_min:
             break
-        s = inverse_kinematics(model, pose, mode=WORKING_MODES[m], on_unreachable="nan").S
+        try:
+            motion = desired_joint_motion(model, None, WORKING_MODES[m], t, desired=desired)
+            s = motion.S
+        except (UnreachablePoseError, SingularityError):  # judged by S alone, as before; the run reports it
+            motion, s = None, inverse_kinematics(model, pose, mode=WORKING_MODES[m], on_unreachable="nan").S
         if np.isnan(s).any():
             continue
         min_s = float(np.abs(s).min())
         if min_s > best_min or (min_s == best_min and m < best):  # ties: the first mode, as np.argmax
-            best, best_min = m, min_s
+            best, best_min, best_motion = m, min_s, motion
     if best is None or best_min < margin:
         return None
-    return tuple(int(v) for v in WORKING_MODES[best]), best_min
+    return tuple(int(v) for v in WORKING_MODES[best]), best_min, best_motion
 
 
 # ------------------------------------------------------------------ results
@@ -630,10 +645,13 @@ def _sample_times(scenario: Scenario) -> np.ndarray:
 
 
 def _desired_motion(scenario: Scenario, t: np.ndarray):
-    mode, _min_s = choose_working_mode(scenario, t)
+    desired = scenario.trajectory.desired(t)
+    mode, _min_s, motion = _working_mode_and_motion(scenario, t, desired)
+    if motion is not None:
+        return mode, motion
     if isinstance(scenario.model, MechanismModel):
         return mode, _machine_joint_motion(scenario.model, scenario.trajectory, mode, t)
-    return mode, desired_joint_motion(scenario.model, scenario.trajectory, mode, t)
+    return mode, desired_joint_motion(scenario.model, scenario.trajectory, mode, t, desired=desired)
 
 
 def _machine_joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray):

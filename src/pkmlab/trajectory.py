@@ -288,7 +288,8 @@ def paper_trajectory(speed: float = 0.2) -> Trajectory:
 @dataclass(frozen=True)
 class JointMotion:
     """Desired actuator motion at times ``t`` (N,): ``theta``, ``theta_dot``, ``theta_ddot`` (N, 3),
-    with the configurations ``q`` (N, 7) and platform ``pose`` (N, 3) they come from."""
+    with the configurations ``q`` (N, 7) and platform ``pose`` (N, 3) they come from, and where computed
+    with them the singularity measure ``S`` (N,) along the path."""
 
     t: np.ndarray
     q: np.ndarray
@@ -296,11 +297,13 @@ class JointMotion:
     theta: np.ndarray
     theta_dot: np.ndarray
     theta_ddot: np.ndarray
+    S: np.ndarray | None = None
 
 
 @njit(cache=True)
-def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_ddot):
-    """Per sample: IK, ``θ̇`` from ``ẋ = J θ̇``, ``θ̈`` from ``ẍ = J θ̈ + Jpq J̇qθ θ̇ + J̇pq q̇`` (eqs. 14–17, 32).
+def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_ddot, det):
+    """Per sample: IK, ``θ̇`` from ``ẋ = J θ̇``, ``θ̈`` from ``ẍ = J θ̈ + Jpq J̇qθ θ̇ + J̇pq q̇`` (eqs. 14–17, 32),
+    and ``det Jηφ`` (eq. 18) of the factors computed on the way.
 
     ``J = Jpq Jqθ`` is the platform Jacobian. Returns the first sample that is out of reach or
     singular, or -1.
@@ -312,7 +315,9 @@ def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_
         if rrr3.inverse_kinematics(pose[k], mode, P, q[k]) != 0:
             return k
         ws.q[0, :] = q[k]
-        if not rrr3.linearize(ws, 0, P):
+        ok = rrr3.linearize(ws, 0, P)
+        det[k] = ws.det[0]
+        if not ok:
             return k
         rrr3.pose_jacobian(q[k], P, jp)
         jqt = ws.j_q_theta[0]
@@ -343,23 +348,27 @@ def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_
     return -1
 
 
-def desired_joint_motion(model: Planar3RRR, trajectory, mode, t) -> JointMotion:
-    """Exact inverse kinematics of a trajectory and its first and second time derivatives.
+def desired_joint_motion(model: Planar3RRR, trajectory, mode, t, *, desired=None) -> JointMotion:
+    """Exact inverse kinematics of a trajectory and its first and second time derivatives, and the
+    singularity measure ``S`` (eq. 19) along it.
 
     ``θ`` is unwrapped along ``t`` so that it is continuous (IK returns angles in (-π, π]).
+    ``desired``: the trajectory's ``(pose, pose_dot, pose_ddot)`` at ``t`` when already evaluated.
     Raises the error of :func:`~pkmlab.kinematics.inverse_kinematics` or
     :func:`~pkmlab.kinematics.platform_jacobian` for the first sample out of reach or singular.
     """
     t = np.atleast_1d(np.asarray(t, dtype=float))
-    pose, pose_dot, pose_ddot = (np.ascontiguousarray(a, dtype=float) for a in trajectory.desired(t))
+    pose, pose_dot, pose_ddot = (np.ascontiguousarray(a, dtype=float)
+                                 for a in (trajectory.desired(t) if desired is None else desired))
     mode = _mode_array(mode)
     n = t.size
-    q, theta_dot, theta_ddot = np.empty((n, 7)), np.empty((n, 3)), np.empty((n, 3))
-    k = _joint_motion_batch(pose, pose_dot, pose_ddot, mode, model.packed, q, theta_dot, theta_ddot)
+    q, theta_dot, theta_ddot, det = np.empty((n, 7)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+    k = _joint_motion_batch(pose, pose_dot, pose_ddot, mode, model.packed, q, theta_dot, theta_ddot, det)
     if k >= 0:  # the public functions name the problem
         q_k = inverse_kinematics(model, pose[k], mode=mode).q
         platform_jacobian(model, q_k)
         raise SingularityError(f"the platform Jacobian is singular at t = {t[k]:.4f} s")
     theta = np.unwrap(q[:, :3], axis=0)
     q[:, :3] = theta
-    return JointMotion(t, q, pose, theta, theta_dot, theta_ddot)
+    # S as kinematics.singularity_measure computes it: the same factors of the same configurations
+    return JointMotion(t, q, pose, theta, theta_dot, theta_ddot, -det / rrr3.singularity_scale(model.packed))
