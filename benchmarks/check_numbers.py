@@ -48,7 +48,9 @@ def collect() -> dict[str, np.ndarray]:
         for field in ("q", "theta_dot", "tau", "pose", "S"):
             out[f"{name}.{field}"] = np.asarray(getattr(result, field), float)
     batch = simulate_batch(_disturbed_batch(), on_error="none")  # a drawn plant may not assemble: None
-    for k, result in enumerate(r for r in batch if r is not None):
+    for k, result in enumerate(batch):
+        if result is None:
+            continue
         for field in ("q", "tau"):
             out[f"batch{k}.{field}"] = np.asarray(getattr(result, field), float)
     rng = np.random.default_rng(3)
@@ -78,7 +80,7 @@ def _a_configuration(name: str) -> np.ndarray:
 
 
 def compare(old: dict[str, np.ndarray], new: dict[str, np.ndarray], rtol: float) -> int:
-    worst, bad, diffs = 0.0, [], []
+    worst, bad, diffs = 0.0, [f"{key}: new (not in the saved numbers)" for key in sorted(set(new) - set(old))], []
     for key in sorted(old):
         if key not in new or old[key].shape != new[key].shape:
             bad.append(f"{key}: missing or reshaped")

@@ -118,17 +118,17 @@ def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | 
     return rows, checks
 
 
-def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None,
+def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts: dict | None = None,
                    speed: dict | None = None) -> tuple[list[dict], dict]:
     """Rows per mechanism; ``paper_loop_per_sample_s`` is the paper's nominal loop per sample in this run,
-    ``speed`` this machine's measured scalar throughput (:func:`simulation_bench.scalar_throughput`)."""
+    ``counts`` every preset's operation count (:mod:`operation_count`) and ``speed`` this machine's measured
+    scalar throughput (:func:`simulation_bench.scalar_throughput`), both from the simulation's rows."""
     rng = np.random.default_rng(7)
     rows: list[dict] = [h.section_row("every mechanism (generated kernels, one compiled core)")]
     checks: dict = {}
-    counts = operation_count.counts_in_subprocess()
     for name in DEFAULT_RUNS:
-        more, checks[name] = _rows_for(h, name, 3 if quick else 7, rng, paper_loop_per_sample_s, counts.get(name),
-                                       speed)
+        more, checks[name] = _rows_for(h, name, 3 if quick else 7, rng, paper_loop_per_sample_s,
+                                       (counts or {}).get(name), speed)
         rows += more
     if not all(math.isfinite(c["max_path_error_m"]) for c in checks.values()):
         raise AssertionError("a default run did not finish")

@@ -9,9 +9,11 @@ The count has two parts, neither estimated by hand:
   arithmetic (inside subscripts and ``range``), comparisons and copies are not counted; ``sqrt`` is
   counted as an operation, ``sin``/``cos``/``atan2``... apart (a libm call costs far more). Loops over the
   structure's sizes (``range(N_ACTUATORS)``...) are unrolled with their true trip counts, branches on the
-  structure's constants (``if DIM == 3``) resolved; a data-dependent loop (the chord iterations) counts
-  one pass per call — its passes are the calls of the kernels inside it;
-* **calls per sample**, counted by running samples of the preset's default run with the kernels
+  structure's constants (``if DIM == 3``) resolved, a branch on the run's values counted as its costlier
+  side; constant expressions are folded, as the compiler folds them; a floating-point ``%`` is a libm
+  call. A data-dependent loop (the chord iterations) counts its own operations once per call (about ten
+  per pass: under 1 % of a sample) — its passes are the calls of the kernels inside it;
+* **calls per sample**, counted over the whole of the preset's default run with the kernels
   interpreted (``PKMLAB_INTERPRETED=1``: the same source, run by Python) and every function wrapped by a
   counter: the chord iterations, Newton fall-backs and the controller's reuse of the plant's model are
   what the run really does.
@@ -19,9 +21,10 @@ The count has two parts, neither estimated by hand:
 Memory: the loop's working set (two workspaces, the parameters) stays in the first-level cache; what
 streams per sample is the desired motion read and the record written (bytes reported).
 
-Run as a script in a process of its own (the kernels must be interpreted)::
+Run as a script in a process of its own (the kernels must be interpreted; a whole Stewart–Gough run
+takes about two minutes)::
 
-    PKMLAB_INTERPRETED=1 .venv/bin/python benchmarks/operation_count.py [--json]
+    PKMLAB_INTERPRETED=1 .venv/bin/python benchmarks/operation_count.py [--json] [PRESET ...]
 """
 
 from __future__ import annotations
@@ -51,7 +54,7 @@ class _Counter(ast.NodeVisitor):
 
     def __init__(self, constants: dict):
         self.constants = constants
-        self.env: dict[str, int] = {}
+        self.env: dict[str, object] = {}
         self.flops = 0
         self.transcendental = 0
 
@@ -62,11 +65,22 @@ class _Counter(ast.NodeVisitor):
         except Exception:  # data-dependent: not known before the run
             return None
 
+    def _branch(self, statements) -> tuple[int, int, dict]:
+        """Operations of ``statements`` in a copy of this counter, and the names they bind."""
+        branch = _Counter(self.constants)
+        branch.env = dict(self.env)
+        for statement in statements:
+            branch.visit(statement)
+        return branch.flops, branch.transcendental, branch.env
+
     def visit_Assign(self, node):  # a local name for a size (n = N_ACTUATORS) or a structure constant
         value = self._value(node.value)
         targets = node.targets[0].elts if isinstance(node.targets[0], ast.Tuple) else [node.targets[0]]
-        if isinstance(value, int) and len(targets) == 1 and isinstance(targets[0], ast.Name):
-            self.env[targets[0].id] = value
+        names = [t.id for t in targets if isinstance(t, ast.Name)]
+        for name in names:  # a name bound again (to a value of the run) is no longer a constant
+            self.env.pop(name, None)
+        if isinstance(value, int) and len(targets) == 1 and names:
+            self.env[names[0]] = value
         elif isinstance(value, tuple) and len(value) == len(targets) and all(isinstance(v, int) for v in value):
             self.env.update({t.id: v for t, v in zip(targets, value, strict=True) if isinstance(t, ast.Name)})
         self.visit(node.value)
@@ -75,19 +89,25 @@ class _Counter(ast.NodeVisitor):
         self.visit(node.value)
 
     def visit_BinOp(self, node):
+        if self._value(node) is not None:  # constants only: folded by the compiler
+            return
         if isinstance(node.op, ast.Pow):
             exponent = self._value(node.right)
             self.flops += int(exponent) - 1 if isinstance(exponent, int | float) and exponent >= 1 else 1
         elif isinstance(node.op, ast.Add | ast.Sub | ast.Mult | ast.Div):
             self.flops += 1
+        elif isinstance(node.op, ast.Mod):  # a floating-point remainder: a libm call (fmod)
+            self.transcendental += 1
         self.generic_visit(node)
 
     def visit_AugAssign(self, node):
         if isinstance(node.op, ast.Add | ast.Sub | ast.Mult | ast.Div):
             self.flops += 1
+        if isinstance(node.target, ast.Name):
+            self.env.pop(node.target.id, None)
         self.visit(node.value)
 
-    def visit_Compare(self, node):  # comparisons are not counted, nor their operands' index arithmetic
+    def visit_Compare(self, node):  # comparisons are not counted, nor their operands (mostly index arithmetic)
         pass
 
     def visit_Call(self, node):
@@ -101,13 +121,28 @@ class _Counter(ast.NodeVisitor):
         for arg in node.args:
             self.visit(arg)
 
-    def visit_If(self, node):
-        test = self._value(node.test)
-        if test is None:  # data-dependent: the body's operations are counted (an upper bound)
-            self.generic_visit(node)
-        else:
-            for statement in (node.body if test else node.orelse):
+    def _choose(self, test, body, orelse):
+        """A branch: the one taken when its test is a constant, else the costlier (an upper bound), after which
+        the names either binds are no longer constants."""
+        value = self._value(test)
+        if value is not None:
+            for statement in (body if value else orelse):
                 self.visit(statement)
+            return
+        counts = [self._branch(body), self._branch(orelse)]
+        flops, transcendental, _env = max(counts, key=lambda c: (c[0], c[1]))
+        self.flops += flops
+        self.transcendental += transcendental
+        for _f, _t, env in counts:
+            for name, value_ in env.items():
+                if self.env.get(name) is not value_:
+                    self.env.pop(name, None)
+
+    def visit_If(self, node):
+        self._choose(node.test, node.body, node.orelse)
+
+    def visit_IfExp(self, node):
+        self._choose(node.test, [ast.Expr(node.body)], [ast.Expr(node.orelse)])
 
     def visit_For(self, node):
         bounds = None
@@ -117,9 +152,13 @@ class _Counter(ast.NodeVisitor):
                 bounds = range(*values)
             if any(isinstance(a, ast.Name) and a.id.startswith("MAX_") for a in node.iter.args):
                 bounds = None  # an iteration limit, not a size: one pass per call (its passes are counted calls)
-        if bounds is None:
-            for statement in node.body:
-                self.visit(statement)
+        if bounds is None:  # data-dependent: one pass (names it binds are not constants after it)
+            flops, transcendental, env = self._branch(node.body)
+            self.flops += flops
+            self.transcendental += transcendental
+            for name in env:
+                if name not in self.env or self.env[name] is not env[name]:
+                    self.env.pop(name, None)
             return
         for value in bounds:
             self.env[node.target.id] = value
@@ -128,15 +167,19 @@ class _Counter(ast.NodeVisitor):
         self.env.pop(node.target.id, None)
 
 
-def own_operations(function, constants: dict, sizes: dict | None = None) -> tuple[int, int]:
+def own_operations(function, constants: dict, sizes: dict | None = None, loop_body: bool = False) -> tuple[int, int]:
     """``(arithmetic operations, libm calls)`` of one call of ``function``'s own code, its integer arguments
-    ``sizes`` (a dense kernel's ``m``) known."""
+    and the shapes of its array arguments ``sizes`` (a dense kernel's ``m``) known; ``loop_body``: of one
+    pass of its first loop only (the simulation loop's per-sample work)."""
     tree = ast.parse(textwrap.dedent(inspect.getsource(function)))
     counter = _Counter(constants)
     for name, value in (sizes or {}).items():  # an array argument is known by its shape only
         counter.env[name] = value if isinstance(value, int) else SimpleNamespace(shape=value[1],
                                                                                 size=math.prod(value[1]))
-    for statement in tree.body[0].body:
+    statements = tree.body[0].body
+    if loop_body:
+        statements = next(s for s in statements if isinstance(s, ast.For)).body
+    for statement in statements:
         counter.visit(statement)
     return counter.flops, counter.transcendental
 
@@ -160,8 +203,9 @@ def _wrap(module, names, calls: Counter):
     return originals
 
 
-def count_preset(name: str, samples: int = 12) -> dict:
-    """Operations per sample of ``name``'s default run (samples 1 .. ``samples`` of its loop)."""
+def count_preset(name: str, samples: int | None = None) -> dict:
+    """Operations per sample of ``name``'s default run: the average over its samples after the first (which
+    sets the loop up), or over the first ``samples`` of them."""
     import numpy as np
 
     from pkmlab import closed_chain
@@ -197,10 +241,11 @@ def count_preset(name: str, samples: int = 12) -> dict:
         assert status == kernels.OK
         return calls
 
-    # samples 2 .. samples + 1 (the first sample sets the loop up): the difference of two runs
-    few, many = run(2), run(samples + 2)
-    per_sample = {k: (many[k] - few[k]) / samples for k in many if many[k] != few[k]}
-    loop_own = own_operations(kernels._sampled_data_loop, constants)
+    # the samples after the first: the difference of two runs, one of the first two samples only
+    total = d.theta.shape[0] if samples is None else min(samples + 2, d.theta.shape[0])
+    few, many = run(2), run(total)
+    per_sample = {k: (many[k] - few[k]) / (total - 2) for k in many if many[k] != few[k]}
+    loop_own = own_operations(kernels._sampled_data_loop, constants, loop_body=True)
     flops, libm, rows = 0.0, 0.0, []
     for (key, sizes), calls in sorted(per_sample.items()):
         f, t = own_operations(functions[key], constants, dict(sizes))
@@ -210,19 +255,29 @@ def count_preset(name: str, samples: int = 12) -> dict:
                      "calls_per_sample": calls,
                      "operations_per_call": f, "libm_per_call": t})
     flops += loop_own[0]
+    libm += loop_own[1]
     streamed = 8 * (3 * n + n_q + 2 * n + 1)  # θd, θ̇d, θ̈d read; q, θ̇, τ, S written
+    # two workspaces, both machines' parameters, the state x, the RK4 stages and the effort
+    working_set = 2 * kernels.WORKSPACE.itemsize + 8 * (2 * ctrl.P.size + 2 * n + 5 * 2 * n + n)
     return {"preset": name, "operations_per_sample": flops, "libm_calls_per_sample": libm,
-            "bytes_streamed_per_sample": streamed, "working_set_bytes": 2 * kernels.WORKSPACE.itemsize
-            + 8 * (2 * ctrl.P.size), "functions": rows}
+            "bytes_streamed_per_sample": streamed, "working_set_bytes": working_set, "functions": rows}
 
 
 def counts_in_subprocess() -> dict[str, dict]:
-    """:func:`count_preset` of every preset, from a process of its own with the kernels interpreted."""
+    """:func:`count_preset` of every preset, each in a process of its own with the kernels interpreted (as many
+    at once as there are cores; a whole run interpreted takes from seconds to a minute or two)."""
     import subprocess
+    from concurrent.futures import ThreadPoolExecutor
 
     env = {**os.environ, "PKMLAB_INTERPRETED": "1"}
-    out = subprocess.run([sys.executable, __file__, "--json"], env=env, check=True, capture_output=True, text=True)
-    return {r["preset"]: r for r in json.loads(out.stdout)}
+
+    def one(name):
+        out = subprocess.run([sys.executable, __file__, "--json", name], env=env, check=True, capture_output=True,
+                             text=True)
+        return json.loads(out.stdout)[0]
+
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        return {r["preset"]: r for r in pool.map(one, DEFAULT_RUNS)}
 
 
 def limit_per_sample(count: dict, speed: dict) -> float:
@@ -233,11 +288,14 @@ def limit_per_sample(count: dict, speed: dict) -> float:
 
 
 def main(argv=None) -> int:
+    """``operation_count.py [--json] [PRESET ...]``: every preset by default."""
+    argv = list(argv or [])
     if os.environ.get("PKMLAB_INTERPRETED") != "1":
         print("run with PKMLAB_INTERPRETED=1 (the kernels must be interpreted to count their calls)", file=sys.stderr)
         return 2
-    results = [count_preset(name) for name in DEFAULT_RUNS]
-    if argv and "--json" in argv:
+    names = [a for a in argv if not a.startswith("--")] or list(DEFAULT_RUNS)
+    results = [count_preset(name) for name in names]
+    if "--json" in argv:
         print(json.dumps(results))
         return 0
     for r in results:

@@ -939,7 +939,8 @@ def main(argv: list[str] | None = None) -> int:
     paper_loop = next((r for r in rows if r.get("key") == "sim_nominal_loop"), None)
     per_sample = paper_loop["us_per_sample"] * 1e-6 if paper_loop else None
     mech_rows, mech_checks = mechanism_bench.mechanism_rows(sys.modules[__name__], args.quick, per_sample,
-                                                            sim_checks.get("operation_count"))
+                                                            sim_checks.get("operation_counts"),
+                                                            sim_checks.get("scalar_speed"))
     rows += mech_rows
     checks["mechanisms"] = mech_checks
 

@@ -323,14 +323,16 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
 
     # arithmetic limit: the operations of one sample counted from the code that runs (operation_count)
     speed = scalar_throughput(h.time_runs)
-    count = operation_count.counts_in_subprocess()["paper"]
+    counts = operation_count.counts_in_subprocess()  # every preset's (the mechanisms' rows use them)
+    checks["operation_counts"], checks["scalar_speed"] = counts, speed
+    count = counts["paper"]
     limit_sample = operation_count.limit_per_sample(count, speed)
     limit_ms = limit_sample * (n - 1) * 1e3
     checks["operation_count"] = {"per_sample_operations": count["operations_per_sample"],
                                  "per_sample_libm_calls": count["libm_calls_per_sample"],
                                  "bytes_streamed_per_sample": count["bytes_streamed_per_sample"],
-                                 "working_set_bytes": count["working_set_bytes"], "functions": count["functions"],
-                                 **speed, "limit_per_sample_us": limit_sample * 1e6, "limit_nominal_ms": limit_ms}
+                                 "working_set_bytes": count["working_set_bytes"],
+                                 "limit_per_sample_us": limit_sample * 1e6, "limit_nominal_ms": limit_ms}
     rows.append(h.metric_row("arith_limit_nominal", "arithmetic limit, nominal case: "
                              f"{count['operations_per_sample']:.0f} operations + "
                              f"{count['libm_calls_per_sample']:.0f} libm calls per sample at "

@@ -270,6 +270,31 @@ def test_the_cli_solves_a_machine_of_general_legs_both_ways(r_pr, capsys):
         assert min(max(abs(a - b) for a, b in zip(p, pose, strict=True)) for p in poses) < 1e-9
 
 
+def test_the_executable_solves_a_machine_of_a_new_structure_interpreted(r_pr):
+    """``pkmlab ik --mechanism FILE`` started from a shell runs interpreted (no Numba), a structure that pkmlab does
+    not ship included (its kernels generated into the cache folder): the compiled kernels' solutions."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    path, model = r_pr
+    pose = [0.26, 0.17, 0.3]
+    code = ("import json, sys\nfrom pkmlab.cli import main\n"
+            f"code = main(['ik', '--mechanism', {str(path)!r}, '--json', *{list(map(str, pose))!r}], "
+            "one_shot_interpreted=True)\nprint(json.dumps({'numba': 'numba' in sys.modules, 'code': code}))")
+    env = {k: v for k, v in os.environ.items() if k != "PKMLAB_INTERPRETED"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr
+    result_text, status_text = out.stdout.rsplit("\n", 2)[:2]
+    assert json.loads(status_text) == {"numba": False, "code": 0}
+    solutions = json.loads(result_text)["solutions"]
+    assert len(solutions) == 8
+    for sol in solutions:
+        q = mm.inverse_kinematics(model, pose, tuple(sol["mode"]))
+        np.testing.assert_allclose(sol["actuators"], q[:3], rtol=0, atol=1e-14)
+
+
 def test_forward_kinematics_by_the_general_method_refuses_actuators_outside_their_strokes():
     """Two telescopic legs (strokes 0.10-0.45 m) and one R*PR leg: the general method serves the machine, and a
     leg length outside its stroke is refused before it, as for the presets."""

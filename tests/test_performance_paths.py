@@ -117,7 +117,7 @@ def test_one_sample_of_the_nominal_case_evaluates_the_model_four_times():
     """Counted in an interpreted run: the controller and the RK4 stages evaluate the model 4 times per sample
     (not 5: the first stage takes the controller's), and branch following runs 4 times (not 5)."""
     code = (f"import sys, json\nsys.path.insert(0, {str(BENCHMARKS)!r})\nimport operation_count as oc\n"
-            "r = oc.count_preset('paper')\nprint(json.dumps(r))")
+            "r = oc.count_preset('paper', samples=20)\nprint(json.dumps(r))")
     env = {**os.environ, "PKMLAB_INTERPRETED": "1"}
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, env=env).stdout
     count = json.loads(out)

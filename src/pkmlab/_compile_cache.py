@@ -26,9 +26,9 @@ from pathlib import Path
 INTERPRETED = os.environ.get("PKMLAB_INTERPRETED") == "1"
 
 
-def configure() -> Path:
-    import numba
-
+def cache_folder() -> Path:
+    """The folder of this version's compiled kernels (and of the kernels generated for new structures),
+    made if missing."""
     package = Path(__file__).resolve().parent
     digest = hashlib.sha1()
     for path in sorted(package.rglob("*.py")):
@@ -44,6 +44,14 @@ def configure() -> Path:
     except OSError:  # read-only home: fall back to the temporary folder
         cache = Path(tempfile.gettempdir()) / "pkmlab-cache" / cache.name
         cache.mkdir(parents=True, exist_ok=True)
+    return cache
+
+
+def configure() -> Path:
+    """Numba's cache set to :func:`cache_folder`."""
+    import numba
+
+    cache = cache_folder()
     numba.config.CACHE_DIR = str(cache)
     return cache
 
@@ -56,7 +64,7 @@ def _interpreted_njit(*args, **_options):
 
 
 if INTERPRETED:
-    CACHE_DIR = None
+    CACHE_DIR = cache_folder()  # (kernels generated for a new structure are kept there too)
     njit, prange = _interpreted_njit, range
 else:
     CACHE_DIR = configure()
@@ -66,7 +74,7 @@ else:
 def is_cold() -> bool:
     """True when no kernel of this version of pkmlab has been compiled and cached yet: the next
     calls compile (about a minute in all)."""
-    return CACHE_DIR is not None and not any(CACHE_DIR.rglob("*.nbi"))
+    return not INTERPRETED and not any(CACHE_DIR.rglob("*.nbi"))
 
 #: Numba options of the allocation-free kernels of the hot path (they only read and write
 #: arrays they are given, typically a workspace's). Numba's reference counting, on by

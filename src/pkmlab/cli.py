@@ -1373,10 +1373,20 @@ def _interpreted(args) -> bool:
 def _run(argv: list[str] | None, one_shot_interpreted: bool = False) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if one_shot_interpreted and _interpreted(args) and "pkmlab._compile_cache" not in sys.modules:
-        import os
+    import os
 
-        os.environ.setdefault("PKMLAB_INTERPRETED", "1")  # before any kernel is defined; the user's choice kept
+    interpreted_here = (one_shot_interpreted and _interpreted(args) and "pkmlab._compile_cache" not in sys.modules
+                        and "PKMLAB_INTERPRETED" not in os.environ)  # the user's choice kept
+    if interpreted_here:
+        os.environ["PKMLAB_INTERPRETED"] = "1"  # read when the first kernel module is imported
+    try:
+        return _command(args)
+    finally:
+        if interpreted_here:  # not passed on to anything this process starts
+            os.environ.pop("PKMLAB_INTERPRETED", None)
+
+
+def _command(args) -> int:
     try:
         _check_finite(args)
         _check_mode(args)

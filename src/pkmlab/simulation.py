@@ -943,8 +943,8 @@ def simulate(scenario: Scenario) -> SimulationResult:
     q, theta_dot, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
     d = prep.desired
     status, k_fail = k_.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
-                                          d.theta_ddot, q_plant0, q_ctrl0, plant.P, ctrl.P, prep.kind, prep.kp,
-                                          prep.kv, prep.guard, q, theta_dot, tau, s)
+                                          d.theta_ddot, q_plant0, q_ctrl0, prep.P_plant, prep.P_ctrl, prep.kind,
+                                          prep.kp, prep.kv, prep.guard, q, theta_dot, tau, s)
     pose, q = q[:, -_dof(plant):].copy(), _scenario_coordinates(scenario.model, q)
     if status != k_.OK:
         raise _loop_error(scenario, prep, status, q, k_fail)
