@@ -398,7 +398,7 @@ def test_ctrl_c_during_start_up_is_no_traceback():
     argv = [str(pkmlab_exe)] if pkmlab_exe.exists() else [sys.executable, "-m", "pkmlab.cli"]
     # the kernels compiled (PKMLAB_INTERPRETED=0: fk would otherwise run them interpreted, in a fifth of a
     # second), then interpreted (Numba never imported: the whole start-up is Python's imports)
-    for interpreted, delays in (("0", (0.3, 0.5, 0.8, 1.2, 1.6)), ("1", (0.05, 0.08, 0.11, 0.14))):
+    for interpreted, delays in (("0", (0.3, 0.5, 0.8, 1.2, 1.6)), ("1", (0.08, 0.10, 0.12, 0.14))):
         env = {**os.environ, "PKMLAB_INTERPRETED": interpreted}
         codes = []
         for delay in delays:

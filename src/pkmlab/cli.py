@@ -7,15 +7,20 @@ with ``--json``); 2 a malformed command line; 130 interrupted.
 
 from __future__ import annotations
 
-import argparse
-import json
-import math
-import re
 import sys
-from pathlib import Path
 
-from ._version import __version__
-from .errors import AssemblyError, InvalidParameterError, PkmlabError, SingularityError
+try:  # Ctrl-C while the command line itself loads (its own imports): a quiet exit, as anywhere later
+    import argparse
+    import json
+    import math
+    import re
+    from pathlib import Path
+
+    from ._version import __version__
+    from .errors import AssemblyError, InvalidParameterError, PkmlabError, SingularityError
+except KeyboardInterrupt:
+    print("pkmlab: interrupted", file=sys.stderr)
+    raise SystemExit(130) from None
 
 
 def _model(args):
