@@ -63,7 +63,7 @@ from .kinematics import (
 )
 from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
 from .outputs import atomic_file
-from .trajectory import desired_joint_motion, paper_trajectory
+from .trajectory import desired_joint_motion, joint_motion, paper_trajectory
 
 #: Columns of the per-sample time series (conventions §8).
 COLUMNS = ("t", "theta1", "theta2", "theta3", "theta1_d", "theta2_d", "theta3_d", "tau1", "tau2", "tau3",
@@ -420,7 +420,7 @@ def _best_working_mode(model: Planar3RRR, desired, t: np.ndarray, margin: float,
         if bound[m] == -np.inf or bound[m] < best_min:
             break
         try:
-            motion = desired_joint_motion(model, None, WORKING_MODES[m], t, desired=desired)
+            motion = joint_motion(model, desired, WORKING_MODES[m], t)
             s = motion.S
         except (UnreachablePoseError, SingularityError):  # judged by S alone, as before; the run reports it
             motion, s = None, inverse_kinematics(model, pose, mode=WORKING_MODES[m], on_unreachable="nan").S
@@ -651,7 +651,7 @@ def _desired_motion(scenario: Scenario, t: np.ndarray):
         return mode, motion
     if isinstance(scenario.model, MechanismModel):
         return mode, _machine_joint_motion(scenario.model, scenario.trajectory, mode, t)
-    return mode, desired_joint_motion(scenario.model, scenario.trajectory, mode, t, desired=desired)
+    return mode, joint_motion(scenario.model, desired, mode, t)
 
 
 def _machine_joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray):

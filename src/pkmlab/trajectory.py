@@ -348,18 +348,22 @@ def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_
     return -1
 
 
-def desired_joint_motion(model: Planar3RRR, trajectory, mode, t, *, desired=None) -> JointMotion:
+def desired_joint_motion(model: Planar3RRR, trajectory, mode, t) -> JointMotion:
     """Exact inverse kinematics of a trajectory and its first and second time derivatives, and the
     singularity measure ``S`` (eq. 19) along it.
 
     ``θ`` is unwrapped along ``t`` so that it is continuous (IK returns angles in (-π, π]).
-    ``desired``: the trajectory's ``(pose, pose_dot, pose_ddot)`` at ``t`` when already evaluated.
     Raises the error of :func:`~pkmlab.kinematics.inverse_kinematics` or
     :func:`~pkmlab.kinematics.platform_jacobian` for the first sample out of reach or singular.
     """
     t = np.atleast_1d(np.asarray(t, dtype=float))
-    pose, pose_dot, pose_ddot = (np.ascontiguousarray(a, dtype=float)
-                                 for a in (trajectory.desired(t) if desired is None else desired))
+    return joint_motion(model, trajectory.desired(t), mode, t)
+
+
+def joint_motion(model: Planar3RRR, desired, mode, t: np.ndarray) -> JointMotion:
+    """:func:`desired_joint_motion` from the trajectory's ``desired = (pose, pose_dot, pose_ddot)`` at the
+    times ``t`` (N,), already evaluated."""
+    pose, pose_dot, pose_ddot = (np.ascontiguousarray(a, dtype=float) for a in desired)
     mode = _mode_array(mode)
     n = t.size
     q, theta_dot, theta_ddot, det = np.empty((n, 7)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
