@@ -613,50 +613,44 @@ REDUCED = N_CONSTRAINTS - DIM
 X_COLUMN = N_CONSTRAINTS - DOF
 
 
-def _workspace_fields(N, m, n, r):
-    """The fields ``(name, type, shape)`` of :data:`WORKSPACE` for ``N`` coordinates, ``m`` constraints, ``n``
-    actuators and a reduced system of ``r`` unknowns."""
-    return [
-        ("q", np.float64, (2, N)),  # base and trial configurations
-        ("sc", np.float64, (2, N, 2)),  # their trig tables
-        ("s", np.float64, (2,)),  # their singularity measures
-        ("j_eta", np.float64, (m, N)),  # Jηq
-        ("lu", np.float64, (r, r)),  # factors of Jηφ's reduced system (the tracked point eliminated)
-        ("piv", np.int64, (r,)),
-        ("eta", np.float64, (m,)),
-        ("j_q_theta", np.float64, (N, n)),  # Jqθ (eq. 31)
-        ("q_dot", np.float64, (N,)),
-        ("bias_q", np.float64, (N,)),  # J̇qθ θ̇ (eq. 32)
-        ("gamma", np.float64, (m,)),  # J̇ηq q̇
-        ("jb", np.float64, (N_JB,)),  # the non-zeros of the bodies' Jacobians
-        ("bb", np.float64, (N_BODIES, BODY_ROWS)),  # bodies' J̇ q̇, then their accelerations at θ̈ = 0
-        ("jt", np.float64, (N_BODIES, BODY_ROWS, n)),  # the bodies' Jacobians times Jqθ
-        ("m_theta", np.float64, (n, n)),  # Mθ
-        ("c_theta", np.float64, (n,)),  # cθ = Cθ θ̇
-        ("g_theta", np.float64, (n,)),  # gθ = ∂V/∂θ
-        ("theta_ddot", np.float64, (n,)),
-        ("ldl", np.float64, (n, n)),  # factor of Mθ
-        ("lines", np.float64, (n, LINE_WIDTH)),  # the legs' lines of action
-        ("lu_base", np.float64, (r, r)),  # the same factors at the base, kept for branch following from it
-        ("piv_base", np.int64, (r,)),
-        ("j_q_theta_base", np.float64, (N, n)),  # Jqθ at the base
-        ("base_factored", np.int64, (1,)),  # 1 when the three above are the base's
-        ("top", np.float64, (DIM, r)),  # rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
-        ("top_base", np.float64, (DIM, r)),  # the same at the base
-        ("reduced", np.float64, (r, r)),  # the reduced system before factoring
-        ("work", np.float64, (m,)),  # the reduced system's right-hand side, then the tracked point's DIM values
-        ("rhs", np.float64, (m,)),
-        ("target", np.float64, (n,)),  # the actuators of a sub-step of follow_branch_in_steps
-        ("step", np.float64, (n,)),  # the actuators' step of follow_branch's predictor
-    ]
-
-
 #: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
 #: (``q[BASE]`` is the base configuration — the last accepted one, from which branch following starts —
 #: and ``q[TRIAL]`` a trial configuration). A record is passed to a function by a single pointer and its
 #: arrays have shapes known at compile time; a tuple of ~30 arrays was copied, array by array, into
 #: every call that took it (which cost about a quarter of the simulation loop's time).
-WORKSPACE = np.dtype(_workspace_fields(N_COORDINATES, N_CONSTRAINTS, N_ACTUATORS, REDUCED), align=True)
+WORKSPACE = np.dtype([
+    ("q", np.float64, (2, N_COORDINATES)),  # base and trial configurations
+    ("sc", np.float64, (2, N_COORDINATES, 2)),  # their trig tables
+    ("s", np.float64, (2,)),  # their singularity measures
+    ("j_eta", np.float64, (N_CONSTRAINTS, N_COORDINATES)),  # Jηq
+    ("lu", np.float64, (REDUCED, REDUCED)),  # factors of Jηφ's reduced system (the tracked point eliminated)
+    ("piv", np.int64, (REDUCED,)),
+    ("eta", np.float64, (N_CONSTRAINTS,)),
+    ("j_q_theta", np.float64, (N_COORDINATES, N_ACTUATORS)),  # Jqθ (eq. 31)
+    ("q_dot", np.float64, (N_COORDINATES,)),
+    ("bias_q", np.float64, (N_COORDINATES,)),  # J̇qθ θ̇ (eq. 32)
+    ("gamma", np.float64, (N_CONSTRAINTS,)),  # J̇ηq q̇
+    ("jb", np.float64, (N_JB,)),  # the non-zeros of the bodies' Jacobians
+    ("bb", np.float64, (N_BODIES, BODY_ROWS)),  # bodies' J̇ q̇, then their accelerations at θ̈ = 0
+    ("jt", np.float64, (N_BODIES, BODY_ROWS, N_ACTUATORS)),  # the bodies' Jacobians times Jqθ
+    ("m_theta", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # Mθ
+    ("c_theta", np.float64, (N_ACTUATORS,)),  # cθ = Cθ θ̇
+    ("g_theta", np.float64, (N_ACTUATORS,)),  # gθ = ∂V/∂θ
+    ("theta_ddot", np.float64, (N_ACTUATORS,)),
+    ("ldl", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # factor of Mθ
+    ("lines", np.float64, (N_ACTUATORS, LINE_WIDTH)),  # the legs' lines of action
+    ("lu_base", np.float64, (REDUCED, REDUCED)),  # the same factors at the base, kept for branch following from it
+    ("piv_base", np.int64, (REDUCED,)),
+    ("j_q_theta_base", np.float64, (N_COORDINATES, N_ACTUATORS)),  # Jqθ at the base
+    ("base_factored", np.int64, (1,)),  # 1 when the three above are the base's
+    ("top", np.float64, (DIM, REDUCED)),  # rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
+    ("top_base", np.float64, (DIM, REDUCED)),  # the same at the base
+    ("reduced", np.float64, (REDUCED, REDUCED)),  # the reduced system before factoring
+    ("work", np.float64, (N_CONSTRAINTS,)),  # the reduced system's right-hand side, then the tracked point's DIM values
+    ("rhs", np.float64, (N_CONSTRAINTS,)),
+    ("target", np.float64, (N_ACTUATORS,)),  # the actuators of a sub-step of follow_branch_in_steps
+    ("step", np.float64, (N_ACTUATORS,)),  # the actuators' step of follow_branch's predictor
+], align=True)
 
 
 @njit(cache=True)
