@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from operation_count import DEFAULT_RUNS
 
 from pkmlab import mechanism_model as mm
 from pkmlab.control import ControllerSpec
@@ -26,8 +27,8 @@ from pkmlab.scenario_io import load_scenario
 from pkmlab.simulation import paper_scenario, perturbed_model, simulate, simulate_batch
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-SCENARIO_FILES = ("nominal", "fast", "disturbed", "five_bar_circle", "3rpr_circle", "3prr_circle",
-                  "delta_pick_and_place", "stewart_motion")
+#: every preset's default run (operation_count.DEFAULT_RUNS), and the paper's other two cases
+SCENARIO_FILES = ("nominal", "fast", "disturbed", *(f for f in DEFAULT_RUNS.values() if f != "nominal"))
 
 
 def _runs() -> dict[str, object]:
@@ -43,8 +44,9 @@ def _runs() -> dict[str, object]:
 def collect() -> dict[str, np.ndarray]:
     """Every array of the runs above, by name."""
     out: dict[str, np.ndarray] = {}
+    results = {}
     for name, scenario in _runs().items():
-        result = simulate(scenario)
+        result = results[name] = simulate(scenario)
         for field in ("q", "theta_dot", "tau", "pose", "S"):
             out[f"{name}.{field}"] = np.asarray(getattr(result, field), float)
     batch = simulate_batch(_disturbed_batch(), on_error="none")  # a drawn plant may not assemble: None
@@ -54,9 +56,9 @@ def collect() -> dict[str, np.ndarray]:
         for field in ("q", "tau"):
             out[f"batch{k}.{field}"] = np.asarray(getattr(result, field), float)
     rng = np.random.default_rng(3)
-    for name in ("paper", "five_bar", "3rpr", "3prr", "delta", "stewart"):
+    for name, file in DEFAULT_RUNS.items():
         model = mm.MechanismModel.from_preset(name)
-        q = _a_configuration(name)
+        q = _middle_configuration(results[f"file_{file}"])
         theta_dot = rng.normal(0.0, 0.5, model.n_actuators)
         m_theta, c_theta, g_theta = mm.actuator_space_model(model, q, theta_dot)
         out[f"dyn_{name}.M"], out[f"dyn_{name}.c"], out[f"dyn_{name}.g"] = m_theta, c_theta, g_theta
@@ -69,14 +71,11 @@ def _disturbed_batch() -> list:
     return [base.replace(plant=perturbed_model(base.model, rng, 0.15)) for _ in range(12)]
 
 
-def _a_configuration(name: str) -> np.ndarray:
-    """The middle of the preset's default run, in its description's coordinates."""
-    files = {"paper": "nominal", "five_bar": "five_bar_circle", "3rpr": "3rpr_circle", "3prr": "3prr_circle",
-             "delta": "delta_pick_and_place", "stewart": "stewart_motion"}
-    scenario = load_scenario(EXAMPLES / f"{files[name]}.toml")
-    result = simulate(scenario)
+def _middle_configuration(result) -> np.ndarray:
+    """The middle of a run, in its machine's description's coordinates."""
+    model = result.scenario.model
     q = np.asarray(result.q[len(result.q) // 2], float)
-    return q if isinstance(scenario.model, mm.MechanismModel) else mm.coordinates_from_3rrr(scenario.model, q)
+    return q if isinstance(model, mm.MechanismModel) else mm.coordinates_from_3rrr(model, q)
 
 
 def compare(old: dict[str, np.ndarray], new: dict[str, np.ndarray], rtol: float) -> int:
