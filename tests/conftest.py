@@ -41,6 +41,24 @@ def run(capsys, *argv) -> tuple[int, str, str]:
     return code, out, err
 
 
+def one_shot(*argv: str) -> tuple[dict, bool]:
+    """``pkmlab ARGV --json`` in a new process started as the executable starts it (one-shot commands
+    interpreted): its JSON result, and whether Numba was imported. Fails on a non-zero exit or a traceback."""
+    import json
+    import subprocess
+
+    code = ("import json, sys\nfrom pkmlab.cli import main\n"
+            f"code = main({[str(a) for a in argv] + ['--json']!r}, one_shot_interpreted=True)\n"
+            "print(json.dumps({'numba': 'numba' in sys.modules, 'code': code}))")
+    env = {k: v for k, v in os.environ.items() if k != "PKMLAB_INTERPRETED"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr
+    result_text, status_text = out.stdout.rsplit("\n", 2)[:2]
+    status = json.loads(status_text)
+    assert status["code"] == 0, out.stderr
+    return json.loads(result_text), status["numba"]
+
+
 def assert_user_error(code: int, out: str, err: str) -> str:
     """Exit 1, nothing on stdout, exactly one line on stderr, no traceback; returns the message."""
     assert code == 1

@@ -273,22 +273,13 @@ def test_the_cli_solves_a_machine_of_general_legs_both_ways(r_pr, capsys):
 def test_the_executable_solves_a_machine_of_a_new_structure_interpreted(r_pr):
     """``pkmlab ik --mechanism FILE`` started from a shell runs interpreted (no Numba), a structure that pkmlab does
     not ship included (its kernels generated into the cache folder): the compiled kernels' solutions."""
-    import json
-    import os
-    import subprocess
-    import sys
+    from conftest import one_shot
 
     path, model = r_pr
     pose = [0.26, 0.17, 0.3]
-    code = ("import json, sys\nfrom pkmlab.cli import main\n"
-            f"code = main(['ik', '--mechanism', {str(path)!r}, '--json', *{list(map(str, pose))!r}], "
-            "one_shot_interpreted=True)\nprint(json.dumps({'numba': 'numba' in sys.modules, 'code': code}))")
-    env = {k: v for k, v in os.environ.items() if k != "PKMLAB_INTERPRETED"}
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-    assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr
-    result_text, status_text = out.stdout.rsplit("\n", 2)[:2]
-    assert json.loads(status_text) == {"numba": False, "code": 0}
-    solutions = json.loads(result_text)["solutions"]
+    result, numba_imported = one_shot("ik", "--mechanism", path, *pose)
+    assert not numba_imported
+    solutions = result["solutions"]
     assert len(solutions) == 8
     for sol in solutions:
         q = mm.inverse_kinematics(model, pose, tuple(sol["mode"]))

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import one_shot
 
 import pkmlab
 from pkmlab import mechanism_model as mm
@@ -30,22 +31,8 @@ from pkmlab.simulation import paper_scenario, simulate
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
-def _one_shot(*argv: str) -> tuple[dict, bool]:
-    """``pkmlab ARGV --json`` in a new process started as the executable starts it: its result, and whether
-    Numba was imported."""
-    code = ("import json, sys\nfrom pkmlab.cli import main\n"
-            f"code = main({list(argv) + ['--json']!r}, one_shot_interpreted=True)\n"
-            "print(json.dumps({'numba': 'numba' in sys.modules, 'code': code}))")
-    env = {k: v for k, v in os.environ.items() if k != "PKMLAB_INTERPRETED"}
-    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, env=env).stdout
-    result_text, status_text = out.rsplit("\n", 2)[0], out.rsplit("\n", 2)[1]
-    status = json.loads(status_text)
-    assert status["code"] == 0
-    return json.loads(result_text), status["numba"]
-
-
 def test_ik_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels():
-    result, numba_imported = _one_shot("ik", "0.2", "0.21", "0")
+    result, numba_imported = one_shot("ik", "0.2", "0.21", "0")
     assert not numba_imported
     ik = inverse_kinematics(pkmlab.Planar3RRR.paper(), [0.2, 0.21, 0.0])
     assert len(result["solutions"]) == 8
@@ -55,7 +42,7 @@ def test_ik_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels
 
 def test_fk_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels():
     theta = [0.189012, 3.112031, -2.642405]
-    result, numba_imported = _one_shot("fk", *map(str, theta))
+    result, numba_imported = one_shot("fk", *map(str, theta))
     assert not numba_imported
     fk = forward_kinematics(pkmlab.Planar3RRR.paper(), theta)
     assert len(result["solutions"]) == len(fk)
@@ -65,7 +52,7 @@ def test_fk_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels
 
 
 def test_ik_of_a_described_machine_is_interpreted_and_equals_the_compiled_kernels():
-    result, numba_imported = _one_shot("ik", "--mechanism", "delta", "0.05", "-0.02", "-0.7")
+    result, numba_imported = one_shot("ik", "--mechanism", "delta", "0.05", "-0.02", "-0.7")
     assert not numba_imported
     model = mm.MechanismModel.from_preset("delta")
     for solution in result["solutions"]:
