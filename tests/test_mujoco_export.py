@@ -139,8 +139,7 @@ def test_mujocos_soft_constraints_agree_to_their_impedance(name):
     model = MechanismModel.from_preset(name)
     n = model.n_actuators
     errors = {}
-    for label, options, impedance in (("default", {}, 0.9),
-                                      ("stiff", {"solref": mx.STIFF_SOLREF, "solimp": mx.STIFF_SOLIMP}, 0.9999)):
+    for label, options, impedance in (("soft", {"closures": "soft"}, 0.9), ("stiff", {"closures": "stiff"}, 0.9999)):
         m, d = mx.load_mujoco(model, **options)
         errors[label] = []
         for q, q_dot, tau in _states(model, 3, 3):
@@ -150,7 +149,7 @@ def test_mujocos_soft_constraints_agree_to_their_impedance(name):
             assert error < 6 * (1 - impedance) / impedance
             errors[label].append(error)
     # the error scales with (1 - d)/d: about 1,100 times smaller at the stiffest setting
-    ratio = np.array(errors["default"]) / np.array(errors["stiff"])
+    ratio = np.array(errors["soft"]) / np.array(errors["stiff"])
     assert np.all((500 < ratio) & (ratio < 2500))
 
 
@@ -171,7 +170,7 @@ def test_export_mjcf_from_the_command_line(tmp_path, capsys):
     from pkmlab.cli import main
 
     out = tmp_path / "delta.xml"
-    assert main(["export-mjcf", "--mechanism", "delta", "--pose", "0.02", "-0.03", "-0.8", "--stiff", "--out",
+    assert main(["export-mjcf", "--mechanism", "delta", "--pose", "0.02", "-0.03", "-0.8", "--out",
                  str(out), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     m = mujoco.MjModel.from_xml_path(str(out))
@@ -180,7 +179,7 @@ def test_export_mjcf_from_the_command_line(tmp_path, capsys):
     mujoco.mj_forward(m, d)
     assert np.allclose(d.qpos, report["qpos"]) and np.abs(d.efc_pos).max() < 1e-12
     assert np.allclose(report["pose"], [0.02, -0.03, -0.8]) and report["approximations"]
-    assert np.allclose(m.eq_solimp[:, 0], mx.STIFF_SOLIMP[0])
+    assert np.all(m.eq_solimp[:, 0] == 0.9999)  # stiff closures by default
     # bad input: one line, nothing written
     bad = tmp_path / "bad.xml"
     assert main(["export-mjcf", "--mechanism", "delta", "--pose", "0", "0", "-0.2", "--out", str(bad)]) == 1
@@ -188,3 +187,96 @@ def test_export_mjcf_from_the_command_line(tmp_path, capsys):
     with pytest.raises(SystemExit) as usage:  # a malformed command line: usage, exit code 2
         main(["export-mjcf", "--mechanism", "delta", "--pose", "0", "0", "--out", str(bad)])
     assert usage.value.code == 2 and "--pose (x, y, z): 3 numbers" in capsys.readouterr().err and not bad.exists()
+
+
+#: The stiffest loop closures MuJoCo accepts: impedance at its cap mjMAXIMP = 0.9999 (width 0.001, midpoint
+#: 0.5, power 2 as MuJoCo's own), time constant 2 ms (twice a 1 ms step), damping ratio 1.
+STIFF = {"solref": [0.002, 1.0], "solimp": [0.9999, 0.9999, 0.001, 0.5, 2.0]}
+
+
+def _closures(text: str) -> tuple[list[dict], list[str]]:
+    """The ``connect`` constraints' solref and solimp (as numbers), and the comments inside ``<equality>``."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(text, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    equality = root.find("equality")
+    connects = [{key: [float(v) for v in c.get(key).split()] for key in ("solref", "solimp")}
+                for c in equality.iter("connect")]
+    comments = [c.text for c in equality if c.tag is ET.Comment]
+    return connects, comments
+
+
+def _mujocos_own_defaults():
+    """solref and solimp MuJoCo itself gives a connect constraint that sets neither."""
+    m = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body name="b"><freejoint/><geom size="0.1"/></body></worldbody>'
+        '<equality><connect body1="b" anchor="0 0 0"/></equality></mujoco>')
+    return {"solref": m.eq_solref[0].tolist(), "solimp": m.eq_solimp[0].tolist()}
+
+
+@pytest.mark.parametrize("name", ["five_bar", "delta"])
+def test_the_export_closes_its_loops_stiffly_by_default_and_says_so(name):
+    model = MechanismModel.from_preset(name)
+    text = mx.mjcf(model)
+    connects, comments = _closures(text)
+    assert len(connects) == len(model.description.legs)
+    assert all(c == STIFF for c in connects)
+    m = mujoco.MjModel.from_xml_string(text)  # and MuJoCo reads them so
+    assert np.all(m.eq_solref == STIFF["solref"]) and np.all(m.eq_solimp == STIFF["solimp"])
+    (comment,) = comments  # one comment, inside <equality>, naming the values and why
+    assert 'solref="0.002 1.0" solimp="0.9999 0.9999 0.001 0.5 2.0"' in comment
+    assert "stiff" in comment and "rigid machine" in comment
+    assert mx.mjcf(model, closures="stiff") == text
+
+
+@pytest.mark.parametrize("name", ["five_bar", "delta"])
+def test_soft_closures_are_mujocos_own_defaults(name):
+    model = MechanismModel.from_preset(name)
+    text = mx.mjcf(model, closures="soft")
+    connects, (comment,) = _closures(text)
+    defaults = _mujocos_own_defaults()
+    assert all(c == defaults for c in connects)
+    m = mujoco.MjModel.from_xml_string(text)
+    assert np.allclose(m.eq_solref, defaults["solref"]) and np.allclose(m.eq_solimp, defaults["solimp"])
+    assert "MuJoCo's defaults" in comment and "may open by about" in comment and "mm" in comment
+    assert 'solimp="0.9 0.95 0.001 0.5 2.0"' in comment
+
+
+def test_closures_given_by_value_are_said_to_be():
+    model = MechanismModel.from_preset("five_bar")
+    text = mx.mjcf(model, solimp=(0.99, 0.99, 0.001, 0.5, 2.0))
+    connects, (comment,) = _closures(text)
+    assert all(c == {"solref": STIFF["solref"], "solimp": [0.99, 0.99, 0.001, 0.5, 2.0]} for c in connects)
+    assert comment.startswith(" Loop closures (custom)")
+
+
+@pytest.mark.parametrize("bad", ["rigid", "Stiff", "", None, True])
+def test_a_bad_closures_name_is_refused(bad):
+    with pytest.raises(InvalidParameterError, match=r"^closures must be 'stiff' or 'soft', got "):
+        mx.mjcf(MechanismModel.from_preset("five_bar"), closures=bad)
+
+
+def test_export_mjcf_closures_on_the_command_line(tmp_path, capsys):
+    from conftest import assert_user_error, run
+
+    files = {}
+    for label, flags in (("default", []), ("stiff", ["--closures", "stiff"]), ("soft", ["--closures", "soft"]),
+                         ("deprecated", ["--stiff"])):
+        files[label] = out = tmp_path / f"{label}.xml"
+        code, _out, err = run(capsys, "export-mjcf", "--mechanism", "five_bar", "--out", out, *flags)
+        assert code == 0
+        if label == "deprecated":  # still accepted, one note on stderr: it is the default now
+            (note,) = err.splitlines()
+            assert note.startswith("pkmlab export-mjcf: note: --stiff is deprecated") and "default" in note
+        else:
+            assert err == ""
+    assert all(c == STIFF for c in _closures(files["default"].read_text())[0])
+    assert all(c == _mujocos_own_defaults() for c in _closures(files["soft"].read_text())[0])
+    assert files["stiff"].read_text() == files["default"].read_text() == files["deprecated"].read_text()
+    # a bad value, or the deprecated flag against --closures soft: one line, exit 1, no file
+    for flags, words in ((["--closures", "rigid"], "--closures must be stiff or soft, got 'rigid'"),
+                         (["--closures", "STIFF"], "got 'STIFF'"),
+                         (["--stiff", "--closures", "soft"], "--stiff")):
+        bad = tmp_path / "bad.xml"
+        message = assert_user_error(*run(capsys, "export-mjcf", "--mechanism", "five_bar", "--out", bad, *flags))
+        assert words in message and not bad.exists()

@@ -9,9 +9,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._validate import as_count, as_mode, as_real
 from .errors import InvalidParameterError, shown
 from .geometry import WORKING_MODES, Planar3RRR  # noqa: F401 (the examples below use it)
-from .kinematics import _count, _mode_array, _model, _real, inverse_kinematics
+from .kinematics import _model, inverse_kinematics
 
 
 @dataclass(frozen=True)
@@ -87,8 +88,8 @@ def _axis(name: str, bounds, default, resolution: int) -> np.ndarray:
 
 def _grid(model, alpha, x_range, y_range, resolution, progress) -> tuple[np.ndarray, np.ndarray, float]:
     """Validated grid axes ``x``, ``y`` and orientation for the maps below."""
-    _count("resolution", resolution, 2, MAX_RESOLUTION)
-    alpha = _real("alpha", alpha)
+    as_count("resolution", resolution, 2, MAX_RESOLUTION)
+    alpha = as_real("alpha", alpha)
     if progress is not None and not callable(progress):
         raise InvalidParameterError(f"progress must be a function of the number of rows done, got {shown(progress)}")
     default_x, default_y = default_extent(model if _is_machine(model) else _model(model))
@@ -154,7 +155,7 @@ def singularity_map(
         _planar(model, "singularity_map")
         x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
         return SingularityMap(x, y, _machine_rows(model, x, y, alpha, [mode], progress)[..., 0], alpha, mode)
-    mode = tuple(int(m) for m in _mode_array((1, 1, 1) if mode is None else mode))
+    mode = tuple(int(m) for m in as_mode((1, 1, 1) if mode is None else mode))
     x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
     s, _unreachable = _inverse_kinematics_rows(model, x, y, alpha, mode, progress)
     return SingularityMap(x, y, s, alpha, mode)
@@ -264,7 +265,7 @@ def spatial_workspace(model, mode=None, z_levels=None, resolution: int = 121, x_
     mode = modes[0] if mode is None else tuple(int(v) for v in mode)
     if mode not in modes:
         raise InvalidParameterError(f"mode must be one of {modes} for the {m.name}, got {mode}")
-    resolution = _count("resolution", resolution, 2, 2001)
+    resolution = as_count("resolution", resolution, 2, 2001)
     box = spatial_extent(m)
     extra = list(orientation)[:m.dof - 3]
 

@@ -465,13 +465,16 @@ def cmd_simulate(args) -> dict:
     progress = _status_messages(args)
     mujoco = None
     if args.plant == "mujoco":
-        mujoco = {"timestep": args.mujoco_timestep, "integrator": args.mujoco_integrator, "stiff": args.mujoco_stiff}
+        closures = _closures(args, "--mujoco-closures", args.mujoco_closures, "--mujoco-stiff", args.mujoco_stiff)
+        mujoco = {"timestep": args.mujoco_timestep, "integrator": args.mujoco_integrator, "closures": closures}
         try:
             import mujoco as _mujoco  # noqa: F401
         except ImportError:
             raise PkmlabError("--plant mujoco needs MuJoCo: pip install 'pkmlab[mujoco]'") from None
-    elif args.mujoco_timestep is not None or args.mujoco_stiff or args.mujoco_integrator != "RK4":
-        raise InvalidParameterError("--mujoco-timestep, --mujoco-integrator and --mujoco-stiff go with --plant mujoco")
+    elif (args.mujoco_timestep is not None or args.mujoco_closures is not None or args.mujoco_stiff
+          or args.mujoco_integrator != "RK4"):
+        raise InvalidParameterError("--mujoco-timestep, --mujoco-integrator and --mujoco-closures (or the deprecated "
+                                    "--mujoco-stiff) go with --plant mujoco")
     summary = simulation_report(scenario, args.out, figures=not args.no_figures, progress=progress,
                                 source=args.scenario, source_text=text, note=_note(args), mujoco=mujoco)
     if not args.json:
@@ -757,6 +760,20 @@ def _spatial_workspace(args, model, out: Path) -> dict:
     return {"mode": list(ws.mode), "resolution": resolution, "slices": slices, "figure": str(out)}
 
 
+def _closures(args, option: str, value: str | None, deprecated: str, deprecated_given: bool) -> str:
+    """The loop closures ``option`` asks for: ``stiff`` (the default) or ``soft``, anything else refused in one
+    line. ``deprecated``, the old flag for stiff closures (now the default), does nothing but say so on stderr."""
+    closures = "stiff" if value is None else value
+    if closures not in ("stiff", "soft"):
+        raise InvalidParameterError(f"{option} must be stiff or soft, got {value!r}")
+    if deprecated_given:
+        if closures == "soft":
+            raise InvalidParameterError(f"{deprecated} (stiff closures) contradicts {option} soft: give {option} only")
+        print(f"pkmlab {args.command}: note: {deprecated} is deprecated and does nothing: stiff loop closures are "
+              f"now the default ({option} soft for MuJoCo's own)", file=sys.stderr)
+    return closures
+
+
 def cmd_export_mjcf(args) -> dict:
     """``export-mjcf``: the machine as a MuJoCo model (MJCF), at the pose ``--pose`` (its configuration in
     ``--mode``) or at its home configuration (:func:`pkmlab.mujoco_export.home_configuration`)."""
@@ -764,6 +781,7 @@ def cmd_export_mjcf(args) -> dict:
     from . import mujoco_export as mx
     from .mechanism_model import MechanismModel
 
+    closures = _closures(args, "--closures", args.closures, "--stiff", args.stiff)
     if args.mechanism:
         model = _mechanism(args)
     else:
@@ -779,9 +797,7 @@ def cmd_export_mjcf(args) -> dict:
             raise InvalidParameterError(f"--mode must be one of {', '.join(_signs(m) for m in modes)} for a "
                                         f"{model.description.notation}, got {_signs(mode)}")
         q = mm.inverse_kinematics(model, args.pose, mode)
-    options = {"timestep": args.timestep, "integrator": args.integrator}
-    if args.stiff:
-        options.update(solref=mx.STIFF_SOLREF, solimp=mx.STIFF_SOLIMP)
+    options = {"timestep": args.timestep, "integrator": args.integrator, "closures": closures}
     q = mx.home_configuration(model) if q is None else q
     text = mx.mjcf(model, q, **options)
     with _Staged(out) as temps:
@@ -1109,8 +1125,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "time; default the sample time or 1 ms, whichever is smaller")
     p.add_argument("--mujoco-integrator", choices=("RK4", "implicitfast", "implicit", "Euler"), default="RK4",
                    help="MuJoCo's integrator, default RK4")
-    p.add_argument("--mujoco-stiff", action="store_true", help="MuJoCo's stiffest loop closures (solimp 0.9999, "
-                   "solref 2 ms) instead of its defaults")
+    p.add_argument("--mujoco-closures", metavar="stiff|soft", help="MuJoCo's loop closures: stiff (default: "
+                   "solimp 0.9999, solref 2 ms, they behave like the rigid machine) or soft (MuJoCo's defaults: the "
+                   "loops open by up to a few mm)")
+    p.add_argument("--mujoco-stiff", action="store_true", help="deprecated, does nothing: stiff closures are the "
+                   "default")
     mechanism(p)
     p.set_defaults(func=cmd_simulate)
 
@@ -1213,8 +1232,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pose", nargs="+", type=float, metavar="POSE", help="the configuration of the keyframe "
                    "'pkmlab' (as ik takes it); default: the pose of largest |S| on a grid")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode of --pose (default the first)")
-    p.add_argument("--stiff", action="store_true", help="the stiffest loop closures MuJoCo accepts (solimp 0.9999, "
-                   "solref 2 ms) instead of its defaults")
+    p.add_argument("--closures", metavar="stiff|soft", help="the loop closures: stiff (default: the stiffest "
+                   "MuJoCo accepts, solimp 0.9999, solref 2 ms; they behave like the rigid machine) or soft "
+                   "(MuJoCo's defaults: the loops open by up to a few mm)")
+    p.add_argument("--stiff", action="store_true", help="deprecated, does nothing: stiff closures are the default")
     p.add_argument("--timestep", type=float, default=0.001, metavar="DT", help="MuJoCo's time step (s), default 1 ms")
     p.add_argument("--integrator", choices=("RK4", "implicitfast", "implicit", "Euler"), default="RK4",
                    help="MuJoCo's integrator, default RK4")
@@ -1282,7 +1303,7 @@ def _check_mode(args) -> None:
     tokens = getattr(args, "mode", None)
     if tokens is None:
         return
-    from .kinematics import _mode_array
+    from ._validate import as_mode
 
     if getattr(args, "mechanism", None) is not None:  # any number of signs: the machine decides
         text = "".join(tokens).replace("+1", "+").replace("-1", "-").replace("1", "+")
@@ -1295,7 +1316,7 @@ def _check_mode(args) -> None:
     if len(tokens) not in (1, 3):
         args.parser.error(f"argument --mode: expected three signs (+ - +) or one word (+-+), got {' '.join(tokens)}")
     try:
-        args.mode = tuple(int(v) for v in _mode_array(tokens[0] if len(tokens) == 1 else tokens))
+        args.mode = tuple(int(v) for v in as_mode(tokens[0] if len(tokens) == 1 else tokens))
     except InvalidParameterError:
         raise InvalidParameterError(f"--mode: a working mode is three signs such as + - + (or one word such as "
                                     f"+-+), got {' '.join(tokens)}") from None

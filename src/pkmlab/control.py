@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._validate import as_real
 from .errors import InvalidParameterError, shown
-from .kinematics import _real
 
 COMPUTED_TORQUE = 0
 PD = 1
@@ -48,9 +48,9 @@ class ControllerSpec:
         if not isinstance(self.kind, str) or self.kind not in CONTROLLER_TYPES:
             raise InvalidParameterError(f"controller kind must be one of {sorted(CONTROLLER_TYPES)}, "
                                         f"got {shown(self.kind)}")
-        _real("controller kp", self.kp, "non-negative")
+        as_real("controller kp", self.kp, "non-negative")
         if self.kv is not None:
-            _real("controller kv", self.kv, "non-negative")
+            as_real("controller kv", self.kv, "non-negative")
 
     @property
     def velocity_gain(self) -> float:

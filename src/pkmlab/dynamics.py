@@ -37,8 +37,9 @@ from . import (
     lagrangian,
 )
 from ._compile_cache import njit
+from ._validate import as_batch, as_broadcast, as_pair
 from .geometry import Planar3RRR
-from .kinematics import _batch, _broadcast, _model, _pair, _require_regular
+from .kinematics import _model, _require_regular
 from .mechanism_model import MechanismModel, coordinates_from_3rrr
 from .mechanisms import rrr3
 
@@ -108,7 +109,7 @@ def _coriolis_theta_batch(qs, theta_dots, P, out, ok):
 
 # ------------------------------------------------------------------ full configuration space
 def _full_space(model, q, q_dot):
-    qs, qds, shape = _pair("q", q, 7, "q_dot", q_dot, 7)
+    qs, qds, shape = as_pair("q", q, 7, "q_dot", q_dot, 7)
     n = qs.shape[0]
     M = np.empty((n, 7, 7))
     C = np.empty((n, 7, 7))
@@ -120,7 +121,7 @@ def _full_space(model, q, q_dot):
 
 def mass_matrix(model: Planar3RRR, q) -> np.ndarray:
     """``M(q)`` (..., 7, 7) of the seven bodies in the full coordinates (eqs. 20–23)."""
-    qs, shape = _batch("q", q, 7)
+    qs, shape = as_batch("q", q, 7)
     _s, M, _C, _h, _T = _full_space(model, qs, np.zeros_like(qs))
     return M.reshape(*shape, 7, 7)
 
@@ -144,7 +145,7 @@ def kinetic_energy(model: Planar3RRR, q, q_dot) -> np.ndarray:
 
 
 def _constrained(model, q, q_dot, tau, explicit=False):
-    qs, qds, taus, shape = _broadcast(("q", q, 7), ("q_dot", q_dot, 7), ("tau", tau, 3))
+    qs, qds, taus, shape = as_broadcast(("q", q, 7), ("q_dot", q_dot, 7), ("tau", tau, 3))
     n = qs.shape[0]
     qdd = np.empty((n, 7))
     lam = np.empty((n, 4))
@@ -175,7 +176,7 @@ def lagrange_multipliers(model: Planar3RRR, q, q_dot, tau) -> np.ndarray:
 # ------------------------------------------------------------------ actuator space
 def actuator_space_model(model: Planar3RRR, q, theta_dot) -> tuple[np.ndarray, np.ndarray]:
     """``(Mθ, Cθ θ̇)``: ``Mθ = Jqθᵀ M Jqθ`` (..., 3, 3) and ``Jqθᵀ (M J̇qθ + C Jqθ) θ̇`` (..., 3), eq. (35)."""
-    qs, tds, shape = _pair("q", q, 7, "theta_dot", theta_dot, 3)
+    qs, tds, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
     m, c = _reduced_model(model, qs, tds, shape, "the actuator-space model")
     return m.reshape(*shape, 3, 3), c.reshape(*shape, 3)
 
@@ -197,7 +198,7 @@ def _reduced_model(model, qs, theta_dots, shape, what):
 
 def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarray:
     """``Cθ = Jqθᵀ (M J̇qθ + C Jqθ)`` (..., 3, 3) as a matrix, with ``C`` from eq. (24)."""
-    qs, tds, shape = _pair("q", q, 7, "theta_dot", theta_dot, 3)
+    qs, tds, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
     out = np.empty((qs.shape[0], 3, 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
     _coriolis_theta_batch(qs, tds, _model(model).packed, out, ok)
@@ -207,13 +208,13 @@ def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarra
 
 def inverse_dynamics(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
     """Actuator torques ``τ = Mθ θ̈ + Cθ θ̇`` (..., 3) that produce ``θ̈`` (eq. 35)."""
-    qs, tds, tdds, shape = _broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("theta_ddot", theta_ddot, 3))
+    qs, tds, tdds, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("theta_ddot", theta_ddot, 3))
     m_theta, c_theta = actuator_space_model(model, qs.reshape(*shape, 7), tds.reshape(*shape, 3))
     return np.einsum("...ij,...j->...i", m_theta, tdds.reshape(*shape, 3)) + c_theta
 
 
 def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
     """Actuated accelerations ``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (..., 3) under torques ``τ`` (eq. 35)."""
-    qs, tds, taus, shape = _broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("tau", tau, 3))
+    qs, tds, taus, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("tau", tau, 3))
     m, c = _reduced_model(model, qs, tds, shape, "the forward dynamics")
     return np.linalg.solve(m, (taus - c)[..., None])[..., 0].reshape(*shape, 3)

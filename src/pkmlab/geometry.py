@@ -48,6 +48,9 @@ PASSIVE_COM = 38  # 6
 PLATFORM_COM = 44  # 2: platform frame
 N_PACKED = 46
 
+#: The longest platform side accepted (m): far beyond any machine, far below the float range.
+MAX_LENGTH = 1e100
+
 #: Working modes of inverse kinematics, in the order pkmlab reports them (conventions §3).
 WORKING_MODES = np.array(
     [(s1, s2, s3) for s1 in (1, -1) for s2 in (1, -1) for s3 in (1, -1)], dtype=np.int64
@@ -196,6 +199,10 @@ class Planar3RRR:
             b = 0.52 if b is None else b
             b = _check_number("b", b, positive=True)
             base_points = [(0.0, 0.0), (b, 0.0), (b / 2, math.sqrt(3) / 2 * b)]
+        # the platform's vertices and centroid are sums of multiples of a: a side near the float range
+        # would overflow there and be reported under their names instead of its own
+        if _check_number("a (platform side)", a, positive=True) > MAX_LENGTH:
+            raise InvalidParameterError(f"a (platform side) must be at most {MAX_LENGTH:g} m, got {float(a):g}")
         return cls(
             base_points=base_points,
             active_lengths=l,

@@ -21,8 +21,6 @@ Examples
 
 from __future__ import annotations
 
-import math
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +30,7 @@ from . import (
     closed_chain,
 )
 from ._compile_cache import njit
+from ._validate import as_batch, as_broadcast, as_choice, as_mode, as_pair, as_real, index_text
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError, shown
 from .geometry import WORKING_MODES, Planar3RRR
 from .mechanisms import rrr3
@@ -60,115 +59,12 @@ __all__ = [
 ]
 
 
-# ------------------------------------------------------------------ input handling
-def _batch(name: str, value, n: int, *, single: bool = False) -> tuple[np.ndarray, tuple[int, ...]]:
-    """``value`` as a C-contiguous ``(N, n)`` float array, and its leading shape.
-
-    ``single=True`` accepts exactly one vector, shape ``(n,)`` (the leading shape is then ``()``).
-    """
-    complex_ = getattr(value, "dtype", None) is not None and np.dtype(value.dtype).kind == "c"
-    try:
-        if complex_:  # NumPy would drop the imaginary part with a mere warning
-            raise TypeError
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise InvalidParameterError(f"{name} must be real numbers, got {shown(value)}") from None
-    if single and arr.shape != (n,):
-        raise InvalidParameterError(f"{name} must be {n} numbers (shape ({n},)), got shape {arr.shape}")
-    if arr.ndim == 0 or arr.shape[-1] != n:
-        raise InvalidParameterError(f"{name} must have {n} components (shape (..., {n})), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise InvalidParameterError(f"{name} must be finite, got {arr[tuple(bad)]} at index {tuple(bad.tolist())}")
-    return np.ascontiguousarray(arr.reshape(-1, n)), arr.shape[:-1]
-
-
-def _broadcast(*specs) -> tuple:
-    """Validate ``(name, value, n)`` arrays and broadcast their leading shapes together.
-
-    Returns each as a C-contiguous ``(N, n)`` array, then the common leading shape.
-    """
-    arrays, shapes = [], []
-    for name, value, n in specs:
-        arr, shape = _batch(name, value, n)
-        arrays.append((arr, n))
-        shapes.append(shape)
-    try:
-        shape = np.broadcast_shapes(*shapes)
-    except ValueError:
-        listing = " and ".join(f"{spec[0]} {s}" for spec, s in zip(specs, shapes, strict=True))
-        raise InvalidParameterError(f"{listing} do not broadcast") from None
-    full = [
-        np.ascontiguousarray(np.broadcast_to(arr.reshape(*s, n), (*shape, n)).reshape(-1, n))
-        for (arr, n), s in zip(arrays, shapes, strict=True)
-    ]
-    return (*full, shape)
-
-
-def _pair(name_a: str, a, n_a: int, name_b: str, b, n_b: int):
-    return _broadcast((name_a, a, n_a), (name_b, b, n_b))
-
-
-def _index_text(flat: int, shape: tuple[int, ...]) -> str:
-    return "" if shape == () else f" at index {tuple(int(i) for i in np.unravel_index(flat, shape))}"
-
-
-def _mode_array(mode, name: str = "mode", count: int = 3) -> np.ndarray:
-    """A working mode as an int64 array of ``count`` signs (three for the 3-RRR), from ``"+-+"``,
-    ``("+", "-", "+")``, ``(1, -1, 1)``..."""
-    symbols = {"+": 1, "-": -1, "+1": 1, "-1": -1, "1": 1}
-    try:
-        values = [symbols.get(m, m) if isinstance(m, str) else m for m in mode]
-        # True/False are slips (a mask?), not signs, though Python counts True as 1
-        arr = None if any(isinstance(v, (bool, np.bool_)) for v in values) else np.asarray(values, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        arr = None
-    if arr is None or arr.shape != (count,) or not np.all(np.isin(arr, (1, -1))):
-        many = "three" if count == 3 else count
-        raise InvalidParameterError(f"{name} must be {many} signs such as (1, -1, 1) or '+-+', got {shown(mode)}")
-    return arr.astype(np.int64)
-
-
 def _model(model, name: str = "model") -> Planar3RRR:
     """``model`` itself if it is a :class:`Planar3RRR`: anything else would fail deep inside, unnamed."""
     if not isinstance(model, Planar3RRR):
         raise InvalidParameterError(f"{name} must be a Planar3RRR (e.g. Planar3RRR.paper()), "
                                     f"got {type(model).__name__} {shown(model, 50)}")
     return model
-
-
-def _real(name: str, value, sign: str = "") -> float:
-    """A scalar option as a finite float, ``sign`` ``"positive"`` or ``"non-negative"`` when required.
-
-    Bools, strings and arrays are refused, not converted: ``True`` or ``"0.1"`` are slips, not numbers.
-    """
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
-    v = math.nan
-    if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
-        try:
-            v = float(value)
-        except OverflowError:  # an int beyond the float range
-            v = math.inf
-    if not math.isfinite(v) or (sign == "positive" and v <= 0) or (sign == "non-negative" and v < 0):
-        raise InvalidParameterError(f"{name} must be a {sign or 'finite'} number, got {shown(value)}")
-    return v
-
-
-def _count(name: str, value, low: int = 1, high: int | None = None) -> int:
-    """An integer option within ``[low, high]`` (bools refused)."""
-    ok = isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
-    if not ok or value < low or (high is not None and value > high):
-        limits = f"at least {low}" if high is None else f"from {low} to {high}"
-        raise InvalidParameterError(f"{name} must be an integer {limits}, got {shown(value)}")
-    return int(value)
-
-
-def _choice(name: str, value, choices: tuple[str, ...]) -> str:
-    """A string option among ``choices`` (an array or a dict is refused, not compared elementwise)."""
-    if not isinstance(value, str) or value not in choices:
-        raise InvalidParameterError(f"{name} must be {' or '.join(map(repr, choices))}, got {shown(value)}")
-    return value
 
 
 # ------------------------------------------------------------------ compiled batch drivers
@@ -282,9 +178,9 @@ def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: st
     -------
     InverseKinematicsSolution
     """
-    _choice("on_unreachable", on_unreachable, ("raise", "nan"))
-    poses, shape = _batch("pose", pose, 3)
-    modes = WORKING_MODES if mode is None else _mode_array(mode)[None, :]
+    as_choice("on_unreachable", on_unreachable, ("raise", "nan"))
+    poses, shape = as_batch("pose", pose, 3)
+    modes = WORKING_MODES if mode is None else as_mode(mode)[None, :]
     q = np.empty((poses.shape[0], modes.shape[0], 7))
     unreachable = np.zeros((poses.shape[0], modes.shape[0]), dtype=np.int64)
     _inverse_kinematics_batch(poses, modes, _model(model).packed, q, unreachable)
@@ -329,7 +225,7 @@ def _unreachable_error(model, pose, mask, flat, shape) -> UnreachablePoseError:
         details.append(f"leg {leg}: |p{leg} - b{leg}| = {rho_text} m, reach {lo_text}..{hi_text} m")
     which = f"leg {legs[0]}" if len(legs) == 1 else "legs " + ", ".join(map(str, legs[:-1])) + f" and {legs[-1]}"
     return UnreachablePoseError(
-        f"pose (x={x:.6g}, y={y:.6g}, alpha={alpha:.6g}){_index_text(flat, shape)} is out of reach of "
+        f"pose (x={x:.6g}, y={y:.6g}, alpha={alpha:.6g}){index_text(flat, shape)} is out of reach of "
         f"{which} ({'; '.join(details)})",
         legs=legs,
         index=None if shape == () else tuple(int(i) for i in np.unravel_index(flat, shape)),
@@ -338,7 +234,7 @@ def _unreachable_error(model, pose, mask, flat, shape) -> UnreachablePoseError:
 
 def working_mode_of(model: Planar3RRR, q) -> np.ndarray:
     """Working mode ``σ`` (..., 3) of configurations ``q``: the sign of ``(p_i - b_i) × (e_i - b_i)``."""
-    qs, shape = _batch("q", q, 7)
+    qs, shape = as_batch("q", q, 7)
     b = _model(model).base_points
     e = b + model.active_lengths[:, None] * np.stack([np.cos(qs[:, :3]), np.sin(qs[:, :3])], axis=-1)
     p = e + model.passive_lengths[:, None] * np.stack([np.cos(qs[:, 3:6]), np.sin(qs[:, 3:6])], axis=-1)
@@ -401,7 +297,7 @@ class ForwardKinematicsSolution:
         n = len(self)
         if n == 0:
             raise IndexError("no assembly mode")
-        target = _batch("pose", pose, 3, single=True)[0][0]
+        target = as_batch("pose", pose, 3, single=True)[0][0]
         d = self.pose[:n] - target
         d[:, 2] = np.angle(np.exp(1j * d[:, 2]))
         return self[int(np.argmin(np.linalg.norm(d, axis=1)))]
@@ -414,7 +310,7 @@ def forward_kinematics(model: Planar3RRR, theta) -> ForwardKinematicsSolution:
     Newton's method on ``η = 0``, so each returned ``q`` satisfies the loop closure to
     round-off. ``count`` is 0 where the mechanism cannot be assembled.
     """
-    thetas, shape = _batch("theta", theta, 3)
+    thetas, shape = as_batch("theta", theta, 3)
     n = thetas.shape[0]
     q = np.full((n, 6, 7), np.nan)
     s = np.full((n, 6), np.nan)
@@ -424,7 +320,7 @@ def forward_kinematics(model: Planar3RRR, theta) -> ForwardKinematicsSolution:
     if np.any(status == rrr3.DEGENERATE):
         k = int(np.flatnonzero(status == rrr3.DEGENERATE)[0])
         raise SingularityError(
-            f"theta = {thetas[k].tolist()}{_index_text(k, shape)}: the forward-kinematics polynomial "
+            f"theta = {thetas[k].tolist()}{index_text(k, shape)}: the forward-kinematics polynomial "
             "vanishes identically (architecture singularity, a continuum of assembly modes)"
         )
     for k in range(n):
@@ -450,7 +346,7 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
         When the branch cannot be followed: ``|S|`` falls to ``min_abs_S`` or changes sign on
         the way (a gain-type singularity), or the corrector does not converge.
     """
-    q_prev, thetas, shape = _pair("q_previous", q_previous, 7, "theta", theta, 3)
+    q_prev, thetas, shape = as_pair("q_previous", q_previous, 7, "theta", theta, 3)
     from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
 
     # the compiled core's branch following on the machine's description: the simulation's own
@@ -458,7 +354,7 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
     q_out = np.empty((q_prev.shape[0], machine.kernels.N_COORDINATES))
     status = np.zeros(q_prev.shape[0], dtype=np.int64)
     machine.kernels.branch_following_batch(np.ascontiguousarray(coordinates_from_3rrr(model, q_prev)), thetas,
-                                           machine.P, _real("min_abs_S", min_abs_S, "non-negative"), np.inf, q_out,
+                                           machine.P, as_real("min_abs_S", min_abs_S, "non-negative"), np.inf, q_out,
                                            status)
     q_out = coordinates_to_3rrr(q_out)
     if np.any(status != machine.kernels.OK):
@@ -471,7 +367,7 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
                "no configuration found on the way (too near a singularity, or out of reach)")
         raise BranchFollowingError(
             f"cannot follow the assembly mode from q_previous (theta = {np.round(q_prev[k, :3], 6).tolist()}) "
-            f"to {np.round(thetas[k], 6).tolist()}{_index_text(k, shape)}: {why} "
+            f"to {np.round(thetas[k], 6).tolist()}{index_text(k, shape)}: {why} "
             f"(S = {'-' if s_prev < 0 else ''}{s_text} at the start, limit min_abs_S = {limit_text})"
         )
     return q_out.reshape(*shape, 7)
@@ -479,7 +375,7 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
 
 # ------------------------------------------------------------------ first-order kinematics
 def _first_order(model, q):
-    qs, shape = _batch("q", q, 7)
+    qs, shape = as_batch("q", q, 7)
     n = qs.shape[0]
     residual = np.empty((n, 4))
     j_eta_q = np.empty((n, 4, 7))
@@ -495,13 +391,13 @@ def _require_regular(ok, shape, what, name: str = "q"):
     if not np.all(ok):
         k = int(np.flatnonzero(~ok)[0])
         raise SingularityError(
-            f"{what} is undefined{_index_text(k, shape)}: {name} is at a gain-type singularity, det(J_eta_phi) = 0"
+            f"{what} is undefined{index_text(k, shape)}: {name} is at a gain-type singularity, det(J_eta_phi) = 0"
         )
 
 
 def platform_pose(model: Planar3RRR, q) -> np.ndarray:
     """Platform pose ``(x, y, α)`` (..., 3) of configurations ``q`` (eq. 13, centroid position)."""
-    qs, shape = _batch("q", q, 7)
+    qs, shape = as_batch("q", q, 7)
     out = np.empty((qs.shape[0], 3))
     _pose_batch(qs, _model(model).packed, out)
     return out.reshape(*shape, 3)
@@ -546,7 +442,7 @@ def velocity_jacobian(model: Planar3RRR, q) -> np.ndarray:
 
 
 def _second_order(model, q, theta_dot):
-    qs, tds, shape = _pair("q", q, 7, "theta_dot", theta_dot, 3)
+    qs, tds, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
     n = qs.shape[0]
     q_dot = np.empty((n, 7))
     bias = np.empty((n, 7))
@@ -576,7 +472,7 @@ def acceleration_bias(model: Planar3RRR, q, theta_dot) -> np.ndarray:
 
 def coordinate_accelerations(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
     """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., 7), eq. (32)."""
-    qs, tds, tdds, shape = _broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("theta_ddot", theta_ddot, 3))
+    qs, tds, tdds, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("theta_ddot", theta_ddot, 3))
     qs, tds, tdds = qs.reshape(*shape, 7), tds.reshape(*shape, 3), tdds.reshape(*shape, 3)
     bias = acceleration_bias(model, qs, tds)
     j_q_theta = actuated_jacobian(model, qs)
@@ -585,7 +481,7 @@ def coordinate_accelerations(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.
 
 def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
     """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity."""
-    qs, shape = _batch("q", q, 7)
+    qs, shape = as_batch("q", q, 7)
     det = np.empty(qs.shape[0])
     _determinant_batch(qs, _model(model).packed, det)
     return det.reshape(shape)

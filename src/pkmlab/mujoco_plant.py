@@ -38,11 +38,23 @@ INTEGRATORS = ("RK4", "implicitfast", "implicit", "Euler")
 
 
 def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integrator: str = "RK4",
-                    stiff: bool = False) -> SimulationResult:
+                    closures: str = "stiff", stiff: bool | None = None) -> SimulationResult:
     """Run ``scenario`` with MuJoCo as the plant (module docstring); the result has the fields of
     :func:`~pkmlab.simulation.simulate`'s and ``closure_violation`` (m, per sample). ``timestep`` defaults to
-    the sample time or 1 ms, whichever is smaller; ``stiff`` selects the stiffest loop closures MuJoCo
-    accepts instead of its defaults."""
+    the sample time or 1 ms, whichever is smaller; ``closures`` is ``"stiff"`` (default: the stiffest loop
+    closures MuJoCo accepts, which behave like the rigid machine) or ``"soft"`` (MuJoCo's own defaults, whose
+    loops open by up to a few millimetres: :func:`pkmlab.mujoco_export.mjcf`). ``stiff`` is deprecated
+    (a DeprecationWarning): ``stiff=True`` is ``closures="stiff"``, ``stiff=False`` ``closures="soft"``."""
+    mx.closure_settings(closures)  # a bad name is refused before anything runs
+    if stiff is not None:
+        import warnings
+
+        wanted = "stiff" if stiff else "soft"
+        if closures not in ("stiff", wanted):
+            raise InvalidParameterError(f"stiff={stiff!r} contradicts closures={closures!r}: give closures only")
+        warnings.warn(f"simulate_mujoco's stiff= is deprecated: give closures={wanted!r} (stiff closures are "
+                      "now the default)", DeprecationWarning, stacklevel=2)
+        closures = wanted
     try:
         import mujoco
     except ImportError:
@@ -66,9 +78,8 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     ctrl, plant = _loop_model(scenario.model), _loop_model(scenario.plant_model)
     q_plant0 = _loop_coordinates(scenario.plant_model, prep.q_plant0)
     q_ctrl = _loop_coordinates(scenario.model, prep.q_ctrl0).copy()
-    options = {"solref": mx.STIFF_SOLREF, "solimp": mx.STIFF_SOLIMP} if stiff else {}
     model = mujoco.MjModel.from_xml_string(mx.mjcf(plant, q_plant0, timestep=step, integrator=integrator,
-                                                   **options))
+                                                   closures=closures))
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)

@@ -26,9 +26,10 @@ import numpy as np
 
 from . import _compile_cache  # noqa: F401  (sets the kernel cache before any kernel is defined)
 from ._compile_cache import njit
+from ._validate import as_batch, as_real
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
-from .kinematics import _batch, _model, _real, constraint_residual
+from .kinematics import _model, constraint_residual
 from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
 from .mechanisms import rrr3
 
@@ -75,23 +76,23 @@ def _torque_function(torque) -> Callable[[float, np.ndarray, np.ndarray], np.nda
             return tau
 
         return checked
-    constant = _batch("torque", torque, 3, single=True)[0][0].copy()
+    constant = as_batch("torque", torque, 3, single=True)[0][0].copy()
     return lambda t, theta, theta_dot: constant
 
 
 def _initial(model, q0, rate_name, rate0, n_rate, torque, t_final, t_eval):
     """Validated ``(q0, rate0, torque function, t_final, t_eval)`` of a simulation request."""
-    q0 = _batch("q0", q0, 7, single=True)[0][0]
+    q0 = as_batch("q0", q0, 7, single=True)[0][0]
     residual = float(_loop_residual(model, q0))
     if residual > 1e-3 * float(np.max(model.active_lengths + model.passive_lengths)):
         raise InvalidParameterError(f"q0 is not a configuration of this machine: its loop-closure residual is "
                                     f"{residual:.3g} m (take it from inverse or forward kinematics)")
-    rate0 = _batch(rate_name, rate0, n_rate, single=True)[0][0]
+    rate0 = as_batch(rate_name, rate0, n_rate, single=True)[0][0]
     return (q0, rate0, _torque_function(torque), *_check_times(t_final, t_eval))
 
 
 def _check_times(t_final, t_eval):
-    t_final = _real("t_final", t_final, "positive")
+    t_final = as_real("t_final", t_final, "positive")
     if t_eval is None:
         return t_final, None
     complex_ = getattr(t_eval, "dtype", None) is not None and np.dtype(t_eval.dtype).kind == "c"
@@ -131,8 +132,8 @@ class ReducedPlant:
 
     def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, min_abs_S: float = 1e-6):
         self.model = _model(model)
-        self.rtol, self.atol = _real("rtol", rtol, "positive"), _real("atol", atol, "non-negative")
-        self.min_abs_S = _real("min_abs_S", min_abs_S, "non-negative")
+        self.rtol, self.atol = as_real("rtol", rtol, "positive"), as_real("atol", atol, "non-negative")
+        self.min_abs_S = as_real("min_abs_S", min_abs_S, "non-negative")
 
     def simulate(self, q0, theta_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from configuration ``q0`` (on the manifold) and actuated rates ``θ̇0``."""
@@ -183,8 +184,8 @@ class FullPlant:
 
     def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, stabilization: float = 20.0):
         self.model = _model(model)
-        self.rtol, self.atol = _real("rtol", rtol, "positive"), _real("atol", atol, "non-negative")
-        self.stabilization = _real("stabilization", stabilization, "non-negative")
+        self.rtol, self.atol = as_real("rtol", rtol, "positive"), as_real("atol", atol, "non-negative")
+        self.stabilization = as_real("stabilization", stabilization, "non-negative")
 
     def simulate(self, q0, q_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from ``q0`` and ``q̇0`` (both consistent with the constraints)."""

@@ -370,8 +370,9 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
             **({"scenario": str(source)} if source is not None else {})}
     if mujoco is not None:
         prov["plant"] = (f"MuJoCo, time step {mujoco.get('timestep') or min(scenario.sample_time, 1e-3):g} s, "
-                         f"{mujoco.get('integrator', 'RK4')}, {'stiffest' if mujoco.get('stiff') else 'default'} "
-                         "loop-closure constraints")
+                         f"{mujoco.get('integrator', 'RK4')}, "
+                         + ("stiffest" if mujoco.get("closures", "stiff") == "stiff" else "MuJoCo's default (soft)")
+                         + " loop-closure constraints")
     say = progress or (lambda _msg: None)
     with atomic_output_dir(out, "simulate", inputs=[source] if source else [], provenance=prov, note=note) as tmp:
         say(f"simulating {scenario.name}{' on MuJoCo' if mujoco is not None else ''} ...")

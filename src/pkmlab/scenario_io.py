@@ -51,11 +51,11 @@ from pathlib import Path
 import numpy as np
 
 from ._format import apart
+from ._validate import as_mode
 from .control import CONTROLLER_TYPES, ControllerSpec
 from .errors import InvalidParameterError, PkmlabError, shown
 from .geometry import Planar3RRR
 from .io import PARAM_KEYS, PRESETS, FileFormatError, manipulator_from_dict, parse_toml, read_toml
-from .kinematics import _mode_array
 from .simulation import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
 from .trajectory import Circle, Line, TimedWaypoints, Trajectory, WaypointTrajectory
 
@@ -363,7 +363,7 @@ def _simulation(rd: _Reader, table: dict, machine: bool) -> dict:
     if mode != "auto" and not machine:
         ok = isinstance(mode, str) or (isinstance(mode, list) and not any(isinstance(m, bool) for m in mode))
         try:
-            mode = tuple(int(v) for v in _mode_array(mode)) if ok else None
+            mode = tuple(int(v) for v in as_mode(mode)) if ok else None
         except InvalidParameterError:
             mode = None
         if mode is None:

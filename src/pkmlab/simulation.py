@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ._format import apart
+from ._validate import as_choice, as_count, as_mode, as_real
 from .control import (
     CONTROLLER_TYPES,
     PD,
@@ -50,17 +51,7 @@ from .errors import (
     shown,
 )
 from .geometry import WORKING_MODES, Planar3RRR
-from .kinematics import (
-    _choice,
-    _count,
-    _mode_array,
-    _model,
-    _real,
-    forward_kinematics,
-    inverse_kinematics,
-    platform_pose,
-    singularity_measure,
-)
+from .kinematics import _model, forward_kinematics, inverse_kinematics, platform_pose, singularity_measure
 from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
 from .outputs import atomic_file
 from .trajectory import desired_joint_motion, joint_motion, paper_trajectory
@@ -129,14 +120,14 @@ class Scenario:
                 "trajectory must be a Trajectory or WaypointTrajectory (an object with desired(t) and duration), "
                 f"got {type(self.trajectory).__name__} {shown(self.trajectory, 50)}"
             )
-        duration = _real("trajectory duration", getattr(self.trajectory, "duration", None), "positive")
+        duration = as_real("trajectory duration", getattr(self.trajectory, "duration", None), "positive")
         if not isinstance(self.controller, ControllerSpec):
             raise InvalidParameterError(f"controller must be a ControllerSpec, got {type(self.controller).__name__} "
                                         f"{shown(self.controller, 50)}")
-        set_(self, "sample_time", _real("sample_time", self.sample_time, "non-negative"))
-        set_(self, "substeps", _count("substeps", self.substeps, 1, MAX_SUBSTEPS))
+        set_(self, "sample_time", as_real("sample_time", self.sample_time, "non-negative"))
+        set_(self, "substeps", as_count("substeps", self.substeps, 1, MAX_SUBSTEPS))
         for name in ("singularity_margin", "singularity_guard"):
-            set_(self, name, _real(name, getattr(self, name), "non-negative"))
+            set_(self, name, as_real(name, getattr(self, name), "non-negative"))
         if isinstance(self.model, MechanismModel):
             _check_pose_dimension(self.model, self.trajectory)
             set_(self, "working_mode", _machine_mode(self.model, self.working_mode))
@@ -145,7 +136,7 @@ class Scenario:
                                         "the paper's 3-RRR's pose is (x, y, alpha)")
         elif not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
             try:
-                mode = tuple(int(v) for v in _mode_array(self.working_mode, "working_mode"))
+                mode = tuple(int(v) for v in as_mode(self.working_mode, "working_mode"))
             except InvalidParameterError:
                 raise InvalidParameterError(f'working_mode must be "auto" or three signs such as (1, -1, 1) or '
                                             f'"+-+", got {shown(self.working_mode)}') from None
@@ -219,7 +210,7 @@ def _machine_mode(model: MechanismModel, mode):
         return mode
     modes = working_modes(model)
     try:
-        signs = tuple(int(v) for v in _mode_array(mode, "working_mode", len(modes[0])))
+        signs = tuple(int(v) for v in as_mode(mode, "working_mode", len(modes[0])))
     except InvalidParameterError:
         signs = None
     if signs not in modes:
@@ -258,7 +249,7 @@ def perturbed_model(model: Planar3RRR, rng: np.random.Generator, spread: float =
     if not isinstance(rng, (np.random.Generator, np.random.RandomState)):
         raise InvalidParameterError(f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), "
                                     f"got {type(rng).__name__} {shown(rng, 50)}")
-    spread = _real("spread", spread)
+    spread = as_real("spread", spread)
     if not 0.0 <= spread < 1.0:
         raise InvalidParameterError(f"spread must be in [0, 1), got {spread!r}")
 
@@ -331,9 +322,9 @@ def _working_mode_and_motion(scenario: Scenario, t: np.ndarray, desired):
     ik = inverse_kinematics(scenario.model, pose, on_unreachable="nan")
     s_all = ik.S if scenario.working_mode == "auto" else None
     if scenario.working_mode != "auto":
-        from .kinematics import _mode_array
+        from ._validate import as_mode
 
-        mode = _mode_array(scenario.working_mode)
+        mode = as_mode(scenario.working_mode)
         idx = int(np.flatnonzero((WORKING_MODES == mode).all(axis=1))[0])
         s_all = ik.S[:, idx:idx + 1]
     unreachable = np.isnan(s_all)
@@ -1067,7 +1058,7 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     >>> len(runs)
     2
     """
-    _choice("on_error", on_error, ("raise", "none", "return"))
+    as_choice("on_error", on_error, ("raise", "none", "return"))
     try:
         if isinstance(scenarios, (Scenario, str, bytes)):
             raise TypeError

@@ -25,9 +25,10 @@ from . import (
     closed_chain,
 )
 from ._compile_cache import njit
+from ._validate import as_batch, as_choice, as_mode, as_real
 from .errors import InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
-from .kinematics import _batch, _choice, _mode_array, _real, inverse_kinematics, platform_jacobian
+from .kinematics import inverse_kinematics, platform_jacobian
 from .mechanisms import rrr3
 
 
@@ -52,11 +53,11 @@ def time_law(kind: str, tau):
 
 
 def _positive(name, value):
-    return _real(name, value, "positive")
+    return as_real(name, value, "positive")
 
 
 def _finite_vector(name, value, n):
-    return _batch(name, value, n, single=True)[0][0]
+    return as_batch(name, value, n, single=True)[0][0]
 
 
 def _times(t) -> np.ndarray:
@@ -90,10 +91,10 @@ class Circle:
         _finite_vector("circle center", self.center, 2)
         _positive("circle radius", self.radius)
         _positive("circle turns", self.turns)
-        _real("circle start_angle", self.start_angle)
-        _real("circle alpha", self.alpha)
+        as_real("circle start_angle", self.start_angle)
+        as_real("circle alpha", self.alpha)
         if self.alpha_end is not None:
-            _real("circle alpha_end", self.alpha_end)
+            as_real("circle alpha_end", self.alpha_end)
         if not math.isfinite(self.length):
             raise InvalidParameterError(f"circle radius × turns is too large: the length is {self.length}")
 
@@ -163,7 +164,7 @@ class Trajectory:
                                         f"{shown(self.path, 50)}")
         length = _positive("path length", getattr(self.path, "length", None))
         speed = _positive("speed", self.speed)
-        _choice("law", self.law, ("cubic", "quintic"))
+        as_choice("law", self.law, ("cubic", "quintic"))
         if not math.isfinite(length / speed):
             raise InvalidParameterError(f"speed = {speed:g} m/s is too low for a path of {length:g} m: "
                                         "the motion would never end")
@@ -196,7 +197,7 @@ class WaypointTrajectory:
     segments: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
-        pts, shape = _batch("points", self.points, 3)
+        pts, shape = as_batch("points", self.points, 3)
         if len(shape) != 1 or shape[0] < 2:
             raise InvalidParameterError(f"points must be at least two poses [x, y, alpha], got shape {(*shape, 3)}")
         for i in range(1, len(pts)):
@@ -253,7 +254,7 @@ class TimedWaypoints:
         for i in range(1, len(pts)):
             if np.array_equal(pts[i - 1], pts[i]):
                 raise InvalidParameterError(f"points[{i}] repeats the previous pose {pts[i].tolist()}")
-        _choice("law", self.law, ("cubic", "quintic"))
+        as_choice("law", self.law, ("cubic", "quintic"))
         object.__setattr__(self, "points", tuple(tuple(float(v) for v in p) for p in pts))
         object.__setattr__(self, "durations", tuple(float(d) for d in durations))
 
@@ -364,7 +365,7 @@ def joint_motion(model: Planar3RRR, desired, mode, t: np.ndarray) -> JointMotion
     """:func:`desired_joint_motion` from the trajectory's ``desired = (pose, pose_dot, pose_ddot)`` at the
     times ``t`` (N,), already evaluated."""
     pose, pose_dot, pose_ddot = (np.ascontiguousarray(a, dtype=float) for a in desired)
-    mode = _mode_array(mode)
+    mode = as_mode(mode)
     n = t.size
     q, theta_dot, theta_ddot, det = np.empty((n, 7)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
     k = _joint_motion_batch(pose, pose_dot, pose_ddot, mode, model.packed, q, theta_dot, theta_ddot, det)

@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._validate import as_count, as_real
 from ..errors import InvalidParameterError
-from ..kinematics import _count, _real
 from ..outputs import atomic_file
 from .definition import Study, scenario_tables
 from .engine import _dask_client, run_study
@@ -101,14 +101,14 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     optuna = _needs("optuna")
     _needs("pandas")
     base = scenario_tables(scenario)
-    max_effort = _real("max_effort", max_effort, "positive")
+    max_effort = as_real("max_effort", max_effort, "positive")
     if not 0.0 < quantile <= 1.0:
         raise InvalidParameterError(f"quantile must be in (0, 1], got {quantile!r}")
     for name, value, low in (("trials", trials, 1), ("batch", batch, 1), ("draws", draws, 0)):
-        _count(name, value, low)
+        as_count(name, value, low)
     bounds = {q: uncertainty for q in quantities} if draws else {}
-    kp_lo, kp_hi = (_real("kp_range", v, "positive") for v in kp_range)
-    z_lo, z_hi = (_real("zeta_range", v, "positive") for v in zeta_range)
+    kp_lo, kp_hi = (as_real("kp_range", v, "positive") for v in kp_range)
+    z_lo, z_hi = (as_real("zeta_range", v, "positive") for v in zeta_range)
     controller = base.get("controller", {})
     kp0 = float(controller.get("kp", 1000.0))
     kv0 = float(controller.get("kv", 2.0 * math.sqrt(kp0)))

@@ -1,0 +1,114 @@
+"""Argument checks shared by pkmlab's public functions: every one turns a bad argument into one
+:class:`~pkmlab.errors.InvalidParameterError` line that names the argument (and, in a batch, the index).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from .errors import InvalidParameterError, shown
+
+
+def as_batch(name: str, value, n: int, *, single: bool = False) -> tuple[np.ndarray, tuple[int, ...]]:
+    """``value`` as a C-contiguous ``(N, n)`` float array, and its leading shape.
+
+    ``single=True`` accepts exactly one vector, shape ``(n,)`` (the leading shape is then ``()``).
+    """
+    complex_ = getattr(value, "dtype", None) is not None and np.dtype(value.dtype).kind == "c"
+    try:
+        if complex_:  # NumPy would drop the imaginary part with a mere warning
+            raise TypeError
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidParameterError(f"{name} must be real numbers, got {shown(value)}") from None
+    if single and arr.shape != (n,):
+        raise InvalidParameterError(f"{name} must be {n} numbers (shape ({n},)), got shape {arr.shape}")
+    if arr.ndim == 0 or arr.shape[-1] != n:
+        raise InvalidParameterError(f"{name} must have {n} components (shape (..., {n})), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise InvalidParameterError(f"{name} must be finite, got {arr[tuple(bad)]} at index {tuple(bad.tolist())}")
+    return np.ascontiguousarray(arr.reshape(-1, n)), arr.shape[:-1]
+
+
+def as_broadcast(*specs) -> tuple:
+    """Validate ``(name, value, n)`` arrays and broadcast their leading shapes together.
+
+    Returns each as a C-contiguous ``(N, n)`` array, then the common leading shape.
+    """
+    arrays, shapes = [], []
+    for name, value, n in specs:
+        arr, shape = as_batch(name, value, n)
+        arrays.append((arr, n))
+        shapes.append(shape)
+    try:
+        shape = np.broadcast_shapes(*shapes)
+    except ValueError:
+        listing = " and ".join(f"{spec[0]} {s}" for spec, s in zip(specs, shapes, strict=True))
+        raise InvalidParameterError(f"{listing} do not broadcast") from None
+    full = [
+        np.ascontiguousarray(np.broadcast_to(arr.reshape(*s, n), (*shape, n)).reshape(-1, n))
+        for (arr, n), s in zip(arrays, shapes, strict=True)
+    ]
+    return (*full, shape)
+
+
+def as_pair(name_a: str, a, n_a: int, name_b: str, b, n_b: int):
+    return as_broadcast((name_a, a, n_a), (name_b, b, n_b))
+
+
+def index_text(flat: int, shape: tuple[int, ...]) -> str:
+    return "" if shape == () else f" at index {tuple(int(i) for i in np.unravel_index(flat, shape))}"
+
+
+def as_mode(mode, name: str = "mode", count: int = 3) -> np.ndarray:
+    """A working mode as an int64 array of ``count`` signs (three for the 3-RRR), from ``"+-+"``,
+    ``("+", "-", "+")``, ``(1, -1, 1)``..."""
+    symbols = {"+": 1, "-": -1, "+1": 1, "-1": -1, "1": 1}
+    try:
+        values = [symbols.get(m, m) if isinstance(m, str) else m for m in mode]
+        # True/False are slips (a mask?), not signs, though Python counts True as 1
+        arr = None if any(isinstance(v, (bool, np.bool_)) for v in values) else np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        arr = None
+    if arr is None or arr.shape != (count,) or not np.all(np.isin(arr, (1, -1))):
+        many = "three" if count == 3 else count
+        raise InvalidParameterError(f"{name} must be {many} signs such as (1, -1, 1) or '+-+', got {shown(mode)}")
+    return arr.astype(np.int64)
+
+
+def as_real(name: str, value, sign: str = "") -> float:
+    """A scalar option as a finite float, ``sign`` ``"positive"`` or ``"non-negative"`` when required.
+
+    Bools, strings and arrays are refused, not converted: ``True`` or ``"0.1"`` are slips, not numbers.
+    """
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    v = math.nan
+    if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
+        try:
+            v = float(value)
+        except OverflowError:  # an int beyond the float range
+            v = math.inf
+    if not math.isfinite(v) or (sign == "positive" and v <= 0) or (sign == "non-negative" and v < 0):
+        raise InvalidParameterError(f"{name} must be a {sign or 'finite'} number, got {shown(value)}")
+    return v
+
+
+def as_count(name: str, value, low: int = 1, high: int | None = None) -> int:
+    """An integer option within ``[low, high]`` (bools refused)."""
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+    if not ok or value < low or (high is not None and value > high):
+        limits = f"at least {low}" if high is None else f"from {low} to {high}"
+        raise InvalidParameterError(f"{name} must be an integer {limits}, got {shown(value)}")
+    return int(value)
+
+
+def as_choice(name: str, value, choices: tuple[str, ...]) -> str:
+    """A string option among ``choices`` (an array or a dict is refused, not compared elementwise)."""
+    if not isinstance(value, str) or value not in choices:
+        raise InvalidParameterError(f"{name} must be {' or '.join(map(repr, choices))}, got {shown(value)}")
+    return value
