@@ -65,6 +65,8 @@ import numpy as np
 
 import pkmlab
 from pkmlab import dynamics as pk_dynamics
+from pkmlab import kinematics as kin
+from pkmlab.geometry import Planar3RRR
 
 #: MuJoCo's hinge joints in tree order (the order of ``qpos``/``qvel``).
 JOINT_NAMES = ("theta1", "elbow1", "platform", "theta2", "elbow2", "theta3", "elbow3")
@@ -98,7 +100,7 @@ def _f(x) -> str:
     return " ".join(repr(float(v)) for v in np.atleast_1d(x))
 
 
-def mjcf_from_model(model: pkmlab.Planar3RRR, *, stiff: bool = True) -> str:
+def mjcf_from_model(model: Planar3RRR, *, stiff: bool = True) -> str:
     """MJCF XML of ``model``: three legs in a tree, the platform on leg 1, two ``connect`` loops.
 
     ``stiff`` selects the constraint settings (see the module docstring): the stiffest stable
@@ -170,7 +172,7 @@ def mjcf_from_model(model: pkmlab.Planar3RRR, *, stiff: bool = True) -> str:
 """
 
 
-def build(model: pkmlab.Planar3RRR, *, stiff: bool = True) -> tuple[mujoco.MjModel, mujoco.MjData]:
+def build(model: Planar3RRR, *, stiff: bool = True) -> tuple[mujoco.MjModel, mujoco.MjData]:
     """Compile :func:`mjcf_from_model` and check its joint order against :data:`JOINT_NAMES`."""
     m = mujoco.MjModel.from_xml_string(mjcf_from_model(model, stiff=stiff))
     names = tuple(mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt))
@@ -192,15 +194,15 @@ def q_from_qpos(qpos) -> np.ndarray:
     return np.asarray(qpos, dtype=float) @ np.linalg.inv(RELATIVE).T
 
 
-def set_state(m: mujoco.MjModel, d: mujoco.MjData, model: pkmlab.Planar3RRR, q, theta_dot, tau=None) -> None:
+def set_state(m: mujoco.MjModel, d: mujoco.MjData, model: Planar3RRR, q, theta_dot, tau=None) -> None:
     """Put MuJoCo at pkmlab's state: configuration ``q`` (7,), actuated rates ``θ̇`` (3,), torques ``τ``.
 
     ``q`` must lie on the constraint manifold; the passive rates are pkmlab's
-    ``Jqθ θ̇`` (:func:`pkmlab.coordinate_rates`), so that the velocity is consistent too.
+    ``Jqθ θ̇`` (:func:`kin.coordinate_rates`), so that the velocity is consistent too.
     """
     mujoco.mj_resetData(m, d)
     d.qpos[:] = qpos_from_q(q)
-    d.qvel[:] = qpos_from_q(pkmlab.coordinate_rates(model, q, theta_dot))
+    d.qvel[:] = qpos_from_q(kin.coordinate_rates(model, q, theta_dot))
     d.ctrl[:] = 0.0 if tau is None else tau
 
 
@@ -221,7 +223,7 @@ def connect_residual(m: mujoco.MjModel, d: mujoco.MjData) -> float:
     return worst
 
 
-def mujoco_theta_ddot(model: pkmlab.Planar3RRR, q, theta_dot, tau, *, stiff: bool = True) -> np.ndarray:
+def mujoco_theta_ddot(model: Planar3RRR, q, theta_dot, tau, *, stiff: bool = True) -> np.ndarray:
     """MuJoCo's actuated accelerations ``θ̈`` (n, 3) (``mj_forward`` ``qacc``) at pkmlab states (n, ·)."""
     m, d = build(model, stiff=stiff)
     q, theta_dot, tau = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, theta_dot, tau))
@@ -233,11 +235,11 @@ def mujoco_theta_ddot(model: pkmlab.Planar3RRR, q, theta_dot, tau, *, stiff: boo
     return out
 
 
-def acceleration_error(model: pkmlab.Planar3RRR, q, theta_dot, tau, *, stiff: bool = True) -> float:
+def acceleration_error(model: Planar3RRR, q, theta_dot, tau, *, stiff: bool = True) -> float:
     """Largest relative error ``‖θ̈_MuJoCo - θ̈_pkmlab‖ / ‖θ̈_pkmlab‖`` over the states (norm-wise).
 
     ``q`` (n, 7) on the manifold (actuated and passive angles), ``theta_dot`` (n, 3),
-    ``tau`` (n, 3); the reference is pkmlab's exact :func:`pkmlab.dynamics.forward_dynamics`.
+    ``tau`` (n, 3); the reference is pkmlab's exact :func:`paper_dynamics.forward_dynamics`.
     """
     exact = pk_dynamics.forward_dynamics(model, q, theta_dot, tau)
     got = mujoco_theta_ddot(model, q, theta_dot, tau, stiff=stiff)
@@ -245,7 +247,7 @@ def acceleration_error(model: pkmlab.Planar3RRR, q, theta_dot, tau, *, stiff: bo
     return float(np.max(np.linalg.norm(got - exact, axis=1) / np.linalg.norm(exact, axis=1)))
 
 
-def random_states(model: pkmlab.Planar3RRR, q_path, n: int, seed: int = 1) -> tuple[np.ndarray, ...]:
+def random_states(model: Planar3RRR, q_path, n: int, seed: int = 1) -> tuple[np.ndarray, ...]:
     """``n`` states at configurations drawn from ``q_path`` with random ``θ̇`` (rad/s) and ``τ`` (N·m), ~N(0, 1)."""
     rng = np.random.default_rng(seed)
     q = np.asarray(q_path)[rng.choice(len(q_path), size=n, replace=False)]
@@ -369,7 +371,7 @@ def main() -> None:
     model = result.scenario.plant_model
     states = random_states(model, result.q, 50)
     print(f"MuJoCo {mujoco.__version__}, 3-RRR with 7 hinges and 2 connect loops, RK4 at 1 ms")
-    print("max relative error of theta_ddot vs pkmlab.dynamics.forward_dynamics (50 states on the nominal path):")
+    print("max relative error of theta_ddot vs paper_dynamics.forward_dynamics (50 states on the nominal path):")
     for stiff in (True, False):
         label = "stiff  " if stiff else "default"
         print(f"  {label}: {acceleration_error(model, *states, stiff=stiff):.3e}")

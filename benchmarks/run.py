@@ -22,11 +22,11 @@ Dynamics (paper §3, eq. 35), in working mode (-, +, -):
 
 * the actuator-space model ``(Mθ, Cθ θ̇)``: the compiled core's
   :func:`pkmlab.machine_core.actuator_space_model` (on the machine's description) from a small
-  ``@numba.njit`` loop, :func:`pkmlab.dynamics.actuator_space_model` batched and once per state;
+  ``@numba.njit`` loop, :func:`paper_dynamics.actuator_space_model` batched and once per state;
 * forward dynamics ``θ̈``: the same with its solve, from an njit loop
   over the states of the paper's circle, the same with branch following of the passive
   variables at every step (what :class:`pkmlab.plant.ReducedPlant` evaluates), and
-  :func:`pkmlab.dynamics.forward_dynamics` once per state and batched;
+  :func:`paper_dynamics.forward_dynamics` once per state and batched;
 * 1 s of free motion (zero torque) with :class:`pkmlab.plant.ReducedPlant` and
   :class:`pkmlab.plant.FullPlant`: wall time, right-hand-side evaluations, loop-closure
   residual, relative kinetic-energy drift and the largest difference between the two;
@@ -77,7 +77,9 @@ from scipy.optimize import fsolve
 import pkmlab
 from pkmlab import WORKING_MODES
 from pkmlab import dynamics as pk_dynamics
+from pkmlab import kinematics as kin
 from pkmlab import kinematics as pk_kinematics
+from pkmlab.geometry import Planar3RRR
 from pkmlab.mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
 from pkmlab.mechanisms import rrr3
 from pkmlab.plant import FullPlant, ReducedPlant
@@ -96,7 +98,7 @@ CIRCLE_CENTRE = (0.25, 0.21)
 CIRCLE_RADIUS = 0.05
 CIRCLE_SAMPLES = 1571
 CIRCLE_MODE = (-1, 1, -1)
-MIN_ABS_S = 1e-6  # pkmlab.branch_following's default
+MIN_ABS_S = 1e-6  # kin.branch_following's default
 
 BASELINE_XTOL = 1e-12  # relative step tolerance handed to fsolve (its default is 1.49e-8)
 
@@ -266,7 +268,7 @@ def cache_files() -> set[str]:
 
 
 # ------------------------------------------------------------------ workloads
-def reachable_samples(model: pkmlab.Planar3RRR, n: int, rng: np.random.Generator):
+def reachable_samples(model: Planar3RRR, n: int, rng: np.random.Generator):
     """``n`` reachable poses, the θ of a random working mode for each, and the counts drawn and reachable."""
     poses, thetas = [], []
     have = drawn = 0
@@ -279,7 +281,7 @@ def reachable_samples(model: pkmlab.Planar3RRR, n: int, rng: np.random.Generator
             POSE_CENTRE[1] + radius * np.sin(angle),
             rng.uniform(-ALPHA_HALF_RANGE, ALPHA_HALF_RANGE, m),
         ])
-        ik = pkmlab.inverse_kinematics(model, batch, on_unreachable="nan")
+        ik = kin.inverse_kinematics(model, batch, on_unreachable="nan")
         ok = ik.reachable.all(axis=1)
         mode = rng.integers(0, ik.theta.shape[1], m)
         theta = ik.theta[np.arange(m), mode]
@@ -292,14 +294,14 @@ def reachable_samples(model: pkmlab.Planar3RRR, n: int, rng: np.random.Generator
     return poses_all, thetas_all, drawn, have
 
 
-def circle_path(model: pkmlab.Planar3RRR):
+def circle_path(model: Planar3RRR):
     s = np.linspace(0.0, 2.0 * np.pi, CIRCLE_SAMPLES)
     path = np.column_stack([
         CIRCLE_CENTRE[0] + CIRCLE_RADIUS * np.cos(s),
         CIRCLE_CENTRE[1] + CIRCLE_RADIUS * np.sin(s),
         np.zeros_like(s),
     ])
-    ik = pkmlab.inverse_kinematics(model, path, mode=CIRCLE_MODE)
+    ik = kin.inverse_kinematics(model, path, mode=CIRCLE_MODE)
     return path, np.ascontiguousarray(ik.q), np.ascontiguousarray(ik.theta)
 
 
@@ -307,9 +309,9 @@ def wrapped(x: np.ndarray) -> np.ndarray:
     return np.angle(np.exp(1j * x))
 
 
-def dynamics_states(model: pkmlab.Planar3RRR, poses: np.ndarray, rng: np.random.Generator):
+def dynamics_states(model: Planar3RRR, poses: np.ndarray, rng: np.random.Generator):
     """Configurations of ``poses`` in working mode :data:`DYN_MODE`, random ``θ̇`` and ``τ``, and ``|S|`` min."""
-    ik = pkmlab.inverse_kinematics(model, poses, mode=DYN_MODE)
+    ik = kin.inverse_kinematics(model, poses, mode=DYN_MODE)
     n = poses.shape[0]
     theta_dot = rng.normal(0.0, THETA_DOT_STD, (n, 3))
     tau = rng.normal(0.0, TAU_STD, (n, 3))
@@ -399,12 +401,12 @@ def follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, min_abs
 # φ = (φ1, φ2, φ3, α), written in plain NumPy with the analytic Jacobian. Started from the known
 # solution perturbed -- namely the solution at the previous sample of the path, exactly what
 # branch following starts from -- it returns the ONE assembly mode nearest the guess. It is
-# therefore the like-for-like reference for branch following; pkmlab.forward_kinematics finds
+# therefore the like-for-like reference for branch following; kin.forward_kinematics finds
 # ALL assembly modes (up to six), so its ratio against this baseline is indicative only.
 class NumpyLoopClosure:
     """η(θ, φ) = 0 of the 3-RRR (same equations and order as pkmlab.mechanisms.rrr3.constraints)."""
 
-    def __init__(self, model: pkmlab.Planar3RRR):
+    def __init__(self, model: Planar3RRR):
         self.base = np.array(model.base_points, dtype=float)
         self.l = np.array(model.active_lengths, dtype=float)
         self.r = np.array(model.passive_lengths, dtype=float)
@@ -469,7 +471,7 @@ def baseline_path(closure: NumpyLoopClosure, q_start: np.ndarray, thetas: np.nda
 class NumpyActuatorSpaceModel:
     """``(Mθ, Cθ θ̇)`` of the 3-RRR in plain NumPy, for ``q`` (n, 7) and ``θ̇`` (n, 3)."""
 
-    def __init__(self, model: pkmlab.Planar3RRR):
+    def __init__(self, model: Planar3RRR):
         self.l = np.array(model.active_lengths, dtype=float)
         self.r = np.array(model.passive_lengths, dtype=float)
         vertices = np.array(model.platform_vertices, dtype=float)  # P1 at the platform origin
@@ -549,7 +551,7 @@ def baseline_dynamics_per_state(baseline: NumpyActuatorSpaceModel, qs: np.ndarra
     return m_out, c_out
 
 
-def relative_kinetic_energy_drift(model: pkmlab.Planar3RRR, run) -> float:
+def relative_kinetic_energy_drift(model: Planar3RRR, run) -> float:
     """``max_t |T(t) - T(0)| / T(0)`` of a plant run."""
     energy = pk_dynamics.kinetic_energy(model, run.q, run.q_dot)
     return float(np.abs(energy - energy[0]).max() / energy[0])
@@ -655,7 +657,7 @@ def main(argv: list[str] | None = None) -> int:
     cfg = SETTINGS[mode]
     t_start = time.perf_counter()
     rng = np.random.default_rng(SEED)
-    model = pkmlab.Planar3RRR.paper()
+    model = Planar3RRR.paper()
     P = model.packed
     P_core = MechanismModel.from_3rrr(model).P  # the compiled core's parameters of the same machine
     rows: list[dict] = []
@@ -665,14 +667,14 @@ def main(argv: list[str] | None = None) -> int:
     progress("first calls (compile or cache load) ...")
     files_before = cache_files()
     probe_pose = np.array([CIRCLE_CENTRE[0] + CIRCLE_RADIUS, CIRCLE_CENTRE[1], 0.0])
-    dt, ik1 = time_once(lambda: pkmlab.inverse_kinematics(model, probe_pose))
+    dt, ik1 = time_once(lambda: kin.inverse_kinematics(model, probe_pose))
     rows.append(first_call_row("first_call_inverse_kinematics", "first call: inverse_kinematics", dt))
     q1, th1 = ik1.q[0], ik1.theta[0]
-    dt, _ = time_once(lambda: pkmlab.forward_kinematics(model, th1))
+    dt, _ = time_once(lambda: kin.forward_kinematics(model, th1))
     rows.append(first_call_row("first_call_forward_kinematics", "first call: forward_kinematics", dt))
-    dt, _ = time_once(lambda: pkmlab.branch_following(model, q1, th1 + 1e-3))
+    dt, _ = time_once(lambda: kin.branch_following(model, q1, th1 + 1e-3))
     rows.append(first_call_row("first_call_branch_following", "first call: branch_following", dt))
-    q_free = pkmlab.inverse_kinematics(model, FREE_MOTION_POSE, mode=DYN_MODE).q
+    q_free = kin.inverse_kinematics(model, FREE_MOTION_POSE, mode=DYN_MODE).q
     theta_dot_free = np.array(FREE_MOTION_THETA_DOT)
     zero3 = np.zeros(3)
     dt, _ = time_once(lambda: pk_dynamics.actuator_space_model(model, q_free, theta_dot_free))
@@ -683,7 +685,7 @@ def main(argv: list[str] | None = None) -> int:
     rows.append(first_call_row("first_call_kinetic_energy", "first call: dynamics.kinetic_energy", dt))
     dt, _ = time_once(lambda: ReducedPlant(model).simulate(q_free, theta_dot_free, zero3, 1e-3))
     rows.append(first_call_row("first_call_reduced_plant", "first call: ReducedPlant.simulate (1 ms)", dt))
-    dt, _ = time_once(lambda: FullPlant(model).simulate(q_free, pkmlab.coordinate_rates(model, q_free, theta_dot_free),
+    dt, _ = time_once(lambda: FullPlant(model).simulate(q_free, kin.coordinate_rates(model, q_free, theta_dot_free),
                                                        zero3, 1e-3))
     rows.append(first_call_row("first_call_full_plant", "first call: FullPlant.simulate (1 ms)", dt))
     files_after = cache_files()
@@ -721,7 +723,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # (1) forward kinematics, every assembly mode
     progress("forward kinematics, batched ...")
-    times, fk = time_runs(lambda: pkmlab.forward_kinematics(model, thetas), cfg["repeats_batch"])
+    times, fk = time_runs(lambda: kin.forward_kinematics(model, thetas), cfg["repeats_batch"])
     rows.append(rate_row("fk_all_batched", f"FK all modes, batched API ({n} θ)", times, n, "solve"))
 
     def fk_driver():
@@ -739,7 +741,7 @@ def main(argv: list[str] | None = None) -> int:
 
     def fk_single():
         for theta in thetas_single:
-            pkmlab.forward_kinematics(model, theta)
+            kin.forward_kinematics(model, theta)
 
     times, _ = time_runs(fk_single, cfg["repeats_single"])
     rows.append(rate_row("fk_all_single", f"FK all modes, API once per θ ({len(thetas_single)} θ)", times,
@@ -758,7 +760,7 @@ def main(argv: list[str] | None = None) -> int:
     def bf_api():
         q = q_ref[0]
         for k in range(1, n_steps + 1):
-            q = pkmlab.branch_following(model, q, path_thetas[k])
+            q = kin.branch_following(model, q, path_thetas[k])
         return q
 
     times, q_last = time_runs(bf_api, cfg["repeats_path_api"])
@@ -767,7 +769,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # Same steps, every one from the exact previous configuration, in a single batched API call.
     q_prev_batch = np.ascontiguousarray(q_ref[:-1])
-    times, _ = time_runs(lambda: pkmlab.branch_following(model, q_prev_batch, path_thetas[1:]), cfg["repeats_batch"])
+    times, _ = time_runs(lambda: kin.branch_following(model, q_prev_batch, path_thetas[1:]), cfg["repeats_batch"])
     rows.append(rate_row("bf_api_batched", f"branch following, batched API ({n_steps} steps)", times, n_steps,
                          "call"))
 
@@ -784,7 +786,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # (3) inverse kinematics, all 8 working modes
     progress("inverse kinematics ...")
-    times, _ = time_runs(lambda: pkmlab.inverse_kinematics(model, poses, on_unreachable="nan"), cfg["repeats_batch"])
+    times, _ = time_runs(lambda: kin.inverse_kinematics(model, poses, on_unreachable="nan"), cfg["repeats_batch"])
     rows.append(rate_row("ik_all_modes_batched", f"IK all 8 modes, batched API ({n} poses)", times, n, "pose",
                          compare=False))
 
@@ -904,7 +906,7 @@ def main(argv: list[str] | None = None) -> int:
 
     progress("free motion of the plants ...")
     t_eval = np.linspace(0.0, FREE_MOTION_SECONDS, FREE_MOTION_SAMPLES)
-    q_dot_free = pkmlab.coordinate_rates(model, q_free, theta_dot_free)
+    q_dot_free = kin.coordinate_rates(model, q_free, theta_dot_free)
     reduced_plant, full_plant = ReducedPlant(model), FullPlant(model)
     plant_runs = {}
     for key, label, plant, rate in (("reduced", "ReducedPlant", reduced_plant, theta_dot_free),

@@ -35,7 +35,10 @@ import operation_count
 from scipy.integrate import solve_ivp
 
 import pkmlab
+from pkmlab import dynamics as paper_dynamics
+from pkmlab.geometry import Planar3RRR
 from pkmlab.mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
+from pkmlab.plant import ReducedPlant
 from pkmlab.simulation import choose_working_mode
 from pkmlab.trajectory import desired_joint_motion, paper_trajectory
 
@@ -138,7 +141,7 @@ KERNELS = MechanismModel.from_preset("paper").kernels
 
 def kernel_rows(h, repeats: int) -> tuple[list[dict], dict]:
     """The simulation loop's own kernels along the paper's circle (1,571 samples, one call per sample)."""
-    model = pkmlab.Planar3RRR.paper()
+    model = Planar3RRR.paper()
     _path, q_path, thetas = h.circle_path(model)
     rng = np.random.default_rng(3)
     theta_dots = rng.normal(0.0, 1.0, thetas.shape)
@@ -162,7 +165,7 @@ def kernel_rows(h, repeats: int) -> tuple[list[dict], dict]:
                                                                                 q_fd, acc), repeats)
     rows.append(h.rate_row("fd_bf_workspace_kernel", f"forward dynamics + branch following, simulation kernels, {n} "
                            "circle steps", times, n, "step", baseline="numpy_dyn_batched"))
-    reference = pkmlab.dynamics.forward_dynamics(model, q_path[1:], theta_dots[1:], taus[1:])
+    reference = paper_dynamics.forward_dynamics(model, q_path[1:], theta_dots[1:], taus[1:])
     checks["fd_bf_workspace_status"] = int(status)
     checks["fd_bf_workspace_max_rel_diff"] = float(np.abs(acc[1:] - reference).max() / np.abs(reference).max())
     return rows, checks
@@ -301,7 +304,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     fast = pkmlab.simulate(pkmlab.paper_scenario("fast"))
     k = int(np.argmax(np.abs(fast.theta_dot).max(axis=1)))
     fm = fast.scenario.model
-    ref = pkmlab.ReducedPlant(fm, rtol=1e-13, atol=1e-15).simulate(fast.q[k], fast.theta_dot[k], fast.tau[k], 1e-3,
+    ref = ReducedPlant(fm, rtol=1e-13, atol=1e-15).simulate(fast.q[k], fast.theta_dot[k], fast.tau[k], 1e-3,
                                                                     t_eval=[0.0, 1e-3])
     ref_x = np.concatenate([ref.q[-1, :3], ref.theta_dot[-1]])
     errors = {}

@@ -14,13 +14,14 @@ settings.load_profile("explore" if os.environ.get("PKMLAB_EXPLORE") else "ci")
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-import pkmlab  # noqa: E402
+from pkmlab import kinematics as kin  # noqa: E402
 from pkmlab.cli import main  # noqa: E402
+from pkmlab.geometry import Planar3RRR  # noqa: E402
 
 
 @pytest.fixture(scope="session")
 def paper():
-    return pkmlab.Planar3RRR.paper()
+    return Planar3RRR.paper()
 
 
 def random_reachable_poses(rng, model, n, margin=0.05):
@@ -28,7 +29,7 @@ def random_reachable_poses(rng, model, n, margin=0.05):
     out = []
     while len(out) < n:
         pose = np.array([rng.uniform(0.1, 0.42), rng.uniform(0.05, 0.38), rng.uniform(-0.8, 0.8)])
-        ik = pkmlab.inverse_kinematics(model, pose, on_unreachable="nan")
+        ik = kin.inverse_kinematics(model, pose, on_unreachable="nan")
         if np.any(np.abs(ik.S) > margin):
             out.append(pose)
     return np.array(out)

@@ -31,24 +31,31 @@ from hypothesis.extra import numpy as hnp
 
 import pkmlab
 from pkmlab import dynamics
+from pkmlab import kinematics as kin
 from pkmlab.control import ControllerSpec
+from pkmlab.geometry import Planar3RRR
+from pkmlab.plant import FullPlant, ReducedPlant
 from pkmlab.simulation import SCENARIO_DIR, _prepare
 from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory
 
 # ------------------------------------------------------------------ valid arguments
-MODEL = pkmlab.Planar3RRR.paper()
-_IK = pkmlab.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=(-1, 1, -1))
+MODEL = Planar3RRR.paper()
+_IK = kin.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=(-1, 1, -1))
 Q = _IK.q
 THETA = _IK.theta
 THETA_DOT = np.array([0.3, -0.2, 0.5])
 THETA_DDOT = np.array([1.0, 0.0, -1.0])
 TAU = np.array([0.1, -0.2, 0.3])
-Q_DOT = pkmlab.coordinate_rates(MODEL, Q, THETA_DOT)
+Q_DOT = kin.coordinate_rates(MODEL, Q, THETA_DOT)
 CIRCLE = Circle((0.25, 0.21), 0.05)
 TRAJECTORY = Trajectory(CIRCLE, 0.2)
 CONTROLLER = ControllerSpec("computed_torque", kp=400.0)
 SCENARIO = pkmlab.paper_scenario("nominal").replace(sample_time=0.01, name="coarse")  # 158 samples: quick
 RNG = np.random.default_rng(0)
+# the one API, on the paper's machine as every machine loads (tests/test_api.py checks its numbers)
+GENERIC = pkmlab.load("paper")
+G_Q = pkmlab.inverse_kinematics(GENERIC, [0.2, 0.21, 0.0], mode=(-1, 1, -1)).q
+G_Q_DOT = pkmlab.coordinate_rates(GENERIC, G_Q, THETA_DOT)
 
 # ------------------------------------------------------------------ careless arguments
 NAN, INF = float("nan"), float("inf")
@@ -139,12 +146,12 @@ _PAPER_PARAMS = dict(b=0.52, l=0.25, r=0.1667, a=0.125, mass_l=0.468, mass_r=0.3
 
 
 def _reduced_plant(model, rtol, atol, min_abs_S, q0, theta_dot0, torque, t_final, t_eval):
-    plant = pkmlab.ReducedPlant(model, rtol=rtol, atol=atol, min_abs_S=min_abs_S)
+    plant = ReducedPlant(model, rtol=rtol, atol=atol, min_abs_S=min_abs_S)
     return plant.simulate(q0, theta_dot0, torque, t_final, t_eval=t_eval)
 
 
 def _full_plant(model, rtol, atol, stabilization, q0, q_dot0, torque, t_final, t_eval):
-    plant = pkmlab.FullPlant(model, rtol=rtol, atol=atol, stabilization=stabilization)
+    plant = FullPlant(model, rtol=rtol, atol=atol, stabilization=stabilization)
     return plant.simulate(q0, q_dot0, torque, t_final, t_eval=t_eval)
 
 
@@ -163,17 +170,33 @@ def _use_path(path):
     return path.at(np.linspace(0.0, path.length, 5))
 
 TARGETS = [
-    # kinematics
-    _sig(pkmlab.inverse_kinematics, model=MODEL, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
-    _sig(pkmlab.forward_kinematics, model=MODEL, theta=THETA),
-    _sig(pkmlab.branch_following, model=MODEL, q_previous=Q, theta=THETA + 0.01, min_abs_S=1e-6),
+    # the one API
+    _sig(pkmlab.load, source="five_bar"),
+    _sig(pkmlab.working_modes, model=GENERIC),
+    _sig(pkmlab.inverse_kinematics, model=GENERIC, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
+    _sig(pkmlab.forward_kinematics, model=GENERIC, theta=THETA),
+    _sig(pkmlab.branch_following, model=GENERIC, q_previous=G_Q, theta=THETA + 0.01, min_abs_S=1e-6, max_step=0.05),
+    *(_sig(f, model=GENERIC, q=G_Q) for f in (
+        pkmlab.constraint_residual, pkmlab.constraint_jacobian, pkmlab.coordinate_jacobian, pkmlab.velocity_jacobian,
+        pkmlab.singularity_measure)),
+    *(_sig(f, model=GENERIC, q=G_Q, theta_dot=THETA_DOT) for f in (
+        pkmlab.coordinate_rates, pkmlab.acceleration_bias, pkmlab.actuator_space_model)),
+    _sig(pkmlab.coordinate_accelerations, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
+    _sig(pkmlab.full_space_model, model=GENERIC, q=G_Q, q_dot=G_Q_DOT),
+    _sig(pkmlab.constrained_dynamics, model=GENERIC, q=G_Q, q_dot=G_Q_DOT, tau=TAU),
+    _sig(pkmlab.inverse_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
+    _sig(pkmlab.forward_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, tau=TAU),
+    # the paper's own formulation (the independent oracle of the tests)
+    _sig(kin.inverse_kinematics, model=MODEL, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
+    _sig(kin.forward_kinematics, model=MODEL, theta=THETA),
+    _sig(kin.branch_following, model=MODEL, q_previous=Q, theta=THETA + 0.01, min_abs_S=1e-6),
     *(_sig(f, model=MODEL, q=Q) for f in (
-        pkmlab.platform_pose, pkmlab.constraint_residual, pkmlab.constraint_jacobian, pkmlab.passive_jacobian,
-        pkmlab.actuated_jacobian, pkmlab.velocity_jacobian, pkmlab.platform_jacobian,
-        pkmlab.forward_singularity_determinant, pkmlab.singularity_measure, pkmlab.working_mode_of)),
+        kin.platform_pose, kin.constraint_residual, kin.constraint_jacobian, kin.passive_jacobian,
+        kin.actuated_jacobian, kin.velocity_jacobian, kin.platform_jacobian,
+        kin.forward_singularity_determinant, kin.singularity_measure, kin.working_mode_of)),
     *(_sig(f, model=MODEL, q=Q, theta_dot=THETA_DOT) for f in (
-        pkmlab.passive_rates, pkmlab.coordinate_rates, pkmlab.acceleration_bias)),
-    _sig(pkmlab.coordinate_accelerations, model=MODEL, q=Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
+        kin.passive_rates, kin.coordinate_rates, kin.acceleration_bias)),
+    _sig(kin.coordinate_accelerations, model=MODEL, q=Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
     # dynamics
     _sig(dynamics.mass_matrix, model=MODEL, q=Q),
     *(_sig(f, model=MODEL, q=Q, q_dot=Q_DOT) for f in (
@@ -185,9 +208,9 @@ TARGETS = [
     _sig(dynamics.inverse_dynamics, model=MODEL, q=Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
     _sig(dynamics.forward_dynamics, model=MODEL, q=Q, theta_dot=THETA_DOT, tau=TAU),
     # the model
-    Target("Planar3RRR", pkmlab.Planar3RRR, _MODEL_ARGS, names=PAPER_NAMES, examples=150),
-    Target("Planar3RRR.from_params", pkmlab.Planar3RRR.from_params, _PAPER_PARAMS, names=PAPER_NAMES, examples=150),
-    Target("Planar3RRR.replace", MODEL.replace, {}, _fields(pkmlab.Planar3RRR), names=PAPER_NAMES, examples=150),
+    Target("Planar3RRR", Planar3RRR, _MODEL_ARGS, names=PAPER_NAMES, examples=150),
+    Target("Planar3RRR.from_params", Planar3RRR.from_params, _PAPER_PARAMS, names=PAPER_NAMES, examples=150),
+    Target("Planar3RRR.replace", MODEL.replace, {}, _fields(Planar3RRR), names=PAPER_NAMES, examples=150),
     # analyses
     _sig(pkmlab.singularity_map, model=MODEL, alpha=0.0, mode=(-1, 1, -1), x_range=None, y_range=None,
          resolution=5, progress=None),
@@ -282,7 +305,8 @@ def test_every_public_callable_is_fuzzed():
     fuzzed |= {"ReducedPlant", "FullPlant"}
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
-              "PlantRun", "SingularityMap",
+              "PlantRun", "SingularityMap", "FullSpaceModel", "ConstrainedDynamics", "ActuatorSpaceModel",
+              "MechanismModel",  # built by pkmlab.load, fuzzed above
               "sweep", "tune"}  # whole studies: their arguments are checked one by one in tests/test_study.py
     public = {name: getattr(pkmlab, name) for name in pkmlab.__all__}
     callables = [name for name, obj in public.items()
@@ -317,7 +341,7 @@ def test_scenario_working_mode_takes_the_spellings_of_inverse_kinematics(spellin
     scenario = SCENARIO.replace(working_mode=spelling)
     assert scenario.working_mode == (-1, 1, -1)
     assert all(type(s) is int for s in scenario.working_mode)
-    np.testing.assert_array_equal(pkmlab.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=spelling).q, Q)
+    np.testing.assert_array_equal(kin.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=spelling).q, Q)
 
 
 def test_planar3rrr_replace_names_an_unknown_attribute():
@@ -327,7 +351,7 @@ def test_planar3rrr_replace_names_an_unknown_attribute():
 
 @pytest.mark.parametrize("bad", [[1.0, 2.0], [1.0, 2.0, 3.0, 4.0], np.zeros((3, 2)), None, "abc"])
 def test_theta_ddot_is_validated_like_the_other_arrays(bad):
-    for call in (lambda: pkmlab.coordinate_accelerations(MODEL, Q, THETA_DOT, bad),
+    for call in (lambda: kin.coordinate_accelerations(MODEL, Q, THETA_DOT, bad),
                  lambda: dynamics.inverse_dynamics(MODEL, Q, THETA_DOT, bad)):
         with pytest.raises(pkmlab.InvalidParameterError, match=r"\btheta_ddot\b"):
             call()
@@ -335,7 +359,7 @@ def test_theta_ddot_is_validated_like_the_other_arrays(bad):
 
 def test_a_torque_function_of_the_wrong_shape_is_refused():
     with pytest.raises(pkmlab.InvalidParameterError, match=r"^torque\(t, theta, theta_dot\) must return 3 numbers"):
-        pkmlab.ReducedPlant(MODEL).simulate(Q, np.zeros(3), lambda t, theta, theta_dot: [1.0, 2.0], 1e-3)
+        ReducedPlant(MODEL).simulate(Q, np.zeros(3), lambda t, theta, theta_dot: [1.0, 2.0], 1e-3)
 
 
 def test_a_scenario_with_a_string_working_mode_runs():

@@ -16,7 +16,9 @@ from hypothesis import strategies as st
 import pkmlab
 import pkmlab.report
 import pkmlab.simulation
+from pkmlab import kinematics as kin
 from pkmlab.cli import main
+from pkmlab.geometry import Planar3RRR
 
 TRIED = {"argv": 0}
 
@@ -124,7 +126,7 @@ def test_zz_report_how_many_command_lines_were_tried():
 @pytest.mark.parametrize("spelling", [["+", "-", "+"], ["+-+"], ["1", "-1", "1"], ["+1", "-1", "+1"]])
 def test_a_working_mode_is_read_the_same_by_every_command_and_the_api(capsys, spelling):
     """`--mode` takes the spellings `inverse_kinematics(mode=...)` takes."""
-    api = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), [0.2, 0.21, 0.0], mode="+-+")
+    api = kin.inverse_kinematics(Planar3RRR.paper(), [0.2, 0.21, 0.0], mode="+-+")
     code, out, _err = run(capsys, "ik", 0.2, 0.21, 0, "--mode", *spelling, "--json")
     assert code == 0
     solution = json.loads(out)["solutions"][0]
@@ -180,7 +182,7 @@ def test_b_and_base_points_together_are_refused_everywhere(capsys, tmp_path):
     message = assert_user_error(*run(capsys, "ik", 0.2, 0.21, 0, "--params", path))
     assert "both.toml" in message and "not both" in message
     with pytest.raises(pkmlab.InvalidParameterError, match="not both"):
-        pkmlab.Planar3RRR.from_params(b=0.6, base_points=[[0, 0], [0.52, 0], [0.26, 0.45]])
+        Planar3RRR.from_params(b=0.6, base_points=[[0, 0], [0.52, 0], [0.26, 0.45]])
 
 
 def test_substeps_with_continuous_time_control_is_refused(capsys, tmp_path):

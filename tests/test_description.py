@@ -11,6 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pkmlab
+from pkmlab import kinematics as kin
+from pkmlab.geometry import Planar3RRR
 from pkmlab.mechanisms.description import (
     Body,
     Joint,
@@ -92,10 +94,10 @@ def test_each_leg_chain_is_its_formula(pose, angles, strokes):
 
 def test_the_paper_preset_closes_its_loops_at_pkmlabs_inverse_kinematics():
     """The description and the 3-RRR kernels agree: at an IK configuration, every leg reaches its vertex."""
-    mech, model = preset("paper"), pkmlab.Planar3RRR.paper()
+    mech, model = preset("paper"), Planar3RRR.paper()
     for pose in ([0.2, 0.21, 0.0], [0.27, 0.18, 0.4]):
         for mode in ((-1, 1, -1), (1, 1, 1)):
-            q = pkmlab.inverse_kinematics(model, pose, mode=mode).q
+            q = kin.inverse_kinematics(model, pose, mode=mode).q
             for i, leg in enumerate(mech.legs):
                 end = leg_chain(leg, [q[i], q[3 + i]])[-1][0]
                 np.testing.assert_allclose(end, attachment_point(mech, i, pose), atol=1e-12)

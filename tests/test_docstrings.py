@@ -5,7 +5,8 @@ import importlib
 
 import pytest
 
-MODULES = ["pkmlab", "pkmlab.geometry", "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
+MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics", "pkmlab.geometry",
+           "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
            "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanism_model",
            "pkmlab.mechanisms.stewart_fk", "pkmlab.uncertainty", "pkmlab.progress"]
 

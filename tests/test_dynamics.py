@@ -8,9 +8,10 @@ import reference as ref
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-import pkmlab
 from pkmlab import dynamics as dy
+from pkmlab import kinematics as kin
 from pkmlab.cli import main
+from pkmlab.geometry import WORKING_MODES
 from pkmlab.plant import FullPlant, ReducedPlant
 
 SETTINGS = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -21,7 +22,7 @@ states = st.tuples(
 
 def _state(model, drawn, margin=0.15):
     x, y, alpha, mode_index, seed = drawn
-    ik = pkmlab.inverse_kinematics(model, [x, y, alpha], mode=pkmlab.WORKING_MODES[mode_index], on_unreachable="nan")
+    ik = kin.inverse_kinematics(model, [x, y, alpha], mode=WORKING_MODES[mode_index], on_unreachable="nan")
     assume(np.isfinite(ik.S) and abs(ik.S) > margin)
     rng = np.random.default_rng(seed)
     return ik.q, rng.normal(size=3), rng.normal(size=3)
@@ -53,7 +54,7 @@ def test_mass_matrices_are_symmetric_positive_definite_and_give_the_kinetic_ener
     for mat in (M, m_theta):
         np.testing.assert_allclose(mat, mat.T, atol=1e-15)
         assert np.linalg.eigvalsh(mat).min() > 0
-    qd = pkmlab.coordinate_rates(paper, q, td)
+    qd = kin.coordinate_rates(paper, q, td)
     T = _kinetic_energy_independent(q, qd)
     assert 0.5 * qd @ M @ qd == pytest.approx(T, rel=1e-12)
     assert 0.5 * td @ m_theta @ td == pytest.approx(T, rel=1e-12)  # Mθ is M reflected on θ (eq. 35)
@@ -85,7 +86,7 @@ def test_actuator_space_skew_symmetry(paper, drawn):
     np.testing.assert_allclose(c_theta @ td, dy.actuator_space_model(paper, q, td)[1], atol=1e-14)
 
     def m_theta_at(t):
-        return dy.actuator_space_model(paper, pkmlab.branch_following(paper, q, q[:3] + td * t), td)[0]
+        return dy.actuator_space_model(paper, kin.branch_following(paper, q, q[:3] + td * t), td)[0]
 
     def central(h):
         return (m_theta_at(h) - m_theta_at(-h)) / (2 * h)
@@ -104,15 +105,15 @@ def test_actuator_space_skew_symmetry(paper, drawn):
 @given(drawn=states)
 def test_reduced_and_full_models_give_the_same_accelerations(paper, drawn):
     q, td, tau = _state(paper, drawn)
-    qd = pkmlab.coordinate_rates(paper, q, td)
+    qd = kin.coordinate_rates(paper, q, td)
     qdd, lam = dy.constrained_accelerations(paper, q, qd, tau)
     theta_ddot = dy.forward_dynamics(paper, q, td, tau)
     np.testing.assert_allclose(theta_ddot, qdd[:3], rtol=1e-10, atol=1e-10 * np.abs(qdd[:3]).max())
     # the full solution respects the constraints at acceleration level (eq. 32) ...
-    np.testing.assert_allclose(qdd, pkmlab.coordinate_accelerations(paper, q, td, theta_ddot), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(qdd, kin.coordinate_accelerations(paper, q, td, theta_ddot), rtol=1e-9, atol=1e-9)
     # ... and λ satisfies eq. (26) to round-off, in newtons
     M = dy.mass_matrix(paper, q)
-    J = pkmlab.constraint_jacobian(paper, q)
+    J = kin.constraint_jacobian(paper, q)
     residual = M @ qdd + dy.velocity_product(paper, q, qd) - np.r_[tau, 0, 0, 0, 0] - J.T @ lam
     assert np.abs(residual).max() < 1e-12 * max(1.0, np.abs(tau).max())
     np.testing.assert_allclose(dy.lagrange_multipliers(paper, q, qd, tau), lam, rtol=1e-9, atol=1e-12)
@@ -126,17 +127,17 @@ def test_multipliers_are_the_joint_forces_of_a_static_load(paper):
     With θ̇ = 0 and torques chosen to hold the mechanism still (θ̈ = 0), each passive link is a
     two-force member, so λ must be parallel to the passive links that meet at p2 and p3.
     """
-    q = pkmlab.inverse_kinematics(paper, [0.22, 0.2, 0.1], mode=(-1, 1, -1)).q
+    q = kin.inverse_kinematics(paper, [0.22, 0.2, 0.1], mode=(-1, 1, -1)).q
     tau = np.array([0.3, -0.2, 0.1])
     qdd, lam = dy.constrained_accelerations(paper, q, np.zeros(7), tau)
     assert np.all(np.isfinite(lam))
     # virtual work: the constraint forces do no work on admissible motions
-    j_q_theta = pkmlab.actuated_jacobian(paper, q)
-    np.testing.assert_allclose(j_q_theta.T @ (pkmlab.constraint_jacobian(paper, q).T @ lam), 0, atol=1e-12)
+    j_q_theta = kin.actuated_jacobian(paper, q)
+    np.testing.assert_allclose(j_q_theta.T @ (kin.constraint_jacobian(paper, q).T @ lam), 0, atol=1e-12)
 
 
 def test_free_motion_conserves_energy_and_both_plants_agree(paper):
-    q0 = pkmlab.inverse_kinematics(paper, [0.25, 0.21, 0.0], mode=(-1, 1, -1)).q
+    q0 = kin.inverse_kinematics(paper, [0.25, 0.21, 0.0], mode=(-1, 1, -1)).q
     td0 = np.array([0.4, 0.3, -0.4])  # free motion that stays clear of singularities (min |S| 0.36) for 1 s
     t = np.linspace(0, 1.0, 201)
     reduced = ReducedPlant(paper, rtol=1e-12, atol=1e-13).simulate(q0, td0, [0, 0, 0], 1.0, t_eval=t)
@@ -144,7 +145,7 @@ def test_free_motion_conserves_energy_and_both_plants_agree(paper):
     assert np.abs(T / T[0] - 1).max() <= 1e-9
     assert reduced.loop_residual.max() < 1e-14  # on the manifold at round-off level, by construction
     assert np.max([np.abs(ref.eta(q)).max() for q in reduced.q]) < 1e-14
-    full = FullPlant(paper, rtol=1e-12, atol=1e-13).simulate(q0, pkmlab.coordinate_rates(paper, q0, td0),
+    full = FullPlant(paper, rtol=1e-12, atol=1e-13).simulate(q0, kin.coordinate_rates(paper, q0, td0),
                                                                [0, 0, 0], 1.0, t_eval=t)
     T_full = dy.kinetic_energy(paper, full.q, full.q_dot)
     assert np.abs(T_full / T_full[0] - 1).max() <= 1e-9
@@ -155,7 +156,7 @@ def test_free_motion_conserves_energy_and_both_plants_agree(paper):
 
 def test_power_balance_under_torque(paper):
     """dT/dt = τ·θ̇: the constraint forces do no work (eq. 29-30)."""
-    q0 = pkmlab.inverse_kinematics(paper, [0.22, 0.2, 0.0], mode=(-1, 1, -1)).q
+    q0 = kin.inverse_kinematics(paper, [0.22, 0.2, 0.0], mode=(-1, 1, -1)).q
 
     def torque(t, theta, theta_dot):
         return np.array([0.05 * np.sin(3 * t), -0.03, 0.04 * np.cos(2 * t)])
@@ -173,7 +174,7 @@ def test_power_balance_under_torque(paper):
 
 
 def test_trajectories_of_both_plants_agree_under_torque(paper):
-    q0 = pkmlab.inverse_kinematics(paper, [0.25, 0.18, -0.1], mode=(-1, 1, -1)).q
+    q0 = kin.inverse_kinematics(paper, [0.25, 0.18, -0.1], mode=(-1, 1, -1)).q
 
     def torque(t, theta, theta_dot):
         return np.array([0.02, 0.05 * np.sin(5 * t), -0.02]) - 0.05 * theta_dot
@@ -190,12 +191,12 @@ def test_general_mass_centres_and_inertias(paper):
     model = paper.replace(active_com=[[0.1, 0.01], [0.12, -0.02], [0.13, 0.0]],
                           passive_com=[[0.07, 0.005], [0.09, 0.0], [0.08, -0.01]],
                           platform_com=[0.05, 0.04], platform_inertia=4e-4)
-    q = pkmlab.inverse_kinematics(model, [0.22, 0.2, 0.05], mode=(-1, 1, -1)).q
+    q = kin.inverse_kinematics(model, [0.22, 0.2, 0.05], mode=(-1, 1, -1)).q
     td, tau = np.array([0.5, -0.2, 0.4]), np.array([0.1, -0.05, 0.02])
     m_a, _ = dy.actuator_space_model(model, q, td)
     m_b, _ = dy.actuator_space_model(paper, q, td)
     assert np.abs(m_a - m_b).max() > 1e-5
-    qd = pkmlab.coordinate_rates(model, q, td)
+    qd = kin.coordinate_rates(model, q, td)
     qdd, _lam = dy.constrained_accelerations(model, q, qd, tau)
     np.testing.assert_allclose(dy.forward_dynamics(model, q, td, tau), qdd[:3], rtol=1e-10, atol=1e-12)
     c = dy.actuator_space_coriolis_matrix(model, q, td)
@@ -203,7 +204,7 @@ def test_general_mass_centres_and_inertias(paper):
 
 
 def test_batched_dynamics_equal_single(paper):
-    ik = pkmlab.inverse_kinematics(paper, [[0.2, 0.21, 0.0], [0.25, 0.2, 0.1]], mode=(-1, 1, -1))
+    ik = kin.inverse_kinematics(paper, [[0.2, 0.21, 0.0], [0.25, 0.2, 0.1]], mode=(-1, 1, -1))
     td = np.array([[0.1, 0.2, 0.3], [0.3, -0.1, 0.0]])
     m_theta, c_theta = dy.actuator_space_model(paper, ik.q, td)
     for k in range(2):
@@ -213,24 +214,24 @@ def test_batched_dynamics_equal_single(paper):
 
 
 def test_cli_dynamics_json(paper, capsys):
-    q = pkmlab.inverse_kinematics(paper, [0.2, 0.21, 0.0], mode=(-1, 1, -1)).q
+    q = kin.inverse_kinematics(paper, [0.2, 0.21, 0.0], mode=(-1, 1, -1)).q
     theta = [repr(float(v)) for v in q[:3]]
     assert main(["dynamics", *theta, "--theta-dot", "0.3", "-0.2", "0.5", "--near", "0.2", "0.21", "0", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert np.array(out["M_theta"]).shape == (3, 3) and np.array(out["M"]).shape == (7, 7)
     assert len(out["c_theta"]) == 3 and len(out["lambda"]) == 4
-    qd = pkmlab.coordinate_rates(paper, q, [0.3, -0.2, 0.5])
+    qd = kin.coordinate_rates(paper, q, [0.3, -0.2, 0.5])
     T = _kinetic_energy_independent(q, qd)
     td = np.array([0.3, -0.2, 0.5])
     assert 0.5 * td @ np.array(out["M_theta"]) @ td == pytest.approx(T, rel=1e-10)
     assert main(["dynamics", *theta, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert len(out["solutions"]) == int(pkmlab.forward_kinematics(paper, q[:3]).count)
+    assert len(out["solutions"]) == int(kin.forward_kinematics(paper, q[:3]).count)
 
 
 def test_plant_accuracy_against_a_tighter_reference(paper):
     """The default tolerances (rtol 1e-11) keep the integration error far below 1e-8 rad over 1 s."""
-    q0 = pkmlab.inverse_kinematics(paper, [0.25, 0.21, 0.0], mode=(-1, 1, -1)).q
+    q0 = kin.inverse_kinematics(paper, [0.25, 0.21, 0.0], mode=(-1, 1, -1)).q
 
     def torque(t, theta, theta_dot):  # a forced, damped oscillation about the start (stays far from S = 0)
         return np.array([0.05 * np.sin(4 * t), 0.03, -0.04 * np.cos(3 * t)]) - 0.5 * (theta - q0[:3]) - 0.02 * theta_dot

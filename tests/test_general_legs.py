@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 
 import pkmlab
+from pkmlab import kinematics as kin
 from pkmlab import mechanism_model as mm
+from pkmlab.geometry import Planar3RRR
 from pkmlab.mechanisms import leg_types as lt
 from pkmlab.mechanisms.description import load_mechanism
 from pkmlab.mechanisms.presets import PLANAR_PRESETS, preset
@@ -231,12 +233,12 @@ def test_an_rr_star_r_legs_line_is_its_first_link_and_S_vanishes_with_det_j_eta_
 def test_branch_following_refuses_a_step_rather_than_land_in_another_assembly_mode():
     """A short step near a singularity where the chord iteration diverges: Newton's method, started from the far
     point it reached, used to converge to a configuration whole turns away in another assembly mode."""
-    model = pkmlab.Planar3RRR.paper()
+    model = Planar3RRR.paper()
     q_prev = np.array([0.35857836, 3.26478706, -2.08201745, 1.89909434, 1.83196474, -0.01415614, -1.17227581])
-    q_prev = pkmlab.branch_following(model, q_prev, q_prev[:3])  # onto the manifold to round-off
+    q_prev = kin.branch_following(model, q_prev, q_prev[:3])  # onto the manifold to round-off
     target = q_prev[:3] + np.array([0.005037, 0.00186, 0.001426])
     try:
-        q = pkmlab.branch_following(model, q_prev, target)
+        q = kin.branch_following(model, q_prev, target)
     except pkmlab.BranchFollowingError:
         return
     assert np.abs(np.angle(np.exp(1j * (q - q_prev)))).max() < 0.2  # if it follows, it stays near

@@ -10,7 +10,10 @@ import numpy as np
 import pytest
 
 import pkmlab
+from pkmlab import dynamics as paper_dynamics
+from pkmlab import kinematics as kin
 from pkmlab import mechanism_model as mm
+from pkmlab.geometry import Planar3RRR
 from pkmlab.mechanisms.presets import preset
 
 # a pose of each preset well inside its workspace, and a guess of its leg coordinates near one branch
@@ -27,7 +30,7 @@ def configuration(name):
     model = mm.MechanismModel.from_preset(name)
     pose, guess = POSES[name]
     if name == "paper":  # pkmlab's 3-RRR inverse kinematics: q = (theta, phi, alpha)
-        q_old = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), pose, mode=(-1, 1, -1)).q
+        q_old = kin.inverse_kinematics(Planar3RRR.paper(), pose, mode=(-1, 1, -1)).q
         return model, np.array([*q_old[:6], *pose]), q_old
     q = np.array([*guess, *pose], dtype=float)
     free = len(q) - len(pose)
@@ -42,10 +45,10 @@ def configuration(name):
 
 def test_the_paper_preset_has_pkmlabs_3rrr_dynamics():
     model, q, q_old = configuration("paper")
-    paper = pkmlab.Planar3RRR.paper()
+    paper = Planar3RRR.paper()
     for theta_dot in ([0.0, 0.0, 0.0], [0.3, -0.2, 0.5], [-1.1, 0.7, 0.2]):
         m_theta, c_theta, g_theta = mm.actuator_space_model(model, q, theta_dot)
-        m_ref, c_ref = pkmlab.dynamics.actuator_space_model(paper, q_old, theta_dot)
+        m_ref, c_ref = paper_dynamics.actuator_space_model(paper, q_old, theta_dot)
         np.testing.assert_allclose(m_theta, m_ref, rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(c_theta, c_ref, rtol=1e-11, atol=1e-15)
         assert np.all(g_theta == 0.0)  # the horizontal plane
@@ -149,7 +152,7 @@ def test_inverse_kinematics_closes_every_loop_in_every_working_mode(name):
 
 def test_inverse_kinematics_of_the_paper_preset_is_pkmlabs():
     model = mm.MechanismModel.from_preset("paper")
-    ik = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), [0.23, 0.19, 0.2])
+    ik = kin.inverse_kinematics(Planar3RRR.paper(), [0.23, 0.19, 0.2])
     for mode, q_old in zip(mm.working_modes(model), ik.q, strict=True):
         q = mm.inverse_kinematics(model, [0.23, 0.19, 0.2], mode)
         np.testing.assert_allclose(np.angle(np.exp(1j * (q[:6] - q_old[:6]))), 0.0, atol=1e-12)
@@ -185,9 +188,9 @@ def test_unreachable_poses_name_the_leg_and_the_stroke():
 # ------------------------------------------------------------------ singularity measure
 def test_the_paper_presets_S_is_the_papers():
     model = mm.MechanismModel.from_preset("paper")
-    paper = pkmlab.Planar3RRR.paper()
+    paper = Planar3RRR.paper()
     for pose in ([0.2, 0.21, 0.0], [0.28, 0.17, -0.5], [0.24, 0.25, 0.9]):
-        for mode, s_old in zip(mm.working_modes(model), pkmlab.inverse_kinematics(paper, pose).S, strict=True):
+        for mode, s_old in zip(mm.working_modes(model), kin.inverse_kinematics(paper, pose).S, strict=True):
             q = mm.inverse_kinematics(model, pose, mode)
             assert mm.singularity_measure(model, q) == pytest.approx(float(s_old), rel=1e-12, abs=1e-14)
 
@@ -312,7 +315,7 @@ def test_the_paper_presets_assembly_modes_are_pkmlabs():
     for _ in range(10):
         theta = rng.uniform(-math.pi, math.pi, 3)
         ours = mm.forward_kinematics(model, theta)
-        ref = pkmlab.forward_kinematics(pkmlab.Planar3RRR.paper(), theta)
+        ref = kin.forward_kinematics(Planar3RRR.paper(), theta)
         assert len(ours) == len(ref)
         for (q, s), sol in zip(ours, ref, strict=True):
             np.testing.assert_allclose(q[-3:], sol.pose, atol=1e-10)

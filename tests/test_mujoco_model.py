@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from conftest import random_reachable_poses
 
-import pkmlab
 from pkmlab import dynamics as dy
+from pkmlab import kinematics as kin
 
 mujoco = pytest.importorskip("mujoco")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
@@ -27,7 +27,7 @@ def states(paper):
     """IK configurations in every working mode, |S| > 0.15 (away from gain-type singularities), random θ̇, τ."""
     rng = np.random.default_rng(20240611)
     poses = random_reachable_poses(rng, paper, 6, margin=0.15)
-    ik = pkmlab.inverse_kinematics(paper, poses, on_unreachable="nan")
+    ik = kin.inverse_kinematics(paper, poses, on_unreachable="nan")
     q = ik.q[np.abs(ik.S) > 0.15]
     assert len(q) >= 6
     return q, rng.normal(size=(len(q), 3)), rng.normal(size=(len(q), 3))
@@ -71,7 +71,7 @@ def test_loops_close_and_the_platform_pose_matches_at_ik_configurations(paper, s
         centroid = p1 + 0.125 / np.sqrt(3) * _u(q[6] + np.pi / 6)
         pose = mm.platform_pose(m, d)
         np.testing.assert_allclose(pose[:2], centroid, rtol=0, atol=1e-14)
-        np.testing.assert_allclose(pose, pkmlab.platform_pose(paper, q), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(pose, kin.platform_pose(paper, q), rtol=0, atol=1e-14)
         np.testing.assert_allclose(mm.q_from_qpos(d.qpos), q, rtol=0, atol=1e-14)
 
 
@@ -81,7 +81,7 @@ def test_kinetic_energy_and_mass_matrix_match_pkmlab(paper, states):
     m, d = mm.build(paper)
     T = np.linalg.inv(mm.RELATIVE)  # q̇ = T qvel
     for q, td in zip(q_all, td_all, strict=True):
-        qd = pkmlab.coordinate_rates(paper, q, td)
+        qd = kin.coordinate_rates(paper, q, td)
         mm.set_state(m, d, paper, q, td)
         mujoco.mj_forward(m, d)
         mujoco.mj_energyVel(m, d)

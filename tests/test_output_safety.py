@@ -23,7 +23,9 @@ from hypothesis import strategies as st
 
 import pkmlab
 import pkmlab.report
+from pkmlab import kinematics as kin
 from pkmlab import outputs
+from pkmlab.geometry import Planar3RRR
 from pkmlab.io import load_manipulator
 from pkmlab.simulation import paper_scenario, scaled_model, simulate
 
@@ -297,17 +299,17 @@ def test_results_record_how_they_were_made(capsys, tmp_path, quick):
     assert "continuous-time" in report and f"pkmlab {pkmlab.__version__}" in report
     manifest = outputs.read_manifest(out)
     assert manifest["command"] == "reproduce" and manifest["provenance"] == prov
-    assert load_manipulator(out / "manipulator.toml") == pkmlab.Planar3RRR.paper()
+    assert load_manipulator(out / "manipulator.toml") == Planar3RRR.paper()
 
 
 # ------------------------------------------------------------------ dynamics at a singularity
 def _singular_configuration():
     """A configuration of the paper's machine at a gain-type singularity, by bisection on alpha:
     S changes sign between alpha = -2.87 and -2.86 at (0.25, 0.21) in working mode (-, +, -)."""
-    model, mode = pkmlab.Planar3RRR.paper(), (-1, 1, -1)
+    model, mode = Planar3RRR.paper(), (-1, 1, -1)
 
     def s(alpha):
-        return float(pkmlab.inverse_kinematics(model, [0.25, 0.21, alpha], mode=mode).S)
+        return float(kin.inverse_kinematics(model, [0.25, 0.21, alpha], mode=mode).S)
 
     lo, hi = -2.875, -2.86
     assert s(lo) * s(hi) < 0
@@ -315,13 +317,13 @@ def _singular_configuration():
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if s(mid) * s(lo) > 0 else (lo, mid)
     pose = [0.25, 0.21, 0.5 * (lo + hi)]
-    return pose, pkmlab.inverse_kinematics(model, pose, mode=mode)
+    return pose, kin.inverse_kinematics(model, pose, mode=mode)
 
 
 def _near_singular(offset):
     pose, _ik = _singular_configuration()
     near = [pose[0], pose[1], pose[2] + offset]
-    return near, pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), near, mode=(-1, 1, -1))
+    return near, kin.inverse_kinematics(Planar3RRR.paper(), near, mode=(-1, 1, -1))
 
 
 @pytest.mark.parametrize("offset", [0.0, -1e-10, -1e-8])
@@ -343,7 +345,7 @@ def test_dynamics_near_a_singularity_warns(capsys):
 
 
 def test_dynamics_says_when_no_assembly_mode_is_near_the_pose_asked_for(capsys):
-    theta = pkmlab.inverse_kinematics(pkmlab.Planar3RRR.paper(), [0.2, 0.21, 0.0], mode=(-1, 1, -1)).theta
+    theta = kin.inverse_kinematics(Planar3RRR.paper(), [0.2, 0.21, 0.0], mode=(-1, 1, -1)).theta
     code, _out, err = run(capsys, "dynamics", *theta, "--near", 0.2, 0.21, 0.0)
     assert code == 0 and err == ""
     code, _out, err = run(capsys, "dynamics", *theta, "--near", 0.3, 0.21, 0.0)

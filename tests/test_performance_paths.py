@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 from conftest import one_shot
 
-import pkmlab
 from pkmlab import mechanism_model as mm
+from pkmlab.geometry import Planar3RRR
 from pkmlab.kinematics import forward_kinematics, inverse_kinematics
 from pkmlab.simulation import paper_scenario, simulate
 
@@ -34,7 +34,7 @@ BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 def test_ik_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels():
     result, numba_imported = one_shot("ik", "0.2", "0.21", "0")
     assert not numba_imported
-    ik = inverse_kinematics(pkmlab.Planar3RRR.paper(), [0.2, 0.21, 0.0])
+    ik = inverse_kinematics(Planar3RRR.paper(), [0.2, 0.21, 0.0])
     assert len(result["solutions"]) == 8
     for solution, q in zip(result["solutions"], ik.q, strict=True):
         assert solution["theta"] == q[:3].tolist() and solution["phi"] == q[3:6].tolist()
@@ -44,7 +44,7 @@ def test_fk_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels
     theta = [0.189012, 3.112031, -2.642405]
     result, numba_imported = one_shot("fk", *map(str, theta))
     assert not numba_imported
-    fk = forward_kinematics(pkmlab.Planar3RRR.paper(), theta)
+    fk = forward_kinematics(Planar3RRR.paper(), theta)
     assert len(result["solutions"]) == len(fk)
     for solution, q, s in zip(result["solutions"], fk.q, fk.S, strict=False):
         assert solution["phi"] == q[3:6].tolist()
@@ -61,7 +61,7 @@ def test_ik_of_a_described_machine_is_interpreted_and_equals_the_compiled_kernel
         assert solution["S"] == pytest.approx(mm.singularity_measure(model, q), rel=1e-14)
 
 
-def _plant_off_by_one_bit(model: pkmlab.Planar3RRR) -> pkmlab.Planar3RRR:
+def _plant_off_by_one_bit(model: Planar3RRR) -> Planar3RRR:
     """The same machine but the platform's mass one unit in the last place heavier: not the model."""
     import dataclasses
 

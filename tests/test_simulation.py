@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 import pkmlab
+from pkmlab import dynamics as paper_dynamics
+from pkmlab import kinematics as kin
 from pkmlab.cli import main
 from pkmlab.control import ControllerSpec
 from pkmlab.errors import (
@@ -62,7 +64,7 @@ def test_desired_derivatives_are_exact(paper, traj):
     v_num, a_num = fd(lambda tt: traj.desired(tt)[0], 1e-3)
     np.testing.assert_allclose(vel, v_num, atol=1e-9)
     np.testing.assert_allclose(acc, a_num, atol=1e-6)
-    theta = lambda tt: np.unwrap(pkmlab.inverse_kinematics(paper, traj.desired(tt)[0], mode=(-1, 1, -1)).theta, axis=0)  # noqa: E731
+    theta = lambda tt: np.unwrap(kin.inverse_kinematics(paper, traj.desired(tt)[0], mode=(-1, 1, -1)).theta, axis=0)  # noqa: E731
     td_num, tdd_num = fd(theta, 1e-3)
     np.testing.assert_allclose(jm.theta_dot, td_num, atol=1e-8)
     np.testing.assert_allclose(jm.theta_ddot, tdd_num, atol=1e-5)
@@ -105,13 +107,13 @@ def test_sampled_run_is_self_consistent(paper, paper_runs):
     r = paper_runs["nominal"]
     assert r.t.size == 1572 and r.t[-1] == pytest.approx(1.571) and r.t[1] == pytest.approx(1e-3)
     # the plant stays on its constraint manifold; reported pose and S come from its configuration
-    assert np.abs(pkmlab.constraint_residual(paper, r.q)).max() < 1e-13
-    np.testing.assert_allclose(r.pose[:, :2], pkmlab.platform_pose(paper, r.q)[:, :2], atol=1e-15)
-    np.testing.assert_allclose(r.S, pkmlab.singularity_measure(paper, r.q), atol=1e-15)
+    assert np.abs(kin.constraint_residual(paper, r.q)).max() < 1e-13
+    np.testing.assert_allclose(r.pose[:, :2], kin.platform_pose(paper, r.q)[:, :2], atol=1e-15)
+    np.testing.assert_allclose(r.S, kin.singularity_measure(paper, r.q), atol=1e-15)
     # torque really is the computed-torque law of conventions §5 evaluated at each sample
     k = 700
-    q_ctrl = pkmlab.branch_following(paper, r.q[k], r.theta[k])
-    m_theta, c_theta = pkmlab.dynamics.actuator_space_model(paper, q_ctrl, r.theta_dot[k])
+    q_ctrl = kin.branch_following(paper, r.q[k], r.theta[k])
+    m_theta, c_theta = paper_dynamics.actuator_space_model(paper, q_ctrl, r.theta_dot[k])
     jm = desired_joint_motion(paper, paper_trajectory(0.2), (-1, 1, -1), r.t[k:k + 1])
     e = r.theta[k] - jm.theta[0]
     e_dot = r.theta_dot[k] - jm.theta_dot[0]
@@ -130,7 +132,7 @@ def test_sampled_plant_matches_an_adaptive_reference(paper, paper_runs):
 
     q0 = r.q[0]
     t_eval = r.t[:n]
-    ref = pkmlab.ReducedPlant(paper, rtol=1e-12, atol=1e-13)
+    ref = ReducedPlant(paper, rtol=1e-12, atol=1e-13)
     # integrate sample by sample so that the discontinuities of τ fall on step boundaries
     theta = [q0[:3]]
     q, w = q0, np.zeros(3)

@@ -14,7 +14,9 @@ import pytest
 from conftest import run
 
 import pkmlab
+from pkmlab import kinematics as kin
 from pkmlab.errors import InvalidParameterError
+from pkmlab.geometry import Planar3RRR
 from pkmlab.mechanism_model import MechanismModel
 from pkmlab.scenario_io import load_scenario
 from pkmlab.study import Study, StudyError, StudyInterrupted, load_study, study_from_dict, sweep
@@ -125,14 +127,14 @@ def test_a_combination_that_is_no_scenario_is_a_failed_row_even_first():
 def test_drawn_plants_scale_the_mass_matrix(name):
     """Masses and inertias ×c, lengths unchanged: the same geometry, a mass matrix ×c (and gravity ×c) —
     an independent check that every body's mass and inertia went through."""
-    model = pkmlab.Planar3RRR.paper() if name == "paper" else MechanismModel.from_preset(name)
+    model = Planar3RRR.paper() if name == "paper" else MechanismModel.from_preset(name)
     c = 1.3
     factors = {p: c for p in uncertain_parameters(model, ("mass", "inertia"))}
     plant = perturbed_plant(model, factors)
     if name == "paper":
         from pkmlab import dynamics
 
-        q = pkmlab.inverse_kinematics(model, [0.25, 0.21, 0.0]).q[0]
+        q = kin.inverse_kinematics(model, [0.25, 0.21, 0.0]).q[0]
         m0, m1 = (dynamics.actuator_space_model(m, q, np.zeros(3))[0] for m in (model, plant))
     else:
         from pkmlab import mechanism_model as mm

@@ -9,6 +9,8 @@ import pytest
 from conftest import run
 
 import pkmlab
+from pkmlab import kinematics as kin
+from pkmlab.geometry import Planar3RRR
 from pkmlab.views.html import write_html
 from pkmlab.views.run import RunView
 
@@ -227,8 +229,8 @@ def test_singularity_map_is_interactive(browser, tmp_path, capsys):
     text = page.evaluate("() => document.querySelector('.hoverlayer').textContent")
     assert "working mode (−, +, −)" in text and "S = " in text and "α = 0 rad" in text, text
     s_shown = float(text.split("S = ")[1].split("working")[0])
-    model = pkmlab.Planar3RRR.paper()
-    ik = pkmlab.inverse_kinematics(model, [float(text.split("x = ")[1].split(" m")[0]),
+    model = Planar3RRR.paper()
+    ik = kin.inverse_kinematics(model, [float(text.split("x = ")[1].split(" m")[0]),
                                            float(text.split("y = ")[1].split(" m")[0]), 0.0], mode=(-1, 1, -1))
     assert s_shown == pytest.approx(float(ik.S), abs=1e-4)  # the S of that pose, computed anew
     assert errors == []

@@ -18,7 +18,8 @@ Units: ``M`` in kg·m² (angles as coordinates), torques in N·m, ``λ`` in N.
 Examples
 --------
 >>> import numpy as np
->>> from pkmlab import Planar3RRR, inverse_kinematics
+>>> from pkmlab.geometry import Planar3RRR
+>>> from pkmlab.kinematics import inverse_kinematics
 >>> from pkmlab.dynamics import actuator_space_model
 >>> model = Planar3RRR.paper()
 >>> q = inverse_kinematics(model, [0.2, 0.21, 0.0], mode=(-1, 1, -1)).q

@@ -9,7 +9,8 @@ broadcasts, and turns failures into one-line errors.
 Examples
 --------
 >>> import numpy as np
->>> from pkmlab import Planar3RRR, inverse_kinematics, forward_kinematics
+>>> from pkmlab.geometry import Planar3RRR
+>>> from pkmlab.kinematics import inverse_kinematics, forward_kinematics
 >>> model = Planar3RRR.paper()
 >>> ik = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1))
 >>> np.round(ik.theta, 4).tolist()

@@ -91,11 +91,67 @@ class MechanismModel:
         return len(self.description.legs)
 
     @property
+    def name(self) -> str:
+        return self.description.name
+
+    @property
+    def pose_names(self) -> tuple[str, ...]:
+        """The platform's pose coordinates, e.g. ``('x', 'y', 'alpha')``: the last entries of ``q``."""
+        return tuple(self.description.pose_names)
+
+    @property
+    def dof(self) -> int:
+        return self.description.dof
+
+    @property
     def body_weights(self) -> np.ndarray:
         """``D`` (n_bodies, 3): ``(m, m, I)`` of every body (legs' bodies, then the platform)."""
         rows = [(b.mass, b.mass, b.inertia) for leg in self.description.legs for b in leg.bodies]
         platform = self.description.platform
         return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
+
+
+def load(source) -> MechanismModel:
+    """The model of a mechanism, for every function of pkmlab.
+
+    Parameters
+    ----------
+    source : str, path, description or model
+        A preset's name (``"paper"``, ``"five_bar"``, ``"3rpr"``, ``"3prr"``, ``"delta"``, ``"stewart"``), a
+        description file (TOML with a ``[mechanism]`` table), a description
+        (:class:`~pkmlab.mechanisms.description.Mechanism`, :class:`~pkmlab.mechanisms.spatial.SpatialMechanism`),
+        or a model (returned as it is).
+
+    Returns
+    -------
+    MechanismModel
+        The immutable description bound to its structure's compiled kernels.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> model.coordinates
+    ('a1', 'a2', 'a3', 'q1_2', 'q2_2', 'q3_2', 'x', 'y', 'alpha')
+    """
+    import os
+    from pathlib import Path
+
+    from .errors import shown
+    from .mechanisms.description import load_mechanism
+    from .mechanisms.presets import PRESETS
+    from .mechanisms.spatial import SpatialMechanism
+
+    if isinstance(source, MechanismModel):
+        return source
+    if isinstance(source, Mechanism | SpatialMechanism):
+        return MechanismModel.from_description(source)
+    if isinstance(source, str) and source in PRESETS:
+        return MechanismModel.from_preset(source)
+    if isinstance(source, str | os.PathLike) and Path(source).suffix == ".toml":
+        return MechanismModel.from_description(load_mechanism(source))
+    raise InvalidParameterError(f"source must be a preset ({', '.join(PRESETS)}), a .toml description file, a "
+                                f"description or a model, got {shown(source, 60)}")
 
 
 def derivation(description) -> ModuleType:
@@ -450,22 +506,23 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
         from .mechanisms.spatial import check_pose
 
         check_pose(m, pose)
-    q, failure = _inverse_kinematics_batch(model, pose[None, :], mode)
+    q, _unreachable, failure = inverse_kinematics_batch(model, pose[None, :], mode)
     if failure is not None:
         _k, leg, message = failure
         raise UnreachablePoseError(message, legs=(leg + 1,))
     return q[0]
 
 
-def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
-    """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach,
-    and the first failure ``(k, leg, message)`` (else None)."""
+def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
+    """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach;
+    the legs that cannot, a bit mask per pose (K,) (bit ``i`` for leg ``i + 1``); and the first failure
+    ``(k, leg, message)`` (else None)."""
     m = model.description
     solver = _leg_solver(m)
     leg_inverse_kinematics_batch, leg_modes = solver.leg_inverse_kinematics_batch, solver.working_modes
     extra = (solver.central_axis(m),) if getattr(m, "spatial", False) else ()
     signs = iter(tuple(mode))
-    actuators, passive, bad = [], [], np.zeros(len(poses), dtype=bool)
+    actuators, passive, unreachable = [], [], np.zeros(len(poses), dtype=np.int64)
     first = None
     for i, leg in enumerate(m.legs):
         sigma = next(signs, None) if leg_modes(leg) else 1
@@ -476,7 +533,7 @@ def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
             k = int(np.argmax(solved.bad))
             if first is None or k < first[0]:
                 first = (k, i, solved.why(k))
-            bad |= solved.bad
+            unreachable |= solved.bad.astype(np.int64) << i
         # the actuator's column among the leg's joint coordinates (a spatial U joint before it has two)
         column = sum(getattr(j, "coordinates", 1) for j in leg.joints[:leg.actuated])
         actuators.append(solved.coordinates[:, column])
@@ -484,8 +541,8 @@ def _inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
     if next(signs, None) is not None:
         raise InvalidParameterError(f"mode has more signs than two-branch legs, got {tuple(mode)}")
     q = np.column_stack([*actuators, *passive, poses])
-    q[bad] = np.nan
-    return q, first
+    q[unreachable != 0] = np.nan
+    return q, unreachable, first
 
 
 # ------------------------------------------------------------------ singularity measure
@@ -685,7 +742,7 @@ def _stewart_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> lis
         pose = np.array([*p, roll, pitch, yaw])
         if not np.allclose(orientations(pose[None, 3:])[0], rot, atol=1e-9):
             continue  # at gimbal lock: no roll, pitch, yaw (said below, with the poses lost)
-        q, failure = _inverse_kinematics_batch(model, pose[None, :], ())
+        q, _unreachable, failure = inverse_kinematics_batch(model, pose[None, :], ())
         if failure is None:
             q = q[0]
             q[:len(m.legs)] = theta
@@ -911,7 +968,7 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode) -> tuple[np.ndar
     from .errors import UnreachablePoseError
 
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
-    q, first = _inverse_kinematics_batch(model, poses, mode)
+    q, _unreachable, first = inverse_kinematics_batch(model, poses, mode)
     s = np.empty(poses.shape[0])
     model.kernels.singularity_measures(q, model.P, s)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))

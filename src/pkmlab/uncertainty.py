@@ -16,7 +16,7 @@ study seeded ``seed`` uses its own generator, ``numpy.random.default_rng([seed, 
 same whatever other draws are made, in whatever order or process — what makes a study
 reproducible bit for bit however it is split into chunks.
 
->>> from pkmlab import Planar3RRR
+>>> from pkmlab.geometry import Planar3RRR
 >>> model = Planar3RRR.paper()
 >>> names = uncertain_parameters(model, ("mass",))
 >>> names[:3], len(names)

@@ -1,0 +1,218 @@
+"""Dynamics of any described mechanism: the constrained Lagrangian model in the full coordinates with its
+loop-closure multipliers (the paper's eqs. 20–26), and its exact reduction to the actuator space (eq. 35),
+with gravity — batched over leading axes like :mod:`pkmlab.algorithms.kinematics`.
+
+The full model, ``M(q) q̈ + C(q, q̇) q̇ + g(q) = Q(τ) + Jηqᵀ λ`` with ``Jηq q̈ + J̇ηq q̇ = 0``, is that of
+the unconstrained bodies (its mass matrix is singular on its own for a closed chain); the reduced model
+``Mθ θ̈ + cθ + gθ = τ`` is what a computed-torque controller computes with and the simulations integrate.
+They agree: ``Mθ = Jqθᵀ M Jqθ``, ``cθ = Jqθᵀ (M J̇qθ θ̇ + C q̇)``, ``gθ = Jqθᵀ g``.
+
+Examples
+--------
+>>> import numpy as np
+>>> import pkmlab
+>>> model = pkmlab.load("five_bar")
+>>> q = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
+>>> reduced = pkmlab.actuator_space_model(model, q, [0.5, -0.2])
+>>> reduced.M.shape, bool(np.allclose(reduced.M, reduced.M.T))
+((2, 2), True)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import lagrangian
+from .. import mechanism_model as mm
+from .._validate import as_broadcast, index_text
+from ..errors import InvalidParameterError, SingularityError
+from ..mechanism_model import MechanismModel
+from .kinematics import SINGULAR_S, _on_manifold, as_model, coordinate_rates, singularity_measure
+
+__all__ = [
+    "FullSpaceModel",
+    "ConstrainedDynamics",
+    "ActuatorSpaceModel",
+    "full_space_model",
+    "constrained_dynamics",
+    "actuator_space_model",
+    "inverse_dynamics",
+    "forward_dynamics",
+]
+
+
+@dataclass(frozen=True)
+class FullSpaceModel:
+    """The unconstrained bodies' model in the full coordinates (:func:`full_space_model`).
+
+    Attributes
+    ----------
+    M : ndarray, shape (..., n, n)
+        The mass matrix ``M(q)`` (eq. 23).
+    c : ndarray, shape (..., n)
+        ``C(q, q̇) q̇``: the Coriolis and centrifugal forces (eq. 24).
+    g : ndarray, shape (..., n)
+        ``g(q) = ∂V/∂q``: the generalised forces that hold the bodies still against gravity.
+    """
+
+    M: np.ndarray
+    c: np.ndarray
+    g: np.ndarray
+
+
+@dataclass(frozen=True)
+class ConstrainedDynamics:
+    """The motion of the closed chain under actuator efforts (:func:`constrained_dynamics`).
+
+    Attributes
+    ----------
+    q_ddot : ndarray, shape (..., n)
+        The coordinates' accelerations.
+    multipliers : ndarray, shape (..., n_constraints)
+        The loop-closure multipliers ``λ`` of eq. (26): the forces (N, one per constraint row, in the
+        constraints' order) with which each leg holds its attachment point on the platform.
+    """
+
+    q_ddot: np.ndarray
+    multipliers: np.ndarray
+
+
+@dataclass(frozen=True)
+class ActuatorSpaceModel:
+    """The model reduced to the actuator space, ``M θ̈ + c + g = τ`` (eq. 35; :func:`actuator_space_model`).
+
+    Attributes
+    ----------
+    M : ndarray, shape (..., n_actuators, n_actuators)
+        ``Mθ = Jqθᵀ M Jqθ``, symmetric positive definite away from singularities.
+    c : ndarray, shape (..., n_actuators)
+        ``cθ = Cθ θ̇``: the Coriolis and centrifugal efforts.
+    g : ndarray, shape (..., n_actuators)
+        ``gθ = ∂V/∂θ``: the efforts that hold the machine still against gravity.
+    """
+
+    M: np.ndarray
+    c: np.ndarray
+    g: np.ndarray
+
+
+def _finite(name: str, *arrays) -> None:
+    if not all(np.all(np.isfinite(a)) for a in arrays):
+        raise InvalidParameterError(f"{name} overflows the model (values too large)")
+
+
+def full_space_model(model: MechanismModel, q, q_dot) -> FullSpaceModel:
+    """``(M, C q̇, g)`` of the unconstrained bodies at configurations ``q`` and rates ``q_dot`` (..., n)
+    (eqs. 23–24, with gravity): the Newton–Euler equations of every body in the coordinates ``q``."""
+    model = as_model(model)
+    n = len(model.coordinates)
+    qs, qds, shape = as_broadcast(("q", q, n), ("q_dot", q_dot, n))
+    M, c, g = np.empty((len(qs), n, n)), np.empty((len(qs), n)), np.empty((len(qs), n))
+    for k in range(len(qs)):
+        M[k], c[k], g[k] = mm.full_space_model(model, qs[k], qds[k])
+    _finite("q_dot", c)
+    return FullSpaceModel(M.reshape(*shape, n, n), c.reshape(*shape, n), g.reshape(*shape, n))
+
+
+def constrained_dynamics(model: MechanismModel, q, q_dot, tau) -> ConstrainedDynamics:
+    """The accelerations and loop-closure multipliers of the full model under actuator efforts ``tau``
+    (eq. 26): ``M q̈ + C q̇ + g = Q(τ) + Jηqᵀ λ``, ``Jηq q̈ + J̇ηq q̇ = 0``, where ``Q`` applies ``τ`` to the
+    actuated coordinates.
+
+    Parameters
+    ----------
+    q, q_dot : array_like, shape (..., n)
+        Configurations on the loop closure and rates tangent to it (:func:`~pkmlab.coordinate_rates`).
+    tau : array_like, shape (..., n_actuators)
+        Actuator efforts (N·m or N).
+
+    Returns
+    -------
+    ConstrainedDynamics
+    """
+    model = as_model(model)
+    n, na = len(model.coordinates), model.n_actuators
+    qs, qds, taus, shape = as_broadcast(("q", q, n), ("q_dot", q_dot, n), ("tau", tau, na))
+    _on_manifold(model, qs, shape)
+    k_ = model.kernels
+    j_eta = np.empty((len(qs), k_.N_CONSTRAINTS, n))
+    gamma = np.empty((len(qs), k_.N_CONSTRAINTS))
+    k_.constraint_jacobians(qs, model.P, j_eta)
+    k_.constraint_biases(qs, qds, model.P, gamma)
+    q_ddot, lam = np.empty((len(qs), n)), np.empty((len(qs), k_.N_CONSTRAINTS))
+    for k in range(len(qs)):
+        M, c, g = mm.full_space_model(model, qs[k], qds[k])
+        Q = np.zeros(n)
+        Q[:na] = taus[k]
+        q_ddot[k], lam[k], ok = lagrangian.constrained_accelerations(M, c + g, j_eta[k], gamma[k], Q)
+        if not ok:
+            raise SingularityError(f"q{index_text(k, shape)}: the constrained model is singular there "
+                                   "(a gain-type singularity)")
+    _finite("q_dot or tau", q_ddot, lam)
+    return ConstrainedDynamics(q_ddot.reshape(*shape, n), lam.reshape(*shape, k_.N_CONSTRAINTS))
+
+
+def _regular(model: MechanismModel, qs: np.ndarray, shape) -> None:
+    """Refuse configurations at a gain-type singularity (``|S| < SINGULAR_S``): the reduced model does not
+    exist there."""
+    s = singularity_measure(model, qs)
+    bad = np.flatnonzero(~(np.abs(s) >= SINGULAR_S))
+    if bad.size:
+        k = int(bad[0])
+        raise SingularityError(f"q{index_text(k, shape)} is at a gain-type singularity (|S| = {abs(s[k]):.3g} < "
+                               f"{SINGULAR_S:g}): the actuator-space model does not exist there")
+
+
+def actuator_space_model(model: MechanismModel, q, theta_dot) -> ActuatorSpaceModel:
+    """``(Mθ, cθ, gθ)`` of ``Mθ θ̈ + cθ + gθ = τ`` (eq. 35, with gravity) at configurations ``q`` (..., n) on
+    the loop closure and actuator rates ``theta_dot`` (..., n_actuators): the compiled core's own numbers,
+    those a simulation integrates.
+
+    Raises
+    ------
+    SingularityError
+        At a gain-type singularity (``|S| < 1e-6``).
+    """
+    model = as_model(model)
+    n, na = len(model.coordinates), model.n_actuators
+    qs, tds, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na))
+    _on_manifold(model, qs, shape)
+    _regular(model, qs, shape)
+    M, c, g = np.empty((len(qs), na, na)), np.empty((len(qs), na)), np.empty((len(qs), na))
+    failed = model.kernels.actuator_space_models(qs, tds, model.P, M, c, g)
+    if failed >= 0:
+        raise SingularityError(f"q{index_text(int(failed), shape)} is at a gain-type singularity")
+    _finite("theta_dot", c)
+    return ActuatorSpaceModel(M.reshape(*shape, na, na), c.reshape(*shape, na), g.reshape(*shape, na))
+
+
+def inverse_dynamics(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndarray:
+    """The actuator efforts ``τ = Mθ θ̈ + cθ + gθ`` (..., n_actuators) that give the actuators the
+    accelerations ``theta_ddot`` (eq. 35)."""
+    model = as_model(model)
+    n, na = len(model.coordinates), model.n_actuators
+    qs, tds, tdds, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("theta_ddot", theta_ddot, na))
+    r = actuator_space_model(model, qs, tds)
+    tau = np.einsum("kij,kj->ki", r.M, tdds) + r.c + r.g
+    _finite("theta_ddot", tau)
+    return tau.reshape(*shape, na)
+
+
+def forward_dynamics(model: MechanismModel, q, theta_dot, tau) -> np.ndarray:
+    """The actuator accelerations ``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` (..., n_actuators) under efforts ``tau``
+    (eq. 35)."""
+    model = as_model(model)
+    n, na = len(model.coordinates), model.n_actuators
+    qs, tds, taus, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("tau", tau, na))
+    r = actuator_space_model(model, qs, tds)
+    theta_ddot = np.linalg.solve(r.M, (taus - r.c - r.g)[..., None])[..., 0]
+    _finite("tau", theta_ddot)
+    return theta_ddot.reshape(*shape, na)
+
+
+def tangent_rates(model: MechanismModel, q, theta_dot) -> np.ndarray:
+    """The full rates ``q̇`` (..., n) of actuator rates ``theta_dot`` at ``q``: what :func:`constrained_dynamics`
+    takes as ``q_dot`` (:func:`~pkmlab.coordinate_rates`)."""
+    return coordinate_rates(model, q, theta_dot)

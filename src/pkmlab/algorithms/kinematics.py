@@ -1,0 +1,444 @@
+"""Kinematics of any described mechanism: inverse kinematics in every working mode, forward kinematics
+with every assembly mode, branch following, the constraint and velocity Jacobians, coordinate rates and
+accelerations, and the singularity measure (the paper's §2 and §3.2, for every machine).
+
+Every function takes a :class:`~pkmlab.mechanism_model.MechanismModel` first (:func:`pkmlab.load`) and
+arrays shaped ``(..., n)``: one configuration or a batch of any leading shape, with the same code path.
+``q`` is the model's coordinate vector ``(θ, passive joints, pose)`` (``model.coordinates`` names its
+entries; for the paper's 3-RRR ``(θ1, θ2, θ3, φ1, φ2, φ3, x, y, α)``), ``theta`` the actuator values
+(angles in rad or lengths in m), ``pose`` the platform's pose (``model.pose_names``).
+
+Examples
+--------
+>>> import numpy as np
+>>> import pkmlab
+>>> model = pkmlab.load("paper")
+>>> ik = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1))
+>>> np.round(ik.theta, 4).tolist()
+[1.6146, 1.9831, -1.1846]
+>>> fk = pkmlab.forward_kinematics(model, ik.theta)
+>>> int(fk.count), np.allclose(fk.nearest([0.2, 0.21, 0.0]).pose, [0.2, 0.21, 0.0], atol=1e-12)
+(2, True)
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import mechanism_model as mm
+from .._validate import as_batch, as_broadcast, as_choice, as_mode, as_real, index_text
+from ..errors import BranchFollowingError, IncompleteSolutionWarning, InvalidParameterError, SingularityError
+from ..mechanism_model import MechanismModel
+
+__all__ = [
+    "SINGULAR_S",
+    "InverseKinematicsSolution",
+    "AssemblyMode",
+    "ForwardKinematicsSolution",
+    "working_modes",
+    "inverse_kinematics",
+    "forward_kinematics",
+    "branch_following",
+    "constraint_residual",
+    "constraint_jacobian",
+    "coordinate_jacobian",
+    "velocity_jacobian",
+    "coordinate_rates",
+    "acceleration_bias",
+    "coordinate_accelerations",
+    "singularity_measure",
+]
+
+#: ``|S|`` below which a configuration counts as a gain-type singularity: the reduced model does not exist
+#: there (branch following's default guard; the dynamics refuse such configurations).
+SINGULAR_S = 1e-6
+
+#: A configuration is on the loop-closure manifold when ``max |η(q)|`` is below this fraction of the
+#: machine's size (:func:`length_scale`): the functions that need ``η(q) = 0`` refuse it otherwise.
+CLOSURE_TOLERANCE = 1e-8
+
+
+def as_model(model, name: str = "model") -> MechanismModel:
+    """``model`` itself if it is a model (:func:`pkmlab.load`): anything else would fail deep inside, unnamed."""
+    if not isinstance(model, MechanismModel):
+        from ..errors import shown
+
+        raise InvalidParameterError(f"{name} must be a pkmlab model (pkmlab.load('paper'), a preset name, or a "
+                                    f"description file), got {type(model).__name__} {shown(model, 50)}")
+    return model
+
+
+def length_scale(model: MechanismModel) -> float:
+    """The machine's size (m): its largest base, attachment or link dimension (what tolerances on lengths
+    are scaled by)."""
+    m = model.description
+    sizes = [np.linalg.norm(leg.base) for leg in m.legs] + [np.linalg.norm(a) for a in m.platform.attachments]
+    sizes += [np.linalg.norm(b.tip) for leg in m.legs for b in leg.bodies]
+    sizes += [max(abs(v) for v in leg.stroke) for leg in m.legs if leg.stroke is not None]
+    return float(max(max(sizes), 1e-3))
+
+
+def _configurations(model: MechanismModel, q, name: str = "q"):
+    """``q`` as a C-contiguous ``(K, n)`` batch and its leading shape."""
+    return as_batch(name, q, len(model.coordinates))
+
+
+def _on_manifold(model: MechanismModel, qs: np.ndarray, shape, name: str = "q") -> None:
+    """Refuse configurations off the loop-closure manifold, naming the first and its residual."""
+    residual = np.abs(_residuals(model, qs)).max(axis=1)
+    tolerance = CLOSURE_TOLERANCE * length_scale(model)
+    bad = np.flatnonzero(~(residual <= tolerance))
+    if bad.size:
+        k = int(bad[0])
+        raise InvalidParameterError(
+            f"{name}{index_text(k, shape)} is off the loop closure: max |eta(q)| = {residual[k]:.3g} m exceeds "
+            f"{tolerance:.3g} m (a configuration from inverse or forward kinematics or branch following is on it)")
+
+
+def _residuals(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
+    k = model.kernels
+    out = np.empty((len(qs), k.N_CONSTRAINTS))
+    for i, qi in enumerate(qs):
+        k.constraints(qi, mm.trig_table(model, qi), model.P, out[i])
+    return out
+
+
+# ------------------------------------------------------------------ inverse kinematics
+@dataclass(frozen=True)
+class InverseKinematicsSolution:
+    """Result of :func:`inverse_kinematics`.
+
+    Attributes
+    ----------
+    q : ndarray, shape (..., n) for one working mode, (..., n_modes, n) for all of them
+        Configurations, in the order of ``modes``; NaN where a leg cannot reach (``on_unreachable="nan"``).
+    modes : ndarray of int, shape (k,) or (n_modes, k)
+        The working modes: one sign per two-branch leg (``k`` may be 0: one mode, no signs).
+    unreachable_legs : ndarray of int, shape (...) or (..., n_modes)
+        Bit ``i`` set where leg ``i + 1`` cannot reach.
+    S : ndarray, shape (...) or (..., n_modes)
+        The singularity measure of each solution (NaN where unreachable).
+    n_actuators : int
+        How many of ``q``'s leading entries are the actuators.
+    """
+
+    q: np.ndarray
+    modes: np.ndarray
+    unreachable_legs: np.ndarray
+    S: np.ndarray
+    n_actuators: int
+
+    @property
+    def theta(self) -> np.ndarray:
+        """The actuator values ``θ`` (..., n_actuators)."""
+        return self.q[..., :self.n_actuators]
+
+    @property
+    def reachable(self) -> np.ndarray:
+        return self.unreachable_legs == 0
+
+
+def working_modes(model: MechanismModel) -> np.ndarray:
+    """Every working mode (n_modes, k): one sign per two-branch leg, +1 before -1, lexicographic order
+    (one empty mode, shape (1, 0), when no leg has two branches, as for the 3-RPR)."""
+    modes = mm.working_modes(as_model(model))
+    return np.array(modes, dtype=np.int64).reshape(len(modes), -1)
+
+
+def inverse_kinematics(model: MechanismModel, pose, mode=None, *, on_unreachable: str = "raise"):
+    """The configurations that put the platform at ``pose``, in every working mode or in one
+    (closed form per leg type; conventions §3 defines the modes' signs).
+
+    Parameters
+    ----------
+    model : MechanismModel
+    pose : array_like, shape (..., dof)
+        The platform's pose (``model.pose_names``; metres and radians).
+    mode : sequence of signs, optional
+        One working mode (``(1, -1, 1)``, ``"+-+"``); every mode (:func:`working_modes`) when omitted.
+    on_unreachable : {"raise", "nan"}
+        Raise :class:`~pkmlab.errors.UnreachablePoseError` naming the leg that cannot reach, or fill
+        those solutions with NaN (for maps over a region).
+
+    Returns
+    -------
+    InverseKinematicsSolution
+    """
+    from ..errors import UnreachablePoseError
+
+    model = as_model(model)
+    as_choice("on_unreachable", on_unreachable, ("raise", "nan"))
+    m = model.description
+    poses, shape = as_batch("pose", pose, m.dof)
+    all_modes = working_modes(model)
+    modes = all_modes if mode is None else as_mode(mode, "mode", all_modes.shape[1])[None, :]
+    if getattr(m, "spatial", False):
+        from ..mechanisms.spatial import check_pose
+
+        for p in poses:
+            check_pose(m, p)
+    n = len(model.coordinates)
+    q = np.empty((len(poses), len(modes), n))
+    unreachable = np.zeros((len(poses), len(modes)), dtype=np.int64)
+    for j, sigma in enumerate(modes):
+        q[:, j], unreachable[:, j], first = mm.inverse_kinematics_batch(model, poses, tuple(int(s) for s in sigma))
+        if first is not None and on_unreachable == "raise":
+            k, leg, message = first
+            raise UnreachablePoseError(f"pose {np.round(poses[k], 6).tolist()}{index_text(k, shape)}: {message}",
+                                       legs=(leg + 1,),
+                                       index=None if shape == () else tuple(int(i) for i in np.unravel_index(k, shape)))
+    s = np.full(q.shape[:-1], np.nan)
+    ok = unreachable == 0
+    if ok.any():
+        s[ok] = singularity_measure(model, q[ok])
+    if mode is not None:
+        return InverseKinematicsSolution(q[:, 0].reshape(*shape, n), modes[0], unreachable[:, 0].reshape(shape),
+                                         s[:, 0].reshape(shape), model.n_actuators)
+    k = len(modes)
+    return InverseKinematicsSolution(q.reshape(*shape, k, n), modes, unreachable.reshape(*shape, k),
+                                     s.reshape(*shape, k), model.n_actuators)
+
+
+# ------------------------------------------------------------------ forward kinematics
+@dataclass(frozen=True)
+class AssemblyMode:
+    """One solution of forward kinematics: the configuration ``q`` (n,), the platform's ``pose`` (dof,)
+    and the singularity measure ``S`` there."""
+
+    q: np.ndarray
+    pose: np.ndarray
+    S: float
+
+
+@dataclass(frozen=True)
+class ForwardKinematicsSolution:
+    """Every assembly mode for each ``θ`` of a batch.
+
+    Attributes
+    ----------
+    q : ndarray, shape (..., m, n)
+        Up to ``m`` configurations per ``θ`` (``m`` the most found in the batch), sorted by the pose's
+        last coordinate; the first ``count`` are valid, the rest NaN.
+    pose : ndarray, shape (..., m, dof)
+    S : ndarray, shape (..., m)
+    count : ndarray of int, shape (...)
+        How many assembly modes exist (0 where the machine cannot be assembled).
+
+    For a single ``θ`` the object is a sequence of :class:`AssemblyMode`.
+    """
+
+    q: np.ndarray
+    pose: np.ndarray
+    S: np.ndarray
+    count: np.ndarray
+
+    def __len__(self) -> int:
+        if self.count.ndim:
+            raise TypeError("len() of a batched ForwardKinematicsSolution: use .count")
+        return int(self.count)
+
+    def __getitem__(self, j: int) -> AssemblyMode:
+        n = len(self)
+        if not isinstance(j, int | np.integer) or not -n <= j < n:
+            raise IndexError(f"assembly mode {j!r} of {n}")
+        j = int(j) % n
+        return AssemblyMode(self.q[j].copy(), self.pose[j].copy(), float(self.S[j]))
+
+    def nearest(self, pose) -> AssemblyMode:
+        """The assembly mode whose pose is nearest to ``pose`` (angles compared modulo 2π)."""
+        n = len(self)
+        if n == 0:
+            raise IndexError("no assembly mode")
+        target = as_batch("pose", pose, self.pose.shape[-1], single=True)[0][0]
+        d = self.pose[:n] - target
+        angular = _pose_angles(self.pose.shape[-1])
+        d[:, angular] = np.angle(np.exp(1j * d[:, angular]))
+        return self[int(np.argmin(np.linalg.norm(d, axis=1)))]
+
+
+def _pose_angles(dof: int) -> np.ndarray:
+    """Which pose coordinates are angles: ``(x, y)``, ``(x, y, α)``, ``(x, y, z)``, ``(x, y, z, roll, pitch, yaw)``."""
+    return np.array({2: [False] * 2, 3: [False, False, True], 6: [False] * 3 + [True] * 3}.get(dof, [False] * dof))
+
+
+def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolution:
+    """Every assembly mode at the actuator values ``theta`` (..., n_actuators).
+
+    Planar machines whose legs hold their attachment points on circles: the real roots of one degree-6
+    polynomial (the paper's eq. 12 in Gosselin's general form); the five-bar: two circles; the Delta: three
+    spheres; a platform on six UP*S legs: every real solution by homotopy continuation; any other planar
+    machine: a sweep of the platform's orientation (conventions §3), which warns
+    (:class:`~pkmlab.errors.IncompleteSolutionWarning`) where it cannot be sure it found every mode. Each
+    configuration is polished by Newton's method on ``η = 0``.
+
+    Returns
+    -------
+    ForwardKinematicsSolution
+        ``count`` is 0 where the machine cannot be assembled.
+    """
+    model = as_model(model)
+    thetas, shape = as_batch("theta", theta, model.n_actuators)
+    found = []
+    for k, t in enumerate(thetas):
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", IncompleteSolutionWarning)
+                found.append(mm.forward_kinematics(model, t))
+        except (InvalidParameterError, SingularityError) as exc:
+            raise type(exc)(f"theta{index_text(k, shape)}: {exc}") from None
+        for w in caught:
+            warnings.warn(f"{w.message}{index_text(k, shape)}", w.category, stacklevel=2)
+    most = max([len(f) for f in found] + [0])
+    n, dof = len(model.coordinates), model.description.dof
+    q = np.full((len(thetas), most, n), np.nan)
+    s = np.full((len(thetas), most), np.nan)
+    count = np.array([len(f) for f in found], dtype=np.int64)
+    for k, solutions in enumerate(found):
+        for j, (qj, sj) in enumerate(solutions):
+            q[k, j], s[k, j] = qj, sj
+    return ForwardKinematicsSolution(q.reshape(*shape, most, n), q[..., n - dof:].reshape(*shape, most, dof),
+                                     s.reshape(*shape, most), count.reshape(shape))
+
+
+def branch_following(model: MechanismModel, q_previous, theta, *, min_abs_S: float = SINGULAR_S,
+                     max_step: float = 0.05) -> np.ndarray:
+    """The configuration at ``theta`` continuously connected to ``q_previous`` (paper §3.2): the forward
+    kinematics a simulation uses, the compiled core's own.
+
+    Parameters
+    ----------
+    model : MechanismModel
+    q_previous : array_like, shape (..., n)
+        Configurations on the loop closure (the assembly modes to follow).
+    theta : array_like, shape (..., n_actuators)
+        The actuator values to follow them to (broadcast against ``q_previous``).
+    min_abs_S : float
+        The guard: the way may not come nearer a gain-type singularity (``|S|`` below it).
+    max_step : float
+        The largest sub-step in the actuators (halved where one fails; an angle moves the shorter way
+        round, by at most π).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+
+    Raises
+    ------
+    BranchFollowingError
+        Where the way nears a gain-type singularity or the passive coordinates cannot be found.
+    """
+    model = as_model(model)
+    n, na = len(model.coordinates), model.n_actuators
+    qs, thetas, shape = as_broadcast(("q_previous", q_previous, n), ("theta", theta, na))
+    guard = as_real("min_abs_S", min_abs_S, "non-negative")
+    step = as_real("max_step", max_step, "positive")
+    k = model.kernels
+    out, status = np.empty_like(qs), np.zeros(len(qs), dtype=np.int64)
+    k.branch_following_batch(qs, thetas, model.P, guard, step, out, status)
+    if np.any(status != k.OK):
+        i = int(np.flatnonzero(status != k.OK)[0])
+        why = ("a gain-type singularity on the way" if status[i] == k.SINGULAR else
+               "the passive coordinates cannot be found on the way: out of reach, or at a gain-type singularity")
+        reached = float(singularity_measure(model, out[i]))
+        raise BranchFollowingError(
+            f"cannot follow the assembly mode to theta {np.round(thetas[i], 6).tolist()}{index_text(i, shape)}: "
+            f"{why} (|S| = {abs(reached):.3g} at theta {np.round(out[i, :na], 6).tolist()}, the last configuration "
+            f"reached; limit min_abs_S = {guard:g})")
+    return out.reshape(*shape, n)
+
+
+# ------------------------------------------------------------------ first-order kinematics
+def constraint_residual(model: MechanismModel, q) -> np.ndarray:
+    """The loop-closure residual ``η(q)`` (..., n_constraints): for each leg, the end of its chain minus its
+    platform attachment point (zero on the manifold; the paper's eqs. 2–6 for its machine)."""
+    model = as_model(model)
+    qs, shape = _configurations(model, q)
+    return _residuals(model, qs).reshape(*shape, -1)
+
+
+def constraint_jacobian(model: MechanismModel, q) -> np.ndarray:
+    """``Jηq = ∂η/∂q`` (..., n_constraints, n)."""
+    model = as_model(model)
+    qs, shape = _configurations(model, q)
+    k = model.kernels
+    out = np.empty((len(qs), k.N_CONSTRAINTS, k.N_COORDINATES))
+    k.constraint_jacobians(qs, model.P, out)
+    return out.reshape(*shape, k.N_CONSTRAINTS, k.N_COORDINATES)
+
+
+def _dependent_solve(model: MechanismModel, j_eta: np.ndarray, rhs: np.ndarray, shape, name: str) -> np.ndarray:
+    """``-(∂η/∂u)⁻¹ rhs`` for the dependent coordinates ``u`` (passive joints and pose) of each configuration;
+    raises at a gain-type singularity (``∂η/∂u`` singular)."""
+    na = model.n_actuators
+    a = j_eta[:, :, na:]
+    singular = ~(np.linalg.cond(a) < 1e12)
+    if singular.any():
+        k = int(np.argmax(singular))
+        raise SingularityError(f"{name}{index_text(k, shape)} is at a gain-type singularity: the passive "
+                               "coordinates' rates are undetermined (d eta / d(passive, pose) is singular)")
+    return -np.linalg.solve(a, rhs)
+
+
+def coordinate_jacobian(model: MechanismModel, q) -> np.ndarray:
+    """``Jqθ = ∂q/∂θ`` (..., n, n_actuators) on the loop closure: ``q̇ = Jqθ θ̇`` (the paper's eq. 31, for
+    every machine). Its first rows are the identity."""
+    model = as_model(model)
+    qs, shape = _configurations(model, q)
+    _on_manifold(model, qs, shape)
+    na = model.n_actuators
+    j_eta = constraint_jacobian(model, qs)
+    dependent = _dependent_solve(model, j_eta, j_eta[:, :, :na], shape, "q")
+    eye = np.broadcast_to(np.eye(na), (len(qs), na, na))
+    return np.concatenate([eye, dependent], axis=1).reshape(*shape, len(model.coordinates), na)
+
+
+def velocity_jacobian(model: MechanismModel, q) -> np.ndarray:
+    """``Jv = ∂pose/∂θ`` (..., dof, n_actuators): the platform's pose rates from the actuator rates (the last
+    ``dof`` rows of :func:`coordinate_jacobian`)."""
+    return coordinate_jacobian(model, q)[..., -as_model(model).description.dof:, :]
+
+
+def coordinate_rates(model: MechanismModel, q, theta_dot) -> np.ndarray:
+    """``q̇ = Jqθ θ̇`` (..., n) at configurations ``q`` for actuator rates ``theta_dot`` (broadcast)."""
+    model = as_model(model)
+    qs, tds, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
+    return np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), tds).reshape(*shape, -1)
+
+
+def acceleration_bias(model: MechanismModel, q, theta_dot) -> np.ndarray:
+    """``J̇qθ θ̇`` (..., n): the coordinates' accelerations at zero actuator acceleration, so that
+    ``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (the paper's eq. 32, for every machine)."""
+    model = as_model(model)
+    qs, tds, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
+    q_dot = coordinate_rates(model, qs, tds)
+    k = model.kernels
+    gamma = np.empty((len(qs), k.N_CONSTRAINTS))
+    k.constraint_biases(qs, np.ascontiguousarray(q_dot), model.P, gamma)
+    dependent = _dependent_solve(model, constraint_jacobian(model, qs), gamma[..., None], shape, "q")[..., 0]
+    out = np.concatenate([np.zeros((len(qs), model.n_actuators)), dependent], axis=1)
+    if not np.all(np.isfinite(out)):
+        raise InvalidParameterError("theta_dot overflows the acceleration bias (rates too large)")
+    return out.reshape(*shape, -1)
+
+
+def coordinate_accelerations(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndarray:
+    """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., n)."""
+    model = as_model(model)
+    n, na = len(model.coordinates), model.n_actuators
+    qs, tds, tdds, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("theta_ddot", theta_ddot, na))
+    out = np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), tdds) + acceleration_bias(model, qs, tds)
+    return out.reshape(*shape, n)
+
+
+def singularity_measure(model: MechanismModel, q) -> np.ndarray:
+    """The gain-type singularity measure ``S`` (...) at configurations ``q``: zero where the passive motion is
+    undetermined (conventions §2: the determinant of the legs' lines of action, the paper's eq. 19 for its
+    machine; ``sin(φ1 - φ2)`` for the five-bar)."""
+    model = as_model(model)
+    qs, shape = _configurations(model, q)
+    out = np.empty(len(qs))
+    model.kernels.singularity_measures(qs, model.P, out)
+    return out.reshape(shape)
