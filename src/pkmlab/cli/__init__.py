@@ -1,0 +1,220 @@
+"""The ``pkmlab`` command line: a thin layer over the library.
+
+Exit codes: 0 success; 1 a problem with the input (unreachable pose, invalid parameter,
+unreadable file, ...), reported as one line on stderr (or as ``{"error": ...}`` on stdout
+with ``--json``); 2 a malformed command line; 130 interrupted.
+
+The grammar is :mod:`._parser`'s; each command lives in the module of its family (:mod:`.kinematics`,
+:mod:`.dynamics`, :mod:`.maps`, :mod:`.simulate`, :mod:`.reproduce`, :mod:`.animate`, :mod:`.view`,
+:mod:`.mujoco`, :mod:`.study`), imported when it runs; what they share is in :mod:`._common`.
+"""
+
+from __future__ import annotations
+
+import sys
+
+try:  # Ctrl-C while the command line itself loads (its own imports): a quiet exit, as anywhere later
+    from ..errors import InvalidParameterError, PkmlabError
+    from ._common import notes, print_error, print_json
+    from ._common import strict_json as _strict_json  # noqa: F401 (its former name here, kept importable)
+    from ._parser import build_parser
+except KeyboardInterrupt:
+    print("pkmlab: interrupted", file=sys.stderr)
+    raise SystemExit(130) from None
+
+__all__ = ["build_parser", "entry", "main"]
+
+
+def _pose_names(args) -> tuple[str, ...]:
+    """The names of the pose's coordinates of the machine on the command line (the paper's 3-RRR's by default;
+    a description that cannot be read yet names none: its error comes later, on its own)."""
+    mechanism = getattr(args, "mechanism", None)
+    if not mechanism:
+        return ("x", "y", "alpha")
+    try:
+        from ..mechanisms.description import load_mechanism
+        from ..mechanisms.presets import PRESETS, preset
+
+        return (preset(mechanism) if mechanism in PRESETS else load_mechanism(mechanism)).pose_names
+    except PkmlabError:
+        return ()
+
+
+def _check_finite(args) -> None:
+    """Every number of the command line must be finite: NaN or infinity is refused naming its argument
+    (for a list of positional numbers, the one at fault: ``alpha``, ``T1``...)."""
+    import math
+
+    actions = {a.dest: a for a in args.parser._actions}
+    for dest, value in vars(args).items():
+        values = value if isinstance(value, list) else [value]
+        bad = [k for k, v in enumerate(values) if isinstance(v, float) and not math.isfinite(v)]
+        if not bad:
+            continue
+        action = actions.get(dest)
+        name = dest if action is None else action.option_strings[0] if action.option_strings else str(action.metavar)
+        parts = " ".join(_pose_names(args)).upper().split() if name == "POSE" else name.split()
+        if len(parts) > 1 and isinstance(value, list) and bad[0] < len(parts):  # "X Y ALPHA": the one at fault
+            name = parts[bad[0]].lower() if name == "POSE" or parts[bad[0]] in ("X", "Y", "ALPHA") else parts[bad[0]]
+        raise InvalidParameterError(f"{name} must be finite, got {' '.join(str(v) for v in values)}")
+
+
+def _check_mode(args) -> None:
+    """``--mode`` as three signs (``+ - +``, ``1 -1 1``) or one word (``+-+``), the spellings the Python API
+    takes; normalised to three ints. Another number of words is a malformed command line (exit 2)."""
+    tokens = getattr(args, "mode", None)
+    if tokens is None:
+        return
+    from .._validate import as_mode
+
+    if getattr(args, "mechanism", None) is not None:  # any number of signs: the machine decides
+        text = "".join(tokens).replace("+1", "+").replace("-1", "-").replace("1", "+")
+        if text.strip("+-"):
+            raise InvalidParameterError(f"--mode: a working mode is signs such as + - (or one word such as +-), "
+                                        f"got {' '.join(tokens)}")
+        args.mode = tuple(1 if c == "+" else -1 for c in text)
+        return
+
+    if len(tokens) not in (1, 3):
+        args.parser.error(f"argument --mode: expected three signs (+ - +) or one word (+-+), got {' '.join(tokens)}")
+    try:
+        args.mode = tuple(int(v) for v in as_mode(tokens[0] if len(tokens) == 1 else tokens))
+    except InvalidParameterError:
+        raise InvalidParameterError(f"--mode: a working mode is three signs such as + - + (or one word such as "
+                                    f"+-+), got {' '.join(tokens)}") from None
+
+
+def _compile_notice(args) -> None:
+    """Say once, on a terminal, why the first run after installing pkmlab is slow."""
+    from .. import _compile_cache
+
+    if _compile_cache.is_cold() and sys.stderr.isatty() and not getattr(args, "quiet", False):
+        print("pkmlab: first run of this version: compiling its numerical kernels for this machine "
+              "(about a minute, once) ...", file=sys.stderr, flush=True)
+
+
+def _quiet_stdout() -> None:
+    """After a closed pipe (`pkmlab fk ... | head -1`), send what is left of stdout nowhere, so that
+    Python's final flush does not report the broken pipe again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+def _with_notes(args):
+    """Run the command; what pkmlab's general methods warn of (an assembly mode that may be missing) is
+    said as one note line each, other warnings as Python shows them."""
+    import warnings
+
+    from ..errors import IncompleteSolutionWarning
+
+    caught: list = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", IncompleteSolutionWarning)
+            return args.func(args)
+    finally:  # said also when the command then fails, once the recording has stopped
+        for w in caught:
+            if issubclass(w.category, IncompleteSolutionWarning):
+                notes(args)(str(w.message))
+            else:
+                warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
+def _interpreted(args) -> bool:
+    """Whether the command is a one-shot evaluation at a single pose or state, whose kernels are quicker to run
+    interpreted than to load compiled (:mod:`pkmlab._compile_cache`): ``ik`` of any machine, ``fk`` and
+    ``dynamics`` of the paper's 3-RRR (a described machine's forward kinematics solves a polynomial system:
+    compiled)."""
+    return args.command == "ik" or (args.command in ("fk", "dynamics") and getattr(args, "mechanism", None) is None)
+
+
+def _run(argv: list[str] | None, one_shot_interpreted: bool = False) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    import os
+
+    interpreted_here = (one_shot_interpreted and _interpreted(args) and "pkmlab._compile_cache" not in sys.modules
+                        and "PKMLAB_INTERPRETED" not in os.environ)  # the user's choice kept
+    if interpreted_here:
+        os.environ["PKMLAB_INTERPRETED"] = "1"  # read when the first kernel module is imported
+    try:
+        return _command(args)
+    finally:
+        if interpreted_here:  # not passed on to anything this process starts
+            os.environ.pop("PKMLAB_INTERPRETED", None)
+
+
+def _command(args) -> int:
+    try:
+        _check_finite(args)
+        _check_mode(args)
+        _compile_notice(args)
+        result = _with_notes(args)
+    except PkmlabError as exc:
+        print_error(args, exc)
+        return 1
+    except KeyboardInterrupt as exc:  # a study's says what it kept and how to finish
+        print(f"pkmlab {args.command}: interrupted" + (f": {exc}" if str(exc) else ""), file=sys.stderr)
+        return 130
+    if getattr(args, "json", False):
+        print_json(result)
+    sys.stdout.flush()
+    return 0
+
+
+def main(argv: list[str] | None = None, one_shot_interpreted: bool = False) -> int:
+    """The ``pkmlab`` command. Exit codes: 0 success, 1 a problem with the input (one line on stderr),
+    2 a malformed command line, 130 interrupted (Ctrl-C, at any moment, start-up included), 141 the
+    reader of the output went away (a closed pipe, as ``| head``), quietly.
+
+    ``one_shot_interpreted`` (the executable's choice, :func:`entry`): in a process that has not loaded any
+    kernel yet, the one-shot commands (``ik`` ...) run their kernels interpreted: the same code, without
+    the 0.4 s of importing Numba and loading compiled kernels."""
+    try:
+        return _run(argv, one_shot_interpreted)
+    except KeyboardInterrupt:
+        print("pkmlab: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        _quiet_stdout()
+        return 141
+
+
+def _interrupt_from_callbacks(hook=sys.unraisablehook):
+    """``sys.unraisablehook`` that turns a Ctrl-C caught inside a callback from compiled code (Numba's
+    LLVM engine calls back into Python while it compiles; an exception there cannot propagate and would
+    be printed as "Exception ignored", then lost) into a Ctrl-C delivered again to the main program."""
+    import signal
+
+    def interrupt(*_args):
+        raise KeyboardInterrupt
+
+    def unraisable(info):
+        if isinstance(info.exc_value, KeyboardInterrupt) and hasattr(signal, "setitimer"):
+            # raised here it would be caught again: deliver it a moment later, once out of the callback
+            signal.signal(signal.SIGALRM, interrupt)
+            signal.setitimer(signal.ITIMER_REAL, 0.005)
+        else:
+            hook(info)
+
+    return unraisable
+
+
+def entry() -> int:
+    """The ``pkmlab`` executable: :func:`main` with Ctrl-C honoured everywhere, even inside callbacks of
+    compiled code; ignored only once the work is done and the interpreter shuts down (its exit handlers
+    would otherwise print a traceback, and there is nothing left to interrupt)."""
+    import signal
+
+    sys.unraisablehook = _interrupt_from_callbacks()
+    code = main(one_shot_interpreted=True)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "setitimer"):
+        signal.setitimer(signal.ITIMER_REAL, 0)  # a Ctrl-C still to be delivered: the work is done
+    return code
+

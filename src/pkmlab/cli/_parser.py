@@ -1,0 +1,237 @@
+"""The command line's grammar: one ``argparse`` sub-parser per command. Each command's function is imported
+only when it runs (:func:`_command`), so that a one-shot command loads nothing it does not use."""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+from .._version import __version__
+from ._common import MAX_RESOLUTION
+
+# argparse reads only "-1" and "-1.5" as negative numbers: "-1e-3", "-1.2E+00" or "-inf" would be
+# taken for unknown options and the positional argument reported missing. Widen its matcher (a
+# private attribute of the parser) so every negative float is read as a value — and a working
+# mode written as one word that starts with a minus ("-+-", "--+").
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$|^-(inf|infinity|nan)$|^-[+-]{2}$", re.IGNORECASE)
+
+
+def _accept_negative_numbers(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    parser._negative_number_matcher = _NEGATIVE_NUMBER
+    return parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
+                                     "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
+    _accept_negative_numbers(parser)
+    parser.add_argument("--version", action="version", version=f"pkmlab {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    def common(p):
+        _accept_negative_numbers(p)
+        p.add_argument("--params", metavar="FILE.toml", help="manipulator parameters (default: the paper preset)")
+        p.add_argument("--json", action="store_true", help="machine-readable output")
+
+    def mechanism(p):
+        p.add_argument("--mechanism", metavar="NAME|FILE.toml", help="another machine: a preset (paper, five_bar, "
+                       "3rpr, 3prr, delta, stewart) or a description file; default: the paper's 3-RRR as today")
+
+    p = sub.add_parser("ik", help="inverse kinematics: every working mode of a platform pose")
+    p.add_argument("pose", nargs="+", type=float, metavar="POSE",
+                   help="the platform pose: x y alpha (the paper's 3-RRR, a planar rigid platform), x y (a point), "
+                   "x y z (the Delta), x y z roll pitch yaw (a six-DOF platform; R = Rz(yaw) Ry(pitch) Rx(roll))")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: signs (+ - +) or one word (+-+)")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("kinematics", "cmd_ik"))
+
+    p = sub.add_parser("fk", help="forward kinematics: every assembly mode of actuated angles")
+    p.add_argument("actuators", nargs="+", type=float, metavar="T1 T2 T3",
+                   help="the actuator values (angles in rad, slides in m)")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("kinematics", "cmd_fk"))
+
+    p = sub.add_parser("dynamics", help="actuator-space and full dynamic model at a state (paper eq. 26, 35)")
+    p.add_argument("actuators", nargs="+", type=float, metavar="T1 T2 T3",
+                   help="the actuator values (angles in rad, slides in m)")
+    p.add_argument("--theta-dot", "--rates", dest="theta_dot", nargs="+", type=float, metavar="W",
+                   help="actuator rates (rad/s or m/s), default 0")
+    p.add_argument("--near", nargs="+", type=float, metavar="POSE",
+                   help="only the assembly mode whose platform pose is nearest to this pose (as ik takes it)")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("dynamics", "cmd_dynamics"))
+
+    p = sub.add_parser("reproduce", help="the paper's three simulated cases with every figure (paper §5)")
+    p.add_argument("--out", default="out", help="output folder (default: out)")
+    p.add_argument("--control", choices=("sampled", "continuous"), default="sampled",
+                   help="sampled-data control at 1 ms (default) or continuous-time")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    common(p)
+    p.set_defaults(func=_command("reproduce", "cmd_reproduce"))
+
+
+    p = sub.add_parser("simulate", help="simulate a scenario file: summary, time series, figures, REPORT.md")
+    p.add_argument("scenario", metavar="SCENARIO.toml", help="the scenario (format: README, 'Scenario files')")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder: new, empty, or an earlier result of "
+                   "pkmlab simulate (replaced when the run succeeds; anything else in it is refused, never deleted)")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--plant", choices=("pkmlab", "mujoco"), default="pkmlab", help="the plant the controller runs "
+                   "against: pkmlab's exact reduced model (default) or MuJoCo's integration of the exported machine")
+    p.add_argument("--mujoco-timestep", type=float, metavar="DT", help="MuJoCo's time step (s), dividing the sample "
+                   "time; default the sample time or 1 ms, whichever is smaller")
+    p.add_argument("--mujoco-integrator", choices=("RK4", "implicitfast", "implicit", "Euler"), default="RK4",
+                   help="MuJoCo's integrator, default RK4")
+    p.add_argument("--mujoco-closures", metavar="stiff|soft", help="MuJoCo's loop closures: stiff (default: "
+                   "solimp 0.9999, solref 2 ms, they behave like the rigid machine) or soft (MuJoCo's defaults: the "
+                   "loops open by up to a few mm)")
+    p.add_argument("--mujoco-stiff", action="store_true", help="deprecated, does nothing: stiff closures are the "
+                   "default")
+    mechanism(p)
+    p.set_defaults(func=_command("simulate", "cmd_simulate"))
+
+    def execution(p):  # a study's: where its runs execute, and what it says
+        p.add_argument("--quiet", action="store_true", help="no progress bar or notes")
+        p.add_argument("--json", action="store_true", help="print the summary as JSON")
+        p.add_argument("--workers", type=int, metavar="N", help="worker processes of the local Dask cluster started "
+                       "for the study (default: one per core; 0 runs in this process)")
+        p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on an existing Dask cluster instead")
+        p.add_argument("--chunk-size", type=int, metavar="K", help="runs per task (default: enough tasks to keep "
+                       "every worker busy, at most 64 runs each)")
+
+    p = sub.add_parser("sweep", help="a study: a scenario over a grid of values and drawn plants, on a Dask "
+                       "cluster; its table (Parquet), summary.json and figures")
+    p.add_argument("study", metavar="SWEEP.toml", help="the study (format: README, 'Studies')")
+    p.add_argument("--out", required=True, metavar="DIR", help="the study's folder: new or empty, or this study's "
+                   "(with --resume)")
+    p.add_argument("--resume", action="store_true", help="finish the study DIR holds, running only what is missing")
+    p.add_argument("--csv", action="store_true", help="also write the table as runs.csv")
+    p.add_argument("--heatmap", nargs=2, metavar=("Y", "X"), help="the two axes of the maps (default: the first "
+                   "two that vary)")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    execution(p)
+    p.set_defaults(func=_command("study", "cmd_sweep"))
+
+    p = sub.add_parser("tune", help="the gains (kp, kv) minimising the worst-case path error over uncertain plants "
+                       "with the peak effort within a limit; writes a scenario of the tuned gains")
+    p.add_argument("scenario", metavar="SCENARIO.toml", help="the scenario whose gains are tuned")
+    p.add_argument("--max-effort", type=float, required=True, metavar="TAU", help="the limit on every actuator's "
+                   "peak effort (N m, or N for prismatic actuators) on every plant of the uncertainty set")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder: tuned.toml, trials.csv, tuning.json, "
+                   "tradeoff.png")
+    p.add_argument("--uncertainty", type=float, default=0.15, metavar="SPREAD", help="factors drawn in "
+                   "[1 - SPREAD, 1 + SPREAD] (default 0.15)")
+    p.add_argument("--uncertain", nargs="+", choices=("mass", "length", "inertia"), default=["mass", "inertia"],
+                   help="the quantities drawn per body (default: mass inertia)")
+    p.add_argument("--draws", type=int, default=16, metavar="N", help="plants in the uncertainty set (default 16; "
+                   "0: the scenario's plant alone)")
+    p.add_argument("--quantile", type=float, default=1.0, metavar="Q", help="minimise this quantile of the max path "
+                   "error over the plants (default 1: the worst case)")
+    p.add_argument("--critical", action="store_true", help="tune kp alone, kv = 2 sqrt(kp) (critical damping)")
+    p.add_argument("--kp-range", type=float, nargs=2, default=[10.0, 1e6], metavar=("LO", "HI"),
+                   help="the search box of kp, 1/s^2 (default 10 1e6): bound it by what the machine's sensors and "
+                   "drives allow, which the model does not know")
+    p.add_argument("--zeta-range", type=float, nargs=2, default=[0.3, 3.0], metavar=("LO", "HI"),
+                   help="the search box of the damping ratio, kv = 2 zeta sqrt(kp) (default 0.3 3)")
+    p.add_argument("--trials", type=int, default=48, metavar="N", help="candidate gains to evaluate (default 48)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the draws and the optimiser (default 0)")
+    execution(p)
+    p.set_defaults(func=_command("study", "cmd_tune"))
+
+    p = sub.add_parser("view", help="an interactive HTML view of a result folder: the machine animated in sync "
+                       "with its time series, offline")
+    p.add_argument("result_dir", metavar="RESULT_DIR", help="a folder of pkmlab simulate or pkmlab reproduce")
+    p.add_argument("--out", metavar="FILE.html", help="where to write it (default RESULT_DIR/REPORT.html, added to "
+                   "the folder's manifest)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=_command("view", "cmd_view"))
+
+    p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
+    p.add_argument("--out", default="demo", help="output folder (default: demo)")
+    p.add_argument("--resolution", type=int, default=241, help="grid points per axis of the S map")
+    common(p)
+    p.set_defaults(func=_command("reproduce", "cmd_demo"))
+
+    def figure_region(p, what: str):
+        p.add_argument("--alpha", type=float, default=0.0, metavar="A", help="platform orientation (rad), default 0")
+        p.add_argument("--resolution", type=int, default=201, metavar="N",
+                       help=f"grid points per axis (2..{MAX_RESOLUTION}, default 201)")
+        p.add_argument("--x-range", nargs=2, type=float, metavar=("XMIN", "XMAX"),
+                       help="x extent (m), default: the base and every leg's reach")
+        p.add_argument("--y-range", nargs=2, type=float, metavar=("YMIN", "YMAX"), help="y extent (m)")
+        p.add_argument("--out", required=True, metavar="FILE.png", help=f"the figure of the {what} (PNG, PDF, SVG...)")
+        p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    p = sub.add_parser("singularity-map", help="S over x-y at one orientation and working mode, S = 0 drawn "
+                       "(paper figure 3)")
+    figure_region(p, "map")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="working mode: three signs (+ - +) or one word (+-+); "
+                   "default + + +")
+    p.add_argument("--csv", metavar="FILE.csv", help="also write the grid: columns x, y, S (NaN out of reach)")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("maps", "cmd_singularity_map"))
+
+    p = sub.add_parser("workspace", help="reachable region at one orientation for each working mode (a spatial "
+                       "machine: horizontal slices in one working mode)")
+    figure_region(p, "working modes")
+    p.add_argument("--z", nargs="+", type=float, metavar="Z", help="a spatial machine's slice heights (m), default "
+                   "six spread over the heights it reaches")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="a spatial machine's working mode (+ + +); default the "
+                   "first")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("maps", "cmd_workspace"))
+
+    p = sub.add_parser("export-mjcf", help="the machine as a MuJoCo model (MJCF): its bodies, joints, loop "
+                       "closures, motors and gravity")
+    p.add_argument("--out", required=True, metavar="FILE.xml", help="the MJCF file")
+    p.add_argument("--pose", nargs="+", type=float, metavar="POSE", help="the configuration of the keyframe "
+                   "'pkmlab' (as ik takes it); default: the pose of largest |S| on a grid")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode of --pose (default the first)")
+    p.add_argument("--closures", metavar="stiff|soft", help="the loop closures: stiff (default: the stiffest "
+                   "MuJoCo accepts, solimp 0.9999, solref 2 ms; they behave like the rigid machine) or soft "
+                   "(MuJoCo's defaults: the loops open by up to a few mm)")
+    p.add_argument("--stiff", action="store_true", help="deprecated, does nothing: stiff closures are the default")
+    p.add_argument("--timestep", type=float, default=0.001, metavar="DT", help="MuJoCo's time step (s), default 1 ms")
+    p.add_argument("--integrator", choices=("RK4", "implicitfast", "implicit", "Euler"), default="RK4",
+                   help="MuJoCo's integrator, default RK4")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("mujoco", "cmd_export_mjcf"))
+
+    p = sub.add_parser("animate", help="GIF of a run written by pkmlab reproduce or pkmlab simulate")
+    p.add_argument("result_dir", metavar="RESULT_DIR", help="folder written by pkmlab reproduce or pkmlab simulate")
+    p.add_argument("--out", required=True, metavar="FILE.gif", help="the animated GIF")
+    p.add_argument("--case", metavar="NAME", help="NAME.csv in RESULT_DIR: nominal (default), disturbed, fast; "
+                   "run for pkmlab simulate (default when run.csv exists)")
+    p.add_argument("--fps", type=int, default=20, help="frames per second (default 20)")
+    p.add_argument("--stride", type=int, help="draw every K-th sample (default: about 100 frames)", metavar="K")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _accept_negative_numbers(p)
+    p.add_argument("--params", metavar="FILE.toml", help="the manipulator that produced the run (default: "
+                   "RESULT_DIR/plant.toml if present, else the paper's, x1.15 for the reproduced 'disturbed' case)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--mechanism", metavar="NAME|FILE.toml", help="the described machine that produced the run "
+                   "(default: RESULT_DIR/plant.toml when it holds a [mechanism] table)")
+    p.set_defaults(func=_command("animate", "cmd_animate"))
+    for command in sub.choices.values():  # each command knows its parser: its errors show its usage
+        command.set_defaults(parser=command)
+    return parser
+
+
+def _command(module: str, name: str):
+    """The command ``name`` of the module ``module`` of this package, imported when it is called."""
+
+    def run(args):
+        import importlib
+
+        return getattr(importlib.import_module(f".{module}", __package__), name)(args)
+
+    run.__name__ = run.__qualname__ = name
+    return run

@@ -1,0 +1,133 @@
+"""``pkmlab animate``: a GIF of a recorded run, the machine rebuilt from its recorded actuators."""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+from ..errors import PkmlabError
+from ._common import NewFolders, mechanism_of, output_path, progress_bar
+
+ANIMATION_COLUMNS = ("t", "theta1", "theta2", "theta3", "x", "y", "alpha", "x_d", "y_d")
+
+
+def _animation_model(args, folder: Path, case: str):
+    """The 3-RRR that produced the run: --params, else the folder's own
+    (:func:`~pkmlab.views.folder.result_manipulator`)."""
+    from ..io import load_manipulator
+    from ..views.folder import result_manipulator
+
+    if args.params:
+        return load_manipulator(args.params), Path(args.params).name
+    return result_manipulator(folder, case)
+
+
+def _animation_machine(args, folder: Path):
+    """The described machine of a run — ``--mechanism``, else the run's plant.toml when it holds a
+    ``[mechanism]`` table — or None for the paper's 3-RRR."""
+    from ..views.folder import result_mechanism
+
+    if getattr(args, "mechanism", None):
+        return mechanism_of(args), args.mechanism  # refuses --params, which describes the paper's 3-RRR
+    return result_mechanism(folder)
+
+
+def _animate_machine(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:
+    """``pkmlab animate`` of a described machine's run: rebuilt by branch following, drawn as it is."""
+    import numpy as np
+
+    from ..animation import rebuild_machine_configurations, write_machine_gif, write_spatial_gif
+    from ..io import read_result_csv
+
+    model, source = machine
+    n_act, names = len(model.description.legs), model.description.pose_names
+    position = ("x", "y", "z") if getattr(model.description, "spatial", False) else ("x", "y")
+    columns = ("t", *(f"theta{i + 1}" for i in range(n_act)), *names, *(f"{c}_d" for c in position))
+    data = read_result_csv(csv_path, columns)
+    theta = np.column_stack([data[f"theta{i + 1}"] for i in range(n_act)])
+    pose = np.column_stack([data[v] for v in names])
+    q = rebuild_machine_configurations(model, theta, pose[0])
+    tracked = q[:, -len(names):][:, :len(position)]
+    desired = np.column_stack([data[f"{c}_d"] for c in position])
+    title = f"{folder.name}/{csv_path.name}, {model.description.name} ({model.description.notation})"
+    writer = write_spatial_gif if len(position) == 3 else write_machine_gif
+    return _write_animation(args, data, tracked, source, csv_path, out, title, "--mechanism",
+                            lambda frames, bar: writer(model, data["t"], q, desired, out, frames, fps=args.fps,
+                                                       title=title, on_frame=bar.update))
+
+
+def _write_animation(args, data: dict, tracked, source: str, csv_path: Path, out: Path, title: str, option: str,
+                     write) -> dict:
+    """The part of ``pkmlab animate`` every machine shares: warn when the machine rebuilt from the recorded
+    actuators does not put the tracked point ``tracked`` (N, 2 or 3) where the CSV says, then draw about 100
+    frames with ``write(frames, bar)`` and report."""
+    import math
+
+    import numpy as np
+
+    recorded = np.column_stack([data[c] for c in ("x", "y", "z")[:tracked.shape[1]]])
+    deviation = float(np.max(np.linalg.norm(tracked - recorded, axis=1)))
+    if deviation > 1e-3:
+        print(f"pkmlab animate: warning: the machine rebuilt from the recorded actuators puts the tracked point up "
+              f"to {deviation * 1e3:.3g} mm from the CSV's; is the machine ({source}) the one that produced "
+              f"this run? ({option})", file=sys.stderr)
+    count = tracked.shape[0]
+    stride = args.stride or max(1, math.ceil(count / 100))
+    frames = range(0, count, stride)
+    with progress_bar(args, len(frames), "frames") as bar, NewFolders(out):
+        try:
+            write(frames, bar)
+        except OSError as exc:
+            raise PkmlabError(f"cannot write {out}: {exc.strerror or exc}") from None
+    if not args.json:
+        print(f"wrote {out}: {len(frames)} frames (one every {stride} of {count} samples) at {args.fps} fps "
+              f"from {csv_path}, machine: {source}")
+    return {"gif": str(out), "csv": str(csv_path), "frames": len(frames), "stride": stride, "fps": args.fps,
+            "samples": count, "manipulator": source, "max_centroid_deviation_m": deviation}
+
+
+def cmd_animate(args) -> dict:
+    """A GIF of a recorded run: the machine rebuilt from its recorded actuators, the desired path, the trail."""
+    import numpy as np
+
+    from ..animation import rebuild_configurations, write_gif
+    from ..errors import InvalidParameterError
+    from ..io import read_result_csv
+    from ..kinematics import platform_pose
+
+    folder = Path(args.result_dir)
+    if not folder.exists():
+        raise PkmlabError(f"result folder {folder} does not exist")
+    if not folder.is_dir():
+        raise PkmlabError(f"{folder} is not a folder (expected one written by pkmlab reproduce or pkmlab simulate)")
+    out = output_path(args.out, "--out", {".gif"})
+    if args.fps < 1:
+        raise InvalidParameterError(f"--fps must be a positive number of frames per second, got {args.fps}")
+    if args.stride is not None and args.stride < 1:
+        raise InvalidParameterError(f"--stride must be a positive number of samples, got {args.stride}")
+    case = args.case
+    if case is None:
+        case = "run" if (folder / "run.csv").is_file() else "nominal"
+    case = case.removesuffix(".csv")
+    if not re.fullmatch(r"[\w][\w.-]*", case):
+        raise InvalidParameterError(f"--case must be the name of a CSV file in {folder} without '.csv', got {case!r}")
+    csv_path = folder / f"{case}.csv"
+    if not csv_path.is_file():
+        found = sorted(p.stem for p in folder.glob("*.csv"))
+        hint = (f"cases found: {', '.join(found)}" if found else
+                "expected nominal.csv, disturbed.csv, fast.csv (pkmlab reproduce) or run.csv (pkmlab simulate)")
+        raise PkmlabError(f"no {csv_path.name} in {folder} ({hint})")
+    machine = _animation_machine(args, folder)
+    if machine is not None:
+        return _animate_machine(args, machine, folder, csv_path, out)
+    data = read_result_csv(csv_path, ANIMATION_COLUMNS)
+    model, source = _animation_model(args, folder, case)
+    theta = np.column_stack([data["theta1"], data["theta2"], data["theta3"]])
+    q = rebuild_configurations(model, theta, [data["x"][0], data["y"][0], data["alpha"][0]])
+    centroid = platform_pose(model, q)[:, :2]
+    title = f"{folder.name}/{csv_path.name}, manipulator: {source}"
+    return _write_animation(args, data, centroid, source, csv_path, out, title, "--params",
+                            lambda frames, bar: write_gif(model, data["t"], q, np.column_stack(
+                                [data["x_d"], data["y_d"]]), out, frames, fps=args.fps, title=title,
+                                on_frame=bar.update))

@@ -1,0 +1,92 @@
+"""``pkmlab reproduce`` (the paper's three cases) and ``pkmlab demo`` (its kinematics on the paper's circle)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .._version import __version__
+from ._common import check_resolution, notes, paper_manipulator, signs, status_messages
+
+
+def cmd_demo(args) -> dict:
+    """Kinematics demo on the paper's circle: IK, FK, branch following and figure 3."""
+    import matplotlib
+
+    from ..outputs import atomic_output_dir
+
+    matplotlib.use("Agg")
+
+    def say(text: str) -> None:  # progress report, kept off stdout with --json
+        if not args.json:
+            print(text)
+
+    model = paper_manipulator(args)
+    check_resolution(args.resolution)  # refused before anything is computed or printed
+    out_dir = Path(args.out)
+    provenance = {"pkmlab_version": __version__, "resolution": args.resolution,
+                  "manipulator": f"your parameter file {args.params}" if args.params else "the paper's"}
+    with atomic_output_dir(out_dir, "demo", inputs=[args.params] if args.params else [], provenance=provenance,
+                           note=notes(args)) as tmp:
+        mode = _demo(args, model, say, tmp)
+    out = out_dir / "fig03_singularity_map.png"
+    say(f"wrote {out}")
+    return {"working_mode": list(mode), "figure": str(out)}
+
+
+def _demo(args, model, say, folder: Path) -> tuple:
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from ..analysis import singularity_map
+    from ..kinematics import branch_following, forward_kinematics, inverse_kinematics
+    from ..plotting import plot_singularity_map
+
+    start = np.array([0.20, 0.21, 0.0])
+    s_path = np.linspace(0.0, 2 * np.pi, 721)
+    path = np.stack([0.25 + 0.05 * np.cos(np.pi + s_path), 0.21 + 0.05 * np.sin(np.pi + s_path),
+                     np.zeros_like(s_path)], axis=-1)
+    ik_path = inverse_kinematics(model, path, on_unreachable="nan")
+    min_s = np.nanmin(np.abs(ik_path.S), axis=0)
+    best = int(np.nanargmax(min_s))
+    mode = tuple(int(m) for m in ik_path.modes[best])
+    say("paper circle: min |S| along the path per working mode: "
+        + ", ".join(f"{signs(m)} {v:.3f}" for m, v in zip(ik_path.modes, min_s, strict=True)))
+    say(f"working mode maximising min |S|: {signs(mode)}")
+    ik = inverse_kinematics(model, start, mode=mode)
+    fk = forward_kinematics(model, ik.theta)
+    say(f"start pose {start.tolist()}: theta = {np.round(ik.theta, 6).tolist()}, "
+        f"{len(fk)} assembly modes:")
+    for j, sol in enumerate(fk):
+        say(f"  {j + 1}: x = {sol.pose[0]:+.6f}  y = {sol.pose[1]:+.6f}  alpha = {sol.pose[2]:+.6f}  "
+            f"S = {sol.S:+.4f}")
+    # Branch following around the circle, driven by the IK of the chosen working mode.
+    q = fk.nearest(start).q
+    worst = 0.0
+    for k in range(1, len(path)):
+        q = branch_following(model, q, ik_path.q[k, best, :3])
+        worst = max(worst, float(np.max(np.abs(q[3:] - ik_path.q[k, best, 3:]))))
+    say(f"branch following around the circle: largest deviation from IK passive angles {worst:.2e} rad")
+    smap = singularity_map(model, alpha=0.0, mode=mode, resolution=args.resolution)
+    ax = plot_singularity_map(smap, model=model, path_xy=path[:, :2])
+    try:
+        ax.figure.savefig(folder / "fig03_singularity_map.png", dpi=150)
+    finally:
+        plt.close(ax.figure)
+    return mode
+
+
+def cmd_reproduce(args) -> dict:
+    """The paper's three cases: summary.json, CSVs, figures 3-15 and REPORT.md in --out."""
+    from ..report import reproduce
+
+    progress = status_messages(args)
+    summary = reproduce(args.out, control=args.control, figures=not args.no_figures, progress=progress,
+                        params=args.params, note=notes(args))
+    if not args.json:
+        print(f"{'case':<10} {'max path error (m)':>19} {'rms path error (m)':>19} {'peak torque (N m)':>18}")
+        for name, s in summary["cases"].items():
+            print(f"{name:<10} {s['max_path_error_m']:>19.4e} {s['rms_path_error_m']:>19.4e} "
+                  f"{max(s['peak_torque_Nm']):>18.4f}")
+        prov = summary["provenance"]
+        print(f"results in {args.out}/ ({prov['control']} control, manipulator: {prov['manipulator']})")
+    return summary
