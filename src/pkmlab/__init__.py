@@ -34,7 +34,7 @@ _WHERE = {
     **dict.fromkeys(("Scenario", "SimulationResult", "paper_scenario", "perturbed_model", "simulate",
                      "simulate_batch"), "simulation"),
     **dict.fromkeys(("Study", "load_study", "sweep", "tune"), "study"),
-    "show": "views.notebook",
+    **dict.fromkeys(("draw", "plot", "show"), "views.notebook"),
 }
 
 
@@ -54,3 +54,18 @@ def __dir__() -> list[str]:
 
 
 __all__ = ["__version__", *_WHERE]
+
+
+def _register_display() -> None:
+    """In a running IPython (Jupyter), show pkmlab's objects as tables (:func:`pkmlab.views.notebook.register`)."""
+    import sys
+
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None and hasattr(ipython, "get_ipython") else None
+    if shell is not None and hasattr(shell, "display_formatter"):
+        from .views.notebook import register
+
+        register(shell)
+
+
+_register_display()

@@ -216,18 +216,6 @@ class Planar3RRR:
             platform_inertia=inertia_a,
         )
 
-    def _repr_html_(self) -> str:
-        from .views.notebook import planar_3rrr_html
-
-        return planar_3rrr_html(self)
-
-    def draw(self, q, title: str | None = None):
-        """The machine at configuration ``q`` (7 coordinates) as an interactive ``plotly`` figure
-        (:func:`pkmlab.views.notebook.draw`)."""
-        from .views.notebook import draw
-
-        return draw(self, q, title)
-
     def replace(self, **changes) -> Planar3RRR:
         """A copy with some attributes changed (validated again).
 

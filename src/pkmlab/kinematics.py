@@ -153,11 +153,6 @@ class InverseKinematicsSolution:
     def reachable(self) -> np.ndarray:
         return self.unreachable_legs == 0
 
-    def _repr_html_(self) -> str:
-        from .views.notebook import ik_html
-
-        return ik_html(self)
-
 
 def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: str = "raise"):
     """Actuated and passive angles that put the platform at ``pose = (x, y, α)`` (conventions §3).
@@ -287,11 +282,6 @@ class ForwardKinematicsSolution:
             raise IndexError(f"assembly mode {j} of {n}")
         j %= n
         return AssemblyMode(self.q[j].copy(), self.pose[j].copy(), float(self.S[j]))
-
-    def _repr_html_(self) -> str:
-        from .views.notebook import fk_html
-
-        return fk_html(self)
 
     def nearest(self, pose) -> AssemblyMode:
         """The assembly mode whose platform pose is nearest to ``pose`` (metres and radians)."""

@@ -74,18 +74,6 @@ class MechanismModel:
     def coordinates(self) -> tuple[str, ...]:
         return self.kernels.COORDINATES
 
-    def _repr_html_(self) -> str:
-        from .views.notebook import mechanism_html
-
-        return mechanism_html(self)
-
-    def draw(self, q, title: str | None = None):
-        """The machine at configuration ``q`` as an interactive ``plotly`` figure
-        (:func:`pkmlab.views.notebook.draw`)."""
-        from .views.notebook import draw
-
-        return draw(self, q, title)
-
     @property
     def n_actuators(self) -> int:
         return len(self.description.legs)

@@ -157,11 +157,6 @@ class Scenario:
     def plant_model(self) -> Planar3RRR | MechanismModel:
         return self.model if self.plant is None else self.plant
 
-    def _repr_html_(self) -> str:
-        from .views.notebook import scenario_html
-
-        return scenario_html(self)
-
     def replace(self, **changes) -> Scenario:
         """A copy with some fields changed (validated again)."""
         for name in changes:
@@ -510,18 +505,6 @@ class SimulationResult:
             out["max_joint_error_rad"] = out["max_joint_error"]
             out["peak_torque_Nm"] = out["peak_effort"]
         return out
-
-    def _repr_html_(self) -> str:
-        from .views.notebook import result_html
-
-        return result_html(self)
-
-    def plot(self):
-        """The interactive view of the run (the machine animated beside its time series) as a ``plotly`` figure,
-        shown inline by Jupyter (:func:`pkmlab.views.notebook.plot`)."""
-        from .views.notebook import plot
-
-        return plot(self)
 
     def table(self) -> np.ndarray:
         """The (N, len(columns)) array of :attr:`columns`."""

@@ -1,9 +1,11 @@
 """pkmlab in Jupyter: rich HTML for its objects, and the interactive views inline.
 
-Models, kinematic solutions, scenarios and results show as tables (their ``_repr_html_`` calls the
-functions here); :func:`show` displays a result's interactive view (the same as ``REPORT.html``'s, with
-Plotly's code embedded: it works in a notebook opened offline), :func:`draw` a machine at one
-configuration, :func:`plot` a result's figure as a ``plotly`` object to restyle.
+Models, kinematic solutions, scenarios and results show as tables: :func:`register` gives IPython's HTML
+formatter a function per type, by the type's module and name (``import pkmlab`` does it in a running
+IPython), so that pkmlab's types know nothing of their display. :func:`show` displays a result's
+interactive view (the same as ``REPORT.html``'s, with Plotly's code embedded: it works in a notebook
+opened offline), :func:`draw` a machine at one configuration, :func:`plot` a result's figure as a
+``plotly`` object to restyle.
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ from __future__ import annotations
 import html
 
 import numpy as np
+
+from .._validate import as_batch
 
 #: Rows of a table of solutions shown at most (a batch shows its first ones and says how many more).
 MAX_ROWS = 12
@@ -39,41 +43,28 @@ def _signs(mode) -> str:
     return "".join("+" if m > 0 else "−" for m in np.ravel(mode))
 
 
-def planar_3rrr_html(model) -> str:
-    """The paper's 3-RRR: its base, links, masses and inertias, leg by leg."""
-    rows = [[str(i + 1), _vector(model.base_points[i], 4), _f(model.active_lengths[i]), _f(model.passive_lengths[i]),
-             _f(model.active_masses[i]), _f(model.passive_masses[i]), _f(model.active_inertias[i]),
-             _f(model.passive_inertias[i])] for i in range(3)]
-    return table("Planar 3-RRR", ["leg", "base b (m)", "l (m)", "r (m)", "mass l (kg)", "mass r (kg)",
-                                  "inertia l (kg m²)", "inertia r (kg m²)"], rows,
-                 f"platform: side a = {_f(model.platform_side)} m, mass {_f(model.platform_mass)} kg, inertia "
-                 f"{_f(model.platform_inertia)} kg m²")
-
-
 def mechanism_html(model) -> str:
-    """A described machine: its legs (joints, base, bodies' masses) and platform."""
+    """A model (:func:`pkmlab.load`): its legs (joints, base, bodies' masses) and platform."""
     m = model.description
     rows = [[str(i + 1), html.escape(leg.notation), _vector(leg.base, 4),
              ", ".join(_f(b.mass, 4) for b in leg.bodies), "—" if leg.stroke is None else _vector(leg.stroke, 4)]
             for i, leg in enumerate(m.legs)]
     return table(f"{m.name} ({m.notation})", ["leg", "joints", "base (m)", "body masses (kg)", "stroke"], rows,
                  f"pose ({', '.join(m.pose_names)}); platform {m.platform.kind}, mass {_f(m.platform.mass, 4)} kg; "
-                 f"gravity {_vector(m.gravity, 4)} m/s²")
+                 f"gravity {_vector(m.gravity, 4)} m/s²; coordinates q = ({', '.join(model.coordinates)})")
 
 
 def ik_html(solution) -> str:
     """An inverse-kinematics solution: one row per working mode (a batch: its first pose)."""
-    q = np.asarray(solution.q)
-    s = np.asarray(solution.S)
-    modes = np.asarray(solution.modes).reshape(-1, 3)
-    note = ""
-    if q.ndim > 2 or (q.ndim == 2 and len(modes) == 1 and q.shape[0] > 1):
-        note = f"a batch of shape {q.shape[:-1]}: the first pose shown"
-        q, s = q.reshape(-1, q.shape[-2] if len(modes) > 1 else 1, 7)[0], s.reshape(-1, len(modes))[0]
-    q, s = q.reshape(-1, 7), s.reshape(-1)
-    rows = [[_signs(mode), _vector(qi[:3]), _vector(qi[3:6]), _f(si)] for mode, qi, si in zip(modes, q, s,
-                                                                                                strict=False)]
-    return table("Inverse kinematics", ["working mode", "θ (rad)", "φ (rad)", "S"], rows, note)
+    modes = np.asarray(solution.modes)
+    per_pose = 1 if modes.ndim == 1 else len(modes)
+    q = np.asarray(solution.q).reshape(-1, per_pose, np.shape(solution.q)[-1])
+    s = np.asarray(solution.S).reshape(-1, per_pose)
+    note = f"a batch of {len(q)} poses: the first shown" if len(q) > 1 else ""
+    na = solution.n_actuators
+    rows = [[_signs(mode) or "(one mode)", _vector(qi[:na]), _vector(qi[na:]), _f(si)]
+            for mode, qi, si in zip(modes.reshape(per_pose, -1), q[0], s[0], strict=True)]
+    return table("Inverse kinematics", ["working mode", "θ", "passive joints and pose", "S"], rows, note)
 
 
 def fk_html(solution) -> str:
@@ -83,10 +74,9 @@ def fk_html(solution) -> str:
         return table("Forward kinematics", ["θ", "assembly modes"], [[str(i), str(int(c))] for i, c in
                                                                      enumerate(count.ravel()[:MAX_ROWS])],
                      f"a batch of {count.size}")
-    rows = [[str(j + 1), _vector(solution.pose[j]), _vector(solution.q[j][3:6]), _f(solution.S[j])]
-            for j in range(int(count))]
-    return table("Forward kinematics: every assembly mode", ["mode", "pose (x, y, α)", "φ (rad)", "S"], rows,
-                 "" if rows else "no assembly mode: these actuated angles cannot be assembled")
+    rows = [[str(j + 1), _vector(solution.pose[j]), _f(solution.S[j])] for j in range(int(count))]
+    return table("Forward kinematics: every assembly mode", ["mode", "pose", "S"], rows,
+                 "" if rows else "no assembly mode: these actuator values cannot be assembled")
 
 
 def scenario_html(scenario) -> str:
@@ -106,10 +96,10 @@ def scenario_html(scenario) -> str:
 
 
 def result_html(result) -> str:
-    """A run's summary (``result.plot()`` or ``pkmlab.show(result)`` for the interactive view)."""
+    """A run's summary (``pkmlab.plot(result)`` or ``pkmlab.show(result)`` for the interactive view)."""
     rows = [[html.escape(k), _vector(v) if isinstance(v, list) else _f(v)] for k, v in result.summary().items()]
     return table(f"Run of {result.scenario.name}: {len(result.t)} samples over {_f(float(result.t[-1]), 4)} s",
-                 ["quantity", "value"], rows, "result.plot() or pkmlab.show(result): the interactive view")
+                 ["quantity", "value"], rows, "pkmlab.plot(result) or pkmlab.show(result): the interactive view")
 
 
 # ------------------------------------------------------------------ interactive, inline
@@ -123,7 +113,8 @@ def _check_result(result) -> None:
 
 
 def plot(result):
-    """The interactive figure of a result as a ``plotly.graph_objects.Figure`` (shown inline by Jupyter)."""
+    """The interactive figure of a result (the machine animated beside its time series) as a
+    ``plotly.graph_objects.Figure``, shown inline by Jupyter (``pkmlab.plot``)."""
     _check_result(result)
     import plotly.graph_objects as go
 
@@ -133,18 +124,16 @@ def plot(result):
 
 
 def draw(model, q, title: str | None = None):
-    """A machine at configuration ``q`` (in the model's coordinates) as a ``plotly`` figure: its bodies, the
-    platform and the tracked point — hover shows the joints' coordinates."""
+    """A machine at configuration ``q`` (n,) as a ``plotly`` figure: its bodies, the platform and the tracked
+    point — hover shows the joints' coordinates (``pkmlab.draw``)."""
     import plotly.graph_objects as go
 
-    from ..geometry import Planar3RRR
-    from ..mechanism_model import MechanismModel, coordinates_from_3rrr, joint_positions
+    from ..algorithms.kinematics import as_model
+    from ..mechanism_model import joint_positions
     from .run import RunView, _machine_lines, machine_traces
 
-    q = np.asarray(q, dtype=float)
-    if isinstance(model, Planar3RRR):
-        q = coordinates_from_3rrr(model, q)
-        model = MechanismModel.from_3rrr(model)
+    model = as_model(model)
+    q = as_batch("q", q, len(model.coordinates), single=True)[0][0]
     description = model.description
     joints = joint_positions(model, q[None])
     spatial = joints.shape[-1] == 3
@@ -170,3 +159,21 @@ def show(result) -> None:
 
     display(HTML(pio.to_html(run_figure(RunView.from_result(result)), validate=False, include_plotlyjs=True,
                              full_html=False, auto_play=False)))
+
+
+#: The types shown as tables: (module, type name) -> the function that writes the table.
+HTML_TABLES = {
+    ("pkmlab.mechanism_model", "MechanismModel"): mechanism_html,
+    ("pkmlab.algorithms.kinematics", "InverseKinematicsSolution"): ik_html,
+    ("pkmlab.algorithms.kinematics", "ForwardKinematicsSolution"): fk_html,
+    ("pkmlab.simulation", "Scenario"): scenario_html,
+    ("pkmlab.simulation", "SimulationResult"): result_html,
+}
+
+
+def register(shell) -> None:
+    """Give an IPython ``shell``'s HTML formatter the tables of pkmlab's types (by name: nothing is imported
+    until an object of the type is shown)."""
+    formatter = shell.display_formatter.formatters["text/html"]
+    for (module, name), function in HTML_TABLES.items():
+        formatter.for_type_by_name(module, name, function)
