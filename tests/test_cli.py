@@ -2,7 +2,9 @@
 cases, the installed console script).
 
 The numbers the CLI prints are checked against the paper's geometry written out here: the legs
-rebuilt from the printed angles must put the platform vertices where the pose says they are.
+rebuilt from the printed angles must put the platform vertices where the pose says they are. The paper's
+machine is the default; its passive coordinates (``"passive"``) are the passive links' absolute angles
+phi1..3 (docs/conventions.md), its pose ``[x, y, alpha]``.
 """
 
 from __future__ import annotations
@@ -81,10 +83,21 @@ POSES = [(0.2, 0.21, 0.0), (0.25, 0.16, -0.1), (0.3, 0.2, 0.3)]
 
 
 # ------------------------------------------------------------------ helpers
+def assert_params_note(err: str, command: str) -> None:
+    """What a command given the deprecated ``--params`` says besides its result: one note on stderr."""
+    lines = err.strip("\n").split("\n")
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"pkmlab {command}: note: --params") and "deprecated" in lines[0], err
+    assert "--mechanism FILE.toml" in lines[0], err
+
+
 def run_json(capsys, *argv) -> dict:
     code, out, err = run(capsys, *argv, "--json")
     assert code == 0, err
-    assert err == ""
+    if "--params" in map(str, argv):
+        assert_params_note(err, argv[0])
+    else:
+        assert err == ""
     return json.loads(out)
 
 
@@ -108,7 +121,7 @@ def write(tmp_path: Path, text: str, name: str = "params.toml") -> Path:
 def assert_solution_at_pose(geometry: Geometry, solution: dict, pose, tol: float = 1e-10) -> None:
     """The legs rebuilt from the printed angles reach the platform vertices of ``pose``; the
     working mode printed is the side of each elbow: sigma_i = +1 iff (p_i - b_i) x (e_i - b_i) > 0."""
-    e, p = geometry.legs(solution["theta"], solution["phi"])
+    e, p = geometry.legs(solution["theta"], solution["passive"])
     np.testing.assert_allclose(p, geometry.vertices(pose), rtol=0, atol=tol)
     b = geometry.base
     sides = [1 if cross(p[i] - b[i], e[i] - b[i]) > 0 else -1 for i in range(3)]
@@ -122,7 +135,7 @@ def test_ik_prints_a_table_of_eight_working_modes(capsys):
     assert err == ""
     lines = out.strip().splitlines()
     assert "x = 0.2" in lines[0] and "y = 0.21" in lines[0] and "alpha = 0" in lines[0]
-    assert lines[1].split() == ["mode", "theta1", "theta2", "theta3", "phi1", "phi2", "phi3", "S"]
+    assert lines[1].split() == ["mode", "theta1", "theta2", "theta3", "q1_2", "q2_2", "q3_2", "S"]
     rows = lines[2:]
     assert len(rows) == 8
     row_re = re.compile(r"^\(([+-]), ([+-]), ([+-])\)((\s+[+-]\d+\.\d{6}){7})$")
@@ -137,17 +150,21 @@ def test_ik_prints_a_table_of_eight_working_modes(capsys):
     assert modes == ALL_MODES
     # The table shows the same angles as the JSON output, rounded to 6 decimals.
     for sol in ik_solutions(capsys, (0.2, 0.21, 0.0)):
-        np.testing.assert_allclose(table[tuple(sol["mode"])][:6], sol["theta"] + sol["phi"], rtol=0, atol=5.1e-7)
+        np.testing.assert_allclose(table[tuple(sol["mode"])], sol["theta"] + sol["passive"] + [sol["S"]], rtol=0,
+                                   atol=5.1e-7)
 
 
 def test_ik_json_lists_every_working_mode_once(capsys):
-    solutions = ik_solutions(capsys, (0.2, 0.21, 0.0))
+    result = run_json(capsys, "ik", "0.2", "0.21", "0")
+    assert set(result) == {"mechanism", "pose_names", "solutions"}
+    assert result["mechanism"] == "paper" and result["pose_names"] == ["x", "y", "alpha"]
+    solutions = result["solutions"]
     assert len(solutions) == 8
     for sol in solutions:
-        assert set(sol) == {"mode", "theta", "phi"}
-        assert len(sol["mode"]) == len(sol["theta"]) == len(sol["phi"]) == 3
+        assert set(sol) == {"mode", "theta", "passive", "S"}
+        assert len(sol["mode"]) == len(sol["theta"]) == len(sol["passive"]) == 3
         assert all(isinstance(m, int) and m in (1, -1) for m in sol["mode"])
-        assert all(isinstance(v, float) and math.isfinite(v) for v in sol["theta"] + sol["phi"])
+        assert all(isinstance(v, float) and math.isfinite(v) for v in sol["theta"] + sol["passive"] + [sol["S"]])
     assert {tuple(sol["mode"]) for sol in solutions} == ALL_MODES
 
 
@@ -176,7 +193,7 @@ def test_ik_one_working_mode(capsys, mode):
     assert_solution_at_pose(PAPER, sol, pose)
     everything = {tuple(s["mode"]): s for s in ik_solutions(capsys, pose)}
     np.testing.assert_allclose(sol["theta"], everything[(1, -1, 1)]["theta"], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(sol["phi"], everything[(1, -1, 1)]["phi"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sol["passive"], everything[(1, -1, 1)]["passive"], rtol=0, atol=1e-12)
 
 
 def test_ik_one_working_mode_table(capsys):
@@ -228,21 +245,24 @@ def fk_solutions(capsys, theta, *extra) -> list[dict]:
 
 def assert_closes_loops(geometry: Geometry, theta, sol: dict, tol: float = 1e-10) -> None:
     """The three leg ends form the platform (equilateral, side a) at the printed pose."""
-    _e, p = geometry.legs(theta, sol["phi"])
+    _e, p = geometry.legs(theta, sol["passive"])
     sides = [np.linalg.norm(p[(i + 1) % 3] - p[i]) for i in range(3)]
     np.testing.assert_allclose(sides, [geometry.a] * 3, rtol=0, atol=tol)
-    pose = (sol["x"], sol["y"], sol["alpha"])
+    pose = sol["pose"]
     np.testing.assert_allclose(p, geometry.vertices(pose), rtol=0, atol=tol)
 
 
 def test_fk_json_structure(capsys):
     theta = [s["theta"] for s in ik_solutions(capsys, (0.2, 0.21, 0.0), "--mode", "+", "-", "+")][0]
-    solutions = fk_solutions(capsys, theta)
+    result = run_json(capsys, "fk", *map(repr, theta))
+    assert set(result) == {"mechanism", "pose_names", "solutions"}
+    assert result["mechanism"] == "paper" and result["pose_names"] == ["x", "y", "alpha"]
+    solutions = result["solutions"]
     assert 1 <= len(solutions) <= 6
     for sol in solutions:
-        assert set(sol) == {"x", "y", "alpha", "phi", "S"}
-        assert len(sol["phi"]) == 3
-        values = [sol["x"], sol["y"], sol["alpha"], sol["S"], *sol["phi"]]
+        assert set(sol) == {"pose", "passive", "S"}
+        assert len(sol["pose"]) == len(sol["passive"]) == 3
+        values = [*sol["pose"], sol["S"], *sol["passive"]]
         assert all(isinstance(v, float) and math.isfinite(v) for v in values)
 
 
@@ -256,14 +276,15 @@ def test_fk_recovers_the_ik_pose_and_closes_the_loops(capsys, pose):
             assert_closes_loops(PAPER, theta, sol)
         # Distinct assembly modes.
         for s1, s2 in itertools.combinations(solutions, 2):
-            gap = np.hypot(s1["x"] - s2["x"], s1["y"] - s2["y"]) + abs(wrap(s1["alpha"] - s2["alpha"]))
+            (x1, y1, a1), (x2, y2, a2) = s1["pose"], s2["pose"]
+            gap = np.hypot(x1 - x2, y1 - y2) + abs(wrap(a1 - a2))
             assert gap > 1e-6
         # One of them is the pose IK started from, with IK's passive angles.
-        errors = [max(abs(s["x"] - pose[0]), abs(s["y"] - pose[1]), abs(wrap(s["alpha"] - pose[2])))
+        errors = [max(abs(s["pose"][0] - pose[0]), abs(s["pose"][1] - pose[1]), abs(wrap(s["pose"][2] - pose[2])))
                   for s in solutions]
         match = solutions[int(np.argmin(errors))]
         assert min(errors) < 1e-9, (ik_sol["mode"], errors)
-        np.testing.assert_allclose(wrap(np.subtract(match["phi"], ik_sol["phi"])), 0.0, atol=1e-9)
+        np.testing.assert_allclose(wrap(np.subtract(match["passive"], ik_sol["passive"])), 0.0, atol=1e-9)
 
 
 def test_fk_singularity_measure_follows_the_paper_formula(capsys):
@@ -272,8 +293,8 @@ def test_fk_singularity_measure_follows_the_paper_formula(capsys):
     theta = ik_solutions(capsys, (0.2, 0.21, 0.0), "--mode", "-", "+", "-")[0]["theta"]
     solutions = fk_solutions(capsys, theta)
     for sol in solutions:
-        f1, f2, f3 = sol["phi"]
-        alpha = sol["alpha"]
+        f1, f2, f3 = sol["passive"]
+        alpha = sol["pose"][2]
         expected = math.sin(f1 - alpha) * math.sin(f2 - f3) + math.sin(f1 - f2) * math.sin(alpha + 2 * math.pi / 3 - f3)
         assert sol["S"] == pytest.approx(expected, abs=1e-10)
         assert abs(sol["S"]) > 1e-6
@@ -286,12 +307,12 @@ def test_fk_table(capsys):
     assert code == 0 and err == ""
     lines = out.strip().splitlines()
     assert f"{len(solutions)} assembly mode" in lines[0]
-    assert lines[1].split() == ["#", "x", "y", "alpha", "phi1", "phi2", "phi3", "S"]
+    assert lines[1].split() == ["#", "x", "y", "alpha", "q1_2", "q2_2", "q3_2", "S"]
     rows = [line.split() for line in lines[2:]]
     assert [row[0] for row in rows] == [str(j + 1) for j in range(len(solutions))]
     for row, sol in zip(rows, solutions, strict=True):
-        np.testing.assert_allclose([float(v) for v in row[1:]], [sol["x"], sol["y"], sol["alpha"], *sol["phi"],
-                                                                 sol["S"]], rtol=0, atol=5.1e-7)
+        np.testing.assert_allclose([float(v) for v in row[1:]], [*sol["pose"], *sol["passive"], sol["S"]], rtol=0,
+                                   atol=5.1e-7)
 
 
 def test_fk_without_assembly_is_a_user_error(capsys):
@@ -311,10 +332,17 @@ def test_unreachable_pose_names_the_legs(capsys, pose):
     expected = PAPER.unreachable_legs(pose)
     assert expected  # the pose really is out of reach
     message = assert_user_error(*run(capsys, "ik", *map(repr, pose)))
-    assert "leg" in message
     assert "reach" in message
-    for leg in (1, 2, 3):
-        assert (f"leg {leg}:" in message) == (leg in expected), message
+    assert named_legs(message) == expected, message
+    first = min(expected)  # why the first of them cannot: the distance to its base point
+    assert f"(leg {first}: the attachment point is " in message
+
+
+def named_legs(message: str) -> set[int]:
+    """The legs an ik error says cannot reach the pose: ``... legs 1 and 2 cannot reach it ...``."""
+    match = re.search(r"\blegs? ((?:\d+(?:, | and )?)+) cannot reach it", message)
+    assert match, message
+    return {int(v) for v in re.findall(r"\d+", match.group(1))}
 
 
 def test_unreachable_pose_json(capsys):
@@ -526,9 +554,9 @@ def test_params_flat_format_with_one_longer_leg(capsys, tmp_path):
         assert_solution_at_pose(geometry, sol, pose)
         # Only leg 3 changed: legs 1 and 2 keep their angles, leg 3 does not.
         np.testing.assert_allclose(sol["theta"][:2], paper[mode]["theta"][:2], rtol=0, atol=1e-12)
-        np.testing.assert_allclose(sol["phi"][:2], paper[mode]["phi"][:2], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(sol["passive"][:2], paper[mode]["passive"][:2], rtol=0, atol=1e-12)
         assert abs(wrap(sol["theta"][2] - paper[mode]["theta"][2])) > 1e-4
-        assert abs(wrap(sol["phi"][2] - paper[mode]["phi"][2])) > 1e-4
+        assert abs(wrap(sol["passive"][2] - paper[mode]["passive"][2])) > 1e-4
 
 
 def test_params_flat_format_base_and_passive_lengths(capsys, tmp_path):
@@ -545,7 +573,8 @@ def test_params_flat_format_base_and_passive_lengths(capsys, tmp_path):
     fk = fk_solutions(capsys, theta, "--params", path)
     for sol in fk:
         assert_closes_loops(geometry, theta, sol)
-    assert min(abs(s["x"] - pose[0]) + abs(s["y"] - pose[1]) + abs(wrap(s["alpha"] - pose[2])) for s in fk) < 1e-9
+    assert min(abs(s["pose"][0] - pose[0]) + abs(s["pose"][1] - pose[1]) + abs(wrap(s["pose"][2] - pose[2]))
+               for s in fk) < 1e-9
 
 
 def test_params_preset_only_is_the_paper(capsys, tmp_path):
@@ -560,7 +589,7 @@ def test_params_makes_a_reachable_pose_unreachable(capsys, tmp_path):
     geometry = Geometry(l=(0.2,) * 3, r=(0.1,) * 3)
     assert geometry.unreachable_legs((0.2, 0.21, 0.0)) == {2}
     message = assert_user_error(*run(capsys, "ik", "0.2", "0.21", "0", "--params", path))
-    assert "leg 2" in message
+    assert named_legs(message) == {2} and "leg 2" in message
     assert "leg 1" not in message and "leg 3" not in message
 
 

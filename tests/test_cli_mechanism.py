@@ -1,9 +1,18 @@
-"""`pkmlab ik` and `pkmlab fk` for every machine (`--mechanism NAME|FILE.toml`), with their JSON contracts:
-ik gives {"solutions": [{"mode", "actuators", "S"}]}, fk {"solutions": [{"pose", "S"}]}."""
+"""`pkmlab ik`, `fk` and `dynamics` for every machine (`--mechanism NAME|FILE.toml`, the paper by default), with
+one JSON contract per command for all of them:
+
+* ik: {"mechanism", "pose_names", "solutions": [{"mode", "theta", "passive", "S"}, ...]}
+* fk: {"mechanism", "pose_names", "solutions": [{"pose", "passive", "S"}, ...]}
+* dynamics: {"mechanism", "pose_names", "tau_from", "solutions": [{"pose", "passive", "S", "M", "c", "g", "tau",
+  "multipliers"}, ...]}
+
+and one answer when there is none: exit code 1 and one line (or the JSON error object).
+"""
 
 import json
 import math
 
+import numpy as np
 import pytest
 from conftest import assert_user_error, run
 
@@ -11,7 +20,14 @@ from pkmlab.mechanisms.description import mechanism_to_toml
 from pkmlab.mechanisms.presets import preset
 
 POSES = {"paper": [0.2, 0.21, 0.0], "five_bar": [0.0, 0.35], "3rpr": [0.25, 0.21, -math.pi / 2],
-         "3prr": [0.26, 0.2, 0.0]}
+         "3prr": [0.26, 0.2, 0.0], "delta": [0.05, -0.03, -0.75], "stewart": [0.0, 0.0, 0.85, 0.05, -0.03, 0.1]}
+#: What each machine's description says: pose names, actuators, passive coordinates, signs of a working mode.
+SHAPES = {"paper": (("x", "y", "alpha"), 3, 3, 3), "five_bar": (("x", "y"), 2, 2, 2),
+          "3rpr": (("x", "y", "alpha"), 3, 3, 0), "3prr": (("x", "y", "alpha"), 3, 3, 3),
+          "delta": (("x", "y", "z"), 3, 6, 3),
+          "stewart": (("x", "y", "z", "roll", "pitch", "yaw"), 6, 12, 0)}
+IK_KEYS, FK_KEYS = {"mode", "theta", "passive", "S"}, {"pose", "passive", "S"}
+DYNAMICS_KEYS = {"pose", "passive", "S", "M", "c", "g", "tau", "multipliers"}
 
 
 def run_json(capsys, *argv):
@@ -20,28 +36,61 @@ def run_json(capsys, *argv):
     return json.loads(out)
 
 
-@pytest.mark.parametrize("name", sorted(POSES))
+def gap(pose, other) -> float:
+    """Largest difference of two poses, angles the short way round."""
+    return max(abs(math.remainder(a - b, 2 * math.pi)) for a, b in zip(pose, other, strict=True))
+
+
+@pytest.mark.parametrize("name", ["paper", "five_bar", "3rpr", "3prr", "delta"])
 def test_ik_then_fk_gives_back_the_pose_for_every_working_mode(capsys, name):
     pose = POSES[name]
     solutions = run_json(capsys, "ik", "--mechanism", name, *pose)["solutions"]
-    assert solutions and all(set(s) == {"mode", "actuators", "S"} for s in solutions)
-    assert len(solutions[0]["mode"]) == {"paper": 3, "five_bar": 2, "3rpr": 0, "3prr": 3}[name]
+    assert solutions and all(set(s) == IK_KEYS for s in solutions)
+    assert len(solutions[0]["mode"]) == SHAPES[name][3]
     for s in solutions:
-        assert len(s["actuators"]) == len(pose) and math.isfinite(s["S"])
-        found = run_json(capsys, "fk", "--mechanism", name, *s["actuators"])["solutions"]
-        assert all(set(f) == {"pose", "S"} and len(f["pose"]) == len(pose) for f in found)
-        gaps = [max(abs(math.remainder(a - b, 2 * math.pi)) for a, b in zip(f["pose"], pose, strict=True))
-                for f in found]
-        assert min(gaps) < 1e-10
+        assert len(s["theta"]) == SHAPES[name][1] and math.isfinite(s["S"])
+        found = run_json(capsys, "fk", "--mechanism", name, *s["theta"])["solutions"]
+        assert all(set(f) == FK_KEYS and len(f["pose"]) == len(pose) for f in found)
+        # one assembly mode is the pose, with the passive coordinates of this working mode
+        nearest = min(found, key=lambda f: gap(f["pose"], pose))
+        assert gap(nearest["pose"], pose) < 1e-10
+        assert gap(nearest["passive"], s["passive"]) < 1e-9
 
 
-def test_the_paper_through_mechanism_gives_todays_angles(capsys):
-    today = run_json(capsys, "ik", 0.2, 0.21, 0)["solutions"]
-    generic = run_json(capsys, "ik", "--mechanism", "paper", 0.2, 0.21, 0)["solutions"]
-    assert [s["mode"] for s in generic] == [s["mode"] for s in today]
-    for a, b in zip(generic, today, strict=True):
-        assert all(abs(math.remainder(x - y, 2 * math.pi)) < 1e-12 for x, y in zip(a["actuators"], b["theta"],
-                                                                                     strict=True))
+@pytest.mark.parametrize("name", ["paper", "five_bar", "delta"])
+def test_fk_of_ik_round_trips_with_the_default_output_too(capsys, name):
+    """The same round trip as the executable's user sees it: ik's table, then fk's table (six decimals)."""
+    pose = POSES[name]
+    argv = [] if name == "paper" else ["--mechanism", name]  # the paper is the default machine
+    code, out, err = run(capsys, "ik", *argv, *pose)
+    assert code == 0 and err == ""
+    lines = out.strip().splitlines()
+    n = SHAPES[name][1]
+    assert lines[1].split()[:n + 1] == ["mode", *(f"theta{i + 1}" for i in range(n))]
+    for row in lines[2:]:
+        theta = row.split()[-(n + SHAPES[name][2] + 1):][:n]  # after the mode, which may have spaces
+        code, out, err = run(capsys, "fk", *argv, "--", *theta)
+        assert code == 0 and err == ""
+        table = out.strip().splitlines()
+        assert table[1].split()[:len(pose) + 1] == ["#", *SHAPES[name][0]]
+        poses = [[float(v) for v in line.split()[1:len(pose) + 1]] for line in table[2:]]
+        assert min(gap(p, pose) for p in poses) < 1e-4  # the actuators were rounded to 6 decimals
+
+
+def test_the_paper_is_the_default_and_answers_as_its_own_formulation(capsys):
+    """The paper's machine by default, by name and through the paper's own 7-coordinate formulation
+    (pkmlab.kinematics, the oracle of its tests) give the same working modes, actuators and passive angles."""
+    from pkmlab import kinematics
+    from pkmlab.geometry import Planar3RRR
+
+    default = run_json(capsys, "ik", 0.2, 0.21, 0)
+    named = run_json(capsys, "ik", "--mechanism", "paper", 0.2, 0.21, 0)
+    assert default == named and default["mechanism"] == "paper"
+    own = kinematics.inverse_kinematics(Planar3RRR.paper(), [0.2, 0.21, 0.0])
+    assert [s["mode"] for s in default["solutions"]] == own.modes.tolist()
+    for s, q, s_own in zip(default["solutions"], own.q, own.S, strict=True):
+        assert gap(s["theta"], q[:3]) < 1e-12 and gap(s["passive"], q[3:6]) < 1e-12
+        assert s["S"] == pytest.approx(s_own, abs=1e-12)
 
 
 def test_a_description_file_is_a_mechanism(capsys, tmp_path):
@@ -54,7 +103,12 @@ def test_a_description_file_is_a_mechanism(capsys, tmp_path):
 @pytest.mark.parametrize("argv, expected", [
     (["ik", "--mechanism", "five_bar", 0.0, 0.35, 0.0], "the pose (x, y): 2 numbers"),
     (["fk", "--mechanism", "3rpr", 0.3, 0.3], "the actuator values: 3 numbers"),
-    (["ik", 0.2, 0.21], "(x y alpha): 3 numbers"),
+    (["ik", 0.2, 0.21], "the pose (x, y, alpha): 3 numbers"),
+    (["fk", 0.2, 0.21], "the actuator values: 3 numbers"),
+    (["ik", "--mechanism", "five_bar", 0.0, 0.35, "--mode", "+"], "--mode: 2 signs for the five_bar"),
+    (["ik", 0.2, 0.21, 0, "--mode", "+", "-"], "--mode: 3 signs for the paper"),
+    (["ik", "--mechanism", "3rpr", 0.25, 0.21, -1.5, "--mode", "+"], "has one working mode: no --mode"),
+    (["dynamics", 0.19, 3.11, -2.64, "--tau", 1.0], "--tau: 3 numbers"),
 ])
 def test_a_wrong_count_of_numbers_is_a_malformed_command_line(capsys, argv, expected):
     with pytest.raises(SystemExit) as info:
@@ -64,7 +118,7 @@ def test_a_wrong_count_of_numbers_is_a_malformed_command_line(capsys, argv, expe
 
 @pytest.mark.parametrize("argv, expected", [
     (["ik", "--mechanism", "scara", 0.0, 0.0, 0.0], "not a preset"),
-    (["ik", "--mechanism", "five_bar", 0.0, 0.35, "--mode", "+"], "--mode must be one of"),
+    (["ik", "--mechanism", "five_bar", 0.0, 0.35, "--mode", "+", "x"], "--mode: a working mode is signs"),
     (["ik", "--mechanism", "3rpr", 0.25, 0.6, -1.57], "leg 1 needs its actuator at 0.696137 m, outside its stroke"),
     (["ik", "--mechanism", "missing.toml", 0.0, 0.0, 0.0], "missing.toml"),
 ])
@@ -74,15 +128,126 @@ def test_errors_are_one_line(capsys, argv, expected):
 
 
 # ------------------------------------------------------------------ dynamics --mechanism
-def test_dynamics_of_the_paper_through_mechanism_is_todays(capsys):
-    argv = [0.189, 3.112, -2.642, "--theta-dot", 0.3, -0.2, 0.5, "--near", 0.2, 0.21, 0]
-    today = run_json(capsys, "dynamics", *argv)
-    generic = run_json(capsys, "dynamics", "--mechanism", "paper", *argv)
-    assert set(generic) == {"M", "c", "g", "S", "pose"}
-    for a, b in zip(generic["M"], today["M_theta"], strict=True):
-        assert all(abs(x - y) <= 1e-12 * abs(y) + 1e-15 for x, y in zip(a, b, strict=True))
-    assert all(abs(x - y) <= 1e-11 * abs(y) + 1e-15 for x, y in zip(generic["c"], today["c_theta"], strict=True))
-    assert generic["g"] == [0.0, 0.0, 0.0] and abs(generic["S"] - today["S"]) < 1e-10
+# ------------------------------------------------------------------ one contract for every machine
+@pytest.mark.parametrize("name", sorted(POSES))
+def test_every_preset_answers_ik_fk_and_dynamics_with_the_same_keys(capsys, name):
+    pose_names, n, passive, signs = SHAPES[name]
+    pose = POSES[name]
+    ik = run_json(capsys, "ik", "--mechanism", name, *pose)
+    assert set(ik) == {"mechanism", "pose_names", "solutions"} and ik["mechanism"] == name
+    assert ik["pose_names"] == list(pose_names)
+    for s in ik["solutions"]:
+        assert set(s) == IK_KEYS and len(s["mode"]) == signs and len(s["theta"]) == n and len(s["passive"]) == passive
+    theta = max(ik["solutions"], key=lambda s: abs(s["S"]))["theta"]
+    fk = run_json(capsys, "fk", "--mechanism", name, *theta)
+    assert set(fk) == {"mechanism", "pose_names", "solutions"} and fk["pose_names"] == list(pose_names)
+    for s in fk["solutions"]:
+        assert set(s) == FK_KEYS and len(s["pose"]) == len(pose_names) and len(s["passive"]) == passive
+    dynamics = run_json(capsys, "dynamics", "--mechanism", name, *theta, "--rates", *[0.1] * n, "--near", *pose)
+    assert set(dynamics) == {"mechanism", "pose_names", "tau_from", "solutions"}
+    assert dynamics["pose_names"] == list(pose_names) and dynamics["tau_from"].startswith("c + g")
+    (s,) = dynamics["solutions"]
+    assert set(s) == DYNAMICS_KEYS and gap(s["pose"], pose) < 1e-9
+    assert np.shape(s["M"]) == (n, n) and len(s["c"]) == len(s["g"]) == len(s["tau"]) == n
+    np.testing.assert_allclose(s["tau"], np.add(s["c"], s["g"]), rtol=1e-15, atol=0)  # no --tau: zero acceleration
+    assert len(s["multipliers"]) == (3 if name in ("delta", "stewart") else 2) * n  # a force per leg's closure
+
+
+def test_dynamics_of_the_paper_is_its_own_formulations(capsys):
+    """The paper's actuator-space model by default equals the paper's own 7-coordinate formulation
+    (pkmlab.dynamics), and its multipliers solve the full model's equations of motion (eq. 26)."""
+    from pkmlab import dynamics, kinematics
+    from pkmlab.geometry import Planar3RRR
+
+    theta, rates, near = [0.189, 3.112, -2.642], [0.3, -0.2, 0.5], [0.2, 0.21, 0.0]
+    result = run_json(capsys, "dynamics", *theta, "--theta-dot", *rates, "--near", *near)
+    assert result["mechanism"] == "paper" and result["pose_names"] == ["x", "y", "alpha"]
+    (record,) = result["solutions"]
+    paper = Planar3RRR.paper()
+    q = kinematics.forward_kinematics(paper, theta).nearest(near).q
+    m_theta, c_theta = dynamics.actuator_space_model(paper, q, rates)
+    np.testing.assert_allclose(record["M"], m_theta, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(record["c"], c_theta, rtol=1e-11, atol=1e-15)
+    assert record["g"] == [0.0, 0.0, 0.0]  # the paper's machine lies in a horizontal plane
+    assert record["S"] == pytest.approx(float(kinematics.singularity_measure(paper, q)), abs=1e-10)
+    assert gap(record["passive"], q[3:6]) < 1e-10
+
+
+def test_the_multipliers_are_the_libraries_and_vanish_at_rest_without_efforts(capsys):
+    """--tau given: the multipliers are pkmlab.constrained_dynamics' at the state; the paper at rest under no
+    effort (and no gravity) stays at rest, its loops closed by no force."""
+    import pkmlab
+
+    theta, rates, tau = [0.189, 3.112, -2.642], [0.3, -0.2, 0.5], [0.05, -0.02, 0.01]
+    result = run_json(capsys, "dynamics", *theta, "--rates", *rates, "--tau", *tau, "--near", 0.2, 0.21, 0)
+    assert result["tau_from"] == "--tau"
+    (record,) = result["solutions"]
+    assert record["tau"] == tau
+    model = pkmlab.load("paper")
+    q = pkmlab.forward_kinematics(model, theta).nearest([0.2, 0.21, 0.0]).q
+    motion = pkmlab.constrained_dynamics(model, q, pkmlab.coordinate_rates(model, q, rates), tau)
+    np.testing.assert_allclose(record["multipliers"], motion.multipliers, rtol=1e-12, atol=1e-14)
+    at_rest = run_json(capsys, "dynamics", *theta, "--tau", 0, 0, 0)
+    assert len(at_rest["solutions"]) == 2
+    for record in at_rest["solutions"]:
+        assert np.abs(record["multipliers"]).max() < 1e-13 and len(record["multipliers"]) == 6
+    default = run_json(capsys, "dynamics", *theta)  # no --tau, at rest: tau = c + g = 0 for the paper
+    assert [r["multipliers"] for r in default["solutions"]] == [r["multipliers"] for r in at_rest["solutions"]]
+
+
+@pytest.mark.parametrize("name", ["five_bar", "delta"])
+def test_the_multipliers_of_a_machine_held_still_carry_its_platforms_weight(capsys, tmp_path, name):
+    """At rest under tau = c + g (no --tau: zero actuator acceleration, so nothing moves) each leg's multipliers
+    are the force it exerts on the platform's attachment point (the chain's end minus the attachment point is
+    the constraint, so dV/dpose = -sum of the legs' forces): together they carry the platform's weight."""
+    import dataclasses
+
+    machine = preset(name)
+    if name == "five_bar":  # in a vertical plane
+        machine = dataclasses.replace(machine, name="vertical five-bar", gravity=(0.0, -9.81))
+    path = tmp_path / "machine.toml"
+    path.write_text(mechanism_to_toml(machine))
+    pose = {"five_bar": [0.02, 0.33], "delta": POSES["delta"]}[name]
+    (solution, *_) = run_json(capsys, "ik", "--mechanism", path, *pose)["solutions"]
+    (record,) = run_json(capsys, "dynamics", "--mechanism", path, *solution["theta"], "--near", *pose)["solutions"]
+    dim = len(machine.gravity)
+    forces = np.reshape(record["multipliers"], (len(machine.legs), dim))
+    np.testing.assert_allclose(forces.sum(axis=0), machine.platform.mass * np.array(machine.gravity), atol=1e-9)
+    assert np.abs(forces).max() > 0.1  # the legs do carry something
+
+
+# ------------------------------------------------------------------ no answer: exit 1, one line, every machine
+NO_ASSEMBLY = {"paper": [0.0, 0.0, 0.0], "five_bar": [math.pi, 0.0]}
+
+
+def test_the_actuators_of_no_assembly_are_far_apart():
+    # paper: every elbow at b_i + (l, 0); e1 and e2 are b = 0.52 apart while p1, p2 must be a = 0.125 apart within
+    # r = 0.1667 of them. five-bar: elbows at (-0.1 - 0.25, 0) and (0.1 + 0.25, 0), 0.7 apart, farther than the
+    # two distal links of 0.3 m reach.
+    assert 0.52 - 2 * 0.1667 > 0.125
+    assert (0.1 + 0.25) * 2 > 2 * 0.3
+    assert [b.tip[0] for b in preset("five_bar").legs[0].bodies] == [0.25, 0.3]
+
+
+@pytest.mark.parametrize("name", sorted(NO_ASSEMBLY))
+@pytest.mark.parametrize("command", ["fk", "dynamics"])
+def test_no_assembly_mode_is_exit_1_and_one_line(capsys, name, command):
+    argv = [command, "--mechanism", name, *NO_ASSEMBLY[name]]
+    message = assert_user_error(*run(capsys, *argv))
+    assert message.startswith(f"pkmlab {command}: error: ") and "cannot be assembled" in message
+    code, out, err = run(capsys, *argv, "--json")
+    assert code == 1 and err == "" and out.count("\n") == 1
+    error = json.loads(out)["error"]
+    assert error["type"] == "AssemblyError" and "cannot be assembled" in error["message"]
+
+
+@pytest.mark.parametrize("name, pose", [("paper", [5.0, 5.0, 0.0]), ("five_bar", [1.0, 1.0]),
+                                        ("delta", [0.0, 0.0, -3.0])])
+def test_no_reachable_working_mode_is_exit_1_and_one_line(capsys, name, pose):
+    message = assert_user_error(*run(capsys, "ik", "--mechanism", name, *pose))
+    assert "out of reach in every working mode" in message
+    code, out, err = run(capsys, "ik", "--mechanism", name, *pose, "--json")
+    assert code == 1 and err == "" and json.loads(out)["error"]["type"] == "UnreachablePoseError"
 
 
 def test_gravity_effort_is_the_slope_of_the_potential_energy(capsys, tmp_path):
@@ -99,7 +264,7 @@ def test_gravity_effort_is_the_slope_of_the_potential_energy(capsys, tmp_path):
     model = mm.MechanismModel.from_description(vertical)
     q0 = mm.inverse_kinematics(model, [0.02, 0.33], (1, -1))
     theta = q0[:2]
-    record = run_json(capsys, "dynamics", "--mechanism", path, *theta, "--near", 0.02, 0.33)
+    (record,) = run_json(capsys, "dynamics", "--mechanism", path, *theta, "--near", 0.02, 0.33)["solutions"]
     masses = model.body_weights[:, 0]
 
     def potential(t):
@@ -128,7 +293,9 @@ def test_dynamics_mechanism_warns_near_a_singularity(capsys):
     model = mm.MechanismModel.from_preset("3rpr")
     q = mm.inverse_kinematics(model, [0.24, 0.17, 0.003], ())  # alpha = 0 is singular for this 3-RPR
     code, out, err = run(capsys, "dynamics", "--mechanism", "3rpr", *q[:3], "--near", 0.24, 0.17, 0.003, "--json")
-    assert code == 0 and "near a gain-type singularity" in json.loads(out)["warning"] and "warning" in err
+    (record,) = json.loads(out)["solutions"]
+    assert code == 0 and "near a gain-type singularity" in record["warning"] and "warning" in err
+    assert "multipliers" in record["warning"]
 
 
 def test_simulate_then_animate_a_five_bar_run(capsys, tmp_path):

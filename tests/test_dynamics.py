@@ -217,13 +217,14 @@ def test_cli_dynamics_json(paper, capsys):
     q = kin.inverse_kinematics(paper, [0.2, 0.21, 0.0], mode=(-1, 1, -1)).q
     theta = [repr(float(v)) for v in q[:3]]
     assert main(["dynamics", *theta, "--theta-dot", "0.3", "-0.2", "0.5", "--near", "0.2", "0.21", "0", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert np.array(out["M_theta"]).shape == (3, 3) and np.array(out["M"]).shape == (7, 7)
-    assert len(out["c_theta"]) == 3 and len(out["lambda"]) == 4
+    (out,) = json.loads(capsys.readouterr().out)["solutions"]
+    # the actuator-space model, and a loop-closure force (x, y) per leg of the generic model (q = θ, φ, x, y, α)
+    assert np.array(out["M"]).shape == (3, 3) and len(out["c"]) == len(out["g"]) == 3
+    assert len(out["multipliers"]) == 6
     qd = kin.coordinate_rates(paper, q, [0.3, -0.2, 0.5])
     T = _kinetic_energy_independent(q, qd)
     td = np.array([0.3, -0.2, 0.5])
-    assert 0.5 * td @ np.array(out["M_theta"]) @ td == pytest.approx(T, rel=1e-10)
+    assert 0.5 * td @ np.array(out["M"]) @ td == pytest.approx(T, rel=1e-10)
     assert main(["dynamics", *theta, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert len(out["solutions"]) == int(kin.forward_kinematics(paper, q[:3]).count)

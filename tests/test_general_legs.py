@@ -266,7 +266,7 @@ def test_the_cli_solves_a_machine_of_general_legs_both_ways(r_pr, capsys):
     solutions = json.loads(out)["solutions"]
     assert len(solutions) == 8
     for sol in solutions:
-        code, out, err = run(capsys, "fk", "--mechanism", path, "--json", "--", *sol["actuators"])
+        code, out, err = run(capsys, "fk", "--mechanism", path, "--json", "--", *sol["theta"])
         assert code == 0 and err == ""
         poses = [s["pose"] for s in json.loads(out)["solutions"]]
         assert min(max(abs(a - b) for a, b in zip(p, pose, strict=True)) for p in poses) < 1e-9
@@ -285,7 +285,7 @@ def test_the_executable_solves_a_machine_of_a_new_structure_interpreted(r_pr):
     assert len(solutions) == 8
     for sol in solutions:
         q = mm.inverse_kinematics(model, pose, tuple(sol["mode"]))
-        np.testing.assert_allclose(sol["actuators"], q[:3], rtol=0, atol=1e-14)
+        np.testing.assert_allclose(sol["theta"], q[:3], rtol=0, atol=1e-14)
 
 
 def test_forward_kinematics_by_the_general_method_refuses_actuators_outside_their_strokes():

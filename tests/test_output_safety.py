@@ -339,7 +339,7 @@ def test_dynamics_near_a_singularity_warns(capsys):
     pose, ik = _near_singular(-1e-4)
     code, out, err = run(capsys, "dynamics", *ik.theta, "--near", *pose, "--json")
     assert code == 0
-    record = json.loads(out)
+    (record,) = json.loads(out)["solutions"]
     assert abs(record["S"] - float(ik.S)) < 1e-9 and 1e-6 < abs(record["S"]) < 1e-2
     assert "near a gain-type singularity" in record["warning"] and "warning" in err
 
@@ -441,7 +441,7 @@ def test_is_cold_reads_the_kernel_cache(tmp_path, monkeypatch):
 def test_every_non_finite_number_of_the_command_line_is_named(capsys):
     for argv, name in [(["dynamics", 0.19, 3.11, -2.64, "--near", 0.2, "inf", 0], "--near"),
                        (["ik", 0.2, 0.21, "nan"], "alpha"),
-                       (["fk", "-inf", 3.11, -2.64], "T1"), (["ik", "--mechanism", "five_bar", "nan", 0.3], "x")]:
+                       (["fk", "-inf", 3.11, -2.64], "theta1"), (["ik", "--mechanism", "five_bar", "nan", 0.3], "x")]:
         message = assert_user_error(*run(capsys, *argv))
         assert f"{name} must be finite" in message, message
 

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 from conftest import one_shot
 
+import pkmlab
 from pkmlab import mechanism_model as mm
 from pkmlab.geometry import Planar3RRR
 from pkmlab.kinematics import forward_kinematics, inverse_kinematics
@@ -34,21 +35,43 @@ BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 def test_ik_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels():
     result, numba_imported = one_shot("ik", "0.2", "0.21", "0")
     assert not numba_imported
-    ik = inverse_kinematics(Planar3RRR.paper(), [0.2, 0.21, 0.0])
+    ik = pkmlab.inverse_kinematics(pkmlab.load("paper"), [0.2, 0.21, 0.0])
     assert len(result["solutions"]) == 8
-    for solution, q in zip(result["solutions"], ik.q, strict=True):
-        assert solution["theta"] == q[:3].tolist() and solution["phi"] == q[3:6].tolist()
+    for solution, q, s in zip(result["solutions"], ik.q, ik.S, strict=True):
+        assert solution["theta"] == q[:3].tolist() and solution["passive"] == q[3:6].tolist()
+        assert solution["S"] == pytest.approx(s, rel=1e-14)
+    # and the paper's own formulation (7 coordinates) agrees
+    own = inverse_kinematics(Planar3RRR.paper(), [0.2, 0.21, 0.0])
+    np.testing.assert_allclose([s["theta"] for s in result["solutions"]], own.q[:, :3], rtol=0, atol=1e-12)
 
 
 def test_fk_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels():
     theta = [0.189012, 3.112031, -2.642405]
     result, numba_imported = one_shot("fk", *map(str, theta))
     assert not numba_imported
-    fk = forward_kinematics(Planar3RRR.paper(), theta)
+    fk = pkmlab.forward_kinematics(pkmlab.load("paper"), theta)
+    assert len(result["solutions"]) == len(fk) == len(forward_kinematics(Planar3RRR.paper(), theta))
+    # to round-off (a few units in the last place: the compiled polynomial solve fuses multiplications and
+    # additions where Python rounds each), not bit for bit as ik
+    for solution, mode in zip(result["solutions"], fk, strict=True):
+        np.testing.assert_allclose(solution["passive"], mode.q[3:6], rtol=0, atol=1e-13)
+        np.testing.assert_allclose(solution["pose"], mode.pose, rtol=0, atol=1e-13)
+        assert solution["S"] == pytest.approx(mode.S, rel=1e-12)
+
+
+@pytest.mark.parametrize("name, theta", [("paper", [0.189, 3.112, -2.642]), ("delta", [0.2383, 0.4211, 0.3284])])
+def test_dynamics_from_the_command_line_is_interpreted_and_equals_the_compiled_kernels(name, theta):
+    result, numba_imported = one_shot("dynamics", "--mechanism", name, *map(str, theta), "--rates", "0.3", "-0.2",
+                                      "0.5")
+    assert not numba_imported
+    model = pkmlab.load(name)
+    fk = pkmlab.forward_kinematics(model, theta)
     assert len(result["solutions"]) == len(fk)
-    for solution, q, s in zip(result["solutions"], fk.q, fk.S, strict=False):
-        assert solution["phi"] == q[3:6].tolist()
-        assert solution["alpha"] == q[6] and solution["S"] == s
+    for record, mode in zip(result["solutions"], fk, strict=True):
+        reduced = pkmlab.actuator_space_model(model, mode.q, [0.3, -0.2, 0.5])
+        np.testing.assert_allclose(record["M"], reduced.M, rtol=1e-11, atol=1e-14)
+        np.testing.assert_allclose(record["c"], reduced.c, rtol=1e-9, atol=1e-13)
+        np.testing.assert_allclose(record["g"], reduced.g, rtol=1e-11, atol=1e-13)
 
 
 def test_ik_of_a_described_machine_is_interpreted_and_equals_the_compiled_kernels():
@@ -57,7 +80,7 @@ def test_ik_of_a_described_machine_is_interpreted_and_equals_the_compiled_kernel
     model = mm.MechanismModel.from_preset("delta")
     for solution in result["solutions"]:
         q = mm.inverse_kinematics(model, [0.05, -0.02, -0.7], tuple(solution["mode"]))
-        assert solution["actuators"] == q[:3].tolist()
+        assert solution["theta"] == q[:3].tolist()
         assert solution["S"] == pytest.approx(mm.singularity_measure(model, q), rel=1e-14)
 
 

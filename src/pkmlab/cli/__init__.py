@@ -30,7 +30,7 @@ def _pose_names(args) -> tuple[str, ...]:
     a description that cannot be read yet names none: its error comes later, on its own)."""
     mechanism = getattr(args, "mechanism", None)
     if not mechanism:
-        return ("x", "y", "alpha")
+        return ("x", "y", "alpha")  # the paper's 3-RRR (the default machine, and that of --params)
     try:
         from ..mechanisms.description import load_mechanism
         from ..mechanisms.presets import PRESETS, preset
@@ -42,7 +42,8 @@ def _pose_names(args) -> tuple[str, ...]:
 
 def _check_finite(args) -> None:
     """Every number of the command line must be finite: NaN or infinity is refused naming its argument
-    (for a list of positional numbers, the one at fault: ``alpha``, ``T1``...)."""
+    (for a list of positional numbers, the one at fault: ``alpha``, ``theta1``...; an option by the spelling
+    typed)."""
     import math
 
     actions = {a.dest: a for a in args.parser._actions}
@@ -52,36 +53,30 @@ def _check_finite(args) -> None:
         if not bad:
             continue
         action = actions.get(dest)
-        name = dest if action is None else action.option_strings[0] if action.option_strings else str(action.metavar)
-        parts = " ".join(_pose_names(args)).upper().split() if name == "POSE" else name.split()
-        if len(parts) > 1 and isinstance(value, list) and bad[0] < len(parts):  # "X Y ALPHA": the one at fault
-            name = parts[bad[0]].lower() if name == "POSE" or parts[bad[0]] in ("X", "Y", "ALPHA") else parts[bad[0]]
+        if dest == "actuators":
+            name = f"theta{bad[0] + 1}"
+        elif dest == "pose" and action is not None and not action.option_strings:
+            names = _pose_names(args)
+            name = names[bad[0]] if bad[0] < len(names) else "POSE"
+        elif action is not None and action.option_strings:
+            name = getattr(args, f"{dest}_flag", None) or action.option_strings[0]
+        else:
+            name = dest
         raise InvalidParameterError(f"{name} must be finite, got {' '.join(str(v) for v in values)}")
 
 
 def _check_mode(args) -> None:
-    """``--mode`` as three signs (``+ - +``, ``1 -1 1``) or one word (``+-+``), the spellings the Python API
-    takes; normalised to three ints. Another number of words is a malformed command line (exit 2)."""
+    """``--mode`` as signs (``+ - +``, ``1 -1 1``, ``+1 -1 +1``) or one word (``+-+``), the spellings the Python
+    API takes, read as a tuple of ±1; how many signs the machine needs is checked by the command, which knows
+    the machine. Anything but signs is refused naming the option."""
     tokens = getattr(args, "mode", None)
     if tokens is None:
         return
-    from .._validate import as_mode
-
-    if getattr(args, "mechanism", None) is not None:  # any number of signs: the machine decides
-        text = "".join(tokens).replace("+1", "+").replace("-1", "-").replace("1", "+")
-        if text.strip("+-"):
-            raise InvalidParameterError(f"--mode: a working mode is signs such as + - (or one word such as +-), "
-                                        f"got {' '.join(tokens)}")
-        args.mode = tuple(1 if c == "+" else -1 for c in text)
-        return
-
-    if len(tokens) not in (1, 3):
-        args.parser.error(f"argument --mode: expected three signs (+ - +) or one word (+-+), got {' '.join(tokens)}")
-    try:
-        args.mode = tuple(int(v) for v in as_mode(tokens[0] if len(tokens) == 1 else tokens))
-    except InvalidParameterError:
-        raise InvalidParameterError(f"--mode: a working mode is three signs such as + - + (or one word such as "
-                                    f"+-+), got {' '.join(tokens)}") from None
+    text = "".join(tokens).replace("+1", "+").replace("-1", "-").replace("1", "+")
+    if not text or text.strip("+-"):
+        raise InvalidParameterError(f"--mode: a working mode is signs such as + - + (or one word such as +-+), "
+                                    f"got {' '.join(tokens)}")
+    args.mode = tuple(1 if c == "+" else -1 for c in text)
 
 
 def _compile_notice(args) -> None:
@@ -125,12 +120,15 @@ def _with_notes(args):
                 warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
+#: The one-shot commands: one evaluation at a single pose or state, whose kernels are quicker to run interpreted
+#: than to load compiled (:mod:`pkmlab._compile_cache`), for every machine.
+ONE_SHOT = ("ik", "fk", "dynamics")
+
+
 def _interpreted(args) -> bool:
-    """Whether the command is a one-shot evaluation at a single pose or state, whose kernels are quicker to run
-    interpreted than to load compiled (:mod:`pkmlab._compile_cache`): ``ik`` of any machine, ``fk`` and
-    ``dynamics`` of the paper's 3-RRR (a described machine's forward kinematics solves a polynomial system:
-    compiled)."""
-    return args.command == "ik" or (args.command in ("fk", "dynamics") and getattr(args, "mechanism", None) is None)
+    """Whether the command is a one-shot evaluation (:data:`ONE_SHOT`): ``ik``, ``fk`` or ``dynamics`` of any
+    machine."""
+    return args.command in ONE_SHOT
 
 
 def _run(argv: list[str] | None, one_shot_interpreted: bool = False) -> int:
@@ -161,6 +159,8 @@ def _command(args) -> int:
     except KeyboardInterrupt as exc:  # a study's says what it kept and how to finish
         print(f"pkmlab {args.command}: interrupted" + (f": {exc}" if str(exc) else ""), file=sys.stderr)
         return 130
+    for message in getattr(args, "deprecations", ()):  # once the work is done: an error stays one line
+        notes(args)(message)
     if getattr(args, "json", False):
         print_json(result)
     sys.stdout.flush()

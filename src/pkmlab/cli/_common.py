@@ -8,13 +8,46 @@ from pathlib import Path
 
 from ..errors import InvalidParameterError, PkmlabError
 
+#: The machine of the commands that take ``--mechanism`` when it is not given.
+DEFAULT_MECHANISM = "paper"
+
+#: What ``--params`` says when it is used: how to give the same machine the way every machine is given (a
+#: command without ``--mechanism``, as ``reproduce``, says where the machine goes instead).
+PARAMS_DEPRECATED = ("--params (a parameter file of the paper's 3-RRR) is deprecated and will be removed: write the "
+                     "machine as a description file (README, 'Your own manipulator', converts a parameter file) and "
+                     "give it with {instead}")
+PARAMS_INSTEAD = "--mechanism FILE.toml"
+PARAMS_INSTEAD_SIMULATE = "pkmlab simulate SCENARIO.toml --mechanism FILE.toml, which runs a scenario on it"
+
+
+def deprecated(args, message: str) -> None:
+    """Say ``message`` (a deprecated option was used) as a note on stderr once the command has succeeded: a
+    command that fails says its error, in one line, and nothing else."""
+    said = getattr(args, "deprecations", None)
+    if said is None:
+        said = args.deprecations = []
+    if message not in said:
+        said.append(message)
+
+
+def params_file(args):
+    """``--params`` (deprecated, said when the command has succeeded), or None."""
+    path = getattr(args, "params", None)
+    if path:
+        takes_mechanism = any("--mechanism" in a.option_strings for a in args.parser._actions)
+        deprecated(args, PARAMS_DEPRECATED.format(instead=PARAMS_INSTEAD if takes_mechanism else
+                                                  PARAMS_INSTEAD_SIMULATE))
+    return path
+
 
 def paper_manipulator(args):
-    """The paper's 3-RRR, or the one of ``--params``."""
+    """The paper's 3-RRR in its own formulation (:class:`~pkmlab.geometry.Planar3RRR`), or the one of the
+    deprecated ``--params``."""
     from ..geometry import Planar3RRR
     from ..io import load_manipulator
 
-    return load_manipulator(args.params) if args.params else Planar3RRR.paper()
+    path = params_file(args)
+    return load_manipulator(path) if path else Planar3RRR.paper()
 
 
 def signs(mode) -> str:
@@ -30,20 +63,75 @@ def table(header: list[str], rows: list[list]) -> str:
 
 
 def mechanism_of(args):
-    """The machine of ``--mechanism``: a preset name or a description file (``[mechanism]`` table)."""
+    """The machine of the command (:class:`~pkmlab.mechanism_model.MechanismModel`, one type for every machine):
+    ``--mechanism``, a preset name or a description file (``[mechanism]`` table), the paper's 3-RRR when not
+    given; or the 3-RRR of the deprecated ``--params`` file (with an explicit ``--mechanism``, refused)."""
     from ..mechanism_model import MechanismModel
     from ..mechanisms.description import load_mechanism
     from ..mechanisms.presets import PRESETS
 
-    if args.params:
-        raise InvalidParameterError("--params describes the paper's 3-RRR; with --mechanism, give a description "
-                                    "file instead")
-    if args.mechanism in PRESETS:
-        return MechanismModel.from_preset(args.mechanism)
-    if not Path(args.mechanism).suffix:
-        raise InvalidParameterError(f"--mechanism {args.mechanism}: not a preset ({', '.join(PRESETS)}) nor a "
-                                    ".toml file")
-    return MechanismModel.from_description(load_mechanism(args.mechanism))
+    name = getattr(args, "mechanism", None)
+    if getattr(args, "params", None):
+        if name is not None:
+            raise InvalidParameterError("--params describes the paper's 3-RRR; with --mechanism, give a description "
+                                        "file instead")
+        from ..geometry import Planar3RRR
+
+        manipulator = paper_manipulator(args)
+        if manipulator != Planar3RRR.paper():
+            return MechanismModel.from_3rrr(manipulator)
+        name = DEFAULT_MECHANISM  # the paper's own parameters: the paper, to the last bit
+    else:
+        name = DEFAULT_MECHANISM if name is None else name
+    if name in PRESETS:
+        return MechanismModel.from_preset(name)
+    if not Path(name).suffix:
+        raise InvalidParameterError(f"--mechanism {name}: not a preset ({', '.join(PRESETS)}) nor a .toml file")
+    return MechanismModel.from_description(load_mechanism(name))
+
+
+def mechanism_name(args, model) -> str:
+    """The machine as the JSON names it: its description's name (a preset's is the preset's), or the file of
+    the deprecated ``--params``."""
+    return str(args.params) if getattr(args, "params", None) else model.name
+
+
+def working_mode(args, model):
+    """``--mode`` (already read as signs, ``args.mode``) checked against the machine: None when not given, else
+    one of its working modes as a tuple of ints. A wrong number of signs is a malformed command line (usage,
+    exit code 2), as a wrong number of pose values is."""
+    from ..mechanism_model import working_modes
+
+    if getattr(args, "mode", None) is None:
+        return None
+    modes = [tuple(int(s) for s in m) for m in working_modes(model)]
+    k = len(modes[0])
+    if len(args.mode) != k:
+        if k == 0:
+            args.parser.error(f"argument --mode: the {model.name} ({model.description.notation}) has one working "
+                              f"mode: no --mode, got {signs(args.mode)}")
+        args.parser.error(f"argument --mode: {k} signs for the {model.name} ({model.description.notation}), such as "
+                          f"{' '.join('+' * k)} or {'+' * k}; got {len(args.mode)}")
+    mode = tuple(args.mode)
+    if mode not in modes:
+        raise InvalidParameterError(f"--mode must be one of {', '.join(signs(m) for m in modes)} for a "
+                                    f"{model.description.notation}, got {signs(mode)}")
+    return mode
+
+
+def pose_gap(pose, other, names) -> float:
+    """How far apart two poses are, metres and radians together (angles the short way round), as
+    ``--near`` measures it."""
+    import math
+
+    angles = {"alpha", "roll", "pitch", "yaw"}
+    return math.hypot(*[math.remainder(a - b, 2 * math.pi) if name in angles else a - b
+                        for a, b, name in zip(pose, other, names, strict=True)])
+
+
+def shown(values) -> str:
+    """Numbers as the messages show them: ``0.2 0.21 0``."""
+    return " ".join(f"{v:g}" for v in values)
 
 
 def check_count(args, values, n: int, what: str) -> None:

@@ -7,7 +7,7 @@ import argparse
 import re
 
 from .._version import __version__
-from ._common import MAX_RESOLUTION
+from ._common import DEFAULT_MECHANISM, MAX_RESOLUTION
 
 # argparse reads only "-1" and "-1.5" as negative numbers: "-1e-3", "-1.2E+00" or "-inf" would be
 # taken for unknown options and the positional argument reported missing. Widen its matcher (a
@@ -21,43 +21,58 @@ def _accept_negative_numbers(parser: argparse.ArgumentParser) -> argparse.Argume
     return parser
 
 
+class _Spelled(argparse.Action):
+    """An option of several spellings that remembers the one typed (``args.DEST_flag``), for its messages."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        setattr(namespace, f"{self.dest}_flag", option_string)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pkmlab", description="Kinematics, dynamics and control of "
-                                     "parallel manipulators (planar 3-RRR). Angles in radians, lengths in metres.")
+                                     "parallel manipulators: the paper's planar 3-RRR by default, any preset or "
+                                     "described machine with --mechanism. Angles in radians, lengths in metres.")
     _accept_negative_numbers(parser)
     parser.add_argument("--version", action="version", version=f"pkmlab {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     def common(p):
         _accept_negative_numbers(p)
-        p.add_argument("--params", metavar="FILE.toml", help="manipulator parameters (default: the paper preset)")
+        p.add_argument("--params", metavar="FILE.toml", help="deprecated: a parameter file of the paper's 3-RRR "
+                       "(use --mechanism FILE.toml, a description file)")
         p.add_argument("--json", action="store_true", help="machine-readable output")
 
-    def mechanism(p):
-        p.add_argument("--mechanism", metavar="NAME|FILE.toml", help="another machine: a preset (paper, five_bar, "
-                       "3rpr, 3prr, delta, stewart) or a description file; default: the paper's 3-RRR as today")
+    def mechanism(p, default: str = f"{DEFAULT_MECHANISM} (the paper's 3-RRR)"):
+        p.add_argument("--mechanism", metavar="NAME|FILE.toml", help="the machine: a preset (paper, five_bar, "
+                       f"3rpr, 3prr, delta, stewart) or a description file; default: {default}")
 
-    p = sub.add_parser("ik", help="inverse kinematics: every working mode of a platform pose")
+    p = sub.add_parser("ik", help="inverse kinematics: every working mode that reaches a platform pose")
     p.add_argument("pose", nargs="+", type=float, metavar="POSE",
                    help="the platform pose: x y alpha (the paper's 3-RRR, a planar rigid platform), x y (a point), "
                    "x y z (the Delta), x y z roll pitch yaw (a six-DOF platform; R = Rz(yaw) Ry(pitch) Rx(roll))")
-    p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: signs (+ - +) or one word (+-+)")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: one sign per two-branch leg "
+                   "(+ - + or one word +-+); default every working mode")
     mechanism(p)
     common(p)
     p.set_defaults(func=_command("kinematics", "cmd_ik"))
 
-    p = sub.add_parser("fk", help="forward kinematics: every assembly mode of actuated angles")
-    p.add_argument("actuators", nargs="+", type=float, metavar="T1 T2 T3",
-                   help="the actuator values (angles in rad, slides in m)")
+    p = sub.add_parser("fk", help="forward kinematics: every assembly mode of the actuator values")
+    p.add_argument("actuators", nargs="+", type=float, metavar="THETA",
+                   help="the actuator values theta1 theta2 ... (angles in rad, slides in m)")
     mechanism(p)
     common(p)
     p.set_defaults(func=_command("kinematics", "cmd_fk"))
 
-    p = sub.add_parser("dynamics", help="actuator-space and full dynamic model at a state (paper eq. 26, 35)")
-    p.add_argument("actuators", nargs="+", type=float, metavar="T1 T2 T3",
-                   help="the actuator values (angles in rad, slides in m)")
-    p.add_argument("--theta-dot", "--rates", dest="theta_dot", nargs="+", type=float, metavar="W",
-                   help="actuator rates (rad/s or m/s), default 0")
+    p = sub.add_parser("dynamics", help="the actuator-space model M, c, g (paper eq. 35, with gravity) and the "
+                       "loop-closure multipliers (eq. 26) at a state, for every assembly mode")
+    p.add_argument("actuators", nargs="+", type=float, metavar="THETA",
+                   help="the actuator values theta1 theta2 ... (angles in rad, slides in m)")
+    p.add_argument("--rates", "--theta-dot", dest="theta_dot", nargs="+", type=float, metavar="W", action=_Spelled,
+                   help="the actuator rates theta_dot (rad/s or m/s), default 0; --theta-dot is a synonym")
+    p.add_argument("--tau", nargs="+", type=float, metavar="T", help="the actuator efforts (N m or N) under which "
+                   "the multipliers are computed; default c + g, the efforts of zero actuator acceleration (the JSON "
+                   "says which in \"tau_from\" and gives them as \"tau\")")
     p.add_argument("--near", nargs="+", type=float, metavar="POSE",
                    help="only the assembly mode whose platform pose is nearest to this pose (as ik takes it)")
     mechanism(p)
@@ -92,7 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "loops open by up to a few mm)")
     p.add_argument("--mujoco-stiff", action="store_true", help="deprecated, does nothing: stiff closures are the "
                    "default")
-    mechanism(p)
+    mechanism(p, default="the scenario's own machine (its [manipulator] or [mechanism] table)")
     p.set_defaults(func=_command("simulate", "cmd_simulate"))
 
     def execution(p):  # a study's: where its runs execute, and what it says

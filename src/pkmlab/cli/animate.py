@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..errors import PkmlabError
-from ._common import NewFolders, mechanism_of, output_path, progress_bar
+from ._common import NewFolders, mechanism_of, output_path, params_file, progress_bar
 
 ANIMATION_COLUMNS = ("t", "theta1", "theta2", "theta3", "x", "y", "alpha", "x_d", "y_d")
 
@@ -18,8 +18,9 @@ def _animation_model(args, folder: Path, case: str):
     from ..io import load_manipulator
     from ..views.folder import result_manipulator
 
-    if args.params:
-        return load_manipulator(args.params), Path(args.params).name
+    path = params_file(args)
+    if path:
+        return load_manipulator(path), Path(path).name
     return result_manipulator(folder, case)
 
 

@@ -1,11 +1,19 @@
-"""``pkmlab dynamics``: the dynamic model at a state, for every assembly mode or the one nearest ``--near``."""
+"""``pkmlab dynamics``: the dynamic model at a state, for every assembly mode or the one nearest ``--near``, of
+every machine through one model type and one schema:
+
+``{"mechanism", "pose_names", "tau_from", "solutions": [{"pose", "passive", "S", "M", "c", "g", "tau",
+"multipliers"}, ...]}`` — the actuator-space model ``M θ̈ + c + g = τ`` (eq. 35 with gravity; ``c = C θ̇``) and
+the loop-closure multipliers ``λ`` (eq. 26) of the full model moving at ``θ̇`` under the efforts ``tau``: those of
+``--tau``, else ``c + g`` (zero actuator acceleration), as ``"tau_from"`` says.
+"""
 
 from __future__ import annotations
 
 import sys
 
 from ..errors import AssemblyError, InvalidParameterError, SingularityError
-from ._common import check_count, mechanism_of, paper_manipulator
+from ._common import check_count, mechanism_name, mechanism_of, pose_gap, shown
+from .kinematics import heading, passive_names, passive_of
 
 #: Below this |S| the actuator-space model is refused. Near a singularity two assembly modes
 #: merge into a double root of the forward-kinematics polynomial, found only to about √ε ≈ 1e-8
@@ -17,160 +25,120 @@ SINGULAR_S = 1e-6
 NEAR_TOLERANCE = 1e-3
 #: Below this |S| (the default run-time singularity guard) the model is reported with a warning.
 NEAR_SINGULAR_S = 1e-2
+#: ``"tau_from"``: where the efforts under which the multipliers are computed come from.
+TAU_GIVEN, TAU_HOLDING = "--tau", "c + g (zero actuator acceleration)"
 
 
-def _screen_model(where: str, s: float, values, flag: str, rates) -> None:
-    """Refuse an actuator-space model that means nothing: at a singularity (``|S| < SINGULAR_S``) or
-    overflowed (``values`` not finite, for the rates given with ``flag``)."""
-    import numpy as np
-
-    if abs(s) < SINGULAR_S:
-        raise SingularityError(f"{where} is at a gain-type singularity (S = {s:.3g}): the actuator-space model "
-                               "(eq. 35) does not exist there")
-    if not all(np.all(np.isfinite(v)) for v in values):
-        raise InvalidParameterError(f"{where}: the dynamic model overflows at {flag} "
-                                    f"{' '.join(f'{w:g}' for w in rates)} (beyond floating-point range)")
+def _overflow(where: str, flag: str, rates) -> InvalidParameterError:
+    return InvalidParameterError(f"{where}: the dynamic model overflows at {flag} {shown(rates)} (beyond "
+                                 "floating-point range)")
 
 
-def _near_singularity(where: str, s: float, grows: str) -> str | None:
+def _near_singularity(where: str, s: float) -> str | None:
     """The warning for ``|S| < NEAR_SINGULAR_S`` (also said on stderr), or None."""
     from .._format import apart
 
     if abs(s) >= NEAR_SINGULAR_S:
         return None
-    shown, limit = apart(abs(s), NEAR_SINGULAR_S)
-    warning = (f"near a gain-type singularity (|S| = {shown} < {limit}): {grows} grow as 1/S^2 and are very "
-               "sensitive to the actuators")
+    value, limit = apart(abs(s), NEAR_SINGULAR_S)
+    warning = (f"near a gain-type singularity (|S| = {value} < {limit}): M and c grow as 1/S^2, the multipliers "
+               "without bound, and they are very sensitive to the actuators")
     print(f"pkmlab dynamics: warning: {where} is {warning}", file=sys.stderr)
     return warning
 
 
 def _far_from_near(near, pose) -> None:
     """Say on stderr that the assembly mode reported is not near the pose ``--near`` asked for."""
-    print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near "
-          f"{' '.join(f'{v:g}' for v in near)}; the nearest, reported, is at pose "
-          f"({', '.join(f'{v:.6f}' for v in pose)})", file=sys.stderr)
+    print(f"pkmlab dynamics: warning: no assembly mode is within {NEAR_TOLERANCE:g} of --near {shown(near)}; the "
+          f"nearest, reported, is at pose ({', '.join(f'{v:.6f}' for v in pose)})", file=sys.stderr)
 
 
-def _dynamics_record(model, sol_q, theta_dot) -> dict:
+def _record(model, mode, rates, tau, flags) -> dict:
+    """One assembly mode's model: refused at a singularity or where the rates (or efforts) overflow it."""
     import numpy as np
 
-    from .. import dynamics
-    from ..kinematics import coordinate_rates, platform_pose, singularity_measure
+    from ..algorithms.dynamics import actuator_space_model, constrained_dynamics
+    from ..algorithms.kinematics import coordinate_rates
 
-    x, y, alpha = platform_pose(model, sol_q).tolist()
-    where = f"the assembly mode at pose ({x:.6f}, {y:.6f}, {alpha:.6f})"
-    s = float(singularity_measure(model, sol_q))
-    _screen_model(where, s, (), "--theta-dot", theta_dot)
+    pose = mode.pose.tolist()
+    where = f"the assembly mode at pose ({', '.join(f'{v:.6f}' for v in pose)})"
+    if not abs(mode.S) >= SINGULAR_S:
+        raise SingularityError(f"{where} is at a gain-type singularity (S = {mode.S:.3g}): the actuator-space "
+                               "model (eq. 35) does not exist there")
     with np.errstate(all="ignore"):
-        q_dot = coordinate_rates(model, sol_q, theta_dot)
-        m_theta, c_theta = dynamics.actuator_space_model(model, sol_q, theta_dot)
-        _qdd, lam = dynamics.constrained_accelerations(model, sol_q, q_dot, [0.0, 0.0, 0.0])
-        record = {
-            "pose": {"x": x, "y": y, "alpha": alpha},
-            "S": s,
-            "q": sol_q.tolist(),
-            "q_dot": q_dot.tolist(),
-            "M_theta": m_theta.tolist(),
-            "c_theta": c_theta.tolist(),
-            "C_theta": dynamics.actuator_space_coriolis_matrix(model, sol_q, theta_dot).tolist(),
-            "M": dynamics.mass_matrix(model, sol_q).tolist(),
-            "lambda": lam.tolist(),
-            "kinetic_energy": float(dynamics.kinetic_energy(model, sol_q, q_dot)),
-        }
-    _screen_model(where, s, [v for v in record.values() if not isinstance(v, dict)], "--theta-dot", theta_dot)
-    warning = _near_singularity(where, s, "M_theta and lambda")
+        try:
+            reduced = actuator_space_model(model, mode.q, rates)
+            q_dot = coordinate_rates(model, mode.q, rates)
+        except InvalidParameterError:  # the library's "theta_dot overflows": said with the option typed
+            raise _overflow(where, flags["rates"], rates) from None
+        efforts = reduced.c + reduced.g if tau is None else np.asarray(tau, dtype=float)
+        try:
+            motion = constrained_dynamics(model, mode.q, q_dot, efforts)
+        except InvalidParameterError:
+            raise _overflow(where, flags["rates"] if tau is None else f"{flags['rates']} and --tau",
+                            rates if tau is None else [*rates, *tau]) from None
+    values = (reduced.M, reduced.c, reduced.g, efforts, motion.multipliers)
+    if not all(np.all(np.isfinite(v)) for v in values):
+        raise _overflow(where, flags["rates"], rates)
+    record = {"pose": pose, "passive": passive_of(model, mode.q), "S": mode.S, "M": reduced.M.tolist(),
+              "c": reduced.c.tolist(), "g": reduced.g.tolist(), "tau": efforts.tolist(),
+              "multipliers": motion.multipliers.tolist()}
+    warning = _near_singularity(where, mode.S)
     if warning:
         record["warning"] = warning
     return record
 
 
-def _pose_gap(pose, other, names) -> float:
-    """How far apart two poses are, metres and radians together (angles the short way round), as
-    ``--near`` measures it."""
-    import math
+def _print(model, records, tau_from: str) -> None:
+    names, passive = model.pose_names, passive_names(model)
 
-    return math.hypot(*[math.remainder(a - b, 2 * math.pi) if name == "alpha" else a - b
-                        for a, b, name in zip(pose, other, names, strict=True)])
+    def row(values) -> str:
+        return "  ".join(f"{v:+.6e}" for v in values)
 
-
-def cmd_dynamics_mechanism(args) -> dict:
-    """``dynamics --mechanism M ACTUATORS... [--rates W...] [--near POSE...]``: ``{"M", "c", "g", "S", "pose"}``
-    of ``M θ̈ + c + g = τ`` (eq. 35 with gravity) for the assembly mode nearest ``--near`` (else every mode,
-    under ``"solutions"``)."""
-
-    import numpy as np
-
-    from .. import mechanism_model as mm
-
-    model = mechanism_of(args)
-    n, names = model.n_actuators, model.description.pose_names
-    check_count(args, args.actuators, n, "the actuator values")
-    rates = [0.0] * n if args.theta_dot is None else args.theta_dot
-    check_count(args, rates, n, "--rates")
-    found = mm.forward_kinematics(model, args.actuators)
-    if not found:
-        raise AssemblyError(f"actuators {args.actuators} cannot be assembled: forward kinematics has no real solution")
-    if args.near is not None:
-        check_count(args, args.near, len(names), f"--near ({', '.join(names)})")
-        gaps = [_pose_gap(q[-len(names):], args.near, names) for q, _s in found]
-        found = [found[int(np.argmin(gaps))]]
-        if min(gaps) > NEAR_TOLERANCE:
-            _far_from_near(args.near, found[0][0][-len(names):])
-    records = []
-    for q, s in found:
-        pose = q[-len(names):].tolist()
-        where = f"the assembly mode at pose ({', '.join(f'{v:.6f}' for v in pose)})"
-        _screen_model(where, s, (), "--rates", rates)
-        with np.errstate(all="ignore"):
-            m_theta, c_theta, g_theta = mm.actuator_space_model(model, q, rates)
-        _screen_model(where, s, (m_theta, c_theta, g_theta), "--rates", rates)
-        record = {"M": m_theta.tolist(), "c": c_theta.tolist(), "g": g_theta.tolist(), "S": s, "pose": pose}
-        warning = _near_singularity(where, s, "M and c")
-        if warning:
-            record["warning"] = warning
-        records.append(record)
-    if not args.json:
-        for rec in records:
-            print(f"assembly mode at {', '.join(f'{k} = {v:+.6f}' for k, v in zip(names, rec['pose'], strict=True))}, "
-                  f"S = {rec['S']:+.6f}")
-            print("  M (actuator space):")
-            for row in rec["M"]:
-                print("    " + "  ".join(f"{v:+.6e}" for v in row))
-            print("  c = C rates: " + "  ".join(f"{v:+.6e}" for v in rec["c"]))
-            print("  g (gravity): " + "  ".join(f"{v:+.6e}" for v in rec["g"]))
-    return records[0] if args.near is not None else {"solutions": records}
+    for rec in records:
+        print("assembly mode at " + ", ".join(f"{k} = {v:+.6f}" for k, v in zip(names, rec["pose"], strict=True))
+              + f", S = {rec['S']:+.6f}")
+        if passive:
+            print(f"  passive ({', '.join(passive)}): {row(rec['passive'])}")
+        print("  M (actuator space):")
+        for line in rec["M"]:
+            print("    " + row(line))
+        print(f"  c = C theta_dot: {row(rec['c'])}")
+        print(f"  g (gravity): {row(rec['g'])}")
+        print(f"  tau{' = c + g, zero actuator acceleration' if tau_from == TAU_HOLDING else ' (--tau)'}: "
+              f"{row(rec['tau'])}")
+        print(f"  multipliers (loop closures, eq. 26): {row(rec['multipliers'])}")
 
 
 def cmd_dynamics(args) -> dict:
-    from ..kinematics import forward_kinematics
+    """``dynamics THETA... [--rates W...] [--tau T...] [--near POSE...] [--mechanism M]``: the model of every
+    assembly mode of the actuator values, or of the one nearest ``--near``."""
+    from ..algorithms.kinematics import forward_kinematics
 
-    if args.mechanism is not None:
-        return cmd_dynamics_mechanism(args)
-    check_count(args, args.actuators, 3, "dynamics of the paper's 3-RRR (theta1 theta2 theta3)")
-    args.t1, args.t2, args.t3 = args.actuators
-    args.theta_dot = [0.0, 0.0, 0.0] if args.theta_dot is None else args.theta_dot
-    check_count(args, args.theta_dot, 3, "--theta-dot")
+    model = mechanism_of(args)
+    n, names = model.n_actuators, model.pose_names
+    flags = {"rates": getattr(args, "theta_dot_flag", None) or "--rates"}
+    check_count(args, args.actuators, n, "the actuator values")
+    rates = [0.0] * n if args.theta_dot is None else args.theta_dot
+    check_count(args, rates, n, flags["rates"])
+    if args.tau is not None:
+        check_count(args, args.tau, n, "--tau")
     if args.near is not None:
-        check_count(args, args.near, 3, "--near (x y alpha)")
-    model = paper_manipulator(args)
-    theta = [args.t1, args.t2, args.t3]
-    theta_dot = args.theta_dot
-    fk = forward_kinematics(model, theta)
-    if len(fk) == 0:
-        raise AssemblyError(f"theta = {theta} cannot be assembled: forward kinematics has no real solution")
-    chosen = [fk.nearest(args.near)] if args.near else list(fk)
-    if args.near and _pose_gap(chosen[0].pose, args.near, ("x", "y", "alpha")) > NEAR_TOLERANCE:
-        _far_from_near(args.near, chosen[0].pose)
-    records = [_dynamics_record(model, sol.q, theta_dot) for sol in chosen]
+        check_count(args, args.near, len(names), f"--near ({', '.join(names)})")
+    found = forward_kinematics(model, args.actuators)
+    if len(found) == 0:
+        raise AssemblyError(f"theta = {shown(args.actuators)} cannot be assembled: forward kinematics of the "
+                            f"{model.name} has no real solution")
+    chosen = list(found)
+    if args.near is not None:
+        chosen = [found.nearest(args.near)]
+        if pose_gap(chosen[0].pose, args.near, names) > NEAR_TOLERANCE:
+            _far_from_near(args.near, chosen[0].pose)
+    tau_from = TAU_HOLDING if args.tau is None else TAU_GIVEN
+    records = [_record(model, mode, rates, args.tau, flags) for mode in chosen]
     if not args.json:
-        for rec in records:
-            p = rec["pose"]
-            print(f"assembly mode at x = {p['x']:+.6f} m, y = {p['y']:+.6f} m, alpha = {p['alpha']:+.6f} rad, "
-                  f"S = {rec['S']:+.6f}")
-            print("  M_theta (kg m^2):")
-            for row in rec["M_theta"]:
-                print("    " + "  ".join(f"{v:+.6e}" for v in row))
-            print("  C_theta theta_dot (N m): " + "  ".join(f"{v:+.6e}" for v in rec["c_theta"]))
-            print("  lambda at zero torque (N): " + "  ".join(f"{v:+.6e}" for v in rec["lambda"]))
-    return records[0] if args.near else {"solutions": records}
+        print(heading(model, "dynamics") + f" at theta = {shown(args.actuators)}, theta_dot = {shown(rates)}: "
+              + (f"{len(records)} assembly mode(s)" if args.near is None else "the assembly mode nearest --near"))
+        _print(model, records, tau_from)
+    return {"mechanism": mechanism_name(args, model), "pose_names": list(names), "tau_from": tau_from,
+            "solutions": records}

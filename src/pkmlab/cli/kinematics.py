@@ -1,109 +1,116 @@
-"""``pkmlab ik`` and ``pkmlab fk``: inverse and forward kinematics at one pose or one set of actuator values."""
+"""``pkmlab ik`` and ``pkmlab fk``: inverse and forward kinematics at one pose or one set of actuator values, of
+every machine through one model type (:func:`pkmlab.load`) and one schema:
+
+* ``ik``: ``{"mechanism", "pose_names", "solutions": [{"mode", "theta", "passive", "S"}, ...]}``, one solution
+  per working mode that reaches the pose (``"mode": []`` for a machine of one working mode);
+* ``fk``: ``{"mechanism", "pose_names", "solutions": [{"pose", "passive", "S"}, ...]}``, every assembly mode.
+
+No reachable working mode, or no assembly mode: exit code 1 and one line, for every machine.
+"""
 
 from __future__ import annotations
 
-from ..errors import AssemblyError, InvalidParameterError
-from ._common import check_count, mechanism_of, paper_manipulator, signs, table
+from ..errors import AssemblyError
+from ._common import check_count, mechanism_name, mechanism_of, shown, signs, table, working_mode
 
 
-def cmd_ik_mechanism(args) -> dict:
-    """``ik --mechanism M POSE...``: ``{"solutions": [{"mode", "actuators", "S"}, ...]}``, one per working mode
-    that reaches the pose (one contract for every machine)."""
-    from .. import mechanism_model as mm
+def passive_names(model) -> tuple[str, ...]:
+    """The names of the passive joints' coordinates (``model.coordinates`` between the actuators and the pose)."""
+    return tuple(model.coordinates[model.n_actuators:len(model.coordinates) - model.dof])
+
+
+def passive_of(model, q) -> list[float]:
+    """The passive joints' values of the configuration ``q``."""
+    return [float(v) for v in q[model.n_actuators:len(model.coordinates) - model.dof]]
+
+
+def heading(model, what: str) -> str:
+    """The first line of a command's text output: what was computed, for which machine."""
+    return f"{what} of the {model.name} ({model.description.notation})"
+
+
+def _legs(bits: int) -> list[int]:
+    return [i + 1 for i in range(bits.bit_length()) if bits >> i & 1]
+
+
+def _named(legs: list[int]) -> str:
+    words = [str(v) for v in legs]
+    return ("leg " if len(words) == 1 else "legs ") + (words[0] if len(words) == 1 else
+                                                       ", ".join(words[:-1]) + " and " + words[-1])
+
+
+def _unreachable(model, pose, mode, ik) -> Exception:
+    """The error of a pose that no working mode asked for reaches: which legs cannot, and why the first cannot
+    (the library's own words)."""
+    import numpy as np
+
+    from ..algorithms.kinematics import inverse_kinematics
     from ..errors import UnreachablePoseError
 
-    model = mechanism_of(args)
-    names = model.description.pose_names
-    check_count(args, args.pose, len(names), f"the pose ({', '.join(names)})")
-    modes = mm.working_modes(model)
-    if args.mode is not None:
-        if args.mode not in modes:
-            raise InvalidParameterError(f"--mode must be one of {', '.join(signs(m) for m in modes)} for a "
-                                        f"{model.description.notation}, got {signs(args.mode)}")
-        modes = [args.mode]
-    solutions, reasons = [], []
-    for mode in modes:
-        try:
-            q = mm.inverse_kinematics(model, args.pose, mode)
-        except UnreachablePoseError as exc:
-            reasons.append(str(exc))
-            continue
-        solutions.append({"mode": list(mode), "actuators": q[:model.n_actuators].tolist(),
-                          "S": mm.singularity_measure(model, q)})
-    if not solutions:
-        where = f"in working mode {signs(args.mode)}" if args.mode is not None else "in every working mode"
-        raise UnreachablePoseError(f"pose {args.pose} is out of reach {where}: {reasons[0]}")
-    if not args.json:
-        print(f"inverse kinematics of the {model.description.name} ({model.description.notation}) at "
-              + ", ".join(f"{n} = {v:g}" for n, v in zip(names, args.pose, strict=True)))
-        header = ["mode", *(f"actuator{i + 1}" for i in range(model.n_actuators)), "S"]
-        print(table(header, [[signs(s["mode"]) if s["mode"] else "-", *s["actuators"], s["S"]] for s in solutions]))
-    return {"solutions": solutions}
-
-
-def cmd_fk_mechanism(args) -> dict:
-    """``fk --mechanism M ACTUATORS...``: ``{"solutions": [{"pose", "S"}, ...]}``, every assembly mode."""
-    from .. import mechanism_model as mm
-
-    model = mechanism_of(args)
-    check_count(args, args.actuators, model.n_actuators, "the actuator values")
-    found = mm.forward_kinematics(model, args.actuators)
-    dof = model.description.dof
-    solutions = [{"pose": q[-dof:].tolist(), "S": s} for q, s in found]
-    if not args.json:
-        print(f"forward kinematics of the {model.description.name} ({model.description.notation}) at actuators "
-              f"{' '.join(f'{v:g}' for v in args.actuators)}: {len(solutions)} assembly mode(s)")
-        rows = [[str(j + 1), *sol["pose"], sol["S"]] for j, sol in enumerate(solutions)]
-        print(table(["#", *model.description.pose_names, "S"], rows))
-    return {"solutions": solutions}
+    masks = [int(m) for m in np.atleast_1d(ik.unreachable_legs)]
+    reason = ""
+    try:
+        inverse_kinematics(model, pose, mode=mode)
+    except UnreachablePoseError as exc:
+        reason = str(exc)
+        prefix = f"pose {np.round(np.asarray(pose, dtype=float), 6).tolist()}: "
+        reason = reason[len(prefix):] if reason.startswith(prefix) else reason
+    where = f"in working mode {signs(mode)}" if mode is not None else (
+        "in its working mode" if len(masks) == 1 else "in every working mode")
+    at = ", ".join(f"{n} = {v:g}" for n, v in zip(model.pose_names, pose, strict=True))
+    if len(set(masks)) == 1:
+        legs = _legs(masks[0])
+        who = f"{_named(legs)} cannot reach it"
+    else:  # the legs that fail depend on the working mode (a slider's stroke, say)
+        legs = _legs(int(np.bitwise_or.reduce(masks)))
+        who = f"in each working mode at least one of {_named(legs)} cannot reach it"
+    return UnreachablePoseError(f"pose ({at}) is out of reach {where}: {who}" + (f" ({reason})" if reason else ""),
+                                legs=tuple(legs))
 
 
 def cmd_ik(args) -> dict:
+    """``ik POSE... [--mode SIGNS] [--mechanism M]``: every working mode that reaches the pose."""
     import numpy as np
 
-    from ..kinematics import inverse_kinematics
+    from ..algorithms.kinematics import inverse_kinematics
 
-    if args.mechanism is not None:
-        return cmd_ik_mechanism(args)
-    check_count(args, args.pose, 3, "ik of the paper's 3-RRR (x y alpha)")
-    args.x, args.y, args.alpha = args.pose
-    model = paper_manipulator(args)
-    pose = [args.x, args.y, args.alpha]
-    ik = inverse_kinematics(model, pose, mode=args.mode)
-    q = ik.q[None] if args.mode else ik.q
-    modes = ik.modes[None] if args.mode else ik.modes
-    svals = np.atleast_1d(ik.S)
-    solutions = [
-        {"mode": [int(v) for v in m], "theta": qi[:3].tolist(), "phi": qi[3:6].tolist()}
-        for m, qi in zip(modes, q, strict=True)
-    ]
+    model = mechanism_of(args)
+    names = model.pose_names
+    check_count(args, args.pose, len(names), f"the pose ({', '.join(names)})")
+    mode = working_mode(args, model)
+    ik = inverse_kinematics(model, args.pose, mode=mode, on_unreachable="nan")
+    q = ik.q[None] if mode is not None else ik.q
+    modes = ik.modes[None] if mode is not None else ik.modes
+    s = np.atleast_1d(ik.S)
+    reachable = np.atleast_1d(ik.reachable)
+    solutions = [{"mode": [int(v) for v in m], "theta": qi[:model.n_actuators].tolist(),
+                  "passive": passive_of(model, qi), "S": float(si)}
+                 for m, qi, si, ok in zip(modes, q, s, reachable, strict=True) if ok]
+    if not solutions:
+        raise _unreachable(model, args.pose, mode, ik)
     if not args.json:
-        print(f"inverse kinematics of x = {args.x:g} m, y = {args.y:g} m, alpha = {args.alpha:g} rad")
-        rows = [[signs(m), *qi[:6].tolist(), float(s)] for m, qi, s in zip(modes, q, svals, strict=True)]
-        print(table(["mode", "theta1", "theta2", "theta3", "phi1", "phi2", "phi3", "S"], rows))
-    return {"solutions": solutions}
+        print(heading(model, "inverse kinematics") + " at "
+              + ", ".join(f"{n} = {v:g}" for n, v in zip(names, args.pose, strict=True)))
+        header = ["mode", *(f"theta{i + 1}" for i in range(model.n_actuators)), *passive_names(model), "S"]
+        print(table(header, [[signs(sol["mode"]) if sol["mode"] else "-", *sol["theta"], *sol["passive"], sol["S"]]
+                             for sol in solutions]))
+    return {"mechanism": mechanism_name(args, model), "pose_names": list(names), "solutions": solutions}
 
 
 def cmd_fk(args) -> dict:
-    from ..kinematics import forward_kinematics
+    """``fk THETA... [--mechanism M]``: every assembly mode of the actuator values."""
+    from ..algorithms.kinematics import forward_kinematics
 
-    if args.mechanism is not None:
-        return cmd_fk_mechanism(args)
-    check_count(args, args.actuators, 3, "fk of the paper's 3-RRR (theta1 theta2 theta3)")
-    args.t1, args.t2, args.t3 = args.actuators
-    model = paper_manipulator(args)
-    theta = [args.t1, args.t2, args.t3]
-    fk = forward_kinematics(model, theta)
-    if len(fk) == 0:
-        raise AssemblyError(f"theta = {theta} cannot be assembled: forward kinematics has no real solution")
-    solutions = [
-        {"x": float(s.pose[0]), "y": float(s.pose[1]), "alpha": float(s.pose[2]),
-         "phi": s.q[3:6].tolist(), "S": s.S}
-        for s in fk
-    ]
+    model = mechanism_of(args)
+    check_count(args, args.actuators, model.n_actuators, "the actuator values")
+    found = forward_kinematics(model, args.actuators)
+    if len(found) == 0:
+        raise AssemblyError(f"theta = {shown(args.actuators)} cannot be assembled: forward kinematics of the "
+                            f"{model.name} has no real solution")
+    solutions = [{"pose": mode.pose.tolist(), "passive": passive_of(model, mode.q), "S": mode.S} for mode in found]
     if not args.json:
-        print(f"forward kinematics of theta = ({args.t1:g}, {args.t2:g}, {args.t3:g}) rad: "
-              f"{len(fk)} assembly mode(s)")
-        rows = [[str(j + 1), d["x"], d["y"], d["alpha"], *d["phi"], d["S"]] for j, d in enumerate(solutions)]
-        print(table(["#", "x", "y", "alpha", "phi1", "phi2", "phi3", "S"], rows))
-    return {"solutions": solutions}
+        print(heading(model, "forward kinematics") + f" at theta = {shown(args.actuators)}: "
+              f"{len(solutions)} assembly mode(s)")
+        rows = [[str(j + 1), *sol["pose"], *sol["passive"], sol["S"]] for j, sol in enumerate(solutions)]
+        print(table(["#", *model.pose_names, *passive_names(model), "S"], rows))
+    return {"mechanism": mechanism_name(args, model), "pose_names": list(model.pose_names), "solutions": solutions}

@@ -9,14 +9,20 @@ from ._common import (
     Staged,
     check_resolution,
     figure_suffixes,
+    mechanism_name,
     mechanism_of,
     output_path,
-    paper_manipulator,
     progress_bar,
     save_figure,
     signs,
     table,
+    working_mode,
 )
+
+
+def _at_alpha(model, alpha: float) -> str:
+    """`` at alpha = A rad`` for a platform that has an orientation alpha (a point's map has none)."""
+    return f" at alpha = {alpha:g} rad" if "alpha" in model.pose_names else ""
 
 
 def _nothing_reachable(x, y, alpha: float) -> PkmlabError:
@@ -37,24 +43,25 @@ def cmd_singularity_map(args) -> dict:
     from ..analysis import singularity_map
     from ..plotting import plot_singularity_map
 
-    model = mechanism_of(args) if args.mechanism else paper_manipulator(args)
-    if getattr(getattr(model, "description", None), "spatial", False):
+    model = mechanism_of(args)
+    if getattr(model.description, "spatial", False):
         raise InvalidParameterError(f"singularity-map draws a planar machine's S over x-y; the "
                                     f"{model.description.name} is spatial: `pkmlab workspace --mechanism ... --z Z...` "
                                     "draws its S and S = 0 in horizontal slices")
+    mode = working_mode(args, model)
     out = output_path(args.out, "--out", figure_suffixes() | {".html"})
     csv_path = output_path(args.csv, "--csv", {".csv"}) if args.csv else None
     resolution = check_resolution(args.resolution)
     with progress_bar(args, resolution, "singularity map") as bar:
-        smap = singularity_map(model, args.alpha, args.mode, args.x_range, args.y_range, resolution,
+        smap = singularity_map(model, args.alpha, mode, args.x_range, args.y_range, resolution,
                                progress=bar.update)
     reachable = smap.reachable
     if not reachable.any():
         raise _nothing_reachable(smap.x, smap.y, smap.alpha)
     finite = smap.S[reachable]
-    result = {"alpha": smap.alpha, "mode": list(smap.mode), "min_S": float(finite.min()),
-              "max_S": float(finite.max()), "reachable_fraction": float(reachable.mean()), "figure": str(out),
-              "csv": str(csv_path) if csv_path else None}
+    result = {"mechanism": mechanism_name(args, model), "alpha": smap.alpha, "mode": list(smap.mode),
+              "min_S": float(finite.min()), "max_S": float(finite.max()), "reachable_fraction": float(reachable.mean()),
+              "figure": str(out), "csv": str(csv_path) if csv_path else None}
     ax = plot_singularity_map(smap, model=model)
     try:
         with Staged(out, *([csv_path] if csv_path else [])) as temps:
@@ -73,7 +80,8 @@ def cmd_singularity_map(args) -> dict:
     finally:
         plt.close(ax.figure)
     if not args.json:
-        print(f"S at alpha = {smap.alpha:g} rad, working mode {signs(smap.mode)}, {resolution} x {resolution} grid: "
+        print(f"S of the {model.name} ({model.description.notation}){_at_alpha(model, smap.alpha)}, working mode "
+              f"{signs(smap.mode) if smap.mode else '-'}, {resolution} x {resolution} grid: "
               f"min S = {result['min_S']:+.4f}, max S = {result['max_S']:+.4f}, "
               f"reachable {100 * result['reachable_fraction']:.1f} % of the grid")
         print(f"wrote {out}" + (f" and {csv_path}" if csv_path else ""))
@@ -89,9 +97,9 @@ def cmd_workspace(args) -> dict:
     from ..analysis import workspace
     from ..plotting import plot_workspace
 
-    model = mechanism_of(args) if args.mechanism else paper_manipulator(args)
+    model = mechanism_of(args)
     out = output_path(args.out, "--out", figure_suffixes() | {".html"})
-    if getattr(getattr(model, "description", None), "spatial", False):
+    if getattr(model.description, "spatial", False):
         if out.suffix.lower() == ".html":
             raise InvalidParameterError("--out: a spatial machine's slices are drawn as an image (PNG, SVG, PDF); "
                                         "the interactive .html map is a planar machine's")
@@ -118,11 +126,14 @@ def cmd_workspace(args) -> dict:
     areas = [{"mode": [int(v) for v in m], "area_m2": float(a), "area_cm2": float(a) * 1e4}
              for m, a in zip(ws.modes, ws.area, strict=True)]
     if not args.json:
-        print(f"reachable workspace at alpha = {ws.alpha:g} rad ({resolution} x {resolution} grid, "
+        print(f"reachable workspace of the {model.name} ({model.description.notation}){_at_alpha(model, ws.alpha)} "
+              f"({resolution} x {resolution} grid, "
               f"cell {ws.cell_area * 1e4:.4g} cm^2)")
-        print(table(["mode", "area (cm^2)"], [[signs(a["mode"]), f"{a['area_cm2']:.2f}"] for a in areas]))
+        print(table(["mode", "area (cm^2)"], [[signs(a["mode"]) if a["mode"] else "-", f"{a['area_cm2']:.2f}"]
+                                              for a in areas]))
         print(f"wrote {out}")
-    return {"alpha": ws.alpha, "resolution": resolution, "cell_area_m2": ws.cell_area, "areas": areas,
+    return {"mechanism": mechanism_name(args, model), "alpha": ws.alpha, "resolution": resolution,
+            "cell_area_m2": ws.cell_area, "areas": areas,
             "figure": str(out)}
 
 
@@ -136,7 +147,7 @@ def _spatial_workspace(args, model, out: Path) -> dict:
         raise InvalidParameterError("--alpha is a planar platform's orientation; a spatial machine's slices are at "
                                     "--z heights")
     resolution = check_resolution(args.resolution)
-    mode = tuple(args.mode) if getattr(args, "mode", None) is not None else None
+    mode = working_mode(args, model)
     levels = args.z
     with progress_bar(args, len(levels) if levels else 6, "slices") as bar:
         ws = spatial_workspace(model, mode, levels, resolution, args.x_range, args.y_range, progress=bar.update)
@@ -147,8 +158,10 @@ def _spatial_workspace(args, model, out: Path) -> dict:
     slices = [{"z": float(z), "area_m2": float(a), "area_cm2": float(a) * 1e4} for z, a in zip(ws.z, ws.area,
                                                                                             strict=True)]
     if not args.json:
-        print(f"reachable workspace of the {model.description.name} in working mode {signs(ws.mode)}, "
+        print(f"reachable workspace of the {model.name} ({model.description.notation}) in working mode "
+              f"{signs(ws.mode) if ws.mode else '-'}, "
               f"{resolution} x {resolution} grid per slice")
         print(table(["z (m)", "area (cm^2)"], [[f"{s['z']:.4f}", f"{s['area_cm2']:.1f}"] for s in slices]))
         print(f"wrote {out}")
-    return {"mode": list(ws.mode), "resolution": resolution, "slices": slices, "figure": str(out)}
+    return {"mechanism": mechanism_name(args, model), "mode": list(ws.mode), "resolution": resolution,
+            "slices": slices, "figure": str(out)}

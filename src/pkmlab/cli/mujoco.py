@@ -2,33 +2,25 @@
 
 from __future__ import annotations
 
-from ..errors import InvalidParameterError
-from ._common import Staged, check_count, loop_closures, mechanism_of, output_path, paper_manipulator, signs
+from ._common import Staged, check_count, loop_closures, mechanism_name, mechanism_of, output_path, working_mode
 
 
 def cmd_export_mjcf(args) -> dict:
     """``export-mjcf``: the machine as a MuJoCo model (MJCF), at the pose ``--pose`` (its configuration in
     ``--mode``) or at its home configuration (:func:`pkmlab.mujoco_export.home_configuration`)."""
-    from .. import mechanism_model as mm
     from .. import mujoco_export as mx
-    from ..mechanism_model import MechanismModel
+    from ..algorithms.kinematics import inverse_kinematics, working_modes
 
     closures = loop_closures(args, "--closures", args.closures, "--stiff", args.stiff)
-    if args.mechanism:
-        model = mechanism_of(args)
-    else:
-        model = MechanismModel.from_3rrr(paper_manipulator(args))
+    model = mechanism_of(args)
     out = output_path(args.out, "--out", {".xml"})
     q = None
+    mode = working_mode(args, model)
     if args.pose is not None:
-        names = model.description.pose_names
+        names = model.pose_names
         check_count(args, args.pose, len(names), f"--pose ({', '.join(names)})")
-        modes = mm.working_modes(model)
-        mode = tuple(args.mode) if args.mode is not None else modes[0]
-        if mode not in modes:
-            raise InvalidParameterError(f"--mode must be one of {', '.join(signs(m) for m in modes)} for a "
-                                        f"{model.description.notation}, got {signs(mode)}")
-        q = mm.inverse_kinematics(model, args.pose, mode)
+        mode = tuple(int(s) for s in working_modes(model)[0]) if mode is None else mode
+        q = inverse_kinematics(model, args.pose, mode=mode).q
     options = {"timestep": args.timestep, "integrator": args.integrator, "closures": closures}
     q = mx.home_configuration(model) if q is None else q
     text = mx.mjcf(model, q, **options)
@@ -40,5 +32,6 @@ def cmd_export_mjcf(args) -> dict:
               f"\"pkmlab\" at pose {', '.join(f'{v:.6g}' for v in q[-model.description.dof:])}")
         for note in approximations:
             print(f"note: {note}")
-    return {"mjcf": str(out), "pose": q[-model.description.dof:].tolist(), "qpos": mx.qpos_from_q(model, q).tolist(),
+    return {"mechanism": mechanism_name(args, model), "mjcf": str(out), "pose": q[-model.description.dof:].tolist(),
+            "qpos": mx.qpos_from_q(model, q).tolist(),
             "joints": list(mx.joint_names(model)), "approximations": approximations}

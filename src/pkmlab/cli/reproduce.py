@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .._version import __version__
-from ._common import check_resolution, notes, paper_manipulator, signs, status_messages
+from ._common import check_resolution, notes, paper_manipulator, params_file, signs, status_messages
 
 
 def cmd_demo(args) -> dict:
@@ -81,7 +81,7 @@ def cmd_reproduce(args) -> dict:
 
     progress = status_messages(args)
     summary = reproduce(args.out, control=args.control, figures=not args.no_figures, progress=progress,
-                        params=args.params, note=notes(args))
+                        params=params_file(args), note=notes(args))
     if not args.json:
         print(f"{'case':<10} {'max path error (m)':>19} {'rms path error (m)':>19} {'peak torque (N m)':>18}")
         for name, s in summary["cases"].items():
