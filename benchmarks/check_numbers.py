@@ -23,6 +23,7 @@ from operation_count import DEFAULT_RUNS
 
 from pkmlab import mechanism_model as mm
 from pkmlab.control import ControllerSpec
+from pkmlab.kinematics import coordinates_from_3rrr
 from pkmlab.scenario_io import load_scenario
 from pkmlab.simulation import paper_scenario, perturbed_model, simulate, simulate_batch
 
@@ -75,7 +76,7 @@ def _middle_configuration(result) -> np.ndarray:
     """The middle of a run, in its machine's description's coordinates."""
     model = result.scenario.model
     q = np.asarray(result.q[len(result.q) // 2], float)
-    return q if isinstance(model, mm.MechanismModel) else mm.coordinates_from_3rrr(model, q)
+    return q if isinstance(model, mm.MechanismModel) else coordinates_from_3rrr(model, q)
 
 
 def compare(old: dict[str, np.ndarray], new: dict[str, np.ndarray], rtol: float) -> int:

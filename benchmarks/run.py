@@ -80,7 +80,8 @@ from pkmlab import dynamics as pk_dynamics
 from pkmlab import kinematics as kin
 from pkmlab import kinematics as pk_kinematics
 from pkmlab.geometry import Planar3RRR
-from pkmlab.mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
+from pkmlab.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
+from pkmlab.mechanism_model import MechanismModel
 from pkmlab.mechanisms import rrr3
 from pkmlab.plant import FullPlant, ReducedPlant
 

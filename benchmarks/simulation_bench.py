@@ -37,7 +37,8 @@ from scipy.integrate import solve_ivp
 import pkmlab
 from pkmlab import dynamics as paper_dynamics
 from pkmlab.geometry import Planar3RRR
-from pkmlab.mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
+from pkmlab.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
+from pkmlab.mechanism_model import MechanismModel
 from pkmlab.plant import ReducedPlant
 from pkmlab.simulation import choose_working_mode
 from pkmlab.trajectory import desired_joint_motion, paper_trajectory

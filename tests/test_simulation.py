@@ -300,7 +300,8 @@ def test_batch_refuses_runs_of_different_lengths_and_names_a_failed_run():
 # ------------------------------------------------------------------ the plant's integrator
 def test_plant_integrator_is_fourth_order_and_one_step_per_sample_is_below_1e_12():
     """RK4 over one held-torque sample against DOP853 at rtol 1e-13, at the fast case's highest speed."""
-    from pkmlab.mechanism_model import MechanismModel, coordinates_from_3rrr
+    from pkmlab.kinematics import coordinates_from_3rrr
+    from pkmlab.mechanism_model import MechanismModel
 
     fast = simulate(paper_scenario("fast"))
     k = int(np.argmax(np.abs(fast.theta_dot).max(axis=1)))

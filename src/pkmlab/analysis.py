@@ -42,18 +42,9 @@ def default_extent(model) -> tuple[tuple[float, float], tuple[float, float]]:
     """A region covering the base and every leg's reach (for a described mechanism: its base points, rails
     and strokes, grown by its longest leg)."""
     if _is_machine(model):
-        legs = model.description.legs
-        points = [leg.base for leg in legs]
-        for leg in legs:  # a rail's far end
-            if leg.joints[0].kind == "P" and leg.stroke is not None:
-                a = leg.joints[0].axis
-                points.append((leg.base[0] + leg.stroke[1] * math.cos(a), leg.base[1] + leg.stroke[1] * math.sin(a)))
-        reach = max(sum(math.hypot(*b.tip) for b in leg.bodies) + (leg.stroke[1] if leg.stroke else 0.0)
-                    for leg in legs)
-        lo, hi = np.min(points, axis=0) - 0.25 * reach, np.max(points, axis=0) + 0.25 * reach
-        if len(legs) == 2:  # the five-bar works above its base line: reach all around it
-            lo, hi = np.min(points, axis=0) - reach, np.max(points, axis=0) + reach
-        return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
+        from .mechanism_model import planar_extent
+
+        return planar_extent(model.description)
     reach = float(np.max(model.active_lengths + model.passive_lengths))
     lo = model.base_points.min(axis=0) - 0.25 * reach
     hi = model.base_points.max(axis=0) + 0.25 * reach

@@ -40,8 +40,8 @@ from . import (
 from ._compile_cache import njit
 from ._validate import as_batch, as_broadcast, as_pair
 from .geometry import Planar3RRR
-from .kinematics import _model, _require_regular
-from .mechanism_model import MechanismModel, coordinates_from_3rrr
+from .kinematics import _model, _require_regular, coordinates_from_3rrr
+from .mechanism_model import MechanismModel
 from .mechanisms import rrr3
 
 __all__ = [

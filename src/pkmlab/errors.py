@@ -16,6 +16,10 @@ class InvalidParameterError(PkmlabError, ValueError):
     """An architecture or option value that is impossible (non-finite, non-positive, ...)."""
 
 
+class FileFormatError(PkmlabError, ValueError):
+    """A file that cannot be read or does not follow the documented format."""
+
+
 class UnstableControlError(InvalidParameterError):
     """Controller gains and a sample time that make the sampled-data closed loop unstable: refused
     before running (spectral-radius check), or a run whose tracking error diverged."""

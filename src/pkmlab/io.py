@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import difflib
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InvalidParameterError, PkmlabError
+from ._files import read_text, read_toml
+from .errors import FileFormatError, InvalidParameterError
 from .geometry import Planar3RRR
 
 PARAM_KEYS = ("b", "l", "r", "a", "mass_l", "mass_r", "mass_a", "inertia_l", "inertia_r", "inertia_a",
@@ -29,61 +29,10 @@ PARAM_KEYS = ("b", "l", "r", "a", "mass_l", "mass_r", "mass_a", "inertia_l", "in
 PRESETS = {"paper": Planar3RRR.paper}
 
 
-class FileFormatError(PkmlabError, ValueError):
-    """A file that cannot be read or does not follow the documented format."""
-
-
 def _unknown_key(key: str, valid, where: str) -> FileFormatError:
     close = difflib.get_close_matches(key, list(valid), n=1)
     hint = f" (did you mean '{close[0]}'?)" if close else f" (valid keys: {', '.join(valid)})"
     return FileFormatError(f"unknown key '{key}' in {where}{hint}")
-
-
-def _path_text(path: Path) -> str:
-    """``path`` as typed, or quoted with escapes if it holds a line break: a message stays one line."""
-    text = str(path)
-    return text if text.isprintable() else repr(text)
-
-
-def read_text(path: Path) -> str:
-    """The UTF-8 text of a file; every failure is a one-line :class:`FileFormatError`.
-
-    A UTF-8 byte-order mark (which some editors write) is skipped; a file in another encoding is
-    refused for that reason, with the line of the first byte that is not UTF-8.
-    """
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise FileFormatError(f"cannot read {_path_text(path)}: no such file") from None
-    except IsADirectoryError:
-        raise FileFormatError(f"cannot read {_path_text(path)}: it is a directory") from None
-    except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
-        reason = exc.strerror if isinstance(exc, OSError) else exc
-        raise FileFormatError(f"cannot read {_path_text(path)}: {reason}") from None
-    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
-        raise FileFormatError(f"cannot read {_path_text(path)}: it is UTF-16 text; save it as UTF-8")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = data[: exc.start].count(b"\n") + 1
-        raise FileFormatError(f"cannot read {_path_text(path)}: not UTF-8 text (byte 0x{data[exc.start]:02x} at "
-                              f"line {line}); save it as UTF-8") from None
-
-
-def read_toml(path: str | Path) -> dict:
-    """Parse a TOML file, turning every failure into a one-line :class:`FileFormatError`."""
-    return parse_toml(read_text(Path(path)), path)
-
-
-def parse_toml(text: str, source: str | Path) -> dict:
-    """Parse TOML ``text`` read from ``source`` (named in the one-line :class:`FileFormatError`)."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise FileFormatError(f"{_path_text(Path(source))}: malformed TOML: {exc}") from None
-    except RecursionError:
-        raise FileFormatError(f"{_path_text(Path(source))}: malformed TOML: arrays or tables nested too deeply"
-                              ) from None
 
 
 def _is_numeric(value) -> bool:
@@ -153,6 +102,7 @@ def manipulator_to_toml(model: Planar3RRR, comment: str | None = None) -> str:
     Every parameter is written explicitly, the base as ``base_points``. Mass centres other than
     the defaults (link midpoints, platform centroid) have no key in the format and are refused.
 
+    >>> import tomllib
     >>> m = Planar3RRR.paper()
     >>> text = manipulator_to_toml(m)
     >>> manipulator_from_dict(tomllib.loads(text)["manipulator"]) == m

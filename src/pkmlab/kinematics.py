@@ -338,7 +338,7 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
         the way (a gain-type singularity), or the corrector does not converge.
     """
     q_prev, thetas, shape = as_pair("q_previous", q_previous, 7, "theta", theta, 3)
-    from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
+    from .mechanism_model import MechanismModel
 
     # the compiled core's branch following on the machine's description: the simulation's own
     machine = MechanismModel.from_3rrr(_model(model))
@@ -362,6 +362,22 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
             f"(S = {'-' if s_prev < 0 else ''}{s_text} at the start, limit min_abs_S = {limit_text})"
         )
     return q_out.reshape(*shape, 7)
+
+
+def coordinates_from_3rrr(model, q: np.ndarray) -> np.ndarray:
+    """A :class:`~pkmlab.geometry.Planar3RRR`'s configurations ``q`` (..., 7) = ``(θ, φ, α)`` in the generic
+    model's coordinates (..., 9) = ``(θ, φ, x, y, α)`` (:meth:`~pkmlab.mechanism_model.MechanismModel.from_3rrr`)."""
+    q = np.asarray(q, dtype=float)
+    pose = platform_pose(model, q)
+    return np.concatenate([q[..., :6], pose[..., :2], q[..., 6:]], axis=-1)
+
+
+def coordinates_to_3rrr(q: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`coordinates_from_3rrr`: ``(θ, φ, x, y, α)`` → ``(θ, φ, α)``, the passive angles ``φ``
+    in (-π, π] as the 3-RRR's kinematics gives them (``α`` stays continuous)."""
+    out = np.concatenate([q[..., :6], q[..., 8:]], axis=-1)
+    out[..., 3:6] = np.angle(np.exp(1j * out[..., 3:6]))
+    return out
 
 
 # ------------------------------------------------------------------ first-order kinematics

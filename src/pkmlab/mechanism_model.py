@@ -170,22 +170,22 @@ def _from_3rrr(model) -> MechanismModel:
     return _bind(model.to_mechanism())  # the Planar3RRR checked already that its platform can be assembled
 
 
-def coordinates_from_3rrr(model, q: np.ndarray) -> np.ndarray:
-    """A :class:`~pkmlab.geometry.Planar3RRR`'s configurations ``q`` (..., 7) = ``(θ, φ, α)`` in the generic
-    model's coordinates (..., 9) = ``(θ, φ, x, y, α)`` (:meth:`MechanismModel.from_3rrr`)."""
-    from .kinematics import platform_pose
-
-    q = np.asarray(q, dtype=float)
-    pose = platform_pose(model, q)
-    return np.concatenate([q[..., :6], pose[..., :2], q[..., 6:]], axis=-1)
-
-
-def coordinates_to_3rrr(q: np.ndarray) -> np.ndarray:
-    """The inverse of :func:`coordinates_from_3rrr`: ``(θ, φ, x, y, α)`` → ``(θ, φ, α)``, the passive angles ``φ``
-    in (-π, π] as the 3-RRR's kinematics gives them (``α`` stays continuous)."""
-    out = np.concatenate([q[..., :6], q[..., 8:]], axis=-1)
-    out[..., 3:6] = np.angle(np.exp(1j * out[..., 3:6]))
-    return out
+def planar_extent(description) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A region ``((x0, x1), (y0, y1))`` covering a planar machine's base and every leg's reach: its base points
+    and rails' far ends, grown by a quarter of its longest leg (the five-bar, which works above its base
+    line, by the whole leg) — where its workspace, maps and assembly check look."""
+    legs = description.legs
+    points = [leg.base for leg in legs]
+    for leg in legs:  # a rail's far end
+        if leg.joints[0].kind == "P" and leg.stroke is not None:
+            a = leg.joints[0].axis
+            points.append((leg.base[0] + leg.stroke[1] * math.cos(a), leg.base[1] + leg.stroke[1] * math.sin(a)))
+    reach = max(sum(math.hypot(*b.tip) for b in leg.bodies) + (leg.stroke[1] if leg.stroke else 0.0)
+                for leg in legs)
+    lo, hi = np.min(points, axis=0) - 0.25 * reach, np.max(points, axis=0) + 0.25 * reach
+    if len(legs) == 2:  # the five-bar works above its base line: reach all around it
+        lo, hi = np.min(points, axis=0) - reach, np.max(points, axis=0) + reach
+    return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
 
 
 #: Grids of the assembly check: positions per axis over the machine's region, and orientations; the
@@ -195,9 +195,8 @@ ASSEMBLY_GRIDS = ((81, 24), (241, 72))
 
 def _check_assembly(model: MechanismModel) -> None:
     """Refuse a machine whose platform can be assembled nowhere: no pose on a grid over its region
-    (:func:`~pkmlab.analysis.default_extent`, every orientation) where every leg reaches its attachment
+    (:func:`planar_extent`, every orientation) where every leg reaches its attachment
     point in some working mode, within its stroke. Names the first leg that cannot join the others."""
-    from .analysis import default_extent
     from .mechanisms.description import attachment_points
     from .mechanisms.leg_types import leg_inverse_kinematics_batch
     from .mechanisms.leg_types import working_modes as leg_modes
@@ -206,7 +205,7 @@ def _check_assembly(model: MechanismModel) -> None:
     if getattr(m, "spatial", False):
         _check_spatial_assembly(model)
         return
-    (x0, x1), (y0, y1) = default_extent(model)
+    (x0, x1), (y0, y1) = planar_extent(m)
     furthest = 0  # the most legs joined at one pose, over the orientations tried
     for count, turns in ASSEMBLY_GRIDS:
         x, y = (a.ravel() for a in np.meshgrid(np.linspace(x0, x1, count), np.linspace(y0, y1, count)))

@@ -406,9 +406,9 @@ def home_configuration(model) -> np.ndarray:
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
         poses = np.column_stack([grid, np.zeros((len(grid), m.dof - 3))])
     else:
-        from .analysis import default_extent
+        from .mechanism_model import planar_extent
 
-        (x0, x1), (y0, y1) = default_extent(model)
+        (x0, x1), (y0, y1) = planar_extent(model.description)
         turns = np.linspace(-np.pi, np.pi, 12, endpoint=False) if m.dof == 3 else [0.0]
         gx, gy, ga = np.meshgrid(np.linspace(x0, x1, 41), np.linspace(y0, y1, 41), turns)
         poses = np.column_stack([gx.ravel(), gy.ravel(), ga.ravel()])[:, :m.dof]

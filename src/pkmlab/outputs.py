@@ -284,7 +284,7 @@ def atomic_output_dir(out: str | os.PathLike, command: str, inputs: Iterable = (
 
 
 def _write_manifest(folder: Path, command: str, provenance: dict) -> None:
-    from . import __version__
+    from ._version import __version__
 
     files, others = _entries(folder)
     if others or MANIFEST in files:

@@ -29,8 +29,8 @@ from ._compile_cache import njit
 from ._validate import as_batch, as_real
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
-from .kinematics import _model, constraint_residual
-from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
+from .kinematics import _model, constraint_residual, coordinates_from_3rrr, coordinates_to_3rrr
+from .mechanism_model import MechanismModel
 from .mechanisms import rrr3
 
 

@@ -90,7 +90,7 @@ def case_scenarios(control: str = "sampled", manipulator: dict | None = None) ->
     another machine: it becomes the controller's model, and the plant of each case is derived
     from it as the case's scenario file says (``disturbed``: masses and lengths ×1.15).
     """
-    from .io import read_toml
+    from ._files import read_toml
     from .scenario_io import scenario_from_dict
 
     if control not in ("sampled", "continuous"):
@@ -359,8 +359,9 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
     replaced). ``source``, the scenario file the scenario was read from, may not lie inside
     ``out``; its text (``source_text``, as it was read, else read again) is kept as ``scenario.toml``.
     """
+    from ._files import read_text
     from .geometry import Planar3RRR
-    from .io import manipulator_to_toml, read_text
+    from .io import manipulator_to_toml
     from .mechanisms.description import mechanism_to_toml
 
     text = source_text if source_text is not None or source is None else read_text(Path(source))

@@ -50,12 +50,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ._files import parse_toml, read_toml
 from ._format import apart
 from ._validate import as_mode
 from .control import CONTROLLER_TYPES, ControllerSpec
-from .errors import InvalidParameterError, PkmlabError, shown
+from .errors import FileFormatError, InvalidParameterError, PkmlabError, shown
 from .geometry import Planar3RRR
-from .io import PARAM_KEYS, PRESETS, FileFormatError, manipulator_from_dict, parse_toml, read_toml
+from .io import PARAM_KEYS, PRESETS, manipulator_from_dict
 from .simulation import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
 from .trajectory import Circle, Line, TimedWaypoints, Trajectory, WaypointTrajectory
 

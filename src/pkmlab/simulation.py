@@ -51,8 +51,16 @@ from .errors import (
     shown,
 )
 from .geometry import WORKING_MODES, Planar3RRR
-from .kinematics import _model, forward_kinematics, inverse_kinematics, platform_pose, singularity_measure
-from .mechanism_model import MechanismModel, coordinates_from_3rrr, coordinates_to_3rrr
+from .kinematics import (
+    _model,
+    coordinates_from_3rrr,
+    coordinates_to_3rrr,
+    forward_kinematics,
+    inverse_kinematics,
+    platform_pose,
+    singularity_measure,
+)
+from .mechanism_model import MechanismModel
 from .outputs import atomic_file
 from .trajectory import desired_joint_motion, joint_motion, paper_trajectory
 

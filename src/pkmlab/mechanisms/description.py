@@ -516,7 +516,7 @@ def load_mechanism(path):
     """The mechanism of a TOML file holding a ``[mechanism]`` table; every error names the file."""
     from pathlib import Path
 
-    from ..io import read_toml
+    from .._files import read_toml
 
     data = read_toml(path)
     if "mechanism" not in data:

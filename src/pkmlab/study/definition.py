@@ -43,9 +43,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .._files import read_toml
 from .._version import __version__
-from ..errors import InvalidParameterError, PkmlabError, shown
-from ..io import PARAM_KEYS, FileFormatError, read_toml
+from ..errors import FileFormatError, InvalidParameterError, PkmlabError, shown
+from ..io import PARAM_KEYS
 from ..scenario_io import TABLES, _suggest, scenario_from_dict
 from ..uncertainty import check_bounds
 

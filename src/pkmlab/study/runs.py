@@ -15,13 +15,13 @@ import math
 from ..errors import (
     AssemblyError,
     BranchFollowingError,
+    FileFormatError,
     InvalidParameterError,
     PkmlabError,
     SingularityError,
     UnreachablePoseError,
     UnstableControlError,
 )
-from ..io import FileFormatError
 from .definition import Study
 
 #: Why a run failed, by the class of its error (the first match counts: subclasses first).

@@ -41,7 +41,7 @@ def result_cases(folder: Path) -> list[str]:
 def result_mechanism(folder: Path):
     """``(model, source)`` of a described machine's run — its folder's ``plant.toml`` holding a ``[mechanism]``
     table — or None (the paper's 3-RRR: :func:`result_manipulator`)."""
-    from ..io import read_text
+    from .._files import read_text
     from ..mechanism_model import MechanismModel
     from ..mechanisms.description import load_mechanism
 
@@ -83,9 +83,11 @@ def _columns(model) -> tuple[tuple[str, ...], int, tuple[str, ...]]:
 
 def read_view(folder: Path, case: str) -> RunView:
     """The view of run ``case`` of result folder ``folder``."""
+    from .._files import read_text
     from ..animation import rebuild_configurations, rebuild_machine_configurations
+    from ..errors import FileFormatError
     from ..geometry import Planar3RRR
-    from ..io import FileFormatError, read_result_csv, read_text
+    from ..io import read_result_csv
 
     folder = Path(folder)
     model, source = result_machine(folder, case)

@@ -61,7 +61,8 @@ class RunView:
         :class:`~pkmlab.mechanism_model.MechanismModel`) recorded as configurations ``q`` (N, n_q) in the model's
         own coordinates, poses, efforts and ``S``; ``frames`` animation frames at most (:data:`MAX_FRAMES`)."""
         from ..geometry import Planar3RRR
-        from ..mechanism_model import MechanismModel, coordinates_from_3rrr, joint_positions
+        from ..kinematics import coordinates_from_3rrr
+        from ..mechanism_model import MechanismModel, joint_positions
         from ..simulation import orientation_error, path_error
 
         t, q, pose, pose_d, tau, S = (np.asarray(a, dtype=float) for a in (t, q, pose, pose_d, tau, S))
