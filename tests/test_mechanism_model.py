@@ -260,7 +260,8 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     namespace = {}
     exec(block[: block.index("```")], namespace)  # noqa: S102 - the README's own example
-    assert namespace["mine"] == preset("3rpr") and namespace["reduced"].M.shape == (2, 2) and len(namespace["both"]) == 2
+    assert namespace["mine"] == preset("3rpr") and namespace["reduced"].M.shape == (2, 2)
+    assert len(namespace["both"]) == 2
 
 
 # ------------------------------------------------------------------ forward kinematics: every assembly mode
