@@ -53,7 +53,7 @@ def _check_finite(args) -> None:
         if not bad:
             continue
         action = actions.get(dest)
-        if dest == "actuators":
+        if dest == "theta" and action is not None and not action.option_strings:
             name = f"theta{bad[0] + 1}"
         elif dest == "pose" and action is not None and not action.option_strings:
             names = _pose_names(args)

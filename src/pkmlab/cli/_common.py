@@ -62,7 +62,7 @@ def table(header: list[str], rows: list[list]) -> str:
     return "\n".join("  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in cells)
 
 
-def mechanism_of(args):
+def model_of(args):
     """The machine of the command (:class:`~pkmlab.mechanism_model.MechanismModel`, one type for every machine):
     ``--mechanism``, a preset name or a description file (``[mechanism]`` table), the paper's 3-RRR when not
     given; or the 3-RRR of the deprecated ``--params`` file (with an explicit ``--mechanism``, refused)."""

@@ -58,7 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_command("kinematics", "cmd_ik"))
 
     p = sub.add_parser("fk", help="forward kinematics: every assembly mode of the actuator values")
-    p.add_argument("actuators", nargs="+", type=float, metavar="THETA",
+    p.add_argument("theta", nargs="+", type=float, metavar="THETA",
                    help="the actuator values theta1 theta2 ... (angles in rad, slides in m)")
     mechanism(p)
     common(p)
@@ -66,7 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("dynamics", help="the actuator-space model M, c, g (paper eq. 35, with gravity) and the "
                        "loop-closure multipliers (eq. 26) at a state, for every assembly mode")
-    p.add_argument("actuators", nargs="+", type=float, metavar="THETA",
+    p.add_argument("theta", nargs="+", type=float, metavar="THETA",
                    help="the actuator values theta1 theta2 ... (angles in rad, slides in m)")
     p.add_argument("--rates", "--theta-dot", dest="theta_dot", nargs="+", type=float, metavar="W", action=_Spelled,
                    help="the actuator rates theta_dot (rad/s or m/s), default 0; --theta-dot is a synonym")

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..errors import PkmlabError
-from ._common import NewFolders, mechanism_of, output_path, params_file, progress_bar
+from ._common import NewFolders, model_of, output_path, params_file, progress_bar
 
 ANIMATION_COLUMNS = ("t", "theta1", "theta2", "theta3", "x", "y", "alpha", "x_d", "y_d")
 
@@ -24,24 +24,24 @@ def _animation_model(args, folder: Path, case: str):
     return result_manipulator(folder, case)
 
 
-def _animation_machine(args, folder: Path):
+def _described_model(args, folder: Path):
     """The described machine of a run — ``--mechanism``, else the run's plant.toml when it holds a
     ``[mechanism]`` table — or None for the paper's 3-RRR."""
     from ..views.folder import result_mechanism
 
     if getattr(args, "mechanism", None):
-        return mechanism_of(args), args.mechanism  # refuses --params, which describes the paper's 3-RRR
+        return model_of(args), args.mechanism  # refuses --params, which describes the paper's 3-RRR
     return result_mechanism(folder)
 
 
-def _animate_machine(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:
+def _animate_described(args, described, folder: Path, csv_path: Path, out: Path) -> dict:
     """``pkmlab animate`` of a described machine's run: rebuilt by branch following, drawn as it is."""
     import numpy as np
 
     from ..animation import rebuild_machine_configurations, write_machine_gif, write_spatial_gif
     from ..io import read_result_csv
 
-    model, source = machine
+    model, source = described
     n_act, names = len(model.description.legs), model.description.pose_names
     position = ("x", "y", "z") if getattr(model.description, "spatial", False) else ("x", "y")
     columns = ("t", *(f"theta{i + 1}" for i in range(n_act)), *names, *(f"{c}_d" for c in position))
@@ -119,9 +119,9 @@ def cmd_animate(args) -> dict:
         hint = (f"cases found: {', '.join(found)}" if found else
                 "expected nominal.csv, disturbed.csv, fast.csv (pkmlab reproduce) or run.csv (pkmlab simulate)")
         raise PkmlabError(f"no {csv_path.name} in {folder} ({hint})")
-    machine = _animation_machine(args, folder)
-    if machine is not None:
-        return _animate_machine(args, machine, folder, csv_path, out)
+    described = _described_model(args, folder)
+    if described is not None:
+        return _animate_described(args, described, folder, csv_path, out)
     data = read_result_csv(csv_path, ANIMATION_COLUMNS)
     model, source = _animation_model(args, folder, case)
     theta = np.column_stack([data["theta1"], data["theta2"], data["theta3"]])

@@ -3,7 +3,7 @@ every machine through one model type and one schema:
 
 ``{"mechanism", "pose_names", "tau_from", "solutions": [{"pose", "passive", "S", "M", "c", "g", "tau",
 "multipliers"}, ...]}`` — the actuator-space model ``M θ̈ + c + g = τ`` (eq. 35 with gravity; ``c = C θ̇``) and
-the loop-closure multipliers ``λ`` (eq. 26) of the full model moving at ``θ̇`` under the efforts ``tau``: those of
+the loop-closure multipliers ``λ`` (eq. 26) of the full model moving at ``θ̇`` under the tau_used ``tau``: those of
 ``--tau``, else ``c + g`` (zero actuator acceleration), as ``"tau_from"`` says.
 """
 
@@ -12,25 +12,20 @@ from __future__ import annotations
 import sys
 
 from ..errors import AssemblyError, InvalidParameterError, SingularityError
-from ._common import check_count, mechanism_name, mechanism_of, pose_gap, shown
+from ._common import check_count, mechanism_name, model_of, pose_gap, shown
 from .kinematics import heading, passive_names, passive_of
 
-#: Below this |S| the actuator-space model is refused. Near a singularity two assembly modes
-#: merge into a double root of the forward-kinematics polynomial, found only to about √ε ≈ 1e-8
-#: (measured: S = 2e-8 where inverse kinematics gives 9e-11); Mθ grows as 1/S², so below 1e-6 its
-#: numbers are off by more than 1 % — and a change of θ in the 7th digit changes them completely.
-SINGULAR_S = 1e-6
 #: ``--near`` farther than this (metres and radians, as ``nearest`` measures) from every assembly
 #: mode is said: the mode reported is not the one asked for.
 NEAR_TOLERANCE = 1e-3
 #: Below this |S| (the default run-time singularity guard) the model is reported with a warning.
 NEAR_SINGULAR_S = 1e-2
-#: ``"tau_from"``: where the efforts under which the multipliers are computed come from.
+#: ``"tau_from"``: where the tau_used under which the multipliers are computed come from.
 TAU_GIVEN, TAU_HOLDING = "--tau", "c + g (zero actuator acceleration)"
 
 
-def _overflow(where: str, flag: str, rates) -> InvalidParameterError:
-    return InvalidParameterError(f"{where}: the dynamic model overflows at {flag} {shown(rates)} (beyond "
+def _overflow(where: str, flag: str, theta_dot) -> InvalidParameterError:
+    return InvalidParameterError(f"{where}: the dynamic model overflows at {flag} {shown(theta_dot)} (beyond "
                                  "floating-point range)")
 
 
@@ -53,35 +48,39 @@ def _far_from_near(near, pose) -> None:
           f"nearest, reported, is at pose ({', '.join(f'{v:.6f}' for v in pose)})", file=sys.stderr)
 
 
-def _record(model, mode, rates, tau, flags) -> dict:
-    """One assembly mode's model: refused at a singularity or where the rates (or efforts) overflow it."""
+def _record(model, mode, theta_dot, tau, flag: str) -> dict:
+    """One assembly mode's model: refused at a singularity or where the rates (or the efforts) overflow it."""
     import numpy as np
 
     from ..algorithms.dynamics import actuator_space_model, constrained_dynamics
-    from ..algorithms.kinematics import coordinate_rates
+    from ..algorithms.kinematics import SINGULAR_S, coordinate_rates
 
     pose = mode.pose.tolist()
     where = f"the assembly mode at pose ({', '.join(f'{v:.6f}' for v in pose)})"
+    # Below SINGULAR_S the actuator-space model is refused. Near a singularity two assembly modes merge into a
+    # double root of the forward-kinematics polynomial, found only to about √ε ≈ 1e-8 (measured: S = 2e-8 where
+    # inverse kinematics gives 9e-11); Mθ grows as 1/S², so below 1e-6 its numbers are off by more than 1 % —
+    # and a change of θ in the 7th digit changes them completely.
     if not abs(mode.S) >= SINGULAR_S:
         raise SingularityError(f"{where} is at a gain-type singularity (S = {mode.S:.3g}): the actuator-space "
                                "model (eq. 35) does not exist there")
     with np.errstate(all="ignore"):
         try:
-            reduced = actuator_space_model(model, mode.q, rates)
-            q_dot = coordinate_rates(model, mode.q, rates)
+            actuator_space = actuator_space_model(model, mode.q, theta_dot)
+            q_dot = coordinate_rates(model, mode.q, theta_dot)
         except InvalidParameterError:  # the library's "theta_dot overflows": said with the option typed
-            raise _overflow(where, flags["rates"], rates) from None
-        efforts = reduced.c + reduced.g if tau is None else np.asarray(tau, dtype=float)
+            raise _overflow(where, flag, theta_dot) from None
+        tau_used = actuator_space.c + actuator_space.g if tau is None else np.asarray(tau, dtype=float)
         try:
-            motion = constrained_dynamics(model, mode.q, q_dot, efforts)
+            motion = constrained_dynamics(model, mode.q, q_dot, tau_used)
         except InvalidParameterError:
-            raise _overflow(where, flags["rates"] if tau is None else f"{flags['rates']} and --tau",
-                            rates if tau is None else [*rates, *tau]) from None
-    values = (reduced.M, reduced.c, reduced.g, efforts, motion.multipliers)
+            raise _overflow(where, flag if tau is None else f"{flag} and --tau",
+                            theta_dot if tau is None else [*theta_dot, *tau]) from None
+    values = (actuator_space.M, actuator_space.c, actuator_space.g, tau_used, motion.multipliers)
     if not all(np.all(np.isfinite(v)) for v in values):
-        raise _overflow(where, flags["rates"], rates)
-    record = {"pose": pose, "passive": passive_of(model, mode.q), "S": mode.S, "M": reduced.M.tolist(),
-              "c": reduced.c.tolist(), "g": reduced.g.tolist(), "tau": efforts.tolist(),
+        raise _overflow(where, flag, theta_dot)
+    record = {"pose": pose, "passive": passive_of(model, mode.q), "S": mode.S, "M": actuator_space.M.tolist(),
+              "c": actuator_space.c.tolist(), "g": actuator_space.g.tolist(), "tau": tau_used.tolist(),
               "multipliers": motion.multipliers.tolist()}
     warning = _near_singularity(where, mode.S)
     if warning:
@@ -115,19 +114,19 @@ def cmd_dynamics(args) -> dict:
     assembly mode of the actuator values, or of the one nearest ``--near``."""
     from ..algorithms.kinematics import forward_kinematics
 
-    model = mechanism_of(args)
+    model = model_of(args)
     n, names = model.n_actuators, model.pose_names
-    flags = {"rates": getattr(args, "theta_dot_flag", None) or "--rates"}
-    check_count(args, args.actuators, n, "the actuator values")
-    rates = [0.0] * n if args.theta_dot is None else args.theta_dot
-    check_count(args, rates, n, flags["rates"])
+    flag = getattr(args, "theta_dot_flag", None) or "--rates"  # the spelling typed, for the messages
+    check_count(args, args.theta, n, "the actuator values")
+    theta_dot = [0.0] * n if args.theta_dot is None else args.theta_dot
+    check_count(args, theta_dot, n, flag)
     if args.tau is not None:
         check_count(args, args.tau, n, "--tau")
     if args.near is not None:
         check_count(args, args.near, len(names), f"--near ({', '.join(names)})")
-    found = forward_kinematics(model, args.actuators)
+    found = forward_kinematics(model, args.theta)
     if len(found) == 0:
-        raise AssemblyError(f"theta = {shown(args.actuators)} cannot be assembled: forward kinematics of the "
+        raise AssemblyError(f"theta = {shown(args.theta)} cannot be assembled: forward kinematics of the "
                             f"{model.name} has no real solution")
     chosen = list(found)
     if args.near is not None:
@@ -135,9 +134,9 @@ def cmd_dynamics(args) -> dict:
         if pose_gap(chosen[0].pose, args.near, names) > NEAR_TOLERANCE:
             _far_from_near(args.near, chosen[0].pose)
     tau_from = TAU_HOLDING if args.tau is None else TAU_GIVEN
-    records = [_record(model, mode, rates, args.tau, flags) for mode in chosen]
+    records = [_record(model, mode, theta_dot, args.tau, flag) for mode in chosen]
     if not args.json:
-        print(heading(model, "dynamics") + f" at theta = {shown(args.actuators)}, theta_dot = {shown(rates)}: "
+        print(heading(model, "dynamics") + f" at theta = {shown(args.theta)}, theta_dot = {shown(theta_dot)}: "
               + (f"{len(records)} assembly mode(s)" if args.near is None else "the assembly mode nearest --near"))
         _print(model, records, tau_from)
     return {"mechanism": mechanism_name(args, model), "pose_names": list(names), "tau_from": tau_from,

@@ -11,7 +11,7 @@ No reachable working mode, or no assembly mode: exit code 1 and one line, for ev
 from __future__ import annotations
 
 from ..errors import AssemblyError
-from ._common import check_count, mechanism_name, mechanism_of, shown, signs, table, working_mode
+from ._common import check_count, mechanism_name, model_of, shown, signs, table, working_mode
 
 
 def passive_names(model) -> tuple[str, ...]:
@@ -74,7 +74,7 @@ def cmd_ik(args) -> dict:
 
     from ..algorithms.kinematics import inverse_kinematics
 
-    model = mechanism_of(args)
+    model = model_of(args)
     names = model.pose_names
     check_count(args, args.pose, len(names), f"the pose ({', '.join(names)})")
     mode = working_mode(args, model)
@@ -101,15 +101,15 @@ def cmd_fk(args) -> dict:
     """``fk THETA... [--mechanism M]``: every assembly mode of the actuator values."""
     from ..algorithms.kinematics import forward_kinematics
 
-    model = mechanism_of(args)
-    check_count(args, args.actuators, model.n_actuators, "the actuator values")
-    found = forward_kinematics(model, args.actuators)
+    model = model_of(args)
+    check_count(args, args.theta, model.n_actuators, "the actuator values")
+    found = forward_kinematics(model, args.theta)
     if len(found) == 0:
-        raise AssemblyError(f"theta = {shown(args.actuators)} cannot be assembled: forward kinematics of the "
+        raise AssemblyError(f"theta = {shown(args.theta)} cannot be assembled: forward kinematics of the "
                             f"{model.name} has no real solution")
     solutions = [{"pose": mode.pose.tolist(), "passive": passive_of(model, mode.q), "S": mode.S} for mode in found]
     if not args.json:
-        print(heading(model, "forward kinematics") + f" at theta = {shown(args.actuators)}: "
+        print(heading(model, "forward kinematics") + f" at theta = {shown(args.theta)}: "
               f"{len(solutions)} assembly mode(s)")
         rows = [[str(j + 1), *sol["pose"], *sol["passive"], sol["S"]] for j, sol in enumerate(solutions)]
         print(table(["#", *model.pose_names, *passive_names(model), "S"], rows))

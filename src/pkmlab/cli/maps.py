@@ -10,7 +10,7 @@ from ._common import (
     check_resolution,
     figure_suffixes,
     mechanism_name,
-    mechanism_of,
+    model_of,
     output_path,
     progress_bar,
     save_figure,
@@ -43,7 +43,7 @@ def cmd_singularity_map(args) -> dict:
     from ..analysis import singularity_map
     from ..plotting import plot_singularity_map
 
-    model = mechanism_of(args)
+    model = model_of(args)
     if getattr(model.description, "spatial", False):
         raise InvalidParameterError(f"singularity-map draws a planar machine's S over x-y; the "
                                     f"{model.description.name} is spatial: `pkmlab workspace --mechanism ... --z Z...` "
@@ -97,7 +97,7 @@ def cmd_workspace(args) -> dict:
     from ..analysis import workspace
     from ..plotting import plot_workspace
 
-    model = mechanism_of(args)
+    model = model_of(args)
     out = output_path(args.out, "--out", figure_suffixes() | {".html"})
     if getattr(model.description, "spatial", False):
         if out.suffix.lower() == ".html":

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ._common import Staged, check_count, loop_closures, mechanism_name, mechanism_of, output_path, working_mode
+from ._common import Staged, check_count, loop_closures, mechanism_name, model_of, output_path, working_mode
 
 
 def cmd_export_mjcf(args) -> dict:
@@ -12,7 +12,7 @@ def cmd_export_mjcf(args) -> dict:
     from ..algorithms.kinematics import inverse_kinematics, working_modes
 
     closures = loop_closures(args, "--closures", args.closures, "--stiff", args.stiff)
-    model = mechanism_of(args)
+    model = model_of(args)
     out = output_path(args.out, "--out", {".xml"})
     q = None
     mode = working_mode(args, model)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import InvalidParameterError, PkmlabError
-from ._common import loop_closures, mechanism_of, notes, signs, status_messages
+from ._common import loop_closures, model_of, notes, signs, status_messages
 
 
 def _effort_unit(scenario) -> str:
@@ -25,12 +25,12 @@ def cmd_simulate(args) -> dict:
     scenario = scenario_from_text(text, args.scenario)
     if args.mechanism:  # another machine on the same scenario: the plant is that machine too
         args.params = None
-        machine = mechanism_of(args)
-        if machine.description.name == "paper" and args.mechanism == "paper":
+        model = model_of(args)
+        if model.description.name == "paper" and args.mechanism == "paper":  # as the scenarios give the paper's
             from ..geometry import Planar3RRR
 
-            machine = Planar3RRR.paper()
-        scenario = scenario.replace(model=machine, plant=None, working_mode="auto")
+            model = Planar3RRR.paper()
+        scenario = scenario.replace(model=model, plant=None, working_mode="auto")
     progress = status_messages(args)
     mujoco = None
     if args.plant == "mujoco":
