@@ -487,6 +487,7 @@ PROMISES = {
     "A mistake in the file is reported in one line that names the file and the key, and nothing is\nwritten":
         "test_bad_scenario_is_refused_with_one_line_and_writes_nothing",
     "at a gain-type singularity (`|S| < 1e-6`) it\n  refuses": "test_dynamics_at_a_singularity_is_refused",
+    "exit code 1 and one line, for every machine": "test_no_assembly_mode_is_exit_1_and_one_line",
     "that these are not the paper's numbers": "test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so",
     "said once on the terminal": "test_first_run_says_it_compiles",
 }

@@ -24,8 +24,10 @@ def passive_of(model, q) -> list[float]:
     return [float(v) for v in q[model.n_actuators:len(model.coordinates) - model.dof]]
 
 
-def heading(model, what: str) -> str:
+def heading(args, model, what: str) -> str:
     """The first line of a command's text output: what was computed, for which machine."""
+    if getattr(args, "params", None):
+        return f"{what} of the 3-RRR of {args.params} ({model.description.notation})"
     return f"{what} of the {model.name} ({model.description.notation})"
 
 
@@ -89,7 +91,7 @@ def cmd_ik(args) -> dict:
     if not solutions:
         raise _unreachable(model, args.pose, mode, ik)
     if not args.json:
-        print(heading(model, "inverse kinematics") + " at "
+        print(heading(args, model, "inverse kinematics") + " at "
               + ", ".join(f"{n} = {v:g}" for n, v in zip(names, args.pose, strict=True)))
         header = ["mode", *(f"theta{i + 1}" for i in range(model.n_actuators)), *passive_names(model), "S"]
         print(table(header, [[signs(sol["mode"]) if sol["mode"] else "-", *sol["theta"], *sol["passive"], sol["S"]]
@@ -109,7 +111,7 @@ def cmd_fk(args) -> dict:
                             f"{model.name} has no real solution")
     solutions = [{"pose": mode.pose.tolist(), "passive": passive_of(model, mode.q), "S": mode.S} for mode in found]
     if not args.json:
-        print(heading(model, "forward kinematics") + f" at theta = {shown(args.theta)}: "
+        print(heading(args, model, "forward kinematics") + f" at theta = {shown(args.theta)}: "
               f"{len(solutions)} assembly mode(s)")
         rows = [[str(j + 1), *sol["pose"], *sol["passive"], sol["S"]] for j, sol in enumerate(solutions)]
         print(table(["#", *model.pose_names, *passive_names(model), "S"], rows))
