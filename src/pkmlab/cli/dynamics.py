@@ -136,7 +136,7 @@ def cmd_dynamics(args) -> dict:
     tau_from = TAU_HOLDING if args.tau is None else TAU_GIVEN
     records = [_record(model, mode, theta_dot, args.tau, flag) for mode in chosen]
     if not args.json:
-        print(heading(model, "dynamics") + f" at theta = {shown(args.theta)}, theta_dot = {shown(theta_dot)}: "
+        print(heading(args, model, "dynamics") + f" at theta = {shown(args.theta)}, theta_dot = {shown(theta_dot)}: "
               + (f"{len(records)} assembly mode(s)" if args.near is None else "the assembly mode nearest --near"))
         _print(model, records, tau_from)
     return {"mechanism": mechanism_name(args, model), "pose_names": list(names), "tau_from": tau_from,
