@@ -29,6 +29,7 @@ _WHERE = {
     **dict.fromkeys(("ActuatorSpaceModel", "ConstrainedDynamics", "FullSpaceModel", "actuator_space_model",
                      "constrained_dynamics", "forward_dynamics", "full_space_model", "inverse_dynamics"),
                     "algorithms.dynamics"),
+    **dict.fromkeys(("ActuatorSpacePlant", "FullSpacePlant", "PlantRun"), "plants"),
     "load_scenario": "scenario_io",
     "ControllerSpec": "control",
     **dict.fromkeys(("Scenario", "SimulationResult", "paper_scenario", "perturbed_model", "simulate",
