@@ -5,7 +5,7 @@ import importlib
 
 import pytest
 
-MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics", "pkmlab.geometry",
+MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics", "pkmlab.plants", "pkmlab.geometry",
            "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
            "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanism_model",
            "pkmlab.mechanisms.stewart_fk", "pkmlab.uncertainty", "pkmlab.progress"]
