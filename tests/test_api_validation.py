@@ -150,6 +150,18 @@ def _reduced_plant(model, rtol, atol, min_abs_S, q0, theta_dot0, torque, t_final
     return plant.simulate(q0, theta_dot0, torque, t_final, t_eval=t_eval)
 
 
+def _actuator_space_plant(model, rtol, atol, min_abs_S, q0, theta_dot0, tau, t_final, t_eval):
+    plant = pkmlab.ActuatorSpacePlant(model, rtol=rtol, atol=atol, min_abs_S=min_abs_S)
+    return plant.simulate(q0, theta_dot0, tau, t_final, t_eval=t_eval)
+
+
+def _full_space_plant(model, rtol, atol, stabilization, q0, q_dot0, tau, t_final, t_eval):
+    plant = pkmlab.FullSpacePlant(model, rtol=rtol, atol=atol, stabilization=stabilization)
+    return plant.simulate(q0, q_dot0, tau, t_final, t_eval=t_eval)
+
+
+
+
 def _full_plant(model, rtol, atol, stabilization, q0, q_dot0, torque, t_final, t_eval):
     plant = FullPlant(model, rtol=rtol, atol=atol, stabilization=stabilization)
     return plant.simulate(q0, q_dot0, torque, t_final, t_eval=t_eval)
@@ -160,6 +172,9 @@ _PLANT = dict(model=MODEL, rtol=1e-9, atol=1e-10, q0=Q, torque=np.zeros(3), t_fi
 _BLOW_UP = [r"\bt = "]
 _PLANT_NAMES = {name: [rf"\b{name}\b", *_BLOW_UP] for name in
                 ("theta_dot0", "q_dot0", "torque", "t_final", "stabilization", "rtol", "atol")}
+_SPACE_PLANT = dict(model=GENERIC, rtol=1e-9, atol=1e-10, q0=G_Q, tau=np.zeros(3), t_final=1e-3, t_eval=None)
+_SPACE_PLANT_NAMES = {name: [rf"\b{name}\b", *_BLOW_UP] for name in
+                      ("theta_dot0", "q_dot0", "tau", "t_final", "stabilization", "rtol", "atol")}
 
 
 def _use_trajectory(trajectory):
@@ -186,6 +201,12 @@ TARGETS = [
     _sig(pkmlab.constrained_dynamics, model=GENERIC, q=G_Q, q_dot=G_Q_DOT, tau=TAU),
     _sig(pkmlab.inverse_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
     _sig(pkmlab.forward_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, tau=TAU),
+    Target("ActuatorSpacePlant.simulate", _actuator_space_plant,
+           {**_SPACE_PLANT, "min_abs_S": 1e-6, "theta_dot0": np.zeros(3)},
+           names=_SPACE_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
+    Target("FullSpacePlant.simulate", _full_space_plant, {**_SPACE_PLANT, "stabilization": 20.0, "q_dot0": np.zeros(9)},
+           names=_SPACE_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
+    Target("draw", pkmlab.draw, dict(model=GENERIC, q=G_Q, title=None), examples=40),
     # the paper's own formulation (the independent oracle of the tests)
     _sig(kin.inverse_kinematics, model=MODEL, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
     _sig(kin.forward_kinematics, model=MODEL, theta=THETA),
@@ -241,6 +262,7 @@ TARGETS = [
     _sig(pkmlab.load_study, path=Path(__file__).parents[1] / "examples" / "fast_gain_sweep.toml"),
     # the notebook's interactive view of a run
     Target("show", pkmlab.show, dict(result=pkmlab.simulate(SCENARIO)), examples=40),
+    Target("plot", pkmlab.plot, dict(result=pkmlab.simulate(SCENARIO)), examples=40),
     # plants
     Target("ReducedPlant.simulate", _reduced_plant, {**_PLANT, "min_abs_S": 1e-6, "theta_dot0": np.zeros(3)},
            names=_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
@@ -302,7 +324,7 @@ def test_wrong_arguments_are_refused_by_name(target):
 def test_every_public_callable_is_fuzzed():
     """A new public function or class must get a target here."""
     fuzzed = {t.name.split(".")[-1] for t in TARGETS} | {t.name.split(".")[0] for t in TARGETS}
-    fuzzed |= {"ReducedPlant", "FullPlant"}
+    fuzzed |= {"ReducedPlant", "FullPlant", "ActuatorSpacePlant", "FullSpacePlant"}
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
               "PlantRun", "SingularityMap", "FullSpaceModel", "ConstrainedDynamics", "ActuatorSpaceModel",

@@ -356,7 +356,7 @@ def constraint_residual(model: MechanismModel, q) -> np.ndarray:
     platform attachment point (zero on the manifold; the paper's eqs. 2–6 for its machine)."""
     model = as_model(model)
     qs, shape = _configurations(model, q)
-    return _residuals(model, qs).reshape(*shape, -1)
+    return _residuals(model, qs).reshape(*shape, model.kernels.N_CONSTRAINTS)
 
 
 def constraint_jacobian(model: MechanismModel, q) -> np.ndarray:
@@ -405,7 +405,7 @@ def coordinate_rates(model: MechanismModel, q, theta_dot) -> np.ndarray:
     """``q̇ = Jqθ θ̇`` (..., n) at configurations ``q`` for actuator rates ``theta_dot`` (broadcast)."""
     model = as_model(model)
     qs, tds, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
-    return np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), tds).reshape(*shape, -1)
+    return np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), tds).reshape(*shape, len(model.coordinates))
 
 
 def acceleration_bias(model: MechanismModel, q, theta_dot) -> np.ndarray:
@@ -421,7 +421,7 @@ def acceleration_bias(model: MechanismModel, q, theta_dot) -> np.ndarray:
     out = np.concatenate([np.zeros((len(qs), model.n_actuators)), dependent], axis=1)
     if not np.all(np.isfinite(out)):
         raise InvalidParameterError("theta_dot overflows the acceleration bias (rates too large)")
-    return out.reshape(*shape, -1)
+    return out.reshape(*shape, len(model.coordinates))
 
 
 def coordinate_accelerations(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndarray:

@@ -129,11 +129,14 @@ def draw(model, q, title: str | None = None):
     import plotly.graph_objects as go
 
     from ..algorithms.kinematics import as_model
+    from ..errors import InvalidParameterError, shown
     from ..mechanism_model import joint_positions
     from .run import RunView, _machine_lines, machine_traces
 
     model = as_model(model)
     q = as_batch("q", q, len(model.coordinates), single=True)[0][0]
+    if title is not None and not isinstance(title, str):
+        raise InvalidParameterError(f"title must be text or None, got {shown(title, 40)}")
     description = model.description
     joints = joint_positions(model, q[None])
     spatial = joints.shape[-1] == 3
