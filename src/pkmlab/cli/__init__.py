@@ -183,6 +183,23 @@ def main(argv: list[str] | None = None, one_shot_interpreted: bool = False) -> i
     except BrokenPipeError:
         _quiet_stdout()
         return 141
+    except Exception:
+        # a Ctrl-C inside an extension module's initialisation comes out as another error (NumPy's import
+        # turns it into an ImportError): the interrupt it was, when the executable's handler saw one
+        if _INTERRUPTED:
+            print("pkmlab: interrupted", file=sys.stderr)
+            return 130
+        raise
+
+
+#: Set by the executable's Ctrl-C handler (:func:`entry`): an interrupt arrived.
+_INTERRUPTED = False
+
+
+def _on_interrupt(_signum, _frame):
+    global _INTERRUPTED
+    _INTERRUPTED = True
+    raise KeyboardInterrupt
 
 
 def _interrupt_from_callbacks(hook=sys.unraisablehook):
@@ -211,6 +228,7 @@ def entry() -> int:
     would otherwise print a traceback, and there is nothing left to interrupt)."""
     import signal
 
+    signal.signal(signal.SIGINT, _on_interrupt)
     sys.unraisablehook = _interrupt_from_callbacks()
     code = main(one_shot_interpreted=True)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
