@@ -32,6 +32,7 @@ from .geometry import Planar3RRR
 from .kinematics import _model, constraint_residual, coordinates_from_3rrr, coordinates_to_3rrr
 from .mechanism_model import MechanismModel
 from .mechanisms import rrr3
+from .plants import check_times
 
 
 @dataclass(frozen=True)
@@ -88,23 +89,7 @@ def _initial(model, q0, rate_name, rate0, n_rate, torque, t_final, t_eval):
         raise InvalidParameterError(f"q0 is not a configuration of this machine: its loop-closure residual is "
                                     f"{residual:.3g} m (take it from inverse or forward kinematics)")
     rate0 = as_batch(rate_name, rate0, n_rate, single=True)[0][0]
-    return (q0, rate0, _torque_function(torque), *_check_times(t_final, t_eval))
-
-
-def _check_times(t_final, t_eval):
-    t_final = as_real("t_final", t_final, "positive")
-    if t_eval is None:
-        return t_final, None
-    complex_ = getattr(t_eval, "dtype", None) is not None and np.dtype(t_eval.dtype).kind == "c"
-    try:
-        arr = None if complex_ else np.asarray(t_eval, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        arr = None
-    if (arr is None or arr.ndim != 1 or arr.size == 0 or not np.all(np.isfinite(arr))
-            or np.any(np.diff(arr) <= 0) or arr[0] < 0 or arr[-1] > t_final):
-        raise InvalidParameterError(f"t_eval must be times increasing strictly within [0, t_final], "
-                                    f"got {shown(t_eval)}")
-    return t_final, arr
+    return (q0, rate0, _torque_function(torque), *check_times(t_final, t_eval))
 
 
 @njit(cache=True)

@@ -30,9 +30,9 @@ from ._validate import as_batch, as_real
 from .algorithms.kinematics import (
     CLOSURE_TOLERANCE,
     SINGULAR_S,
-    _on_manifold,
-    _residuals,
     as_model,
+    check_loop_closure,
+    constraint_residuals,
     coordinate_rates,
     length_scale,
 )
@@ -105,7 +105,7 @@ def _effort_function(tau, n_actuators: int) -> Callable[[float, np.ndarray, np.n
     return lambda t, theta, theta_dot: constant
 
 
-def _times(t_final, t_eval):
+def check_times(t_final, t_eval):
     """Validated ``(t_final, t_eval)``: a positive horizon and output times increasing within it."""
     t_final = as_real("t_final", t_final, "positive")
     if t_eval is None:
@@ -125,13 +125,13 @@ def _times(t_final, t_eval):
 def _start(model: MechanismModel, q0) -> np.ndarray:
     """``q0`` as a validated (n,) configuration on the loop closure."""
     q0 = as_batch("q0", q0, len(model.coordinates), single=True)[0][0].copy()
-    _on_manifold(model, q0[None, :], (), "q0")
+    check_loop_closure(model, q0[None, :], (), "q0")
     return q0
 
 
 def _loop_residual(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
     """``max |η(q)|`` (m) of each configuration of ``qs`` (K, n)."""
-    return np.abs(_residuals(model, qs)).max(axis=1)
+    return np.abs(constraint_residuals(model, qs)).max(axis=1)
 
 
 def _integrate(rhs, t_final, y0, t_eval, rtol, atol):
@@ -222,7 +222,7 @@ class ActuatorSpacePlant:
         q0 = _start(model, q0)
         theta_dot0 = as_batch("theta_dot0", theta_dot0, na, single=True)[0][0]
         effort = _effort_function(tau, na)
-        t_final, t_eval = _times(t_final, t_eval)
+        t_final, t_eval = check_times(t_final, t_eval)
         kernels, P, guard = model.kernels, model.P, self.min_abs_S
         s0 = float(mm.singularity_measure(model, q0))
         if not abs(s0) >= guard:
@@ -329,7 +329,7 @@ class FullSpacePlant:
         q0 = _start(model, q0)
         q_dot0 = as_batch("q_dot0", q_dot0, n, single=True)[0][0].copy()
         effort = _effort_function(tau, na)
-        t_final, t_eval = _times(t_final, t_eval)
+        t_final, t_eval = check_times(t_final, t_eval)
         kernels, P, omega = model.kernels, model.P, self.stabilization
         m = kernels.N_CONSTRAINTS
         j_eta, gamma, eta = np.empty((1, m, n)), np.empty((1, m)), np.empty(m)

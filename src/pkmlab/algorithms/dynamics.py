@@ -29,7 +29,7 @@ from .. import mechanism_model as mm
 from .._validate import as_broadcast, index_text
 from ..errors import InvalidParameterError, SingularityError
 from ..mechanism_model import MechanismModel
-from .kinematics import SINGULAR_S, _on_manifold, as_model, coordinate_rates, singularity_measure
+from .kinematics import SINGULAR_S, as_model, check_loop_closure, singularity_measure
 
 __all__ = [
     "FullSpaceModel",
@@ -135,7 +135,7 @@ def constrained_dynamics(model: MechanismModel, q, q_dot, tau) -> ConstrainedDyn
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
     qs, qds, taus, shape = as_broadcast(("q", q, n), ("q_dot", q_dot, n), ("tau", tau, na))
-    _on_manifold(model, qs, shape)
+    check_loop_closure(model, qs, shape)
     k_ = model.kernels
     j_eta = np.empty((len(qs), k_.N_CONSTRAINTS, n))
     gamma = np.empty((len(qs), k_.N_CONSTRAINTS))
@@ -178,7 +178,7 @@ def actuator_space_model(model: MechanismModel, q, theta_dot) -> ActuatorSpaceMo
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
     qs, tds, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na))
-    _on_manifold(model, qs, shape)
+    check_loop_closure(model, qs, shape)
     _regular(model, qs, shape)
     M, c, g = np.empty((len(qs), na, na)), np.empty((len(qs), na)), np.empty((len(qs), na))
     failed = model.kernels.actuator_space_models(qs, tds, model.P, M, c, g)
@@ -210,9 +210,3 @@ def forward_dynamics(model: MechanismModel, q, theta_dot, tau) -> np.ndarray:
     theta_ddot = np.linalg.solve(r.M, (taus - r.c - r.g)[..., None])[..., 0]
     _finite("tau", theta_ddot)
     return theta_ddot.reshape(*shape, na)
-
-
-def tangent_rates(model: MechanismModel, q, theta_dot) -> np.ndarray:
-    """The full rates ``q̇`` (..., n) of actuator rates ``theta_dot`` at ``q``: what :func:`constrained_dynamics`
-    takes as ``q_dot`` (:func:`~pkmlab.coordinate_rates`)."""
-    return coordinate_rates(model, q, theta_dot)

@@ -86,9 +86,9 @@ def _configurations(model: MechanismModel, q, name: str = "q"):
     return as_batch(name, q, len(model.coordinates))
 
 
-def _on_manifold(model: MechanismModel, qs: np.ndarray, shape, name: str = "q") -> None:
+def check_loop_closure(model: MechanismModel, qs: np.ndarray, shape, name: str = "q") -> None:
     """Refuse configurations off the loop-closure manifold, naming the first and its residual."""
-    residual = np.abs(_residuals(model, qs)).max(axis=1)
+    residual = np.abs(constraint_residuals(model, qs)).max(axis=1)
     tolerance = CLOSURE_TOLERANCE * length_scale(model)
     bad = np.flatnonzero(~(residual <= tolerance))
     if bad.size:
@@ -98,7 +98,7 @@ def _on_manifold(model: MechanismModel, qs: np.ndarray, shape, name: str = "q") 
             f"{tolerance:.3g} m (a configuration from inverse or forward kinematics or branch following is on it)")
 
 
-def _residuals(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
+def constraint_residuals(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
     k = model.kernels
     out = np.empty((len(qs), k.N_CONSTRAINTS))
     for i, qi in enumerate(qs):
@@ -356,7 +356,7 @@ def constraint_residual(model: MechanismModel, q) -> np.ndarray:
     platform attachment point (zero on the manifold; the paper's eqs. 2–6 for its machine)."""
     model = as_model(model)
     qs, shape = _configurations(model, q)
-    return _residuals(model, qs).reshape(*shape, model.kernels.N_CONSTRAINTS)
+    return constraint_residuals(model, qs).reshape(*shape, model.kernels.N_CONSTRAINTS)
 
 
 def constraint_jacobian(model: MechanismModel, q) -> np.ndarray:
@@ -387,7 +387,7 @@ def coordinate_jacobian(model: MechanismModel, q) -> np.ndarray:
     every machine). Its first rows are the identity."""
     model = as_model(model)
     qs, shape = _configurations(model, q)
-    _on_manifold(model, qs, shape)
+    check_loop_closure(model, qs, shape)
     na = model.n_actuators
     j_eta = constraint_jacobian(model, qs)
     dependent = _dependent_solve(model, j_eta, j_eta[:, :, :na], shape, "q")
