@@ -23,7 +23,7 @@ from operation_count import DEFAULT_RUNS
 
 from pkmlab import mechanism_model as mm
 from pkmlab.control import ControllerSpec
-from pkmlab.kinematics import coordinates_from_3rrr
+from pkmlab.kinematics import coordinates_to_3rrr
 from pkmlab.scenario_io import load_scenario
 from pkmlab.simulation import paper_scenario, perturbed_model, simulate, simulate_batch
 
@@ -73,15 +73,24 @@ def _disturbed_batch() -> list:
 
 
 def _middle_configuration(result) -> np.ndarray:
-    """The middle of a run, in its machine's description's coordinates."""
-    model = result.scenario.model
-    q = np.asarray(result.q[len(result.q) // 2], float)
-    return q if isinstance(model, mm.MechanismModel) else coordinates_from_3rrr(model, q)
+    """The configuration in the middle of a run."""
+    return np.asarray(result.q[len(result.q) // 2], float)
+
+
+def _comparable(key: str, old: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """``new`` as ``old`` holds it: numbers saved before pkmlab 0.3.0 hold the paper's machine's configurations in
+    its own 7 coordinates ``(θ, φ, α)``, where they are now the description's 9 ``(θ, φ, x, y, α)`` (``x, y`` are
+    compared as the pose)."""
+    if key.endswith(".q") and old.ndim == 2 and old.shape[1] == 7 and new.shape == (old.shape[0], 9):
+        return coordinates_to_3rrr(new)
+    return new
 
 
 def compare(old: dict[str, np.ndarray], new: dict[str, np.ndarray], rtol: float) -> int:
     worst, bad, diffs = 0.0, [f"{key}: new (not in the saved numbers)" for key in sorted(set(new) - set(old))], []
     for key in sorted(old):
+        if key in new:
+            new[key] = _comparable(key, old[key], new[key])
         if key not in new or old[key].shape != new[key].shape:
             bad.append(f"{key}: missing or reshaped")
             continue

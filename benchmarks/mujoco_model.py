@@ -67,6 +67,7 @@ import pkmlab
 from pkmlab import dynamics as pk_dynamics
 from pkmlab import kinematics as kin
 from pkmlab.geometry import Planar3RRR
+from pkmlab.mechanism_model import MechanismModel
 
 #: MuJoCo's hinge joints in tree order (the order of ``qpos``/``qvel``).
 JOINT_NAMES = ("theta1", "elbow1", "platform", "theta2", "elbow2", "theta3", "elbow3")
@@ -254,6 +255,20 @@ def random_states(model: Planar3RRR, q_path, n: int, seed: int = 1) -> tuple[np.
     return q, rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
 
 
+def paper_plant(result: pkmlab.SimulationResult) -> tuple[Planar3RRR, np.ndarray]:
+    """A run's plant in the paper's own formulation (:class:`~pkmlab.geometry.Planar3RRR`, which the MJCF and the
+    reference dynamics read) and the run's configurations in its 7 coordinates ``(θ, φ, α)``.
+
+    The simulation's machine is a :class:`~pkmlab.mechanism_model.MechanismModel` in 9 coordinates
+    ``(θ, φ, x, y, α)``; it must be the paper's 3-RRR (its parameters the same to rounding).
+    """
+    plant, paper = result.scenario.plant_model, Planar3RRR.paper()
+    reference = MechanismModel.from_3rrr(paper)
+    if plant.kernels is not reference.kernels or not np.allclose(reference.P, plant.P, rtol=1e-12, atol=1e-15):
+        raise ValueError(f"the run's plant ({plant.description.notation}) is not the paper's 3-RRR")
+    return paper, kin.coordinates_to_3rrr(np.asarray(result.q, dtype=float))
+
+
 def _timings(fn, repeats: int) -> tuple[float, float]:
     """``(median, min)`` wall time (s) of ``fn()`` over ``repeats`` runs after a warm-up, gc off."""
     fn()
@@ -287,11 +302,11 @@ def time_nominal_case(repeats: int = 7, *, stiff: bool = True, result: pkmlab.Si
     """
     if result is None:
         result = pkmlab.simulate(pkmlab.paper_scenario("nominal"))
-    model = result.scenario.plant_model
+    model, q = paper_plant(result)
     m, d = build(model, stiff=stiff)
     n_steps = len(result.t) - 1
     ctrl = np.ascontiguousarray(result.tau[:n_steps])
-    set_state(m, d, model, result.q[0], result.theta_dot[0])
+    set_state(m, d, model, q[0], result.theta_dot[0])
     mujoco.mj_forward(m, d)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state0 = np.empty(mujoco.mj_stateSize(m, spec))
@@ -323,7 +338,7 @@ def time_nominal_case(repeats: int = 7, *, stiff: bool = True, result: pkmlab.Si
         pose[k] = platform_pose(m_check, d_check)
         residual[k] = connect_residual(m_check, d_check)
     # MuJoCo after step k  <->  pkmlab's sample k + 1
-    theta_dev = np.abs(qpos[:, list(ACTUATED)] - result.q[1:, :3]).max()
+    theta_dev = np.abs(qpos[:, list(ACTUATED)] - q[1:, :3]).max()
     xy_dev = np.hypot(*(pose[:, :2] - result.pose[1:, :2]).T).max()
     alpha_dev = np.abs(np.angle(np.exp(1j * (pose[:, 2] - result.pose[1:, 2])))).max()
 
@@ -368,8 +383,8 @@ def time_nominal_case(repeats: int = 7, *, stiff: bool = True, result: pkmlab.Si
 def main() -> None:
     """Print the figures: accelerations (stiff and default constraints), then the timed replay."""
     result = pkmlab.simulate(pkmlab.paper_scenario("nominal"))
-    model = result.scenario.plant_model
-    states = random_states(model, result.q, 50)
+    model, q = paper_plant(result)
+    states = random_states(model, q, 50)
     print(f"MuJoCo {mujoco.__version__}, 3-RRR with 7 hinges and 2 connect loops, RK4 at 1 ms")
     print("max relative error of theta_ddot vs paper_dynamics.forward_dynamics (50 states on the nominal path):")
     for stiff in (True, False):

@@ -210,11 +210,11 @@ def count_preset(name: str, samples: int | None = None) -> dict:
 
     from pkmlab import closed_chain
     from pkmlab.scenario_io import load_scenario
-    from pkmlab.simulation import _loop_coordinates, _loop_model, _prepare
+    from pkmlab.simulation import _prepare
 
     scenario = load_scenario(EXAMPLES / f"{DEFAULT_RUNS[name]}.toml")
     prep = _prepare(scenario)
-    ctrl, plant = _loop_model(scenario.model), _loop_model(scenario.plant_model)
+    ctrl, plant = scenario.model, scenario.plant_model
     kernels = ctrl.kernels
     functions = {k: v for k, v in vars(kernels).items()
                  if inspect.isfunction(v) and v.__module__ in (kernels.__name__, closed_chain.__name__)}
@@ -222,8 +222,7 @@ def count_preset(name: str, samples: int | None = None) -> dict:
     constants.update({"np": np, "math": math})
     skip = {"make_workspaces", "sampled_data_loop", "sampled_data_batch", "reduced_column"}  # the last: an index
     names = [k for k in functions if k not in skip and not k.startswith("_")]
-    q_plant0 = _loop_coordinates(scenario.plant_model, prep.q_plant0)
-    q_ctrl0 = _loop_coordinates(scenario.model, prep.q_ctrl0)
+    q_plant0, q_ctrl0 = prep.q_plant0, prep.q_ctrl0
     d = prep.desired
     n, n_q = ctrl.n_actuators, kernels.N_COORDINATES
 

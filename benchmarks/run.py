@@ -75,11 +75,10 @@ import scipy
 from scipy.optimize import fsolve
 
 import pkmlab
-from pkmlab import WORKING_MODES
 from pkmlab import dynamics as pk_dynamics
 from pkmlab import kinematics as kin
 from pkmlab import kinematics as pk_kinematics
-from pkmlab.geometry import Planar3RRR
+from pkmlab.geometry import WORKING_MODES, Planar3RRR
 from pkmlab.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
 from pkmlab.mechanism_model import MechanismModel
 from pkmlab.mechanisms import rrr3

@@ -40,8 +40,8 @@ from pkmlab.geometry import Planar3RRR
 from pkmlab.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
 from pkmlab.mechanism_model import MechanismModel
 from pkmlab.plant import ReducedPlant
-from pkmlab.simulation import choose_working_mode
-from pkmlab.trajectory import desired_joint_motion, paper_trajectory
+from pkmlab.simulation import _prepare
+from pkmlab.trajectory import paper_trajectory
 
 BATCH_SPREAD = 0.15
 BATCH_SEED = 7
@@ -140,6 +140,17 @@ class NumpySampledData:
 KERNELS = MechanismModel.from_preset("paper").kernels
 
 
+def paper_oracle(model: MechanismModel) -> Planar3RRR:
+    """The paper's own formulation (:class:`~pkmlab.geometry.Planar3RRR`, 7 coordinates ``(θ, φ, α)``) of a
+    scenario's machine, for the NumPy baselines and the 3-RRR plant that serve as references: the paper's machine,
+    checked to be the scenario's (its description's parameters the same to rounding)."""
+    paper = Planar3RRR.paper()
+    if model.kernels is not KERNELS or not np.allclose(MechanismModel.from_3rrr(paper).P, model.P, rtol=1e-12,
+                                                       atol=1e-15):
+        raise ValueError(f"the scenario's machine ({model.description.notation}) is not the paper's 3-RRR")
+    return paper
+
+
 def kernel_rows(h, repeats: int) -> tuple[list[dict], dict]:
     """The simulation loop's own kernels along the paper's circle (1,571 samples, one call per sample)."""
     model = Planar3RRR.paper()
@@ -211,12 +222,15 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
                            "run", baseline="numpy_solve_ivp_run"))
     checks["nominal_simulate_ms"] = rows[-1]["median_s"] * 1e3
 
-    t = result.t
-    mode, _ = choose_working_mode(nominal, t)
-    d = desired_joint_motion(nominal.model, nominal.trajectory, mode, t)
-    machine = MechanismModel.from_3rrr(nominal.model)  # the simulation's loop: its description's kernels
+    prep = _prepare(nominal)  # what simulate() hands its compiled loop: the desired motion, the start
+    mode, d = prep.mode, prep.desired
+    machine = nominal.model  # the simulation's machine: its description's kernels, configurations (θ, φ, x, y, α)
     P, kernels = machine.P, machine.kernels
     kv = nominal.controller.velocity_gain
+    oracle = paper_oracle(machine)  # the same machine in the paper's own formulation, for the NumPy path
+
+    def desired(scenario):  # the desired motion simulate() computes for ``scenario`` (in nominal's working mode)
+        return _prepare(scenario.replace(working_mode=mode)).desired
 
     def outputs(count):  # the loop's records: configurations, rates, efforts, S
         return np.zeros((count, kernels.N_COORDINATES)), np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count)
@@ -224,10 +238,8 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     buffers = outputs(n)
 
     def loop(n_sub=1, ts=1e-3, dd=d):
-        return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot,
-                                         coordinates_from_3rrr(nominal.model, result.q[0]),
-                                         coordinates_from_3rrr(nominal.model, dd.q[0]), P, P, 0, 1000.0, kv, 0.01,
-                                         *(b[: dd.theta.shape[0]] for b in buffers))
+        return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot, result.q[0], dd.q[0], P,
+                                         P, 0, 1000.0, kv, 0.01, *(b[: dd.theta.shape[0]] for b in buffers))
 
     times, _ = h.time_runs(loop, repeats)
     rows.append(h.rate_row("sim_nominal_loop", f"nominal case, compiled sampled-data loop only ({n} samples)", times,
@@ -237,8 +249,9 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
 
     # NumPy/SciPy path (slow: a prefix of the run in --quick mode, scaled to the whole run)
     n_np = 100 if quick else n
-    numpy_path = NumpySampledData(h.NumpyLoopClosure(nominal.model), h.NumpyActuatorSpaceModel(nominal.model))
-    seconds, theta_np = h.time_once(lambda: numpy_path.run(d, result.q[0], 1e-3, n_np, 1000.0, kv))
+    numpy_path = NumpySampledData(h.NumpyLoopClosure(oracle), h.NumpyActuatorSpaceModel(oracle))
+    seconds, theta_np = h.time_once(lambda: numpy_path.run(d, coordinates_to_3rrr(result.q[0]), 1e-3, n_np, 1000.0,
+                                                           kv))
     rows.append(h.rate_row("numpy_solve_ivp_run", f"baseline: NumPy + fsolve + solve_ivp path ({n_np} samples"
                            f"{', scaled to ' + str(n) if n_np < n else ''})", [seconds * (n - 1) / (n_np - 1)], 1,
                            "run", compare=False))
@@ -304,16 +317,15 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     # integrator: error and order per sample against DOP853 at rtol 1e-13, fast case's fastest state
     fast = pkmlab.simulate(pkmlab.paper_scenario("fast"))
     k = int(np.argmax(np.abs(fast.theta_dot).max(axis=1)))
-    fm = fast.scenario.model
-    ref = ReducedPlant(fm, rtol=1e-13, atol=1e-15).simulate(fast.q[k], fast.theta_dot[k], fast.tau[k], 1e-3,
-                                                                    t_eval=[0.0, 1e-3])
+    fast_machine = fast.scenario.model  # the simulation's machine; the reference: the paper's own 3-RRR plant
+    ref = ReducedPlant(paper_oracle(fast_machine), rtol=1e-13, atol=1e-15).simulate(
+        coordinates_to_3rrr(fast.q[k]), fast.theta_dot[k], fast.tau[k], 1e-3, t_eval=[0.0, 1e-3])
     ref_x = np.concatenate([ref.q[-1, :3], ref.theta_dot[-1]])
     errors = {}
-    fast_machine = MechanismModel.from_3rrr(fm)
     for n_sub in (1, 2, 4):
         workspaces = kernels.make_workspaces(1)  # kept alive: ws points into it
         ws = workspaces[0]
-        kernels.set_base(ws, coordinates_from_3rrr(fm, fast.q[k]), fast_machine.P)
+        kernels.set_base(ws, np.ascontiguousarray(fast.q[k]), fast_machine.P)
         x = np.concatenate([fast.q[k, :3], fast.theta_dot[k]])
         kernels.rk4_sample(ws, x, fast.tau[k], fast_machine.P, 1e-3, n_sub, 1e-3, np.empty((5, 6)), False)
         errors[n_sub] = float(np.abs(x - ref_x).max())
@@ -355,15 +367,13 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     for duration in (0.5, 1.0, 2.0, 4.0, 8.0):
         speed_v = length / duration  # the paper's trajectory lasts L / v
         sc = nominal.replace(trajectory=paper_trajectory(speed_v))
-        tt = np.arange(int(math.ceil(sc.trajectory.duration / 1e-3 - 1e-9)) + 1) * 1e-3
-        dd = desired_joint_motion(sc.model, sc.trajectory, mode, tt)
-        buffers = outputs(tt.size)
+        dd = desired(sc)  # samples 0 … ceil(T / 1 ms)
+        buffers = outputs(dd.t.size)
         tm, _ = h.time_runs(lambda dd=dd: loop(dd=dd), 3)
         scale[f"duration_{sc.trajectory.duration:.2f}s"] = statistics.median(tm)
     for ts in (0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3):
-        tt = np.arange(int(math.ceil(nominal.trajectory.duration / ts - 1e-9)) + 1) * ts
-        dd = desired_joint_motion(nominal.model, nominal.trajectory, mode, tt)
-        buffers = outputs(tt.size)
+        dd = desired(nominal.replace(sample_time=ts))  # samples 0 … ceil(T / Ts)
+        buffers = outputs(dd.t.size)
         tm, _ = h.time_runs(lambda dd=dd, ts=ts: loop(ts=ts, dd=dd), 3)
         scale[f"Ts_{ts * 1e3:g}ms"] = statistics.median(tm)
     for size in (1, 10, 100) + (() if quick else (1000,)):

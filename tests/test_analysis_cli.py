@@ -22,11 +22,11 @@ from conftest import assert_user_error, run
 from PIL import Image, ImageSequence
 from reference import BASE, A, L, R, S_closed_form, eta
 
+import pkmlab
 import pkmlab.animation
 import pkmlab.progress
 from pkmlab.analysis import workspace
 from pkmlab.cli import main
-from pkmlab.geometry import Planar3RRR
 from pkmlab.progress import Progress
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -143,7 +143,7 @@ def test_singularity_map_text_output_and_default_mode(capsys, tmp_path):
 # ------------------------------------------------------------------ workspace
 def test_workspace_mask_is_the_annulus_test_of_every_leg_and_area_counts_cells():
     res, x_range, y_range, alpha = 41, (-0.05, 0.55), (-0.1, 0.5), -0.2
-    ws = workspace(Planar3RRR.paper(), alpha, res, x_range, y_range)
+    ws = workspace(pkmlab.load("paper"), alpha, res, x_range, y_range)
     x, y = np.linspace(*x_range, res), np.linspace(*y_range, res)
     np.testing.assert_allclose(ws.x, x)
     np.testing.assert_allclose(ws.y, y)
@@ -163,7 +163,7 @@ def test_workspace_mask_is_the_annulus_test_of_every_leg_and_area_counts_cells()
 
 
 def test_workspace_modes_carry_their_own_singularity_measure():
-    ws = workspace(Planar3RRR.paper(), 0.0, 11, (0.15, 0.35), (0.1, 0.3))
+    ws = workspace(pkmlab.load("paper"), 0.0, 11, (0.15, 0.35), (0.1, 0.3))
     j, i = 5, 5  # (0.25, 0.2), reachable in every mode
     for k, mode in enumerate(ws.modes):
         q = inverse_kinematics_by_hand(ws.x[i], ws.y[j], 0.0, mode)
@@ -239,7 +239,7 @@ def test_animate_disturbed_case_uses_the_scaled_plant(capsys, tmp_path, reproduc
                       "--stride", stride)
     assert result["frames"] == 1
     assert result["max_centroid_deviation_m"] < 1e-9
-    assert result["manipulator"].endswith("disturbed_plant.toml")  # the case's own plant, written by reproduce
+    assert result["mechanism"].endswith("disturbed_plant.toml")  # the case's own plant, written by reproduce
     # The paper's machine did not produce that run: the rebuilt centroid is far from the CSV's.
     paper = tmp_path / "paper.toml"
     paper.write_text('[manipulator]\npreset = "paper"\n')
@@ -259,7 +259,7 @@ def test_animate_simulate_folder_uses_run_csv_and_plant_toml(capsys, tmp_path, r
     )
     result = run_json(capsys, "animate", folder, "--out", tmp_path / "run.gif", "--stride", 400)
     assert result["csv"] == str(folder / "run.csv")
-    assert result["manipulator"].endswith("plant.toml")
+    assert result["mechanism"].endswith("plant.toml")
     assert result["max_centroid_deviation_m"] < 1e-9
     assert gif_frames(tmp_path / "run.gif") == len(range(0, data_rows(folder / "run.csv"), 400))
 

@@ -68,7 +68,7 @@ FIXED = [
     np.zeros(4), np.zeros(7), np.zeros((3, 3)), np.zeros((7, 3)), np.zeros((0, 3)), np.zeros((2, 7)),
     np.zeros((3, 2)), np.zeros((2, 1, 3)), np.full(3, NAN), np.full(7, INF), np.ones(3) + 1j,
     np.array(["a", "b", "c"]), np.array([["a", "b"], ["c", "d"]]), np.zeros(3, dtype=bool),
-    np.arange(3, dtype=np.int64), MODEL, SCENARIO, CONTROLLER, CIRCLE, TRAJECTORY, RNG, object(),
+    np.arange(3, dtype=np.int64), MODEL, GENERIC, SCENARIO, CONTROLLER, CIRCLE, TRAJECTORY, RNG, object(),
     lambda *args: [1.0, 2.0], Path("no-such-file.toml"), Ellipsis,
 ]
 _floats = st.floats(allow_nan=True, allow_infinity=True)
@@ -233,7 +233,7 @@ TARGETS = [
     Target("Planar3RRR.from_params", Planar3RRR.from_params, _PAPER_PARAMS, names=PAPER_NAMES, examples=150),
     Target("Planar3RRR.replace", MODEL.replace, {}, _fields(Planar3RRR), names=PAPER_NAMES, examples=150),
     # analyses
-    _sig(pkmlab.singularity_map, model=MODEL, alpha=0.0, mode=(-1, 1, -1), x_range=None, y_range=None,
+    _sig(pkmlab.singularity_map, model=GENERIC, alpha=0.0, mode=(-1, 1, -1), x_range=None, y_range=None,
          resolution=5, progress=None),
     # trajectories and controllers
     Target("Circle", Circle, dict(center=(0.25, 0.21), radius=0.05, start_angle=math.pi, alpha=0.0, alpha_end=None,
@@ -245,13 +245,13 @@ TARGETS = [
     Target("ControllerSpec", ControllerSpec, dict(kind="computed_torque", kp=400.0, kv=None),
            then=lambda spec: spec.velocity_gain),
     # scenarios and simulation (an accepted scenario is prepared for its run: pre-flight, desired motion)
-    Target("Scenario", pkmlab.Scenario, dict(model=MODEL, trajectory=TRAJECTORY, plant=None, controller=CONTROLLER,
+    Target("Scenario", pkmlab.Scenario, dict(model=GENERIC, trajectory=TRAJECTORY, plant=None, controller=CONTROLLER,
                                              sample_time=0.01, working_mode="auto", singularity_margin=0.05,
                                              singularity_guard=0.01, substeps=1, name="mine"), then=_prepare),
     Target("Scenario.replace", SCENARIO.replace, {}, _fields(pkmlab.Scenario), then=_prepare),
     _sig(pkmlab.simulate, scenario=SCENARIO),
     _sig(pkmlab.simulate_batch, scenarios=[SCENARIO], on_error="raise"),
-    _sig(pkmlab.perturbed_model, model=MODEL, rng=RNG, spread=0.15),
+    _sig(pkmlab.perturbed_model, model=GENERIC, rng=RNG, spread=0.15),
     _sig(pkmlab.paper_scenario, name="nominal"),
     _sig(pkmlab.load_scenario, path=SCENARIO_DIR / "nominal.toml"),
     # studies (pkmlab.sweep and pkmlab.tune run whole studies — processes, a cluster, files — and are checked

@@ -211,7 +211,8 @@ def cycle():
 def test_pick_and_place_reports_what_every_machine_reports(cycle):
     s = cycle.summary()
     assert set(s) == {"max_path_error_m", "rms_path_error_m", "max_joint_error", "peak_effort", "min_abs_S",
-                      "working_mode"}  # no orientation: the platform translates
+                      "working_mode", "max_joint_error_rad", "peak_torque_Nm"}  # no orientation: it translates
+    assert (s["max_joint_error_rad"], s["peak_torque_Nm"]) == (s["max_joint_error"], s["peak_effort"])
     assert cycle.columns[10:17] == ("x", "y", "z", "x_d", "y_d", "z_d", "S")
     assert s["working_mode"] == [1, 1, 1] and len(s["peak_effort"]) == 3
     # the path error is the distance in space between the actual and the desired point

@@ -343,7 +343,7 @@ def test_singularity_measure_matches_eq_19_and_the_determinant(paper, q):
 
 
 def test_singularity_map_values_and_zero_contour(paper):
-    smap = pkmlab.singularity_map(paper, alpha=0.0, mode=(1, -1, 1), resolution=41)
+    smap = pkmlab.singularity_map(pkmlab.load("paper"), alpha=0.0, mode=(1, -1, 1), resolution=41)
     assert smap.S.shape == (41, 41)
     j, i = 20, 20
     ik = kin.inverse_kinematics(paper, [smap.x[i], smap.y[j], 0.0], mode=(1, -1, 1), on_unreachable="nan")

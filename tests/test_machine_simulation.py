@@ -196,7 +196,13 @@ def test_the_example_files_are_the_default_runs(name):
     assert (scenario.controller.kp, scenario.sample_time) == (1000.0, 1e-3)
     summary = simulate(scenario).summary()
     keys = {"max_path_error_m", "rms_path_error_m", "max_joint_error", "peak_effort", "min_abs_S", "working_mode"}
-    assert keys | ({"max_orientation_error_rad"} if name != "five_bar" else set()) == set(summary)
+    # the same rule for every machine: an orientation where the pose has alpha, the units of its actuators' kind
+    revolute = {"max_joint_error_rad", "peak_torque_Nm"}
+    prismatic = {"max_joint_error_m", "peak_force_N"}
+    orientation = {"max_orientation_error_rad", "max_alpha_error_rad"}
+    expected = {"five_bar": keys | revolute, "3rpr": keys | orientation | prismatic,
+                "3prr": keys | orientation | prismatic}[name]
+    assert set(summary) == expected
     assert len(summary["peak_effort"]) == len(scenario.model.description.legs)
     assert summary["max_path_error_m"] < 1e-4
 

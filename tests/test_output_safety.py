@@ -27,7 +27,8 @@ from pkmlab import kinematics as kin
 from pkmlab import outputs
 from pkmlab.geometry import Planar3RRR
 from pkmlab.io import load_manipulator
-from pkmlab.simulation import paper_scenario, scaled_model, simulate
+from pkmlab.mechanism_model import MechanismModel
+from pkmlab.simulation import paper_scenario, simulate
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -273,15 +274,23 @@ def test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so(capsys
     code, stdout, _err = run(capsys, "reproduce", "--params", params, "--out", out, "--no-figures", "--json")
     assert code == 0
     summary = json.loads(stdout)
-    assert summary["provenance"]["manipulator"].endswith("mine.toml")
+    assert summary["provenance"]["mechanism"].endswith("mine.toml")
     mine = load_manipulator(params)
-    assert load_manipulator(out / "manipulator.toml") == mine
-    assert load_manipulator(out / "disturbed_plant.toml") == scaled_model(mine, 1.15, 1.15)  # conventions §7
-    assert load_manipulator(out / "nominal_plant.toml") == mine
+    written = {name: pkmlab.load(out / f"{name}.toml") for name in ("mechanism", "nominal_plant", "disturbed_plant")}
+    # the paper's 3-RRR with the file's numbers, and its plant of the disturbed case (conventions §7: masses and
+    # lengths x1.15, inertias x1.15^3), in the paper's own formulation
+    k = 1.15
+    disturbed = mine.replace(active_lengths=mine.active_lengths * k, passive_lengths=mine.passive_lengths * k,
+                             platform_side=mine.platform_side * k, active_masses=mine.active_masses * k,
+                             passive_masses=mine.passive_masses * k, platform_mass=mine.platform_mass * k,
+                             active_inertias=mine.active_inertias * k**3, passive_inertias=mine.passive_inertias * k**3,
+                             platform_inertia=mine.platform_inertia * k**3)
+    for name, machine in (("mechanism", mine), ("nominal_plant", mine), ("disturbed_plant", disturbed)):
+        np.testing.assert_allclose(written[name].P, MechanismModel.from_3rrr(machine).P, rtol=1e-14, atol=1e-16)
     report = (out / "REPORT.md").read_text()
     assert "not the paper's numbers" in report and "mine.toml" in report
     # the numbers are those of the user's machine, not the paper's
-    own = simulate(paper_scenario("nominal").replace(model=mine))
+    own = simulate(paper_scenario("nominal").replace(model=MechanismModel.from_3rrr(mine)))
     assert summary["cases"]["nominal"]["peak_torque_Nm"] == own.summary()["peak_torque_Nm"]
     assert summary["cases"]["nominal"]["peak_torque_Nm"] != simulate(paper_scenario("nominal")).summary()[
         "peak_torque_Nm"]
@@ -294,12 +303,12 @@ def test_results_record_how_they_were_made(capsys, tmp_path, quick):
     summary = json.loads((out / "summary.json").read_text())
     prov = summary["provenance"]
     assert prov["control"] == "continuous" and prov["sample_time_s"] is None
-    assert prov["pkmlab_version"] == pkmlab.__version__ and prov["manipulator"] == "the paper's (its section 5)"
+    assert prov["pkmlab_version"] == pkmlab.__version__ and prov["mechanism"] == "the paper's (its section 5)"
     report = (out / "REPORT.md").read_text()
     assert "continuous-time" in report and f"pkmlab {pkmlab.__version__}" in report
     manifest = outputs.read_manifest(out)
     assert manifest["command"] == "reproduce" and manifest["provenance"] == prov
-    assert load_manipulator(out / "manipulator.toml") == Planar3RRR.paper()
+    assert pkmlab.load(out / "mechanism.toml") == pkmlab.load("paper")
 
 
 # ------------------------------------------------------------------ dynamics at a singularity

@@ -84,11 +84,13 @@ def test_ik_of_a_described_machine_is_interpreted_and_equals_the_compiled_kernel
         assert solution["S"] == pytest.approx(mm.singularity_measure(model, q), rel=1e-14)
 
 
-def _plant_off_by_one_bit(model: Planar3RRR) -> Planar3RRR:
+def _plant_off_by_one_bit(model):
     """The same machine but the platform's mass one unit in the last place heavier: not the model."""
     import dataclasses
 
-    return dataclasses.replace(model, platform_mass=float(np.nextafter(model.platform_mass, np.inf)))
+    d = model.description
+    platform = dataclasses.replace(d.platform, mass=float(np.nextafter(d.platform.mass, np.inf)))
+    return pkmlab.load(dataclasses.replace(d, platform=platform))
 
 
 @pytest.mark.parametrize("case", ["nominal", "fast"])

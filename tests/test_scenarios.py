@@ -19,12 +19,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import pkmlab
 import pkmlab.io
 import pkmlab.scenario_io
 import pkmlab.simulation
 from pkmlab.cli import main
 from pkmlab.control import ControllerSpec
-from pkmlab.errors import PkmlabError
+from pkmlab.errors import PkmlabDeprecationWarning, PkmlabError
 from pkmlab.geometry import Planar3RRR
 from pkmlab.io import load_manipulator
 from pkmlab.scenario_io import load_scenario, scenario_from_dict
@@ -71,30 +72,41 @@ def fast_result():
 
 
 # ------------------------------------------------------------------ the paper's cases as files
-def _assert_plant(plant: Planar3RRR, mass: float, length: float):
+def paper_numbers(model) -> dict:
+    """The paper's parameters (conventions §1) of a model of a 3-RRR, read from its description: base pivots,
+    link lengths (each body's tip), platform side (between its attachments), masses and inertias."""
+    d = model.description
+    att = np.array(d.platform.attachments)
+    return {"base_points": np.array([leg.base for leg in d.legs]),
+            "l": np.array([math.hypot(*leg.bodies[0].tip) for leg in d.legs]),
+            "r": np.array([math.hypot(*leg.bodies[1].tip) for leg in d.legs]),
+            "a": float(np.linalg.norm(att[1] - att[0])),
+            "mass_l": np.array([leg.bodies[0].mass for leg in d.legs]),
+            "mass_r": np.array([leg.bodies[1].mass for leg in d.legs]), "mass_a": d.platform.mass,
+            "inertia_l": np.array([leg.bodies[0].inertia for leg in d.legs]),
+            "inertia_r": np.array([leg.bodies[1].inertia for leg in d.legs]), "inertia_a": d.platform.inertia}
+
+
+def _assert_plant(plant, mass: float, length: float):
     """The plant of conventions §7: masses × mass, lengths l, r, a × length, inertias × mass·length², base unchanged."""
-    np.testing.assert_allclose(plant.base_points, PAPER_BASE, rtol=1e-15, atol=1e-15)
-    np.testing.assert_allclose(plant.active_lengths, [PAPER["l"] * length] * 3, rtol=1e-13)
-    np.testing.assert_allclose(plant.passive_lengths, [PAPER["r"] * length] * 3, rtol=1e-13)
-    assert plant.platform_side == pytest.approx(PAPER["a"] * length, rel=1e-13)
-    np.testing.assert_allclose(plant.active_masses, [PAPER["mass_l"] * mass] * 3, rtol=1e-13)
-    np.testing.assert_allclose(plant.passive_masses, [PAPER["mass_r"] * mass] * 3, rtol=1e-13)
-    assert plant.platform_mass == pytest.approx(PAPER["mass_a"] * mass, rel=1e-13)
+    n = paper_numbers(plant)
+    np.testing.assert_allclose(n["base_points"], PAPER_BASE, rtol=1e-15, atol=1e-15)
     inertia = mass * length**2
-    np.testing.assert_allclose(plant.active_inertias, [PAPER["inertia_l"] * inertia] * 3, rtol=1e-13)
-    np.testing.assert_allclose(plant.passive_inertias, [PAPER["inertia_r"] * inertia] * 3, rtol=1e-13)
-    assert plant.platform_inertia == pytest.approx(PAPER["inertia_a"] * inertia, rel=1e-13)
+    for key, scale in (("l", length), ("r", length), ("a", length), ("mass_l", mass), ("mass_r", mass),
+                       ("mass_a", mass), ("inertia_l", inertia), ("inertia_r", inertia), ("inertia_a", inertia)):
+        np.testing.assert_allclose(n[key], np.broadcast_to(PAPER[key] * scale, np.shape(n[key])), rtol=1e-13,
+                                   err_msg=key)
 
 
 @pytest.mark.parametrize("name, speed, scales", [("nominal", 0.2, None), ("disturbed", 0.2, (1.15, 1.15)),
                                                  ("fast", 0.4, None)])
 def test_paper_scenario_files_follow_spec_section_7(name, speed, scales):
     scenario = paper_scenario(name)
-    model = scenario.model
-    np.testing.assert_array_equal(model.base_points, PAPER_BASE)
-    np.testing.assert_array_equal(model.active_lengths, [PAPER["l"]] * 3)
-    np.testing.assert_array_equal(model.passive_lengths, [PAPER["r"]] * 3)
-    assert model.platform_side == PAPER["a"]
+    model = paper_numbers(scenario.model)
+    np.testing.assert_allclose(model["base_points"], PAPER_BASE, rtol=1e-15, atol=1e-15)
+    np.testing.assert_array_equal(model["l"], [PAPER["l"]] * 3)
+    np.testing.assert_array_equal(model["r"], [PAPER["r"]] * 3)
+    assert model["a"] == pytest.approx(PAPER["a"], rel=1e-15)
     circle = Circle((0.25, 0.21), 0.05, start_angle=math.pi, alpha=0.0)
     assert scenario.trajectory == Trajectory(circle, speed, "cubic")
     assert scenario.trajectory.duration == pytest.approx(2 * math.pi * 0.05 / speed, rel=1e-15)
@@ -156,12 +168,13 @@ singularity_margin = 0.02
 singularity_guard = 0.005
 substeps = 3
 """)
-    s = load_scenario(path)
+    with pytest.warns(PkmlabDeprecationWarning, match=r"\[manipulator\] is deprecated"):
+        s = load_scenario(path)
     assert s.name == "mine"
-    np.testing.assert_array_equal(s.model.active_lengths, [0.25, 0.24, 0.26])
-    assert s.model.platform_side == 0.12
-    np.testing.assert_allclose(s.plant.active_masses, np.full(3, PAPER["mass_l"] * 1.1), rtol=1e-14)
-    np.testing.assert_array_equal(s.plant.active_lengths, s.model.active_lengths)  # length_scale defaults to 1
+    np.testing.assert_array_equal(paper_numbers(s.model)["l"], [0.25, 0.24, 0.26])
+    assert paper_numbers(s.model)["a"] == pytest.approx(0.12, rel=1e-15)
+    np.testing.assert_allclose(paper_numbers(s.plant)["mass_l"], np.full(3, PAPER["mass_l"] * 1.1), rtol=1e-14)
+    np.testing.assert_array_equal(paper_numbers(s.plant)["l"], paper_numbers(s.model)["l"])  # length_scale: 1
     np.testing.assert_array_equal(s.trajectory.points, [[0.2, 0.2, 0.0], [0.25, 0.2, 0.1], [0.25, 0.25, 0.0]])
     assert s.trajectory.law == "quintic" and s.trajectory.speed == 0.1
     assert s.controller == ControllerSpec("pd", kp=30.0, kv=1.5)
@@ -170,7 +183,7 @@ substeps = 3
     line = scenario_from_dict({"trajectory": {"type": "line", "start": [0.2, 0.2, 0], "end": [0.23, 0.24, 0.1],
                                               "speed": 0.05}}, "l.toml")
     assert line.trajectory.duration == pytest.approx(math.hypot(0.03, 0.04) / 0.05, rel=1e-14)
-    assert line.name == "l" and line.plant is None and line.model == Planar3RRR.paper()
+    assert line.name == "l" and line.plant is None and line.model == pkmlab.load("paper")
 
 
 @pytest.mark.parametrize("module", [pkmlab.scenario_io, pkmlab.io])
@@ -431,7 +444,7 @@ def test_simulate_fast_example_gives_the_library_summary(tmp_path, capsys, fast_
     duration = 2 * math.pi * 0.05 / 0.4
     np.testing.assert_allclose(table[:, 0], np.arange(len(table)) * 1e-3, rtol=0, atol=1e-12)
     assert abs(table[-1, 0] - duration) < 1e-3
-    assert load_manipulator(out / "plant.toml") == Planar3RRR.paper()
+    assert pkmlab.load(out / "plant.toml") == pkmlab.load("paper")
     assert sorted(p.name for p in out.iterdir()) == ["REPORT.md", "pkmlab-manifest.json", "plant.toml", "run.csv",
                                                      "scenario.toml", "summary.json"]
     assert (out / "scenario.toml").read_bytes() == (EXAMPLES / "fast.toml").read_bytes()
@@ -457,7 +470,7 @@ def test_simulate_disturbed_with_figures_and_json(tmp_path, capsys):
     # and the interactive page beside them, Plotly embedded, linked from the report
     assert "](REPORT.html)" in report and (out / "REPORT.html").stat().st_size > 4_000_000
     # plant.toml holds the real machine and reads back as exactly the same model
-    plant = load_manipulator(out / "plant.toml")
+    plant = pkmlab.load(out / "plant.toml")
     assert plant == paper_scenario("disturbed").plant
     _assert_plant(plant, 1.15, 1.15)
     assert (out / "plant.toml").stat().st_mode & 0o777 == 0o644
@@ -599,6 +612,7 @@ def test_fuzz_loader_with_edited_documents(fuzz_dir, data):
     _load_or_refuse(path)
 
 
+@pytest.mark.filterwarnings("ignore::pkmlab.errors.PkmlabDeprecationWarning")  # random [manipulator] tables
 @settings(max_examples=100, deadline=None)
 @given(doc=st.dictionaries(st.one_of(st.sampled_from(KNOWN_TABLES), st.text(max_size=6)),
                            st.one_of(st.dictionaries(keys, values, max_size=6), values), max_size=5))
@@ -628,5 +642,38 @@ def test_readme_scenario_example_loads():
     block = block[: block.index("```")]
     s = scenario_from_dict(tomllib.loads(block), "my_run.toml")
     assert s.name == "my_run" and s.trajectory.speed == 0.2 and s.controller.kp == 1000.0
-    np.testing.assert_array_equal(s.model.active_lengths, [0.25, 0.24, 0.26])
-    np.testing.assert_allclose(s.plant.active_lengths, np.array([0.25, 0.24, 0.26]) * 1.15, rtol=1e-14)
+    assert s.model == pkmlab.load("paper")
+    _assert_plant(s.plant, 1.15, 1.15)
+
+
+# ------------------------------------------------------------------ the deprecated [manipulator] table
+def test_a_manipulator_table_is_read_with_a_note_giving_the_mechanism_text(tmp_path, capsys):
+    """A pkmlab 0.2 scenario ([manipulator] with parameters) runs the same machine as the [mechanism] text its
+    deprecation note gives, and the command line says the note once the run has succeeded."""
+    old = tmp_path / "old.toml"
+    old.write_text('[manipulator]\npreset = "paper"\n[manipulator.params]\nl = [0.25, 0.24, 0.26]\n' + VALID
+                   + '[controller]\nsample_time = 0.005\n')
+    with pytest.warns(PkmlabDeprecationWarning) as caught:
+        scenario = load_scenario(old)
+    (warning,) = caught
+    message = str(warning.message)
+    assert message.startswith(f"{old}: [manipulator] is deprecated")
+    text = message[message.index("\n[mechanism]") + 1:]  # the equivalent description, as a scenario's table
+    new = tmp_path / "new.toml"
+    new.write_text(text + "\n" + VALID + '[controller]\nsample_time = 0.005\n')
+    assert load_scenario(new).model == scenario.model
+    np.testing.assert_array_equal(paper_numbers(scenario.model)["l"], [0.25, 0.24, 0.26])
+    code, out, err = run(capsys, "simulate", old, "--out", tmp_path / "run", "--no-figures", "--json")
+    assert code == 0, err
+    assert "note:" in err and "[manipulator] is deprecated" in err and "[mechanism]" in err
+    assert json.loads(out)["max_path_error_m"] == simulate(load_scenario(new)).summary()["max_path_error_m"]
+
+
+def test_summary_units_name_every_key_of_every_machine():
+    for scenario in (paper_scenario("nominal"), load_scenario(EXAMPLES / "five_bar_circle.toml"),
+                     load_scenario(EXAMPLES / "3prr_circle.toml")):
+        summary = simulate(scenario.replace(sample_time=0.004)).summary()
+        units = pkmlab.simulation.summary_units(scenario.model)
+        assert set(summary) <= set(units)
+        kinds = set(scenario.model.description.actuator_kinds)
+        assert units["peak_effort"] == {"R": "N*m", "P": "N"}[kinds.pop()]

@@ -19,9 +19,11 @@ from pkmlab.errors import (
     SingularityError,
     UnreachablePoseError,
 )
+from pkmlab.geometry import Planar3RRR
+from pkmlab.kinematics import coordinates_to_3rrr, desired_joint_motion
 from pkmlab.plant import ReducedPlant
 from pkmlab.simulation import COLUMNS, Scenario, paper_scenario, scaled_model, simulate
-from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory, desired_joint_motion, paper_trajectory
+from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory, paper_trajectory
 
 
 @pytest.fixture(scope="module")
@@ -106,13 +108,16 @@ def test_sampled_data_results_show_what_the_paper_reports(paper_runs):
 def test_sampled_run_is_self_consistent(paper, paper_runs):
     r = paper_runs["nominal"]
     assert r.t.size == 1572 and r.t[-1] == pytest.approx(1.571) and r.t[1] == pytest.approx(1e-3)
-    # the plant stays on its constraint manifold; reported pose and S come from its configuration
-    assert np.abs(kin.constraint_residual(paper, r.q)).max() < 1e-13
-    np.testing.assert_allclose(r.pose[:, :2], kin.platform_pose(paper, r.q)[:, :2], atol=1e-15)
-    np.testing.assert_allclose(r.S, kin.singularity_measure(paper, r.q), atol=1e-15)
+    # the plant stays on its constraint manifold; reported pose and S come from its configuration — checked in
+    # the paper's own formulation (its 7 coordinates: the generic 9 without the centroid x, y)
+    q7 = coordinates_to_3rrr(r.q)
+    assert np.abs(kin.constraint_residual(paper, q7)).max() < 1e-13
+    np.testing.assert_allclose(r.pose, kin.platform_pose(paper, q7), atol=1e-15)
+    np.testing.assert_allclose(r.q[:, 6:8], r.pose[:, :2], atol=0)
+    np.testing.assert_allclose(r.S, kin.singularity_measure(paper, q7), atol=1e-15)
     # torque really is the computed-torque law of conventions §5 evaluated at each sample
     k = 700
-    q_ctrl = kin.branch_following(paper, r.q[k], r.theta[k])
+    q_ctrl = kin.branch_following(paper, q7[k], r.theta[k])
     m_theta, c_theta = paper_dynamics.actuator_space_model(paper, q_ctrl, r.theta_dot[k])
     jm = desired_joint_motion(paper, paper_trajectory(0.2), (-1, 1, -1), r.t[k:k + 1])
     e = r.theta[k] - jm.theta[0]
@@ -130,7 +135,7 @@ def test_sampled_plant_matches_an_adaptive_reference(paper, paper_runs):
     def torque(t, theta, theta_dot):
         return held[min(int(t / 1e-3 + 1e-9), n - 1)]
 
-    q0 = r.q[0]
+    q0 = coordinates_to_3rrr(r.q[0])  # the paper's own formulation's 7 coordinates
     t_eval = r.t[:n]
     ref = ReducedPlant(paper, rtol=1e-12, atol=1e-13)
     # integrate sample by sample so that the discontinuities of τ fall on step boundaries
@@ -150,26 +155,31 @@ def test_pd_controller_runs_and_tracks_worse_than_computed_torque():
     assert pd.summary()["max_path_error_m"] > 10 * ct.summary()["max_path_error_m"]
 
 
-def test_preflight_refuses_a_path_out_of_the_workspace(paper):
+def test_preflight_refuses_a_path_out_of_the_workspace():
     far = Trajectory(Line((0.25, 0.2, 0.0), (0.9, 0.2, 0.0)), 0.2)
     with pytest.raises(UnreachablePoseError, match=r"leaves the workspace at t = "):
-        simulate(Scenario(paper, far))
+        simulate(Scenario(pkmlab.load("paper"), far))
 
 
-def test_preflight_refuses_a_path_near_a_singularity(paper):
-    with pytest.raises(SingularityError, match=r"closest at t = .* pose"):
-        simulate(Scenario(paper, paper_trajectory(0.2), singularity_margin=5.0))
+def test_preflight_refuses_a_path_near_a_singularity():
+    # min |S| along the paper's circle is 1.08 in its best mode and at most 1.42 anywhere on it
+    with pytest.raises(SingularityError, match=r"comes within 1\.08.* closest at t = .* pose"):
+        simulate(Scenario(pkmlab.load("paper"), paper_trajectory(0.2), singularity_margin=1.2))
+    with pytest.raises(SingularityError, match=r"the whole path lies within \|S\| < 5 "):
+        simulate(Scenario(pkmlab.load("paper"), paper_trajectory(0.2), singularity_margin=5.0))
 
 
 def test_scaled_model_follows_spec_section_7(paper):
-    m = scaled_model(paper, 1.15, 1.15)
-    np.testing.assert_allclose(m.active_lengths, 0.25 * 1.15)
-    np.testing.assert_allclose(m.passive_lengths, 0.1667 * 1.15)
-    assert m.platform_side == pytest.approx(0.125 * 1.15)
-    np.testing.assert_allclose(m.base_points, paper.base_points)
-    np.testing.assert_allclose(m.passive_masses, 0.312 * 1.15)
-    np.testing.assert_allclose(m.active_inertias, 2.438e-3 * 1.15**3)
-    np.testing.assert_allclose(m.active_com[:, 0], m.active_lengths / 2)
+    m = scaled_model(pkmlab.load("paper"), 1.15, 1.15).description
+    for leg, base in zip(m.legs, paper.base_points, strict=True):
+        active, passive = leg.bodies
+        np.testing.assert_allclose(leg.base, base)
+        assert np.hypot(*active.tip) == pytest.approx(0.25 * 1.15) and np.hypot(*passive.tip) == pytest.approx(
+            0.1667 * 1.15)
+        assert passive.mass == pytest.approx(0.312 * 1.15) and active.inertia == pytest.approx(2.438e-3 * 1.15**3)
+        np.testing.assert_allclose(active.com, np.array(active.tip) / 2)
+    att = np.array(m.platform.attachments)
+    assert np.linalg.norm(att[1] - att[0]) == pytest.approx(0.125 * 1.15)
 
 
 # ------------------------------------------------------------------ outputs
@@ -233,7 +243,7 @@ singularity_margin = {margin}
 
 @pytest.mark.parametrize("x_end, margin, pattern", [
     (0.9, 0.05, r"leaves the workspace at t = [0-9.]+ s.*leg"),
-    (0.3, 5.0, r"comes within [0-9.]+ of a gain-type singularity .* closest at t = [0-9.]+ s, pose \("),
+    (0.3, 1.3, r"comes within [0-9.]+ of a gain-type singularity .* closest at t = [0-9.]+ s, pose \("),
 ])
 def test_simulate_cli_refuses_bad_paths_before_running(tmp_path, capsys, x_end, margin, pattern):
     path = tmp_path / "bad.toml"
@@ -300,25 +310,23 @@ def test_batch_refuses_runs_of_different_lengths_and_names_a_failed_run():
 # ------------------------------------------------------------------ the plant's integrator
 def test_plant_integrator_is_fourth_order_and_one_step_per_sample_is_below_1e_12():
     """RK4 over one held-torque sample against DOP853 at rtol 1e-13, at the fast case's highest speed."""
-    from pkmlab.kinematics import coordinates_from_3rrr
-    from pkmlab.mechanism_model import MechanismModel
-
     fast = simulate(paper_scenario("fast"))
     k = int(np.argmax(np.abs(fast.theta_dot).max(axis=1)))
-    model = fast.scenario.model
+    machine = fast.scenario.model
+    model = Planar3RRR.paper()  # the reference: the paper's own formulation's plant
     q0, w0, tau = fast.q[k], fast.theta_dot[k], fast.tau[k]
     span = 4e-3  # four samples with the torque held, so the error is large enough to measure
-    ref = ReducedPlant(model, rtol=1e-13, atol=1e-15).simulate(q0, w0, tau, span, t_eval=[0.0, span])
+    ref = ReducedPlant(model, rtol=1e-13, atol=1e-15).simulate(coordinates_to_3rrr(q0), w0, tau, span,
+                                                                t_eval=[0.0, span])
     ref_state = np.concatenate([ref.q[-1, :3], ref.theta_dot[-1]])
     # the simulation's integrator: the compiled core's, on the kernels of the machine's description
-    machine = MechanismModel.from_3rrr(model)
     kernels = machine.kernels
     errors = []
     steps = (1, 2, 4, 8)
     for n_sub in steps:
         workspaces = kernels.make_workspaces(1)  # kept alive: ws points into it
         ws = workspaces[0]
-        kernels.set_base(ws, coordinates_from_3rrr(model, q0), machine.P)
+        kernels.set_base(ws, q0, machine.P)
         x = np.concatenate([q0[:3], w0])
         assert kernels.rk4_sample(ws, x, tau, machine.P, span, n_sub, 1e-3, np.empty((5, 6)), False) == kernels.OK
         errors.append(np.abs(x - ref_state).max())

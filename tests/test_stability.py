@@ -83,7 +83,7 @@ def no_loop(monkeypatch):
     def loop(*args):
         raise AssertionError("the run was simulated")
 
-    kernels = simulation.MechanismModel.from_3rrr(paper_scenario("nominal").model).kernels
+    kernels = paper_scenario("nominal").model.kernels
     monkeypatch.setattr(kernels, "sampled_data_loop", loop)
 
 

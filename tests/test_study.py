@@ -14,9 +14,7 @@ import pytest
 from conftest import run
 
 import pkmlab
-from pkmlab import kinematics as kin
 from pkmlab.errors import InvalidParameterError
-from pkmlab.geometry import Planar3RRR
 from pkmlab.mechanism_model import MechanismModel
 from pkmlab.scenario_io import load_scenario
 from pkmlab.study import Study, StudyError, StudyInterrupted, load_study, study_from_dict, sweep
@@ -75,7 +73,8 @@ def test_bad_study_files_are_refused(tmp_path):
         ({"base": base, "uncertainty": {"mass": 1.5}, "study": {"draws": 2}}, "a spread must be a number in [0, 1)"),
         ({"base": base, "grids": {}}, "did you mean 'grid'?"),
         ({"base": base, "uncertainty": {"length": [0.3, 0.4]}, "study": {"draws": 20}},
-         "none of the first 8 plants drawn (length in [0.3, 0.4]) can be assembled: the platform cannot be"),
+         "none of the first 8 plants drawn (length in [0.3, 0.4]) can be assembled: paper: the platform can be "
+         "assembled nowhere"),
         ({"base": base, "study": {"combine": "zip"}, "grid": {"controller.kp": [1.0, 2.0],
                                                                 "controller.kv": [1.0]}}, "as many values"),
     ]
@@ -127,24 +126,18 @@ def test_a_combination_that_is_no_scenario_is_a_failed_row_even_first():
 def test_drawn_plants_scale_the_mass_matrix(name):
     """Masses and inertias ×c, lengths unchanged: the same geometry, a mass matrix ×c (and gravity ×c) —
     an independent check that every body's mass and inertia went through."""
-    model = Planar3RRR.paper() if name == "paper" else MechanismModel.from_preset(name)
+    model = MechanismModel.from_preset(name)
     c = 1.3
     factors = {p: c for p in uncertain_parameters(model, ("mass", "inertia"))}
     plant = perturbed_plant(model, factors)
-    if name == "paper":
-        from pkmlab import dynamics
+    from pkmlab import mechanism_model as mm
 
-        q = kin.inverse_kinematics(model, [0.25, 0.21, 0.0]).q[0]
-        m0, m1 = (dynamics.actuator_space_model(m, q, np.zeros(3))[0] for m in (model, plant))
-    else:
-        from pkmlab import mechanism_model as mm
-
-        pose = {"3rpr": [0.25, 0.21, -1.5707963267948966], "delta": [0.02, -0.01, -0.75]}[name]
-        q = mm.inverse_kinematics(model, pose, mm.working_modes(model)[0])
-        zero = np.zeros(model.n_actuators)
-        (m0, _c0, g0), (m1, _c1, g1) = (mm.actuator_space_model(m, q, zero) for m in (model, plant))
-        np.testing.assert_allclose(g1, c * g0, rtol=1e-12, atol=1e-15)
-        assert perturbed_plant(model, {}).description == model.description
+    pose = {"paper": [0.25, 0.21, 0.0], "3rpr": [0.25, 0.21, -1.5707963267948966], "delta": [0.02, -0.01, -0.75]}[name]
+    q = mm.inverse_kinematics(model, pose, mm.working_modes(model)[0])
+    zero = np.zeros(model.n_actuators)
+    (m0, _c0, g0), (m1, _c1, g1) = (mm.actuator_space_model(m, q, zero) for m in (model, plant))
+    np.testing.assert_allclose(g1, c * g0, rtol=1e-12, atol=1e-15)
+    assert perturbed_plant(model, {}).description == model.description
     np.testing.assert_allclose(m1, c * m0, rtol=1e-12)
 
 

@@ -43,8 +43,9 @@ def test_the_view_draws_the_run_it_was_given(nominal_result):
     # each leg's links keep their lengths in every frame
     model = nominal_result.scenario.model
     links = np.linalg.norm(np.diff(view.joints, axis=2), axis=-1)
-    np.testing.assert_allclose(links[:, :, 0], np.broadcast_to(model.active_lengths, links[:, :, 0].shape), rtol=1e-12)
-    np.testing.assert_allclose(links[:, :, 1], np.broadcast_to(model.passive_lengths, links[:, :, 1].shape), rtol=1e-12)
+    for j in range(2):  # the actuated and the passive link of every leg: the lengths of their bodies' tips
+        lengths = [np.hypot(*leg.bodies[j].tip) for leg in model.description.legs]
+        np.testing.assert_allclose(links[:, :, j], np.broadcast_to(lengths, links[:, :, j].shape), rtol=1e-12)
     np.testing.assert_allclose(view.series["path error"][1]["|p - p_d|"], nominal_result.path_error, rtol=0, atol=0)
 
 

@@ -9,10 +9,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import as_count, as_mode, as_real
+from ._validate import as_count, as_real
 from .errors import InvalidParameterError, shown
-from .geometry import WORKING_MODES, Planar3RRR  # noqa: F401 (the examples below use it)
-from .kinematics import _model, inverse_kinematics
+from .mechanism_model import MechanismModel, path_inverse_kinematics, planar_extent, working_modes
 
 
 @dataclass(frozen=True)
@@ -38,31 +37,26 @@ class SingularityMap:
 MAX_RESOLUTION = 10_000
 
 
-def default_extent(model) -> tuple[tuple[float, float], tuple[float, float]]:
-    """A region covering the base and every leg's reach (for a described mechanism: its base points, rails
-    and strokes, grown by its longest leg)."""
-    if _is_machine(model):
-        from .mechanism_model import planar_extent
+def default_extent(model: MechanismModel) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A region covering the base and every leg's reach: the base points, rails and strokes, grown by a
+    quarter of the longest leg."""
+    _machine(model)
+    return planar_extent(model.description)
 
-        return planar_extent(model.description)
-    reach = float(np.max(model.active_lengths + model.passive_lengths))
-    lo = model.base_points.min(axis=0) - 0.25 * reach
-    hi = model.base_points.max(axis=0) + 0.25 * reach
-    return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
+
+def _machine(model) -> MechanismModel:
+    if not isinstance(model, MechanismModel):
+        raise InvalidParameterError(f"model must be a MechanismModel (pkmlab.load('paper'), ...), got "
+                                    f"{type(model).__name__} {shown(model, 50)}")
+    return model
 
 
 def _planar(model, what: str):
     """Refuse a spatial machine in a planar analysis (an x-y grid at one orientation alpha)."""
-    description = getattr(model, "description", None)
+    description = _machine(model).description
     if getattr(description, "spatial", False):
         raise InvalidParameterError(f"{what} is a planar machine's x-y grid at one orientation; the "
                                     f"{description.name} is spatial: use spatial_workspace (horizontal slices)")
-
-
-def _is_machine(model) -> bool:
-    from .mechanism_model import MechanismModel
-
-    return isinstance(model, MechanismModel)
 
 
 def _axis(name: str, bounds, default, resolution: int) -> np.ndarray:
@@ -83,7 +77,7 @@ def _grid(model, alpha, x_range, y_range, resolution, progress) -> tuple[np.ndar
     alpha = as_real("alpha", alpha)
     if progress is not None and not callable(progress):
         raise InvalidParameterError(f"progress must be a function of the number of rows done, got {shown(progress)}")
-    default_x, default_y = default_extent(model if _is_machine(model) else _model(model))
+    default_x, default_y = default_extent(model)
     x = _axis("x_range", x_range, default_x, int(resolution))
     y = _axis("y_range", y_range, default_y, int(resolution))
     return x, y, alpha
@@ -92,8 +86,6 @@ def _grid(model, alpha, x_range, y_range, resolution, progress) -> tuple[np.ndar
 def _machine_rows(model, x, y, alpha, modes, progress):
     """``S`` (rows, columns, modes) of a described mechanism's inverse kinematics over the grid, NaN out of
     reach, a row at a time."""
-    from .mechanism_model import path_inverse_kinematics
-
     dof = model.description.dof
     out = np.full((y.size, x.size, len(modes)), np.nan)
     for j, yj in enumerate(y):
@@ -103,19 +95,6 @@ def _machine_rows(model, x, y, alpha, modes, progress):
         if progress is not None:
             progress(1)
     return out
-
-
-def _inverse_kinematics_rows(model, x, y, alpha, mode, progress, rows_per_chunk: int = 16):
-    """Inverse kinematics over the grid, a block of rows at a time so that ``progress`` can report."""
-    parts = []
-    for start in range(0, y.size, rows_per_chunk):
-        yy, xx = np.meshgrid(y[start:start + rows_per_chunk], x, indexing="ij")
-        poses = np.stack([xx, yy, np.full_like(xx, alpha)], axis=-1)
-        parts.append(inverse_kinematics(model, poses, mode=mode, on_unreachable="nan"))
-        if progress is not None:
-            progress(yy.shape[0])
-    return (np.concatenate([p.S for p in parts], axis=0),
-            np.concatenate([p.unreachable_legs for p in parts], axis=0))
 
 
 def singularity_map(
@@ -129,27 +108,22 @@ def singularity_map(
 ) -> SingularityMap:
     """``S(φ)`` of inverse-kinematics solutions over an ``x``–``y`` grid (eq. 19, figure 3).
 
-    ``model`` is the paper's :class:`~pkmlab.geometry.Planar3RRR` or any
-    :class:`~pkmlab.mechanism_model.MechanismModel`; ``mode`` its working mode (default: the first,
-    ``(1, 1, 1)`` for the 3-RRR); ``alpha`` is ignored by a 2-DOF machine. ``progress``, when given, is
-    called with the number of grid rows just computed.
+    ``model`` is any planar :class:`~pkmlab.mechanism_model.MechanismModel`; ``mode`` its working mode (default:
+    the first, ``(1, 1, 1)`` for the paper's 3-RRR); ``alpha`` is ignored by a 2-DOF machine. ``progress``, when
+    given, is called with the number of grid rows just computed.
 
-    >>> m = singularity_map(Planar3RRR.paper(), resolution=11)
+    >>> from pkmlab import load
+    >>> m = singularity_map(load("paper"), resolution=11)
     >>> m.S.shape
     (11, 11)
     """
-    if _is_machine(model):
-        from .simulation import _machine_mode
+    from .simulation import scenario_working_mode
 
-        mode = _machine_mode(model, "auto" if mode is None else mode)
-        mode = _machine_modes(model)[0] if mode == "auto" else mode
-        _planar(model, "singularity_map")
-        x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
-        return SingularityMap(x, y, _machine_rows(model, x, y, alpha, [mode], progress)[..., 0], alpha, mode)
-    mode = tuple(int(m) for m in as_mode((1, 1, 1) if mode is None else mode))
+    _planar(model, "singularity_map")
+    mode = scenario_working_mode(model, "auto" if mode is None else mode, "mode")
+    mode = working_modes(model)[0] if mode == "auto" else mode
     x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
-    s, _unreachable = _inverse_kinematics_rows(model, x, y, alpha, mode, progress)
-    return SingularityMap(x, y, s, alpha, mode)
+    return SingularityMap(x, y, _machine_rows(model, x, y, alpha, [mode], progress)[..., 0], alpha, mode)
 
 
 @dataclass(frozen=True)
@@ -177,12 +151,6 @@ class Workspace:
         return float((self.x[1] - self.x[0]) * (self.y[1] - self.y[0]))
 
 
-def _machine_modes(model) -> list[tuple[int, ...]]:
-    from .mechanism_model import working_modes
-
-    return working_modes(model)
-
-
 def workspace(
     model,
     alpha: float = 0.0,
@@ -196,7 +164,8 @@ def workspace(
     The default region (:func:`default_extent`) covers the base and every leg's reach.
     ``progress``, when given, is called with the number of grid rows just computed.
 
-    >>> ws = workspace(Planar3RRR.paper(), alpha=0.0, resolution=41)
+    >>> from pkmlab import load
+    >>> ws = workspace(load("paper"), alpha=0.0, resolution=41)
     >>> ws.reachable.shape, ws.S.shape
     ((8, 41, 41), (8, 41, 41))
     >>> bool(np.all(ws.reachable == ws.reachable[0]))  # reach does not depend on the working mode
@@ -206,18 +175,11 @@ def workspace(
     """
     _planar(model, "workspace")
     x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
-    if _is_machine(model):
-        modes = _machine_modes(model)
-        s = np.moveaxis(_machine_rows(model, x, y, alpha, modes, progress), -1, 0)
-        reachable = np.isfinite(s)
-        area = reachable.sum(axis=(1, 2)) * float((x[1] - x[0]) * (y[1] - y[0]))
-        return Workspace(x, y, alpha, np.array(modes, dtype=np.int64).reshape(len(modes), -1), reachable, s, area)
-    s, unreachable = _inverse_kinematics_rows(model, x, y, alpha, None, progress)
-    reachable = np.moveaxis(unreachable == 0, -1, 0)
-    s = np.moveaxis(s, -1, 0)
-    cell = float((x[1] - x[0]) * (y[1] - y[0]))
-    area = reachable.sum(axis=(1, 2)) * cell
-    return Workspace(x, y, alpha, WORKING_MODES.copy(), reachable, s, area)
+    modes = working_modes(model)
+    s = np.moveaxis(_machine_rows(model, x, y, alpha, modes, progress), -1, 0)
+    reachable = np.isfinite(s)
+    area = reachable.sum(axis=(1, 2)) * float((x[1] - x[0]) * (y[1] - y[0]))
+    return Workspace(x, y, alpha, np.array(modes, dtype=np.int64).reshape(len(modes), -1), reachable, s, area)
 
 
 # ------------------------------------------------------------------ spatial machines
@@ -249,9 +211,9 @@ def spatial_workspace(model, mode=None, z_levels=None, resolution: int = 121, x_
     reach, :func:`~pkmlab.mechanism_model.spatial_extent`); ``mode`` defaults to the first working mode;
     ``orientation`` (roll, pitch, yaw) applies to a six-degree-of-freedom platform. ``progress`` is told
     each slice done."""
-    from .mechanism_model import path_inverse_kinematics, spatial_extent, working_modes
+    from .mechanism_model import spatial_extent
 
-    m = model.description
+    m = _machine(model).description
     modes = working_modes(model)
     mode = modes[0] if mode is None else tuple(int(v) for v in mode)
     if mode not in modes:

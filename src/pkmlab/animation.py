@@ -15,53 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from .errors import AssemblyError, BranchFollowingError
-from .geometry import Planar3RRR
-from .kinematics import branch_following, forward_kinematics, platform_pose
 from .outputs import atomic_file
 
 
-def rebuild_configurations(model: Planar3RRR, theta, pose0) -> np.ndarray:
-    """Configurations ``q`` (N, 7) continuously following recorded actuated angles ``theta`` (N, 3).
-
-    The first is the assembly mode whose platform pose is nearest ``pose0 = (x, y, α)``; each
-    next one is on the same branch as the previous (:func:`~pkmlab.kinematics.branch_following`).
-
-    >>> from pkmlab.kinematics import inverse_kinematics
-    >>> model = Planar3RRR.paper()
-    >>> poses = [[0.20, 0.21, 0.0], [0.21, 0.21, 0.0], [0.22, 0.20, 0.05]]
-    >>> ik = inverse_kinematics(model, poses, mode=(-1, 1, -1))
-    >>> q = rebuild_configurations(model, ik.theta, poses[0])
-    >>> bool(np.allclose(q, ik.q, atol=1e-9))
-    True
-    """
-    theta = np.asarray(theta, dtype=float)
-    fk = forward_kinematics(model, theta[0])
-    if len(fk) == 0:
-        raise AssemblyError(
-            f"the first sample's theta = {np.round(theta[0], 6).tolist()} cannot be assembled with this "
-            "manipulator: is it the one that produced the run?"
-        )
-    q = np.empty((theta.shape[0], 7))
-    q[0] = fk.nearest(pose0).q
-    for k in range(1, theta.shape[0]):
-        try:
-            q[k] = branch_following(model, q[k - 1], theta[k])
-        except BranchFollowingError as exc:
-            raise BranchFollowingError(f"sample {k + 1}: {exc}") from None
-    return q
-
-
-def _legs(model: Planar3RRR, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Elbows ``e`` and platform vertices ``p``, each (N, 3, 2), of configurations ``q`` (N, 7)."""
-    b = model.base_points
-    e = b + model.active_lengths[:, None] * np.stack([np.cos(q[:, :3]), np.sin(q[:, :3])], axis=-1)
-    p = e + model.passive_lengths[:, None] * np.stack([np.cos(q[:, 3:6]), np.sin(q[:, 3:6])], axis=-1)
-    return e, p
-
-
 def _segments(start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """x and y of three segments start[i]–end[i] as one polyline broken by NaN."""
-    pts = np.full((9, 2), np.nan)
+    """x and y of the segments start[i]–end[i] as one polyline broken by NaN."""
+    pts = np.full((3 * len(start), 2), np.nan)
     pts[0::3], pts[1::3] = start, end
     return pts[:, 0], pts[:, 1]
 
@@ -87,10 +46,11 @@ def _canvas_pillow_writer(fps: int):
     return CanvasPillowWriter(fps=fps)
 
 
-def write_gif(model: Planar3RRR, t, q, desired_xy, path: str | os.PathLike, frames: Sequence[int],
+def write_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: Sequence[int],
               fps: int = 20, title: str = "", dpi: int = 90,
               on_frame: Callable[[], None] | None = None) -> Path:
-    """Draw configurations ``q[frames]`` into an animated GIF at ``path`` (written atomically).
+    """Draw configurations ``q[frames]`` of a planar machine of three-joint legs (the paper's 3-RRR:
+    :func:`~pkmlab.plotting.three_joint_planar`) into an animated GIF at ``path`` (written atomically).
 
     Each frame shows the base, the legs (active links bold), the platform, the desired path
     ``desired_xy`` (N, 2) dashed, the trail of the centroid up to that sample and the time
@@ -108,9 +68,11 @@ def write_gif(model: Planar3RRR, t, q, desired_xy, path: str | os.PathLike, fram
     q = np.asarray(q, dtype=float)
     desired_xy = np.asarray(desired_xy, dtype=float)
     frames = [int(k) for k in frames]
-    e, p = _legs(model, q)
-    centroid = platform_pose(model, q)[:, :2]
-    b = model.base_points
+    from .mechanism_model import joint_positions
+
+    points = joint_positions(model, q)
+    b, e, p = points[0, :, 0], points[:, :, 1], points[:, :, 2]
+    centroid = q[:, -3:-1]
 
     fig, ax = plt.subplots(figsize=(6.0, 5.6), dpi=dpi, layout="constrained")
     try:
@@ -153,7 +115,7 @@ def write_gif(model: Planar3RRR, t, q, desired_xy, path: str | os.PathLike, fram
             platform.set_xy(p[k])
             centre.set_data([centroid[k, 0]], [centroid[k, 1]])
             trail.set_data(centroid[: k + 1, 0], centroid[: k + 1, 1])
-            clock.set_text(f"t = {t[k]:7.3f} s\nα = {round(q[k, 6], 4) + 0.0:+.4f} rad")
+            clock.set_text(f"t = {t[k]:7.3f} s\nα = {round(q[k, -1], 4) + 0.0:+.4f} rad")
             fig.canvas.restore_region(background)
             for artist in moving:
                 ax.draw_artist(artist)
@@ -179,10 +141,21 @@ def _write_frames(fig, writer, path: Path, frames, draw: Callable[[int], None], 
 
 
 # ------------------------------------------------------------------ any described mechanism
-def rebuild_machine_configurations(model, theta, pose0) -> np.ndarray:
-    """:func:`rebuild_configurations` for a described mechanism
-    (:class:`~pkmlab.mechanism_model.MechanismModel`): the assembly mode nearest ``pose0`` at the first
-    sample, then branch following (:func:`~pkmlab.mechanism_model.branch_following`)."""
+def rebuild_configurations(model, theta, pose0) -> np.ndarray:
+    """Configurations ``q`` (N, n_coordinates) continuously following recorded actuator values ``theta`` (N, n).
+
+    The first is the assembly mode whose platform pose is nearest ``pose0`` (a six-degree-of-freedom
+    platform's: the inverse kinematics of ``pose0``, checked against ``theta[0]``); each next one is on the
+    same branch as the previous (:func:`~pkmlab.mechanism_model.branch_following`, paper §3.2).
+
+    >>> from pkmlab import inverse_kinematics, load
+    >>> model = load("paper")
+    >>> poses = [[0.20, 0.21, 0.0], [0.21, 0.21, 0.0], [0.22, 0.20, 0.05]]
+    >>> ik = inverse_kinematics(model, poses, mode=(-1, 1, -1))
+    >>> q = rebuild_configurations(model, ik.theta, poses[0])
+    >>> bool(np.allclose(q, ik.q, atol=1e-9))
+    True
+    """
     from . import mechanism_model as mm
 
     theta = np.asarray(theta, dtype=float)

@@ -55,6 +55,11 @@ class IncompleteSolutionWarning(UserWarning):
     kinematics near a double root): the message says where."""
 
 
+class PkmlabDeprecationWarning(FutureWarning):
+    """An input pkmlab still reads but will stop reading (a ``[manipulator]`` table, ...): the message says
+    what to write instead. A FutureWarning, so that Python shows it by default."""
+
+
 def shown(value, limit: int = 80) -> str:
     """``repr(value)`` on one line, shortened: whatever a user passes, the message stays one line."""
     try:

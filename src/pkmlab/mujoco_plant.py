@@ -26,12 +26,9 @@ from .simulation import (
     Scenario,
     SimulationResult,
     _branch_failure,
-    _loop_coordinates,
-    _loop_model,
     _pose_text,
     _prepare,
     _result,
-    _scenario_coordinates,
 )
 
 INTEGRATORS = ("RK4", "implicitfast", "implicit", "Euler")
@@ -75,9 +72,8 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
         raise InvalidParameterError(f"the MuJoCo integrator must be one of {', '.join(INTEGRATORS)}, got "
                                     f"{integrator!r}")
     prep = _prepare(scenario)
-    ctrl, plant = _loop_model(scenario.model), _loop_model(scenario.plant_model)
-    q_plant0 = _loop_coordinates(scenario.plant_model, prep.q_plant0)
-    q_ctrl = _loop_coordinates(scenario.model, prep.q_ctrl0).copy()
+    ctrl, plant = scenario.model, scenario.plant_model
+    q_plant0, q_ctrl = prep.q_plant0, prep.q_ctrl0.copy()
     model = mujoco.MjModel.from_xml_string(mx.mjcf(plant, q_plant0, timestep=step, integrator=integrator,
                                                    closures=closures))
     data = mujoco.MjData(model)
@@ -118,5 +114,5 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                                        "or another integrator")
     plant.kernels.singularity_measures(q, plant.P, s)  # of every recorded configuration, at once
     pose = q[:, -plant.description.dof:].copy()
-    result = _result(scenario, prep, _scenario_coordinates(scenario.model, q), theta_dot, tau, pose, s)
+    result = _result(scenario, prep, q, theta_dot, tau, pose, s)
     return replace(result, closure_violation=violation)

@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 
 from .analysis import SingularityMap, Workspace
-from .geometry import Planar3RRR
 
 
 def _axes(ax):
@@ -26,9 +25,7 @@ def _sign(m: int) -> str:
 
 
 def _base_points(model) -> np.ndarray:
-    """The base pivots (3-RRR) or the legs' base points (a described mechanism), (n, 2)."""
-    if isinstance(model, Planar3RRR):
-        return model.base_points
+    """The legs' base points, (n, 2)."""
     return np.array([leg.base for leg in model.description.legs], dtype=float)
 
 
@@ -122,16 +119,29 @@ def plot_workspace(ws: Workspace, model=None, fig=None):
 
 
 # ------------------------------------------------------------------ closed-loop results
-def plot_configuration(model: Planar3RRR, q, ax=None, title: str | None = None):
-    """Draw the mechanism at configuration ``q``: base, legs (active bold), platform (paper figure 4)."""
+def three_joint_planar(model) -> bool:
+    """Whether ``model`` is a planar machine of three-joint legs on a rigid platform (the paper's 3-RRR and its
+    kin): what :func:`plot_configuration` and :func:`~pkmlab.animation.write_gif` draw in the paper's style."""
+    m = model.description
+    return not getattr(m, "spatial", False) and m.platform.kind == "rigid" and all(len(leg.joints) == 3
+                                                                                  for leg in m.legs)
+
+
+def plot_configuration(model, q, ax=None, title: str | None = None):
+    """Draw a planar machine of three-joint legs (the paper's 3-RRR) at configuration ``q`` as the paper's
+    figure 4 does: base triangle, actuated links bold, passive links, platform, centroid; any other machine
+    as :func:`draw_mechanism` draws it."""
+    from . import mechanism_model as mm
+
+    if not three_joint_planar(model):
+        return draw_mechanism(model, q, ax=ax, title=title)
     ax = _axes(ax)
     q = np.asarray(q, dtype=float)
-    b = model.base_points
-    e = b + model.active_lengths[:, None] * np.stack([np.cos(q[:3]), np.sin(q[:3])], axis=-1)
-    p = e + model.passive_lengths[:, None] * np.stack([np.cos(q[3:6]), np.sin(q[3:6])], axis=-1)
+    points = mm.joint_positions(model, q)
+    b, e, p = points[:, 0], points[:, 1], points[:, 2]
     tri = np.vstack([b, b[:1]])
     ax.plot(tri[:, 0], tri[:, 1], "k--", lw=0.8, label="base")
-    for i in range(3):
+    for i in range(len(b)):
         ax.plot([b[i, 0], e[i, 0]], [b[i, 1], e[i, 1]], color="tab:blue", lw=3,
                 label="active links" if i == 0 else None)
         ax.plot([e[i, 0], p[i, 0]], [e[i, 1], p[i, 1]], color="tab:orange", lw=2,
@@ -142,13 +152,13 @@ def plot_configuration(model: Planar3RRR, q, ax=None, title: str | None = None):
     ax.fill(plat[:, 0], plat[:, 1], color="tab:green", alpha=0.4, label="platform")
     ax.plot(b[:, 0], b[:, 1], "ks", ms=7)
     ax.plot(e[:, 0], e[:, 1], "o", color="tab:blue", ms=5)
-    centroid = p.mean(axis=0)
-    ax.plot(*centroid, "k+", ms=10)
+    x, y, alpha = q[-3:]
+    ax.plot(x, y, "k+", ms=10)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(title or f"configuration at x = {centroid[0]:.3f} m, y = {centroid[1]:.3f} m, α = {q[6]:.3f} rad")
+    ax.set_title(title or f"configuration at x = {x:.3f} m, y = {y:.3f} m, α = {alpha:.3f} rad")
     return ax
 
 
@@ -276,10 +286,9 @@ def plot_path_3d(result, ax=None):
 
 def plot_start_configuration(result, ax=None):
     """The plant at the start of the run, drawn as it is (:func:`draw_mechanism`, :func:`draw_spatial_mechanism`,
-    or :func:`plot_configuration` for the paper's 3-RRR)."""
+    for a spatial machine)."""
     plant = result.scenario.plant_model
-    draw = (plot_configuration if isinstance(plant, Planar3RRR) else
-            draw_spatial_mechanism if getattr(plant.description, "spatial", False) else draw_mechanism)
+    draw = draw_spatial_mechanism if getattr(plant.description, "spatial", False) else draw_mechanism
     return draw(plant, result.q[0], ax=ax, title=f"the machine at the start ({_case(result)})")
 
 

@@ -7,7 +7,7 @@ temporary folder beside the target and moved into place only when everything suc
 or Ctrl-C leaves no half-written results.
 
 :func:`simulation_report` does the same for one scenario (``pkmlab simulate``): ``summary.json``,
-``run.csv``, ``plant.toml`` (the real machine's parameters), five figures, ``REPORT.md`` and
+``run.csv``, ``plant.toml`` (the real machine's description), its figures, ``REPORT.md`` and
 ``REPORT.html``.
 """
 
@@ -60,13 +60,9 @@ RUN_FIGURES = (
 
 
 def run_figures(scenario: Scenario) -> tuple[tuple[str, str, str], ...]:
-    """The figures of one run: :data:`RUN_FIGURES` for the paper's 3-RRR; for a described mechanism the
-    same, its efforts named as they are, without the orientation for a 2-DOF machine, and a drawing of
-    the machine at the start."""
-    from .mechanism_model import MechanismModel
-
-    if not isinstance(scenario.model, MechanismModel):
-        return RUN_FIGURES
+    """The figures of one run: a drawing of the machine at the start, then :data:`RUN_FIGURES`, its efforts
+    named as they are, without the orientation for a machine whose pose has no ``alpha``, the path in space
+    for a spatial machine."""
     kinds = simulation.actuator_kinds(scenario.model)
     m = scenario.model.description
     spatial = getattr(m, "spatial", False)
@@ -82,27 +78,31 @@ def run_figures(scenario: Scenario) -> tuple[tuple[str, str, str], ...]:
     return tuple(out)
 
 
-def case_scenarios(control: str = "sampled", manipulator: dict | None = None) -> dict[str, Scenario]:
+def case_scenarios(control: str = "sampled", mechanism=None) -> dict[str, Scenario]:
     """The paper's three cases (conventions §7), with sampled-data or continuous-time control.
 
-    ``manipulator`` (a ``[manipulator]`` table: ``preset`` and ``params``, as
-    :func:`~pkmlab.io.read_manipulator_table` reads it from a parameter file) puts the cases on
-    another machine: it becomes the controller's model, and the plant of each case is derived
-    from it as the case's scenario file says (``disturbed``: masses and lengths ×1.15).
+    ``mechanism`` (anything :func:`pkmlab.load` takes; default the paper's) puts the cases on another
+    machine whose pose is ``(x, y, alpha)``: it becomes the controller's model, and the plant of each case
+    is derived from it as the case's scenario file says (``disturbed``: masses and lengths ×1.15).
     """
     from ._files import read_toml
-    from .scenario_io import scenario_from_dict
+    from .mechanism_model import load
+    from .simulation import scaled_model
 
     if control not in ("sampled", "continuous"):
         raise PkmlabError(f"control must be 'sampled' or 'continuous', got {control!r}")
+    model = None if mechanism is None else load(mechanism)
     scenarios = {}
     for name in PAPER_CASES:
-        if manipulator is None:
-            scenario = paper_scenario(name)
-        else:
-            data = read_toml(simulation.SCENARIO_DIR / f"{name}.toml")
-            data["manipulator"] = manipulator
-            scenario = scenario_from_dict(data, f"case {name} on your manipulator", name)
+        scenario = paper_scenario(name)
+        if model is not None:
+            plant = read_toml(simulation.SCENARIO_DIR / f"{name}.toml").get("plant", {})
+            mass, length = plant.get("mass_scale", 1.0), plant.get("length_scale", 1.0)
+            try:
+                scenario = scenario.replace(model=model, plant=None if mass == length == 1.0 else
+                                            scaled_model(model, mass, length))
+            except PkmlabError as exc:
+                raise type(exc)(f"case {name} on {model.name}: {exc}") from None
         if control == "continuous":
             scenario = scenario.replace(sample_time=0.0)
         scenarios[name] = scenario
@@ -120,7 +120,7 @@ def run_cases(scenarios: dict[str, Scenario]) -> dict[str, SimulationResult]:
     return results
 
 
-def provenance(control: str, sample_time: float, manipulator_source: str) -> dict:
+def provenance(control: str, sample_time: float, mechanism_source: str) -> dict:
     """How a result was made: pkmlab's version, the control mode, the machine, the software."""
     import platform
 
@@ -133,7 +133,7 @@ def provenance(control: str, sample_time: float, manipulator_source: str) -> dic
         "pkmlab_version": __version__,
         "control": control,
         "sample_time_s": sample_time if control == "sampled" else None,
-        "manipulator": manipulator_source,
+        "mechanism": mechanism_source,
         "python": platform.python_version(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
@@ -168,7 +168,7 @@ def _provenance_lines(prov: dict) -> list[str]:
         "| how this was made | |",
         "| --- | --- |",
         f"| control | {control} |",
-        f"| manipulator | {prov['manipulator']} |",
+        f"| mechanism | {prov['mechanism']} |",
         *([f"| scenario | {prov['scenario']} |"] if "scenario" in prov else []),
         *([f"| plant | {prov['plant']} |"] if "plant" in prov else []),
         f"| software | pkmlab {prov['pkmlab_version']}, Python {prov['python']}, NumPy {prov['numpy']}, "
@@ -179,16 +179,16 @@ def _provenance_lines(prov: dict) -> list[str]:
 
 def _report(results: dict, summary: dict, figures: bool, prov: dict) -> str:
     nominal = summary["nominal"]
-    paper = prov["parameter_file"] is None
+    paper = prov["mechanism"] == PAPER_MECHANISM
     lines = [
         "# pkmlab: reproduction of the paper's simulated cases" if paper
-        else "# pkmlab: the paper's simulated cases on another manipulator",
+        else "# pkmlab: the paper's simulated cases on another machine",
         "",
         "Planar 3-RRR, computed-torque control (kp = 1000, kv = 2√kp), the circle of conventions §4. "
         "Path error: distance between the plant's actual centroid (its own geometry) and the desired one.",
         "",
-        *([] if paper else ["**These are not the paper's numbers**: the cases run on the manipulator of "
-                            f"{prov['manipulator']} (`manipulator.toml`; each case's plant in "
+        *([] if paper else ["**These are not the paper's numbers**: the cases run on the machine of "
+                            f"{prov['mechanism']} (`mechanism.toml`; each case's plant in "
                             "`<case>_plant.toml`).", ""]),
         *_provenance_lines(prov),
         "| case | speed (m/s) | max path error (mm) | rms path error (mm) | max α error (rad) | "
@@ -205,7 +205,7 @@ def _report(results: dict, summary: dict, figures: bool, prov: dict) -> str:
             f"{ratio:.2f} | {s['min_abs_S']:.3f} | {tuple(s['working_mode'])} |"
         )
     lines += ["", "Data: `summary.json`, `nominal.csv`, `disturbed.csv`, `fast.csv` (one row per sample); the "
-              "controller's model in `manipulator.toml` and each case's plant in `<case>_plant.toml`.", ""]
+              "controller's model in `mechanism.toml` and each case's plant in `<case>_plant.toml`.", ""]
     if figures:
         lines += ["## Figures", "", "[`REPORT.html`](REPORT.html): the three runs interactive — each machine animated "
                   "beside its time series (open it in a browser; it works offline).", ""]
@@ -215,39 +215,46 @@ def _report(results: dict, summary: dict, figures: bool, prov: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-#: How the report names the paper's own manipulator.
-PAPER_MANIPULATOR = "the paper's (its section 5)"
+#: How the report names the paper's own machine.
+PAPER_MECHANISM = "the paper's (its section 5)"
 
 
 def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures: bool = True,
-              progress: Callable[[str], None] | None = None, params: str | os.PathLike | None = None,
-              note: Callable[[str], None] | None = None) -> dict:
+              progress: Callable[[str], None] | None = None, mechanism=None,
+              note: Callable[[str], None] | None = None, source: str | os.PathLike | None = None) -> dict:
     """Run the three cases and write their results into ``out``; return the summary dict.
 
-    ``params`` (a parameter file) runs the cases on that manipulator instead of the paper's; the
-    report says so in its title. ``summary.json`` records how the results were made
-    (``"provenance"``: control mode, sample time, manipulator, versions). ``note`` is told when an
-    earlier result is replaced (:func:`~pkmlab.outputs.atomic_output_dir`).
+    ``mechanism`` (a preset's name, a description file, a description or a model: :func:`pkmlab.load`) runs
+    the cases on that machine instead of the paper's; the report says so in its title. ``summary.json``
+    records how the results were made (``"provenance"``: control mode, sample time, mechanism, versions).
+    ``note`` is told when an earlier result is replaced (:func:`~pkmlab.outputs.atomic_output_dir`).
+    ``source``, the file the machine was read from (by default ``mechanism`` when it is a file's name), is
+    named in the provenance and may not lie inside ``out``.
     """
-    from .io import manipulator_to_toml, read_manipulator_table
+    from .mechanisms.description import mechanism_to_toml
 
     say = progress or (lambda _msg: None)
-    manipulator = None if params is None else read_manipulator_table(params)
-    scenarios = case_scenarios(control, manipulator)  # a bad parameter file is refused before anything is written
-    prov = {**provenance(control, scenarios["nominal"].sample_time or 1e-3,
-                         PAPER_MANIPULATOR if params is None else f"your parameter file {params}"),
-            "parameter_file": None if params is None else str(params)}
-    with atomic_output_dir(out, "reproduce", inputs=[params] if params else [], provenance=prov, note=note) as tmp:
+    scenarios = case_scenarios(control, mechanism)  # a bad machine is refused before anything is written
+    if source is None and isinstance(mechanism, str | os.PathLike) and Path(mechanism).suffix == ".toml":
+        source = mechanism
+    from .mechanism_model import load
+
+    given = scenarios["nominal"].model != load("paper")  # the paper's own machine, however it was given
+    name = f"your file {source}" if source is not None else f"the {scenarios['nominal'].model.name} preset"
+    prov = provenance(control, scenarios["nominal"].sample_time or 1e-3, name if given else PAPER_MECHANISM)
+    inputs = [source] if source is not None else []
+    with atomic_output_dir(out, "reproduce", inputs=inputs, provenance=prov, note=note) as tmp:
         say(f"simulating the paper's cases ({control} control) ...")
         results = run_cases(scenarios)
         summary = {"cases": {name: results[name].summary() for name in PAPER_CASES}, "provenance": prov}
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        (tmp / "manipulator.toml").write_text(manipulator_to_toml(
-            scenarios["nominal"].model, "The controller's model of the paper's cases, written by pkmlab."))
+        (tmp / "mechanism.toml").write_text(mechanism_to_toml(
+            scenarios["nominal"].model.description, "The controller's model of the paper's cases, written by pkmlab."))
         for name, result in results.items():
             result.to_csv(tmp / f"{name}.csv")
-            (tmp / f"{name}_plant.toml").write_text(manipulator_to_toml(
-                result.scenario.plant_model, f"The plant (the real machine) of case {name!r}, written by pkmlab."))
+            (tmp / f"{name}_plant.toml").write_text(mechanism_to_toml(
+                result.scenario.plant_model.description,
+                f"The plant (the real machine) of case {name!r}, written by pkmlab."))
         if figures:
             import matplotlib
 
@@ -267,7 +274,7 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
 
             write_html(tmp / "REPORT.html", [RunView.from_result(results[name], name, (
                 SCENARIO_DIR / f"{name}.toml").read_text()) for name in PAPER_CASES],
-                "pkmlab reproduce: the paper's three cases", note=f"Manipulator: {prov['manipulator']}; "
+                "pkmlab reproduce: the paper's three cases", note=f"Mechanism: {prov['mechanism']}; "
                 f"{prov['control']} control.")
             say("wrote the interactive report")
     say(f"wrote {out}/")
@@ -291,10 +298,9 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
     timing = (f"{traj.law} time law per segment" if hasattr(traj, "durations")
               else f"average speed {traj.speed:g} m/s, {traj.law} time law")
     spec = scenario.controller
-    machine = getattr(scenario.model, "description", None)
+    machine = scenario.model.description
     return [
-        *([("machine", f"{machine.name} ({machine.notation}), pose ({', '.join(machine.pose_names)})")]
-          if machine is not None else []),
+        ("machine", f"{machine.name} ({machine.notation}), pose ({', '.join(machine.pose_names)})"),
         ("trajectory", f"{shape}; {timing}, duration {traj.duration:.4g} s"),
         ("controller", f"{spec.kind}, kp = {spec.kp:g}, kv = {spec.velocity_gain:.4g}"),
         ("plant", "identical to the controller's model" if scenario.plant is None
@@ -310,7 +316,7 @@ def _summary_table(result: SimulationResult, s: dict) -> list[str]:
     joint_unit = "rad" if kinds == {"R"} else ("m" if kinds == {"P"} else "rad or m")
     effort = "peak torques (N·m)" if kinds == {"R"} else ("peak forces (N)" if kinds == {"P"} else "peak efforts")
     alpha = "max_orientation_error_rad" in s
-    spatial = getattr(getattr(result.scenario.model, "description", None), "spatial", False)
+    spatial = getattr(result.scenario.model.description, "spatial", False)
     turn = "max orientation error (rad)" if spatial else "max α error (rad)"
     head = (["max path error (mm)", "rms path error (mm)"] + ([turn] if alpha else [])
             + [f"max joint error ({joint_unit})", effort, "min abs(S)", "working mode"])
@@ -360,14 +366,11 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
     ``out``; its text (``source_text``, as it was read, else read again) is kept as ``scenario.toml``.
     """
     from ._files import read_text
-    from .geometry import Planar3RRR
-    from .io import manipulator_to_toml
     from .mechanisms.description import mechanism_to_toml
 
     text = source_text if source_text is not None or source is None else read_text(Path(source))
     control = "sampled" if scenario.sample_time > 0 else "continuous"
-    table = "[mechanism]" if hasattr(scenario.model, "description") else "[manipulator]"
-    prov = {**provenance(control, scenario.sample_time, f"the scenario's {table}; the plant in plant.toml"),
+    prov = {**provenance(control, scenario.sample_time, "the scenario's [mechanism]; the plant in plant.toml"),
             **({"scenario": str(source)} if source is not None else {})}
     if mujoco is not None:
         prov["plant"] = (f"MuJoCo, time step {mujoco.get('timestep') or min(scenario.sample_time, 1e-3):g} s, "
@@ -389,9 +392,7 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
             (tmp / "scenario.toml").write_text(text)
         result.to_csv(tmp / "run.csv")
         comment = f"The plant (the real machine) of scenario {scenario.name!r}, written by pkmlab."
-        plant = scenario.plant_model
-        (tmp / "plant.toml").write_text(manipulator_to_toml(plant, comment) if isinstance(plant, Planar3RRR)
-                                        else mechanism_to_toml(plant.description, comment))
+        (tmp / "plant.toml").write_text(mechanism_to_toml(scenario.plant_model.description, comment))
         if figures:
             import matplotlib
 

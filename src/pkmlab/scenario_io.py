@@ -2,14 +2,12 @@
 
 Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is optional::
 
-    [manipulator]               # the controller's model (see pkmlab.io); default: the paper's
-    preset = "paper"
-    [manipulator.params]        # optional overrides: b, l, r, a, mass_l, mass_r, mass_a,
-    l = [0.25, 0.24, 0.26]      # inertia_l, inertia_r, inertia_a (per-leg lists), base_points
+    [mechanism]                 # the controller's model; default: the paper's 3-RRR
+    preset = "paper"            # a preset, or file = "my_machine.toml", or a description inline
 
     [plant]                     # the real machine relative to the model (conventions §7)
     mass_scale = 1.15           # masses ×; inertias × mass_scale·length_scale²
-    length_scale = 1.15         # link lengths l, r, a ×; the base is unchanged
+    length_scale = 1.15         # the bodies' and platform's lengths ×; the base is unchanged
 
     [trajectory]
     type = "circle"             # circle | line | waypoints
@@ -35,6 +33,10 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     singularity_guard = 0.01    # stop a run when the plant's |S| falls below this
     substeps = 1                # Runge-Kutta (RK4) steps per sample
 
+A ``[manipulator]`` table (the paper's 3-RRR with ``preset`` and ``[manipulator.params]`` overrides of
+pkmlab 0.2) is still read, with a :class:`~pkmlab.errors.PkmlabDeprecationWarning` that gives the
+equivalent ``[mechanism]`` text.
+
 Every problem — a missing file, malformed TOML (with its line), an unknown table or key (the
 closest valid one is suggested), a wrong type, a value that is not finite or out of range, a
 missing required key — is a :class:`~pkmlab.errors.PkmlabError` whose one-line message names
@@ -46,18 +48,18 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from ._files import parse_toml, read_toml
 from ._format import apart
-from ._validate import as_mode
 from .control import CONTROLLER_TYPES, ControllerSpec
-from .errors import FileFormatError, InvalidParameterError, PkmlabError, shown
-from .geometry import Planar3RRR
+from .errors import FileFormatError, InvalidParameterError, PkmlabDeprecationWarning, PkmlabError, shown
 from .io import PARAM_KEYS, PRESETS, manipulator_from_dict
-from .simulation import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
+from .mechanism_model import MechanismModel, load
+from .simulation import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model, scenario_working_mode
 from .trajectory import Circle, Line, TimedWaypoints, Trajectory, WaypointTrajectory
 
 #: The tables of a scenario file and their keys.
@@ -221,18 +223,24 @@ def _manipulator(rd: _Reader, table: dict):
                 rd.vector(point, f"{where}[{i}]", 2, "[x, y]")
     if "b" in params and "base_points" in params:
         raise rd.format_error("[manipulator.params] has both b and base_points: give one of them")
-    return manipulator_from_dict({"preset": preset, "params": params}, f"{rd.source}: [manipulator.params]")
+    if not params:
+        model, text = load("paper"), '[mechanism]\npreset = "paper"\n'
+    else:
+        from .mechanisms.description import mechanism_to_toml
+
+        description = manipulator_from_dict({"preset": preset, "params": params},
+                                            f"{rd.source}: [manipulator.params]").to_mechanism()
+        model, text = MechanismModel.from_description(description), mechanism_to_toml(description)
+    warnings.warn(f"{rd.source}: [manipulator] is deprecated and will not be read by pkmlab 0.4; write the machine "
+                  f"as [mechanism] instead:\n{text.rstrip()}", PkmlabDeprecationWarning, stacklevel=4)
+    return model
 
 
 def _mechanism(rd: _Reader, table: dict, folder: Path):
     """The controller's model of a ``[mechanism]`` table: ``preset = "NAME"``, ``file = "PATH"`` (a
-    mechanism file, relative to the scenario's folder) or a description inline. The paper's preset is
-    served by pkmlab's 3-RRR model (the same numbers, and the paper's reproduction's report)."""
-    from .mechanism_model import MechanismModel
+    mechanism file, relative to the scenario's folder) or a description inline."""
     from .mechanisms.description import load_mechanism, mechanism_from_dict
 
-    if set(table) == {"preset"} and table["preset"] == "paper":
-        return manipulator_from_dict({"preset": "paper"}, f"{rd.source}: [mechanism]")
     try:
         if "file" in table:
             others = sorted(set(table) - {"file"})
@@ -255,13 +263,6 @@ def _plant(rd: _Reader, table: dict, model):
         return None
     try:
         with np.errstate(all="ignore"):
-            if not isinstance(model, Planar3RRR):
-                from .mechanism_model import MechanismModel
-                from .mechanisms.description import scaled_mechanism
-                from .mechanisms.spatial import scaled_spatial_mechanism
-
-                scale = scaled_spatial_mechanism if getattr(model.description, "spatial", False) else scaled_mechanism
-                return MechanismModel.from_description(scale(model.description, mass, length))
             return scaled_model(model, mass, length)
     except (InvalidParameterError, OverflowError) as exc:
         raise rd.value_error(f"[plant]: the scaled machine is impossible (mass_scale = {mass:g}, "
@@ -354,23 +355,12 @@ def _controller(rd: _Reader, table: dict) -> tuple[ControllerSpec, float]:
     return ControllerSpec(kind, kp=kp, kv=kv), sample_time
 
 
-def _simulation(rd: _Reader, table: dict, machine: bool) -> dict:
+def _simulation(rd: _Reader, table: dict) -> dict:
     name = "simulation"
     rd.known_keys(table, name, TABLES[name])
-    out = {}
-    mode = table.get("working_mode", "auto")
-    # the spellings inverse_kinematics(mode=...) and --mode take: [1, -1, 1], "+-+", ... (a described
-    # mechanism's modes, one sign per two-branch leg, are checked against its legs by Scenario)
-    if mode != "auto" and not machine:
-        ok = isinstance(mode, str) or (isinstance(mode, list) and not any(isinstance(m, bool) for m in mode))
-        try:
-            mode = tuple(int(v) for v in as_mode(mode)) if ok else None
-        except InvalidParameterError:
-            mode = None
-        if mode is None:
-            raise rd.value_error(f"{rd.where(name, 'working_mode')} must be \"auto\" or three signs such as "
-                                 f"[1, -1, 1] or \"+-+\", got {show(table['working_mode'])}")
-    out["working_mode"] = mode
+    # the working mode as inverse_kinematics(mode=...) and --mode spell it ("auto", [1, -1, 1], "+-+"), checked
+    # against the machine's two-branch legs by Scenario (whose message scenario_from_dict names the file in)
+    out = {"working_mode": table.get("working_mode", "auto")}
     out["singularity_margin"] = rd.number(table, name, "singularity_margin", 0.05, "non-negative")
     out["singularity_guard"] = rd.number(table, name, "singularity_guard", 0.01, "non-negative")
     substeps = table.get("substeps", 1)
@@ -415,12 +405,18 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         raise rd.format_error("the scenario has both [manipulator] and [mechanism]: give one of them")
     if "mechanism" in data:
         model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent)
-    else:
+    elif "manipulator" in data:
         model = _manipulator(rd, rd.table(data, "manipulator"))
+    else:
+        model = load("paper")
     plant = _plant(rd, rd.table(data, "plant"), model)
     trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True))
     controller, sample_time = _controller(rd, rd.table(data, "controller"))
-    options = _simulation(rd, rd.table(data, "simulation"), not isinstance(model, Planar3RRR))
+    options = _simulation(rd, rd.table(data, "simulation"))
+    try:
+        options["working_mode"] = scenario_working_mode(model, options["working_mode"])
+    except InvalidParameterError as exc:
+        raise rd.value_error(f"[simulation].{exc}") from None
     if sample_time == 0 and "substeps" in rd.table(data, "simulation"):  # it would be silently ignored
         raise rd.format_error("[simulation].substeps applies to sampled-data control only, but "
                               "[controller].sample_time = 0 selects continuous-time control: remove one of them")

@@ -1,6 +1,6 @@
 """Closed-loop simulation: trajectory → controller → plant, sampled-data or continuous-time.
 
-A :class:`Scenario` is a plain value — the controller's model of the manipulator, the real
+A :class:`Scenario` is a plain value — the controller's model of the machine, the real
 machine (the plant, possibly different), the trajectory, the controller and its gains, the
 sample time — and :func:`simulate` turns it into a :class:`SimulationResult` holding every
 time series of conventions §8 and its summary. The paper's three cases are
@@ -14,9 +14,8 @@ method needs no error control: one RK4 step per 1 ms sample is off a DOP853 refe
 1e-13 by about 1e-12 rad at the fast case's highest speed, and the error falls 16-fold per
 halving), branch-following its passive variables at every stage from the start of the step.
 The whole loop is compiled and allocation-free: the one written in :mod:`pkmlab.machine_core` and bound
-to each structure's generated kernels — the paper's 3-RRR runs on its description's
-(:meth:`~pkmlab.mechanism_model.MechanismModel.from_3rrr`); :func:`simulate_batch` runs many scenarios
-over all cores. Continuous-time control
+to each structure's generated kernels, the same for every machine, the paper's included;
+:func:`simulate_batch` runs many scenarios over all cores. Continuous-time control
 re-evaluates the controller at every stage of an adaptive DOP853 integration.
 """
 
@@ -50,19 +49,9 @@ from .errors import (
     UnstableControlError,
     shown,
 )
-from .geometry import WORKING_MODES, Planar3RRR
-from .kinematics import (
-    _model,
-    coordinates_from_3rrr,
-    coordinates_to_3rrr,
-    forward_kinematics,
-    inverse_kinematics,
-    platform_pose,
-    singularity_measure,
-)
 from .mechanism_model import MechanismModel
 from .outputs import atomic_file
-from .trajectory import desired_joint_motion, joint_motion, paper_trajectory
+from .trajectory import paper_trajectory
 
 #: Columns of the per-sample time series (conventions §8).
 COLUMNS = ("t", "theta1", "theta2", "theta3", "theta1_d", "theta2_d", "theta3_d", "tau1", "tau2", "tau3",
@@ -79,20 +68,19 @@ class Scenario:
 
     Attributes
     ----------
-    model : Planar3RRR
-        The controller's model of the manipulator (used for inverse kinematics, the
-        pre-flight check and computed torque).
-    plant : Planar3RRR or None
-        The real machine; ``None`` means identical to ``model``.
+    model : MechanismModel
+        The controller's model of the machine (``pkmlab.load("paper")``, any preset or description),
+        used for inverse kinematics, the pre-flight check and computed torque.
+    plant : MechanismModel or None
+        The real machine, of the model's structure with other numbers; ``None`` means identical to ``model``.
     trajectory : Trajectory-like
         Gives ``desired(t) -> (pose, pose_dot, pose_ddot)`` and ``duration``.
     controller : ControllerSpec
     sample_time : float
         ``Ts`` in seconds; ``0`` selects continuous-time control.
-    working_mode : "auto" or 3 signs
-        ``"auto"`` picks the mode maximising ``min |S|`` along the path (conventions §3). Three signs are
-        spelt as for :func:`~pkmlab.kinematics.inverse_kinematics` (``"+-+"``, ``(1, -1, 1)``...)
-        and stored as a tuple of ints.
+    working_mode : "auto" or signs
+        ``"auto"`` picks the mode maximising ``min |S|`` along the path (docs/conventions.md §3); else one sign
+        per two-branch leg (``"+-+"``, ``(1, -1, 1)``...), stored as a tuple of ints.
     singularity_margin : float
         Paths with ``min |S|`` below this in every admissible mode are refused before simulating.
     singularity_guard : float
@@ -102,9 +90,9 @@ class Scenario:
     name : str
     """
 
-    model: Planar3RRR
+    model: MechanismModel
     trajectory: object
-    plant: Planar3RRR | None = None
+    plant: MechanismModel | None = None
     controller: ControllerSpec = field(default_factory=ControllerSpec)
     sample_time: float = 1e-3
     working_mode: object = "auto"
@@ -118,11 +106,10 @@ class Scenario:
         _scenario_model(self.model, "model")
         if self.plant is not None:
             _scenario_model(self.plant, "plant")
-            if isinstance(self.model, MechanismModel) != isinstance(self.plant, MechanismModel) or (
-                    isinstance(self.model, MechanismModel) and self.plant.kernels is not self.model.kernels):
-                raise InvalidParameterError(f"the plant ({_structure(self.plant)}) must have the structure of the "
-                                            f"controller's model ({_structure(self.model)}): only its numbers may "
-                                            "differ")
+            if self.plant.kernels is not self.model.kernels:
+                raise InvalidParameterError(f"the plant ({self.plant.description.notation}) must have the structure "
+                                            f"of the controller's model ({self.model.description.notation}): only "
+                                            "its numbers may differ")
         if not callable(getattr(self.trajectory, "desired", None)):
             raise InvalidParameterError(
                 "trajectory must be a Trajectory or WaypointTrajectory (an object with desired(t) and duration), "
@@ -136,19 +123,8 @@ class Scenario:
         set_(self, "substeps", as_count("substeps", self.substeps, 1, MAX_SUBSTEPS))
         for name in ("singularity_margin", "singularity_guard"):
             set_(self, name, as_real(name, getattr(self, name), "non-negative"))
-        if isinstance(self.model, MechanismModel):
-            _check_pose_dimension(self.model, self.trajectory)
-            set_(self, "working_mode", _machine_mode(self.model, self.working_mode))
-        elif getattr(self.trajectory, "dimension", 3) != 3:
-            raise InvalidParameterError(f"the trajectory's poses have {self.trajectory.dimension} coordinates, but "
-                                        "the paper's 3-RRR's pose is (x, y, alpha)")
-        elif not (isinstance(self.working_mode, str) and self.working_mode == "auto"):
-            try:
-                mode = tuple(int(v) for v in as_mode(self.working_mode, "working_mode"))
-            except InvalidParameterError:
-                raise InvalidParameterError(f'working_mode must be "auto" or three signs such as (1, -1, 1) or '
-                                            f'"+-+", got {shown(self.working_mode)}') from None
-            set_(self, "working_mode", mode)
+        _check_pose_dimension(self.model, self.trajectory)
+        set_(self, "working_mode", scenario_working_mode(self.model, self.working_mode))
         if not isinstance(self.name, str):
             raise InvalidParameterError(f"name must be a string, got {shown(self.name)}")
         if self.sample_time == 0 and self.substeps != 1:
@@ -162,7 +138,7 @@ class Scenario:
                                         + ("" if samples < 1 else f" (the limit is {limit})"))
 
     @property
-    def plant_model(self) -> Planar3RRR | MechanismModel:
+    def plant_model(self) -> MechanismModel:
         return self.model if self.plant is None else self.plant
 
     def replace(self, **changes) -> Scenario:
@@ -194,49 +170,43 @@ def _check_pose_dimension(model: MechanismModel, trajectory) -> None:
 
 
 def _scenario_model(model, name: str):
-    if not isinstance(model, (Planar3RRR, MechanismModel)):
-        raise InvalidParameterError(f"{name} must be a Planar3RRR or a MechanismModel (e.g. "
-                                    f"MechanismModel.from_preset('five_bar')), got {type(model).__name__} "
+    if not isinstance(model, MechanismModel):
+        hint = (" (the paper's machine is pkmlab.load('paper'))" if type(model).__name__ == "Planar3RRR" else
+                " (e.g. pkmlab.load('paper'), pkmlab.load('five_bar'), pkmlab.load('my_machine.toml'))")
+        raise InvalidParameterError(f"{name} must be a MechanismModel{hint}, got {type(model).__name__} "
                                     f"{shown(model, 50)}")
 
 
-def _structure(model) -> str:
-    return model.description.notation if isinstance(model, MechanismModel) else "3-RRR"
-
-
-def _machine_mode(model: MechanismModel, mode):
-    """A described mechanism's working mode: ``"auto"``, or one sign per two-branch leg as a tuple of ints
-    (``"+-"``, ``(1, -1)``, ``()`` for a machine with one working mode)."""
+def scenario_working_mode(model: MechanismModel, mode, name: str = "working_mode"):
+    """A scenario's working mode: ``"auto"``, or one sign per two-branch leg as a tuple of ints
+    (``"+-"``, ``(1, -1)``, ``()`` for a machine with one working mode); ``name`` names it in errors."""
     from .mechanism_model import working_modes
 
     if isinstance(mode, str) and mode == "auto":
         return mode
     modes = working_modes(model)
     try:
-        signs = tuple(int(v) for v in as_mode(mode, "working_mode", len(modes[0])))
+        signs = tuple(int(v) for v in as_mode(mode, name, len(modes[0])))
     except InvalidParameterError:
         signs = None
     if signs not in modes:
         spelt = ", ".join("".join("+" if v > 0 else "-" for v in m) or "[]" for m in modes)
-        raise InvalidParameterError(f'working_mode must be "auto" or one of the modes of {model.description.name} '
+        raise InvalidParameterError(f'{name} must be "auto" or one of the modes of {model.description.name} '
                                     f"({spelt}), got {shown(mode)}")
     return signs
 
 
-def scaled_model(model: Planar3RRR, mass: float = 1.0, length: float = 1.0) -> Planar3RRR:
-    """A machine whose link lengths ``l, r, a`` are ×``length`` and masses ×``mass``, with
-    inertias ×``mass·length²`` (I ∝ m L²); the base is unchanged (conventions §7)."""
-    return model.replace(
-        active_lengths=model.active_lengths * length,
-        passive_lengths=model.passive_lengths * length,
-        platform_side=model.platform_side * length,
-        active_masses=model.active_masses * mass,
-        passive_masses=model.passive_masses * mass,
-        platform_mass=model.platform_mass * mass,
-        active_inertias=model.active_inertias * mass * length**2,
-        passive_inertias=model.passive_inertias * mass * length**2,
-        platform_inertia=model.platform_inertia * mass * length**2,
-    )
+def scaled_model(model: MechanismModel, mass: float = 1.0, length: float = 1.0) -> MechanismModel:
+    """A machine whose bodies' masses are ×``mass``, their lengths (tips, mass centres, the platform's
+    attachments) ×``length`` and inertias ×``mass·length²`` (I ∝ m L²); the base points, rail directions and
+    strokes are unchanged: the paper's disturbed plant (its section 5) for any machine."""
+    from .mechanisms.description import scaled_mechanism
+    from .mechanisms.spatial import scaled_spatial_mechanism
+
+    _scenario_model(model, "model")
+    mass, length = as_real("mass", mass, "positive"), as_real("length", length, "positive")
+    scale = scaled_spatial_mechanism if getattr(model.description, "spatial", False) else scaled_mechanism
+    return MechanismModel.from_description(scale(model.description, mass, length))
 
 
 PAPER_CASES = ("nominal", "disturbed", "fast")
@@ -244,11 +214,15 @@ PAPER_CASES = ("nominal", "disturbed", "fast")
 SCENARIO_DIR = Path(__file__).parent / "scenarios"
 
 
-def perturbed_model(model: Planar3RRR, rng: np.random.Generator, spread: float = 0.15) -> Planar3RRR:
-    """A machine whose every mass, inertia and link length (``l_i``, ``r_i``, ``a``) is multiplied by
-    its own factor drawn uniformly from ``[1 - spread, 1 + spread]`` — one draw of an uncertainty
-    study. The base points are unchanged. Raises if the draw cannot be assembled."""
-    _model(model)
+def perturbed_model(model: MechanismModel, rng: np.random.Generator, spread: float = 0.15) -> MechanismModel:
+    """A machine whose every body's mass, inertia and lengths are multiplied by its own factor drawn uniformly
+    from ``[1 - spread, 1 + spread]`` — one draw of an uncertainty study. The base points are unchanged.
+    Raises if the draw cannot be assembled.
+
+    The factors are drawn quantity by quantity (lengths, masses, inertias), and within a quantity body by
+    body from the base (every leg's first body, then every leg's second...), the platform last.
+    """
+    _scenario_model(model, "model")
     if not isinstance(rng, (np.random.Generator, np.random.RandomState)):
         raise InvalidParameterError(f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), "
                                     f"got {type(rng).__name__} {shown(rng, 50)}")
@@ -258,18 +232,14 @@ def perturbed_model(model: Planar3RRR, rng: np.random.Generator, spread: float =
 
     from .uncertainty import perturbed_plant
 
-    def factor(size=None):
-        return rng.uniform(1.0 - spread, 1.0 + spread, size)
-
-    # drawn in this order (lengths, masses, inertias; actuated links, passive links, platform): a seed keeps
-    # giving the machine it gave
+    bodies = [len(leg.bodies) for leg in model.description.legs]
     factors = {}
     for quantity in ("length", "mass", "inertia"):
-        active, passive, platform = factor(3), factor(3), factor()
-        for i in range(3):
-            factors[f"leg{i + 1}.body1.{quantity}"] = active[i]
-            factors[f"leg{i + 1}.body2.{quantity}"] = passive[i]
-        factors[f"platform.{quantity}"] = platform
+        for j in range(max(bodies)):
+            legs = [i for i, count in enumerate(bodies) if count > j]
+            for i, f in zip(legs, rng.uniform(1.0 - spread, 1.0 + spread, len(legs)), strict=True):
+                factors[f"leg{i + 1}.body{j + 1}.{quantity}"] = f
+        factors[f"platform.{quantity}"] = rng.uniform(1.0 - spread, 1.0 + spread)
     try:
         return perturbed_plant(model, factors)
     except InvalidParameterError as exc:
@@ -291,7 +261,9 @@ def paper_scenario(name: str = "nominal") -> Scenario:
         from .scenario_io import load_scenario
 
         return load_scenario(SCENARIO_DIR / f"{name}.toml")
-    model = Planar3RRR.paper()
+    from .mechanism_model import load
+
+    model = load("paper")
     if isinstance(name, str) and name == "disturbed_dynamics":
         return Scenario(model, paper_trajectory(0.2), plant=scaled_model(model, 1.15, 1.0), name=name)
     raise InvalidParameterError(
@@ -300,74 +272,21 @@ def paper_scenario(name: str = "nominal") -> Scenario:
 
 
 # ------------------------------------------------------------------ pre-flight
-def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, int, int], float]:
-    """The working mode of conventions §3 and its ``min |S|`` along the desired path at times ``t``.
+def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, ...], float]:
+    """The working mode of docs/conventions.md §3 and its ``min |S|`` along the desired path at times ``t``.
 
-    Raises a one-line error naming the time and pose where the path leaves the workspace or
-    comes within ``singularity_margin`` of ``S = 0`` in every admissible mode.
+    Every admissible mode's inverse kinematics along the path: the mode with the largest ``min |S|`` (a tie
+    within 1e-9 goes to the first in lexicographic order, ``+1`` before ``-1``). Raises a one-line error naming
+    the time and pose where the path leaves the workspace or comes within ``singularity_margin`` of ``S = 0``
+    in every admissible mode.
     """
-    mode, min_s, _motion = _working_mode_and_motion(scenario, t, scenario.trajectory.desired(t))
-    return mode, min_s
-
-
-def _working_mode_and_motion(scenario: Scenario, t: np.ndarray, desired):
-    """:func:`choose_working_mode` from the trajectory's ``desired = (pose, pose_dot, pose_ddot)`` at ``t``; also
-    the desired joint motion in that mode when it was computed on the way (else None)."""
-    pose = desired[0]
-    if isinstance(scenario.model, MechanismModel):
-        return *_machine_working_mode(scenario, t, pose[:, :scenario.model.description.dof]), None
-    if scenario.working_mode == "auto":
-        found = _best_working_mode(scenario.model, desired, t, scenario.singularity_margin)
-        if found is not None:
-            return found
-    # a fixed mode, or no mode passes: the full evaluation, which also names the failure
-    modes = WORKING_MODES if scenario.working_mode == "auto" else np.array([scenario.working_mode])
-    ik = inverse_kinematics(scenario.model, pose, on_unreachable="nan")
-    s_all = ik.S if scenario.working_mode == "auto" else None
-    if scenario.working_mode != "auto":
-        from ._validate import as_mode
-
-        mode = as_mode(scenario.working_mode)
-        idx = int(np.flatnonzero((WORKING_MODES == mode).all(axis=1))[0])
-        s_all = ik.S[:, idx:idx + 1]
-    unreachable = np.isnan(s_all)
-    if np.all(unreachable.any(axis=0)):
-        rows = unreachable.all(axis=1) if unreachable.all(axis=1).any() else unreachable.any(axis=1)
-        k = int(np.flatnonzero(rows)[0])
-        try:
-            inverse_kinematics(scenario.model, pose[k])
-        except UnreachablePoseError as exc:
-            raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s: {exc}") from None
-        raise UnreachablePoseError(
-            f"the path leaves the workspace at t = {t[k]:.4f} s, pose ({pose[k, 0]:.4f}, {pose[k, 1]:.4f}, "
-            f"{pose[k, 2]:.4f}): no working mode reaches the whole path"
-        )
-    min_s = np.where(unreachable.any(axis=0), -np.inf, np.nanmin(np.abs(s_all), axis=0))
-    best = int(np.argmax(min_s))
-    if min_s[best] < scenario.singularity_margin:
-        k = int(np.nanargmin(np.abs(s_all[:, best])))
-        closest, margin = apart(min_s[best], scenario.singularity_margin)
-        raise SingularityError(
-            f"the path comes within {closest} of a gain-type singularity (margin "
-            f"{margin}) in every admissible working mode; closest at t = {t[k]:.4f} s, "
-            f"pose ({pose[k, 0]:.4f}, {pose[k, 1]:.4f}, {pose[k, 2]:.4f})"
-        )
-    chosen = modes[best] if scenario.working_mode == "auto" else modes[0]
-    return tuple(int(v) for v in chosen), float(min_s[best]), None
-
-
-def _pose_text(pose) -> str:
-    return "(" + ", ".join(f"{v:.4f}" for v in pose) + ")"
-
-
-def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -> tuple[tuple[int, ...], float]:
-    """:func:`choose_working_mode` for a described mechanism: every mode's ``min |S|`` along the path."""
     from .mechanism_model import path_inverse_kinematics, working_modes
 
     model = scenario.model
+    pose = np.asarray(scenario.trajectory.desired(t)[0], dtype=float)[:, :model.dof]
     modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
     first_failure, reaching = None, []  # (mode, min |S|, its sample, |S|) of the modes reaching the whole path
-    for mode in modes:  # in lexicographic order, +1 before -1
+    for mode in modes:
         _q, s, failure = path_inverse_kinematics(model, pose, mode)
         if failure is not None:
             if first_failure is None or failure[0] > first_failure[0]:
@@ -375,14 +294,12 @@ def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -
             continue
         k = int(np.argmin(np.abs(s)))
         reaching.append((mode, float(abs(s[k])), k, np.abs(s)))
-    best = None
-    if reaching:  # the largest min |S|; a tie within 1e-9 of it goes to the first such mode (conventions §3)
-        top = max(r[1] for r in reaching)
-        best, best_min, closest, abs_s = next(r for r in reaching if r[1] >= top - 1e-9)
-    if best is None:
+    if not reaching:
         k, exc = first_failure
         raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {_pose_text(pose[k])}: "
                                    f"{exc}") from None
+    top = max(r[1] for r in reaching)
+    best, best_min, closest, abs_s = next(r for r in reaching if r[1] >= top - 1e-9)
     if best_min < scenario.singularity_margin:
         near, margin = apart(best_min, scenario.singularity_margin)
         every = "in every admissible working mode" if len(modes) > 1 else "in its working mode"
@@ -395,37 +312,8 @@ def _machine_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray) -
     return tuple(best), best_min
 
 
-def _best_working_mode(model: Planar3RRR, desired, t: np.ndarray, margin: float, stride: int = 8):
-    """The mode maximising ``min |S|`` along the desired ``(pose, pose_dot, pose_ddot)`` at ``t`` (as the full
-    evaluation finds it), cheaply.
-
-    ``min |S|`` over every ``stride``-th sample bounds each mode's ``min |S|`` from above, so the
-    modes are evaluated on the whole path in decreasing order of that bound until the best
-    found is at least the bound of the next. A mode is evaluated on the whole path by computing
-    its desired joint motion, which gives ``S`` along it (the run then needs no second pass).
-    Returns ``(mode, min |S|, its joint motion or None)``, or None when no mode reaches the whole
-    path with ``min |S| >= margin`` (the caller then reports why).
-    """
-    pose = desired[0]
-    coarse = inverse_kinematics(model, pose[::stride], on_unreachable="nan").S
-    bound = np.where(np.isnan(coarse).any(axis=0), -np.inf, np.abs(np.nan_to_num(coarse)).min(axis=0))
-    best, best_min, best_motion = None, -np.inf, None
-    for m in np.argsort(-bound, kind="stable"):
-        if bound[m] == -np.inf or bound[m] < best_min:
-            break
-        try:
-            motion = joint_motion(model, desired, WORKING_MODES[m], t)
-            s = motion.S
-        except (UnreachablePoseError, SingularityError):  # judged by S alone, as before; the run reports it
-            motion, s = None, inverse_kinematics(model, pose, mode=WORKING_MODES[m], on_unreachable="nan").S
-        if np.isnan(s).any():
-            continue
-        min_s = float(np.abs(s).min())
-        if min_s > best_min or (min_s == best_min and m < best):  # ties: the first mode, as np.argmax
-            best, best_min, best_motion = m, min_s, motion
-    if best is None or best_min < margin:
-        return None
-    return tuple(int(v) for v in WORKING_MODES[best]), best_min, best_motion
+def _pose_text(pose) -> str:
+    return "(" + ", ".join(f"{v:.4f}" for v in pose) + ")"
 
 
 # ------------------------------------------------------------------ results
@@ -459,40 +347,40 @@ class SimulationResult:
 
     @property
     def columns(self) -> tuple[str, ...]:
-        """Names of the columns of :meth:`table`: :data:`COLUMNS` for the paper's 3-RRR; for every machine
-        ``t``, ``theta1..n``, ``theta1_d..``, ``tau1..n``, the pose's coordinates, their desired values, ``S``."""
+        """Names of the columns of :meth:`table`: ``t``, ``theta1..n``, ``theta1_d..``, ``tau1..n``, the pose's
+        coordinates, their desired values (``x_d``...), ``S`` (for the paper's machine :data:`COLUMNS`)."""
         extra = ("closure_violation_m",) if self.closure_violation is not None else ()
-        if not isinstance(self.scenario.model, MechanismModel):
-            return (*COLUMNS, *extra)
         n = self.tau.shape[1]
-        names = self.scenario.model.description.pose_names
+        names = self.pose_names
         return ("t", *(f"theta{i + 1}" for i in range(n)), *(f"theta{i + 1}_d" for i in range(n)),
                 *(f"tau{i + 1}" for i in range(n)), *names, *(f"{v}_d" for v in names), "S", *extra)
 
     @property
     def path_error(self) -> np.ndarray:
         """Euclidean distance (m) between the actual and the desired tracked point."""
-        return path_error(self.pose, self.pose_d, self.columns_pose)
+        return path_error(self.pose, self.pose_d, self.pose_names)
 
     @property
     def orientation_error(self) -> np.ndarray | None:
         """The angle (rad) between the actual and the desired orientation of the platform, None where the pose
         has no orientation (:func:`orientation_error`)."""
-        return orientation_error(self.pose, self.pose_d, self.columns_pose)
+        return orientation_error(self.pose, self.pose_d, self.pose_names)
 
     @property
-    def columns_pose(self) -> tuple[str, ...]:
+    def pose_names(self) -> tuple[str, ...]:
         """The names of the pose's coordinates."""
-        if isinstance(self.scenario.model, MechanismModel):
-            return self.scenario.model.description.pose_names
-        return ("x", "y", "alpha")
+        return self.scenario.model.pose_names
 
     def summary(self) -> dict:
-        """The run's summary: ``max_path_error_m``, ``rms_path_error_m``, ``max_orientation_error_rad``
-        (where the pose has an orientation), ``max_joint_error`` (rad, or m for prismatic actuators),
-        ``peak_effort`` (per actuator, N·m or N), ``min_abs_S``, ``working_mode``. The paper's 3-RRR
-        reports the same under the names of the paper's reproduction too: ``max_alpha_error_rad``,
-        ``max_joint_error_rad``, ``peak_torque_Nm``."""
+        """The run's summary, one key set for every machine (:func:`summary_units` gives each key's unit).
+
+        ``max_path_error_m``, ``rms_path_error_m``; ``max_orientation_error_rad`` where the pose has an
+        orientation, and ``max_alpha_error_rad`` (the same value) where it is the planar angle ``alpha``;
+        ``max_joint_error`` and ``peak_effort`` (one per actuator) in the actuators' units, also named with
+        their unit where every actuator has the same kind: ``max_joint_error_rad`` and ``peak_torque_Nm`` for
+        revolute actuators, ``max_joint_error_m`` and ``peak_force_N`` for prismatic ones; ``min_abs_S``;
+        ``working_mode``; ``max_closure_violation_m`` for a MuJoCo plant.
+        """
         err = self.path_error
         joint = _actuator_errors(self.scenario.plant_model, self.theta, self.theta_d)
         out = {
@@ -502,16 +390,19 @@ class SimulationResult:
         orientation = self.orientation_error
         if orientation is not None:
             out["max_orientation_error_rad"] = float(orientation.max())
+            if "alpha" in self.pose_names:
+                out["max_alpha_error_rad"] = out["max_orientation_error_rad"]
         out["max_joint_error"] = float(np.abs(joint).max())
         out["peak_effort"] = np.abs(self.tau).max(axis=0).tolist()
+        kinds = set(self.scenario.model.description.actuator_kinds)
+        if kinds == {"R"}:
+            out["max_joint_error_rad"], out["peak_torque_Nm"] = out["max_joint_error"], out["peak_effort"]
+        elif kinds == {"P"}:
+            out["max_joint_error_m"], out["peak_force_N"] = out["max_joint_error"], out["peak_effort"]
         out["min_abs_S"] = float(np.abs(self.S).min())
         out["working_mode"] = list(self.working_mode)
         if self.closure_violation is not None:
             out["max_closure_violation_m"] = float(self.closure_violation.max())
-        if not isinstance(self.scenario.model, MechanismModel):
-            out["max_alpha_error_rad"] = out["max_orientation_error_rad"]
-            out["max_joint_error_rad"] = out["max_joint_error"]
-            out["peak_torque_Nm"] = out["peak_effort"]
         return out
 
     def table(self) -> np.ndarray:
@@ -529,6 +420,31 @@ class SimulationResult:
         """Write the summary and the time series as JSON, atomically."""
         data = {"summary": self.summary(), "columns": list(self.columns), "rows": self.table().tolist()}
         return _write_atomic(path, json.dumps(data))
+
+
+def summary_units(model: MechanismModel) -> dict[str, str]:
+    """The unit of every key of a run's summary (:meth:`SimulationResult.summary`) for ``model``'s machine:
+    ``"m"``, ``"rad"``, ``"N*m"``, ``"N"``, ``""`` (``S`` and the working mode have none); a mixed machine's
+    ``max_joint_error`` is ``"rad|m"`` and its ``peak_effort`` lists one unit per actuator."""
+    _scenario_model(model, "model")
+    kinds = tuple(model.description.actuator_kinds)
+    units = {"max_path_error_m": "m", "rms_path_error_m": "m"}
+    names = model.pose_names
+    if "alpha" in names or "roll" in names:
+        units["max_orientation_error_rad"] = "rad"
+        if "alpha" in names:
+            units["max_alpha_error_rad"] = "rad"
+    joint = {"R": "rad", "P": "m"}
+    effort = {"R": "N*m", "P": "N"}
+    same = len(set(kinds)) == 1
+    units["max_joint_error"] = joint[kinds[0]] if same else "rad|m"
+    units["peak_effort"] = effort[kinds[0]] if same else ",".join(effort[k] for k in kinds)
+    if set(kinds) == {"R"}:
+        units.update(max_joint_error_rad="rad", peak_torque_Nm="N*m")
+    elif set(kinds) == {"P"}:
+        units.update(max_joint_error_m="m", peak_force_N="N")
+    units.update(min_abs_S="", working_mode="", max_closure_violation_m="m")  # the last: MuJoCo plants' runs
+    return units
 
 
 def path_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray:
@@ -565,22 +481,8 @@ def _write_atomic(path, text: str) -> Path:
 
 # ------------------------------------------------------------------ simulate
 def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray) -> np.ndarray:
-    """The plant at rest at the controller's IK angles, in its assembly mode nearest the controller's
-    (conventions §5)."""
-    if isinstance(scenario.model, MechanismModel):
-        return _machine_initial_plant(scenario, q_ctrl0)
-    fk = forward_kinematics(scenario.plant_model, q_ctrl0[:3])
-    if len(fk) == 0:
-        raise AssemblyError(
-            f"the plant cannot be assembled at the start angles theta = {np.round(q_ctrl0[:3], 6).tolist()}"
-        )
-    dist = np.max(np.abs(np.angle(np.exp(1j * (fk.q[: len(fk), 3:] - q_ctrl0[3:])))), axis=1)
-    q = fk.q[int(np.argmin(dist))].copy()
-    q[:3] = q_ctrl0[:3]
-    return q
-
-
-def _machine_initial_plant(scenario: Scenario, q_ctrl0: np.ndarray) -> np.ndarray:
+    """The plant at rest at the controller's inverse-kinematic actuator values, in its assembly mode nearest
+    the controller's configuration (docs/conventions.md §5)."""
     from .mechanism_model import forward_kinematics as machine_fk
 
     model = scenario.model
@@ -590,7 +492,7 @@ def _machine_initial_plant(scenario: Scenario, q_ctrl0: np.ndarray) -> np.ndarra
     solutions = machine_fk(scenario.plant_model, q_ctrl0[:n])
     if not solutions:
         raise AssemblyError(f"the plant cannot be assembled at the start actuators "
-                                    f"{np.round(q_ctrl0[:n], 6).tolist()}")
+                            f"{np.round(q_ctrl0[:n], 6).tolist()}")
     angles = np.array(model.kernels.ANGLES)
     gaps = [np.max(np.where(angles, np.abs(np.angle(np.exp(1j * (q - q_ctrl0)))), np.abs(q - q_ctrl0))[n:])
             for q, _s in solutions]
@@ -627,18 +529,13 @@ def _sample_times(scenario: Scenario) -> np.ndarray:
 
 
 def _desired_motion(scenario: Scenario, t: np.ndarray):
-    desired = scenario.trajectory.desired(t)
-    mode, _min_s, motion = _working_mode_and_motion(scenario, t, desired)
-    if motion is not None:
-        return mode, motion
-    if isinstance(scenario.model, MechanismModel):
-        return mode, _machine_joint_motion(scenario.model, scenario.trajectory, mode, t)
-    return mode, joint_motion(scenario.model, desired, mode, t)
+    mode, _min_s = choose_working_mode(scenario, t)
+    return mode, _joint_motion(scenario.model, scenario.trajectory, mode, t)
 
 
-def _machine_joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray):
-    """The desired actuator motion of a described mechanism: exact inverse kinematics of the path and its
-    first and second derivatives (:func:`~pkmlab.mechanism_model.path_rates`), angles unwrapped along it."""
+def _joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray):
+    """The desired actuator motion: exact inverse kinematics of the path and its first and second derivatives
+    (:func:`~pkmlab.mechanism_model.path_rates`), angles unwrapped along it."""
     from .mechanism_model import path_inverse_kinematics, path_rates
     from .trajectory import JointMotion
 
@@ -686,8 +583,8 @@ def _prepare(scenario: Scenario, desired_cache: dict | None = None) -> _Prepared
     q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
     spec = scenario.controller
     prep = _Prepared(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
-                     float(spec.velocity_gain), float(scenario.singularity_guard), _loop_model(scenario.model).P,
-                     _loop_model(scenario.plant_model).P)
+                     float(spec.velocity_gain), float(scenario.singularity_guard), scenario.model.P,
+                     scenario.plant_model.P)
     if scenario.sample_time > 0:
         _check_sampled_data_stability(scenario, prep)
     return prep
@@ -707,7 +604,7 @@ def _modal_gains(scenario: Scenario, kind: int, q_ctrl: np.ndarray, q_plant: np.
     with the controller's model at ``q_ctrl`` (n, 7) and the plant at ``q_plant`` (n, 7): the eigenvalues of
     ``Mθ_plant⁻¹ M̂θ`` for computed torque, of ``Mθ_plant⁻¹`` for the PD law."""
     plant = scenario.plant_model
-    n = _actuator_count(plant)
+    n = plant.n_actuators
     if kind != PD and (plant is scenario.model or plant == scenario.model):
         return np.ones((q_ctrl.shape[0], n))  # the model is exact: M̂θ = Mθ
     m_plant = _mass_matrices(plant, q_plant)
@@ -719,24 +616,19 @@ def _modal_gains(scenario: Scenario, kind: int, q_ctrl: np.ndarray, q_plant: np.
     return np.linalg.eigvalsh(inv_l @ m_ctrl @ np.swapaxes(inv_l, -1, -2))
 
 
-def actuator_kinds(model) -> frozenset[str]:
+def actuator_kinds(model: MechanismModel) -> frozenset[str]:
     """The kinds of the machine's actuators: ``{"R"}`` (angles in rad, torques in N·m), ``{"P"}`` (lengths in
     m, forces in N), or both."""
-    return frozenset(model.description.actuator_kinds if isinstance(model, MechanismModel) else ("R",))
+    return frozenset(model.description.actuator_kinds)
 
 
-def _actuator_count(model) -> int:
-    return model.n_actuators if isinstance(model, MechanismModel) else 3
-
-
-def _mass_matrices(model, qs: np.ndarray) -> np.ndarray:
+def _mass_matrices(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
     """``Mθ`` (K, n, n) at configurations ``qs`` (K, n_coordinates) on the manifold: the compiled core's, as the
     loop evaluates it."""
-    loop = _loop_model(model)
-    n, count = loop.n_actuators, qs.shape[0]
+    n, count = model.n_actuators, qs.shape[0]
     out, c, g = np.empty((count, n, n)), np.empty((count, n)), np.empty((count, n))
-    qs = np.ascontiguousarray(_loop_coordinates(model, qs))
-    if loop.kernels.actuator_space_models(qs, np.zeros((count, n)), loop.P, out, c, g) >= 0:
+    qs = np.ascontiguousarray(qs)
+    if model.kernels.actuator_space_models(qs, np.zeros((count, n)), model.P, out, c, g) >= 0:
         raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
     return out
 
@@ -783,13 +675,9 @@ def _check_sampled_data_stability(scenario: Scenario, prep: _Prepared) -> None:
         # is smooth: μ is off by the order of the tracking error); its start, q_plant0, is exact. Poses it
         # cannot reach, or only within the singularity guard, are skipped: the run-time guard stops a run
         # there, and near S = 0 the plant's Mθ grows without bound (μ → 0: sluggish, not unstable).
-        if isinstance(scenario.model, MechanismModel):
-            from .mechanism_model import path_inverse_kinematics
+        from .mechanism_model import path_inverse_kinematics
 
-            ik_q, ik_s, _failure = path_inverse_kinematics(scenario.plant_model, desired.pose[idx], prep.mode)
-        else:
-            ik = inverse_kinematics(scenario.plant_model, desired.pose[idx], mode=prep.mode, on_unreachable="nan")
-            ik_q, ik_s = ik.q, ik.S
+        ik_q, ik_s, _failure = path_inverse_kinematics(scenario.plant_model, desired.pose[idx], prep.mode)
         ok = np.abs(np.nan_to_num(ik_s)) >= max(prep.guard, 1e-6)
         q_plant = np.vstack([prep.q_plant0, ik_q[ok]])
         q_ctrl, k = np.vstack([prep.q_ctrl0, desired.q[idx][ok]]), np.append(0, idx[ok])
@@ -816,7 +704,7 @@ def _divergence(scenario: Scenario, prep: _Prepared, q: np.ndarray, k_fail: int)
     """
     if k_fail < 1:
         return None
-    n = _actuator_count(scenario.model)
+    n = scenario.model.n_actuators
     e = np.abs(_actuator_errors(scenario.model, q[:k_fail + 1, :n], prep.desired.theta[:k_fail + 1])).max(axis=1)
     window = max(1, min(50, k_fail // 2))
     before = float(e[max(0, k_fail - 2 * window):k_fail - window + 1].max())
@@ -841,15 +729,13 @@ def _divergence(scenario: Scenario, prep: _Prepared, q: np.ndarray, k_fail: int)
 def _actuator_errors(model, theta: np.ndarray, theta_d: np.ndarray) -> np.ndarray:
     """``θ - θ_d``, angles wrapped to (-π, π] (a prismatic actuator's error is a length)."""
     e = theta - theta_d
-    angles = np.array(model.kernels.ANGLES[:model.n_actuators]) if isinstance(model, MechanismModel) else True
+    angles = np.array(model.kernels.ANGLES[:model.n_actuators])
     return np.where(angles, np.angle(np.exp(1j * e)), e)
 
 
-def _pose_of(model, q: np.ndarray) -> np.ndarray:
-    """The plant's pose at configurations ``q``: ``(x, y[, alpha])``."""
-    if isinstance(model, MechanismModel):
-        return q[..., -model.description.dof:].copy()
-    return platform_pose(model, q)
+def _pose_of(model: MechanismModel, q: np.ndarray) -> np.ndarray:
+    """The plant's pose at configurations ``q``: their last ``dof`` entries."""
+    return q[..., -model.description.dof:].copy()
 
 
 def _loop_error(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int,
@@ -881,20 +767,16 @@ def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau, pose=None, s
     model = scenario.plant_model
     pose = _pose_of(model, q) if pose is None else pose
     if s is None:
-        if isinstance(model, MechanismModel):
-            from .mechanism_model import singularity_measure as machine_s
+        from .mechanism_model import singularity_measure
 
-            s = np.array([machine_s(model, qk) for qk in q])
-        else:
-            s = singularity_measure(model, q)
-    names = model.description.pose_names if isinstance(model, MechanismModel) else ("x", "y", "alpha")
+        s = np.array([singularity_measure(model, qk) for qk in q])
+    names = model.pose_names
     for k, name in enumerate(names):  # orientation angles on the desired one's side of 2π
         if name in ("alpha", "roll", "pitch", "yaw"):
             pose[:, k] = desired.pose[:, k] + np.angle(np.exp(1j * (pose[:, k] - desired.pose[:, k])))
-    n = _actuator_count(model)
+    n = model.n_actuators
     turns = np.round((q[:, :n] - desired.theta) / (2 * np.pi))  # θ_d on θ's side of 2π
-    if isinstance(model, MechanismModel):
-        turns[:, ~np.array(model.kernels.ANGLES[:n])] = 0.0
+    turns[:, ~np.array(model.kernels.ANGLES[:n])] = 0.0
     theta_d = desired.theta + 2 * np.pi * turns
     return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, desired.pose, s)
 
@@ -911,14 +793,13 @@ def simulate(scenario: Scenario) -> SimulationResult:
         raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__} "
                                     f"{shown(scenario, 50)}{hint}")
     prep = _prepare(scenario)
-    ctrl, plant = _loop_model(scenario.model), _loop_model(scenario.plant_model)
-    q_plant0 = _loop_coordinates(scenario.plant_model, prep.q_plant0)
-    q_ctrl0 = _loop_coordinates(scenario.model, prep.q_ctrl0)
+    ctrl, plant = scenario.model, scenario.plant_model
+    q_plant0, q_ctrl0 = prep.q_plant0, prep.q_ctrl0
     if scenario.sample_time == 0:
         q, theta_dot, tau = _continuous_time(scenario, prep, ctrl, plant, q_plant0, q_ctrl0)
         s = np.empty(q.shape[0])
         plant.kernels.singularity_measures(q, plant.P, s)
-        return _result(scenario, prep, _scenario_coordinates(scenario.model, q), theta_dot, tau,
+        return _result(scenario, prep, q, theta_dot, tau,
                        q[:, -_dof(plant):].copy(), s)
     k_, n = ctrl.kernels, ctrl.n_actuators
     count = prep.t.size
@@ -927,27 +808,10 @@ def simulate(scenario: Scenario) -> SimulationResult:
     status, k_fail = k_.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
                                           d.theta_ddot, q_plant0, q_ctrl0, prep.P_plant, prep.P_ctrl, prep.kind,
                                           prep.kp, prep.kv, prep.guard, q, theta_dot, tau, s)
-    pose, q = q[:, -_dof(plant):].copy(), _scenario_coordinates(scenario.model, q)
+    pose = q[:, -_dof(plant):].copy()
     if status != k_.OK:
         raise _loop_error(scenario, prep, status, q, k_fail)
     return _result(scenario, prep, q, theta_dot, tau, pose, s)
-
-
-def _loop_model(model) -> MechanismModel:
-    """The model whose generated kernels and compiled loop (:mod:`pkmlab.machine_core`) run ``model``: itself,
-    or for the paper's :class:`~pkmlab.geometry.Planar3RRR` its description's
-    (:meth:`~pkmlab.mechanism_model.MechanismModel.from_3rrr`): one loop for every machine."""
-    return model if isinstance(model, MechanismModel) else MechanismModel.from_3rrr(model)
-
-
-def _loop_coordinates(model, q: np.ndarray) -> np.ndarray:
-    """Configurations of ``model`` in its loop model's coordinates (the 3-RRR's ``(θ, φ, α)`` gain ``x, y``)."""
-    return q if isinstance(model, MechanismModel) else coordinates_from_3rrr(model, q)
-
-
-def _scenario_coordinates(model, q: np.ndarray) -> np.ndarray:
-    """The inverse of :func:`_loop_coordinates`."""
-    return q if isinstance(model, MechanismModel) else coordinates_to_3rrr(q)
 
 
 def _dof(model: MechanismModel) -> int:
@@ -1002,19 +866,12 @@ def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, 
 
 
 def _joint_motion_at(scenario: Scenario, prep: _Prepared, time: float):
-    """``(θ_d, θ̇_d, θ̈_d)`` at one time."""
-    if not isinstance(scenario.model, MechanismModel):
-        d = desired_joint_motion(scenario.model, scenario.trajectory, prep.mode, [time])
-        return d.theta[0], d.theta_dot[0], d.theta_ddot[0]
-    return _machine_joint_motion_at(scenario, prep, time, _dof(scenario.model))
-
-
-def _machine_joint_motion_at(scenario: Scenario, prep: _Prepared, time: float, dof: int):
     """``(θ_d, θ̇_d, θ̈_d)`` at one time, from the configuration of the nearest sample (the same branch)."""
     from .mechanism_model import inverse_kinematics as machine_ik
     from .mechanism_model import path_rates
 
     model = scenario.model
+    dof = model.dof
     pose, pose_dot, pose_ddot = (np.asarray(a, dtype=float)[:, :dof] for a in scenario.trajectory.desired([time]))
     q = machine_ik(model, pose[0], prep.mode)[None, :]
     theta_dot, theta_ddot, k = path_rates(model, q, pose_dot, pose_ddot)
@@ -1082,7 +939,7 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     results: list = [errors.get(i) if on_error == "return" else None for i in range(len(scenarios))]
     groups: dict = {}  # one compiled call per structure: its generated loop
     for i in live:
-        groups.setdefault(_loop_model(scenarios[i].model).kernels, []).append(i)
+        groups.setdefault(scenarios[i].model.kernels, []).append(i)
     for kernels, members in groups.items():
         outcome = _run_batch(kernels, [scenarios[i] for i in members], [preps[i] for i in members])
         for i, (status, q, theta_dot, tau, pose, s, k_fail) in zip(members, outcome, strict=True):
@@ -1102,7 +959,7 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     """Run prepared scenarios of one structure (``kernels``) in one parallel compiled call; per run
     ``(status, q, θ̇, τ, pose, S, k_fail)``, configurations in each scenario's own coordinates."""
     m, n = len(scenarios), preps[0].t.size
-    loop = _loop_model(scenarios[0].model)
+    loop = scenarios[0].model
     n_act, n_q, P_len = loop.n_actuators, kernels.N_COORDINATES, loop.P.size
     stack = {name: np.empty((m, n, n_act)) for name in ("theta", "theta_dot", "theta_ddot")}
     q0, qc0 = np.empty((m, n_q)), np.empty((m, n_q))
@@ -1112,8 +969,8 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     for r, (sc, p) in enumerate(zip(scenarios, preps, strict=True)):
         for name in stack:
             stack[name][r] = getattr(p.desired, name)
-        q0[r], qc0[r] = _loop_coordinates(sc.plant_model, p.q_plant0), _loop_coordinates(sc.model, p.q_ctrl0)
-        P_plant[r], P_ctrl[r] = p.P_plant, p.P_ctrl  # (a batch's plants are many: each converted once)
+        q0[r], qc0[r] = p.q_plant0, p.q_ctrl0
+        P_plant[r], P_ctrl[r] = p.P_plant, p.P_ctrl
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
         kp[r], kv[r], guard[r] = p.kp, p.kv, p.guard
     q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
@@ -1122,5 +979,4 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     kernels.sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant,
                                P_ctrl, kind, kp, kv, guard, q, theta_dot, tau, s, status, k_fail)
     dof = _dof(loop)
-    return [(status[r], _scenario_coordinates(sc.model, q[r]), theta_dot[r], tau[r], q[r, :, -dof:].copy(), s[r],
-             k_fail[r]) for r, sc in enumerate(scenarios)]
+    return [(status[r], q[r], theta_dot[r], tau[r], q[r, :, -dof:].copy(), s[r], k_fail[r]) for r in range(m)]

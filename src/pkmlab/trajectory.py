@@ -1,16 +1,12 @@
-"""Desired motions of the platform and, through exact inverse kinematics, of the actuators.
+"""Desired motions of the platform: paths, time laws and waypoints.
 
 A trajectory is a geometric path of platform poses ``(x, y, α)`` parametrised by arc length
 ``s ∈ [0, L]`` (a pure rotation is measured in radians), traversed with a time law
-``s(t)`` that starts and ends at rest (conventions §4: the paper's "third-order polynomial").
-:meth:`Trajectory.desired` gives pose, velocity and acceleration at any time;
-:func:`desired_joint_motion` turns them into ``θ_d, θ̇_d, θ̈_d`` with exact inverse kinematics
-and its exact first and second derivatives (no finite differences)::
-
-    ẋ = J θ̇        →  θ̇_d = J⁻¹ ẋ_d
-    ẍ = J θ̈ + J̇θ̇  →  θ̈_d = J⁻¹ (ẍ_d - J̇ θ̇_d)
-
-with ``J`` the platform Jacobian (eqs. 14–17) at the inverse-kinematics configuration.
+``s(t)`` that starts and ends at rest (conventions §4: the paper's "third-order polynomial");
+:class:`TimedWaypoints` give a path in any machine's pose coordinates. :meth:`Trajectory.desired` gives
+pose, velocity and acceleration at any time; a simulation turns them into the desired actuator motion
+``θ_d, θ̇_d, θ̈_d`` (a :class:`JointMotion`) by the machine's exact inverse kinematics and its exact first and
+second derivatives (:func:`pkmlab.mechanism_model.path_rates`, no finite differences).
 """
 
 from __future__ import annotations
@@ -20,16 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import (
-    _compile_cache,  # noqa: F401  (sets the kernel cache before any kernel is defined)
-    closed_chain,
-)
-from ._compile_cache import njit
-from ._validate import as_batch, as_choice, as_mode, as_real
-from .errors import InvalidParameterError, SingularityError, shown
-from .geometry import Planar3RRR
-from .kinematics import inverse_kinematics, platform_jacobian
-from .mechanisms import rrr3
+from ._validate import as_batch, as_choice, as_real
+from .errors import InvalidParameterError, shown
 
 
 # ------------------------------------------------------------------ time laws
@@ -299,81 +287,3 @@ class JointMotion:
     theta_dot: np.ndarray
     theta_ddot: np.ndarray
     S: np.ndarray | None = None
-
-
-@njit(cache=True)
-def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_ddot, det):
-    """Per sample: IK, ``θ̇`` from ``ẋ = J θ̇``, ``θ̈`` from ``ẍ = J θ̈ + Jpq J̇qθ θ̇ + J̇pq q̇`` (eqs. 14–17, 32),
-    and ``det Jηφ`` (eq. 18) of the factors computed on the way.
-
-    ``J = Jpq Jqθ`` is the platform Jacobian. Returns the first sample that is out of reach or
-    singular, or -1.
-    """
-    ws = rrr3.make_workspace(P)
-    jp, jac, lu = np.empty((3, 7)), np.empty((3, 3)), np.empty((3, 3))
-    piv, bias, b = np.empty(3, np.int64), np.empty(3), np.empty(3)
-    for k in range(pose.shape[0]):
-        if rrr3.inverse_kinematics(pose[k], mode, P, q[k]) != 0:
-            return k
-        ws.q[0, :] = q[k]
-        ok = rrr3.linearize(ws, 0, P)
-        det[k] = ws.det[0]
-        if not ok:
-            return k
-        rrr3.pose_jacobian(q[k], P, jp)
-        jqt = ws.j_q_theta[0]
-        for i in range(3):
-            for j in range(3):
-                acc = 0.0
-                for c in range(7):
-                    acc += jp[i, c] * jqt[c, j]
-                jac[i, j] = acc
-        ok, _det = closed_chain.lu_factor(jac, lu, piv, 3)
-        if not ok:
-            return k
-        for i in range(3):
-            b[i] = pose_dot[k, i]
-        closed_chain.lu_solve_factored(lu, piv, b, 3)
-        for i in range(3):
-            theta_dot[k, i] = b[i]
-        rrr3.evaluate_velocities(ws, 0, b, P)
-        rrr3.pose_convective(q[k], ws.qd, P, bias)
-        for i in range(3):
-            acc = pose_ddot[k, i] - bias[i]
-            for c in range(7):
-                acc -= jp[i, c] * ws.bias_q[c]
-            b[i] = acc
-        closed_chain.lu_solve_factored(lu, piv, b, 3)
-        for i in range(3):
-            theta_ddot[k, i] = b[i]
-    return -1
-
-
-def desired_joint_motion(model: Planar3RRR, trajectory, mode, t) -> JointMotion:
-    """Exact inverse kinematics of a trajectory and its first and second time derivatives, and the
-    singularity measure ``S`` (eq. 19) along it.
-
-    ``θ`` is unwrapped along ``t`` so that it is continuous (IK returns angles in (-π, π]).
-    Raises the error of :func:`~pkmlab.kinematics.inverse_kinematics` or
-    :func:`~pkmlab.kinematics.platform_jacobian` for the first sample out of reach or singular.
-    """
-    t = np.atleast_1d(np.asarray(t, dtype=float))
-    return joint_motion(model, trajectory.desired(t), mode, t)
-
-
-def joint_motion(model: Planar3RRR, desired, mode, t: np.ndarray) -> JointMotion:
-    """:func:`desired_joint_motion` from the trajectory's ``desired = (pose, pose_dot, pose_ddot)`` at the
-    times ``t`` (N,), already evaluated."""
-    pose, pose_dot, pose_ddot = (np.ascontiguousarray(a, dtype=float) for a in desired)
-    mode = as_mode(mode)
-    n = t.size
-    q, theta_dot, theta_ddot, det = np.empty((n, 7)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
-    k = _joint_motion_batch(pose, pose_dot, pose_ddot, mode, model.packed, q, theta_dot, theta_ddot, det)
-    if k >= 0:  # the public functions name the problem
-        q_k = inverse_kinematics(model, pose[k], mode=mode).q
-        platform_jacobian(model, q_k)
-        raise SingularityError(f"the platform Jacobian is singular at t = {t[k]:.4f} s")
-    theta = np.unwrap(q[:, :3], axis=0)
-    q[:, :3] = theta
-    # S as kinematics.singularity_measure computes it: the same factors of the same configurations
-    return JointMotion(t, q, pose, theta, theta_dot, theta_ddot, -det / rrr3.singularity_scale(model.packed))

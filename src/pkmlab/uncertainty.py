@@ -11,20 +11,20 @@ factor for each uncertain quantity, drawn uniformly within the given bounds:
 
 The factors are named ``leg{i}.body{j}.{quantity}`` and ``platform.{quantity}`` (legs and bodies
 counted from 1, bodies from the base) for every mechanism, the paper's 3-RRR included (its body 1
-is the actuated link, body 2 the passive one, the platform's length its side ``a``). Draw ``k`` of a
+is the actuated link, body 2 the passive one, the platform's length the size of its triangle). Draw ``k`` of a
 study seeded ``seed`` uses its own generator, ``numpy.random.default_rng([seed, k])``: a draw is the
 same whatever other draws are made, in whatever order or process — what makes a study
 reproducible bit for bit however it is split into chunks.
 
->>> from pkmlab.geometry import Planar3RRR
->>> model = Planar3RRR.paper()
+>>> from pkmlab import load
+>>> model = load("paper")
 >>> names = uncertain_parameters(model, ("mass",))
 >>> names[:3], len(names)
 (('leg1.body1.mass', 'leg1.body2.mass', 'leg2.body1.mass'), 7)
 >>> factors = draw_factors(model, {"mass": (0.85, 1.15)}, seed=1, draw=0)
 >>> all(0.85 <= f <= 1.15 for f in factors.values())
 True
->>> float(perturbed_plant(model, {"platform.mass": 1.1}).platform_mass) == 1.1 * float(model.platform_mass)
+>>> perturbed_plant(model, {"platform.mass": 1.1}).description.platform.mass == 1.1 * model.description.platform.mass
 True
 """
 
@@ -42,10 +42,6 @@ QUANTITIES = ("mass", "length", "inertia")
 
 
 def _bodies_per_leg(model) -> list[int]:
-    from .geometry import Planar3RRR
-
-    if isinstance(model, Planar3RRR):
-        return [2, 2, 2]
     return [len(leg.bodies) for leg in model.description.legs]
 
 
@@ -113,14 +109,10 @@ def perturbed_plant(model, factors: dict):
     """``model`` with each body's mass, lengths and inertia multiplied by its factor (missing factors are
     1). Raises :class:`~pkmlab.errors.InvalidParameterError` naming the first unknown factor, or when the
     machine drawn cannot be assembled."""
-    from .geometry import Planar3RRR
-
     known = set(uncertain_parameters(model))
     for name in factors:
         if name not in known:
             raise InvalidParameterError(f"unknown uncertain parameter '{name}' (e.g. {', '.join(sorted(known)[:3])})")
-    if isinstance(model, Planar3RRR):
-        return _perturbed_3rrr(model, factors)
     from .mechanism_model import MechanismModel
 
     description = model.description
@@ -148,20 +140,3 @@ def _scaled_body(body, factors: dict, name: str):
     return dataclasses.replace(body, tip=tuple(c * length for c in body.tip), com=tuple(c * length for c in body.com),
                                mass=body.mass * _factor(factors, f"{name}.mass"),
                                inertia=_scaled_inertia(body.inertia, _factor(factors, f"{name}.inertia")))
-
-
-def _perturbed_3rrr(model, factors: dict):
-    def per_leg(body: int, quantity: str) -> np.ndarray:
-        return np.array([_factor(factors, f"leg{i + 1}.body{body}.{quantity}") for i in range(3)])
-
-    return model.replace(
-        active_lengths=model.active_lengths * per_leg(1, "length"),
-        passive_lengths=model.passive_lengths * per_leg(2, "length"),
-        platform_side=float(model.platform_side * _factor(factors, "platform.length")),
-        active_masses=model.active_masses * per_leg(1, "mass"),
-        passive_masses=model.passive_masses * per_leg(2, "mass"),
-        platform_mass=float(model.platform_mass * _factor(factors, "platform.mass")),
-        active_inertias=model.active_inertias * per_leg(1, "inertia"),
-        passive_inertias=model.passive_inertias * per_leg(2, "inertia"),
-        platform_inertia=float(model.platform_inertia * _factor(factors, "platform.inertia")),
-    )

@@ -15,7 +15,7 @@ import sys
 
 try:  # Ctrl-C while the command line itself loads (its own imports): a quiet exit, as anywhere later
     from ..errors import InvalidParameterError, PkmlabError
-    from ._common import notes, print_error, print_json
+    from ._common import deprecated, notes, print_error, print_json
     from ._common import strict_json as _strict_json  # noqa: F401 (its former name here, kept importable)
     from ._parser import build_parser
 except KeyboardInterrupt:
@@ -102,20 +102,24 @@ def _quiet_stdout() -> None:
 
 def _with_notes(args):
     """Run the command; what pkmlab's general methods warn of (an assembly mode that may be missing) is
-    said as one note line each, other warnings as Python shows them."""
+    said as one note line each, a deprecated input (a scenario's ``[manipulator]`` table) as a note once the
+    command has succeeded, other warnings as Python shows them."""
     import warnings
 
-    from ..errors import IncompleteSolutionWarning
+    from ..errors import IncompleteSolutionWarning, PkmlabDeprecationWarning
 
     caught: list = []
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", IncompleteSolutionWarning)
+            warnings.simplefilter("always", PkmlabDeprecationWarning)
             return args.func(args)
     finally:  # said also when the command then fails, once the recording has stopped
         for w in caught:
             if issubclass(w.category, IncompleteSolutionWarning):
                 notes(args)(str(w.message))
+            elif issubclass(w.category, PkmlabDeprecationWarning):
+                deprecated(args, str(w.message))
             else:
                 warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 

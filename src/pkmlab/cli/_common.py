@@ -40,16 +40,6 @@ def params_file(args):
     return path
 
 
-def paper_manipulator(args):
-    """The paper's 3-RRR in its own formulation (:class:`~pkmlab.geometry.Planar3RRR`), or the one of the
-    deprecated ``--params``."""
-    from ..geometry import Planar3RRR
-    from ..io import load_manipulator
-
-    path = params_file(args)
-    return load_manipulator(path) if path else Planar3RRR.paper()
-
-
 def signs(mode) -> str:
     """A working mode as the tables show it: ``(+, -, +)``."""
     return "(" + ", ".join("+" if m > 0 else "-" for m in mode) + ")"
@@ -76,10 +66,11 @@ def model_of(args):
             raise InvalidParameterError("--params describes the paper's 3-RRR; with --mechanism, give a description "
                                         "file instead")
         from ..geometry import Planar3RRR
+        from ..io import load_manipulator
 
-        manipulator = paper_manipulator(args)
+        manipulator = load_manipulator(params_file(args))
         if manipulator != Planar3RRR.paper():
-            return MechanismModel.from_3rrr(manipulator)
+            return MechanismModel.from_description(manipulator.to_mechanism())
         name = DEFAULT_MECHANISM  # the paper's own parameters: the paper, to the last bit
     else:
         name = DEFAULT_MECHANISM if name is None else name

@@ -85,6 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sampled-data control at 1 ms (default) or continuous-time")
     p.add_argument("--no-figures", action="store_true", help="skip the figures")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
+    mechanism(p, default="paper (the paper's own cases); another machine whose pose is x, y, alpha runs them "
+              "on that machine")
     common(p)
     p.set_defaults(func=_command("reproduce", "cmd_reproduce"))
 
@@ -169,6 +171,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="kinematics demo on the paper's circle (figure 3)")
     p.add_argument("--out", default="demo", help="output folder (default: demo)")
     p.add_argument("--resolution", type=int, default=241, help="grid points per axis of the S map")
+    mechanism(p)
     common(p)
     p.set_defaults(func=_command("reproduce", "cmd_demo"))
 

@@ -9,50 +9,39 @@ from pathlib import Path
 from ..errors import PkmlabError
 from ._common import NewFolders, model_of, output_path, params_file, progress_bar
 
-ANIMATION_COLUMNS = ("t", "theta1", "theta2", "theta3", "x", "y", "alpha", "x_d", "y_d")
-
 
 def _animation_model(args, folder: Path, case: str):
-    """The 3-RRR that produced the run: --params, else the folder's own
-    (:func:`~pkmlab.views.folder.result_manipulator`)."""
-    from ..io import load_manipulator
-    from ..views.folder import result_manipulator
+    """``(model, source)``: the machine that produced the run — ``--mechanism`` (or the deprecated ``--params``),
+    else the folder's own (:func:`~pkmlab.views.folder.result_machine`)."""
+    from ..views.folder import result_machine
 
-    path = params_file(args)
-    if path:
-        return load_manipulator(path), Path(path).name
-    return result_manipulator(folder, case)
+    if getattr(args, "mechanism", None) or getattr(args, "params", None):
+        return model_of(args), args.mechanism or Path(params_file(args)).name
+    return result_machine(folder, case)
 
 
-def _described_model(args, folder: Path):
-    """The described machine of a run — ``--mechanism``, else the run's plant.toml when it holds a
-    ``[mechanism]`` table — or None for the paper's 3-RRR."""
-    from ..views.folder import result_mechanism
-
-    if getattr(args, "mechanism", None):
-        return model_of(args), args.mechanism  # refuses --params, which describes the paper's 3-RRR
-    return result_mechanism(folder)
-
-
-def _animate_described(args, described, folder: Path, csv_path: Path, out: Path) -> dict:
-    """``pkmlab animate`` of a described machine's run: rebuilt by branch following, drawn as it is."""
+def _animate(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:
+    """A run rebuilt by forward kinematics and branch following from its recorded actuators, drawn as the
+    machine is (the paper's 3-RRR and every planar machine of three-joint legs in the paper's style)."""
     import numpy as np
 
-    from ..animation import rebuild_machine_configurations, write_machine_gif, write_spatial_gif
+    from ..animation import rebuild_configurations, write_gif, write_machine_gif, write_spatial_gif
     from ..io import read_result_csv
+    from ..plotting import three_joint_planar
 
-    model, source = described
+    model, source = machine
     n_act, names = len(model.description.legs), model.description.pose_names
     position = ("x", "y", "z") if getattr(model.description, "spatial", False) else ("x", "y")
     columns = ("t", *(f"theta{i + 1}" for i in range(n_act)), *names, *(f"{c}_d" for c in position))
     data = read_result_csv(csv_path, columns)
     theta = np.column_stack([data[f"theta{i + 1}"] for i in range(n_act)])
     pose = np.column_stack([data[v] for v in names])
-    q = rebuild_machine_configurations(model, theta, pose[0])
+    q = rebuild_configurations(model, theta, pose[0])
     tracked = q[:, -len(names):][:, :len(position)]
     desired = np.column_stack([data[f"{c}_d"] for c in position])
     title = f"{folder.name}/{csv_path.name}, {model.description.name} ({model.description.notation})"
-    writer = write_spatial_gif if len(position) == 3 else write_machine_gif
+    writer = (write_spatial_gif if len(position) == 3 else write_gif if three_joint_planar(model)
+              else write_machine_gif)
     return _write_animation(args, data, tracked, source, csv_path, out, title, "--mechanism",
                             lambda frames, bar: writer(model, data["t"], q, desired, out, frames, fps=args.fps,
                                                        title=title, on_frame=bar.update))
@@ -85,17 +74,12 @@ def _write_animation(args, data: dict, tracked, source: str, csv_path: Path, out
         print(f"wrote {out}: {len(frames)} frames (one every {stride} of {count} samples) at {args.fps} fps "
               f"from {csv_path}, machine: {source}")
     return {"gif": str(out), "csv": str(csv_path), "frames": len(frames), "stride": stride, "fps": args.fps,
-            "samples": count, "manipulator": source, "max_centroid_deviation_m": deviation}
+            "samples": count, "mechanism": source, "max_centroid_deviation_m": deviation}
 
 
 def cmd_animate(args) -> dict:
     """A GIF of a recorded run: the machine rebuilt from its recorded actuators, the desired path, the trail."""
-    import numpy as np
-
-    from ..animation import rebuild_configurations, write_gif
     from ..errors import InvalidParameterError
-    from ..io import read_result_csv
-    from ..kinematics import platform_pose
 
     folder = Path(args.result_dir)
     if not folder.exists():
@@ -119,16 +103,4 @@ def cmd_animate(args) -> dict:
         hint = (f"cases found: {', '.join(found)}" if found else
                 "expected nominal.csv, disturbed.csv, fast.csv (pkmlab reproduce) or run.csv (pkmlab simulate)")
         raise PkmlabError(f"no {csv_path.name} in {folder} ({hint})")
-    described = _described_model(args, folder)
-    if described is not None:
-        return _animate_described(args, described, folder, csv_path, out)
-    data = read_result_csv(csv_path, ANIMATION_COLUMNS)
-    model, source = _animation_model(args, folder, case)
-    theta = np.column_stack([data["theta1"], data["theta2"], data["theta3"]])
-    q = rebuild_configurations(model, theta, [data["x"][0], data["y"][0], data["alpha"][0]])
-    centroid = platform_pose(model, q)[:, :2]
-    title = f"{folder.name}/{csv_path.name}, manipulator: {source}"
-    return _write_animation(args, data, centroid, source, csv_path, out, title, "--params",
-                            lambda frames, bar: write_gif(model, data["t"], q, np.column_stack(
-                                [data["x_d"], data["y_d"]]), out, frames, fps=args.fps, title=title,
-                                on_frame=bar.update))
+    return _animate(args, _animation_model(args, folder, case), folder, csv_path, out)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .._version import __version__
-from ._common import check_resolution, notes, paper_manipulator, params_file, signs, status_messages
+from ._common import check_resolution, mechanism_name, model_of, notes, signs, status_messages
 
 
 def cmd_demo(args) -> dict:
@@ -20,13 +20,19 @@ def cmd_demo(args) -> dict:
         if not args.json:
             print(text)
 
-    model = paper_manipulator(args)
+    model = model_of(args)
+    if model.pose_names != ("x", "y", "alpha"):
+        from ..errors import InvalidParameterError
+
+        raise InvalidParameterError(f"the demo follows the paper's circle with a planar platform's pose (x, y, "
+                                    f"alpha); the {model.name}'s pose is ({', '.join(model.pose_names)})")
     check_resolution(args.resolution)  # refused before anything is computed or printed
     out_dir = Path(args.out)
+    given = args.params or args.mechanism
     provenance = {"pkmlab_version": __version__, "resolution": args.resolution,
-                  "manipulator": f"your parameter file {args.params}" if args.params else "the paper's"}
-    with atomic_output_dir(out_dir, "demo", inputs=[args.params] if args.params else [], provenance=provenance,
-                           note=notes(args)) as tmp:
+                  "mechanism": mechanism_name(args, model) if given else "the paper's"}
+    inputs = [p for p in (args.params, args.mechanism) if p and Path(p).suffix == ".toml"]
+    with atomic_output_dir(out_dir, "demo", inputs=inputs, provenance=provenance, note=notes(args)) as tmp:
         mode = _demo(args, model, say, tmp)
     out = out_dir / "fig03_singularity_map.png"
     say(f"wrote {out}")
@@ -37,8 +43,8 @@ def _demo(args, model, say, folder: Path) -> tuple:
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from ..algorithms.kinematics import branch_following, forward_kinematics, inverse_kinematics
     from ..analysis import singularity_map
-    from ..kinematics import branch_following, forward_kinematics, inverse_kinematics
     from ..plotting import plot_singularity_map
 
     start = np.array([0.20, 0.21, 0.0])
@@ -56,6 +62,7 @@ def _demo(args, model, say, folder: Path) -> tuple:
     fk = forward_kinematics(model, ik.theta)
     say(f"start pose {start.tolist()}: theta = {np.round(ik.theta, 6).tolist()}, "
         f"{len(fk)} assembly modes:")
+    n = model.n_actuators
     for j, sol in enumerate(fk):
         say(f"  {j + 1}: x = {sol.pose[0]:+.6f}  y = {sol.pose[1]:+.6f}  alpha = {sol.pose[2]:+.6f}  "
             f"S = {sol.S:+.4f}")
@@ -63,9 +70,9 @@ def _demo(args, model, say, folder: Path) -> tuple:
     q = fk.nearest(start).q
     worst = 0.0
     for k in range(1, len(path)):
-        q = branch_following(model, q, ik_path.q[k, best, :3])
-        worst = max(worst, float(np.max(np.abs(q[3:] - ik_path.q[k, best, 3:]))))
-    say(f"branch following around the circle: largest deviation from IK passive angles {worst:.2e} rad")
+        q = branch_following(model, q, ik_path.q[k, best, :n])
+        worst = max(worst, float(np.max(np.abs(q[n:] - ik_path.q[k, best, n:]))))
+    say(f"branch following around the circle: largest deviation from IK passive coordinates {worst:.2e}")
     smap = singularity_map(model, alpha=0.0, mode=mode, resolution=args.resolution)
     ax = plot_singularity_map(smap, model=model, path_xy=path[:, :2])
     try:
@@ -80,13 +87,15 @@ def cmd_reproduce(args) -> dict:
     from ..report import reproduce
 
     progress = status_messages(args)
+    given = args.params or args.mechanism
+    source = args.params or (args.mechanism if given and Path(args.mechanism).suffix == ".toml" else None)
     summary = reproduce(args.out, control=args.control, figures=not args.no_figures, progress=progress,
-                        params=params_file(args), note=notes(args))
+                        mechanism=model_of(args) if given else None, note=notes(args), source=source)
     if not args.json:
         print(f"{'case':<10} {'max path error (m)':>19} {'rms path error (m)':>19} {'peak torque (N m)':>18}")
         for name, s in summary["cases"].items():
             print(f"{name:<10} {s['max_path_error_m']:>19.4e} {s['rms_path_error_m']:>19.4e} "
                   f"{max(s['peak_torque_Nm']):>18.4f}")
         prov = summary["provenance"]
-        print(f"results in {args.out}/ ({prov['control']} control, manipulator: {prov['manipulator']})")
+        print(f"results in {args.out}/ ({prov['control']} control, mechanism: {prov['mechanism']})")
     return summary

@@ -26,10 +26,6 @@ def cmd_simulate(args) -> dict:
     if args.mechanism:  # another machine on the same scenario: the plant is that machine too
         args.params = None
         model = model_of(args)
-        if model.description.name == "paper" and args.mechanism == "paper":  # as the scenarios give the paper's
-            from ..geometry import Planar3RRR
-
-            model = Planar3RRR.paper()
         scenario = scenario.replace(model=model, plant=None, working_mode="auto")
     progress = status_messages(args)
     mujoco = None

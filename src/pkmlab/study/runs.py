@@ -42,20 +42,13 @@ def reason_of(exc: PkmlabError) -> str:
     return next(reason for kind, reason in REASONS if isinstance(exc, kind))
 
 
-def _pose_names(model) -> tuple[str, ...]:
-    description = getattr(model, "description", None)
-    return description.pose_names if description is not None else ("x", "y", "alpha")
-
-
 def metric_columns(study: Study) -> tuple[str, ...]:
     """The metrics of a study's table, from its base machine: the summary's numbers (one peak effort
     per actuator and their maximum), ``min_abs_S`` and the number of samples."""
-    from ..simulation import _actuator_count
-
     model = study.base_scenario().model  # not grid point 0's: that one may be a combination that fails
-    names = _pose_names(model)
+    names = model.pose_names
     orientation = ("max_orientation_error_rad",) if {"alpha", "roll"} & set(names) else ()
-    n = _actuator_count(model)
+    n = model.n_actuators
     return ("max_path_error_m", "rms_path_error_m", *orientation, "max_joint_error", "peak_effort",
             *(f"peak_effort_{i + 1}" for i in range(n)), "min_abs_S", "samples")
 

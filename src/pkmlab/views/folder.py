@@ -38,45 +38,34 @@ def result_cases(folder: Path) -> list[str]:
     return cases
 
 
-def result_mechanism(folder: Path):
-    """``(model, source)`` of a described machine's run — its folder's ``plant.toml`` holding a ``[mechanism]``
-    table — or None (the paper's 3-RRR: :func:`result_manipulator`)."""
+def result_machine(folder: Path, case: str):
+    """``(model, source)``: the machine that produced run ``case`` of ``folder`` (what ``pkmlab animate`` and
+    ``pkmlab view`` rebuild the run on) — its ``<case>_plant.toml`` (reproduce) or ``plant.toml`` (simulate),
+    else the paper's (×1.15 for a reproduced ``disturbed`` case). A plant file of pkmlab 0.2 (a
+    ``[manipulator]`` table, the paper's 3-RRR) is read as the same machine."""
     from .._files import read_text
-    from ..mechanism_model import MechanismModel
+    from ..mechanism_model import MechanismModel, load
     from ..mechanisms.description import load_mechanism
-
-    plant = folder / "plant.toml"
-    if plant.is_file() and re.search(r"^\[mechanism\]", read_text(plant), re.MULTILINE):
-        return MechanismModel.from_description(load_mechanism(plant)), f"{folder.name}/plant.toml"
-    return None
-
-
-def result_manipulator(folder: Path, case: str):
-    """``(model, source)``: the 3-RRR that produced run ``case`` of ``folder`` — its ``<case>_plant.toml``
-    (reproduce) or ``plant.toml`` (simulate), else the paper's (×1.15 for a reproduced ``disturbed`` case)."""
-    from ..geometry import Planar3RRR
-    from ..io import load_manipulator
     from ..simulation import scaled_model
 
     for plant in (folder / f"{case}_plant.toml", folder / "plant.toml"):
         if plant.is_file():
-            return load_manipulator(plant), f"{folder.name}/{plant.name}"
+            source = f"{folder.name}/{plant.name}"
+            if re.search(r"^\[mechanism\]", read_text(plant), re.MULTILINE):
+                return MechanismModel.from_description(load_mechanism(plant)), source
+            from ..io import load_manipulator
+
+            return MechanismModel.from_description(load_manipulator(plant).to_mechanism()), source
     if case == "disturbed":
-        return scaled_model(Planar3RRR.paper(), 1.15, 1.15), "paper preset, masses and lengths x1.15"
-    return Planar3RRR.paper(), "paper preset"
-
-
-def result_machine(folder: Path, case: str):
-    """``(model, source)``: the machine that produced run ``case`` of ``folder`` (what ``pkmlab animate`` and
-    ``pkmlab view`` rebuild the run on)."""
-    return result_mechanism(folder) or result_manipulator(folder, case)
+        return scaled_model(load("paper"), 1.15, 1.15), "paper preset, masses and lengths x1.15"
+    return load("paper"), "paper preset"
 
 
 def _columns(model) -> tuple[tuple[str, ...], int, tuple[str, ...]]:
     """The CSV columns a view needs, the number of actuators and the pose's names."""
-    description = getattr(model, "description", None)
-    n = len(description.legs) if description is not None else 3
-    names = description.pose_names if description is not None else ("x", "y", "alpha")
+    description = model.description
+    n = len(description.legs)
+    names = description.pose_names
     return (("t", *(f"theta{i + 1}" for i in range(n)), *(f"tau{i + 1}" for i in range(n)), *names,
              *(f"{v}_d" for v in names), "S"), n, names)
 
@@ -84,9 +73,8 @@ def _columns(model) -> tuple[tuple[str, ...], int, tuple[str, ...]]:
 def read_view(folder: Path, case: str) -> RunView:
     """The view of run ``case`` of result folder ``folder``."""
     from .._files import read_text
-    from ..animation import rebuild_configurations, rebuild_machine_configurations
+    from ..animation import rebuild_configurations
     from ..errors import FileFormatError
-    from ..geometry import Planar3RRR
     from ..io import read_result_csv
 
     folder = Path(folder)
@@ -104,8 +92,7 @@ def read_view(folder: Path, case: str) -> RunView:
     pose_d = np.column_stack([data[f"{v}_d"] for v in names])
     tau = np.column_stack([data[f"tau{i + 1}"] for i in range(n)])
     try:
-        rebuild = rebuild_configurations if isinstance(model, Planar3RRR) else rebuild_machine_configurations
-        q = rebuild(model, theta, pose[0])
+        q = rebuild_configurations(model, theta, pose[0])
     except PkmlabError as exc:
         raise PkmlabError(f"{path}: the machine of {source} does not hold this run: {exc}") from None
     summary = {}

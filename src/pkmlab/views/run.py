@@ -57,18 +57,13 @@ class RunView:
     @classmethod
     def from_run(cls, name: str, model, t, q, pose, pose_d, tau, S, pose_names, summary=None,
                  scenario_text: str = "", frames: int | None = None) -> RunView:
-        """The view of a run of ``model`` (a :class:`~pkmlab.geometry.Planar3RRR` or a
-        :class:`~pkmlab.mechanism_model.MechanismModel`) recorded as configurations ``q`` (N, n_q) in the model's
-        own coordinates, poses, efforts and ``S``; ``frames`` animation frames at most (:data:`MAX_FRAMES`)."""
-        from ..geometry import Planar3RRR
-        from ..kinematics import coordinates_from_3rrr
-        from ..mechanism_model import MechanismModel, joint_positions
+        """The view of a run of ``model`` (a :class:`~pkmlab.mechanism_model.MechanismModel`) recorded as
+        configurations ``q`` (N, n_coordinates), poses, efforts and ``S``; ``frames`` animation frames at most
+        (:data:`MAX_FRAMES`)."""
+        from ..mechanism_model import joint_positions
         from ..simulation import orientation_error, path_error
 
         t, q, pose, pose_d, tau, S = (np.asarray(a, dtype=float) for a in (t, q, pose, pose_d, tau, S))
-        if isinstance(model, Planar3RRR):
-            q = coordinates_from_3rrr(model, q)
-            model = MechanismModel.from_3rrr(model)
         description = model.description
         samples = frame_samples(len(t), frames or MAX_FRAMES)
         joints = joint_positions(model, q[samples])
@@ -80,7 +75,7 @@ class RunView:
         if orientation is not None:
             label = "|α - α_d|" if "alpha" in pose_names else "angle of R_dᵀR"
             series["orientation error"] = ("rad", {label: orientation})
-        kinds = getattr(description, "actuator_kinds", None) or ("R",) * tau.shape[1]
+        kinds = description.actuator_kinds
         unit = "N·m" if all(k == "R" for k in kinds) else "N" if all(k == "P" for k in kinds) else "N·m or N"
         series["efforts"] = (unit, {f"τ{i + 1}": tau[:, i] for i in range(tau.shape[1])})
         series["singularity measure S"] = ("", {"S": S})
@@ -92,7 +87,7 @@ class RunView:
     def from_result(cls, result, name: str | None = None, scenario_text: str = "") -> RunView:
         """The view of a :class:`~pkmlab.simulation.SimulationResult`."""
         return cls.from_run(name or result.scenario.name, result.scenario.plant_model, result.t, result.q,
-                            result.pose, result.pose_d, result.tau, result.S, result.columns_pose, result.summary(),
+                            result.pose, result.pose_d, result.tau, result.S, result.pose_names, result.summary(),
                             scenario_text)
 
 
