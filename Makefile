@@ -19,6 +19,7 @@ reproduce: install
 
 lint: install
 	$(BIN)/ruff check src tests benchmarks examples
+	$(BIN)/lint-imports --no-cache
 
 # The views' tests open pages in a real headless browser: Debian's Chromium (the tests skip without it).
 browser:

@@ -24,8 +24,8 @@ from operation_count import DEFAULT_RUNS
 from pkmlab import mechanism_model as mm
 from pkmlab.control import ControllerSpec
 from pkmlab.kinematics import coordinates_to_3rrr
-from pkmlab.scenario_io import load_scenario
-from pkmlab.simulation import paper_scenario, perturbed_model, simulate, simulate_batch
+from pkmlab.scenario_io import load_scenario, paper_scenario
+from pkmlab.simulation import perturbed_model, simulate, simulate_batch
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: every preset's default run (operation_count.DEFAULT_RUNS), and the paper's other two cases

@@ -47,7 +47,7 @@ def _rates(model):
 
 # ------------------------------------------------------------------ load
 def test_load_takes_a_preset_a_file_a_description_and_a_model(tmp_path, models):
-    from pkmlab.mechanisms.description import mechanism_to_toml
+    from pkmlab.mechanisms.files import mechanism_to_toml
 
     path = tmp_path / "mine.toml"
     path.write_text(mechanism_to_toml(preset("five_bar")))

@@ -35,7 +35,8 @@ from pkmlab import kinematics as kin
 from pkmlab.control import ControllerSpec
 from pkmlab.geometry import Planar3RRR
 from pkmlab.plant import FullPlant, ReducedPlant
-from pkmlab.simulation import SCENARIO_DIR, _prepare
+from pkmlab.scenario_io import SCENARIO_DIR
+from pkmlab.simulation import _prepare
 from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory
 
 # ------------------------------------------------------------------ valid arguments

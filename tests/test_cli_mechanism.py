@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from conftest import assert_user_error, run
 
-from pkmlab.mechanisms.description import mechanism_to_toml
+from pkmlab.mechanisms.files import mechanism_to_toml
 from pkmlab.mechanisms.presets import preset
 
 POSES = {"paper": [0.2, 0.21, 0.0], "five_bar": [0.0, 0.35], "3rpr": [0.25, 0.21, -math.pi / 2],
@@ -301,7 +301,7 @@ def test_dynamics_mechanism_warns_near_a_singularity(capsys):
 def test_simulate_then_animate_a_five_bar_run(capsys, tmp_path):
     from pathlib import Path
 
-    from pkmlab.mechanisms.description import load_mechanism
+    from pkmlab.mechanisms.files import load_mechanism
 
     example = Path(__file__).parents[1] / "examples" / "five_bar_circle.toml"
     out = tmp_path / "run"

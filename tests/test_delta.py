@@ -157,7 +157,7 @@ def test_bad_poses_name_the_leg():
         mm.inverse_kinematics(MODEL, [0.05, -0.03, -0.2], (1, 1, 1))
     with pytest.raises(InvalidParameterError, match=r"pose must be \(x, y, z\)"):
         mm.inverse_kinematics(MODEL, [0.0, 0.0, float("nan")], (1, 1, 1))
-    with pytest.raises(InvalidParameterError, match="actuators must be 3 finite values"):
+    with pytest.raises(InvalidParameterError, match="theta must be 3 finite values"):
         mm.forward_kinematics(MODEL, [0.1, 0.2])
 
 

@@ -13,18 +13,8 @@ from hypothesis import strategies as st
 import pkmlab
 from pkmlab import kinematics as kin
 from pkmlab.geometry import Planar3RRR
-from pkmlab.mechanisms.description import (
-    Body,
-    Joint,
-    Leg,
-    Mechanism,
-    Platform,
-    attachment_point,
-    leg_chain,
-    load_mechanism,
-    mechanism_from_dict,
-    mechanism_to_toml,
-)
+from pkmlab.mechanisms.description import Body, Joint, Leg, Mechanism, Platform, attachment_point, leg_chain
+from pkmlab.mechanisms.files import load_mechanism, mechanism_from_dict, mechanism_to_toml
 from pkmlab.mechanisms.presets import PRESETS, preset
 
 B = 0.52  # the paper's base side

@@ -7,7 +7,8 @@ import pytest
 
 MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics", "pkmlab.plants", "pkmlab.geometry",
            "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
-           "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanism_model",
+           "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanisms.files",
+           "pkmlab.mechanism_model", "pkmlab.animation",
            "pkmlab.mechanisms.stewart_fk", "pkmlab.uncertainty", "pkmlab.progress"]
 
 

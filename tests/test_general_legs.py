@@ -14,7 +14,7 @@ from pkmlab import kinematics as kin
 from pkmlab import mechanism_model as mm
 from pkmlab.geometry import Planar3RRR
 from pkmlab.mechanisms import leg_types as lt
-from pkmlab.mechanisms.description import load_mechanism
+from pkmlab.mechanisms.files import load_mechanism
 from pkmlab.mechanisms.presets import PLANAR_PRESETS, preset
 from pkmlab.scenario_io import scenario_from_dict
 from pkmlab.simulation import simulate

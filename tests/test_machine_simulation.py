@@ -16,8 +16,8 @@ import pytest
 from pkmlab import mechanism_model as mm
 from pkmlab.errors import InvalidParameterError, SingularityError, UnreachablePoseError
 from pkmlab.mechanism_model import MechanismModel, actuator_space_model
-from pkmlab.scenario_io import load_scenario, scenario_from_dict
-from pkmlab.simulation import Scenario, paper_scenario, simulate, simulate_batch
+from pkmlab.scenario_io import load_scenario, paper_scenario, scenario_from_dict
+from pkmlab.simulation import Scenario, simulate, simulate_batch
 from pkmlab.trajectory import Circle, Trajectory, paper_trajectory
 
 EXAMPLES = {

@@ -28,7 +28,8 @@ from pkmlab import outputs
 from pkmlab.geometry import Planar3RRR
 from pkmlab.io import load_manipulator
 from pkmlab.mechanism_model import MechanismModel
-from pkmlab.simulation import paper_scenario, simulate
+from pkmlab.scenario_io import paper_scenario
+from pkmlab.simulation import simulate
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"

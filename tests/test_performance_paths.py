@@ -27,7 +27,8 @@ import pkmlab
 from pkmlab import mechanism_model as mm
 from pkmlab.geometry import Planar3RRR
 from pkmlab.kinematics import forward_kinematics, inverse_kinematics
-from pkmlab.simulation import paper_scenario, simulate
+from pkmlab.scenario_io import paper_scenario
+from pkmlab.simulation import simulate
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 

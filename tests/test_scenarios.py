@@ -28,8 +28,8 @@ from pkmlab.control import ControllerSpec
 from pkmlab.errors import PkmlabDeprecationWarning, PkmlabError
 from pkmlab.geometry import Planar3RRR
 from pkmlab.io import load_manipulator
-from pkmlab.scenario_io import load_scenario, scenario_from_dict
-from pkmlab.simulation import COLUMNS, Scenario, paper_scenario, simulate
+from pkmlab.scenario_io import load_scenario, paper_scenario, scenario_from_dict
+from pkmlab.simulation import COLUMNS, Scenario, simulate
 from pkmlab.trajectory import Circle, Trajectory
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -22,7 +22,8 @@ from pkmlab.errors import (
 from pkmlab.geometry import Planar3RRR
 from pkmlab.kinematics import coordinates_to_3rrr, desired_joint_motion
 from pkmlab.plant import ReducedPlant
-from pkmlab.simulation import COLUMNS, Scenario, paper_scenario, scaled_model, simulate
+from pkmlab.scenario_io import paper_scenario
+from pkmlab.simulation import COLUMNS, Scenario, scaled_model, simulate
 from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory, paper_trajectory
 
 

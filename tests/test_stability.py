@@ -25,7 +25,8 @@ from pkmlab.control import (
     sampled_data_spectral_radius,
 )
 from pkmlab.errors import SingularityError, UnstableControlError
-from pkmlab.simulation import paper_scenario, simulate
+from pkmlab.scenario_io import paper_scenario
+from pkmlab.simulation import simulate
 
 
 # ------------------------------------------------------------------ the formula, independently

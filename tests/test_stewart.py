@@ -15,7 +15,7 @@ from pkmlab import load_scenario, simulate
 from pkmlab import mechanism_model as mm
 from pkmlab.errors import BranchFollowingError, InvalidParameterError, UnreachablePoseError
 from pkmlab.mechanism_model import MechanismModel
-from pkmlab.mechanisms.description import load_mechanism
+from pkmlab.mechanisms.files import load_mechanism
 from pkmlab.mechanisms.presets import preset
 from pkmlab.mechanisms.spatial import leg_frames, orientation
 

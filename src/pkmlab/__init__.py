@@ -30,10 +30,10 @@ _WHERE = {
                      "constrained_dynamics", "forward_dynamics", "full_space_model", "inverse_dynamics"),
                     "algorithms.dynamics"),
     **dict.fromkeys(("ActuatorSpacePlant", "FullSpacePlant", "PlantRun"), "plants"),
-    "load_scenario": "scenario_io",
+    **dict.fromkeys(("load_scenario", "paper_scenario"), "scenario_io"),
     "ControllerSpec": "control",
-    **dict.fromkeys(("Scenario", "SimulationResult", "paper_scenario", "perturbed_model", "simulate",
-                     "simulate_batch"), "simulation"),
+    **dict.fromkeys(("Scenario", "SimulationResult", "perturbed_model", "simulate", "simulate_batch"),
+                    "simulation"),
     **dict.fromkeys(("Study", "load_study", "sweep", "tune"), "study"),
     **dict.fromkeys(("draw", "plot", "show"), "views.notebook"),
 }

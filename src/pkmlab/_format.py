@@ -1,7 +1,9 @@
-"""Numbers in messages shown so that they cannot contradict the limit they are compared with."""
+"""What messages share: numbers shown so that they cannot contradict the limit they are compared with, and
+the closest valid name to a misspelt one."""
 
 from __future__ import annotations
 
+import difflib
 import math
 
 
@@ -25,3 +27,13 @@ def apart(value: float, limit: float, digits: int = 3, limit_digits: int = 6) ->
         if (float(v) > float(lim)) - (float(v) < float(lim)) == order:
             return v, lim
     return repr(value), repr(limit)
+
+
+def suggestion(key: str, valid) -> str:
+    """The end of an "unknown key" message: the closest of ``valid`` to ``key``, or every valid key.
+
+    >>> suggestion("mas", ("mass", "length"))
+    " (did you mean 'mass'?)"
+    """
+    close = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else f" (valid keys: {', '.join(valid)})"

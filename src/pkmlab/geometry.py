@@ -31,22 +31,24 @@ import numpy as np
 
 from .errors import InvalidParameterError, shown
 
-# --- layout of the packed parameter vector read by the compiled kernels -------------------
-BASE = 0  # 6: b1x, b1y, b2x, b2y, b3x, b3y
-ACTIVE_LENGTH = 6  # 3: l1, l2, l3
-PASSIVE_LENGTH = 9  # 3: r1, r2, r3
-PLATFORM = 12  # 4: P2x, P2y, P3x, P3y (platform frame, P1 = origin)
-REFERENCE = 16  # 2: platform reference point (centroid) in the platform frame
-ACTIVE_MASS = 18  # 3
-PASSIVE_MASS = 21  # 3
-PLATFORM_MASS = 24  # 1
-ACTIVE_INERTIA = 25  # 3 (about each link's own mass centre)
-PASSIVE_INERTIA = 28  # 3
-PLATFORM_INERTIA = 31  # 1
-ACTIVE_COM = 32  # 6: (along, across) each active link, in its link frame
-PASSIVE_COM = 38  # 6
-PLATFORM_COM = 44  # 2: platform frame
-N_PACKED = 46
+# the layout of the packed parameter vector the compiled kernels read
+from .mechanisms._rrr3_layout import (  # noqa: F401 (the layout, also read from here)
+    ACTIVE_COM,
+    ACTIVE_INERTIA,
+    ACTIVE_LENGTH,
+    ACTIVE_MASS,
+    BASE,
+    N_PACKED,
+    PASSIVE_COM,
+    PASSIVE_INERTIA,
+    PASSIVE_LENGTH,
+    PASSIVE_MASS,
+    PLATFORM,
+    PLATFORM_COM,
+    PLATFORM_INERTIA,
+    PLATFORM_MASS,
+    REFERENCE,
+)
 
 #: The longest platform side accepted (m): far beyond any machine, far below the float range.
 MAX_LENGTH = 1e100

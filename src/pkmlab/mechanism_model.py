@@ -126,7 +126,7 @@ def load(source) -> MechanismModel:
     from pathlib import Path
 
     from .errors import shown
-    from .mechanisms.description import load_mechanism
+    from .mechanisms.files import load_mechanism
     from .mechanisms.presets import PRESETS
     from .mechanisms.spatial import SpatialMechanism
 
@@ -556,7 +556,7 @@ def _newton_passive(model: MechanismModel, q: np.ndarray, tol: float, iterations
     return False
 
 
-def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S: float = 1e-3,
+def branch_following(model: MechanismModel, q_previous, theta, *, min_abs_S: float = 1e-3,
                      max_step: float = 0.05) -> np.ndarray:
     """The configuration at ``actuators`` continuously connected to ``q_previous`` (paper §3.2): the compiled
     core's :func:`~pkmlab.machine_core.follow_branch_in_steps`, the simulation's own branch following, in
@@ -568,10 +568,10 @@ def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S:
     from .errors import BranchFollowingError
 
     q = _q(model, q_previous)
-    target = np.asarray(actuators, dtype=float)
+    target = np.asarray(theta, dtype=float)
     na = model.n_actuators
     if target.shape != (na,) or not np.all(np.isfinite(target)):
-        raise InvalidParameterError(f"actuators must be {na} finite values, got {np.asarray(actuators).tolist()}")
+        raise InvalidParameterError(f"theta must be {na} finite values, got {np.asarray(theta).tolist()}")
     for name, value, low in (("max_step", max_step, 0.0), ("min_abs_S", min_abs_S, -1.0)):
         if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
                 and value > low):
@@ -590,7 +590,7 @@ def branch_following(model: MechanismModel, q_previous, actuators, *, min_abs_S:
     return out[0]
 
 
-def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.ndarray]:
+def forward_kinematics_five_bar(model: MechanismModel, theta) -> list[np.ndarray]:
     """Both assembly modes of a point platform on two legs (the five-bar's two R*RR legs, or any leg
     types of :mod:`~pkmlab.mechanisms.leg_types`): the end point is where the two legs' circles
     (:func:`~pkmlab.mechanisms.leg_types.leg_circle`, about the elbows ``E_i`` for the five-bar)
@@ -600,7 +600,7 @@ def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.nda
     m = model.description
     if m.platform.kind != "point" or len(m.legs) != 2:
         raise InvalidParameterError(f"{m.notation} is not a point platform on two legs")
-    theta = np.asarray(actuators, dtype=float)
+    theta = np.asarray(theta, dtype=float)
     circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
     elbows = [np.array(c) for c, _r in circles]
     radii = [r for _c, r in circles]
@@ -622,7 +622,7 @@ def forward_kinematics_five_bar(model: MechanismModel, actuators) -> list[np.nda
     return out
 
 
-def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarray, float]]:
+def forward_kinematics(model: MechanismModel, theta) -> list[tuple[np.ndarray, float]]:
     """Every assembly mode ``[(q, S), ...]`` (sorted by the platform's angle) at ``actuators``.
 
     A rigid platform on three legs each holding its attachment point on a circle
@@ -635,7 +635,7 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
     """
     from .mechanisms.leg_types import _SOLVERS
 
-    theta = _actuator_values(model, actuators)
+    theta = _actuator_values(model, theta)
     if getattr(model.description, "spatial", False):
         return _spatial_forward_kinematics(model, theta)
     if any(leg.notation not in _SOLVERS for leg in model.description.legs):
@@ -645,7 +645,7 @@ def forward_kinematics(model: MechanismModel, actuators) -> list[tuple[np.ndarra
 
             from .errors import IncompleteSolutionWarning
 
-            warnings.warn(f"forward kinematics at actuators {np.round(np.asarray(actuators, float), 6).tolist()}: "
+            warnings.warn(f"forward kinematics at actuators {np.round(np.asarray(theta, float), 6).tolist()}: "
                           f"{doubt}: an assembly mode there may be missing", IncompleteSolutionWarning, stacklevel=2)
         return solutions
     from .mechanisms import rrr3
@@ -747,13 +747,13 @@ def _stewart_forward_kinematics(model: MechanismModel, theta: np.ndarray) -> lis
     return found
 
 
-def _actuator_values(model: MechanismModel, actuators) -> np.ndarray:
+def _actuator_values(model: MechanismModel, theta) -> np.ndarray:
     """The actuator values of a forward-kinematics request: one finite value per leg, within its stroke."""
     m = model.description
-    theta = np.asarray(actuators, dtype=float)
+    theta = np.asarray(theta, dtype=float)
     if theta.shape != (model.n_actuators,) or not np.all(np.isfinite(theta)):
-        raise InvalidParameterError(f"actuators must be {model.n_actuators} finite values, got "
-                                    f"{np.asarray(actuators).tolist()}")
+        raise InvalidParameterError(f"theta must be {model.n_actuators} finite values, got "
+                                    f"{np.asarray(theta).tolist()}")
     for i, (leg, t) in enumerate(zip(m.legs, theta, strict=True)):
         if leg.stroke is not None and leg.joints[leg.actuated].kind == "P" and not leg.stroke[0] <= t <= leg.stroke[1]:
             raise InvalidParameterError(f"leg {i + 1}: actuator value {t:g} m is outside its stroke "
@@ -822,7 +822,7 @@ def _intersections(first, second, touching: float = 0.0):
         return np.stack([point, np.full_like(point, np.nan)], axis=-2)
 
 
-def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[tuple[np.ndarray, float]], str]:
+def forward_kinematics_general(model: MechanismModel, theta) -> tuple[list[tuple[np.ndarray, float]], str]:
     """Every assembly mode of any machine whose legs hold their ends on circles or lines
     (:class:`~pkmlab.mechanisms.leg_types.Locus`), and a doubt: ``""`` when the method guarantees that it
     found all of them, else where it cannot.
@@ -841,7 +841,7 @@ def forward_kinematics_general(model: MechanismModel, actuators) -> tuple[list[t
     from .mechanisms.leg_types import Locus
 
     m = model.description
-    theta = _actuator_values(model, actuators)
+    theta = _actuator_values(model, theta)
     loci = [Locus(leg, i) for i, leg in enumerate(m.legs)]
     shapes = [(locus.kind, *locus.at(t)) for locus, t in zip(loci, theta, strict=True)]
     doubt, candidates = "", []

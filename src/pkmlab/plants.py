@@ -54,7 +54,7 @@ class PlantRun:
         Configurations ``(θ, passive joints, pose)`` at ``t`` (``model.coordinates`` names the entries).
     q_dot : ndarray, shape (N, n)
         Their rates.
-    constraint_residual : ndarray, shape (N,)
+    closure_violation : ndarray, shape (N,)
         ``max |η(q)|`` (m) at each output time: how far the loop closure is from holding.
     n_evaluations : int
         How many times the plant's right-hand side was evaluated.
@@ -65,7 +65,7 @@ class PlantRun:
     t: np.ndarray
     q: np.ndarray
     q_dot: np.ndarray
-    constraint_residual: np.ndarray
+    closure_violation: np.ndarray
     n_evaluations: int
     n_actuators: int
 
@@ -129,7 +129,7 @@ def _start(model: MechanismModel, q0) -> np.ndarray:
     return q0
 
 
-def _loop_residual(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
+def _closure_violation(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
     """``max |η(q)|`` (m) of each configuration of ``qs`` (K, n)."""
     return np.abs(constraint_residuals(model, qs)).max(axis=1)
 
@@ -174,7 +174,7 @@ class ActuatorSpacePlant:
     >>> q0 = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
     >>> run = pkmlab.ActuatorSpacePlant(model).simulate(q0, [0.0, 0.0], [0.01, -0.01], 0.05,
     ...                                                 t_eval=np.linspace(0.0, 0.05, 6))
-    >>> run.q.shape, run.theta.shape, bool(run.constraint_residual.max() < 1e-12)
+    >>> run.q.shape, run.theta.shape, bool(run.closure_violation.max() < 1e-12)
     ((6, 6), (6, 2), True)
     """
 
@@ -252,7 +252,7 @@ class ActuatorSpacePlant:
         if status != kernels.OK:
             raise BranchFollowingError(f"the plant lost its assembly mode at t = {sol.t[k]:.6g} s")
         q_dot = coordinate_rates(model, qs, np.ascontiguousarray(sol.y[na:].T))
-        return PlantRun(sol.t, qs, q_dot, _loop_residual(model, qs), evaluations, na)
+        return PlantRun(sol.t, qs, q_dot, _closure_violation(model, qs), evaluations, na)
 
 
 class FullSpacePlant:
@@ -282,7 +282,7 @@ class FullSpacePlant:
     >>> q_dot0 = pkmlab.coordinate_rates(model, q0, [0.5, -0.2])
     >>> run = pkmlab.FullSpacePlant(model).simulate(q0, q_dot0, [0.0, 0.0], 0.05,
     ...                                             t_eval=np.linspace(0.0, 0.05, 6))
-    >>> run.q.shape, bool(run.constraint_residual.max() < 1e-9)
+    >>> run.q.shape, bool(run.closure_violation.max() < 1e-9)
     ((6, 6), True)
     """
 
@@ -313,7 +313,7 @@ class FullSpacePlant:
         Returns
         -------
         PlantRun
-            ``q`` and ``q_dot`` as integrated; ``constraint_residual`` is the drift Baumgarte leaves.
+            ``q`` and ``q_dot`` as integrated; ``closure_violation`` is the drift Baumgarte leaves.
 
         Raises
         ------
@@ -364,4 +364,4 @@ class FullSpacePlant:
 
         sol = _integrate(rhs, t_final, np.concatenate([q0, q_dot0]), t_eval, self.rtol, self.atol)
         qs = np.ascontiguousarray(sol.y[:n].T)
-        return PlantRun(sol.t, qs, np.ascontiguousarray(sol.y[n:].T), _loop_residual(model, qs), evaluations, na)
+        return PlantRun(sol.t, qs, np.ascontiguousarray(sol.y[n:].T), _closure_violation(model, qs), evaluations, na)

@@ -21,7 +21,8 @@ from pathlib import Path
 from . import simulation
 from .errors import PkmlabError
 from .outputs import atomic_output_dir
-from .simulation import PAPER_CASES, Scenario, SimulationResult, paper_scenario, simulate
+from .scenario_io import PAPER_CASES, SCENARIO_DIR, paper_scenario
+from .simulation import Scenario, SimulationResult, simulate
 
 #: (file name, paper figure, caption, case, plot kind)
 FIGURES = (
@@ -96,7 +97,7 @@ def case_scenarios(control: str = "sampled", mechanism=None) -> dict[str, Scenar
     for name in PAPER_CASES:
         scenario = paper_scenario(name)
         if model is not None:
-            plant = read_toml(simulation.SCENARIO_DIR / f"{name}.toml").get("plant", {})
+            plant = read_toml(SCENARIO_DIR / f"{name}.toml").get("plant", {})
             mass, length = plant.get("mass_scale", 1.0), plant.get("length_scale", 1.0)
             try:
                 scenario = scenario.replace(model=model, plant=None if mass == length == 1.0 else
@@ -231,7 +232,7 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
     ``source``, the file the machine was read from (by default ``mechanism`` when it is a file's name), is
     named in the provenance and may not lie inside ``out``.
     """
-    from .mechanisms.description import mechanism_to_toml
+    from .mechanisms.files import mechanism_to_toml
 
     say = progress or (lambda _msg: None)
     scenarios = case_scenarios(control, mechanism)  # a bad machine is refused before anything is written
@@ -268,7 +269,6 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
             say(f"drew {len(FIGURES)} figures")
         (tmp / "REPORT.md").write_text(_report(results, summary["cases"], figures, prov))
         if figures:
-            from .simulation import SCENARIO_DIR
             from .views.html import write_html
             from .views.run import RunView
 
@@ -366,7 +366,7 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
     ``out``; its text (``source_text``, as it was read, else read again) is kept as ``scenario.toml``.
     """
     from ._files import read_text
-    from .mechanisms.description import mechanism_to_toml
+    from .mechanisms.files import mechanism_to_toml
 
     text = source_text if source_text is not None or source is None else read_text(Path(source))
     control = "sampled" if scenario.sample_time > 0 else "continuous"

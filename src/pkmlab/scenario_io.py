@@ -54,13 +54,13 @@ from pathlib import Path
 import numpy as np
 
 from ._files import parse_toml, read_toml
-from ._format import apart
+from ._format import apart, suggestion
 from .control import CONTROLLER_TYPES, ControllerSpec
 from .errors import FileFormatError, InvalidParameterError, PkmlabDeprecationWarning, PkmlabError, shown
 from .io import PARAM_KEYS, PRESETS, manipulator_from_dict
 from .mechanism_model import MechanismModel, load
 from .simulation import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model, scenario_working_mode
-from .trajectory import Circle, Line, TimedWaypoints, Trajectory, WaypointTrajectory
+from .trajectory import Circle, Line, TimedWaypoints, Trajectory, WaypointTrajectory, paper_trajectory
 
 #: The tables of a scenario file and their keys.
 TABLES = {
@@ -112,11 +112,6 @@ def _key(key: str) -> str:
     return key if bare else json.dumps(key, ensure_ascii=False)
 
 
-def _suggest(key: str, valid) -> str:
-    close = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.6)
-    return f" (did you mean '{close[0]}'?)" if close else f" (valid keys: {', '.join(valid)})"
-
-
 class _Reader:
     """Validation helpers that name the file, the table and the key in every message."""
 
@@ -145,7 +140,7 @@ class _Reader:
     def known_keys(self, table: dict, name: str, valid) -> None:
         for key in table:
             if key not in valid:
-                raise self.format_error(f"unknown key '{_key(key)}' in {self.where(name)}{_suggest(key, valid)}")
+                raise self.format_error(f"unknown key '{_key(key)}' in {self.where(name)}{suggestion(key, valid)}")
 
     def required(self, table: dict, name: str, key: str, what: str):
         if key not in table:
@@ -226,7 +221,7 @@ def _manipulator(rd: _Reader, table: dict):
     if not params:
         model, text = load("paper"), '[mechanism]\npreset = "paper"\n'
     else:
-        from .mechanisms.description import mechanism_to_toml
+        from .mechanisms.files import mechanism_to_toml
 
         description = manipulator_from_dict({"preset": preset, "params": params},
                                             f"{rd.source}: [manipulator.params]").to_mechanism()
@@ -239,7 +234,7 @@ def _manipulator(rd: _Reader, table: dict):
 def _mechanism(rd: _Reader, table: dict, folder: Path):
     """The controller's model of a ``[mechanism]`` table: ``preset = "NAME"``, ``file = "PATH"`` (a
     mechanism file, relative to the scenario's folder) or a description inline."""
-    from .mechanisms.description import load_mechanism, mechanism_from_dict
+    from .mechanisms.files import load_mechanism, mechanism_from_dict
 
     try:
         if "file" in table:
@@ -279,7 +274,7 @@ def _trajectory(rd: _Reader, table: dict):
         if key in TABLES[name]:
             raise rd.format_error(f"{rd.where(name, key)} does not apply to a {kind} trajectory "
                                   f"(its keys: {', '.join(valid)})")
-        raise rd.format_error(f"unknown key '{_key(key)}' in [{name}]{_suggest(key, valid)}")
+        raise rd.format_error(f"unknown key '{_key(key)}' in [{name}]{suggestion(key, valid)}")
     if kind == "waypoints" and "durations" in table:
         return _timed_waypoints(rd, table)
     speed = rd.check_number(rd.required(table, name, "speed", "the average speed in m/s"),
@@ -397,7 +392,7 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         if owners:
             hint = f" (did you mean [{owners[0]}].{key}?)"
         elif isinstance(value, dict):
-            hint = _suggest(key, TABLES).replace("valid keys", "valid tables")
+            hint = suggestion(key, TABLES).replace("valid keys", "valid tables")
         else:
             hint = f" (a scenario holds only the tables {', '.join(f'[{t}]' for t in TABLES)})"
         raise rd.format_error(f"unknown {'table' if isinstance(value, dict) else 'key'} '{_key(key)}'{hint}")
@@ -463,3 +458,32 @@ def load_scenario(path: str | Path) -> Scenario:
                                     f"{shown(path, 50)}")
     data = read_toml(path)
     return scenario_from_dict(data, str(path), Path(path).stem)
+
+
+# ------------------------------------------------------------------ the paper's cases
+PAPER_CASES = ("nominal", "disturbed", "fast")
+#: The scenario files of the paper's cases (package data).
+SCENARIO_DIR = Path(__file__).parent / "scenarios"
+
+
+def paper_scenario(name: str = "nominal") -> Scenario:
+    """The paper's simulated cases (conventions §7).
+
+    The three cases of the paper are the scenario files ``scenarios/<name>.toml`` shipped in
+    the package (``examples/`` links to them):
+
+    * ``nominal``: the circle at 0.2 m/s, plant = model;
+    * ``disturbed``: plant masses and link lengths ×1.15, inertias ×1.15³, base unchanged;
+    * ``fast``: 0.4 m/s, plant = model;
+    * ``disturbed_dynamics``: masses and inertias ×1.15, lengths unchanged (a variant).
+    """
+    if isinstance(name, str) and name in PAPER_CASES:
+        return load_scenario(SCENARIO_DIR / f"{name}.toml")
+    from .mechanism_model import load
+
+    model = load("paper")
+    if isinstance(name, str) and name == "disturbed_dynamics":
+        return Scenario(model, paper_trajectory(0.2), plant=scaled_model(model, 1.15, 1.0), name=name)
+    raise InvalidParameterError(
+        f"unknown paper scenario name {shown(name)}: choose one of nominal, disturbed, fast, disturbed_dynamics"
+    )

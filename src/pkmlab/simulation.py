@@ -4,7 +4,7 @@ A :class:`Scenario` is a plain value — the controller's model of the machine, 
 machine (the plant, possibly different), the trajectory, the controller and its gains, the
 sample time — and :func:`simulate` turns it into a :class:`SimulationResult` holding every
 time series of conventions §8 and its summary. The paper's three cases are
-:func:`paper_scenario` ``("nominal" | "disturbed" | "fast")``.
+:func:`pkmlab.scenario_io.paper_scenario` ``("nominal" | "disturbed" | "fast")``.
 
 Sampled-data control (conventions §5, default ``Ts = 1 ms``): the torque computed from the measured
 ``θ, θ̇`` at ``t_k = k Ts`` is held until ``t_{k+1}``; the plant integrates the reduced model
@@ -51,7 +51,6 @@ from .errors import (
 )
 from .mechanism_model import MechanismModel
 from .outputs import atomic_file
-from .trajectory import paper_trajectory
 
 #: Columns of the per-sample time series (conventions §8).
 COLUMNS = ("t", "theta1", "theta2", "theta3", "theta1_d", "theta2_d", "theta3_d", "tau1", "tau2", "tau3",
@@ -209,11 +208,6 @@ def scaled_model(model: MechanismModel, mass: float = 1.0, length: float = 1.0) 
     return MechanismModel.from_description(scale(model.description, mass, length))
 
 
-PAPER_CASES = ("nominal", "disturbed", "fast")
-#: The scenario files of the paper's cases (package data).
-SCENARIO_DIR = Path(__file__).parent / "scenarios"
-
-
 def perturbed_model(model: MechanismModel, rng: np.random.Generator, spread: float = 0.15) -> MechanismModel:
     """A machine whose every body's mass, inertia and lengths are multiplied by its own factor drawn uniformly
     from ``[1 - spread, 1 + spread]`` — one draw of an uncertainty study. The base points are unchanged.
@@ -244,31 +238,6 @@ def perturbed_model(model: MechanismModel, rng: np.random.Generator, spread: flo
         return perturbed_plant(model, factors)
     except InvalidParameterError as exc:
         raise InvalidParameterError(f"the machine drawn with spread = {spread:g} is impossible: {exc}") from None
-
-
-def paper_scenario(name: str = "nominal") -> Scenario:
-    """The paper's simulated cases (conventions §7).
-
-    The three cases of the paper are the scenario files ``scenarios/<name>.toml`` shipped in
-    the package (``examples/`` links to them):
-
-    * ``nominal``: the circle at 0.2 m/s, plant = model;
-    * ``disturbed``: plant masses and link lengths ×1.15, inertias ×1.15³, base unchanged;
-    * ``fast``: 0.4 m/s, plant = model;
-    * ``disturbed_dynamics``: masses and inertias ×1.15, lengths unchanged (a variant).
-    """
-    if isinstance(name, str) and name in PAPER_CASES:
-        from .scenario_io import load_scenario
-
-        return load_scenario(SCENARIO_DIR / f"{name}.toml")
-    from .mechanism_model import load
-
-    model = load("paper")
-    if isinstance(name, str) and name == "disturbed_dynamics":
-        return Scenario(model, paper_trajectory(0.2), plant=scaled_model(model, 1.15, 1.0), name=name)
-    raise InvalidParameterError(
-        f"unknown paper scenario name {shown(name)}: choose one of nominal, disturbed, fast, disturbed_dynamics"
-    )
 
 
 # ------------------------------------------------------------------ pre-flight
@@ -784,6 +753,7 @@ def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau, pose=None, s
 def simulate(scenario: Scenario) -> SimulationResult:
     """Run a closed-loop scenario and return its :class:`SimulationResult`.
 
+    >>> from pkmlab import paper_scenario
     >>> result = simulate(paper_scenario("nominal"))
     >>> result.summary()["working_mode"]
     [-1, 1, -1]

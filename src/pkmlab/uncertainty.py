@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from ._format import suggestion
 from .errors import InvalidParameterError, shown
 
 #: The quantities an uncertainty study can draw.
@@ -64,9 +65,8 @@ def check_bounds(bounds: dict, where: str = "uncertainty") -> dict[str, tuple[fl
     out = {}
     for quantity, value in bounds.items():
         if quantity not in QUANTITIES:
-            from .scenario_io import _suggest
-
-            raise InvalidParameterError(f"{where}: unknown quantity '{quantity}'{_suggest(str(quantity), QUANTITIES)}")
+            raise InvalidParameterError(f"{where}: unknown quantity '{quantity}'"
+                                        f"{suggestion(str(quantity), QUANTITIES)}")
         key = f"{where}.{quantity}"
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             spread = float(value)

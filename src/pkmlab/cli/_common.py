@@ -57,7 +57,7 @@ def model_of(args):
     ``--mechanism``, a preset name or a description file (``[mechanism]`` table), the paper's 3-RRR when not
     given; or the 3-RRR of the deprecated ``--params`` file (with an explicit ``--mechanism``, refused)."""
     from ..mechanism_model import MechanismModel
-    from ..mechanisms.description import load_mechanism
+    from ..mechanisms.files import load_mechanism
     from ..mechanisms.presets import PRESETS
 
     name = getattr(args, "mechanism", None)

@@ -68,8 +68,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "loop-closure multipliers (eq. 26) at a state, for every assembly mode")
     p.add_argument("theta", nargs="+", type=float, metavar="THETA",
                    help="the actuator values theta1 theta2 ... (angles in rad, slides in m)")
-    p.add_argument("--rates", "--theta-dot", dest="theta_dot", nargs="+", type=float, metavar="W", action=_Spelled,
-                   help="the actuator rates theta_dot (rad/s or m/s), default 0; --theta-dot is a synonym")
+    p.add_argument("--theta-dot", "--rates", dest="theta_dot", nargs="+", type=float, metavar="W", action=_Spelled,
+                   help="the actuator rates theta_dot (rad/s or m/s), default 0; --rates is a synonym")
     p.add_argument("--tau", nargs="+", type=float, metavar="T", help="the actuator efforts (N m or N) under which "
                    "the multipliers are computed; default c + g, the efforts of zero actuator acceleration (the JSON "
                    "says which in \"tau_from\" and gives them as \"tau\")")

@@ -110,13 +110,13 @@ def _print(model, records, tau_from: str) -> None:
 
 
 def cmd_dynamics(args) -> dict:
-    """``dynamics THETA... [--rates W...] [--tau T...] [--near POSE...] [--mechanism M]``: the model of every
+    """``dynamics THETA... [--theta-dot W...] [--tau T...] [--near POSE...] [--mechanism M]``: the model of every
     assembly mode of the actuator values, or of the one nearest ``--near``."""
     from ..algorithms.kinematics import forward_kinematics
 
     model = model_of(args)
     n, names = model.n_actuators, model.pose_names
-    flag = getattr(args, "theta_dot_flag", None) or "--rates"  # the spelling typed, for the messages
+    flag = getattr(args, "theta_dot_flag", None) or "--theta-dot"  # the spelling typed, for the messages
     check_count(args, args.theta, n, "the actuator values")
     theta_dot = [0.0] * n if args.theta_dot is None else args.theta_dot
     check_count(args, theta_dot, n, flag)

@@ -2,7 +2,7 @@
 
 A :class:`Mechanism` is a *model* in the MuJoCo/Pinocchio sense — architecture and inertia,
 validated once, never mutated — and, like an MJCF file, it is data: its TOML form
-(:func:`mechanism_from_dict`, :func:`mechanism_to_toml`) describes any planar machine whose legs
+(:mod:`pkmlab.mechanisms.files` reads and writes it) describes any planar machine whose legs
 are chains of revolute (``R``) and prismatic (``P``) joints. The presets of pkmlab
 (:mod:`pkmlab.mechanisms.presets`) are written in the same form.
 
@@ -32,8 +32,6 @@ Conventions (pkmlab's, for every mechanism):
 
 from __future__ import annotations
 
-import difflib
-import json
 import math
 import re
 from dataclasses import dataclass
@@ -41,37 +39,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidParameterError
+from ._fields import finite_number, known_keys, required, stroke, toml_value
 
 JOINT_KINDS = ("R", "P")
 PLATFORM_KINDS = ("rigid", "point")
-
-
-# ------------------------------------------------------------------ checks shared by every value
-def _number(where: str, value, *, positive: bool = False, non_negative: bool = False) -> float:
-    """A finite float; bools and strings are slips, not numbers."""
-    try:
-        v = None if isinstance(value, (bool, str, bytes)) else float(value)
-    except (TypeError, ValueError, OverflowError):
-        v = None
-    if v is None or not math.isfinite(v):
-        raise InvalidParameterError(f"{where} must be a finite number, got {value!r}")
-    if positive and v <= 0:
-        raise InvalidParameterError(f"{where} must be positive, got {v:g}")
-    if non_negative and v < 0:
-        raise InvalidParameterError(f"{where} must not be negative, got {v:g}")
-    return v
-
-
-def _stroke(where: str, stroke) -> tuple[float, float] | None:
-    """A leg's actuator stroke ``(lower, upper)``, or None (no limit)."""
-    if stroke is None:
-        return None
-    if isinstance(stroke, (str, bytes)) or not hasattr(stroke, "__len__") or len(stroke) != 2:
-        raise InvalidParameterError(f"{where}: stroke must be [lower, upper], got {stroke!r}")
-    lo, hi = (_number(f"{where}: stroke[{k}]", v) for k, v in enumerate(stroke))
-    if not lo < hi:
-        raise InvalidParameterError(f"{where}: the stroke [{lo:g}, {hi:g}] is empty (lower must be below upper)")
-    return (lo, hi)
 
 
 class LegsAndPose:
@@ -104,7 +75,7 @@ class LegsAndPose:
 def _point(where: str, value) -> tuple[float, float]:
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
         raise InvalidParameterError(f"{where} must be a point [x, y], got {value!r}")
-    return (_number(f"{where}[0]", value[0]), _number(f"{where}[1]", value[1]))
+    return (finite_number(f"{where}[0]", value[0]), finite_number(f"{where}[1]", value[1]))
 
 
 # ------------------------------------------------------------------ the values
@@ -119,8 +90,9 @@ class Body:
     inertia: float = 0.0
 
     def checked(self, where: str) -> Body:
-        return Body(_point(f"{where}.tip", self.tip), _number(f"{where}.mass", self.mass, positive=True),
-                    _point(f"{where}.com", self.com), _number(f"{where}.inertia", self.inertia, non_negative=True))
+        return Body(_point(f"{where}.tip", self.tip), finite_number(f"{where}.mass", self.mass, positive=True),
+                    _point(f"{where}.com", self.com),
+                    finite_number(f"{where}.inertia", self.inertia, non_negative=True))
 
 
 @dataclass(frozen=True)
@@ -234,7 +206,7 @@ class Mechanism(LegsAndPose):
                 if axis is None:
                     raise InvalidParameterError(f"{where}, joint 1: a prismatic joint on the base needs the "
                                                 "rail's absolute angle 'axis' (rad)")
-                axis = _number(f"{where}, joint 1: axis", axis)
+                axis = finite_number(f"{where}, joint 1: axis", axis)
             elif axis is not None:
                 raise InvalidParameterError(f"{where}, joint {k + 1}: 'axis' is only for a prismatic joint on the "
                                             "base (a later one slides along the preceding body)")
@@ -258,7 +230,7 @@ class Mechanism(LegsAndPose):
                 raise InvalidParameterError(f"{where}, body {k + 1}: it rotates, so its inertia must be positive, "
                                             f"got {body.inertia:g}")
         return Leg(_point(f"{where}: base", leg.base), tuple(checked_joints), tuple(checked_bodies),
-                   _stroke(where, leg.stroke))
+                   stroke(where, leg.stroke))
 
     def _checked_platform(self, platform: Platform) -> Platform:
         n = len(self.legs)
@@ -268,7 +240,7 @@ class Mechanism(LegsAndPose):
                 raise InvalidParameterError("a point platform has no attachment points: every leg ends at the "
                                             "tracked point")
             attachments = ((0.0, 0.0),) * n
-            mass = _number("platform mass (payload)", platform.mass, non_negative=True)
+            mass = finite_number("platform mass (payload)", platform.mass, non_negative=True)
             return Platform("point", attachments, mass, (0.0, 0.0), 0.0)
         attachments = tuple(_point(f"platform attachment {i + 1}", p) for i, p in enumerate(platform.attachments))
         if len(attachments) != n:
@@ -279,9 +251,9 @@ class Mechanism(LegsAndPose):
                 if math.dist(attachments[i], attachments[k]) == 0:
                     raise InvalidParameterError(f"platform attachments {k + 1} and {i + 1} coincide: a rigid "
                                                 "platform needs them apart")
-        return Platform("rigid", attachments, _number("platform mass", platform.mass, positive=True),
+        return Platform("rigid", attachments, finite_number("platform mass", platform.mass, positive=True),
                         _point("platform com", platform.com),
-                        _number("platform inertia", platform.inertia, positive=True))
+                        finite_number("platform inertia", platform.inertia, positive=True))
 
     def _check_mobility(self) -> None:
         """Grübler's count for planar chains, ``3 (bodies - 1) - 2 joints``, must equal the pose's dimension
@@ -377,23 +349,6 @@ def scaled_mechanism(mechanism: Mechanism, mass: float = 1.0, length: float = 1.
     return Mechanism(mechanism.name, legs, platform, mechanism.gravity)
 
 
-def _known(table, valid, where: str) -> dict:
-    if not isinstance(table, dict):
-        raise InvalidParameterError(f"{where} must be a table, got {table!r}")
-    for key in table:
-        if key not in valid:
-            close = difflib.get_close_matches(str(key), valid, n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else f" (valid keys: {', '.join(valid)})"
-            raise InvalidParameterError(f"unknown key '{key}' in {where}{hint}")
-    return table
-
-
-def _required(table: dict, key: str, where: str):
-    if key not in table:
-        raise InvalidParameterError(f"{where}.{key} is required")
-    return table[key]
-
-
 def _joints(text, where: str) -> tuple[Joint, ...]:
     compact = text.replace(" ", "") if isinstance(text, str) else None
     if compact is None or not _JOINTS.match(compact):
@@ -405,7 +360,7 @@ def _joints(text, where: str) -> tuple[Joint, ...]:
 def platform_and_legs(table: dict, where: str, platform_keys, kinds, point: str):
     """The ``[mechanism.platform]`` table checked (its keys, its ``kind`` among ``kinds``, its attachment list of
     ``point``s) and the list of ``[[mechanism.leg]]`` tables: ``(platform, kind, attachments, legs)``."""
-    platform = _known(_required(table, "platform", where), platform_keys, f"{where}.platform")
+    platform = known_keys(required(table, "platform", where), platform_keys, f"{where}.platform")
     kind = platform.get("kind", "rigid")
     if kind not in kinds:
         raise InvalidParameterError(f"{where}.platform.kind must be {' or '.join(repr(k) for k in kinds)}, got "
@@ -413,44 +368,23 @@ def platform_and_legs(table: dict, where: str, platform_keys, kinds, point: str)
     attachments = platform.get("attachments", ())
     if not isinstance(attachments, list | tuple):
         raise InvalidParameterError(f"{where}.platform.attachments must be a list of points {point}")
-    legs = _required(table, "leg", where)
+    legs = required(table, "leg", where)
     if not isinstance(legs, list) or not legs:
         raise InvalidParameterError(f"{where}.leg must be a list of legs ([[mechanism.leg]] tables)")
     return platform, kind, attachments, legs
 
 
-def mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mechanism:
-    """The mechanism of a ``[mechanism]`` table (module docstring; a preset by ``preset = "NAME"``).
-
-    >>> m = mechanism_from_dict({"preset": "3rpr"})
-    >>> m.notation, m.pose_names
-    ('3-RP*R', ('x', 'y', 'alpha'))
-    """
+def planar_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mechanism:
+    """The planar mechanism of a ``[mechanism]`` table whose keys are known (:data:`MECHANISM_KEYS`) and that
+    names no preset: :func:`pkmlab.mechanisms.files.mechanism_from_dict` reads every table."""
     where = source
-    table = _known(table, MECHANISM_KEYS, where)
-    if "preset" in table:
-        others = sorted(set(table) - {"preset"})
-        if others:
-            raise InvalidParameterError(f"{where}: give either preset or a description ({', '.join(others)}), "
-                                        "not both")
-        from .presets import preset
-
-        return preset(table["preset"])
-    dimension = table.get("dimension", 2)
-    if dimension not in (2, 3) or isinstance(dimension, bool):
-        raise InvalidParameterError(f"{where}.dimension must be 2 (a planar machine) or 3 (a spatial one), got "
-                                    f"{dimension!r}")
-    if dimension == 3:
-        from .spatial import spatial_mechanism_from_dict
-
-        return spatial_mechanism_from_dict({k: v for k, v in table.items() if k != "dimension"}, source)
     platform, kind, attachments, legs_table = platform_and_legs(table, where, PLATFORM_KEYS, PLATFORM_KINDS,
                                                                 "[x, y]")
     legs = []
     for i, leg in enumerate(legs_table):
         lw = f"{where}.leg[{i + 1}]"
-        leg = _known(leg, LEG_KEYS, lw)
-        joints = list(_joints(_required(leg, "joints", lw), lw))
+        leg = known_keys(leg, LEG_KEYS, lw)
+        joints = list(_joints(required(leg, "joints", lw), lw))
         if "axis" in leg:
             joints[0] = Joint(joints[0].kind, joints[0].actuated, leg["axis"])
         bodies = leg.get("bodies", [])
@@ -459,69 +393,37 @@ def mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mechanism:
         parsed = []
         for k, body in enumerate(bodies):
             bw = f"{lw}.bodies[{k + 1}]"
-            body = _known(body, BODY_KEYS, bw)
-            parsed.append(Body(body.get("tip", (0.0, 0.0)), _required(body, "mass", bw), body.get("com", (0.0, 0.0)),
+            body = known_keys(body, BODY_KEYS, bw)
+            parsed.append(Body(body.get("tip", (0.0, 0.0)), required(body, "mass", bw), body.get("com", (0.0, 0.0)),
                                body.get("inertia", 0.0)))
-        legs.append(Leg(_required(leg, "base", lw), tuple(joints), tuple(parsed), leg.get("stroke")))
+        legs.append(Leg(required(leg, "base", lw), tuple(joints), tuple(parsed), leg.get("stroke")))
     return Mechanism(table.get("name", "mechanism"), tuple(legs),
                      Platform(kind, tuple(attachments), platform.get("mass", 0.0), platform.get("com", (0.0, 0.0)),
                               platform.get("inertia", 0.0)),
                      table.get("gravity", (0.0, 0.0)))
 
 
-def _toml(value) -> str:
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    return repr(float(value))  # the shortest text that reads back as exactly this float
-
-
-def mechanism_to_toml(mechanism: Mechanism, comment: str | None = None) -> str:
-    """The TOML form of ``mechanism``; :func:`mechanism_from_dict` reads it back as an equal value.
-
-    >>> from .presets import preset
-    >>> import tomllib
-    >>> mechanism_from_dict(tomllib.loads(mechanism_to_toml(preset("3prr")))["mechanism"]) == preset("3prr")
-    True
-    """
-    if getattr(mechanism, "spatial", False):
-        from .spatial import spatial_mechanism_to_toml
-
-        return spatial_mechanism_to_toml(mechanism, comment)
+def planar_mechanism_to_toml(mechanism: Mechanism, comment: str | None = None) -> str:
+    """The TOML form of a planar ``mechanism``, as :func:`pkmlab.mechanisms.files.mechanism_to_toml` writes
+    it."""
     lines = [f"# {line}" for line in (comment or "").splitlines()]
     lines += [""] if lines else []
     m = mechanism
-    lines += ["[mechanism]", f"name = {_toml(m.name)}", f"gravity = {_toml(m.gravity)}", "",
-              "[mechanism.platform]", f"kind = {_toml(m.platform.kind)}"]
+    lines += ["[mechanism]", f"name = {toml_value(m.name)}", f"gravity = {toml_value(m.gravity)}", "",
+              "[mechanism.platform]", f"kind = {toml_value(m.platform.kind)}"]
     if m.platform.kind == "rigid":
-        lines += [f"attachments = {_toml(m.platform.attachments)}   # platform frame, one per leg"]
-    lines += [f"mass = {_toml(m.platform.mass)}"]
+        lines += [f"attachments = {toml_value(m.platform.attachments)}   # platform frame, one per leg"]
+    lines += [f"mass = {toml_value(m.platform.mass)}"]
     if m.platform.kind == "rigid":
-        lines += [f"com = {_toml(m.platform.com)}", f"inertia = {_toml(m.platform.inertia)}"]
+        lines += [f"com = {toml_value(m.platform.com)}", f"inertia = {toml_value(m.platform.inertia)}"]
     for leg in m.legs:
-        lines += ["", "[[mechanism.leg]]", f"base = {_toml(leg.base)}", f"joints = {_toml(leg.notation)}"]
+        lines += ["", "[[mechanism.leg]]", f"base = {toml_value(leg.base)}", f"joints = {toml_value(leg.notation)}"]
         if leg.joints[0].axis is not None:
-            lines += [f"axis = {_toml(leg.joints[0].axis)}"]
+            lines += [f"axis = {toml_value(leg.joints[0].axis)}"]
         if leg.stroke is not None:
-            lines += [f"stroke = {_toml(leg.stroke)}"]
+            lines += [f"stroke = {toml_value(leg.stroke)}"]
         lines += ["bodies = ["]
-        lines += [f"  {{ tip = {_toml(b.tip)}, mass = {_toml(b.mass)}, com = {_toml(b.com)}, "
-                  f"inertia = {_toml(b.inertia)} }}," for b in leg.bodies]
+        lines += [f"  {{ tip = {toml_value(b.tip)}, mass = {toml_value(b.mass)}, com = {toml_value(b.com)}, "
+                  f"inertia = {toml_value(b.inertia)} }}," for b in leg.bodies]
         lines += ["]"]
     return "\n".join(lines) + "\n"
-
-
-def load_mechanism(path):
-    """The mechanism of a TOML file holding a ``[mechanism]`` table; every error names the file."""
-    from pathlib import Path
-
-    from .._files import read_toml
-
-    data = read_toml(path)
-    if "mechanism" not in data:
-        raise InvalidParameterError(f"{Path(path).name}: no [mechanism] table")
-    try:
-        return mechanism_from_dict(data["mechanism"], "[mechanism]")
-    except InvalidParameterError as exc:
-        raise InvalidParameterError(f"{Path(path).name}: {exc}") from None

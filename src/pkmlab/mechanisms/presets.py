@@ -12,7 +12,7 @@
   platform with six degrees of freedom, against gravity.
 
 Every number is a parameter of the description: write a preset out with
-:func:`~pkmlab.mechanisms.description.mechanism_to_toml`, edit it, and load it back.
+:func:`~pkmlab.mechanisms.files.mechanism_to_toml`, edit it, and load it back.
 """
 
 from __future__ import annotations

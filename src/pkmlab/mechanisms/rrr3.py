@@ -28,7 +28,9 @@ import numpy as np
 
 from .. import closed_chain, lagrangian
 from .._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit
-from ..geometry import (
+from ..polynomial import moebius_shift, real_roots
+from . import _rrr3_sextic as sextic
+from ._rrr3_layout import (
     ACTIVE_COM,
     ACTIVE_INERTIA,
     ACTIVE_LENGTH,
@@ -44,8 +46,6 @@ from ..geometry import (
     PLATFORM_MASS,
     REFERENCE,
 )
-from ..polynomial import moebius_shift, real_roots
-from . import _rrr3_sextic as sextic
 
 N_COORDINATES = 7
 N_ACTIVE = 3

@@ -46,7 +46,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidParameterError
-from .description import JointChain, LegsAndPose, _known, _number, _required, _stroke, _toml, platform_and_legs
+from ._fields import finite_number, known_keys, required, stroke, toml_value
+from .description import JointChain, LegsAndPose, platform_and_legs
 
 SPATIAL_JOINTS = ("R", "P", "U", "S")
 SPATIAL_PLATFORMS = ("translating", "rigid")
@@ -60,7 +61,7 @@ GIMBAL_MARGIN = 1e-6
 def _vector(where: str, value) -> tuple[float, float, float]:
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 3:
         raise InvalidParameterError(f"{where} must be a vector [x, y, z], got {value!r}")
-    return tuple(_number(f"{where}[{k}]", v) for k, v in enumerate(value))
+    return tuple(finite_number(f"{where}[{k}]", v) for k, v in enumerate(value))
 
 
 def _unit(where: str, value) -> tuple[float, float, float]:
@@ -77,13 +78,13 @@ def _tensor(where: str, value) -> tuple[tuple[float, float, float], ...]:
     """A 3×3 inertia tensor: symmetric, positive semi-definite, principal moments obeying the triangle
     inequality (every real body's do). A number ``I`` is read as ``I·identity``."""
     if not isinstance(value, (list, tuple)):
-        v = _number(where, value, non_negative=True)
+        v = finite_number(where, value, non_negative=True)
         return ((v, 0.0, 0.0), (0.0, v, 0.0), (0.0, 0.0, v))
     if len(value) != 3 or any(isinstance(r, (str, bytes)) or not hasattr(r, "__len__") or len(r) != 3
                               for r in value):
         raise InvalidParameterError(f"{where} must be a 3x3 inertia tensor [[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], "
                                     f"[Ixz, Iyz, Izz]], got {value!r}")
-    t = np.array([[_number(f"{where}[{i}][{j}]", value[i][j]) for j in range(3)] for i in range(3)])
+    t = np.array([[finite_number(f"{where}[{i}][{j}]", value[i][j]) for j in range(3)] for i in range(3)])
     scale = max(float(np.abs(t).max()), 1e-300)
     if np.abs(t - t.T).max() > 1e-12 * scale:
         raise InvalidParameterError(f"{where} must be symmetric, got {t.tolist()}")
@@ -109,7 +110,7 @@ class SpatialBody:
     inertia: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
     def checked(self, where: str) -> SpatialBody:
-        return SpatialBody(_vector(f"{where}.tip", self.tip), _number(f"{where}.mass", self.mass, positive=True),
+        return SpatialBody(_vector(f"{where}.tip", self.tip), finite_number(f"{where}.mass", self.mass, positive=True),
                            _vector(f"{where}.com", self.com), _tensor(f"{where}.inertia", self.inertia))
 
 
@@ -234,7 +235,7 @@ class SpatialMechanism(LegsAndPose):
                 raise InvalidParameterError(f"{where}, body {k + 1} must be a SpatialBody, got {type(body).__name__}")
             checked_bodies.append(body.checked(f"{where}, body {k + 1}"))
         return SpatialLeg(_vector(f"{where}: base", leg.base), tuple(checked), tuple(checked_bodies),
-                          _stroke(where, leg.stroke))
+                          stroke(where, leg.stroke))
 
     def _checked_platform(self, platform: SpatialPlatform) -> SpatialPlatform:
         n = len(self.legs)
@@ -248,7 +249,7 @@ class SpatialMechanism(LegsAndPose):
                     if math.dist(attachments[i], attachments[k]) == 0:
                         raise InvalidParameterError(f"platform attachments {k + 1} and {i + 1} coincide: a rigid "
                                                     "platform of six legs needs them apart")
-        return SpatialPlatform(platform.kind, attachments, _number("platform mass", platform.mass, positive=True),
+        return SpatialPlatform(platform.kind, attachments, finite_number("platform mass", platform.mass, positive=True),
                                _vector("platform com", platform.com), _tensor("platform inertia", platform.inertia))
 
 
@@ -347,14 +348,14 @@ def spatial_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Spa
     ``mass``, ``com``, ``inertia``: a 3×3 tensor or a number for ``I·identity``).
     """
     where = source
-    table = _known(table, MECHANISM_KEYS, where)
+    table = known_keys(table, MECHANISM_KEYS, where)
     platform, kind, attachments, legs_table = platform_and_legs(table, where, PLATFORM_KEYS, SPATIAL_PLATFORMS,
                                                                 "[x, y, z]")
     legs = []
     for i, leg in enumerate(legs_table):
         lw = f"{where}.leg[{i + 1}]"
-        leg = _known(leg, LEG_KEYS, lw)
-        text = _required(leg, "joints", lw)
+        leg = known_keys(leg, LEG_KEYS, lw)
+        text = required(leg, "joints", lw)
         compact = text.replace(" ", "") if isinstance(text, str) else None
         if compact is None or not _JOINTS.match(compact):
             raise InvalidParameterError(f"{lw}.joints must be letters R, P, U, S from the base to the platform, the "
@@ -382,10 +383,10 @@ def spatial_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Spa
         parsed = []
         for k, body in enumerate(bodies):
             bw = f"{lw}.bodies[{k + 1}]"
-            body = _known(body, BODY_KEYS, bw)
-            parsed.append(SpatialBody(body.get("tip", (0.0, 0.0, 0.0)), _required(body, "mass", bw),
+            body = known_keys(body, BODY_KEYS, bw)
+            parsed.append(SpatialBody(body.get("tip", (0.0, 0.0, 0.0)), required(body, "mass", bw),
                                       body.get("com", (0.0, 0.0, 0.0)), body.get("inertia", 0.0)))
-        legs.append(SpatialLeg(_required(leg, "base", lw), tuple(joints), tuple(parsed), leg.get("stroke")))
+        legs.append(SpatialLeg(required(leg, "base", lw), tuple(joints), tuple(parsed), leg.get("stroke")))
     return SpatialMechanism(table.get("name", "mechanism"), tuple(legs),
                             SpatialPlatform(kind, tuple(attachments), platform.get("mass", 0.0),
                                             platform.get("com", (0.0, 0.0, 0.0)), platform.get("inertia", 0.0)),
@@ -415,19 +416,19 @@ def spatial_mechanism_to_toml(mechanism: SpatialMechanism, comment: str | None =
     lines = [f"# {line}" for line in (comment or "").splitlines()]
     lines += [""] if lines else []
     m = mechanism
-    lines += ["[mechanism]", f"name = {_toml(m.name)}", "dimension = 3", f"gravity = {_toml(m.gravity)}", "",
-              "[mechanism.platform]", f"kind = {_toml(m.platform.kind)}",
-              f"attachments = {_toml(m.platform.attachments)}   # platform frame, one per leg",
-              f"mass = {_toml(m.platform.mass)}", f"com = {_toml(m.platform.com)}",
-              f"inertia = {_toml(m.platform.inertia)}"]
+    lines += ["[mechanism]", f"name = {toml_value(m.name)}", "dimension = 3", f"gravity = {toml_value(m.gravity)}", "",
+              "[mechanism.platform]", f"kind = {toml_value(m.platform.kind)}",
+              f"attachments = {toml_value(m.platform.attachments)}   # platform frame, one per leg",
+              f"mass = {toml_value(m.platform.mass)}", f"com = {toml_value(m.platform.com)}",
+              f"inertia = {toml_value(m.platform.inertia)}"]
     for leg in m.legs:
         axes = [list(j.axes) if j.kind == "U" else j.axes[0] for j in leg.joints if j.kind != "S"]
-        lines += ["", "[[mechanism.leg]]", f"base = {_toml(leg.base)}", f"joints = {_toml(leg.notation)}",
-                  f"axes = {_toml(axes)}"]
+        lines += ["", "[[mechanism.leg]]", f"base = {toml_value(leg.base)}", f"joints = {toml_value(leg.notation)}",
+                  f"axes = {toml_value(axes)}"]
         if leg.stroke is not None:
-            lines += [f"stroke = {_toml(leg.stroke)}"]
+            lines += [f"stroke = {toml_value(leg.stroke)}"]
         lines += ["bodies = ["]
-        lines += [f"  {{ tip = {_toml(b.tip)}, mass = {_toml(b.mass)}, com = {_toml(b.com)}, "
-                  f"inertia = {_toml(b.inertia)} }}," for b in leg.bodies]
+        lines += [f"  {{ tip = {toml_value(b.tip)}, mass = {toml_value(b.mass)}, com = {toml_value(b.com)}, "
+                  f"inertia = {toml_value(b.inertia)} }}," for b in leg.bodies]
         lines += ["]"]
     return "\n".join(lines) + "\n"

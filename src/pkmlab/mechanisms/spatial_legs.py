@@ -170,15 +170,15 @@ def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: in
     return solver(leg, number, np.asarray(points, dtype=float).reshape(-1, 3), sigma, axis)
 
 
-def delta_forward_kinematics(mechanism: SpatialMechanism, actuators) -> list[np.ndarray]:
+def delta_forward_kinematics(mechanism: SpatialMechanism, theta) -> list[np.ndarray]:
     """Every position of a translating platform on three R*US legs at the actuator angles: the platform
     point lies at the forearm's length from each elbow, shifted by the leg's attachment point — three
     spheres, which meet in at most two points (below and above the elbows). Returns the positions,
     lowest first; a touching pair (the spheres tangent, a singular pose) is returned once."""
     centres, radii = [], []
-    for leg, theta, a in zip(mechanism.legs, actuators, mechanism.platform.attachments, strict=True):
+    for leg, angle, a in zip(mechanism.legs, theta, mechanism.platform.attachments, strict=True):
         axis = np.array(leg.joints[0].axes[0])
-        elbow = np.array(leg.base) + rotate(axis, np.array([float(theta)]), np.array([leg.bodies[0].tip]))[0]
+        elbow = np.array(leg.base) + rotate(axis, np.array([float(angle)]), np.array([leg.bodies[0].tip]))[0]
         centres.append(elbow - np.array(a))
         radii.append(float(np.linalg.norm(leg.bodies[1].tip)))
     c1, c2, c3 = centres

@@ -44,10 +44,11 @@ from pathlib import Path
 import numpy as np
 
 from .._files import read_toml
+from .._format import suggestion
 from .._version import __version__
 from ..errors import FileFormatError, InvalidParameterError, PkmlabError, shown
 from ..io import PARAM_KEYS
-from ..scenario_io import TABLES, _suggest, scenario_from_dict
+from ..scenario_io import TABLES, scenario_from_dict
 from ..uncertainty import check_bounds
 
 #: The keys of a study file's ``[study]`` table.
@@ -95,7 +96,7 @@ def axis_values(key: str, spec, source: str = "<study>", unique: bool = True) ->
     if isinstance(spec, dict):
         for k in spec:
             if k not in RANGE_KEYS:
-                raise _error(source, f"unknown key '{k}' in the range {where}{_suggest(str(k), RANGE_KEYS)}")
+                raise _error(source, f"unknown key '{k}' in the range {where}{suggestion(str(k), RANGE_KEYS)}")
         missing = [k for k in ("start", "stop", "num") if k not in spec]
         if missing:
             raise _error(source, f"the range {where} needs {', '.join(missing)} (a range is {{start, stop, num}})")
@@ -426,13 +427,13 @@ def study_from_dict(data: dict, source: str = "<study>") -> Study:
         raise FileFormatError(f"{source}: a study must be a TOML document of tables, got {shown(data)}")
     for key in data:
         if key not in STUDY_TABLES:
-            raise FileFormatError(f"{source}: unknown table '{key}'{_suggest(str(key), STUDY_TABLES)}")
+            raise FileFormatError(f"{source}: unknown table '{key}'{suggestion(str(key), STUDY_TABLES)}")
         if not isinstance(data[key], dict):
             raise FileFormatError(f"{source}: [{key}] must be a table, got {shown(data[key])}")
     head = data.get("study", {})
     for key in head:
         if key not in STUDY_KEYS:
-            raise FileFormatError(f"{source}: unknown key '{key}' in [study]{_suggest(str(key), STUDY_KEYS)}")
+            raise FileFormatError(f"{source}: unknown key '{key}' in [study]{suggestion(str(key), STUDY_KEYS)}")
     if ("base" in head) == ("base" in data):
         raise FileFormatError(f"{source}: give the base scenario once: [study].base = \"FILE.toml\" or [base.*] "
                               "tables")

@@ -45,7 +45,7 @@ def result_machine(folder: Path, case: str):
     ``[manipulator]`` table, the paper's 3-RRR) is read as the same machine."""
     from .._files import read_text
     from ..mechanism_model import MechanismModel, load
-    from ..mechanisms.description import load_mechanism
+    from ..mechanisms.files import load_mechanism
     from ..simulation import scaled_model
 
     for plant in (folder / f"{case}_plant.toml", folder / "plant.toml"):
