@@ -31,7 +31,14 @@ def as_batch(name: str, value, n: int, *, single: bool = False) -> tuple[np.ndar
     if not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise InvalidParameterError(f"{name} must be finite, got {arr[tuple(bad)]} at index {tuple(bad.tolist())}")
-    return np.ascontiguousarray(arr.reshape(-1, n)), arr.shape[:-1]
+    return _kernel_input(arr.reshape(-1, n)), arr.shape[:-1]
+
+
+def _kernel_input(arr: np.ndarray) -> np.ndarray:
+    """``arr`` as the compiled kernels take every input but the parameters: C-contiguous and writable (a copy
+    only when it is not). One layout for every caller: Numba compiles a kernel once per layout and
+    writability of its arguments, and a spatial machine's kernel takes tens of seconds to compile."""
+    return np.require(arr, dtype=float, requirements=("C", "W"))
 
 
 def as_broadcast(*specs) -> tuple:
@@ -50,7 +57,7 @@ def as_broadcast(*specs) -> tuple:
         listing = " and ".join(f"{spec[0]} {s}" for spec, s in zip(specs, shapes, strict=True))
         raise InvalidParameterError(f"{listing} do not broadcast") from None
     full = [
-        np.ascontiguousarray(np.broadcast_to(arr.reshape(*s, n), (*shape, n)).reshape(-1, n))
+        _kernel_input(np.broadcast_to(arr.reshape(*s, n), (*shape, n)).reshape(-1, n))
         for (arr, n), s in zip(arrays, shapes, strict=True)
     ]
     return (*full, shape)

@@ -30,25 +30,7 @@ from functools import cached_property
 import numpy as np
 
 from .errors import InvalidParameterError, shown
-
-# the layout of the packed parameter vector the compiled kernels read
-from .mechanisms._rrr3_layout import (  # noqa: F401 (the layout, also read from here)
-    ACTIVE_COM,
-    ACTIVE_INERTIA,
-    ACTIVE_LENGTH,
-    ACTIVE_MASS,
-    BASE,
-    N_PACKED,
-    PASSIVE_COM,
-    PASSIVE_INERTIA,
-    PASSIVE_LENGTH,
-    PASSIVE_MASS,
-    PLATFORM,
-    PLATFORM_COM,
-    PLATFORM_INERTIA,
-    PLATFORM_MASS,
-    REFERENCE,
-)
+from .mechanisms import _rrr3_layout as layout  # the packed parameters' layout the compiled kernels read
 
 #: The longest platform side accepted (m): far beyond any machine, far below the float range.
 MAX_LENGTH = 1e100
@@ -250,22 +232,22 @@ class Planar3RRR:
 
     @cached_property
     def packed(self) -> np.ndarray:
-        """The flat, read-only parameter vector the compiled kernels read (layout: module constants)."""
-        p = np.zeros(N_PACKED)
-        p[BASE:BASE + 6] = self.base_points.ravel()
-        p[ACTIVE_LENGTH:ACTIVE_LENGTH + 3] = self.active_lengths
-        p[PASSIVE_LENGTH:PASSIVE_LENGTH + 3] = self.passive_lengths
-        p[PLATFORM:PLATFORM + 4] = self.platform_vertices[1:].ravel()
-        p[REFERENCE:REFERENCE + 2] = self.reference_point
-        p[ACTIVE_MASS:ACTIVE_MASS + 3] = self.active_masses
-        p[PASSIVE_MASS:PASSIVE_MASS + 3] = self.passive_masses
-        p[PLATFORM_MASS] = self.platform_mass
-        p[ACTIVE_INERTIA:ACTIVE_INERTIA + 3] = self.active_inertias
-        p[PASSIVE_INERTIA:PASSIVE_INERTIA + 3] = self.passive_inertias
-        p[PLATFORM_INERTIA] = self.platform_inertia
-        p[ACTIVE_COM:ACTIVE_COM + 6] = self.active_com.ravel()
-        p[PASSIVE_COM:PASSIVE_COM + 6] = self.passive_com.ravel()
-        p[PLATFORM_COM:PLATFORM_COM + 2] = self.platform_com
+        """The flat, read-only parameter vector the compiled kernels read (:mod:`pkmlab.mechanisms._rrr3_layout`)."""
+        p = np.zeros(layout.N_PACKED)
+        p[layout.BASE:layout.BASE + 6] = self.base_points.ravel()
+        p[layout.ACTIVE_LENGTH:layout.ACTIVE_LENGTH + 3] = self.active_lengths
+        p[layout.PASSIVE_LENGTH:layout.PASSIVE_LENGTH + 3] = self.passive_lengths
+        p[layout.PLATFORM:layout.PLATFORM + 4] = self.platform_vertices[1:].ravel()
+        p[layout.REFERENCE:layout.REFERENCE + 2] = self.reference_point
+        p[layout.ACTIVE_MASS:layout.ACTIVE_MASS + 3] = self.active_masses
+        p[layout.PASSIVE_MASS:layout.PASSIVE_MASS + 3] = self.passive_masses
+        p[layout.PLATFORM_MASS] = self.platform_mass
+        p[layout.ACTIVE_INERTIA:layout.ACTIVE_INERTIA + 3] = self.active_inertias
+        p[layout.PASSIVE_INERTIA:layout.PASSIVE_INERTIA + 3] = self.passive_inertias
+        p[layout.PLATFORM_INERTIA] = self.platform_inertia
+        p[layout.ACTIVE_COM:layout.ACTIVE_COM + 6] = self.active_com.ravel()
+        p[layout.PASSIVE_COM:layout.PASSIVE_COM + 6] = self.passive_com.ravel()
+        p[layout.PLATFORM_COM:layout.PLATFORM_COM + 2] = self.platform_com
         p.setflags(write=False)
         return p
 
