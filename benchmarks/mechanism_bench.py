@@ -23,7 +23,7 @@ import operation_count
 import pkmlab
 from pkmlab import mechanism_model as mm
 from pkmlab.scenario_io import load_scenario
-from pkmlab.simulation import Scenario, _prepare, simulate
+from pkmlab.simulation import Scenario, prepare_run, simulate
 from pkmlab.trajectory import paper_trajectory
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -42,7 +42,7 @@ def _scenario(name: str) -> Scenario:
 
 def _actuator_samples(model, scenario: Scenario, count: int, rng) -> list[np.ndarray]:
     """Actuators of random poses near the default run's path, reachable in its working mode."""
-    prep = _prepare(scenario)
+    prep = prepare_run(scenario)
     out = []
     while len(out) < count:
         k = int(rng.integers(prep.t.size))
@@ -83,7 +83,7 @@ def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | 
     samples = result.t.size
     rows.append(h.rate_row(f"mech_{name}_run", f"{label}: default run, simulate() in-process ({samples} samples)",
                            times, 1, "run", compare=False))
-    prep = _prepare(scenario)
+    prep = prepare_run(scenario)
     d = prep.desired
     N = len(prep.q_ctrl0)
 

@@ -210,10 +210,10 @@ def count_preset(name: str, samples: int | None = None) -> dict:
 
     from pkmlab import closed_chain
     from pkmlab.scenario_io import load_scenario
-    from pkmlab.simulation import _prepare
+    from pkmlab.simulation import prepare_run
 
     scenario = load_scenario(EXAMPLES / f"{DEFAULT_RUNS[name]}.toml")
-    prep = _prepare(scenario)
+    prep = prepare_run(scenario)
     ctrl, plant = scenario.model, scenario.plant_model
     kernels = ctrl.kernels
     functions = {k: v for k, v in vars(kernels).items()

@@ -40,7 +40,7 @@ from pkmlab.geometry import Planar3RRR
 from pkmlab.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
 from pkmlab.mechanism_model import MechanismModel
 from pkmlab.plant import ReducedPlant
-from pkmlab.simulation import _prepare
+from pkmlab.simulation import prepare_run
 from pkmlab.trajectory import paper_trajectory
 
 BATCH_SPREAD = 0.15
@@ -222,7 +222,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
                            "run", baseline="numpy_solve_ivp_run"))
     checks["nominal_simulate_ms"] = rows[-1]["median_s"] * 1e3
 
-    prep = _prepare(nominal)  # what simulate() hands its compiled loop: the desired motion, the start
+    prep = prepare_run(nominal)  # what simulate() hands its compiled loop: the desired motion, the start
     mode, d = prep.mode, prep.desired
     machine = nominal.model  # the simulation's machine: its description's kernels, configurations (θ, φ, x, y, α)
     P, kernels = machine.P, machine.kernels
@@ -230,7 +230,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     oracle = paper_oracle(machine)  # the same machine in the paper's own formulation, for the NumPy path
 
     def desired(scenario):  # the desired motion simulate() computes for ``scenario`` (in nominal's working mode)
-        return _prepare(scenario.replace(working_mode=mode)).desired
+        return prepare_run(scenario.replace(working_mode=mode)).desired
 
     def outputs(count):  # the loop's records: configurations, rates, efforts, S
         return np.zeros((count, kernels.N_COORDINATES)), np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count)

@@ -36,7 +36,7 @@ from pkmlab.control import ControllerSpec
 from pkmlab.geometry import Planar3RRR
 from pkmlab.plant import FullPlant, ReducedPlant
 from pkmlab.scenario_io import SCENARIO_DIR
-from pkmlab.simulation import _prepare
+from pkmlab.simulation import prepare_run
 from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory
 
 # ------------------------------------------------------------------ valid arguments
@@ -248,8 +248,8 @@ TARGETS = [
     # scenarios and simulation (an accepted scenario is prepared for its run: pre-flight, desired motion)
     Target("Scenario", pkmlab.Scenario, dict(model=GENERIC, trajectory=TRAJECTORY, plant=None, controller=CONTROLLER,
                                              sample_time=0.01, working_mode="auto", singularity_margin=0.05,
-                                             singularity_guard=0.01, substeps=1, name="mine"), then=_prepare),
-    Target("Scenario.replace", SCENARIO.replace, {}, _fields(pkmlab.Scenario), then=_prepare),
+                                             singularity_guard=0.01, substeps=1, name="mine"), then=prepare_run),
+    Target("Scenario.replace", SCENARIO.replace, {}, _fields(pkmlab.Scenario), then=prepare_run),
     _sig(pkmlab.simulate, scenario=SCENARIO),
     _sig(pkmlab.simulate_batch, scenarios=[SCENARIO], on_error="raise"),
     _sig(pkmlab.perturbed_model, model=GENERIC, rng=RNG, spread=0.15),

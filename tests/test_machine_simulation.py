@@ -317,7 +317,7 @@ def test_the_working_mode_tie_rule_is_within_1e_9_of_the_best(monkeypatch):
     # conventions §3: the largest min |S|; modes within 1e-9 of it tie, and the first of them wins — even when
     # a mode in between is within 1e-9 of both its neighbours (a chain of near-ties)
 
-    from pkmlab.simulation import _sample_times, choose_working_mode
+    from pkmlab.simulation import choose_working_mode, sample_times
 
     scenario = load_scenario(Path(__file__).parents[1] / "examples" / "five_bar_circle.toml")
     real = mm.path_inverse_kinematics
@@ -328,7 +328,7 @@ def test_the_working_mode_tie_rule_is_within_1e_9_of_the_best(monkeypatch):
         return q, np.full(len(poses), min_s[tuple(mode)]), None
 
     monkeypatch.setattr(mm, "path_inverse_kinematics", stub)
-    mode, best = choose_working_mode(scenario, _sample_times(scenario))
+    mode, best = choose_working_mode(scenario, sample_times(scenario))
     assert mode == (1, -1) and best == min_s[(1, -1)]
 
 

@@ -130,7 +130,7 @@ def test_the_cli_refuses_unstable_gains_and_writes_nothing(tmp_path, capsys, tom
 @pytest.mark.parametrize("name", ["nominal", "disturbed", "fast"])
 def test_the_papers_cases_are_not_refused(name):
     scenario = paper_scenario(name)
-    prep = simulation._prepare(scenario)  # runs the check
+    prep = simulation.prepare_run(scenario)  # runs the check
     assert prep.kp == 1000.0 and scenario.sample_time == 1e-3
 
 
@@ -185,7 +185,7 @@ def test_the_preflight_margin_message_does_not_contradict_itself():
     """The path's min |S| in mode (+, +, +) is 0.47978…: with a margin of 0.48 it used to read
     "comes within 0.48 of a gain-type singularity (margin 0.48)"."""
     scenario = paper_scenario("nominal").replace(working_mode=(1, 1, 1), singularity_margin=0.0)
-    t = simulation._sample_times(scenario)
+    t = simulation.sample_times(scenario)
     _mode, min_s = simulation.choose_working_mode(scenario, t)
     margin = float(f"{min_s:.3g}")
     assert margin > min_s  # the case that rounds up onto the margin

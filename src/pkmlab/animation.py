@@ -234,7 +234,7 @@ def write_spatial_gif(model, t, q, desired, path: str | os.PathLike, frames: Seq
     from matplotlib.animation import PillowWriter
 
     from .mechanism_model import joint_positions
-    from .plotting import _equal_box, draw_spatial_mechanism
+    from .plotting import draw_spatial_mechanism, equal_box
 
     path = Path(path)
     t, q, desired = (np.asarray(a, dtype=float) for a in (t, q, desired))
@@ -250,7 +250,7 @@ def write_spatial_gif(model, t, q, desired, path: str | os.PathLike, frames: Seq
         ax.plot(*desired.T, "--", color="tab:gray", lw=1.2, label="desired path")
         ax.plot(*q[:k + 1, -dof:][:, :3].T, color="tab:red", lw=1.5, label="actual path")
         draw_spatial_mechanism(model, q[k], ax=ax, title=f"{title}\nt = {t[k]:7.3f} s")
-        _equal_box(ax, box)
+        equal_box(ax, box)
 
     try:
         _write_frames(fig, PillowWriter(fps=fps), path, frames, draw, dpi, on_frame)

@@ -40,7 +40,7 @@ from . import (
 from ._compile_cache import njit
 from ._validate import as_batch, as_broadcast, as_pair
 from .geometry import Planar3RRR
-from .kinematics import _model, _require_regular, coordinates_from_3rrr
+from .kinematics import as_paper_model, coordinates_from_3rrr, require_regular
 from .mechanism_model import MechanismModel
 from .mechanisms import rrr3
 
@@ -116,7 +116,7 @@ def _full_space(model, q, q_dot):
     C = np.empty((n, 7, 7))
     h = np.empty((n, 7))
     T = np.empty(n)
-    _full_space_batch(qs, qds, _model(model).packed, M, C, h, T)
+    _full_space_batch(qs, qds, as_paper_model(model).packed, M, C, h, T)
     return shape, M, C, h, T
 
 
@@ -152,8 +152,8 @@ def _constrained(model, q, q_dot, tau, explicit=False):
     lam = np.empty((n, 4))
     lam_explicit = np.empty((n, 4))
     ok = np.zeros(n, dtype=np.bool_)
-    _constrained_batch(qs, qds, taus, _model(model).packed, explicit, qdd, lam, lam_explicit, ok)
-    _require_regular(ok, shape, "the constrained dynamics")
+    _constrained_batch(qs, qds, taus, as_paper_model(model).packed, explicit, qdd, lam, lam_explicit, ok)
+    require_regular(ok, shape, "the constrained dynamics")
     return shape, qdd, lam, lam_explicit
 
 
@@ -185,7 +185,7 @@ def actuator_space_model(model: Planar3RRR, q, theta_dot) -> tuple[np.ndarray, n
 def _reduced_model(model, qs, theta_dots, shape, what):
     """``(Mθ, Cθ θ̇)`` (K, 3, 3), (K, 3) at configurations ``qs`` (K, 7): the compiled core's actuator-space model
     (:func:`pkmlab.machine_core.actuator_space_model`) on the machine's description, the simulation's own."""
-    machine = MechanismModel.from_3rrr(_model(model))
+    machine = MechanismModel.from_3rrr(as_paper_model(model))
     n = qs.shape[0]
     m, c, g = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))
     first_singular = machine.kernels.actuator_space_models(np.ascontiguousarray(coordinates_from_3rrr(model, qs)),
@@ -193,7 +193,7 @@ def _reduced_model(model, qs, theta_dots, shape, what):
     ok = np.ones(n, dtype=np.bool_)
     if first_singular >= 0:
         ok[first_singular] = False
-    _require_regular(ok, shape, what)
+    require_regular(ok, shape, what)
     return m, c  # no gravity: the paper's machine is horizontal
 
 
@@ -202,8 +202,8 @@ def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarra
     qs, tds, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
     out = np.empty((qs.shape[0], 3, 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
-    _coriolis_theta_batch(qs, tds, _model(model).packed, out, ok)
-    _require_regular(ok, shape, "C_theta")
+    _coriolis_theta_batch(qs, tds, as_paper_model(model).packed, out, ok)
+    require_regular(ok, shape, "C_theta")
     return out.reshape(*shape, 3, 3)
 
 

@@ -60,7 +60,7 @@ __all__ = [
 ]
 
 
-def _model(model, name: str = "model") -> Planar3RRR:
+def as_paper_model(model, name: str = "model") -> Planar3RRR:
     """``model`` itself if it is a :class:`Planar3RRR`: anything else would fail deep inside, unnamed."""
     if not isinstance(model, Planar3RRR):
         raise InvalidParameterError(f"{name} must be a Planar3RRR (e.g. Planar3RRR.paper()), "
@@ -179,7 +179,7 @@ def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: st
     modes = WORKING_MODES if mode is None else as_mode(mode)[None, :]
     q = np.empty((poses.shape[0], modes.shape[0], 7))
     unreachable = np.zeros((poses.shape[0], modes.shape[0]), dtype=np.int64)
-    _inverse_kinematics_batch(poses, modes, _model(model).packed, q, unreachable)
+    _inverse_kinematics_batch(poses, modes, as_paper_model(model).packed, q, unreachable)
     bad = np.flatnonzero(unreachable.any(axis=1))
     if bad.size and on_unreachable == "raise":
         k = int(bad[0])
@@ -231,7 +231,7 @@ def _unreachable_error(model, pose, mask, flat, shape) -> UnreachablePoseError:
 def working_mode_of(model: Planar3RRR, q) -> np.ndarray:
     """Working mode ``σ`` (..., 3) of configurations ``q``: the sign of ``(p_i - b_i) × (e_i - b_i)``."""
     qs, shape = as_batch("q", q, 7)
-    b = _model(model).base_points
+    b = as_paper_model(model).base_points
     e = b + model.active_lengths[:, None] * np.stack([np.cos(qs[:, :3]), np.sin(qs[:, :3])], axis=-1)
     p = e + model.passive_lengths[:, None] * np.stack([np.cos(qs[:, 3:6]), np.sin(qs[:, 3:6])], axis=-1)
     u, v = p - b, e - b
@@ -307,7 +307,7 @@ def forward_kinematics(model: Planar3RRR, theta) -> ForwardKinematicsSolution:
     s = np.full((n, 6), np.nan)
     count = np.zeros(n, dtype=np.int64)
     status = np.zeros(n, dtype=np.int64)
-    _forward_kinematics_batch(thetas, _model(model).packed, q, s, count, status)
+    _forward_kinematics_batch(thetas, as_paper_model(model).packed, q, s, count, status)
     if np.any(status == rrr3.DEGENERATE):
         k = int(np.flatnonzero(status == rrr3.DEGENERATE)[0])
         raise SingularityError(
@@ -341,7 +341,7 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
     from .mechanism_model import MechanismModel
 
     # the compiled core's branch following on the machine's description: the simulation's own
-    machine = MechanismModel.from_3rrr(_model(model))
+    machine = MechanismModel.from_3rrr(as_paper_model(model))
     q_out = np.empty((q_prev.shape[0], machine.kernels.N_COORDINATES))
     status = np.zeros(q_prev.shape[0], dtype=np.int64)
     machine.kernels.branch_following_batch(np.ascontiguousarray(coordinates_from_3rrr(model, q_prev)), thetas,
@@ -390,11 +390,11 @@ def _first_order(model, q):
     j_q_theta = np.empty((n, 7, 3))
     det = np.empty(n)
     ok = np.zeros(n, dtype=np.bool_)
-    _first_order_batch(qs, _model(model).packed, residual, j_eta_q, j_pose_q, j_q_theta, det, ok)
+    _first_order_batch(qs, as_paper_model(model).packed, residual, j_eta_q, j_pose_q, j_q_theta, det, ok)
     return shape, residual, j_eta_q, j_pose_q, j_q_theta, det, ok
 
 
-def _require_regular(ok, shape, what, name: str = "q"):
+def require_regular(ok, shape, what, name: str = "q"):
     if not np.all(ok):
         k = int(np.flatnonzero(~ok)[0])
         raise SingularityError(
@@ -406,7 +406,7 @@ def platform_pose(model: Planar3RRR, q) -> np.ndarray:
     """Platform pose ``(x, y, α)`` (..., 3) of configurations ``q`` (eq. 13, centroid position)."""
     qs, shape = as_batch("q", q, 7)
     out = np.empty((qs.shape[0], 3))
-    _pose_batch(qs, _model(model).packed, out)
+    _pose_batch(qs, as_paper_model(model).packed, out)
     return out.reshape(*shape, 3)
 
 
@@ -425,21 +425,21 @@ def constraint_jacobian(model: Planar3RRR, q) -> np.ndarray:
 def passive_jacobian(model: Planar3RRR, q) -> np.ndarray:
     """``Jφθ = -Jηφ⁻¹ Jηθ`` (..., 4, 3), eq. (15): ``φ̇ = Jφθ θ̇``."""
     shape, _r, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
-    _require_regular(ok, shape, "J_phi_theta")
+    require_regular(ok, shape, "J_phi_theta")
     return j_q_theta[:, 3:, :].reshape(*shape, 4, 3)
 
 
 def actuated_jacobian(model: Planar3RRR, q) -> np.ndarray:
     """``Jqθ = [I3; Jφθ]`` (..., 7, 3), eq. (31): ``q̇ = Jqθ θ̇``."""
     shape, _r, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
-    _require_regular(ok, shape, "J_q_theta")
+    require_regular(ok, shape, "J_q_theta")
     return j_q_theta.reshape(*shape, 7, 3)
 
 
 def platform_jacobian(model: Planar3RRR, q) -> np.ndarray:
     """``∂(ẋ, ẏ, α̇)/∂θ̇`` (..., 3, 3): ``Jpq Jqθ`` with the orientation row added (eqs. 14–17)."""
     shape, _r, _j, j_pose_q, j_q_theta, _d, ok = _first_order(model, q)
-    _require_regular(ok, shape, "the platform Jacobian")
+    require_regular(ok, shape, "the platform Jacobian")
     return (j_pose_q @ j_q_theta).reshape(*shape, 3, 3)
 
 
@@ -455,8 +455,8 @@ def _second_order(model, q, theta_dot):
     bias = np.empty((n, 7))
     pose_bias = np.empty((n, 3))
     ok = np.zeros(n, dtype=np.bool_)
-    _second_order_batch(qs, tds, _model(model).packed, q_dot, bias, pose_bias, ok)
-    _require_regular(ok, shape, "the passive rates")
+    _second_order_batch(qs, tds, as_paper_model(model).packed, q_dot, bias, pose_bias, ok)
+    require_regular(ok, shape, "the passive rates")
     return shape, q_dot, bias, pose_bias
 
 
@@ -490,7 +490,7 @@ def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
     """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity."""
     qs, shape = as_batch("q", q, 7)
     det = np.empty(qs.shape[0])
-    _determinant_batch(qs, _model(model).packed, det)
+    _determinant_batch(qs, as_paper_model(model).packed, det)
     return det.reshape(shape)
 
 

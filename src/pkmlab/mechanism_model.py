@@ -633,12 +633,12 @@ def forward_kinematics(model: MechanismModel, theta) -> list[tuple[np.ndarray, f
     (:class:`~pkmlab.errors.IncompleteSolutionWarning`) where it cannot guarantee that it found every
     assembly mode.
     """
-    from .mechanisms.leg_types import _SOLVERS
+    from .mechanisms.leg_types import SOLVERS
 
     theta = _actuator_values(model, theta)
     if getattr(model.description, "spatial", False):
         return _spatial_forward_kinematics(model, theta)
-    if any(leg.notation not in _SOLVERS for leg in model.description.legs):
+    if any(leg.notation not in SOLVERS for leg in model.description.legs):
         solutions, doubt = forward_kinematics_general(model, theta)
         if doubt:
             import warnings

@@ -25,10 +25,10 @@ from .errors import InvalidParameterError, PkmlabError, UnstableControlError
 from .simulation import (
     Scenario,
     SimulationResult,
-    _branch_failure,
-    _pose_text,
-    _prepare,
-    _result,
+    branch_failure_text,
+    pose_text,
+    prepare_run,
+    run_result,
 )
 
 INTEGRATORS = ("RK4", "implicitfast", "implicit", "Euler")
@@ -71,7 +71,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     if integrator not in INTEGRATORS:
         raise InvalidParameterError(f"the MuJoCo integrator must be one of {', '.join(INTEGRATORS)}, got "
                                     f"{integrator!r}")
-    prep = _prepare(scenario)
+    prep = prepare_run(scenario)
     ctrl, plant = scenario.model, scenario.plant_model
     q_plant0, q_ctrl = prep.q_plant0, prep.q_ctrl0.copy()
     model = mujoco.MjModel.from_xml_string(mx.mjcf(plant, q_plant0, timestep=step, integrator=integrator,
@@ -97,9 +97,9 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                                                   d.theta[k], d.theta_dot[k], d.theta_ddot[k], ctrl.P, prep.guard,
                                                   q_out, effort)
         if status != ctrl.kernels.OK:
-            pose = _pose_text(q[k, -plant.description.dof:])
+            pose = pose_text(q[k, -plant.description.dof:])
             raise PkmlabError(f"run stopped at t = {prep.t[k]:.4f} s: the controller's model "
-                              f"{_branch_failure(status, prep.guard)} near pose {pose}")
+                              f"{branch_failure_text(status, prep.guard)} near pose {pose}")
         q_ctrl[:] = q_out
         tau[k] = effort
         if k == count - 1:
@@ -114,5 +114,5 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                                        "or another integrator")
     plant.kernels.singularity_measures(q, plant.P, s)  # of every recorded configuration, at once
     pose = q[:, -plant.description.dof:].copy()
-    result = _result(scenario, prep, q, theta_dot, tau, pose, s)
+    result = run_result(scenario, prep, q, theta_dot, tau, pose, s)
     return replace(result, closure_violation=violation)

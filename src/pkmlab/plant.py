@@ -29,7 +29,7 @@ from ._compile_cache import njit
 from ._validate import as_batch, as_real
 from .errors import BranchFollowingError, InvalidParameterError, SingularityError, shown
 from .geometry import Planar3RRR
-from .kinematics import _model, constraint_residual, coordinates_from_3rrr, coordinates_to_3rrr
+from .kinematics import as_paper_model, constraint_residual, coordinates_from_3rrr, coordinates_to_3rrr
 from .mechanism_model import MechanismModel
 from .mechanisms import rrr3
 from .plants import check_times
@@ -116,7 +116,7 @@ class ReducedPlant:
     """
 
     def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, min_abs_S: float = 1e-6):
-        self.model = _model(model)
+        self.model = as_paper_model(model)
         self.rtol, self.atol = as_real("rtol", rtol, "positive"), as_real("atol", atol, "non-negative")
         self.min_abs_S = as_real("min_abs_S", min_abs_S, "non-negative")
 
@@ -168,7 +168,7 @@ class FullPlant:
     """
 
     def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, stabilization: float = 20.0):
-        self.model = _model(model)
+        self.model = as_paper_model(model)
         self.rtol, self.atol = as_real("rtol", rtol, "positive"), as_real("atol", atol, "non-negative")
         self.stabilization = as_real("stabilization", stabilization, "non-negative")
 

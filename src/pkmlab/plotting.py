@@ -224,7 +224,7 @@ def _axes3d(ax):
     return ax
 
 
-def _equal_box(ax, points: np.ndarray) -> None:
+def equal_box(ax, points: np.ndarray) -> None:
     """Equal scales on the three axes around ``points`` (K, 3)."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-3) * 1.05
@@ -257,7 +257,7 @@ def draw_spatial_mechanism(model, q, ax=None, title: str | None = None):
     ax.plot(*plat.T, color="tab:green", lw=2.5, label="platform")
     pose = q[-m.dof:]
     ax.scatter(*pose[:3], color="k", marker="+", s=60, label="tracked point")
-    _equal_box(ax, np.vstack([points.reshape(-1, 3), base]))
+    equal_box(ax, np.vstack([points.reshape(-1, 3), base]))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
@@ -275,7 +275,7 @@ def plot_path_3d(result, ax=None):
     ax.plot(*d.T, "k--", lw=1.5, label="desired")
     ax.plot(*p.T, color="tab:red", lw=1.2, label="tracked")
     ax.scatter(*d[0], color="k", s=15, label="start")
-    _equal_box(ax, np.vstack([d, p]))
+    equal_box(ax, np.vstack([d, p]))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")

@@ -265,7 +265,7 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, .
         reaching.append((mode, float(abs(s[k])), k, np.abs(s)))
     if not reaching:
         k, exc = first_failure
-        raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {_pose_text(pose[k])}: "
+        raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {pose_text(pose[k])}: "
                                    f"{exc}") from None
     top = max(r[1] for r in reaching)
     best, best_min, closest, abs_s = next(r for r in reaching if r[1] >= top - 1e-9)
@@ -274,14 +274,14 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, .
         every = "in every admissible working mode" if len(modes) > 1 else "in its working mode"
         if np.all(abs_s < scenario.singularity_margin):
             raise SingularityError(f"the whole path lies within |S| < {margin} of a gain-type singularity {every} "
-                                   f"(max |S| = {abs_s.max():.3g}, at pose {_pose_text(pose[0])} and on)")
+                                   f"(max |S| = {abs_s.max():.3g}, at pose {pose_text(pose[0])} and on)")
         raise SingularityError(
             f"the path comes within {near} of a gain-type singularity (margin {margin}) {every}; closest at "
-            f"t = {t[closest]:.4f} s, pose {_pose_text(pose[closest])}")
+            f"t = {t[closest]:.4f} s, pose {pose_text(pose[closest])}")
     return tuple(best), best_min
 
 
-def _pose_text(pose) -> str:
+def pose_text(pose) -> str:
     return "(" + ", ".join(f"{v:.4f}" for v in pose) + ")"
 
 
@@ -473,7 +473,7 @@ def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray) -> np.
 
 
 @dataclass(frozen=True)
-class _Prepared:
+class PreparedRun:
     """Everything a run needs before its loop: sample grid, working mode, desired motion, start."""
 
     t: np.ndarray
@@ -489,7 +489,7 @@ class _Prepared:
     P_plant: np.ndarray
 
 
-def _sample_times(scenario: Scenario) -> np.ndarray:
+def sample_times(scenario: Scenario) -> np.ndarray:
     # samples t_k = k Ts for k = 0 … ceil(T / Ts): the grid covers the whole motion, up to and past T
     # (the desired motion is at rest after T); continuous-time runs report on a 1 ms grid
     step = scenario.sample_time if scenario.sample_time > 0 else 1e-3
@@ -524,15 +524,15 @@ def _joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray):
     theta_dot, theta_ddot, k = path_rates(model, q, pose_dot, pose_ddot)
     if k >= 0:
         raise SingularityError(f"the path meets an inverse-kinematic singularity (a leg at the edge of its reach) "
-                               f"at t = {t[k]:.4f} s, pose {_pose_text(pose[k])}")
+                               f"at t = {t[k]:.4f} s, pose {pose_text(pose[k])}")
     n = model.n_actuators
     angles = np.array(model.kernels.ANGLES[:n])
     q[:, :n][:, angles] = np.unwrap(q[:, :n][:, angles], axis=0)
     return JointMotion(t, q, pose, q[:, :n].copy(), theta_dot, theta_ddot)
 
 
-def _prepare(scenario: Scenario, desired_cache: dict | None = None) -> _Prepared:
-    t = _sample_times(scenario)
+def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> PreparedRun:
+    t = sample_times(scenario)
     # a batch often shares the controller's model and path between runs: its desired motion once
     key = None
     if desired_cache is not None:
@@ -551,7 +551,7 @@ def _prepare(scenario: Scenario, desired_cache: dict | None = None) -> _Prepared
     q_ctrl0 = desired.q[0].copy()
     q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
     spec = scenario.controller
-    prep = _Prepared(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
+    prep = PreparedRun(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
                      float(spec.velocity_gain), float(scenario.singularity_guard), scenario.model.P,
                      scenario.plant_model.P)
     if scenario.sample_time > 0:
@@ -608,7 +608,7 @@ def _round_down(x: float, digits: int = 3) -> str:
     return f"{math.floor(x * (1.0 + 1e-9) / unit) * unit:.{digits}g}"
 
 
-def _stability_advice(scenario: Scenario, prep: _Prepared, mu: np.ndarray) -> str:
+def _stability_advice(scenario: Scenario, prep: PreparedRun, mu: np.ndarray) -> str:
     """What would be stable instead: the largest sample time for these gains, the largest ``kp`` at this ``Ts``."""
     ts = scenario.sample_time
     options = []
@@ -624,7 +624,7 @@ def _stability_advice(scenario: Scenario, prep: _Prepared, mu: np.ndarray) -> st
     return f"; lower the gains or the sample time{stable}"
 
 
-def _check_sampled_data_stability(scenario: Scenario, prep: _Prepared) -> None:
+def _check_sampled_data_stability(scenario: Scenario, prep: PreparedRun) -> None:
     """Refuse, before running, gains and a sample time whose sampled-data loop is unstable along the path.
 
     The spectral radius of :func:`~pkmlab.control.sampled_data_spectral_radius` is evaluated at every
@@ -664,7 +664,7 @@ def _check_sampled_data_stability(scenario: Scenario, prep: _Prepared) -> None:
     )
 
 
-def _divergence(scenario: Scenario, prep: _Prepared, q: np.ndarray, k_fail: int) -> str | None:
+def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: int) -> str | None:
     """Why a run that stopped at sample ``k_fail`` diverged, or ``None`` if it did not.
 
     It diverged when the loop is unstable at its last configuration (the plant where it was recorded,
@@ -707,7 +707,7 @@ def _pose_of(model: MechanismModel, q: np.ndarray) -> np.ndarray:
     return q[..., -model.description.dof:].copy()
 
 
-def _loop_error(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int,
+def _loop_error(scenario: Scenario, prep: PreparedRun, status: int, q: np.ndarray, k_fail: int,
                 prefix: str = "") -> PkmlabError:
     """The error of a run stopped in the compiled loop: diverged (unstable) or near a singularity."""
     diverged = _divergence(scenario, prep, q, k_fail)
@@ -716,21 +716,21 @@ def _loop_error(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray,
     return BranchFollowingError(prefix + _loop_failure(scenario, prep, status, q, k_fail))
 
 
-def _branch_failure(status: int, guard: float) -> str:
+def branch_failure_text(status: int, guard: float) -> str:
     """What a branch-following status of the compiled core means, as the end of a sentence."""
     if status % 10 == 2:  # SINGULAR
         return f"came within |S| < {guard:g} of a gain-type singularity"
     return "could not follow its assembly mode (no configuration found near the last one)"
 
 
-def _loop_failure(scenario: Scenario, prep: _Prepared, status: int, q: np.ndarray, k_fail: int) -> str:
+def _loop_failure(scenario: Scenario, prep: PreparedRun, status: int, q: np.ndarray, k_fail: int) -> str:
     who = "the controller's model" if status >= 10 else "the plant"
     pose = _pose_of(scenario.plant_model, q[k_fail])
-    return (f"run stopped at t = {prep.t[k_fail]:.4f} s: {who} {_branch_failure(status, prep.guard)} "
-            f"near pose {_pose_text(pose)}")
+    return (f"run stopped at t = {prep.t[k_fail]:.4f} s: {who} {branch_failure_text(status, prep.guard)} "
+            f"near pose {pose_text(pose)}")
 
 
-def _result(scenario: Scenario, prep: _Prepared, q, theta_dot, tau, pose=None, s=None) -> SimulationResult:
+def run_result(scenario: Scenario, prep: PreparedRun, q, theta_dot, tau, pose=None, s=None) -> SimulationResult:
     """The result of a run; ``pose`` and ``S`` of the plant are computed unless the loop recorded them."""
     desired = prep.desired
     model = scenario.plant_model
@@ -762,14 +762,14 @@ def simulate(scenario: Scenario) -> SimulationResult:
         hint = f" (a paper case: simulate(paper_scenario({scenario!r})))" if isinstance(scenario, str) else ""
         raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__} "
                                     f"{shown(scenario, 50)}{hint}")
-    prep = _prepare(scenario)
+    prep = prepare_run(scenario)
     ctrl, plant = scenario.model, scenario.plant_model
     q_plant0, q_ctrl0 = prep.q_plant0, prep.q_ctrl0
     if scenario.sample_time == 0:
         q, theta_dot, tau = _continuous_time(scenario, prep, ctrl, plant, q_plant0, q_ctrl0)
         s = np.empty(q.shape[0])
         plant.kernels.singularity_measures(q, plant.P, s)
-        return _result(scenario, prep, q, theta_dot, tau,
+        return run_result(scenario, prep, q, theta_dot, tau,
                        q[:, -_dof(plant):].copy(), s)
     k_, n = ctrl.kernels, ctrl.n_actuators
     count = prep.t.size
@@ -781,14 +781,14 @@ def simulate(scenario: Scenario) -> SimulationResult:
     pose = q[:, -_dof(plant):].copy()
     if status != k_.OK:
         raise _loop_error(scenario, prep, status, q, k_fail)
-    return _result(scenario, prep, q, theta_dot, tau, pose, s)
+    return run_result(scenario, prep, q, theta_dot, tau, pose, s)
 
 
 def _dof(model: MechanismModel) -> int:
     return model.description.dof
 
 
-def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, plant: MechanismModel,
+def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel, plant: MechanismModel,
                      q_plant0: np.ndarray, q_ctrl0: np.ndarray):
     """Continuous-time control: the controller evaluated at every stage of DOP853. Configurations in the loop
     model's coordinates."""
@@ -804,7 +804,7 @@ def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, 
                                         prep.guard, q_next, tau)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model "
-                                       f"{_branch_failure(status, prep.guard)}")
+                                       f"{branch_failure_text(status, prep.guard)}")
         q_ctrl[:] = q_next
         return tau
 
@@ -813,7 +813,7 @@ def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, 
         y_dot, status = k_.reduced_rhs(q_plant, y, tau, P_plant, prep.guard, q_next)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant "
-                                       f"{_branch_failure(status, prep.guard)}")
+                                       f"{branch_failure_text(status, prep.guard)}")
         q_plant[:] = q_next
         return y_dot
 
@@ -827,7 +827,7 @@ def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, 
     status, k = k_.follow_path(q_plant0, np.ascontiguousarray(sol.y[:n].T), P_plant, prep.guard, q)
     if status != k_.OK:
         raise BranchFollowingError(f"run stopped at t = {prep.t[k]:.4f} s: the plant "
-                                   f"{_branch_failure(status, prep.guard)}")
+                                   f"{branch_failure_text(status, prep.guard)}")
     efforts = np.empty((prep.t.size, n))
     q_ctrl[:] = q_ctrl0
     for k in range(prep.t.size):
@@ -835,7 +835,7 @@ def _continuous_time(scenario: Scenario, prep: _Prepared, ctrl: MechanismModel, 
     return q, sol.y[n:].T.copy(), efforts
 
 
-def _joint_motion_at(scenario: Scenario, prep: _Prepared, time: float):
+def _joint_motion_at(scenario: Scenario, prep: PreparedRun, time: float):
     """``(θ_d, θ̇_d, θ̈_d)`` at one time, from the configuration of the nearest sample (the same branch)."""
     from .mechanism_model import inverse_kinematics as machine_ik
     from .mechanism_model import path_rates
@@ -887,7 +887,7 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     if not scenarios:
         return []
     cache: dict = {}
-    preps: list[_Prepared | None] = []
+    preps: list[PreparedRun | None] = []
     errors: dict[int, PkmlabError] = {}
     for i, sc in enumerate(scenarios):
         if not isinstance(sc, Scenario):
@@ -896,7 +896,7 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
             raise InvalidParameterError(f"run {i} ({sc.name}): simulate_batch runs sampled-data control only "
                                         "(sample_time > 0); use simulate for continuous-time control")
         try:
-            preps.append(_prepare(sc, cache))
+            preps.append(prepare_run(sc, cache))
         except PkmlabError as exc:
             errors[i] = type(exc)(f"run {i} ({sc.name}): {exc}")
             if on_error == "raise":
@@ -921,7 +921,7 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
                 if on_error == "return":
                     results[i] = error
                 continue
-            results[i] = _result(sc, p, q, theta_dot, tau, pose, s)
+            results[i] = run_result(sc, p, q, theta_dot, tau, pose, s)
     return results
 
 

@@ -193,7 +193,7 @@ def _leg_lines(mechanism: Mechanism, P: dict, pose, joints, slides):
     return lines, size
 
 
-def _jacobian_and_bias(exprs, q, qd):
+def jacobian_and_bias(exprs, q, qd):
     """``J = ∂exprs/∂q`` and ``J̇ q̇ = Σ_k (∂(J q̇)/∂q_k) q̇_k`` (the terms of the acceleration that do
     not multiply ``q̈``)."""
     import sympy as sp
@@ -226,14 +226,14 @@ def generate_source(mechanism: Mechanism) -> str:
     d = derive(mechanism)
     q, qd = d["q"], d["qd"]
     nq, m, nb = len(q), len(d["eta"]), len(d["bodies"])
-    j_eta, b_eta = _jacobian_and_bias(d["eta"], q, qd)
+    j_eta, b_eta = jacobian_and_bias(d["eta"], q, qd)
     # the compiled core eliminates x and y with the unit pivots every leg's two equations have
     x_col = nq - mechanism.dof
     for i in range(len(mechanism.legs)):
         assert (j_eta[2 * i, x_col], j_eta[2 * i, x_col + 1]) == (-1, 0), "x-row of a leg: d/dx = -1, d/dy = 0"
         assert (j_eta[2 * i + 1, x_col], j_eta[2 * i + 1, x_col + 1]) == (0, -1), "y-row: d/dx = 0, d/dy = -1"
     body_exprs = [e for body in d["bodies"] for e in body]
-    j_body, b_body = _jacobian_and_bias(body_exprs, q, qd)
+    j_body, b_body = jacobian_and_bias(body_exprs, q, qd)
     # the body Jacobians' structural non-zeros: a leg's bodies move with that leg's coordinates only
     nonzero = [(b, r, c) for b in range(nb) for r in range(3) for c in range(nq) if j_body[3 * b + r, c] != 0]
     header = module_header(

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..mechanisms.spatial import SpatialMechanism
-from .planar import GENERATED_DIR, _jacobian_and_bias, module_header, regenerate, write_module
+from .planar import GENERATED_DIR, jacobian_and_bias, module_header, regenerate, write_module
 
 _INERTIA = ("xx", "yy", "zz", "xy", "xz", "yz")
 
@@ -206,7 +206,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     d = derive(mechanism)
     q, qd = d["q"], d["qd"]
     nq, m, nb, n = len(q), len(d["eta"]), len(d["bodies"]), len(mechanism.legs)
-    j_eta, b_eta = _jacobian_and_bias(d["eta"], q, qd)
+    j_eta, b_eta = jacobian_and_bias(d["eta"], q, qd)
     x_col = nq - mechanism.dof
     for i in range(n):  # the compiled core eliminates the tracked point with these unit pivots
         for r in range(3):

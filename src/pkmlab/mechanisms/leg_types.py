@@ -43,8 +43,8 @@ def working_modes(leg: Leg) -> tuple[int, ...]:
 
 def _solver(leg: Leg, number: int):
     """The leg type's closed form, or for any other leg the general method (:func:`_general`)."""
-    if leg.notation in _SOLVERS:
-        return _SOLVERS[leg.notation]
+    if leg.notation in SOLVERS:
+        return SOLVERS[leg.notation]
     Locus(leg, number)  # refuses a leg the general method cannot take, naming it
     return _general
 
@@ -53,7 +53,7 @@ def _polar(tip) -> tuple[float, float]:
     return math.hypot(*tip), math.atan2(tip[1], tip[0])
 
 
-class _Solved:
+class Solved:
     """A leg type's solution for K points: ``coordinates`` (K, joints), and for each point that cannot be
     reached ``bad[k]`` True and ``why(k)``, the one-line reason (naming the leg)."""
 
@@ -61,7 +61,7 @@ class _Solved:
         self.coordinates, self.bad, self.why = coordinates, bad, why
 
 
-def _stroke(leg: Leg, number: int, value: np.ndarray, bad: np.ndarray, why):
+def mark_outside_stroke(leg: Leg, number: int, value: np.ndarray, bad: np.ndarray, why):
     """Mark the values outside the leg's stroke as bad, their reason naming the leg and the stroke."""
     if leg.stroke is None:
         return bad, why
@@ -78,7 +78,7 @@ def _stroke(leg: Leg, number: int, value: np.ndarray, bad: np.ndarray, why):
     return bad | outside, reason
 
 
-def _rrr(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
+def _rrr(leg: Leg, number: int, point: np.ndarray, sigma: int) -> Solved:
     l1, d1 = _polar(leg.bodies[0].tip)
     l2, d2 = _polar(leg.bodies[1].tip)
     dx, dy = point[:, 0] - leg.base[0], point[:, 1] - leg.base[1]
@@ -96,11 +96,11 @@ def _rrr(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
                 f"{abs(l1 - l2):.6g}..{l1 + l2:.6g} m")
 
     if leg.joints[0].kind == "R":
-        bad, why = _stroke(leg, number, theta, bad, why)
-    return _Solved(np.column_stack([theta, phi]), bad, why)
+        bad, why = mark_outside_stroke(leg, number, theta, bad, why)
+    return Solved(np.column_stack([theta, phi]), bad, why)
 
 
-def _rpr(leg: Leg, number: int, point: np.ndarray, _sigma: int) -> _Solved:
+def _rpr(leg: Leg, number: int, point: np.ndarray, _sigma: int) -> Solved:
     # p = b + R(psi) (t + (s, 0)), t = tip1 + tip2: the rod slides along the leg's direction
     tx = leg.bodies[0].tip[0] + leg.bodies[1].tip[0]
     ty = leg.bodies[0].tip[1] + leg.bodies[1].tip[1]
@@ -113,11 +113,11 @@ def _rpr(leg: Leg, number: int, point: np.ndarray, _sigma: int) -> _Solved:
     def why(_k):
         return f"leg {number + 1}: the attachment point is closer to its base than the leg's offset {abs(ty):.6g} m"
 
-    bad, why = _stroke(leg, number, s, bad, why)
-    return _Solved(np.column_stack([psi, s]), bad, why)
+    bad, why = mark_outside_stroke(leg, number, s, bad, why)
+    return Solved(np.column_stack([psi, s]), bad, why)
 
 
-def _prr(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
+def _prr(leg: Leg, number: int, point: np.ndarray, sigma: int) -> Solved:
     beta = leg.joints[0].axis
     ux, uy = math.cos(beta), math.sin(beta)
     t1x, t1y = leg.bodies[0].tip  # the revolute on the slider, in the slider's frame
@@ -135,11 +135,11 @@ def _prr(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
         return (f"leg {number + 1}: the attachment point is {math.sqrt(-disc[k] + l2 * l2):.6g} m from its rail, "
                 f"beyond the link's {l2:.6g} m")
 
-    bad, why = _stroke(leg, number, s, bad, why)
-    return _Solved(np.column_stack([s, phi]), bad, why)
+    bad, why = mark_outside_stroke(leg, number, s, bad, why)
+    return Solved(np.column_stack([s, phi]), bad, why)
 
 
-_SOLVERS = {"R*RR": _rrr, "RP*R": _rpr, "P*RR": _prr}
+SOLVERS = {"R*RR": _rrr, "RP*R": _rpr, "P*RR": _prr}
 
 
 # ------------------------------------------------------------------ any other leg: its locus and a general method
@@ -229,7 +229,7 @@ class Locus:
 GENERAL_SAMPLES = 1441
 
 
-def _general(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
+def _general(leg: Leg, number: int, point: np.ndarray, sigma: int) -> Solved:
     """Inverse kinematics of any leg of :class:`Locus` form, by a general method: the attachment point lies on
     the leg's locus for the actuator values where :meth:`Locus.gap` vanishes; they are bracketed by its sign
     changes on a fine grid over the actuator's domain and refined by bisection to round-off. A leg has two
@@ -271,10 +271,10 @@ def _general(leg: Leg, number: int, point: np.ndarray, sigma: int) -> _Solved:
 
     coordinates = np.empty((point.shape[0], 2))
     coordinates[:, leg.actuated], coordinates[:, locus.passive] = actuator, passive
-    return _Solved(coordinates, bad, why)
+    return Solved(coordinates, bad, why)
 
 
-def leg_inverse_kinematics_batch(leg: Leg, number: int, points, sigma: int = 1) -> _Solved:
+def leg_inverse_kinematics_batch(leg: Leg, number: int, points, sigma: int = 1) -> Solved:
     """:func:`leg_inverse_kinematics` of many attachment points ``(K, 2)`` at once: the coordinates
     ``(K, joints)``, ``bad`` (K,) for the points out of reach and ``why(k)`` naming the reason."""
     return _solver(leg, number)(leg, number, np.asarray(points, dtype=float).reshape(-1, 2), sigma)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidParameterError
-from .leg_types import _Solved, _stroke
+from .leg_types import Solved, mark_outside_stroke
 from .spatial import SpatialLeg, SpatialMechanism
 
 SOLVED = ("R*US", "UP*S")
@@ -91,7 +91,7 @@ def forearm_angles(leg: SpatialLeg, theta: np.ndarray, points: np.ndarray, elbow
     return universal_angles(leg.joints[1].axes, leg.bodies[1].tip, rotate(axis, -theta, points - elbow))
 
 
-def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> _Solved:
+def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> Solved:
     arm_joint = leg.joints[0]
     axis_r = np.array(arm_joint.axes[0])
     arm, forearm = leg.bodies
@@ -127,11 +127,11 @@ def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> 
         return (f"leg {number + 1} (R*US): its universal joint cannot turn the forearm towards the point ({where})")
 
     bad = bad | u_bad
-    bad, why = _stroke(leg, number, theta, bad, why)
-    return _Solved(np.column_stack([theta, q1, q2]), bad, why)
+    bad, why = mark_outside_stroke(leg, number, theta, bad, why)
+    return Solved(np.column_stack([theta, q1, q2]), bad, why)
 
 
-def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -> _Solved:
+def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -> Solved:
     universal, slide = leg.joints[0], leg.joints[1]
     cylinder, rod = leg.bodies
     d = np.array(slide.axes[0])
@@ -152,11 +152,11 @@ def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -
             return f"leg {number + 1} (UP*S) cannot reach the point ({where}): it is closer than the leg's offset"
         return f"leg {number + 1} (UP*S): its universal joint cannot turn the leg towards the point ({where})"
 
-    bad, why = _stroke(leg, number, s, bad | u_bad, why)
-    return _Solved(np.column_stack([q1, q2, s]), bad, why)
+    bad, why = mark_outside_stroke(leg, number, s, bad | u_bad, why)
+    return Solved(np.column_stack([q1, q2, s]), bad, why)
 
 
-def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None) -> _Solved:
+def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None) -> Solved:
     """The leg's three joint coordinates (K, 3), in the order of its joints, for its S joint at ``points``
     (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why). ``axis`` is
     the machine's :func:`central_axis`, which tells an R*US leg's working modes apart (default: the z

@@ -293,19 +293,19 @@ class Study:
         """Refuse uncertainty bounds that make every plant tried unassemblable (at the start of the first grid
         point's run): the study would only record failures."""
         from ..errors import AssemblyError, UnstableControlError
-        from ..simulation import _prepare
+        from ..simulation import prepare_run
 
         if not self.draws:
             return
         try:
             nominal = self.nominal_scenario(0)
-            _prepare(nominal)
+            prepare_run(nominal)
         except PkmlabError:  # the grid point itself fails: a result of the study, not its bounds' doing
             return
         errors = []
         for draw in range(min(self.draws, self.PREFLIGHT_DRAWS)):
             try:
-                _prepare(self.scenario(draw, nominal))
+                prepare_run(self.scenario(draw, nominal))
                 return
             except UnstableControlError:
                 return

@@ -50,7 +50,7 @@ class StudyInterrupted(KeyboardInterrupt):
     """Ctrl-C during a study; its message says what was kept and how to finish."""
 
 
-def _needs(module: str):
+def require_module(module: str):
     try:
         return __import__(module)
     except ImportError:
@@ -62,7 +62,7 @@ def schema(study: Study):
     """The Arrow schema of a study's table: integers for run numbers and counts, floats for metrics and
     factors, strings for the status, reason, working mode and message; an axis's cells take its values'
     type (numbers, strings, booleans; lists are stored as JSON text)."""
-    pa = _needs("pyarrow")
+    pa = require_module("pyarrow")
     kinds = {}
     for key, values in study.axes:
         if all(isinstance(v, bool) for v in values):
@@ -149,7 +149,7 @@ class StudyFolder:
 
     def done_runs(self) -> set[int]:
         """The runs some chunk file holds."""
-        pq = _needs("pyarrow.parquet").parquet
+        pq = require_module("pyarrow.parquet").parquet
         done: set[int] = set()
         for path in self.chunk_files():
             try:
@@ -161,7 +161,7 @@ class StudyFolder:
 
     def write_chunk(self, table) -> Path:
         """Write one chunk's rows atomically."""
-        pq = _needs("pyarrow.parquet").parquet
+        pq = require_module("pyarrow.parquet").parquet
         runs = table.column("run").to_pylist()
         path = self.chunks / f"runs-{min(runs):09d}-{max(runs):09d}.parquet"
         try:
@@ -174,8 +174,8 @@ class StudyFolder:
 
     def table(self, types):
         """Every chunk's rows in run order; refuses a folder whose chunks miss or repeat a run."""
-        pa = _needs("pyarrow")
-        pq = _needs("pyarrow.parquet").parquet
+        pa = require_module("pyarrow")
+        pq = require_module("pyarrow.parquet").parquet
         parts = [pq.read_table(path).select(types.names).cast(types) for path in self.chunk_files()]
         table = pa.concat_tables(parts) if parts else types.empty_table()
         return _in_run_order(table, self.study, str(self.path))
@@ -200,13 +200,13 @@ def _cores() -> int:
 
 
 @contextlib.contextmanager
-def _dask_client(workers: int | None, scheduler: str | None, client):
+def dask_client(workers: int | None, scheduler: str | None, client):
     """A Dask client: the one given, one of the cluster at ``scheduler``, or one of a local cluster
     started here and stopped on leaving (``workers`` processes of one thread each)."""
     if client is not None:
         yield client
         return
-    distributed = _needs("distributed")
+    distributed = require_module("distributed")
     if scheduler is not None:
         try:
             with contextlib.redirect_stderr(open(os.devnull, "w")):  # noqa: SIM115 - Dask's own retry chatter
@@ -262,7 +262,7 @@ def execute(study: Study, todo: list[int], *, folder: StudyFolder | None = None,
     """Run ``todo`` (run numbers) of ``study`` in chunks; each chunk's Arrow table is written to ``folder`` as
     it finishes (or kept in memory without a folder). Returns the tables kept in memory and what was measured:
     ``{"workers", "chunk_size", "chunks", "wall_time_s", "runs_per_s", "task_overhead_s"}``."""
-    pa = _needs("pyarrow")
+    pa = require_module("pyarrow")
     types = schema(study)
     kept: list = []
     start = time.perf_counter()
@@ -292,7 +292,7 @@ def execute(study: Study, todo: list[int], *, folder: StudyFolder | None = None,
             finished(rows, time.perf_counter() - t0)
         count = 1
     else:
-        with _dask_client(workers, scheduler, client) as dask:
+        with dask_client(workers, scheduler, client) as dask:
             count = max(1, len(dask.scheduler_info(n_workers=-1)["workers"])) if client is not None or scheduler \
                 else (workers or _cores())
             size = chunk_size or default_chunk_size(len(todo), count)
@@ -337,7 +337,7 @@ POLL = 0.05
 
 
 def _run_on_dask(dask, study: Study, chunks: list[list[int]], threads: int, finished) -> None:
-    distributed = _needs("distributed")
+    distributed = require_module("distributed")
     tag = study.digest[:12]
     futures = [dask.submit(_timed_chunk, study, chunk, threads, key=f"pkmlab-{tag}-{chunk[0]}-{chunk[-1]}",
                            pure=False) for chunk in chunks]
@@ -410,7 +410,7 @@ def run_study(study: Study, out=None, *, workers: int | None = None, scheduler: 
     if folder is not None:
         table = folder.table(schema(study))
     else:
-        pa = _needs("pyarrow")
+        pa = require_module("pyarrow")
         table = _in_run_order(pa.concat_tables(kept) if kept else schema(study).empty_table(), study, "the study")
     stats["runs_run"] = len(todo)
     return table, stats

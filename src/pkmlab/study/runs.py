@@ -102,7 +102,7 @@ def run_chunk(study: Study, runs, threads: int | None = None) -> list[dict]:
     """Run ``runs`` (run numbers of ``study``) and return their rows, in the order given.
 
     ``threads`` sets how many cores the compiled batch uses in this process (default: Numba's)."""
-    from ..simulation import _sample_times, simulate, simulate_batch
+    from ..simulation import sample_times, simulate, simulate_batch
 
     if threads is not None:
         import numba
@@ -135,7 +135,7 @@ def run_chunk(study: Study, runs, threads: int | None = None) -> list[dict]:
         scenarios[run] = (scenario, factors)
     groups: dict[int, list[int]] = {}
     for run, (scenario, _factors) in scenarios.items():
-        samples = _sample_times(scenario).size if scenario.sample_time > 0 else 0  # 0: continuous time
+        samples = sample_times(scenario).size if scenario.sample_time > 0 else 0  # 0: continuous time
         groups.setdefault(samples, []).append(run)
     for samples, members in groups.items():
         batch = [scenarios[run][0] for run in members]

@@ -75,10 +75,10 @@ def sweep(study, out=None, *, workers: int | None = None, scheduler: str | None 
     for bit, however the study is run, and each row is what :func:`~pkmlab.simulation.simulate` gives for
     ``study.scenario(run)``.
     """
-    from .engine import _needs
+    from .engine import require_module
 
     for module in ("pandas", "pyarrow"):
-        _needs(module)
+        require_module(module)
     study = _study(study)
     for key in heatmap or ():
         if key not in dict(study.axes):

@@ -37,7 +37,7 @@ from .._validate import as_count, as_real
 from ..errors import InvalidParameterError
 from ..outputs import atomic_file
 from .definition import Study, scenario_tables
-from .engine import _dask_client, run_study
+from .engine import dask_client, run_study
 
 #: Default search box: kp (1/s²) and the damping ratio ζ.
 KP_RANGE = (10.0, 1e6)
@@ -96,10 +96,10 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     batches of ``batch`` (one study each, on the cluster of ``workers``/``scheduler``/``client``, in chunks of
     ``chunk_size`` runs).
     ``progress(done, total)`` is called after each batch."""
-    from .engine import _needs
+    from .engine import require_module
 
-    optuna = _needs("optuna")
-    _needs("pandas")
+    optuna = require_module("optuna")
+    require_module("pandas")
     base = scenario_tables(scenario)
     max_effort = as_real("max_effort", max_effort, "positive")
     if not 0.0 < quantile <= 1.0:
@@ -124,7 +124,7 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     search.enqueue_trial({"log10_kp": math.log10(kp0), **({} if critical else {"zeta": zeta0})})
     rows: list[dict] = []
     in_process = workers == 0 and not scheduler and client is None
-    with contextlib.nullcontext() if in_process else _dask_client(workers, scheduler, client) as dask:
+    with contextlib.nullcontext() if in_process else dask_client(workers, scheduler, client) as dask:
         while len(rows) < trials:
             asked = [search.ask() for _ in range(min(batch, trials - len(rows)))]
             gains = []

@@ -131,7 +131,7 @@ def draw(model, q, title: str | None = None):
     from ..algorithms.kinematics import as_model
     from ..errors import InvalidParameterError, shown
     from ..mechanism_model import joint_positions
-    from .run import RunView, _machine_lines, machine_traces
+    from .run import RunView, machine_lines, machine_traces
 
     model = as_model(model)
     q = as_batch("q", q, len(model.coordinates), single=True)[0][0]
@@ -144,7 +144,7 @@ def draw(model, q, title: str | None = None):
     point = pose[None, :3 if spatial else 2]
     one = RunView("", np.zeros(1), np.array([0]), joints, [leg.actuated for leg in description.legs],
                   [len(leg.joints) for leg in description.legs], description.platform.kind != "point", point, point)
-    fig = go.Figure(machine_traces(go, _machine_lines(one, 0), spatial))
+    fig = go.Figure(machine_traces(go, machine_lines(one, 0), spatial))
     where = ", ".join(f"{n} = {v:.3f}" for n, v in zip(description.pose_names, pose, strict=True))
     fig.update_layout(title=title or f"{description.name} at {where}", template="plotly_white", height=520)
     if not spatial:

@@ -108,7 +108,7 @@ def _nan_joined(parts: list[np.ndarray]) -> np.ndarray:
     return np.vstack(out)
 
 
-def _machine_lines(view: RunView, j: int) -> dict[str, np.ndarray]:
+def machine_lines(view: RunView, j: int) -> dict[str, np.ndarray]:
     """The machine at frame ``j`` (sample ``view.samples[j]``): polylines of the actuated bodies, the passive
     ones, the platform and the tracked point."""
     joints, k = view.joints[j], int(view.samples[j])
@@ -133,7 +133,7 @@ def _scatter(go, xyz: np.ndarray, spatial: bool, **kw):
 
 
 def machine_traces(go, lines: dict, spatial: bool) -> list:
-    """The machine's Plotly traces from :func:`_machine_lines`: its actuated bodies (bold), its passive ones,
+    """The machine's Plotly traces from :func:`machine_lines`: its actuated bodies (bold), its passive ones,
     the platform (filled in the plane) and the tracked point."""
     width = {"actuated": 9 if spatial else 7, "passive": 5 if spatial else 3, "platform": 6 if spatial else 3}
     traces = []
@@ -176,7 +176,7 @@ def run_figure(view: RunView) -> dict:
                                                                                    "dash": "dash", "width": 2},
                            **mode_line), row=1, col=1)
     # animated: the machine, the trail, the cursors
-    machine = machine_traces(go, _machine_lines(view, 0), spatial)
+    machine = machine_traces(go, machine_lines(view, 0), spatial)
     first_machine = len(fig.data)
     for trace in machine:
         fig.add_trace(trace, row=1, col=1)
@@ -219,7 +219,7 @@ def run_figure(view: RunView) -> dict:
     figure_frames = []
     for j, k in enumerate(samples):
         k = int(k)
-        lines = _machine_lines(view, j)
+        lines = machine_lines(view, j)
         data = [points(lines[part]) for part in ("actuated", "passive", "platform")]
         # the trail through the samples shown so far (every sample's would make the file grow as frames²)
         data.append(points(view.actual[samples[:j + 1]]))
