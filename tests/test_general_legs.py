@@ -69,7 +69,7 @@ def test_the_general_leg_method_finds_exactly_the_closed_forms_solutions(name):
     for i, leg in enumerate(m.legs):
         angles = np.array([j.kind == "R" for j in leg.joints[:-1]])
         points = np.array(leg.base) + rng.uniform(-0.45, 0.45, (300, 2))
-        closed = [lt._SOLVERS[leg.notation](leg, i, points, sigma) for sigma in (lt.working_modes(leg) or (1,))]
+        closed = [lt.SOLVERS[leg.notation](leg, i, points, sigma) for sigma in (lt.working_modes(leg) or (1,))]
         general = [lt._general(leg, i, points, sigma) for sigma in (1, -1)]
         for k in range(len(points)):
             mine = {tuple(np.round(g.coordinates[k], 9)) for g in general if not g.bad[k]}
