@@ -249,26 +249,34 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, .
     the time and pose where the path leaves the workspace or comes within ``singularity_margin`` of ``S = 0``
     in every admissible mode.
     """
+    pose = np.asarray(scenario.trajectory.desired(t)[0], dtype=float)
+    mode, min_s, _q = _best_working_mode(scenario, t, pose)
+    return mode, min_s
+
+
+def _best_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray):
+    """:func:`choose_working_mode` of the desired poses ``pose`` (N, ≥ dof) at ``t``, and the inverse kinematics
+    of the path in that mode (N, n_coordinates), which the desired motion goes on from."""
     from .mechanism_model import path_inverse_kinematics, working_modes
 
     model = scenario.model
-    pose = np.asarray(scenario.trajectory.desired(t)[0], dtype=float)[:, :model.dof]
+    pose = np.ascontiguousarray(pose[:, :model.dof])
     modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
-    first_failure, reaching = None, []  # (mode, min |S|, its sample, |S|) of the modes reaching the whole path
+    first_failure, reaching = None, []  # (mode, min |S|, its sample, |S|, q) of the modes reaching the whole path
     for mode in modes:
-        _q, s, failure = path_inverse_kinematics(model, pose, mode)
+        q, s, failure = path_inverse_kinematics(model, pose, mode)
         if failure is not None:
             if first_failure is None or failure[0] > first_failure[0]:
                 first_failure = failure  # the mode that gets furthest names the problem
             continue
         k = int(np.argmin(np.abs(s)))
-        reaching.append((mode, float(abs(s[k])), k, np.abs(s)))
+        reaching.append((mode, float(abs(s[k])), k, np.abs(s), q))
     if not reaching:
         k, exc = first_failure
         raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {pose_text(pose[k])}: "
                                    f"{exc}") from None
     top = max(r[1] for r in reaching)
-    best, best_min, closest, abs_s = next(r for r in reaching if r[1] >= top - 1e-9)
+    best, best_min, closest, abs_s, best_q = next(r for r in reaching if r[1] >= top - 1e-9)
     if best_min < scenario.singularity_margin:
         near, margin = apart(best_min, scenario.singularity_margin)
         every = "in every admissible working mode" if len(modes) > 1 else "in its working mode"
@@ -278,7 +286,7 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, .
         raise SingularityError(
             f"the path comes within {near} of a gain-type singularity (margin {margin}) {every}; closest at "
             f"t = {t[closest]:.4f} s, pose {pose_text(pose[closest])}")
-    return tuple(best), best_min
+    return tuple(best), best_min, best_q
 
 
 def pose_text(pose) -> str:
@@ -498,18 +506,20 @@ def sample_times(scenario: Scenario) -> np.ndarray:
 
 
 def _desired_motion(scenario: Scenario, t: np.ndarray):
-    mode, _min_s = choose_working_mode(scenario, t)
-    return mode, _joint_motion(scenario.model, scenario.trajectory, mode, t)
+    """The working mode and the desired actuator motion in it, from one evaluation of the trajectory."""
+    full = [np.asarray(a, dtype=float) for a in scenario.trajectory.desired(t)]
+    mode, _min_s, q = _best_working_mode(scenario, t, full[0])
+    return mode, _joint_motion(scenario.model, full, q, t)
 
 
-def _joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray):
-    """The desired actuator motion: exact inverse kinematics of the path and its first and second derivatives
+def _joint_motion(model: MechanismModel, full, q: np.ndarray, t: np.ndarray):
+    """The desired actuator motion of the desired ``full = (pose, pose_dot, pose_ddot)`` at ``t``, whose inverse
+    kinematics in the run's working mode is ``q``: the first and second derivatives of that inverse kinematics
     (:func:`~pkmlab.mechanism_model.path_rates`), angles unwrapped along it."""
-    from .mechanism_model import path_inverse_kinematics, path_rates
+    from .mechanism_model import path_rates
     from .trajectory import JointMotion
 
     dof = model.description.dof
-    full = [np.asarray(a, dtype=float) for a in trajectory.desired(t)]
     # a point has no orientation to track: never ignore one
     if dof == 2 and full[0].shape[1] > 2 and np.any(full[0][:, 2] != 0.0):
         k = int(np.argmax(full[0][:, 2] != 0.0))
@@ -517,10 +527,6 @@ def _joint_motion(model: MechanismModel, trajectory, mode, t: np.ndarray):
                                     f"orientation alpha = {full[0][k, 2]:.4g} rad at t = {t[k]:.4f} s: remove alpha "
                                     "from the trajectory")
     pose, pose_dot, pose_ddot = (np.ascontiguousarray(a[:, :dof]) for a in full)
-    q, _s, failure = path_inverse_kinematics(model, pose, mode)
-    if failure is not None:
-        k, exc = failure
-        raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s: {exc}") from None
     theta_dot, theta_ddot, k = path_rates(model, q, pose_dot, pose_ddot)
     if k >= 0:
         raise SingularityError(f"the path meets an inverse-kinematic singularity (a leg at the edge of its reach) "
