@@ -36,9 +36,9 @@ bench: install
 	$(BIN)/python benchmarks/run.py
 
 derive: install
-	$(BIN)/python -m pkmlab.derivations.rrr3_sextic
-	$(BIN)/python -m pkmlab.derivations.planar
-	$(BIN)/python -m pkmlab.derivations.spatial
+	$(BIN)/python -m pkmlab.codegen.rrr3_sextic
+	$(BIN)/python -m pkmlab.codegen.planar
+	$(BIN)/python -m pkmlab.codegen.spatial
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info

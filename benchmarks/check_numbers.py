@@ -21,11 +21,12 @@ from pathlib import Path
 import numpy as np
 from operation_count import DEFAULT_RUNS
 
-from pkmlab import mechanism_model as mm
-from pkmlab.control import ControllerSpec
-from pkmlab.kinematics import coordinates_to_3rrr
-from pkmlab.scenario_io import load_scenario, paper_scenario
-from pkmlab.simulation import perturbed_model, simulate, simulate_batch
+from pkmlab.control.controller import ControllerSpec
+from pkmlab.formats.scenario import load_scenario, paper_scenario
+from pkmlab.model import mechanism_model as mm
+from pkmlab.paper.kinematics import coordinates_to_3rrr
+from pkmlab.simulation.run import simulate, simulate_batch
+from pkmlab.simulation.scenario import perturbed_model
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: every preset's default run (operation_count.DEFAULT_RUNS), and the paper's other two cases

@@ -1,9 +1,9 @@
 """Benchmarks per described mechanism (rows of ``make bench``, after the paper's cases).
 
 For each preset — the paper's 3-RRR through the generic pipeline (its description's generated
-kernels and :mod:`pkmlab.machine_core`'s compiled loop), the five-bar, the 3-RPR and the 3-PRR:
+kernels and :mod:`pkmlab.codegen.core`'s compiled loop), the five-bar, the 3-RPR and the 3-PRR:
 
-* forward kinematics, every assembly mode (:func:`pkmlab.mechanism_model.forward_kinematics`,
+* forward kinematics, every assembly mode (:func:`pkmlab.algorithms.assembly.assembly_modes`,
   once per actuator vector, at actuators of random reachable poses): solves per second;
 * one evaluation of the actuator-space model ``(Mθ, cθ, gθ)``: the compiled core over a batch of
   states, and the public function once per state;
@@ -21,10 +21,12 @@ import numpy as np
 import operation_count
 
 import pkmlab
-from pkmlab import mechanism_model as mm
-from pkmlab.scenario_io import load_scenario
-from pkmlab.simulation import Scenario, prepare_run, simulate
-from pkmlab.trajectory import paper_trajectory
+from pkmlab.algorithms import assembly
+from pkmlab.control.trajectory import paper_trajectory
+from pkmlab.formats.scenario import load_scenario
+from pkmlab.model import mechanism_model as mm
+from pkmlab.simulation.run import prepare_run, simulate
+from pkmlab.simulation.scenario import Scenario
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DEFAULT_RUNS = {"paper": None, "five_bar": "five_bar_circle.toml", "3rpr": "3rpr_circle.toml",
@@ -63,7 +65,7 @@ def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | 
     seconds, result = h.time_once(lambda: simulate(scenario))
     rows.append(h.first_call_row(f"mech_{name}_first_run", f"{label}: first default run in this process", seconds))
     actuators = _actuator_samples(model, scenario, FK_SAMPLES.get(name, 20 if repeats < 5 else 200), rng)
-    times, _ = h.time_runs(lambda: [mm.forward_kinematics(model, t) for t in actuators], repeats)
+    times, _ = h.time_runs(lambda: [assembly.assembly_modes(model, t) for t in actuators], repeats)
     rows.append(h.rate_row(f"mech_{name}_fk", f"{label}: forward kinematics, every assembly mode", times,
                            len(actuators), "solve", compare=False))
     stride = max(1, result.q.shape[0] // 100)

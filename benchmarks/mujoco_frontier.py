@@ -4,7 +4,7 @@ For each preset's default run, the same sampled-data controller (pkmlab's, on it
 
 * pkmlab's plant (the exact reduced model, RK4 per sample): wall time, and its deviation from a
   tight reference — pkmlab's plant with 16 RK4 sub-steps per sample, whose own error is far below;
-* MuJoCo's integration of the exported machine (:mod:`pkmlab.mujoco_export`, RK4) at time steps of 2, 1,
+* MuJoCo's integration of the exported machine (:mod:`pkmlab.interop.mujoco_export`, RK4) at time steps of 2, 1,
   0.5 and 0.25 ms, with MuJoCo's default loop closures and its stiffest (solimp 0.9999, solref 2 ms):
   wall time, its largest loop-closure violation, and its deviation from the same reference.
 
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from pkmlab import load_scenario, paper_scenario, simulate
-from pkmlab.mujoco_plant import simulate_mujoco
+from pkmlab.interop.mujoco_plant import simulate_mujoco
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 RUNS = {"paper": lambda: paper_scenario("nominal"), "five_bar": "five_bar_circle.toml", "3rpr": "3rpr_circle.toml",

@@ -17,7 +17,7 @@ the tree order :data:`JOINT_NAMES`; :func:`qpos_from_q` is that linear map (it m
 ``q̇`` to ``qvel`` as well).
 
 Masses, mass-centre offsets and moments of inertia about the mass centre are those pkmlab's
-dynamics reads (:func:`pkmlab.mechanisms.rrr3.body_description`): every body's mass centre
+dynamics reads (:func:`pkmlab.paper.rrr3.body_description`): every body's mass centre
 is a fixed vector in its own frame (x axis along the link, or along ``p1 → p2`` for the
 platform), so MuJoCo's ``<inertial pos=...>`` takes it unchanged. No gravity (horizontal
 plane), no joint damping, armature or friction loss, contacts disabled; three ``motor``
@@ -64,10 +64,10 @@ import mujoco
 import numpy as np
 
 import pkmlab
-from pkmlab import dynamics as pk_dynamics
-from pkmlab import kinematics as kin
-from pkmlab.geometry import Planar3RRR
-from pkmlab.mechanism_model import MechanismModel
+from pkmlab.model.mechanism_model import MechanismModel
+from pkmlab.paper import dynamics as pk_dynamics
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
 
 #: MuJoCo's hinge joints in tree order (the order of ``qpos``/``qvel``).
 JOINT_NAMES = ("theta1", "elbow1", "platform", "theta2", "elbow2", "theta3", "elbow3")
@@ -256,10 +256,10 @@ def random_states(model: Planar3RRR, q_path, n: int, seed: int = 1) -> tuple[np.
 
 
 def paper_plant(result: pkmlab.SimulationResult) -> tuple[Planar3RRR, np.ndarray]:
-    """A run's plant in the paper's own formulation (:class:`~pkmlab.geometry.Planar3RRR`, which the MJCF and the
+    """A run's plant in the paper's own formulation (:class:`~pkmlab.paper.geometry.Planar3RRR`, which the MJCF and the
     reference dynamics read) and the run's configurations in its 7 coordinates ``(θ, φ, α)``.
 
-    The simulation's machine is a :class:`~pkmlab.mechanism_model.MechanismModel` in 9 coordinates
+    The simulation's machine is a :class:`~pkmlab.model.mechanism_model.MechanismModel` in 9 coordinates
     ``(θ, φ, x, y, α)``; it must be the paper's 3-RRR (its parameters the same to rounding).
     """
     plant, paper = result.scenario.plant_model, Planar3RRR.paper()

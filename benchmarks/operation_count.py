@@ -208,9 +208,9 @@ def count_preset(name: str, samples: int | None = None) -> dict:
     sets the loop up), or over the first ``samples`` of them."""
     import numpy as np
 
-    from pkmlab import closed_chain
-    from pkmlab.scenario_io import load_scenario
-    from pkmlab.simulation import prepare_run
+    from pkmlab.formats.scenario import load_scenario
+    from pkmlab.numerics import closed_chain
+    from pkmlab.simulation.run import prepare_run
 
     scenario = load_scenario(EXAMPLES / f"{DEFAULT_RUNS[name]}.toml")
     prep = prepare_run(scenario)

@@ -11,7 +11,7 @@ Figures
 * forward kinematics, every assembly mode: batched (one call for the whole batch), the
   compiled batch driver alone, and one call per ``θ`` (python API in a loop);
 * branch-following forward kinematics along the paper's circle: the python API once per
-  sample, and the compiled core's :func:`pkmlab.machine_core.follow_branch_in_steps` (what the
+  sample, and the compiled core's :func:`pkmlab.codegen.core.branch_following.follow_branch_in_steps` (what the
   API calls) from a small ``@numba.njit`` loop (no Python overhead per call);
 * inverse kinematics, all 8 working modes, batched;
 * a baseline measured in the same run: ``scipy.optimize.fsolve`` on the loop-closure
@@ -21,14 +21,14 @@ Figures
 Dynamics (paper §3, eq. 35), in working mode (-, +, -):
 
 * the actuator-space model ``(Mθ, Cθ θ̇)``: the compiled core's
-  :func:`pkmlab.machine_core.actuator_space_model` (on the machine's description) from a small
+  :func:`pkmlab.codegen.core.dynamics.actuator_space_model` (on the machine's description) from a small
   ``@numba.njit`` loop, :func:`paper_dynamics.actuator_space_model` batched and once per state;
 * forward dynamics ``θ̈``: the same with its solve, from an njit loop
   over the states of the paper's circle, the same with branch following of the passive
-  variables at every step (what :class:`pkmlab.plant.ReducedPlant` evaluates), and
+  variables at every step (what :class:`pkmlab.paper.plant.ReducedPlant` evaluates), and
   :func:`paper_dynamics.forward_dynamics` once per state and batched;
-* 1 s of free motion (zero torque) with :class:`pkmlab.plant.ReducedPlant` and
-  :class:`pkmlab.plant.FullPlant`: wall time, right-hand-side evaluations, loop-closure
+* 1 s of free motion (zero torque) with :class:`pkmlab.paper.plant.ReducedPlant` and
+  :class:`pkmlab.paper.plant.FullPlant`: wall time, right-hand-side evaluations, loop-closure
   residual, relative kinetic-energy drift and the largest difference between the two;
 * a baseline measured in the same run: ``(Mθ, Cθ θ̇)`` in plain NumPy (body Jacobians, ``M``
   and ``Jqθ`` by ``np.linalg.solve``), once per state and vectorized over the batch, checked
@@ -75,14 +75,14 @@ import scipy
 from scipy.optimize import fsolve
 
 import pkmlab
-from pkmlab import dynamics as pk_dynamics
-from pkmlab import kinematics as kin
-from pkmlab import kinematics as pk_kinematics
-from pkmlab.geometry import WORKING_MODES, Planar3RRR
-from pkmlab.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
-from pkmlab.mechanism_model import MechanismModel
-from pkmlab.mechanisms import rrr3
-from pkmlab.plant import FullPlant, ReducedPlant
+from pkmlab.model.mechanism_model import MechanismModel
+from pkmlab.paper import dynamics as pk_dynamics
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper import kinematics as pk_kinematics
+from pkmlab.paper import rrr3
+from pkmlab.paper.geometry import WORKING_MODES, Planar3RRR
+from pkmlab.paper.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
+from pkmlab.paper.plant import FullPlant, ReducedPlant
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_OUTPUT = HERE / "results.json"
@@ -404,7 +404,7 @@ def follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, min_abs
 # therefore the like-for-like reference for branch following; kin.forward_kinematics finds
 # ALL assembly modes (up to six), so its ratio against this baseline is indicative only.
 class NumpyLoopClosure:
-    """η(θ, φ) = 0 of the 3-RRR (same equations and order as pkmlab.mechanisms.rrr3.constraints)."""
+    """η(θ, φ) = 0 of the 3-RRR (same equations and order as pkmlab.paper.rrr3.constraints)."""
 
     def __init__(self, model: Planar3RRR):
         self.base = np.array(model.base_points, dtype=float)

@@ -35,13 +35,13 @@ import operation_count
 from scipy.integrate import solve_ivp
 
 import pkmlab
-from pkmlab import dynamics as paper_dynamics
-from pkmlab.geometry import Planar3RRR
-from pkmlab.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
-from pkmlab.mechanism_model import MechanismModel
-from pkmlab.plant import ReducedPlant
-from pkmlab.simulation import prepare_run
-from pkmlab.trajectory import paper_trajectory
+from pkmlab.control.trajectory import paper_trajectory
+from pkmlab.model.mechanism_model import MechanismModel
+from pkmlab.paper import dynamics as paper_dynamics
+from pkmlab.paper.geometry import Planar3RRR
+from pkmlab.paper.kinematics import coordinates_from_3rrr, coordinates_to_3rrr
+from pkmlab.paper.plant import ReducedPlant
+from pkmlab.simulation.run import prepare_run
 
 BATCH_SPREAD = 0.15
 BATCH_SEED = 7
@@ -141,7 +141,7 @@ KERNELS = MechanismModel.from_preset("paper").kernels
 
 
 def paper_oracle(model: MechanismModel) -> Planar3RRR:
-    """The paper's own formulation (:class:`~pkmlab.geometry.Planar3RRR`, 7 coordinates ``(θ, φ, α)``) of a
+    """The paper's own formulation (:class:`~pkmlab.paper.geometry.Planar3RRR`, 7 coordinates ``(θ, φ, α)``) of a
     scenario's machine, for the NumPy baselines and the 3-RRR plant that serve as references: the paper's machine,
     checked to be the scenario's (its description's parameters the same to rounding)."""
     paper = Planar3RRR.paper()

@@ -5,7 +5,7 @@ Run: .venv/bin/python examples/gain_sweep.py
 """
 
 import pkmlab
-from pkmlab.control import ControllerSpec
+from pkmlab.control.controller import ControllerSpec
 
 base = pkmlab.paper_scenario("fast")
 print(f"{'kp':>8} {'max path error (mm)':>20} {'peak torque (N m)':>18}")

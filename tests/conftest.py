@@ -1,4 +1,5 @@
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -14,9 +15,43 @@ settings.load_profile("explore" if os.environ.get("PKMLAB_EXPLORE") else "ci")
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from pkmlab import kinematics as kin  # noqa: E402
 from pkmlab.cli import main  # noqa: E402
-from pkmlab.geometry import Planar3RRR  # noqa: E402
+from pkmlab.paper import kinematics as kin  # noqa: E402
+from pkmlab.paper.geometry import Planar3RRR  # noqa: E402
+
+#: Files whose tests are about the spatial presets (the Delta, the Stewart platform); tests elsewhere whose
+#: name or parameters say "delta" or "stewart" count too.
+SPATIAL_FILES = {"test_delta.py", "test_stewart.py", "test_stewart_fk.py", "test_spatial_kernels.py"}
+#: Below this many selected tests, the spatial kernels are not compiled ahead (a few tests run as usual).
+WARM_FROM = 200
+_warm: subprocess.Popen | None = None
+
+
+def _spatial(item) -> bool:
+    name = item.name.lower()
+    return item.path.name in SPATIAL_FILES or "delta" in name or "stewart" in name
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """Run the tests of the spatial presets last and compile their kernels meanwhile, in a second process
+    (``warm_kernels.py``) on the core the tests leave idle: their first compiles are the largest cost of a
+    run from a fresh checkout, and the tests then load them from the on-disk kernel cache."""
+    global _warm
+    items.sort(key=_spatial)  # stable: each group keeps its order
+    if len(items) >= WARM_FROM and any(_spatial(item) for item in items) and not os.environ.get("PKMLAB_INTERPRETED"):
+        _warm = subprocess.Popen([sys.executable, str(Path(__file__).parent / "warm_kernels.py")],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def pytest_runtest_setup(item):
+    if _warm is not None and _spatial(item):
+        _warm.wait()  # compiling both would only take the tests' own core too
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if _warm is not None and _warm.poll() is None:
+        _warm.kill()
+        _warm.wait()
 
 
 @pytest.fixture(scope="session")

@@ -23,9 +23,9 @@ from PIL import Image, ImageSequence
 from reference import BASE, A, L, R, S_closed_form, eta
 
 import pkmlab
-import pkmlab.animation
 import pkmlab.progress
-from pkmlab.analysis import workspace
+import pkmlab.views.animation
+from pkmlab.algorithms.analysis import workspace
 from pkmlab.cli import main
 from pkmlab.progress import Progress
 
@@ -412,7 +412,7 @@ def test_progress_draws_percentages():
     assert silent.getvalue() == ""
 
 
-@pytest.mark.parametrize("module", [pkmlab.animation, pkmlab.progress])
+@pytest.mark.parametrize("module", [pkmlab.views.animation, pkmlab.progress])
 def test_docstring_examples(module):
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0

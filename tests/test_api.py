@@ -3,7 +3,7 @@
 Independent checks only: FK∘IK round trips, finite differences of branch following for the Jacobians,
 the actuator-space model against the reduction of the full-space model computed in NumPy (a second
 formulation), power balance of the constrained model, the paper's own 7-coordinate formulation
-(``pkmlab.kinematics``, ``pkmlab.dynamics``) for the paper's machine, and batches against single calls.
+(``pkmlab.paper.kinematics``, ``pkmlab.paper.dynamics``) for the paper's machine, and batches against single calls.
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import pkmlab
-from pkmlab import dynamics as paper_dynamics
-from pkmlab import kinematics as paper_kinematics
-from pkmlab.geometry import Planar3RRR
-from pkmlab.mechanisms.presets import preset
+from pkmlab.description.presets import preset
+from pkmlab.paper import dynamics as paper_dynamics
+from pkmlab.paper import kinematics as paper_kinematics
+from pkmlab.paper.geometry import Planar3RRR
 
 #: A pose of each preset that every working mode reaches far from singularities, and actuator rates.
 POSES = {
@@ -47,7 +47,7 @@ def _rates(model):
 
 # ------------------------------------------------------------------ load
 def test_load_takes_a_preset_a_file_a_description_and_a_model(tmp_path, models):
-    from pkmlab.mechanisms.files import mechanism_to_toml
+    from pkmlab.description.files import mechanism_to_toml
 
     path = tmp_path / "mine.toml"
     path.write_text(mechanism_to_toml(preset("five_bar")))
@@ -255,7 +255,7 @@ def test_constrained_dynamics_agrees_with_the_reduced_model_and_balances_power(m
 
 def test_the_paper_machine_has_the_papers_reduced_dynamics(models):
     """Mθ and Cθ θ̇ in actuator space do not depend on the coordinates: the paper's 7-coordinate model
-    (its eqs. 20-35 written independently in ``pkmlab.dynamics``) gives the same numbers."""
+    (its eqs. 20-35 written independently in ``pkmlab.paper.dynamics``) gives the same numbers."""
     paper = Planar3RRR.paper()
     pose = [[0.2, 0.21, 0.0], [0.28, 0.17, -0.5], [0.24, 0.25, 0.9]]
     old_q = paper_kinematics.inverse_kinematics(paper, pose, mode=(-1, 1, -1)).q

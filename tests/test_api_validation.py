@@ -30,14 +30,14 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import pkmlab
-from pkmlab import dynamics
-from pkmlab import kinematics as kin
-from pkmlab.control import ControllerSpec
-from pkmlab.geometry import Planar3RRR
-from pkmlab.plant import FullPlant, ReducedPlant
-from pkmlab.scenario_io import SCENARIO_DIR
-from pkmlab.simulation import prepare_run
-from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory
+from pkmlab.control.controller import ControllerSpec
+from pkmlab.control.trajectory import Circle, Line, Trajectory, WaypointTrajectory
+from pkmlab.formats.scenario import SCENARIO_DIR
+from pkmlab.paper import dynamics
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
+from pkmlab.paper.plant import FullPlant, ReducedPlant
+from pkmlab.simulation.run import prepare_run
 
 # ------------------------------------------------------------------ valid arguments
 MODEL = Planar3RRR.paper()

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 
 import pkmlab
 import pkmlab.report
-import pkmlab.simulation
-from pkmlab import kinematics as kin
+import pkmlab.simulation.run
 from pkmlab.cli import main
-from pkmlab.geometry import Planar3RRR
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
 
 TRIED = {"argv": 0}
 
@@ -92,7 +92,7 @@ def test_fuzz_the_command_line(data, playground, capsys, monkeypatch):
         raise pkmlab.PkmlabError("(fuzz: simulation skipped)")
 
     monkeypatch.setattr(pkmlab.report, "run_cases", no_simulation)
-    monkeypatch.setattr(pkmlab.simulation, "simulate", no_simulation)
+    monkeypatch.setattr(pkmlab.simulation.run, "simulate", no_simulation)
     monkeypatch.chdir(playground)  # default output folders (demo, out) land here
     argv = _argv(data.draw, playground)
     TRIED["argv"] += 1
@@ -145,7 +145,7 @@ def test_a_bad_working_mode_names_the_option(capsys):
 
 
 def test_scenario_working_mode_takes_the_same_spellings(tmp_path):
-    from pkmlab.scenario_io import load_scenario
+    from pkmlab.formats.scenario import load_scenario
 
     for written, expected in [('"+-+"', (1, -1, 1)), ("[1, -1, 1]", (1, -1, 1)), ('["-", "+", "-"]', (-1, 1, -1))]:
         path = tmp_path / "s.toml"

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from conftest import assert_user_error, run
 
-from pkmlab.mechanisms.files import mechanism_to_toml
-from pkmlab.mechanisms.presets import preset
+from pkmlab.description.files import mechanism_to_toml
+from pkmlab.description.presets import preset
 
 POSES = {"paper": [0.2, 0.21, 0.0], "five_bar": [0.0, 0.35], "3rpr": [0.25, 0.21, -math.pi / 2],
          "3prr": [0.26, 0.2, 0.0], "delta": [0.05, -0.03, -0.75], "stewart": [0.0, 0.0, 0.85, 0.05, -0.03, 0.1]}
@@ -79,9 +79,9 @@ def test_fk_of_ik_round_trips_with_the_default_output_too(capsys, name):
 
 def test_the_paper_is_the_default_and_answers_as_its_own_formulation(capsys):
     """The paper's machine by default, by name and through the paper's own 7-coordinate formulation
-    (pkmlab.kinematics, the oracle of its tests) give the same working modes, actuators and passive angles."""
-    from pkmlab import kinematics
-    from pkmlab.geometry import Planar3RRR
+    (pkmlab.paper.kinematics, the oracle of its tests) give the same working modes, actuators and passive angles."""
+    from pkmlab.paper import kinematics
+    from pkmlab.paper.geometry import Planar3RRR
 
     default = run_json(capsys, "ik", 0.2, 0.21, 0)
     named = run_json(capsys, "ik", "--mechanism", "paper", 0.2, 0.21, 0)
@@ -155,9 +155,9 @@ def test_every_preset_answers_ik_fk_and_dynamics_with_the_same_keys(capsys, name
 
 def test_dynamics_of_the_paper_is_its_own_formulations(capsys):
     """The paper's actuator-space model by default equals the paper's own 7-coordinate formulation
-    (pkmlab.dynamics), and its multipliers solve the full model's equations of motion (eq. 26)."""
-    from pkmlab import dynamics, kinematics
-    from pkmlab.geometry import Planar3RRR
+    (pkmlab.paper.dynamics), and its multipliers solve the full model's equations of motion (eq. 26)."""
+    from pkmlab.paper import dynamics, kinematics
+    from pkmlab.paper.geometry import Planar3RRR
 
     theta, rates, near = [0.189, 3.112, -2.642], [0.3, -0.2, 0.5], [0.2, 0.21, 0.0]
     result = run_json(capsys, "dynamics", *theta, "--theta-dot", *rates, "--near", *near)
@@ -256,7 +256,8 @@ def test_gravity_effort_is_the_slope_of_the_potential_energy(capsys, tmp_path):
 
     import numpy as np
 
-    from pkmlab import mechanism_model as mm
+    from pkmlab.algorithms import assembly
+    from pkmlab.model import mechanism_model as mm
 
     vertical = dataclasses.replace(preset("five_bar"), name="vertical five-bar", gravity=(0.0, -9.81))
     path = tmp_path / "vertical.toml"
@@ -268,7 +269,7 @@ def test_gravity_effort_is_the_slope_of_the_potential_energy(capsys, tmp_path):
     masses = model.body_weights[:, 0]
 
     def potential(t):
-        q = min((q for q, _s in mm.forward_kinematics(model, t)), key=lambda q: np.hypot(*(q[-2:] - q0[-2:])))
+        q = min((q for q, _s in assembly.assembly_modes(model, t)), key=lambda q: np.hypot(*(q[-2:] - q0[-2:])))
         poses = np.empty((model.kernels.N_BODIES, 3))
         model.kernels.body_poses(q, mm.trig_table(model, q), model.P, poses)
         return float(np.sum(masses * 9.81 * poses[:, 1]))
@@ -288,7 +289,7 @@ def test_dynamics_mechanism_errors(capsys):
 
 
 def test_dynamics_mechanism_warns_near_a_singularity(capsys):
-    from pkmlab import mechanism_model as mm
+    from pkmlab.model import mechanism_model as mm
 
     model = mm.MechanismModel.from_preset("3rpr")
     q = mm.inverse_kinematics(model, [0.24, 0.17, 0.003], ())  # alpha = 0 is singular for this 3-RPR
@@ -301,7 +302,7 @@ def test_dynamics_mechanism_warns_near_a_singularity(capsys):
 def test_simulate_then_animate_a_five_bar_run(capsys, tmp_path):
     from pathlib import Path
 
-    from pkmlab.mechanisms.files import load_mechanism
+    from pkmlab.description.files import load_mechanism
 
     example = Path(__file__).parents[1] / "examples" / "five_bar_circle.toml"
     out = tmp_path / "run"

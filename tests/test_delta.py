@@ -9,10 +9,11 @@ import reference_delta as ref
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from pkmlab import mechanism_model as mm
+from pkmlab.algorithms import assembly
+from pkmlab.description.presets import preset
 from pkmlab.errors import InvalidParameterError, UnreachablePoseError
-from pkmlab.mechanism_model import MechanismModel
-from pkmlab.mechanisms.presets import preset
+from pkmlab.model import mechanism_model as mm
+from pkmlab.model.mechanism_model import MechanismModel
 
 MODEL = MechanismModel.from_preset("delta")
 MODES = mm.working_modes(MODEL)
@@ -59,7 +60,7 @@ def test_inverse_kinematics_against_reference(p, mode):
 @given(positions, st.sampled_from(MODES))
 def test_forward_kinematics_of_inverse_finds_the_pose_and_both_assembly_modes(p, mode):
     q = configuration(p, mode)
-    found = mm.forward_kinematics(MODEL, q[:3])
+    found = assembly.assembly_modes(MODEL, q[:3])
     expected = ref.positions(q[:3])  # an independent count: the three spheres' real intersections
     assert len(found) == len(expected) == 2
     for (qf, s), pe in zip(found, expected, strict=True):
@@ -158,7 +159,7 @@ def test_bad_poses_name_the_leg():
     with pytest.raises(InvalidParameterError, match=r"pose must be \(x, y, z\)"):
         mm.inverse_kinematics(MODEL, [0.0, 0.0, float("nan")], (1, 1, 1))
     with pytest.raises(InvalidParameterError, match="theta must be 3 finite values"):
-        mm.forward_kinematics(MODEL, [0.1, 0.2])
+        assembly.assembly_modes(MODEL, [0.1, 0.2])
 
 
 def test_singularity_measure_is_bounded_and_keeps_its_sign_down_the_axis():
@@ -184,7 +185,7 @@ def _reachable(p):
 def test_description_refuses_degenerate_universal_joint():
     from dataclasses import replace
 
-    from pkmlab.mechanisms.spatial import SpatialJoint, SpatialMechanism
+    from pkmlab.description.spatial import SpatialJoint, SpatialMechanism
 
     delta = preset("delta")
     leg = delta.legs[1]
@@ -198,7 +199,7 @@ def test_description_refuses_degenerate_universal_joint():
 from pathlib import Path  # noqa: E402
 
 from pkmlab import load_scenario, simulate  # noqa: E402
-from pkmlab.trajectory import TimedWaypoints  # noqa: E402
+from pkmlab.control.trajectory import TimedWaypoints  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "delta_pick_and_place.toml"
 
@@ -256,14 +257,14 @@ def test_a_path_out_of_reach_names_the_time_and_the_leg():
 
 
 def test_a_planar_path_is_refused_for_the_delta():
-    from pkmlab.trajectory import paper_trajectory
+    from pkmlab.control.trajectory import paper_trajectory
 
     with pytest.raises(InvalidParameterError, match="delta is spatial"):
         load_scenario(EXAMPLE).replace(trajectory=paper_trajectory())
 
 
 def test_the_controllers_own_model_may_differ_from_the_plant():
-    from pkmlab.mechanisms.spatial import scaled_spatial_mechanism
+    from pkmlab.description.spatial import scaled_spatial_mechanism
 
     scenario = load_scenario(EXAMPLE)
     plant = MechanismModel.from_description(scaled_spatial_mechanism(preset("delta"), mass=1.15))
@@ -337,7 +338,7 @@ def test_a_universal_joint_that_cannot_turn_the_forearm_is_a_leg_that_cannot_rea
     inverse kinematics says so for the leg, and never returns a configuration that does not close."""
     from dataclasses import replace
 
-    from pkmlab.mechanisms.spatial import SpatialMechanism
+    from pkmlab.description.spatial import SpatialMechanism
 
     delta = preset("delta")
     legs = []

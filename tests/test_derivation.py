@@ -5,8 +5,8 @@ from fractions import Fraction
 import numpy as np
 import sympy as sp
 
-from pkmlab.derivations import rrr3_sextic
-from pkmlab.mechanisms import _rrr3_sextic as generated
+from pkmlab.codegen import rrr3_sextic
+from pkmlab.kernels import rrr3_sextic as generated
 
 
 def test_generated_file_is_current(monkeypatch):
@@ -16,8 +16,8 @@ def test_generated_file_is_current(monkeypatch):
     fresh = rrr3_sextic.generate_source()
     committed = rrr3_sextic.GENERATED_PATH.read_text()
     if f"Derived with SymPy {sp.__version__}." in committed:
-        # same SymPy: the text must be identical (python -m pkmlab.derivations.rrr3_sextic)
-        assert committed == fresh, "run `make derive` to regenerate src/pkmlab/mechanisms/_rrr3_sextic.py"
+        # same SymPy: the text must be identical (python -m pkmlab.codegen.rrr3_sextic)
+        assert committed == fresh, "run `make derive` to regenerate src/pkmlab/kernels/rrr3_sextic.py"
     # any SymPy: the committed code evaluates, in exact rational arithmetic, to the fresh expressions
     numerators, cubic, sextic, symbols = derived
     rng = np.random.default_rng(7)

@@ -11,11 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pkmlab
-from pkmlab import kinematics as kin
-from pkmlab.geometry import Planar3RRR
-from pkmlab.mechanisms.description import Body, Joint, Leg, Mechanism, Platform, attachment_point, leg_chain
-from pkmlab.mechanisms.files import load_mechanism, mechanism_from_dict, mechanism_to_toml
-from pkmlab.mechanisms.presets import PRESETS, preset
+from pkmlab.description.files import load_mechanism, mechanism_from_dict, mechanism_to_toml
+from pkmlab.description.mechanism import Body, Joint, Leg, Mechanism, Platform, attachment_point, leg_chain
+from pkmlab.description.presets import PRESETS, preset
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
 
 B = 0.52  # the paper's base side
 BASE = [(0.0, 0.0), (B, 0.0), (B / 2, math.sqrt(3) / 2 * B)]

@@ -5,11 +5,11 @@ import importlib
 
 import pytest
 
-MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics", "pkmlab.plants", "pkmlab.geometry",
-           "pkmlab.kinematics", "pkmlab.polynomial", "pkmlab.analysis", "pkmlab.dynamics",
-           "pkmlab.control", "pkmlab._format", "pkmlab.mechanisms.description", "pkmlab.mechanisms.files",
-           "pkmlab.mechanism_model", "pkmlab.animation",
-           "pkmlab.mechanisms.stewart_fk", "pkmlab.uncertainty", "pkmlab.progress"]
+MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics", "pkmlab.simulation.plants",
+           "pkmlab.paper.geometry", "pkmlab.paper.kinematics", "pkmlab.numerics.polynomial",
+           "pkmlab.algorithms.analysis", "pkmlab.paper.dynamics", "pkmlab.control.controller", "pkmlab._format",
+           "pkmlab.description.mechanism", "pkmlab.description.files", "pkmlab.model.mechanism_model",
+           "pkmlab.views.animation", "pkmlab.algorithms.stewart_fk", "pkmlab.simulation.uncertainty", "pkmlab.progress"]
 
 
 @pytest.mark.parametrize("name", MODULES)

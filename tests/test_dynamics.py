@@ -8,11 +8,11 @@ import reference as ref
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from pkmlab import dynamics as dy
-from pkmlab import kinematics as kin
 from pkmlab.cli import main
-from pkmlab.geometry import WORKING_MODES
-from pkmlab.plant import FullPlant, ReducedPlant
+from pkmlab.paper import dynamics as dy
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import WORKING_MODES
+from pkmlab.paper.plant import FullPlant, ReducedPlant
 
 SETTINGS = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 states = st.tuples(

@@ -10,14 +10,15 @@ import numpy as np
 import pytest
 
 import pkmlab
-from pkmlab import kinematics as kin
-from pkmlab import mechanism_model as mm
-from pkmlab.geometry import Planar3RRR
-from pkmlab.mechanisms import leg_types as lt
-from pkmlab.mechanisms.files import load_mechanism
-from pkmlab.mechanisms.presets import PLANAR_PRESETS, preset
-from pkmlab.scenario_io import scenario_from_dict
-from pkmlab.simulation import simulate
+from pkmlab.algorithms import assembly
+from pkmlab.description import leg_types as lt
+from pkmlab.description.files import load_mechanism
+from pkmlab.description.presets import PLANAR_PRESETS, preset
+from pkmlab.formats.scenario import scenario_from_dict
+from pkmlab.model import mechanism_model as mm
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
+from pkmlab.simulation.run import simulate
 
 # actuated revolutes at the paper's base pivots, a passive slide along each leg: a 3-R*PR
 R_PR = """
@@ -95,8 +96,8 @@ def test_the_general_forward_kinematics_finds_the_polynomials_assembly_modes(nam
             q = mm.inverse_kinematics(model, pose, modes[trial % len(modes)])
         except pkmlab.UnreachablePoseError:
             continue
-        closed = mm.forward_kinematics(model, q[:model.n_actuators])
-        general, doubt = mm.forward_kinematics_general(model, q[:model.n_actuators])
+        closed = assembly.assembly_modes(model, q[:model.n_actuators])
+        general, doubt = assembly.general_assembly_modes(model, q[:model.n_actuators])
         assert doubt == "" and len(general) == len(closed)
         for qc, _s in closed:
             gaps = [np.abs(np.angle(np.exp(1j * (qg - qc)))).max() for qg, _s in general]
@@ -109,7 +110,7 @@ def test_the_general_forward_kinematics_reports_a_double_root_once():
     """At alpha = 0 the 3-RPR preset is singular: the pose is a double root, which no sign change shows."""
     model = mm.MechanismModel.from_preset("3rpr")
     q = mm.inverse_kinematics(model, [0.24, 0.17, 0.0], ())
-    found, _doubt = mm.forward_kinematics_general(model, q[:3])
+    found, _doubt = assembly.general_assembly_modes(model, q[:3])
     near = [s for s in found if np.hypot(*(s[0][-3:-1] - [0.24, 0.17])) < 1e-5]
     assert len(near) == 1
 
@@ -143,7 +144,7 @@ def test_a_3_rpr_with_actuated_revolutes_round_trips_in_every_working_mode(r_pr)
         assert np.max(np.abs(mm.constraint_residual(model, q))) < 1e-14
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # no doubt about completeness here
-            modes = mm.forward_kinematics(model, q[:3])
+            modes = assembly.assembly_modes(model, q[:3])
         poses = [p[-3:] for p, _s in modes]
         assert min(np.abs(np.angle(np.exp(1j * (p - pose)))).max() for p in poses) < 1e-12
         # every assembly mode a many-start Newton search finds is among them
@@ -186,7 +187,7 @@ def test_a_3_rpr_with_actuated_revolutes_is_controlled_from_its_file(r_pr):
 
 
 def test_a_leg_whose_actuator_does_not_move_its_end_is_refused():
-    from pkmlab.mechanisms.description import Body, Joint, Leg
+    from pkmlab.description.mechanism import Body, Joint, Leg
 
     leg = Leg((0.0, 0.0), (Joint("P", True, axis=0.0), Joint("P"), Joint("R")),
               (Body((0.0, 0.0), 0.5, (0.0, 0.0), 1e-3), Body((0.1, 0.0), 0.2, (0.05, 0.0), 1e-3)), stroke=(0.0, 0.5))
@@ -199,8 +200,8 @@ def test_an_rr_star_r_legs_line_is_its_first_link_and_S_vanishes_with_det_j_eta_
     """An RR*R leg holds its second body's angle: its first link, pinned at both ends, is a two-force member,
     so the leg pushes the platform along the line base -> elbow (through its attachment point). S must then
     vanish exactly where the passive coordinates stop being determined (det Jηφ = 0)."""
-    from pkmlab.mechanisms.description import Body, Joint, Leg, Mechanism
-    from pkmlab.mechanisms.presets import equilateral_base, equilateral_platform
+    from pkmlab.description.mechanism import Body, Joint, Leg, Mechanism
+    from pkmlab.description.presets import equilateral_base, equilateral_platform
 
     legs = tuple(Leg(b, (Joint("R"), Joint("R", True), Joint("R")),
                      (Body((0.25, 0.0), 0.4, (0.12, 0.0), 2e-3), Body((0.17, 0.0), 0.3, (0.08, 0.0), 7e-4)))
@@ -291,15 +292,15 @@ def test_the_executable_solves_a_machine_of_a_new_structure_interpreted(r_pr):
 def test_forward_kinematics_by_the_general_method_refuses_actuators_outside_their_strokes():
     """Two telescopic legs (strokes 0.10-0.45 m) and one R*PR leg: the general method serves the machine, and a
     leg length outside its stroke is refused before it, as for the presets."""
-    from pkmlab.mechanisms.description import Body, Joint, Leg, Mechanism
-    from pkmlab.mechanisms.presets import equilateral_base, equilateral_platform, preset
+    from pkmlab.description.mechanism import Body, Joint, Leg, Mechanism
+    from pkmlab.description.presets import equilateral_base, equilateral_platform, preset
 
     telescopic = preset("3rpr").legs
     bodies = (Body((0.02, 0.0), 0.5, (0.08, 0.0), 1.5e-3), Body((0.0, 0.0), 0.25, (-0.06, 0.0), 0.6e-3))
     r_pr = Leg(equilateral_base()[2], (Joint("R", True), Joint("P"), Joint("R")), bodies)
     model = mm.MechanismModel.from_description(Mechanism("mixed", (*telescopic[:2], r_pr), equilateral_platform()))
     with pytest.raises(pkmlab.InvalidParameterError, match=r"leg 1: actuator value 0.5 m is outside its stroke"):
-        mm.forward_kinematics(model, [0.5, 0.3, 1.0])
+        assembly.assembly_modes(model, [0.5, 0.3, 1.0])
     q = mm.inverse_kinematics(model, [0.25, 0.2, -1.2], (1,))
-    poses = [p[-3:] for p, _s in mm.forward_kinematics(model, q[:3])]
+    poses = [p[-3:] for p, _s in assembly.assembly_modes(model, q[:3])]
     assert min(np.abs(p - [0.25, 0.2, -1.2]).max() for p in poses) < 1e-9

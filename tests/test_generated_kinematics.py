@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pkmlab.derivations import planar
-from pkmlab.mechanisms.description import attachment_point, leg_chain
-from pkmlab.mechanisms.presets import PLANAR_PRESETS, preset
+from pkmlab.codegen import planar
+from pkmlab.description.mechanism import attachment_point, leg_chain
+from pkmlab.description.presets import PLANAR_PRESETS, preset
 
 NAMES = sorted(PLANAR_PRESETS)
 
 
 def kernels(name):
-    return importlib.import_module(f"pkmlab.mechanisms.generated.{planar.generated_path(preset(name)).stem}")
+    return importlib.import_module(f"pkmlab.kernels.{planar.generated_path(preset(name)).stem}")
 
 
 def packed(m):

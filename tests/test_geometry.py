@@ -1,4 +1,4 @@
-"""Tests of :class:`pkmlab.geometry.Planar3RRR`: the paper preset, immutability, ``replace``,
+"""Tests of :class:`pkmlab.paper.geometry.Planar3RRR`: the paper preset, immutability, ``replace``,
 per-leg parameters, validation and equality.
 
 Expected numbers are the paper's values (docs/conventions.md) written out here, never read back from pkmlab.
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from pkmlab.errors import InvalidParameterError
-from pkmlab.geometry import Planar3RRR
+from pkmlab.paper.geometry import Planar3RRR
 
 # --- the paper's manipulator (section 5), written out independently ----------------------
 B = 0.52

@@ -8,9 +8,9 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import pkmlab
-from pkmlab import kinematics as kin
 from pkmlab.errors import BranchFollowingError, InvalidParameterError, UnreachablePoseError
-from pkmlab.geometry import WORKING_MODES, Planar3RRR
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import WORKING_MODES, Planar3RRR
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 poses = st.tuples(

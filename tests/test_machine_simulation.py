@@ -1,4 +1,4 @@
-"""Closed-loop control of any described mechanism on its structure's compiled loop (pkmlab.machine_core).
+"""Closed-loop control of any described mechanism on its structure's compiled loop (pkmlab.codegen.core).
 
 Independent checks: the generic pipeline on the paper's preset against pkmlab's own 3-RRR loop;
 continuous-time computed torque with the exact model tracking to integration level; the energy
@@ -13,12 +13,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pkmlab import mechanism_model as mm
+from pkmlab.algorithms import assembly
+from pkmlab.control.trajectory import Circle, Trajectory, paper_trajectory
 from pkmlab.errors import InvalidParameterError, SingularityError, UnreachablePoseError
-from pkmlab.mechanism_model import MechanismModel, actuator_space_model
-from pkmlab.scenario_io import load_scenario, paper_scenario, scenario_from_dict
-from pkmlab.simulation import Scenario, simulate, simulate_batch
-from pkmlab.trajectory import Circle, Trajectory, paper_trajectory
+from pkmlab.formats.scenario import load_scenario, paper_scenario, scenario_from_dict
+from pkmlab.model import mechanism_model as mm
+from pkmlab.model.mechanism_model import MechanismModel, actuator_space_model
+from pkmlab.simulation.run import simulate, simulate_batch
+from pkmlab.simulation.scenario import Scenario
 
 EXAMPLES = {
     "five_bar": ("five_bar_circle", Circle((0.0, 0.35), 0.06, start_angle=math.pi), 0.3),
@@ -143,8 +145,8 @@ def test_every_sample_of_a_run_balances_work_and_energy(tmp_path, name):
 def test_a_batch_gives_each_run_as_done_alone():
     name, circle, speed = "3prr", *EXAMPLES["3prr"][1:]
     base = Scenario(MechanismModel.from_preset(name), Trajectory(circle, speed, "cubic"))
-    from pkmlab.control import ControllerSpec
-    from pkmlab.mechanisms.description import scaled_mechanism
+    from pkmlab.control.controller import ControllerSpec
+    from pkmlab.description.mechanism import scaled_mechanism
 
     plant = MechanismModel.from_description(scaled_mechanism(base.model.description, 1.15, 1.0))
     runs = [base, base.replace(controller=ControllerSpec(kp=400.0)), base.replace(plant=plant)]
@@ -261,7 +263,7 @@ def test_a_machine_of_a_new_structure_is_generated_and_controlled(tmp_path):
             assert "leg 3" in str(exc) and "stroke" in str(exc)
             continue
         reached += 1
-        poses = [sol for sol, _s in mm.forward_kinematics(model, q[:3])]
+        poses = [sol for sol, _s in assembly.assembly_modes(model, q[:3])]
         assert min(np.abs(p[-3:] - q[-3:]).max() for p in poses) < 1e-9
     assert reached >= 2
     result = simulate(scenario)
@@ -271,7 +273,7 @@ def test_a_machine_of_a_new_structure_is_generated_and_controlled(tmp_path):
 
 @pytest.mark.parametrize("name", list(EXAMPLES))
 def test_desired_actuator_rates_match_differences_of_inverse_kinematics(name):
-    from pkmlab.mechanism_model import inverse_kinematics, path_rates
+    from pkmlab.model.mechanism_model import inverse_kinematics, path_rates
 
     _file, circle, speed = EXAMPLES[name]
     trajectory = Trajectory(circle, speed, "cubic")
@@ -292,8 +294,8 @@ def test_desired_actuator_rates_match_differences_of_inverse_kinematics(name):
 def test_a_platform_that_can_be_assembled_nowhere_is_refused_naming_the_leg():
     import dataclasses
 
-    from pkmlab.mechanisms.description import Body
-    from pkmlab.mechanisms.presets import preset
+    from pkmlab.description.mechanism import Body
+    from pkmlab.description.presets import preset
 
     paper = preset("paper")
     tiny = (Body((0.05, 0.0), 0.1, (0.025, 0.0), 1e-4), Body((0.05, 0.0), 0.1, (0.025, 0.0), 1e-4))
@@ -317,7 +319,8 @@ def test_the_working_mode_tie_rule_is_within_1e_9_of_the_best(monkeypatch):
     # conventions §3: the largest min |S|; modes within 1e-9 of it tie, and the first of them wins — even when
     # a mode in between is within 1e-9 of both its neighbours (a chain of near-ties)
 
-    from pkmlab.simulation import choose_working_mode, sample_times
+    from pkmlab.simulation.run import sample_times
+    from pkmlab.simulation.scenario import choose_working_mode
 
     scenario = load_scenario(Path(__file__).parents[1] / "examples" / "five_bar_circle.toml")
     real = mm.path_inverse_kinematics

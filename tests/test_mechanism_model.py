@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 
 import pkmlab
-from pkmlab import dynamics as paper_dynamics
-from pkmlab import kinematics as kin
-from pkmlab import mechanism_model as mm
-from pkmlab.geometry import Planar3RRR
-from pkmlab.mechanisms.presets import preset
+from pkmlab.algorithms import assembly
+from pkmlab.description.presets import preset
+from pkmlab.model import mechanism_model as mm
+from pkmlab.paper import dynamics as paper_dynamics
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
 
 # a pose of each preset well inside its workspace, and a guess of its leg coordinates near one branch
 POSES = {
@@ -121,7 +122,7 @@ IK_POSES = {"paper": [0.2, 0.21, 0.0], "five_bar": [0.0, 0.35], "3rpr": [0.25, 0
 
 @pytest.mark.parametrize("name", sorted(IK_POSES))
 def test_inverse_kinematics_closes_every_loop_in_every_working_mode(name):
-    from pkmlab.mechanisms.description import leg_chain
+    from pkmlab.description.mechanism import leg_chain
 
     model = mm.MechanismModel.from_preset(name)
     modes = mm.working_modes(model)
@@ -220,7 +221,7 @@ def test_five_bar_forward_kinematics_finds_both_assembly_modes_and_ik_round_trip
     for point in ([0.0, 0.35], [0.05, 0.3], [-0.06, 0.4]):
         for mode in mm.working_modes(model):
             q = mm.inverse_kinematics(model, point, mode)
-            solutions = mm.forward_kinematics_five_bar(model, q[:2])
+            solutions = assembly.five_bar_assembly_modes(model, q[:2])
             assert len(solutions) == 2  # two circles meet twice away from the singularity
             for s in solutions:
                 np.testing.assert_allclose(mm.constraint_residual(model, s), 0.0, atol=1e-15)
@@ -315,7 +316,7 @@ def test_the_paper_presets_assembly_modes_are_pkmlabs():
     rng = np.random.default_rng(4)
     for _ in range(10):
         theta = rng.uniform(-math.pi, math.pi, 3)
-        ours = mm.forward_kinematics(model, theta)
+        ours = assembly.assembly_modes(model, theta)
         ref = kin.forward_kinematics(Planar3RRR.paper(), theta)
         assert len(ours) == len(ref)
         for (q, s), sol in zip(ours, ref, strict=True):
@@ -329,7 +330,7 @@ def _six_modes(mechanism, rng, draw, tries=4000):
     for _ in range(tries):
         theta = draw(rng)
         if independent_count(mechanism, theta, 4000) == 6:
-            solutions = mm.forward_kinematics(model, theta)
+            solutions = assembly.assembly_modes(model, theta)
             if len(solutions) == 6 and min(abs(s) for _q, s in solutions) > 0.02:
                 return model, theta, solutions
     raise AssertionError("no input with 6 assembly modes found")
@@ -361,7 +362,7 @@ def test_the_3rpr_preset_similar_triangles_have_at_most_four_assembly_modes():
     for _ in range(400):
         theta = rng.uniform(0.05, 0.8, 3)
         n = independent_count(model.description, theta, 8000)
-        solutions = mm.forward_kinematics(model, theta)
+        solutions = assembly.assembly_modes(model, theta)
         if min((abs(s) for _q, s in solutions), default=1.0) > 0.02:
             assert len(solutions) == n
         counts.append(len(solutions))
@@ -376,7 +377,7 @@ def test_forward_kinematics_of_inverse_kinematics_finds_the_pose(name):
             q = mm.inverse_kinematics(model, IK_POSES[name], mode)
         except pkmlab.UnreachablePoseError:
             continue
-        poses = [sol[-model.description.dof:] for sol, _s in mm.forward_kinematics(model, q[:model.n_actuators])]
+        poses = [sol[-model.description.dof:] for sol, _s in assembly.assembly_modes(model, q[:model.n_actuators])]
         assert min(np.max(np.abs(np.angle(np.exp(1j * (p - q[-len(p):]))))) for p in poses) < 1e-10
 
 
@@ -384,14 +385,14 @@ def test_double_roots_at_a_singularity_are_one_assembly_mode():
     """At alpha = 0 the 3-RPR preset is singular: its pose is a double root of the polynomial, reported once."""
     model = mm.MechanismModel.from_preset("3rpr")
     q = mm.inverse_kinematics(model, [0.24, 0.17, 0.0], ())
-    found = mm.forward_kinematics(model, q[:3])
+    found = assembly.assembly_modes(model, q[:3])
     near = [s for s in found if np.hypot(*(s[0][-3:-1] - [0.24, 0.17])) < 1e-5]
     assert len(near) == 1
 
 
 def test_forward_kinematics_refuses_actuators_outside_their_strokes():
     with pytest.raises(pkmlab.InvalidParameterError, match=r"leg 1: actuator value -0.3 m is outside its stroke"):
-        mm.forward_kinematics(mm.MechanismModel.from_preset("3rpr"), [-0.3, 0.3, 0.3])
+        assembly.assembly_modes(mm.MechanismModel.from_preset("3rpr"), [-0.3, 0.3, 0.3])
 
 
 def test_S_of_3rpr_and_3prr_is_the_formula_of_their_specification():

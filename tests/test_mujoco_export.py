@@ -1,15 +1,15 @@
-"""Every mechanism exported to MuJoCo (pkmlab.mujoco_export) and cross-validated against pkmlab's dynamics."""
+"""Every mechanism exported to MuJoCo (pkmlab.interop.mujoco_export) and cross-validated against pkmlab's dynamics."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pkmlab import mechanism_model as mm
-from pkmlab import mujoco_export as mx
+from pkmlab.description.presets import PRESETS
 from pkmlab.errors import InvalidParameterError, UnreachablePoseError
-from pkmlab.mechanism_model import MechanismModel
-from pkmlab.mechanisms.presets import PRESETS
+from pkmlab.interop import mujoco_export as mx
+from pkmlab.model import mechanism_model as mm
+from pkmlab.model.mechanism_model import MechanismModel
 
 mujoco = pytest.importorskip("mujoco")
 NAMES = sorted(PRESETS)
@@ -156,7 +156,7 @@ def test_mujocos_soft_constraints_agree_to_their_impedance(name):
 def test_a_point_platform_without_payload_is_refused():
     from dataclasses import replace
 
-    from pkmlab.mechanisms.presets import preset
+    from pkmlab.description.presets import preset
 
     five_bar = preset("five_bar")
     light = MechanismModel.from_description(replace(five_bar, platform=replace(five_bar.platform, mass=0.0)))

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from conftest import random_reachable_poses
 
-from pkmlab import dynamics as dy
-from pkmlab import kinematics as kin
+from pkmlab.paper import dynamics as dy
+from pkmlab.paper import kinematics as kin
 
 mujoco = pytest.importorskip("mujoco")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))

@@ -1,4 +1,4 @@
-"""pkmlab's controller against MuJoCo as the plant (pkmlab.mujoco_plant, pkmlab simulate --plant mujoco)."""
+"""pkmlab's controller against MuJoCo as the plant (pkmlab.interop.mujoco_plant, pkmlab simulate --plant mujoco)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from pkmlab import load_scenario, paper_scenario, simulate
 from pkmlab.errors import InvalidParameterError
 
 pytest.importorskip("mujoco")
-from pkmlab.mujoco_plant import simulate_mujoco  # noqa: E402
+from pkmlab.interop.mujoco_plant import simulate_mujoco  # noqa: E402
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: The default runs of three machines (planar rigid, planar point, spatial with gravity), and how far the
@@ -125,9 +125,9 @@ def test_the_core_never_imports_mujoco_and_says_how_to_install_it(monkeypatch):
     import subprocess
     import sys
 
-    code = ("import sys, pkmlab, pkmlab.simulation, pkmlab.mujoco_export, pkmlab.cli\n"
-            "from pkmlab.mechanism_model import MechanismModel\n"
-            "pkmlab.mujoco_export.mjcf(MechanismModel.from_preset('five_bar'))\n"
+    code = ("import sys, pkmlab, pkmlab.simulation.run, pkmlab.interop.mujoco_export, pkmlab.cli\n"
+            "from pkmlab.model.mechanism_model import MechanismModel\n"
+            "pkmlab.interop.mujoco_export.mjcf(MechanismModel.from_preset('five_bar'))\n"
             "assert 'mujoco' not in sys.modules, 'mujoco was imported'\n")
     subprocess.run([sys.executable, "-c", code], check=True)
     from pkmlab.errors import PkmlabError

@@ -23,13 +23,13 @@ from hypothesis import strategies as st
 
 import pkmlab
 import pkmlab.report
-from pkmlab import kinematics as kin
 from pkmlab import outputs
-from pkmlab.geometry import Planar3RRR
-from pkmlab.io import load_manipulator
-from pkmlab.mechanism_model import MechanismModel
-from pkmlab.scenario_io import paper_scenario
-from pkmlab.simulation import simulate
+from pkmlab.formats.params import load_manipulator
+from pkmlab.formats.scenario import paper_scenario
+from pkmlab.model.mechanism_model import MechanismModel
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
+from pkmlab.simulation.run import simulate
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -65,7 +65,7 @@ def results():
 def quick(monkeypatch, results):
     """pkmlab reproduce/simulate with the simulation replaced by the precomputed results."""
     monkeypatch.setattr(pkmlab.report, "simulate", lambda scenario: results[scenario.name])
-    monkeypatch.setattr(pkmlab.simulation, "simulate", lambda scenario: results["fast"])
+    monkeypatch.setattr(pkmlab.simulation.run, "simulate", lambda scenario: results["fast"])
 
 
 # ------------------------------------------------------------------ a user's files are never deleted
@@ -468,7 +468,7 @@ def test_readme_promise_refused_before_anything_is_computed(capsys, tmp_path, mo
     def must_not_run(*_args, **_kwargs):
         raise AssertionError("simulated although the output folder is refused")
 
-    monkeypatch.setattr(pkmlab.simulation, "simulate", must_not_run)
+    monkeypatch.setattr(pkmlab.simulation.run, "simulate", must_not_run)
     monkeypatch.setattr(pkmlab.report, "simulate", must_not_run)
     out = tmp_path / "mine"
     before = user_folder(out)

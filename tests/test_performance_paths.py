@@ -24,11 +24,11 @@ import pytest
 from conftest import one_shot
 
 import pkmlab
-from pkmlab import mechanism_model as mm
-from pkmlab.geometry import Planar3RRR
-from pkmlab.kinematics import forward_kinematics, inverse_kinematics
-from pkmlab.scenario_io import paper_scenario
-from pkmlab.simulation import simulate
+from pkmlab.formats.scenario import paper_scenario
+from pkmlab.model import mechanism_model as mm
+from pkmlab.paper.geometry import Planar3RRR
+from pkmlab.paper.kinematics import forward_kinematics, inverse_kinematics
+from pkmlab.simulation.run import simulate
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 

@@ -1,10 +1,10 @@
-"""The two plants for every machine (pkmlab.plants): ActuatorSpacePlant (eq. 35 in (θ, θ̇), branch following)
+"""The two plants for every machine (pkmlab.simulation.plants): ActuatorSpacePlant (eq. 35 in (θ, θ̇), branch following)
 and FullSpacePlant (all coordinates with the loop-closure multipliers, eq. 26, Baumgarte-stabilised).
 
 Independent checks only: the two formulations against each other on every preset, conservation of energy
 (kinetic from the full-space mass matrix, potential from the bodies' mass centres and masses), the power
 balance under effort by finite differences, the loop closure, the paper's own 7-coordinate plants
-(``pkmlab.plant``) as the oracle for the paper's machine, and one-line refusals that name the argument.
+(``pkmlab.paper.plant``) as the oracle for the paper's machine, and one-line refusals that name the argument.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import pkmlab
-from pkmlab import mechanism_model as mm
-from pkmlab import plants
 from pkmlab.errors import BranchFollowingError, InvalidParameterError, PkmlabError
+from pkmlab.model import mechanism_model as mm
+from pkmlab.simulation import plants
 
 #: A regular pose of each preset and, where it has several, the working mode to start in (None: the first
 #: reachable mode with |S| > 0.05).
@@ -186,12 +186,12 @@ def test_the_loop_stays_closed_over_a_longer_run(models):
 
 # ------------------------------------------------------------------ 5. the paper's own plants as the oracle
 def test_the_paper_machine_against_the_paper_plants(models):
-    """The paper's machine: both new plants against the old 7-coordinate ones (``pkmlab.plant``), whose
+    """The paper's machine: both new plants against the old 7-coordinate ones (``pkmlab.paper.plant``), whose
     coordinates are (θ, φ, α) = new ``q[[0, 1, 2, 3, 4, 5, 8]]``; the old FullPlant integrates the paper's own
-    multiplier model (``pkmlab.mechanisms.rrr3``), a formulation that shares no code with the new plants.
+    multiplier model (``pkmlab.paper.rrr3``), a formulation that shares no code with the new plants.
     Same tolerances as the cross-check of the presets (1e-9 on θ)."""
-    from pkmlab.geometry import Planar3RRR
-    from pkmlab.plant import FullPlant, ReducedPlant
+    from pkmlab.paper.geometry import Planar3RRR
+    from pkmlab.paper.plant import FullPlant, ReducedPlant
 
     model = models["paper"]
     q0 = _start(model, "paper")

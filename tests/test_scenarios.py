@@ -1,4 +1,4 @@
-"""Scenario files (``pkmlab.scenario_io``) and ``pkmlab simulate``.
+"""Scenario files (``pkmlab.formats.scenario``) and ``pkmlab simulate``.
 
 The paper's cases are checked against conventions §7 written out here; every bad input must give
 exit code 1, one line naming the file and the key, and write nothing; Ctrl-C must leave
@@ -20,17 +20,19 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import pkmlab
-import pkmlab.io
-import pkmlab.scenario_io
-import pkmlab.simulation
+import pkmlab.formats.params
+import pkmlab.formats.scenario
+import pkmlab.simulation.run
 from pkmlab.cli import main
-from pkmlab.control import ControllerSpec
+from pkmlab.control.controller import ControllerSpec
+from pkmlab.control.trajectory import Circle, Trajectory
 from pkmlab.errors import PkmlabDeprecationWarning, PkmlabError
-from pkmlab.geometry import Planar3RRR
-from pkmlab.io import load_manipulator
-from pkmlab.scenario_io import load_scenario, paper_scenario, scenario_from_dict
-from pkmlab.simulation import COLUMNS, Scenario, simulate
-from pkmlab.trajectory import Circle, Trajectory
+from pkmlab.formats.params import load_manipulator
+from pkmlab.formats.scenario import load_scenario, paper_scenario, scenario_from_dict
+from pkmlab.paper.geometry import Planar3RRR
+from pkmlab.simulation.result import COLUMNS
+from pkmlab.simulation.run import simulate
+from pkmlab.simulation.scenario import Scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -186,7 +188,7 @@ substeps = 3
     assert line.name == "l" and line.plant is None and line.model == pkmlab.load("paper")
 
 
-@pytest.mark.parametrize("module", [pkmlab.scenario_io, pkmlab.io])
+@pytest.mark.parametrize("module", [pkmlab.formats.scenario, pkmlab.formats.params])
 def test_docstring_examples(module):
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0
@@ -328,7 +330,7 @@ def _no_simulation(monkeypatch):
     def refuse(_scenario):
         raise AssertionError("simulated although the output folder cannot be written")
 
-    monkeypatch.setattr(pkmlab.simulation, "simulate", refuse)
+    monkeypatch.setattr(pkmlab.simulation.run, "simulate", refuse)
 
 
 def test_output_folder_under_a_file_is_refused_before_simulating(tmp_path, capsys, monkeypatch):
@@ -398,7 +400,7 @@ def test_interrupt_during_the_simulation_leaves_nothing(tmp_path, capsys, monkey
     def interrupted(_scenario):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pkmlab.simulation, "simulate", interrupted)
+    monkeypatch.setattr(pkmlab.simulation.run, "simulate", interrupted)
     out = tmp_path / "new" / "deeper" / "results"
     code, stdout, err = run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out)
     assert code == 130
@@ -408,7 +410,7 @@ def test_interrupt_during_the_simulation_leaves_nothing(tmp_path, capsys, monkey
 
 def test_interrupt_while_writing_keeps_the_previous_results(tmp_path, capsys, monkeypatch, fast_result):
     out = tmp_path / "results"
-    monkeypatch.setattr(pkmlab.simulation, "simulate", lambda _scenario: fast_result)
+    monkeypatch.setattr(pkmlab.simulation.run, "simulate", lambda _scenario: fast_result)
     assert run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out, "--no-figures")[0] == 0  # an earlier run
     before = {p.name: p.read_bytes() for p in out.iterdir()}
 
@@ -416,7 +418,7 @@ def test_interrupt_while_writing_keeps_the_previous_results(tmp_path, capsys, mo
         Path(path).write_text("half")  # something was already written in the temporary folder
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pkmlab.simulation.SimulationResult, "to_csv", interrupted)
+    monkeypatch.setattr(pkmlab.simulation.result.SimulationResult, "to_csv", interrupted)
     code, _stdout, err = run(capsys, "simulate", EXAMPLES / "fast.toml", "--out", out, "--no-figures")
     assert code == 130 and "interrupted" in err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
@@ -481,7 +483,7 @@ def test_plant_file_round_trips_a_non_equilateral_base(tmp_path):
     model = Planar3RRR.from_params(base_points=[(0.0, 0.0), (0.5, 0.02), (0.27, 0.44)], l=[0.25, 0.24, 0.26],
                                    mass_a=0.3, inertia_r=[1e-3, 2e-3, 3e-3])
     path = tmp_path / "plant.toml"
-    path.write_text(pkmlab.io.manipulator_to_toml(model, "a comment\nover two lines"))
+    path.write_text(pkmlab.formats.params.manipulator_to_toml(model, "a comment\nover two lines"))
     assert load_manipulator(path) == model
 
 
@@ -526,8 +528,9 @@ def toml_document(doc: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-KNOWN_TABLES = list(pkmlab.scenario_io.TABLES)
-KNOWN_KEYS = sorted({k for keys in pkmlab.scenario_io.TABLES.values() for k in keys} | set(pkmlab.io.PARAM_KEYS))
+KNOWN_TABLES = list(pkmlab.formats.scenario.TABLES)
+KNOWN_KEYS = sorted({k for keys in pkmlab.formats.scenario.TABLES.values() for k in keys}
+                    | set(pkmlab.formats.params.PARAM_KEYS))
 WORDS = ["circle", "line", "waypoints", "cubic", "quintic", "computed_torque", "pd", "auto", "paper"]
 scalars = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True),
@@ -592,10 +595,10 @@ def test_fuzz_loader_with_edited_documents(fuzz_dir, data):
         if table == "manipulator.params":
             target = doc.setdefault("manipulator", {})
             target = target.setdefault("params", {}) if isinstance(target, dict) else None
-            valid = list(pkmlab.io.PARAM_KEYS)
+            valid = list(pkmlab.formats.params.PARAM_KEYS)
         else:
             target = doc.setdefault(table, {})
-            valid = list(pkmlab.scenario_io.TABLES.get(table, ())) or KNOWN_KEYS
+            valid = list(pkmlab.formats.scenario.TABLES.get(table, ())) or KNOWN_KEYS
         if not isinstance(target, dict):
             continue
         key = data.draw(st.sampled_from([*valid * 6, None]), label="key")
@@ -673,7 +676,7 @@ def test_summary_units_name_every_key_of_every_machine():
     for scenario in (paper_scenario("nominal"), load_scenario(EXAMPLES / "five_bar_circle.toml"),
                      load_scenario(EXAMPLES / "3prr_circle.toml")):
         summary = simulate(scenario.replace(sample_time=0.004)).summary()
-        units = pkmlab.simulation.summary_units(scenario.model)
+        units = pkmlab.simulation.result.summary_units(scenario.model)
         assert set(summary) <= set(units)
         kinds = set(scenario.model.description.actuator_kinds)
         assert units["peak_effort"] == {"R": "N*m", "P": "N"}[kinds.pop()]

@@ -7,10 +7,9 @@ import numpy as np
 import pytest
 
 import pkmlab
-from pkmlab import dynamics as paper_dynamics
-from pkmlab import kinematics as kin
 from pkmlab.cli import main
-from pkmlab.control import ControllerSpec
+from pkmlab.control.controller import ControllerSpec
+from pkmlab.control.trajectory import Circle, Line, Trajectory, WaypointTrajectory, paper_trajectory
 from pkmlab.errors import (
     AssemblyError,
     BranchFollowingError,
@@ -19,12 +18,15 @@ from pkmlab.errors import (
     SingularityError,
     UnreachablePoseError,
 )
-from pkmlab.geometry import Planar3RRR
-from pkmlab.kinematics import coordinates_to_3rrr, desired_joint_motion
-from pkmlab.plant import ReducedPlant
-from pkmlab.scenario_io import paper_scenario
-from pkmlab.simulation import COLUMNS, Scenario, scaled_model, simulate
-from pkmlab.trajectory import Circle, Line, Trajectory, WaypointTrajectory, paper_trajectory
+from pkmlab.formats.scenario import paper_scenario
+from pkmlab.paper import dynamics as paper_dynamics
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
+from pkmlab.paper.kinematics import coordinates_to_3rrr, desired_joint_motion
+from pkmlab.paper.plant import ReducedPlant
+from pkmlab.simulation.result import COLUMNS
+from pkmlab.simulation.run import simulate
+from pkmlab.simulation.scenario import Scenario, scaled_model
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,5 @@
 """The generated kernels of spatial structures against the plain statement of the chain conventions
-(:func:`pkmlab.mechanisms.spatial.leg_frames`), finite differences and the file on disk."""
+(:func:`pkmlab.description.spatial.leg_frames`), finite differences and the file on disk."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pkmlab.derivations import spatial
-from pkmlab.mechanism_model import MechanismModel, _evaluate, constraint_residual
-from pkmlab.mechanisms.presets import SPATIAL_PRESETS, preset
-from pkmlab.mechanisms.spatial import attachment_point, leg_frames
+from pkmlab.codegen import spatial
+from pkmlab.description.presets import SPATIAL_PRESETS, preset
+from pkmlab.description.spatial import attachment_point, leg_frames
+from pkmlab.model.mechanism_model import MechanismModel, _evaluate, constraint_residual
 
 NAMES = sorted(SPATIAL_PRESETS)
 

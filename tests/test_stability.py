@@ -1,7 +1,7 @@
 """Stability of the sampled-data loop: the spectral-radius check before a run, the reason given
 when a run diverges, and numbers in messages that never contradict the limit they are compared with.
 
-The formula of :func:`pkmlab.control.sampled_data_spectral_radius` is checked against the exact
+The formula of :func:`pkmlab.control.controller.sampled_data_spectral_radius` is checked against the exact
 zero-order-hold discretisation (a matrix exponential) and against the Jury stability conditions
 of a second-order characteristic polynomial, worked out by hand below.
 """
@@ -17,16 +17,17 @@ from conftest import assert_user_error, run
 from scipy.linalg import expm
 
 import pkmlab
-import pkmlab.simulation as simulation
-from pkmlab.control import (
+import pkmlab.simulation.run as simulation
+from pkmlab.control.controller import (
     ControllerSpec,
     largest_stable_kp,
     largest_stable_sample_time,
     sampled_data_spectral_radius,
 )
 from pkmlab.errors import SingularityError, UnstableControlError
-from pkmlab.scenario_io import paper_scenario
-from pkmlab.simulation import simulate
+from pkmlab.formats.scenario import paper_scenario
+from pkmlab.simulation.run import simulate
+from pkmlab.simulation.scenario import choose_working_mode
 
 
 # ------------------------------------------------------------------ the formula, independently
@@ -186,17 +187,17 @@ def test_the_preflight_margin_message_does_not_contradict_itself():
     "comes within 0.48 of a gain-type singularity (margin 0.48)"."""
     scenario = paper_scenario("nominal").replace(working_mode=(1, 1, 1), singularity_margin=0.0)
     t = simulation.sample_times(scenario)
-    _mode, min_s = simulation.choose_working_mode(scenario, t)
+    _mode, min_s = choose_working_mode(scenario, t)
     margin = float(f"{min_s:.3g}")
     assert margin > min_s  # the case that rounds up onto the margin
     with pytest.raises(SingularityError) as info:
-        simulation.choose_working_mode(scenario.replace(singularity_margin=margin), t)
+        choose_working_mode(scenario.replace(singularity_margin=margin), t)
     shown = re.search(r"comes within ([0-9.e+-]+) of a gain-type singularity \(margin ([0-9.e+-]+)\)", str(info.value))
     assert float(shown.group(1)) < float(shown.group(2)), str(info.value)
 
 
 def test_a_motion_just_shorter_than_a_sample_is_not_shown_as_one_sample():
-    from pkmlab.scenario_io import scenario_from_dict
+    from pkmlab.formats.scenario import scenario_from_dict
 
     speed = 0.01 / 0.0009996  # a 1 cm line lasting 0.9996 ms: ".3g" shows it as "0.001 s"
     data = {"trajectory": {"type": "line", "start": [0.25, 0.2, 0.0], "end": [0.26, 0.2, 0.0], "speed": speed}}

@@ -12,12 +12,13 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from pkmlab import load_scenario, simulate
-from pkmlab import mechanism_model as mm
+from pkmlab.algorithms import assembly
+from pkmlab.description.files import load_mechanism
+from pkmlab.description.presets import preset
+from pkmlab.description.spatial import leg_frames, orientation
 from pkmlab.errors import BranchFollowingError, InvalidParameterError, UnreachablePoseError
-from pkmlab.mechanism_model import MechanismModel
-from pkmlab.mechanisms.files import load_mechanism
-from pkmlab.mechanisms.presets import preset
-from pkmlab.mechanisms.spatial import leg_frames, orientation
+from pkmlab.model import mechanism_model as mm
+from pkmlab.model.mechanism_model import MechanismModel
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 MACHINE = load_mechanism(EXAMPLES / "stewart_6ups.toml")
@@ -196,7 +197,7 @@ def _multistart_poses(lengths, starts=3000, seed=2):
                          rng.uniform(-np.pi, np.pi, (starts, 3)) * [1, 0.5, 1]])
 
     def residual(x):
-        from pkmlab.mechanisms.spatial import orientations
+        from pkmlab.description.spatial import orientations
 
         points = x[:, None, :3] + np.einsum("kij,lj->kli", orientations(x[:, 3:]), A)
         return np.linalg.norm(points - B, axis=2) - lengths, points
@@ -223,7 +224,7 @@ def _multistart_poses(lengths, starts=3000, seed=2):
 def test_forward_kinematics_finds_every_assembly_mode_of_the_hexapod():
     pose = [0.03, -0.02, 0.88, 0.08, -0.05, 0.2]
     q = mm.inverse_kinematics(MODEL, pose, ())
-    found = mm.forward_kinematics(MODEL, q[:6])
+    found = assembly.assembly_modes(MODEL, q[:6])
     assert min(np.abs(qf[18:] - pose).max() for qf, _s in found) < 1e-10  # FK∘IK
     for qf, s in found:
         assert np.max(np.abs(mm.constraint_residual(MODEL, qf))) < 1e-12
@@ -253,7 +254,7 @@ def test_dietmaiers_platform_has_forty_real_assembly_modes_from_the_command_line
 
 
 def test_continuous_time_control_with_the_exact_model_tracks_to_integration_level():
-    from pkmlab.trajectory import TimedWaypoints
+    from pkmlab.control.trajectory import TimedWaypoints
 
     scenario = load_scenario(EXAMPLES / "stewart_motion.toml")
     short = TimedWaypoints(((0.0, 0.0, 0.85, 0.0, 0.0, 0.0), (0.01, -0.01, 0.86, 0.02, -0.01, 0.03)), (0.15,))

@@ -1,5 +1,5 @@
 """Forward kinematics of the general Stewart–Gough platform by homotopy continuation
-(:mod:`pkmlab.mechanisms.stewart_fk`): the soma-coordinate quadrics, Dietmaier's 40 real postures,
+(:mod:`pkmlab.algorithms.stewart_fk`): the soma-coordinate quadrics, Dietmaier's 40 real postures,
 known poses of random platforms, and refused input."""
 
 import warnings
@@ -7,9 +7,9 @@ import warnings
 import numpy as np
 import pytest
 
+from pkmlab.algorithms import stewart_fk
+from pkmlab.algorithms.stewart_fk import assembly_modes
 from pkmlab.errors import IncompleteSolutionWarning, InvalidParameterError
-from pkmlab.mechanisms import stewart_fk
-from pkmlab.mechanisms.stewart_fk import assembly_modes
 
 # Dietmaier's platform with 40 real postures: P. Dietmaier, "The Stewart-Gough platform of general
 # geometry can have 40 real postures", Advances in Robot Kinematics: Analysis and Control (Lenarčič,

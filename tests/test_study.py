@@ -15,10 +15,10 @@ from conftest import run
 
 import pkmlab
 from pkmlab.errors import InvalidParameterError
-from pkmlab.mechanism_model import MechanismModel
-from pkmlab.scenario_io import load_scenario
+from pkmlab.formats.scenario import load_scenario
+from pkmlab.model.mechanism_model import MechanismModel
+from pkmlab.simulation.uncertainty import draw_factors, perturbed_plant, uncertain_parameters
 from pkmlab.study import Study, StudyError, StudyInterrupted, load_study, study_from_dict, sweep
-from pkmlab.uncertainty import draw_factors, perturbed_plant, uncertain_parameters
 
 pytest.importorskip("distributed")
 pytest.importorskip("pyarrow")
@@ -130,7 +130,7 @@ def test_drawn_plants_scale_the_mass_matrix(name):
     c = 1.3
     factors = {p: c for p in uncertain_parameters(model, ("mass", "inertia"))}
     plant = perturbed_plant(model, factors)
-    from pkmlab import mechanism_model as mm
+    from pkmlab.model import mechanism_model as mm
 
     pose = {"paper": [0.25, 0.21, 0.0], "3rpr": [0.25, 0.21, -1.5707963267948966], "delta": [0.02, -0.01, -0.75]}[name]
     q = mm.inverse_kinematics(model, pose, mm.working_modes(model)[0])

@@ -9,8 +9,8 @@ import pytest
 from conftest import run
 
 import pkmlab
-from pkmlab import kinematics as kin
-from pkmlab.geometry import Planar3RRR
+from pkmlab.paper import kinematics as kin
+from pkmlab.paper.geometry import Planar3RRR
 from pkmlab.views.html import write_html
 from pkmlab.views.run import RunView
 

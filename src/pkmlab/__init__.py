@@ -17,8 +17,8 @@ from ._version import __version__
 # so that `import pkmlab` and `pkmlab --version` are instant, and Ctrl-C during start-up is
 # handled by the command line rather than shown as a traceback.
 _WHERE = {
-    "MechanismModel": "mechanism_model", "load": "mechanism_model",
-    "SingularityMap": "analysis", "singularity_map": "analysis",
+    "MechanismModel": "model.mechanism_model", "load": "model.mechanism_model",
+    "SingularityMap": "algorithms.analysis", "singularity_map": "algorithms.analysis",
     **dict.fromkeys(("AssemblyError", "BranchFollowingError", "IncompleteSolutionWarning", "InvalidParameterError",
                      "PkmlabError", "SingularityError", "UnreachablePoseError", "UnstableControlError"), "errors"),
     **dict.fromkeys(("SINGULAR_S", "AssemblyMode", "ForwardKinematicsSolution", "InverseKinematicsSolution",
@@ -29,11 +29,12 @@ _WHERE = {
     **dict.fromkeys(("ActuatorSpaceModel", "ConstrainedDynamics", "FullSpaceModel", "actuator_space_model",
                      "constrained_dynamics", "forward_dynamics", "full_space_model", "inverse_dynamics"),
                     "algorithms.dynamics"),
-    **dict.fromkeys(("ActuatorSpacePlant", "FullSpacePlant", "PlantRun"), "plants"),
-    **dict.fromkeys(("load_scenario", "paper_scenario"), "scenario_io"),
-    "ControllerSpec": "control",
-    **dict.fromkeys(("Scenario", "SimulationResult", "perturbed_model", "simulate", "simulate_batch"),
-                    "simulation"),
+    **dict.fromkeys(("ActuatorSpacePlant", "FullSpacePlant", "PlantRun"), "simulation.plants"),
+    **dict.fromkeys(("load_scenario", "paper_scenario"), "formats.scenario"),
+    "ControllerSpec": "control.controller",
+    **dict.fromkeys(("Scenario", "perturbed_model"), "simulation.scenario"),
+    "SimulationResult": "simulation.result",
+    **dict.fromkeys(("simulate", "simulate_batch"), "simulation.run"),
     **dict.fromkeys(("Study", "load_study", "sweep", "tune"), "study"),
     **dict.fromkeys(("draw", "plot", "show"), "views.notebook"),
 }

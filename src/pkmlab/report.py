@@ -18,11 +18,13 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
-from . import simulation
 from .errors import PkmlabError
+from .formats.scenario import PAPER_CASES, SCENARIO_DIR, paper_scenario
 from .outputs import atomic_output_dir
-from .scenario_io import PAPER_CASES, SCENARIO_DIR, paper_scenario
-from .simulation import Scenario, SimulationResult, simulate
+from .simulation import run as simulation
+from .simulation.result import SimulationResult, actuator_kinds
+from .simulation.run import simulate
+from .simulation.scenario import Scenario
 
 #: (file name, paper figure, caption, case, plot kind)
 FIGURES = (
@@ -43,7 +45,7 @@ FIGURES = (
     ("fig15b_fast_alpha.png", "—", "Platform orientation α, v = 0.4 m/s (not in the paper)", "fast", "alpha"),
 )
 
-#: Plots of one closed-loop result, by kind: the names of their functions in :mod:`pkmlab.plotting`.
+#: Plots of one closed-loop result, by kind: the names of their functions in :mod:`pkmlab.views.plotting`.
 _RESULT_PLOTS = {"S": "plot_singularity_along_path", "path": "plot_path", "error": "plot_path_error",
                  "alpha": "plot_alpha", "torques": "plot_torques", "machine": "plot_start_configuration",
                  "path3d": "plot_path_3d", "machine3d": "plot_start_configuration"}
@@ -64,7 +66,7 @@ def run_figures(scenario: Scenario) -> tuple[tuple[str, str, str], ...]:
     """The figures of one run: a drawing of the machine at the start, then :data:`RUN_FIGURES`, its efforts
     named as they are, without the orientation for a machine whose pose has no ``alpha``, the path in space
     for a spatial machine."""
-    kinds = simulation.actuator_kinds(scenario.model)
+    kinds = actuator_kinds(scenario.model)
     m = scenario.model.description
     spatial = getattr(m, "spatial", False)
     out = [("machine.png", "The machine at the start of the run", "machine3d" if spatial else "machine")]
@@ -87,8 +89,8 @@ def case_scenarios(control: str = "sampled", mechanism=None) -> dict[str, Scenar
     is derived from it as the case's scenario file says (``disturbed``: masses and lengths ×1.15).
     """
     from ._files import read_toml
-    from .mechanism_model import load
-    from .simulation import scaled_model
+    from .model.mechanism_model import load
+    from .simulation.scenario import scaled_model
 
     if control not in ("sampled", "continuous"):
         raise PkmlabError(f"control must be 'sampled' or 'continuous', got {control!r}")
@@ -144,8 +146,8 @@ def provenance(control: str, sample_time: float, mechanism_source: str) -> dict:
 def _draw(kind: str, results: dict, case: str | None):
     import matplotlib.pyplot as plt
 
-    from . import plotting
-    from .analysis import singularity_map
+    from .algorithms.analysis import singularity_map
+    from .views import plotting
 
     nominal = results["nominal"]
     model = nominal.scenario.model
@@ -232,13 +234,13 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
     ``source``, the file the machine was read from (by default ``mechanism`` when it is a file's name), is
     named in the provenance and may not lie inside ``out``.
     """
-    from .mechanisms.files import mechanism_to_toml
+    from .description.files import mechanism_to_toml
 
     say = progress or (lambda _msg: None)
     scenarios = case_scenarios(control, mechanism)  # a bad machine is refused before anything is written
     if source is None and isinstance(mechanism, str | os.PathLike) and Path(mechanism).suffix == ".toml":
         source = mechanism
-    from .mechanism_model import load
+    from .model.mechanism_model import load
 
     given = scenarios["nominal"].model != load("paper")  # the paper's own machine, however it was given
     name = f"your file {source}" if source is not None else f"the {scenarios['nominal'].model.name} preset"
@@ -312,7 +314,7 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
 
 def _summary_table(result: SimulationResult, s: dict) -> list[str]:
     """The summary as a Markdown table (units as the machine's: rad or m, N·m or N)."""
-    kinds = simulation.actuator_kinds(result.scenario.model)
+    kinds = actuator_kinds(result.scenario.model)
     joint_unit = "rad" if kinds == {"R"} else ("m" if kinds == {"P"} else "rad or m")
     effort = "peak torques (N·m)" if kinds == {"R"} else ("peak forces (N)" if kinds == {"P"} else "peak efforts")
     alpha = "max_orientation_error_rad" in s
@@ -359,14 +361,14 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
     ``out`` receives ``summary.json`` (conventions §8 fields, ``"scenario"``, the name, and
     ``"provenance"``), ``run.csv``, ``plant.toml``, the figures of :data:`RUN_FIGURES`, ``REPORT.md`` and
     ``REPORT.html`` (:mod:`pkmlab.views`) — all at once, when everything succeeded. ``mujoco`` (the options of
-    :func:`~pkmlab.mujoco_plant.simulate_mujoco`) makes MuJoCo the plant: the run then also records its
+    :func:`~pkmlab.interop.mujoco_plant.simulate_mujoco`) makes MuJoCo the plant: the run then also records its
     loop-closure violation
     (:func:`~pkmlab.outputs.atomic_output_dir`, which tells ``note`` when an earlier result is
     replaced). ``source``, the scenario file the scenario was read from, may not lie inside
     ``out``; its text (``source_text``, as it was read, else read again) is kept as ``scenario.toml``.
     """
     from ._files import read_text
-    from .mechanisms.files import mechanism_to_toml
+    from .description.files import mechanism_to_toml
 
     text = source_text if source_text is not None or source is None else read_text(Path(source))
     control = "sampled" if scenario.sample_time > 0 else "continuous"
@@ -381,7 +383,7 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
     with atomic_output_dir(out, "simulate", inputs=[source] if source else [], provenance=prov, note=note) as tmp:
         say(f"simulating {scenario.name}{' on MuJoCo' if mujoco is not None else ''} ...")
         if mujoco is not None:
-            from .mujoco_plant import simulate_mujoco
+            from .interop.mujoco_plant import simulate_mujoco
 
             result = simulate_mujoco(scenario, **mujoco)
         else:
@@ -399,7 +401,7 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
             matplotlib.use("Agg")
             import matplotlib.pyplot as plt
 
-            from . import plotting
+            from .views import plotting
 
             for fname, _caption, kind in run_figures(scenario):
                 size = (6.0, 5.2) if kind in ("path", "machine") else (6.0, 5.6) if kind in _SPATIAL_PLOTS \

@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import lagrangian
-from .. import mechanism_model as mm
 from .._validate import as_broadcast, index_text
 from ..errors import InvalidParameterError, SingularityError
-from ..mechanism_model import MechanismModel
+from ..model import mechanism_model as mm
+from ..model.mechanism_model import MechanismModel
+from ..numerics import lagrangian
 from .kinematics import SINGULAR_S, as_model, check_loop_closure, singularity_measure
 
 __all__ = [

@@ -2,7 +2,7 @@
 with every assembly mode, branch following, the constraint and velocity Jacobians, coordinate rates and
 accelerations, and the singularity measure (the paper's §2 and §3.2, for every machine).
 
-Every function takes a :class:`~pkmlab.mechanism_model.MechanismModel` first (:func:`pkmlab.load`) and
+Every function takes a :class:`~pkmlab.model.mechanism_model.MechanismModel` first (:func:`pkmlab.load`) and
 arrays shaped ``(..., n)``: one configuration or a batch of any leading shape, with the same code path.
 ``q`` is the model's coordinate vector ``(θ, passive joints, pose)`` (``model.coordinates`` names its
 entries; for the paper's 3-RRR ``(θ1, θ2, θ3, φ1, φ2, φ3, x, y, α)``), ``theta`` the actuator values
@@ -28,10 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import mechanism_model as mm
 from .._validate import as_batch, as_broadcast, as_choice, as_mode, as_real, index_text
-from ..errors import BranchFollowingError, IncompleteSolutionWarning, InvalidParameterError, SingularityError
-from ..mechanism_model import MechanismModel
+from ..errors import BranchFollowingError, IncompleteSolutionWarning, InvalidParameterError, SingularityError, shown
+from ..model import mechanism_model as mm
+from ..model.mechanism_model import MechanismModel
+from .assembly import assembly_modes
 
 __all__ = [
     "SINGULAR_S",
@@ -64,8 +65,6 @@ CLOSURE_TOLERANCE = 1e-8
 def as_model(model, name: str = "model") -> MechanismModel:
     """``model`` itself if it is a model (:func:`pkmlab.load`): anything else would fail deep inside, unnamed."""
     if not isinstance(model, MechanismModel):
-        from ..errors import shown
-
         raise InvalidParameterError(f"{name} must be a pkmlab model (pkmlab.load('paper'), a preset name, or a "
                                     f"description file), got {type(model).__name__} {shown(model, 50)}")
     return model
@@ -141,6 +140,23 @@ class InverseKinematicsSolution:
         return self.unreachable_legs == 0
 
 
+def as_working_mode(model: MechanismModel, mode, name: str = "working_mode"):
+    """A working-mode argument checked: ``"auto"``, or one sign per two-branch leg as a tuple of ints
+    (``"+-"``, ``(1, -1)``, ``()`` for a machine with one working mode); ``name`` names it in errors."""
+    if isinstance(mode, str) and mode == "auto":
+        return mode
+    modes = mm.working_modes(model)
+    try:
+        signs = tuple(int(v) for v in as_mode(mode, name, len(modes[0])))
+    except InvalidParameterError:
+        signs = None
+    if signs not in modes:
+        spelt = ", ".join("".join("+" if v > 0 else "-" for v in m) or "[]" for m in modes)
+        raise InvalidParameterError(f'{name} must be "auto" or one of the modes of {model.description.name} '
+                                    f"({spelt}), got {shown(mode)}")
+    return signs
+
+
 def working_modes(model: MechanismModel) -> np.ndarray:
     """Every working mode (n_modes, k): one sign per two-branch leg, +1 before -1, lexicographic order
     (one empty mode, shape (1, 0), when no leg has two branches, as for the 3-RPR)."""
@@ -176,7 +192,7 @@ def inverse_kinematics(model: MechanismModel, pose, mode=None, *, on_unreachable
     all_modes = working_modes(model)
     modes = all_modes if mode is None else as_mode(mode, "mode", all_modes.shape[1])[None, :]
     if getattr(m, "spatial", False):
-        from ..mechanisms.spatial import check_pose
+        from ..description.spatial import check_pose
 
         for p in poses:
             check_pose(m, p)
@@ -286,7 +302,7 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", IncompleteSolutionWarning)
-                found.append(mm.forward_kinematics(model, t))
+                found.append(assembly_modes(model, t))
         except (InvalidParameterError, SingularityError) as exc:
             raise type(exc)(f"theta{index_text(k, shape)}: {exc}") from None
         for w in caught:

@@ -32,8 +32,8 @@ def _pose_names(args) -> tuple[str, ...]:
     if not mechanism:
         return ("x", "y", "alpha")  # the paper's 3-RRR (the default machine, and that of --params)
     try:
-        from ..mechanisms.files import load_mechanism
-        from ..mechanisms.presets import PRESETS, preset
+        from ..description.files import load_mechanism
+        from ..description.presets import PRESETS, preset
 
         return (preset(mechanism) if mechanism in PRESETS else load_mechanism(mechanism)).pose_names
     except PkmlabError:

@@ -53,20 +53,20 @@ def table(header: list[str], rows: list[list]) -> str:
 
 
 def model_of(args):
-    """The machine of the command (:class:`~pkmlab.mechanism_model.MechanismModel`, one type for every machine):
+    """The machine of the command (:class:`~pkmlab.model.mechanism_model.MechanismModel`, one type for every machine):
     ``--mechanism``, a preset name or a description file (``[mechanism]`` table), the paper's 3-RRR when not
     given; or the 3-RRR of the deprecated ``--params`` file (with an explicit ``--mechanism``, refused)."""
-    from ..mechanism_model import MechanismModel
-    from ..mechanisms.files import load_mechanism
-    from ..mechanisms.presets import PRESETS
+    from ..description.files import load_mechanism
+    from ..description.presets import PRESETS
+    from ..model.mechanism_model import MechanismModel
 
     name = getattr(args, "mechanism", None)
     if getattr(args, "params", None):
         if name is not None:
             raise InvalidParameterError("--params describes the paper's 3-RRR; with --mechanism, give a description "
                                         "file instead")
-        from ..geometry import Planar3RRR
-        from ..io import load_manipulator
+        from ..formats.params import load_manipulator
+        from ..paper.geometry import Planar3RRR
 
         manipulator = load_manipulator(params_file(args))
         if manipulator != Planar3RRR.paper():
@@ -91,7 +91,7 @@ def working_mode(args, model):
     """``--mode`` (already read as signs, ``args.mode``) checked against the machine: None when not given, else
     one of its working modes as a tuple of ints. A wrong number of signs is a malformed command line (usage,
     exit code 2), as a wrong number of pose values is."""
-    from ..mechanism_model import working_modes
+    from ..model.mechanism_model import working_modes
 
     if getattr(args, "mode", None) is None:
         return None

@@ -25,9 +25,9 @@ def _animate(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:
     machine is (the paper's 3-RRR and every planar machine of three-joint legs in the paper's style)."""
     import numpy as np
 
-    from ..animation import rebuild_configurations, write_gif, write_machine_gif, write_spatial_gif
-    from ..io import read_result_csv
-    from ..plotting import three_joint_planar
+    from ..formats.params import read_result_csv
+    from ..views.animation import rebuild_configurations, write_gif, write_machine_gif, write_spatial_gif
+    from ..views.plotting import three_joint_planar
 
     model, source = machine
     n_act, names = len(model.description.legs), model.description.pose_names

@@ -40,8 +40,8 @@ def cmd_singularity_map(args) -> dict:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from ..analysis import singularity_map
-    from ..plotting import plot_singularity_map
+    from ..algorithms.analysis import singularity_map
+    from ..views.plotting import plot_singularity_map
 
     model = model_of(args)
     if getattr(model.description, "spatial", False):
@@ -94,8 +94,8 @@ def cmd_workspace(args) -> dict:
 
     matplotlib.use("Agg")
 
-    from ..analysis import workspace
-    from ..plotting import plot_workspace
+    from ..algorithms.analysis import workspace
+    from ..views.plotting import plot_workspace
 
     model = model_of(args)
     out = output_path(args.out, "--out", figure_suffixes() | {".html"})
@@ -140,8 +140,8 @@ def cmd_workspace(args) -> dict:
 def _spatial_workspace(args, model, out: Path) -> dict:
     """``workspace`` of a spatial machine: horizontal slices of its reachable region with ``S`` and ``S = 0``."""
 
-    from ..analysis import spatial_workspace
-    from ..plotting import plot_spatial_workspace
+    from ..algorithms.analysis import spatial_workspace
+    from ..views.plotting import plot_spatial_workspace
 
     if args.alpha != 0.0:
         raise InvalidParameterError("--alpha is a planar platform's orientation; a spatial machine's slices are at "

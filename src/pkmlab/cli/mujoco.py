@@ -7,9 +7,9 @@ from ._common import Staged, check_count, loop_closures, mechanism_name, model_o
 
 def cmd_export_mjcf(args) -> dict:
     """``export-mjcf``: the machine as a MuJoCo model (MJCF), at the pose ``--pose`` (its configuration in
-    ``--mode``) or at its home configuration (:func:`pkmlab.mujoco_export.home_configuration`)."""
-    from .. import mujoco_export as mx
+    ``--mode``) or at its home configuration (:func:`pkmlab.interop.mujoco_export.home_configuration`)."""
     from ..algorithms.kinematics import inverse_kinematics, working_modes
+    from ..interop import mujoco_export as mx
 
     closures = loop_closures(args, "--closures", args.closures, "--stiff", args.stiff)
     model = model_of(args)

@@ -43,9 +43,9 @@ def _demo(args, model, say, folder: Path) -> tuple:
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from ..algorithms.analysis import singularity_map
     from ..algorithms.kinematics import branch_following, forward_kinematics, inverse_kinematics
-    from ..analysis import singularity_map
-    from ..plotting import plot_singularity_map
+    from ..views.plotting import plot_singularity_map
 
     start = np.array([0.20, 0.21, 0.0])
     s_path = np.linspace(0.0, 2 * np.pi, 721)

@@ -9,7 +9,7 @@ from ._common import loop_closures, model_of, notes, signs, status_messages
 
 
 def _effort_unit(scenario) -> str:
-    from ..simulation import actuator_kinds
+    from ..simulation.result import actuator_kinds
 
     kinds = actuator_kinds(scenario.model)
     return "N m" if kinds == {"R"} else ("N" if kinds == {"P"} else "N m or N")
@@ -17,9 +17,9 @@ def _effort_unit(scenario) -> str:
 
 def cmd_simulate(args) -> dict:
     """One scenario file: summary.json, run.csv, plant.toml, figures and REPORT.md in --out."""
-    from ..io import read_text
+    from ..formats.params import read_text
+    from ..formats.scenario import scenario_from_text
     from ..report import simulation_report
-    from ..scenario_io import scenario_from_text
 
     text = read_text(Path(args.scenario))  # once: what is simulated is what is kept as scenario.toml
     scenario = scenario_from_text(text, args.scenario)

@@ -13,7 +13,7 @@ A study file (``pkmlab sweep SWEEP.toml``) is declarative TOML, like a scenario 
     "trajectory.speed" = { start = 0.2, stop = 0.6, num = 5 }            # evenly spaced, ends included
     "controller.sample_time" = { start = 5e-4, stop = 2e-3, num = 3, scale = "log" }
 
-    [uncertainty]             # per body, uniform (pkmlab.uncertainty): a spread or [low, high] factors
+    [uncertainty]             # per body, uniform (pkmlab.simulation.uncertainty): a spread or [low, high] factors
     mass = 0.15
     length = [0.9, 1.1]
 
@@ -47,9 +47,9 @@ from .._files import read_toml
 from .._format import suggestion
 from .._version import __version__
 from ..errors import FileFormatError, InvalidParameterError, PkmlabError, shown
-from ..io import PARAM_KEYS
-from ..scenario_io import TABLES, scenario_from_dict
-from ..uncertainty import check_bounds
+from ..formats.params import PARAM_KEYS
+from ..formats.scenario import TABLES, scenario_from_dict
+from ..simulation.uncertainty import check_bounds
 
 #: The keys of a study file's ``[study]`` table.
 STUDY_KEYS = ("name", "base", "draws", "seed", "combine")
@@ -199,7 +199,7 @@ def scenario_tables(scenario, source: str = "<scenario>", what: str = "scenario"
 @dataclass(frozen=True)
 class Study:
     """A study: runs of ``base`` (scenario data, as a scenario file's tables) at every point of the grid of
-    ``axes`` and, per point, ``draws`` plants drawn within ``uncertainty`` (see :mod:`pkmlab.uncertainty`).
+    ``axes`` and, per point, ``draws`` plants drawn within ``uncertainty`` (see :mod:`pkmlab.simulation.uncertainty`).
 
     Build one with :func:`load_study` (a study file) or directly::
 
@@ -293,7 +293,7 @@ class Study:
         """Refuse uncertainty bounds that make every plant tried unassemblable (at the start of the first grid
         point's run): the study would only record failures."""
         from ..errors import AssemblyError, UnstableControlError
-        from ..simulation import prepare_run
+        from ..simulation.run import prepare_run
 
         if not self.draws:
             return
@@ -365,9 +365,10 @@ class Study:
         return scenario_from_dict(self.point_data(point), self.source, self.name)
 
     def factors(self, run: int, scenario=None) -> dict[str, float]:
-        """The plant's factors of ``run`` (empty without draws): :func:`~pkmlab.uncertainty.draw_factors` of its
+        """The plant's factors of ``run`` (empty without draws):
+        :func:`~pkmlab.simulation.uncertainty.draw_factors` of its
         draw, seeded by the study's seed."""
-        from ..uncertainty import draw_factors
+        from ..simulation.uncertainty import draw_factors
 
         point, draw = self.locate(run)
         if not self.draws:
@@ -376,10 +377,10 @@ class Study:
         return draw_factors(scenario.plant_model, self.uncertainty, self.seed, draw)
 
     def scenario(self, run: int, nominal=None, factors: dict | None = None):
-        """The :class:`~pkmlab.simulation.Scenario` of ``run`` — what ``simulate`` runs to reproduce its row.
+        """The :class:`~pkmlab.simulation.scenario.Scenario` of ``run`` — what ``simulate`` runs to reproduce its row.
         ``nominal`` is its grid point's :meth:`nominal_scenario` and ``factors`` its :meth:`factors`, if already
         known."""
-        from ..uncertainty import perturbed_plant
+        from ..simulation.uncertainty import perturbed_plant
 
         point, _draw = self.locate(run)
         nominal = self.nominal_scenario(point) if nominal is None else nominal
@@ -394,7 +395,7 @@ class Study:
 
     def factor_names(self) -> tuple[str, ...]:
         """The names of the drawn factors (the table's ``plant.*`` columns), from the base's plant."""
-        from ..uncertainty import uncertain_parameters
+        from ..simulation.uncertainty import uncertain_parameters
 
         if not self.draws:
             return ()

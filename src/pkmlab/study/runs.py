@@ -1,6 +1,6 @@
 """Running a chunk of a study's runs, in whatever process: one row per run, failures included.
 
-A chunk is the unit of work of a study: its runs go through :func:`~pkmlab.simulation.simulate_batch`
+A chunk is the unit of work of a study: its runs go through :func:`~pkmlab.simulation.run.simulate_batch`
 (one compiled call per number of samples, so the compiled loop stays hot), and every run gives one
 row — its inputs (grid values, drawn factors), ``status`` (``"ok"`` or ``"failed"``), the ``reason``
 of a failure (:data:`REASONS`), the summary's metrics and the error's one-line ``message``. A run
@@ -102,7 +102,7 @@ def run_chunk(study: Study, runs, threads: int | None = None) -> list[dict]:
     """Run ``runs`` (run numbers of ``study``) and return their rows, in the order given.
 
     ``threads`` sets how many cores the compiled batch uses in this process (default: Numba's)."""
-    from ..simulation import sample_times, simulate, simulate_batch
+    from ..simulation.run import sample_times, simulate, simulate_batch
 
     if threads is not None:
         import numba

@@ -72,7 +72,7 @@ def sweep(study, out=None, *, workers: int | None = None, scheduler: str | None 
     ``summary.json`` and ``figures/`` (heat maps over ``heatmap``'s two axes, distributions, failures);
     ``resume`` finishes a study that folder holds. Where the runs execute: see :mod:`pkmlab.study.engine`
     (``workers``, ``scheduler``, ``client``; ``workers=0`` in this process). The table is the same, bit
-    for bit, however the study is run, and each row is what :func:`~pkmlab.simulation.simulate` gives for
+    for bit, however the study is run, and each row is what :func:`~pkmlab.simulation.run.simulate` gives for
     ``study.scenario(run)``.
     """
     from .engine import require_module

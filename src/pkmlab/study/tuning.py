@@ -3,7 +3,7 @@
 The problem. A scenario's controller gains ``kp`` and ``kv = 2 ζ √kp`` (``ζ`` the damping ratio of the
 nominal error dynamics; ``ζ = 1`` with ``critical=True``) are chosen to minimise the ``quantile`` (1:
 the worst case) of the max path error over an *uncertainty set* — the plants of ``draws`` draws of
-:mod:`pkmlab.uncertainty` around the scenario's plant, the same draws for every candidate (common random
+:mod:`pkmlab.simulation.uncertainty` around the scenario's plant, the same draws for every candidate (common random
 numbers: the objective is a deterministic function of the gains, and two candidates are compared on
 the same machines) — subject to every run's peak effort being at most ``max_effort``. A run that fails
 (unstable sampled-data loop, lost branch) makes its candidate infeasible.
@@ -173,7 +173,7 @@ def _plain(row: dict) -> dict:
 def write_tuning(result: TuningResult, out, source: str) -> dict:
     """``tuned.toml`` (the scenario with the tuned gains), ``trials.csv``, ``tuning.json`` and ``tradeoff.png``
     in ``out``, each written whole or not at all. Returns the summary."""
-    from ..scenario_io import scenario_to_toml
+    from ..formats.scenario import scenario_to_toml
 
     out = Path(out)
     summary = result.summary()

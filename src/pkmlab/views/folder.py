@@ -44,16 +44,16 @@ def result_machine(folder: Path, case: str):
     else the paper's (×1.15 for a reproduced ``disturbed`` case). A plant file of pkmlab 0.2 (a
     ``[manipulator]`` table, the paper's 3-RRR) is read as the same machine."""
     from .._files import read_text
-    from ..mechanism_model import MechanismModel, load
-    from ..mechanisms.files import load_mechanism
-    from ..simulation import scaled_model
+    from ..description.files import load_mechanism
+    from ..model.mechanism_model import MechanismModel, load
+    from ..simulation.scenario import scaled_model
 
     for plant in (folder / f"{case}_plant.toml", folder / "plant.toml"):
         if plant.is_file():
             source = f"{folder.name}/{plant.name}"
             if re.search(r"^\[mechanism\]", read_text(plant), re.MULTILINE):
                 return MechanismModel.from_description(load_mechanism(plant)), source
-            from ..io import load_manipulator
+            from ..formats.params import load_manipulator
 
             return MechanismModel.from_description(load_manipulator(plant).to_mechanism()), source
     if case == "disturbed":
@@ -73,9 +73,9 @@ def _columns(model) -> tuple[tuple[str, ...], int, tuple[str, ...]]:
 def read_view(folder: Path, case: str) -> RunView:
     """The view of run ``case`` of result folder ``folder``."""
     from .._files import read_text
-    from ..animation import rebuild_configurations
     from ..errors import FileFormatError
-    from ..io import read_result_csv
+    from ..formats.params import read_result_csv
+    from .animation import rebuild_configurations
 
     folder = Path(folder)
     model, source = result_machine(folder, case)

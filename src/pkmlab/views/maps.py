@@ -28,7 +28,7 @@ def _heat(go, x, y, S, mode, alpha, bound: float, show_scale: bool):
 
 
 def singularity_map_figure(smap) -> dict:
-    """The interactive figure of a :class:`~pkmlab.analysis.SingularityMap`, as a Plotly dict."""
+    """The interactive figure of a :class:`~pkmlab.algorithms.analysis.SingularityMap`, as a Plotly dict."""
     import plotly.graph_objects as go
 
     finite = smap.S[np.isfinite(smap.S)]
@@ -42,7 +42,7 @@ def singularity_map_figure(smap) -> dict:
 
 
 def workspace_figure(ws) -> dict:
-    """The interactive figure of a planar :class:`~pkmlab.analysis.Workspace`: one panel per working mode."""
+    """The interactive figure of a planar :class:`~pkmlab.algorithms.analysis.Workspace`: one panel per working mode."""
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 

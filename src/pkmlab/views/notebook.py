@@ -105,7 +105,7 @@ def result_html(result) -> str:
 # ------------------------------------------------------------------ interactive, inline
 def _check_result(result) -> None:
     from ..errors import InvalidParameterError, shown
-    from ..simulation import SimulationResult
+    from ..simulation.result import SimulationResult
 
     if not isinstance(result, SimulationResult):
         raise InvalidParameterError(f"result must be a SimulationResult (what pkmlab.simulate returns), got "
@@ -130,7 +130,7 @@ def draw(model, q, title: str | None = None):
 
     from ..algorithms.kinematics import as_model
     from ..errors import InvalidParameterError, shown
-    from ..mechanism_model import joint_positions
+    from ..model.mechanism_model import joint_positions
     from .run import RunView, machine_lines, machine_traces
 
     model = as_model(model)
@@ -166,11 +166,11 @@ def show(result) -> None:
 
 #: The types shown as tables: (module, type name) -> the function that writes the table.
 HTML_TABLES = {
-    ("pkmlab.mechanism_model", "MechanismModel"): mechanism_html,
+    ("pkmlab.model.mechanism_model", "MechanismModel"): mechanism_html,
     ("pkmlab.algorithms.kinematics", "InverseKinematicsSolution"): ik_html,
     ("pkmlab.algorithms.kinematics", "ForwardKinematicsSolution"): fk_html,
-    ("pkmlab.simulation", "Scenario"): scenario_html,
-    ("pkmlab.simulation", "SimulationResult"): result_html,
+    ("pkmlab.simulation.scenario", "Scenario"): scenario_html,
+    ("pkmlab.simulation.result", "SimulationResult"): result_html,
 }
 
 

@@ -7,7 +7,7 @@ slider's time. A time slider and a play button move the machine, the trail and t
 together (Plotly frames); hovering any curve shows its values.
 
 The view is built from :class:`RunView` — what is drawn, whatever produced it: a
-:class:`~pkmlab.simulation.SimulationResult` (:meth:`RunView.from_result`) or a result folder's CSV
+:class:`~pkmlab.simulation.result.SimulationResult` (:meth:`RunView.from_result`) or a result folder's CSV
 rebuilt by forward kinematics and branch following (:func:`pkmlab.views.folder.read_result_folder`).
 """
 
@@ -57,11 +57,11 @@ class RunView:
     @classmethod
     def from_run(cls, name: str, model, t, q, pose, pose_d, tau, S, pose_names, summary=None,
                  scenario_text: str = "", frames: int | None = None) -> RunView:
-        """The view of a run of ``model`` (a :class:`~pkmlab.mechanism_model.MechanismModel`) recorded as
+        """The view of a run of ``model`` (a :class:`~pkmlab.model.mechanism_model.MechanismModel`) recorded as
         configurations ``q`` (N, n_coordinates), poses, efforts and ``S``; ``frames`` animation frames at most
         (:data:`MAX_FRAMES`)."""
-        from ..mechanism_model import joint_positions
-        from ..simulation import orientation_error, path_error
+        from ..model.mechanism_model import joint_positions
+        from ..simulation.result import orientation_error, path_error
 
         t, q, pose, pose_d, tau, S = (np.asarray(a, dtype=float) for a in (t, q, pose, pose_d, tau, S))
         description = model.description
@@ -85,7 +85,7 @@ class RunView:
 
     @classmethod
     def from_result(cls, result, name: str | None = None, scenario_text: str = "") -> RunView:
-        """The view of a :class:`~pkmlab.simulation.SimulationResult`."""
+        """The view of a :class:`~pkmlab.simulation.result.SimulationResult`."""
         return cls.from_run(name or result.scenario.name, result.scenario.plant_model, result.t, result.q,
                             result.pose, result.pose_d, result.tau, result.S, result.pose_names, result.summary(),
                             scenario_text)

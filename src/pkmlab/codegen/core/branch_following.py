@@ -1,0 +1,349 @@
+"""The compiled core, branch following (the paper's §3.2): the passive coordinates at new actuator values by the chord
+and Newton's methods from the base configuration, with the gain-type singularity measure ``S`` and its guard.
+
+A template, as every part of :mod:`pkmlab.codegen.core`: the text below the marker is appended to each
+structure's generated module, where the names imported here for reading are that module's own."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # defined in the generated module before this text
+    import numpy as np
+
+    from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit
+    from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
+        ANGLES,
+        DIM,
+        N_ACTUATORS,
+        N_CONSTRAINTS,
+        N_COORDINATES,
+        constraint_jacobian,
+        constraints,
+        leg_lines,
+        platform_size,
+        trig,
+        trig_passive,
+    )
+    from pkmlab.numerics.closed_chain import lu_factor, lu_solve_factored
+
+    from .workspace import (
+        BASE,
+        MAX_CHORD,
+        MAX_NEWTON,
+        MAX_NEWTON_STEP,
+        NEWTON_STEP,
+        NOT_CONVERGED,
+        OK,
+        REDUCED,
+        SINGULAR,
+        TRIAL,
+        X_COLUMN,
+        actuator_error,
+    )
+
+# ==== TEMPLATE
+@njit(**NO_REFCOUNT_INLINE)
+def reduced_column(k):
+    """The column of Jηφ of the k-th coordinate of the reduced system (the tracked point skipped)."""
+    return k if k < X_COLUMN else k + DIM
+
+
+@njit(**NO_REFCOUNT)
+def passive_solve(lu, piv, top, b, work):
+    """Overwrite ``b`` (m,) with ``Jηφ⁻¹ b`` from the factors of the reduced system (:func:`factor_passive`):
+    its rows are the constraints' rows DIM.. minus row 0 (x), 1 (y) or 2 (z), free of the tracked point;
+    then the tracked point from rows 0 .. DIM - 1 (``top``: their entries in the reduced system's columns).
+    ``work`` is an (m,) scratch array."""
+    for r in range(REDUCED):
+        work[r] = b[r + DIM] - b[r % DIM]
+    lu_solve_factored(lu, piv, work, REDUCED)
+    for d in range(DIM):
+        acc = -b[d]
+        for k in range(REDUCED):
+            acc += top[d, k] * work[k]
+        work[REDUCED + d] = acc
+    for k in range(REDUCED):
+        b[reduced_column(k)] = work[k]
+    for d in range(DIM):
+        b[X_COLUMN + d] = work[REDUCED + d]
+
+
+@njit(**NO_REFCOUNT)
+def singularity_measure(q, sc, P, lines):
+    """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
+
+    With ``u_i`` the unit direction of the line along which leg ``i`` pushes the platform and ``r_i``
+    its attachment point relative to the tracked point (the generated ``leg_lines``):
+
+    * a rigid planar platform on three legs: ``S = det[u_i, r_i × u_i] / ℓ``, zero when the three lines
+      meet in a point or are parallel (``ℓ`` the mean distance between attachment points). For an
+      equilateral platform this is the paper's eq. (19),
+      ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``, ``φ_i`` the angle of ``u_i``;
+    * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align;
+    * in space, :func:`spatial_singularity_measure`.
+
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array.
+    """
+    leg_lines(q, sc, P, lines)
+    if DIM == 3:
+        return spatial_singularity_measure(P, lines)
+    for i in range(N_ACTUATORS):
+        norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
+        lines[i, 2] /= norm
+        lines[i, 3] /= norm
+    if N_ACTUATORS == 2:
+        return lines[0, 3] * lines[1, 2] - lines[0, 2] * lines[1, 3]
+    for i in range(3):  # the moment of each line about the tracked point, in place of r_i
+        lines[i, 0] = lines[i, 0] * lines[i, 3] - lines[i, 1] * lines[i, 2]
+    det = (lines[0, 2] * (lines[1, 3] * lines[2, 0] - lines[1, 0] * lines[2, 3])
+           - lines[0, 3] * (lines[1, 2] * lines[2, 0] - lines[1, 0] * lines[2, 2])
+           + lines[0, 0] * (lines[1, 2] * lines[2, 3] - lines[1, 3] * lines[2, 2]))
+    return det / platform_size(P)
+
+
+@njit(**NO_REFCOUNT)
+def spatial_singularity_measure(P, lines):
+    """``S`` of a spatial machine from its legs' lines (N_ACTUATORS, 6) = ``(r_i, direction_i)`` (overwritten):
+
+    * a translating platform on three legs (the Delta): ``S = det[u_1, u_2, u_3]``, zero when the three
+      lines are parallel to one plane (for the Delta's forearms, ``det[P_i - E_i] / L_b³``);
+    * a platform with six degrees of freedom on six legs (the Stewart-Gough platform): the determinant
+      of the legs' normalised Plücker lines ``[u_i, (r_i × u_i) / ℓ]`` — the 6×6 forward Jacobian of
+      the leg lengths — zero when the six lines are linearly dependent (Merlet's line geometry).
+    """
+    for i in range(N_ACTUATORS):
+        norm = np.sqrt(lines[i, 3] ** 2 + lines[i, 4] ** 2 + lines[i, 5] ** 2)
+        for k in range(3, 6):
+            lines[i, k] /= norm
+    if N_ACTUATORS == 3:
+        return (lines[0, 3] * (lines[1, 4] * lines[2, 5] - lines[1, 5] * lines[2, 4])
+                - lines[0, 4] * (lines[1, 3] * lines[2, 5] - lines[1, 5] * lines[2, 3])
+                + lines[0, 5] * (lines[1, 3] * lines[2, 4] - lines[1, 4] * lines[2, 3]))
+    size = platform_size(P)
+    for i in range(N_ACTUATORS):  # rows [moment / ℓ, u]: a column permutation of [u, moment], same |det|
+        rx, ry, rz = lines[i, 0], lines[i, 1], lines[i, 2]
+        ux, uy, uz = lines[i, 3], lines[i, 4], lines[i, 5]
+        lines[i, 0] = (ry * uz - rz * uy) / size
+        lines[i, 1] = (rz * ux - rx * uz) / size
+        lines[i, 2] = (rx * uy - ry * ux) / size
+    det = -1.0  # three column swaps turn [moment, u] into [u, moment]
+    for c in range(N_ACTUATORS):  # Gaussian elimination with partial pivoting, in place
+        p = c
+        for r in range(c + 1, N_ACTUATORS):
+            if abs(lines[r, c]) > abs(lines[p, c]):
+                p = r
+        if lines[p, c] == 0.0:
+            return 0.0
+        if p != c:
+            det = -det
+            for k in range(N_ACTUATORS):
+                lines[c, k], lines[p, k] = lines[p, k], lines[c, k]
+        det *= lines[c, c]
+        for r in range(c + 1, N_ACTUATORS):
+            f = lines[r, c] / lines[c, c]
+            for k in range(c + 1, N_ACTUATORS):
+                lines[r, k] -= f * lines[c, k]
+    return det
+
+
+@njit(**NO_REFCOUNT)
+def factor_passive(ws, q, sc, P):
+    """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
+    reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
+    constraint_jacobian(q, sc, P, ws.j_eta)
+    n = N_ACTUATORS
+    for k in range(REDUCED):
+        c = n + reduced_column(k)
+        for d in range(DIM):
+            ws.top[d, k] = ws.j_eta[d, c]
+        for r in range(REDUCED):
+            ws.reduced[r, k] = ws.j_eta[r + DIM, c] - ws.j_eta[r % DIM, c]
+    ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
+    return ok
+
+
+@njit(**NO_REFCOUNT)
+def actuated_jacobian(ws, out):
+    """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) into ``out`` (N, n) from the last :func:`factor_passive`."""
+    n = N_ACTUATORS
+    for j in range(n):
+        for i in range(n):
+            out[i, j] = 1.0 if i == j else 0.0
+        for i in range(N_CONSTRAINTS):
+            ws.rhs[i] = -ws.j_eta[i, j]
+        passive_solve(ws.lu, ws.piv, ws.top, ws.rhs, ws.work)
+        for i in range(N_CONSTRAINTS):
+            out[n + i, j] = ws.rhs[i]
+
+
+@njit(**NO_REFCOUNT)
+def correct_passive(ws, q, sc, P):
+    """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` and its trig table ``sc`` (both in
+    place); returns the status."""
+    n = N_ACTUATORS
+    for _ in range(MAX_NEWTON):
+        constraints(q, sc, P, ws.eta)
+        if not factor_passive(ws, q, sc, P):
+            return SINGULAR
+        passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
+        step = 0.0
+        for i in range(N_CONSTRAINTS):
+            step = max(step, abs(ws.eta[i]))
+        if not step <= MAX_NEWTON_STEP:  # (NaN included)
+            return NOT_CONVERGED
+        for i in range(N_CONSTRAINTS):
+            q[n + i] -= ws.eta[i]
+        trig_passive(q, sc)
+        if step < NEWTON_STEP:
+            return OK
+    return NOT_CONVERGED
+
+
+@njit(**NO_REFCOUNT)
+def keep_base_factors(ws):
+    """The factors just computed (``ws.lu``, ``ws.piv``, ``ws.j_q_theta``) are the base's: keep them for
+    branch following from the base."""
+    for i in range(REDUCED):
+        ws.piv_base[i] = ws.piv[i]
+        for d in range(DIM):
+            ws.top_base[d, i] = ws.top[d, i]
+        for j in range(REDUCED):
+            ws.lu_base[i, j] = ws.lu[i, j]
+    for i in range(N_COORDINATES):
+        for j in range(N_ACTUATORS):
+            ws.j_q_theta_base[i, j] = ws.j_q_theta[i, j]
+    ws.base_factored[0] = 1
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def predict(ws, theta):
+    """The first-order predictor of :func:`follow_branch`: ``q[TRIAL] = q[BASE] + Jqθ(base) Δθ`` with
+    ``Δθ = ws.step``, the actuators set to ``theta``, and its trig table."""
+    base, trial = ws.q[BASE], ws.q[TRIAL]
+    for i in range(N_COORDINATES):
+        acc = base[i]
+        for j in range(N_ACTUATORS):
+            acc += ws.j_q_theta_base[i, j] * ws.step[j]
+        trial[i] = acc
+    for j in range(N_ACTUATORS):
+        trial[j] = theta[j]
+    trig(trial, ws.sc[TRIAL])
+
+
+@njit(**NO_REFCOUNT)
+def follow_branch(ws, theta, P, min_abs_s):
+    """The configuration at actuators ``theta`` continuously connected to the base (paper §3.2), into
+    ``ws.q[TRIAL]``: a first-order predictor along ``Jφθ`` (eq. 15) from the base, then the chord method
+    with the base's ``Jηφ`` (Newton's method if that is slow to converge).
+
+    Fails (``SINGULAR``) when ``|S|`` falls below ``min_abs_s`` or changes sign on the way — the step
+    would have crossed a gain-type singularity into another assembly mode; ``NOT_CONVERGED`` when the
+    passive coordinates cannot be found near the prediction (the step is too large: take smaller ones,
+    :func:`follow_branch_in_steps`). An actuator angle given across ±π from the base's is stepped the
+    shorter way round.
+    """
+    n = N_ACTUATORS
+    base = ws.q[BASE]
+    trial, sc = ws.q[TRIAL], ws.sc[TRIAL]
+    if ws.base_factored[0] == 0:
+        if not factor_passive(ws, base, ws.sc[BASE], P):
+            return SINGULAR
+        actuated_jacobian(ws, ws.j_q_theta)
+        keep_base_factors(ws)
+    for j in range(n):
+        d = theta[j] - base[j]
+        if ANGLES[j]:  # an angle given across ±π: the step the shorter way round (exact when it is not)
+            if d > np.pi:
+                d -= 2.0 * np.pi
+            elif d < -np.pi:
+                d += 2.0 * np.pi
+        ws.step[j] = d
+    predict(ws, theta)
+    status = NOT_CONVERGED
+    previous = np.inf
+    for _ in range(MAX_CHORD):
+        constraints(trial, sc, P, ws.eta)
+        passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
+        step = 0.0
+        for i in range(N_CONSTRAINTS):
+            trial[n + i] -= ws.eta[i]
+            step = max(step, abs(ws.eta[i]))
+        trig_passive(trial, sc)
+        # the chord method converges linearly with the ratio of successive steps, r: what remains after
+        # this step is at most step r / (1 - r)
+        ratio = step / previous  # 0 at the first step: no estimate yet
+        if step < NEWTON_STEP or (0.0 < ratio < 0.5 and step * ratio < 0.5 * NEWTON_STEP):
+            status = OK
+            break
+        if not ratio < 1.0:  # not contracting (or NaN): leave it to Newton's method, from the predictor
+            break
+        previous = step
+    if status != OK:
+        predict(ws, theta)
+        status = correct_passive(ws, trial, sc, P)
+        if status != OK:
+            return status
+    s = singularity_measure(trial, sc, P, ws.lines)
+    ws.s[TRIAL] = s
+    if abs(s) < min_abs_s or s * ws.s[BASE] < 0.0:
+        return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def accept_trial(ws):
+    """The trial configuration becomes the base."""
+    for i in range(N_COORDINATES):
+        ws.q[BASE, i] = ws.q[TRIAL, i]
+        ws.sc[BASE, i, 0] = ws.sc[TRIAL, i, 0]
+        ws.sc[BASE, i, 1] = ws.sc[TRIAL, i, 1]
+    ws.s[BASE] = ws.s[TRIAL]
+    ws.base_factored[0] = 0
+
+
+@njit(**NO_REFCOUNT)
+def set_base(ws, q, P):
+    """Start branch following from the configuration ``q`` (on the constraint manifold)."""
+    for i in range(N_COORDINATES):
+        ws.q[BASE, i] = q[i]
+    trig(q, ws.sc[BASE])
+    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines)
+    ws.base_factored[0] = 0
+
+
+@njit(**NO_REFCOUNT)
+def follow_branch_in_steps(ws, q_previous, theta, P, min_abs_s, max_step):
+    """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take
+    large steps: the actuators moved in equal sub-steps of at most ``max_step`` (rad or m, > 0; an angle the
+    shorter way round, so by at most π), each by :func:`follow_branch`, the whole retried in twice as many
+    sub-steps when one fails, six times (up to 64 times as many). The configuration reached is left in
+    ``ws.q[BASE]``: the target's on success, else the last one reached. ``q_previous`` must not be a view
+    of the workspace. Returns the status; ``SINGULAR`` at once when ``|S|`` is below ``min_abs_s`` at
+    ``q_previous``."""
+    n = N_ACTUATORS
+    largest = 0.0
+    for j in range(n):
+        largest = max(largest, abs(actuator_error(theta, q_previous, j)))
+    if not max_step > 0.0:
+        return NOT_CONVERGED
+    ratio = largest / max_step
+    steps = 1 if ratio <= 1.0 else int(np.ceil(min(ratio, 1e6)))
+    status = OK
+    for _ in range(7):  # steps, 2 steps, ..., 64 times as many
+        set_base(ws, q_previous, P)
+        if abs(ws.s[BASE]) < min_abs_s:
+            return SINGULAR
+        for k in range(1, steps + 1):
+            for j in range(n):  # the sub-step's target, on q_previous's side of 2π
+                ws.target[j] = q_previous[j] + actuator_error(theta, q_previous, j) * (k / steps)
+            status = follow_branch(ws, ws.target, P, min_abs_s)
+            if status != OK:
+                break
+            accept_trial(ws)
+        if status == OK:
+            for j in range(n):  # the actuators as asked (an angle may differ by whole turns)
+                ws.q[BASE, j] = theta[j]
+            return status
+        steps *= 2
+    return status

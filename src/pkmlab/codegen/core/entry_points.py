@@ -1,0 +1,146 @@
+"""The compiled core, entry points for callers outside compiled code (an adaptive integrator, a path's kinematics,
+branch following of a batch): plain arrays in and out.
+
+A template, as every part of :mod:`pkmlab.codegen.core`: the text below the marker is appended to each
+structure's generated module, where the names imported here for reading are that module's own."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # defined in the generated module before this text
+    import numpy as np
+
+    from pkmlab._compile_cache import njit
+    from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
+        LINE_WIDTH,
+        N_ACTUATORS,
+        N_COORDINATES,
+        constraint_bias,
+        constraint_jacobian,
+        trig,
+    )
+
+    from .branch_following import follow_branch_in_steps, singularity_measure
+    from .control import computed_torque, control_effort
+    from .loop import plant_stage
+    from .workspace import BASE, OK, make_workspaces
+
+# ==== TEMPLATE
+@njit(cache=True)
+def singularity_measures(qs, P, out):
+    """:func:`singularity_measure` of every configuration ``qs`` (K, N) into ``out`` (K,); NaN rows give NaN."""
+    lines, sc = np.empty((N_ACTUATORS, LINE_WIDTH)), np.zeros((N_COORDINATES, 2))
+    for k in range(qs.shape[0]):
+        trig(qs[k], sc)
+        out[k] = singularity_measure(qs[k], sc, P, lines)
+
+
+@njit(cache=True)
+def constraint_jacobians(qs, P, out):
+    """``Jηq`` of every configuration ``qs`` (K, N) into ``out`` (K, m, N)."""
+    sc = np.zeros((N_COORDINATES, 2))
+    for k in range(qs.shape[0]):
+        trig(qs[k], sc)
+        constraint_jacobian(qs[k], sc, P, out[k])
+
+
+@njit(cache=True)
+def constraint_biases(qs, q_dots, P, out):
+    """``J̇ηq q̇`` of every configuration and rate (K, N) into ``out`` (K, m)."""
+    sc = np.zeros((N_COORDINATES, 2))
+    for k in range(qs.shape[0]):
+        trig(qs[k], sc)
+        constraint_bias(qs[k], sc, q_dots[k], P, out[k])
+
+
+# ---- entry points for callers outside compiled code (an adaptive integrator, a path's kinematics): plain
+# arrays in and out, the workspace made inside (making one costs well under a microsecond), then passed
+# with the array that holds it to the function that does the work
+@njit(cache=True)
+def reduced_rhs(q_base, y, tau, P, min_abs_s, q_out):
+    """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
+    the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
+    configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
+    return _reduced_rhs(make_workspaces(1), q_base, y, tau, P, min_abs_s, q_out)
+
+
+@njit(cache=True)
+def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
+    n = N_ACTUATORS
+    ws = workspaces[0]
+    out = np.zeros(2 * n)
+    # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
+    status = follow_branch_in_steps(ws, q_base, y[:n], P, min_abs_s, np.inf)
+    if status == OK:
+        status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE, False)
+    for i in range(N_COORDINATES):
+        q_out[i] = ws.q[BASE, i]
+    if status == OK:
+        for i in range(n):
+            out[i] = y[n + i]
+            out[n + i] = ws.theta_ddot[i]
+    return out, status
+
+
+@njit(cache=True)
+def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
+                        q_out, tau):
+    """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
+    configuration at the measured ``theta`` into ``q_out``. Returns the status."""
+    return _control_effort_from(make_workspaces(1), q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
+                                theta_ddot_d, P, min_abs_s, q_out, tau)
+
+
+@njit(cache=True)
+def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
+                         min_abs_s, q_out, tau):
+    ws = workspaces[0]
+    if kind == 1:  # PD: no model to move
+        q_out[:] = q_base
+        return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
+                              ws, tau)
+    # computed torque: the model follows the measurement, in sub-steps where needed
+    status = follow_branch_in_steps(ws, q_base, theta, P, min_abs_s, np.inf)
+    if status == OK:
+        status = computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau)
+    for i in range(N_COORDINATES):
+        q_out[i] = ws.q[BASE, i]
+    return status
+
+
+@njit(cache=True)
+def branch_following_batch(q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+    """:func:`follow_branch_in_steps` from each ``q_previous[k]`` (K, N) to ``thetas[k]`` (K, n), into ``q_out``
+    (K, N) and ``status`` (K,)."""
+    _branch_following_batch(make_workspaces(1), q_previous, thetas, P, min_abs_s, max_step, q_out, status)
+
+
+@njit(cache=True)
+def _branch_following_batch(workspaces, q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+    ws = workspaces[0]
+    for k in range(thetas.shape[0]):
+        status[k] = follow_branch_in_steps(ws, q_previous[k], thetas[k], P, min_abs_s, max_step)
+        for i in range(N_COORDINATES):
+            q_out[k, i] = ws.q[BASE, i]
+
+
+@njit(cache=True)
+def follow_path(q_start, thetas, P, min_abs_s, q_out):
+    """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn
+    (:func:`follow_branch_in_steps`), into ``q_out`` (K, N); returns ``(status, k)``, ``k`` the first point
+    not reached (else -1)."""
+    return _follow_path(make_workspaces(1), q_start, thetas, P, min_abs_s, q_out)
+
+
+@njit(cache=True)
+def _follow_path(workspaces, q_start, thetas, P, min_abs_s, q_out):
+    ws = workspaces[0]
+    previous = q_start.copy()
+    for k in range(thetas.shape[0]):
+        status = follow_branch_in_steps(ws, previous, thetas[k], P, min_abs_s, np.inf)
+        if status != OK:
+            return status, k
+        for i in range(N_COORDINATES):
+            q_out[k, i] = previous[i] = ws.q[BASE, i]
+    return OK, -1

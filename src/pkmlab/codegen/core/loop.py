@@ -1,0 +1,175 @@
+"""The compiled core, the sampled-data loop: the plant's Runge-Kutta stages over each sample with the effort held, the
+controller at each sample, one run or a batch over all cores.
+
+A template, as every part of :mod:`pkmlab.codegen.core`: the text below the marker is appended to each
+structure's generated module, where the names imported here for reading are that module's own."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # defined in the generated module before this text
+    import numpy as np
+
+    from pkmlab._compile_cache import NO_REFCOUNT, njit, prange
+    from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import DIM, N_ACTUATORS, N_COORDINATES
+
+    from .branch_following import accept_trial, follow_branch, keep_base_factors, set_base
+    from .control import computed_torque, control_effort
+    from .dynamics import actuator_space_model, solve_accelerations
+    from .workspace import BASE, CONTROLLER, OK, REDUCED, SINGULAR, TRIAL, make_workspaces
+
+# ==== TEMPLATE
+@njit(**NO_REFCOUNT)
+def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot, known):
+    """``θ̈`` of the reduced plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
+
+    ``slot = BASE``: ``θ`` is the base's own; otherwise the passive coordinates are first found by
+    branch following from the base. ``known``: the workspace already holds the model there
+    (:func:`actuator_space_model` at the base and ``θ̇``, see :func:`copy_model`).
+    """
+    if slot != BASE:
+        status = follow_branch(ws, theta, P, min_abs_s)
+        if status != OK:
+            return status
+    if not known and not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
+        return SINGULAR
+    if slot == BASE:
+        keep_base_factors(ws)
+    if not solve_accelerations(ws, tau):
+        return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def copy_base(source, destination):
+    """The base configuration of the workspace ``source`` (configuration, trig table, ``S``) made
+    ``destination``'s: for two workspaces of the same machine."""
+    for i in range(N_COORDINATES):
+        destination.q[BASE, i] = source.q[BASE, i]
+        destination.sc[BASE, i, 0] = source.sc[BASE, i, 0]
+        destination.sc[BASE, i, 1] = source.sc[BASE, i, 1]
+    destination.s[BASE] = source.s[BASE]
+    destination.base_factored[0] = 0
+
+
+@njit(**NO_REFCOUNT)
+def copy_model(source, destination):
+    """The model evaluated at the base (``Mθ``, ``cθ``, ``gθ``, ``Jqθ`` and the factors of ``Jηφ``) copied from
+    the workspace ``source`` to ``destination``: for two workspaces of the same machine at the same base
+    configuration and rates."""
+    for i in range(N_COORDINATES):
+        for j in range(N_ACTUATORS):
+            destination.j_q_theta[i, j] = source.j_q_theta[i, j]
+    for i in range(N_ACTUATORS):
+        destination.c_theta[i] = source.c_theta[i]
+        destination.g_theta[i] = source.g_theta[i]
+        for j in range(N_ACTUATORS):
+            destination.m_theta[i, j] = source.m_theta[i, j]
+    for i in range(REDUCED):
+        destination.piv[i] = source.piv[i]
+        for d in range(DIM):
+            destination.top[d, i] = source.top[d, i]
+        for j in range(REDUCED):
+            destination.lu[i, j] = source.lu[i, j]
+
+
+@njit(**NO_REFCOUNT)
+def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
+    """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
+
+    ``x`` (2n,) = ``(θ, θ̇)`` is updated in place and the base configuration moved along; stages
+    find their passive coordinates by branch following from the start of the step. ``work`` is a
+    (5, 2n) scratch array. ``known``: the workspace already holds the model at the sample's start
+    (its first stage). Returns the status.
+    """
+    n = N_ACTUATORS
+    h = dt / n_sub
+    k = work[:4]
+    y = work[4]
+    for step in range(n_sub):
+        for stage in range(4):
+            c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
+            for i in range(2 * n):
+                y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
+            status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE if stage == 0 else TRIAL,
+                                 known and step == 0 and stage == 0)
+            if status != OK:
+                return status
+            for i in range(n):
+                k[stage, i] = y[n + i]
+                k[stage, n + i] = ws.theta_ddot[i]
+        for i in range(2 * n):
+            x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+        status = follow_branch(ws, x[:n], P, min_abs_s)
+        if status != OK:
+            return status
+        accept_trial(ws)
+    return OK
+
+
+@njit(cache=True)
+def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
+                      kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
+    """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
+    returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
+    own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, efforts and ``S``."""
+    return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
+                              P_plant, P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s)
+
+
+@njit(cache=True)
+def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant,
+                       P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
+    n = N_ACTUATORS
+    plant, ctrl = workspaces[0], workspaces[1]
+    set_base(plant, q_plant0, P_plant)
+    set_base(ctrl, q_ctrl0, P_ctrl)
+    x = np.zeros(2 * n)
+    for i in range(n):
+        x[i] = q_plant0[i]
+    work = np.empty((5, 2 * n))
+    tau = np.zeros(n)
+    # a computed-torque controller whose model is the plant (the nominal cases): from the second sample on, its
+    # model's configuration at the measured θ is the plant's own (same machine, same branch: the plant's
+    # branch following has just reached it and checked its S), and the model it evaluates there is the plant's
+    # at the sample's start, the RK4 step's first stage: both taken over instead of computed twice
+    same = kind == 0
+    for i in range(P_plant.size):
+        same = same and P_plant[i] == P_ctrl[i]
+    for k in range(theta_d.shape[0]):
+        out_q[k] = plant.q[BASE]
+        out_s[k] = plant.s[BASE]
+        out_theta_dot[k] = x[n:]
+        shared = same and k > 0
+        if shared:
+            copy_base(plant, ctrl)
+            status = computed_torque(kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl, ctrl,
+                                     tau)
+        else:
+            status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
+                                    min_abs_s, ctrl, tau)
+        if status != OK:
+            return CONTROLLER + status, k
+        out_tau[k] = tau
+        if k == theta_d.shape[0] - 1:
+            break
+        if shared:
+            copy_model(ctrl, plant)
+        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work, shared)
+        if status != OK:
+            return status, k
+    return OK, -1
+
+
+@njit(cache=True, parallel=True)
+def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind,
+                       kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s, out_status, out_k):
+    """:func:`sampled_data_loop` for a batch of runs (leading axis) over the CPU cores; each run executes
+    exactly the code of a single run."""
+    for r in prange(theta_d.shape[0]):
+        status, k = sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
+                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], min_abs_s[r],
+                                      out_q[r], out_theta_dot[r], out_tau[r], out_s[r])
+        out_status[r] = status
+        out_k[r] = k

@@ -1,0 +1,145 @@
+"""The compiled core, its foundations: status codes, Newton's tolerances, the workspace record every function works in,
+and the batch evaluators of the structure's kernels.
+
+A template, as every part of :mod:`pkmlab.codegen.core`: the text below the marker is appended to each
+structure's generated module, where the names imported here for reading are that module's own."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # what a structure's generated module defines before the template's text
+    from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (  # noqa: F401
+        ANGLES,
+        ANGULAR,
+        BODY_ROWS,
+        DIM,
+        DOF,
+        GRAVITY_INDEX,
+        INERTIA_INDEX,
+        JB_BODY,
+        JB_COL,
+        JB_ROW,
+        LINE_WIDTH,
+        MASS_INDEX,
+        N_ACTUATORS,
+        N_BODIES,
+        N_CONSTRAINTS,
+        N_COORDINATES,
+        N_JB,
+        body_bias,
+        body_jacobian_values,
+        constraint_bias,
+        constraint_jacobian,
+        constraints,
+        leg_lines,
+        platform_size,
+        trig,
+        trig_passive,
+    )
+
+
+# ==== TEMPLATE
+import numpy as np  # noqa: E402
+
+# what every part of the compiled core uses (the parts after this one, too)
+from pkmlab._compile_cache import INTERPRETED, NO_REFCOUNT, NO_REFCOUNT_INLINE, njit, prange  # noqa: E402, F401
+from pkmlab.numerics.closed_chain import (  # noqa: E402, F401
+    ldlt_solve,
+    lu_factor,
+    lu_solve_factored,
+)
+
+#: Status codes of the compiled functions (as :mod:`pkmlab.paper.rrr3`'s).
+OK = 0
+NOT_CONVERGED = 1  # Newton's method did not converge (no nearby configuration)
+SINGULAR = 2  # |S| fell below the guard, S changed sign, or a matrix was singular
+CONTROLLER = 10  # added to a status of the controller's own model
+
+#: Newton's method on the passive coordinates: at most this many iterations, stopping when a
+#: step is below NEWTON_STEP (metres or radians; convergence is quadratic, so the residual is
+#: then at round-off).
+MAX_NEWTON = 12
+NEWTON_STEP = 1e-13
+#: A Newton step longer than this (m or rad) means the iteration is heading for another solution (another
+#: assembly mode, or the same one whole turns away): refused, so that the caller takes a smaller step.
+MAX_NEWTON_STEP = 1.0
+#: Branch following first iterates with the base's Jacobian (the chord method: no Jacobian to
+#: evaluate or factor per iteration; it contracts by about the step's size in the actuators, so a
+#: sample's step converges in 2-4 iterations), and falls back to Newton's method after this many.
+MAX_CHORD = 8
+
+
+BASE = 0
+TRIAL = 1
+
+# Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
+# respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
+# point): eliminating the tracked point with these unit pivots leaves a system of DIM equations fewer in
+# the other passive coordinates (the passive joints and the orientation), to be factored instead of the
+# whole of Jηφ. X_COLUMN is x's column in Jηφ.
+REDUCED = N_CONSTRAINTS - DIM
+X_COLUMN = N_CONSTRAINTS - DOF
+
+
+#: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
+#: (``q[BASE]`` is the base configuration — the last accepted one, from which branch following starts —
+#: and ``q[TRIAL]`` a trial configuration). A record is passed to a function by a single pointer and its
+#: arrays have shapes known at compile time; a tuple of ~30 arrays was copied, array by array, into
+#: every call that took it (which cost about a quarter of the simulation loop's time).
+WORKSPACE = np.dtype([
+    ("q", np.float64, (2, N_COORDINATES)),  # base and trial configurations
+    ("sc", np.float64, (2, N_COORDINATES, 2)),  # their trig tables
+    ("s", np.float64, (2,)),  # their singularity measures
+    ("j_eta", np.float64, (N_CONSTRAINTS, N_COORDINATES)),  # Jηq
+    ("lu", np.float64, (REDUCED, REDUCED)),  # factors of Jηφ's reduced system (the tracked point eliminated)
+    ("piv", np.int64, (REDUCED,)),
+    ("eta", np.float64, (N_CONSTRAINTS,)),
+    ("j_q_theta", np.float64, (N_COORDINATES, N_ACTUATORS)),  # Jqθ (eq. 31)
+    ("q_dot", np.float64, (N_COORDINATES,)),
+    ("bias_q", np.float64, (N_COORDINATES,)),  # J̇qθ θ̇ (eq. 32)
+    ("gamma", np.float64, (N_CONSTRAINTS,)),  # J̇ηq q̇
+    ("jb", np.float64, (N_JB,)),  # the non-zeros of the bodies' Jacobians
+    ("bb", np.float64, (N_BODIES, BODY_ROWS)),  # bodies' J̇ q̇, then their accelerations at θ̈ = 0
+    ("jt", np.float64, (N_BODIES, BODY_ROWS, N_ACTUATORS)),  # the bodies' Jacobians times Jqθ
+    ("m_theta", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # Mθ
+    ("c_theta", np.float64, (N_ACTUATORS,)),  # cθ = Cθ θ̇
+    ("g_theta", np.float64, (N_ACTUATORS,)),  # gθ = ∂V/∂θ
+    ("theta_ddot", np.float64, (N_ACTUATORS,)),
+    ("ldl", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # factor of Mθ
+    ("lines", np.float64, (N_ACTUATORS, LINE_WIDTH)),  # the legs' lines of action
+    ("lu_base", np.float64, (REDUCED, REDUCED)),  # the same factors at the base, kept for branch following from it
+    ("piv_base", np.int64, (REDUCED,)),
+    ("j_q_theta_base", np.float64, (N_COORDINATES, N_ACTUATORS)),  # Jqθ at the base
+    ("base_factored", np.int64, (1,)),  # 1 when the three above are the base's
+    ("top", np.float64, (DIM, REDUCED)),  # rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
+    ("top_base", np.float64, (DIM, REDUCED)),  # the same at the base
+    ("reduced", np.float64, (REDUCED, REDUCED)),  # the reduced system before factoring
+    ("work", np.float64, (N_CONSTRAINTS,)),  # the reduced system's right-hand side, then the tracked point's DIM values
+    ("rhs", np.float64, (N_CONSTRAINTS,)),
+    ("target", np.float64, (N_ACTUATORS,)),  # the actuators of a sub-step of follow_branch_in_steps
+    ("step", np.float64, (N_ACTUATORS,)),  # the actuators' step of follow_branch's predictor
+], align=True)
+
+
+@njit(cache=True)
+def make_workspaces(count):
+    """``count`` workspaces, a record array; a kernel takes one record (``workspaces[k]``), and the array must
+    outlive every use of it (so entry points allocate it and pass it to the function that does the work)."""
+    return np.zeros(count, WORKSPACE)
+
+
+if INTERPRETED:  # the kernels read a record's arrays by attribute (ws.q): a record array of NumPy's that does
+    _workspace_records = make_workspaces
+
+    def make_workspaces(count):  # noqa: F811
+        return _workspace_records(count).view(np.recarray)
+
+
+@njit(**NO_REFCOUNT)
+def actuator_error(theta, theta_d, i):
+    """``θ_i - θ_d,i``, wrapped to ``(-π, π]`` for an angle (a revolute actuator)."""
+    e = theta[i] - theta_d[i]
+    if ANGLES[i]:
+        e = (e + np.pi) % (2.0 * np.pi) - np.pi
+    return e

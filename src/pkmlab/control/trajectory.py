@@ -1,0 +1,289 @@
+"""Desired motions of the platform: paths, time laws and waypoints.
+
+A trajectory is a geometric path of platform poses ``(x, y, α)`` parametrised by arc length
+``s ∈ [0, L]`` (a pure rotation is measured in radians), traversed with a time law
+``s(t)`` that starts and ends at rest (conventions §4: the paper's "third-order polynomial");
+:class:`TimedWaypoints` give a path in any machine's pose coordinates. :meth:`Trajectory.desired` gives
+pose, velocity and acceleration at any time; a simulation turns them into the desired actuator motion
+``θ_d, θ̇_d, θ̈_d`` (a :class:`JointMotion`) by the machine's exact inverse kinematics and its exact first and
+second derivatives (:func:`pkmlab.model.mechanism_model.path_rates`, no finite differences).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._validate import as_batch, as_choice, as_real
+from ..errors import InvalidParameterError, shown
+
+
+# ------------------------------------------------------------------ time laws
+def time_law(kind: str, tau):
+    """``(σ, σ', σ'')`` of a rest-to-rest law on ``τ ∈ [0, 1]``: cubic ``3τ² - 2τ³`` or quintic.
+
+    Outside ``[0, 1]`` the motion is at rest at its end points (``σ' = σ'' = 0``); the cubic's
+    acceleration jumps there (``σ''(1) = -6``), as in the paper.
+    """
+    raw = np.asarray(tau, dtype=float)
+    tau = np.clip(raw, 0.0, 1.0)
+    if kind == "cubic":
+        sigma, d1, d2 = 3 * tau**2 - 2 * tau**3, 6 * tau - 6 * tau**2, 6 - 12 * tau
+    elif kind == "quintic":
+        sigma, d1, d2 = (10 * tau**3 - 15 * tau**4 + 6 * tau**5, 30 * tau**2 - 60 * tau**3 + 30 * tau**4,
+                         60 * tau - 180 * tau**2 + 120 * tau**3)
+    else:
+        raise InvalidParameterError(f"time_law must be 'cubic' or 'quintic', got {kind!r}")
+    outside = (raw < 0.0) | (raw > 1.0)
+    return sigma, np.where(outside, 0.0, d1), np.where(outside, 0.0, d2)
+
+
+def _positive(name, value):
+    return as_real(name, value, "positive")
+
+
+def _finite_vector(name, value, n):
+    return as_batch(name, value, n, single=True)[0][0]
+
+
+def _times(t) -> np.ndarray:
+    """Times ``t`` (any shape) as a float array."""
+    try:
+        t = np.asarray(t, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidParameterError(f"t must be times in seconds, got {shown(t)}") from None
+    if not np.all(np.isfinite(t)):
+        raise InvalidParameterError(f"t must be finite times in seconds, got {shown(t)}")
+    return t
+
+
+# ------------------------------------------------------------------ paths
+@dataclass(frozen=True)
+class Circle:
+    """A circle of the platform centroid, ``turns`` times counter-clockwise from ``start_angle``.
+
+    The orientation goes linearly (in arc length) from ``alpha`` to ``alpha_end`` (constant by
+    default). The paper's path: ``Circle((0.25, 0.21), 0.05)`` (start at the leftmost point).
+    """
+
+    center: tuple[float, float]
+    radius: float
+    start_angle: float = math.pi
+    alpha: float = 0.0
+    alpha_end: float | None = None
+    turns: float = 1.0
+
+    def __post_init__(self):
+        _finite_vector("circle center", self.center, 2)
+        _positive("circle radius", self.radius)
+        _positive("circle turns", self.turns)
+        as_real("circle start_angle", self.start_angle)
+        as_real("circle alpha", self.alpha)
+        if self.alpha_end is not None:
+            as_real("circle alpha_end", self.alpha_end)
+        if not math.isfinite(self.length):
+            raise InvalidParameterError(f"circle radius × turns is too large: the length is {self.length}")
+
+    @property
+    def length(self) -> float:
+        return 2 * math.pi * self.radius * self.turns
+
+    def at(self, s):
+        """Pose, ``d/ds`` and ``d²/ds²`` (each (..., 3)) at arc lengths ``s``."""
+        s = np.asarray(s, dtype=float)
+        r = self.radius
+        psi = self.start_angle + s / r
+        a_end = self.alpha if self.alpha_end is None else self.alpha_end
+        da = (a_end - self.alpha) / self.length
+        c, sn = np.cos(psi), np.sin(psi)
+        pose = np.stack([self.center[0] + r * c, self.center[1] + r * sn, self.alpha + da * s], axis=-1)
+        d1 = np.stack([-sn, c, np.full_like(s, da)], axis=-1)
+        d2 = np.stack([-c / r, -sn / r, np.zeros_like(s)], axis=-1)
+        return pose, d1, d2
+
+
+@dataclass(frozen=True)
+class Line:
+    """A straight segment between two poses ``(x, y, α)``; ``α`` interpolated linearly.
+
+    The parameter is the distance travelled; for a pure rotation (same position) it is the
+    angle turned, in radians.
+    """
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+
+    def __post_init__(self):
+        a = _finite_vector("line start", self.start, 3)
+        b = _finite_vector("line end", self.end, 3)
+        if np.allclose(a, b):
+            raise InvalidParameterError("line start and end are the same pose")
+
+    @property
+    def length(self) -> float:
+        d = np.subtract(self.end, self.start)
+        dist = float(np.hypot(d[0], d[1]))
+        return dist if dist > 0 else abs(float(d[2]))
+
+    def at(self, s):
+        s = np.asarray(s, dtype=float)
+        d = np.subtract(self.end, self.start) / self.length
+        pose = np.asarray(self.start) + s[..., None] * d
+        return pose, np.broadcast_to(d, pose.shape).copy(), np.zeros_like(pose)
+
+
+# ------------------------------------------------------------------ trajectories
+@dataclass(frozen=True)
+class Trajectory:
+    """A path traversed with a rest-to-rest time law at average speed ``speed`` (m/s).
+
+    ``duration = length / speed`` (conventions §4: ``T = L / v``).
+    """
+
+    path: Circle | Line
+    speed: float
+    law: str = "cubic"
+
+    def __post_init__(self):
+        if not callable(getattr(self.path, "at", None)):
+            raise InvalidParameterError(f"path must be a Circle or a Line, got {type(self.path).__name__} "
+                                        f"{shown(self.path, 50)}")
+        length = _positive("path length", getattr(self.path, "length", None))
+        speed = _positive("speed", self.speed)
+        as_choice("law", self.law, ("cubic", "quintic"))
+        if not math.isfinite(length / speed):
+            raise InvalidParameterError(f"speed = {speed:g} m/s is too low for a path of {length:g} m: "
+                                        "the motion would never end")
+
+    @property
+    def duration(self) -> float:
+        return self.path.length / self.speed
+
+    def desired(self, t):
+        """``(pose, pose_dot, pose_ddot)``, each (..., 3), at times ``t`` (clamped to [0, T])."""
+        T = self.duration
+        L = self.path.length
+        sigma, dsigma, ddsigma = time_law(self.law, _times(t) / T)
+        s, s_dot, s_ddot = L * sigma, L * dsigma / T, L * ddsigma / T**2
+        pose, d1, d2 = self.path.at(s)
+        return pose, d1 * s_dot[..., None], d2 * (s_dot**2)[..., None] + d1 * s_ddot[..., None]
+
+
+@dataclass(frozen=True)
+class WaypointTrajectory:
+    """Straight segments through poses ``points`` (K, 3), at rest at every waypoint.
+
+    Each segment is its own rest-to-rest :class:`Trajectory` (so the corners need no infinite
+    acceleration); ``α`` is interpolated along each segment.
+    """
+
+    points: tuple
+    speed: float
+    law: str = "cubic"
+    segments: tuple = field(init=False, repr=False)
+
+    def __post_init__(self):
+        pts, shape = as_batch("points", self.points, 3)
+        if len(shape) != 1 or shape[0] < 2:
+            raise InvalidParameterError(f"points must be at least two poses [x, y, alpha], got shape {(*shape, 3)}")
+        for i in range(1, len(pts)):
+            if np.allclose(pts[i - 1], pts[i]):
+                raise InvalidParameterError(f"points[{i}] repeats the previous pose {pts[i].tolist()}")
+        segments = tuple(Trajectory(Line(tuple(a), tuple(b)), self.speed, self.law)
+                         for a, b in zip(pts[:-1], pts[1:], strict=True))
+        object.__setattr__(self, "segments", segments)
+
+    @property
+    def duration(self) -> float:
+        return sum(seg.duration for seg in self.segments)
+
+    def desired(self, t):
+        t = _times(t)
+        starts = np.cumsum([0.0] + [seg.duration for seg in self.segments])
+        idx = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.segments) - 1)
+        out = [np.empty((*t.shape, 3)) for _ in range(3)]
+        for k, seg in enumerate(self.segments):
+            mask = idx == k
+            if np.any(mask):
+                for o, v in zip(out, seg.desired(t[mask] - starts[k]), strict=True):
+                    o[mask] = v
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class TimedWaypoints:
+    """Straight segments through poses ``points`` (K, d) of any dimension — ``(x, y, z)`` for the Delta,
+    ``(x, y, z, roll, pitch, yaw)`` for a six-degree-of-freedom platform, ``(x, y, alpha)`` in the plane —
+    each traversed in its own time ``durations[k]`` (s) with a rest-to-rest ``law``, at rest at every
+    waypoint: the pick-and-place cycle of industry, whose segments have prescribed times.
+
+    On segment ``k``, ``pose = p_k + σ(τ) (p_k+1 - p_k)``, ``τ = (t - t_k) / D_k``: every coordinate,
+    orientation angles included, moves in proportion (a straight line in pose space).
+    """
+
+    points: tuple
+    durations: tuple
+    law: str = "quintic"
+
+    def __post_init__(self):
+        try:
+            pts = np.asarray(self.points, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(f"points must be a list of poses, got {shown(self.points, 60)}") from None
+        if pts.ndim != 2 or len(pts) < 2 or not 2 <= pts.shape[1] <= 6 or not np.all(np.isfinite(pts)):
+            raise InvalidParameterError(f"points must be at least two finite poses of 2 to 6 coordinates, got "
+                                        f"{shown(self.points, 60)}")
+        durations = np.asarray(self.durations, dtype=float)
+        if durations.shape != (len(pts) - 1,) or not np.all(np.isfinite(durations)) or np.any(durations <= 0):
+            raise InvalidParameterError(f"durations must be {len(pts) - 1} positive times in s (one per segment), "
+                                        f"got {shown(self.durations, 60)}")
+        for i in range(1, len(pts)):
+            if np.array_equal(pts[i - 1], pts[i]):
+                raise InvalidParameterError(f"points[{i}] repeats the previous pose {pts[i].tolist()}")
+        as_choice("law", self.law, ("cubic", "quintic"))
+        object.__setattr__(self, "points", tuple(tuple(float(v) for v in p) for p in pts))
+        object.__setattr__(self, "durations", tuple(float(d) for d in durations))
+
+    @property
+    def dimension(self) -> int:
+        """The number of the poses' coordinates."""
+        return len(self.points[0])
+
+    @property
+    def duration(self) -> float:
+        return float(sum(self.durations))
+
+    def desired(self, t):
+        """``(pose, pose_dot, pose_ddot)``, each (..., d), at times ``t`` (at rest before 0 and after the end)."""
+        t = _times(t)
+        pts, durations = np.asarray(self.points), np.asarray(self.durations)
+        starts = np.concatenate([[0.0], np.cumsum(durations)])
+        k = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(durations) - 1)
+        span = durations[k]
+        sigma, d1, d2 = time_law(self.law, (t - starts[k]) / span)
+        delta = pts[k + 1] - pts[k]
+        return (pts[k] + sigma[..., None] * delta, (d1 / span)[..., None] * delta,
+                (d2 / span**2)[..., None] * delta)
+
+
+def paper_trajectory(speed: float = 0.2) -> Trajectory:
+    """The paper's circle (conventions §4): centre (0.25, 0.21), radius 0.05, from the leftmost point."""
+    return Trajectory(Circle((0.25, 0.21), 0.05, start_angle=math.pi, alpha=0.0), speed, "cubic")
+
+
+# ------------------------------------------------------------------ actuator space
+@dataclass(frozen=True)
+class JointMotion:
+    """Desired actuator motion at times ``t`` (N,): ``theta``, ``theta_dot``, ``theta_ddot`` (N, 3),
+    with the configurations ``q`` (N, 7) and platform ``pose`` (N, 3) they come from, and where computed
+    with them the singularity measure ``S`` (N,) along the path."""
+
+    t: np.ndarray
+    q: np.ndarray
+    pose: np.ndarray
+    theta: np.ndarray
+    theta_dot: np.ndarray
+    theta_ddot: np.ndarray
+    S: np.ndarray | None = None

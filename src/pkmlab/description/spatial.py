@@ -1,0 +1,434 @@
+"""A spatial parallel manipulator described as data: legs of R, P, U and S joints, bodies with
+inertia tensors, gravity as a vector — the Delta robot and the Stewart–Gough platform among them.
+
+The spatial counterpart of :mod:`pkmlab.description.mechanism` (whose planar machines stay as
+they are). A :class:`SpatialMechanism` is an immutable *model*, validated once.
+
+Conventions (pkmlab's, for every spatial mechanism):
+
+* SI units; a right-handed world frame, ``z`` up in the presets; gravity is a vector
+  (``(0, 0, -9.81)`` for a machine working against gravity).
+* **The zero configuration.** Every joint coordinate zero, every body's frame is parallel to the
+  world's. Joint axes, body tips and mass centres are given in that configuration (like an MJCF file
+  whose bodies carry no rotation): a body's frame has its origin at the joint that moves it.
+* A leg is a serial chain from its ``base`` point to the platform:
+
+  - ``R`` (revolute, 1 coordinate): the following body turns by the coordinate (rad, right-hand
+    rule) about ``axis``, fixed in the preceding body; the joint sits at the preceding body's tip
+    (at ``base`` for the first joint);
+  - ``P`` (prismatic, 1 coordinate): the following body slides by the coordinate (m) along ``axis``
+    and keeps the preceding body's orientation; its origin is the preceding tip moved along the axis;
+  - ``U`` (universal, 2 coordinates): a turn about ``axes[0]`` (fixed in the preceding body), then
+    about ``axes[1]`` (carried by the first turn); the two axes must be perpendicular;
+  - ``S`` (spherical, no coordinate): the last joint, and only there: it carries the platform at
+    the tip of the leg's last body (the platform's attachment point of that leg).
+
+  Every leg has exactly three joint coordinates (what a point needs to reach a neighbourhood in
+  space) and one actuated joint, ``R*`` or ``P*``.
+* The platform is ``translating`` (pose ``(x, y, z)``: its orientation is held fixed by its legs, as
+  the Delta's parallelogram forearms hold it; three legs) or ``rigid`` (pose
+  ``(x, y, z, roll, pitch, yaw)``; six legs). Its orientation is ``R = Rz(yaw)·Ry(pitch)·Rx(roll)``:
+  yaw about the world's z, then pitch about the new y, then roll about the newest x (the z-y'-x''
+  convention of aeronautics and ROS); it is singular at ``pitch = ±π/2`` (gimbal lock), where poses are
+  refused. Attachment points and the mass centre are in the platform frame, whose origin is the
+  tracked point.
+* Inertia tensors are 3×3, about the body's mass centre, in the body's frame (symmetric, positive
+  semi-definite, principal moments obeying the triangle inequality); a thin rod along x may have
+  ``I_xx = 0``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+from ._fields import finite_number, known_keys, required, stroke, toml_value
+from .mechanism import JointChain, LegsAndPose, platform_and_legs
+
+SPATIAL_JOINTS = ("R", "P", "U", "S")
+SPATIAL_PLATFORMS = ("translating", "rigid")
+#: The pose's coordinates of each platform kind.
+POSE_NAMES = {"translating": ("x", "y", "z"), "rigid": ("x", "y", "z", "roll", "pitch", "yaw")}
+_COORDINATES = {"R": 1, "P": 1, "U": 2, "S": 0}
+#: Pitch closer than this to ±π/2 (rad) is gimbal lock: roll and yaw are no longer told apart.
+GIMBAL_MARGIN = 1e-6
+
+
+def _vector(where: str, value) -> tuple[float, float, float]:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 3:
+        raise InvalidParameterError(f"{where} must be a vector [x, y, z], got {value!r}")
+    return tuple(finite_number(f"{where}[{k}]", v) for k, v in enumerate(value))
+
+
+def _unit(where: str, value) -> tuple[float, float, float]:
+    v = np.array(_vector(where, value))
+    norm = float(np.linalg.norm(v))
+    if norm == 0.0:
+        raise InvalidParameterError(f"{where} must be a non-zero direction, got {list(value)!r}")
+    if abs(norm - 1.0) <= 1e-15:  # unit already (to round-off): kept as given, so that a description reads back equal
+        return tuple(float(c) for c in v)
+    return tuple(float(c) for c in v / norm)
+
+
+def _tensor(where: str, value) -> tuple[tuple[float, float, float], ...]:
+    """A 3×3 inertia tensor: symmetric, positive semi-definite, principal moments obeying the triangle
+    inequality (every real body's do). A number ``I`` is read as ``I·identity``."""
+    if not isinstance(value, (list, tuple)):
+        v = finite_number(where, value, non_negative=True)
+        return ((v, 0.0, 0.0), (0.0, v, 0.0), (0.0, 0.0, v))
+    if len(value) != 3 or any(isinstance(r, (str, bytes)) or not hasattr(r, "__len__") or len(r) != 3
+                              for r in value):
+        raise InvalidParameterError(f"{where} must be a 3x3 inertia tensor [[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], "
+                                    f"[Ixz, Iyz, Izz]], got {value!r}")
+    t = np.array([[finite_number(f"{where}[{i}][{j}]", value[i][j]) for j in range(3)] for i in range(3)])
+    scale = max(float(np.abs(t).max()), 1e-300)
+    if np.abs(t - t.T).max() > 1e-12 * scale:
+        raise InvalidParameterError(f"{where} must be symmetric, got {t.tolist()}")
+    moments = np.linalg.eigvalsh(t)
+    if moments[0] < -1e-12 * scale:
+        raise InvalidParameterError(f"{where} must be positive semi-definite, its principal moments are "
+                                    f"{', '.join(f'{m:.4g}' for m in moments)}")
+    if moments[0] + moments[1] < moments[2] - 1e-9 * scale:
+        raise InvalidParameterError(f"{where}: principal moments {', '.join(f'{m:.4g}' for m in moments)} break the "
+                                    "triangle inequality (no body has them)")
+    return tuple(tuple(float(c) for c in row) for row in (t + t.T) / 2)
+
+
+# ------------------------------------------------------------------ the values
+@dataclass(frozen=True)
+class SpatialBody:
+    """A rigid body of a leg: its ``tip`` (where the next joint sits), mass, mass centre and inertia
+    tensor about the mass centre, all in the body's frame (module docstring)."""
+
+    tip: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    mass: float = 0.0
+    com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    inertia: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+
+    def checked(self, where: str) -> SpatialBody:
+        return SpatialBody(_vector(f"{where}.tip", self.tip), finite_number(f"{where}.mass", self.mass, positive=True),
+                           _vector(f"{where}.com", self.com), _tensor(f"{where}.inertia", self.inertia))
+
+
+@dataclass(frozen=True)
+class SpatialJoint:
+    """A joint: ``kind`` R, P, U or S, whether it is actuated, and its ``axes`` (one for R and P, two
+    perpendicular ones for U, none for S) in the preceding body's frame."""
+
+    kind: str
+    actuated: bool = False
+    axes: tuple = ()
+
+    @property
+    def coordinates(self) -> int:
+        return _COORDINATES[self.kind]
+
+
+@dataclass(frozen=True)
+class SpatialLeg(JointChain):
+    """A serial chain from ``base`` to the platform: ``joints`` (the last an S), ``bodies`` (one after each
+    joint but the S), the actuator's ``stroke`` (lower, upper) or None."""
+
+    base: tuple[float, float, float]
+    joints: tuple[SpatialJoint, ...]
+    bodies: tuple[SpatialBody, ...]
+    stroke: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class SpatialPlatform:
+    """The moving platform: ``kind`` ``"translating"`` or ``"rigid"``; ``attachments`` (one point per leg,
+    platform frame); mass, mass centre (platform frame) and inertia tensor about the mass centre."""
+
+    kind: str = "translating"
+    attachments: tuple = ()
+    mass: float = 0.0
+    com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    inertia: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+
+    @property
+    def pose_names(self) -> tuple[str, ...]:
+        return POSE_NAMES[self.kind]
+
+
+@dataclass(frozen=True)
+class SpatialMechanism(LegsAndPose):
+    """A spatial parallel manipulator: legs, platform, gravity (a 3-vector) and a name.
+
+    Validated on construction: every problem is one :class:`~pkmlab.errors.InvalidParameterError` line
+    naming the leg, the joint or the body. See the module docstring for the conventions.
+    """
+
+    name: str
+    legs: tuple[SpatialLeg, ...]
+    platform: SpatialPlatform
+    gravity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    #: Every spatial description says so; a planar :class:`~pkmlab.description.mechanism.Mechanism` does not.
+    spatial = True
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        if not isinstance(self.name, str) or not self.name:
+            raise InvalidParameterError(f"the mechanism's name must be a non-empty string, got {self.name!r}")
+        set_(self, "gravity", _vector("gravity", self.gravity))
+        platform = self.platform
+        if not isinstance(platform, SpatialPlatform) or platform.kind not in SPATIAL_PLATFORMS:
+            kind = getattr(platform, "kind", platform)
+            raise InvalidParameterError(f"a spatial platform is 'translating' or 'rigid', got {kind!r}")
+        legs = tuple(self.legs)
+        dof = len(platform.pose_names)
+        if len(legs) != dof:
+            raise InvalidParameterError(f"a {platform.kind} platform (pose {', '.join(platform.pose_names)}) needs "
+                                        f"{dof} actuated legs, got {len(legs)}")
+        set_(self, "legs", tuple(self._checked_leg(i + 1, leg) for i, leg in enumerate(legs)))
+        set_(self, "platform", self._checked_platform(platform))
+
+    def _checked_leg(self, number: int, leg: SpatialLeg) -> SpatialLeg:
+        where = f"leg {number}"
+        if not isinstance(leg, SpatialLeg):
+            raise InvalidParameterError(f"{where} must be a SpatialLeg, got {type(leg).__name__}")
+        joints = tuple(leg.joints)
+        for k, joint in enumerate(joints):
+            if not isinstance(joint, SpatialJoint) or joint.kind not in SPATIAL_JOINTS:
+                kind = getattr(joint, "kind", joint)
+                raise InvalidParameterError(f"{where}, joint {k + 1}: unknown joint type {kind!r} (use R, P, U or S)")
+        if not joints or joints[-1].kind != "S" or joints[-1].actuated:
+            raise InvalidParameterError(f"{where}: its last joint carries the platform and must be a passive "
+                                        "spherical joint (S)")
+        if any(j.kind == "S" for j in joints[:-1]):
+            raise InvalidParameterError(f"{where}: a spherical joint (S) may only be the last joint")
+        actuated = [k for k, j in enumerate(joints) if j.actuated]
+        if len(actuated) != 1 or joints[actuated[0]].kind not in ("R", "P"):
+            what = ("no actuated joint" if not actuated else f"{len(actuated)} actuated joints" if len(actuated) > 1
+                    else f"an actuated {joints[actuated[0]].kind} joint")
+            raise InvalidParameterError(f"{where} ({''.join(j.kind for j in joints)}) has {what}: exactly one R or P "
+                                        "joint per leg is actuated (mark it with *, e.g. R*US or UP*S)")
+        count = sum(j.coordinates for j in joints)
+        if count != 3:
+            raise InvalidParameterError(f"{where} ({''.join(j.kind for j in joints)}) has {count} joint coordinates; "
+                                        "a leg ending in a spherical joint needs exactly 3 to place it in space")
+        checked = []
+        for k, joint in enumerate(joints):
+            axes = tuple(joint.axes)
+            wanted = {"R": 1, "P": 1, "U": 2, "S": 0}[joint.kind]
+            if len(axes) != wanted:
+                raise InvalidParameterError(f"{where}, joint {k + 1} ({joint.kind}): needs {wanted} axis vector(s), "
+                                            f"got {len(axes)}")
+            axes = tuple(_unit(f"{where}, joint {k + 1} ({joint.kind}): axis {a + 1}", v) for a, v in enumerate(axes))
+            if joint.kind == "U" and abs(float(np.dot(axes[0], axes[1]))) > 1e-9:
+                angle = math.degrees(math.acos(min(1.0, abs(float(np.dot(axes[0], axes[1]))))))
+                raise InvalidParameterError(f"{where}, joint {k + 1} (U): its two axes must be perpendicular, they "
+                                            f"are {angle:.3g} degrees apart (a degenerate universal joint)")
+            checked.append(SpatialJoint(joint.kind, bool(joint.actuated), axes))
+        bodies = tuple(leg.bodies)
+        if len(bodies) != len(joints) - 1:
+            raise InvalidParameterError(f"{where} has {len(joints)} joints and so {len(joints) - 1} bodies (one after "
+                                        f"each joint but the S), got {len(bodies)}")
+        checked_bodies = []
+        for k, body in enumerate(bodies):
+            if not isinstance(body, SpatialBody):
+                raise InvalidParameterError(f"{where}, body {k + 1} must be a SpatialBody, got {type(body).__name__}")
+            checked_bodies.append(body.checked(f"{where}, body {k + 1}"))
+        return SpatialLeg(_vector(f"{where}: base", leg.base), tuple(checked), tuple(checked_bodies),
+                          stroke(where, leg.stroke))
+
+    def _checked_platform(self, platform: SpatialPlatform) -> SpatialPlatform:
+        n = len(self.legs)
+        attachments = tuple(_vector(f"platform attachment {i + 1}", p) for i, p in enumerate(platform.attachments))
+        if len(attachments) != n:
+            raise InvalidParameterError(f"the platform needs one attachment point per leg: {n} legs, "
+                                        f"{len(attachments)} attachment points")
+        if platform.kind == "rigid":
+            for i in range(n):
+                for k in range(i):
+                    if math.dist(attachments[i], attachments[k]) == 0:
+                        raise InvalidParameterError(f"platform attachments {k + 1} and {i + 1} coincide: a rigid "
+                                                    "platform of six legs needs them apart")
+        return SpatialPlatform(platform.kind, attachments, finite_number("platform mass", platform.mass, positive=True),
+                               _vector("platform com", platform.com), _tensor("platform inertia", platform.inertia))
+
+
+# ------------------------------------------------------------------ rotations (one numeric reference)
+def axis_rotation(axis, angle: float) -> np.ndarray:
+    """Rodrigues: the rotation by ``angle`` about the unit ``axis``."""
+    a = np.asarray(axis, dtype=float)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+
+
+def orientation(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """``Rz(yaw)·Ry(pitch)·Rx(roll)`` (module docstring)."""
+    return orientations(np.array([[roll, pitch, yaw]], dtype=float))[0]
+
+
+def orientations(angles) -> np.ndarray:
+    """:func:`orientation` of many ``(roll, pitch, yaw)`` (K, 3) at once, (K, 3, 3)."""
+    angles = np.asarray(angles, dtype=float)
+    cr, sr = np.cos(angles[:, 0]), np.sin(angles[:, 0])
+    cp, sp = np.cos(angles[:, 1]), np.sin(angles[:, 1])
+    cy, sy = np.cos(angles[:, 2]), np.sin(angles[:, 2])
+    return np.stack([
+        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], axis=-1),
+        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], axis=-1),
+        np.stack([-sp, cp * sr, cp * cr], axis=-1)], axis=-2)
+
+
+def check_pose(mechanism: SpatialMechanism, pose, where: str = "pose") -> np.ndarray:
+    """``pose`` as an array, refused when it has the wrong length, is not finite or is at gimbal lock."""
+    values = np.asarray(pose, dtype=float)
+    names = mechanism.pose_names
+    if values.shape != (len(names),) or not np.all(np.isfinite(values)):
+        raise InvalidParameterError(f"{where} must be ({', '.join(names)}), finite, got {np.asarray(pose).tolist()}")
+    if mechanism.platform.kind == "rigid" and abs(abs(math.remainder(values[4], 2 * math.pi)) - math.pi / 2) \
+            < GIMBAL_MARGIN:
+        raise InvalidParameterError(f"{where} has pitch = {values[4]:.6g} rad: at pitch = ±pi/2 roll and yaw are the "
+                                    "same turn (gimbal lock of the z-y'-x'' angles); tilt the platform otherwise")
+    return values
+
+
+def leg_frames(leg: SpatialLeg, coordinates) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Origin and orientation of every body of ``leg`` (and, last, the S joint's centre with the last body's
+    orientation) at the leg's joint coordinates (three): the readable statement of the chain conventions
+    (module docstring), which the generated kernels are checked against."""
+    coordinates = [float(c) for c in coordinates]
+    if len(coordinates) != 3:
+        raise InvalidParameterError(f"a {leg.notation} leg has 3 joint coordinates, got {len(coordinates)}")
+    values = iter(coordinates)
+    point, rot = np.array(leg.base, dtype=float), np.eye(3)
+    out = []
+    for joint, body in zip(leg.joints, leg.bodies, strict=False):
+        if joint.kind == "R":
+            rot = rot @ axis_rotation(joint.axes[0], next(values))
+            origin = point
+        elif joint.kind == "U":
+            rot = rot @ axis_rotation(joint.axes[0], next(values)) @ axis_rotation(joint.axes[1], next(values))
+            origin = point
+        else:  # P
+            origin = point + next(values) * (rot @ np.array(joint.axes[0]))
+        out.append((origin, rot))
+        point = origin + rot @ np.array(body.tip)
+    out.append((point, rot))
+    return out
+
+
+def attachment_point(mechanism: SpatialMechanism, leg: int, pose) -> np.ndarray:
+    """Where leg ``leg`` (0-based) meets the platform at ``pose``."""
+    pose = np.asarray(pose, dtype=float)
+    rot = orientation(*pose[3:6]) if mechanism.platform.kind == "rigid" else np.eye(3)
+    return pose[:3] + rot @ np.array(mechanism.platform.attachments[leg])
+
+
+def attachment_points(mechanism: SpatialMechanism, leg: int, poses: np.ndarray) -> np.ndarray:
+    """:func:`attachment_point` of many poses (K, dof) at once, (K, 3)."""
+    poses = np.asarray(poses, dtype=float)
+    a = np.array(mechanism.platform.attachments[leg])
+    if mechanism.platform.kind != "rigid":
+        return poses[:, :3] + a
+    return poses[:, :3] + np.einsum("kij,j->ki", orientations(poses[:, 3:6]), a)
+
+
+# ------------------------------------------------------------------ the TOML form
+MECHANISM_KEYS = ("name", "gravity", "platform", "leg")
+PLATFORM_KEYS = ("kind", "attachments", "mass", "com", "inertia")
+LEG_KEYS = ("base", "joints", "axes", "stroke", "bodies")
+BODY_KEYS = ("tip", "mass", "com", "inertia")
+_JOINTS = re.compile(r"^([RPUS]\*?)+$")
+
+
+def spatial_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> SpatialMechanism:
+    """The spatial mechanism of a ``[mechanism]`` table with ``dimension = 3``.
+
+    Each ``[[mechanism.leg]]`` has ``base``, ``joints`` (e.g. ``"UP*S"``), ``axes`` (a list with one entry per
+    joint but the S: a vector for R and P, a pair of vectors for U), ``stroke`` and ``bodies`` (``tip``,
+    ``mass``, ``com``, ``inertia``: a 3×3 tensor or a number for ``I·identity``).
+    """
+    where = source
+    table = known_keys(table, MECHANISM_KEYS, where)
+    platform, kind, attachments, legs_table = platform_and_legs(table, where, PLATFORM_KEYS, SPATIAL_PLATFORMS,
+                                                                "[x, y, z]")
+    legs = []
+    for i, leg in enumerate(legs_table):
+        lw = f"{where}.leg[{i + 1}]"
+        leg = known_keys(leg, LEG_KEYS, lw)
+        text = required(leg, "joints", lw)
+        compact = text.replace(" ", "") if isinstance(text, str) else None
+        if compact is None or not _JOINTS.match(compact):
+            raise InvalidParameterError(f"{lw}.joints must be letters R, P, U, S from the base to the platform, the "
+                                        f"actuated one starred, e.g. \"UP*S\" or \"R*US\"; got {text!r}")
+        kinds = [m.group(0) for m in re.finditer(r"[RPUS]\*?", compact)]
+        axes = leg.get("axes", [])
+        movable = [k for k in kinds if k[0] != "S"]
+        if not isinstance(axes, list) or len(axes) != len(movable):
+            raise InvalidParameterError(f"{lw}.axes needs one entry per joint but the S ({len(movable)}): a vector "
+                                        "[x, y, z] for R and P, a pair of perpendicular vectors for U")
+        joints, values = [], iter(axes)
+        for k in kinds:
+            given = () if k[0] == "S" else next(values)
+            if k[0] == "U":
+                if not isinstance(given, list) or len(given) != 2:
+                    raise InvalidParameterError(f"{lw}.axes: a U joint needs a pair of vectors [[x, y, z], [x, y, z]], "
+                                                f"got {given!r}")
+                given = tuple(given)
+            elif k[0] != "S":
+                given = (given,)
+            joints.append(SpatialJoint(k[0], k.endswith("*"), given))
+        bodies = leg.get("bodies", [])
+        if not isinstance(bodies, list):
+            raise InvalidParameterError(f"{lw}.bodies must be a list of bodies")
+        parsed = []
+        for k, body in enumerate(bodies):
+            bw = f"{lw}.bodies[{k + 1}]"
+            body = known_keys(body, BODY_KEYS, bw)
+            parsed.append(SpatialBody(body.get("tip", (0.0, 0.0, 0.0)), required(body, "mass", bw),
+                                      body.get("com", (0.0, 0.0, 0.0)), body.get("inertia", 0.0)))
+        legs.append(SpatialLeg(required(leg, "base", lw), tuple(joints), tuple(parsed), leg.get("stroke")))
+    return SpatialMechanism(table.get("name", "mechanism"), tuple(legs),
+                            SpatialPlatform(kind, tuple(attachments), platform.get("mass", 0.0),
+                                            platform.get("com", (0.0, 0.0, 0.0)), platform.get("inertia", 0.0)),
+                            table.get("gravity", (0.0, 0.0, 0.0)))
+
+
+def scaled_spatial_mechanism(mechanism: SpatialMechanism, mass: float = 1.0, length: float = 1.0) -> SpatialMechanism:
+    """As :func:`~pkmlab.description.mechanism.scaled_mechanism`: masses ×``mass``, inertias ×``mass·length²``,
+    the bodies' and platform's lengths ×``length``; base points, axes and strokes unchanged."""
+    def scale(v):
+        return tuple(c * length for c in v)
+
+    def tensor(t):
+        return tuple(tuple(c * mass * length**2 for c in row) for row in t)
+
+    legs = tuple(SpatialLeg(leg.base, leg.joints, tuple(SpatialBody(scale(b.tip), b.mass * mass, scale(b.com),
+                                                                    tensor(b.inertia)) for b in leg.bodies),
+                            leg.stroke) for leg in mechanism.legs)
+    p = mechanism.platform
+    platform = SpatialPlatform(p.kind, tuple(scale(a) for a in p.attachments), p.mass * mass, scale(p.com),
+                               tensor(p.inertia))
+    return SpatialMechanism(mechanism.name, legs, platform, mechanism.gravity)
+
+
+def spatial_mechanism_to_toml(mechanism: SpatialMechanism, comment: str | None = None) -> str:
+    """The TOML form of a spatial mechanism (``dimension = 3``); it reads back as an equal value."""
+    lines = [f"# {line}" for line in (comment or "").splitlines()]
+    lines += [""] if lines else []
+    m = mechanism
+    lines += ["[mechanism]", f"name = {toml_value(m.name)}", "dimension = 3", f"gravity = {toml_value(m.gravity)}", "",
+              "[mechanism.platform]", f"kind = {toml_value(m.platform.kind)}",
+              f"attachments = {toml_value(m.platform.attachments)}   # platform frame, one per leg",
+              f"mass = {toml_value(m.platform.mass)}", f"com = {toml_value(m.platform.com)}",
+              f"inertia = {toml_value(m.platform.inertia)}"]
+    for leg in m.legs:
+        axes = [list(j.axes) if j.kind == "U" else j.axes[0] for j in leg.joints if j.kind != "S"]
+        lines += ["", "[[mechanism.leg]]", f"base = {toml_value(leg.base)}", f"joints = {toml_value(leg.notation)}",
+                  f"axes = {toml_value(axes)}"]
+        if leg.stroke is not None:
+            lines += [f"stroke = {toml_value(leg.stroke)}"]
+        lines += ["bodies = ["]
+        lines += [f"  {{ tip = {toml_value(b.tip)}, mass = {toml_value(b.mass)}, com = {toml_value(b.com)}, "
+                  f"inertia = {toml_value(b.inertia)} }}," for b in leg.bodies]
+        lines += ["]"]
+    return "\n".join(lines) + "\n"

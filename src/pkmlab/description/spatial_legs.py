@@ -1,0 +1,209 @@
+"""Closed-form inverse kinematics of spatial legs, and the Delta's forward kinematics.
+
+Legs of a :class:`~pkmlab.description.spatial.SpatialMechanism` that pkmlab solves in closed form:
+
+* ``R*US`` — an actuated arm, then a forearm from a universal joint at the arm's tip to a spherical
+  joint on the platform (the Delta's leg). The arm angle is a root of ``α cos θ + β sin θ = γ``:
+  two working modes. ``σ = +1`` is the root whose elbow (the arm's tip) lies farther from the
+  machine's central axis — the line through the centroid of the legs' base points, normal to their
+  plane (the Delta's z axis): "knee out". Where both elbows are as far (a measure-zero set), the root
+  with the larger ``θ - centre`` below is taken.
+* ``UP*S`` — a universal joint on the base, an actuated prismatic joint, a spherical joint on the
+  platform (the Stewart–Gough platform's leg): the slide is the larger root of a quadratic (one
+  working mode).
+
+A universal joint's two angles turn its body's tip onto a given direction; of the two solutions (the
+body spun half a turn about itself), pkmlab takes the one whose second angle is nearer zero.
+Functions act on many points at once, ``(K, 3)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+from .leg_types import Solved, mark_outside_stroke
+from .spatial import SpatialLeg, SpatialMechanism
+
+SOLVED = ("R*US", "UP*S")
+
+
+def working_modes(leg: SpatialLeg) -> tuple[int, ...]:
+    """``(+1, -1)`` for a leg with two inverse-kinematic branches (R*US), ``()`` for one (UP*S)."""
+    return (1, -1) if leg.notation == "R*US" else ()
+
+
+def rotate(axis, angle, v):
+    """Rodrigues' rotation of vectors ``v`` (K, 3) by ``angle`` (K,) about the unit ``axis`` (3,)."""
+    a = np.asarray(axis, dtype=float)
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    return c * v + s * np.cross(a, v) + (1.0 - c) * (v @ a)[:, None] * a
+
+
+def universal_angles(axes, tip, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The angles ``(q1, q2)`` of a universal joint (perpendicular ``axes``) with
+    ``Rot(a1, q1) Rot(a2, q2) tip = v`` (``v`` (K, 3) of the tip's length), and where no angle does it."""
+    a1, a2 = (np.asarray(a, dtype=float) for a in axes)
+    tip = np.broadcast_to(np.asarray(tip, dtype=float), v.shape)  # one tip, or one per row
+    # a1 · Rot(a2, q2) tip = a1 · v  (the first turn keeps the a1 component): α cos q2 + β sin q2 = γ
+    alpha, beta = tip @ a1, np.cross(a2, tip) @ a1
+    gamma = v @ a1
+    rho = np.hypot(alpha, beta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(rho > 0, gamma / np.where(rho > 0, rho, 1.0), 0.0)
+    bad = np.abs(gamma) > rho * (1 + 1e-12)
+    ratio = np.clip(ratio, -1.0, 1.0)
+    centre = np.arctan2(beta, alpha)
+    roots = np.stack([centre + np.arccos(ratio), centre - np.arccos(ratio)])
+    roots = np.angle(np.exp(1j * roots))
+    q2 = np.where(np.abs(roots[0]) <= np.abs(roots[1]), roots[0], roots[1])
+    w = rotate(a2, q2, tip.copy())
+    # the turn about a1 that takes w to v: the signed angle between their parts across a1
+    q1 = np.arctan2(np.cross(w, v) @ a1, np.einsum("ki,ki->k", w, v) - (w @ a1) * (v @ a1))
+    return q1, q2, bad
+
+
+def central_axis(mechanism: SpatialMechanism) -> tuple[np.ndarray, np.ndarray]:
+    """The machine's central axis: a point (the centroid of the legs' base points) and a unit direction
+    (normal to the plane of the base points; ``e_z`` when they are on one line or fewer than three)."""
+    bases = np.array([leg.base for leg in mechanism.legs])
+    centre = bases.mean(axis=0)
+    if len(bases) >= 3:
+        _u, sv, vt = np.linalg.svd(bases - centre)
+        if sv[1] > 1e-12 * max(sv[0], 1e-300):
+            return centre, vt[2]
+    return centre, np.array([0.0, 0.0, 1.0])
+
+
+def _distance_from(axis, points: np.ndarray) -> np.ndarray:
+    centre, direction = axis
+    d = points - centre
+    return np.linalg.norm(d - (d @ direction)[:, None] * direction, axis=1)
+
+
+def forearm_angles(leg: SpatialLeg, theta: np.ndarray, points: np.ndarray, elbow: np.ndarray | None = None):
+    """The universal joint's angles ``(q1, q2, bad)`` of an R*US leg whose arm is at ``theta`` (K,) and whose
+    spherical joint is at ``points`` (K, 3): the forearm's direction in the arm's frame (the arm's turn
+    undone) turned onto by the universal joint. ``elbow`` (K, 3), the arm's tip, is computed unless given."""
+    axis = np.array(leg.joints[0].axes[0])
+    if elbow is None:
+        elbow = np.array(leg.base) + rotate(axis, theta, np.broadcast_to(leg.bodies[0].tip, points.shape).copy())
+    return universal_angles(leg.joints[1].axes, leg.bodies[1].tip, rotate(axis, -theta, points - elbow))
+
+
+def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> Solved:
+    arm_joint = leg.joints[0]
+    axis_r = np.array(arm_joint.axes[0])
+    arm, forearm = leg.bodies
+    tip = np.array(arm.tip)
+    along = (tip @ axis_r) * axis_r
+    across = tip - along
+    length = float(np.linalg.norm(forearm.tip))
+    d = points - np.array(leg.base) - along
+    # |d - Rot(axis, θ) across| = L_forearm:  α cos θ + β sin θ = γ
+    alpha, beta = d @ across, d @ np.cross(axis_r, across)
+    gamma = (np.einsum("ki,ki->k", d, d) + across @ across - length**2) / 2
+    rho = np.hypot(alpha, beta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = gamma / rho
+    bad = ~(np.abs(ratio) <= 1.0)
+    centre, half = np.arctan2(beta, alpha), np.arccos(np.clip(ratio, -1.0, 1.0))
+    roots = [np.angle(np.exp(1j * (centre + half))), np.angle(np.exp(1j * (centre - half)))]
+    elbows = [np.array(leg.base) + along + rotate(axis_r, r, np.broadcast_to(across, points.shape).copy())
+              for r in roots]
+    # σ = +1: the elbow farther from the machine's central axis ("knee out"), σ = -1 the other
+    outer = _distance_from(axis, elbows[0]) > _distance_from(axis, elbows[1])
+    first = outer if sigma > 0 else ~outer
+    theta = np.where(first, roots[0], roots[1])
+    q1, q2, u_bad = forearm_angles(leg, theta, points, np.where(first[:, None], elbows[0], elbows[1]))
+
+    reach_bad = bad.copy()
+
+    def why(k):
+        where = ", ".join(f"{c:.4g}" for c in points[k])
+        if reach_bad[k]:
+            return (f"leg {number + 1} (R*US) cannot reach the point ({where}): its forearm of {length:.4g} m cannot "
+                    "join the circle of its arm's tip")
+        return (f"leg {number + 1} (R*US): its universal joint cannot turn the forearm towards the point ({where})")
+
+    bad = bad | u_bad
+    bad, why = mark_outside_stroke(leg, number, theta, bad, why)
+    return Solved(np.column_stack([theta, q1, q2]), bad, why)
+
+
+def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -> Solved:
+    universal, slide = leg.joints[0], leg.joints[1]
+    cylinder, rod = leg.bodies
+    d = np.array(slide.axes[0])
+    offset = np.array(cylinder.tip) + np.array(rod.tip)
+    v = points - np.array(leg.base)
+    span2 = np.einsum("ki,ki->k", v, v)
+    # |offset + s d| = |v|: s² + 2 s (d·offset) + |offset|² - |v|² = 0, the larger root
+    b = d @ offset
+    disc = b * b - offset @ offset + span2
+    bad = ~(disc >= 0.0)
+    s = -b + np.sqrt(np.maximum(disc, 0.0))
+    q1, q2, u_bad = universal_angles(universal.axes, offset + s[:, None] * d, v)
+    reach_bad = bad.copy()
+
+    def why(k):
+        where = ", ".join(f"{c:.4g}" for c in points[k])
+        if reach_bad[k]:
+            return f"leg {number + 1} (UP*S) cannot reach the point ({where}): it is closer than the leg's offset"
+        return f"leg {number + 1} (UP*S): its universal joint cannot turn the leg towards the point ({where})"
+
+    bad, why = mark_outside_stroke(leg, number, s, bad | u_bad, why)
+    return Solved(np.column_stack([q1, q2, s]), bad, why)
+
+
+def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None) -> Solved:
+    """The leg's three joint coordinates (K, 3), in the order of its joints, for its S joint at ``points``
+    (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why). ``axis`` is
+    the machine's :func:`central_axis`, which tells an R*US leg's working modes apart (default: the z
+    axis)."""
+    if axis is None:
+        axis = (np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    solver = {"R*US": _rus, "UP*S": _ups}.get(leg.notation)
+    if solver is None:
+        raise InvalidParameterError(f"leg {number + 1} ({leg.notation}): pkmlab solves the inverse kinematics of "
+                                    f"spatial legs {' and '.join(SOLVED)} in closed form, not {leg.notation}")
+    return solver(leg, number, np.asarray(points, dtype=float).reshape(-1, 3), sigma, axis)
+
+
+def delta_forward_kinematics(mechanism: SpatialMechanism, theta) -> list[np.ndarray]:
+    """Every position of a translating platform on three R*US legs at the actuator angles: the platform
+    point lies at the forearm's length from each elbow, shifted by the leg's attachment point — three
+    spheres, which meet in at most two points (below and above the elbows). Returns the positions,
+    lowest first; a touching pair (the spheres tangent, a singular pose) is returned once."""
+    centres, radii = [], []
+    for leg, angle, a in zip(mechanism.legs, theta, mechanism.platform.attachments, strict=True):
+        axis = np.array(leg.joints[0].axes[0])
+        elbow = np.array(leg.base) + rotate(axis, np.array([float(angle)]), np.array([leg.bodies[0].tip]))[0]
+        centres.append(elbow - np.array(a))
+        radii.append(float(np.linalg.norm(leg.bodies[1].tip)))
+    c1, c2, c3 = centres
+    r1, r2, r3 = radii
+    # trilateration in the frame of the three centres
+    ex = c2 - c1
+    d = np.linalg.norm(ex)
+    ex = ex / d
+    i = ex @ (c3 - c1)
+    ey = c3 - c1 - i * ex
+    ey_norm = np.linalg.norm(ey)
+    if d == 0 or ey_norm < 1e-12 * max(d, 1.0):
+        return []  # the centres are aligned: a circle of poses or none (a singular pair of actuator sets)
+    ey = ey / ey_norm
+    ez = np.cross(ex, ey)
+    j = ey @ (c3 - c1)
+    x = (r1**2 - r2**2 + d**2) / (2 * d)
+    y = (r1**2 - r3**2 + i**2 + j**2) / (2 * j) - i / j * x
+    z2 = r1**2 - x**2 - y**2
+    scale = r1**2
+    if z2 < -1e-12 * scale:
+        return []
+    base = c1 + x * ex + y * ey
+    if z2 <= 1e-12 * scale:
+        return [base]
+    z = np.sqrt(z2)
+    found = sorted([base + z * ez, base - z * ez], key=lambda p: p[2])
+    return found

@@ -1,0 +1,490 @@
+"""Scenario files: a closed-loop run described in TOML (``pkmlab simulate SCENARIO.toml``).
+
+Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is optional::
+
+    [mechanism]                 # the controller's model; default: the paper's 3-RRR
+    preset = "paper"            # a preset, or file = "my_machine.toml", or a description inline
+
+    [plant]                     # the real machine relative to the model (conventions §7)
+    mass_scale = 1.15           # masses ×; inertias × mass_scale·length_scale²
+    length_scale = 1.15         # the bodies' and platform's lengths ×; the base is unchanged
+
+    [trajectory]
+    type = "circle"             # circle | line | waypoints
+    center = [0.25, 0.21]
+    radius = 0.05
+    start_angle = 3.14159265    # default: pi, the leftmost point
+    speed = 0.2                 # average speed (m/s), required
+    alpha = 0.0                 # platform orientation (rad)
+    time_law = "cubic"          # cubic | quintic
+    # circle also: alpha_end (orientation at the end), turns (default 1)
+    # line: start = [x, y, alpha], end = [x, y, alpha]
+    # waypoints: points = [[x, y, alpha], ...]
+
+    [controller]
+    type = "computed_torque"    # computed_torque | pd
+    kp = 1000.0
+    kv = 63.2                   # default 2*sqrt(kp)
+    sample_time = 0.001         # seconds; 0 = continuous-time control
+
+    [simulation]
+    working_mode = "auto"       # or three signs, e.g. [1, -1, 1]
+    singularity_margin = 0.05   # refuse paths whose min |S| is below this
+    singularity_guard = 0.01    # stop a run when the plant's |S| falls below this
+    substeps = 1                # Runge-Kutta (RK4) steps per sample
+
+A ``[manipulator]`` table (the paper's 3-RRR with ``preset`` and ``[manipulator.params]`` overrides of
+pkmlab 0.2) is still read, with a :class:`~pkmlab.errors.PkmlabDeprecationWarning` that gives the
+equivalent ``[mechanism]`` text.
+
+Every problem — a missing file, malformed TOML (with its line), an unknown table or key (the
+closest valid one is suggested), a wrong type, a value that is not finite or out of range, a
+missing required key — is a :class:`~pkmlab.errors.PkmlabError` whose one-line message names
+the file and the key, e.g. ``s.toml: [trajectory].radius must be a positive number, got -0.05``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .._files import parse_toml, read_toml
+from .._format import apart, suggestion
+from ..algorithms.kinematics import as_working_mode
+from ..control.controller import CONTROLLER_TYPES, ControllerSpec
+from ..control.trajectory import Circle, Line, TimedWaypoints, Trajectory, WaypointTrajectory, paper_trajectory
+from ..errors import FileFormatError, InvalidParameterError, PkmlabDeprecationWarning, PkmlabError, shown
+from ..model.mechanism_model import MechanismModel, load
+from ..simulation.scenario import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
+from .params import PARAM_KEYS, PRESETS, manipulator_from_dict
+
+#: The tables of a scenario file and their keys.
+TABLES = {
+    "manipulator": ("preset", "params"),
+    "mechanism": ("preset", "file", "name", "dimension", "gravity", "platform", "leg"),
+    "plant": ("mass_scale", "length_scale"),
+    "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
+                   "start", "end", "points", "durations"),
+    "controller": ("type", "kp", "kv", "sample_time"),
+    "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps"),
+}
+#: Keys of ``[trajectory]`` by its ``type``, besides ``type``, ``speed`` and ``time_law``.
+TRAJECTORY_KEYS = {
+    "circle": ("center", "radius", "start_angle", "alpha", "alpha_end", "turns"),
+    "line": ("start", "end"),
+    "waypoints": ("points", "durations"),
+}
+TIME_LAWS = ("cubic", "quintic")
+#: Runs longer than this many samples are refused (memory: ~200 bytes per sample).
+_PER_LEG = ("l", "r", "mass_l", "mass_r", "inertia_l", "inertia_r")
+_SCALAR = ("b", "a", "mass_a", "inertia_a")
+
+
+def show(value, limit: int = 60) -> str:
+    """``value`` written as in a TOML file, on one line, shortened to about ``limit`` characters."""
+    text = _toml_value(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{_key(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    return json.dumps(str(value), ensure_ascii=False)  # dates and times
+
+
+def _key(key: str) -> str:
+    """A key as TOML writes it: bare if it can be, else quoted (so it never spans lines)."""
+    bare = key and all(c.isascii() and (c.isalnum() or c in "-_") for c in key)
+    return key if bare else json.dumps(key, ensure_ascii=False)
+
+
+class _Reader:
+    """Validation helpers that name the file, the table and the key in every message."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def where(self, table: str, key: str | None = None) -> str:
+        return f"[{table}]" if key is None else f"[{table}].{_key(key)}"
+
+    def format_error(self, text: str) -> FileFormatError:
+        return FileFormatError(f"{self.source}: {text}")
+
+    def value_error(self, text: str) -> InvalidParameterError:
+        return InvalidParameterError(f"{self.source}: {text}")
+
+    def table(self, data: dict, name: str, required: bool = False) -> dict:
+        if name not in data:
+            if required:
+                raise self.format_error(f"the {self.where(name)} table is required")
+            return {}
+        table = data[name]
+        if not isinstance(table, dict):
+            raise self.format_error(f"{self.where(name)} must be a table, got {show(table)}")
+        return table
+
+    def known_keys(self, table: dict, name: str, valid) -> None:
+        for key in table:
+            if key not in valid:
+                raise self.format_error(f"unknown key '{_key(key)}' in {self.where(name)}{suggestion(key, valid)}")
+
+    def required(self, table: dict, name: str, key: str, what: str):
+        if key not in table:
+            raise self.format_error(f"{self.where(name, key)} is required ({what})")
+        return table[key]
+
+    def number(self, table: dict, name: str, key: str, default=None, sign: str = ""):
+        """A finite number (``sign``: "" any, "positive", "non-negative"); ``default`` if absent."""
+        if key not in table:
+            return default
+        return self.check_number(table[key], self.where(name, key), sign)
+
+    def check_number(self, value, where: str, sign: str = "") -> float:
+        kind = f"{sign} number" if sign else "number"
+        article = "an" if kind[0] in "aeiou" else "a"
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.value_error(f"{where} must be {article} {kind}, got {show(value)}")
+        try:
+            v = float(value)
+        except OverflowError:
+            v = math.inf
+        if not math.isfinite(v):
+            raise self.value_error(f"{where} must be a finite {kind}, got {show(value)}")
+        if (sign == "positive" and v <= 0) or (sign == "non-negative" and v < 0):
+            raise self.value_error(f"{where} must be {article} {kind}, got {show(value)}")
+        return v
+
+    def vector(self, value, where: str, n: int, what: str) -> tuple[float, ...]:
+        if not isinstance(value, list) or len(value) != n:
+            raise self.value_error(f"{where} must be {n} numbers {what}, got {show(value)}")
+        return tuple(self.check_number(v, f"{where}[{i}]") for i, v in enumerate(value))
+
+    def choice(self, table: dict, name: str, key: str, choices, default=None) -> str:
+        if key not in table:
+            if default is None:
+                raise self.format_error(f"{self.where(name, key)} is required (one of: {', '.join(choices)})")
+            return default
+        value = table[key]
+        if not isinstance(value, str):
+            raise self.value_error(f"{self.where(name, key)} must be one of {', '.join(choices)}, got {show(value)}")
+        if value not in choices:
+            close = difflib.get_close_matches(value, list(choices), n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else f"; choose one of: {', '.join(choices)}"
+            raise self.value_error(f"{self.where(name, key)} = {show(value)} is not known{hint}")
+        return value
+
+
+# ------------------------------------------------------------------ the tables
+def _manipulator(rd: _Reader, table: dict):
+    rd.known_keys(table, "manipulator", TABLES["manipulator"])
+    preset = table.get("preset", "paper")
+    if not isinstance(preset, str) or preset not in PRESETS:
+        close = difflib.get_close_matches(preset, list(PRESETS), n=1) if isinstance(preset, str) else []
+        hint = f" (did you mean '{close[0]}'?)" if close else f"; presets: {', '.join(PRESETS)}"
+        raise rd.value_error(f"{rd.where('manipulator', 'preset')} = {show(preset)} is not a known preset{hint}")
+    params = table.get("params", {})
+    if not isinstance(params, dict):
+        raise rd.format_error(f"[manipulator.params] must be a table, got {show(params)}")
+    rd.known_keys(params, "manipulator.params", PARAM_KEYS)
+    for key, value in params.items():
+        where = rd.where("manipulator.params", key)
+        if key in _SCALAR:
+            rd.check_number(value, where, "positive")
+        elif key in _PER_LEG:
+            if isinstance(value, list):
+                rd.vector(value, where, 3, "(one per leg) or a single number")
+                for i, v in enumerate(value):
+                    rd.check_number(v, f"{where}[{i}]", "positive")
+            else:
+                rd.check_number(value, where, "positive")
+        else:  # base_points
+            if not isinstance(value, list) or len(value) != 3:
+                raise rd.value_error(f"{where} must be 3 points [x, y], got {show(value)}")
+            for i, point in enumerate(value):
+                rd.vector(point, f"{where}[{i}]", 2, "[x, y]")
+    if "b" in params and "base_points" in params:
+        raise rd.format_error("[manipulator.params] has both b and base_points: give one of them")
+    if not params:
+        model, text = load("paper"), '[mechanism]\npreset = "paper"\n'
+    else:
+        from ..description.files import mechanism_to_toml
+
+        description = manipulator_from_dict({"preset": preset, "params": params},
+                                            f"{rd.source}: [manipulator.params]").to_mechanism()
+        model, text = MechanismModel.from_description(description), mechanism_to_toml(description)
+    warnings.warn(f"{rd.source}: [manipulator] is deprecated and will not be read by pkmlab 0.4; write the machine "
+                  f"as [mechanism] instead:\n{text.rstrip()}", PkmlabDeprecationWarning, stacklevel=4)
+    return model
+
+
+def _mechanism(rd: _Reader, table: dict, folder: Path):
+    """The controller's model of a ``[mechanism]`` table: ``preset = "NAME"``, ``file = "PATH"`` (a
+    mechanism file, relative to the scenario's folder) or a description inline."""
+    from ..description.files import load_mechanism, mechanism_from_dict
+
+    try:
+        if "file" in table:
+            others = sorted(set(table) - {"file"})
+            if others:
+                raise InvalidParameterError(f"[mechanism] has file and {', '.join(others)}: give one of them")
+            path = table["file"]
+            if not isinstance(path, str) or not path:
+                raise InvalidParameterError(f"[mechanism].file must be a file name, got {show(path)}")
+            return MechanismModel.from_description(load_mechanism(folder / path))
+        return MechanismModel.from_description(mechanism_from_dict(table, "[mechanism]"))
+    except PkmlabError as exc:
+        raise rd.value_error(str(exc)) from None
+
+
+def _plant(rd: _Reader, table: dict, model):
+    rd.known_keys(table, "plant", TABLES["plant"])
+    mass = rd.number(table, "plant", "mass_scale", 1.0, "positive")
+    length = rd.number(table, "plant", "length_scale", 1.0, "positive")
+    if mass == 1.0 and length == 1.0:
+        return None
+    try:
+        with np.errstate(all="ignore"):
+            return scaled_model(model, mass, length)
+    except (InvalidParameterError, OverflowError) as exc:
+        raise rd.value_error(f"[plant]: the scaled machine is impossible (mass_scale = {mass:g}, "
+                             f"length_scale = {length:g}): {exc}") from None
+
+
+def _trajectory(rd: _Reader, table: dict):
+    name = "trajectory"
+    kind = rd.choice(table, name, "type", tuple(TRAJECTORY_KEYS))
+    valid = ("type", "speed", "time_law", *TRAJECTORY_KEYS[kind])
+    for key in table:
+        if key in valid:
+            continue
+        if key in TABLES[name]:
+            raise rd.format_error(f"{rd.where(name, key)} does not apply to a {kind} trajectory "
+                                  f"(its keys: {', '.join(valid)})")
+        raise rd.format_error(f"unknown key '{_key(key)}' in [{name}]{suggestion(key, valid)}")
+    if kind == "waypoints" and "durations" in table:
+        return _timed_waypoints(rd, table)
+    speed = rd.check_number(rd.required(table, name, "speed", "the average speed in m/s"),
+                            rd.where(name, "speed"), "positive")
+    law = rd.choice(table, name, "time_law", TIME_LAWS, "cubic")
+    if kind == "circle":
+        center = rd.vector(rd.required(table, name, "center", "[x, y] in m"), rd.where(name, "center"), 2, "[x, y]")
+        radius = rd.check_number(rd.required(table, name, "radius", "in m"), rd.where(name, "radius"), "positive")
+        start_angle = rd.number(table, name, "start_angle", math.pi)
+        alpha = rd.number(table, name, "alpha", 0.0)
+        alpha_end = rd.number(table, name, "alpha_end", None)
+        turns = rd.number(table, name, "turns", 1.0, "positive")
+        path = Circle(center, radius, start_angle=start_angle, alpha=alpha, alpha_end=alpha_end, turns=turns)
+        trajectory = Trajectory(path, speed, law)
+    elif kind == "line":
+        ends = [rd.vector(rd.required(table, name, key, "[x, y, alpha]"), rd.where(name, key), 3, "[x, y, alpha]")
+                for key in ("start", "end")]
+        if np.allclose(ends[0], ends[1]):
+            raise rd.value_error(f"{rd.where(name, 'end')} must differ from start, got {show(list(ends[1]))}")
+        trajectory = Trajectory(Line(*ends), speed, law)
+    else:
+        points = rd.required(table, name, "points", "a list of poses [x, y, alpha]")
+        where = rd.where(name, "points")
+        if not isinstance(points, list) or len(points) < 2:
+            raise rd.value_error(f"{where} must be a list of at least two poses [x, y, alpha], got {show(points)}")
+        poses = [rd.vector(p, f"{where}[{i}]", 3, "[x, y, alpha]") for i, p in enumerate(points)]
+        for i in range(1, len(poses)):
+            if np.allclose(poses[i - 1], poses[i]):
+                raise rd.value_error(f"{where}[{i}] repeats the previous pose {show(points[i])}")
+        trajectory = WaypointTrajectory(tuple(poses), speed, law)
+    with np.errstate(all="ignore"):
+        duration = float(trajectory.duration)
+    if not math.isfinite(duration):
+        raise rd.value_error(f"[trajectory]: the motion would last forever (length / speed is {duration})")
+    return trajectory
+
+
+def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
+    """``type = "waypoints"`` with ``durations``: poses of the machine's own coordinates (``[x, y, z]`` for the
+    Delta), one time per segment, ``time_law`` quintic unless said otherwise."""
+    name = "trajectory"
+    if "speed" in table:
+        raise rd.format_error(f"{rd.where(name, 'speed')}: give either speed or durations, not both")
+    points = rd.required(table, name, "points", "a list of poses")
+    where = rd.where(name, "points")
+    if not isinstance(points, list) or len(points) < 2:
+        raise rd.value_error(f"{where} must be a list of at least two poses, got {show(points)}")
+    width = len(points[0]) if isinstance(points[0], list) else 0
+    if not 2 <= width <= 6:
+        raise rd.value_error(f"{where}[0] must be a pose of 2 to 6 numbers ([x, y, z] for a Delta), got "
+                             f"{show(points[0])}")
+    poses = [rd.vector(p, f"{where}[{i}]", width, "(a pose, like points[0])")
+             for i, p in enumerate(points)]
+    for i in range(1, len(poses)):
+        if np.allclose(poses[i - 1], poses[i]):
+            raise rd.value_error(f"{where}[{i}] repeats the previous pose {show(points[i])}")
+    durations = table["durations"]
+    dwhere = rd.where(name, "durations")
+    if not isinstance(durations, list) or len(durations) != len(poses) - 1:
+        raise rd.value_error(f"{dwhere} must be {len(poses) - 1} times in s, one per segment, got {show(durations)}")
+    times = [rd.check_number(d, f"{dwhere}[{i}]", "positive") for i, d in enumerate(durations)]
+    law = rd.choice(table, name, "time_law", TIME_LAWS, "quintic")
+    return TimedWaypoints(tuple(poses), tuple(times), law)
+
+
+def _controller(rd: _Reader, table: dict) -> tuple[ControllerSpec, float]:
+    name = "controller"
+    rd.known_keys(table, name, TABLES[name])
+    kind = rd.choice(table, name, "type", tuple(CONTROLLER_TYPES), "computed_torque")
+    kp = rd.number(table, name, "kp", 1000.0, "positive")
+    kv = rd.number(table, name, "kv", None, "non-negative")
+    sample_time = rd.number(table, name, "sample_time", 1e-3, "non-negative")
+    return ControllerSpec(kind, kp=kp, kv=kv), sample_time
+
+
+def _simulation(rd: _Reader, table: dict) -> dict:
+    name = "simulation"
+    rd.known_keys(table, name, TABLES[name])
+    # the working mode as inverse_kinematics(mode=...) and --mode spell it ("auto", [1, -1, 1], "+-+"), checked
+    # against the machine's two-branch legs by Scenario (whose message scenario_from_dict names the file in)
+    out = {"working_mode": table.get("working_mode", "auto")}
+    out["singularity_margin"] = rd.number(table, name, "singularity_margin", 0.05, "non-negative")
+    out["singularity_guard"] = rd.number(table, name, "singularity_guard", 0.01, "non-negative")
+    substeps = table.get("substeps", 1)
+    if isinstance(substeps, bool) or not isinstance(substeps, int) or not 1 <= substeps <= MAX_SUBSTEPS:
+        raise rd.value_error(f"{rd.where(name, 'substeps')} must be an integer from 1 to {MAX_SUBSTEPS}, "
+                             f"got {show(substeps)}")
+    out["substeps"] = substeps
+    return out
+
+
+# ------------------------------------------------------------------ public API
+def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None = None) -> Scenario:
+    """The :class:`~pkmlab.simulation.scenario.Scenario` described by parsed TOML ``data``.
+
+    ``source`` (the file) starts every error message; ``name`` defaults to its stem.
+
+    >>> s = scenario_from_dict({"trajectory": {"type": "circle", "center": [0.25, 0.21],
+    ...                                        "radius": 0.05, "speed": 0.2}}, "mine.toml")
+    >>> s.name, s.trajectory.duration
+    ('mine', 1.5707963267948966)
+    >>> scenario_from_dict({"trajectory": {"type": "circle", "center": [0.25, 0.21], "radius": -0.05,
+    ...                                    "speed": 0.2}}, "mine.toml")
+    Traceback (most recent call last):
+    ...
+    pkmlab.errors.InvalidParameterError: mine.toml: [trajectory].radius must be a positive number, got -0.05
+    """
+    rd = _Reader(str(source))
+    if not isinstance(data, dict):
+        raise rd.format_error(f"a scenario must be a TOML document of tables, got {show(data)}")
+    for key, value in data.items():
+        if key in TABLES:
+            continue
+        owners = [t for t, keys in TABLES.items() if key in keys]
+        if owners:
+            hint = f" (did you mean [{owners[0]}].{key}?)"
+        elif isinstance(value, dict):
+            hint = suggestion(key, TABLES).replace("valid keys", "valid tables")
+        else:
+            hint = f" (a scenario holds only the tables {', '.join(f'[{t}]' for t in TABLES)})"
+        raise rd.format_error(f"unknown {'table' if isinstance(value, dict) else 'key'} '{_key(key)}'{hint}")
+    if "mechanism" in data and "manipulator" in data:
+        raise rd.format_error("the scenario has both [manipulator] and [mechanism]: give one of them")
+    if "mechanism" in data:
+        model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent)
+    elif "manipulator" in data:
+        model = _manipulator(rd, rd.table(data, "manipulator"))
+    else:
+        model = load("paper")
+    plant = _plant(rd, rd.table(data, "plant"), model)
+    trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True))
+    controller, sample_time = _controller(rd, rd.table(data, "controller"))
+    options = _simulation(rd, rd.table(data, "simulation"))
+    try:
+        options["working_mode"] = as_working_mode(model, options["working_mode"])
+    except InvalidParameterError as exc:
+        raise rd.value_error(f"[simulation].{exc}") from None
+    if sample_time == 0 and "substeps" in rd.table(data, "simulation"):  # it would be silently ignored
+        raise rd.format_error("[simulation].substeps applies to sampled-data control only, but "
+                              "[controller].sample_time = 0 selects continuous-time control: remove one of them")
+    step = sample_time or 1e-3
+    samples = trajectory.duration / step
+    # enough digits that a value just past its limit is never shown equal to it (0.0009996 s is not "0.001 s")
+    if samples < 1:
+        duration, one = apart(trajectory.duration, step)
+        raise rd.value_error(f"[trajectory]: the motion would last {duration} s, less than one "
+                             f"sample ({one} s): lengthen the path or lower [trajectory].speed")
+    if samples > MAX_SAMPLES:
+        count, most = apart(samples, MAX_SAMPLES)
+        raise rd.value_error(f"the run would take {count} samples ({trajectory.duration:.4g} s at "
+                             f"{step:g} s per sample; at most {most}): "
+                             f"raise [trajectory].speed or [controller].sample_time")
+    if name is None:
+        name = Path(str(source)).stem or "scenario"
+    try:
+        return Scenario(model, trajectory, plant=plant, controller=controller, sample_time=sample_time,
+                        name=name, **options)
+    except PkmlabError as exc:  # every value was checked above: a safety net for the message's file name
+        raise rd.value_error(str(exc)) from None
+
+
+def scenario_to_toml(data: dict, comment: str | None = None) -> str:
+    """A scenario file's text from its tables ``data`` (nested tables written inline), with ``comment`` on top;
+    :func:`scenario_from_dict` of the text read back gives the same scenario."""
+    lines = [f"# {line}" if line else "#" for line in (comment or "").splitlines()]
+    for table, values in data.items():
+        lines += ["" if lines else None, f"[{_key(table)}]"]
+        lines += [f"{_key(k)} = {_toml_value(v)}" for k, v in values.items()]
+    return "\n".join(line for line in lines if line is not None) + "\n"
+
+
+def scenario_from_text(text: str, source: str | Path) -> Scenario:
+    """The scenario of a scenario file's ``text``, already read from ``source`` (named in errors)."""
+    return scenario_from_dict(parse_toml(text, source), str(source), Path(source).stem)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read a scenario file (format: this module's docstring); its name is the file's stem."""
+    if not isinstance(path, str) and not hasattr(path, "__fspath__"):
+        raise InvalidParameterError(f"path must be a file name (a str or a pathlib.Path), got {type(path).__name__} "
+                                    f"{shown(path, 50)}")
+    data = read_toml(path)
+    return scenario_from_dict(data, str(path), Path(path).stem)
+
+
+# ------------------------------------------------------------------ the paper's cases
+PAPER_CASES = ("nominal", "disturbed", "fast")
+#: The scenario files of the paper's cases (package data).
+SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
+
+
+def paper_scenario(name: str = "nominal") -> Scenario:
+    """The paper's simulated cases (conventions §7).
+
+    The three cases of the paper are the scenario files ``scenarios/<name>.toml`` shipped in
+    the package (``examples/`` links to them):
+
+    * ``nominal``: the circle at 0.2 m/s, plant = model;
+    * ``disturbed``: plant masses and link lengths ×1.15, inertias ×1.15³, base unchanged;
+    * ``fast``: 0.4 m/s, plant = model;
+    * ``disturbed_dynamics``: masses and inertias ×1.15, lengths unchanged (a variant).
+    """
+    if isinstance(name, str) and name in PAPER_CASES:
+        return load_scenario(SCENARIO_DIR / f"{name}.toml")
+    from ..model.mechanism_model import load
+
+    model = load("paper")
+    if isinstance(name, str) and name == "disturbed_dynamics":
+        return Scenario(model, paper_trajectory(0.2), plant=scaled_model(model, 1.15, 1.0), name=name)
+    raise InvalidParameterError(
+        f"unknown paper scenario name {shown(name)}: choose one of nominal, disturbed, fast, disturbed_dynamics"
+    )

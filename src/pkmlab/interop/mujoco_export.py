@@ -1,0 +1,433 @@
+"""Any described mechanism as a MuJoCo model (MJCF), and the map between MuJoCo's coordinates and pkmlab's.
+
+MuJoCo simulates kinematic *trees*; a closed chain is a tree plus equality constraints that close its
+loops. pkmlab writes every mechanism the same way:
+
+* each leg is a chain of bodies from the world, one body per body of the description, each moved by its
+  joint: a ``hinge`` for ``R``, a ``slide`` for ``P``, two hinges in the same body for ``U`` (applied in
+  order, the second about its axis as the first turn carries it — pkmlab's universal joint);
+* the platform is a body of its own, a child of the world, moved by its pose's coordinates: slides
+  along x and y and a hinge about z (a rigid planar platform, ``x, y, alpha``), slides along x and y (a
+  planar point with its payload), slides along x, y and z (a translating spatial platform), or a free
+  joint (a six-degree-of-freedom platform: position and quaternion);
+* every leg is closed on the platform by an ``<equality><connect>`` between a site at the end of its
+  chain and a site at its platform attachment point (3 scalar rows; in the plane the z row is satisfied
+  identically). The spherical joint that ends a spatial leg is exactly such a point constraint; the
+  planar revolute that carries a platform is one too, its angle being free. MuJoCo's constraints are
+  soft; by default they get the stiffest setting it accepts (``closures="stiff"``), with which MuJoCo's
+  machine behaves like the rigid one, or MuJoCo's own defaults (``closures="soft"``), with which the loops
+  open by up to a few millimetres — the file says which, in a comment before them;
+* one ``motor`` (gear 1, unlimited) on each actuated joint: its control is the actuator effort in N·m
+  or N; gravity as the description says; contacts off.
+
+Masses, mass centres and inertias are the description's, in each body's frame. Two facts of MuJoCo shape
+the export, and both are stated in the written file:
+
+* a planar body's inertia about z is its moment of inertia; MuJoCo wants a full tensor, so the body is
+  given ``(I/2, I/2, I)`` — a flat plate, whose moments about x and y never enter planar motion;
+* MuJoCo refuses a tensor with a zero principal moment (a thin rod along its axis, a slider that never
+  turns). Such a moment is raised to :data:`INERTIA_FLOOR` times the body's largest one (or to
+  :data:`INERTIA_FLOOR` kg m² when all are zero). For a body that never turns about that axis (a slider;
+  a platform that only translates) this changes nothing; for a rod spinning about itself (the Delta's
+  forearms) it adds at most that fraction of its transverse inertia.
+
+Coordinates. MuJoCo's joint values are relative (each joint turns its body with respect to its parent);
+a planar description's angles are absolute. :func:`qpos_from_q` and :func:`q_from_qpos` map pkmlab's
+configuration ``q = (actuators, passive joints, pose)`` to MuJoCo's ``qpos`` (legs in order, joints in
+order, then the platform) and back; :func:`qvel_from_q_dot` maps the rates. ``mujoco`` itself is an
+optional dependency (``pip install pkmlab[mujoco]``): this module writes the text without it, and only
+:func:`load_mujoco` imports it.
+"""
+
+from __future__ import annotations
+
+import math
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from ..errors import InvalidParameterError, PkmlabError
+
+#: A principal moment of inertia below this fraction of the body's largest (kg m² when all are zero) is
+#: raised to it: MuJoCo refuses tensors with a zero principal moment.
+INERTIA_FLOOR = 1e-9
+
+#: MuJoCo's defaults for the equality constraints, and the stiffest setting pkmlab uses (impedance at
+#: MuJoCo's cap 0.9999, time constant twice a 1 ms step, critical damping).
+DEFAULT_SOLREF, DEFAULT_SOLIMP = (0.02, 1.0), (0.9, 0.95, 0.001, 0.5, 2.0)
+STIFF_SOLREF, STIFF_SOLIMP = (0.002, 1.0), (0.9999, 0.9999, 0.001, 0.5, 2.0)
+
+#: The loop closures by name, ``(solref, solimp)``: ``"stiff"`` (the default of the export and of the MuJoCo
+#: plant: the closures then behave like the rigid machine) and ``"soft"`` (MuJoCo's own defaults).
+CLOSURES = {"stiff": (STIFF_SOLREF, STIFF_SOLIMP), "soft": (DEFAULT_SOLREF, DEFAULT_SOLIMP)}
+
+#: What each setting does, as the exported file says it. The figures were measured on pkmlab's default runs of
+#: its six presets (pkmlab's controller, MuJoCo's RK4 at the sample time or 1 ms, whichever is smaller): the
+#: largest loop-closure violation, and the largest distance of the tracked point from the same run on
+#: pkmlab's rigid plant.
+CLOSURE_NOTES = {
+    "stiff": "pkmlab's stiff setting (impedance at MuJoCo's cap 0.9999, time constant twice a 1 ms step, critical "
+             "damping): MuJoCo's closures then behave like the rigid machine (in pkmlab's default runs of its six "
+             "presets the loops stay closed to 1e-7 m and the tracked point within 2e-7 m of pkmlab's rigid "
+             "plant). closures=\"soft\" exports MuJoCo's defaults instead.",
+    "soft": "MuJoCo's defaults: soft constraints, the loops may open by about 0.03 to 3 mm as the machine moves "
+            "(pkmlab's default runs of its six presets: 0.4 mm for the five-bar, 3 mm for the Delta against "
+            "gravity), and the tracked point strays up to 7 mm from the rigid machine's. closures=\"stiff\" "
+            "(pkmlab's default) makes them behave like the rigid machine.",
+}
+
+
+def closure_settings(closures: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``(solref, solimp)`` of the loop closures named ``closures``: ``"stiff"`` or ``"soft"``
+    (:data:`CLOSURES`)."""
+    if not (isinstance(closures, str) and closures in CLOSURES):
+        raise InvalidParameterError(f"closures must be 'stiff' or 'soft', got {closures!r}")
+    return CLOSURES[closures]
+
+
+def _spatial(description) -> bool:
+    return bool(getattr(description, "spatial", False))
+
+
+def _numbers(values) -> str:
+    return " ".join(repr(float(v)) for v in values)
+
+
+def _floored(tensor) -> tuple[np.ndarray, bool]:
+    """The tensor with its principal moments raised to the floor, and whether any was."""
+    t = np.asarray(tensor, dtype=float)
+    moments, axes = np.linalg.eigh(t)
+    floor = INERTIA_FLOOR * moments.max() if moments.max() > 0 else INERTIA_FLOOR
+    if moments.min() >= floor:
+        return t, False
+    return axes @ np.diag(np.maximum(moments, floor)) @ axes.T, True
+
+
+def _inertial(mass: float, com, tensor, notes: list, where: str) -> str:
+    t, floored = _floored(tensor)
+    if floored:
+        notes.append(where)
+    full = (t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[0, 2], t[1, 2])
+    return f'<inertial pos="{_numbers(com)}" mass="{float(mass)!r}" fullinertia="{_numbers(full)}"/>'
+
+
+def _planar_tensor(inertia: float) -> np.ndarray:
+    return np.diag([inertia / 2, inertia / 2, inertia])
+
+
+def joint_names(model) -> tuple[str, ...]:
+    """MuJoCo's joints in tree order (the order of ``qpos``'s legs part, then the platform's): leg ``i``'s
+    joint ``k`` is ``leg<i>_j<k>`` (a universal joint's two hinges ``…a``, ``…b``)."""
+    m = model.description
+    names = []
+    for i, leg in enumerate(m.legs):
+        for k, joint in enumerate(leg.joints[:-1]):
+            base = f"leg{i + 1}_j{k + 1}"
+            names += [base + "a", base + "b"] if joint.kind == "U" else [base]
+    if _spatial(m) and m.platform.kind == "rigid":
+        return (*names, "platform_free")
+    return (*names, *(f"platform_{n}" for n in m.pose_names))
+
+
+def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", closures: str = "stiff",
+         solref=None, solimp=None) -> str:
+    """The MJCF text of a :class:`~pkmlab.model.mechanism_model.MechanismModel` (module docstring), with a keyframe
+    ``"pkmlab"`` at configuration ``q`` (default :func:`home_configuration`). ``closures`` sets the
+    loop-closure constraints: ``"stiff"`` (default, :data:`STIFF_SOLREF`, :data:`STIFF_SOLIMP`: they then
+    behave like the rigid machine) or ``"soft"`` (MuJoCo's defaults, :data:`DEFAULT_SOLREF`,
+    :data:`DEFAULT_SOLIMP`); ``solref`` or ``solimp``, when given, replaces that setting's own. An XML
+    comment before the constraints says which settings the file uses, and why."""
+    m = model.description
+    named_solref, named_solimp = closure_settings(closures)
+    solref = named_solref if solref is None else tuple(float(v) for v in solref)
+    solimp = named_solimp if solimp is None else tuple(float(v) for v in solimp)
+    if integrator not in ("RK4", "Euler", "implicit", "implicitfast"):
+        raise InvalidParameterError(f"integrator must be RK4, Euler, implicit or implicitfast, got {integrator!r}")
+    if not (isinstance(timestep, float | int) and math.isfinite(timestep) and timestep > 0):
+        raise InvalidParameterError(f"timestep must be a positive number of seconds, got {timestep!r}")
+    if not _spatial(m) and m.platform.kind == "point" and m.platform.mass <= 0:
+        raise InvalidParameterError(f"{m.name}: a point platform without a payload has no mass for MuJoCo to move "
+                                    "(give its payload a mass)")
+    q = home_configuration(model) if q is None else np.asarray(q, dtype=float)
+    qpos = qpos_from_q(model, q)
+    notes: list[str] = []
+    gravity = (*m.gravity, 0.0) if not _spatial(m) else m.gravity
+    body_lines, actuators, equalities = [], [], []
+    joints = iter(joint_names(model))
+    for i, leg in enumerate(m.legs):
+        depth = 2
+        opened = 0
+        for k, (joint, body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
+            pad = "  " * depth
+            name = f"leg{i + 1}_body{k + 1}"
+            if k == 0:
+                pos = (*leg.base, 0.0) if not _spatial(m) else leg.base
+            else:
+                before = leg.bodies[k - 1].tip
+                pos = (*before, 0.0) if not _spatial(m) else before
+            quat = ""
+            if not _spatial(m) and joint.kind == "P" and k == 0:  # a rail: the body's frame along it
+                quat = f' quat="{_numbers((math.cos(joint.axis / 2), 0.0, 0.0, math.sin(joint.axis / 2)))}"'
+            body_lines.append(f'{pad}<body name="{name}" pos="{_numbers(pos)}"{quat}>')
+            if _spatial(m):
+                axes = joint.axes
+            else:
+                axes = ((0.0, 0.0, 1.0),) if joint.kind == "R" else ((1.0, 0.0, 0.0),)
+            for axis in axes:
+                jname = next(joints)
+                kind = "slide" if joint.kind == "P" else "hinge"
+                body_lines.append(f'{pad}  <joint name="{jname}" type="{kind}" axis="{_numbers(axis)}"/>')
+                if joint.actuated:
+                    actuators.append(f'    <motor name="actuator{i + 1}" joint="{jname}" gear="1"/>')
+            if _spatial(m):
+                body_lines.append(f"{pad}  " + _inertial(body.mass, body.com, body.inertia, notes,
+                                                          f"leg {i + 1}, body {k + 1}"))
+            else:
+                body_lines.append(f"{pad}  " + _inertial(body.mass, (*body.com, 0.0), _planar_tensor(body.inertia),
+                                                          notes, f"leg {i + 1}, body {k + 1}"))
+            depth += 1
+            opened += 1
+        last = leg.bodies[-1]
+        tip = (*last.tip, 0.0) if not _spatial(m) else last.tip
+        body_lines.append(f'{"  " * depth}<site name="leg{i + 1}_end" pos="{_numbers(tip)}"/>')
+        for _ in range(opened):
+            depth -= 1
+            body_lines.append(f'{"  " * depth}</body>')
+        equalities.append(f'    <connect name="close{i + 1}" site1="leg{i + 1}_end" site2="platform_a{i + 1}" '
+                          f'solref="{_numbers(solref)}" solimp="{_numbers(solimp)}"/>')
+    platform = m.platform
+    body_lines.append('    <body name="platform" pos="0 0 0">')
+    if _spatial(m) and platform.kind == "rigid":
+        body_lines.append('      <freejoint name="platform_free"/>')
+    else:
+        axes = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
+        for name in m.pose_names:
+            kind, axis = ("hinge", (0, 0, 1)) if name == "alpha" else ("slide", axes[name])
+            body_lines.append(f'      <joint name="platform_{name}" type="{kind}" axis="{_numbers(axis)}"/>')
+    if _spatial(m):
+        body_lines.append("      " + _inertial(platform.mass, platform.com, platform.inertia, notes, "platform"))
+        attachments = platform.attachments
+    else:
+        tensor = _planar_tensor(platform.inertia) if platform.kind == "rigid" else np.zeros((3, 3))
+        body_lines.append("      " + _inertial(platform.mass, (*platform.com, 0.0), tensor, notes, "platform"))
+        attachments = [(*a, 0.0) for a in platform.attachments]
+    for i, a in enumerate(attachments):
+        body_lines.append(f'      <site name="platform_a{i + 1}" pos="{_numbers(a)}"/>')
+    body_lines.append("    </body>")
+    comment = [f"pkmlab: the {m.name} ({m.notation}), {len(m.legs)} legs closed on the platform by connect "
+               "constraints; " + ("joint values as pkmlab's (relative), the platform's pose last"
+                                  + (" (position, quaternion)" if m.platform.kind == "rigid" else "") if _spatial(m)
+                                  else "joint values relative where pkmlab's planar angles are absolute") +
+               ": see pkmlab.interop.mujoco_export.qpos_from_q."]
+    if not _spatial(m):
+        comment.append("Planar bodies carry (I/2, I/2, I): their moments about x and y never enter planar motion.")
+    if notes:
+        comment.append(f"Principal moments of inertia raised to {INERTIA_FLOOR:g} x the body's largest (MuJoCo "
+                       f"refuses zero ones): {'; '.join(notes)}.")
+    lines = [f"<!-- {c.replace('--', '-')} -->" for c in comment]
+    lines += [f"<mujoco model={quoteattr(m.name)}>",
+              '  <compiler angle="radian" autolimits="true"/>',
+              f'  <option timestep="{float(timestep)!r}" integrator="{integrator}" gravity="{_numbers(gravity)}" '
+              'solver="Newton" tolerance="1e-10" iterations="50">',
+              '    <flag contact="disable"/>', "  </option>",
+              "  <worldbody>", *body_lines, "  </worldbody>",
+              "  <equality>", _closure_comment(closures, solref, solimp), *equalities, "  </equality>",
+              "  <actuator>", *actuators, "  </actuator>",
+              "  <keyframe>", f'    <key name="pkmlab" qpos="{_numbers(qpos)}"/>', "  </keyframe>",
+              "</mujoco>"]
+    return "\n".join(lines) + "\n"
+
+
+def _closure_comment(closures: str, solref, solimp) -> str:
+    """The XML comment that says which loop-closure settings the file uses, and why."""
+    values = f'solref="{_numbers(solref)}" solimp="{_numbers(solimp)}"'
+    used = next((name for name, settings in CLOSURES.items() if settings == (solref, solimp)), None)
+    if used is None:
+        why = (f"given by the caller in place of the {closures} setting's (pkmlab's stiff setting, which behaves "
+               f"like the rigid machine: solref=\"{_numbers(STIFF_SOLREF)}\" solimp=\"{_numbers(STIFF_SOLIMP)}\"; "
+               f"MuJoCo's defaults: solref=\"{_numbers(DEFAULT_SOLREF)}\" solimp=\"{_numbers(DEFAULT_SOLIMP)}\").")
+    else:
+        why = CLOSURE_NOTES[used]
+    text = f"Loop closures ({used or 'custom'}): {values}, {why}"
+    return f"    <!-- {text.replace('--', '-')} -->"
+
+
+def _leg_values(model, q: np.ndarray) -> list[list[float]]:
+    """Each leg's joint coordinates in joint order (a universal joint's two), from pkmlab's ``q``."""
+    m = model.description
+    n = len(m.legs)
+    passive = iter(q[n:len(q) - m.dof])
+    out = []
+    for i, leg in enumerate(m.legs):
+        values = []
+        for joint in leg.joints[:-1]:
+            count = getattr(joint, "coordinates", 1)
+            values += [float(q[i])] if joint.actuated else [float(next(passive)) for _ in range(count)]
+        out.append(values)
+    return out
+
+
+def _quaternion(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """The unit quaternion (w, x, y, z) of ``Rz(yaw) Ry(pitch) Rx(roll)``."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return np.array([cy * cp * cr + sy * sp * sr, cy * cp * sr - sy * sp * cr, cy * sp * cr + sy * cp * sr,
+                     sy * cp * cr - cy * sp * sr])
+
+
+def qpos_from_q(model, q) -> np.ndarray:
+    """MuJoCo's ``qpos`` of pkmlab's configuration ``q``: the legs' joint values (planar angles made relative
+    to the body before: ``φ - θ``), then the platform's pose (a quaternion for a six-DOF platform)."""
+    m = model.description
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(model.coordinates),):
+        raise InvalidParameterError(f"q must be the {len(model.coordinates)} coordinates "
+                                    f"({', '.join(model.coordinates)}), got shape {q.shape}")
+    out = []
+    for leg, values in zip(m.legs, _leg_values(model, q), strict=True):
+        if _spatial(m):
+            out += values
+            continue
+        direction = 0.0  # the absolute angle of the body before the joint (the world's, then a rail's)
+        for k, (joint, value) in enumerate(zip(leg.joints, values, strict=False)):
+            if joint.kind == "R":
+                out.append(value - direction)
+                direction = value
+            else:
+                out.append(value)
+                if k == 0:
+                    direction = joint.axis
+    pose = q[len(q) - m.dof:]
+    if _spatial(m) and m.platform.kind == "rigid":
+        return np.array([*out, *pose[:3], *_quaternion(*pose[3:])])
+    return np.array([*out, *pose])
+
+
+def _legs_from_mujoco(model, values: np.ndarray, rates: bool) -> tuple[list[float], int]:
+    """pkmlab's actuators then passive joint coordinates (or their rates) from MuJoCo's leg values; and how
+    many of ``values`` the legs take."""
+    m = model.description
+    actuators, passive, k = [0.0] * len(m.legs), [], 0
+    for i, leg in enumerate(m.legs):
+        direction = 0.0  # the absolute angle (rate) of the body before the joint
+        for j, joint in enumerate(leg.joints[:-1]):
+            count = getattr(joint, "coordinates", 1)
+            got = list(values[k:k + count])
+            k += count
+            if not _spatial(m):
+                if joint.kind == "R":
+                    got = [got[0] + direction]
+                    direction = got[0]
+                elif j == 0:
+                    direction = 0.0 if rates else joint.axis  # a rail's angle is constant
+            if joint.actuated:
+                actuators[i] = got[0]
+            else:
+                passive += got
+    return [*actuators, *passive], k
+
+
+def q_from_qpos(model, qpos) -> np.ndarray:
+    """The inverse of :func:`qpos_from_q`."""
+    m = model.description
+    legs, k = _legs_from_mujoco(model, np.asarray(qpos, dtype=float), rates=False)
+    rest = np.asarray(qpos, dtype=float)[k:]
+    if _spatial(m) and m.platform.kind == "rigid":
+        w, x, y, z = rest[3:7] / np.linalg.norm(rest[3:7])
+        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        rest = np.array([*rest[:3], roll, pitch, yaw])
+    return np.array([*legs, *rest])
+
+
+def affine_map(model) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(A, b)`` with ``q = A qpos + b`` and ``q̇ = A qvel`` — :func:`q_from_qpos` and :func:`q_dot_from_qvel`
+    as one matrix, for a loop that maps every sample — or None for a six-DOF platform (its quaternion does
+    not map linearly)."""
+    m = model.description
+    if _spatial(m) and m.platform.kind == "rigid":
+        return None
+    size = len(model.coordinates)
+    b = q_from_qpos(model, np.zeros(size))
+    a = np.column_stack([q_from_qpos(model, e) - b for e in np.eye(size)])
+    return a, b
+
+
+def q_dot_from_qvel(model, q, qvel) -> np.ndarray:
+    """The inverse of :func:`qvel_from_q_dot`: pkmlab's rates ``q̇`` at ``q`` of MuJoCo's ``qvel``."""
+    m = model.description
+    qvel = np.asarray(qvel, dtype=float)
+    legs, k = _legs_from_mujoco(model, qvel, rates=True)
+    rest = qvel[k:]
+    if _spatial(m) and m.platform.kind == "rigid":
+        from ..description.spatial import orientation
+
+        roll, pitch, _yaw = np.asarray(q, dtype=float)[-3:]
+        rx, ry = orientation(roll, 0.0, 0.0), orientation(0.0, pitch, 0.0)
+        # ω = E (roll, pitch, yaw rates), the map of qvel_from_q_dot, inverted
+        e = np.column_stack([[1.0, 0.0, 0.0], rx.T @ [0.0, 1.0, 0.0], rx.T @ ry.T @ [0.0, 0.0, 1.0]])
+        rest = np.array([*rest[:3], *np.linalg.solve(e, rest[3:])])
+    return np.array([*legs, *rest])
+
+
+def qvel_from_q_dot(model, q, q_dot) -> np.ndarray:
+    """MuJoCo's ``qvel`` of pkmlab's rates ``q̇`` at ``q``: the relative rates of :func:`qpos_from_q` (a linear
+    map of ``q̇`` in the plane); a free joint's angular velocity in the platform's own frame."""
+    m = model.description
+    q_dot = np.asarray(q_dot, dtype=float)
+    if not (_spatial(m) and m.platform.kind == "rigid"):
+        # every entry of qpos is linear in q: its rates are the same map (a rail's constant angle drops out)
+        return qpos_from_q(model, q_dot) - qpos_from_q(model, np.zeros_like(q_dot))
+    from ..description.spatial import orientation
+
+    legs = qpos_from_q(model, q_dot)[:-7]
+    roll, pitch, _yaw = np.asarray(q, dtype=float)[-3:]
+    rates = q_dot[-3:]
+    # ω in the platform frame from the z-y'-x'' rates (as the spatial derivation writes it)
+    rx, ry = orientation(roll, 0.0, 0.0), orientation(0.0, pitch, 0.0)
+    omega = rx.T @ ry.T @ np.array([0.0, 0.0, rates[2]]) + rx.T @ np.array([0.0, rates[1], 0.0]) + np.array(
+        [rates[0], 0.0, 0.0])
+    return np.array([*legs, *q_dot[-6:-3], *omega])
+
+
+def home_configuration(model) -> np.ndarray:
+    """A configuration to export the machine in: the pose of largest ``|S|`` on a grid over its region (planar:
+    over the assembly check's region and 12 orientations; spatial: over its legs' reach, level), in its first
+    working mode."""
+    from ..model import mechanism_model as mm
+    from ..model.reach import spatial_extent
+
+    m = model.description
+    mode = mm.working_modes(model)[0]
+    if _spatial(m):
+        box = spatial_extent(m)
+        axes = [np.linspace(lo, hi, 25) for lo, hi in box]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        poses = np.column_stack([grid, np.zeros((len(grid), m.dof - 3))])
+    else:
+        from ..model.reach import planar_extent
+
+        (x0, x1), (y0, y1) = planar_extent(model.description)
+        turns = np.linspace(-np.pi, np.pi, 12, endpoint=False) if m.dof == 3 else [0.0]
+        gx, gy, ga = np.meshgrid(np.linspace(x0, x1, 41), np.linspace(y0, y1, 41), turns)
+        poses = np.column_stack([gx.ravel(), gy.ravel(), ga.ravel()])[:, :m.dof]
+    q, s, _failure = mm.path_inverse_kinematics(model, poses, mode)
+    if not np.isfinite(s).any():
+        raise PkmlabError(f"{m.name}: no pose of the search grid can be assembled in working mode {mode}: give q")
+    return q[int(np.nanargmax(np.abs(s)))]
+
+
+def load_mujoco(model, q=None, **options):
+    """``(MjModel, MjData)`` of :func:`mjcf`, the data at the keyframe ``"pkmlab"`` (``q``). Needs ``mujoco``
+    (``pip install pkmlab[mujoco]``)."""
+    try:
+        import mujoco
+    except ImportError:
+        raise PkmlabError("MuJoCo is not installed: pip install 'pkmlab[mujoco]' (or pip install mujoco)") from None
+    mj_model = mujoco.MjModel.from_xml_string(mjcf(model, q, **options))
+    data = mujoco.MjData(mj_model)
+    mujoco.mj_resetDataKeyframe(mj_model, data, 0)
+    mujoco.mj_forward(mj_model, data)
+    return mj_model, data

@@ -1,0 +1,488 @@
+"""Any described mechanism bound to its generated kernels, and its dynamics — written once.
+
+A :class:`MechanismModel` is the immutable pair (description, packed parameters) plus the
+compiled kernels generated for its structure (:mod:`pkmlab.codegen.planar`), which carry the
+compiled core of :mod:`pkmlab.codegen.core`: the same role as :class:`~pkmlab.paper.geometry.Planar3RRR`
+plays for the paper's 3-RRR, for every mechanism. The functions below are the paper's formulation
+applied to it:
+
+* the constrained Lagrangian model in the full coordinates ``q`` (eqs. 20–26) with gravity,
+  ``M(q) q̈ + C(q, q̇) q̇ + g(q) = τ + Jηqᵀ λ``, through the mechanism-agnostic algebra of
+  :mod:`pkmlab.numerics.lagrangian` — the independent cross-check;
+* its exact reduction to the actuator space (eq. 35, with gravity), ``Mθ θ̈ + cθ + gθ = τθ``,
+  ``Mθ = Jqθᵀ M Jqθ``, ``cθ = Jqθᵀ (M J̇qθ θ̇ + C q̇)``, ``gθ = Jqθᵀ g = ∂V/∂θ``, computed body by body
+  by the compiled core (what the simulation evaluates);
+* inverse kinematics in every working mode, forward kinematics with every assembly mode, branch
+  following, the singularity measure, and the kinematics of a path.
+
+Coordinates are those of the generated kernels: ``q = (actuators, passive joints, pose)``.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import math
+from dataclasses import dataclass, field
+from types import ModuleType
+
+import numpy as np
+
+from ..codegen import planar
+from ..description.mechanism import Mechanism
+from ..description.presets import preset
+from ..errors import InvalidParameterError, SingularityError
+from ..numerics import lagrangian
+from .reach import attachment_points_of, check_assembly, leg_solver
+
+
+@dataclass(frozen=True)
+class MechanismModel:
+    """A described mechanism with its packed parameters and generated kernels.
+
+    >>> model = MechanismModel.from_preset("five_bar")
+    >>> model.coordinates
+    ('a1', 'a2', 'q1_2', 'q2_2', 'x', 'y')
+    """
+
+    description: Mechanism
+    P: np.ndarray = field(compare=False, repr=False)
+    kernels: ModuleType = field(compare=False, repr=False)
+
+    @classmethod
+    def from_description(cls, description: Mechanism) -> MechanismModel:
+        from ..description.spatial import SpatialMechanism
+
+        if not isinstance(description, Mechanism | SpatialMechanism):
+            raise InvalidParameterError(f"description must be a Mechanism or a SpatialMechanism, got "
+                                        f"{type(description).__name__}")
+        model = _bind(description)
+        check_assembly(description)
+        return model
+
+    @classmethod
+    def from_preset(cls, name: str) -> MechanismModel:
+        return cls.from_description(preset(name))
+
+    @classmethod
+    def from_3rrr(cls, model) -> MechanismModel:
+        """The generic model of a :class:`~pkmlab.paper.geometry.Planar3RRR`, from its
+        :meth:`~pkmlab.paper.geometry.Planar3RRR.to_mechanism`: what runs its simulations. Cached: a study builds it
+        once per machine."""
+        return _from_3rrr(model)
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        return self.kernels.COORDINATES
+
+    @property
+    def n_actuators(self) -> int:
+        return len(self.description.legs)
+
+    @property
+    def name(self) -> str:
+        return self.description.name
+
+    @property
+    def pose_names(self) -> tuple[str, ...]:
+        """The platform's pose coordinates, e.g. ``('x', 'y', 'alpha')``: the last entries of ``q``."""
+        return tuple(self.description.pose_names)
+
+    @property
+    def dof(self) -> int:
+        return self.description.dof
+
+    @property
+    def body_weights(self) -> np.ndarray:
+        """``D`` (n_bodies, 3): ``(m, m, I)`` of every body (legs' bodies, then the platform)."""
+        rows = [(b.mass, b.mass, b.inertia) for leg in self.description.legs for b in leg.bodies]
+        platform = self.description.platform
+        return np.array([*rows, (platform.mass, platform.mass, platform.inertia)], dtype=float)
+
+
+def load(source) -> MechanismModel:
+    """The model of a mechanism, for every function of pkmlab.
+
+    Parameters
+    ----------
+    source : str, path, description or model
+        A preset's name (``"paper"``, ``"five_bar"``, ``"3rpr"``, ``"3prr"``, ``"delta"``, ``"stewart"``), a
+        description file (TOML with a ``[mechanism]`` table), a description
+        (:class:`~pkmlab.description.mechanism.Mechanism`, :class:`~pkmlab.description.spatial.SpatialMechanism`),
+        or a model (returned as it is).
+
+    Returns
+    -------
+    MechanismModel
+        The immutable description bound to its structure's compiled kernels.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> model.coordinates
+    ('a1', 'a2', 'a3', 'q1_2', 'q2_2', 'q3_2', 'x', 'y', 'alpha')
+    """
+    import os
+    from pathlib import Path
+
+    from ..description.files import load_mechanism
+    from ..description.presets import PRESETS
+    from ..description.spatial import SpatialMechanism
+    from ..errors import shown
+
+    if isinstance(source, MechanismModel):
+        return source
+    if isinstance(source, Mechanism | SpatialMechanism):
+        return MechanismModel.from_description(source)
+    if isinstance(source, str) and source in PRESETS:
+        return MechanismModel.from_preset(source)
+    if isinstance(source, str | os.PathLike) and Path(source).suffix == ".toml":
+        return MechanismModel.from_description(load_mechanism(source))
+    raise InvalidParameterError(f"source must be a preset ({', '.join(PRESETS)}), a .toml description file, a "
+                                f"description or a model, got {shown(source, 60)}")
+
+
+def derivation(description) -> ModuleType:
+    """The derivation of a description: :mod:`pkmlab.codegen.spatial` for a spatial machine, else
+    :mod:`pkmlab.codegen.planar`."""
+    if getattr(description, "spatial", False):
+        from ..codegen import spatial
+
+        return spatial
+    return planar
+
+
+def _bind(description: Mechanism) -> MechanismModel:
+    """The description with its packed parameters and its structure's kernels (shipped, or generated once)."""
+    derived = derivation(description)
+    try:
+        kernels = importlib.import_module(f"..kernels.{derived.generated_path(description).stem}",
+                                          __package__)
+    except ModuleNotFoundError:
+        kernels = _user_structure_kernels(description)
+    P = derived.pack(description)
+    P.setflags(write=False)
+    return MechanismModel(description, P, kernels)
+
+
+@functools.lru_cache(maxsize=64)
+def _from_3rrr(model) -> MechanismModel:
+    return _bind(model.to_mechanism())  # the Planar3RRR checked already that its platform can be assembled
+
+
+def _user_structure_kernels(description: Mechanism) -> ModuleType:
+    """The kernels of a structure pkmlab does not ship: derived and generated once (SymPy, a few seconds),
+    kept in pkmlab's cache folder beside the compiled kernels, and imported from there — so a later
+    process neither derives nor compiles them again. Written atomically: a concurrent process reads
+    either nothing or the whole module."""
+    import importlib.util
+    import os
+    import sys
+    import tempfile
+
+    from .._compile_cache import CACHE_DIR
+
+    derived = derivation(description)
+    name = f"pkmlab_kernels_{derived.generated_path(description).stem}"
+    if name in sys.modules:
+        return sys.modules[name]
+    folder = CACHE_DIR / "kernels"
+    path = folder / f"{name}.py"
+    if not path.exists():
+        source = derived.generate_source(description)
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}-", suffix=".tmp")
+        with os.fdopen(fd, "w") as f:
+            f.write(source)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def trig_table(model: MechanismModel, q: np.ndarray) -> np.ndarray:
+    """The trig table of ``q`` that every generated kernel reads: ``(cos q_k, sin q_k)`` (n_coordinates, 2)
+    for the angles (zeros elsewhere)."""
+    sc = np.zeros((len(model.coordinates), 2))
+    model.kernels.trig(q, sc)
+    return sc
+
+
+def joint_positions(model: MechanismModel, q) -> np.ndarray:
+    """Every joint's position at configurations ``q`` (..., n_coordinates): (..., legs, joints per leg, 2 or 3),
+    each leg's base joint first — from the structure's generated ``joint_points``; what every drawing of a
+    machine draws."""
+    q = np.ascontiguousarray(q, dtype=float)
+    k = model.kernels
+    flat = q.reshape(-1, q.shape[-1])
+    out = np.empty((len(flat), len(model.description.legs), k.JOINTS_PER_LEG, k.DIM))
+    for i, qi in enumerate(flat):
+        k.joint_points(qi, trig_table(model, qi), model.P, out[i])
+    return out.reshape(*q.shape[:-1], *out.shape[1:])
+
+
+def _evaluate(model: MechanismModel, fn, shape, q, *args) -> np.ndarray:
+    """``fn``'s output (``shape``) at configuration ``q``; ``args`` between the trig table and ``P``."""
+    out = np.empty(shape)
+    fn(q, trig_table(model, q), *args, model.P, out)
+    return out
+
+
+def _q(model: MechanismModel, q) -> np.ndarray:
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(model.coordinates),):
+        raise InvalidParameterError(f"q must be the {len(model.coordinates)} coordinates "
+                                    f"({', '.join(model.coordinates)}), got shape {q.shape}")
+    return q
+
+
+def constraint_residual(model: MechanismModel, q) -> np.ndarray:
+    """``η(q)``: for each leg, the end of its chain minus its platform attachment point."""
+    k = model.kernels
+    return _evaluate(model, k.constraints, (k.N_CONSTRAINTS,), _q(model, q))
+
+
+def constraint_jacobian(model: MechanismModel, q) -> np.ndarray:
+    """``Jηq = ∂η/∂q`` (n_constraints, n_coordinates)."""
+    k = model.kernels
+    return _evaluate(model, k.constraint_jacobian, (k.N_CONSTRAINTS, k.N_COORDINATES), _q(model, q))
+
+
+def _bodies(model: MechanismModel, q, q_dot):
+    k = model.kernels
+    J = _evaluate(model, k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q)
+    bias = _evaluate(model, k.body_bias, (k.N_BODIES, 3), q, q_dot)
+    return J, bias
+
+
+def gravity_vector(model: MechanismModel, q) -> np.ndarray:
+    """``g(q) = ∂V/∂q``: the generalised forces that hold the machine still against gravity."""
+    q = _q(model, q)
+    if getattr(model.description, "spatial", False):
+        return _spatial_full_space_model(model, q, np.zeros_like(q))[2]
+    k = model.kernels
+    return _gravity(model, _evaluate(model, k.body_jacobians, (k.N_BODIES, 3, k.N_COORDINATES), q))
+
+
+def _gravity(model: MechanismModel, J: np.ndarray) -> np.ndarray:
+    """``g = -Σ_b m_b J_b,linᵀ gravity`` from the bodies' Jacobians ``J`` (n_bodies, 3, n)."""
+    weights = model.body_weights[:, 0]
+    gx, gy = model.description.gravity
+    return -(weights[:, None] * (gx * J[:, 0, :] + gy * J[:, 1, :])).sum(axis=0)
+
+
+def full_space_model(model: MechanismModel, q, q_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(M, C q̇, g)`` of the unconstrained bodies in the coordinates ``q`` (eqs. 23–24, with gravity)."""
+    q, q_dot = _q(model, q), _q(model, q_dot)
+    if getattr(model.description, "spatial", False):
+        return _spatial_full_space_model(model, q, q_dot)
+    J, bias = _bodies(model, q, q_dot)
+    D = model.body_weights
+    return lagrangian.mass_matrix(J, D), lagrangian.velocity_product(J, D, bias), _gravity(model, J)
+
+
+def _spatial_full_space_model(model: MechanismModel, q, q_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`full_space_model` of spatial bodies (rows: mass-centre velocity, angular velocity ``ω`` in the
+    body's frame): ``M = Σ m J_vᵀ J_v + J_ωᵀ I J_ω``, ``C q̇ = Σ m J_vᵀ J̇_v q̇ + J_ωᵀ (I J̇_ω q̇ + ω × I ω)``,
+    ``g = -Σ m J_vᵀ gravity`` — the Newton–Euler equations of every body in the coordinates ``q``."""
+    k = model.kernels
+    J = _evaluate(model, k.body_jacobians, (k.N_BODIES, 6, k.N_COORDINATES), q)
+    bias = _evaluate(model, k.body_bias, (k.N_BODIES, 6), q, q_dot)
+    m = model.description
+    bodies = [b for leg in m.legs for b in leg.bodies] + [m.platform]
+    gravity = np.array(m.gravity)
+    n = len(q)
+    M, h, g = np.zeros((n, n)), np.zeros(n), np.zeros(n)
+    for body, jb, bb in zip(bodies, J, bias, strict=True):
+        jv, jw = jb[:3], jb[3:]
+        inertia = np.array(body.inertia)
+        omega = jw @ q_dot
+        M += body.mass * jv.T @ jv + jw.T @ inertia @ jw
+        h += body.mass * jv.T @ bb[:3] + jw.T @ (inertia @ bb[3:] + np.cross(omega, inertia @ omega))
+        g -= body.mass * jv.T @ gravity
+    return M, h, g
+
+
+def actuator_space_model(model: MechanismModel, q, theta_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(Mθ, cθ, gθ)`` of ``Mθ θ̈ + cθ + gθ = τθ`` (eq. 35, with gravity) at a configuration ``q`` on
+    the loop-closure manifold and actuator rates ``θ̇``."""
+    q = _q(model, q)
+    theta_dot = np.asarray(theta_dot, dtype=float)
+    if theta_dot.shape != (model.n_actuators,):
+        raise InvalidParameterError(f"theta_dot must be {model.n_actuators} actuator rates, got shape "
+                                    f"{theta_dot.shape}")
+    n = model.n_actuators
+    m_theta, c_theta, g_theta = np.empty((1, n, n)), np.empty((1, n)), np.empty((1, n))
+    # the compiled core's (pkmlab.codegen.core.dynamics.actuator_space_model): the simulation's own numbers
+    if model.kernels.actuator_space_models(q[None, :], theta_dot[None, :], model.P, m_theta, c_theta, g_theta) >= 0:
+        raise SingularityError("the configuration is at a gain-type singularity: det(J_eta_phi) = 0")
+    return m_theta[0], c_theta[0], g_theta[0]
+
+
+def constrained_accelerations(model: MechanismModel, q, q_dot, tau) -> tuple[np.ndarray, np.ndarray]:
+    """``(q̈, λ)`` of the full model ``M q̈ + C q̇ + g = Q + Jηqᵀ λ`` with ``Jηq q̈ + J̇ηq q̇ = 0`` (eq. 26),
+    where ``Q`` applies the actuator efforts ``τ`` to the actuated coordinates."""
+    q, q_dot = _q(model, q), _q(model, q_dot)
+    k = model.kernels
+    M, h, g = full_space_model(model, q, q_dot)
+    Q = np.zeros(len(q))
+    Q[:model.n_actuators] = tau
+    gamma = _evaluate(model, k.constraint_bias, (k.N_CONSTRAINTS,), q, q_dot)
+    q_ddot, lam, ok = lagrangian.constrained_accelerations(M, h + g, constraint_jacobian(model, q), gamma, Q)
+    if not ok:
+        raise SingularityError("the constrained model is singular at this configuration")
+    return q_ddot, lam
+
+
+# ------------------------------------------------------------------ inverse kinematics
+def working_modes(model: MechanismModel) -> list[tuple[int, ...]]:
+    """Every working mode: one sign per two-branch leg, +1 before -1, in lexicographic order
+    (``[()]`` when no leg has two branches, as for the 3-RPR)."""
+    import itertools
+
+    leg_modes = leg_solver(model.description).working_modes
+    return list(itertools.product(*[leg_modes(leg) for leg in model.description.legs if leg_modes(leg)]))
+
+
+def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
+    """The configuration ``q`` (actuators, passive joints, pose) of ``pose`` in working ``mode`` (one sign
+    per two-branch leg, :func:`working_modes`), in closed form per leg type
+    (:mod:`pkmlab.description.leg_types`). Raises naming the leg that cannot reach."""
+    from ..errors import UnreachablePoseError
+
+    m = model.description
+    pose = np.asarray(pose, dtype=float)
+    if pose.shape != (m.dof,) or not np.all(np.isfinite(pose)):
+        raise InvalidParameterError(f"pose must be ({', '.join(m.pose_names)}), finite, got {pose.tolist()}")
+    if getattr(m, "spatial", False):
+        from ..description.spatial import check_pose
+
+        check_pose(m, pose)
+    q, _unreachable, failure = inverse_kinematics_batch(model, pose[None, :], mode)
+    if failure is not None:
+        _k, leg, message = failure
+        raise UnreachablePoseError(message, legs=(leg + 1,))
+    return q[0]
+
+
+def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
+    """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach;
+    the legs that cannot, a bit mask per pose (K,) (bit ``i`` for leg ``i + 1``); and the first failure
+    ``(k, leg, message)`` (else None)."""
+    m = model.description
+    solver = leg_solver(m)
+    leg_inverse_kinematics_batch, leg_modes = solver.leg_inverse_kinematics_batch, solver.working_modes
+    extra = (solver.central_axis(m),) if getattr(m, "spatial", False) else ()
+    signs = iter(tuple(mode))
+    actuators, passive, unreachable = [], [], np.zeros(len(poses), dtype=np.int64)
+    first = None
+    for i, leg in enumerate(m.legs):
+        sigma = next(signs, None) if leg_modes(leg) else 1
+        if sigma not in (1, -1):
+            raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg, got {tuple(mode)}")
+        solved = leg_inverse_kinematics_batch(leg, i, attachment_points_of(m, i, poses), sigma, *extra)
+        if solved.bad.any():
+            k = int(np.argmax(solved.bad))
+            if first is None or k < first[0]:
+                first = (k, i, solved.why(k))
+            unreachable |= solved.bad.astype(np.int64) << i
+        # the actuator's column among the leg's joint coordinates (a spatial U joint before it has two)
+        column = sum(getattr(j, "coordinates", 1) for j in leg.joints[:leg.actuated])
+        actuators.append(solved.coordinates[:, column])
+        passive += [solved.coordinates[:, k] for k in range(solved.coordinates.shape[1]) if k != column]
+    if next(signs, None) is not None:
+        raise InvalidParameterError(f"mode has more signs than two-branch legs, got {tuple(mode)}")
+    q = np.column_stack([*actuators, *passive, poses])
+    q[unreachable != 0] = np.nan
+    return q, unreachable, first
+
+
+# ------------------------------------------------------------------ singularity measure
+def singularity_measure(model: MechanismModel, q) -> float:
+    """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined
+    (:func:`pkmlab.codegen.core.branch_following.singularity_measure`: for three legs on a rigid platform, the
+    determinant of the legs' lines of action, the paper's eq. (19) for its machine; for the five-bar,
+    ``sin(φ1 - φ2)``)."""
+    q = _q(model, q)
+    return float(model.kernels.singularity_measure(q, trig_table(model, q), model.P,
+                                                    np.empty((model.n_actuators, model.kernels.LINE_WIDTH))))
+
+
+def branch_following(model: MechanismModel, q_previous, theta, *, min_abs_S: float = 1e-3,
+                     max_step: float = 0.05) -> np.ndarray:
+    """The configuration at ``actuators`` continuously connected to ``q_previous`` (paper §3.2): the compiled
+    core's :func:`~pkmlab.codegen.core.branch_following.follow_branch_in_steps`, the simulation's own branch
+    following, in sub-steps of at most ``max_step`` in the actuators (halved where one fails; an actuator angle
+    moves the shorter way round, by at most π). Raises
+    :class:`~pkmlab.errors.BranchFollowingError` where the way nears a gain-type singularity
+    (``|S| < min_abs_S``) or the passive coordinates cannot be found (out of reach).
+    """
+    from ..errors import BranchFollowingError
+
+    q = _q(model, q_previous)
+    target = np.asarray(theta, dtype=float)
+    na = model.n_actuators
+    if target.shape != (na,) or not np.all(np.isfinite(target)):
+        raise InvalidParameterError(f"theta must be {na} finite values, got {np.asarray(theta).tolist()}")
+    for name, value, low in (("max_step", max_step, 0.0), ("min_abs_S", min_abs_S, -1.0)):
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+                and value > low):
+            raise InvalidParameterError(f"{name} must be a finite number {'above 0' if low == 0 else 'of 0 or more'}, "
+                                        f"got {value!r}")
+    k = model.kernels
+    out, status = np.empty((1, q.size)), np.zeros(1, dtype=np.int64)
+    k.branch_following_batch(q[None, :], target[None, :], model.P, float(min_abs_S), float(max_step), out, status)
+    if status[0] != k.OK:
+        why = ("a gain-type singularity on the way" if status[0] == k.SINGULAR else
+               "the passive coordinates cannot be found on the way: out of reach, or at a gain-type singularity")
+        s_reached = abs(singularity_measure(model, out[0]))
+        reached = f"|S| = {s_reached:.3g} at actuators {np.round(out[0, :na], 6).tolist()}"
+        raise BranchFollowingError(f"cannot follow the assembly mode to actuators {np.round(target, 6).tolist()}: "
+                                   f"{why} ({reached}, the last configuration reached; limit |S| >= {min_abs_S:g})")
+    return out[0]
+
+
+# ------------------------------------------------------------------ along a path
+def path_inverse_kinematics(model: MechanismModel, poses, mode) -> tuple[np.ndarray, np.ndarray, tuple | None]:
+    """Inverse kinematics of many poses ``(K, dof)`` in one working ``mode``, at once.
+
+    Returns ``(q (K, n_coordinates), S (K,), failure)``: rows that cannot be reached are NaN, and
+    ``failure`` is ``(k, error)`` for the first of them (the error names the leg), else None.
+    """
+    from ..errors import UnreachablePoseError
+
+    poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
+    q, _unreachable, first = inverse_kinematics_batch(model, poses, mode)
+    s = np.empty(poses.shape[0])
+    model.kernels.singularity_measures(q, model.P, s)
+    failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))
+    return q, s, failure
+
+
+def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarray, np.ndarray, int]:
+    """Actuator rates and accelerations along configurations ``q`` (K, n_coordinates) whose pose moves
+    with ``pose_dot``, ``pose_ddot`` (K, dof): differentiating ``η(q) = 0`` once and twice,
+
+        ``A u̇ = -B ẋ``,   ``A ü = -B ẍ - J̇ηq q̇``
+
+    with ``u`` the actuators and passive joints, ``A = ∂η/∂u``, ``B = ∂η/∂pose`` (paper eqs. 14–17, 32).
+    Returns ``(θ̇, θ̈, k)``: ``k`` the first sample where ``A`` is singular (the pose at the edge of the
+    workspace: an inverse-kinematic singularity), else -1.
+    """
+    k_ = model.kernels
+    count, n, N, dof = q.shape[0], model.n_actuators, k_.N_COORDINATES, model.description.dof
+    j_eta, gamma = np.empty((count, k_.N_CONSTRAINTS, N)), np.empty((count, k_.N_CONSTRAINTS))
+    k_.constraint_jacobians(np.ascontiguousarray(q), model.P, j_eta)
+    a, b = j_eta[:, :, :N - dof], j_eta[:, :, N - dof:]
+    singular = ~(np.linalg.cond(a) < 1e12)
+    if singular.any():
+        k = int(np.argmax(singular))
+        return np.empty((count, n)), np.empty((count, n)), k
+    u_dot = np.linalg.solve(a, -np.einsum("kij,kj->ki", b, pose_dot)[..., None])[..., 0]
+    q_dot = np.concatenate([u_dot, pose_dot], axis=1)
+    k_.constraint_biases(np.ascontiguousarray(q), q_dot, model.P, gamma)
+    u_ddot = np.linalg.solve(a, (-np.einsum("kij,kj->ki", b, pose_ddot) - gamma)[..., None])[..., 0]
+    return u_dot[:, :n].copy(), u_ddot[:, :n].copy(), -1

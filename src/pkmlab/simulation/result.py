@@ -1,0 +1,195 @@
+"""What a simulation returns: :class:`SimulationResult`, every time series of a run (conventions §8), its
+summary and the units of the summary's keys, and the path and orientation errors it is made of.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..model.mechanism_model import MechanismModel
+from ..outputs import atomic_file
+from .scenario import Scenario, check_model
+
+#: Columns of the per-sample time series (conventions §8).
+COLUMNS = ("t", "theta1", "theta2", "theta3", "theta1_d", "theta2_d", "theta3_d", "tau1", "tau2", "tau3",
+           "x", "y", "alpha", "x_d", "y_d", "alpha_d", "S")
+
+
+# ------------------------------------------------------------------ results
+@dataclass(frozen=True)
+class SimulationResult:
+    """Every time series of a run, one row per sample ``t = 0 … T`` (inclusive).
+
+    ``q`` (N, n_coordinates) is the plant's configuration, ``theta`` its first ``n`` columns (the
+    actuator values: angles in rad, or lengths in m for prismatic actuators), ``pose`` (N, dof) the
+    plant's pose from its own geometry (``(x, y, alpha)``, or ``(x, y)`` for a 2-DOF machine),
+    ``pose_d`` the desired pose, ``theta_d`` the desired actuator values (controller's model), ``tau``
+    (N, n) the actuator efforts (N·m, or N for prismatic actuators), ``S`` (N,) the plant's
+    singularity measure.
+    """
+
+    scenario: Scenario
+    working_mode: tuple[int, ...]
+    t: np.ndarray
+    q: np.ndarray
+    theta_dot: np.ndarray
+    theta_d: np.ndarray
+    tau: np.ndarray
+    pose: np.ndarray
+    pose_d: np.ndarray
+    S: np.ndarray
+    closure_violation: np.ndarray | None = None  # a MuJoCo plant's loop-closure violation (m), per sample
+
+    @property
+    def theta(self) -> np.ndarray:
+        return self.q[:, :self.tau.shape[1]]
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Names of the columns of :meth:`table`: ``t``, ``theta1..n``, ``theta1_d..``, ``tau1..n``, the pose's
+        coordinates, their desired values (``x_d``...), ``S`` (for the paper's machine :data:`COLUMNS`)."""
+        extra = ("closure_violation_m",) if self.closure_violation is not None else ()
+        n = self.tau.shape[1]
+        names = self.pose_names
+        return ("t", *(f"theta{i + 1}" for i in range(n)), *(f"theta{i + 1}_d" for i in range(n)),
+                *(f"tau{i + 1}" for i in range(n)), *names, *(f"{v}_d" for v in names), "S", *extra)
+
+    @property
+    def path_error(self) -> np.ndarray:
+        """Euclidean distance (m) between the actual and the desired tracked point."""
+        return path_error(self.pose, self.pose_d, self.pose_names)
+
+    @property
+    def orientation_error(self) -> np.ndarray | None:
+        """The angle (rad) between the actual and the desired orientation of the platform, None where the pose
+        has no orientation (:func:`orientation_error`)."""
+        return orientation_error(self.pose, self.pose_d, self.pose_names)
+
+    @property
+    def pose_names(self) -> tuple[str, ...]:
+        """The names of the pose's coordinates."""
+        return self.scenario.model.pose_names
+
+    def summary(self) -> dict:
+        """The run's summary, one key set for every machine (:func:`summary_units` gives each key's unit).
+
+        ``max_path_error_m``, ``rms_path_error_m``; ``max_orientation_error_rad`` where the pose has an
+        orientation, and ``max_alpha_error_rad`` (the same value) where it is the planar angle ``alpha``;
+        ``max_joint_error`` and ``peak_effort`` (one per actuator) in the actuators' units, also named with
+        their unit where every actuator has the same kind: ``max_joint_error_rad`` and ``peak_torque_Nm`` for
+        revolute actuators, ``max_joint_error_m`` and ``peak_force_N`` for prismatic ones; ``min_abs_S``;
+        ``working_mode``; ``max_closure_violation_m`` for a MuJoCo plant.
+        """
+        err = self.path_error
+        joint = actuator_errors(self.scenario.plant_model, self.theta, self.theta_d)
+        out = {
+            "max_path_error_m": float(err.max()),
+            "rms_path_error_m": float(np.sqrt(np.mean(err**2))),
+        }
+        orientation = self.orientation_error
+        if orientation is not None:
+            out["max_orientation_error_rad"] = float(orientation.max())
+            if "alpha" in self.pose_names:
+                out["max_alpha_error_rad"] = out["max_orientation_error_rad"]
+        out["max_joint_error"] = float(np.abs(joint).max())
+        out["peak_effort"] = np.abs(self.tau).max(axis=0).tolist()
+        kinds = set(self.scenario.model.description.actuator_kinds)
+        if kinds == {"R"}:
+            out["max_joint_error_rad"], out["peak_torque_Nm"] = out["max_joint_error"], out["peak_effort"]
+        elif kinds == {"P"}:
+            out["max_joint_error_m"], out["peak_force_N"] = out["max_joint_error"], out["peak_effort"]
+        out["min_abs_S"] = float(np.abs(self.S).min())
+        out["working_mode"] = list(self.working_mode)
+        if self.closure_violation is not None:
+            out["max_closure_violation_m"] = float(self.closure_violation.max())
+        return out
+
+    def table(self) -> np.ndarray:
+        """The (N, len(columns)) array of :attr:`columns`."""
+        extra = [] if self.closure_violation is None else [self.closure_violation]
+        return np.column_stack([self.t, self.theta, self.theta_d, self.tau, self.pose, self.pose_d, self.S, *extra])
+
+    def to_csv(self, path) -> Path:
+        """Write the time series (columns :attr:`columns`) atomically."""
+        # every value as the shortest text that reads back to the same float (repr); no value needs quoting
+        lines = [",".join(self.columns), *(",".join(map(repr, row)) for row in self.table().tolist())]
+        return _write_atomic(path, "\n".join(lines) + "\n")
+
+    def to_json(self, path) -> Path:
+        """Write the summary and the time series as JSON, atomically."""
+        data = {"summary": self.summary(), "columns": list(self.columns), "rows": self.table().tolist()}
+        return _write_atomic(path, json.dumps(data))
+
+
+def summary_units(model: MechanismModel) -> dict[str, str]:
+    """The unit of every key of a run's summary (:meth:`SimulationResult.summary`) for ``model``'s machine:
+    ``"m"``, ``"rad"``, ``"N*m"``, ``"N"``, ``""`` (``S`` and the working mode have none); a mixed machine's
+    ``max_joint_error`` is ``"rad|m"`` and its ``peak_effort`` lists one unit per actuator."""
+    check_model(model, "model")
+    kinds = tuple(model.description.actuator_kinds)
+    units = {"max_path_error_m": "m", "rms_path_error_m": "m"}
+    names = model.pose_names
+    if "alpha" in names or "roll" in names:
+        units["max_orientation_error_rad"] = "rad"
+        if "alpha" in names:
+            units["max_alpha_error_rad"] = "rad"
+    joint = {"R": "rad", "P": "m"}
+    effort = {"R": "N*m", "P": "N"}
+    same = len(set(kinds)) == 1
+    units["max_joint_error"] = joint[kinds[0]] if same else "rad|m"
+    units["peak_effort"] = effort[kinds[0]] if same else ",".join(effort[k] for k in kinds)
+    if set(kinds) == {"R"}:
+        units.update(max_joint_error_rad="rad", peak_torque_Nm="N*m")
+    elif set(kinds) == {"P"}:
+        units.update(max_joint_error_m="m", peak_force_N="N")
+    units.update(min_abs_S="", working_mode="", max_closure_violation_m="m")  # the last: MuJoCo plants' runs
+    return units
+
+
+def path_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray:
+    """Euclidean distance (m) between the actual and the desired tracked point of poses (N, dof) whose
+    coordinates are ``names``: in the plane, or in space when the pose has a ``z``."""
+    position = 3 if "z" in names else 2
+    return np.linalg.norm(pose[:, :position] - pose_d[:, :position], axis=1)
+
+
+def orientation_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray | None:
+    """The angle (rad) between the actual and the desired orientation of poses (N, dof) whose coordinates are
+    ``names``, None where the pose has no orientation: ``|alpha - alpha_d|`` wrapped in the plane; in space the
+    angle of the rotation ``R_dᵀ R`` (from the roll, pitch and yaw of docs/conventions.md)."""
+    names = tuple(names)
+    if "alpha" in names:
+        k = names.index("alpha")
+        return np.abs(np.angle(np.exp(1j * (pose[:, k] - pose_d[:, k]))))
+    if "roll" in names:
+        from ..description.spatial import orientations
+
+        # the angle of E = R_dᵀ R: cos from its trace (1 + 2 cos), sin from its skew part (|E - Eᵀ| = 2 sin·√2),
+        # together by atan2 — exact to round-off for small angles too, where arccos of the trace is not
+        e = np.einsum("kji,kjl->kil", orientations(pose_d[:, 3:6]), orientations(pose[:, 3:6]))
+        skew = np.stack([e[:, 2, 1] - e[:, 1, 2], e[:, 0, 2] - e[:, 2, 0], e[:, 1, 0] - e[:, 0, 1]], axis=1)
+        return np.arctan2(np.linalg.norm(skew, axis=1) / 2, (np.trace(e, axis1=1, axis2=2) - 1) / 2)
+    return None
+
+
+def _write_atomic(path, text: str) -> Path:
+    with atomic_file(path) as tmp:
+        tmp.write_text(text)
+    return Path(path)
+
+
+def actuator_kinds(model: MechanismModel) -> frozenset[str]:
+    """The kinds of the machine's actuators: ``{"R"}`` (angles in rad, torques in N·m), ``{"P"}`` (lengths in
+    m, forces in N), or both."""
+    return frozenset(model.description.actuator_kinds)
+
+
+def actuator_errors(model, theta: np.ndarray, theta_d: np.ndarray) -> np.ndarray:
+    """``θ - θ_d``, angles wrapped to (-π, π] (a prismatic actuator's error is a length)."""
+    e = theta - theta_d
+    angles = np.array(model.kernels.ANGLES[:model.n_actuators])
+    return np.where(angles, np.angle(np.exp(1j * e)), e)

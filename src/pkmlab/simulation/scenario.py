@@ -1,0 +1,244 @@
+"""A scenario: the plain value a simulation runs — the controller's model of the machine, the plant (the real
+machine, possibly different), the trajectory, the controller and its gains, the sample time — and the
+machines derived from a model for one (scaled, perturbed), and the working mode chosen for its path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .._format import apart
+from .._validate import as_count, as_real
+from ..algorithms.kinematics import as_working_mode
+from ..control.controller import (
+    ControllerSpec,
+)
+from ..errors import (
+    InvalidParameterError,
+    SingularityError,
+    UnreachablePoseError,
+    shown,
+)
+from ..model.mechanism_model import MechanismModel
+
+#: A scenario of more samples than this is refused (memory: ~200 bytes per sample).
+MAX_SAMPLES = 10_000_000
+
+
+#: Runge–Kutta steps per sample at most (as in scenario files).
+MAX_SUBSTEPS = 1000
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything that defines one closed-loop run.
+
+    Attributes
+    ----------
+    model : MechanismModel
+        The controller's model of the machine (``pkmlab.load("paper")``, any preset or description),
+        used for inverse kinematics, the pre-flight check and computed torque.
+    plant : MechanismModel or None
+        The real machine, of the model's structure with other numbers; ``None`` means identical to ``model``.
+    trajectory : Trajectory-like
+        Gives ``desired(t) -> (pose, pose_dot, pose_ddot)`` and ``duration``.
+    controller : ControllerSpec
+    sample_time : float
+        ``Ts`` in seconds; ``0`` selects continuous-time control.
+    working_mode : "auto" or signs
+        ``"auto"`` picks the mode maximising ``min |S|`` along the path (docs/conventions.md §3); else one sign
+        per two-branch leg (``"+-+"``, ``(1, -1, 1)``...), stored as a tuple of ints.
+    singularity_margin : float
+        Paths with ``min |S|`` below this in every admissible mode are refused before simulating.
+    singularity_guard : float
+        A run stops with an error when the plant's ``|S|`` falls below this.
+    substeps : int
+        Runge–Kutta steps per sample for the plant (sampled-data control), 1 to :data:`MAX_SUBSTEPS`.
+    name : str
+    """
+
+    model: MechanismModel
+    trajectory: object
+    plant: MechanismModel | None = None
+    controller: ControllerSpec = field(default_factory=ControllerSpec)
+    sample_time: float = 1e-3
+    working_mode: object = "auto"
+    singularity_margin: float = 0.05
+    singularity_guard: float = 0.01
+    substeps: int = 1
+    name: str = "scenario"
+
+    def __post_init__(self):
+        set_ = object.__setattr__  # a frozen dataclass: the normalised values are stored so
+        check_model(self.model, "model")
+        if self.plant is not None:
+            check_model(self.plant, "plant")
+            if self.plant.kernels is not self.model.kernels:
+                raise InvalidParameterError(f"the plant ({self.plant.description.notation}) must have the structure "
+                                            f"of the controller's model ({self.model.description.notation}): only "
+                                            "its numbers may differ")
+        if not callable(getattr(self.trajectory, "desired", None)):
+            raise InvalidParameterError(
+                "trajectory must be a Trajectory or WaypointTrajectory (an object with desired(t) and duration), "
+                f"got {type(self.trajectory).__name__} {shown(self.trajectory, 50)}"
+            )
+        duration = as_real("trajectory duration", getattr(self.trajectory, "duration", None), "positive")
+        if not isinstance(self.controller, ControllerSpec):
+            raise InvalidParameterError(f"controller must be a ControllerSpec, got {type(self.controller).__name__} "
+                                        f"{shown(self.controller, 50)}")
+        set_(self, "sample_time", as_real("sample_time", self.sample_time, "non-negative"))
+        set_(self, "substeps", as_count("substeps", self.substeps, 1, MAX_SUBSTEPS))
+        for name in ("singularity_margin", "singularity_guard"):
+            set_(self, name, as_real(name, getattr(self, name), "non-negative"))
+        _check_pose_dimension(self.model, self.trajectory)
+        set_(self, "working_mode", as_working_mode(self.model, self.working_mode))
+        if not isinstance(self.name, str):
+            raise InvalidParameterError(f"name must be a string, got {shown(self.name)}")
+        if self.sample_time == 0 and self.substeps != 1:
+            raise InvalidParameterError(f"substeps = {self.substeps} applies to sampled-data control only, but "
+                                        "sample_time = 0 selects continuous-time control")
+        samples = duration / (self.sample_time or 1e-3)
+        if not 1 <= samples <= MAX_SAMPLES:
+            count, limit = apart(samples, 1 if samples < 1 else MAX_SAMPLES)
+            raise InvalidParameterError(f"sample_time = {self.sample_time:g} s gives {count} samples over the "
+                                        f"trajectory's {duration:.4g} s: from 1 to {MAX_SAMPLES} are allowed"
+                                        + ("" if samples < 1 else f" (the limit is {limit})"))
+
+    @property
+    def plant_model(self) -> MechanismModel:
+        return self.model if self.plant is None else self.plant
+
+    def replace(self, **changes) -> Scenario:
+        """A copy with some fields changed (validated again)."""
+        for name in changes:
+            if name not in self.__dataclass_fields__:
+                raise InvalidParameterError(f"{name} is not a field of Scenario "
+                                            f"(fields: {', '.join(self.__dataclass_fields__)})")
+        return replace(self, **changes)
+
+
+def _check_pose_dimension(model: MechanismModel, trajectory) -> None:
+    """The trajectory's poses are the machine's: a spatial machine's path is given in its own coordinates
+    (:class:`~pkmlab.control.trajectory.TimedWaypoints` of ``(x, y, z[, roll, pitch, yaw])``); a planar path
+    ``(x, y, alpha)`` serves a planar machine."""
+    from ..control.trajectory import TimedWaypoints
+
+    m = model.description
+    width = trajectory.dimension if isinstance(trajectory, TimedWaypoints) else 3
+    spatial = getattr(m, "spatial", False)
+    if spatial and not isinstance(trajectory, TimedWaypoints):
+        raise InvalidParameterError(f"the {m.name} is spatial (pose {', '.join(m.pose_names)}): give its path as "
+                                    "waypoints in those coordinates with durations (a planar path of (x, y, alpha) "
+                                    "does not apply)")
+    # a planar path (x, y, alpha) serves a point platform too, whose alpha must then stay 0 (checked on the path)
+    if width != m.dof and not (not spatial and m.dof == 2 and width == 3):
+        raise InvalidParameterError(f"the trajectory's poses have {width} coordinates, but the {m.name}'s pose is "
+                                    f"({', '.join(m.pose_names)})")
+
+
+def check_model(model, name: str):
+    if not isinstance(model, MechanismModel):
+        hint = (" (the paper's machine is pkmlab.load('paper'))" if type(model).__name__ == "Planar3RRR" else
+                " (e.g. pkmlab.load('paper'), pkmlab.load('five_bar'), pkmlab.load('my_machine.toml'))")
+        raise InvalidParameterError(f"{name} must be a MechanismModel{hint}, got {type(model).__name__} "
+                                    f"{shown(model, 50)}")
+
+
+def scaled_model(model: MechanismModel, mass: float = 1.0, length: float = 1.0) -> MechanismModel:
+    """A machine whose bodies' masses are ×``mass``, their lengths (tips, mass centres, the platform's
+    attachments) ×``length`` and inertias ×``mass·length²`` (I ∝ m L²); the base points, rail directions and
+    strokes are unchanged: the paper's disturbed plant (its section 5) for any machine."""
+    from ..description.mechanism import scaled_mechanism
+    from ..description.spatial import scaled_spatial_mechanism
+
+    check_model(model, "model")
+    mass, length = as_real("mass", mass, "positive"), as_real("length", length, "positive")
+    scale = scaled_spatial_mechanism if getattr(model.description, "spatial", False) else scaled_mechanism
+    return MechanismModel.from_description(scale(model.description, mass, length))
+
+
+def perturbed_model(model: MechanismModel, rng: np.random.Generator, spread: float = 0.15) -> MechanismModel:
+    """A machine whose every body's mass, inertia and lengths are multiplied by its own factor drawn uniformly
+    from ``[1 - spread, 1 + spread]`` — one draw of an uncertainty study. The base points are unchanged.
+    Raises if the draw cannot be assembled.
+
+    The factors are drawn quantity by quantity (lengths, masses, inertias), and within a quantity body by
+    body from the base (every leg's first body, then every leg's second...), the platform last.
+    """
+    check_model(model, "model")
+    if not isinstance(rng, (np.random.Generator, np.random.RandomState)):
+        raise InvalidParameterError(f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), "
+                                    f"got {type(rng).__name__} {shown(rng, 50)}")
+    spread = as_real("spread", spread)
+    if not 0.0 <= spread < 1.0:
+        raise InvalidParameterError(f"spread must be in [0, 1), got {spread!r}")
+
+    from .uncertainty import perturbed_plant
+
+    bodies = [len(leg.bodies) for leg in model.description.legs]
+    factors = {}
+    for quantity in ("length", "mass", "inertia"):
+        for j in range(max(bodies)):
+            legs = [i for i, count in enumerate(bodies) if count > j]
+            for i, f in zip(legs, rng.uniform(1.0 - spread, 1.0 + spread, len(legs)), strict=True):
+                factors[f"leg{i + 1}.body{j + 1}.{quantity}"] = f
+        factors[f"platform.{quantity}"] = rng.uniform(1.0 - spread, 1.0 + spread)
+    try:
+        return perturbed_plant(model, factors)
+    except InvalidParameterError as exc:
+        raise InvalidParameterError(f"the machine drawn with spread = {spread:g} is impossible: {exc}") from None
+
+
+# ------------------------------------------------------------------ pre-flight
+def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, ...], float]:
+    """The working mode of docs/conventions.md §3 and its ``min |S|`` along the desired path at times ``t``.
+
+    Every admissible mode's inverse kinematics along the path: the mode with the largest ``min |S|`` (a tie
+    within 1e-9 goes to the first in lexicographic order, ``+1`` before ``-1``). Raises a one-line error naming
+    the time and pose where the path leaves the workspace or comes within ``singularity_margin`` of ``S = 0``
+    in every admissible mode.
+    """
+    pose = np.asarray(scenario.trajectory.desired(t)[0], dtype=float)
+    mode, min_s, _q = best_working_mode(scenario, t, pose)
+    return mode, min_s
+
+
+def best_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray):
+    """:func:`choose_working_mode` of the desired poses ``pose`` (N, ≥ dof) at ``t``, and the inverse kinematics
+    of the path in that mode (N, n_coordinates), which the desired motion goes on from."""
+    from ..model.mechanism_model import path_inverse_kinematics, working_modes
+
+    model = scenario.model
+    pose = np.ascontiguousarray(pose[:, :model.dof])
+    modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
+    first_failure, reaching = None, []  # (mode, min |S|, its sample, |S|, q) of the modes reaching the whole path
+    for mode in modes:
+        q, s, failure = path_inverse_kinematics(model, pose, mode)
+        if failure is not None:
+            if first_failure is None or failure[0] > first_failure[0]:
+                first_failure = failure  # the mode that gets furthest names the problem
+            continue
+        k = int(np.argmin(np.abs(s)))
+        reaching.append((mode, float(abs(s[k])), k, np.abs(s), q))
+    if not reaching:
+        k, exc = first_failure
+        raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {pose_text(pose[k])}: "
+                                   f"{exc}") from None
+    top = max(r[1] for r in reaching)
+    best, best_min, closest, abs_s, best_q = next(r for r in reaching if r[1] >= top - 1e-9)
+    if best_min < scenario.singularity_margin:
+        near, margin = apart(best_min, scenario.singularity_margin)
+        every = "in every admissible working mode" if len(modes) > 1 else "in its working mode"
+        if np.all(abs_s < scenario.singularity_margin):
+            raise SingularityError(f"the whole path lies within |S| < {margin} of a gain-type singularity {every} "
+                                   f"(max |S| = {abs_s.max():.3g}, at pose {pose_text(pose[0])} and on)")
+        raise SingularityError(
+            f"the path comes within {near} of a gain-type singularity (margin {margin}) {every}; closest at "
+            f"t = {t[closest]:.4f} s, pose {pose_text(pose[closest])}")
+    return tuple(best), best_min, best_q
+
+
+def pose_text(pose) -> str:
+    return "(" + ", ".join(f"{v:.4f}" for v in pose) + ")"

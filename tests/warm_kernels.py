@@ -1,0 +1,68 @@
+"""Compile the kernels of the spatial presets (the Delta, the Stewart platform) into pkmlab's on-disk kernel
+cache, by calling every compiled entry point the test suite calls on them.
+
+Their first compiles are the largest cost of a test run on a fresh checkout (about a minute for the Stewart
+platform's actuator-space model alone). ``conftest.py`` starts this script in a second process when a test
+session begins and runs the tests that use these machines last, so that the compiles happen on the core the
+tests leave idle and the tests load them from the cache. It checks nothing: a failure here only means that
+the tests compile what they need themselves (as without it). Run alone: ``python tests/warm_kernels.py``.
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import pkmlab
+from pkmlab.algorithms import assembly
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+#: A regular pose of each machine (as in the tests) and the scenario file of a short tracking run.
+MACHINES = {
+    "delta": ([0.05, -0.03, -0.75], "delta_pick_and_place.toml"),
+    "stewart": ([0.0, 0.0, 0.85, 0.05, -0.03, 0.1], "stewart_motion.toml"),
+}
+
+
+def warm(name: str) -> None:
+    pose, scenario_file = MACHINES[name]
+    model = pkmlab.load(name)
+    ik = pkmlab.inverse_kinematics(model, pose)
+    q = ik.q.reshape(-1, len(model.coordinates))[0]
+    n = model.n_actuators
+    theta_dot = np.linspace(0.1, 0.2, n)
+    pkmlab.singularity_measure(model, q)
+    pkmlab.constraint_residual(model, q)
+    pkmlab.constraint_jacobian(model, q)
+    pkmlab.velocity_jacobian(model, q)
+    pkmlab.coordinate_jacobian(model, q)
+    q_dot = pkmlab.coordinate_rates(model, q, theta_dot)
+    pkmlab.acceleration_bias(model, q, theta_dot)
+    pkmlab.actuator_space_model(model, q, theta_dot)
+    pkmlab.full_space_model(model, q, q_dot)
+    pkmlab.constrained_dynamics(model, q, q_dot, np.zeros(n))
+    pkmlab.inverse_dynamics(model, q, theta_dot, np.zeros(n))
+    pkmlab.forward_dynamics(model, q, theta_dot, np.zeros(n))
+    pkmlab.branch_following(model, q, q[:n] + 1e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assembly.assembly_modes(model, q[:n])
+    pkmlab.ActuatorSpacePlant(model).simulate(q, theta_dot, np.zeros(n), 1e-3)
+    pkmlab.FullSpacePlant(model).simulate(q, q_dot, np.zeros(n), 1e-3)
+    scenario = pkmlab.load_scenario(EXAMPLES / scenario_file)
+    pkmlab.simulate(scenario)
+    pkmlab.simulate_batch([scenario, scenario])
+    pkmlab.simulate(scenario.replace(sample_time=0.0))
+
+
+def main(names: list[str]) -> int:
+    for name in names or list(MACHINES):
+        warm(name)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
