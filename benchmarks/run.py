@@ -98,7 +98,7 @@ CIRCLE_CENTRE = (0.25, 0.21)
 CIRCLE_RADIUS = 0.05
 CIRCLE_SAMPLES = 1571
 CIRCLE_MODE = (-1, 1, -1)
-MIN_ABS_S = 1e-6  # kin.branch_following's default
+SINGULARITY_GUARD = 1e-6  # kin.branch_following's default
 
 BASELINE_XTOL = 1e-12  # relative step tolerance handed to fsolve (its default is 1.49e-8)
 
@@ -342,19 +342,19 @@ def _actuator_space_loop(ws, sc, qs, theta_dots, P, m_out, c_out, taus, accelera
 
 
 @numba.njit(cache=False, _nrt=False)
-def _follow_path(ws, thetas, P, min_abs_s, q_path):
+def _follow_path(ws, thetas, P, singularity_guard, q_path):
     status = 0
     for k in range(1, thetas.shape[0]):
-        status |= PAPER_KERNELS.follow_branch_in_steps(ws, q_path[k - 1], thetas[k], P, min_abs_s, np.inf)
+        status |= PAPER_KERNELS.follow_branch_in_steps(ws, q_path[k - 1], thetas[k], P, singularity_guard, np.inf)
         for i in range(q_path.shape[1]):
             q_path[k, i] = ws.q[PAPER_KERNELS.BASE, i]
     return status
 
 
-def follow_path_kernel(thetas, P, min_abs_s, q_path):
+def follow_path_kernel(thetas, P, singularity_guard, q_path):
     """Branch following along ``thetas`` from ``q_path[0]`` (the core's coordinates): one compiled call per sample,
     each started afresh from the previous configuration, as the public API's kernel does."""
-    return _follow_path(PAPER_KERNELS.make_workspaces(1)[0], thetas, P, min_abs_s, q_path)
+    return _follow_path(PAPER_KERNELS.make_workspaces(1)[0], thetas, P, singularity_guard, q_path)
 
 
 def actuator_space_kernel_loop(qs, theta_dots, P, m_out, c_out):
@@ -373,11 +373,11 @@ def forward_dynamics_kernel_loop(qs, theta_dots, taus, P, out):
 
 
 @numba.njit(cache=False, _nrt=False)
-def _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, min_abs_s, q_path, out):
+def _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, singularity_guard, q_path, out):
     status = 0
     for k in range(1, thetas.shape[0]):
-        status |= PAPER_KERNELS.plant_stage(ws, thetas[k], theta_dots[k], taus[k], P, min_abs_s, PAPER_KERNELS.TRIAL,
-                                            False)
+        status |= PAPER_KERNELS.plant_stage(ws, thetas[k], theta_dots[k], taus[k], P, singularity_guard,
+                                            PAPER_KERNELS.TRIAL, False)
         PAPER_KERNELS.accept_trial(ws)
         for i in range(3):
             out[k, i] = ws.theta_ddot[i]
@@ -386,13 +386,13 @@ def _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, min_abs_s, q_p
     return status
 
 
-def follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, min_abs_s, q_path, out):
+def follow_and_forward_dynamics_kernel_loop(thetas, theta_dots, taus, P, singularity_guard, q_path, out):
     """Per step: branch-follow from ``q_path[k - 1]`` to ``θ_k``, then ``θ̈`` there (a reduced-plant RHS, as the
     simulation's RK4 stages evaluate it). Returns the status."""
     workspaces = PAPER_KERNELS.make_workspaces(1)  # kept alive: ws points into it
     ws = workspaces[0]
     PAPER_KERNELS.set_base(ws, q_path[0], P)
-    return _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, min_abs_s, q_path, out)
+    return _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, singularity_guard, q_path, out)
 
 
 # ------------------------------------------------------------------ baseline: NumPy + scipy.optimize.fsolve
@@ -691,7 +691,7 @@ def main(argv: list[str] | None = None) -> int:
     files_after = cache_files()
     scratch = np.tile(q1, (2, 1))
     scratch = coordinates_from_3rrr(model, scratch)
-    dt, _ = time_once(lambda: follow_path_kernel(np.tile(th1, (2, 1)), P_core, MIN_ABS_S, scratch))
+    dt, _ = time_once(lambda: follow_path_kernel(np.tile(th1, (2, 1)), P_core, SINGULARITY_GUARD, scratch))
     rows.append(first_call_row("first_call_benchmark_njit_loop", "first call: benchmark's njit loop (compile)", dt))
 
     def compile_dynamics_loops():
@@ -699,7 +699,7 @@ def main(argv: list[str] | None = None) -> int:
         tds, taus = np.tile(theta_dot_free, (2, 1)), np.zeros((2, 3))
         actuator_space_kernel_loop(qs, tds, P_core, np.empty((2, 3, 3)), np.empty((2, 3)))
         forward_dynamics_kernel_loop(qs, tds, taus, P_core, np.empty((2, 3)))
-        follow_and_forward_dynamics_kernel_loop(qs[:, :3].copy(), tds, taus, P_core, MIN_ABS_S, qs.copy(),
+        follow_and_forward_dynamics_kernel_loop(qs[:, :3].copy(), tds, taus, P_core, SINGULARITY_GUARD, qs.copy(),
                                                 np.empty((2, 3)))
 
     dt, _ = time_once(compile_dynamics_loops)
@@ -775,7 +775,7 @@ def main(argv: list[str] | None = None) -> int:
 
     q_path = np.empty((q_ref.shape[0], PAPER_KERNELS.N_COORDINATES))
     q_path[0] = coordinates_from_3rrr(model, q_ref[0])
-    times, status = time_runs(lambda: follow_path_kernel(path_thetas, P_core, MIN_ABS_S, q_path),
+    times, status = time_runs(lambda: follow_path_kernel(path_thetas, P_core, SINGULARITY_GUARD, q_path),
                               cfg["repeats_path_kernel"])
     rows.append(rate_row("bf_kernel_per_call", f"branch following, compiled kernel in njit loop ({n_steps} steps)",
                          times, n_steps, "call"))
@@ -815,10 +815,10 @@ def main(argv: list[str] | None = None) -> int:
 
     # (5) dynamics: the actuator-space model, forward dynamics, free motion of the plants
     rows.append(section_row("dynamics (working mode (-, +, -); vs baseline: NumPy Mθ, Cθθ̇)"))
-    dyn_q, dyn_theta_dot, dyn_tau, dyn_min_abs_s = dynamics_states(model, poses[: cfg["n_dyn_batch"]], rng)
+    dyn_q, dyn_theta_dot, dyn_tau, dyn_min_abs_S = dynamics_states(model, poses[: cfg["n_dyn_batch"]], rng)
     n_dyn = dyn_q.shape[0]
     n_dyn_single = min(cfg["n_dyn_single"], n_dyn)
-    checks["dyn_states_min_abs_S"] = dyn_min_abs_s
+    checks["dyn_states_min_abs_S"] = dyn_min_abs_S
 
     progress("actuator-space model ...")
     m_kernel = np.empty((n_dyn, 3, 3))
@@ -879,8 +879,8 @@ def main(argv: list[str] | None = None) -> int:
     q_fd_path[0] = coordinates_from_3rrr(model, q_ref[0])
     fd_bf = np.zeros((CIRCLE_SAMPLES, 3))
     times, fd_bf_status = time_runs(
-        lambda: follow_and_forward_dynamics_kernel_loop(path_thetas, circle_theta_dot, circle_tau, P_core, MIN_ABS_S,
-                                                        q_fd_path, fd_bf),
+        lambda: follow_and_forward_dynamics_kernel_loop(path_thetas, circle_theta_dot, circle_tau, P_core,
+                                                        SINGULARITY_GUARD, q_fd_path, fd_bf),
         cfg["repeats_dyn_kernel"])
     rows.append(rate_row("fd_bf_kernel", f"forward dynamics + branch following, kernels in njit loop ({n_steps} "
                          "steps)", times, n_steps, "step", compare=False))
@@ -1020,7 +1020,7 @@ def main(argv: list[str] | None = None) -> int:
             "circle_radius": CIRCLE_RADIUS,
             "circle_samples": CIRCLE_SAMPLES,
             "circle_mode": CIRCLE_MODE,
-            "min_abs_S": MIN_ABS_S,
+            "singularity_guard": SINGULARITY_GUARD,
             "baseline_xtol": BASELINE_XTOL,
             "dyn_mode": DYN_MODE,
             "dyn_states": "the first n_dyn_batch random poses above, inverse kinematics in dyn_mode",
@@ -1033,7 +1033,7 @@ def main(argv: list[str] | None = None) -> int:
             "free_motion_samples": FREE_MOTION_SAMPLES,
             "free_motion_plants": {
                 "reduced": {"rtol": reduced_plant.rtol, "atol": reduced_plant.atol,
-                            "min_abs_S": reduced_plant.min_abs_S},
+                            "singularity_guard": reduced_plant.singularity_guard},
                 "full": {"rtol": full_plant.rtol, "atol": full_plant.atol,
                          "stabilization": full_plant.stabilization},
             },

@@ -200,7 +200,7 @@ def test_branch_following_is_batched_and_refuses_a_singularity_in_one_line(model
     np.testing.assert_allclose(both[:, :3], target)
     np.testing.assert_allclose(pkmlab.constraint_residual(model, both), 0, atol=1e-12)
     with pytest.raises(pkmlab.BranchFollowingError, match=r"^cannot follow the assembly mode.*at index \(1,\)"):
-        pkmlab.branch_following(model, qs, [target[0], target[1] + [0.0, 0.0, 3.0]], min_abs_S=0.5)
+        pkmlab.branch_following(model, qs, [target[0], target[1] + [0.0, 0.0, 3.0]], singularity_guard=0.5)
 
 
 # ------------------------------------------------------------------ dynamics

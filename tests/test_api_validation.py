@@ -146,13 +146,13 @@ _PAPER_PARAMS = dict(b=0.52, l=0.25, r=0.1667, a=0.125, mass_l=0.468, mass_r=0.3
                      inertia_l=2.438e-3, inertia_r=0.722e-3, inertia_a=0.305e-3, base_points=None)
 
 
-def _reduced_plant(model, rtol, atol, min_abs_S, q0, theta_dot0, torque, t_final, t_eval):
-    plant = ReducedPlant(model, rtol=rtol, atol=atol, min_abs_S=min_abs_S)
+def _reduced_plant(model, rtol, atol, singularity_guard, q0, theta_dot0, torque, t_final, t_eval):
+    plant = ReducedPlant(model, rtol=rtol, atol=atol, singularity_guard=singularity_guard)
     return plant.simulate(q0, theta_dot0, torque, t_final, t_eval=t_eval)
 
 
-def _actuator_space_plant(model, rtol, atol, min_abs_S, q0, theta_dot0, tau, t_final, t_eval):
-    plant = pkmlab.ActuatorSpacePlant(model, rtol=rtol, atol=atol, min_abs_S=min_abs_S)
+def _actuator_space_plant(model, rtol, atol, singularity_guard, q0, theta_dot0, tau, t_final, t_eval):
+    plant = pkmlab.ActuatorSpacePlant(model, rtol=rtol, atol=atol, singularity_guard=singularity_guard)
     return plant.simulate(q0, theta_dot0, tau, t_final, t_eval=t_eval)
 
 
@@ -191,7 +191,8 @@ TARGETS = [
     _sig(pkmlab.working_modes, model=GENERIC),
     _sig(pkmlab.inverse_kinematics, model=GENERIC, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
     _sig(pkmlab.forward_kinematics, model=GENERIC, theta=THETA),
-    _sig(pkmlab.branch_following, model=GENERIC, q_previous=G_Q, theta=THETA + 0.01, min_abs_S=1e-6, max_step=0.05),
+    _sig(pkmlab.branch_following, model=GENERIC, q_previous=G_Q, theta=THETA + 0.01, singularity_guard=1e-6,
+         max_step=0.05),
     *(_sig(f, model=GENERIC, q=G_Q) for f in (
         pkmlab.constraint_residual, pkmlab.constraint_jacobian, pkmlab.coordinate_jacobian, pkmlab.velocity_jacobian,
         pkmlab.singularity_measure)),
@@ -203,7 +204,7 @@ TARGETS = [
     _sig(pkmlab.inverse_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
     _sig(pkmlab.forward_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, tau=TAU),
     Target("ActuatorSpacePlant.simulate", _actuator_space_plant,
-           {**_SPACE_PLANT, "min_abs_S": 1e-6, "theta_dot0": np.zeros(3)},
+           {**_SPACE_PLANT, "singularity_guard": 1e-6, "theta_dot0": np.zeros(3)},
            names=_SPACE_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
     Target("FullSpacePlant.simulate", _full_space_plant, {**_SPACE_PLANT, "stabilization": 20.0, "q_dot0": np.zeros(9)},
            names=_SPACE_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
@@ -211,7 +212,7 @@ TARGETS = [
     # the paper's own formulation (the independent oracle of the tests)
     _sig(kin.inverse_kinematics, model=MODEL, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
     _sig(kin.forward_kinematics, model=MODEL, theta=THETA),
-    _sig(kin.branch_following, model=MODEL, q_previous=Q, theta=THETA + 0.01, min_abs_S=1e-6),
+    _sig(kin.branch_following, model=MODEL, q_previous=Q, theta=THETA + 0.01, singularity_guard=1e-6),
     *(_sig(f, model=MODEL, q=Q) for f in (
         kin.platform_pose, kin.constraint_residual, kin.constraint_jacobian, kin.passive_jacobian,
         kin.actuated_jacobian, kin.velocity_jacobian, kin.platform_jacobian,
@@ -265,7 +266,7 @@ TARGETS = [
     Target("show", pkmlab.show, dict(result=pkmlab.simulate(SCENARIO)), examples=40),
     Target("plot", pkmlab.plot, dict(result=pkmlab.simulate(SCENARIO)), examples=40),
     # plants
-    Target("ReducedPlant.simulate", _reduced_plant, {**_PLANT, "min_abs_S": 1e-6, "theta_dot0": np.zeros(3)},
+    Target("ReducedPlant.simulate", _reduced_plant, {**_PLANT, "singularity_guard": 1e-6, "theta_dot0": np.zeros(3)},
            names=_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
     Target("FullPlant.simulate", _full_plant, {**_PLANT, "stabilization": 20.0, "q_dot0": np.zeros(7)},
            names=_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),

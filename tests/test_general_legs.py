@@ -250,7 +250,7 @@ def test_branch_following_refuses_a_step_size_that_is_not_positive():
     q = mm.inverse_kinematics(model, [0.0, 0.35], (1, -1))
     for bad in (0.0, -0.05, float("nan")):
         with pytest.raises(pkmlab.InvalidParameterError, match="max_step"):
-            mm.branch_following(model, q, q[:2] + 0.01, max_step=bad)
+            pkmlab.branch_following(model, q, q[:2] + 0.01, max_step=bad)
 
 
 def test_the_cli_solves_a_machine_of_general_legs_both_ways(r_pr, capsys):

@@ -239,7 +239,7 @@ def test_branch_following_tracks_inverse_kinematics_along_a_path(name):
     q = mm.inverse_kinematics(model, path[0], mode)
     for pose in path[1:]:
         expected = mm.inverse_kinematics(model, pose, mode)
-        q = mm.branch_following(model, q, expected[:model.n_actuators])
+        q = pkmlab.branch_following(model, q, expected[:model.n_actuators])
         np.testing.assert_allclose(np.angle(np.exp(1j * (q - expected))), 0.0, atol=1e-10)
 
 
@@ -249,7 +249,7 @@ def test_branch_following_stops_at_a_singularity():
     q = mm.inverse_kinematics(model, [0.25, 0.21, -0.3], ())
     with pytest.raises(pkmlab.BranchFollowingError, match="gain-type singularity"):
         for alpha in np.linspace(-0.3, 0.3, 13)[1:]:
-            q = mm.branch_following(model, q, mm.inverse_kinematics(model, [0.25, 0.21, alpha], ())[:3])
+            q = pkmlab.branch_following(model, q, mm.inverse_kinematics(model, [0.25, 0.21, alpha], ())[:3])
 
 
 def test_the_readme_example_runs(tmp_path, monkeypatch):

@@ -34,20 +34,20 @@ FIGURES = (
     ("fig06_nominal_path.png", "6", "Path tracked vs desired (nominal)", "nominal", "path"),
     ("fig07_nominal_path_error.png", "7", "Error in path tracking (nominal)", "nominal", "error"),
     ("fig08_nominal_alpha.png", "8", "Platform orientation α (nominal)", "nominal", "alpha"),
-    ("fig09_nominal_torques.png", "9", "Joint torques (nominal)", "nominal", "torques"),
+    ("fig09_nominal_torques.png", "9", "Joint torques (nominal)", "nominal", "efforts"),
     ("fig10_disturbed_path.png", "10", "Path tracked vs desired, plant masses and lengths +15 %", "disturbed", "path"),
     ("fig11_disturbed_path_error.png", "11", "Error in path tracking, plant +15 %", "disturbed", "error"),
-    ("fig12_disturbed_torques.png", "12", "Joint torques, plant +15 %", "disturbed", "torques"),
+    ("fig12_disturbed_torques.png", "12", "Joint torques, plant +15 %", "disturbed", "efforts"),
     ("fig12b_disturbed_alpha.png", "—", "Platform orientation α, plant +15 % (not in the paper)", "disturbed", "alpha"),
     ("fig13_fast_path.png", "13", "Path tracked vs desired, v = 0.4 m/s", "fast", "path"),
     ("fig14_fast_path_error.png", "14", "Error in path tracking, v = 0.4 m/s", "fast", "error"),
-    ("fig15_fast_torques.png", "15", "Joint torques, v = 0.4 m/s", "fast", "torques"),
+    ("fig15_fast_torques.png", "15", "Joint torques, v = 0.4 m/s", "fast", "efforts"),
     ("fig15b_fast_alpha.png", "—", "Platform orientation α, v = 0.4 m/s (not in the paper)", "fast", "alpha"),
 )
 
 #: Plots of one closed-loop result, by kind: the names of their functions in :mod:`pkmlab.views.plotting`.
 _RESULT_PLOTS = {"S": "plot_singularity_along_path", "path": "plot_path", "error": "plot_path_error",
-                 "alpha": "plot_alpha", "torques": "plot_torques", "machine": "plot_start_configuration",
+                 "alpha": "plot_alpha", "efforts": "plot_efforts", "machine": "plot_start_configuration",
                  "path3d": "plot_path_3d", "machine3d": "plot_start_configuration"}
 #: The plot kinds drawn on 3-D axes.
 _SPATIAL_PLOTS = ("path3d", "machine3d")
@@ -57,7 +57,7 @@ RUN_FIGURES = (
     ("path.png", "Path tracked vs desired", "path"),
     ("path_error.png", "Error in path tracking", "error"),
     ("alpha.png", "Platform orientation α, actual and desired", "alpha"),
-    ("torques.png", "Joint torques", "torques"),
+    ("torques.png", "Joint torques", "efforts"),
     ("singularity_along_path.png", "Singularity measure S of the plant along the run", "S"),
 )
 
@@ -75,7 +75,7 @@ def run_figures(scenario: Scenario) -> tuple[tuple[str, str, str], ...]:
             continue
         if kind == "path" and spatial:
             caption, kind = "Path tracked vs desired, in space", "path3d"
-        if kind == "torques" and kinds != {"R"}:
+        if kind == "efforts" and kinds != {"R"}:
             fname, caption = "efforts.png", "Actuator efforts (forces of prismatic actuators in N)"
         out.append((fname, caption, kind))
     return tuple(out)
@@ -151,7 +151,7 @@ def _draw(kind: str, results: dict, case: str | None):
 
     nominal = results["nominal"]
     model = nominal.scenario.model
-    fig, ax = plt.subplots(figsize=(6.4, 4.8) if kind in ("error", "alpha", "torques", "S") else (6.0, 5.2),
+    fig, ax = plt.subplots(figsize=(6.4, 4.8) if kind in ("error", "alpha", "efforts", "S") else (6.0, 5.2),
                            layout="constrained")
     if kind == "map":
         smap = singularity_map(model, alpha=0.0, mode=nominal.working_mode, resolution=241)

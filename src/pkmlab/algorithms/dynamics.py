@@ -3,7 +3,7 @@ loop-closure multipliers (the paper's eqs. 20–26), and its exact reduction to 
 with gravity — batched over leading axes like :mod:`pkmlab.algorithms.kinematics`.
 
 The full model, ``M(q) q̈ + C(q, q̇) q̇ + g(q) = Q(τ) + Jηqᵀ λ`` with ``Jηq q̈ + J̇ηq q̇ = 0``, is that of
-the unconstrained bodies (its mass matrix is singular on its own for a closed chain); the reduced model
+the unconstrained bodies (its mass matrix is singular on its own for a closed chain); the actuator-space model
 ``Mθ θ̈ + cθ + gθ = τ`` is what a computed-torque controller computes with and the simulations integrate.
 They agree: ``Mθ = Jqθᵀ M Jqθ``, ``cθ = Jqθᵀ (M J̇qθ θ̇ + C q̇)``, ``gθ = Jqθᵀ g``.
 
@@ -13,8 +13,8 @@ Examples
 >>> import pkmlab
 >>> model = pkmlab.load("five_bar")
 >>> q = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
->>> reduced = pkmlab.actuator_space_model(model, q, [0.5, -0.2])
->>> reduced.M.shape, bool(np.allclose(reduced.M, reduced.M.T))
+>>> model_theta = pkmlab.actuator_space_model(model, q, [0.5, -0.2])
+>>> model_theta.M.shape, bool(np.allclose(model_theta.M, model_theta.M.T))
 ((2, 2), True)
 """
 
@@ -81,7 +81,7 @@ class ConstrainedDynamics:
 
 @dataclass(frozen=True)
 class ActuatorSpaceModel:
-    """The model reduced to the actuator space, ``M θ̈ + c + g = τ`` (eq. 35; :func:`actuator_space_model`).
+    """The actuator-space model, ``M θ̈ + c + g = τ`` (eq. 35; :func:`actuator_space_model`).
 
     Attributes
     ----------
@@ -141,21 +141,21 @@ def constrained_dynamics(model: MechanismModel, q, q_dot, tau) -> ConstrainedDyn
     gamma = np.empty((len(qs), k_.N_CONSTRAINTS))
     k_.constraint_jacobians(qs, model.P, j_eta)
     k_.constraint_biases(qs, qds, model.P, gamma)
-    q_ddot, lam = np.empty((len(qs), n)), np.empty((len(qs), k_.N_CONSTRAINTS))
+    q_ddot, multipliers = np.empty((len(qs), n)), np.empty((len(qs), k_.N_CONSTRAINTS))
     for k in range(len(qs)):
         M, c, g = mm.full_space_model(model, qs[k], qds[k])
         Q = np.zeros(n)
         Q[:na] = taus[k]
-        q_ddot[k], lam[k], ok = lagrangian.constrained_accelerations(M, c + g, j_eta[k], gamma[k], Q)
+        q_ddot[k], multipliers[k], ok = lagrangian.constrained_accelerations(M, c + g, j_eta[k], gamma[k], Q)
         if not ok:
             raise SingularityError(f"q{index_text(k, shape)}: the constrained model is singular there "
                                    "(a gain-type singularity)")
-    _finite("q_dot or tau", q_ddot, lam)
-    return ConstrainedDynamics(q_ddot.reshape(*shape, n), lam.reshape(*shape, k_.N_CONSTRAINTS))
+    _finite("q_dot or tau", q_ddot, multipliers)
+    return ConstrainedDynamics(q_ddot.reshape(*shape, n), multipliers.reshape(*shape, k_.N_CONSTRAINTS))
 
 
 def _regular(model: MechanismModel, qs: np.ndarray, shape) -> None:
-    """Refuse configurations at a gain-type singularity (``|S| < SINGULAR_S``): the reduced model does not
+    """Refuse configurations at a gain-type singularity (``|S| < SINGULAR_S``): the actuator-space model does not
     exist there."""
     s = singularity_measure(model, qs)
     bad = np.flatnonzero(~(np.abs(s) >= SINGULAR_S))
@@ -177,11 +177,11 @@ def actuator_space_model(model: MechanismModel, q, theta_dot) -> ActuatorSpaceMo
     """
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
-    qs, tds, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na))
+    qs, theta_dots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na))
     check_loop_closure(model, qs, shape)
     _regular(model, qs, shape)
     M, c, g = np.empty((len(qs), na, na)), np.empty((len(qs), na)), np.empty((len(qs), na))
-    failed = model.kernels.actuator_space_models(qs, tds, model.P, M, c, g)
+    failed = model.kernels.actuator_space_models(qs, theta_dots, model.P, M, c, g)
     if failed >= 0:
         raise SingularityError(f"q{index_text(int(failed), shape)} is at a gain-type singularity")
     _finite("theta_dot", c)
@@ -193,9 +193,10 @@ def inverse_dynamics(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndar
     accelerations ``theta_ddot`` (eq. 35)."""
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
-    qs, tds, tdds, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("theta_ddot", theta_ddot, na))
-    r = actuator_space_model(model, qs, tds)
-    tau = np.einsum("kij,kj->ki", r.M, tdds) + r.c + r.g
+    qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
+                                                      ("theta_ddot", theta_ddot, na))
+    r = actuator_space_model(model, qs, theta_dots)
+    tau = np.einsum("kij,kj->ki", r.M, theta_ddots) + r.c + r.g
     _finite("theta_ddot", tau)
     return tau.reshape(*shape, na)
 
@@ -205,8 +206,8 @@ def forward_dynamics(model: MechanismModel, q, theta_dot, tau) -> np.ndarray:
     (eq. 35)."""
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
-    qs, tds, taus, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("tau", tau, na))
-    r = actuator_space_model(model, qs, tds)
+    qs, theta_dots, taus, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("tau", tau, na))
+    r = actuator_space_model(model, qs, theta_dots)
     theta_ddot = np.linalg.solve(r.M, (taus - r.c - r.g)[..., None])[..., 0]
     _finite("tau", theta_ddot)
     return theta_ddot.reshape(*shape, na)

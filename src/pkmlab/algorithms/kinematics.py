@@ -53,7 +53,7 @@ __all__ = [
     "singularity_measure",
 ]
 
-#: ``|S|`` below which a configuration counts as a gain-type singularity: the reduced model does not exist
+#: ``|S|`` below which a configuration counts as a gain-type singularity: the actuator-space model does not exist
 #: there (branch following's default guard; the dynamics refuse such configurations).
 SINGULAR_S = 1e-6
 
@@ -319,7 +319,7 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
                                      s.reshape(*shape, most), count.reshape(shape))
 
 
-def branch_following(model: MechanismModel, q_previous, theta, *, min_abs_S: float = SINGULAR_S,
+def branch_following(model: MechanismModel, q_previous, theta, *, singularity_guard: float = SINGULAR_S,
                      max_step: float = 0.05) -> np.ndarray:
     """The configuration at ``theta`` continuously connected to ``q_previous`` (paper §3.2): the forward
     kinematics a simulation uses, the compiled core's own.
@@ -331,7 +331,7 @@ def branch_following(model: MechanismModel, q_previous, theta, *, min_abs_S: flo
         Configurations on the loop closure (the assembly modes to follow).
     theta : array_like, shape (..., n_actuators)
         The actuator values to follow them to (broadcast against ``q_previous``).
-    min_abs_S : float
+    singularity_guard : float
         The guard: the way may not come nearer a gain-type singularity (``|S|`` below it).
     max_step : float
         The largest sub-step in the actuators (halved where one fails; an angle moves the shorter way
@@ -349,11 +349,11 @@ def branch_following(model: MechanismModel, q_previous, theta, *, min_abs_S: flo
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
     qs, thetas, shape = as_broadcast(("q_previous", q_previous, n), ("theta", theta, na))
-    guard = as_real("min_abs_S", min_abs_S, "non-negative")
+    singularity_guard = as_real("singularity_guard", singularity_guard, "non-negative")
     step = as_real("max_step", max_step, "positive")
     k = model.kernels
     out, status = np.empty_like(qs), np.zeros(len(qs), dtype=np.int64)
-    k.branch_following_batch(qs, thetas, model.P, guard, step, out, status)
+    k.branch_following_batch(qs, thetas, model.P, singularity_guard, step, out, status)
     if np.any(status != k.OK):
         i = int(np.flatnonzero(status != k.OK)[0])
         why = ("a gain-type singularity on the way" if status[i] == k.SINGULAR else
@@ -362,7 +362,7 @@ def branch_following(model: MechanismModel, q_previous, theta, *, min_abs_S: flo
         raise BranchFollowingError(
             f"cannot follow the assembly mode to theta {np.round(thetas[i], 6).tolist()}{index_text(i, shape)}: "
             f"{why} (|S| = {abs(reached):.3g} at theta {np.round(out[i, :na], 6).tolist()}, the last configuration "
-            f"reached; limit min_abs_S = {guard:g})")
+            f"reached; limit singularity_guard = {singularity_guard:g})")
     return out.reshape(*shape, n)
 
 
@@ -420,16 +420,16 @@ def velocity_jacobian(model: MechanismModel, q) -> np.ndarray:
 def coordinate_rates(model: MechanismModel, q, theta_dot) -> np.ndarray:
     """``q̇ = Jqθ θ̇`` (..., n) at configurations ``q`` for actuator rates ``theta_dot`` (broadcast)."""
     model = as_model(model)
-    qs, tds, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
-    return np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), tds).reshape(*shape, len(model.coordinates))
+    qs, theta_dots, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
+    return np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), theta_dots).reshape(*shape, len(model.coordinates))
 
 
 def acceleration_bias(model: MechanismModel, q, theta_dot) -> np.ndarray:
     """``J̇qθ θ̇`` (..., n): the coordinates' accelerations at zero actuator acceleration, so that
     ``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (the paper's eq. 32, for every machine)."""
     model = as_model(model)
-    qs, tds, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
-    q_dot = coordinate_rates(model, qs, tds)
+    qs, theta_dots, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
+    q_dot = coordinate_rates(model, qs, theta_dots)
     k = model.kernels
     gamma = np.empty((len(qs), k.N_CONSTRAINTS))
     k.constraint_biases(qs, np.ascontiguousarray(q_dot), model.P, gamma)
@@ -444,8 +444,10 @@ def coordinate_accelerations(model: MechanismModel, q, theta_dot, theta_ddot) ->
     """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., n)."""
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
-    qs, tds, tdds, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("theta_ddot", theta_ddot, na))
-    out = np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), tdds) + acceleration_bias(model, qs, tds)
+    qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
+                                                      ("theta_ddot", theta_ddot, na))
+    out = (np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), theta_ddots)
+           + acceleration_bias(model, qs, theta_dots))
     return out.reshape(*shape, n)
 
 

@@ -99,7 +99,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--plant", choices=("pkmlab", "mujoco"), default="pkmlab", help="the plant the controller runs "
-                   "against: pkmlab's exact reduced model (default) or MuJoCo's integration of the exported machine")
+                   "against: pkmlab's exact actuator-space model (default) or MuJoCo's integration of the exported "
+                   "machine")
     p.add_argument("--mujoco-timestep", type=float, metavar="DT", help="MuJoCo's time step (s), dividing the sample "
                    "time; default the sample time or 1 ms, whichever is smaller")
     p.add_argument("--mujoco-integrator", choices=("RK4", "implicitfast", "implicit", "Euler"), default="RK4",

@@ -110,13 +110,13 @@ def pack(mechanism: Mechanism) -> np.ndarray:
 def derive(mechanism: Mechanism) -> dict:
     """The symbolic kinematics of ``mechanism``'s structure.
 
-    Returns ``{"q", "qd", "P": symbols; "eta": (m,), "bodies": [(x, y, angle), ...] (mass
+    Returns ``{"q", "q_dot", "P": symbols; "eta": (m,), "bodies": [(x, y, angle), ...] (mass
     centres, legs' bodies then the platform)}`` as SymPy expressions of ``q`` and ``P``.
     """
     import sympy as sp
 
     q = sp.symbols(" ".join(coordinate_names(mechanism)), real=True)
-    qd = sp.symbols(" ".join(f"{n}_dot" for n in coordinate_names(mechanism)), real=True)
+    q_dot = sp.symbols(" ".join(f"{n}_dot" for n in coordinate_names(mechanism)), real=True)
     P = dict(zip(parameter_names(mechanism), sp.symbols(" ".join(parameter_names(mechanism)), real=True),
                  strict=True))
     n = len(mechanism.legs)
@@ -156,7 +156,7 @@ def derive(mechanism: Mechanism) -> dict:
         bodies.append((com[0], com[1], alpha))
     else:
         bodies.append((pose[0], pose[1], sp.Integer(0)))  # a payload at the point: it does not turn
-    return {"q": q, "qd": qd, "P": P, "eta": eta, "bodies": bodies, "joints": joints,
+    return {"q": q, "q_dot": q_dot, "P": P, "eta": eta, "bodies": bodies, "joints": joints,
             "lines": _leg_lines(mechanism, P, pose, joints, slides)}
 
 
@@ -193,14 +193,14 @@ def _leg_lines(mechanism: Mechanism, P: dict, pose, joints, slides):
     return lines, size
 
 
-def jacobian_and_bias(exprs, q, qd):
+def jacobian_and_bias(exprs, q, q_dot):
     """``J = ∂exprs/∂q`` and ``J̇ q̇ = Σ_k (∂(J q̇)/∂q_k) q̇_k`` (the terms of the acceleration that do
     not multiply ``q̈``)."""
     import sympy as sp
 
     jac = sp.Matrix(exprs).jacobian(q)
-    velocity = jac * sp.Matrix(qd)
-    bias = velocity.jacobian(q) * sp.Matrix(qd)
+    velocity = jac * sp.Matrix(q_dot)
+    bias = velocity.jacobian(q) * sp.Matrix(q_dot)
     return jac, bias
 
 
@@ -224,16 +224,16 @@ def generate_source(mechanism: Mechanism) -> str:
     """The text of the generated module of ``mechanism``'s structure."""
 
     d = derive(mechanism)
-    q, qd = d["q"], d["qd"]
+    q, q_dot = d["q"], d["q_dot"]
     nq, m, nb = len(q), len(d["eta"]), len(d["bodies"])
-    j_eta, b_eta = jacobian_and_bias(d["eta"], q, qd)
+    j_eta, b_eta = jacobian_and_bias(d["eta"], q, q_dot)
     # the compiled core eliminates x and y with the unit pivots every leg's two equations have
     x_col = nq - mechanism.dof
     for i in range(len(mechanism.legs)):
         assert (j_eta[2 * i, x_col], j_eta[2 * i, x_col + 1]) == (-1, 0), "x-row of a leg: d/dx = -1, d/dy = 0"
         assert (j_eta[2 * i + 1, x_col], j_eta[2 * i + 1, x_col + 1]) == (0, -1), "y-row: d/dx = 0, d/dy = -1"
     body_exprs = [e for body in d["bodies"] for e in body]
-    j_body, b_body = jacobian_and_bias(body_exprs, q, qd)
+    j_body, b_body = jacobian_and_bias(body_exprs, q, q_dot)
     # the body Jacobians' structural non-zeros: a leg's bodies move with that leg's coordinates only
     nonzero = [(b, r, c) for b in range(nb) for r in range(3) for c in range(nq) if j_body[3 * b + r, c] != 0]
     header = module_header(
@@ -255,7 +255,7 @@ def generate_source(mechanism: Mechanism) -> str:
         ("constraint_jacobian", "q, sc, P, out",
          "Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out.",
          list(j_eta), [f"{r}, {c}" for r in range(m) for c in range(nq)]),
-        ("constraint_bias", "q, sc, qd, P, out", "Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out.",
+        ("constraint_bias", "q, sc, q_dot, P, out", "Write dJ_eta_q/dt q_dot (N_CONSTRAINTS,) into out.",
          list(b_eta), [str(k) for k in range(m)]),
         ("body_poses", "q, sc, P, out", "Write each body's mass-centre pose (x, y, angle) (N_BODIES, 3) into out.",
          body_exprs, [f"{b}, {k}" for b in range(nb) for k in range(3)]),
@@ -265,7 +265,7 @@ def generate_source(mechanism: Mechanism) -> str:
         ("body_jacobian_values", "q, sc, P, out", "Write the non-zeros of the bodies' Jacobians (N_JB,) into out "
          "(positions: JB_BODY, JB_ROW, JB_COL).", [j_body[3 * b + r, c] for b, r, c in nonzero],
          [str(z) for z in range(len(nonzero))]),
-        ("body_bias", "q, sc, qd, P, out", "Write each body's dJ_b/dt qd (N_BODIES, 3) into out.",
+        ("body_bias", "q, sc, q_dot, P, out", "Write each body's dJ_b/dt q_dot (N_BODIES, 3) into out.",
          list(b_body), [f"{b}, {k}" for b in range(nb) for k in range(3)]),
         ("joint_points", "q, sc, P, out", "Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, "
          "base to platform.", points, where),
@@ -275,7 +275,7 @@ def generate_source(mechanism: Mechanism) -> str:
         ("platform_size", "P", "The mean distance between the platform's attachment points (1 for a point).",
          [size], ["return"]),
     ]
-    return write_module(header, q, qd, coordinate_names(mechanism), coordinate_angles(mechanism),
+    return write_module(header, q, q_dot, coordinate_names(mechanism), coordinate_angles(mechanism),
                         parameter_names(mechanism), len(mechanism.legs), kernels)
 
 
@@ -319,16 +319,16 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
     ]
 
 
-def write_module(header: list[str], q, qd, names, angle_flags, parameters, n_actuators: int, kernels) -> str:
+def write_module(header: list[str], q, q_dot, names, angle_flags, parameters, n_actuators: int, kernels) -> str:
     """The text of a generated module: ``header`` (docstring, imports, constants), the trig-table kernels
     ``trig`` and ``trig_passive``, one compiled kernel per ``(name, args, doc, outputs, indices)`` of
     ``kernels`` (``out[index] = output``, or ``return output`` for the index ``"return"``; a kernel reads
-    ``qd`` when its arguments name it), then the compiled core of :mod:`pkmlab.codegen.core`."""
+    ``q_dot`` when its arguments name it), then the compiled core of :mod:`pkmlab.codegen.core`."""
     import sympy as sp
 
     lines = list(header)
     unpack = [f"{name} = q[{k}]" for k, name in enumerate(names)]
-    unpack_qd = [f"{sym} = qd[{k}]" for k, sym in enumerate(qd)]
+    unpack_q_dot = [f"{sym} = q_dot[{k}]" for k, sym in enumerate(q_dot)]
     unpack_p = [f"{name} = P[{k}]" for k, name in enumerate(parameters)]
     # the kernels read every angle's cosine and sine from the trig table sc = (cos q, sin q) (N, 2), computed
     # once per configuration (trig) and shared by all of them instead of recomputed in each
@@ -352,7 +352,7 @@ def write_module(header: list[str], q, qd, names, angle_flags, parameters, n_act
         assert not any(e.has(sp.sin, sp.cos) for e in outputs), f"{name}: trigonometry left after the trig table"
         _emit(lines, name, args, doc, outputs, indices)
         body_start = start + 5
-        prelude = [f"    {line}" for line in unpack + unpack_sc + (unpack_qd if "qd" in args.split(", ") else [])
+        prelude = [f"    {line}" for line in unpack + unpack_sc + (unpack_q_dot if "q_dot" in args.split(", ") else [])
                    + unpack_p]
         used = "\n".join(lines[body_start:])
         prelude = [p for p in prelude if _used(p, used)]

@@ -117,14 +117,14 @@ def _rotation(sp, axis, angle):
 
 
 def derive(mechanism: SpatialMechanism) -> dict:
-    """The symbolic kinematics of ``mechanism``'s structure: ``{"q", "qd", "P", "eta" (3 per leg),
+    """The symbolic kinematics of ``mechanism``'s structure: ``{"q", "q_dot", "P", "eta" (3 per leg),
     "bodies": [(position (3), velocity (3), ω (3)), ...], "joints", "lines", "size"}``."""
     import sympy as sp
 
     names = coordinate_names(mechanism)
     q = sp.symbols(" ".join(names), real=True)
-    qd = sp.symbols(" ".join(f"{n}_dot" for n in names), real=True)
-    rate = dict(zip(q, qd, strict=True))
+    q_dot = sp.symbols(" ".join(f"{n}_dot" for n in names), real=True)
+    rate = dict(zip(q, q_dot, strict=True))
     P = dict(zip(parameter_names(mechanism), sp.symbols(" ".join(parameter_names(mechanism)), real=True),
                  strict=True))
 
@@ -187,7 +187,7 @@ def derive(mechanism: SpatialMechanism) -> dict:
                    for i, j in pairs) / len(pairs)
     else:
         size = sp.Integer(1)
-    return {"q": q, "qd": qd, "P": P, "eta": eta, "bodies": bodies, "joints": joints, "lines": lines,
+    return {"q": q, "q_dot": q_dot, "P": P, "eta": eta, "bodies": bodies, "joints": joints, "lines": lines,
             "size": size, "tensor": tensor}
 
 
@@ -204,16 +204,16 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     import sympy as sp
 
     d = derive(mechanism)
-    q, qd = d["q"], d["qd"]
+    q, q_dot = d["q"], d["q_dot"]
     nq, m, nb, n = len(q), len(d["eta"]), len(d["bodies"]), len(mechanism.legs)
-    j_eta, b_eta = jacobian_and_bias(d["eta"], q, qd)
+    j_eta, b_eta = jacobian_and_bias(d["eta"], q, q_dot)
     x_col = nq - mechanism.dof
     for i in range(n):  # the compiled core eliminates the tracked point with these unit pivots
         for r in range(3):
             assert [j_eta[3 * i + r, x_col + c] for c in range(3)] == [-int(r == c) for c in range(3)]
-    rows = [e for _pos, v, w in d["bodies"] for e in [*v, *w]]  # linear in qd: J = d/dqd, bias = d/dq qd
-    j_body = sp.Matrix(rows).jacobian(qd)
-    b_body = sp.Matrix(rows).jacobian(q) * sp.Matrix(qd)
+    rows = [e for _pos, v, w in d["bodies"] for e in [*v, *w]]  # linear in q_dot: J = d/dqd, bias = d/dq q_dot
+    j_body = sp.Matrix(rows).jacobian(q_dot)
+    b_body = sp.Matrix(rows).jacobian(q) * sp.Matrix(q_dot)
     nonzero = [(b, r, c) for b in range(nb) for r in range(6) for c in range(nq) if j_body[6 * b + r, c] != 0]
     width = max(len(leg.joints) for leg in mechanism.legs)
     header = module_header(
@@ -233,7 +233,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         ("constraint_jacobian", "q, sc, P, out",
          "Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out.",
          list(j_eta), [f"{r}, {c}" for r in range(m) for c in range(nq)]),
-        ("constraint_bias", "q, sc, qd, P, out", "Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out.",
+        ("constraint_bias", "q, sc, q_dot, P, out", "Write dJ_eta_q/dt q_dot (N_CONSTRAINTS,) into out.",
          list(b_eta), [str(k) for k in range(m)]),
         ("body_poses", "q, sc, P, out", "Write each body's mass-centre position (N_BODIES, 3) into out.",
          [e for pos, _v, _w in d["bodies"] for e in pos], [f"{b}, {k}" for b in range(nb) for k in range(3)]),
@@ -243,7 +243,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         ("body_jacobian_values", "q, sc, P, out", "Write the non-zeros of the bodies' Jacobians (N_JB,) into out "
          "(positions: JB_BODY, JB_ROW, JB_COL).", [j_body[6 * b + r, c] for b, r, c in nonzero],
          [str(z) for z in range(len(nonzero))]),
-        ("body_bias", "q, sc, qd, P, out", "Write each body's dJ_b/dt qd (N_BODIES, 6) into out.",
+        ("body_bias", "q, sc, q_dot, P, out", "Write each body's dJ_b/dt q_dot (N_BODIES, 6) into out.",
          list(b_body), [f"{b}, {k}" for b in range(nb) for k in range(6)]),
         ("joint_points", "q, sc, P, out", "Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 3) into out, "
          "base to platform.", points, where),
@@ -253,7 +253,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         ("platform_size", "P", "The mean distance between the platform's attachment points (1 when it translates).",
          [d["size"]], ["return"]),
     ]
-    return write_module(header, q, qd, coordinate_names(mechanism), coordinate_angles(mechanism),
+    return write_module(header, q, q_dot, coordinate_names(mechanism), coordinate_angles(mechanism),
                         parameter_names(mechanism), n, kernels)
 
 

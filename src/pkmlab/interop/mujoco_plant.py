@@ -89,12 +89,12 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
             theta_dot[k] = affine[0][:n] @ data.qvel
         violation[k] = float(np.abs(data.efc_pos).max()) if data.nefc else 0.0
         status = ctrl.kernels.control_effort_from(q_ctrl, prep.kind, prep.kp, prep.kv, q[k, :n], theta_dot[k],
-                                                  d.theta[k], d.theta_dot[k], d.theta_ddot[k], ctrl.P, prep.guard,
-                                                  q_out, effort)
+                                                  d.theta[k], d.theta_dot[k], d.theta_ddot[k], ctrl.P,
+                                                  prep.singularity_guard, q_out, effort)
         if status != ctrl.kernels.OK:
             pose = pose_text(q[k, -plant.description.dof:])
             raise PkmlabError(f"run stopped at t = {prep.t[k]:.4f} s: the controller's model "
-                              f"{branch_failure_text(status, prep.guard)} near pose {pose}")
+                              f"{branch_failure_text(status, prep.singularity_guard)} near pose {pose}")
         q_ctrl[:] = q_out
         tau[k] = effort
         if k == count - 1:

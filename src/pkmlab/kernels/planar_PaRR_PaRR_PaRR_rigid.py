@@ -159,8 +159,8 @@ def constraint_jacobian(q, sc, P, out):
 
 
 @njit(cache=True)
-def constraint_bias(q, sc, qd, P, out):
-    """Write dJ_eta_q/dt qd (N_CONSTRAINTS,) into out."""
+def constraint_bias(q, sc, q_dot, P, out):
+    """Write dJ_eta_q/dt q_dot (N_CONSTRAINTS,) into out."""
     c_q1_2 = sc[3, 0]
     s_q1_2 = sc[3, 1]
     c_q2_2 = sc[4, 0]
@@ -169,10 +169,10 @@ def constraint_bias(q, sc, qd, P, out):
     s_q3_2 = sc[5, 1]
     c_alpha = sc[8, 0]
     s_alpha = sc[8, 1]
-    q1_2_dot = qd[3]
-    q2_2_dot = qd[4]
-    q3_2_dot = qd[5]
-    alpha_dot = qd[8]
+    q1_2_dot = q_dot[3]
+    q2_2_dot = q_dot[4]
+    q3_2_dot = q_dot[5]
+    alpha_dot = q_dot[8]
     body1_2_tip_x = P[10]
     body1_2_tip_y = P[11]
     body2_2_tip_x = P[26]
@@ -386,8 +386,8 @@ def body_jacobian_values(q, sc, P, out):
 
 
 @njit(cache=True)
-def body_bias(q, sc, qd, P, out):
-    """Write each body's dJ_b/dt qd (N_BODIES, 3) into out."""
+def body_bias(q, sc, q_dot, P, out):
+    """Write each body's dJ_b/dt q_dot (N_BODIES, 3) into out."""
     c_q1_2 = sc[3, 0]
     s_q1_2 = sc[3, 1]
     c_q2_2 = sc[4, 0]
@@ -396,10 +396,10 @@ def body_bias(q, sc, qd, P, out):
     s_q3_2 = sc[5, 1]
     c_alpha = sc[8, 0]
     s_alpha = sc[8, 1]
-    q1_2_dot = qd[3]
-    q2_2_dot = qd[4]
-    q3_2_dot = qd[5]
-    alpha_dot = qd[8]
+    q1_2_dot = q_dot[3]
+    q2_2_dot = q_dot[4]
+    q3_2_dot = q_dot[5]
+    alpha_dot = q_dot[8]
     body1_2_com_x = P[12]
     body1_2_com_y = P[13]
     body2_2_com_x = P[28]
@@ -840,12 +840,12 @@ def predict(ws, theta):
 
 
 @njit(**NO_REFCOUNT)
-def follow_branch(ws, theta, P, min_abs_s):
+def follow_branch(ws, theta, P, singularity_guard):
     """The configuration at actuators ``theta`` continuously connected to the base (paper §3.2), into
     ``ws.q[TRIAL]``: a first-order predictor along ``Jφθ`` (eq. 15) from the base, then the chord method
     with the base's ``Jηφ`` (Newton's method if that is slow to converge).
 
-    Fails (``SINGULAR``) when ``|S|`` falls below ``min_abs_s`` or changes sign on the way — the step
+    Fails (``SINGULAR``) when ``|S|`` falls below ``singularity_guard`` or changes sign on the way — the step
     would have crossed a gain-type singularity into another assembly mode; ``NOT_CONVERGED`` when the
     passive coordinates cannot be found near the prediction (the step is too large: take smaller ones,
     :func:`follow_branch_in_steps`). An actuator angle given across ±π from the base's is stepped the
@@ -894,7 +894,7 @@ def follow_branch(ws, theta, P, min_abs_s):
             return status
     s = singularity_measure(trial, sc, P, ws.lines)
     ws.s[TRIAL] = s
-    if abs(s) < min_abs_s or s * ws.s[BASE] < 0.0:
+    if abs(s) < singularity_guard or s * ws.s[BASE] < 0.0:
         return SINGULAR
     return OK
 
@@ -921,13 +921,13 @@ def set_base(ws, q, P):
 
 
 @njit(**NO_REFCOUNT)
-def follow_branch_in_steps(ws, q_previous, theta, P, min_abs_s, max_step):
+def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step):
     """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take
     large steps: the actuators moved in equal sub-steps of at most ``max_step`` (rad or m, > 0; an angle the
     shorter way round, so by at most π), each by :func:`follow_branch`, the whole retried in twice as many
     sub-steps when one fails, six times (up to 64 times as many). The configuration reached is left in
     ``ws.q[BASE]``: the target's on success, else the last one reached. ``q_previous`` must not be a view
-    of the workspace. Returns the status; ``SINGULAR`` at once when ``|S|`` is below ``min_abs_s`` at
+    of the workspace. Returns the status; ``SINGULAR`` at once when ``|S|`` is below ``singularity_guard`` at
     ``q_previous``."""
     n = N_ACTUATORS
     largest = 0.0
@@ -940,12 +940,12 @@ def follow_branch_in_steps(ws, q_previous, theta, P, min_abs_s, max_step):
     status = OK
     for _ in range(7):  # steps, 2 steps, ..., 64 times as many
         set_base(ws, q_previous, P)
-        if abs(ws.s[BASE]) < min_abs_s:
+        if abs(ws.s[BASE]) < singularity_guard:
             return SINGULAR
         for k in range(1, steps + 1):
             for j in range(n):  # the sub-step's target, on q_previous's side of 2π
                 ws.target[j] = q_previous[j] + actuator_error(theta, q_previous, j) * (k / steps)
-            status = follow_branch(ws, ws.target, P, min_abs_s)
+            status = follow_branch(ws, ws.target, P, singularity_guard)
             if status != OK:
                 break
             accept_trial(ws)
@@ -1103,7 +1103,7 @@ def solve_accelerations(ws, tau):
 
 # ---- pkmlab.codegen.core.control, bound to the kernels above ----
 @njit(**NO_REFCOUNT)
-def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws, tau):
+def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard, ws, tau):
     """Efforts ``τ`` of one controller evaluation into ``tau``; returns the status.
 
     ``kind = 0``, computed torque (eqs. 36–39 with gravity): ``τ = M̂θ v + ĉθ + ĝθ``,
@@ -1116,7 +1116,7 @@ def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_d
         for i in range(n):
             tau[i] = -kp * actuator_error(theta, theta_d, i) - kv * (theta_dot[i] - theta_dot_d[i])
         return OK
-    status = follow_branch(ws, theta, P, min_abs_s)
+    status = follow_branch(ws, theta, P, singularity_guard)
     if status != OK:
         return status
     accept_trial(ws)
@@ -1144,15 +1144,15 @@ def computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d
 
 # ---- pkmlab.codegen.core.loop, bound to the kernels above ----
 @njit(**NO_REFCOUNT)
-def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot, known):
-    """``θ̈`` of the reduced plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
+def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known):
+    """``θ̈`` of the actuator-space plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
 
     ``slot = BASE``: ``θ`` is the base's own; otherwise the passive coordinates are first found by
     branch following from the base. ``known``: the workspace already holds the model there
     (:func:`actuator_space_model` at the base and ``θ̇``, see :func:`copy_model`).
     """
     if slot != BASE:
-        status = follow_branch(ws, theta, P, min_abs_s)
+        status = follow_branch(ws, theta, P, singularity_guard)
         if status != OK:
             return status
     if not known and not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
@@ -1198,8 +1198,8 @@ def copy_model(source, destination):
 
 
 @njit(**NO_REFCOUNT)
-def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
-    """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
+def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known):
+    """Advance the actuator-space plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
 
     ``x`` (2n,) = ``(θ, θ̇)`` is updated in place and the base configuration moved along; stages
     find their passive coordinates by branch following from the start of the step. ``work`` is a
@@ -1215,7 +1215,7 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
             c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
             for i in range(2 * n):
                 y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
-            status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE if stage == 0 else TRIAL,
+            status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE if stage == 0 else TRIAL,
                                  known and step == 0 and stage == 0)
             if status != OK:
                 return status
@@ -1224,7 +1224,7 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
                 k[stage, n + i] = ws.theta_ddot[i]
         for i in range(2 * n):
             x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
-        status = follow_branch(ws, x[:n], P, min_abs_s)
+        status = follow_branch(ws, x[:n], P, singularity_guard)
         if status != OK:
             return status
         accept_trial(ws)
@@ -1233,17 +1233,17 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
 
 @njit(cache=True)
 def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                      kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
+                      kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s):
     """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
     returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
     own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, efforts and ``S``."""
     return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
-                              P_plant, P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s)
+                              P_plant, P_ctrl, kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s)
 
 
 @njit(cache=True)
 def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant,
-                       P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
+                       P_ctrl, kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s):
     n = N_ACTUATORS
     plant, ctrl = workspaces[0], workspaces[1]
     set_base(plant, q_plant0, P_plant)
@@ -1271,7 +1271,7 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
                                      tau)
         else:
             status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
-                                    min_abs_s, ctrl, tau)
+                                    singularity_guard, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
         out_tau[k] = tau
@@ -1279,7 +1279,7 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
             break
         if shared:
             copy_model(ctrl, plant)
-        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work, shared)
+        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, singularity_guard, work, shared)
         if status != OK:
             return status, k
     return OK, -1
@@ -1287,12 +1287,12 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
 
 @njit(cache=True, parallel=True)
 def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind,
-                       kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s, out_status, out_k):
+                       kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s, out_status, out_k):
     """:func:`sampled_data_loop` for a batch of runs (leading axis) over the CPU cores; each run executes
     exactly the code of a single run."""
     for r in prange(theta_d.shape[0]):
         status, k = sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
-                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], min_abs_s[r],
+                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], singularity_guard[r],
                                       out_q[r], out_theta_dot[r], out_tau[r], out_s[r])
         out_status[r] = status
         out_k[r] = k
@@ -1330,22 +1330,22 @@ def constraint_biases(qs, q_dots, P, out):
 # arrays in and out, the workspace made inside (making one costs well under a microsecond), then passed
 # with the array that holds it to the function that does the work
 @njit(cache=True)
-def reduced_rhs(q_base, y, tau, P, min_abs_s, q_out):
-    """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
+def actuator_space_rhs(q_base, y, tau, P, singularity_guard, q_out):
+    """``(θ̇, θ̈)`` of the actuator-space plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
     the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
     configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
-    return _reduced_rhs(make_workspaces(1), q_base, y, tau, P, min_abs_s, q_out)
+    return _actuator_space_rhs(make_workspaces(1), q_base, y, tau, P, singularity_guard, q_out)
 
 
 @njit(cache=True)
-def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
+def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, q_out):
     n = N_ACTUATORS
     ws = workspaces[0]
     out = np.zeros(2 * n)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
-    status = follow_branch_in_steps(ws, q_base, y[:n], P, min_abs_s, np.inf)
+    status = follow_branch_in_steps(ws, q_base, y[:n], P, singularity_guard, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE, False)
+        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:
@@ -1356,24 +1356,24 @@ def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
 
 
 @njit(cache=True)
-def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
-                        q_out, tau):
+def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
+                        singularity_guard, q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
     configuration at the measured ``theta`` into ``q_out``. Returns the status."""
     return _control_effort_from(make_workspaces(1), q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
-                                theta_ddot_d, P, min_abs_s, q_out, tau)
+                                theta_ddot_d, P, singularity_guard, q_out, tau)
 
 
 @njit(cache=True)
 def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
-                         min_abs_s, q_out, tau):
+                         singularity_guard, q_out, tau):
     ws = workspaces[0]
     if kind == 1:  # PD: no model to move
         q_out[:] = q_base
-        return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
+        return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
                               ws, tau)
     # computed torque: the model follows the measurement, in sub-steps where needed
-    status = follow_branch_in_steps(ws, q_base, theta, P, min_abs_s, np.inf)
+    status = follow_branch_in_steps(ws, q_base, theta, P, singularity_guard, np.inf)
     if status == OK:
         status = computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau)
     for i in range(N_COORDINATES):
@@ -1382,35 +1382,35 @@ def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, the
 
 
 @njit(cache=True)
-def branch_following_batch(q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+def branch_following_batch(q_previous, thetas, P, singularity_guard, max_step, q_out, status):
     """:func:`follow_branch_in_steps` from each ``q_previous[k]`` (K, N) to ``thetas[k]`` (K, n), into ``q_out``
     (K, N) and ``status`` (K,)."""
-    _branch_following_batch(make_workspaces(1), q_previous, thetas, P, min_abs_s, max_step, q_out, status)
+    _branch_following_batch(make_workspaces(1), q_previous, thetas, P, singularity_guard, max_step, q_out, status)
 
 
 @njit(cache=True)
-def _branch_following_batch(workspaces, q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+def _branch_following_batch(workspaces, q_previous, thetas, P, singularity_guard, max_step, q_out, status):
     ws = workspaces[0]
     for k in range(thetas.shape[0]):
-        status[k] = follow_branch_in_steps(ws, q_previous[k], thetas[k], P, min_abs_s, max_step)
+        status[k] = follow_branch_in_steps(ws, q_previous[k], thetas[k], P, singularity_guard, max_step)
         for i in range(N_COORDINATES):
             q_out[k, i] = ws.q[BASE, i]
 
 
 @njit(cache=True)
-def follow_path(q_start, thetas, P, min_abs_s, q_out):
+def follow_path(q_start, thetas, P, singularity_guard, q_out):
     """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn
     (:func:`follow_branch_in_steps`), into ``q_out`` (K, N); returns ``(status, k)``, ``k`` the first point
     not reached (else -1)."""
-    return _follow_path(make_workspaces(1), q_start, thetas, P, min_abs_s, q_out)
+    return _follow_path(make_workspaces(1), q_start, thetas, P, singularity_guard, q_out)
 
 
 @njit(cache=True)
-def _follow_path(workspaces, q_start, thetas, P, min_abs_s, q_out):
+def _follow_path(workspaces, q_start, thetas, P, singularity_guard, q_out):
     ws = workspaces[0]
     previous = q_start.copy()
     for k in range(thetas.shape[0]):
-        status = follow_branch_in_steps(ws, previous, thetas[k], P, min_abs_s, np.inf)
+        status = follow_branch_in_steps(ws, previous, thetas[k], P, singularity_guard, np.inf)
         if status != OK:
             return status, k
         for i in range(N_COORDINATES):

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import functools
 import importlib
-import math
 from dataclasses import dataclass, field
 from types import ModuleType
 
@@ -331,10 +330,10 @@ def constrained_accelerations(model: MechanismModel, q, q_dot, tau) -> tuple[np.
     Q = np.zeros(len(q))
     Q[:model.n_actuators] = tau
     gamma = _evaluate(model, k.constraint_bias, (k.N_CONSTRAINTS,), q, q_dot)
-    q_ddot, lam, ok = lagrangian.constrained_accelerations(M, h + g, constraint_jacobian(model, q), gamma, Q)
+    q_ddot, multipliers, ok = lagrangian.constrained_accelerations(M, h + g, constraint_jacobian(model, q), gamma, Q)
     if not ok:
         raise SingularityError("the constrained model is singular at this configuration")
-    return q_ddot, lam
+    return q_ddot, multipliers
 
 
 # ------------------------------------------------------------------ inverse kinematics
@@ -409,40 +408,6 @@ def singularity_measure(model: MechanismModel, q) -> float:
     q = _q(model, q)
     return float(model.kernels.singularity_measure(q, trig_table(model, q), model.P,
                                                     np.empty((model.n_actuators, model.kernels.LINE_WIDTH))))
-
-
-def branch_following(model: MechanismModel, q_previous, theta, *, min_abs_S: float = 1e-3,
-                     max_step: float = 0.05) -> np.ndarray:
-    """The configuration at ``actuators`` continuously connected to ``q_previous`` (paper §3.2): the compiled
-    core's :func:`~pkmlab.codegen.core.branch_following.follow_branch_in_steps`, the simulation's own branch
-    following, in sub-steps of at most ``max_step`` in the actuators (halved where one fails; an actuator angle
-    moves the shorter way round, by at most π). Raises
-    :class:`~pkmlab.errors.BranchFollowingError` where the way nears a gain-type singularity
-    (``|S| < min_abs_S``) or the passive coordinates cannot be found (out of reach).
-    """
-    from ..errors import BranchFollowingError
-
-    q = _q(model, q_previous)
-    target = np.asarray(theta, dtype=float)
-    na = model.n_actuators
-    if target.shape != (na,) or not np.all(np.isfinite(target)):
-        raise InvalidParameterError(f"theta must be {na} finite values, got {np.asarray(theta).tolist()}")
-    for name, value, low in (("max_step", max_step, 0.0), ("min_abs_S", min_abs_S, -1.0)):
-        if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-                and value > low):
-            raise InvalidParameterError(f"{name} must be a finite number {'above 0' if low == 0 else 'of 0 or more'}, "
-                                        f"got {value!r}")
-    k = model.kernels
-    out, status = np.empty((1, q.size)), np.zeros(1, dtype=np.int64)
-    k.branch_following_batch(q[None, :], target[None, :], model.P, float(min_abs_S), float(max_step), out, status)
-    if status[0] != k.OK:
-        why = ("a gain-type singularity on the way" if status[0] == k.SINGULAR else
-               "the passive coordinates cannot be found on the way: out of reach, or at a gain-type singularity")
-        s_reached = abs(singularity_measure(model, out[0]))
-        reached = f"|S| = {s_reached:.3g} at actuators {np.round(out[0, :na], 6).tolist()}"
-        raise BranchFollowingError(f"cannot follow the assembly mode to actuators {np.round(target, 6).tolist()}: "
-                                   f"{why} ({reached}, the last configuration reached; limit |S| >= {min_abs_S:g})")
-    return out[0]
 
 
 # ------------------------------------------------------------------ along a path

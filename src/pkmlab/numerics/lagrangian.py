@@ -26,7 +26,7 @@ from . import closed_chain
 
 # ------------------------------------------------------------------ planar bodies
 @njit(cache=True)
-def rotating_vector_bodies(q, qd, n_bodies, term_body, term_coord, term_vec, body_angle, J, H, bias):
+def rotating_vector_bodies(q, q_dot, n_bodies, term_body, term_coord, term_vec, body_angle, J, H, bias):
     """Fill ``J``, ``H`` and ``bias`` for bodies whose mass centre is ``x_b = c_b + Σ R(q_j) v``.
 
     Term ``t`` adds ``R(q[term_coord[t]]) term_vec[t]`` to body ``term_body[t]``; body ``b``
@@ -46,7 +46,7 @@ def rotating_vector_bodies(q, qd, n_bodies, term_body, term_coord, term_vec, bod
         rx, ry = c * vx - s * vy, s * vx + c * vy  # R(q_j) v
         J[b, 0, j] -= ry
         J[b, 1, j] += rx
-        w2 = qd[j] * qd[j]
+        w2 = q_dot[j] * q_dot[j]
         bias[b, 0] -= rx * w2
         bias[b, 1] -= ry * w2
         if want_h:
@@ -111,15 +111,15 @@ def mass_matrix_partials(J, H, D):
 
 
 @njit(cache=True)
-def christoffel_matrix(dM, qd):
+def christoffel_matrix(dM, q_dot):
     """``C_ij = ½ Σ_k (∂M_ij/∂q_k + ∂M_ik/∂q_j - ∂M_kj/∂q_i) q̇_k`` (eq. 24)."""
-    n = qd.shape[0]
+    n = q_dot.shape[0]
     C = np.zeros((n, n))
     for i in range(n):
         for j in range(n):
             acc = 0.0
             for k in range(n):
-                acc += (dM[k, i, j] + dM[j, i, k] - dM[i, k, j]) * qd[k]
+                acc += (dM[k, i, j] + dM[j, i, k] - dM[i, k, j]) * q_dot[k]
             C[i, j] = 0.5 * acc
     return C
 
@@ -160,8 +160,8 @@ def lagrange_multipliers(M, h, j_eta_q, gamma, tau):
     S = j_eta_q @ np.ascontiguousarray(x[:, :m])
     b = np.empty((m, 1))
     b[:, 0] = gamma + j_eta_q @ np.ascontiguousarray(x[:, m])
-    lam, ok2 = closed_chain.lu_solve(S, b)
-    return -lam[:, 0], ok and ok2
+    multipliers, ok2 = closed_chain.lu_solve(S, b)
+    return -multipliers[:, 0], ok and ok2
 
 
 # ------------------------------------------------------------------ actuator space

@@ -66,11 +66,11 @@ def _full_space_batch(qs, qds, P, M_out, C_out, h_out, T_out):
 
 
 @njit(cache=True)
-def _constrained_batch(qs, qds, taus, P, explicit, qdd_out, lam_out, lam_explicit_out, ok):
+def _constrained_batch(qs, qds, taus, P, explicit, q_ddot_out, lam_out, lam_explicit_out, ok):
     jac = np.empty((4, 7))
     gamma = np.empty(4)
     for k in range(qs.shape[0]):
-        qdd_out[k], lam_out[k], ok[k] = rrr3.full_dynamics(qs[k], qds[k], taus[k], P, 0.0)
+        q_ddot_out[k], lam_out[k], ok[k] = rrr3.full_dynamics(qs[k], qds[k], taus[k], P, 0.0)
         if not explicit:
             continue
         rrr3.constraint_jacobian(qs[k], P, jac)
@@ -90,16 +90,16 @@ def _coriolis_theta_batch(qs, theta_dots, P, out, ok):
     for k in range(qs.shape[0]):
         rrr3.constraint_jacobian(qs[k], P, jac)
         j_q_theta, ok[k] = closed_chain.actuated_jacobian(jac, 3)
-        qd = j_q_theta @ theta_dots[k]
-        rrr3.constraint_jacobian_rate(qs[k], qd, P, jac_rate)
+        q_dot = j_q_theta @ theta_dots[k]
+        rrr3.constraint_jacobian_rate(qs[k], q_dot, P, jac_rate)
         # J̇φθ = -Jηφ⁻¹ (J̇ηθ + J̇ηφ Jφθ), from d/dt (Jηφ Jφθ + Jηθ) = 0
         rhs = jac_rate[:, :3] + np.ascontiguousarray(jac_rate[:, 3:]) @ np.ascontiguousarray(j_q_theta[3:])
         x, ok_solve = closed_chain.lu_solve(jac[:, 3:], rhs)
         j_q_theta_dot = np.zeros((7, 3))
         j_q_theta_dot[3:] = -x
-        J, H, _bias, D = rrr3.bodies(qs[k], qd, P, True)
+        J, H, _bias, D = rrr3.bodies(qs[k], q_dot, P, True)
         M = lagrangian.mass_matrix(J, D)
-        C = lagrangian.christoffel_matrix(lagrangian.mass_matrix_partials(J, H, D), qd)
+        C = lagrangian.christoffel_matrix(lagrangian.mass_matrix_partials(J, H, D), q_dot)
         out[k] = lagrangian.actuator_space_coriolis_matrix(M, C, j_q_theta, j_q_theta_dot)
         ok[k] = ok[k] and ok_solve
 
@@ -144,13 +144,13 @@ def kinetic_energy(model: Planar3RRR, q, q_dot) -> np.ndarray:
 def _constrained(model, q, q_dot, tau, explicit=False):
     qs, qds, taus, shape = as_broadcast(("q", q, 7), ("q_dot", q_dot, 7), ("tau", tau, 3))
     n = qs.shape[0]
-    qdd = np.empty((n, 7))
-    lam = np.empty((n, 4))
+    q_ddot = np.empty((n, 7))
+    multipliers = np.empty((n, 4))
     lam_explicit = np.empty((n, 4))
     ok = np.zeros(n, dtype=np.bool_)
-    _constrained_batch(qs, qds, taus, as_paper_model(model).packed, explicit, qdd, lam, lam_explicit, ok)
+    _constrained_batch(qs, qds, taus, as_paper_model(model).packed, explicit, q_ddot, multipliers, lam_explicit, ok)
     require_regular(ok, shape, "the constrained dynamics")
-    return shape, qdd, lam, lam_explicit
+    return shape, q_ddot, multipliers, lam_explicit
 
 
 def constrained_accelerations(model: Planar3RRR, q, q_dot, tau) -> tuple[np.ndarray, np.ndarray]:
@@ -160,21 +160,21 @@ def constrained_accelerations(model: Planar3RRR, q, q_dot, tau) -> tuple[np.ndar
     loop-closing joints transmit, in the order of ``η`` (x and y at ``p2`` through loop 1, then
     at ``p3`` through loop 2).
     """
-    shape, qdd, lam, _le = _constrained(model, q, q_dot, tau)
-    return qdd.reshape(*shape, 7), lam.reshape(*shape, 4)
+    shape, q_ddot, multipliers, _le = _constrained(model, q, q_dot, tau)
+    return q_ddot.reshape(*shape, 7), multipliers.reshape(*shape, 4)
 
 
 def lagrange_multipliers(model: Planar3RRR, q, q_dot, tau) -> np.ndarray:
     """``λ`` (..., 4) in newtons from the paper's explicit formula (after eq. 26)."""
-    shape, _qdd, _lam, lam_explicit = _constrained(model, q, q_dot, tau, explicit=True)
+    shape, _qdd, _multipliers, lam_explicit = _constrained(model, q, q_dot, tau, explicit=True)
     return lam_explicit.reshape(*shape, 4)
 
 
 # ------------------------------------------------------------------ actuator space
 def actuator_space_model(model: Planar3RRR, q, theta_dot) -> tuple[np.ndarray, np.ndarray]:
     """``(Mθ, Cθ θ̇)``: ``Mθ = Jqθᵀ M Jqθ`` (..., 3, 3) and ``Jqθᵀ (M J̇qθ + C Jqθ) θ̇`` (..., 3), eq. (35)."""
-    qs, tds, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
-    m, c = _reduced_model(model, qs, tds, shape, "the actuator-space model")
+    qs, theta_dots, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
+    m, c = _reduced_model(model, qs, theta_dots, shape, "the actuator-space model")
     return m.reshape(*shape, 3, 3), c.reshape(*shape, 3)
 
 
@@ -195,23 +195,24 @@ def _reduced_model(model, qs, theta_dots, shape, what):
 
 def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarray:
     """``Cθ = Jqθᵀ (M J̇qθ + C Jqθ)`` (..., 3, 3) as a matrix, with ``C`` from eq. (24)."""
-    qs, tds, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
+    qs, theta_dots, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
     out = np.empty((qs.shape[0], 3, 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
-    _coriolis_theta_batch(qs, tds, as_paper_model(model).packed, out, ok)
+    _coriolis_theta_batch(qs, theta_dots, as_paper_model(model).packed, out, ok)
     require_regular(ok, shape, "C_theta")
     return out.reshape(*shape, 3, 3)
 
 
 def inverse_dynamics(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
     """Actuator torques ``τ = Mθ θ̈ + Cθ θ̇`` (..., 3) that produce ``θ̈`` (eq. 35)."""
-    qs, tds, tdds, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("theta_ddot", theta_ddot, 3))
-    m_theta, c_theta = actuator_space_model(model, qs.reshape(*shape, 7), tds.reshape(*shape, 3))
-    return np.einsum("...ij,...j->...i", m_theta, tdds.reshape(*shape, 3)) + c_theta
+    qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3),
+                                                      ("theta_ddot", theta_ddot, 3))
+    m_theta, c_theta = actuator_space_model(model, qs.reshape(*shape, 7), theta_dots.reshape(*shape, 3))
+    return np.einsum("...ij,...j->...i", m_theta, theta_ddots.reshape(*shape, 3)) + c_theta
 
 
 def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
     """Actuated accelerations ``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (..., 3) under torques ``τ`` (eq. 35)."""
-    qs, tds, taus, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("tau", tau, 3))
-    m, c = _reduced_model(model, qs, tds, shape, "the forward dynamics")
+    qs, theta_dots, taus, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("tau", tau, 3))
+    m, c = _reduced_model(model, qs, theta_dots, shape, "the forward dynamics")
     return np.linalg.solve(m, (taus - c)[..., None])[..., 0].reshape(*shape, 3)

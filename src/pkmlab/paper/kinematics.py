@@ -109,7 +109,7 @@ def _second_order_batch(qs, theta_dots, P, q_dot, bias, pose_bias, ok):
         ws.q[0, :] = qs[k]
         ok[k] = rrr3.linearize(ws, 0, P)
         rrr3.evaluate_velocities(ws, 0, theta_dots[k], P)
-        q_dot[k] = ws.qd
+        q_dot[k] = ws.q_dot
         bias[k] = ws.bias_q
         rrr3.pose_convective(qs[k], q_dot[k], P, pose_bias[k])
 
@@ -321,7 +321,7 @@ def forward_kinematics(model: Planar3RRR, theta) -> ForwardKinematicsSolution:
     )
 
 
-def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float = 1e-6) -> np.ndarray:
+def branch_following(model: Planar3RRR, q_previous, theta, *, singularity_guard: float = 1e-6) -> np.ndarray:
     """The configuration at ``θ`` continuously connected to ``q_previous`` (paper §3.2).
 
     This is the forward kinematics used during simulation: among the up to six assembly
@@ -331,7 +331,7 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
     Raises
     ------
     BranchFollowingError
-        When the branch cannot be followed: ``|S|`` falls to ``min_abs_S`` or changes sign on
+        When the branch cannot be followed: ``|S|`` falls to ``singularity_guard`` or changes sign on
         the way (a gain-type singularity), or the corrector does not converge.
     """
     q_prev, thetas, shape = as_pair("q_previous", q_previous, 7, "theta", theta, 3)
@@ -342,21 +342,21 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, min_abs_S: float =
     q_out = np.empty((q_prev.shape[0], machine.kernels.N_COORDINATES))
     status = np.zeros(q_prev.shape[0], dtype=np.int64)
     machine.kernels.branch_following_batch(np.ascontiguousarray(coordinates_from_3rrr(model, q_prev)), thetas,
-                                           machine.P, as_real("min_abs_S", min_abs_S, "non-negative"), np.inf, q_out,
-                                           status)
+                                           machine.P, as_real("singularity_guard", singularity_guard, "non-negative"),
+                                           np.inf, q_out, status)
     q_out = coordinates_to_3rrr(q_out)
     if np.any(status != machine.kernels.OK):
         k = int(np.flatnonzero(status != machine.kernels.OK)[0])
         s_prev = float(singularity_measure(model, q_prev[k]))
         from .._format import apart
 
-        s_text, limit_text = apart(abs(s_prev), min_abs_S)  # |S| = 0.009996 is never shown as the limit 0.01
+        s_text, limit_text = apart(abs(s_prev), singularity_guard)  # |S| = 0.009996 is never shown as the limit 0.01
         why = ("a gain-type singularity" if status[k] == machine.kernels.SINGULAR else
                "no configuration found on the way (too near a singularity, or out of reach)")
         raise BranchFollowingError(
             f"cannot follow the assembly mode from q_previous (theta = {np.round(q_prev[k, :3], 6).tolist()}) "
             f"to {np.round(thetas[k], 6).tolist()}{index_text(k, shape)}: {why} "
-            f"(S = {'-' if s_prev < 0 else ''}{s_text} at the start, limit min_abs_S = {limit_text})"
+            f"(S = {'-' if s_prev < 0 else ''}{s_text} at the start, limit singularity_guard = {limit_text})"
         )
     return q_out.reshape(*shape, 7)
 
@@ -447,13 +447,13 @@ def velocity_jacobian(model: Planar3RRR, q) -> np.ndarray:
 
 
 def _second_order(model, q, theta_dot):
-    qs, tds, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
+    qs, theta_dots, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
     n = qs.shape[0]
     q_dot = np.empty((n, 7))
     bias = np.empty((n, 7))
     pose_bias = np.empty((n, 3))
     ok = np.zeros(n, dtype=np.bool_)
-    _second_order_batch(qs, tds, as_paper_model(model).packed, q_dot, bias, pose_bias, ok)
+    _second_order_batch(qs, theta_dots, as_paper_model(model).packed, q_dot, bias, pose_bias, ok)
     require_regular(ok, shape, "the passive rates")
     return shape, q_dot, bias, pose_bias
 
@@ -477,11 +477,12 @@ def acceleration_bias(model: Planar3RRR, q, theta_dot) -> np.ndarray:
 
 def coordinate_accelerations(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
     """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., 7), eq. (32)."""
-    qs, tds, tdds, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("theta_ddot", theta_ddot, 3))
-    qs, tds, tdds = qs.reshape(*shape, 7), tds.reshape(*shape, 3), tdds.reshape(*shape, 3)
-    bias = acceleration_bias(model, qs, tds)
+    qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3),
+                                                      ("theta_ddot", theta_ddot, 3))
+    qs, theta_dots, theta_ddots = qs.reshape(*shape, 7), theta_dots.reshape(*shape, 3), theta_ddots.reshape(*shape, 3)
+    bias = acceleration_bias(model, qs, theta_dots)
     j_q_theta = actuated_jacobian(model, qs)
-    return bias + np.einsum("...ij,...j->...i", j_q_theta, tdds)
+    return bias + np.einsum("...ij,...j->...i", j_q_theta, theta_ddots)
 
 
 def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
@@ -538,7 +539,7 @@ def _joint_motion_batch(pose, pose_dot, pose_ddot, mode, P, q, theta_dot, theta_
         for i in range(3):
             theta_dot[k, i] = b[i]
         rrr3.evaluate_velocities(ws, 0, b, P)
-        rrr3.pose_convective(q[k], ws.qd, P, bias)
+        rrr3.pose_convective(q[k], ws.q_dot, P, bias)
         for i in range(3):
             acc = pose_ddot[k, i] - bias[i]
             for c in range(7):

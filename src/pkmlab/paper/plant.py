@@ -96,8 +96,8 @@ def _initial(model, q0, rate_name, rate0, n_rate, torque, t_final, t_eval):
 def _full_rhs(y, tau, P, stabilization):
     out = np.empty(14)
     out[:7] = y[7:]
-    qdd, _lam, ok = rrr3.full_dynamics(y[:7], y[7:], tau, P, stabilization)
-    out[7:] = qdd
+    q_ddot, _multipliers, ok = rrr3.full_dynamics(y[:7], y[7:], tau, P, stabilization)
+    out[7:] = q_ddot
     return out, ok
 
 
@@ -110,15 +110,15 @@ class ReducedPlant:
         The plant's own parameters (they may differ from a controller's model).
     rtol, atol : float
         DOP853 tolerances.
-    min_abs_S : float
+    singularity_guard : float
         Branch following stops the run with :class:`~pkmlab.errors.BranchFollowingError`
         when ``|S|`` falls below this (a gain-type singularity, where eq. 35 is invalid).
     """
 
-    def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, min_abs_S: float = 1e-6):
+    def __init__(self, model: Planar3RRR, rtol: float = 1e-11, atol: float = 1e-12, singularity_guard: float = 1e-6):
         self.model = as_paper_model(model)
         self.rtol, self.atol = as_real("rtol", rtol, "positive"), as_real("atol", atol, "non-negative")
-        self.min_abs_S = as_real("min_abs_S", min_abs_S, "non-negative")
+        self.singularity_guard = as_real("singularity_guard", singularity_guard, "non-negative")
 
     def simulate(self, q0, theta_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from configuration ``q0`` (on the manifold) and actuated rates ``θ̇0``."""
@@ -135,9 +135,9 @@ class ReducedPlant:
             nonlocal evaluations
             evaluations += 1
             tau = np.asarray(torque_fn(t, y[:3], y[3:]), dtype=float)
-            ydot, status = kernels.reduced_rhs(q_last, y, tau, P, self.min_abs_S, q_work)
+            ydot, status = kernels.actuator_space_rhs(q_last, y, tau, P, self.singularity_guard, q_work)
             if status != kernels.OK:
-                why = (f"reached a gain-type singularity (|S| < min_abs_S = {self.min_abs_S:g})"
+                why = (f"reached a gain-type singularity (|S| < singularity_guard = {self.singularity_guard:g})"
                        if status == kernels.SINGULAR else "could not follow its assembly mode")
                 raise BranchFollowingError(f"the plant {why} at t = {t:.6g} s (theta = {np.round(y[:3], 6).tolist()})")
             q_last[:] = q_work
@@ -151,7 +151,7 @@ class ReducedPlant:
             raise SingularityError(f"integration failed: {sol.message} (rtol = {self.rtol:g}, atol = {self.atol:g})")
         # rebuild the passive variables at the output times, following the branch from q0
         path = np.empty((sol.t.size, q_start.size))
-        status, k = kernels.follow_path(q_start, np.ascontiguousarray(sol.y[:3].T), P, self.min_abs_S, path)
+        status, k = kernels.follow_path(q_start, np.ascontiguousarray(sol.y[:3].T), P, self.singularity_guard, path)
         if status != kernels.OK:
             raise BranchFollowingError(f"lost the assembly mode at t = {sol.t[k]:.6g} s")
         qs = coordinates_to_3rrr(path)

@@ -141,20 +141,20 @@ def constraint_jacobian_from_sincos(sc, P, out):
 
 
 @njit(**NO_REFCOUNT)
-def constraint_convective_from_sincos(sc, qd, P, out):
+def constraint_convective_from_sincos(sc, q_dot, P, out):
     """Write ``J̇ηq q̇`` (4,) into ``out``: ``η̈`` when ``q̈ = 0``.
 
     Each term ``k u(x)`` of ``η`` contributes ``-k u(x) ẋ²``; ``R(α) v`` contributes
     ``-R(α) v α̇²``.
     """
     ca, sa = sc[6, 0], sc[6, 1]
-    w2 = qd[6] * qd[6]
+    w2 = q_dot[6] * q_dot[6]
     p2x, p2y = P[PLATFORM], P[PLATFORM + 1]
     dx, dy = P[PLATFORM + 2] - p2x, P[PLATFORM + 3] - p2y
     # centripetal acceleration of vertex p_i reached through leg i
-    a0x, a0y = _leg_centripetal(sc, qd, P, 0)
-    a1x, a1y = _leg_centripetal(sc, qd, P, 1)
-    a2x, a2y = _leg_centripetal(sc, qd, P, 2)
+    a0x, a0y = _leg_centripetal(sc, q_dot, P, 0)
+    a1x, a1y = _leg_centripetal(sc, q_dot, P, 1)
+    a2x, a2y = _leg_centripetal(sc, q_dot, P, 2)
     out[0] = a0x - (ca * p2x - sa * p2y) * w2 - a1x
     out[1] = a0y - (sa * p2x + ca * p2y) * w2 - a1y
     out[2] = a1x - (ca * dx - sa * dy) * w2 - a2x
@@ -162,9 +162,9 @@ def constraint_convective_from_sincos(sc, qd, P, out):
 
 
 @njit(**NO_REFCOUNT)
-def _leg_centripetal(sc, qd, P, i):
+def _leg_centripetal(sc, q_dot, P, i):
     li, ri = P[ACTIVE_LENGTH + i], P[PASSIVE_LENGTH + i]
-    t2, f2 = qd[i] * qd[i], qd[3 + i] * qd[3 + i]
+    t2, f2 = q_dot[i] * q_dot[i], q_dot[3 + i] * q_dot[3 + i]
     return (-li * sc[i, 0] * t2 - ri * sc[3 + i, 0] * f2, -li * sc[i, 1] * t2 - ri * sc[3 + i, 1] * f2)
 
 
@@ -185,11 +185,11 @@ def constraint_jacobian(q, P, out):
 
 
 @njit(cache=True)
-def constraint_convective(q, qd, P, out):
+def constraint_convective(q, q_dot, P, out):
     """Write ``J̇ηq q̇`` (4,) into ``out``: ``η̈`` when ``q̈ = 0``."""
     sc = np.empty((N_COORDINATES, 2))
     angle_sincos(q, sc)
-    constraint_convective_from_sincos(sc, qd, P, out)
+    constraint_convective_from_sincos(sc, q_dot, P, out)
 
 
 @njit(cache=True)
@@ -221,12 +221,12 @@ def pose_jacobian(q, P, out):
 
 
 @njit(cache=True)
-def pose_convective(q, qd, P, out):
+def pose_convective(q, q_dot, P, out):
     """Write ``J̇pq q̇`` (3,): the platform pose's acceleration when ``q̈ = 0``."""
     ca, sa = math.cos(q[6]), math.sin(q[6])
     cx, cy = P[REFERENCE], P[REFERENCE + 1]
     l1, r1 = P[ACTIVE_LENGTH], P[PASSIVE_LENGTH]
-    t2, f2, w2 = qd[0] * qd[0], qd[3] * qd[3], qd[6] * qd[6]
+    t2, f2, w2 = q_dot[0] * q_dot[0], q_dot[3] * q_dot[3], q_dot[6] * q_dot[6]
     out[0] = -l1 * math.cos(q[0]) * t2 - r1 * math.cos(q[3]) * f2 - (ca * cx - sa * cy) * w2
     out[1] = -l1 * math.sin(q[0]) * t2 - r1 * math.sin(q[3]) * f2 - (sa * cx + ca * cy) * w2
     out[2] = 0.0
@@ -386,7 +386,7 @@ class Workspace(NamedTuple):
     det: np.ndarray  # (2,) det Jηφ
     j_q_theta: np.ndarray  # (2, 7, 3)
     eta: np.ndarray  # (4,) constraint residual / right-hand sides
-    qd: np.ndarray  # (7,) q̇ = Jqθ θ̇
+    q_dot: np.ndarray  # (7,) q̇ = Jqθ θ̇
     bias_q: np.ndarray  # (7,) J̇qθ θ̇
     constants: np.ndarray  # [a r1 r2 r3 (scale of S), tolerance on |η| (m)]
 
@@ -503,35 +503,36 @@ def body_description(P):
 
 
 @njit(cache=True)
-def bodies(q, qd, P, with_partials):
+def bodies(q, q_dot, P, with_partials):
     """Body Jacobians ``J`` (7, 3, 7), partials ``H`` (7, 7, 3, 7) or empty, ``J̇q̇`` and ``D``."""
     term_body, term_coord, term_vec, body_angle, D = body_description(P)
     J = np.empty((N_BODIES, 3, 7))
     H = np.empty((N_BODIES if with_partials else 0, 7, 3, 7))
     bias = np.empty((N_BODIES, 3))
-    lagrangian.rotating_vector_bodies(q, qd, N_BODIES, term_body, term_coord, term_vec, body_angle, J, H, bias)
+    lagrangian.rotating_vector_bodies(q, q_dot, N_BODIES, term_body, term_coord, term_vec, body_angle, J, H, bias)
     return J, H, bias, D
 
 
 @njit(cache=True)
-def constraint_jacobian_rate(q, qd, P, out):
+def constraint_jacobian_rate(q, q_dot, P, out):
     """Write ``J̇ηq`` (4, 7): column ``j`` of ``Jηq`` is ``R(q_j + π/2) v``, so its rate is that
     column turned by a further ``π/2`` and scaled by ``q̇_j``."""
     constraint_jacobian(q, P, out)
     for j in range(7):
         for r in (0, 2):
             x, y = out[r, j], out[r + 1, j]
-            out[r, j] = -y * qd[j]
-            out[r + 1, j] = x * qd[j]
+            out[r, j] = -y * q_dot[j]
+            out[r + 1, j] = x * q_dot[j]
 
 
 @njit(**NO_REFCOUNT_INLINE)
 def evaluate_velocities(ws, slot, theta_dot, P):
-    """``q̇ = Jqθ θ̇`` (eq. 31) and ``J̇qθ θ̇`` (from eq. 32) at the linearised ``slot``, into ``ws.qd``, ``ws.bias_q``."""
-    jqt, qd, bias_q = ws.j_q_theta[slot], ws.qd, ws.bias_q
+    """``q̇ = Jqθ θ̇`` (eq. 31) and ``J̇qθ θ̇`` (from eq. 32) at the linearised ``slot``, into ``ws.q_dot``,
+    ``ws.bias_q``."""
+    jqt, q_dot, bias_q = ws.j_q_theta[slot], ws.q_dot, ws.bias_q
     for i in range(7):
-        qd[i] = jqt[i, 0] * theta_dot[0] + jqt[i, 1] * theta_dot[1] + jqt[i, 2] * theta_dot[2]
-    constraint_convective_from_sincos(ws.sincos[slot], qd, P, ws.eta)
+        q_dot[i] = jqt[i, 0] * theta_dot[0] + jqt[i, 1] * theta_dot[1] + jqt[i, 2] * theta_dot[2]
+    constraint_convective_from_sincos(ws.sincos[slot], q_dot, P, ws.eta)
     closed_chain.passive_acceleration_bias_from_lu(ws.lu[slot], ws.piv[slot], ws.eta)
     bias_q[0] = bias_q[1] = bias_q[2] = 0.0
     for k in range(4):
@@ -539,7 +540,7 @@ def evaluate_velocities(ws, slot, theta_dot, P):
 
 
 @njit(cache=True)
-def full_dynamics(q, qd, tau, P, stabilization):
+def full_dynamics(q, q_dot, tau, P, stabilization):
     """``(q̈, λ, ok)`` of the full 7-coordinate model with multipliers (eq. 26), actuated torques ``τ`` (3,).
 
     With ``stabilization = ω > 0`` the constraint is imposed at acceleration level as
@@ -549,14 +550,14 @@ def full_dynamics(q, qd, tau, P, stabilization):
     jac = np.empty((4, 7))
     constraint_jacobian(q, P, jac)
     gamma = np.empty(4)
-    constraint_convective(q, qd, P, gamma)
+    constraint_convective(q, q_dot, P, gamma)
     if stabilization > 0.0:
         eta = np.empty(4)
         constraints(q, P, eta)
-        eta_dot = jac @ qd
+        eta_dot = jac @ q_dot
         for k in range(4):
             gamma[k] += 2.0 * stabilization * eta_dot[k] + stabilization * stabilization * eta[k]
-    J, _H, body_bias, D = bodies(q, qd, P, False)
+    J, _H, body_bias, D = bodies(q, q_dot, P, False)
     M = lagrangian.mass_matrix(J, D)
     h = lagrangian.velocity_product(J, D, body_bias)
     tau_q = np.zeros(7)
@@ -565,8 +566,8 @@ def full_dynamics(q, qd, tau, P, stabilization):
 
 
 @njit(cache=True)
-def kinetic_energy(q, qd, P):
+def kinetic_energy(q, q_dot, P):
     """``T = ½ q̇ᵀ M q̇`` (eq. 20)."""
-    J, _H, _b, D = bodies(q, qd, P, False)
+    J, _H, _b, D = bodies(q, q_dot, P, False)
     M = lagrangian.mass_matrix(J, D)
-    return 0.5 * (qd @ (M @ qd))
+    return 0.5 * (q_dot @ (M @ q_dot))

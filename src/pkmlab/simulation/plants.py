@@ -162,7 +162,7 @@ class ActuatorSpacePlant:
         The plant's own machine (:func:`pkmlab.load`; it may differ from a controller's model).
     rtol, atol : float
         DOP853's relative and absolute tolerances on the state ``(θ, θ̇)``.
-    min_abs_S : float
+    singularity_guard : float
         Branch following stops the run with :class:`~pkmlab.errors.BranchFollowingError` when ``|S|``
         falls below this (a gain-type singularity, where eq. 35 does not exist).
 
@@ -179,10 +179,10 @@ class ActuatorSpacePlant:
     """
 
     def __init__(self, model: MechanismModel, rtol: float = 1e-11, atol: float = 1e-12,
-                 min_abs_S: float = SINGULAR_S):
+                 singularity_guard: float = SINGULAR_S):
         self.model = as_model(model)
         self.rtol, self.atol = as_real("rtol", rtol, "positive"), as_real("atol", atol, "non-negative")
-        self.min_abs_S = as_real("min_abs_S", min_abs_S, "non-negative")
+        self.singularity_guard = as_real("singularity_guard", singularity_guard, "non-negative")
 
     def simulate(self, q0, theta_dot0, tau, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from configuration ``q0`` and actuator rates ``θ̇0`` under efforts ``tau``.
@@ -212,7 +212,7 @@ class ActuatorSpacePlant:
             A malformed or non-finite argument, ``q0`` off the loop closure, or ``tau`` returning the wrong
             shape.
         BranchFollowingError
-            The run nears a gain-type singularity (``|S| < min_abs_S``) or loses its assembly mode (names
+            The run nears a gain-type singularity (``|S| < singularity_guard``) or loses its assembly mode (names
             the time).
         SingularityError
             The integration fails or the state blows up (names the time).
@@ -223,11 +223,11 @@ class ActuatorSpacePlant:
         theta_dot0 = as_batch("theta_dot0", theta_dot0, na, single=True)[0][0]
         effort = _effort_function(tau, na)
         t_final, t_eval = check_times(t_final, t_eval)
-        kernels, P, guard = model.kernels, model.P, self.min_abs_S
+        kernels, P, singularity_guard = model.kernels, model.P, self.singularity_guard
         s0 = float(mm.singularity_measure(model, q0))
-        if not abs(s0) >= guard:
-            raise BranchFollowingError(f"q0 is at a gain-type singularity (|S| = {abs(s0):.3g} < min_abs_S = "
-                                       f"{guard:g}): the actuator-space model does not exist there")
+        if not abs(s0) >= singularity_guard:
+            raise BranchFollowingError(f"q0 is at a gain-type singularity (|S| = {abs(s0):.3g} < singularity_guard = "
+                                       f"{singularity_guard:g}): the actuator-space model does not exist there")
         q_last, q_work = q0.copy(), np.empty(n)
         evaluations = 0
 
@@ -235,9 +235,10 @@ class ActuatorSpacePlant:
             nonlocal evaluations
             evaluations += 1
             efforts = effort(t, y[:na], y[na:])
-            y_dot, status = kernels.reduced_rhs(q_last, np.ascontiguousarray(y), efforts, P, guard, q_work)
+            y_dot, status = kernels.actuator_space_rhs(q_last, np.ascontiguousarray(y), efforts, P, singularity_guard,
+                                                       q_work)
             if status != kernels.OK:
-                why = (f"reached a gain-type singularity (|S| < min_abs_S = {guard:g})"
+                why = (f"reached a gain-type singularity (|S| < singularity_guard = {singularity_guard:g})"
                        if status == kernels.SINGULAR else "could not follow its assembly mode")
                 raise BranchFollowingError(f"the plant {why} at t = {t:.6g} s "
                                            f"(theta = {np.round(y[:na], 6).tolist()})")
@@ -248,7 +249,7 @@ class ActuatorSpacePlant:
         sol = _integrate(rhs, t_final, np.concatenate([q0[:na], theta_dot0]), t_eval, self.rtol, self.atol)
         # the passive coordinates at the output times, following the assembly mode from q0
         qs = np.empty((sol.t.size, n))
-        status, k = kernels.follow_path(q0, np.ascontiguousarray(sol.y[:na].T), P, guard, qs)
+        status, k = kernels.follow_path(q0, np.ascontiguousarray(sol.y[:na].T), P, singularity_guard, qs)
         if status != kernels.OK:
             raise BranchFollowingError(f"the plant lost its assembly mode at t = {sol.t[k]:.6g} s")
         q_dot = coordinate_rates(model, qs, np.ascontiguousarray(sol.y[na:].T))

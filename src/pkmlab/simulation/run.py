@@ -7,7 +7,7 @@ time series of conventions §8 and its summary. The paper's three cases are
 :func:`pkmlab.formats.scenario.paper_scenario` ``("nominal" | "disturbed" | "fast")``.
 
 Sampled-data control (conventions §5, default ``Ts = 1 ms``): the torque computed from the measured
-``θ, θ̇`` at ``t_k = k Ts`` is held until ``t_{k+1}``; the plant integrates the reduced model
+``θ, θ̇`` at ``t_k = k Ts`` is held until ``t_{k+1}``; the plant integrates the actuator-space model
 (eq. 35) over each sample with classical Runge–Kutta in ``substeps`` equal steps (the torque
 is constant inside the sample, so the solution is smooth there and a fixed-step high-order
 method needs no error control: one RK4 step per 1 ms sample is off a DOP853 reference at rtol
@@ -86,7 +86,7 @@ class PreparedRun:
     kind: int
     kp: float
     kv: float
-    guard: float
+    singularity_guard: float
     P_ctrl: np.ndarray  # the packed parameters of the controller's model and of the plant, as the loop reads them
     P_plant: np.ndarray
 
@@ -242,7 +242,7 @@ def _check_sampled_data_stability(scenario: Scenario, prep: PreparedRun) -> None
         from ..model.mechanism_model import path_inverse_kinematics
 
         ik_q, ik_s, _failure = path_inverse_kinematics(scenario.plant_model, desired.pose[idx], prep.mode)
-        ok = np.abs(np.nan_to_num(ik_s)) >= max(prep.guard, 1e-6)
+        ok = np.abs(np.nan_to_num(ik_s)) >= max(prep.singularity_guard, 1e-6)
         q_plant = np.vstack([prep.q_plant0, ik_q[ok]])
         q_ctrl, k = np.vstack([prep.q_ctrl0, desired.q[idx][ok]]), np.append(0, idx[ok])
     mu = _modal_gains(scenario, prep.kind, q_ctrl, q_plant)
@@ -304,17 +304,17 @@ def _loop_error(scenario: Scenario, prep: PreparedRun, status: int, q: np.ndarra
     return BranchFollowingError(prefix + _loop_failure(scenario, prep, status, q, k_fail))
 
 
-def branch_failure_text(status: int, guard: float) -> str:
+def branch_failure_text(status: int, singularity_guard: float) -> str:
     """What a branch-following status of the compiled core means, as the end of a sentence."""
     if status % 10 == 2:  # SINGULAR
-        return f"came within |S| < {guard:g} of a gain-type singularity"
+        return f"came within |S| < {singularity_guard:g} of a gain-type singularity"
     return "could not follow its assembly mode (no configuration found near the last one)"
 
 
 def _loop_failure(scenario: Scenario, prep: PreparedRun, status: int, q: np.ndarray, k_fail: int) -> str:
     who = "the controller's model" if status >= 10 else "the plant"
     pose = _pose_of(scenario.plant_model, q[k_fail])
-    return (f"run stopped at t = {prep.t[k_fail]:.4f} s: {who} {branch_failure_text(status, prep.guard)} "
+    return (f"run stopped at t = {prep.t[k_fail]:.4f} s: {who} {branch_failure_text(status, prep.singularity_guard)} "
             f"near pose {pose_text(pose)}")
 
 
@@ -365,7 +365,7 @@ def simulate(scenario: Scenario) -> SimulationResult:
     d = prep.desired
     status, k_fail = k_.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
                                           d.theta_ddot, q_plant0, q_ctrl0, prep.P_plant, prep.P_ctrl, prep.kind,
-                                          prep.kp, prep.kv, prep.guard, q, theta_dot, tau, s)
+                                          prep.kp, prep.kv, prep.singularity_guard, q, theta_dot, tau, s)
     pose = q[:, -_dof(plant):].copy()
     if status != k_.OK:
         raise _loop_error(scenario, prep, status, q, k_fail)
@@ -389,19 +389,19 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
     def control(time, theta, theta_dot):
         d = _joint_motion_at(scenario, prep, time)
         status = k_.control_effort_from(q_ctrl, prep.kind, prep.kp, prep.kv, theta, theta_dot, *d, P_ctrl,
-                                        prep.guard, q_next, tau)
+                                        prep.singularity_guard, q_next, tau)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model "
-                                       f"{branch_failure_text(status, prep.guard)}")
+                                       f"{branch_failure_text(status, prep.singularity_guard)}")
         q_ctrl[:] = q_next
         return tau
 
     def rhs(time, y):
         control(time, y[:n], y[n:])
-        y_dot, status = k_.reduced_rhs(q_plant, y, tau, P_plant, prep.guard, q_next)
+        y_dot, status = k_.actuator_space_rhs(q_plant, y, tau, P_plant, prep.singularity_guard, q_next)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant "
-                                       f"{branch_failure_text(status, prep.guard)}")
+                                       f"{branch_failure_text(status, prep.singularity_guard)}")
         q_plant[:] = q_next
         return y_dot
 
@@ -412,10 +412,10 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
         raise SingularityError(f"integration failed: {sol.message}")
     # the reported samples: configurations by branch following along the solution, efforts re-evaluated
     q = np.empty((prep.t.size, len(q_plant0)))
-    status, k = k_.follow_path(q_plant0, np.ascontiguousarray(sol.y[:n].T), P_plant, prep.guard, q)
+    status, k = k_.follow_path(q_plant0, np.ascontiguousarray(sol.y[:n].T), P_plant, prep.singularity_guard, q)
     if status != k_.OK:
         raise BranchFollowingError(f"run stopped at t = {prep.t[k]:.4f} s: the plant "
-                                   f"{branch_failure_text(status, prep.guard)}")
+                                   f"{branch_failure_text(status, prep.singularity_guard)}")
     efforts = np.empty((prep.t.size, n))
     q_ctrl[:] = q_ctrl0
     for k in range(prep.t.size):
@@ -523,18 +523,18 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     q0, qc0 = np.empty((m, n_q)), np.empty((m, n_q))
     P_plant, P_ctrl = np.empty((m, P_len)), np.empty((m, P_len))
     ts, n_sub, kind = np.empty(m), np.empty(m, np.int64), np.empty(m, np.int64)
-    kp, kv, guard = np.empty(m), np.empty(m), np.empty(m)
+    kp, kv, guards = np.empty(m), np.empty(m), np.empty(m)
     for r, (sc, p) in enumerate(zip(scenarios, preps, strict=True)):
         for name in stack:
             stack[name][r] = getattr(p.desired, name)
         q0[r], qc0[r] = p.q_plant0, p.q_ctrl0
         P_plant[r], P_ctrl[r] = p.P_plant, p.P_ctrl
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
-        kp[r], kv[r], guard[r] = p.kp, p.kv, p.guard
+        kp[r], kv[r], guards[r] = p.kp, p.kv, p.singularity_guard
     q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
     s = np.zeros((m, n))
     status, k_fail = np.zeros(m, np.int64), np.zeros(m, np.int64)
     kernels.sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant,
-                               P_ctrl, kind, kp, kv, guard, q, theta_dot, tau, s, status, k_fail)
+                               P_ctrl, kind, kp, kv, guards, q, theta_dot, tau, s, status, k_fail)
     dof = _dof(loop)
     return [(status[r], q[r], theta_dot[r], tau[r], q[r, :, -dof:].copy(), s[r], k_fail[r]) for r in range(m)]

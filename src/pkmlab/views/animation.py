@@ -146,7 +146,7 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
 
     The first is the assembly mode whose platform pose is nearest ``pose0`` (a six-degree-of-freedom
     platform's: the inverse kinematics of ``pose0``, checked against ``theta[0]``); each next one is on the
-    same branch as the previous (:func:`~pkmlab.model.mechanism_model.branch_following`, paper §3.2).
+    same branch as the previous (:func:`~pkmlab.algorithms.kinematics.branch_following`, paper §3.2).
 
     >>> from pkmlab import inverse_kinematics, load
     >>> model = load("paper")
@@ -157,6 +157,7 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
     True
     """
     from ..algorithms.assembly import assembly_modes
+    from ..algorithms.kinematics import branch_following
     from ..model import mechanism_model as mm
 
     theta = np.asarray(theta, dtype=float)
@@ -179,7 +180,7 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
     q[0] = min((sol for sol, _s in solutions), key=lambda sol: float(np.abs(sol[-dof:] - pose0).max()))
     for k in range(1, theta.shape[0]):
         try:
-            q[k] = mm.branch_following(model, q[k - 1], theta[k], min_abs_S=1e-6)
+            q[k] = branch_following(model, q[k - 1], theta[k])
         except BranchFollowingError as exc:
             raise BranchFollowingError(f"sample {k + 1}: {exc}") from None
     return q

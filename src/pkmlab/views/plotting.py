@@ -333,7 +333,7 @@ def plot_alpha(result, ax=None):
     return ax
 
 
-def plot_torques(result, ax=None):
+def plot_efforts(result, ax=None):
     """Actuator efforts vs time (paper figures 9, 12, 15): torques in N·m, forces (prismatic actuators) in N."""
     ax = _axes(ax)
     from ..simulation.result import actuator_kinds

@@ -232,12 +232,12 @@ def predict(ws, theta):
 
 
 @njit(**NO_REFCOUNT)
-def follow_branch(ws, theta, P, min_abs_s):
+def follow_branch(ws, theta, P, singularity_guard):
     """The configuration at actuators ``theta`` continuously connected to the base (paper §3.2), into
     ``ws.q[TRIAL]``: a first-order predictor along ``Jφθ`` (eq. 15) from the base, then the chord method
     with the base's ``Jηφ`` (Newton's method if that is slow to converge).
 
-    Fails (``SINGULAR``) when ``|S|`` falls below ``min_abs_s`` or changes sign on the way — the step
+    Fails (``SINGULAR``) when ``|S|`` falls below ``singularity_guard`` or changes sign on the way — the step
     would have crossed a gain-type singularity into another assembly mode; ``NOT_CONVERGED`` when the
     passive coordinates cannot be found near the prediction (the step is too large: take smaller ones,
     :func:`follow_branch_in_steps`). An actuator angle given across ±π from the base's is stepped the
@@ -286,7 +286,7 @@ def follow_branch(ws, theta, P, min_abs_s):
             return status
     s = singularity_measure(trial, sc, P, ws.lines)
     ws.s[TRIAL] = s
-    if abs(s) < min_abs_s or s * ws.s[BASE] < 0.0:
+    if abs(s) < singularity_guard or s * ws.s[BASE] < 0.0:
         return SINGULAR
     return OK
 
@@ -313,13 +313,13 @@ def set_base(ws, q, P):
 
 
 @njit(**NO_REFCOUNT)
-def follow_branch_in_steps(ws, q_previous, theta, P, min_abs_s, max_step):
+def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step):
     """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take
     large steps: the actuators moved in equal sub-steps of at most ``max_step`` (rad or m, > 0; an angle the
     shorter way round, so by at most π), each by :func:`follow_branch`, the whole retried in twice as many
     sub-steps when one fails, six times (up to 64 times as many). The configuration reached is left in
     ``ws.q[BASE]``: the target's on success, else the last one reached. ``q_previous`` must not be a view
-    of the workspace. Returns the status; ``SINGULAR`` at once when ``|S|`` is below ``min_abs_s`` at
+    of the workspace. Returns the status; ``SINGULAR`` at once when ``|S|`` is below ``singularity_guard`` at
     ``q_previous``."""
     n = N_ACTUATORS
     largest = 0.0
@@ -332,12 +332,12 @@ def follow_branch_in_steps(ws, q_previous, theta, P, min_abs_s, max_step):
     status = OK
     for _ in range(7):  # steps, 2 steps, ..., 64 times as many
         set_base(ws, q_previous, P)
-        if abs(ws.s[BASE]) < min_abs_s:
+        if abs(ws.s[BASE]) < singularity_guard:
             return SINGULAR
         for k in range(1, steps + 1):
             for j in range(n):  # the sub-step's target, on q_previous's side of 2π
                 ws.target[j] = q_previous[j] + actuator_error(theta, q_previous, j) * (k / steps)
-            status = follow_branch(ws, ws.target, P, min_abs_s)
+            status = follow_branch(ws, ws.target, P, singularity_guard)
             if status != OK:
                 break
             accept_trial(ws)

@@ -17,7 +17,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 
 # ==== TEMPLATE
 @njit(**NO_REFCOUNT)
-def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s, ws, tau):
+def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard, ws, tau):
     """Efforts ``τ`` of one controller evaluation into ``tau``; returns the status.
 
     ``kind = 0``, computed torque (eqs. 36–39 with gravity): ``τ = M̂θ v + ĉθ + ĝθ``,
@@ -30,7 +30,7 @@ def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_d
         for i in range(n):
             tau[i] = -kp * actuator_error(theta, theta_d, i) - kv * (theta_dot[i] - theta_dot_d[i])
         return OK
-    status = follow_branch(ws, theta, P, min_abs_s)
+    status = follow_branch(ws, theta, P, singularity_guard)
     if status != OK:
         return status
     accept_trial(ws)

@@ -58,22 +58,22 @@ def constraint_biases(qs, q_dots, P, out):
 # arrays in and out, the workspace made inside (making one costs well under a microsecond), then passed
 # with the array that holds it to the function that does the work
 @njit(cache=True)
-def reduced_rhs(q_base, y, tau, P, min_abs_s, q_out):
-    """``(θ̇, θ̈)`` of the reduced plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
+def actuator_space_rhs(q_base, y, tau, P, singularity_guard, q_out):
+    """``(θ̇, θ̈)`` of the actuator-space plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
     the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
     configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
-    return _reduced_rhs(make_workspaces(1), q_base, y, tau, P, min_abs_s, q_out)
+    return _actuator_space_rhs(make_workspaces(1), q_base, y, tau, P, singularity_guard, q_out)
 
 
 @njit(cache=True)
-def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
+def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, q_out):
     n = N_ACTUATORS
     ws = workspaces[0]
     out = np.zeros(2 * n)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
-    status = follow_branch_in_steps(ws, q_base, y[:n], P, min_abs_s, np.inf)
+    status = follow_branch_in_steps(ws, q_base, y[:n], P, singularity_guard, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE, False)
+        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:
@@ -84,24 +84,24 @@ def _reduced_rhs(workspaces, q_base, y, tau, P, min_abs_s, q_out):
 
 
 @njit(cache=True)
-def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
-                        q_out, tau):
+def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
+                        singularity_guard, q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
     configuration at the measured ``theta`` into ``q_out``. Returns the status."""
     return _control_effort_from(make_workspaces(1), q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
-                                theta_ddot_d, P, min_abs_s, q_out, tau)
+                                theta_ddot_d, P, singularity_guard, q_out, tau)
 
 
 @njit(cache=True)
 def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
-                         min_abs_s, q_out, tau):
+                         singularity_guard, q_out, tau):
     ws = workspaces[0]
     if kind == 1:  # PD: no model to move
         q_out[:] = q_base
-        return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, min_abs_s,
+        return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
                               ws, tau)
     # computed torque: the model follows the measurement, in sub-steps where needed
-    status = follow_branch_in_steps(ws, q_base, theta, P, min_abs_s, np.inf)
+    status = follow_branch_in_steps(ws, q_base, theta, P, singularity_guard, np.inf)
     if status == OK:
         status = computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau)
     for i in range(N_COORDINATES):
@@ -110,35 +110,35 @@ def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, the
 
 
 @njit(cache=True)
-def branch_following_batch(q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+def branch_following_batch(q_previous, thetas, P, singularity_guard, max_step, q_out, status):
     """:func:`follow_branch_in_steps` from each ``q_previous[k]`` (K, N) to ``thetas[k]`` (K, n), into ``q_out``
     (K, N) and ``status`` (K,)."""
-    _branch_following_batch(make_workspaces(1), q_previous, thetas, P, min_abs_s, max_step, q_out, status)
+    _branch_following_batch(make_workspaces(1), q_previous, thetas, P, singularity_guard, max_step, q_out, status)
 
 
 @njit(cache=True)
-def _branch_following_batch(workspaces, q_previous, thetas, P, min_abs_s, max_step, q_out, status):
+def _branch_following_batch(workspaces, q_previous, thetas, P, singularity_guard, max_step, q_out, status):
     ws = workspaces[0]
     for k in range(thetas.shape[0]):
-        status[k] = follow_branch_in_steps(ws, q_previous[k], thetas[k], P, min_abs_s, max_step)
+        status[k] = follow_branch_in_steps(ws, q_previous[k], thetas[k], P, singularity_guard, max_step)
         for i in range(N_COORDINATES):
             q_out[k, i] = ws.q[BASE, i]
 
 
 @njit(cache=True)
-def follow_path(q_start, thetas, P, min_abs_s, q_out):
+def follow_path(q_start, thetas, P, singularity_guard, q_out):
     """Branch following from ``q_start`` through the actuator values ``thetas`` (K, n) in turn
     (:func:`follow_branch_in_steps`), into ``q_out`` (K, N); returns ``(status, k)``, ``k`` the first point
     not reached (else -1)."""
-    return _follow_path(make_workspaces(1), q_start, thetas, P, min_abs_s, q_out)
+    return _follow_path(make_workspaces(1), q_start, thetas, P, singularity_guard, q_out)
 
 
 @njit(cache=True)
-def _follow_path(workspaces, q_start, thetas, P, min_abs_s, q_out):
+def _follow_path(workspaces, q_start, thetas, P, singularity_guard, q_out):
     ws = workspaces[0]
     previous = q_start.copy()
     for k in range(thetas.shape[0]):
-        status = follow_branch_in_steps(ws, previous, thetas[k], P, min_abs_s, np.inf)
+        status = follow_branch_in_steps(ws, previous, thetas[k], P, singularity_guard, np.inf)
         if status != OK:
             return status, k
         for i in range(N_COORDINATES):

@@ -21,15 +21,15 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 
 # ==== TEMPLATE
 @njit(**NO_REFCOUNT)
-def plant_stage(ws, theta, theta_dot, tau, P, min_abs_s, slot, known):
-    """``θ̈`` of the reduced plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
+def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known):
+    """``θ̈`` of the actuator-space plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
 
     ``slot = BASE``: ``θ`` is the base's own; otherwise the passive coordinates are first found by
     branch following from the base. ``known``: the workspace already holds the model there
     (:func:`actuator_space_model` at the base and ``θ̇``, see :func:`copy_model`).
     """
     if slot != BASE:
-        status = follow_branch(ws, theta, P, min_abs_s)
+        status = follow_branch(ws, theta, P, singularity_guard)
         if status != OK:
             return status
     if not known and not actuator_space_model(ws, ws.q[slot], ws.sc[slot], theta_dot, P):
@@ -75,8 +75,8 @@ def copy_model(source, destination):
 
 
 @njit(**NO_REFCOUNT)
-def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
-    """Advance the reduced plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
+def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known):
+    """Advance the actuator-space plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
 
     ``x`` (2n,) = ``(θ, θ̇)`` is updated in place and the base configuration moved along; stages
     find their passive coordinates by branch following from the start of the step. ``work`` is a
@@ -92,7 +92,7 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
             c = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
             for i in range(2 * n):
                 y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
-            status = plant_stage(ws, y[:n], y[n:], tau, P, min_abs_s, BASE if stage == 0 else TRIAL,
+            status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE if stage == 0 else TRIAL,
                                  known and step == 0 and stage == 0)
             if status != OK:
                 return status
@@ -101,7 +101,7 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
                 k[stage, n + i] = ws.theta_ddot[i]
         for i in range(2 * n):
             x[i] += h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
-        status = follow_branch(ws, x[:n], P, min_abs_s)
+        status = follow_branch(ws, x[:n], P, singularity_guard)
         if status != OK:
             return status
         accept_trial(ws)
@@ -110,17 +110,17 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, min_abs_s, work, known):
 
 @njit(cache=True)
 def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                      kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
+                      kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s):
     """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
     returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
     own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, efforts and ``S``."""
     return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
-                              P_plant, P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s)
+                              P_plant, P_ctrl, kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s)
 
 
 @njit(cache=True)
 def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant,
-                       P_ctrl, kind, kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s):
+                       P_ctrl, kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s):
     n = N_ACTUATORS
     plant, ctrl = workspaces[0], workspaces[1]
     set_base(plant, q_plant0, P_plant)
@@ -148,7 +148,7 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
                                      tau)
         else:
             status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
-                                    min_abs_s, ctrl, tau)
+                                    singularity_guard, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
         out_tau[k] = tau
@@ -156,7 +156,7 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
             break
         if shared:
             copy_model(ctrl, plant)
-        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, min_abs_s, work, shared)
+        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, singularity_guard, work, shared)
         if status != OK:
             return status, k
     return OK, -1
@@ -164,12 +164,12 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
 
 @njit(cache=True, parallel=True)
 def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind,
-                       kp, kv, min_abs_s, out_q, out_theta_dot, out_tau, out_s, out_status, out_k):
+                       kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s, out_status, out_k):
     """:func:`sampled_data_loop` for a batch of runs (leading axis) over the CPU cores; each run executes
     exactly the code of a single run."""
     for r in prange(theta_d.shape[0]):
         status, k = sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
-                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], min_abs_s[r],
+                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], singularity_guard[r],
                                       out_q[r], out_theta_dot[r], out_tau[r], out_s[r])
         out_status[r] = status
         out_k[r] = k
