@@ -146,9 +146,9 @@ _PAPER_PARAMS = dict(b=0.52, l=0.25, r=0.1667, a=0.125, mass_l=0.468, mass_r=0.3
                      inertia_l=2.438e-3, inertia_r=0.722e-3, inertia_a=0.305e-3, base_points=None)
 
 
-def _reduced_plant(model, rtol, atol, singularity_guard, q0, theta_dot0, torque, t_final, t_eval):
+def _reduced_plant(model, rtol, atol, singularity_guard, q0, theta_dot0, tau, t_final, t_eval):
     plant = ReducedPlant(model, rtol=rtol, atol=atol, singularity_guard=singularity_guard)
-    return plant.simulate(q0, theta_dot0, torque, t_final, t_eval=t_eval)
+    return plant.simulate(q0, theta_dot0, tau, t_final, t_eval=t_eval)
 
 
 def _actuator_space_plant(model, rtol, atol, singularity_guard, q0, theta_dot0, tau, t_final, t_eval):
@@ -163,16 +163,16 @@ def _full_space_plant(model, rtol, atol, stabilization, q0, q_dot0, tau, t_final
 
 
 
-def _full_plant(model, rtol, atol, stabilization, q0, q_dot0, torque, t_final, t_eval):
+def _full_plant(model, rtol, atol, stabilization, q0, q_dot0, tau, t_final, t_eval):
     plant = FullPlant(model, rtol=rtol, atol=atol, stabilization=stabilization)
-    return plant.simulate(q0, q_dot0, torque, t_final, t_eval=t_eval)
+    return plant.simulate(q0, q_dot0, tau, t_final, t_eval=t_eval)
 
 
-_PLANT = dict(model=MODEL, rtol=1e-9, atol=1e-10, q0=Q, torque=np.zeros(3), t_final=1e-3, t_eval=None)
+_PLANT = dict(model=MODEL, rtol=1e-9, atol=1e-10, q0=Q, tau=np.zeros(3), t_final=1e-3, t_eval=None)
 # a well-formed but wild state, torque or rate blows the integration up: the error names the time
 _BLOW_UP = [r"\bt = "]
 _PLANT_NAMES = {name: [rf"\b{name}\b", *_BLOW_UP] for name in
-                ("theta_dot0", "q_dot0", "torque", "t_final", "stabilization", "rtol", "atol")}
+                ("theta_dot0", "q_dot0", "tau", "t_final", "stabilization", "rtol", "atol")}
 _SPACE_PLANT = dict(model=GENERIC, rtol=1e-9, atol=1e-10, q0=G_Q, tau=np.zeros(3), t_final=1e-3, t_eval=None)
 _SPACE_PLANT_NAMES = {name: [rf"\b{name}\b", *_BLOW_UP] for name in
                       ("theta_dot0", "q_dot0", "tau", "t_final", "stabilization", "rtol", "atol")}
@@ -381,8 +381,8 @@ def test_theta_ddot_is_validated_like_the_other_arrays(bad):
             call()
 
 
-def test_a_torque_function_of_the_wrong_shape_is_refused():
-    with pytest.raises(pkmlab.InvalidParameterError, match=r"^torque\(t, theta, theta_dot\) must return 3 numbers"):
+def test_an_effort_function_of_the_wrong_shape_is_refused():
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"^tau\(t, theta, theta_dot\) must return 3 numbers"):
         ReducedPlant(MODEL).simulate(Q, np.zeros(3), lambda t, theta, theta_dot: [1.0, 2.0], 1e-3)
 
 

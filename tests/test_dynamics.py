@@ -143,13 +143,13 @@ def test_free_motion_conserves_energy_and_both_plants_agree(paper):
     reduced = ReducedPlant(paper, rtol=1e-12, atol=1e-13).simulate(q0, td0, [0, 0, 0], 1.0, t_eval=t)
     T = dy.kinetic_energy(paper, reduced.q, reduced.q_dot)
     assert np.abs(T / T[0] - 1).max() <= 1e-9
-    assert reduced.loop_residual.max() < 1e-14  # on the manifold at round-off level, by construction
+    assert reduced.closure_violation.max() < 1e-14  # on the manifold at round-off level, by construction
     assert np.max([np.abs(ref.eta(q)).max() for q in reduced.q]) < 1e-14
     full = FullPlant(paper, rtol=1e-12, atol=1e-13).simulate(q0, kin.coordinate_rates(paper, q0, td0),
                                                                [0, 0, 0], 1.0, t_eval=t)
     T_full = dy.kinetic_energy(paper, full.q, full.q_dot)
     assert np.abs(T_full / T_full[0] - 1).max() <= 1e-9
-    assert full.loop_residual.max() < 1e-10
+    assert full.closure_violation.max() < 1e-10
     np.testing.assert_allclose(reduced.theta, full.theta, atol=1e-9)
     np.testing.assert_allclose(reduced.theta_dot, full.theta_dot, atol=1e-8)
 

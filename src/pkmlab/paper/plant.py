@@ -1,4 +1,4 @@
-"""Plants: the simulated machine, advancing its state under actuator torques.
+"""Plants: the simulated machine, advancing its state under actuator efforts.
 
 Two independent formulations of the same physics (conventions §6):
 
@@ -14,7 +14,7 @@ Two independent formulations of the same physics (conventions §6):
 
 Both integrate with SciPy's DOP853 at tight tolerances (relative 1e-11 by default) so that
 integration error stays far below any tracking error of interest; ``rtol``/``atol`` are
-parameters. Torques are given as a function ``torque(t, θ, θ̇) -> (3,)`` or as a constant.
+parameters. Efforts are given as a function ``tau(t, θ, θ̇) -> (3,)`` or as a constant.
 """
 
 from __future__ import annotations
@@ -40,14 +40,14 @@ class PlantRun:
     """Time series of a plant simulation (like SciPy's ``OdeResult``).
 
     ``q`` (N, 7) and ``q_dot`` (N, 7) are full configurations and rates at times ``t`` (N,);
-    ``loop_residual`` (N,) is ``max |η(q)|`` in metres; ``n_evaluations`` counts right-hand
+    ``closure_violation`` (N,) is ``max |η(q)|`` in metres; ``n_evaluations`` counts right-hand
     side evaluations.
     """
 
     t: np.ndarray
     q: np.ndarray
     q_dot: np.ndarray
-    loop_residual: np.ndarray
+    closure_violation: np.ndarray
     n_evaluations: int
 
     @property
@@ -59,37 +59,37 @@ class PlantRun:
         return self.q_dot[:, :3]
 
 
-def _loop_residual(model, qs):
+def _closure_violation(model, qs):
     """``max |η(q)|`` (m) of each configuration."""
     return np.abs(constraint_residual(model, qs)).max(axis=-1)
 
 
-def _torque_function(torque) -> Callable[[float, np.ndarray, np.ndarray], np.ndarray]:
-    if callable(torque):
+def _effort_function(tau) -> Callable[[float, np.ndarray, np.ndarray], np.ndarray]:
+    if callable(tau):
         def checked(t, theta, theta_dot):  # the compiled dynamics would read past a short array
-            tau = torque(t, theta, theta_dot)
+            effort = tau(t, theta, theta_dot)
             try:
-                tau = np.asarray(tau, dtype=float)
+                effort = np.asarray(effort, dtype=float)
             except (TypeError, ValueError, OverflowError):
-                tau = None
-            if tau is None or tau.shape != (3,):
-                raise InvalidParameterError(f"torque(t, theta, theta_dot) must return 3 numbers, got {shown(tau)}")
-            return tau
+                effort = None
+            if effort is None or effort.shape != (3,):
+                raise InvalidParameterError(f"tau(t, theta, theta_dot) must return 3 numbers, got {shown(effort)}")
+            return effort
 
         return checked
-    constant = as_batch("torque", torque, 3, single=True)[0][0].copy()
+    constant = as_batch("tau", tau, 3, single=True)[0][0].copy()
     return lambda t, theta, theta_dot: constant
 
 
-def _initial(model, q0, rate_name, rate0, n_rate, torque, t_final, t_eval):
-    """Validated ``(q0, rate0, torque function, t_final, t_eval)`` of a simulation request."""
+def _initial(model, q0, rate_name, rate0, n_rate, tau, t_final, t_eval):
+    """Validated ``(q0, rate0, tau function, t_final, t_eval)`` of a simulation request."""
     q0 = as_batch("q0", q0, 7, single=True)[0][0]
-    residual = float(_loop_residual(model, q0))
+    residual = float(_closure_violation(model, q0))
     if residual > 1e-3 * float(np.max(model.active_lengths + model.passive_lengths)):
         raise InvalidParameterError(f"q0 is not a configuration of this machine: its loop-closure residual is "
                                     f"{residual:.3g} m (take it from inverse or forward kinematics)")
     rate0 = as_batch(rate_name, rate0, n_rate, single=True)[0][0]
-    return (q0, rate0, _torque_function(torque), *check_times(t_final, t_eval))
+    return (q0, rate0, _effort_function(tau), *check_times(t_final, t_eval))
 
 
 @njit(cache=True)
@@ -120,9 +120,9 @@ class ReducedPlant:
         self.rtol, self.atol = as_real("rtol", rtol, "positive"), as_real("atol", atol, "non-negative")
         self.singularity_guard = as_real("singularity_guard", singularity_guard, "non-negative")
 
-    def simulate(self, q0, theta_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
+    def simulate(self, q0, theta_dot0, tau, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from configuration ``q0`` (on the manifold) and actuated rates ``θ̇0``."""
-        q0, theta_dot0, torque_fn, t_final, t_eval = _initial(self.model, q0, "theta_dot0", theta_dot0, 3, torque,
+        q0, theta_dot0, effort_of, t_final, t_eval = _initial(self.model, q0, "theta_dot0", theta_dot0, 3, tau,
                                                               t_final, t_eval)
         # the compiled core's reduced model and branch following, on the machine's description
         machine = MechanismModel.from_3rrr(self.model)
@@ -134,8 +134,8 @@ class ReducedPlant:
         def rhs(t, y):
             nonlocal evaluations
             evaluations += 1
-            tau = np.asarray(torque_fn(t, y[:3], y[3:]), dtype=float)
-            ydot, status = kernels.actuator_space_rhs(q_last, y, tau, P, self.singularity_guard, q_work)
+            effort = np.asarray(effort_of(t, y[:3], y[3:]), dtype=float)
+            ydot, status = kernels.actuator_space_rhs(q_last, y, effort, P, self.singularity_guard, q_work)
             if status != kernels.OK:
                 why = (f"reached a gain-type singularity (|S| < singularity_guard = {self.singularity_guard:g})"
                        if status == kernels.SINGULAR else "could not follow its assembly mode")
@@ -158,7 +158,7 @@ class ReducedPlant:
         from .kinematics import coordinate_rates
 
         q_dot = coordinate_rates(self.model, qs, sol.y[3:].T)
-        return PlantRun(sol.t, qs, q_dot, _loop_residual(self.model, qs), evaluations)
+        return PlantRun(sol.t, qs, q_dot, _closure_violation(self.model, qs), evaluations)
 
 
 class FullPlant:
@@ -172,9 +172,9 @@ class FullPlant:
         self.rtol, self.atol = as_real("rtol", rtol, "positive"), as_real("atol", atol, "non-negative")
         self.stabilization = as_real("stabilization", stabilization, "non-negative")
 
-    def simulate(self, q0, q_dot0, torque, t_final: float, t_eval=None) -> PlantRun:
+    def simulate(self, q0, q_dot0, tau, t_final: float, t_eval=None) -> PlantRun:
         """Integrate from ``q0`` and ``q̇0`` (both consistent with the constraints)."""
-        q0, q_dot0, torque_fn, t_final, t_eval = _initial(self.model, q0, "q_dot0", q_dot0, 7, torque, t_final,
+        q0, q_dot0, effort_of, t_final, t_eval = _initial(self.model, q0, "q_dot0", q_dot0, 7, tau, t_final,
                                                           t_eval)
         P = self.model.packed
         evaluations = 0
@@ -182,8 +182,8 @@ class FullPlant:
         def rhs(t, y):
             nonlocal evaluations
             evaluations += 1
-            tau = np.asarray(torque_fn(t, y[:3], y[7:10]), dtype=float)
-            ydot, ok = _full_rhs(y, tau, P, self.stabilization)
+            effort = np.asarray(effort_of(t, y[:3], y[7:10]), dtype=float)
+            ydot, ok = _full_rhs(y, effort, P, self.stabilization)
             if not ok:
                 raise SingularityError(f"the constrained dynamics became singular at t = {t:.6g} s")
             return ydot
@@ -194,4 +194,4 @@ class FullPlant:
         if sol.status != 0:
             raise SingularityError(f"integration failed: {sol.message} (rtol = {self.rtol:g}, atol = {self.atol:g})")
         qs = np.ascontiguousarray(sol.y[:7].T)
-        return PlantRun(sol.t, qs, np.ascontiguousarray(sol.y[7:].T), _loop_residual(self.model, qs), evaluations)
+        return PlantRun(sol.t, qs, np.ascontiguousarray(sol.y[7:].T), _closure_violation(self.model, qs), evaluations)
