@@ -39,8 +39,9 @@ def pytest_collection_modifyitems(session, config, items):
     global _warm
     items.sort(key=_spatial)  # stable: each group keeps its order
     if len(items) >= WARM_FROM and any(_spatial(item) for item in items) and not os.environ.get("PKMLAB_INTERPRETED"):
+        # at the lowest priority: the tests' own subprocesses (a browser drawing a page, Dask workers) come first
         _warm = subprocess.Popen([sys.executable, str(Path(__file__).parent / "warm_kernels.py")],
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=lambda: os.nice(19))
 
 
 def pytest_runtest_setup(item):

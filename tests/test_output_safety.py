@@ -7,6 +7,7 @@ line", "Quick start") or the failure it guards against.
 import json
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -59,6 +60,28 @@ def hidden(folder: Path) -> list[str]:
 def results():
     """The paper's three cases, simulated once for the tests that only write them."""
     return {name: simulate(paper_scenario(name)) for name in ("nominal", "disturbed", "fast")}
+
+
+@pytest.mark.parametrize("writer", ["to_csv", "to_json"])
+def test_a_result_written_into_a_missing_folder_makes_no_folder(results, tmp_path, writer):
+    """A library writer makes no folder its caller did not ask for: a mistyped folder is refused by name."""
+    missing = tmp_path / "no_such_folder"
+    expected = "^" + re.escape(f"cannot write {missing / 'run.x'}: there is no folder ")
+    with pytest.raises(outputs.OutputFileError, match=expected):
+        getattr(results["nominal"], writer)(missing / "run.x")
+    assert not missing.exists()
+
+
+@pytest.mark.parametrize("writer", ["to_csv", "to_json"])
+def test_a_result_written_onto_a_folder_is_refused_by_its_name(results, tmp_path, writer):
+    """Not a raw IsADirectoryError naming a temporary file: pkmlab's error naming the caller's path, and the
+    folder as it was."""
+    folder = tmp_path / "a_folder"
+    folder.mkdir()
+    (folder / "mine.txt").write_text("keep me")
+    with pytest.raises(outputs.OutputFileError, match="^" + re.escape(f"cannot write {folder}: it is a folder")):
+        getattr(results["nominal"], writer)(folder)
+    assert sorted(p.name for p in folder.iterdir()) == ["mine.txt"] and hidden(tmp_path) == []
 
 
 @pytest.fixture

@@ -45,18 +45,31 @@ class OutputFolderError(PkmlabError):
     """An output folder that cannot be written, or that holds something pkmlab must not replace."""
 
 
+class OutputFileError(PkmlabError):
+    """A file that cannot be written where its caller asks: the path is a folder, or its folder does not
+    exist (and the caller did not ask for one). The message names the path."""
+
+
 class ResultReplacedWarning(UserWarning):
     """An earlier result of the same command is being replaced (the command line prints it as a note)."""
 
 
 @contextlib.contextmanager
-def atomic_file(path: str | os.PathLike) -> Iterator[Path]:
+def atomic_file(path: str | os.PathLike, *, make_folder: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; when the block succeeds it becomes ``path``.
 
     The file gets ordinary permissions (``mkstemp`` creates it 0600); on an error the
-    temporary file is removed, so no half-written file is ever left.
+    temporary file is removed, so no half-written file is ever left. ``make_folder``: make the folder of
+    ``path`` if it is missing (a result folder's own subfolders); a path a user names in the API is written
+    with ``make_folder=False``, so that a mistyped folder is refused rather than created. A path that is a
+    folder and a missing folder are an :class:`OutputFileError` naming ``path``; the system's refusals
+    (permissions, a full disk) stay the ``OSError`` they are, for the caller to word.
     """
     path = Path(path)
+    if path.is_dir():
+        raise OutputFileError(f"cannot write {path}: it is a folder; name a file")
+    if not make_folder and not path.parent.is_dir():
+        raise OutputFileError(f"cannot write {path}: there is no folder {path.parent}")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
     os.close(fd)

@@ -114,13 +114,14 @@ class SimulationResult:
         return np.column_stack([self.t, self.theta, self.theta_d, self.tau, self.pose, self.pose_d, self.S, *extra])
 
     def to_csv(self, path) -> Path:
-        """Write the time series (columns :attr:`columns`) atomically."""
+        """Write the time series (columns :attr:`columns`) atomically. The folder of ``path`` must exist:
+        :class:`~pkmlab.outputs.OutputFileError` names the path otherwise, or when it is a folder."""
         # every value as the shortest text that reads back to the same float (repr); no value needs quoting
         lines = [",".join(self.columns), *(",".join(map(repr, row)) for row in self.table().tolist())]
         return _write_atomic(path, "\n".join(lines) + "\n")
 
     def to_json(self, path) -> Path:
-        """Write the summary and the time series as JSON, atomically."""
+        """Write the summary and the time series as JSON, atomically (``path`` as for :meth:`to_csv`)."""
         data = {"summary": self.summary(), "columns": list(self.columns), "rows": self.table().tolist()}
         return _write_atomic(path, json.dumps(data))
 
@@ -177,7 +178,8 @@ def orientation_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray
 
 
 def _write_atomic(path, text: str) -> Path:
-    with atomic_file(path) as tmp:
+    """Write ``text`` to the caller's ``path`` in one step; its folder must exist (none is made)."""
+    with atomic_file(path, make_folder=False) as tmp:
         tmp.write_text(text)
     return Path(path)
 
