@@ -355,3 +355,15 @@ def test_animate_refuses_params_with_mechanism(capsys, tmp_path):
     code, _out, err = run(capsys, "animate", out, "--mechanism", "five_bar", "--params", params, "--out",
                           tmp_path / "x.gif")
     assert code == 1 and "--params describes the paper's 3-RRR" in err and not (tmp_path / "x.gif").exists()
+
+
+@pytest.mark.parametrize("command", ["singularity-map", "workspace"])
+def test_an_orientation_for_a_platform_without_one_is_refused(tmp_path, capsys, command):
+    """The five-bar's platform is a point (x, y): --alpha would be silently ignored, and the map titled with an
+    orientation it does not have. Refused by name, nothing written; without --alpha the map is drawn."""
+    out = tmp_path / "map.png"
+    message = assert_user_error(*run(capsys, command, "--mechanism", "five_bar", "--alpha", "0.3", "--resolution",
+                                     "21", "--out", out))
+    assert "--alpha" in message and "no orientation" in message and not out.exists()
+    code, stdout, _err = run(capsys, command, "--mechanism", "five_bar", "--resolution", "21", "--out", out)
+    assert code == 0 and out.exists() and "alpha" not in stdout.splitlines()[0]

@@ -177,7 +177,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_command("reproduce", "cmd_demo"))
 
     def figure_region(p, what: str):
-        p.add_argument("--alpha", type=float, default=0.0, metavar="A", help="platform orientation (rad), default 0")
+        p.add_argument("--alpha", type=float, metavar="A", help="the platform's orientation (rad; default 0), for a "
+                       "planar platform that has one")
         p.add_argument("--resolution", type=int, default=201, metavar="N",
                        help=f"grid points per axis (2..{MAX_RESOLUTION}, default 201)")
         p.add_argument("--x-range", nargs=2, type=float, metavar=("XMIN", "XMAX"),

@@ -25,9 +25,19 @@ def _at_alpha(model, alpha: float) -> str:
     return f" at alpha = {alpha:g} rad" if "alpha" in model.pose_names else ""
 
 
-def _nothing_reachable(x, y, alpha: float) -> PkmlabError:
-    return PkmlabError(f"no pose of the region x = {x[0]:g}..{x[-1]:g} m, y = {y[0]:g}..{y[-1]:g} m is reachable "
-                       f"at alpha = {alpha:g} rad: nothing to draw")
+def _alpha(args, model) -> float:
+    """The orientation ``--alpha`` asks for (default 0): refused for a platform without one (a point's)."""
+    if args.alpha is None:
+        return 0.0
+    if "alpha" not in model.pose_names:
+        raise InvalidParameterError(f"--alpha: the {model.name}'s platform has no orientation (its pose is "
+                                    f"{', '.join(model.pose_names)}): leave --alpha out")
+    return args.alpha
+
+
+def _nothing_reachable(model, x, y, alpha: float) -> PkmlabError:
+    return PkmlabError(f"no pose of the region x = {x[0]:g}..{x[-1]:g} m, y = {y[0]:g}..{y[-1]:g} m is reachable"
+                       f"{_at_alpha(model, alpha)}: nothing to draw")
 
 
 def cmd_singularity_map(args) -> dict:
@@ -53,11 +63,11 @@ def cmd_singularity_map(args) -> dict:
     csv_path = output_path(args.csv, "--csv", {".csv"}) if args.csv else None
     resolution = check_resolution(args.resolution)
     with progress_bar(args, resolution, "singularity map") as bar:
-        smap = singularity_map(model, args.alpha, mode, args.x_range, args.y_range, resolution,
+        smap = singularity_map(model, _alpha(args, model), mode, args.x_range, args.y_range, resolution,
                                progress=bar.update)
     reachable = smap.reachable
     if not reachable.any():
-        raise _nothing_reachable(smap.x, smap.y, smap.alpha)
+        raise _nothing_reachable(model, smap.x, smap.y, smap.alpha)
     finite = smap.S[reachable]
     result = {"mechanism": mechanism_name(args, model), "alpha": smap.alpha, "mode": list(smap.mode),
               "min_S": float(finite.min()), "max_S": float(finite.max()), "reachable_fraction": float(reachable.mean()),
@@ -68,7 +78,7 @@ def cmd_singularity_map(args) -> dict:
             if out.suffix.lower() == ".html":  # interactive: hover shows the pose, the working mode and S
                 from ..views.maps import singularity_map_figure, write_map
 
-                write_map(temps[0], singularity_map_figure(smap), f"S at alpha = {smap.alpha:g}")
+                write_map(temps[0], singularity_map_figure(smap), f"S{_at_alpha(model, smap.alpha)}")
             else:
                 ax.figure.savefig(temps[0], dpi=150)
             if csv_path:
@@ -109,9 +119,9 @@ def cmd_workspace(args) -> dict:
                                     "shows every working mode at one --alpha")
     resolution = check_resolution(args.resolution)
     with progress_bar(args, resolution, "workspace") as bar:
-        ws = workspace(model, args.alpha, resolution, args.x_range, args.y_range, progress=bar.update)
+        ws = workspace(model, _alpha(args, model), resolution, args.x_range, args.y_range, progress=bar.update)
     if not ws.reachable.any():
-        raise _nothing_reachable(ws.x, ws.y, ws.alpha)
+        raise _nothing_reachable(model, ws.x, ws.y, ws.alpha)
     fig = plot_workspace(ws, model=model)
     if out.suffix.lower() == ".html":  # interactive: hover shows the pose, the working mode and S
         import matplotlib.pyplot as plt
@@ -120,7 +130,7 @@ def cmd_workspace(args) -> dict:
 
         plt.close(fig)
         with Staged(out) as temps:
-            write_map(temps[0], workspace_figure(ws), f"workspace at alpha = {ws.alpha:g}")
+            write_map(temps[0], workspace_figure(ws), f"workspace{_at_alpha(model, ws.alpha)}")
     else:
         save_figure(fig, out)
     areas = [{"mode": [int(v) for v in m], "area_m2": float(a), "area_cm2": float(a) * 1e4}
@@ -143,7 +153,7 @@ def _spatial_workspace(args, model, out: Path) -> dict:
     from ..algorithms.analysis import spatial_workspace
     from ..views.plotting import plot_spatial_workspace
 
-    if args.alpha != 0.0:
+    if args.alpha is not None:
         raise InvalidParameterError("--alpha is a planar platform's orientation; a spatial machine's slices are at "
                                     "--z heights")
     resolution = check_resolution(args.resolution)

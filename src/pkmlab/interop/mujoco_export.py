@@ -392,15 +392,16 @@ def qvel_from_q_dot(model, q, q_dot) -> np.ndarray:
     return np.array([*legs, *q_dot[-6:-3], *omega])
 
 
-def home_configuration(model) -> np.ndarray:
+def home_configuration(model, mode=None) -> np.ndarray:
     """A configuration to export the machine in: the pose of largest ``|S|`` on a grid over its region (planar:
-    over the assembly check's region and 12 orientations; spatial: over its legs' reach, level), in its first
-    working mode."""
+    over the assembly check's region and 12 orientations; spatial: over its legs' reach, level), in working
+    mode ``mode`` (one sign per two-branch leg; default: the first working mode)."""
+    from ..algorithms.kinematics import as_working_mode
     from ..model import mechanism_model as mm
     from ..model.reach import spatial_extent
 
     m = model.description
-    mode = mm.working_modes(model)[0]
+    mode = mm.working_modes(model)[0] if mode is None else as_working_mode(model, mode, "mode")
     if _spatial(m):
         box = spatial_extent(m)
         axes = [np.linspace(lo, hi, 25) for lo, hi in box]
