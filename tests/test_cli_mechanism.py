@@ -367,3 +367,31 @@ def test_an_orientation_for_a_platform_without_one_is_refused(tmp_path, capsys, 
     assert "--alpha" in message and "no orientation" in message and not out.exists()
     code, stdout, _err = run(capsys, command, "--mechanism", "five_bar", "--resolution", "21", "--out", out)
     assert code == 0 and out.exists() and "alpha" not in stdout.splitlines()[0]
+
+
+def test_ik_warns_of_a_solution_near_a_gain_type_singularity(capsys):
+    """As the other commands do: ik at a pose where a working mode's |S| is tiny says so on stderr (one line
+    naming the mode and |S|), and says nothing at a regular pose. The singular pose is found independently of
+    the command: by bisection on x of the sign of S in one working mode."""
+    import pkmlab
+
+    model = pkmlab.load("paper")
+    mode = (1, -1, 1)
+
+    def s_at(x):
+        return float(pkmlab.inverse_kinematics(model, [x, 0.21, 0.0], mode=mode, on_unreachable="nan").S)
+
+    xs = np.linspace(0.05, 0.45, 161)
+    s = np.array([s_at(x) for x in xs])
+    k = next(i for i in range(len(xs) - 1) if np.isfinite(s[i:i + 2]).all() and s[i] * s[i + 1] < 0)
+    lo, hi = xs[k], xs[k + 1]
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if s_at(mid) * s_at(lo) > 0 else (lo, mid)
+    assert abs(s_at(lo)) < 1e-6
+    code, _out, err = run(capsys, "ik", repr(float(lo)), "0.21", "0", "--mode", "+", "-", "+")
+    assert code == 0
+    (warning,) = err.strip().splitlines()
+    assert warning.startswith("pkmlab ik: warning: working mode (+, -, +) is near a gain-type singularity (|S| = ")
+    code, _out, err = run(capsys, "ik", "0.2", "0.21", "0", "--mode", "+", "-", "+")
+    assert code == 0 and err == ""

@@ -8,6 +8,8 @@ from pathlib import Path
 
 from ..errors import InvalidParameterError, PkmlabError
 
+#: Below this |S| (a run's default singularity guard) a command's configuration is reported with a warning.
+NEAR_SINGULAR_S = 1e-2
 #: The machine of the commands that take ``--mechanism`` when it is not given.
 DEFAULT_MECHANISM = "paper"
 

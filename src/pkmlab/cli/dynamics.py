@@ -12,14 +12,12 @@ from __future__ import annotations
 import sys
 
 from ..errors import AssemblyError, InvalidParameterError, SingularityError
-from ._common import check_count, mechanism_name, model_of, pose_gap, shown
+from ._common import NEAR_SINGULAR_S, check_count, mechanism_name, model_of, pose_gap, shown
 from .kinematics import heading, passive_names, passive_of
 
 #: ``--near`` farther than this (metres and radians, as ``nearest`` measures) from every assembly
 #: mode is said: the mode reported is not the one asked for.
 NEAR_TOLERANCE = 1e-3
-#: Below this |S| (the default run-time singularity guard) the model is reported with a warning.
-NEAR_SINGULAR_S = 1e-2
 #: ``"tau_from"``: where the tau_used under which the multipliers are computed come from.
 TAU_GIVEN, TAU_HOLDING = "--tau", "c + g (zero actuator acceleration)"
 
