@@ -42,6 +42,20 @@ def params_file(args):
     return path
 
 
+def warn_near_singularity(command: str, where: str, s: float, consequence: str) -> str | None:
+    """The warning for a configuration with ``|S| < NEAR_SINGULAR_S``, said on stderr as
+    ``pkmlab COMMAND: warning: WHERE is near a gain-type singularity (|S| = ... < 0.01): CONSEQUENCE``;
+    None (and nothing said) farther from it."""
+    from .._format import apart
+
+    if abs(s) >= NEAR_SINGULAR_S:
+        return None
+    value, limit = apart(abs(s), NEAR_SINGULAR_S)
+    warning = f"near a gain-type singularity (|S| = {value} < {limit}): {consequence}"
+    print(f"pkmlab {command}: warning: {where} is {warning}", file=sys.stderr)
+    return warning
+
+
 def signs(mode) -> str:
     """A working mode as the tables show it: ``(+, -, +)``."""
     return "(" + ", ".join("+" if m > 0 else "-" for m in mode) + ")"

@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import AssemblyError, InvalidParameterError, SingularityError
-from ._common import NEAR_SINGULAR_S, check_count, mechanism_name, model_of, pose_gap, shown
+from ._common import check_count, mechanism_name, model_of, pose_gap, shown, warn_near_singularity
 from .kinematics import heading, passive_names, passive_of
 
 #: ``--near`` farther than this (metres and radians, as ``nearest`` measures) from every assembly
@@ -25,19 +25,6 @@ TAU_GIVEN, TAU_HOLDING = "--tau", "c + g (zero actuator acceleration)"
 def _overflow(where: str, flag: str, theta_dot) -> InvalidParameterError:
     return InvalidParameterError(f"{where}: the dynamic model overflows at {flag} {shown(theta_dot)} (beyond "
                                  "floating-point range)")
-
-
-def _near_singularity(where: str, s: float) -> str | None:
-    """The warning for ``|S| < NEAR_SINGULAR_S`` (also said on stderr), or None."""
-    from .._format import apart
-
-    if abs(s) >= NEAR_SINGULAR_S:
-        return None
-    value, limit = apart(abs(s), NEAR_SINGULAR_S)
-    warning = (f"near a gain-type singularity (|S| = {value} < {limit}): M and c grow as 1/S^2, the multipliers "
-               "without bound, and they are very sensitive to the actuators")
-    print(f"pkmlab dynamics: warning: {where} is {warning}", file=sys.stderr)
-    return warning
 
 
 def _far_from_near(near, pose) -> None:
@@ -80,7 +67,8 @@ def _record(model, mode, theta_dot, tau, flag: str) -> dict:
     record = {"pose": pose, "passive": passive_of(model, mode.q), "S": mode.S, "M": actuator_space.M.tolist(),
               "c": actuator_space.c.tolist(), "g": actuator_space.g.tolist(), "tau": tau_used.tolist(),
               "multipliers": motion.multipliers.tolist()}
-    warning = _near_singularity(where, mode.S)
+    warning = warn_near_singularity("dynamics", where, mode.S, "M and c grow as 1/S^2, the multipliers without "
+                                    "bound, and they are very sensitive to the actuators")
     if warning:
         record["warning"] = warning
     return record

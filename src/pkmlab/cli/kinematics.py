@@ -11,7 +11,7 @@ No reachable working mode, or no assembly mode: exit code 1 and one line, for ev
 from __future__ import annotations
 
 from ..errors import AssemblyError
-from ._common import NEAR_SINGULAR_S, check_count, mechanism_name, model_of, shown, signs, table, working_mode
+from ._common import check_count, mechanism_name, model_of, shown, signs, table, warn_near_singularity, working_mode
 
 
 def passive_names(model) -> tuple[str, ...]:
@@ -70,21 +70,6 @@ def _unreachable(model, pose, mode, ik) -> Exception:
                                 legs=tuple(legs))
 
 
-def _warn_near_singularity(solution: dict) -> None:
-    """Say on stderr that a solution is near a gain-type singularity (``|S| < NEAR_SINGULAR_S``), as the other
-    commands do of their configurations."""
-    import sys
-
-    from .._format import apart
-
-    if abs(solution["S"]) >= NEAR_SINGULAR_S:
-        return
-    value, limit = apart(abs(solution["S"]), NEAR_SINGULAR_S)
-    which = f"working mode {signs(solution['mode'])}" if solution["mode"] else "the solution"
-    print(f"pkmlab ik: warning: {which} is near a gain-type singularity (|S| = {value} < {limit}): its passive "
-          "joints are nearly undetermined there, and the actuators hold the platform poorly", file=sys.stderr)
-
-
 def cmd_ik(args) -> dict:
     """``ik POSE... [--mode SIGNS] [--mechanism M]``: every working mode that reaches the pose."""
     import numpy as np
@@ -105,8 +90,10 @@ def cmd_ik(args) -> dict:
                  for m, qi, si, ok in zip(modes, q, s, reachable, strict=True) if ok]
     if not solutions:
         raise _unreachable(model, args.pose, mode, ik)
-    for sol in solutions:
-        _warn_near_singularity(sol)
+    for sol in solutions:  # as dynamics says of its configuration
+        warn_near_singularity("ik", f"working mode {signs(sol['mode'])}" if sol["mode"] else "the solution", sol["S"],
+                              "its passive joints are nearly undetermined there, and the actuators hold the platform "
+                              "poorly")
     if not args.json:
         print(heading(args, model, "inverse kinematics") + " at "
               + ", ".join(f"{n} = {v:g}" for n, v in zip(names, args.pose, strict=True)))

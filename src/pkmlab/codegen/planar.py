@@ -326,6 +326,8 @@ def write_module(header: list[str], q, q_dot, names, angle_flags, parameters, n_
     ``q_dot`` when its arguments name it), then the compiled core of :mod:`pkmlab.codegen.core`."""
     import sympy as sp
 
+    from .core import template
+
     lines = list(header)
     unpack = [f"{name} = q[{k}]" for k, name in enumerate(names)]
     unpack_q_dot = [f"{sym} = q_dot[{k}]" for k, sym in enumerate(q_dot)]
@@ -359,7 +361,7 @@ def write_module(header: list[str], q, q_dot, names, angle_flags, parameters, n_
         lines[body_start:body_start] = prelude
     if any("math." in line for line in lines):
         lines.insert(lines.index("from pkmlab._compile_cache import njit"), "import math\n")
-    text = "\n".join(lines) + "\n" + _template()
+    text = "\n".join(lines) + "\n" + template()
     return text.replace("\n\n\n\n", "\n\n\n")
 
 
@@ -370,14 +372,6 @@ def _indices(mechanism: Mechanism, what: str) -> tuple[int, ...]:
         return names.index("gravity_x"), names.index("gravity_y")
     bodies = [f"body{i + 1}_{k + 1}" for i, leg in enumerate(mechanism.legs) for k in range(len(leg.bodies))]
     return tuple(names.index(f"{b}_{what}") for b in [*bodies, "platform"])
-
-
-def _template() -> str:
-    """The text of the compiled core (:func:`pkmlab.codegen.core.template`) every structure's module carries,
-    bound there to the structure's kernels."""
-    from .core import template
-
-    return template()
 
 
 def _used(assignment: str, code: str) -> bool:
