@@ -40,8 +40,25 @@ _INERTIA = ("xx", "yy", "zz", "xy", "xz", "yz")
 
 
 def structure(mechanism: SpatialMechanism) -> str:
-    """``"RaUS_RaUS_RaUS_translating"`` for the Delta (``a`` marks the actuated joint)."""
-    return "_".join(leg.notation.replace("*", "a") for leg in mechanism.legs) + "_" + mechanism.platform.kind
+    """``"RaUS_RaUS_RaUS_translating"`` for the Delta (``a`` marks the actuated joint); a platform of lower
+    mobility adds its controlled coordinates (``"PaRS_PaRS_PaRS_rigid_z_roll_pitch"``)."""
+    name = "_".join(leg.notation.replace("*", "a") for leg in mechanism.legs) + "_" + mechanism.platform.kind
+    return name + "".join(f"_{c}" for c in mechanism.platform.pose_names) if mechanism.platform.parasitic_names \
+        else name
+
+
+def measures_lines(mechanism: SpatialMechanism) -> bool:
+    """Whether the singularity measure is the determinant of the legs' lines of action: a platform on as many
+    legs as its pose has coordinates, every leg a two-force member from its last passive rotary joint, a
+    universal joint, to its spherical joint (the Delta, the Stewart–Gough platform, a 6-RUS or 6-PUS); else the
+    scaled determinant of ``Jηφ`` (:func:`pkmlab.codegen.core.branch_following.passive_determinant`)."""
+    if mechanism.platform.parasitic_names:
+        return False
+    for leg in mechanism.legs:
+        rotary = [j for j in leg.joints[:-1] if j.kind != "P" and not j.actuated]
+        if not rotary or rotary[-1].kind != "U":
+            return False
+    return True
 
 
 def coordinate_names(mechanism: SpatialMechanism) -> tuple[str, ...]:
@@ -52,7 +69,7 @@ def coordinate_names(mechanism: SpatialMechanism) -> tuple[str, ...]:
             if joint.actuated or joint.kind == "S":
                 continue
             names += [f"q{i + 1}_{k + 1}a", f"q{i + 1}_{k + 1}b"] if joint.kind == "U" else [f"q{i + 1}_{k + 1}"]
-    return (*names, *mechanism.pose_names)
+    return (*names, *mechanism.platform.q_pose_names)
 
 
 def coordinate_angles(mechanism: SpatialMechanism) -> tuple[bool, ...]:
@@ -61,7 +78,7 @@ def coordinate_angles(mechanism: SpatialMechanism) -> tuple[bool, ...]:
         for joint in leg.joints:
             if not joint.actuated and joint.kind != "S":
                 angles += [joint.kind != "P"] * joint.coordinates
-    return (*angles, *(name in ("roll", "pitch", "yaw") for name in mechanism.pose_names))
+    return (*angles, *(name in ("roll", "pitch", "yaw") for name in mechanism.platform.q_pose_names))
 
 
 def _body_names(mechanism: SpatialMechanism) -> list[str]:
@@ -139,7 +156,9 @@ def derive(mechanism: SpatialMechanism) -> dict:
         return sp.Matrix([sum(sp.diff(e, v) * rate[v] for v in q) for e in expr])
 
     n = len(mechanism.legs)
-    pose = q[len(q) - mechanism.dof:]
+    n_pose = len(mechanism.platform.q_pose_names)
+    named = dict(zip(mechanism.platform.q_pose_names, q[len(q) - n_pose:], strict=True))
+    pose = [named[c] for c in mechanism.platform.full_pose_names]
     point_p = sp.Matrix(pose[:3])
     if mechanism.platform.kind == "rigid":
         roll, pitch, yaw = pose[3:]
@@ -149,7 +168,8 @@ def derive(mechanism: SpatialMechanism) -> dict:
                           + sp.Matrix([rate[roll], 0, 0]))
     else:
         platform_rot, omega_platform = sp.eye(3), sp.zeros(3, 1)
-    passive = iter(q[n:len(q) - mechanism.dof])
+    passive = iter(q[n:len(q) - n_pose])
+    lines_of_action = measures_lines(mechanism)
     eta, bodies, joints, lines = [], [], [], []
     for i, leg in enumerate(mechanism.legs):
         point, rot, omega = vec(f"base{i + 1}"), sp.eye(3), sp.zeros(3, 1)
@@ -176,9 +196,8 @@ def derive(mechanism: SpatialMechanism) -> dict:
         target = point_p + platform_rot * vec(f"attach{i + 1}")
         eta += list(point - target)
         joints[i].append(target)
-        if rotary is None:
-            raise ValueError(f"leg {i + 1} ({leg.notation}) has no passive rotary joint: no line of action")
-        lines += [*(target - point_p), *(target - rotary)]
+        if lines_of_action:
+            lines += [*(target - point_p), *(target - rotary)]
     com = point_p + platform_rot * vec("platform_com")
     bodies.append((com, velocity(com), omega_platform))
     if mechanism.platform.kind == "rigid":
@@ -207,10 +226,10 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     q, q_dot = d["q"], d["q_dot"]
     nq, m, nb, n = len(q), len(d["eta"]), len(d["bodies"]), len(mechanism.legs)
     j_eta, b_eta = jacobian_and_bias(d["eta"], q, q_dot)
-    x_col = nq - mechanism.dof
+    point = [list(coordinate_names(mechanism)).index(c) for c in "xyz"]
     for i in range(n):  # the compiled core eliminates the tracked point with these unit pivots
         for r in range(3):
-            assert [j_eta[3 * i + r, x_col + c] for c in range(3)] == [-int(r == c) for c in range(3)]
+            assert [j_eta[3 * i + r, point[c]] for c in range(3)] == [-int(r == c) for c in range(3)]
     rows = [e for _pos, v, w in d["bodies"] for e in [*v, *w]]  # linear in q_dot: J = d/dqd, bias = d/dq q_dot
     j_body = sp.Matrix(rows).jacobian(q_dot)
     b_body = sp.Matrix(rows).jacobian(q) * sp.Matrix(q_dot)
@@ -219,9 +238,11 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     header = module_header(
         "spatial", mechanism, structure(mechanism), coordinate_names(mechanism), coordinate_angles(mechanism),
         parameter_names(mechanism), (nq, m, nb),
-        "# in space: 3 linear and 3 angular (body frame) rows per body Jacobian, lines of action of 6", (3, 3, 6, 6),
+        "# in space: 3 linear and 3 angular (body frame) rows per body Jacobian, lines of action of 6 (or the room "
+        "for Jηq)", (3, 3, 6, 6 if d["lines"] else -(-m * nq // n)),
         "# where each body's mass and inertia tensor (xx, yy, zz, xy, xz, yz) and the gravity are in P",
-        [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero)
+        [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero,
+        layout=(len(mechanism.platform.q_pose_names), [c - n for c in point], bool(d["lines"])))
     points, where = [], []
     for i, leg_points in enumerate(d["joints"]):
         padded = leg_points + [leg_points[-1]] * (width - len(leg_points))
@@ -247,9 +268,9 @@ def generate_source(mechanism: SpatialMechanism) -> str:
          list(b_body), [f"{b}, {k}" for b in range(nb) for k in range(6)]),
         ("joint_points", "q, sc, P, out", "Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 3) into out, "
          "base to platform.", points, where),
-        ("leg_lines", "q, sc, P, out", "Write each leg's line of action (N_ACTUATORS, 6): its attachment point "
-         "minus the tracked point, and its direction (unnormalised).", d["lines"],
-         [f"{i}, {k}" for i in range(n) for k in range(6)]),
+        *([("leg_lines", "q, sc, P, out", "Write each leg's line of action (N_ACTUATORS, 6): its attachment point "
+            "minus the tracked point, and its direction (unnormalised).", d["lines"],
+            [f"{i}, {k}" for i in range(n) for k in range(6)])] if d["lines"] else []),
         ("platform_size", "P", "The mean distance between the platform's attachment points (1 when it translates).",
          [d["size"]], ["return"]),
     ]

@@ -11,7 +11,7 @@ Conventions (pkmlab's, for every spatial mechanism):
 * **The zero configuration.** Every joint coordinate zero, every body's frame is parallel to the
   world's. Joint axes, body tips and mass centres are given in that configuration (like an MJCF file
   whose bodies carry no rotation): a body's frame has its origin at the joint that moves it.
-* A leg is a serial chain from its ``base`` point to the platform:
+* A leg is a serial chain from its ``base`` point to the platform, of any number of joints:
 
   - ``R`` (revolute, 1 coordinate): the following body turns by the coordinate (rad, right-hand
     rule) about ``axis``, fixed in the preceding body; the joint sits at the preceding body's tip
@@ -23,15 +23,21 @@ Conventions (pkmlab's, for every spatial mechanism):
   - ``S`` (spherical, no coordinate): the last joint, and only there: it carries the platform at
     the tip of the leg's last body (the platform's attachment point of that leg).
 
-  Every leg has exactly three joint coordinates (what a point needs to reach a neighbourhood in
-  space) and one actuated joint, ``R*`` or ``P*``.
-* The platform is ``translating`` (pose ``(x, y, z)``: its orientation is held fixed by its legs, as
-  the Delta's parallelogram forearms hold it; three legs) or ``rigid`` (pose
-  ``(x, y, z, roll, pitch, yaw)``; six legs). Its orientation is ``R = Rz(yaw)·Ry(pitch)·Rx(roll)``:
+  One joint of each leg, ``R*`` or ``P*``, anywhere in the chain, is actuated.
+* The platform is ``translating`` (pose ``(x, y, z)``: its orientation is held fixed by its legs'
+  parallelogram forearms, as the Delta's are — so every leg's last body is a forearm between a
+  universal joint and the spherical joint, a ``…US`` leg; three legs) or ``rigid`` (pose
+  ``(x, y, z, roll, pitch, yaw)``). Its orientation is ``R = Rz(yaw)·Ry(pitch)·Rx(roll)``:
   yaw about the world's z, then pitch about the new y, then roll about the newest x (the z-y'-x''
   convention of aeronautics and ROS); it is singular at ``pitch = ±π/2`` (gimbal lock), where poses are
   refused. Attachment points and the mass centre are in the platform frame, whose origin is the
   tracked point.
+* **Lower mobility.** A rigid platform on fewer than six legs moves in as many coordinates as it has
+  actuators: the user names them, ``controlled`` (e.g. ``("z", "roll", "pitch")`` for a 3-PRS), and the
+  others are the *parasitic* motions the legs impose, which pkmlab computes. In the coordinates ``q``
+  of the generated kernels the parasitic ones come before the controlled ones (:attr:`SpatialPlatform.q_pose_names`),
+  so that the pose a trajectory gives is always ``q``'s last entries. The machine's mobility is computed,
+  not assumed (:mod:`pkmlab.description.mobility`).
 * Inertia tensors are 3×3, about the body's mass centre, in the body's frame (symmetric, positive
   semi-definite, principal moments obeying the triangle inequality); a thin rod along x may have
   ``I_xx = 0``.
@@ -56,6 +62,8 @@ POSE_NAMES = {"translating": ("x", "y", "z"), "rigid": ("x", "y", "z", "roll", "
 _COORDINATES = {"R": 1, "P": 1, "U": 2, "S": 0}
 #: Pitch closer than this to ±π/2 (rad) is gimbal lock: roll and yaw are no longer told apart.
 GIMBAL_MARGIN = 1e-6
+#: Joint coordinates of each joint type.
+JOINT_COORDINATES = _COORDINATES
 
 
 def _vector(where: str, value) -> tuple[float, float, float]:
@@ -142,17 +150,37 @@ class SpatialLeg(JointChain):
 @dataclass(frozen=True)
 class SpatialPlatform:
     """The moving platform: ``kind`` ``"translating"`` or ``"rigid"``; ``attachments`` (one point per leg,
-    platform frame); mass, mass centre (platform frame) and inertia tensor about the mass centre."""
+    platform frame); mass, mass centre (platform frame) and inertia tensor about the mass centre;
+    ``controlled``, the pose coordinates the actuators control (None: all of the kind's; a rigid platform
+    on fewer than six legs names them, module docstring)."""
 
     kind: str = "translating"
     attachments: tuple = ()
     mass: float = 0.0
     com: tuple[float, float, float] = (0.0, 0.0, 0.0)
     inertia: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    controlled: tuple[str, ...] | None = None
+
+    @property
+    def full_pose_names(self) -> tuple[str, ...]:
+        """Every coordinate of the platform's pose, controlled or not: ``(x, y, z)`` or all six."""
+        return POSE_NAMES[self.kind]
 
     @property
     def pose_names(self) -> tuple[str, ...]:
-        return POSE_NAMES[self.kind]
+        """The controlled pose coordinates, in the order of :attr:`full_pose_names`: what a pose, a trajectory
+        and inverse kinematics give."""
+        return POSE_NAMES[self.kind] if self.controlled is None else tuple(self.controlled)
+
+    @property
+    def parasitic_names(self) -> tuple[str, ...]:
+        """The pose coordinates the legs impose (empty unless the platform has lower mobility)."""
+        return tuple(n for n in POSE_NAMES[self.kind] if n not in self.pose_names)
+
+    @property
+    def q_pose_names(self) -> tuple[str, ...]:
+        """The pose's coordinates as ``q`` orders them: the parasitic ones, then the controlled ones."""
+        return (*self.parasitic_names, *self.pose_names)
 
 
 @dataclass(frozen=True)
@@ -181,6 +209,7 @@ class SpatialMechanism(LegsAndPose):
             kind = getattr(platform, "kind", platform)
             raise InvalidParameterError(f"a spatial platform is 'translating' or 'rigid', got {kind!r}")
         legs = tuple(self.legs)
+        platform = _checked_controlled(platform, len(legs))
         dof = len(platform.pose_names)
         if len(legs) != dof:
             raise InvalidParameterError(f"a {platform.kind} platform (pose {', '.join(platform.pose_names)}) needs "
@@ -208,10 +237,6 @@ class SpatialMechanism(LegsAndPose):
                     else f"an actuated {joints[actuated[0]].kind} joint")
             raise InvalidParameterError(f"{where} ({''.join(j.kind for j in joints)}) has {what}: exactly one R or P "
                                         "joint per leg is actuated (mark it with *, e.g. R*US or UP*S)")
-        count = sum(j.coordinates for j in joints)
-        if count != 3:
-            raise InvalidParameterError(f"{where} ({''.join(j.kind for j in joints)}) has {count} joint coordinates; "
-                                        "a leg ending in a spherical joint needs exactly 3 to place it in space")
         checked = []
         for k, joint in enumerate(joints):
             axes = tuple(joint.axes)
@@ -250,7 +275,40 @@ class SpatialMechanism(LegsAndPose):
                         raise InvalidParameterError(f"platform attachments {k + 1} and {i + 1} coincide: a rigid "
                                                     "platform of six legs needs them apart")
         return SpatialPlatform(platform.kind, attachments, finite_number("platform mass", platform.mass, positive=True),
-                               _vector("platform com", platform.com), _tensor("platform inertia", platform.inertia))
+                               _vector("platform com", platform.com), _tensor("platform inertia", platform.inertia),
+                               platform.controlled)
+
+
+def _checked_controlled(platform, legs: int):
+    """``platform`` with its ``controlled`` coordinates checked and put in the pose's order (None when they are
+    all of its kind's), or as given when it is not a platform (the caller refuses it)."""
+    if not isinstance(platform, SpatialPlatform) or platform.kind not in SPATIAL_PLATFORMS:
+        return platform
+    names = POSE_NAMES[platform.kind]
+    given = platform.controlled
+    if given is None:
+        if platform.kind == "rigid" and legs != 6:
+            raise InvalidParameterError(
+                f"a rigid platform on {legs} legs moves in {legs} of its pose's coordinates: name them, "
+                f"controlled = [...] among {', '.join(names)} (e.g. [\"z\", \"roll\", \"pitch\"] for a 3-PRS); the "
+                "others are the parasitic motions its legs impose")
+        return platform
+    if isinstance(given, (str, bytes)) or not hasattr(given, "__iter__"):
+        raise InvalidParameterError(f"the platform's controlled coordinates must be a list of names among "
+                                    f"{', '.join(names)}, got {given!r}")
+    given = list(given)
+    for name in given:
+        if name not in names:
+            from .._format import suggestion
+
+            raise InvalidParameterError(f"the platform's controlled coordinates: unknown name {name!r} "
+                                        f"(a {platform.kind} platform's pose is {', '.join(names)})"
+                                        f"{suggestion(str(name), names)}")
+    if len(set(given)) != len(given):
+        raise InvalidParameterError(f"the platform's controlled coordinates name one twice: {given}")
+    ordered = tuple(n for n in names if n in given)
+    return SpatialPlatform(platform.kind, platform.attachments, platform.mass, platform.com, platform.inertia,
+                           None if ordered == names else ordered)
 
 
 # ------------------------------------------------------------------ rotations (one numeric reference)
@@ -284,20 +342,30 @@ def check_pose(mechanism: SpatialMechanism, pose, where: str = "pose") -> np.nda
     names = mechanism.pose_names
     if values.shape != (len(names),) or not np.all(np.isfinite(values)):
         raise InvalidParameterError(f"{where} must be ({', '.join(names)}), finite, got {np.asarray(pose).tolist()}")
-    if mechanism.platform.kind == "rigid" and abs(abs(math.remainder(values[4], 2 * math.pi)) - math.pi / 2) \
-            < GIMBAL_MARGIN:
-        raise InvalidParameterError(f"{where} has pitch = {values[4]:.6g} rad: at pitch = ±pi/2 roll and yaw are the "
-                                    "same turn (gimbal lock of the z-y'-x'' angles); tilt the platform otherwise")
+    if "pitch" in names:
+        pitch = values[names.index("pitch")]
+        if abs(abs(math.remainder(pitch, 2 * math.pi)) - math.pi / 2) < GIMBAL_MARGIN:
+            raise InvalidParameterError(f"{where} has pitch = {pitch:.6g} rad: at pitch = ±pi/2 roll and yaw are the "
+                                        "same turn (gimbal lock of the z-y'-x'' angles); tilt the platform otherwise")
     return values
+
+
+def full_poses(mechanism: SpatialMechanism, q_pose) -> np.ndarray:
+    """The platform's whole pose (..., 3 or 6), in the order of :attr:`SpatialPlatform.full_pose_names`, from
+    its coordinates as ``q`` orders them (..., parasitic then controlled: the last entries of ``q``)."""
+    q_pose = np.asarray(q_pose, dtype=float)
+    order = [mechanism.platform.q_pose_names.index(n) for n in mechanism.platform.full_pose_names]
+    return q_pose[..., order]
 
 
 def leg_frames(leg: SpatialLeg, coordinates) -> list[tuple[np.ndarray, np.ndarray]]:
     """Origin and orientation of every body of ``leg`` (and, last, the S joint's centre with the last body's
-    orientation) at the leg's joint coordinates (three): the readable statement of the chain conventions
-    (module docstring), which the generated kernels are checked against."""
+    orientation) at the leg's joint coordinates (:func:`leg_coordinate_count`): the readable statement of the
+    chain conventions (module docstring), which the generated kernels are checked against."""
     coordinates = [float(c) for c in coordinates]
-    if len(coordinates) != 3:
-        raise InvalidParameterError(f"a {leg.notation} leg has 3 joint coordinates, got {len(coordinates)}")
+    if len(coordinates) != leg_coordinate_count(leg):
+        raise InvalidParameterError(f"a {leg.notation} leg has {leg_coordinate_count(leg)} joint coordinates, got "
+                                    f"{len(coordinates)}")
     values = iter(coordinates)
     point, rot = np.array(leg.base, dtype=float), np.eye(3)
     out = []
@@ -316,15 +384,21 @@ def leg_frames(leg: SpatialLeg, coordinates) -> list[tuple[np.ndarray, np.ndarra
     return out
 
 
+def leg_coordinate_count(leg: SpatialLeg) -> int:
+    """How many joint coordinates ``leg`` has (1 per R and P joint, 2 per U joint)."""
+    return sum(j.coordinates for j in leg.joints)
+
+
 def attachment_point(mechanism: SpatialMechanism, leg: int, pose) -> np.ndarray:
-    """Where leg ``leg`` (0-based) meets the platform at ``pose``."""
+    """Where leg ``leg`` (0-based) meets the platform at the whole ``pose``
+    (:attr:`SpatialPlatform.full_pose_names`)."""
     pose = np.asarray(pose, dtype=float)
     rot = orientation(*pose[3:6]) if mechanism.platform.kind == "rigid" else np.eye(3)
     return pose[:3] + rot @ np.array(mechanism.platform.attachments[leg])
 
 
 def attachment_points(mechanism: SpatialMechanism, leg: int, poses: np.ndarray) -> np.ndarray:
-    """:func:`attachment_point` of many poses (K, dof) at once, (K, 3)."""
+    """:func:`attachment_point` of many whole poses (K, 3 or 6) at once, (K, 3)."""
     poses = np.asarray(poses, dtype=float)
     a = np.array(mechanism.platform.attachments[leg])
     if mechanism.platform.kind != "rigid":
@@ -334,7 +408,7 @@ def attachment_points(mechanism: SpatialMechanism, leg: int, poses: np.ndarray) 
 
 # ------------------------------------------------------------------ the TOML form
 MECHANISM_KEYS = ("name", "gravity", "platform", "leg")
-PLATFORM_KEYS = ("kind", "attachments", "mass", "com", "inertia")
+PLATFORM_KEYS = ("kind", "attachments", "mass", "com", "inertia", "controlled")
 LEG_KEYS = ("base", "joints", "axes", "stroke", "bodies")
 BODY_KEYS = ("tip", "mass", "com", "inertia")
 _JOINTS = re.compile(r"^([RPUS]\*?)+$")
@@ -389,7 +463,8 @@ def spatial_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Spa
         legs.append(SpatialLeg(required(leg, "base", lw), tuple(joints), tuple(parsed), leg.get("stroke")))
     return SpatialMechanism(table.get("name", "mechanism"), tuple(legs),
                             SpatialPlatform(kind, tuple(attachments), platform.get("mass", 0.0),
-                                            platform.get("com", (0.0, 0.0, 0.0)), platform.get("inertia", 0.0)),
+                                            platform.get("com", (0.0, 0.0, 0.0)), platform.get("inertia", 0.0),
+                                            platform.get("controlled")),
                             table.get("gravity", (0.0, 0.0, 0.0)))
 
 
@@ -407,7 +482,7 @@ def scaled_spatial_mechanism(mechanism: SpatialMechanism, mass: float = 1.0, len
                             leg.stroke) for leg in mechanism.legs)
     p = mechanism.platform
     platform = SpatialPlatform(p.kind, tuple(scale(a) for a in p.attachments), p.mass * mass, scale(p.com),
-                               tensor(p.inertia))
+                               tensor(p.inertia), p.controlled)
     return SpatialMechanism(mechanism.name, legs, platform, mechanism.gravity)
 
 
@@ -421,6 +496,8 @@ def spatial_mechanism_to_toml(mechanism: SpatialMechanism, comment: str | None =
               f"attachments = {toml_value(m.platform.attachments)}   # platform frame, one per leg",
               f"mass = {toml_value(m.platform.mass)}", f"com = {toml_value(m.platform.com)}",
               f"inertia = {toml_value(m.platform.inertia)}"]
+    if m.platform.controlled is not None:
+        lines += [f"controlled = {toml_value(list(m.platform.controlled))}   # the others are parasitic"]
     for leg in m.legs:
         axes = [list(j.axes) if j.kind == "U" else j.axes[0] for j in leg.joints if j.kind != "S"]
         lines += ["", "[[mechanism.leg]]", f"base = {toml_value(leg.base)}", f"joints = {toml_value(leg.notation)}",

@@ -11,6 +11,20 @@ Legs of a :class:`~pkmlab.description.spatial.SpatialMechanism` that pkmlab solv
 * ``UP*S`` — a universal joint on the base, an actuated prismatic joint, a spherical joint on the
   platform (the Stewart–Gough platform's leg): the slide is the larger root of a quadratic (one
   working mode).
+* ``P*US`` — an actuated slider, then a rod from a universal joint on it to the platform (a 6-PUS): the
+  slide is a root of a quadratic, two working modes, ``σ = +1`` the larger (the slider farther along its
+  axis).
+* ``P*RS`` — an actuated slider, a passive revolute joint, a link to the platform (a 3-PRS): the point must
+  lie on the surface the link sweeps — a plane normal to the hinge when the slide is across it, where the
+  slide is a root of a quadratic (two working modes, ``σ = +1`` the larger); otherwise the plane fixes the
+  slide (one working mode).
+* ``RP*S`` — a passive revolute joint on the base, an actuated prismatic joint, a spherical joint on the
+  platform (a 3-RPS): the point must lie in the plane the hinge turns the leg in (when the slide is across
+  the hinge; the slide the larger root of a quadratic, one working mode) or on the cone it sweeps otherwise.
+
+A leg of two joint coordinates before its spherical joint (P*RS, RP*S) does not reach a neighbourhood of
+points but a surface: its platform's pose has parasitic coordinates that keep every attachment point on its
+leg's surface (:mod:`pkmlab.model.parasitic`).
 
 A universal joint's two angles turn its body's tip onto a given direction; of the two solutions (the
 body spun half a turn about itself), pkmlab takes the one whose second angle is nearer zero.
@@ -25,12 +39,17 @@ from ..errors import InvalidParameterError
 from .leg_types import Solved, mark_outside_stroke
 from .spatial import SpatialLeg, SpatialMechanism
 
-SOLVED = ("R*US", "UP*S")
+SOLVED = ("R*US", "UP*S", "P*US", "P*RS", "RP*S")
 
 
 def working_modes(leg: SpatialLeg) -> tuple[int, ...]:
-    """``(+1, -1)`` for a leg with two inverse-kinematic branches (R*US), ``()`` for one (UP*S)."""
-    return (1, -1) if leg.notation == "R*US" else ()
+    """``(+1, -1)`` for a leg with two inverse-kinematic branches (R*US, P*US, a P*RS whose slide is across its
+    hinge), ``()`` for one."""
+    if leg.notation in ("R*US", "P*US"):
+        return (1, -1)
+    if leg.notation == "P*RS" and _across(np.array(leg.joints[1].axes[0]), np.array(leg.joints[0].axes[0])):
+        return (1, -1)
+    return ()
 
 
 def rotate(axis, angle, v):
@@ -156,17 +175,127 @@ def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -
     return Solved(np.column_stack([q1, q2, s]), bad, why)
 
 
+def _turn_onto(axis: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The angle (K,) of the turn about the unit ``axis`` that takes the parts of ``v`` (3,) or (K, 3) across
+    the axis onto the direction of those of ``w`` (K, 3)."""
+    v = np.broadcast_to(v, w.shape)
+    return np.arctan2(np.cross(v, w) @ axis, np.einsum("ki,ki->k", v, w) - (v @ axis) * (w @ axis))
+
+
+def _slide_root(b: np.ndarray, c: np.ndarray, sigma: int) -> tuple[np.ndarray, np.ndarray]:
+    """The root ``s`` of ``s² - 2 b s + c = 0`` of sign ``sigma`` (+1 the larger), and where none is real."""
+    disc = b * b - c
+    bad = ~(disc >= 0.0)
+    return b + sigma * np.sqrt(np.maximum(disc, 0.0)), bad
+
+
+def _pus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, _axis) -> Solved:
+    slide, universal = leg.joints[0], leg.joints[1]
+    slider, rod = leg.bodies
+    d = np.array(slide.axes[0])
+    length = float(np.linalg.norm(rod.tip))
+    v = points - np.array(leg.base) - np.array(slider.tip)
+    # |v - s d| = |rod|: s² - 2 (d·v) s + |v|² - |rod|² = 0
+    s, bad = _slide_root(v @ d, np.einsum("ki,ki->k", v, v) - length**2, sigma)
+    q1, q2, u_bad = universal_angles(universal.axes, rod.tip, v - s[:, None] * d)
+    reach_bad = bad.copy()
+
+    def why(k):
+        where = ", ".join(f"{c:.4g}" for c in points[k])
+        if reach_bad[k]:
+            return (f"leg {number + 1} (P*US) cannot reach the point ({where}): it is farther than its rod of "
+                    f"{length:.4g} m from the slider's line")
+        return f"leg {number + 1} (P*US): its universal joint cannot turn the rod towards the point ({where})"
+
+    bad, why = mark_outside_stroke(leg, number, s, bad | u_bad, why)
+    return Solved(np.column_stack([s, q1, q2]), bad, why)
+
+
+#: A plane within this of the point (relative to the leg's size) holds it: the point is on the leg's surface.
+ON_SURFACE = 1e-9
+
+
+def _across(axis: np.ndarray, d: np.ndarray) -> bool:
+    """Whether the slide ``d`` is across the revolute ``axis`` (perpendicular): then the leg's point moves in a
+    plane normal to the axis, and its slide is a root of a quadratic (two roots, or one kept)."""
+    return abs(float(d @ axis)) < 1e-9
+
+
+def _prs(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, _axis) -> Solved:
+    slide, hinge = leg.joints[0], leg.joints[1]
+    slider, link = leg.bodies
+    d, a = np.array(slide.axes[0]), np.array(hinge.axes[0])
+    t = np.array(link.tip)
+    size = max(float(np.linalg.norm(t)) + float(np.linalg.norm(slider.tip)), 1e-300)
+    v = points - np.array(leg.base) - np.array(slider.tip)  # = s d + Rot(a, φ) t
+    if _across(a, d):
+        off = np.abs(v @ a - t @ a) > ON_SURFACE * size  # the point must lie in the link's plane
+        t_across = t - (t @ a) * a
+        w = v - np.outer(v @ a, a)
+        # |w - s d| = |t across a|: a quadratic in s
+        s, bad = _slide_root(w @ d, np.einsum("ki,ki->k", w, w) - t_across @ t_across, sigma)
+    else:
+        s = (v @ a - t @ a) / (d @ a)  # the plane normal to the hinge through the link fixes the slide
+        r = v - s[:, None] * d
+        across = np.linalg.norm(r - np.outer(r @ a, a), axis=1)
+        off = np.abs(across - np.linalg.norm(t - (t @ a) * a)) > ON_SURFACE * size
+        bad = np.zeros(len(points), dtype=bool)
+    phi = _turn_onto(a, t, v - s[:, None] * d)
+    reach_bad = bad | off
+
+    def why(k):
+        where = ", ".join(f"{c:.4g}" for c in points[k])
+        if off[k]:
+            return (f"leg {number + 1} (P*RS) cannot reach the point ({where}): it is off the surface its link "
+                    "sweeps (a pose the leg does not allow)")
+        return (f"leg {number + 1} (P*RS) cannot reach the point ({where}): its link of {np.linalg.norm(t):.4g} m "
+                "cannot join the slider's line")
+
+    bad, why = mark_outside_stroke(leg, number, s, reach_bad, why)
+    return Solved(np.column_stack([s, phi]), bad, why)
+
+
+def _rps(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -> Solved:
+    hinge, slide = leg.joints[0], leg.joints[1]
+    first, rod = leg.bodies
+    a, d = np.array(hinge.axes[0]), np.array(slide.axes[0])
+    c = np.array(first.tip) + np.array(rod.tip)  # = Rot(a, φ)⁻¹ (point - base) - s d
+    size = max(float(np.linalg.norm(c)), float(np.linalg.norm(points - np.array(leg.base), axis=1).max()), 1e-300)
+    v = points - np.array(leg.base)
+    if _across(a, d):
+        off = np.abs(v @ a - c @ a) > ON_SURFACE * size
+        # |c + s d| = |v|: s² + 2 (c·d) s + |c|² - |v|² = 0, the larger root (the leg pointing out of its hinge)
+        s, bad = _slide_root(-(c @ d), c @ c - np.einsum("ki,ki->k", v, v), 1)
+    else:
+        s = (v @ a - c @ a) / (d @ a)
+        r = c + s[:, None] * d
+        off = np.abs(np.linalg.norm(r, axis=1) - np.linalg.norm(v, axis=1)) > ON_SURFACE * size
+        bad = np.zeros(len(points), dtype=bool)
+    phi = _turn_onto(a, c + s[:, None] * d, v)
+    reach_bad = bad | off
+
+    def why(k):
+        where = ", ".join(f"{c_:.4g}" for c_ in points[k])
+        if off[k]:
+            return (f"leg {number + 1} (RP*S) cannot reach the point ({where}): it is off the plane its hinge "
+                    "turns the leg in (a pose the leg does not allow)")
+        return f"leg {number + 1} (RP*S) cannot reach the point ({where}): it is closer than the leg's offset"
+
+    bad, why = mark_outside_stroke(leg, number, s, reach_bad, why)
+    return Solved(np.column_stack([phi, s]), bad, why)
+
+
 def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None) -> Solved:
-    """The leg's three joint coordinates (K, 3), in the order of its joints, for its S joint at ``points``
+    """The leg's joint coordinates (K, 3 or 2), in the order of its joints, for its S joint at ``points``
     (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why). ``axis`` is
     the machine's :func:`central_axis`, which tells an R*US leg's working modes apart (default: the z
     axis)."""
     if axis is None:
         axis = (np.zeros(3), np.array([0.0, 0.0, 1.0]))
-    solver = {"R*US": _rus, "UP*S": _ups}.get(leg.notation)
+    solver = {"R*US": _rus, "UP*S": _ups, "P*US": _pus, "P*RS": _prs, "RP*S": _rps}.get(leg.notation)
     if solver is None:
         raise InvalidParameterError(f"leg {number + 1} ({leg.notation}): pkmlab solves the inverse kinematics of "
-                                    f"spatial legs {' and '.join(SOLVED)} in closed form, not {leg.notation}")
+                                    f"spatial legs {', '.join(SOLVED)} in closed form, not {leg.notation} yet")
     return solver(leg, number, np.asarray(points, dtype=float).reshape(-1, 3), sigma, axis)
 
 

@@ -14,7 +14,14 @@ ANGLES = (False, False, False, False, False, False, True, True, True, True, True
 PARAMETERS = ('base1_x', 'base1_y', 'base1_z', 'axis1_1a_x', 'axis1_1a_y', 'axis1_1a_z', 'axis1_1b_x', 'axis1_1b_y', 'axis1_1b_z', 'axis1_2a_x', 'axis1_2a_y', 'axis1_2a_z', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_tip_z', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_com_z', 'body1_1_mass', 'body1_1_inertia_xx', 'body1_1_inertia_yy', 'body1_1_inertia_zz', 'body1_1_inertia_xy', 'body1_1_inertia_xz', 'body1_1_inertia_yz', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_tip_z', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_com_z', 'body1_2_mass', 'body1_2_inertia_xx', 'body1_2_inertia_yy', 'body1_2_inertia_zz', 'body1_2_inertia_xy', 'body1_2_inertia_xz', 'body1_2_inertia_yz', 'base2_x', 'base2_y', 'base2_z', 'axis2_1a_x', 'axis2_1a_y', 'axis2_1a_z', 'axis2_1b_x', 'axis2_1b_y', 'axis2_1b_z', 'axis2_2a_x', 'axis2_2a_y', 'axis2_2a_z', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_tip_z', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_com_z', 'body2_1_mass', 'body2_1_inertia_xx', 'body2_1_inertia_yy', 'body2_1_inertia_zz', 'body2_1_inertia_xy', 'body2_1_inertia_xz', 'body2_1_inertia_yz', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_tip_z', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_com_z', 'body2_2_mass', 'body2_2_inertia_xx', 'body2_2_inertia_yy', 'body2_2_inertia_zz', 'body2_2_inertia_xy', 'body2_2_inertia_xz', 'body2_2_inertia_yz', 'base3_x', 'base3_y', 'base3_z', 'axis3_1a_x', 'axis3_1a_y', 'axis3_1a_z', 'axis3_1b_x', 'axis3_1b_y', 'axis3_1b_z', 'axis3_2a_x', 'axis3_2a_y', 'axis3_2a_z', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_tip_z', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_com_z', 'body3_1_mass', 'body3_1_inertia_xx', 'body3_1_inertia_yy', 'body3_1_inertia_zz', 'body3_1_inertia_xy', 'body3_1_inertia_xz', 'body3_1_inertia_yz', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_tip_z', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_com_z', 'body3_2_mass', 'body3_2_inertia_xx', 'body3_2_inertia_yy', 'body3_2_inertia_zz', 'body3_2_inertia_xy', 'body3_2_inertia_xz', 'body3_2_inertia_yz', 'base4_x', 'base4_y', 'base4_z', 'axis4_1a_x', 'axis4_1a_y', 'axis4_1a_z', 'axis4_1b_x', 'axis4_1b_y', 'axis4_1b_z', 'axis4_2a_x', 'axis4_2a_y', 'axis4_2a_z', 'body4_1_tip_x', 'body4_1_tip_y', 'body4_1_tip_z', 'body4_1_com_x', 'body4_1_com_y', 'body4_1_com_z', 'body4_1_mass', 'body4_1_inertia_xx', 'body4_1_inertia_yy', 'body4_1_inertia_zz', 'body4_1_inertia_xy', 'body4_1_inertia_xz', 'body4_1_inertia_yz', 'body4_2_tip_x', 'body4_2_tip_y', 'body4_2_tip_z', 'body4_2_com_x', 'body4_2_com_y', 'body4_2_com_z', 'body4_2_mass', 'body4_2_inertia_xx', 'body4_2_inertia_yy', 'body4_2_inertia_zz', 'body4_2_inertia_xy', 'body4_2_inertia_xz', 'body4_2_inertia_yz', 'base5_x', 'base5_y', 'base5_z', 'axis5_1a_x', 'axis5_1a_y', 'axis5_1a_z', 'axis5_1b_x', 'axis5_1b_y', 'axis5_1b_z', 'axis5_2a_x', 'axis5_2a_y', 'axis5_2a_z', 'body5_1_tip_x', 'body5_1_tip_y', 'body5_1_tip_z', 'body5_1_com_x', 'body5_1_com_y', 'body5_1_com_z', 'body5_1_mass', 'body5_1_inertia_xx', 'body5_1_inertia_yy', 'body5_1_inertia_zz', 'body5_1_inertia_xy', 'body5_1_inertia_xz', 'body5_1_inertia_yz', 'body5_2_tip_x', 'body5_2_tip_y', 'body5_2_tip_z', 'body5_2_com_x', 'body5_2_com_y', 'body5_2_com_z', 'body5_2_mass', 'body5_2_inertia_xx', 'body5_2_inertia_yy', 'body5_2_inertia_zz', 'body5_2_inertia_xy', 'body5_2_inertia_xz', 'body5_2_inertia_yz', 'base6_x', 'base6_y', 'base6_z', 'axis6_1a_x', 'axis6_1a_y', 'axis6_1a_z', 'axis6_1b_x', 'axis6_1b_y', 'axis6_1b_z', 'axis6_2a_x', 'axis6_2a_y', 'axis6_2a_z', 'body6_1_tip_x', 'body6_1_tip_y', 'body6_1_tip_z', 'body6_1_com_x', 'body6_1_com_y', 'body6_1_com_z', 'body6_1_mass', 'body6_1_inertia_xx', 'body6_1_inertia_yy', 'body6_1_inertia_zz', 'body6_1_inertia_xy', 'body6_1_inertia_xz', 'body6_1_inertia_yz', 'body6_2_tip_x', 'body6_2_tip_y', 'body6_2_tip_z', 'body6_2_com_x', 'body6_2_com_y', 'body6_2_com_z', 'body6_2_mass', 'body6_2_inertia_xx', 'body6_2_inertia_yy', 'body6_2_inertia_zz', 'body6_2_inertia_xy', 'body6_2_inertia_xz', 'body6_2_inertia_yz', 'attach1_x', 'attach1_y', 'attach1_z', 'attach2_x', 'attach2_y', 'attach2_z', 'attach3_x', 'attach3_y', 'attach3_z', 'attach4_x', 'attach4_y', 'attach4_z', 'attach5_x', 'attach5_y', 'attach5_z', 'attach6_x', 'attach6_y', 'attach6_z', 'platform_com_x', 'platform_com_y', 'platform_com_z', 'platform_mass', 'platform_inertia_xx', 'platform_inertia_yy', 'platform_inertia_zz', 'platform_inertia_xy', 'platform_inertia_xz', 'platform_inertia_yz', 'gravity_x', 'gravity_y', 'gravity_z')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 24, 18, 13
 N_ACTUATORS, DOF = 6, 6
-# in space: 3 linear and 3 angular (body frame) rows per body Jacobian, lines of action of 6
+# the platform's pose: q's last N_POSE coordinates (its parasitic ones, then the DOF it is controlled in)
+N_POSE = 6
+# the columns of J_eta_phi of the tracked point, and the others (the reduced system's, in order)
+POINT_COLUMNS = (12, 13, 14)
+REDUCED_COLUMNS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 15, 16, 17)
+# whether S is the determinant of the legs' lines of action (else the scaled determinant of J_eta_phi)
+MEASURE_LINES = True
+# in space: 3 linear and 3 angular (body frame) rows per body Jacobian, lines of action of 6 (or the room for Jηq)
 DIM, ANGULAR, BODY_ROWS, LINE_WIDTH = 3, 3, 6, 6
 # where each body's mass and inertia tensor (xx, yy, zz, xy, xz, yz) and the gravity are in P
 MASS_INDEX = (18, 31, 56, 69, 94, 107, 132, 145, 170, 183, 208, 221, 249)
@@ -6350,10 +6357,10 @@ TRIAL = 1
 # Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
 # respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
 # point): eliminating the tracked point with these unit pivots leaves a system of DIM equations fewer in
-# the other passive coordinates (the passive joints and the orientation), to be factored instead of the
-# whole of Jηφ. X_COLUMN is x's column in Jηφ.
+# the other passive coordinates (the passive joints, the orientation and any parasitic motion), to be
+# factored instead of the whole of Jηφ. POINT_COLUMNS are the tracked point's columns in Jηφ,
+# REDUCED_COLUMNS the others (the generated module's).
 REDUCED = N_CONSTRAINTS - DIM
-X_COLUMN = N_CONSTRAINTS - DOF
 
 
 #: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
@@ -6423,7 +6430,7 @@ def actuator_error(theta, theta_d, i):
 @njit(**NO_REFCOUNT_INLINE)
 def reduced_column(k):
     """The column of Jηφ of the k-th coordinate of the reduced system (the tracked point skipped)."""
-    return k if k < X_COLUMN else k + DIM
+    return REDUCED_COLUMNS[k]
 
 
 @njit(**NO_REFCOUNT)
@@ -6443,7 +6450,7 @@ def passive_solve(lu, piv, top, b, work):
     for k in range(REDUCED):
         b[reduced_column(k)] = work[k]
     for d in range(DIM):
-        b[X_COLUMN + d] = work[REDUCED + d]
+        b[POINT_COLUMNS[d]] = work[REDUCED + d]
 
 
 @njit(**NO_REFCOUNT)
@@ -6460,8 +6467,12 @@ def singularity_measure(q, sc, P, lines):
     * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align;
     * in space, :func:`spatial_singularity_measure`.
 
+    * any other machine: :func:`passive_determinant`.
+
     ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array.
     """
+    if not MEASURE_LINES:
+        return passive_determinant(q, sc, P, lines)
     leg_lines(q, sc, P, lines)
     if DIM == 3:
         return spatial_singularity_measure(P, lines)
@@ -6521,6 +6532,51 @@ def spatial_singularity_measure(P, lines):
             f = lines[r, c] / lines[c, c]
             for k in range(c + 1, N_ACTUATORS):
                 lines[r, k] -= f * lines[c, k]
+    return det
+
+
+@njit(**NO_REFCOUNT)
+def passive_determinant(q, sc, P, lines):
+    """``S`` of a machine whose legs are not two-force members (a 3-PRS, a 3-RPS, a leg of three revolute
+    joints…): the determinant of ``Jηφ``, zero exactly where the passive motion is undetermined (the gain-type
+    singularities), made dimensionless and independent of how each constraint is written — its columns of
+    angles divided by the platform's size ``ℓ`` (they are lever arms, in metres), then each row scaled to unit
+    length, so that ``|S| <= 1`` (Hadamard's inequality), 1 when the constraints are orthogonal. ``lines`` is
+    the scratch for ``Jηq`` (LINE_WIDTH is chosen so that it holds it)."""
+    n = N_ACTUATORS
+    m = N_CONSTRAINTS
+    jac = lines.reshape(-1)[:m * N_COORDINATES].reshape((m, N_COORDINATES))
+    constraint_jacobian(q, sc, P, jac)
+    size = platform_size(P)
+    for r in range(m):
+        norm = 0.0
+        for c in range(n, N_COORDINATES):
+            if ANGLES[c]:
+                jac[r, c] /= size
+            norm += jac[r, c] * jac[r, c]
+        norm = np.sqrt(norm)
+        if norm == 0.0:
+            return 0.0
+        for c in range(n, N_COORDINATES):
+            jac[r, c] /= norm
+    det = 1.0
+    for c in range(m):  # Gaussian elimination with partial pivoting on the passive block, in place
+        p = c
+        for r in range(c + 1, m):
+            if abs(jac[r, n + c]) > abs(jac[p, n + c]):
+                p = r
+        if jac[p, n + c] == 0.0:
+            return 0.0
+        if p != c:
+            det = -det
+            for k in range(n + c, N_COORDINATES):
+                jac[c, k], jac[p, k] = jac[p, k], jac[c, k]
+        pivot = jac[c, n + c]
+        det *= pivot
+        for r in range(c + 1, m):
+            f = jac[r, n + c] / pivot
+            for k in range(n + c + 1, N_COORDINATES):
+                jac[r, k] -= f * jac[c, k]
     return det
 
 

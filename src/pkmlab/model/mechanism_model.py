@@ -223,6 +223,13 @@ def joint_positions(model: MechanismModel, q) -> np.ndarray:
     return out.reshape(*q.shape[:-1], *out.shape[1:])
 
 
+def tracked_point(model: MechanismModel, q) -> np.ndarray:
+    """The platform's tracked point (x, y[, z]) of configurations ``q`` (..., n_coordinates), (..., 2 or 3): from
+    ``q``'s coordinates of those names, which are not all controlled on a platform of lower mobility."""
+    columns = [model.coordinates.index(c) for c in ("x", "y", "z") if c in model.coordinates]
+    return np.asarray(q, dtype=float)[..., columns]
+
+
 def _evaluate(model: MechanismModel, fn, shape, q, *args) -> np.ndarray:
     """``fn``'s output (``shape``) at configuration ``q``; ``args`` between the trig table and ``P``."""
     out = np.empty(shape)
@@ -378,6 +385,16 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
     signs = iter(tuple(mode))
     actuators, passive, unreachable = [], [], np.zeros(len(poses), dtype=np.int64)
     first = None
+    q_pose = poses
+    if getattr(m, "spatial", False) and m.platform.parasitic_names:
+        # a platform of lower mobility: its whole pose first (the parasitic motion does not depend on the legs'
+        # working modes, which only choose among the configurations at one pose)
+        from .parasitic import parasitic_poses
+
+        whole, failed, first_failure = parasitic_poses(model, poses)
+        order = [m.platform.full_pose_names.index(c) for c in m.platform.q_pose_names]
+        q_pose = whole[:, order]
+        poses = whole
     for i, leg in enumerate(m.legs):
         sigma = next(signs, None) if leg_modes(leg) else 1
         if sigma not in (1, -1):
@@ -394,7 +411,12 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
         passive += [solved.coordinates[:, k] for k in range(solved.coordinates.shape[1]) if k != column]
     if next(signs, None) is not None:
         raise InvalidParameterError(f"mode has more signs than two-branch legs, got {tuple(mode)}")
-    q = np.column_stack([*actuators, *passive, poses])
+    if q_pose is not poses:
+        failed_legs = (1 << len(m.legs)) - 1  # no pose: no leg can be placed
+        unreachable[failed] = failed_legs
+        if first_failure is not None and (first is None or first_failure[0] <= first[0]):
+            first = (first_failure[0], 0, first_failure[1])
+    q = np.column_stack([*actuators, *passive, q_pose])
     q[unreachable != 0] = np.nan
     return q, unreachable, first
 

@@ -97,11 +97,17 @@ def spatial_extent(description) -> np.ndarray:
 
 
 def _check_spatial_assembly(description) -> None:
-    """:func:`check_assembly` for a spatial machine: some platform position of a grid over
-    :func:`spatial_extent` (the platform level) where every leg reaches its attachment point."""
+    """:func:`check_assembly` for a spatial machine: its computed mobility
+    (:func:`~pkmlab.description.mobility.mobility`, which also finds one configuration of it), then, for a
+    machine whose legs pkmlab solves in closed form on a platform of full mobility, some platform position of a
+    grid over :func:`spatial_extent` (the platform level) where every leg reaches its attachment point."""
     from ..description import spatial_legs
+    from ..description.mobility import mobility
 
     m = description
+    mobility(m)
+    if m.platform.parasitic_names or any(leg.notation not in spatial_legs.SOLVED for leg in m.legs):
+        return
     box = spatial_extent(m)
     for count in SPATIAL_ASSEMBLY_GRIDS:
         axes = [np.linspace(lo, hi, count) for lo, hi in box]

@@ -153,9 +153,10 @@ def summary_units(model: MechanismModel) -> dict[str, str]:
 
 def path_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray:
     """Euclidean distance (m) between the actual and the desired tracked point of poses (N, dof) whose
-    coordinates are ``names``: in the plane, or in space when the pose has a ``z``."""
-    position = 3 if "z" in names else 2
-    return np.linalg.norm(pose[:, :position] - pose_d[:, :position], axis=1)
+    coordinates are ``names``, over the point's coordinates among them (x, y[, z]; only z for a 3-PRS, whose x
+    and y are parasitic)."""
+    position = [k for k, n in enumerate(names) if n in ("x", "y", "z")]
+    return np.linalg.norm(pose[:, position] - pose_d[:, position], axis=1)
 
 
 def orientation_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray | None:
@@ -166,6 +167,9 @@ def orientation_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray
     if "alpha" in names:
         k = names.index("alpha")
         return np.abs(np.angle(np.exp(1j * (pose[:, k] - pose_d[:, k]))))
+    turns = [k for k, n in enumerate(names) if n in ("roll", "pitch", "yaw")]
+    if turns and len(turns) < 3:  # a platform of lower mobility controls some of its angles: the largest error
+        return np.abs(np.angle(np.exp(1j * (pose[:, turns] - pose_d[:, turns])))).max(axis=1)
     if "roll" in names:
         from ..description.spatial import orientations
 

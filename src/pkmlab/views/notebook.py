@@ -130,7 +130,7 @@ def draw(model, q, title: str | None = None):
 
     from ..algorithms.kinematics import as_model
     from ..errors import InvalidParameterError, shown
-    from ..model.mechanism_model import joint_positions
+    from ..model.mechanism_model import joint_positions, tracked_point
     from .run import RunView, machine_lines, machine_traces
 
     model = as_model(model)
@@ -141,7 +141,7 @@ def draw(model, q, title: str | None = None):
     joints = joint_positions(model, q[None])
     spatial = joints.shape[-1] == 3
     pose = q[-description.dof:]
-    point = pose[None, :3 if spatial else 2]
+    point = tracked_point(model, q)[None, :]
     one = RunView("", np.zeros(1), np.array([0]), joints, [leg.actuated for leg in description.legs],
                   [len(leg.joints) for leg in description.legs], description.platform.kind != "point", point, point)
     fig = go.Figure(machine_traces(go, machine_lines(one, 0), spatial))

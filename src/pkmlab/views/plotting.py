@@ -256,7 +256,7 @@ def draw_spatial_mechanism(model, q, ax=None, title: str | None = None):
     plat = np.vstack([points[:, -1], points[:1, -1]])
     ax.plot(*plat.T, color="tab:green", lw=2.5, label="platform")
     pose = q[-m.dof:]
-    ax.scatter(*pose[:3], color="k", marker="+", s=60, label="tracked point")
+    ax.scatter(*mm.tracked_point(model, q), color="k", marker="+", s=60, label="tracked point")
     equal_box(ax, np.vstack([points.reshape(-1, 3), base]))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")

@@ -70,10 +70,20 @@ class RunView:
         spatial = joints.shape[-1] == 3
         position = 3 if spatial else 2
         desired, actual = pose_d[:, :position], pose[:, :position]
+        parasitic = getattr(description.platform, "parasitic_names", ())
+        if parasitic:  # a platform of lower mobility: its point from q (x, y or z may be parasitic), desired or not
+            columns = [model.coordinates.index(c) for c in "xyz"]
+            actual = q[:, columns]
+            desired = actual.copy()
+            for k, c in enumerate("xyz"):
+                if c in pose_names:
+                    desired[:, k] = pose_d[:, list(pose_names).index(c)]
         series = {"path error": ("m", {"|p - p_d|": path_error(pose, pose_d, pose_names)})}
         orientation = orientation_error(pose, pose_d, pose_names)
         if orientation is not None:
-            label = "|α - α_d|" if "alpha" in pose_names else "angle of R_dᵀR"
+            whole = "roll" in pose_names and "yaw" in pose_names
+            label = ("|α - α_d|" if "alpha" in pose_names else "angle of R_dᵀR" if whole
+                     else "largest controlled angle error")
             series["orientation error"] = ("rad", {label: orientation})
         kinds = description.actuator_kinds
         unit = "N·m" if all(k == "R" for k in kinds) else "N" if all(k == "P" for k in kinds) else "N·m or N"

@@ -15,9 +15,12 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
         ANGLES,
         DIM,
+        MEASURE_LINES,
         N_ACTUATORS,
         N_CONSTRAINTS,
         N_COORDINATES,
+        POINT_COLUMNS,
+        REDUCED_COLUMNS,
         constraint_jacobian,
         constraints,
         leg_lines,
@@ -38,7 +41,6 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         REDUCED,
         SINGULAR,
         TRIAL,
-        X_COLUMN,
         actuator_error,
     )
 
@@ -46,7 +48,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 @njit(**NO_REFCOUNT_INLINE)
 def reduced_column(k):
     """The column of Jηφ of the k-th coordinate of the reduced system (the tracked point skipped)."""
-    return k if k < X_COLUMN else k + DIM
+    return REDUCED_COLUMNS[k]
 
 
 @njit(**NO_REFCOUNT)
@@ -66,7 +68,7 @@ def passive_solve(lu, piv, top, b, work):
     for k in range(REDUCED):
         b[reduced_column(k)] = work[k]
     for d in range(DIM):
-        b[X_COLUMN + d] = work[REDUCED + d]
+        b[POINT_COLUMNS[d]] = work[REDUCED + d]
 
 
 @njit(**NO_REFCOUNT)
@@ -83,8 +85,12 @@ def singularity_measure(q, sc, P, lines):
     * a point on two legs (the five-bar): ``S = sin(φ1 - φ2)``, zero when the distal links align;
     * in space, :func:`spatial_singularity_measure`.
 
+    * any other machine: :func:`passive_determinant`.
+
     ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array.
     """
+    if not MEASURE_LINES:
+        return passive_determinant(q, sc, P, lines)
     leg_lines(q, sc, P, lines)
     if DIM == 3:
         return spatial_singularity_measure(P, lines)
@@ -144,6 +150,51 @@ def spatial_singularity_measure(P, lines):
             f = lines[r, c] / lines[c, c]
             for k in range(c + 1, N_ACTUATORS):
                 lines[r, k] -= f * lines[c, k]
+    return det
+
+
+@njit(**NO_REFCOUNT)
+def passive_determinant(q, sc, P, lines):
+    """``S`` of a machine whose legs are not two-force members (a 3-PRS, a 3-RPS, a leg of three revolute
+    joints…): the determinant of ``Jηφ``, zero exactly where the passive motion is undetermined (the gain-type
+    singularities), made dimensionless and independent of how each constraint is written — its columns of
+    angles divided by the platform's size ``ℓ`` (they are lever arms, in metres), then each row scaled to unit
+    length, so that ``|S| <= 1`` (Hadamard's inequality), 1 when the constraints are orthogonal. ``lines`` is
+    the scratch for ``Jηq`` (LINE_WIDTH is chosen so that it holds it)."""
+    n = N_ACTUATORS
+    m = N_CONSTRAINTS
+    jac = lines.reshape(-1)[:m * N_COORDINATES].reshape((m, N_COORDINATES))
+    constraint_jacobian(q, sc, P, jac)
+    size = platform_size(P)
+    for r in range(m):
+        norm = 0.0
+        for c in range(n, N_COORDINATES):
+            if ANGLES[c]:
+                jac[r, c] /= size
+            norm += jac[r, c] * jac[r, c]
+        norm = np.sqrt(norm)
+        if norm == 0.0:
+            return 0.0
+        for c in range(n, N_COORDINATES):
+            jac[r, c] /= norm
+    det = 1.0
+    for c in range(m):  # Gaussian elimination with partial pivoting on the passive block, in place
+        p = c
+        for r in range(c + 1, m):
+            if abs(jac[r, n + c]) > abs(jac[p, n + c]):
+                p = r
+        if jac[p, n + c] == 0.0:
+            return 0.0
+        if p != c:
+            det = -det
+            for k in range(n + c, N_COORDINATES):
+                jac[c, k], jac[p, k] = jac[p, k], jac[c, k]
+        pivot = jac[c, n + c]
+        det *= pivot
+        for r in range(c + 1, m):
+            f = jac[r, n + c] / pivot
+            for k in range(n + c + 1, N_COORDINATES):
+                jac[r, k] -= f * jac[c, k]
     return det
 
 

@@ -22,11 +22,15 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
         JB_ROW,
         LINE_WIDTH,
         MASS_INDEX,
+        MEASURE_LINES,
         N_ACTUATORS,
         N_BODIES,
         N_CONSTRAINTS,
         N_COORDINATES,
         N_JB,
+        N_POSE,
+        POINT_COLUMNS,
+        REDUCED_COLUMNS,
         body_bias,
         body_jacobian_values,
         constraint_bias,
@@ -76,10 +80,10 @@ TRIAL = 1
 # Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
 # respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
 # point): eliminating the tracked point with these unit pivots leaves a system of DIM equations fewer in
-# the other passive coordinates (the passive joints and the orientation), to be factored instead of the
-# whole of Jηφ. X_COLUMN is x's column in Jηφ.
+# the other passive coordinates (the passive joints, the orientation and any parasitic motion), to be
+# factored instead of the whole of Jηφ. POINT_COLUMNS are the tracked point's columns in Jηφ,
+# REDUCED_COLUMNS the others (the generated module's).
 REDUCED = N_CONSTRAINTS - DIM
-X_COLUMN = N_CONSTRAINTS - DOF
 
 
 #: One model's evaluations work in a *workspace*: a record of this type holding every scratch array

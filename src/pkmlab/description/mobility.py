@@ -1,0 +1,304 @@
+"""The mobility of a spatial machine, computed: the dimension of its configuration space near generic
+configurations, not a joint count.
+
+A machine's configurations are its legs' joint coordinates and its platform's whole pose, ``x`` (every
+coordinate, actuated or not, the pose as :attr:`~pkmlab.description.spatial.SpatialPlatform.full_pose_names`),
+bound by the loop closures ``η(x) = 0`` (each leg's spherical joint at its platform attachment point: 3
+equations per leg). Near a generic configuration these define a manifold of dimension
+
+    mobility = dim x - rank ∂η/∂x,
+
+the definition the Grübler–Kutzbach count approximates; the count is wrong for overconstrained machines
+(whose constraints are dependent at every configuration, as the 3-UPU's), the rank is not. The rank is
+taken at a few configurations found by projecting random starts onto ``η = 0`` (Gauss–Newton,
+minimum-norm steps), the largest of them (a rank can only drop at special configurations), with the
+columns of angles scaled by the machine's size so that metres and radians weigh alike.
+
+A description is accepted when its mobility is the number of its actuators and of its controlled pose
+coordinates, its constraints are independent, its actuators determine its configuration (locked, they
+leave no motion), and its controlled coordinates do too (no motion leaves them unchanged). Each refusal
+is one line giving the computed numbers and each leg's share: the number of the platform's freedoms a
+leg removes (``3 -`` the rank of its end point's Jacobian, for a leg ending in a spherical joint).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+
+#: Relative size of the singular values counted in a rank.
+RANK_TOL = 1e-8
+#: Projections onto η = 0: random starts tried, Gauss–Newton iterations per start.
+STARTS, ITERATIONS = 12, 80
+#: Configurations whose ranks are compared.
+SAMPLES = 3
+
+
+@dataclass(frozen=True)
+class Mobility:
+    """The computed mobility of a machine and what it is made of.
+
+    ``mobility`` is ``coordinates - rank``; ``leg_constraints`` the number of the platform's freedoms each leg
+    removes; ``configuration`` one generic configuration found (legs' joint coordinates leg by leg, then the
+    whole pose)."""
+
+    mobility: int
+    rank: int
+    coordinates: int
+    constraints: int
+    leg_constraints: tuple[int, ...]
+    configuration: np.ndarray
+    actuated_rank: int
+    controlled_rank: int
+
+    @property
+    def summary(self) -> str:
+        """E.g. ``"rank 9 of 15 coordinates; each leg removes 0 of the platform's freedoms"``."""
+        shares = sorted(set(self.leg_constraints))
+        if len(shares) == 1:
+            legs = f"each leg removes {shares[0]} of the platform's freedoms"
+        else:
+            legs = "; ".join(f"legs {', '.join(str(i + 1) for i, c in enumerate(self.leg_constraints) if c == s)} "
+                             f"remove {s} each" for s in shares) + " of the platform's freedoms"
+        return f"the constraint Jacobian has rank {self.rank} in {self.coordinates} coordinates; {legs}"
+
+
+def _layout(mechanism):
+    from .spatial import leg_coordinate_count
+
+    counts = [leg_coordinate_count(leg) for leg in mechanism.legs]
+    starts = np.cumsum([0, *counts])
+    return counts, starts, len(mechanism.platform.full_pose_names)
+
+
+def _size(mechanism) -> float:
+    reach = max(sum(float(np.linalg.norm(b.tip)) for b in leg.bodies) for leg in mechanism.legs)
+    spread = max(float(np.linalg.norm(np.subtract(a, b))) for a in mechanism.platform.attachments
+                 for b in mechanism.platform.attachments)
+    return max(reach, spread, 1e-3)
+
+
+def _leg_end(leg, coordinates) -> tuple[np.ndarray, np.ndarray]:
+    """The leg's spherical-joint centre at its joint coordinates, and its Jacobian (3, coordinates): a turn
+    about the world axis ``w`` at ``o`` moves the end by ``w × (end - o)``, a slide along ``u`` by ``u``
+    (the chain of :func:`~pkmlab.description.spatial.leg_frames`)."""
+    from .spatial import axis_rotation
+
+    values = iter(float(c) for c in coordinates)
+    point, rot = np.array(leg.base, dtype=float), np.eye(3)
+    moves = []  # (kind, world axis, origin)
+    for joint, body in zip(leg.joints, leg.bodies, strict=False):
+        origin = point
+        if joint.kind == "P":
+            axis = rot @ np.array(joint.axes[0])
+            origin = point + next(values) * axis
+            moves.append(("P", axis, origin))
+        else:
+            for a in joint.axes:
+                axis = rot @ np.array(a)
+                moves.append(("R", axis, point))
+                rot = rot @ axis_rotation(a, next(values))
+        point = origin + rot @ np.array(body.tip)
+    columns = [axis if kind == "P" else np.cross(axis, point - o) for kind, axis, o in moves]
+    return point, np.column_stack(columns) if columns else np.zeros((3, 0))
+
+
+def residual(mechanism, x: np.ndarray) -> np.ndarray:
+    """``η(x)``: each leg's spherical joint minus its attachment point (3 per leg)."""
+    return _residual_and_jacobian(mechanism, x)[0]
+
+
+def jacobian(mechanism, x: np.ndarray) -> np.ndarray:
+    """``∂η/∂x``: the legs' columns exact, the orientation's by central differences of ``R a`` (1e-7 rad)."""
+    return _residual_and_jacobian(mechanism, x)[1]
+
+
+def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    from .spatial import orientation
+
+    counts, starts, n_pose = _layout(mechanism)
+    pose = x[starts[-1]:]
+    n = len(mechanism.legs)
+    eta, jac = np.zeros(3 * n), np.zeros((3 * n, len(x)))
+    rigid = n_pose == 6
+    rot = orientation(*pose[3:6]) if rigid else np.eye(3)
+    turns = []
+    if rigid:
+        h = 1e-7
+        for k in range(3):
+            e = np.zeros(3)
+            e[k] = h
+            turns.append((orientation(*(pose[3:6] + e)) - orientation(*(pose[3:6] - e))) / (2 * h))
+    for i, leg in enumerate(mechanism.legs):
+        end, j_leg = _leg_end(leg, x[starts[i]:starts[i + 1]])
+        a = np.array(mechanism.platform.attachments[i])
+        rows = slice(3 * i, 3 * i + 3)
+        eta[rows] = end - pose[:3] - rot @ a
+        jac[rows, starts[i]:starts[i + 1]] = j_leg
+        jac[rows, starts[-1]:starts[-1] + 3] = -np.eye(3)
+        for k, d_rot in enumerate(turns):
+            jac[rows, starts[-1] + 3 + k] = -d_rot @ a
+    return eta, jac
+
+
+def _angle_columns(mechanism) -> np.ndarray:
+    flags = []
+    for leg in mechanism.legs:
+        for joint in leg.joints:
+            flags += [joint.kind != "P"] * joint.coordinates
+    flags += [name in ("roll", "pitch", "yaw") for name in mechanism.platform.full_pose_names]
+    return np.array(flags, dtype=bool)
+
+
+def _start(mechanism, rng: np.random.Generator, size: float) -> np.ndarray:
+    """A random start near the zero configuration: small angles, prismatic joints mid-stroke or half the
+    machine's size out, the platform where its attachment points best meet the legs' ends."""
+    x = []
+    for leg in mechanism.legs:
+        for joint in leg.joints:
+            if joint.kind == "P":
+                if joint.actuated and leg.stroke is not None:
+                    lo, hi = leg.stroke
+                    x.append(lo + (hi - lo) * rng.uniform(0.3, 0.7))
+                else:
+                    x.append(size * rng.uniform(0.3, 0.7))
+            else:
+                x += list(rng.uniform(-0.3, 0.3, joint.coordinates))
+    x = np.array(x)
+    _counts, starts, n_pose = _layout(mechanism)
+    ends = [_leg_end(leg, x[starts[i]:starts[i + 1]])[0] for i, leg in enumerate(mechanism.legs)]
+    centre = np.mean([e - np.array(a) for e, a in zip(ends, mechanism.platform.attachments, strict=True)], axis=0)
+    pose = np.zeros(n_pose)
+    pose[:3] = centre
+    return np.concatenate([x, pose])
+
+
+def project(mechanism, x: np.ndarray, size: float) -> np.ndarray | None:
+    """``x`` moved onto ``η = 0`` by Gauss–Newton's minimum-norm steps (halved while they do not reduce the
+    residual); None when it does not get there."""
+    scale = np.where(_angle_columns(mechanism), size, 1.0)  # columns in metres per unit of the coordinate
+    value = np.linalg.norm(residual(mechanism, x))
+    for _ in range(ITERATIONS):
+        if value < 1e-11 * size:
+            return x
+        j = jacobian(mechanism, x) / scale
+        step = np.linalg.lstsq(j, -residual(mechanism, x), rcond=None)[0] / scale
+        for _ in range(12):
+            trial = x + step
+            trial_value = np.linalg.norm(residual(mechanism, trial))
+            if trial_value < value:
+                break
+            step = step / 2
+        else:
+            return None
+        x, value = trial, trial_value
+    return x if value < 1e-11 * size else None
+
+
+def _rank(matrix: np.ndarray) -> int:
+    if matrix.size == 0:
+        return 0
+    sv = np.linalg.svd(matrix, compute_uv=False)
+    return int(np.sum(sv > RANK_TOL * max(sv[0], 1e-300)))
+
+
+def mobility(mechanism, *, check: bool = True, seed: int = 0) -> Mobility:
+    """The computed mobility of a spatial ``mechanism`` (module docstring), refused when ``check`` and it is not
+    the description's.
+
+    Raises
+    ------
+    InvalidParameterError
+        A translating platform on legs that cannot hold its orientation (:func:`check_parallelograms`); no
+        configuration could be found (the legs cannot meet the platform near their zero configuration); or,
+        with ``check``, the mobility is not the number of actuators, the constraints are dependent, the locked
+        actuators leave a motion, or the controlled coordinates do not determine the configuration.
+    """
+    m = mechanism
+    if check and m.platform.kind == "translating":
+        check_parallelograms(m)
+    rng = np.random.default_rng(seed)
+    size = _size(m)
+    counts, starts, n_pose = _layout(m)
+    found = []
+    for _ in range(STARTS):
+        x = project(m, _start(m, rng, size), size)
+        if x is not None:
+            found.append(x)
+            break
+    if not found:
+        raise InvalidParameterError(f"{m.name}: its legs cannot be joined to the platform near their zero "
+                                    "configuration (no configuration found from "
+                                    f"{STARTS} starts): check the legs' lengths, bases and attachment points")
+    while len(found) < SAMPLES:  # other generic configurations, near the first
+        angles = _angle_columns(m)
+        nudge = rng.normal(0.0, 0.05, found[0].shape) * np.where(angles, 1.0, size)
+        x = project(m, found[0] + nudge, size)
+        found.append(x if x is not None else found[0])
+    scale = np.where(_angle_columns(m), 1.0 / size, 1.0)
+    jacobians = [jacobian(m, x) * scale for x in found]
+    ranks = [_rank(j) for j in jacobians]
+    best = int(np.argmax(ranks))
+    j, x, rank = jacobians[best], found[best], ranks[best]
+    n = j.shape[1]
+    actuated = [starts[i] + sum(jt.coordinates for jt in leg.joints[:leg.actuated]) for i, leg in enumerate(m.legs)]
+    pose_names = m.platform.full_pose_names
+    controlled = [starts[-1] + pose_names.index(c) for c in m.platform.pose_names]
+    leg_constraints = []
+    for i in range(len(m.legs)):
+        rows = slice(3 * i, 3 * i + 3)
+        leg_constraints.append(3 - _rank(j[rows, starts[i]:starts[i + 1]]))
+    result = Mobility(n - rank, rank, n, j.shape[0], tuple(leg_constraints), x,
+                      _rank(np.delete(j, actuated, axis=1)), _rank(np.delete(j, controlled, axis=1)))
+    if check:
+        _check(m, result)
+    return result
+
+
+def check_parallelograms(mechanism) -> None:
+    """A translating platform keeps its orientation only if every leg's forearm is a parallelogram, a body between
+    a universal joint and the spherical joint (:mod:`pkmlab.description.spatial`); a leg of another kind leaves
+    the platform free to turn, which the refusal measures: the mobility of the same legs on a rigid platform."""
+    from .spatial import POSE_NAMES, SpatialMechanism, SpatialPlatform
+
+    m = mechanism
+    for i, leg in enumerate(m.legs):
+        if len(leg.joints) >= 2 and leg.joints[-2].kind == "U" and not leg.joints[-2].actuated:
+            continue
+        p = m.platform
+        free = SpatialMechanism(m.name, m.legs, SpatialPlatform("rigid", p.attachments, p.mass, p.com, p.inertia,
+                                                                controlled=POSE_NAMES["rigid"][:len(m.legs)]),
+                                m.gravity)
+        computed = mobility(free, check=False)
+        raise InvalidParameterError(
+            f"leg {i + 1} ({leg.notation}) cannot hold a translating platform's orientation: only a parallelogram "
+            "forearm (a leg ending in a universal joint, its body and the spherical joint, like the Delta's R*US) "
+            f"does. On these legs the platform's computed mobility is {computed.mobility} ({computed.summary}), "
+            f"not {len(p.pose_names)}: describe it as a rigid platform")
+
+
+def _check(m, r: Mobility) -> None:
+    names = m.platform.pose_names
+    dof = len(names)
+    if r.mobility != dof:
+        kind = "more" if r.mobility > dof else "fewer"
+        raise InvalidParameterError(
+            f"{m.name}: its computed mobility is {r.mobility}, not the {dof} of its controlled pose "
+            f"({', '.join(names)}) and actuators — {kind} freedoms than it controls ({r.summary})")
+    if r.rank < r.constraints:
+        raise InvalidParameterError(
+            f"{m.name}: its {r.constraints} loop-closure equations are dependent (rank {r.rank}): an overconstrained "
+            "machine, whose constraint forces its motion does not determine; pkmlab models machines with independent "
+            "loop closures")
+    if r.actuated_rank < r.rank:
+        raise InvalidParameterError(
+            f"{m.name}: with its actuators locked it can still move ({r.rank - r.actuated_rank} freedom(s)): an "
+            "actuated joint cannot move the platform (check which joint of each leg is starred)")
+    if r.controlled_rank < r.rank:
+        raise InvalidParameterError(
+            f"{m.name}: its controlled coordinates ({', '.join(names)}) do not determine its pose: it can move "
+            f"with them held ({r.rank - r.controlled_rank} freedom(s)); control others among "
+            f"{', '.join(m.platform.full_pose_names)}")
