@@ -10,6 +10,12 @@ kernels and :mod:`pkmlab.codegen.core`'s compiled loop), the five-bar, the 3-RPR
 * the default run in-process (``simulate`` of the example scenario, or for the 3-RRR the paper's
   nominal case through the generic pipeline), its compiled loop alone, and the loop's time per
   sample against the paper's nominal loop per sample (``sim_nominal_loop``) measured in the same run.
+
+And for the catalogue's machines (``examples/mechanisms``: a 3-PRS, a 3-RPS, a 6-RUS, a 6-PUS) the same rows,
+their loop per sample against the preset's with as many legs (the Delta's or the Stewart platform's) in the
+same run, and the general forward kinematics (:mod:`pkmlab.algorithms.general_fk`): its generic instance
+solved by monodromy the first time (then read from the cache), and, for the Delta and the Stewart platform,
+the ratio of their fast paths to it at the same actuators.
 """
 
 from __future__ import annotations
@@ -30,10 +36,14 @@ from pkmlab.simulation.scenario import Scenario
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DEFAULT_RUNS = {"paper": None, "five_bar": "five_bar_circle.toml", "3rpr": "3rpr_circle.toml",
-                "3prr": "3prr_circle.toml", "delta": "delta_pick_and_place.toml", "stewart": "stewart_motion.toml"}
+                "3prr": "3prr_circle.toml", "delta": "delta_pick_and_place.toml", "stewart": "stewart_motion.toml",
+                "3prs": "mechanisms/3prs_motion.toml", "3rps": "mechanisms/3rps_motion.toml",
+                "6rus": "mechanisms/6rus_motion.toml", "6pus": "mechanisms/6pus_motion.toml"}
+#: The catalogue's machines, each compared with the preset of as many legs.
+CATALOGUE = {"3prs": "delta", "3rps": "delta", "6rus": "stewart", "6pus": "stewart"}
 #: Forward kinematics of every assembly mode solves a polynomial system (the Stewart–Gough platform's: 128
 #: homotopy paths, ~0.3 s): fewer samples there.
-FK_SAMPLES = {"stewart": 4}
+FK_SAMPLES = {"stewart": 4, "3prs": 4, "3rps": 4, "6rus": 4, "6pus": 4}
 
 
 def _scenario(name: str) -> Scenario:
@@ -65,9 +75,23 @@ def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | 
     seconds, result = h.time_once(lambda: simulate(scenario))
     rows.append(h.first_call_row(f"mech_{name}_first_run", f"{label}: first default run in this process", seconds))
     actuators = _actuator_samples(model, scenario, FK_SAMPLES.get(name, 20 if repeats < 5 else 200), rng)
+    if getattr(model.description, "spatial", False) and name in ("delta", "stewart", *CATALOGUE):
+        from pkmlab.algorithms.general_fk import solve_generic_instance
+
+        seconds, (solutions, _p, loops) = h.time_once(lambda: solve_generic_instance(model.description))
+        rows.append(h.first_call_row(f"mech_{name}_fk_generic", f"{label}: general FK, its generic instance by "
+                                     f"monodromy ({len(solutions)} solutions, {loops} loops; once per machine)",
+                                     seconds))
     times, _ = h.time_runs(lambda: [assembly.assembly_modes(model, t) for t in actuators], repeats)
     rows.append(h.rate_row(f"mech_{name}_fk", f"{label}: forward kinematics, every assembly mode", times,
                            len(actuators), "solve", compare=False))
+    if name in ("delta", "stewart"):
+        general_times, _ = h.time_runs(lambda: [assembly.general_spatial_assembly_modes(model, t)
+                                                for t in actuators], repeats)
+        rows.append(h.rate_row(f"mech_{name}_fk_general", f"{label}: forward kinematics, the general method",
+                               general_times, len(actuators), "solve", compare=False))
+        rows.append(h.metric_row(f"mech_{name}_fk_fast_vs_general", f"{label}: its fast path's time / the general "
+                                 "method's", float(np.median(times)) / float(np.median(general_times)), "x"))
     stride = max(1, result.q.shape[0] // 100)
     q, rates = result.q[::stride], result.theta_dot[::stride]
     k = model.kernels
@@ -132,6 +156,11 @@ def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts
         more, checks[name] = _rows_for(h, name, 3 if quick else 7, rng, paper_loop_per_sample_s,
                                        (counts or {}).get(name), speed)
         rows += more
+    for name, preset_name in CATALOGUE.items():
+        ratio = checks[name]["loop_per_sample_us"] / checks[preset_name]["loop_per_sample_us"]
+        checks[name][f"loop_per_sample_vs_{preset_name}"] = ratio
+        rows.append(h.metric_row(f"mech_{name}_loop_vs_{preset_name}", f"{name}: loop per sample / the "
+                                 f"{preset_name}'s (as many legs)", ratio, "x"))
     if not all(math.isfinite(c["max_path_error_m"]) for c in checks.values()):
         raise AssertionError("a default run did not finish")
     return rows, checks

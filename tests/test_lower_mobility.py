@@ -185,27 +185,89 @@ def test_tracking_run_of_the_3prs_keeps_its_parasitic_motion_on_the_loops(prs):
     assert np.ptp(q[:, prs.coordinates.index("yaw")]) > 1e-6  # the parasitic motion moved
 
 
-def test_3rps_closed_form_closes_the_loops():
-    """A 3-RPS (passive hinges on the base, actuated slides, spherical joints on the platform): one working
-    mode, its configurations on the loop closures by the readable chain, level poses on the machine's axis."""
-    from pkmlab.description.spatial import SpatialBody, SpatialJoint, SpatialLeg
+# ------------------------------------------------------------------ forward kinematics, the general method
+def _general(model, theta):
+    from pkmlab.algorithms.assembly import general_spatial_assembly_modes
 
-    legs, attachments = [], []
-    for k in range(3):
-        g = math.radians(90 + 120 * k)
-        c, s = math.cos(g), math.sin(g)
-        joints = (SpatialJoint("R", False, ((-s, c, 0.0),)), SpatialJoint("P", True, ((0.0, 0.0, 1.0),)),
-                  SpatialJoint("S"))
-        bodies = (SpatialBody((0, 0, 0.1), 1.0, (0, 0, 0.05), 0.001),
-                  SpatialBody((0, 0, 0.1), 0.5, (0, 0, 0.05), 0.001))
-        legs.append(SpatialLeg((0.3 * c, 0.3 * s, 0.0), joints, bodies, (0.1, 0.6)))
-        attachments.append((0.15 * c, 0.15 * s, 0.0))
-    m = SpatialMechanism("3-RPS", tuple(legs), SpatialPlatform("rigid", tuple(attachments), 2.0, (0, 0, 0), 0.01,
-                                                               ("z", "roll", "pitch")), (0, 0, -9.81))
-    model = pkmlab.load(m)
-    assert mm.working_modes(model) == [()]
-    level = mm.inverse_kinematics(model, [0.5, 0.0, 0.0], ())
-    np.testing.assert_allclose(level[-6:-3], 0.0, atol=1e-12)
-    tilted = mm.inverse_kinematics(model, [0.5, 0.1, -0.05], ())
-    assert _independent_residual(m, tilted, model.coordinates) < 1e-12
-    assert np.abs(tilted[-6:-3]).max() > 1e-5
+    return general_spatial_assembly_modes(model, theta)
+
+
+def _same_set(first, second, tol=1e-9):
+    """Every configuration of ``first`` in ``second`` and back (angles compared modulo 2π)."""
+    def near(q, others):
+        return any(np.abs(np.angle(np.exp(1j * (q - o)))).max() < tol for o in others)
+
+    return all(near(q, second) for q in first) and all(near(q, first) for q in second)
+
+
+def test_general_forward_kinematics_matches_the_deltas_three_spheres():
+    from pkmlab.algorithms.assembly import assembly_modes
+
+    delta = pkmlab.load("delta")
+    q = mm.inverse_kinematics(delta, [0.05, -0.03, -0.75], (1, 1, 1))
+    special = [c for c, _s in assembly_modes(delta, q[:3])]
+    general = [c for c, _s in _general(delta, q[:3])]
+    assert len(general) == len(special) == 2
+    assert _same_set(general, special)
+
+
+def _multistart(model, theta, starts: int, seed: int = 1):
+    """Distinct configurations at actuators ``theta`` found by Newton's method on the generated kernels' ``η = 0``
+    from ``starts`` random configurations (passive angles over a turn, the platform anywhere in its reach): a
+    method independent of the polynomial system the homotopy tracks."""
+    from pkmlab.algorithms.assembly import _polished
+    from pkmlab.model.reach import spatial_extent
+
+    k = model.kernels
+    rng = np.random.default_rng(seed)
+    n, N = model.n_actuators, len(model.coordinates)
+    box = spatial_extent(model.description)
+    names = model.coordinates
+    sc = np.zeros((N, 2))
+    eta, jac = np.empty(k.N_CONSTRAINTS), np.empty((k.N_CONSTRAINTS, N))
+    found = []
+    for _ in range(starts):
+        q = np.empty(N)
+        q[:n] = theta
+        for c in range(n, N):
+            q[c] = rng.uniform(*box["xyz".index(names[c])]) if names[c] in "xyz" else rng.uniform(-np.pi, np.pi)
+        for _ in range(40):
+            k.trig(q, sc)
+            k.constraints(q, sc, model.P, eta)
+            if np.abs(eta).max() < 1e-12:
+                found.append(q.copy())
+                break
+            k.constraint_jacobian(q, sc, model.P, jac)
+            try:
+                step = np.linalg.solve(jac[:, n:], -eta)
+            except np.linalg.LinAlgError:
+                break
+            if not np.all(np.isfinite(step)):
+                break
+            q[n:] += step * min(1.0, 0.5 / np.abs(step).max())  # damped: a start far away is walked in
+    roll, pitch, yaw = (names.index(c) for c in ("roll", "pitch", "yaw"))
+    for q in found:  # one orientation has two roll, pitch, yaw: the one with |pitch| <= pi/2, as pkmlab gives
+        if np.cos(q[pitch]) < 0:
+            q[roll], q[pitch], q[yaw] = q[roll] + np.pi, np.pi - q[pitch], q[yaw] + np.pi
+    return [c for c, _s in _polished(model, found)], len(found)
+
+
+def test_general_forward_kinematics_of_the_3prs_finds_every_assembly_mode():
+    """Every configuration of the IK at this pose (two working modes) is among the FK's at its actuators; every
+    FK configuration closes the loops (checked on the readable chain) at those actuators; and 10,000 Newton
+    starts find no configuration the homotopy did not (they may find fewer, never more)."""
+    from pkmlab.algorithms.general_fk import generic_solutions
+
+    prs = pkmlab.load(PRS)
+    sols, _p, _loops = generic_solutions(prs.description)
+    assert len(sols) == 16  # the 3-PRS's forward kinematics has 16 complex solutions (Tsai's count for 3-PRS)
+    for mode in [(1, 1, 1), (-1, 1, -1)]:
+        q = mm.inverse_kinematics(prs, POSE, mode)
+        found = [c for c, _s in _general(prs, q[:3])]
+        assert any(np.abs(np.angle(np.exp(1j * (c - q)))).max() < 1e-9 for c in found)
+        for c in found:
+            np.testing.assert_array_equal(c[:3], q[:3])
+            assert _independent_residual(prs.description, c, prs.coordinates) < 1e-11
+    multistart, converged = _multistart(prs, q[:3], 10_000)
+    assert converged > 100 and multistart
+    assert all(any(np.abs(np.angle(np.exp(1j * (c - f)))).max() < 1e-7 for f in found) for c in multistart)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+import pkmlab
 from pkmlab.description.presets import PRESETS
 from pkmlab.errors import InvalidParameterError, UnreachablePoseError
 from pkmlab.interop import mujoco_export as mx
@@ -13,6 +16,8 @@ from pkmlab.model.mechanism_model import MechanismModel
 
 mujoco = pytest.importorskip("mujoco")
 NAMES = sorted(PRESETS)
+#: The catalogue's machines (examples/mechanisms), checked as the presets are.
+CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / "3prs.toml")]
 
 
 def _states(model, count: int, seed: int):
@@ -79,9 +84,9 @@ def test_the_exported_model_is_the_described_machine(name):
     assert m.nu == len(desc.legs) and np.allclose(m.opt.gravity, [*desc.gravity, 0.0][:3])
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", NAMES + CATALOGUE)
 def test_coordinates_map_both_ways(name):
-    model = MechanismModel.from_preset(name)
+    model = pkmlab.load(name)
     m, d = mx.load_mujoco(model)
     for q, q_dot, _tau in _states(model, 5, 1):
         assert np.allclose(mx.q_from_qpos(model, mx.qpos_from_q(model, q)), q, atol=1e-12)
@@ -118,9 +123,9 @@ def _hard_solve(m, d, legs: int):
     return np.linalg.lstsq(kkt, np.concatenate([force, -np.array(gamma)]), rcond=None)[0][:m.nv]
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", NAMES + CATALOGUE)
 def test_mujocos_equations_with_hard_constraints_give_pkmlabs_accelerations(name):
-    model = MechanismModel.from_preset(name)
+    model = pkmlab.load(name)
     m, d = mx.load_mujoco(model)
     n = model.n_actuators
     for q, q_dot, tau in _states(model, 4, 2):

@@ -133,13 +133,10 @@ def _spatial_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tu
     from ..description.spatial_legs import delta_forward_kinematics, forearm_angles
 
     m = model.description
-    if m.platform.kind == "rigid" and all(leg.notation == "UP*S" for leg in m.legs):
+    if m.platform.kind == "rigid" and len(m.legs) == 6 and all(leg.notation == "UP*S" for leg in m.legs):
         return _stewart_assembly_modes(model, theta)
     if m.platform.kind != "translating" or any(leg.notation != "R*US" for leg in m.legs):
-        raise InvalidParameterError(f"{m.name} ({m.notation}, {m.platform.kind} platform): pkmlab's forward "
-                                    "kinematics of every assembly mode is for a translating platform on three R*US "
-                                    "legs (the Delta) and a platform on six UP*S legs (the Stewart-Gough platform); "
-                                    "follow a branch from a known configuration instead (branch_following)")
+        return general_spatial_assembly_modes(model, theta)
     configurations = []
     for point in delta_forward_kinematics(m, theta):
         passive = []
@@ -149,6 +146,24 @@ def _spatial_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tu
             passive += [q1[0], q2[0]]
         configurations.append(np.array([*theta, *passive, *point]))
     return _polished(model, configurations)
+
+
+def general_spatial_assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float]]:
+    """Every real assembly mode of any spatial machine by the general method of
+    :mod:`~pkmlab.algorithms.general_fk` (a parameter homotopy on its loop-closure polynomials), each polished
+    by Newton's method on ``η = 0``; an :class:`~pkmlab.errors.IncompleteSolutionWarning` where paths failed or
+    ended at singular solutions. The Delta's and the Stewart platform's fast paths are checked against it."""
+    import warnings
+
+    from ..errors import IncompleteSolutionWarning
+    from .general_fk import general_assembly_modes as solve
+
+    theta = np.asarray(theta, dtype=float)
+    found = solve(model, theta)
+    if found.doubt:
+        warnings.warn(f"forward kinematics at actuators {np.round(theta, 6).tolist()}: {found.doubt}: an assembly "
+                      "mode there may be missing", IncompleteSolutionWarning, stacklevel=3)
+    return _polished(model, found.configurations)
 
 
 def _stewart_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tuple[np.ndarray, float]]:

@@ -26,21 +26,28 @@ def _animate(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:
     import numpy as np
 
     from ..formats.params import read_result_csv
+    from ..model.mechanism_model import tracked_point
     from ..views.animation import rebuild_configurations, write_gif, write_machine_gif, write_spatial_gif
     from ..views.plotting import three_joint_planar
 
     model, source = machine
     n_act, names = len(model.description.legs), model.description.pose_names
-    position = ("x", "y", "z") if getattr(model.description, "spatial", False) else ("x", "y")
+    # the tracked point's coordinates the run recorded (a platform of lower mobility records only its controlled
+    # ones: its parasitic x or y are drawn where the rebuilt machine puts them)
+    position = tuple(c for c in ("x", "y", "z") if c in names)
     columns = ("t", *(f"theta{i + 1}" for i in range(n_act)), *names, *(f"{c}_d" for c in position))
     data = read_result_csv(csv_path, columns)
     theta = np.column_stack([data[f"theta{i + 1}"] for i in range(n_act)])
     pose = np.column_stack([data[v] for v in names])
     q = rebuild_configurations(model, theta, pose[0])
-    tracked = q[:, -len(names):][:, :len(position)]
-    desired = np.column_stack([data[f"{c}_d"] for c in position])
+    point = tracked_point(model, q)
+    tracked = point[:, [("x", "y", "z").index(c) for c in position]]
+    desired = point.copy()
+    for k, c in enumerate(("x", "y", "z")[:point.shape[1]]):
+        if c in position:
+            desired[:, k] = data[f"{c}_d"]
     title = f"{folder.name}/{csv_path.name}, {model.description.name} ({model.description.notation})"
-    writer = (write_spatial_gif if len(position) == 3 else write_gif if three_joint_planar(model)
+    writer = (write_spatial_gif if point.shape[1] == 3 else write_gif if three_joint_planar(model)
               else write_machine_gif)
     return _write_animation(args, data, tracked, source, csv_path, out, title, "--mechanism",
                             lambda frames, bar: writer(model, data["t"], q, desired, out, frames, fps=args.fps,
@@ -56,7 +63,7 @@ def _write_animation(args, data: dict, tracked, source: str, csv_path: Path, out
 
     import numpy as np
 
-    recorded = np.column_stack([data[c] for c in ("x", "y", "z")[:tracked.shape[1]]])
+    recorded = np.column_stack([data[c] for c in ("x", "y", "z") if c in data][:tracked.shape[1]])
     deviation = float(np.max(np.linalg.norm(tracked - recorded, axis=1)))
     if deviation > 1e-3:
         print(f"pkmlab animate: warning: the machine rebuilt from the recorded actuators puts the tracked point up "

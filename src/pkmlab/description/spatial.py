@@ -350,6 +350,14 @@ def check_pose(mechanism: SpatialMechanism, pose, where: str = "pose") -> np.nda
     return values
 
 
+def q_poses(mechanism: SpatialMechanism, whole) -> np.ndarray:
+    """The inverse of :func:`full_poses`: the pose's coordinates as ``q`` orders them (..., parasitic then
+    controlled) from the whole pose (..., :attr:`SpatialPlatform.full_pose_names`)."""
+    whole = np.asarray(whole, dtype=float)
+    order = [mechanism.platform.full_pose_names.index(n) for n in mechanism.platform.q_pose_names]
+    return whole[..., order]
+
+
 def full_poses(mechanism: SpatialMechanism, q_pose) -> np.ndarray:
     """The platform's whole pose (..., 3 or 6), in the order of :attr:`SpatialPlatform.full_pose_names`, from
     its coordinates as ``q`` orders them (..., parasitic then controlled: the last entries of ``q``)."""

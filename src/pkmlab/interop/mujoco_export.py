@@ -252,11 +252,25 @@ def _closure_comment(closures: str, solref, solimp) -> str:
     return f"    <!-- {text.replace('--', '-')} -->"
 
 
+def _n_pose(m) -> int:
+    """How many of ``q``'s last coordinates are the platform's pose (its parasitic ones included)."""
+    return len(m.platform.q_pose_names) if _spatial(m) else m.dof
+
+
+def _whole_pose(m, q: np.ndarray) -> np.ndarray:
+    """The platform's whole pose of ``q`` (or of its rates), in the order of its kind's pose names."""
+    if not _spatial(m):
+        return q[len(q) - m.dof:]
+    from ..description.spatial import full_poses
+
+    return full_poses(m, q[len(q) - _n_pose(m):])
+
+
 def _leg_values(model, q: np.ndarray) -> list[list[float]]:
     """Each leg's joint coordinates in joint order (a universal joint's two), from pkmlab's ``q``."""
     m = model.description
     n = len(m.legs)
-    passive = iter(q[n:len(q) - m.dof])
+    passive = iter(q[n:len(q) - _n_pose(m)])
     out = []
     for i, leg in enumerate(m.legs):
         values = []
@@ -298,7 +312,7 @@ def qpos_from_q(model, q) -> np.ndarray:
                 out.append(value)
                 if k == 0:
                     direction = joint.axis
-    pose = q[len(q) - m.dof:]
+    pose = _whole_pose(m, q)
     if _spatial(m) and m.platform.kind == "rigid":
         return np.array([*out, *pose[:3], *_quaternion(*pose[3:])])
     return np.array([*out, *pose])
@@ -339,6 +353,10 @@ def q_from_qpos(model, qpos) -> np.ndarray:
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
         yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
         rest = np.array([*rest[:3], roll, pitch, yaw])
+    if _spatial(m):
+        from ..description.spatial import q_poses
+
+        rest = q_poses(m, rest)
     return np.array([*legs, *rest])
 
 
@@ -362,13 +380,13 @@ def q_dot_from_qvel(model, q, qvel) -> np.ndarray:
     legs, k = _legs_from_mujoco(model, qvel, rates=True)
     rest = qvel[k:]
     if _spatial(m) and m.platform.kind == "rigid":
-        from ..description.spatial import orientation
+        from ..description.spatial import orientation, q_poses
 
-        roll, pitch, _yaw = np.asarray(q, dtype=float)[-3:]
+        roll, pitch, _yaw = _whole_pose(m, np.asarray(q, dtype=float))[3:]
         rx, ry = orientation(roll, 0.0, 0.0), orientation(0.0, pitch, 0.0)
         # ω = E (roll, pitch, yaw rates), the map of qvel_from_q_dot, inverted
         e = np.column_stack([[1.0, 0.0, 0.0], rx.T @ [0.0, 1.0, 0.0], rx.T @ ry.T @ [0.0, 0.0, 1.0]])
-        rest = np.array([*rest[:3], *np.linalg.solve(e, rest[3:])])
+        rest = q_poses(m, np.array([*rest[:3], *np.linalg.solve(e, rest[3:])]))
     return np.array([*legs, *rest])
 
 
@@ -383,13 +401,14 @@ def qvel_from_q_dot(model, q, q_dot) -> np.ndarray:
     from ..description.spatial import orientation
 
     legs = qpos_from_q(model, q_dot)[:-7]
-    roll, pitch, _yaw = np.asarray(q, dtype=float)[-3:]
-    rates = q_dot[-3:]
+    roll, pitch, _yaw = _whole_pose(m, np.asarray(q, dtype=float))[3:]
+    whole_rates = _whole_pose(m, q_dot)
+    rates = whole_rates[3:]
     # ω in the platform frame from the z-y'-x'' rates (as the spatial derivation writes it)
     rx, ry = orientation(roll, 0.0, 0.0), orientation(0.0, pitch, 0.0)
     omega = rx.T @ ry.T @ np.array([0.0, 0.0, rates[2]]) + rx.T @ np.array([0.0, rates[1], 0.0]) + np.array(
         [rates[0], 0.0, 0.0])
-    return np.array([*legs, *q_dot[-6:-3], *omega])
+    return np.array([*legs, *whole_rates[:3], *omega])
 
 
 def home_configuration(model, mode=None) -> np.ndarray:
@@ -402,6 +421,10 @@ def home_configuration(model, mode=None) -> np.ndarray:
 
     m = model.description
     mode = mm.working_modes(model)[0] if mode is None else as_working_mode(model, mode, "mode")
+    if _spatial(m) and m.platform.parasitic_names:  # lower mobility: at the home configuration's pose
+        from ..model.parasitic import home_configuration as home
+
+        return mm.inverse_kinematics(model, home(model)[-m.dof:], tuple(mode))
     if _spatial(m):
         box = spatial_extent(m)
         axes = [np.linspace(lo, hi, 25) for lo, hi in box]

@@ -55,9 +55,8 @@ class MechanismModel:
         if not isinstance(description, Mechanism | SpatialMechanism):
             raise InvalidParameterError(f"description must be a Mechanism or a SpatialMechanism, got "
                                         f"{type(description).__name__}")
-        model = _bind(description)
-        check_assembly(description)
-        return model
+        check_assembly(description)  # before the kernels: a refused structure is never derived
+        return _bind(description)
 
     @classmethod
     def from_preset(cls, name: str) -> MechanismModel:

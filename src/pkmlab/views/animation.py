@@ -165,7 +165,9 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
     if getattr(m, "spatial", False) and m.platform.kind == "rigid":
         # a six-degree-of-freedom platform: the recorded start pose's inverse kinematics (its one working
         # mode), the recorded actuators checked against it below
-        solutions = [(mm.inverse_kinematics(model, pose0, mm.working_modes(model)[0]), 0.0)]
+        # (of the working mode whose actuators are the recorded ones)
+        candidates = [mm.inverse_kinematics(model, pose0, mode) for mode in mm.working_modes(model)]
+        solutions = [(min(candidates, key=lambda q: float(np.abs(q[:len(m.legs)] - theta[0]).max())), 0.0)]
         if np.abs(solutions[0][0][:len(m.legs)] - theta[0]).max() > 1e-6:
             raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} do not hold the "
                                 "recorded start pose with this machine: is it the one that produced the run?")

@@ -1,0 +1,387 @@
+"""Forward kinematics of every assembly mode of any spatial machine, by one general method: a parameter
+homotopy on the machine's own loop-closure polynomials, from a generic instance solved once by monodromy.
+
+**The polynomial system.** At given actuator values, the unknowns are the platform's whole pose and the
+passive joints that the legs' ends do not eliminate. Each leg ends in a spherical joint at its attachment
+point ``p_i = x + R a_i``; its last passive joint is eliminated in closed form:
+
+* a universal joint (the R*US, UP*S and P*US legs): its body, and every actuated joint after it, keep the
+  spherical joint at a fixed distance from its centre ``c``: ``|p_i − c|² = |w|²`` (a sphere);
+* a revolute joint (P*RS, RP*S, R*RRS): the spherical joint turns on a circle about the hinge:
+  ``(p_i − c)·n = w·a`` and ``|p_i − c|² = |w|²``;
+* a prismatic joint: not eliminated (its slide is an unknown, the leg's three equations kept).
+
+Every other passive angle ``φ`` is the pair ``(cos φ, sin φ)`` with ``c² + s² = 1``; the orientation is the
+Cayley map ``R = R₀ ((1 − |g|²) I + 2 g gᵀ + 2 [g]×) / (1 + |g|²)`` of three unknowns ``g`` about a fixed
+random rotation ``R₀`` (no double cover, unlike Euler angles or quaternions; the rotations it misses — a half
+turn from ``R₀`` — are a set of measure zero, at no real solution with probability one); every equation is
+multiplied by the powers of ``1 + |g|²`` that make it polynomial. The actuators enter as parameters (an
+angle as its cosine and sine).
+
+**The method.** The family ``F(z; θ) − b = 0`` (``b`` an offset, the trick that makes a start solution
+free: a random complex ``z₀`` solves it at ``b₀ = F(z₀; θ₀)``) is solved at the generic complex parameters
+``(θ₀, b₀)`` by monodromy (:func:`pkmlab.numerics.homotopy.monodromy_solve`), once per machine; every solve
+is then a parameter homotopy from those solutions to ``(θ, 0)`` — as many paths as the machine has complex
+assembly modes (40 for the general Stewart–Gough platform, 2 for the Delta), not a Bézout number. Each real
+endpoint becomes a configuration (the eliminated joints' angles in closed form) polished by Newton's method
+on the generated kernels' ``η = 0``; duplicates are merged.
+
+**Completeness.** Every isolated solution at the target is the end of a path (the coefficient-parameter
+theorem), provided the generic instance's solutions are all known: monodromy's stopping rule (no new
+solution in several loops in a row) is said with its count; paths that failed or ended at singular
+solutions are reported (:class:`GeneralAssembly`).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+from ..numerics import homotopy
+
+#: Seed of the generic instance and of R₀ (the same machine gets the same start solutions in every process).
+SEED = 20261202
+
+
+@dataclass(frozen=True)
+class GeneralAssembly:
+    """What a general forward-kinematics solve found: the real configurations (a list of ``q``, not yet
+    polished), the number of paths tracked (the machine's complex assembly modes, from the generic instance),
+    those that failed and those that ended at a singular solution near the reals (which may be a real assembly
+    mode at a singularity), and the monodromy loops that found the generic instance's solutions."""
+
+    configurations: list
+    paths: int
+    failed: int
+    singular: int
+    generic_loops: int
+
+    @property
+    def doubt(self) -> str:
+        """Empty when every path ended at a regular solution or went to infinity; else what is unsure."""
+        parts = []
+        if self.failed:
+            parts.append(f"{self.failed} of {self.paths} paths did not reach the target")
+        if self.singular:
+            parts.append(f"{self.singular} ended at singular solutions (a singularity at these actuator values)")
+        return "; ".join(parts)
+
+
+# ------------------------------------------------------------------ the symbolic system
+def _leg_plan(leg):
+    """Which passive joint of ``leg`` is eliminated (index, or None) and the unknown joints before it."""
+    joints = leg.joints[:-1]
+    passive = [k for k, j in enumerate(joints) if not j.actuated]
+    last = passive[-1] if passive else None
+    if last is not None and joints[last].kind == "P":
+        return None, passive
+    return last, [k for k in passive if k != last]
+
+
+def _rotation(sp, axis, c, s):
+    k = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    a = sp.Matrix(axis)
+    return c * sp.eye(3) + s * k + (1 - c) * (a * a.T)
+
+
+def _chain(leg, values: dict, joints, point, rot):
+    """Walk ``leg``'s ``joints`` (indices) from ``point`` in frame ``rot`` with their ``values`` (per joint: the
+    ``(cos, sin)`` pair of each angle, or the slide): the point reached and the frame, as SymPy matrices (the
+    chain of :func:`~pkmlab.description.spatial.leg_frames` with an angle's cosine and sine for the angle)."""
+    import sympy as sp
+
+    for k in joints:
+        joint, body = leg.joints[k], leg.bodies[k]
+        if joint.kind == "P":
+            point = point + values[k][0] * (rot * sp.Matrix(joint.axes[0]))
+        else:
+            for axis, (c, s) in zip(joint.axes, values[k], strict=True):
+                rot = rot * _rotation(sp, axis, c, s)
+        point = point + rot * sp.Matrix(body.tip)
+    return point, rot
+
+
+def _random_rotation(rng) -> np.ndarray:
+    q = rng.standard_normal(4)
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def build_system(description):
+    """The polynomial system of ``description`` (module docstring): ``(equations, unknowns, parameters,
+    layout)`` as SymPy objects; ``layout`` says how to read a solution."""
+    import sympy as sp
+
+    m = description
+    rng = np.random.default_rng(SEED)
+    rigid = m.platform.kind == "rigid"
+    X = sp.Matrix(sp.symbols("X Y Z"))
+    unknowns = list(X)
+    params = []
+    equations = []
+    if rigid:
+        g = sp.Matrix(sp.symbols("g1 g2 g3"))
+        unknowns += list(g)
+        R0 = sp.Matrix(_random_rotation(rng))
+        D = 1 + (g.T * g)[0]
+        skew = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
+        R_num = R0 * ((1 - (g.T * g)[0]) * sp.eye(3) + 2 * g * g.T + 2 * skew)
+    else:
+        R0 = sp.eye(3)
+        D, R_num = sp.Integer(1), sp.eye(3)
+    legs_layout = []
+    for i, leg in enumerate(m.legs):
+        last, free = _leg_plan(leg)
+        actuated = leg.joints[leg.actuated]
+        if actuated.kind == "R":
+            ca, sa = sp.symbols(f"ca{i + 1} sa{i + 1}")
+            params += [ca, sa]
+            theta = (ca, sa)
+        else:
+            ta = sp.Symbol(f"ta{i + 1}")
+            params.append(ta)
+            theta = (ta,)
+        values = {}  # joint index -> tuple of (c, s) pairs (angles) or a value (slide)
+        unknown_joints = []
+        for k in free:
+            joint = leg.joints[k]
+            if joint.kind == "P":
+                v = sp.Symbol(f"l{i + 1}_{k + 1}")
+                unknowns.append(v)
+                values[k] = (v,)
+            else:
+                pairs = []
+                for a in range(joint.coordinates):
+                    c, s = sp.symbols(f"c{i + 1}_{k + 1}{'ab'[a]} s{i + 1}_{k + 1}{'ab'[a]}")
+                    unknowns += [c, s]
+                    equations.append(c * c + s * s - 1)
+                    pairs.append((c, s))
+                values[k] = tuple(pairs)
+            unknown_joints.append(k)
+        values[leg.actuated] = (theta,) if actuated.kind == "R" else theta
+
+        p_num = X * D + R_num * sp.Matrix(m.platform.attachments[i])  # D·(x + R a_i)
+        n_joints = len(leg.joints) - 1
+        if last is None:
+            end, _rot = _chain(leg, values, range(n_joints), sp.Matrix(leg.base), sp.eye(3))
+            equations += list(p_num - end * D)
+            legs_layout.append(("point", last, unknown_joints))
+            continue
+        centre, rot = _chain(leg, values, range(last), sp.Matrix(leg.base), sp.eye(3))
+        joint = leg.joints[last]
+        # w: from the eliminated joint to the spherical joint, in the frame after the eliminated joint's turns
+        w, _rot = _chain(leg, values, range(last + 1, n_joints), sp.Matrix(leg.bodies[last].tip), sp.eye(3))
+        d = p_num - centre * D
+        if joint.kind == "U":
+            equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
+            legs_layout.append(("sphere", last, unknown_joints))
+        else:
+            axis = sp.Matrix(joint.axes[0])
+            normal = rot * axis
+            equations.append((d.T * normal)[0] - (w.T * axis)[0] * D)
+            equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
+            legs_layout.append(("circle", last, unknown_joints))
+    if len(equations) != len(unknowns):
+        raise InvalidParameterError(f"{m.name}: its forward-kinematics system has {len(equations)} equations in "
+                                    f"{len(unknowns)} unknowns (a leg pkmlab cannot reduce)")
+    return equations, unknowns, params, {"legs": legs_layout, "R0": np.array(R0, dtype=float), "rigid": rigid}
+
+
+def _numpy_function(sp, exprs, args, name: str):
+    """A NumPy function ``f(z, p) -> (P, len(exprs))`` of SymPy ``exprs`` in the symbols ``args`` (the columns
+    of ``z`` then of ``p``), common subexpressions shared."""
+    from sympy.printing.numpy import NumPyPrinter
+
+    printer = NumPyPrinter({"fully_qualified_modules": False, "inline": True})
+    subs, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_c"))
+    lines = [f"def {name}(z, p):"]
+    nz = args[0]
+    for k, s in enumerate(nz):
+        lines.append(f"    {s} = z[:, {k}]")
+    for k, s in enumerate(args[1]):
+        lines.append(f"    {s} = p[:, {k}]")
+    for s, e in subs:
+        lines.append(f"    {s} = {printer.doprint(e)}")
+    lines.append(f"    out = np.zeros((z.shape[0], {len(reduced)}), dtype=complex)")
+    for k, e in enumerate(reduced):
+        if e != 0:
+            lines.append(f"    out[:, {k}] = {printer.doprint(e)}")
+    lines.append("    return out")
+    namespace = {"np": np, "sqrt": np.sqrt}
+    exec("\n".join(lines), namespace)  # noqa: S102 -- code printed from pkmlab's own derivation
+    return namespace[name]
+
+
+@functools.lru_cache(maxsize=16)
+def _family(description):
+    import sympy as sp
+
+    equations, unknowns, params, layout = build_system(description)
+    n, m = len(unknowns), len(params)
+    offsets = list(sp.symbols(f"b0:{n}"))
+    all_params = params + offsets
+    F = [e - b for e, b in zip(equations, offsets, strict=True)]
+    Fm = sp.Matrix(F)
+    J = Fm.jacobian(unknowns)
+    Jp = sp.Matrix(equations).jacobian(params)
+    f = _numpy_function(sp, F, (unknowns, all_params), "F")
+    jf = _numpy_function(sp, list(J), (unknowns, all_params), "J")
+    jp = _numpy_function(sp, list(Jp), (unknowns, all_params), "Jp")
+
+    def dF_dx(z, p):
+        return jf(z, p).reshape(len(z), n, n)
+
+    def dF_dp(z, p, dp):
+        g = jp(z, p).reshape(len(z), n, m)
+        return np.einsum("kij,kj->ki", g, dp[:, :m]) - dp[:, m:]
+
+    from ..description.mobility import _size
+
+    family = homotopy.Family(f, dF_dx, dF_dp, scale=_size(description))
+    return family, n, m, layout, [str(u) for u in unknowns]
+
+
+@functools.lru_cache(maxsize=16)
+def generic_solutions(description):
+    """:func:`solve_generic_instance`, kept in pkmlab's cache folder beside the compiled kernels (keyed by the
+    description's TOML form): a later process reads it instead of running monodromy again."""
+    import hashlib
+    import os
+    import tempfile
+
+    from .._compile_cache import CACHE_DIR
+    from ..description.spatial import spatial_mechanism_to_toml
+
+    key = hashlib.sha1(f"{SEED}\n{spatial_mechanism_to_toml(description)}".encode()).hexdigest()[:20]
+    path = CACHE_DIR / "assembly" / f"{key}.npz"
+    if path.exists():
+        with np.load(path) as data:
+            return data["solutions"], data["parameters"], int(data["loops"])
+    solutions, parameters, loops = solve_generic_instance(description)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".generic-", suffix=".npz")
+    with os.fdopen(fd, "wb") as f:
+        np.savez(f, solutions=solutions, parameters=parameters, loops=loops)
+    os.replace(tmp, path)
+    return solutions, parameters, loops
+
+
+def solve_generic_instance(description):
+    """The machine's assembly modes at generic complex actuator parameters ``θ₁`` (cached): the solutions of
+    the offset family at ``(θ₀, b₀)`` by monodromy, carried to ``(θ₁, 0)`` by a parameter homotopy, the paths
+    that end there regular kept (the offset family has more solutions than the machine: the others go to
+    infinity or to singular points), then checked by monodromy loops in ``θ`` alone (``b = 0``), which must
+    find nothing new. Returns ``(solutions, (θ₁, 0), loops)``."""
+    family, n, m, _layout, _names = _family(description)
+    rng = np.random.default_rng(SEED)
+    z0 = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 0.5
+    theta0 = rng.standard_normal(m) + 1j * rng.standard_normal(m)
+    b0 = family.F(z0[None], np.concatenate([theta0, np.zeros(n)])[None])[0]
+    p0 = np.concatenate([theta0, b0])
+    offset_solutions, loops = homotopy.monodromy_solve(family, z0, p0, rng)
+    p1 = np.concatenate([rng.standard_normal(m) + 1j * rng.standard_normal(m), np.zeros(n)])
+    z, regular, _diverged = homotopy.parameter_homotopy(family, offset_solutions, p0, p1)
+    machine = homotopy.distinct(z[regular], family.scale)
+    checked, more = homotopy.monodromy_solve(family, machine[0], p1, rng, known=machine, free=m, stale_loops=3)
+    return checked, p1, loops + more
+
+
+# ------------------------------------------------------------------ solving
+def _parameters(description, theta: np.ndarray, n: int) -> np.ndarray:
+    values = []
+    for leg, t in zip(description.legs, theta, strict=True):
+        values += [np.cos(t), np.sin(t)] if leg.joints[leg.actuated].kind == "R" else [t]
+    return np.concatenate([np.array(values, dtype=complex), np.zeros(n, dtype=complex)])
+
+
+def _cayley(R0: np.ndarray, g: np.ndarray) -> np.ndarray:
+    skew = np.array([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
+    return R0 @ (((1 - g @ g) * np.eye(3) + 2 * np.outer(g, g) + 2 * skew) / (1 + g @ g))
+
+
+def _angles_of(R: np.ndarray) -> tuple[float, float, float]:
+    """roll, pitch, yaw of ``R = Rz(yaw) Ry(pitch) Rx(roll)``."""
+    pitch = -np.arcsin(np.clip(R[2, 0], -1.0, 1.0))
+    return float(np.arctan2(R[2, 1], R[2, 2])), float(pitch), float(np.arctan2(R[1, 0], R[0, 0]))
+
+
+def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], layout: dict) -> np.ndarray | None:
+    """The configuration ``q`` of a real solution ``z`` (module docstring), before polishing; None when an
+    eliminated universal joint cannot turn its body that way (its own singularity)."""
+    from ..description.spatial_legs import _turn_onto, universal_angles
+
+    m = model.description
+    value = dict(zip(names, z, strict=True))
+    X = np.array([value["X"], value["Y"], value["Z"]])
+    if layout["rigid"]:
+        R = _cayley(layout["R0"], np.array([value["g1"], value["g2"], value["g3"]]))
+        whole = np.array([*X, *_angles_of(R)])
+    else:
+        R, whole = np.eye(3), X
+    actuators, passive = [], []
+    for i, (leg, (_kind, last, _free)) in enumerate(zip(m.legs, layout["legs"], strict=True)):
+        joint_values: dict[int, list[float]] = {leg.actuated: [float(theta[i])]}
+        for k, joint in enumerate(leg.joints[:-1]):
+            if joint.actuated or k == last:
+                continue
+            if joint.kind == "P":
+                joint_values[k] = [value[f"l{i + 1}_{k + 1}"]]
+            else:
+                joint_values[k] = [float(np.arctan2(value[f"s{i + 1}_{k + 1}{ab}"], value[f"c{i + 1}_{k + 1}{ab}"]))
+                                   for ab in "ab"[:joint.coordinates]]
+        if last is not None:
+            pairs = {k: [(np.cos(a), np.sin(a)) for a in v] if leg.joints[k].kind != "P" else v
+                     for k, v in joint_values.items()}
+            import sympy as sp
+
+            centre, rot = _chain(leg, pairs, range(last), sp.Matrix(leg.base), sp.eye(3))
+            w, _ = _chain(leg, pairs, range(last + 1, len(leg.joints) - 1), sp.Matrix(leg.bodies[last].tip), sp.eye(3))
+            centre, rot, w = (np.array(v, dtype=float) for v in (centre, rot, w))
+            centre, w = centre.ravel(), w.ravel()
+            target = X + R @ np.array(m.platform.attachments[i])
+            local = rot.T @ (target - centre)
+            joint = leg.joints[last]
+            if joint.kind == "U":
+                q1, q2, bad = universal_angles(joint.axes, w, local[None, :])
+                if bad[0]:
+                    return None
+                joint_values[last] = [float(q1[0]), float(q2[0])]
+            else:
+                joint_values[last] = [float(_turn_onto(np.array(joint.axes[0]), w, local[None, :])[0])]
+        for k, joint in enumerate(leg.joints[:-1]):
+            (actuators if joint.actuated else passive).extend(joint_values[k])
+    order = [m.platform.full_pose_names.index(c) for c in m.platform.q_pose_names]
+    return np.array([*actuators, *passive, *whole[order]])
+
+
+#: Largest imaginary part (relative to the machine's size and the solution's) of an endpoint taken as real.
+IMAG_TOL = 1e-7
+
+
+def general_assembly_modes(model, theta) -> GeneralAssembly:
+    """The real endpoints of the parameter homotopy of ``model`` at actuator values ``theta`` as configurations
+    (module docstring), before Newton's method polishes them on ``η = 0``
+    (:func:`pkmlab.algorithms.assembly.assembly_modes` does, and merges repeats)."""
+    m = model.description
+    theta = np.asarray(theta, dtype=float)
+    family, n, _m, layout, names = _family(m)
+    sols, p_generic, loops = generic_solutions(m)
+    z, regular, diverged = homotopy.parameter_homotopy(family, sols, p_generic, _parameters(m, theta, n))
+    finite = np.isfinite(z).all(axis=1)
+    size = np.maximum(np.abs(z).max(axis=1, initial=0.0), 1.0) * max(family.scale, 1.0)
+    imaginary = np.abs(z.imag).max(axis=1, initial=0.0) / size
+    # a singular endpoint far from the reals is no missing real assembly mode: only the near-real ones are doubts
+    singular = ~regular & ~diverged & finite & (imaginary < 1e-4)
+    found = []
+    for k in np.flatnonzero(finite & ~diverged):
+        if imaginary[k] > IMAG_TOL:
+            continue
+        q = _configuration(model, theta, z[k].real, names, layout)
+        if q is not None:
+            found.append(q)
+    return GeneralAssembly(found, len(sols), int(np.sum(~finite)), int(np.sum(singular)), loops)
