@@ -3,7 +3,9 @@
 A trajectory is a geometric path of platform poses ``(x, y, α)`` parametrised by arc length
 ``s ∈ [0, L]`` (a pure rotation is measured in radians), traversed with a time law
 ``s(t)`` that starts and ends at rest (conventions §4: the paper's "third-order polynomial");
-:class:`TimedWaypoints` give a path in any machine's pose coordinates. :meth:`Trajectory.desired` gives
+:class:`SpatialCircle` is a circle in any plane of a spatial platform's point (its orientation held);
+:class:`TimedWaypoints` give a path in any machine's pose coordinates, at rest at each waypoint, and
+:class:`Spline` a smooth one through them that does not stop. :meth:`Trajectory.desired` gives
 pose, velocity and acceleration at any time; a simulation turns them into the desired actuator motion
 ``θ_d, θ̇_d, θ̈_d`` (a :class:`JointMotion`) by the machine's exact inverse kinematics and its exact first and
 second derivatives (:func:`pkmlab.model.mechanism_model.path_rates`, no finite differences).
@@ -142,13 +144,14 @@ class Trajectory:
     ``duration = length / speed`` (conventions §4: ``T = L / v``).
     """
 
-    path: Circle | Line
+    path: Circle | Line | SpatialCircle
     speed: float
     law: str = "cubic"
 
     def __post_init__(self):
         if not callable(getattr(self.path, "at", None)):
-            raise InvalidParameterError(f"path must be a Circle or a Line, got {type(self.path).__name__} "
+            raise InvalidParameterError(f"path must be a Circle, a Line or a SpatialCircle, got "
+                                        f"{type(self.path).__name__} "
                                         f"{shown(self.path, 50)}")
         length = _positive("path length", getattr(self.path, "length", None))
         speed = _positive("speed", self.speed)
@@ -161,8 +164,18 @@ class Trajectory:
     def duration(self) -> float:
         return self.path.length / self.speed
 
+    @property
+    def spatial(self) -> bool:
+        """Whether the path is of a spatial machine's pose (a :class:`SpatialCircle`), not ``(x, y, α)``."""
+        return isinstance(self.path, SpatialCircle)
+
+    @property
+    def dimension(self) -> int:
+        """The number of the poses' coordinates: 3 for a planar path ``(x, y, α)``, the circle's otherwise."""
+        return getattr(self.path, "dimension", 3)
+
     def desired(self, t):
-        """``(pose, pose_dot, pose_ddot)``, each (..., 3), at times ``t`` (clamped to [0, T])."""
+        """``(pose, pose_dot, pose_ddot)``, each (..., dimension), at times ``t`` (clamped to [0, T])."""
         T = self.duration
         L = self.path.length
         sigma, dsigma, ddsigma = time_law(self.law, _times(t) / T)
@@ -266,6 +279,111 @@ class TimedWaypoints:
         delta = pts[k + 1] - pts[k]
         return (pts[k] + sigma[..., None] * delta, (d1 / span)[..., None] * delta,
                 (d2 / span**2)[..., None] * delta)
+
+
+@dataclass(frozen=True)
+class SpatialCircle:
+    """A circle of a spatial platform's point, ``turns`` times counter-clockwise about ``normal`` (right-hand
+    rule) from ``start_angle``, its orientation held at ``orientation`` (the pose's other coordinates: ``()``
+    for a translating platform, ``(roll, pitch, yaw)`` for a rigid one).
+
+    The point is ``center + radius (cos ψ u + sin ψ v)``, ``ψ = start_angle + s / radius``, with ``u`` the
+    world's x axis made normal to ``normal`` (its y axis where x is along ``normal``) and ``v = normal × u``: about
+    ``z`` this is the planar :class:`Circle`'s convention (``start_angle = π``, the point of least x)."""
+
+    center: tuple[float, float, float]
+    radius: float
+    normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    start_angle: float = math.pi
+    orientation: tuple = ()
+    turns: float = 1.0
+
+    def __post_init__(self):
+        _finite_vector("circle center", self.center, 3)
+        _positive("circle radius", self.radius)
+        _positive("circle turns", self.turns)
+        as_real("circle start_angle", self.start_angle)
+        normal = _finite_vector("circle normal", self.normal, 3)
+        if not np.linalg.norm(normal) > 0:
+            raise InvalidParameterError(f"circle normal must be a non-zero vector, got {list(self.normal)}")
+        orientation = np.asarray(self.orientation, dtype=float).reshape(-1)
+        if len(orientation) not in (0, 3) or not np.all(np.isfinite(orientation)):
+            raise InvalidParameterError(f"circle orientation must be [] or [roll, pitch, yaw] (rad), got "
+                                        f"{shown(self.orientation)}")
+        object.__setattr__(self, "orientation", tuple(float(v) for v in orientation))
+        if not math.isfinite(self.length):
+            raise InvalidParameterError(f"circle radius × turns is too large: the length is {self.length}")
+
+    @property
+    def length(self) -> float:
+        return 2 * math.pi * self.radius * self.turns
+
+    @property
+    def dimension(self) -> int:
+        return 3 + len(self.orientation)
+
+    def _frame(self) -> tuple[np.ndarray, np.ndarray]:
+        n = np.asarray(self.normal, dtype=float)
+        n = n / np.linalg.norm(n)
+        ref = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        u = ref - (ref @ n) * n
+        u /= np.linalg.norm(u)
+        return u, np.cross(n, u)
+
+    def at(self, s):
+        """Pose, ``d/ds`` and ``d²/ds²`` (each (..., dimension)) at arc lengths ``s``."""
+        s = np.asarray(s, dtype=float)
+        r = self.radius
+        u, v = self._frame()
+        psi = (self.start_angle + s / r)[..., None]
+        c, sn = np.cos(psi), np.sin(psi)
+        rest = np.broadcast_to(np.asarray(self.orientation, dtype=float), (*s.shape, len(self.orientation)))
+        zero = np.zeros_like(rest)
+        pose = np.concatenate([np.asarray(self.center) + r * (c * u + sn * v), rest], axis=-1)
+        d1 = np.concatenate([-sn * u + c * v, zero], axis=-1)
+        d2 = np.concatenate([(-c * u - sn * v) / r, zero], axis=-1)
+        return pose, d1, d2
+
+
+@dataclass(frozen=True)
+class Spline:
+    """A smooth path through poses ``points`` (K, d) of any dimension, passing the point ``k`` at time ``t_k``
+    (``durations`` between them, s) without stopping: in every coordinate the cubic spline of those knots
+    that starts and ends at rest (zero velocity at both ends, continuous acceleration everywhere), at rest at
+    its end points before 0 and after the end. Orientation angles are splined as coordinates (a path in pose
+    space, as :class:`TimedWaypoints`)."""
+
+    points: tuple
+    durations: tuple
+
+    def __post_init__(self):
+        probe = TimedWaypoints(self.points, self.durations)  # the same checks of points and durations
+        object.__setattr__(self, "points", probe.points)
+        object.__setattr__(self, "durations", probe.durations)
+
+    @property
+    def dimension(self) -> int:
+        return len(self.points[0])
+
+    @property
+    def duration(self) -> float:
+        return float(sum(self.durations))
+
+    def _spline(self):
+        from scipy.interpolate import CubicSpline
+
+        knots = np.concatenate([[0.0], np.cumsum(self.durations)])
+        return CubicSpline(knots, np.asarray(self.points), axis=0, bc_type="clamped")
+
+    def desired(self, t):
+        """``(pose, pose_dot, pose_ddot)``, each (..., d), at times ``t`` (at rest before 0 and after the end)."""
+        t = _times(t)
+        spline = self._spline()
+        inside = (t >= 0.0) & (t <= self.duration)
+        clamped = np.clip(t, 0.0, self.duration)
+        pose = spline(clamped)
+        return pose, np.where(inside[..., None], spline(clamped, 1), 0.0), np.where(inside[..., None],
+                                                                                    spline(clamped, 2), 0.0)
 
 
 def paper_trajectory(speed: float = 0.2) -> Trajectory:

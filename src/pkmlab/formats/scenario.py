@@ -10,7 +10,7 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     length_scale = 1.15         # the bodies' and platform's lengths ×; the base is unchanged
 
     [trajectory]
-    type = "circle"             # circle | line | waypoints
+    type = "circle"             # circle | line | waypoints | spline
     center = [0.25, 0.21]
     radius = 0.05
     start_angle = 3.14159265    # default: pi, the leftmost point
@@ -19,7 +19,10 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     time_law = "cubic"          # cubic | quintic
     # circle also: alpha_end (orientation at the end), turns (default 1)
     # line: start = [x, y, alpha], end = [x, y, alpha]
-    # waypoints: points = [[x, y, alpha], ...]
+    # waypoints: points = [[x, y, alpha], ...]; with durations = [s, ...] poses of any machine's own
+    #   coordinates (e.g. [x, y, z] for the Delta), at rest at each point
+    # spline: points and durations as waypoints, passed without stopping (a C2 cubic spline, at rest at its ends)
+    # a spatial machine's circle: center = [x, y, z], normal = [0, 0, 1], orientation = [roll, pitch, yaw]
 
     [controller]
     type = "computed_torque"    # computed_torque | pd
@@ -57,7 +60,16 @@ from .._files import parse_toml, read_toml
 from .._format import apart, suggestion
 from ..algorithms.kinematics import as_working_mode
 from ..control.controller import CONTROLLER_TYPES, ControllerSpec
-from ..control.trajectory import Circle, Line, TimedWaypoints, Trajectory, WaypointTrajectory, paper_trajectory
+from ..control.trajectory import (
+    Circle,
+    Line,
+    SpatialCircle,
+    Spline,
+    TimedWaypoints,
+    Trajectory,
+    WaypointTrajectory,
+    paper_trajectory,
+)
 from ..errors import FileFormatError, InvalidParameterError, PkmlabDeprecationWarning, PkmlabError, shown
 from ..model.mechanism_model import MechanismModel, load
 from ..simulation.scenario import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
@@ -69,15 +81,16 @@ TABLES = {
     "mechanism": ("preset", "file", "name", "dimension", "gravity", "platform", "leg"),
     "plant": ("mass_scale", "length_scale"),
     "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
-                   "start", "end", "points", "durations"),
+                   "normal", "orientation", "start", "end", "points", "durations"),
     "controller": ("type", "kp", "kv", "sample_time"),
     "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps"),
 }
 #: Keys of ``[trajectory]`` by its ``type``, besides ``type``, ``speed`` and ``time_law``.
 TRAJECTORY_KEYS = {
-    "circle": ("center", "radius", "start_angle", "alpha", "alpha_end", "turns"),
+    "circle": ("center", "radius", "start_angle", "alpha", "alpha_end", "turns", "normal", "orientation"),
     "line": ("start", "end"),
     "waypoints": ("points", "durations"),
+    "spline": ("points", "durations"),
 }
 TIME_LAWS = ("cubic", "quintic")
 #: Runs longer than this many samples are refused (memory: ~200 bytes per sample).
@@ -278,9 +291,23 @@ def _trajectory(rd: _Reader, table: dict):
         raise rd.format_error(f"unknown key '{_key(key)}' in [{name}]{suggestion(key, valid)}")
     if kind == "waypoints" and "durations" in table:
         return _timed_waypoints(rd, table)
+    if kind == "spline":
+        if "durations" not in table:
+            raise rd.format_error(f"{rd.where(name, 'durations')} is missing: a spline passes its points at the "
+                                  "times the durations give (one per segment, s)")
+        if "time_law" in table:
+            raise rd.format_error(f"{rd.where(name, 'time_law')} does not apply to a spline (it starts and ends at "
+                                  "rest by itself)")
+        waypoints = _timed_waypoints(rd, table)
+        return Spline(waypoints.points, waypoints.durations)
     speed = rd.check_number(rd.required(table, name, "speed", "the average speed in m/s"),
                             rd.where(name, "speed"), "positive")
     law = rd.choice(table, name, "time_law", TIME_LAWS, "cubic")
+    if kind == "circle" and isinstance(table.get("center"), list) and len(table["center"]) == 3:
+        return _spatial_circle(rd, table, speed, law)
+    for key in ("normal", "orientation"):
+        if key in table:
+            raise rd.format_error(f"{rd.where(name, key)} is for a circle of a spatial machine (center [x, y, z])")
     if kind == "circle":
         center = rd.vector(rd.required(table, name, "center", "[x, y] in m"), rd.where(name, "center"), 2, "[x, y]")
         radius = rd.check_number(rd.required(table, name, "radius", "in m"), rd.where(name, "radius"), "positive")
@@ -311,6 +338,28 @@ def _trajectory(rd: _Reader, table: dict):
     if not math.isfinite(duration):
         raise rd.value_error(f"[trajectory]: the motion would last forever (length / speed is {duration})")
     return trajectory
+
+
+def _spatial_circle(rd: _Reader, table: dict, speed: float, law: str) -> Trajectory:
+    """``type = "circle"`` with ``center = [x, y, z]``: a circle of a spatial platform's point in the plane normal
+    to ``normal`` (default ``[0, 0, 1]``), its ``orientation`` ``[roll, pitch, yaw]`` held (none for a
+    translating platform)."""
+    name = "trajectory"
+    for key in ("alpha", "alpha_end"):
+        if key in table:
+            raise rd.format_error(f"{rd.where(name, key)} is a planar circle's: a spatial one holds its "
+                                  "orientation = [roll, pitch, yaw]")
+    center = rd.vector(table["center"], rd.where(name, "center"), 3, "[x, y, z]")
+    radius = rd.check_number(rd.required(table, name, "radius", "in m"), rd.where(name, "radius"), "positive")
+    normal = rd.vector(table.get("normal", [0.0, 0.0, 1.0]), rd.where(name, "normal"), 3, "[x, y, z]")
+    if not np.linalg.norm(normal) > 0:
+        raise rd.value_error(f"{rd.where(name, 'normal')} must be a non-zero vector, got {show(table['normal'])}")
+    orientation = table.get("orientation", [])
+    if orientation != []:
+        orientation = rd.vector(orientation, rd.where(name, "orientation"), 3, "[roll, pitch, yaw] in rad")
+    path = SpatialCircle(center, radius, normal, rd.number(table, name, "start_angle", math.pi), tuple(orientation),
+                         rd.number(table, name, "turns", 1.0, "positive"))
+    return Trajectory(path, speed, law)
 
 
 def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:

@@ -123,15 +123,20 @@ def _check_pose_dimension(model: MechanismModel, trajectory) -> None:
     """The trajectory's poses are the machine's: a spatial machine's path is given in its own coordinates
     (:class:`~pkmlab.control.trajectory.TimedWaypoints` of ``(x, y, z[, roll, pitch, yaw])``); a planar path
     ``(x, y, alpha)`` serves a planar machine."""
-    from ..control.trajectory import TimedWaypoints
+    from ..control.trajectory import Spline, TimedWaypoints
 
     m = model.description
-    width = trajectory.dimension if isinstance(trajectory, TimedWaypoints) else 3
+    in_pose = isinstance(trajectory, TimedWaypoints | Spline) or getattr(trajectory, "spatial", False)
+    width = trajectory.dimension if in_pose else 3
     spatial = getattr(m, "spatial", False)
-    if spatial and not isinstance(trajectory, TimedWaypoints):
+    if spatial and not in_pose:
         raise InvalidParameterError(f"the {m.name} is spatial (pose {', '.join(m.pose_names)}): give its path as "
-                                    "waypoints in those coordinates with durations (a planar path of (x, y, alpha) "
-                                    "does not apply)")
+                                    "waypoints or a spline in those coordinates with durations, or a circle of "
+                                    "center [x, y, z] (a planar path of (x, y, alpha) does not apply)")
+    if getattr(trajectory, "spatial", False) and tuple(m.pose_names[:3]) != ("x", "y", "z"):
+        raise InvalidParameterError(f"a circle moves the platform's point in x, y and z, which the {m.name} does not "
+                                    f"all control (its pose is {', '.join(m.pose_names)}): give waypoints or a "
+                                    "spline")
     # a planar path (x, y, alpha) serves a point platform too, whose alpha must then stay 0 (checked on the path)
     if width != m.dof and not (not spatial and m.dof == 2 and width == 3):
         raise InvalidParameterError(f"the trajectory's poses have {width} coordinates, but the {m.name}'s pose is "
