@@ -290,6 +290,8 @@ def test_a_configuration_off_the_loop_closure_is_refused_naming_its_residual(mod
     q[0] += 0.3
     for call in (lambda: pkmlab.actuator_space_model(model, q, np.zeros(3)),
                  lambda: pkmlab.coordinate_jacobian(model, q),
+                 lambda: pkmlab.velocity_jacobian(model, q),
+                 lambda: pkmlab.singularity_measure(model, q),
                  lambda: pkmlab.constrained_dynamics(model, q, np.zeros(9), np.zeros(3))):
         with pytest.raises(pkmlab.InvalidParameterError, match=r"^q is off the loop closure: max \|eta\(q\)\| = "):
             call()
@@ -301,6 +303,21 @@ def test_rates_that_are_not_finite_or_overflow_are_refused(models, bad):
     q = pkmlab.inverse_kinematics(model, POSES["paper"], mode=(1, -1, 1)).q
     with pytest.raises(pkmlab.InvalidParameterError, match=r"^theta_dot"):
         pkmlab.actuator_space_model(model, q, [bad, 0.0, 0.0])
+
+
+def test_an_overflow_says_only_pkmlabs_line_even_interpreted():
+    """The command line's one-shot commands run the kernels interpreted, where NumPy warns of an overflow: the
+    refusal is pkmlab's one line, no RuntimeWarning before it."""
+    import subprocess
+    import sys
+
+    code = ("import pkmlab\nm = pkmlab.load('paper')\nq = pkmlab.inverse_kinematics(m, [0.25, 0.21, 0.0]).q[0]\n"
+            "try:\n    pkmlab.actuator_space_model(m, q, [1e200, 0.0, 0.0])\nexcept pkmlab.InvalidParameterError as e:"
+            "\n    print(e)\n")
+    run = subprocess.run([sys.executable, "-W", "default", "-c", code], capture_output=True, text=True,
+                         env={**__import__("os").environ, "PKMLAB_INTERPRETED": "1"}, timeout=120)
+    assert run.stdout.strip() == "theta_dot overflows the model (values too large)"
+    assert "Warning" not in run.stderr, run.stderr
 
 
 def test_a_singular_configuration_is_refused_by_the_reduced_model(models):

@@ -103,6 +103,11 @@ def _finite(name: str, *arrays) -> None:
         raise InvalidParameterError(f"{name} overflows the model (values too large)")
 
 
+#: What the computations below run under: an overflow is refused after them (:func:`_finite`, naming the input),
+#: so NumPy's own warnings of it would only come first with the wrong words.
+_QUIET = {"over": "ignore", "invalid": "ignore", "divide": "ignore"}
+
+
 def full_space_model(model: MechanismModel, q, q_dot) -> FullSpaceModel:
     """``(M, C q̇, g)`` of the unconstrained bodies at configurations ``q`` and rates ``q_dot`` (..., n)
     (eqs. 23–24, with gravity): the Newton–Euler equations of every body in the coordinates ``q``."""
@@ -110,8 +115,9 @@ def full_space_model(model: MechanismModel, q, q_dot) -> FullSpaceModel:
     n = len(model.coordinates)
     qs, qds, shape = as_broadcast(("q", q, n), ("q_dot", q_dot, n))
     M, c, g = np.empty((len(qs), n, n)), np.empty((len(qs), n)), np.empty((len(qs), n))
-    for k in range(len(qs)):
-        M[k], c[k], g[k] = mm.full_space_model(model, qs[k], qds[k])
+    with np.errstate(**_QUIET):
+        for k in range(len(qs)):
+            M[k], c[k], g[k] = mm.full_space_model(model, qs[k], qds[k])
     _finite("q_dot", c)
     return FullSpaceModel(M.reshape(*shape, n, n), c.reshape(*shape, n), g.reshape(*shape, n))
 
@@ -143,10 +149,11 @@ def constrained_dynamics(model: MechanismModel, q, q_dot, tau) -> ConstrainedDyn
     k_.constraint_biases(qs, qds, model.P, gamma)
     q_ddot, multipliers = np.empty((len(qs), n)), np.empty((len(qs), k_.N_CONSTRAINTS))
     for k in range(len(qs)):
-        M, c, g = mm.full_space_model(model, qs[k], qds[k])
-        Q = np.zeros(n)
-        Q[:na] = taus[k]
-        q_ddot[k], multipliers[k], ok = lagrangian.constrained_accelerations(M, c + g, j_eta[k], gamma[k], Q)
+        with np.errstate(**_QUIET):
+            M, c, g = mm.full_space_model(model, qs[k], qds[k])
+            Q = np.zeros(n)
+            Q[:na] = taus[k]
+            q_ddot[k], multipliers[k], ok = lagrangian.constrained_accelerations(M, c + g, j_eta[k], gamma[k], Q)
         if not ok:
             raise SingularityError(f"q{index_text(k, shape)}: the constrained model is singular there "
                                    "(a gain-type singularity)")
@@ -181,7 +188,8 @@ def actuator_space_model(model: MechanismModel, q, theta_dot) -> ActuatorSpaceMo
     check_loop_closure(model, qs, shape)
     _regular(model, qs, shape)
     M, c, g = np.empty((len(qs), na, na)), np.empty((len(qs), na)), np.empty((len(qs), na))
-    failed = model.kernels.actuator_space_models(qs, theta_dots, model.P, M, c, g)
+    with np.errstate(**_QUIET):
+        failed = model.kernels.actuator_space_models(qs, theta_dots, model.P, M, c, g)
     if failed >= 0:
         raise SingularityError(f"q{index_text(int(failed), shape)} is at a gain-type singularity")
     _finite("theta_dot", c)
@@ -196,7 +204,8 @@ def inverse_dynamics(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndar
     qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
                                                       ("theta_ddot", theta_ddot, na))
     r = actuator_space_model(model, qs, theta_dots)
-    tau = np.einsum("kij,kj->ki", r.M, theta_ddots) + r.c + r.g
+    with np.errstate(**_QUIET):
+        tau = np.einsum("kij,kj->ki", r.M, theta_ddots) + r.c + r.g
     _finite("theta_ddot", tau)
     return tau.reshape(*shape, na)
 
@@ -208,6 +217,7 @@ def forward_dynamics(model: MechanismModel, q, theta_dot, tau) -> np.ndarray:
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, taus, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("tau", tau, na))
     r = actuator_space_model(model, qs, theta_dots)
-    theta_ddot = np.linalg.solve(r.M, (taus - r.c - r.g)[..., None])[..., 0]
+    with np.errstate(**_QUIET):
+        theta_ddot = np.linalg.solve(r.M, (taus - r.c - r.g)[..., None])[..., 0]
     _finite("tau", theta_ddot)
     return theta_ddot.reshape(*shape, na)

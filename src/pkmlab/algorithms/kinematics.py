@@ -452,11 +452,13 @@ def coordinate_accelerations(model: MechanismModel, q, theta_dot, theta_ddot) ->
 
 
 def singularity_measure(model: MechanismModel, q) -> np.ndarray:
-    """The gain-type singularity measure ``S`` (...) at configurations ``q``: zero where the passive motion is
-    undetermined (conventions §2: the determinant of the legs' lines of action, the paper's eq. 19 for its
-    machine; ``sin(φ1 - φ2)`` for the five-bar)."""
+    """The gain-type singularity measure ``S`` (...) at configurations ``q`` on the loop closures: zero where the
+    passive motion is undetermined (conventions §2: the determinant of the legs' lines of action, the paper's
+    eq. 19 for its machine; ``sin(φ1 - φ2)`` for the five-bar). A configuration off them is refused, naming its
+    residual."""
     model = as_model(model)
     qs, shape = _configurations(model, q)
+    check_loop_closure(model, qs, shape)  # the measure of a configuration the machine cannot be in means nothing
     out = np.empty(len(qs))
     model.kernels.singularity_measures(qs, model.P, out)
     return out.reshape(shape)
