@@ -52,7 +52,7 @@ DIETMAIER_SOLUTIONS = [
 
 def random_rotation(rng) -> np.ndarray:
     q = rng.standard_normal(4)
-    return stewart_fk._rotation_of(q)
+    return stewart_fk.rotation_of_quaternion(q)
 
 
 def leg_errors(base, platform, lengths, R, p) -> np.ndarray:
@@ -216,7 +216,7 @@ def test_planar_platform_finds_pose_and_its_mirror_image():
     b, a = np.deg2rad([0, 100, 120, 220, 240, 340]), np.deg2rad([40, 80, 160, 200, 280, 320])
     base = np.c_[np.cos(b), np.sin(b), np.zeros(6)]
     platform = 0.5 * np.c_[np.cos(a), np.sin(a), np.zeros(6)]
-    R0, p0 = stewart_fk._rotation_of([0.9, 0.1, -0.2, 0.3]), np.array([0.1, -0.05, 0.8])
+    R0, p0 = stewart_fk.rotation_of_quaternion([0.9, 0.1, -0.2, 0.3]), np.array([0.1, -0.05, 0.8])
     lengths = np.linalg.norm(p0 + platform @ R0.T - base, axis=1)
     modes = solve_quietly(base, platform, lengths)
     assert_valid(modes, base, platform, lengths)

@@ -173,7 +173,7 @@ def _stewart_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tu
     real pose at those six distances; each becomes a configuration by the legs' inverse kinematics (the
     universal joints' angles), polished by Newton's method on ``η = 0``. Sorted by the pose's last
     coordinate (yaw)."""
-    from ..description.spatial import orientations
+    from ..description.spatial import orientation_angles, orientations
     from .stewart_fk import assembly_modes as platform_poses
 
     m = model.description
@@ -185,10 +185,7 @@ def _stewart_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tu
     poses = platform_poses(np.array([leg.base for leg in m.legs]), np.array(m.platform.attachments),
                            np.array(lengths))
     for rot, p in poses:
-        # roll, pitch, yaw of R = Rz(yaw) Ry(pitch) Rx(roll)
-        pitch = -math.asin(max(-1.0, min(1.0, rot[2, 0])))
-        roll, yaw = math.atan2(rot[2, 1], rot[2, 2]), math.atan2(rot[1, 0], rot[0, 0])
-        pose = np.array([*p, roll, pitch, yaw])
+        pose = np.array([*p, *orientation_angles(rot)])
         if not np.allclose(orientations(pose[None, 3:])[0], rot, atol=1e-9):
             continue  # at gimbal lock: no roll, pitch, yaw (said below, with the poses lost)
         q, _unreachable, failure = inverse_kinematics_batch(model, pose[None, :], ())

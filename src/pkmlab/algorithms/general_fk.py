@@ -41,6 +41,7 @@ import numpy as np
 
 from ..errors import InvalidParameterError
 from ..numerics import homotopy
+from .stewart_fk import rotation_of_quaternion
 
 #: Seed of the generic instance and of R₀ (the same machine gets the same start solutions in every process).
 SEED = 20261202
@@ -104,14 +105,6 @@ def _chain(leg, values: dict, joints, point, rot):
     return point, rot
 
 
-def _random_rotation(rng) -> np.ndarray:
-    q = rng.standard_normal(4)
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
 def build_system(description):
     """The polynomial system of ``description`` (module docstring): ``(equations, unknowns, parameters,
     layout)`` as SymPy objects; ``layout`` says how to read a solution."""
@@ -127,7 +120,7 @@ def build_system(description):
     if rigid:
         g = sp.Matrix(sp.symbols("g1 g2 g3"))
         unknowns += list(g)
-        R0 = sp.Matrix(_random_rotation(rng))
+        R0 = sp.Matrix(rotation_of_quaternion(rng.standard_normal(4)))  # a random rotation
         D = 1 + (g.T * g)[0]
         skew = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
         R_num = R0 * ((1 - (g.T * g)[0]) * sp.eye(3) + 2 * g * g.T + 2 * skew)
@@ -304,23 +297,18 @@ def _cayley(R0: np.ndarray, g: np.ndarray) -> np.ndarray:
     return R0 @ (((1 - g @ g) * np.eye(3) + 2 * np.outer(g, g) + 2 * skew) / (1 + g @ g))
 
 
-def _angles_of(R: np.ndarray) -> tuple[float, float, float]:
-    """roll, pitch, yaw of ``R = Rz(yaw) Ry(pitch) Rx(roll)``."""
-    pitch = -np.arcsin(np.clip(R[2, 0], -1.0, 1.0))
-    return float(np.arctan2(R[2, 1], R[2, 2])), float(pitch), float(np.arctan2(R[1, 0], R[0, 0]))
-
-
 def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], layout: dict) -> np.ndarray | None:
     """The configuration ``q`` of a real solution ``z`` (module docstring), before polishing; None when an
     eliminated universal joint cannot turn its body that way (its own singularity)."""
-    from ..description.spatial_legs import _turn_onto, universal_angles
+    from ..description.spatial import orientation_angles
+    from ..description.spatial_legs import turn_onto, universal_angles
 
     m = model.description
     value = dict(zip(names, z, strict=True))
     X = np.array([value["X"], value["Y"], value["Z"]])
     if layout["rigid"]:
         R = _cayley(layout["R0"], np.array([value["g1"], value["g2"], value["g3"]]))
-        whole = np.array([*X, *_angles_of(R)])
+        whole = np.array([*X, *orientation_angles(R)])
     else:
         R, whole = np.eye(3), X
     actuators, passive = [], []
@@ -352,7 +340,7 @@ def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], la
                     return None
                 joint_values[last] = [float(q1[0]), float(q2[0])]
             else:
-                joint_values[last] = [float(_turn_onto(np.array(joint.axes[0]), w, local[None, :])[0])]
+                joint_values[last] = [float(turn_onto(np.array(joint.axes[0]), w, local[None, :])[0])]
         for k, joint in enumerate(leg.joints[:-1]):
             (actuators if joint.actuated else passive).extend(joint_values[k])
     order = [m.platform.full_pose_names.index(c) for c in m.platform.q_pose_names]

@@ -19,18 +19,18 @@ solutions counted with multiplicity, the finite ones (``e ≠ 0``) are the poses
 on the degenerate set ``e = 0, g·g = 0``, where every equation vanishes.
 
 Method. A total-degree homotopy ``H(x, t) = (1 − t) F(x) + γ t G(x)`` with ``G_k = x_k² − x_7²``
-(``k = 0..6``, 128 start points ``x = (±1, ..., ±1, 1)``), a random complex ``γ`` (the gamma trick:
-for all but finitely many ``γ`` on the unit circle no path meets a singularity for ``t ∈ (0, 1]``), on a
-random complex affine patch ``c·x = 1`` (no path then runs off to infinity). The 128 paths are tracked
-together, vectorised over paths, each with its own adaptive step: a fourth-order Runge–Kutta predictor
-on the Davidenko equation ``dx/dt = −H_x⁻¹ H_t`` and a Newton corrector that must contract fast, else the step
-is halved. The paths stop at a small ``t``; the end game is Newton's method on ``F`` at ``t = 0``: a
-path to a pose ends at a regular solution, where it converges quadratically and ``e`` is of the size of
-``x``; a path to the degenerate set ends where the Jacobian is singular and ``e → 0`` (like ``√t``: its
-tracking stops near ``t ≈ 1e-8``, and ``|e| / |x|`` is then some 1e-4, against at least ``1 / √(1 + B²)``
-at a real pose, ``B`` a bound of ``|p|`` from the leg lengths). The finite
-solutions that are real (up to the projective scale) become ``(R, p)``, which Newton's method polishes
-on the six leg equations themselves (``R ← R exp([δ]×)``, ``p ← p + dp``).
+(``k = 0..6``, 128 start points ``x = (±1, ..., ±1, 1)``), a random complex ``γ`` (the gamma trick: for all but
+finitely many ``γ`` on the unit circle no path meets a singularity for ``t ∈ (0, 1]``), on a random complex
+affine patch ``c·x = 1`` (no path then runs off to infinity). The 128 paths are tracked together, vectorised
+over paths, each with its own adaptive step: a fourth-order Runge–Kutta predictor on the Davidenko equation
+``dx/dt = −H_x⁻¹ H_t`` and a Newton corrector that must contract fast, else the step is halved
+(:func:`pkmlab.numerics.homotopy.track`). The paths stop at a small ``t``; the end game is Newton's method on
+``F`` at ``t = 0``: a path to a pose ends at a regular solution, where it converges quadratically and ``e`` is
+of the size of ``x``; a path to the degenerate set ends where the Jacobian is singular and ``e → 0`` (like
+``√t``: its tracking stops near ``t ≈ 1e-8``, and ``|e| / |x|`` is then some 1e-4, against at least
+``1 / √(1 + B²)`` at a real pose, ``B`` a bound of ``|p|`` from the leg lengths). The finite solutions that are real (up
+to the projective scale) become ``(R, p)``, which Newton's method polishes on the six leg equations themselves
+(``R ← R exp([δ]×)``, ``p ← p + dp``).
 
 Checks of completeness. The leg lengths are real, so the complex solutions come in conjugate pairs;
 two paths must not end at the same regular solution (a path jumped); no path may end undecided (a
@@ -53,6 +53,7 @@ import warnings
 import numpy as np
 
 from ..errors import IncompleteSolutionWarning, InvalidParameterError, shown
+from ..numerics.homotopy import batched_solve, track
 
 __all__ = ["assembly_modes"]
 
@@ -66,10 +67,6 @@ _ATTEMPTS = 3
 _T_END = 1e-10
 #: A path that stops before this t is a failure (the paths to e = 0 stop later).
 _LATE = 1e-4
-#: Relative size of Newton's last correction for a corrector step to be accepted.
-_TRACK_TOL = 1e-9
-#: Largest first Newton correction (relative to |x|) of an accepted corrector step.
-_FIRST_STEP = 1e-2
 #: Most predictor-corrector iterations per path.
 _MAX_STEPS = 5000
 #: Largest |Im| (relative) of a projectively normalised solution worth polishing as a real pose.
@@ -100,7 +97,7 @@ def _pure(v) -> np.ndarray:
     return np.concatenate(([0.0], np.asarray(v, dtype=float)))
 
 
-def _rotation_of(e: np.ndarray) -> np.ndarray:
+def rotation_of_quaternion(e: np.ndarray) -> np.ndarray:
     """The rotation matrix ``v ↦ e v e* / |e|²`` of a real non-zero quaternion ``e``."""
     w, x, y, z = np.asarray(e, dtype=float) / np.linalg.norm(e)
     return np.array([
@@ -111,7 +108,7 @@ def _rotation_of(e: np.ndarray) -> np.ndarray:
 
 
 def _quaternion_of(R: np.ndarray) -> np.ndarray:
-    """A unit quaternion ``e`` with ``_rotation_of(e) == R`` (of a proper rotation matrix ``R``)."""
+    """A unit quaternion ``e`` with ``rotation_of_quaternion(e) == R`` (of a proper rotation matrix ``R``)."""
     R = np.asarray(R, dtype=float)
     K = np.array([  # Bar-Itzhack: e is the eigenvector of the largest eigenvalue of this symmetric matrix
         [R[0, 0] + R[1, 1] + R[2, 2], R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]],
@@ -134,7 +131,7 @@ def _pose_of(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     x = np.asarray(x, dtype=float)
     e, g = x[:4], x[4:]
     conj = e * np.array([1.0, -1.0, -1.0, -1.0])
-    return _rotation_of(e), (_left(g) @ conj)[1:] / (e @ e)
+    return rotation_of_quaternion(e), (_left(g) @ conj)[1:] / (e @ e)
 
 
 # --------------------------------------------------------------------------- the polynomial system
@@ -193,89 +190,20 @@ class _Homotopy:
         J[:, 7] = self.patch
         return H, Ht, J
 
-    def tangent(self, x: np.ndarray, t: np.ndarray) -> np.ndarray:
+    def tangent(self, x: np.ndarray, t: np.ndarray, _idx=None) -> np.ndarray:
         """``dx/dt`` along the paths."""
         _, Ht, J = self.jacobian(x, t)
         rhs = np.zeros((x.shape[0], 8), dtype=complex)
         rhs[:, :7] = -Ht
-        return _solve(J, rhs)
+        return batched_solve(J, rhs)
 
-    def newton(self, x: np.ndarray, t: np.ndarray) -> np.ndarray:
+    def newton(self, x: np.ndarray, t: np.ndarray, _idx=None) -> np.ndarray:
         """One Newton correction at fixed ``t``."""
         H, _, J = self.jacobian(x, t)
         rhs = np.empty((x.shape[0], 8), dtype=complex)
         rhs[:, :7] = -H
         rhs[:, 7] = 1 - x @ self.patch
-        return _solve(J, rhs)
-
-
-def _solve(J: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Batched ``J⁻¹ rhs``; a singular matrix gives NaN for its path instead of an exception."""
-    try:
-        return np.linalg.solve(J, rhs[..., None])[..., 0]
-    except np.linalg.LinAlgError:
-        out = np.full_like(rhs, np.nan)
-        for k in range(J.shape[0]):
-            try:
-                out[k] = np.linalg.solve(J[k], rhs[k])
-            except np.linalg.LinAlgError:
-                pass
-        return out
-
-
-def _track(hom: _Homotopy, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Track every path from ``t = 1`` towards ``t = _T_END``; returns the endpoints and their ``t``.
-
-    A path stops early where its step has to shrink below ``1e-9 t``: near a singular endpoint
-    (a path to the degenerate set ``e = 0`` converges like ``√t`` and stops around ``t ≈ 1e-8``).
-    """
-    P = x.shape[0]
-    x = x.copy()
-    t = np.ones(P)
-    h = np.full(P, 0.05)
-    successes = np.zeros(P, dtype=int)
-    active = np.ones(P, dtype=bool)
-    for _ in range(_MAX_STEPS):
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
-            break
-        xa, ta = x[idx], t[idx]
-        ha = np.minimum(h[idx], ta - _T_END)
-        dt = -ha[:, None]
-        # Runge–Kutta 4 predictor on dx/dt = -J⁻¹ H_t
-        k1 = hom.tangent(xa, ta)
-        k2 = hom.tangent(xa + dt / 2 * k1, ta - ha / 2)
-        k3 = hom.tangent(xa + dt / 2 * k2, ta - ha / 2)
-        k4 = hom.tangent(xa + dt * k3, ta - ha)
-        t1 = ta - ha
-        x1 = xa + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        # Newton corrector: three corrections, each much smaller than the one before
-        scale = np.linalg.norm(x1, axis=1)
-        ok = np.isfinite(x1).all(axis=1)
-        prev = None
-        for it in range(3):
-            dx = hom.newton(x1, t1)
-            n = np.linalg.norm(dx, axis=1)
-            n = np.where(np.isfinite(n), n, np.inf)
-            if it == 0:
-                ok &= n <= _FIRST_STEP * scale
-            else:
-                ok &= (n <= 0.25 * prev) | (n <= _TRACK_TOL * scale)
-            x1 = x1 + np.where(np.isfinite(dx), dx, 0)
-            prev = n
-        ok &= prev <= _TRACK_TOL * scale
-        # accept or halve
-        acc, rej = idx[ok], idx[~ok]
-        x[acc], t[acc] = x1[ok], t1[ok]
-        successes[acc] += 1
-        grow = acc[successes[acc] >= 3]
-        h[grow] = np.minimum(2 * h[grow], 0.25)
-        successes[grow] = 0
-        h[rej] *= 0.5
-        successes[rej] = 0
-        active[acc[t[acc] <= _T_END * (1 + 1e-9)]] = False
-        active[rej[h[rej] < 1e-9 * t[rej]]] = False
-    return x, t
+        return batched_solve(J, rhs)
 
 
 def _start_points(patch: np.ndarray) -> np.ndarray:
@@ -302,7 +230,7 @@ def _end_game(Q: np.ndarray, patch: np.ndarray, x: np.ndarray, iterations: int =
         rhs = np.empty((x.shape[0], 8), dtype=complex)
         rhs[:, :7] = -np.einsum("pki,pi->pk", Qx, x)
         rhs[:, 7] = 1 - x @ patch
-        dx = _solve(J, rhs)
+        dx = batched_solve(J, rhs)
         bad = ~np.isfinite(dx).all(axis=1)
         dx[bad] = 0
         last = np.where(bad, np.inf, np.linalg.norm(dx, axis=1))
@@ -347,7 +275,9 @@ def _run(Q: np.ndarray, rng: np.random.Generator, real_ratio: float):
     patch = (rng.standard_normal(8) + 1j * rng.standard_normal(8)) / 4
     with np.errstate(all="ignore"):
         hom = _Homotopy(Q, gamma, patch)
-        ends, t_stop = _track(hom, _start_points(patch))
+        # a projective system on a patch: no scale floor, no divergence, stalls judged at any t
+        ends, t_stop, _diverged = track(hom, _start_points(patch), _T_END, scale=0.0, bound=math.inf,
+                                        max_steps=_MAX_STEPS, stall_floor=0.0)
         x, regular, ratio = _end_game(Q, patch, ends)
     x = x / np.linalg.norm(x, axis=1)[:, None]
     problems = []

@@ -23,6 +23,7 @@ leg removes (``3 -`` the rank of its end point's Jacobian, for a leg ending in a
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -217,12 +218,21 @@ def mobility(mechanism, *, check: bool = True, seed: int = 0) -> Mobility:
         with ``check``, the mobility is not the number of actuators, the constraints are dependent, the locked
         actuators leave a motion, or the controlled coordinates do not determine the configuration.
     """
-    m = mechanism
-    if check and m.platform.kind == "translating":
-        check_parallelograms(m)
+    if check and mechanism.platform.kind == "translating":
+        check_parallelograms(mechanism)
+    result = _computed(mechanism, seed)
+    if check:
+        _check(mechanism, result)
+    return result
+
+
+@functools.lru_cache(maxsize=64)
+def _computed(m, seed: int) -> Mobility:
+    """:func:`mobility` without its checks, once per description: loading a machine computes it, and its home
+    configuration (:mod:`pkmlab.model.parasitic`) is the one found here."""
     rng = np.random.default_rng(seed)
     size = _size(m)
-    counts, starts, n_pose = _layout(m)
+    _counts, starts, _n_pose = _layout(m)
     found = []
     for _ in range(STARTS):
         x = project(m, _start(m, rng, size), size)
@@ -233,16 +243,17 @@ def mobility(mechanism, *, check: bool = True, seed: int = 0) -> Mobility:
         raise InvalidParameterError(f"{m.name}: its legs cannot be joined to the platform near their zero "
                                     "configuration (no configuration found from "
                                     f"{STARTS} starts): check the legs' lengths, bases and attachment points")
+    angles = _angle_columns(m)
     while len(found) < SAMPLES:  # other generic configurations, near the first
-        angles = _angle_columns(m)
         nudge = rng.normal(0.0, 0.05, found[0].shape) * np.where(angles, 1.0, size)
         x = project(m, found[0] + nudge, size)
         found.append(x if x is not None else found[0])
-    scale = np.where(_angle_columns(m), 1.0 / size, 1.0)
+    scale = np.where(angles, 1.0 / size, 1.0)
     jacobians = [jacobian(m, x) * scale for x in found]
     ranks = [_rank(j) for j in jacobians]
     best = int(np.argmax(ranks))
     j, x, rank = jacobians[best], found[best], ranks[best]
+    x.setflags(write=False)  # shared by every caller of the cached result
     n = j.shape[1]
     actuated = [starts[i] + sum(jt.coordinates for jt in leg.joints[:leg.actuated]) for i, leg in enumerate(m.legs)]
     pose_names = m.platform.full_pose_names
@@ -251,11 +262,8 @@ def mobility(mechanism, *, check: bool = True, seed: int = 0) -> Mobility:
     for i in range(len(m.legs)):
         rows = slice(3 * i, 3 * i + 3)
         leg_constraints.append(3 - _rank(j[rows, starts[i]:starts[i + 1]]))
-    result = Mobility(n - rank, rank, n, j.shape[0], tuple(leg_constraints), x,
-                      _rank(np.delete(j, actuated, axis=1)), _rank(np.delete(j, controlled, axis=1)))
-    if check:
-        _check(m, result)
-    return result
+    return Mobility(n - rank, rank, n, j.shape[0], tuple(leg_constraints), x,
+                    _rank(np.delete(j, actuated, axis=1)), _rank(np.delete(j, controlled, axis=1)))
 
 
 def check_parallelograms(mechanism) -> None:

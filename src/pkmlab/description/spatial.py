@@ -324,6 +324,13 @@ def orientation(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return orientations(np.array([[roll, pitch, yaw]], dtype=float))[0]
 
 
+def orientation_angles(rot) -> tuple[float, float, float]:
+    """``(roll, pitch, yaw)`` of a rotation matrix ``rot = Rz(yaw)·Ry(pitch)·Rx(roll)``, pitch in [-π/2, π/2]: the
+    inverse of :func:`orientation` away from gimbal lock."""
+    pitch = -math.asin(max(-1.0, min(1.0, float(rot[2][0]))))
+    return math.atan2(rot[2][1], rot[2][2]), pitch, math.atan2(rot[1][0], rot[0][0])
+
+
 def orientations(angles) -> np.ndarray:
     """:func:`orientation` of many ``(roll, pitch, yaw)`` (K, 3) at once, (K, 3, 3)."""
     angles = np.asarray(angles, dtype=float)

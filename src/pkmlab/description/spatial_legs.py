@@ -59,6 +59,13 @@ def rotate(axis, angle, v):
     return c * v + s * np.cross(a, v) + (1.0 - c) * (v @ a)[:, None] * a
 
 
+def turn_onto(axis: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The angle (K,) of the turn about the unit ``axis`` that takes the parts of ``v`` (3,) or (K, 3) across
+    the axis onto the direction of those of ``w`` (K, 3)."""
+    v = np.broadcast_to(v, w.shape)
+    return np.arctan2(np.cross(v, w) @ axis, np.einsum("ki,ki->k", v, w) - (v @ axis) * (w @ axis))
+
+
 def universal_angles(axes, tip, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The angles ``(q1, q2)`` of a universal joint (perpendicular ``axes``) with
     ``Rot(a1, q1) Rot(a2, q2) tip = v`` (``v`` (K, 3) of the tip's length), and where no angle does it."""
@@ -78,7 +85,7 @@ def universal_angles(axes, tip, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     q2 = np.where(np.abs(roots[0]) <= np.abs(roots[1]), roots[0], roots[1])
     w = rotate(a2, q2, tip.copy())
     # the turn about a1 that takes w to v: the signed angle between their parts across a1
-    q1 = np.arctan2(np.cross(w, v) @ a1, np.einsum("ki,ki->k", w, v) - (w @ a1) * (v @ a1))
+    q1 = turn_onto(a1, w, v)
     return q1, q2, bad
 
 
@@ -175,13 +182,6 @@ def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -
     return Solved(np.column_stack([q1, q2, s]), bad, why)
 
 
-def _turn_onto(axis: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """The angle (K,) of the turn about the unit ``axis`` that takes the parts of ``v`` (3,) or (K, 3) across
-    the axis onto the direction of those of ``w`` (K, 3)."""
-    v = np.broadcast_to(v, w.shape)
-    return np.arctan2(np.cross(v, w) @ axis, np.einsum("ki,ki->k", v, w) - (v @ axis) * (w @ axis))
-
-
 def _slide_root(b: np.ndarray, c: np.ndarray, sigma: int) -> tuple[np.ndarray, np.ndarray]:
     """The root ``s`` of ``s² - 2 b s + c = 0`` of sign ``sigma`` (+1 the larger), and where none is real."""
     disc = b * b - c
@@ -240,7 +240,7 @@ def _prs(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, _axis) ->
         across = np.linalg.norm(r - np.outer(r @ a, a), axis=1)
         off = np.abs(across - np.linalg.norm(t - (t @ a) * a)) > ON_SURFACE * size
         bad = np.zeros(len(points), dtype=bool)
-    phi = _turn_onto(a, t, v - s[:, None] * d)
+    phi = turn_onto(a, t, v - s[:, None] * d)
     reach_bad = bad | off
 
     def why(k):
@@ -271,7 +271,7 @@ def _rps(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -
         r = c + s[:, None] * d
         off = np.abs(np.linalg.norm(r, axis=1) - np.linalg.norm(v, axis=1)) > ON_SURFACE * size
         bad = np.zeros(len(points), dtype=bool)
-    phi = _turn_onto(a, c + s[:, None] * d, v)
+    phi = turn_onto(a, c + s[:, None] * d, v)
     reach_bad = bad | off
 
     def why(k):

@@ -4,7 +4,7 @@ A homotopy ``H(x, t) = 0`` (``n`` equations in ``x ∈ Cⁿ``) deforms a system 
 (``t = 1``) into the one to solve (``t = 0``). Each known solution is followed along ``t`` — a
 fourth-order Runge–Kutta predictor on the Davidenko equation ``dx/dt = −H_x⁻¹ H_t`` and a Newton corrector
 that must contract fast, else the step is halved — all paths at once, vectorised over paths, each with
-its own adaptive step (the tracker of :mod:`pkmlab.algorithms.stewart_fk`, for any system). A path
+its own adaptive step (:func:`track`, which :mod:`pkmlab.algorithms.stewart_fk` uses too). A path
 stops where it reaches ``t = 0``, where it diverges (its ``|x|`` beyond a bound: a solution of the start
 system with none at the target, gone to infinity) or where its step has to shrink below ``1e-9 t``
 (near a singular endpoint).
@@ -47,7 +47,7 @@ MAX_STEPS = 4000
 DIVERGED = 1e7
 
 
-def _solve(J: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+def batched_solve(J: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """Batched ``J⁻¹ rhs``; a singular matrix gives NaN for its path instead of an exception."""
     try:
         return np.linalg.solve(J, rhs[..., None])[..., 0]
@@ -87,15 +87,23 @@ class ParameterHomotopy:
 
     def tangent(self, x: np.ndarray, t: np.ndarray, idx) -> np.ndarray:
         p = self._p(t, idx)
-        return _solve(self.family.dF_dx(x, p), -self.family.dF_dp(x, p, self.p0[idx] - self.p1[idx]))
+        return batched_solve(self.family.dF_dx(x, p), -self.family.dF_dp(x, p, self.p0[idx] - self.p1[idx]))
 
     def newton(self, x: np.ndarray, t: np.ndarray, idx) -> np.ndarray:
         p = self._p(t, idx)
-        return _solve(self.family.dF_dx(x, p), -self.family.F(x, p))
+        return batched_solve(self.family.dF_dx(x, p), -self.family.F(x, p))
 
 
-def track(hom: ParameterHomotopy, x: np.ndarray, t_end: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def track(hom, x: np.ndarray, t_end: float = 0.0, *, scale: float = 1.0, bound: float = DIVERGED,
+          max_steps: int = MAX_STEPS, stall_floor: float = 1e-3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Track every path of ``hom`` from ``t = 1`` (``x`` (P, n), its solutions there) towards ``t_end``.
+
+    ``hom`` gives ``tangent(x, t, idx)`` (``dx/dt``) and ``newton(x, t, idx)`` (a Newton correction) for the
+    paths ``idx``. A corrector's tolerances are relative to ``|x|``, or to ``1e-3 scale`` where ``|x|`` is
+    smaller (a solution of the size ``scale``); a path whose ``|x|`` exceeds ``bound · max(scale, 1)`` has
+    diverged; a path stops where its step has to shrink below ``1e-9 max(t, stall_floor)`` — near a singular
+    endpoint (for a projective system, ``scale = 0``, ``bound = inf``, ``stall_floor = 0``: a path to a degenerate
+    set converging like ``√t`` stops around ``t ≈ 1e-8``).
 
     Returns the endpoints, the ``t`` each reached, and whether each diverged (went to infinity).
     """
@@ -106,9 +114,10 @@ def track(hom: ParameterHomotopy, x: np.ndarray, t_end: float = 0.0) -> tuple[np
     successes = np.zeros(P, dtype=int)
     active = np.ones(P, dtype=bool)
     diverged = np.zeros(P, dtype=bool)
-    bound = DIVERGED * max(hom.family.scale, 1.0)
+    bound = bound * max(scale, 1.0)
+    done = max(t_end * (1 + 1e-9), 1e-15)  # t_end, reached to round-off
     with np.errstate(all="ignore"):
-        for _ in range(MAX_STEPS):
+        for _ in range(max_steps):
             idx = np.flatnonzero(active)
             if idx.size == 0:
                 break
@@ -121,7 +130,7 @@ def track(hom: ParameterHomotopy, x: np.ndarray, t_end: float = 0.0) -> tuple[np
             k4 = hom.tangent(xa + dt * k3, ta - ha, idx)
             t1 = ta - ha
             x1 = xa + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            scale = np.maximum(np.linalg.norm(x1, axis=1), 1e-3 * hom.family.scale)
+            size = np.maximum(np.linalg.norm(x1, axis=1), 1e-3 * scale)
             ok = np.isfinite(x1).all(axis=1)
             prev = None
             for it in range(3):
@@ -129,12 +138,12 @@ def track(hom: ParameterHomotopy, x: np.ndarray, t_end: float = 0.0) -> tuple[np
                 n = np.linalg.norm(dx, axis=1)
                 n = np.where(np.isfinite(n), n, np.inf)
                 if it == 0:
-                    ok &= n <= FIRST_STEP * scale
+                    ok &= n <= FIRST_STEP * size
                 else:
-                    ok &= (n <= 0.25 * prev) | (n <= TRACK_TOL * scale)
+                    ok &= (n <= 0.25 * prev) | (n <= TRACK_TOL * size)
                 x1 = x1 + np.where(np.isfinite(dx), dx, 0)
                 prev = n
-            ok &= prev <= TRACK_TOL * scale
+            ok &= prev <= TRACK_TOL * size
             acc, rej = idx[ok], idx[~ok]
             x[acc], t[acc] = x1[ok], t1[ok]
             successes[acc] += 1
@@ -146,8 +155,8 @@ def track(hom: ParameterHomotopy, x: np.ndarray, t_end: float = 0.0) -> tuple[np
             far = acc[np.linalg.norm(x[acc], axis=1) > bound]
             diverged[far] = True
             active[far] = False
-            active[acc[t[acc] <= t_end + 1e-15]] = False
-            active[rej[h[rej] < 1e-9 * np.maximum(t[rej], 1e-3)]] = False
+            active[acc[t[acc] <= done]] = False
+            active[rej[h[rej] < 1e-9 * np.maximum(t[rej], stall_floor)]] = False
     return x, t, diverged
 
 
@@ -158,7 +167,7 @@ def newton_polish(family: Family, x: np.ndarray, p: np.ndarray, iterations: int 
     last = np.full(x.shape[0], np.inf)
     with np.errstate(all="ignore"):
         for _ in range(iterations):
-            dx = _solve(family.dF_dx(x, p), -family.F(x, p))
+            dx = batched_solve(family.dF_dx(x, p), -family.F(x, p))
             bad = ~np.isfinite(dx).all(axis=1)
             dx[bad] = 0
             last = np.where(bad, np.inf, np.linalg.norm(dx, axis=1))
@@ -183,7 +192,7 @@ def parameter_homotopy(family: Family, solutions: np.ndarray, p0: np.ndarray, p1
     each endpoint polished by Newton's method at ``p₁``."""
     P = solutions.shape[0]
     a, b = np.broadcast_to(p0, (P, len(p0))), np.broadcast_to(p1, (P, len(p1)))
-    x, _t, diverged = track(ParameterHomotopy(family, a, b), solutions)
+    x, _t, diverged = track(ParameterHomotopy(family, a, b), solutions, scale=family.scale)
     x, regular = newton_polish(family, x, b)
     return x, regular & ~diverged, diverged
 

@@ -60,7 +60,7 @@ class RunView:
         """The view of a run of ``model`` (a :class:`~pkmlab.model.mechanism_model.MechanismModel`) recorded as
         configurations ``q`` (N, n_coordinates), poses, efforts and ``S``; ``frames`` animation frames at most
         (:data:`MAX_FRAMES`)."""
-        from ..model.mechanism_model import joint_positions
+        from ..model.mechanism_model import joint_positions, tracked_point
         from ..simulation.result import orientation_error, path_error
 
         t, q, pose, pose_d, tau, S = (np.asarray(a, dtype=float) for a in (t, q, pose, pose_d, tau, S))
@@ -72,8 +72,7 @@ class RunView:
         desired, actual = pose_d[:, :position], pose[:, :position]
         parasitic = getattr(description.platform, "parasitic_names", ())
         if parasitic:  # a platform of lower mobility: its point from q (x, y or z may be parasitic), desired or not
-            columns = [model.coordinates.index(c) for c in "xyz"]
-            actual = q[:, columns]
+            actual = tracked_point(model, q)
             desired = actual.copy()
             for k, c in enumerate("xyz"):
                 if c in pose_names:
