@@ -38,12 +38,13 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DEFAULT_RUNS = {"paper": None, "five_bar": "five_bar_circle.toml", "3rpr": "3rpr_circle.toml",
                 "3prr": "3prr_circle.toml", "delta": "delta_pick_and_place.toml", "stewart": "stewart_motion.toml",
                 "3prs": "mechanisms/3prs_motion.toml", "3rps": "mechanisms/3rps_motion.toml",
-                "6rus": "mechanisms/6rus_motion.toml", "6pus": "mechanisms/6pus_motion.toml"}
+                "3upu": "mechanisms/3upu_motion.toml", "6rus": "mechanisms/6rus_motion.toml",
+                "6pus": "mechanisms/6pus_motion.toml"}
 #: The catalogue's machines, each compared with the preset of as many legs.
-CATALOGUE = {"3prs": "delta", "3rps": "delta", "6rus": "stewart", "6pus": "stewart"}
+CATALOGUE = {"3prs": "delta", "3rps": "delta", "3upu": "delta", "6rus": "stewart", "6pus": "stewart"}
 #: Forward kinematics of every assembly mode solves a polynomial system (the Stewart–Gough platform's: 128
 #: homotopy paths, ~0.3 s): fewer samples there.
-FK_SAMPLES = {"stewart": 4, "3prs": 4, "3rps": 4, "6rus": 4, "6pus": 4}
+FK_SAMPLES = {"stewart": 4, "3prs": 4, "3rps": 4, "3upu": 4, "6rus": 4, "6pus": 4}
 
 
 def _scenario(name: str) -> Scenario:

@@ -107,9 +107,7 @@ def _independent_residual(m, q: np.ndarray, coordinates) -> float:
     worst = 0.0
     for i, leg in enumerate(m.legs):
         joint_values, passive = [], iter(n for n in coordinates if n.startswith(f"q{i + 1}_"))
-        for joint in leg.joints:
-            if joint.kind == "S":
-                continue
+        for joint in leg.joints[:-1]:  # the platform joint has no coordinate
             if joint.actuated:
                 joint_values.append(values[f"a{i + 1}"])
             else:

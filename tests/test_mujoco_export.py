@@ -17,7 +17,8 @@ from pkmlab.model.mechanism_model import MechanismModel
 mujoco = pytest.importorskip("mujoco")
 NAMES = sorted(PRESETS)
 #: The catalogue's machines (examples/mechanisms), checked as the presets are.
-CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / "3prs.toml")]
+CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / name)
+             for name in ("3prs.toml", "3upu.toml")]
 
 
 def _states(model, count: int, seed: int):

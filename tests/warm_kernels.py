@@ -1,4 +1,4 @@
-"""Compile the kernels of the spatial machines (the Delta, the Stewart platform, the 3-PRS) into the kernel
+"""Compile the kernels of the spatial machines (the Delta, the Stewart platform, the 3-PRS, the 3-UPU) into the kernel
 cache, by calling every compiled entry point the test suite calls on them.
 
 Their first compiles are the largest cost of a test run on a fresh checkout (about a minute for the Stewart
@@ -25,9 +25,10 @@ MACHINES = {
     "delta": ([0.05, -0.03, -0.75], "delta_pick_and_place.toml"),
     "stewart": ([0.0, 0.0, 0.85, 0.05, -0.03, 0.1], "stewart_motion.toml"),
     str(EXAMPLES / "mechanisms" / "3prs.toml"): ([0.45, 0.05, -0.03], "mechanisms/3prs_motion.toml"),
+    str(EXAMPLES / "mechanisms" / "3upu.toml"): ([0.02, -0.01, 0.62], "mechanisms/3upu_motion.toml"),
 }
 #: Machines whose tests call only the kinematics, the actuator-space model and one sampled-data run.
-LIGHT = {str(EXAMPLES / "mechanisms" / "3prs.toml")}
+LIGHT = {str(EXAMPLES / "mechanisms" / "3prs.toml"), str(EXAMPLES / "mechanisms" / "3upu.toml")}
 
 
 def warm_light(name: str) -> None:

@@ -15,13 +15,24 @@ from ._common import check_count, mechanism_name, model_of, shown, signs, table,
 
 
 def passive_names(model) -> tuple[str, ...]:
-    """The names of the passive joints' coordinates (``model.coordinates`` between the actuators and the pose)."""
-    return tuple(model.coordinates[model.n_actuators:len(model.coordinates) - model.dof])
+    """The names of the passive joints' coordinates (``model.coordinates`` between the actuators and the pose),
+    then of the angles of universal joints that carry the platform
+    (:func:`~pkmlab.model.mechanism_model.platform_joint_names`)."""
+    from ..model import mechanism_model as mm
+
+    return (*model.coordinates[model.n_actuators:len(model.coordinates) - model.dof],
+            *mm.platform_joint_names(model.description))
 
 
 def passive_of(model, q) -> list[float]:
-    """The passive joints' values of the configuration ``q``."""
-    return [float(v) for v in q[model.n_actuators:len(model.coordinates) - model.dof]]
+    """The passive joints' values of the configuration ``q`` (:func:`passive_names`)."""
+    import numpy as np
+
+    from ..model import mechanism_model as mm
+
+    q = np.asarray(q, dtype=float)
+    extra = mm.platform_joint_angles(model, q) if mm.platform_joint_names(model.description) else []
+    return [float(v) for v in (*q[model.n_actuators:len(model.coordinates) - model.dof], *extra)]
 
 
 def heading(args, model, what: str) -> str:

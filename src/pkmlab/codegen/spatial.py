@@ -8,8 +8,10 @@ The spatial counterpart of :mod:`pkmlab.codegen.planar`, for a
 with the pose ``(x, y, z)`` of a translating platform or ``(x, y, z, roll, pitch, yaw)`` of a rigid one.
 It derives, with SymPy:
 
-* the loop-closure constraints ``η(q) = 0`` — for each leg, the centre of its spherical joint (the
-  end of its chain) minus its platform attachment point, x, y then z (3 per leg); their Jacobian and
+* the loop-closure constraints ``η(q) = 0`` — for each leg, the centre of its platform joint (the
+  end of its chain) minus its platform attachment point, x, y then z (3 per leg: a universal joint
+  under a translating platform closes the loop at its centre too, its angles following from the
+  leg's, :mod:`pkmlab.description.spatial`); their Jacobian and
   the bias ``J̇ηq q̇`` (paper eqs. 14–17, 32);
 * for every body (the legs' bodies, then the platform) the velocity of its mass centre (3 rows) and
   its angular velocity in its own frame ``ω`` (3 rows), both linear in ``q̇``: their Jacobian
@@ -65,8 +67,8 @@ def coordinate_names(mechanism: SpatialMechanism) -> tuple[str, ...]:
     """``a1..an`` (actuators), ``q<leg>_<joint>`` (passive joints; a U joint's two are ``…a``, ``…b``), the pose."""
     names = [f"a{i + 1}" for i in range(len(mechanism.legs))]
     for i, leg in enumerate(mechanism.legs):
-        for k, joint in enumerate(leg.joints):
-            if joint.actuated or joint.kind == "S":
+        for k, joint in enumerate(leg.joints[:-1]):  # the platform joint has no coordinate
+            if joint.actuated:
                 continue
             names += [f"q{i + 1}_{k + 1}a", f"q{i + 1}_{k + 1}b"] if joint.kind == "U" else [f"q{i + 1}_{k + 1}"]
     return (*names, *mechanism.platform.q_pose_names)
@@ -75,8 +77,8 @@ def coordinate_names(mechanism: SpatialMechanism) -> tuple[str, ...]:
 def coordinate_angles(mechanism: SpatialMechanism) -> tuple[bool, ...]:
     angles = [leg.joints[leg.actuated].kind == "R" for leg in mechanism.legs]
     for leg in mechanism.legs:
-        for joint in leg.joints:
-            if not joint.actuated and joint.kind != "S":
+        for joint in leg.joints[:-1]:
+            if not joint.actuated:
                 angles += [joint.kind != "P"] * joint.coordinates
     return (*angles, *(name in ("roll", "pitch", "yaw") for name in mechanism.platform.q_pose_names))
 

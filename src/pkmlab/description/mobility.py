@@ -83,9 +83,17 @@ def _size(mechanism) -> float:
 
 
 def _leg_end(leg, coordinates) -> tuple[np.ndarray, np.ndarray]:
-    """The leg's spherical-joint centre at its joint coordinates, and its Jacobian (3, coordinates): a turn
-    about the world axis ``w`` at ``o`` moves the end by ``w × (end - o)``, a slide along ``u`` by ``u``
-    (the chain of :func:`~pkmlab.description.spatial.leg_frames`)."""
+    """The centre of the leg's platform joint at its joint coordinates, and its Jacobian (3, coordinates)
+    (:func:`_leg_twist`)."""
+    point, _rot, linear, _angular = _leg_twist(leg, coordinates)
+    return point, linear
+
+
+def _leg_twist(leg, coordinates) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The centre of the leg's platform joint at its joint coordinates, its last body's orientation, and the
+    Jacobians (3, coordinates) of the centre's velocity and of the last body's angular velocity (world frame): a
+    turn about the world axis ``w`` at ``o`` moves the centre by ``w × (end - o)`` and turns the body by
+    ``w``, a slide along ``u`` moves it by ``u`` (the chain of :func:`~pkmlab.description.spatial.leg_frames`)."""
     from .spatial import axis_rotation
 
     values = iter(float(c) for c in coordinates)
@@ -103,8 +111,11 @@ def _leg_end(leg, coordinates) -> tuple[np.ndarray, np.ndarray]:
                 moves.append(("R", axis, point))
                 rot = rot @ axis_rotation(a, next(values))
         point = origin + rot @ np.array(body.tip)
-    columns = [axis if kind == "P" else np.cross(axis, point - o) for kind, axis, o in moves]
-    return point, np.column_stack(columns) if columns else np.zeros((3, 0))
+    if not moves:
+        return point, rot, np.zeros((3, 0)), np.zeros((3, 0))
+    linear = np.column_stack([axis if kind == "P" else np.cross(axis, point - o) for kind, axis, o in moves])
+    angular = np.column_stack([np.zeros(3) if kind == "P" else axis for kind, axis, _o in moves])
+    return point, rot, linear, angular
 
 
 def residual(mechanism, x: np.ndarray) -> np.ndarray:
@@ -148,7 +159,7 @@ def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.nda
 def _angle_columns(mechanism) -> np.ndarray:
     flags = []
     for leg in mechanism.legs:
-        for joint in leg.joints:
+        for joint in leg.joints[:-1]:
             flags += [joint.kind != "P"] * joint.coordinates
     flags += [name in ("roll", "pitch", "yaw") for name in mechanism.platform.full_pose_names]
     return np.array(flags, dtype=bool)
@@ -159,7 +170,7 @@ def _start(mechanism, rng: np.random.Generator, size: float) -> np.ndarray:
     machine's size out, the platform where its attachment points best meet the legs' ends."""
     x = []
     for leg in mechanism.legs:
-        for joint in leg.joints:
+        for joint in leg.joints[:-1]:
             if joint.kind == "P":
                 if joint.actuated and leg.stroke is not None:
                     lo, hi = leg.stroke
@@ -223,6 +234,8 @@ def mobility(mechanism, *, check: bool = True, seed: int = 0) -> Mobility:
     result = _computed(mechanism, seed)
     if check:
         _check(mechanism, result)
+        if any(leg.joints[-1].kind == "U" for leg in mechanism.legs):
+            check_platform_joints(mechanism, result, seed)
     return result
 
 
@@ -276,6 +289,8 @@ def check_parallelograms(mechanism) -> None:
     for i, leg in enumerate(m.legs):
         if len(leg.joints) >= 2 and leg.joints[-2].kind == "U" and not leg.joints[-2].actuated:
             continue
+        if leg.joints[-1].kind == "U":  # held by its platform joint, or refused by check_platform_joints
+            continue
         p = m.platform
         free = SpatialMechanism(m.name, m.legs, SpatialPlatform("rigid", p.attachments, p.mass, p.com, p.inertia,
                                                                 controlled=POSE_NAMES["rigid"][:len(m.legs)]),
@@ -286,6 +301,72 @@ def check_parallelograms(mechanism) -> None:
             "forearm (a leg ending in a universal joint, its body and the spherical joint, like the Delta's R*US) "
             f"does. On these legs the platform's computed mobility is {computed.mobility} ({computed.summary}), "
             f"not {len(p.pose_names)}: describe it as a rigid platform")
+
+
+_TSAI = ("Tsai's 3-UPU has each leg's two inner axes parallel, and its base joint's first axis parallel to its "
+         "platform joint's second")
+
+
+def check_platform_joints(mechanism, result: Mobility, seed: int = 0) -> None:
+    """A translating platform on legs that end in universal joints (a 3-UPU) stays level only if, at every
+    configuration of its legs, each such joint can turn its leg's last body onto the platform, and the joints
+    together leave the platform no turn: with its orientation freed (a rigid platform, its universal joints'
+    angles as coordinates and their three orientation closures per leg), the mobility must stay the number of
+    its actuators. Both are measured at generic configurations of the legs (those of ``result`` and two
+    near it); each refusal names the leg or the computed mobility.
+
+    Tsai's 3-UPU meets both when each leg's two inner axes are parallel, and its base joint's first axis is
+    parallel to its platform joint's second."""
+    from .spatial import axis_rotation, platform_joint_angles
+
+    m = mechanism
+    rng = np.random.default_rng(seed + 1)
+    size = _size(m)
+    counts, starts, _n_pose = _layout(m)
+    angles = _angle_columns(m)
+    found = [np.array(result.configuration)]
+    while len(found) < SAMPLES:
+        nudge = rng.normal(0.0, 0.05, found[0].shape) * np.where(angles, 1.0, size)
+        x = project(m, found[0] + nudge, size)
+        if x is not None:
+            found.append(x)
+    ends = [i for i, leg in enumerate(m.legs) if leg.joints[-1].kind == "U"]
+    dof = len(m.platform.pose_names)
+    for x in found:
+        n_joint = starts[-1] + 2 * len(ends)
+        rows = []
+        for i, leg in enumerate(m.legs):
+            point, rot, linear, angular = _leg_twist(leg, x[starts[i]:starts[i + 1]])
+            a = np.array(m.platform.attachments[i])
+            position = np.zeros((3, n_joint + 6))
+            position[:, starts[i]:starts[i + 1]] = linear
+            position[:, n_joint:n_joint + 3] = -np.eye(3)
+            position[:, n_joint + 3:] = np.cross(a, np.eye(3)).T  # column k: d(-R a)/dω_k = a × e_k
+            rows.append(position)
+            if i not in ends:
+                continue
+            q1, q2, miss = platform_joint_angles(leg, rot)
+            if miss > 1e-8:
+                raise InvalidParameterError(
+                    f"leg {i + 1} ({leg.notation}): its universal joint at the platform cannot turn the leg's last "
+                    f"body onto the platform's fixed orientation as the leg moves (missed by {miss:.3g} rad at a "
+                    f"generic configuration): its axes do not keep a translating platform level ({_TSAI})")
+            a1, a2 = (np.array(v) for v in leg.joints[-1].axes)
+            turn = np.zeros((3, n_joint + 6))
+            turn[:, starts[i]:starts[i + 1]] = angular * size  # radians weighed as metres, as the angle columns
+            k = starts[-1] + 2 * ends.index(i)
+            turn[:, k] = rot @ a1 * size
+            turn[:, k + 1] = rot @ axis_rotation(a1, q1) @ a2 * size
+            turn[:, n_joint + 3:] = -np.eye(3) * size
+            rows.append(turn)
+        j = np.vstack(rows)
+        scale = np.concatenate([np.where(angles[:starts[-1]], 1.0 / size, 1.0),
+                                np.full(2 * len(ends), 1.0 / size), np.ones(3), np.full(3, 1.0 / size)])
+        free = j.shape[1] - _rank(j * scale)
+        if free != dof:
+            raise InvalidParameterError(
+                f"{m.name}: its universal joints at the platform do not hold it level: with its orientation free the "
+                f"computed mobility is {free}, not {dof} (the platform can turn as it moves; {_TSAI})")
 
 
 def _check(m, r: Mobility) -> None:

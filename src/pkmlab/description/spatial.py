@@ -23,10 +23,16 @@ Conventions (pkmlab's, for every spatial mechanism):
   - ``S`` (spherical, no coordinate): the last joint, and only there: it carries the platform at
     the tip of the leg's last body (the platform's attachment point of that leg).
 
+  The last joint is the leg's *platform joint*: an ``S``, or a passive ``U`` under a translating platform
+  (a 3-UPU): its first axis fixed in the leg's last body, its second in the platform. A platform joint's
+  angles are not coordinates: they follow from the leg's last body and the platform's fixed orientation
+  (:func:`platform_joint_angles`), and the leg's joint coordinates are those of the joints before it.
+
   One joint of each leg, ``R*`` or ``P*``, anywhere in the chain, is actuated.
-* The platform is ``translating`` (pose ``(x, y, z)``: its orientation is held fixed by its legs'
-  parallelogram forearms, as the Delta's are — so every leg's last body is a forearm between a
-  universal joint and the spherical joint, a ``…US`` leg; three legs) or ``rigid`` (pose
+* The platform is ``translating`` (pose ``(x, y, z)``: its orientation is held fixed by its legs —
+  parallelogram forearms, as the Delta's are, a forearm between a universal joint and the spherical
+  joint, a ``…US`` leg; or universal joints at the platform whose axes keep it level, as Tsai's 3-UPU's;
+  three legs) or ``rigid`` (pose
   ``(x, y, z, roll, pitch, yaw)``). Its orientation is ``R = Rz(yaw)·Ry(pitch)·Rx(roll)``:
   yaw about the world's z, then pitch about the new y, then roll about the newest x (the z-y'-x''
   convention of aeronautics and ROS); it is singular at ``pitch = ±π/2`` (gimbal lock), where poses are
@@ -56,6 +62,8 @@ from ._fields import finite_number, known_keys, required, stroke, toml_value
 from .mechanism import JointChain, LegsAndPose, platform_and_legs
 
 SPATIAL_JOINTS = ("R", "P", "U", "S")
+#: The joints that may carry the platform, a leg's last (module docstring).
+PLATFORM_JOINTS = ("S", "U")
 SPATIAL_PLATFORMS = ("translating", "rigid")
 #: The pose's coordinates of each platform kind.
 POSE_NAMES = {"translating": ("x", "y", "z"), "rigid": ("x", "y", "z", "roll", "pitch", "yaw")}
@@ -138,8 +146,8 @@ class SpatialJoint:
 
 @dataclass(frozen=True)
 class SpatialLeg(JointChain):
-    """A serial chain from ``base`` to the platform: ``joints`` (the last an S), ``bodies`` (one after each
-    joint but the S), the actuator's ``stroke`` (lower, upper) or None."""
+    """A serial chain from ``base`` to the platform: ``joints`` (the last the platform joint, an S or a U),
+    ``bodies`` (one after each joint but the platform joint), the actuator's ``stroke`` (lower, upper) or None."""
 
     base: tuple[float, float, float]
     joints: tuple[SpatialJoint, ...]
@@ -215,6 +223,12 @@ class SpatialMechanism(LegsAndPose):
             raise InvalidParameterError(f"a {platform.kind} platform (pose {', '.join(platform.pose_names)}) needs "
                                         f"{dof} actuated legs, got {len(legs)}")
         set_(self, "legs", tuple(self._checked_leg(i + 1, leg) for i, leg in enumerate(legs)))
+        for i, leg in enumerate(self.legs):
+            if leg.joints[-1].kind == "U" and platform.kind != "translating":
+                raise InvalidParameterError(
+                    f"leg {i + 1} ({leg.notation}) ends in a universal joint, which pkmlab models under a translating "
+                    "platform only (its angles follow from the leg and the platform's fixed orientation); on a "
+                    f"{platform.kind} platform end the leg in a spherical joint (S)")
         set_(self, "platform", self._checked_platform(platform))
 
     def _checked_leg(self, number: int, leg: SpatialLeg) -> SpatialLeg:
@@ -226,9 +240,10 @@ class SpatialMechanism(LegsAndPose):
             if not isinstance(joint, SpatialJoint) or joint.kind not in SPATIAL_JOINTS:
                 kind = getattr(joint, "kind", joint)
                 raise InvalidParameterError(f"{where}, joint {k + 1}: unknown joint type {kind!r} (use R, P, U or S)")
-        if not joints or joints[-1].kind != "S" or joints[-1].actuated:
+        if not joints or joints[-1].kind not in PLATFORM_JOINTS or joints[-1].actuated:
             raise InvalidParameterError(f"{where}: its last joint carries the platform and must be a passive "
-                                        "spherical joint (S)")
+                                        "spherical joint (S) or, under a translating platform, a passive universal "
+                                        "joint (U)")
         if any(j.kind == "S" for j in joints[:-1]):
             raise InvalidParameterError(f"{where}: a spherical joint (S) may only be the last joint")
         actuated = [k for k, j in enumerate(joints) if j.actuated]
@@ -253,7 +268,7 @@ class SpatialMechanism(LegsAndPose):
         bodies = tuple(leg.bodies)
         if len(bodies) != len(joints) - 1:
             raise InvalidParameterError(f"{where} has {len(joints)} joints and so {len(joints) - 1} bodies (one after "
-                                        f"each joint but the S), got {len(bodies)}")
+                                        f"each joint but the platform joint), got {len(bodies)}")
         checked_bodies = []
         for k, body in enumerate(bodies):
             if not isinstance(body, SpatialBody):
@@ -374,8 +389,8 @@ def full_poses(mechanism: SpatialMechanism, q_pose) -> np.ndarray:
 
 
 def leg_frames(leg: SpatialLeg, coordinates) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Origin and orientation of every body of ``leg`` (and, last, the S joint's centre with the last body's
-    orientation) at the leg's joint coordinates (:func:`leg_coordinate_count`): the readable statement of the
+    """Origin and orientation of every body of ``leg`` (and, last, the platform joint's centre with the last
+    body's orientation) at the leg's joint coordinates (:func:`leg_coordinate_count`): the readable statement of the
     chain conventions (module docstring), which the generated kernels are checked against."""
     coordinates = [float(c) for c in coordinates]
     if len(coordinates) != leg_coordinate_count(leg):
@@ -400,8 +415,27 @@ def leg_frames(leg: SpatialLeg, coordinates) -> list[tuple[np.ndarray, np.ndarra
 
 
 def leg_coordinate_count(leg: SpatialLeg) -> int:
-    """How many joint coordinates ``leg`` has (1 per R and P joint, 2 per U joint)."""
-    return sum(j.coordinates for j in leg.joints)
+    """How many joint coordinates ``leg`` has (1 per R and P joint, 2 per U joint, its platform joint's not
+    counted: module docstring)."""
+    return sum(j.coordinates for j in leg.joints[:-1])
+
+
+def platform_joint_angles(leg: SpatialLeg, rotation) -> tuple[float, float, float]:
+    """The angles ``(q1, q2)`` of the universal joint that ends ``leg``, whose last body has the
+    orientation ``rotation`` (3, 3) under a platform of fixed orientation ``I``, and how far the joint
+    misses it: ``|Rot(a1, q1) Rot(a2, q2) - rotationᵀ|`` (0 when the joint can turn the body onto the
+    platform)."""
+    a1, a2 = (np.array(a, dtype=float) for a in leg.joints[-1].axes)
+    target = np.asarray(rotation, dtype=float).T  # the platform's frame in the last body's
+    # Rot(a1, q1) Rot(a2, q2) a2 = Rot(a1, q1) a2: the first angle turns a2 onto target·a2 about a1
+    w = target @ a2
+    q1 = math.atan2(float(np.cross(a2, w) @ a1), float(a2 @ w - (a2 @ a1) * (w @ a1)))
+    # then Rot(a2, q2) = Rot(a1, q1)ᵀ target: its turn of a1 (across a2) gives q2
+    rest = axis_rotation(a1, -q1) @ target
+    v = rest @ a1
+    q2 = math.atan2(float(np.cross(a1, v) @ a2), float(a1 @ v - (a1 @ a2) * (v @ a2)))
+    miss = float(np.linalg.norm(axis_rotation(a1, q1) @ axis_rotation(a2, q2) - target))
+    return q1, q2, miss
 
 
 def attachment_point(mechanism: SpatialMechanism, leg: int, pose) -> np.ndarray:
@@ -433,7 +467,7 @@ def spatial_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Spa
     """The spatial mechanism of a ``[mechanism]`` table with ``dimension = 3``.
 
     Each ``[[mechanism.leg]]`` has ``base``, ``joints`` (e.g. ``"UP*S"``), ``axes`` (a list with one entry per
-    joint but the S: a vector for R and P, a pair of vectors for U), ``stroke`` and ``bodies`` (``tip``,
+    joint but an S: a vector for R and P, a pair of vectors for U), ``stroke`` and ``bodies`` (``tip``,
     ``mass``, ``com``, ``inertia``: a 3×3 tensor or a number for ``I·identity``).
     """
     where = source

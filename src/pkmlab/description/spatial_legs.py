@@ -42,12 +42,24 @@ from .spatial import SpatialLeg, SpatialMechanism
 SOLVED = ("R*US", "UP*S", "P*US", "P*RS", "RP*S")
 
 
+def position_notation(leg: SpatialLeg) -> str:
+    """The leg's notation with its platform joint made spherical: the leg whose closed form solves it, since a
+    platform joint's angles do not move its centre (a UP*U leg reaches it as a UP*S leg does)."""
+    return leg.notation[:-1] + "S"
+
+
+def _leg(leg: SpatialLeg, number: int) -> str:
+    """How messages name a leg: ``"leg 2 (UP*S)"``."""
+    return f"leg {number + 1} ({leg.notation})"
+
+
 def working_modes(leg: SpatialLeg) -> tuple[int, ...]:
     """``(+1, -1)`` for a leg with two inverse-kinematic branches (R*US, P*US, a P*RS whose slide is across its
     hinge), ``()`` for one."""
-    if leg.notation in ("R*US", "P*US"):
+    notation = position_notation(leg)
+    if notation in ("R*US", "P*US"):
         return (1, -1)
-    if leg.notation == "P*RS" and _across(np.array(leg.joints[1].axes[0]), np.array(leg.joints[0].axes[0])):
+    if notation == "P*RS" and _across(np.array(leg.joints[1].axes[0]), np.array(leg.joints[0].axes[0])):
         return (1, -1)
     return ()
 
@@ -148,9 +160,9 @@ def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> 
     def why(k):
         where = ", ".join(f"{c:.4g}" for c in points[k])
         if reach_bad[k]:
-            return (f"leg {number + 1} (R*US) cannot reach the point ({where}): its forearm of {length:.4g} m cannot "
+            return (f"{_leg(leg, number)} cannot reach the point ({where}): its forearm of {length:.4g} m cannot "
                     "join the circle of its arm's tip")
-        return (f"leg {number + 1} (R*US): its universal joint cannot turn the forearm towards the point ({where})")
+        return (f"{_leg(leg, number)}: its universal joint cannot turn the forearm towards the point ({where})")
 
     bad = bad | u_bad
     bad, why = mark_outside_stroke(leg, number, theta, bad, why)
@@ -175,8 +187,8 @@ def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -
     def why(k):
         where = ", ".join(f"{c:.4g}" for c in points[k])
         if reach_bad[k]:
-            return f"leg {number + 1} (UP*S) cannot reach the point ({where}): it is closer than the leg's offset"
-        return f"leg {number + 1} (UP*S): its universal joint cannot turn the leg towards the point ({where})"
+            return f"{_leg(leg, number)} cannot reach the point ({where}): it is closer than the leg's offset"
+        return f"{_leg(leg, number)}: its universal joint cannot turn the leg towards the point ({where})"
 
     bad, why = mark_outside_stroke(leg, number, s, bad | u_bad, why)
     return Solved(np.column_stack([q1, q2, s]), bad, why)
@@ -203,9 +215,9 @@ def _pus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, _axis) ->
     def why(k):
         where = ", ".join(f"{c:.4g}" for c in points[k])
         if reach_bad[k]:
-            return (f"leg {number + 1} (P*US) cannot reach the point ({where}): it is farther than its rod of "
+            return (f"{_leg(leg, number)} cannot reach the point ({where}): it is farther than its rod of "
                     f"{length:.4g} m from the slider's line")
-        return f"leg {number + 1} (P*US): its universal joint cannot turn the rod towards the point ({where})"
+        return f"{_leg(leg, number)}: its universal joint cannot turn the rod towards the point ({where})"
 
     bad, why = mark_outside_stroke(leg, number, s, bad | u_bad, why)
     return Solved(np.column_stack([s, q1, q2]), bad, why)
@@ -246,9 +258,9 @@ def _prs(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, _axis) ->
     def why(k):
         where = ", ".join(f"{c:.4g}" for c in points[k])
         if off[k]:
-            return (f"leg {number + 1} (P*RS) cannot reach the point ({where}): it is off the surface its link "
+            return (f"{_leg(leg, number)} cannot reach the point ({where}): it is off the surface its link "
                     "sweeps (a pose the leg does not allow)")
-        return (f"leg {number + 1} (P*RS) cannot reach the point ({where}): its link of {np.linalg.norm(t):.4g} m "
+        return (f"{_leg(leg, number)} cannot reach the point ({where}): its link of {np.linalg.norm(t):.4g} m "
                 "cannot join the slider's line")
 
     bad, why = mark_outside_stroke(leg, number, s, reach_bad, why)
@@ -277,25 +289,26 @@ def _rps(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -
     def why(k):
         where = ", ".join(f"{c_:.4g}" for c_ in points[k])
         if off[k]:
-            return (f"leg {number + 1} (RP*S) cannot reach the point ({where}): it is off the plane its hinge "
+            return (f"{_leg(leg, number)} cannot reach the point ({where}): it is off the plane its hinge "
                     "turns the leg in (a pose the leg does not allow)")
-        return f"leg {number + 1} (RP*S) cannot reach the point ({where}): it is closer than the leg's offset"
+        return f"{_leg(leg, number)} cannot reach the point ({where}): it is closer than the leg's offset"
 
     bad, why = mark_outside_stroke(leg, number, s, reach_bad, why)
     return Solved(np.column_stack([phi, s]), bad, why)
 
 
 def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None) -> Solved:
-    """The leg's joint coordinates (K, 3 or 2), in the order of its joints, for its S joint at ``points``
+    """The leg's joint coordinates (K, 3 or 2), in the order of its joints, for its platform joint at ``points``
     (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why). ``axis`` is
     the machine's :func:`central_axis`, which tells an R*US leg's working modes apart (default: the z
     axis)."""
     if axis is None:
         axis = (np.zeros(3), np.array([0.0, 0.0, 1.0]))
-    solver = {"R*US": _rus, "UP*S": _ups, "P*US": _pus, "P*RS": _prs, "RP*S": _rps}.get(leg.notation)
+    solver = {"R*US": _rus, "UP*S": _ups, "P*US": _pus, "P*RS": _prs, "RP*S": _rps}.get(position_notation(leg))
     if solver is None:
-        raise InvalidParameterError(f"leg {number + 1} ({leg.notation}): pkmlab solves the inverse kinematics of "
-                                    f"spatial legs {', '.join(SOLVED)} in closed form, not {leg.notation} yet")
+        raise InvalidParameterError(f"{_leg(leg, number)}: pkmlab solves the inverse kinematics of "
+                                    f"spatial legs {', '.join(SOLVED)} (or their chains ended in a U) in closed "
+                                    f"form, not {leg.notation} yet")
     return solver(leg, number, np.asarray(points, dtype=float).reshape(-1, 3), sigma, axis)
 
 

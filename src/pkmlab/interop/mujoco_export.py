@@ -266,21 +266,6 @@ def _whole_pose(m, q: np.ndarray) -> np.ndarray:
     return full_poses(m, q[len(q) - _n_pose(m):])
 
 
-def _leg_values(model, q: np.ndarray) -> list[list[float]]:
-    """Each leg's joint coordinates in joint order (a universal joint's two), from pkmlab's ``q``."""
-    m = model.description
-    n = len(m.legs)
-    passive = iter(q[n:len(q) - _n_pose(m)])
-    out = []
-    for i, leg in enumerate(m.legs):
-        values = []
-        for joint in leg.joints[:-1]:
-            count = getattr(joint, "coordinates", 1)
-            values += [float(q[i])] if joint.actuated else [float(next(passive)) for _ in range(count)]
-        out.append(values)
-    return out
-
-
 def _quaternion(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """The unit quaternion (w, x, y, z) of ``Rz(yaw) Ry(pitch) Rx(roll)``."""
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
@@ -298,8 +283,10 @@ def qpos_from_q(model, q) -> np.ndarray:
     if q.shape != (len(model.coordinates),):
         raise InvalidParameterError(f"q must be the {len(model.coordinates)} coordinates "
                                     f"({', '.join(model.coordinates)}), got shape {q.shape}")
+    from ..model.mechanism_model import leg_joint_values
+
     out = []
-    for leg, values in zip(m.legs, _leg_values(model, q), strict=True):
+    for leg, values in zip(m.legs, leg_joint_values(model, q), strict=True):
         if _spatial(m):
             out += values
             continue

@@ -229,6 +229,58 @@ def tracked_point(model: MechanismModel, q) -> np.ndarray:
     return np.asarray(q, dtype=float)[..., columns]
 
 
+def leg_joint_values(model: MechanismModel, q) -> list[list[float]]:
+    """Each leg's joint coordinates, in the order of its joints (a universal joint's two), from the configuration
+    ``q`` (n_coordinates,): what :func:`~pkmlab.description.spatial.leg_frames` and MuJoCo's joints read."""
+    m = model.description
+    n = len(m.legs)
+    passive = iter(q[n:len(q) - len(_q_pose_names(m))])
+    out = []
+    for i, leg in enumerate(m.legs):
+        values = []
+        for joint in leg.joints[:-1]:
+            count = getattr(joint, "coordinates", 1)
+            values += [float(q[i])] if joint.actuated else [float(next(passive)) for _ in range(count)]
+        out.append(values)
+    return out
+
+
+def _q_pose_names(description) -> tuple[str, ...]:
+    platform = description.platform
+    return platform.q_pose_names if getattr(description, "spatial", False) else description.pose_names
+
+
+def platform_joint_names(description) -> tuple[str, ...]:
+    """The names of the angles of the universal joints that carry a translating platform (a 3-UPU's), as
+    :func:`platform_joint_angles` gives them: ``q<leg>_<joint>a``, ``…b``; empty for other machines."""
+    if not getattr(description, "spatial", False):
+        return ()
+    return tuple(f"q{i + 1}_{len(leg.joints)}{c}" for i, leg in enumerate(description.legs)
+                 if leg.joints[-1].kind == "U" for c in "ab")
+
+
+def platform_joint_angles(model: MechanismModel, q) -> np.ndarray:
+    """The angles of the universal joints that carry the platform (:func:`platform_joint_names`) at
+    configurations ``q`` (..., n_coordinates), (..., 2 per such leg): not coordinates of ``q``, they follow from
+    each leg's last body and the platform's fixed orientation
+    (:func:`~pkmlab.description.spatial.platform_joint_angles`)."""
+    from ..description.spatial import leg_frames
+    from ..description.spatial import platform_joint_angles as angles_of
+
+    m = model.description
+    names = platform_joint_names(m)
+    q = np.asarray(q, dtype=float)
+    flat = q.reshape(-1, q.shape[-1])
+    out = np.empty((len(flat), len(names)))
+    for r, qr in enumerate(flat):
+        column = 0
+        for leg, values in zip(m.legs, leg_joint_values(model, qr), strict=True):
+            if leg.joints[-1].kind == "U":
+                out[r, column:column + 2] = angles_of(leg, leg_frames(leg, values)[-1][1])[:2]
+                column += 2
+    return out.reshape(*q.shape[:-1], len(names))
+
+
 def _evaluate(model: MechanismModel, fn, shape, q, *args) -> np.ndarray:
     """``fn``'s output (``shape``) at configuration ``q``; ``args`` between the trig table and ``P``."""
     out = np.empty(shape)

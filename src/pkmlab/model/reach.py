@@ -106,7 +106,8 @@ def _check_spatial_assembly(description) -> None:
 
     m = description
     mobility(m)
-    if m.platform.parasitic_names or any(leg.notation not in spatial_legs.SOLVED for leg in m.legs):
+    solved = all(spatial_legs.position_notation(leg) in spatial_legs.SOLVED for leg in m.legs)
+    if m.platform.parasitic_names or not solved:
         return
     box = spatial_extent(m)
     for count in SPATIAL_ASSEMBLY_GRIDS:
