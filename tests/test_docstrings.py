@@ -9,7 +9,8 @@ MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics
            "pkmlab.paper.geometry", "pkmlab.paper.kinematics", "pkmlab.numerics.polynomial",
            "pkmlab.algorithms.analysis", "pkmlab.paper.dynamics", "pkmlab.control.controller", "pkmlab._format",
            "pkmlab.description.mechanism", "pkmlab.description.files", "pkmlab.model.mechanism_model",
-           "pkmlab.views.animation", "pkmlab.algorithms.stewart_fk", "pkmlab.simulation.uncertainty", "pkmlab.progress"]
+           "pkmlab.views.animation", "pkmlab.algorithms.stewart_fk", "pkmlab.simulation.uncertainty", "pkmlab.progress",
+           "pkmlab.algorithms.singularities"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -19,6 +19,7 @@ from ._version import __version__
 _WHERE = {
     "MechanismModel": "model.mechanism_model", "load": "model.mechanism_model",
     "SingularityMap": "algorithms.analysis", "singularity_map": "algorithms.analysis",
+    **dict.fromkeys(("Singularities", "singularity_kinds"), "algorithms.singularities"),
     **dict.fromkeys(("AssemblyError", "BranchFollowingError", "IncompleteSolutionWarning", "InvalidParameterError",
                      "PkmlabError", "SingularityError", "UnreachablePoseError", "UnstableControlError"), "errors"),
     **dict.fromkeys(("SINGULAR_S", "AssemblyMode", "ForwardKinematicsSolution", "InverseKinematicsSolution",

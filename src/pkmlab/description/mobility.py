@@ -262,21 +262,25 @@ def _computed(m, seed: int) -> Mobility:
         x = project(m, found[0] + nudge, size)
         found.append(x if x is not None else found[0])
     scale = np.where(angles, 1.0 / size, 1.0)
-    jacobians = [jacobian(m, x) * scale for x in found]
-    ranks = [_rank(j) for j in jacobians]
-    best = int(np.argmax(ranks))
-    j, x, rank = jacobians[best], found[best], ranks[best]
-    x.setflags(write=False)  # shared by every caller of the cached result
-    n = j.shape[1]
+    n_coordinates = len(found[0])
     actuated = [starts[i] + sum(jt.coordinates for jt in leg.joints[:leg.actuated]) for i, leg in enumerate(m.legs)]
     pose_names = m.platform.full_pose_names
     controlled = [starts[-1] + pose_names.index(c) for c in m.platform.pose_names]
-    leg_constraints = []
-    for i in range(len(m.legs)):
-        rows = slice(3 * i, 3 * i + 3)
-        leg_constraints.append(3 - _rank(j[rows, starts[i]:starts[i + 1]]))
-    return Mobility(n - rank, rank, n, j.shape[0], tuple(leg_constraints), x,
-                    _rank(np.delete(j, actuated, axis=1)), _rank(np.delete(j, controlled, axis=1)))
+
+    def ranks_at(j):
+        shares = tuple(3 - _rank(j[3 * i:3 * i + 3, starts[i]:starts[i + 1]]) for i in range(len(m.legs)))
+        return (_rank(j), _rank(np.delete(j, actuated, axis=1)), _rank(np.delete(j, controlled, axis=1)), shares)
+
+    # every rank can only drop at special configurations: each is the largest over the samples (one sample may
+    # be special in one way only, e.g. a machine whose legs the projection makes parallel)
+    samples = [ranks_at(jacobian(m, x) * scale) for x in found]
+    rank, actuated_rank, controlled_rank = (max(r[k] for r in samples) for k in range(3))
+    shares = tuple(min(r[3][i] for r in samples) for i in range(len(m.legs)))
+    best = int(np.argmax([sum(r[:3]) for r in samples]))
+    x = found[best]
+    x.setflags(write=False)  # shared by every caller of the cached result
+    return Mobility(n_coordinates - rank, rank, n_coordinates, len(m.legs) * 3, shares, x, actuated_rank,
+                    controlled_rank)
 
 
 def check_parallelograms(mechanism) -> None:
@@ -307,22 +311,63 @@ _TSAI = ("Tsai's 3-UPU has each leg's two inner axes parallel, and its base join
          "platform joint's second")
 
 
-def check_platform_joints(mechanism, result: Mobility, seed: int = 0) -> None:
-    """A translating platform on legs that end in universal joints (a 3-UPU) stays level only if, at every
-    configuration of its legs, each such joint can turn its leg's last body onto the platform, and the joints
-    together leave the platform no turn: with its orientation freed (a rigid platform, its universal joints'
-    angles as coordinates and their three orientation closures per leg), the mobility must stay the number of
-    its actuators. Both are measured at generic configurations of the legs (those of ``result`` and two
-    near it); each refusal names the leg or the computed mobility.
-
-    Tsai's 3-UPU meets both when each leg's two inner axes are parallel, and its base joint's first axis is
-    parallel to its platform joint's second."""
+def orientation_free_closures(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[float]]:
+    """The loop closures of a translating platform on legs some of which end in a universal joint, with the
+    platform's orientation freed, at the configuration ``x`` (the legs' joint coordinates leg by leg, then the
+    position): their Jacobian, whose columns are the legs' coordinates, the platform joints' two angles per
+    such leg (:func:`~pkmlab.description.spatial.platform_joint_angles` at ``x``), the position and the
+    platform's angular velocity (world frame), and whose rows are each leg's 3 position closures, then 3
+    orientation closures (the angular velocity of the leg's last body turned by its platform joint, less the
+    platform's) after each leg that ends in a U; which columns are angles; and each such leg's miss (how far
+    its joint is from turning the leg's last body onto the level platform)."""
     from .spatial import axis_rotation, platform_joint_angles
 
     m = mechanism
+    _counts, starts, _n_pose = _layout(m)
+    ends = [i for i, leg in enumerate(m.legs) if leg.joints[-1].kind == "U"]
+    n_joint = starts[-1] + 2 * len(ends)
+    rows, misses = [], []
+    for i, leg in enumerate(m.legs):
+        _point, rot, linear, angular = _leg_twist(leg, x[starts[i]:starts[i + 1]])
+        a = np.array(m.platform.attachments[i])
+        position = np.zeros((3, n_joint + 6))
+        position[:, starts[i]:starts[i + 1]] = linear
+        position[:, n_joint:n_joint + 3] = -np.eye(3)
+        position[:, n_joint + 3:] = np.cross(a, np.eye(3)).T  # column k: d(-R a)/dω_k = a × e_k
+        rows.append(position)
+        if i not in ends:
+            continue
+        q1, _q2, miss = platform_joint_angles(leg, rot)
+        misses.append(miss)
+        a1, a2 = (np.array(v) for v in leg.joints[-1].axes)
+        turn = np.zeros((3, n_joint + 6))
+        turn[:, starts[i]:starts[i + 1]] = angular
+        k = starts[-1] + 2 * ends.index(i)
+        turn[:, k] = rot @ a1
+        turn[:, k + 1] = rot @ axis_rotation(a1, q1) @ a2
+        turn[:, n_joint + 3:] = -np.eye(3)
+        rows.append(turn)
+    angles = np.concatenate([_angle_columns(m)[:starts[-1]], np.ones(2 * len(ends), dtype=bool),
+                             np.zeros(3, dtype=bool), np.ones(3, dtype=bool)])
+    return np.vstack(rows), angles, misses
+
+
+_TSAI = ("Tsai's 3-UPU has each leg's two inner axes parallel, and its base joint's first axis parallel to its "
+         "platform joint's second")
+
+
+def check_platform_joints(mechanism, result: Mobility, seed: int = 0) -> None:
+    """A translating platform on legs that end in universal joints (a 3-UPU) stays level only if, at every
+    configuration of its legs, each such joint can turn its leg's last body onto the platform, and the joints
+    together leave the platform no turn: with its orientation freed (:func:`orientation_free_closures`), the
+    mobility must stay the number of its actuators. Both are measured at generic configurations of the legs
+    (those of ``result`` and two near it); each refusal names the leg or the computed mobility.
+
+    Tsai's 3-UPU meets both when each leg's two inner axes are parallel, and its base joint's first axis is
+    parallel to its platform joint's second."""
+    m = mechanism
     rng = np.random.default_rng(seed + 1)
     size = _size(m)
-    counts, starts, _n_pose = _layout(m)
     angles = _angle_columns(m)
     found = [np.array(result.configuration)]
     while len(found) < SAMPLES:
@@ -333,36 +378,18 @@ def check_platform_joints(mechanism, result: Mobility, seed: int = 0) -> None:
     ends = [i for i, leg in enumerate(m.legs) if leg.joints[-1].kind == "U"]
     dof = len(m.platform.pose_names)
     for x in found:
-        n_joint = starts[-1] + 2 * len(ends)
-        rows = []
-        for i, leg in enumerate(m.legs):
-            point, rot, linear, angular = _leg_twist(leg, x[starts[i]:starts[i + 1]])
-            a = np.array(m.platform.attachments[i])
-            position = np.zeros((3, n_joint + 6))
-            position[:, starts[i]:starts[i + 1]] = linear
-            position[:, n_joint:n_joint + 3] = -np.eye(3)
-            position[:, n_joint + 3:] = np.cross(a, np.eye(3)).T  # column k: d(-R a)/dω_k = a × e_k
-            rows.append(position)
-            if i not in ends:
-                continue
-            q1, q2, miss = platform_joint_angles(leg, rot)
+        j, angle_columns, misses = orientation_free_closures(m, x)
+        for i, miss in zip(ends, misses, strict=True):
             if miss > 1e-8:
+                leg = m.legs[i]
                 raise InvalidParameterError(
                     f"leg {i + 1} ({leg.notation}): its universal joint at the platform cannot turn the leg's last "
                     f"body onto the platform's fixed orientation as the leg moves (missed by {miss:.3g} rad at a "
                     f"generic configuration): its axes do not keep a translating platform level ({_TSAI})")
-            a1, a2 = (np.array(v) for v in leg.joints[-1].axes)
-            turn = np.zeros((3, n_joint + 6))
-            turn[:, starts[i]:starts[i + 1]] = angular * size  # radians weighed as metres, as the angle columns
-            k = starts[-1] + 2 * ends.index(i)
-            turn[:, k] = rot @ a1 * size
-            turn[:, k + 1] = rot @ axis_rotation(a1, q1) @ a2 * size
-            turn[:, n_joint + 3:] = -np.eye(3) * size
-            rows.append(turn)
-        j = np.vstack(rows)
-        scale = np.concatenate([np.where(angles[:starts[-1]], 1.0 / size, 1.0),
-                                np.full(2 * len(ends), 1.0 / size), np.ones(3), np.full(3, 1.0 / size)])
-        free = j.shape[1] - _rank(j * scale)
+        # angle columns weighed as lever arms of the machine's size, every row of unit length (the orientation
+        # closures are in radians, the position closures in metres): a rank whose tolerance means the same in both
+        j = j * np.where(angle_columns, 1.0 / size, 1.0)
+        free = j.shape[1] - _rank(j / np.maximum(np.linalg.norm(j, axis=1), 1e-300)[:, None])
         if free != dof:
             raise InvalidParameterError(
                 f"{m.name}: its universal joints at the platform do not hold it level: with its orientation free the "
