@@ -195,7 +195,7 @@ TARGETS = [
          max_step=0.05),
     *(_sig(f, model=GENERIC, q=G_Q) for f in (
         pkmlab.constraint_residual, pkmlab.constraint_jacobian, pkmlab.coordinate_jacobian, pkmlab.velocity_jacobian,
-        pkmlab.singularity_measure)),
+        pkmlab.singularity_measure, pkmlab.singularity_kinds)),
     *(_sig(f, model=GENERIC, q=G_Q, theta_dot=THETA_DOT) for f in (
         pkmlab.coordinate_rates, pkmlab.acceleration_bias, pkmlab.actuator_space_model)),
     _sig(pkmlab.coordinate_accelerations, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
@@ -329,7 +329,7 @@ def test_every_public_callable_is_fuzzed():
     fuzzed |= {"ReducedPlant", "FullPlant", "ActuatorSpacePlant", "FullSpacePlant"}
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
-              "PlantRun", "SingularityMap", "FullSpaceModel", "ConstrainedDynamics", "ActuatorSpaceModel",
+              "PlantRun", "SingularityMap", "Singularities", "FullSpaceModel", "ConstrainedDynamics", "ActuatorSpaceModel",
               "MechanismModel",  # built by pkmlab.load, fuzzed above
               "sweep", "tune"}  # whole studies: their arguments are checked one by one in tests/test_study.py
     public = {name: getattr(pkmlab, name) for name in pkmlab.__all__}
