@@ -329,7 +329,8 @@ def test_every_public_callable_is_fuzzed():
     fuzzed |= {"ReducedPlant", "FullPlant", "ActuatorSpacePlant", "FullSpacePlant"}
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
-              "PlantRun", "SingularityMap", "Singularities", "FullSpaceModel", "ConstrainedDynamics", "ActuatorSpaceModel",
+              "PlantRun", "SingularityMap", "Singularities", "FullSpaceModel", "ConstrainedDynamics",
+              "ActuatorSpaceModel",
               "MechanismModel",  # built by pkmlab.load, fuzzed above
               "sweep", "tune"}  # whole studies: their arguments are checked one by one in tests/test_study.py
     public = {name: getattr(pkmlab, name) for name in pkmlab.__all__}

@@ -61,6 +61,10 @@ def _times(t) -> np.ndarray:
     return t
 
 
+#: How :class:`TimedWaypoints` turn a rigid platform between waypoints.
+ORIENTATION_PATHS = ("angles", "geodesic")
+
+
 # ------------------------------------------------------------------ paths
 @dataclass(frozen=True)
 class Circle:
@@ -233,12 +237,20 @@ class TimedWaypoints:
     waypoint: the pick-and-place cycle of industry, whose segments have prescribed times.
 
     On segment ``k``, ``pose = p_k + σ(τ) (p_k+1 - p_k)``, ``τ = (t - t_k) / D_k``: every coordinate,
-    orientation angles included, moves in proportion (a straight line in pose space).
+    orientation angles included, moves in proportion (a straight line in pose space). With
+    ``orientation_path = "geodesic"`` (poses ``(x, y, z, roll, pitch, yaw)``) the orientation follows instead
+    the shortest turn between the waypoints' (a geodesic of SO(3)): ``R(τ) = exp(σ(τ) [w]×) R_k``, ``w`` the
+    rotation vector of ``R_k+1 R_kᵀ`` in the world frame — one axis, its angle in proportion to ``σ``, the
+    angular velocity ``σ̇ w`` — given as roll, pitch and yaw kept continuous (:func:`geodesic_turns`) with their
+    exact rates (:func:`~pkmlab.description.spatial.angle_rates`); a half turn, or a turn through or near gimbal
+    lock (``pitch = ±π/2``), is refused when the waypoints are given.
     """
 
     points: tuple
     durations: tuple
     law: str = "quintic"
+    orientation_path: str = "angles"
+    _turns: GeodesicTurns | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         try:
@@ -256,8 +268,15 @@ class TimedWaypoints:
             if np.array_equal(pts[i - 1], pts[i]):
                 raise InvalidParameterError(f"points[{i}] repeats the previous pose {pts[i].tolist()}")
         as_choice("law", self.law, ("cubic", "quintic"))
+        as_choice("orientation_path", self.orientation_path, ORIENTATION_PATHS)
+        if self.orientation_path == "geodesic" and pts.shape[1] != 6:
+            raise InvalidParameterError("orientation_path = 'geodesic' needs poses (x, y, z, roll, pitch, yaw), the "
+                                        "whole orientation of a rigid platform; got poses of "
+                                        f"{pts.shape[1]} coordinates")
         object.__setattr__(self, "points", tuple(tuple(float(v) for v in p) for p in pts))
         object.__setattr__(self, "durations", tuple(float(d) for d in durations))
+        if self.orientation_path == "geodesic":
+            object.__setattr__(self, "_turns", geodesic_turns(pts[:, 3:]))
 
     @property
     def dimension(self) -> int:
@@ -277,8 +296,125 @@ class TimedWaypoints:
         span = durations[k]
         sigma, d1, d2 = time_law(self.law, (t - starts[k]) / span)
         delta = pts[k + 1] - pts[k]
-        return (pts[k] + sigma[..., None] * delta, (d1 / span)[..., None] * delta,
-                (d2 / span**2)[..., None] * delta)
+        out = (pts[k] + sigma[..., None] * delta, (d1 / span)[..., None] * delta, (d2 / span**2)[..., None] * delta)
+        if self.orientation_path == "geodesic":
+            turned = geodesic_orientation(self._turns, k.reshape(-1), sigma.reshape(-1), (d1 / span).reshape(-1),
+                                          (d2 / span**2).reshape(-1))
+            for o, v in zip(out, turned, strict=True):
+                o[..., 3:] = v.reshape(*t.shape, 3)
+        return out
+
+
+def _nearest_angles(raw: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Of the angles ``(roll, pitch, yaw)`` (K, 3) of each orientation — ``raw``, its twin ``(roll + π, π - pitch,
+    yaw + π)`` and both shifted by whole turns — the ones nearest ``reference`` (K, 3)."""
+    twin = np.stack([raw[:, 0] + np.pi, np.pi - raw[:, 1], raw[:, 2] + np.pi], axis=-1)
+    candidates = [c + 2 * np.pi * np.round((reference - c) / (2 * np.pi)) for c in (raw, twin)]
+    nearer = np.linalg.norm(candidates[1] - reference, axis=1) < np.linalg.norm(candidates[0] - reference, axis=1)
+    return np.where(nearer[:, None], candidates[1], candidates[0])
+
+
+def _turned(rot: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """``exp(angle [axis]×) rot`` (K, 3, 3), Rodrigues' formula for each row."""
+    skew = np.zeros((len(axis), 3, 3))
+    skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+    skew -= skew.transpose(0, 2, 1)
+    c, s = np.cos(angle)[:, None, None], np.sin(angle)[:, None, None]
+    return (np.eye(3) + s * skew + (1.0 - c) * (skew @ skew)) @ rot
+
+
+#: Steps per segment of the reference along which a geodesic's angles are kept continuous.
+_GEODESIC_STEPS = 64
+#: The smallest ``|cos pitch|`` a geodesic may reach: nearer gimbal lock, roll's and yaw's rates would exceed a
+#: hundred times the angular velocity (they are infinite at the lock).
+GIMBAL_MARGIN = 1e-2
+
+
+@dataclass(frozen=True)
+class GeodesicTurns:
+    """The shortest turns between consecutive orientations (:func:`geodesic_turns`): for each segment ``j`` the
+    start's rotation ``rot[j]`` (3, 3), the turn's unit axis ``axis[j]`` (3,, world frame) and ``angle[j]``, and
+    ``reference[j]`` (steps + 1, 3), continuous roll, pitch and yaw at evenly spaced fractions of the turn."""
+
+    rot: np.ndarray
+    axis: np.ndarray
+    angle: np.ndarray
+    reference: np.ndarray
+
+
+def _largest_along_turn(v_z, a, v, angle) -> float:
+    """The largest ``|e_zᵀ exp(φ [a]×) v|`` for ``φ`` in ``[0, angle]``: by Rodrigues' formula the component is
+    ``c + A cos φ + B sin φ``, ``c = a_z (a·v)``, ``A = v_z - c``, ``B = (a × v)_z``, extreme at its ends or where
+    ``tan φ = B / A``."""
+    c = a[2] * float(a @ v)
+    big_a, big_b = v_z - c, float(np.cross(a, v)[2])
+    phi = math.atan2(big_b, big_a)
+    candidates = [0.0, angle] + [p for p in (phi % (2 * math.pi), (phi + math.pi) % (2 * math.pi)) if p <= angle]
+    return max(abs(c + big_a * math.cos(p) + big_b * math.sin(p)) for p in candidates)
+
+
+def geodesic_turns(angles) -> GeodesicTurns:
+    """The shortest turns between consecutive orientations ``(roll, pitch, yaw)`` (K, 3) (:class:`TimedWaypoints`).
+
+    The reference angles are continuous over the whole motion: from the first orientation's own, along each
+    turn the representation nearest the step before (so a turn through yaw = π goes on to 3.4 rather than jump
+    to -2.9; a later waypoint is reached in its orientation, its angles possibly a whole turn from those given).
+
+    Raises
+    ------
+    InvalidParameterError
+        A half turn (two shortest turns, no one axis), or a turn that passes within :data:`GIMBAL_MARGIN` of
+        pitch = ±π/2, where roll and yaw are one turn: naming the segment's waypoints.
+    """
+    from ..description.spatial import orientations, orientations_angles
+
+    rot = orientations(angles)
+    turn = np.einsum("kij,klj->kil", rot[1:], rot[:-1])  # R_k+1 R_kᵀ, in the world frame
+    angle = np.arccos(np.clip((np.trace(turn, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
+    axis = np.stack([turn[:, 2, 1] - turn[:, 1, 2], turn[:, 0, 2] - turn[:, 2, 0], turn[:, 1, 0] - turn[:, 0, 1]], -1)
+    norm = np.linalg.norm(axis, axis=1)
+    half = np.flatnonzero((angle > 1e-9) & (norm < 1e-9 * max(1.0, float(angle.max()))))
+    if half.size:
+        j = int(half[0])
+        raise InvalidParameterError(f"points[{j}] to points[{j + 1}]: a half turn, whose shortest turn has no one "
+                                    "axis (two are as short): add a waypoint between them")
+    axis = np.where(norm[:, None] > 0, axis / np.where(norm > 0, norm, 1.0)[:, None], 0.0)
+    for j in range(len(turn)):
+        largest = _largest_along_turn(rot[j, 2, 0], axis[j], rot[j, :, 0], float(angle[j]))
+        if 1.0 - largest**2 < GIMBAL_MARGIN**2:  # cos² pitch, pitch = -asin(R[2, 0])
+            raise InvalidParameterError(
+                f"points[{j}] to points[{j + 1}]: the shortest turn passes through or near pitch = ±pi/2 (cos pitch "
+                f"{math.sqrt(max(0.0, 1.0 - largest**2)):.2g} < {GIMBAL_MARGIN:g}), where roll and yaw are one turn "
+                "(gimbal lock): add a waypoint away from it")
+    steps = np.linspace(0.0, 1.0, _GEODESIC_STEPS + 1)
+    references, start = [], np.asarray(angles[0], dtype=float)
+    for j in range(len(turn)):
+        raw = orientations_angles(_turned(np.broadcast_to(rot[j], (len(steps), 3, 3)),
+                                          np.broadcast_to(axis[j], (len(steps), 3)), steps * angle[j]))
+        walked = [start]
+        for r in raw[1:]:
+            walked.append(_nearest_angles(r[None], walked[-1][None])[0])
+        references.append(np.array(walked))
+        start = walked[-1]
+    return GeodesicTurns(rot[:-1], axis, angle, np.array(references))
+
+
+def geodesic_orientation(turns: GeodesicTurns, k, sigma, sigma_dot, sigma_ddot) -> tuple[np.ndarray, ...]:
+    """``(roll, pitch, yaw)``, their rates and accelerations (K, 3) at fractions ``sigma`` (K,) of the turns
+    ``k`` (K,) of :func:`geodesic_turns`, moving at ``sigma_dot`` and ``sigma_ddot`` (K,): the angles nearest the
+    turn's continuous reference, with the exact rates of its angular velocity ``σ̇ θ a``."""
+    from ..description.spatial import angle_rates, orientations_angles
+
+    steps = np.linspace(0.0, 1.0, turns.reference.shape[1])
+    reference = np.empty((len(k), 3))
+    for j in np.unique(k):
+        rows = k == j
+        reference[rows] = np.stack([np.interp(sigma[rows], steps, turns.reference[j, :, c]) for c in range(3)], -1)
+    current = _turned(turns.rot[k], turns.axis[k], sigma * turns.angle[k])
+    best = _nearest_angles(orientations_angles(current), reference)
+    w = turns.axis[k] * turns.angle[k][:, None]  # the turn's rotation vector, world frame
+    rates, accelerations = angle_rates(best, sigma_dot[:, None] * w, sigma_ddot[:, None] * w)
+    return best, rates, accelerations
 
 
 @dataclass(frozen=True)

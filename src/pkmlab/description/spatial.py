@@ -346,6 +346,33 @@ def orientation_angles(rot) -> tuple[float, float, float]:
     return math.atan2(rot[2][1], rot[2][2]), pitch, math.atan2(rot[1][0], rot[0][0])
 
 
+def orientations_angles(rot) -> np.ndarray:
+    """:func:`orientation_angles` of many rotations (K, 3, 3) at once, (K, 3): pitch in [-π/2, π/2]."""
+    rot = np.asarray(rot, dtype=float)
+    pitch = -np.arcsin(np.clip(rot[:, 2, 0], -1.0, 1.0))
+    return np.stack([np.arctan2(rot[:, 2, 1], rot[:, 2, 2]), pitch, np.arctan2(rot[:, 1, 0], rot[:, 0, 0])], axis=-1)
+
+
+def angle_rates(angles, omega, alpha) -> tuple[np.ndarray, np.ndarray]:
+    """The rates and accelerations (K, 3) of ``(roll, pitch, yaw)`` (K, 3) that give the world-frame angular
+    velocity ``omega`` and acceleration ``alpha`` (K, 3): ``ω = E (ṙ, ṗ, ẏ)`` with the columns of ``E`` the
+    roll axis ``Rz Ry e_x``, the pitch axis ``Rz e_y`` and the yaw axis ``e_z``, and ``α = E (r̈, p̈, ÿ) + Ė (ṙ, ṗ, ẏ)``.
+    ``E`` is singular at gimbal lock (``cos pitch = 0``), which the caller refuses."""
+    angles, omega, alpha = (np.asarray(a, dtype=float) for a in (angles, omega, alpha))
+    cp, sp = np.cos(angles[:, 1]), np.sin(angles[:, 1])
+    cy, sy = np.cos(angles[:, 2]), np.sin(angles[:, 2])
+
+    def solve(w):  # E⁻¹ w
+        roll = (cy * w[:, 0] + sy * w[:, 1]) / cp
+        return np.stack([roll, -sy * w[:, 0] + cy * w[:, 1], w[:, 2] + sp * roll], axis=-1)
+
+    rates = solve(omega)
+    r, p, y = rates[:, 0], rates[:, 1], rates[:, 2]
+    e_dot = np.stack([(-sy * cp * y - cy * sp * p) * r - cy * y * p, (cy * cp * y - sy * sp * p) * r - sy * y * p,
+                      -cp * p * r], axis=-1)  # Ė (ṙ, ṗ, ẏ)
+    return rates, solve(alpha - e_dot)
+
+
 def orientations(angles) -> np.ndarray:
     """:func:`orientation` of many ``(roll, pitch, yaw)`` (K, 3) at once, (K, 3, 3)."""
     angles = np.asarray(angles, dtype=float)

@@ -20,7 +20,8 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     # circle also: alpha_end (orientation at the end), turns (default 1)
     # line: start = [x, y, alpha], end = [x, y, alpha]
     # waypoints: points = [[x, y, alpha], ...]; with durations = [s, ...] poses of any machine's own
-    #   coordinates (e.g. [x, y, z] for the Delta), at rest at each point
+    #   coordinates (e.g. [x, y, z] for the Delta), at rest at each point; a rigid platform's [x, y, z, roll,
+    #   pitch, yaw] with orientation_path = "geodesic" turns by the shortest rotation between points
     # spline: points and durations as waypoints, passed without stopping (a C2 cubic spline, at rest at its ends)
     # a spatial machine's circle: center = [x, y, z], normal = [0, 0, 1], orientation = [roll, pitch, yaw]
 
@@ -61,6 +62,7 @@ from .._format import apart, suggestion
 from ..algorithms.kinematics import as_working_mode
 from ..control.controller import CONTROLLER_TYPES, ControllerSpec
 from ..control.trajectory import (
+    ORIENTATION_PATHS,
     Circle,
     Line,
     SpatialCircle,
@@ -89,7 +91,7 @@ TABLES = {
 TRAJECTORY_KEYS = {
     "circle": ("center", "radius", "start_angle", "alpha", "alpha_end", "turns", "normal", "orientation"),
     "line": ("start", "end"),
-    "waypoints": ("points", "durations"),
+    "waypoints": ("points", "durations", "orientation_path"),
     "spline": ("points", "durations"),
 }
 TIME_LAWS = ("cubic", "quintic")
@@ -387,7 +389,14 @@ def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
         raise rd.value_error(f"{dwhere} must be {len(poses) - 1} times in s, one per segment, got {show(durations)}")
     times = [rd.check_number(d, f"{dwhere}[{i}]", "positive") for i, d in enumerate(durations)]
     law = rd.choice(table, name, "time_law", TIME_LAWS, "quintic")
-    return TimedWaypoints(tuple(poses), tuple(times), law)
+    turn = rd.choice(table, name, "orientation_path", ORIENTATION_PATHS, "angles")
+    if turn == "geodesic" and width != 6:
+        raise rd.value_error(f"{rd.where(name, 'orientation_path')} = \"geodesic\" turns a rigid platform's whole "
+                             f"orientation: its points are [x, y, z, roll, pitch, yaw], not {width} numbers")
+    try:
+        return TimedWaypoints(tuple(poses), tuple(times), law, turn)
+    except InvalidParameterError as error:  # a geodesic's half turn or gimbal lock, named by its points
+        raise rd.value_error(f"[{name}].{error}") from None
 
 
 def _controller(rd: _Reader, table: dict) -> tuple[ControllerSpec, float]:
