@@ -3,10 +3,10 @@ computed mobility, solves its inverse kinematics in its working modes on the loo
 run's scenario reads.
 
 Independent checks: the mobility against the machines' textbook counts (a 3-PRS and a 3-RPS: 3, each leg
-removing one freedom; Tsai's 3-UPU: 3, translations; a 6-RUS and a 6-PUS: 6); the configurations against
-the readable chain of :func:`~pkmlab.description.spatial.leg_frames` (not the generated kernels); the forward
-kinematics' complex solution counts against the literature's (16 for the 3-RPS, Lee and Shah's machine; 40 for
-a general 6-RUS and 6-PUS, as for the general Stewart-Gough platform).
+removing one freedom, and a 3-RRS likewise; Tsai's 3-UPU: 3, translations; a 6-RUS and a 6-PUS: 6); the
+configurations against the readable chain of :func:`~pkmlab.description.spatial.leg_frames` (not the generated
+kernels); the forward kinematics' complex solution counts against the literature's (16 for the 3-RPS, Lee and
+Shah's machine; 40 for a general 6-RUS and 6-PUS, as for the general Stewart-Gough platform).
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
 MACHINES = {
     "3prs.toml": (3, 1, [0.45, 0.05, -0.03], 8),
     "3rps.toml": (3, 1, [0.5, 0.05, -0.03], 1),
+    "3rrs.toml": (3, 1, [0.34, 0.05, -0.03], 8),
     "3upu.toml": (3, 0, [0.02, -0.01, 0.62], 1),
     "6rus.toml": (6, 0, [0.0, 0.0, -0.30, 0.05, -0.03, 0.1], 64),
     "6pus.toml": (6, 0, [0.0, 0.0, -0.30, 0.05, -0.03, 0.1], 64),

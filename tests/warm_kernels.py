@@ -1,5 +1,5 @@
-"""Compile the kernels of the spatial machines (the Delta, the Stewart platform, the 3-PRS, the 3-UPU) into the kernel
-cache, by calling every compiled entry point the test suite calls on them.
+"""Compile the kernels of the spatial machines (the Delta, the Stewart platform, the 3-PRS, the 3-UPU, the 3-RRS) into
+the kernel cache, by calling every compiled entry point the test suite calls on them.
 
 Their first compiles are the largest cost of a test run on a fresh checkout (about a minute for the Stewart
 platform's actuator-space model alone). ``conftest.py`` starts this script in a second process when a test
@@ -26,9 +26,10 @@ MACHINES = {
     "stewart": ([0.0, 0.0, 0.85, 0.05, -0.03, 0.1], "stewart_motion.toml"),
     str(EXAMPLES / "mechanisms" / "3prs.toml"): ([0.45, 0.05, -0.03], "mechanisms/3prs_motion.toml"),
     str(EXAMPLES / "mechanisms" / "3upu.toml"): ([0.02, -0.01, 0.62], "mechanisms/3upu_motion.toml"),
+    str(EXAMPLES / "mechanisms" / "3rrs.toml"): ([0.34, 0.05, -0.03], "mechanisms/3rrs_motion.toml"),
 }
 #: Machines whose tests call only the kinematics, the actuator-space model and one sampled-data run.
-LIGHT = {str(EXAMPLES / "mechanisms" / "3prs.toml"), str(EXAMPLES / "mechanisms" / "3upu.toml")}
+LIGHT = {str(EXAMPLES / "mechanisms" / name) for name in ("3prs.toml", "3upu.toml", "3rrs.toml")}
 
 
 def warm_light(name: str) -> None:

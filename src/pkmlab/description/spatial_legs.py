@@ -21,6 +21,11 @@ Legs of a :class:`~pkmlab.description.spatial.SpatialMechanism` that pkmlab solv
 * ``RP*S`` — a passive revolute joint on the base, an actuated prismatic joint, a spherical joint on the
   platform (a 3-RPS): the point must lie in the plane the hinge turns the leg in (when the slide is across
   the hinge; the slide the larger root of a quadratic, one working mode) or on the cone it sweeps otherwise.
+* ``R*RS`` — an actuated crank, a passive hinge parallel to the crank's at its tip, a link to the platform (a
+  3-RRS): the point must lie in the plane normal to the hinges that the link moves in, where crank and link
+  are a planar two-link arm — the crank angle a root of ``α cos θ + β sin θ = γ`` as for the R*US leg, two
+  working modes told apart as the R*US leg's ("knee out" ``σ = +1``). A leg whose hinges are not parallel is
+  refused.
 
 A leg of two joint coordinates before its spherical joint (P*RS, RP*S) does not reach a neighbourhood of
 points but a surface: its platform's pose has parasitic coordinates that keep every attachment point on its
@@ -39,7 +44,7 @@ from ..errors import InvalidParameterError
 from .leg_types import Solved, mark_outside_stroke
 from .spatial import SpatialLeg, SpatialMechanism
 
-SOLVED = ("R*US", "UP*S", "P*US", "P*RS", "RP*S")
+SOLVED = ("R*US", "UP*S", "P*US", "P*RS", "RP*S", "R*RS")
 
 
 def position_notation(leg: SpatialLeg) -> str:
@@ -57,7 +62,7 @@ def working_modes(leg: SpatialLeg) -> tuple[int, ...]:
     """``(+1, -1)`` for a leg with two inverse-kinematic branches (R*US, P*US, a P*RS whose slide is across its
     hinge), ``()`` for one."""
     notation = position_notation(leg)
-    if notation in ("R*US", "P*US"):
+    if notation in ("R*US", "P*US", "R*RS"):
         return (1, -1)
     if notation == "P*RS" and _across(np.array(leg.joints[1].axes[0]), np.array(leg.joints[0].axes[0])):
         return (1, -1)
@@ -145,15 +150,8 @@ def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> 
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = gamma / rho
     bad = ~(np.abs(ratio) <= 1.0)
-    centre, half = np.arctan2(beta, alpha), np.arccos(np.clip(ratio, -1.0, 1.0))
-    roots = [np.angle(np.exp(1j * (centre + half))), np.angle(np.exp(1j * (centre - half)))]
-    elbows = [np.array(leg.base) + along + rotate(axis_r, r, np.broadcast_to(across, points.shape).copy())
-              for r in roots]
-    # σ = +1: the elbow farther from the machine's central axis ("knee out"), σ = -1 the other
-    outer = _distance_from(axis, elbows[0]) > _distance_from(axis, elbows[1])
-    first = outer if sigma > 0 else ~outer
-    theta = np.where(first, roots[0], roots[1])
-    q1, q2, u_bad = forearm_angles(leg, theta, points, np.where(first[:, None], elbows[0], elbows[1]))
+    theta, elbow = _crank_root(leg, alpha, beta, ratio, along, across, sigma, axis)
+    q1, q2, u_bad = forearm_angles(leg, theta, points, elbow)
 
     reach_bad = bad.copy()
 
@@ -167,6 +165,20 @@ def _rus(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> 
     bad = bad | u_bad
     bad, why = mark_outside_stroke(leg, number, theta, bad, why)
     return Solved(np.column_stack([theta, q1, q2]), bad, why)
+
+
+def _crank_root(leg: SpatialLeg, alpha, beta, ratio, along, across, sigma: int, axis):
+    """The crank angle ``θ`` (K,) of working mode ``sigma`` of the roots of ``α cos θ + β sin θ = γ``
+    (``ratio = γ / √(α² + β²)``), and its elbow (K, 3): ``σ = +1`` the root whose elbow is farther from the
+    machine's central ``axis`` ("knee out")."""
+    axis_r = np.array(leg.joints[0].axes[0])
+    centre, half = np.arctan2(beta, alpha), np.arccos(np.clip(ratio, -1.0, 1.0))
+    roots = [np.angle(np.exp(1j * (centre + half))), np.angle(np.exp(1j * (centre - half)))]
+    elbows = [np.array(leg.base) + along + rotate(axis_r, r, np.broadcast_to(across, (len(r), 3)).copy())
+              for r in roots]
+    outer = _distance_from(axis, elbows[0]) > _distance_from(axis, elbows[1])
+    first = outer if sigma > 0 else ~outer
+    return np.where(first, roots[0], roots[1]), np.where(first[:, None], elbows[0], elbows[1])
 
 
 def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -> Solved:
@@ -297,6 +309,43 @@ def _rps(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -
     return Solved(np.column_stack([phi, s]), bad, why)
 
 
+def _rrs(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> Solved:
+    crank_joint, hinge = leg.joints[0], leg.joints[1]
+    crank, link = leg.bodies
+    a = np.array(crank_joint.axes[0])
+    if abs(abs(float(a @ np.array(hinge.axes[0]))) - 1.0) > 1e-9:
+        raise InvalidParameterError(f"{_leg(leg, number)}: pkmlab solves an R*RS leg whose two hinges are parallel "
+                                    f"(its link moves in a plane), not axes {list(crank_joint.axes[0])} and "
+                                    f"{list(hinge.axes[0])}")
+    t1, t2 = np.array(crank.tip), np.array(link.tip)
+    along = (t1 @ a) * a
+    u1, u2 = t1 - along, t2 - (t2 @ a) * a
+    size = max(float(np.linalg.norm(t1)) + float(np.linalg.norm(t2)), 1e-300)
+    v = points - np.array(leg.base)
+    off = np.abs(v @ a - t1 @ a - t2 @ a) > ON_SURFACE * size  # the point must lie in the link's plane
+    w = v - np.outer(v @ a, a)
+    # |w - Rot(a, θ) u1| = |u2|:  α cos θ + β sin θ = γ (the R*US leg's equation in the plane)
+    alpha, beta = w @ u1, w @ np.cross(a, u1)
+    gamma = (np.einsum("ki,ki->k", w, w) + u1 @ u1 - u2 @ u2) / 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = gamma / np.hypot(alpha, beta)
+    bad = ~(np.abs(ratio) <= 1.0)
+    theta, _elbow = _crank_root(leg, alpha, beta, ratio, along, u1, sigma, axis)
+    phi = turn_onto(a, t2, rotate(a, -theta, w) - u1)  # Rot(a, φ) u2 = Rot(a, -θ) w - u1
+    reach_bad = bad | off
+
+    def why(k):
+        where = ", ".join(f"{c:.4g}" for c in points[k])
+        if off[k]:
+            return (f"{_leg(leg, number)} cannot reach the point ({where}): it is off the plane its link moves "
+                    "in (a pose the leg does not allow)")
+        return (f"{_leg(leg, number)} cannot reach the point ({where}): its link of {np.linalg.norm(u2):.4g} m "
+                "cannot join the circle of its crank's tip")
+
+    bad, why = mark_outside_stroke(leg, number, theta, reach_bad, why)
+    return Solved(np.column_stack([theta, phi]), bad, why)
+
+
 def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None) -> Solved:
     """The leg's joint coordinates (K, 3 or 2), in the order of its joints, for its platform joint at ``points``
     (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why). ``axis`` is
@@ -304,7 +353,8 @@ def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: in
     axis)."""
     if axis is None:
         axis = (np.zeros(3), np.array([0.0, 0.0, 1.0]))
-    solver = {"R*US": _rus, "UP*S": _ups, "P*US": _pus, "P*RS": _prs, "RP*S": _rps}.get(position_notation(leg))
+    solver = {"R*US": _rus, "UP*S": _ups, "P*US": _pus, "P*RS": _prs, "RP*S": _rps,
+              "R*RS": _rrs}.get(position_notation(leg))
     if solver is None:
         raise InvalidParameterError(f"{_leg(leg, number)}: pkmlab solves the inverse kinematics of "
                                     f"spatial legs {', '.join(SOLVED)} (or their chains ended in a U) in closed "
