@@ -209,6 +209,8 @@ TARGETS = [
     Target("FullSpacePlant.simulate", _full_space_plant, {**_SPACE_PLANT, "stabilization": 20.0, "q_dot0": np.zeros(9)},
            names=_SPACE_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
     Target("draw", pkmlab.draw, dict(model=GENERIC, q=G_Q, title=None), examples=40),
+    _sig(pkmlab.time_optimal, trajectory=TRAJECTORY, model=GENERIC, mode=(-1, 1, -1), velocity=2.0, acceleration=None,
+         effort=[0.5, 0.5, 0.5], grid=40),
     # the paper's own formulation (the independent oracle of the tests)
     _sig(kin.inverse_kinematics, model=MODEL, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
     _sig(kin.forward_kinematics, model=MODEL, theta=THETA),
@@ -329,7 +331,7 @@ def test_every_public_callable_is_fuzzed():
     fuzzed |= {"ReducedPlant", "FullPlant", "ActuatorSpacePlant", "FullSpacePlant"}
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
-              "PlantRun", "SingularityMap", "Singularities", "FullSpaceModel", "ConstrainedDynamics",
+              "PlantRun", "SingularityMap", "Singularities", "TimeOptimal", "FullSpaceModel", "ConstrainedDynamics",
               "ActuatorSpaceModel",
               "MechanismModel",  # built by pkmlab.load, fuzzed above
               "sweep", "tune"}  # whole studies: their arguments are checked one by one in tests/test_study.py

@@ -662,7 +662,8 @@ def test_readme_scenario_example_loads():
     block = section[section.index("```toml\n") + len("```toml\n"):]
     block = block[: block.index("```")]
     s = scenario_from_dict(tomllib.loads(block), "my_run.toml")
-    assert s.name == "my_run" and s.trajectory.speed == 0.2 and s.controller.kp == 1000.0
+    assert s.name == "my_run" and s.trajectory.original.speed == 0.2 and s.controller.kp == 1000.0
+    assert isinstance(s.trajectory, pkmlab.TimeOptimal) and s.trajectory.duration < s.trajectory.original.duration
     assert s.model == pkmlab.load("paper")
     _assert_plant(s.plant, 1.15, 1.15)
 

@@ -33,6 +33,7 @@ _WHERE = {
     **dict.fromkeys(("ActuatorSpacePlant", "FullSpacePlant", "PlantRun"), "simulation.plants"),
     **dict.fromkeys(("load_scenario", "paper_scenario"), "formats.scenario"),
     "ControllerSpec": "control.controller",
+    **dict.fromkeys(("TimeOptimal", "time_optimal"), "control.time_optimal"),
     **dict.fromkeys(("Scenario", "perturbed_model"), "simulation.scenario"),
     "SimulationResult": "simulation.result",
     **dict.fromkeys(("simulate", "simulate_batch"), "simulation.run"),

@@ -18,6 +18,7 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+from .control.time_optimal import TimeOptimal
 from .errors import PkmlabError
 from .formats.scenario import PAPER_CASES, SCENARIO_DIR, paper_scenario
 from .outputs import atomic_output_dir
@@ -286,6 +287,8 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
 # ------------------------------------------------------------------ one scenario
 def _describe(scenario: Scenario) -> list[tuple[str, str]]:
     traj = scenario.trajectory
+    retimed = traj if isinstance(traj, TimeOptimal) else None
+    traj = traj.original if retimed else traj
     path = getattr(traj, "path", None)
     if path is not None and hasattr(path, "radius"):
         shape = (f"circle, centre ({path.center[0]:g}, {path.center[1]:g}) m, radius {path.radius:g} m, "
@@ -299,6 +302,11 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
         shape = f"{len(traj.segments) + 1} waypoints"
     timing = (f"{traj.law} time law per segment" if hasattr(traj, "durations")
               else f"average speed {traj.speed:g} m/s, {traj.law} time law")
+    if retimed is not None:
+        limits = "; ".join(f"{kind} {', '.join(f'{v:g}' for v in value)}" for kind, value in retimed.limits.items())
+        timing = (f"time-optimal under the actuators' limits ({limits}); the path's own timing {traj.duration:.4g} s, "
+                  f"{timing}")
+        traj = retimed
     spec = scenario.controller
     machine = scenario.model.description
     return [

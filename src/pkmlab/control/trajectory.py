@@ -14,6 +14,7 @@ second derivatives (:func:`pkmlab.model.mechanism_model.path_rates`, no finite d
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -520,6 +521,62 @@ class Spline:
         pose = spline(clamped)
         return pose, np.where(inside[..., None], spline(clamped, 1), 0.0), np.where(inside[..., None],
                                                                                     spline(clamped, 2), 0.0)
+
+
+# ------------------------------------------------------------------ the path alone
+@dataclass(frozen=True)
+class PathGeometry:
+    """A trajectory's path without its timing: ``at(u)`` gives the pose and its first and second derivatives with
+    respect to a parameter ``u`` (each (..., d)); ``pieces`` are the ``(u_start, u_end)`` between the points where
+    the path must stop (its corners: the derivative ``x'`` jumps there)."""
+
+    at: Callable
+    pieces: tuple
+
+
+def path_geometry(trajectory) -> PathGeometry:
+    """The path of ``trajectory`` (:class:`PathGeometry`), by the parameter that keeps ``x'`` from vanishing
+    where it can: a :class:`Trajectory`'s arc length (its time law dropped); a :class:`WaypointTrajectory`'s arc
+    length along its segments, stopping at each waypoint; :class:`TimedWaypoints`' segment number plus the
+    fraction of the segment ``u = k + σ`` (straight in pose space, or a geodesic turn), stopping at each
+    waypoint; any other trajectory's own time (a :class:`Spline` passes its waypoints without stopping)."""
+    if isinstance(trajectory, Trajectory):
+        return PathGeometry(trajectory.path.at, ((0.0, float(trajectory.path.length)),))
+    if isinstance(trajectory, WaypointTrajectory):
+        paths = [seg.path for seg in trajectory.segments]
+        starts = np.concatenate([[0.0], np.cumsum([p.length for p in paths])])
+
+        def along(u):
+            u = np.asarray(u, dtype=float)
+            k = np.clip(np.searchsorted(starts, u, side="right") - 1, 0, len(paths) - 1)
+            out = [np.empty((*u.shape, 3)) for _ in range(3)]
+            for j, path in enumerate(paths):
+                rows = k == j
+                if np.any(rows):
+                    for o, v in zip(out, path.at(u[rows] - starts[j]), strict=True):
+                        o[rows] = v
+            return tuple(out)
+
+        return PathGeometry(along, tuple(zip(starts[:-1], starts[1:], strict=True)))
+    if isinstance(trajectory, TimedWaypoints):
+        pts = np.asarray(trajectory.points)
+        count = len(pts) - 1
+
+        def segments(u):
+            u = np.asarray(u, dtype=float)
+            k = np.clip(np.floor(u).astype(int), 0, count - 1)
+            sigma = u - k
+            delta = pts[k + 1] - pts[k]
+            out = (pts[k] + sigma[..., None] * delta, delta, np.zeros_like(delta))
+            if trajectory.orientation_path == "geodesic":
+                turned = geodesic_orientation(trajectory._turns, k.reshape(-1), sigma.reshape(-1),
+                                              np.ones(sigma.size), np.zeros(sigma.size))
+                for o, v in zip(out, turned, strict=True):
+                    o[..., 3:] = v.reshape(*u.shape, 3)
+            return out
+
+        return PathGeometry(segments, tuple((float(k), float(k + 1)) for k in range(count)))
+    return PathGeometry(trajectory.desired, ((0.0, float(trajectory.duration)),))
 
 
 def paper_trajectory(speed: float = 0.2) -> Trajectory:

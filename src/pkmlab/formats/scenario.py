@@ -31,6 +31,12 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     kv = 63.2                   # default 2*sqrt(kp)
     sample_time = 0.001         # seconds; 0 = continuous-time control
 
+    [timing]                    # optional: the path on its time-optimal timing under actuator limits
+    velocity = [3.0, 3.0, 3.0]  # rad/s or m/s per actuator (one number: every actuator alike)
+    acceleration = 80.0         # rad/s² or m/s²
+    effort = [0.5, 0.5, 0.5]    # N m or N (the controller's model's inverse dynamics); at least one limit
+    grid = 400                  # intervals along the path where the limits are met
+
     [simulation]
     working_mode = "auto"       # or three signs, e.g. [1, -1, 1]
     singularity_margin = 0.05   # refuse paths whose min |S| is below this
@@ -61,6 +67,7 @@ from .._files import parse_toml, read_toml
 from .._format import apart, suggestion
 from ..algorithms.kinematics import as_working_mode
 from ..control.controller import CONTROLLER_TYPES, ControllerSpec
+from ..control.time_optimal import GRID, MAX_GRID, time_optimal
 from ..control.trajectory import (
     ORIENTATION_PATHS,
     Circle,
@@ -86,6 +93,7 @@ TABLES = {
                    "normal", "orientation", "start", "end", "points", "durations"),
     "controller": ("type", "kp", "kv", "sample_time"),
     "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps"),
+    "timing": ("velocity", "acceleration", "effort", "grid"),
 }
 #: Keys of ``[trajectory]`` by its ``type``, besides ``type``, ``speed`` and ``time_law``.
 TRAJECTORY_KEYS = {
@@ -425,6 +433,48 @@ def _simulation(rd: _Reader, table: dict) -> dict:
     return out
 
 
+def _timing(rd: _Reader, table: dict, model: MechanismModel) -> dict:
+    """The ``[timing]`` table's limits and grid, checked: a number or one per actuator, positive."""
+    name = "timing"
+    rd.known_keys(table, name, TABLES[name])
+    n = model.n_actuators
+    out = {}
+    for key in ("velocity", "acceleration", "effort"):
+        if key not in table:
+            continue
+        value = table[key]
+        where = rd.where(name, key)
+        if isinstance(value, list):
+            if len(value) != n:
+                raise rd.value_error(f"{where} must be one number or {n}, one per actuator, got {show(value)}")
+            out[key] = [rd.check_number(v, f"{where}[{i}]", "positive") for i, v in enumerate(value)]
+        else:
+            out[key] = rd.check_number(value, where, "positive")
+    if not out:
+        raise rd.format_error(f"{rd.where(name)} needs at least one limit: velocity, acceleration or effort")
+    grid = table.get("grid", GRID)
+    if isinstance(grid, bool) or not isinstance(grid, int) or not 10 <= grid <= MAX_GRID:
+        raise rd.value_error(f"{rd.where(name, 'grid')} must be an integer from 10 to {MAX_GRID}, got {show(grid)}")
+    out["grid"] = grid
+    return out
+
+
+def _time_optimal(rd: _Reader, scenario: Scenario, limits: dict) -> Scenario:
+    """``scenario`` on the time-optimal timing of its path, in its working mode (chosen along the path as its run
+    chooses it when ``"auto"``)."""
+    from ..simulation.run import sample_times
+    from ..simulation.scenario import choose_working_mode
+
+    try:
+        mode = scenario.working_mode
+        if mode == "auto":
+            mode, _min_s = choose_working_mode(scenario, sample_times(scenario))
+        retimed = time_optimal(scenario.trajectory, scenario.model, mode, **limits)
+        return scenario.replace(trajectory=retimed, working_mode=mode)
+    except PkmlabError as exc:
+        raise rd.value_error(f"[timing]: {exc}") from None
+
+
 # ------------------------------------------------------------------ public API
 def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None = None) -> Scenario:
     """The :class:`~pkmlab.simulation.scenario.Scenario` described by parsed TOML ``data``.
@@ -488,11 +538,13 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
                              f"raise [trajectory].speed or [controller].sample_time")
     if name is None:
         name = Path(str(source)).stem or "scenario"
+    timing = _timing(rd, rd.table(data, "timing"), model) if "timing" in data else None
     try:
-        return Scenario(model, trajectory, plant=plant, controller=controller, sample_time=sample_time,
-                        name=name, **options)
+        scenario = Scenario(model, trajectory, plant=plant, controller=controller, sample_time=sample_time,
+                            name=name, **options)
     except PkmlabError as exc:  # every value was checked above: a safety net for the message's file name
         raise rd.value_error(str(exc)) from None
+    return scenario if timing is None else _time_optimal(rd, scenario, timing)
 
 
 def scenario_to_toml(data: dict, comment: str | None = None) -> str:
