@@ -102,3 +102,27 @@ def test_the_constraint_measure_vanishes_where_the_3upus_constraint_couples_are_
     assert np.all(np.abs(kinds.forward) > 1e-2) and np.all(np.abs(kinds.inverse) > 1e-2)  # only the constraint kind
     assert weld_rank_ratio(singular) < 1e-10 and weld_rank_ratio(regular) > 1e-3  # MuJoCo's as-built machine agrees
     assert kinds.nearest() == "constraint"
+
+
+def test_ik_and_fk_report_every_kind_on_the_command_line(upu, capsys):
+    """``--kinds`` adds the inverse and constraint measures beside S: the function's values, the constraint one
+    zero where the 3-UPU's constraint couples are dependent and not at its home height."""
+    import json
+
+    from pkmlab.cli import main
+
+    reports = []
+    for pose in ([0.0, -0.30, 0.62], [0.02, -0.01, 0.62]):
+        assert main(["ik", "--mechanism", str(UPU), *map(str, pose), "--kinds", "--json"]) == 0
+        (solution,) = json.loads(capsys.readouterr().out)["solutions"]
+        q = mm.inverse_kinematics(upu, pose, ())
+        kinds = singularity_kinds(upu, q)
+        assert solution["inverse"] == pytest.approx(float(kinds.inverse), rel=1e-12)
+        assert solution["constraint"] == pytest.approx(float(kinds.constraint), rel=1e-12, abs=1e-15)
+        reports.append(solution)
+    assert reports[0]["constraint"] < 1e-12 < 1e-4 < reports[1]["constraint"]
+    assert main(["fk", "--mechanism", str(UPU), *map(str, reports[1]["theta"]), "--kinds"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[1].split()[-3:] == ["S", "inverse", "constraint"]
+    assert main(["fk", "--mechanism", str(UPU), *map(str, reports[1]["theta"])]) == 0
+    assert "constraint" not in capsys.readouterr().out  # only when asked

@@ -16,6 +16,11 @@ from ._common import DEFAULT_MECHANISM, MAX_RESOLUTION
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$|^-(inf|infinity|nan)$|^-[+-]{2}$", re.IGNORECASE)
 
 
+def _kinds(p) -> None:
+    p.add_argument("--kinds", action="store_true", help="also the inverse (serial) and constraint singularity "
+                   "measures of each solution, beside S (the forward one): each zero at a singularity of its kind")
+
+
 def _accept_negative_numbers(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     parser._negative_number_matcher = _NEGATIVE_NUMBER
     return parser
@@ -53,6 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "x y z (the Delta), x y z roll pitch yaw (a six-DOF platform; R = Rz(yaw) Ry(pitch) Rx(roll))")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="one working mode: one sign per two-branch leg "
                    "(+ - + or one word +-+); default every working mode")
+    _kinds(p)
     mechanism(p)
     common(p)
     p.set_defaults(func=_command("kinematics", "cmd_ik"))
@@ -60,6 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("fk", help="forward kinematics: every assembly mode of the actuator values")
     p.add_argument("theta", nargs="+", type=float, metavar="THETA",
                    help="the actuator values theta1 theta2 ... (angles in rad, slides in m)")
+    _kinds(p)
     mechanism(p)
     common(p)
     p.set_defaults(func=_command("kinematics", "cmd_fk"))

@@ -81,6 +81,23 @@ def _unreachable(model, pose, mode, ik) -> Exception:
                                 legs=tuple(legs))
 
 
+#: The columns ``--kinds`` adds beside S (the forward measure).
+_KIND_COLUMNS = ("inverse", "constraint")
+
+
+def _add_kinds(model, configurations, solutions) -> None:
+    """Each solution's inverse and constraint singularity measures (:func:`pkmlab.singularity_kinds`)."""
+    from ..algorithms.singularities import singularity_kinds
+
+    for q, sol in zip(configurations, solutions, strict=True):
+        kinds = singularity_kinds(model, q)
+        sol["inverse"], sol["constraint"] = float(kinds.inverse), float(kinds.constraint)
+
+
+def _kind_values(sol) -> list[float]:
+    return [sol[k] for k in _KIND_COLUMNS if k in sol]
+
+
 def cmd_ik(args) -> dict:
     """``ik POSE... [--mode SIGNS] [--mechanism M]``: every working mode that reaches the pose."""
     import numpy as np
@@ -101,6 +118,8 @@ def cmd_ik(args) -> dict:
                  for m, qi, si, ok in zip(modes, q, s, reachable, strict=True) if ok]
     if not solutions:
         raise _unreachable(model, args.pose, mode, ik)
+    if args.kinds:
+        _add_kinds(model, [qi for qi, ok in zip(q, reachable, strict=True) if ok], solutions)
     for sol in solutions:  # as dynamics says of its configuration
         warn_near_singularity("ik", f"working mode {signs(sol['mode'])}" if sol["mode"] else "the solution", sol["S"],
                               "its passive joints are nearly undetermined there, and the actuators hold the platform "
@@ -108,9 +127,10 @@ def cmd_ik(args) -> dict:
     if not args.json:
         print(heading(args, model, "inverse kinematics") + " at "
               + ", ".join(f"{n} = {v:g}" for n, v in zip(names, args.pose, strict=True)))
-        header = ["mode", *(f"theta{i + 1}" for i in range(model.n_actuators)), *passive_names(model), "S"]
-        print(table(header, [[signs(sol["mode"]) if sol["mode"] else "-", *sol["theta"], *sol["passive"], sol["S"]]
-                             for sol in solutions]))
+        header = ["mode", *(f"theta{i + 1}" for i in range(model.n_actuators)), *passive_names(model), "S",
+                  *_KIND_COLUMNS[:2 * args.kinds]]
+        print(table(header, [[signs(sol["mode"]) if sol["mode"] else "-", *sol["theta"], *sol["passive"], sol["S"],
+                              *_kind_values(sol)] for sol in solutions]))
     return {"mechanism": mechanism_name(args, model), "pose_names": list(names), "solutions": solutions}
 
 
@@ -125,9 +145,12 @@ def cmd_fk(args) -> dict:
         raise AssemblyError(f"theta = {shown(args.theta)} cannot be assembled: forward kinematics of the "
                             f"{model.name} has no real solution")
     solutions = [{"pose": mode.pose.tolist(), "passive": passive_of(model, mode.q), "S": mode.S} for mode in found]
+    if args.kinds:
+        _add_kinds(model, [mode.q for mode in found], solutions)
     if not args.json:
         print(heading(args, model, "forward kinematics") + f" at theta = {shown(args.theta)}: "
               f"{len(solutions)} assembly mode(s)")
-        rows = [[str(j + 1), *sol["pose"], *sol["passive"], sol["S"]] for j, sol in enumerate(solutions)]
-        print(table(["#", *model.pose_names, *passive_names(model), "S"], rows))
+        rows = [[str(j + 1), *sol["pose"], *sol["passive"], sol["S"], *_kind_values(sol)]
+                for j, sol in enumerate(solutions)]
+        print(table(["#", *model.pose_names, *passive_names(model), "S", *_KIND_COLUMNS[:2 * args.kinds]], rows))
     return {"mechanism": mechanism_name(args, model), "pose_names": list(model.pose_names), "solutions": solutions}
