@@ -45,7 +45,10 @@ def test_the_3rrs_has_mobility_three_each_leg_one_constraint():
 def test_both_roots_of_each_leg_reach_the_point_and_knee_out_is_farther_from_the_axis():
     m = load_mechanism(RRS)
     rng = np.random.default_rng(3)
-    for i, leg in enumerate(m.legs):
+    # the legs as described, and with each link's hinge axis reversed (the same line, turning the other way)
+    flipped = [replace(leg, joints=(leg.joints[0], SpatialJoint("R", False, (tuple(-np.array(leg.joints[1].axes[0])),)),
+                                    leg.joints[2])) for leg in m.legs]
+    for i, leg in [*enumerate(m.legs), *enumerate(flipped)]:
         a = np.array(leg.joints[0].axes[0])
         # points the leg reaches: its own chain at random crank and link angles
         angles = rng.uniform(-0.6, 0.6, size=(20, 2))

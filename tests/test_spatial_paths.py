@@ -177,6 +177,14 @@ def test_geodesic_angles_stay_continuous_through_a_half_turn_of_yaw():
     np.testing.assert_allclose(_rotations(pose[-1, 3:]), _rotations(points[1][3:]), atol=1e-12)
 
 
+def test_a_tiny_geodesic_turn_is_followed_exactly():
+    points = ((0.0, 0.0, 0.85, 0.1, -0.05, 0.2), (0.0, 0.0, 0.86, 0.1, -0.05, 0.2 + 1e-7))
+    waypoints = TimedWaypoints(points, (0.5,), orientation_path="geodesic")
+    pose, velocity, _ = waypoints.desired(np.array([0.25, 0.5]))
+    np.testing.assert_allclose(pose[1, 3:], points[1][3:], atol=1e-15)
+    np.testing.assert_allclose(velocity[0, 3:], [0.0, 0.0, 1e-7 * 1.875 / 0.5], rtol=1e-6, atol=1e-16)  # peak 15/8
+
+
 def test_geodesic_orientation_paths_are_refused_where_they_have_no_meaning():
     with pytest.raises(InvalidParameterError, match=r"needs poses \(x, y, z, roll, pitch, yaw\).*of 3 coordinates"):
         TimedWaypoints(((0.0, 0.0, -0.75), (0.05, 0.0, -0.72)), (0.3,), orientation_path="geodesic")

@@ -112,6 +112,10 @@ def test_the_retimed_derivatives_are_exact(paper):
     plus, minus = retimed.desired(t + h), retimed.desired(t - h)
     np.testing.assert_allclose(velocity, (plus[0] - minus[0]) / (2 * h), atol=1e-8)
     np.testing.assert_allclose(acceleration, (plus[1] - minus[1]) / (2 * h), atol=2e-4)  # a jump within h is rare
+    # it starts to move at 0: the acceleration there is the first interval's
+    np.testing.assert_allclose(retimed.desired(np.array([0.0]))[2], retimed.desired(np.array([1e-12]))[2],
+                               rtol=1e-6)
+    assert np.abs(retimed.desired(np.array([0.0]))[2]).max() > 0
     at_rest = retimed.desired(np.array([-1.0, retimed.duration + 1.0]))
     np.testing.assert_allclose(at_rest[0], retimed.original.desired(np.array([0.0, 1e9]))[0], atol=1e-15)
     assert not at_rest[1].any() and not at_rest[2].any()
@@ -167,7 +171,8 @@ def test_a_delta_pick_and_place_stops_at_every_corner_within_its_limits():
     delta = pkmlab.load("delta")
     scenario = pkmlab.load_scenario(Path(__file__).resolve().parents[1] / "examples" / "delta_pick_and_place.toml")
     original = scenario.trajectory
-    retimed = pkmlab.time_optimal(original, delta, (1, 1, 1), velocity=8.0, effort=25.0, grid=300)
+    retimed = pkmlab.time_optimal(original, delta, (1, 1, 1), velocity=8.0, acceleration=400.0, effort=25.0,
+                                  grid=300)
     assert retimed.duration < original.duration
     corners = np.flatnonzero(np.isin(retimed.u, np.arange(len(original.points))))
     assert len(corners) == len(original.points)
@@ -175,6 +180,11 @@ def test_a_delta_pick_and_place_stops_at_every_corner_within_its_limits():
     pose, velocity, _ = retimed.desired(retimed.t_grid[corners])
     np.testing.assert_allclose(pose, original.points, atol=1e-15)
     assert not velocity.any()
-    theta_dot, _a, tau = _motion(delta, retimed, retimed.t_grid, (1, 1, 1))
-    assert np.abs(theta_dot).max() <= 8.0 * (1 + 1e-6) and np.abs(tau).max() <= 25.0 * (1 + 1e-6)
-    assert np.abs(tau).max() > 25.0 * 0.99
+    # every grid point, as the interval after it sees it and, a millionth of the interval before it, as that one
+    # does (at a corner: the segment it ends)
+    t = retimed.t_grid
+    for times in (t, t[1:] - 1e-6 * np.diff(t)):
+        theta_dot, theta_ddot, tau = _motion(delta, retimed, times, (1, 1, 1))
+        assert np.abs(theta_dot).max() <= 8.0 * (1 + 1e-5) and np.abs(tau).max() <= 25.0 * (1 + 1e-5)
+        assert np.abs(theta_ddot).max() <= 400.0 * (1 + 1e-5)
+    assert max(np.abs(tau).max() / 25.0, np.abs(theta_ddot).max() / 400.0) > 0.99

@@ -74,7 +74,7 @@ class TimeOptimal:
 
     def timing(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(u, u̇, ü)`` at times ``t`` (...): ``u`` a quadratic of time on each interval, at rest outside
-        ``[0, duration]``."""
+        ``[0, duration)`` (at ``t = 0``, ``u̇ = 0`` and ``ü`` the first interval's)."""
         t = np.asarray(t, dtype=float)
         flat = np.clip(t.reshape(-1), 0.0, self.duration)
         k = np.clip(np.searchsorted(self.t_grid, flat, side="right") - 1, 0, len(self.u_ddot) - 1)
@@ -82,7 +82,7 @@ class TimeOptimal:
         u_ddot = self.u_ddot[k]
         u = np.minimum(self.u[k] + self.u_dot[k] * tau + 0.5 * u_ddot * tau**2, self.u[-1])
         u_dot = np.maximum(self.u_dot[k] + u_ddot * tau, 0.0)
-        outside = (t.reshape(-1) <= 0.0) | (t.reshape(-1) >= self.duration)
+        outside = (t.reshape(-1) < 0.0) | (t.reshape(-1) >= self.duration)  # at 0 it starts to move
         u_dot, u_ddot = np.where(outside, 0.0, u_dot), np.where(outside, 0.0, u_ddot)
         return u.reshape(t.shape), u_dot.reshape(t.shape), u_ddot.reshape(t.shape)
 
@@ -115,13 +115,13 @@ def _where(x: np.ndarray) -> str:
     return "(" + ", ".join(f"{v:.4g}" for v in x) + ")"
 
 
-def path_coefficients(model, at, mode, u: np.ndarray):
+def path_coefficients(model, at, mode, u: np.ndarray, piece: int | None = None):
     """Along the path ``at`` (:class:`~pkmlab.control.trajectory.PathGeometry`) at ``u`` (N + 1,): configurations
     ``q``, ``θ'``, ``θ''`` (N + 1, n) and the inverse dynamics' coefficients ``(M θ', M θ'' + c(q, θ'), g)`` (each
     (N + 1, n)) of the module docstring."""
     from ..model.mechanism_model import path_inverse_kinematics, path_rates
 
-    x, x1, x2 = (np.ascontiguousarray(np.asarray(a, dtype=float)) for a in at(u))
+    x, x1, x2 = (np.ascontiguousarray(np.asarray(a, dtype=float)) for a in at(u, piece))
     dof = model.description.dof
     q, _s, failure = path_inverse_kinematics(model, x[:, :dof], mode)
     if failure is not None:
@@ -156,7 +156,8 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
         The actuators' limits: rad/s or m/s, rad/s² or m/s², N m or N (a number for every actuator alike). At
         least one.
     grid : int
-        Intervals of the grid along the path, shared among its pieces (the constraints hold at its points).
+        Intervals of the grid along the path, shared among its pieces in proportion to their parameter's length, at
+        least 10 each (the constraints hold at its points).
 
     Returns
     -------
@@ -168,7 +169,7 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
     InvalidParameterError
         Limits that are not positive numbers, one per actuator, or none given; a grid below 10.
     PkmlabError
-        A pose the effort limits cannot hold against gravity (naming the actuator and the time), or no timing
+        A pose the effort limits cannot hold against gravity (naming the actuator and the pose), or no timing
         that meets the limits.
 
     Examples
@@ -205,9 +206,9 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
     total = sum(b - a for a, b in geometry.pieces)
     given = {k: v for k, v in (("velocity", v_lim), ("acceleration", a_lim), ("effort", e_lim)) if v is not None}
     grids, speeds, bindings, t0 = [], [], [], 0.0
-    for start, end in geometry.pieces:
+    for piece, (start, end) in enumerate(geometry.pieces):
         u = np.linspace(start, end, max(10, round(grid * (end - start) / total)) + 1)
-        u_dot, binding = _piece(model, geometry.at, mode, u, v_lim, a_lim, e_lim, given)
+        u_dot, binding = _piece(model, geometry.at, piece, mode, u, v_lim, a_lim, e_lim, given)
         grids.append(u if not grids else u[1:])
         speeds.append(u_dot if not speeds else u_dot[1:])
         bindings += binding if not bindings else binding[1:]
@@ -219,13 +220,13 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
     return TimeOptimal(trajectory, geometry, u, u_dot, u_ddot, t_grid, given, tuple(bindings))
 
 
-def _piece(model, at, mode, u, v_lim, a_lim, e_lim, given) -> tuple[np.ndarray, list]:
-    """The time-optimal path speed ``u̇`` (N + 1,) along one piece of the path, from rest to rest, and the limit
-    nearest to bounding it at each point."""
+def _piece(model, at, piece: int, mode, u, v_lim, a_lim, e_lim, given) -> tuple[np.ndarray, list]:
+    """The time-optimal path speed ``u̇`` (N + 1,) along piece ``piece`` of the path, from rest to rest (its end
+    corner evaluated on this piece, not the next), and the limit nearest to bounding it at each point."""
     import toppra
 
     n = model.n_actuators
-    q, d1, d2, (a, b, c), x = path_coefficients(model, at, mode, u)
+    q, d1, d2, (a, b, c), x = path_coefficients(model, at, mode, u, piece)
     if e_lim is not None:
         over = np.abs(c) > e_lim
         if over.any():
@@ -332,9 +333,9 @@ def _coefficients_constraint():
 
         def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
             if self.name == "velocity":  # |θ' u̇| ≤ v: a bound on x = u̇² alone
-                with np.errstate(divide="ignore"):
-                    top = np.min((self.limit / np.abs(self.a)) ** 2, axis=1)
-                top = np.minimum(top, _X_CAP)
+                with np.errstate(divide="ignore", over="ignore"):
+                    speed = np.min(self.limit / np.abs(self.a), axis=1)
+                top = np.minimum(speed, np.sqrt(_X_CAP)) ** 2
                 xbound = np.column_stack([np.zeros(len(top)), top])
                 return None, None, None, None, None, None, xbound
             return constraint.canlinear_colloc_to_interpolate(self.a, self.b, self.c, self.F, self.g, None, None,

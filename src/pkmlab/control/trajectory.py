@@ -371,9 +371,9 @@ def geodesic_turns(angles) -> GeodesicTurns:
 
     rot = orientations(angles)
     turn = np.einsum("kij,klj->kil", rot[1:], rot[:-1])  # R_k+1 R_kᵀ, in the world frame
-    angle = np.arccos(np.clip((np.trace(turn, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
     axis = np.stack([turn[:, 2, 1] - turn[:, 1, 2], turn[:, 0, 2] - turn[:, 2, 0], turn[:, 1, 0] - turn[:, 0, 1]], -1)
-    norm = np.linalg.norm(axis, axis=1)
+    norm = np.linalg.norm(axis, axis=1)  # 2 sin(angle)
+    angle = np.arctan2(norm / 2.0, (np.trace(turn, axis1=1, axis2=2) - 1.0) / 2.0)  # exact for small turns too
     half = np.flatnonzero((angle > 1e-9) & (norm < 1e-9 * max(1.0, float(angle.max()))))
     if half.size:
         j = int(half[0])
@@ -526,9 +526,10 @@ class Spline:
 # ------------------------------------------------------------------ the path alone
 @dataclass(frozen=True)
 class PathGeometry:
-    """A trajectory's path without its timing: ``at(u)`` gives the pose and its first and second derivatives with
-    respect to a parameter ``u`` (each (..., d)); ``pieces`` are the ``(u_start, u_end)`` between the points where
-    the path must stop (its corners: the derivative ``x'`` jumps there)."""
+    """A trajectory's path without its timing: ``at(u, piece=None)`` gives the pose and its first and second
+    derivatives with respect to a parameter ``u`` (each (..., d)); ``pieces`` are the ``(u_start, u_end)`` between
+    the points where the path must stop (its corners: the derivative ``x'`` jumps there). At a corner ``at`` takes
+    the piece after it, unless ``piece`` (an index of ``pieces``) says which."""
 
     at: Callable
     pieces: tuple
@@ -541,14 +542,15 @@ def path_geometry(trajectory) -> PathGeometry:
     fraction of the segment ``u = k + σ`` (straight in pose space, or a geodesic turn), stopping at each
     waypoint; any other trajectory's own time (a :class:`Spline` passes its waypoints without stopping)."""
     if isinstance(trajectory, Trajectory):
-        return PathGeometry(trajectory.path.at, ((0.0, float(trajectory.path.length)),))
+        return PathGeometry(lambda u, piece=None: trajectory.path.at(u), ((0.0, float(trajectory.path.length)),))
     if isinstance(trajectory, WaypointTrajectory):
         paths = [seg.path for seg in trajectory.segments]
         starts = np.concatenate([[0.0], np.cumsum([p.length for p in paths])])
 
-        def along(u):
+        def along(u, piece=None):
             u = np.asarray(u, dtype=float)
-            k = np.clip(np.searchsorted(starts, u, side="right") - 1, 0, len(paths) - 1)
+            k = (np.clip(np.searchsorted(starts, u, side="right") - 1, 0, len(paths) - 1) if piece is None
+                 else np.full(u.shape, piece))
             out = [np.empty((*u.shape, 3)) for _ in range(3)]
             for j, path in enumerate(paths):
                 rows = k == j
@@ -562,9 +564,9 @@ def path_geometry(trajectory) -> PathGeometry:
         pts = np.asarray(trajectory.points)
         count = len(pts) - 1
 
-        def segments(u):
+        def segments(u, piece=None):
             u = np.asarray(u, dtype=float)
-            k = np.clip(np.floor(u).astype(int), 0, count - 1)
+            k = np.clip(np.floor(u).astype(int), 0, count - 1) if piece is None else np.full(u.shape, piece)
             sigma = u - k
             delta = pts[k + 1] - pts[k]
             out = (pts[k] + sigma[..., None] * delta, delta, np.zeros_like(delta))
@@ -576,7 +578,7 @@ def path_geometry(trajectory) -> PathGeometry:
             return out
 
         return PathGeometry(segments, tuple((float(k), float(k + 1)) for k in range(count)))
-    return PathGeometry(trajectory.desired, ((0.0, float(trajectory.duration)),))
+    return PathGeometry(lambda u, piece=None: trajectory.desired(u), ((0.0, float(trajectory.duration)),))
 
 
 def paper_trajectory(speed: float = 0.2) -> Trajectory:

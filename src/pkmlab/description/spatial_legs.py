@@ -331,7 +331,8 @@ def _rrs(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> 
         ratio = gamma / np.hypot(alpha, beta)
     bad = ~(np.abs(ratio) <= 1.0)
     theta, _elbow = _crank_root(leg, alpha, beta, ratio, along, u1, sigma, axis)
-    phi = turn_onto(a, t2, rotate(a, -theta, w) - u1)  # Rot(a, φ) u2 = Rot(a, -θ) w - u1
+    b = np.array(hinge.axes[0])  # ±a: the link turns about its own hinge's direction
+    phi = turn_onto(b, t2, rotate(a, -theta, w) - u1)  # Rot(b, φ) u2 = Rot(a, -θ) w - u1
     reach_bad = bad | off
 
     def why(k):
