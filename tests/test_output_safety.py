@@ -523,7 +523,37 @@ PROMISES = {
     "exit code 1 and one line, for every machine": "test_no_assembly_mode_is_exit_1_and_one_line",
     "that these are not the paper's numbers": "test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so",
     "said once on the terminal": "test_first_run_says_it_compiles",
+    "a file of yours of the same name is refused": "test_a_file_pkmlab_did_not_write_is_not_replaced_without_force",
 }
+
+
+@pytest.mark.parametrize(("command", "suffix"), [
+    (["singularity-map", "--resolution", "21", "--quiet"], ".png"),
+    (["workspace", "--resolution", "21", "--quiet"], ".svg"),
+    (["export-mjcf"], ".xml"),
+    (["view", "RESULT"], ".html"),
+    (["animate", "RESULT", "--stride", "400", "--quiet"], ".gif"),
+])
+def test_a_file_pkmlab_did_not_write_is_not_replaced_without_force(capsys, tmp_path, quick, command, suffix):
+    """A file of the user's is refused untouched; ``--force`` replaces it; pkmlab's own output, unchanged, is
+    replaced again without it; edited, it is the user's again."""
+    result = tmp_path / "result"
+    assert run(capsys, "simulate", EXAMPLES / "fast.toml", "--no-figures", "--out", result)[0] == 0
+    argv = [str(result) if a == "RESULT" else a for a in command]
+    mine = tmp_path / f"mine{suffix}"
+    mine.write_bytes(b"precious")
+    before = snapshot(tmp_path)
+    code, _out, err = run(capsys, *argv, "--out", mine)
+    assert code == 1 and f"--out {mine}: the file exists and pkmlab did not write it" in err and "--force" in err
+    assert snapshot(tmp_path) == before  # nothing written, no temporary file left
+    assert run(capsys, *argv, "--out", mine, "--force")[0] == 0
+    written = mine.read_bytes()
+    assert written != b"precious"
+    assert run(capsys, *argv, "--out", mine)[0] == 0  # its own output, unchanged: replaced again
+    mine.write_bytes(written + b" edited")
+    code, _out, err = run(capsys, *argv, "--out", mine)
+    assert code == 1 and "did not write it (or it changed since)" in err
+    assert mine.read_bytes() == written + b" edited"
 
 
 def test_every_readme_promise_about_outputs_errors_and_exit_codes_has_a_test():

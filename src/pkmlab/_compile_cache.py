@@ -26,6 +26,15 @@ from pathlib import Path
 INTERPRETED = os.environ.get("PKMLAB_INTERPRETED") == "1"
 
 
+def cache_base() -> Path:
+    """pkmlab's cache folder: ``$PKMLAB_CACHE_DIR`` (or ``$NUMBA_CACHE_DIR``), else ``~/.cache/pkmlab``."""
+    base = os.environ.get("PKMLAB_CACHE_DIR") or os.environ.get("NUMBA_CACHE_DIR")
+    if not base:
+        xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        base = os.path.join(xdg, "pkmlab")
+    return Path(base)
+
+
 def cache_folder() -> Path:
     """The folder of this version's compiled kernels (and of the kernels generated for new structures),
     made if missing."""
@@ -34,11 +43,7 @@ def cache_folder() -> Path:
     for path in sorted(package.rglob("*.py")):
         digest.update(path.relative_to(package).as_posix().encode())
         digest.update(path.read_bytes())
-    base = os.environ.get("PKMLAB_CACHE_DIR") or os.environ.get("NUMBA_CACHE_DIR")
-    if not base:
-        xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-        base = os.path.join(xdg, "pkmlab")
-    cache = Path(base) / f"numba-{digest.hexdigest()[:16]}"
+    cache = cache_base() / f"numba-{digest.hexdigest()[:16]}"
     try:
         cache.mkdir(parents=True, exist_ok=True)
     except OSError:  # read-only home: fall back to the temporary folder

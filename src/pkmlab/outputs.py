@@ -55,7 +55,7 @@ class ResultReplacedWarning(UserWarning):
 
 
 @contextlib.contextmanager
-def atomic_file(path: str | os.PathLike, *, make_folder: bool = True) -> Iterator[Path]:
+def atomic_file(path: str | os.PathLike, *, make_folder: bool = True, mark: bool = False) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; when the block succeeds it becomes ``path``.
 
     The file gets ordinary permissions (``mkstemp`` creates it 0600); on an error the
@@ -63,7 +63,8 @@ def atomic_file(path: str | os.PathLike, *, make_folder: bool = True) -> Iterato
     ``path`` if it is missing (a result folder's own subfolders); a path a user names in the API is written
     with ``make_folder=False``, so that a mistyped folder is refused rather than created. A path that is a
     folder and a missing folder are an :class:`OutputFileError` naming ``path``; the system's refusals
-    (permissions, a full disk) stay the ``OSError`` they are, for the caller to word.
+    (permissions, a full disk) stay the ``OSError`` they are, for the caller to word. ``mark``: remember the file
+    as pkmlab's (:func:`mark_written`), for a file a user named (a figure, a page) that a later command may replace.
     """
     path = Path(path)
     if path.is_dir():
@@ -78,6 +79,8 @@ def atomic_file(path: str | os.PathLike, *, make_folder: bool = True) -> Iterato
         yield tmp
         os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
+        if mark:
+            mark_written(path)
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -99,6 +102,42 @@ def sha256_of(path: Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def _written_record(path: Path) -> Path:
+    """Where pkmlab remembers the file it wrote at ``path``: a file named after the absolute path, in pkmlab's
+    cache folder (beside the compiled kernels' versions, so that it outlives them)."""
+    from ._compile_cache import cache_base
+
+    key = hashlib.sha1(str(Path(os.path.abspath(path))).encode()).hexdigest()
+    return cache_base() / "written" / key
+
+
+def mark_written(path: str | os.PathLike) -> None:
+    """Remember that pkmlab wrote ``path`` as it is now (the SHA-256 of its content), so that a later command may
+    replace it (:func:`written_by_pkmlab`). Best effort: where the cache cannot be written, a later command asks
+    for ``--force`` instead."""
+    try:
+        record = _written_record(Path(path))
+        record.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=record.parent, prefix=".w-")
+        with os.fdopen(fd, "w") as f:
+            f.write(sha256_of(Path(path)))
+        os.replace(tmp, record)
+    except OSError:
+        pass
+
+
+def written_by_pkmlab(path: str | os.PathLike) -> bool:
+    """Whether the file at ``path`` is one pkmlab wrote there, unchanged since (:func:`mark_written`); a symbolic
+    link never is (it points at someone's file)."""
+    p = Path(path)
+    if p.is_symlink() or not p.is_file():
+        return False
+    try:
+        return _written_record(p).read_text().strip() == sha256_of(p)
+    except OSError:
+        return False
 
 
 def _entries(folder: Path) -> tuple[list[str], list[str]]:

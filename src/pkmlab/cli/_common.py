@@ -177,9 +177,12 @@ def figure_suffixes() -> set[str]:
     return {"." + ext for ext in FigureCanvasBase.get_supported_filetypes()} - {".raw", ".rgba"}
 
 
-def output_path(path, flag: str, suffixes: set[str] | None = None) -> Path:
-    """``path`` as a ``Path``, refused before any computation when it cannot be written."""
+def output_path(path, flag: str, suffixes: set[str] | None = None, force: bool = False) -> Path:
+    """``path`` as a ``Path``, refused before any computation when it cannot be written, or when it is a file
+    pkmlab did not write (or that changed since it did) and ``force`` is not given."""
     import os
+
+    from ..outputs import written_by_pkmlab
 
     out = Path(path)
     if out.is_dir():
@@ -195,6 +198,9 @@ def output_path(path, flag: str, suffixes: set[str] | None = None) -> Path:
         raise PkmlabError(f"cannot write {out}: {parent} is not a folder")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise PkmlabError(f"cannot write {out}: {parent} is not writable")
+    if not force and (out.exists() or out.is_symlink()) and not written_by_pkmlab(out):
+        raise PkmlabError(f"{flag} {out}: the file exists and pkmlab did not write it (or it changed since): give "
+                          "another name, or add --force to replace it")
     return out
 
 
@@ -252,6 +258,8 @@ class Staged:
     def __exit__(self, exc_type, exc, tb) -> None:
         import os
 
+        from ..outputs import mark_written
+
         failed = exc_type is not None
         try:
             if exc_type is None:
@@ -261,6 +269,7 @@ class Staged:
                     try:
                         os.chmod(tmp, 0o666 & ~umask)
                         os.replace(tmp, path)
+                        mark_written(path)
                     except OSError as err:
                         failed = True
                         raise PkmlabError(f"cannot write {path}: {err.strerror or err}") from None

@@ -16,6 +16,11 @@ from ._common import DEFAULT_MECHANISM, MAX_RESOLUTION
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$|^-(inf|infinity|nan)$|^-[+-]{2}$", re.IGNORECASE)
 
 
+def _force(p) -> None:
+    p.add_argument("--force", action="store_true", help="replace the output file even if pkmlab did not write it "
+                   "(by default only a file pkmlab wrote, unchanged since, is replaced)")
+
+
 def _kinds(p) -> None:
     p.add_argument("--kinds", action="store_true", help="also the inverse (serial) and constraint singularity "
                    "measures of each solution, beside S (the forward one): each zero at a singularity of its kind")
@@ -173,6 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("result_dir", metavar="RESULT_DIR", help="a folder of pkmlab simulate or pkmlab reproduce")
     p.add_argument("--out", metavar="FILE.html", help="where to write it (default RESULT_DIR/REPORT.html, added to "
                    "the folder's manifest)")
+    _force(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=_command("view", "cmd_view"))
 
@@ -192,6 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="x extent (m), default: the base and every leg's reach")
         p.add_argument("--y-range", nargs=2, type=float, metavar=("YMIN", "YMAX"), help="y extent (m)")
         p.add_argument("--out", required=True, metavar="FILE.png", help=f"the figure of the {what} (PNG, PDF, SVG...)")
+        _force(p)
         p.add_argument("--quiet", action="store_true", help="no progress bar")
 
     p = sub.add_parser("singularity-map", help="S over x-y at one orientation and working mode, S = 0 drawn "
@@ -218,6 +225,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("export-mjcf", help="the machine as a MuJoCo model (MJCF): its bodies, joints, loop "
                        "closures, motors and gravity")
     p.add_argument("--out", required=True, metavar="FILE.xml", help="the MJCF file")
+    _force(p)
     p.add_argument("--pose", nargs="+", type=float, metavar="POSE", help="the configuration of the keyframe "
                    "'pkmlab' (as ik takes it); default: the pose of largest |S| on a grid")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode of --pose (default the first)")
@@ -235,6 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("animate", help="GIF of a run written by pkmlab reproduce or pkmlab simulate")
     p.add_argument("result_dir", metavar="RESULT_DIR", help="folder written by pkmlab reproduce or pkmlab simulate")
     p.add_argument("--out", required=True, metavar="FILE.gif", help="the animated GIF")
+    _force(p)
     p.add_argument("--case", metavar="NAME", help="NAME.csv in RESULT_DIR: nominal (default), disturbed, fast; "
                    "run for pkmlab simulate (default when run.csv exists)")
     p.add_argument("--fps", type=int, default=20, help="frames per second (default 20)")

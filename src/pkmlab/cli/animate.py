@@ -93,7 +93,7 @@ def cmd_animate(args) -> dict:
         raise PkmlabError(f"result folder {folder} does not exist")
     if not folder.is_dir():
         raise PkmlabError(f"{folder} is not a folder (expected one written by pkmlab reproduce or pkmlab simulate)")
-    out = output_path(args.out, "--out", {".gif"})
+    out = output_path(args.out, "--out", {".gif"}, args.force)
     if args.fps < 1:
         raise InvalidParameterError(f"--fps must be a positive number of frames per second, got {args.fps}")
     if args.stride is not None and args.stride < 1:

@@ -59,8 +59,8 @@ def cmd_singularity_map(args) -> dict:
                                     f"{model.description.name} is spatial: `pkmlab workspace --mechanism ... --z Z...` "
                                     "draws its S and S = 0 in horizontal slices")
     mode = working_mode(args, model)
-    out = output_path(args.out, "--out", figure_suffixes() | {".html"})
-    csv_path = output_path(args.csv, "--csv", {".csv"}) if args.csv else None
+    out = output_path(args.out, "--out", figure_suffixes() | {".html"}, args.force)
+    csv_path = output_path(args.csv, "--csv", {".csv"}, args.force) if args.csv else None
     resolution = check_resolution(args.resolution)
     with progress_bar(args, resolution, "singularity map") as bar:
         smap = singularity_map(model, _alpha(args, model), mode, args.x_range, args.y_range, resolution,
@@ -108,7 +108,7 @@ def cmd_workspace(args) -> dict:
     from ..views.plotting import plot_workspace
 
     model = model_of(args)
-    out = output_path(args.out, "--out", figure_suffixes() | {".html"})
+    out = output_path(args.out, "--out", figure_suffixes() | {".html"}, args.force)
     if getattr(model.description, "spatial", False):
         if out.suffix.lower() == ".html":
             raise InvalidParameterError("--out: a spatial machine's slices are drawn as an image (PNG, SVG, PDF); "

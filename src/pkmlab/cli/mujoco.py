@@ -14,7 +14,7 @@ def cmd_export_mjcf(args) -> dict:
 
     closures = loop_closures(args, "--closures", args.closures, "--stiff", args.stiff)
     model = model_of(args)
-    out = output_path(args.out, "--out", {".xml"})
+    out = output_path(args.out, "--out", {".xml"}, args.force)
     q = None
     mode = working_mode(args, model)
     if args.pose is not None:

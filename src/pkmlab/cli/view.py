@@ -14,7 +14,7 @@ def cmd_view(args) -> dict:
     from ..views.html import write_html
 
     folder = Path(args.result_dir)
-    out = output_path(args.out, "--out", {".html", ".htm"}) if args.out else folder / "REPORT.html"
+    out = output_path(args.out, "--out", {".html", ".htm"}, args.force) if args.out else folder / "REPORT.html"
     views = read_result_views(folder)  # every file checked before anything is written
     title = f"pkmlab view: {folder.resolve().name}"
     if args.out:

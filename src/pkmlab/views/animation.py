@@ -130,7 +130,7 @@ def _write_frames(fig, writer, path: Path, frames, draw: Callable[[int], None], 
                   on_frame: Callable[[], None] | None) -> None:
     """Draw each of ``frames`` with ``draw(k)`` and grab it with ``writer`` into a GIF written atomically:
     the file appears at ``path`` only after the last frame (a failure leaves no GIF)."""
-    with atomic_file(path) as tmp:
+    with atomic_file(path, mark=True) as tmp:
         writer.setup(fig, str(tmp), dpi=dpi)
         for k in frames:
             draw(k)

@@ -70,6 +70,6 @@ def page(views: list[RunView], title: str, note: str = "") -> str:
 def write_html(path, views: list[RunView], title: str, note: str = "") -> Path:
     """Write the page of ``views`` to ``path`` atomically (whole or not at all)."""
     text = page(views, title, note)
-    with atomic_file(path) as tmp:
+    with atomic_file(path, mark=True) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return Path(path)

@@ -70,5 +70,5 @@ def write_map(path, figure: dict, title: str) -> None:
                        config={"displaylogo": False}, div_id="map")
     text = (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>"
             f"</head><body style=\"font-family: sans-serif\">{body}</body></html>\n")
-    with atomic_file(path) as tmp:
+    with atomic_file(path, mark=True) as tmp:
         tmp.write_text(text, encoding="utf-8")
