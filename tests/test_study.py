@@ -386,6 +386,29 @@ def test_tune_finds_gains_no_worse_than_the_scenarios(tmp_path, capsys):
     assert (tmp_path / "t" / "tradeoff.png").stat().st_size > 10_000
 
 
+def test_a_search_box_without_the_scenarios_gains_is_searched_and_they_are_the_baseline_beside_it():
+    result = pkmlab.tune(FAST, 5.0, kp_range=(2000.0, 1e5), trials=3, draws=0, workers=0, critical=True)
+    trials = result.trials
+    assert list(trials["trial"]) == [-1, 0, 1, 2]
+    assert result.baseline["kp"] == 1000.0 and result.baseline["trial"] == -1
+    assert result.best is not None and 2000.0 <= result.best["kp"] <= 1e5
+    assert ((trials["kp"][1:] >= 2000.0) & (trials["kp"][1:] <= 1e5)).all()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--trials", "0"], "--trials must be a positive number of candidates, got 0"),
+    (["--draws", "-1"], "--draws must be 0 or more plants, got -1"),
+    (["--quantile", "2"], "--quantile must be in (0, 1], got 2"),
+    (["--uncertainty", "2"], "--uncertainty must be in [0, 1), got 2"),
+    (["--kp-range", "1e5", "2000"], "--kp-range 100000 2000: give LO then HI"),
+    (["--critical", "--zeta-range", "0.5", "0.6"], "--critical tunes kp alone with zeta = 1"),
+])
+def test_tune_names_the_option_it_refuses(tmp_path, capsys, argv, message):
+    code, _out, err = run(capsys, "tune", FAST, "--max-effort", "1", "--out", tmp_path / "t", *argv)
+    assert code == 1 and message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "t").exists()
+
+
 @pytest.mark.parametrize("call, message", [
     (lambda: sweep(42), "study must be a Study, a study file or its tables"),
     (lambda: sweep(small_study(), chunk_size=0, workers=0), "chunk_size must be a positive integer"),
@@ -397,7 +420,8 @@ def test_tune_finds_gains_no_worse_than_the_scenarios(tmp_path, capsys):
     (lambda: pkmlab.tune(FAST, 1.0, trials=0), "trials must be an integer"),
     (lambda: pkmlab.tune(FAST, 1.0, draws=-1), "draws must be an integer"),
     (lambda: pkmlab.tune(42, 1.0), "scenario must be a scenario file or its tables"),
-    (lambda: pkmlab.tune(FAST, 1.0, kp_range=(1.0, 10.0)), "lie outside the search box"),
+    (lambda: pkmlab.tune(FAST, 1.0, kp_range=(10.0, 1.0)), "kp_range = (10, 1) is no box"),
+    (lambda: pkmlab.tune(FAST, 1.0, zeta_range=(0.5,)), "zeta_range must be two positive numbers"),
 ])
 def test_sweep_and_tune_refuse_bad_arguments_by_name(call, message):
     with pytest.raises(pkmlab.PkmlabError) as info:

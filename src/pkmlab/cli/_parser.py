@@ -166,8 +166,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--kp-range", type=float, nargs=2, default=[10.0, 1e6], metavar=("LO", "HI"),
                    help="the search box of kp, 1/s^2 (default 10 1e6): bound it by what the machine's sensors and "
                    "drives allow, which the model does not know")
-    p.add_argument("--zeta-range", type=float, nargs=2, default=[0.3, 3.0], metavar=("LO", "HI"),
-                   help="the search box of the damping ratio, kv = 2 zeta sqrt(kp) (default 0.3 3)")
+    p.add_argument("--zeta-range", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="the search box of the damping ratio, kv = 2 zeta sqrt(kp) (default 0.3 3; not with "
+                   "--critical)")
     p.add_argument("--trials", type=int, default=48, metavar="N", help="candidate gains to evaluate (default 48)")
     p.add_argument("--seed", type=int, default=0, help="seed of the draws and the optimiser (default 0)")
     execution(p)

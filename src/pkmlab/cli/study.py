@@ -59,12 +59,20 @@ def cmd_tune(args) -> dict:
     """A scenario's gains tuned for an effort limit over an uncertainty set: tuned.toml, trials.csv, tuning.json
     and tradeoff.png in --out."""
     from ..outputs import atomic_output_dir
-    from ..study.tuning import tune, write_tuning
+    from ..study.tuning import ZETA_RANGE, tune, write_tuning
 
-    if args.trials < 1 or args.draws < 0 or not 0 <= args.uncertainty < 1 or not 0 < args.quantile <= 1:
-        raise InvalidParameterError("--trials must be positive, --draws 0 or more, --uncertainty in [0, 1) and "
-                                    f"--quantile in (0, 1]; got {args.trials}, {args.draws}, {args.uncertainty:g}, "
-                                    f"{args.quantile:g}")
+    for ok, option, value, rule in ((args.trials >= 1, "--trials", args.trials, "a positive number of candidates"),
+                                    (args.draws >= 0, "--draws", args.draws, "0 or more plants"),
+                                    (0 <= args.uncertainty < 1, "--uncertainty", args.uncertainty, "in [0, 1)"),
+                                    (0 < args.quantile <= 1, "--quantile", args.quantile, "in (0, 1]")):
+        if not ok:
+            raise InvalidParameterError(f"{option} must be {rule}, got {value:g}")
+    for option, box in (("--kp-range", args.kp_range), ("--zeta-range", args.zeta_range)):
+        if box is not None and not 0 < box[0] < box[1]:
+            raise InvalidParameterError(f"{option} {box[0]:g} {box[1]:g}: give LO then HI, both positive, LO below HI")
+    if args.critical and args.zeta_range is not None:
+        raise InvalidParameterError("--critical tunes kp alone with zeta = 1 (kv = 2 sqrt(kp)): --zeta-range does not "
+                                    "apply; give one of them")
     execution = _execution(args)
     quiet = args.quiet or args.json
     from ..progress import Progress
@@ -76,7 +84,7 @@ def cmd_tune(args) -> dict:
             result = tune(args.scenario, args.max_effort, uncertainty=args.uncertainty,
                           quantities=tuple(args.uncertain), draws=args.draws, seed=args.seed, quantile=args.quantile,
                           critical=args.critical, trials=args.trials, kp_range=tuple(args.kp_range),
-                          zeta_range=tuple(args.zeta_range), workers=execution["workers"],
+                          zeta_range=tuple(args.zeta_range or ZETA_RANGE), workers=execution["workers"],
                           scheduler=execution["scheduler"], chunk_size=execution["chunk_size"],
                           progress=lambda done, _total: bar.update(done - bar.count))
         summary = write_tuning(result, folder, args.scenario)

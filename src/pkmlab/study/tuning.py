@@ -13,7 +13,9 @@ library for expensive black-box problems of a few continuous variables, seeded a
 reproducible, with an ask-and-tell interface that lets each batch of candidates run as one study on
 the cluster. (Nevergrad would do as well; Optuna's constraint support and its study records decided.)
 The scenario's own gains are the first candidate (with ``critical=True`` its kp with ``kv = 2√kp``), so the
-tuned gains are never worse than them on this objective. ``kp`` is searched on a log scale, ``ζ`` too.
+tuned gains are never worse than them on this objective; gains outside the search box are evaluated beside the
+search instead (trial -1: a baseline to compare with, never the answer). ``kp`` is searched on a log scale, ``ζ``
+too.
 
 The answer: the best feasible candidate, every candidate evaluated (``trials``), and the trade-off
 curve — for each effort limit, the least worst-case error among the candidates within it (the Pareto
@@ -107,63 +109,88 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     for name, value, low in (("trials", trials, 1), ("batch", batch, 1), ("draws", draws, 0)):
         as_count(name, value, low)
     bounds = {q: uncertainty for q in quantities} if draws else {}
-    kp_lo, kp_hi = (as_real("kp_range", v, "positive") for v in kp_range)
-    z_lo, z_hi = (as_real("zeta_range", v, "positive") for v in zeta_range)
+    kp_lo, kp_hi = _box("kp_range", kp_range)
+    z_lo, z_hi = _box("zeta_range", zeta_range)
     controller = base.get("controller", {})
     kp0 = float(controller.get("kp", 1000.0))
     kv0 = float(controller.get("kv", 2.0 * math.sqrt(kp0)))
     zeta0 = 1.0 if critical else kv0 / (2.0 * math.sqrt(kp0))
-    if not (kp_lo <= kp0 <= kp_hi and (critical or z_lo <= zeta0 <= z_hi)):
-        raise InvalidParameterError(f"the scenario's gains (kp = {kp0:g}, zeta = {zeta0:.3g}) lie outside the "
-                                    f"search box kp in [{kp_lo:g}, {kp_hi:g}], zeta in [{z_lo:g}, {z_hi:g}]")
+    # the scenario's own gains are the first candidate: searched from where they lie in the box, else evaluated
+    # beside the search (a baseline to compare with, not a point the optimiser may use)
+    inside = kp_lo <= kp0 <= kp_hi and (critical or z_lo <= zeta0 <= z_hi)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=min(10, trials))
     search = optuna.create_study(direction="minimize", sampler=sampler)
-    search.enqueue_trial({"log10_kp": math.log10(kp0), **({} if critical else {"zeta": zeta0})})
+    if inside:
+        search.enqueue_trial({"log10_kp": math.log10(kp0), **({} if critical else {"zeta": zeta0})})
     rows: list[dict] = []
     in_process = workers == 0 and not scheduler and client is None
     with contextlib.nullcontext() if in_process else dask_client(workers, scheduler, client) as dask:
-        while len(rows) < trials:
-            asked = [search.ask() for _ in range(min(batch, trials - len(rows)))]
-            gains = []
-            for trial in asked:
-                kp = 10.0 ** trial.suggest_float("log10_kp", math.log10(kp_lo), math.log10(kp_hi))
-                zeta = 1.0 if critical else trial.suggest_float("zeta", z_lo, z_hi, log=True)
-                gains.append((kp, 2.0 * zeta * math.sqrt(kp), zeta))
+
+        def evaluate(gains) -> list[dict]:
             study = Study.create(base, {"controller.kp": [g[0] for g in gains], "controller.kv": [g[1] for g in gains]},
                                  bounds, draws, seed, "tune", combine="zip")
             table, _stats = run_study(study, workers=workers if dask is None else None, client=dask,
                                       chunk_size=chunk_size)
             frame = table.to_pandas()
-            for point, (trial, (kp, kv, zeta)) in enumerate(zip(asked, gains, strict=True)):
+            out = []
+            for point, (kp, kv, zeta) in enumerate(gains):
                 runs = frame[frame["point"] == point]
                 failed = int((runs["status"] != "ok").sum())
                 errors = runs["max_path_error_m"].to_numpy()
-                efforts = runs["peak_effort"].to_numpy()
-                error = math.inf if failed else _objective(errors, quantile)
-                worst_effort = math.inf if failed else float(efforts.max())
-                trial.set_constraint("effort", 1.0 if failed else worst_effort - max_effort)
-                search.tell(trial, 1.0 if failed else error)  # a failed candidate: infeasible, and a poor value
-                rows.append({"trial": trial.number, "kp": kp, "kv": kv, "zeta": zeta, "error": error,
-                             "worst_error": math.inf if failed else float(errors.max()),
-                             "worst_effort": worst_effort, "failed": failed,
-                             "feasible": not failed and worst_effort <= max_effort})
+                worst_effort = math.inf if failed else float(runs["peak_effort"].to_numpy().max())
+                out.append({"kp": kp, "kv": kv, "zeta": zeta,
+                            "error": math.inf if failed else _objective(errors, quantile),
+                            "worst_error": math.inf if failed else float(errors.max()),
+                            "worst_effort": worst_effort, "failed": failed,
+                            "feasible": not failed and worst_effort <= max_effort})
+            return out
+
+        if not inside:
+            rows += [{"trial": -1, **row} for row in evaluate([(kp0, 2.0 * zeta0 * math.sqrt(kp0), zeta0)])]
+        searched = 0
+        while searched < trials:
+            asked = [search.ask() for _ in range(min(batch, trials - searched))]
+            gains = []
+            for trial in asked:
+                kp = 10.0 ** trial.suggest_float("log10_kp", math.log10(kp_lo), math.log10(kp_hi))
+                zeta = 1.0 if critical else trial.suggest_float("zeta", z_lo, z_hi, log=True)
+                gains.append((kp, 2.0 * zeta * math.sqrt(kp), zeta))
+            for trial, row in zip(asked, evaluate(gains), strict=True):
+                failed = row["failed"]
+                trial.set_constraint("effort", 1.0 if failed else row["worst_effort"] - max_effort)
+                search.tell(trial, 1.0 if failed else row["error"])  # a failed candidate: infeasible, a poor value
+                rows.append({"trial": trial.number, **row})
+            searched += len(asked)
             if progress is not None:
-                progress(len(rows), trials)
+                progress(searched, trials)
     import pandas as pd
 
     frame = pd.DataFrame(rows)
-    feasible = frame[frame["feasible"]]
+    searched = frame[frame["trial"] >= 0]  # the answer lies in the box
+    feasible = searched[searched["feasible"]]
     best = None
     if not feasible.empty:
         best = _plain(feasible.sort_values(["error", "trial"]).iloc[0].to_dict())
     tuned = copy.deepcopy(base)
     if best is not None:
         tuned.setdefault("controller", {}).update(kp=best["kp"], kv=best["kv"])
-    return TuningResult(max_effort, quantile, frame, best, _plain(frame.iloc[0].to_dict()), _pareto(frame), tuned,
+    return TuningResult(max_effort, quantile, frame, best, _plain(frame.iloc[0].to_dict()), _pareto(searched), tuned,
                         bounds, draws)
+
+
+def _box(name: str, value) -> tuple[float, float]:
+    """A search box ``(low, high)``: two positive numbers, the first below the second."""
+    try:
+        lo, hi = value
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{name} must be two positive numbers (low, high), got {value!r}") from None
+    lo, hi = as_real(name, lo, "positive"), as_real(name, hi, "positive")
+    if not lo < hi:
+        raise InvalidParameterError(f"{name} = ({lo:g}, {hi:g}) is no box: its low end must be below its high end")
+    return lo, hi
 
 
 def _plain(row: dict) -> dict:
