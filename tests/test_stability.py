@@ -206,3 +206,55 @@ def test_a_motion_just_shorter_than_a_sample_is_not_shown_as_one_sample():
     shown = re.search(r"would last ([0-9.e+-]+) s, less than one sample \(([0-9.e+-]+) s\)", str(info.value))
     assert shown and float(shown.group(1)) < float(shown.group(2)), str(info.value)
     assert math.isclose(float(shown.group(1)), 0.0009996, rel_tol=1e-3)
+
+
+BIGLIDE = """
+[mechanism]
+name = "biglide"
+gravity = [0.0, 0.0]
+
+[mechanism.platform]
+kind = "point"
+mass = 0.2
+
+[[mechanism.leg]]
+base = [-0.2, 0.0]
+joints = "P*RR"
+axis = 1.5707963
+stroke = [0.0, 0.6]
+bodies = [{ tip = [0.0, 0.0], mass = 0.5 },
+          { tip = [0.25, 0.0], mass = 0.2, com = [0.125, 0.0], inertia = 0.001 }]
+
+[[mechanism.leg]]
+base = [0.2, 0.0]
+joints = "P*RR"
+axis = 1.5707963
+stroke = [0.0, 0.6]
+bodies = [{ tip = [0.0, 0.0], mass = 0.5 },
+          { tip = [0.25, 0.0], mass = 0.2, com = [0.125, 0.0], inertia = 0.001 }]
+"""
+
+
+@pytest.mark.parametrize("kp", [1e9, 1e10])
+def test_continuous_gains_too_stiff_to_integrate_are_refused_before_the_run(tmp_path, kp):
+    """A biglide under continuous-time control with kp = 1e9 ran for minutes without ending: refused before it
+    starts, with the true reason and a kp that passes the same check."""
+    from pkmlab.formats.scenario import load_scenario
+    from pkmlab.simulation.run import MAX_TIME_CONSTANTS, prepare_run
+
+    (tmp_path / "biglide.toml").write_text(BIGLIDE)
+    (tmp_path / "run.toml").write_text('[mechanism]\nfile = "biglide.toml"\n[trajectory]\ntype = "circle"\n'
+                                       "center = [0.0, 0.35]\nradius = 0.03\nspeed = 0.1\n[controller]\n"
+                                       f'type = "computed_torque"\nkp = {kp:g}\nsample_time = 0\n')
+    scenario = load_scenario(tmp_path / "run.toml")
+    with pytest.raises(UnstableControlError, match=r"continuous-time computed torque with kp = 1e\+(09|10), .* is too "
+                                                   r"stiff to integrate: .* lower the gains \(kp <= ([\d.e+]+) with "
+                                                   r"kv = 2\*sqrt\(kp\)\) or use sampled-data control") as info:
+        prepare_run(scenario)
+    # the rate: a critically damped double root, sqrt(kp) (the model is the plant), over the run's 1.885 s
+    rate, duration = math.sqrt(kp), 2 * math.pi * 0.03 / 0.1
+    assert f"{rate * duration:.3g} of its time constants" in str(info.value)
+    suggested = float(re.search(r"kp <= ([\d.e+]+)", str(info.value)).group(1))
+    assert math.sqrt(suggested) * duration <= MAX_TIME_CONSTANTS
+    spec = scenario.controller
+    prepare_run(scenario.replace(controller=type(spec)(spec.kind, kp=suggested)))  # within the limit: accepted

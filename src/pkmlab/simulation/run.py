@@ -156,6 +156,8 @@ def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> Prepar
                      scenario.plant_model.P)
     if scenario.sample_time > 0:
         _check_sampled_data_stability(scenario, prep)
+    else:
+        _check_continuous_stiffness(scenario, prep)
     return prep
 
 
@@ -219,14 +221,9 @@ def _stability_advice(scenario: Scenario, prep: PreparedRun, mu: np.ndarray) -> 
     return f"; lower the gains or the sample time{stable}"
 
 
-def _check_sampled_data_stability(scenario: Scenario, prep: PreparedRun) -> None:
-    """Refuse, before running, gains and a sample time whose sampled-data loop is unstable along the path.
-
-    The spectral radius of :func:`~pkmlab.control.controller.sampled_data_spectral_radius` is evaluated at every
-    :data:`STABILITY_STRIDE`-th sample with the modal gains of :func:`_modal_gains`; above 1 (beyond
-    round-off) the joint error would grow by that factor every sample, and an
-    :class:`~pkmlab.errors.UnstableControlError` says so.
-    """
+def _path_modal_gains(scenario: Scenario, prep: PreparedRun) -> tuple[np.ndarray, np.ndarray]:
+    """The loop's modal gains ``μ`` (:func:`_modal_gains`) at every :data:`STABILITY_STRIDE`-th sample of the path
+    (at most :data:`STABILITY_POINTS`), and those samples' indices."""
     n = prep.t.size
     step = max(STABILITY_STRIDE, math.ceil(n / STABILITY_POINTS))
     idx = np.unique(np.append(np.arange(0, n, step), n - 1))
@@ -245,7 +242,18 @@ def _check_sampled_data_stability(scenario: Scenario, prep: PreparedRun) -> None
         ok = np.abs(np.nan_to_num(ik_s)) >= max(prep.singularity_guard, 1e-6)
         q_plant = np.vstack([prep.q_plant0, ik_q[ok]])
         q_ctrl, k = np.vstack([prep.q_ctrl0, desired.q[idx][ok]]), np.append(0, idx[ok])
-    mu = _modal_gains(scenario, prep.kind, q_ctrl, q_plant)
+    return _modal_gains(scenario, prep.kind, q_ctrl, q_plant), k
+
+
+def _check_sampled_data_stability(scenario: Scenario, prep: PreparedRun) -> None:
+    """Refuse, before running, gains and a sample time whose sampled-data loop is unstable along the path.
+
+    The spectral radius of :func:`~pkmlab.control.controller.sampled_data_spectral_radius` is evaluated at every
+    :data:`STABILITY_STRIDE`-th sample with the modal gains of :func:`_modal_gains`; above 1 (beyond
+    round-off) the joint error would grow by that factor every sample, and an
+    :class:`~pkmlab.errors.UnstableControlError` says so.
+    """
+    mu, k = _path_modal_gains(scenario, prep)
     rho = sampled_data_spectral_radius(prep.kp, prep.kv, scenario.sample_time, mu).max(axis=-1)
     worst = int(np.argmax(rho))
     if rho[worst] <= 1.0 + STABILITY_TOLERANCE:
@@ -257,6 +265,40 @@ def _check_sampled_data_stability(scenario: Scenario, prep: PreparedRun) -> None
         f"Ts = {scenario.sample_time * 1e3:g} ms has spectral radius {radius} > 1 (the joint error would grow "
         f"that much per sample; worst at t = {prep.t[k[worst]]:.4f} s)" + _stability_advice(scenario, prep, mu)
     )
+
+
+#: A continuous-time run may last at most this many time constants of its loop's fastest mode: an explicit
+#: integrator's steps are bounded by that mode's stability (DOP853: about 1/6 of a time constant at most; each
+#: step 12 evaluations of pkmlab's controller and plant), so 10,000 is some 20,000 evaluations, a few minutes.
+MAX_TIME_CONSTANTS = 10_000
+
+
+def _fastest_rate(kp: float, kv: float, mu: np.ndarray) -> np.ndarray:
+    """The largest ``|s|`` of the error dynamics ``s² + μ kv s + μ kp = 0`` over the modal gains ``μ`` (...)."""
+    b, c = mu * kv, mu * kp
+    disc = b * b - 4.0 * c
+    return np.where(disc >= 0.0, (b + np.sqrt(np.maximum(disc, 0.0))) / 2.0, np.sqrt(c))
+
+
+def _check_continuous_stiffness(scenario: Scenario, prep: PreparedRun) -> None:
+    """Refuse, before running, continuous-time gains that make the loop too stiff for its explicit integrator
+    (:data:`MAX_TIME_CONSTANTS`): such a run would not end in reasonable time, and would fail late for the wrong
+    reason. Says the largest ``kp`` (with ``kv = 2√kp``) within the limit, and the sampled-data alternative."""
+    mu, _k = _path_modal_gains(scenario, prep)
+    duration = float(prep.t[-1])
+    rate = float(_fastest_rate(prep.kp, prep.kv, mu).max())
+    if not rate * duration > MAX_TIME_CONSTANTS:
+        return
+    # with kv = 2√kp the fastest rate is √kp f(μ): f = √μ for μ ≤ 1 (complex roots), μ + √(μ² − μ) above
+    m = float(np.max(mu))
+    f = math.sqrt(m) if m <= 1.0 else m + math.sqrt(m * m - m)
+    kp_max = (MAX_TIME_CONSTANTS / (duration * f)) ** 2
+    law = "PD" if prep.kind == PD else "computed torque"
+    raise UnstableControlError(
+        f"continuous-time {law} with kp = {prep.kp:g}, kv = {prep.kv:g} is too stiff to integrate: its fastest "
+        f"error mode decays at {rate:.3g} 1/s, and the {duration:.4g} s run spans {rate * duration:.3g} of its time "
+        f"constants (at most {MAX_TIME_CONSTANTS:,} in reasonable time); lower the gains (kp <= "
+        f"{_round_down(kp_max)} with kv = 2*sqrt(kp)) or use sampled-data control (sample_time > 0)")
 
 
 def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: int) -> str | None:
