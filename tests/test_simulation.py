@@ -196,6 +196,12 @@ def test_result_exports(tmp_path, paper_runs):
     r.to_json(tmp_path / "run.json")
     data = json.loads((tmp_path / "run.json").read_text())
     assert data["summary"] == json.loads(json.dumps(r.summary()))
+    # the CSV read by pandas is the DataFrame pkmlab gives
+    import pandas as pd
+
+    frame = r.to_dataframe()
+    assert tuple(frame.columns) == COLUMNS
+    pd.testing.assert_frame_equal(frame, pd.read_csv(tmp_path / "run.csv"), rtol=0, atol=0)
 
 
 def test_reproduce_cli_writes_everything(tmp_path, capsys):

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import PkmlabError
 from ..model.mechanism_model import MechanismModel
 from ..outputs import atomic_file
 from .scenario import Scenario, check_model
@@ -112,6 +113,21 @@ class SimulationResult:
         """The (N, len(columns)) array of :attr:`columns`."""
         extra = [] if self.closure_violation is None else [self.closure_violation]
         return np.column_stack([self.t, self.theta, self.theta_d, self.tau, self.pose, self.pose_d, self.S, *extra])
+
+    def to_dataframe(self):
+        """The time series as a pandas ``DataFrame`` (columns :attr:`columns`, indexed by sample), for the users
+        of pandas; pandas is an optional dependency (``pip install 'pkmlab[study]'``).
+
+        Raises
+        ------
+        PkmlabError
+            Without pandas installed, saying how to install it.
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            raise PkmlabError("to_dataframe needs pandas: pip install 'pkmlab[study]' (or pandas)") from None
+        return pd.DataFrame(self.table(), columns=list(self.columns))
 
     def to_csv(self, path) -> Path:
         """Write the time series (columns :attr:`columns`) atomically. The folder of ``path`` must exist:
