@@ -689,3 +689,33 @@ def test_an_empty_folder_of_the_users_inside_a_result_is_kept(capsys, tmp_path, 
     (out / "figures-to-come").mkdir()
     assert "figures-to-come" in assert_user_error(*run(capsys, *argv))
     assert (out / "figures-to-come").is_dir()
+
+
+@pytest.mark.parametrize("at", range(4))
+def test_a_kill_while_view_adds_its_page_leaves_a_valid_result(capsys, tmp_path, quick, at):
+    """``pkmlab view`` adds REPORT.html to a result and lists it in the manifest; killed (``os._exit``, no
+    clean-up) after any of its renames (each manifest write, the page's own), the folder is still a result its
+    command may replace, the page old or new, and the next view completes the addition."""
+    folder = tmp_path / "r"
+    assert run(capsys, "simulate", EXAMPLES / "fast.toml", "--no-figures", "--out", folder)[0] == 0
+    child = textwrap.dedent(f"""
+        import os, sys
+        from pkmlab import outputs
+        real, count = os.replace, [0]
+        def replace(src, dst):
+            real(src, dst)
+            count[0] += 1
+            if count[0] > {at}:
+                os._exit(9)
+        outputs.os.replace = replace
+        outputs.add_to_result(sys.argv[1], "REPORT.html", lambda tmp: tmp.write_text("<html>new</html>"))
+    """)
+    killed = subprocess.run([sys.executable, "-c", child, str(folder)], capture_output=True, text=True)
+    assert killed.returncode == 9, killed.stderr  # four renames in all: killed after each
+    page = folder / "REPORT.html"
+    assert not page.exists() or page.read_text() == "<html>new</html>"
+    outputs.read_manifest(folder)  # valid at the instant of the kill
+    outputs.add_to_result(folder, "REPORT.html", lambda tmp: tmp.write_text("<html>again</html>"))
+    assert "pending" not in outputs.read_manifest(folder) and page.read_text() == "<html>again</html>"
+    assert not [p for p in folder.iterdir() if p.name.startswith(".pending-")]
+    assert run(capsys, "simulate", EXAMPLES / "fast.toml", "--no-figures", "--out", folder)[0] == 0

@@ -169,9 +169,14 @@ def read_manifest(folder: str | os.PathLike) -> dict:
     folder = Path(folder)
     try:
         manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-        listed = manifest["files"]
+        listed = dict(manifest["files"])
         if not (isinstance(manifest["command"], str) and isinstance(listed, dict)):
             raise TypeError
+        pending = manifest.get("pending")  # a file being added (add_to_result): its temporary, its accepted states
+        if pending is not None:
+            name, temp, accept = pending["file"], pending["temp"], list(pending["accept"])
+            if not (isinstance(name, str) and isinstance(temp, str) and Path(temp).name.startswith(".pending-")):
+                raise TypeError
     except FileNotFoundError:
         raise OutputFolderError(f"{folder}: it has no {MANIFEST} (pkmlab did not write it)") from None
     except (OSError, ValueError, KeyError, TypeError):
@@ -180,6 +185,14 @@ def read_manifest(folder: str | os.PathLike) -> dict:
         files, others = _entries(folder)
     except OSError as exc:
         raise OutputFolderError(f"{folder}: {exc.filename or 'a subfolder'} cannot be read ({_reason(exc)})") from None
+    if pending is not None:
+        listed.pop(name, None)
+        files = [f for f in files if f not in (name, temp)]  # checked below, as what the addition allows
+        if (folder / name).is_symlink() or (folder / temp).is_symlink():
+            raise OutputFolderError(f"{folder}: its {name} is a symbolic link")
+        state = sha256_of(folder / name) if (folder / name).is_file() else None
+        if state not in accept:
+            raise OutputFolderError(f"{folder}: its {name} was changed since pkmlab wrote it")
     ours = {name.rsplit("/", k)[0] for name in listed for k in range(1, name.count("/") + 1)}  # listed files' folders
     foreign = [f for f in files if f != MANIFEST and f not in listed] + [
         o for o in others if o not in ours or (folder / o).is_symlink()]
@@ -356,15 +369,49 @@ def add_to_result(folder: str | os.PathLike, name: str, write) -> Path:
     """Add the file ``name`` to the result folder ``folder`` (``pkmlab view`` adding ``REPORT.html``): the folder
     is checked against its manifest first (refused, naming what does not match, if anything does),
     ``write(tmp)`` writes the file atomically, and the manifest then lists it with its SHA-256 — so the folder
-    stays one that its command may replace."""
+    stays one that its command may replace, at every instant: a kill between the steps leaves the manifest's
+    ``pending`` entry, which names the temporary file and the file's accepted states (its old and its new
+    content), and which the next addition resolves."""
     folder = Path(folder)
     manifest = read_manifest(folder)
-    with atomic_file(folder / name) as tmp:
-        write(tmp)
-    manifest["files"][name] = sha256_of(folder / name)
+    if "pending" in manifest:  # an addition a kill interrupted: the file is in its old or its new state, both valid
+        interrupted = manifest.pop("pending")
+        (folder / interrupted["temp"]).unlink(missing_ok=True)
+        if (folder / interrupted["file"]).is_file():
+            manifest["files"][interrupted["file"]] = sha256_of(folder / interrupted["file"])
+        else:
+            manifest["files"].pop(interrupted["file"], None)
+    # every instant a kill may stop it at leaves a folder read_manifest accepts: the manifest first says which
+    # temporary file may exist and which states the file may be in, then each step moves within them
+    path = folder / name
+    temp = path.parent / f".pending-{path.name}"
+    old = manifest["files"].get(name)
+    manifest["pending"] = {"file": name, "temp": temp.relative_to(folder).as_posix(),
+                           "accept": [old if path.exists() else None]}
+    _save_manifest(folder, manifest)
+    try:
+        write(temp)
+        os.chmod(temp, 0o666 & ~_umask())
+        new = sha256_of(temp)
+        manifest["pending"]["accept"].append(new)
+        _save_manifest(folder, manifest)
+        os.replace(temp, path)
+    except BaseException:  # an error or Ctrl-C: the file in whichever state it reached, listed as such
+        temp.unlink(missing_ok=True)
+        manifest.pop("pending")
+        if path.is_file() and old != sha256_of(path):
+            manifest["files"][name] = sha256_of(path)
+        _save_manifest(folder, manifest)
+        raise
+    manifest.pop("pending")
+    manifest["files"][name] = new
+    _save_manifest(folder, manifest)
+    return path
+
+
+def _save_manifest(folder: Path, manifest: dict) -> None:
     with atomic_file(folder / MANIFEST) as tmp:
         tmp.write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
-    return folder / name
 
 
 # Linux renameat2(2) with RENAME_EXCHANGE swaps two paths atomically; None where unavailable.
