@@ -282,6 +282,29 @@ def test_a_killed_worker_loses_nothing(cluster, tmp_path, reference):
     assert len(files) == study.size
 
 
+def test_a_study_another_process_is_running_is_refused_naming_it(tmp_path):
+    """Two resumes of one folder would write overlapping chunks: while one holds the study (its lock on
+    study.json, here taken by this process on an open file of its own), the other is refused, naming its pid, and
+    the folder is untouched; once it lets go, the resume runs."""
+    from pkmlab.study.engine import StudyFolder
+
+    study = small_study()
+    out = tmp_path / "s"
+
+    def stop(done, total):
+        if done >= 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(StudyInterrupted):
+        sweep(study, out, workers=0, chunk_size=2, on_chunk=stop, figures=False)
+    before = sorted(p.name for p in (out / "chunks").iterdir())
+    with StudyFolder(out, study).exclusive():
+        with pytest.raises(StudyError, match=rf"another process \(pid {os.getpid()}\) is running this study now"):
+            sweep(study, out, workers=0, resume=True, figures=False)
+    assert sorted(p.name for p in (out / "chunks").iterdir()) == before
+    assert len(sweep(study, out, workers=0, resume=True, figures=False)) == study.size
+
+
 def test_interrupted_on_the_cluster_and_resumed(cluster, tmp_path, reference):
     study = small_study()
     out = tmp_path / "s"

@@ -100,6 +100,28 @@ class StudyFolder:
     def chunks(self) -> Path:
         return self.path / CHUNKS
 
+    @contextlib.contextmanager
+    def exclusive(self):
+        """Hold the study's folder for this process (an exclusive lock on its ``study.json``): a second process
+        resuming the same study is refused, naming the one that holds it, rather than write overlapping
+        chunks. The lock goes with the process, however it ends (where there is no ``fcntl``, nothing is held)."""
+        try:
+            import fcntl
+        except ImportError:
+            yield
+            return
+        record = self.path / STUDY_FILE
+        fd = os.open(record, os.O_RDONLY)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise StudyError(f"--out {self.path}: another process{_lock_holder(record)} is running this study "
+                                 "now: wait for it to end (or stop it), then --resume") from None
+            yield
+        finally:
+            os.close(fd)
+
     def open(self, resume: bool, note=None) -> None:
         """Make the folder ready: new or empty, or holding this study (``resume``). Refuses a folder that holds
         anything else, another study, or this one unfinished without ``resume``."""
@@ -369,13 +391,25 @@ def _run_on_dask(dask, study: Study, chunks: list[list[int]], threads: int, fini
         raise
 
 
+def _lock_holder(path: Path) -> str:
+    """`` (pid N)`` of the process holding a lock on ``path``, from Linux's ``/proc/locks``; empty elsewhere."""
+    try:
+        inode = os.stat(path).st_ino
+        for line in Path("/proc/locks").read_text().splitlines():
+            fields = line.split()
+            if len(fields) >= 6 and fields[1] == "FLOCK" and fields[5].rsplit(":", 1)[-1] == str(inode):
+                return f" (pid {fields[4]})"
+    except (OSError, ValueError):
+        pass
+    return ""
+
+
 # ------------------------------------------------------------------ the whole study
 def run_study(study: Study, out=None, *, workers: int | None = None, scheduler: str | None = None, client=None,
               chunk_size: int | None = None, resume: bool = False, progress: bool = False, on_chunk=None,
               note=None):
     """Run every run of ``study`` not yet in ``out`` and return ``(table, stats)``: the whole table (Arrow, in
     run order) and :func:`execute`'s measurements. Without ``out`` nothing is written."""
-    from ..progress import Progress
 
     if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, int)
                                    or chunk_size < 1):
@@ -383,12 +417,21 @@ def run_study(study: Study, out=None, *, workers: int | None = None, scheduler: 
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
         raise StudyError(f"workers must be a non-negative integer, got {workers!r}")
     folder = None
-    if out is not None:
-        folder = StudyFolder(out, study)
-        folder.open(resume, note)
-        todo = sorted(set(range(study.size)) - folder.done_runs())
-    else:
-        todo = list(range(study.size))
+    with contextlib.ExitStack() as held:
+        if out is not None:
+            folder = StudyFolder(out, study)
+            folder.open(resume, note)
+            held.enter_context(folder.exclusive())  # one process at a time writes a study's chunks
+            todo = sorted(set(range(study.size)) - folder.done_runs())
+        else:
+            todo = list(range(study.size))
+        return _run(study, folder, todo, workers, scheduler, client, chunk_size, progress, on_chunk)
+
+
+def _run(study, folder, todo, workers, scheduler, client, chunk_size, progress, on_chunk):
+    """:func:`run_study`'s runs ``todo`` and the table, its folder opened (and held) or None."""
+    from ..progress import Progress
+
     bar = Progress(len(todo), study.name, enabled=progress, unit="runs")
     try:
         kept, stats = execute(study, todo, folder=folder, workers=workers, scheduler=scheduler, client=client,
