@@ -164,4 +164,25 @@ def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts
                                  f"{preset_name}'s (as many legs)", ratio, "x"))
     if not all(math.isfinite(c["max_path_error_m"]) for c in checks.values()):
         raise AssertionError("a default run did not finish")
-    return rows, checks
+    more, checks["time_optimal"] = _time_optimal_rows(h, 3 if quick else 7)
+    return rows + more, checks
+
+
+def _time_optimal_rows(h, repeats: int) -> tuple[list[dict], dict]:
+    """The time-optimal timing of the paper's circle (``examples/time_optimal_circle.toml``'s limits): one solve
+    of its 400 intervals, and the duration it gives against the path's own."""
+    from pkmlab.control.time_optimal import time_optimal
+
+    model = mm.MechanismModel.from_preset("paper")
+    path = paper_trajectory(0.2)
+
+    def solve():
+        return time_optimal(path, model, (-1, 1, -1), velocity=2.0, effort=0.5)
+
+    times, retimed = h.time_runs(solve, repeats)
+    rows = [h.rate_row("time_optimal_paper_circle", "time-optimal timing of the paper's circle (400 intervals, "
+                       "2 rad/s, 0.5 N m)", times, 1, "solve", compare=False),
+            h.metric_row("time_optimal_paper_circle_duration", "its duration / the path's own timing",
+                         retimed.duration / path.duration, "x")]
+    return rows, {"duration_s": retimed.duration, "own_duration_s": path.duration,
+                  "solve_s": float(np.median(times))}
