@@ -188,3 +188,16 @@ def test_a_delta_pick_and_place_stops_at_every_corner_within_its_limits():
         assert np.abs(theta_dot).max() <= 8.0 * (1 + 1e-5) and np.abs(tau).max() <= 25.0 * (1 + 1e-5)
         assert np.abs(theta_ddot).max() <= 400.0 * (1 + 1e-5)
     assert max(np.abs(tau).max() / 25.0, np.abs(theta_ddot).max() / 400.0) > 0.99
+
+
+def test_a_study_sweeps_the_limits_of_a_time_optimal_timing():
+    """``[timing]`` keys are study axes like any other: larger effort limits, a shorter run (fewer samples) whose
+    feedforward reaches them."""
+    from pkmlab.study import Study, sweep
+
+    base = Path(__file__).resolve().parents[1] / "examples" / "time_optimal_circle.toml"
+    table = sweep(Study.create(base, grid={"timing.effort": [0.3, 0.6]}), workers=0)
+    assert list(table["status"]) == ["ok", "ok"]
+    slow, fast = table.itertuples()
+    assert fast.samples < slow.samples
+    assert 0.3 <= slow.peak_effort < 0.3 * 1.1 and 0.6 <= fast.peak_effort < 0.6 * 1.1
