@@ -118,12 +118,8 @@ def mark_written(path: str | os.PathLike) -> None:
     replace it (:func:`written_by_pkmlab`). Best effort: where the cache cannot be written, a later command asks
     for ``--force`` instead."""
     try:
-        record = _written_record(Path(path))
-        record.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=record.parent, prefix=".w-")
-        with os.fdopen(fd, "w") as f:
-            f.write(sha256_of(Path(path)))
-        os.replace(tmp, record)
+        with atomic_file(_written_record(Path(path))) as tmp:
+            tmp.write_text(sha256_of(Path(path)))
     except OSError:
         pass
 

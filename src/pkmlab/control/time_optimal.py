@@ -27,6 +27,7 @@ discretisation, which a finer ``grid`` reduces).
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass
 
@@ -205,7 +206,7 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
     geometry = path_geometry(trajectory)
     total = sum(b - a for a, b in geometry.pieces)
     given = {k: v for k, v in (("velocity", v_lim), ("acceleration", a_lim), ("effort", e_lim)) if v is not None}
-    grids, speeds, bindings, t0 = [], [], [], 0.0
+    grids, speeds, bindings = [], [], []
     for piece, (start, end) in enumerate(geometry.pieces):
         u = np.linspace(start, end, max(10, round(grid * (end - start) / total)) + 1)
         u_dot, binding = _piece(model, geometry.at, piece, mode, u, v_lim, a_lim, e_lim, given)
@@ -216,7 +217,7 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
     x = u_dot**2
     u_ddot = np.diff(x) / (2.0 * np.diff(u))
     dt = 2.0 * np.diff(u) / np.maximum(u_dot[:-1] + u_dot[1:], 1e-300)
-    t_grid = np.concatenate([[t0], np.cumsum(dt)])
+    t_grid = np.concatenate([[0.0], np.cumsum(dt)])
     return TimeOptimal(trajectory, geometry, u, u_dot, u_ddot, t_grid, given, tuple(bindings))
 
 
@@ -311,6 +312,7 @@ class _GridPath:
         return self(positions, 2)
 
 
+@functools.cache  # one class, built on first use (toppra imported lazily)
 def _coefficients_constraint():
     import toppra.constraint as constraint
 
@@ -348,5 +350,5 @@ def _coefficients_constraint():
 _X_CAP = 1e12
 
 
-def _Coefficients(a, b, c, limit, name):  # noqa: N802 -- builds toppra's class on first use (toppra imported lazily)
+def _Coefficients(a, b, c, limit, name):  # noqa: N802 -- toppra's constraint class, made once
     return _coefficients_constraint()(a, b, c, limit, name)

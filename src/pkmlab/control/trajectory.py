@@ -291,18 +291,24 @@ class TimedWaypoints:
     def desired(self, t):
         """``(pose, pose_dot, pose_ddot)``, each (..., d), at times ``t`` (at rest before 0 and after the end)."""
         t = _times(t)
-        pts, durations = np.asarray(self.points), np.asarray(self.durations)
+        durations = np.asarray(self.durations)
         starts = np.concatenate([[0.0], np.cumsum(durations)])
         k = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(durations) - 1)
         span = durations[k]
         sigma, d1, d2 = time_law(self.law, (t - starts[k]) / span)
+        return self.on_segments(k, sigma, d1 / span, d2 / span**2)
+
+    def on_segments(self, k, sigma, sigma_dot, sigma_ddot):
+        """``(pose, pose_dot, pose_ddot)`` at fractions ``sigma`` (...) of segments ``k`` (...), moving along them
+        at ``sigma_dot`` and ``sigma_ddot``: straight in pose space, or the geodesic turns."""
+        pts = np.asarray(self.points)
         delta = pts[k + 1] - pts[k]
-        out = (pts[k] + sigma[..., None] * delta, (d1 / span)[..., None] * delta, (d2 / span**2)[..., None] * delta)
+        out = (pts[k] + sigma[..., None] * delta, sigma_dot[..., None] * delta, sigma_ddot[..., None] * delta)
         if self.orientation_path == "geodesic":
-            turned = geodesic_orientation(self._turns, k.reshape(-1), sigma.reshape(-1), (d1 / span).reshape(-1),
-                                          (d2 / span**2).reshape(-1))
+            turned = geodesic_orientation(self._turns, k.reshape(-1), sigma.reshape(-1), sigma_dot.reshape(-1),
+                                          sigma_ddot.reshape(-1))
             for o, v in zip(out, turned, strict=True):
-                o[..., 3:] = v.reshape(*t.shape, 3)
+                o[..., 3:] = v.reshape(*k.shape, 3)
         return out
 
 
@@ -561,21 +567,12 @@ def path_geometry(trajectory) -> PathGeometry:
 
         return PathGeometry(along, tuple(zip(starts[:-1], starts[1:], strict=True)))
     if isinstance(trajectory, TimedWaypoints):
-        pts = np.asarray(trajectory.points)
-        count = len(pts) - 1
+        count = len(trajectory.points) - 1
 
         def segments(u, piece=None):
             u = np.asarray(u, dtype=float)
             k = np.clip(np.floor(u).astype(int), 0, count - 1) if piece is None else np.full(u.shape, piece)
-            sigma = u - k
-            delta = pts[k + 1] - pts[k]
-            out = (pts[k] + sigma[..., None] * delta, delta, np.zeros_like(delta))
-            if trajectory.orientation_path == "geodesic":
-                turned = geodesic_orientation(trajectory._turns, k.reshape(-1), sigma.reshape(-1),
-                                              np.ones(sigma.size), np.zeros(sigma.size))
-                for o, v in zip(out, turned, strict=True):
-                    o[..., 3:] = v.reshape(*u.shape, 3)
-            return out
+            return trajectory.on_segments(k, u - k, np.ones(u.shape), np.zeros(u.shape))
 
         return PathGeometry(segments, tuple((float(k), float(k + 1)) for k in range(count)))
     return PathGeometry(lambda u, piece=None: trajectory.desired(u), ((0.0, float(trajectory.duration)),))

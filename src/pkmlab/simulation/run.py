@@ -221,6 +221,11 @@ def _stability_advice(scenario: Scenario, prep: PreparedRun, mu: np.ndarray) -> 
     return f"; lower the gains or the sample time{stable}"
 
 
+def _law(prep: PreparedRun) -> str:
+    """The control law's name in messages."""
+    return "PD" if prep.kind == PD else "computed torque"
+
+
 def _path_modal_gains(scenario: Scenario, prep: PreparedRun) -> tuple[np.ndarray, np.ndarray]:
     """The loop's modal gains ``μ`` (:func:`_modal_gains`) at every :data:`STABILITY_STRIDE`-th sample of the path
     (at most :data:`STABILITY_POINTS`), and those samples' indices."""
@@ -258,7 +263,7 @@ def _check_sampled_data_stability(scenario: Scenario, prep: PreparedRun) -> None
     worst = int(np.argmax(rho))
     if rho[worst] <= 1.0 + STABILITY_TOLERANCE:
         return
-    law = "PD" if prep.kind == PD else "computed torque"
+    law = _law(prep)
     radius, _one = apart(rho[worst], 1.0)
     raise UnstableControlError(
         f"the sampled-data loop is unstable: {law} with kp = {prep.kp:g}, kv = {prep.kv:g} at "
@@ -293,7 +298,7 @@ def _check_continuous_stiffness(scenario: Scenario, prep: PreparedRun) -> None:
     m = float(np.max(mu))
     f = math.sqrt(m) if m <= 1.0 else m + math.sqrt(m * m - m)
     kp_max = (MAX_TIME_CONSTANTS / (duration * f)) ** 2
-    law = "PD" if prep.kind == PD else "computed torque"
+    law = _law(prep)
     raise UnstableControlError(
         f"continuous-time {law} with kp = {prep.kp:g}, kv = {prep.kv:g} is too stiff to integrate: its fastest "
         f"error mode decays at {rate:.3g} 1/s, and the {duration:.4g} s run spans {rate * duration:.3g} of its time "
