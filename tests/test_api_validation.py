@@ -203,6 +203,11 @@ TARGETS = [
     _sig(pkmlab.constrained_dynamics, model=GENERIC, q=G_Q, q_dot=G_Q_DOT, tau=TAU),
     _sig(pkmlab.inverse_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
     _sig(pkmlab.forward_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, tau=TAU),
+    *(_sig(f, model=GENERIC) for f in (pkmlab.inertial_parameter_names, pkmlab.inertial_parameters)),
+    _sig(pkmlab.dynamics_regressor, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
+    Target("random_states", pkmlab.random_states, dict(model=GENERIC, count=3, seed=0, mode=None), examples=60),
+    Target("base_parameters", pkmlab.base_parameters,
+           dict(model=GENERIC, states=(np.stack([G_Q] * 4), np.eye(4, 3), np.ones((4, 3))), seed=0), examples=60),
     Target("ActuatorSpacePlant.simulate", _actuator_space_plant,
            {**_SPACE_PLANT, "singularity_guard": 1e-6, "theta_dot0": np.zeros(3)},
            names=_SPACE_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
@@ -332,7 +337,7 @@ def test_every_public_callable_is_fuzzed():
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
               "PlantRun", "SingularityMap", "Singularities", "TimeOptimal", "FullSpaceModel", "ConstrainedDynamics",
-              "ActuatorSpaceModel",
+              "ActuatorSpaceModel", "BaseParameters",
               "MechanismModel",  # built by pkmlab.load, fuzzed above
               "sweep", "tune"}  # whole studies: their arguments are checked one by one in tests/test_study.py
     public = {name: getattr(pkmlab, name) for name in pkmlab.__all__}

@@ -30,6 +30,8 @@ _WHERE = {
     **dict.fromkeys(("ActuatorSpaceModel", "ConstrainedDynamics", "FullSpaceModel", "actuator_space_model",
                      "constrained_dynamics", "forward_dynamics", "full_space_model", "inverse_dynamics"),
                     "algorithms.dynamics"),
+    **dict.fromkeys(("BaseParameters", "base_parameters", "dynamics_regressor", "inertial_parameter_names",
+                     "inertial_parameters", "random_states"), "algorithms.regressor"),
     **dict.fromkeys(("ActuatorSpacePlant", "FullSpacePlant", "PlantRun"), "simulation.plants"),
     **dict.fromkeys(("load_scenario", "paper_scenario"), "formats.scenario"),
     "ControllerSpec": "control.controller",

@@ -399,35 +399,13 @@ def qvel_from_q_dot(model, q, q_dot) -> np.ndarray:
 
 
 def home_configuration(model, mode=None) -> np.ndarray:
-    """A configuration to export the machine in: the pose of largest ``|S|`` on a grid over its region (planar:
-    over the assembly check's region and 12 orientations; spatial: over its legs' reach, level), in working
-    mode ``mode`` (one sign per two-branch leg; default: the first working mode)."""
+    """A configuration to export the machine in (:func:`pkmlab.model.mechanism_model.well_conditioned_configuration`),
+    in working mode ``mode`` (one sign per two-branch leg; default: the first working mode)."""
     from ..algorithms.kinematics import as_working_mode
     from ..model import mechanism_model as mm
-    from ..model.reach import spatial_extent
 
-    m = model.description
     mode = mm.working_modes(model)[0] if mode is None else as_working_mode(model, mode, "mode")
-    if _spatial(m) and m.platform.parasitic_names:  # lower mobility: at the home configuration's pose
-        from ..model.parasitic import home_configuration as home
-
-        return mm.inverse_kinematics(model, home(model)[-m.dof:], tuple(mode))
-    if _spatial(m):
-        box = spatial_extent(m)
-        axes = [np.linspace(lo, hi, 25) for lo, hi in box]
-        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        poses = np.column_stack([grid, np.zeros((len(grid), m.dof - 3))])
-    else:
-        from ..model.reach import planar_extent
-
-        (x0, x1), (y0, y1) = planar_extent(model.description)
-        turns = np.linspace(-np.pi, np.pi, 12, endpoint=False) if m.dof == 3 else [0.0]
-        gx, gy, ga = np.meshgrid(np.linspace(x0, x1, 41), np.linspace(y0, y1, 41), turns)
-        poses = np.column_stack([gx.ravel(), gy.ravel(), ga.ravel()])[:, :m.dof]
-    q, s, _failure = mm.path_inverse_kinematics(model, poses, mode)
-    if not np.isfinite(s).any():
-        raise PkmlabError(f"{m.name}: no pose of the search grid can be assembled in working mode {mode}: give q")
-    return q[int(np.nanargmax(np.abs(s)))]
+    return mm.well_conditioned_configuration(model, tuple(int(s) for s in mode))
 
 
 def load_mujoco(model, q=None, **options):

@@ -500,6 +500,34 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode) -> tuple[np.ndar
     return q, s, failure
 
 
+def well_conditioned_configuration(model: MechanismModel, mode: tuple[int, ...]) -> np.ndarray:
+    """A configuration far from the gain-type singularities in working mode ``mode``: the pose of largest ``|S|``
+    on a grid over the machine's region (planar: the assembly check's region and 12 orientations; spatial: its
+    legs' reach, level; a machine of lower mobility: the pose its mobility computation found)."""
+    from ..errors import PkmlabError
+    from .reach import planar_extent, spatial_extent
+
+    m = model.description
+    spatial = getattr(m, "spatial", False)
+    if spatial and m.platform.parasitic_names:
+        from .parasitic import home_configuration
+
+        return inverse_kinematics(model, home_configuration(model)[-m.dof:], mode)
+    if spatial:
+        axes = [np.linspace(lo, hi, 25) for lo, hi in spatial_extent(m)]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        poses = np.column_stack([grid, np.zeros((len(grid), m.dof - 3))])
+    else:
+        (x0, x1), (y0, y1) = planar_extent(m)
+        turns = np.linspace(-np.pi, np.pi, 12, endpoint=False) if m.dof == 3 else [0.0]
+        gx, gy, ga = np.meshgrid(np.linspace(x0, x1, 41), np.linspace(y0, y1, 41), turns)
+        poses = np.column_stack([gx.ravel(), gy.ravel(), ga.ravel()])[:, :m.dof]
+    q, s, _failure = path_inverse_kinematics(model, poses, mode)
+    if not np.isfinite(s).any():
+        raise PkmlabError(f"{m.name}: no pose of the search grid can be assembled in working mode {mode}: give q")
+    return q[int(np.nanargmax(np.abs(s)))]
+
+
 def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarray, np.ndarray, int]:
     """Actuator rates and accelerations along configurations ``q`` (K, n_coordinates) whose pose moves
     with ``pose_dot``, ``pose_ddot`` (K, dof): differentiating ``η(q) = 0`` once and twice,
