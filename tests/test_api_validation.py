@@ -178,6 +178,12 @@ _SPACE_PLANT_NAMES = {name: [rf"\b{name}\b", *_BLOW_UP] for name in
                       ("theta_dot0", "q_dot0", "tau", "t_final", "stabilization", "rtol", "atol")}
 
 
+_LOG_T = np.linspace(0.0, 0.04, 41)
+_LOG_THETA = THETA + 0.05 * np.sin(40.0 * _LOG_T)[:, None]
+_STATES = pkmlab.random_states(GENERIC, 8, seed=1)
+_STATES_TAU = pkmlab.inverse_dynamics(GENERIC, *_STATES)
+
+
 def _use_trajectory(trajectory):
     return trajectory.desired(np.linspace(0.0, trajectory.duration, 5))
 
@@ -207,7 +213,17 @@ TARGETS = [
     _sig(pkmlab.dynamics_regressor, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
     Target("random_states", pkmlab.random_states, dict(model=GENERIC, count=3, seed=0, mode=None), examples=60),
     Target("base_parameters", pkmlab.base_parameters,
-           dict(model=GENERIC, states=(np.stack([G_Q] * 4), np.eye(4, 3), np.ones((4, 3))), seed=0), examples=60),
+           dict(model=GENERIC, states=(np.stack([G_Q] * 4), np.eye(4, 3), np.ones((4, 3))), seed=0, drives=False),
+           examples=60),
+    _sig(pkmlab.drive_parameter_names, model=GENERIC),
+    _sig(pkmlab.follow_path, model=GENERIC, q_start=G_Q, theta=THETA + np.linspace(0.0, 0.02, 5)[:, None],
+         singularity_guard=1e-6),
+    Target("filter_measurements", pkmlab.filter_measurements,
+           dict(model=GENERIC, t=_LOG_T, theta=_LOG_THETA, tau=np.zeros((41, 3)), window=0.01, polyorder=4,
+                decimate="auto", q_start=G_Q, pose=None, mode=None, first_row=0), examples=80),
+    Target("identify", pkmlab.identify, dict(model=GENERIC, q=_STATES[0], theta_dot=_STATES[1],
+                                             theta_ddot=_STATES[2], tau=_STATES_TAU, drives=False, base=None),
+           examples=60),
     Target("ActuatorSpacePlant.simulate", _actuator_space_plant,
            {**_SPACE_PLANT, "singularity_guard": 1e-6, "theta_dot0": np.zeros(3)},
            names=_SPACE_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
@@ -337,7 +353,7 @@ def test_every_public_callable_is_fuzzed():
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
               "PlantRun", "SingularityMap", "Singularities", "TimeOptimal", "FullSpaceModel", "ConstrainedDynamics",
-              "ActuatorSpaceModel", "BaseParameters",
+              "ActuatorSpaceModel", "BaseParameters", "Identification", "Measurements",
               "MechanismModel",  # built by pkmlab.load, fuzzed above
               "sweep", "tune"}  # whole studies: their arguments are checked one by one in tests/test_study.py
     public = {name: getattr(pkmlab, name) for name in pkmlab.__all__}

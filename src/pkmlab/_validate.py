@@ -119,3 +119,10 @@ def as_choice(name: str, value, choices: tuple[str, ...]) -> str:
     if not isinstance(value, str) or value not in choices:
         raise InvalidParameterError(f"{name} must be {' or '.join(map(repr, choices))}, got {shown(value)}")
     return value
+
+
+def as_flag(name: str, value) -> bool:
+    """A yes/no option: ``True`` or ``False`` only (``1`` or ``"yes"`` are slips, not flags)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise InvalidParameterError(f"{name} must be True or False, got {shown(value)}")
+    return bool(value)

@@ -43,6 +43,7 @@ __all__ = [
     "inverse_kinematics",
     "forward_kinematics",
     "branch_following",
+    "follow_path",
     "constraint_residual",
     "constraint_jacobian",
     "coordinate_jacobian",
@@ -364,6 +365,64 @@ def branch_following(model: MechanismModel, q_previous, theta, *, singularity_gu
             f"{why} (|S| = {abs(reached):.3g} at theta {np.round(out[i, :na], 6).tolist()}, the last configuration "
             f"reached; limit singularity_guard = {singularity_guard:g})")
     return out.reshape(*shape, n)
+
+
+def follow_path(model: MechanismModel, q_start, theta, *, singularity_guard: float = SINGULAR_S,
+                max_step: float = 0.05) -> np.ndarray:
+    """The configurations along a path of actuator values ``theta`` (K, n_actuators), each followed from the one
+    before it and the first from ``q_start`` (paper §3.2, as a simulation follows its plant): what a log of
+    measured actuators gives of the passive joints and the pose.
+
+    Parameters
+    ----------
+    model : MechanismModel
+    q_start : array_like, shape (n,)
+        A configuration on the loop closure near ``theta[0]`` (the assembly mode to follow).
+    theta : array_like, shape (K, n_actuators)
+        The actuator values in turn, sampled densely enough that each step stays on the branch.
+    singularity_guard : float
+        The path may not come nearer a gain-type singularity (``|S|`` below it).
+    max_step : float
+        The largest change of an actuator from one row to the next: a longer step could land on another
+        branch unseen, so it is refused (sample the path more densely).
+
+    Returns
+    -------
+    ndarray, shape (K, n)
+
+    Raises
+    ------
+    BranchFollowingError
+        Naming the first row of ``theta`` that cannot be reached, or that jumps farther than ``max_step``.
+    """
+    model = as_model(model)
+    n, na = len(model.coordinates), model.n_actuators
+    q0, _ = as_batch("q_start", q_start, n, single=True)
+    thetas, _ = as_batch("theta", theta, na)
+    guard = as_real("singularity_guard", singularity_guard, "non-negative")
+    step = as_real("max_step", max_step, "positive")
+    check_loop_closure(model, q0, (), "q_start")
+    jumps = np.abs(np.diff(np.vstack([q0[:, :na], thetas]), axis=0)).max(axis=1)
+    if np.any(jumps > step):
+        row = int(np.flatnonzero(jumps > step)[0])
+        error = BranchFollowingError(f"theta at row {row} jumps by {jumps[row]:.3g} from the row before it, more than "
+                                     f"max_step = {step:g}: sample the path more densely")
+        error.row, error.reason = row, f"a jump of {jumps[row]:.3g}, more than max_step = {step:g}"
+        raise error
+    k = model.kernels
+    out = np.empty((len(thetas), n))
+    status, row = k.follow_path(np.ascontiguousarray(q0[0]), np.ascontiguousarray(thetas), model.P, guard, out)
+    if status != k.OK:
+        why = ("a gain-type singularity on the way" if status == k.SINGULAR else
+               "the passive coordinates cannot be found there: out of reach, a jump, or a gain-type singularity")
+        last = out[row - 1] if row > 0 else q0[0]
+        reached = abs(float(singularity_measure(model, last)))
+        reason = f"{why} (|S| = {reached:.3g} there; limit singularity_guard = {guard:g})"
+        error = BranchFollowingError(f"theta at row {row} {np.round(thetas[row], 6).tolist()} cannot be reached from "
+                                     f"the row before it: {reason}")
+        error.row, error.reason = int(row), reason  # for a caller that numbers the rows otherwise (a file's)
+        raise error
+    return out
 
 
 # ------------------------------------------------------------------ first-order kinematics

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import as_broadcast, as_count
+from .._validate import as_broadcast, as_count, as_flag
 from ..errors import InvalidParameterError, shown
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
@@ -47,6 +47,7 @@ __all__ = [
     "BaseParameters",
     "inertial_parameter_names",
     "inertial_parameters",
+    "drive_parameter_names",
     "dynamics_regressor",
     "random_states",
     "base_parameters",
@@ -55,6 +56,9 @@ __all__ = [
 #: The standard inertial parameters of one body, in their order.
 PLANAR_PARAMETERS = ("m", "mx", "my", "Izz")
 SPATIAL_PARAMETERS = ("m", "mx", "my", "mz", "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz")
+#: The parameters of one actuator's drive, in their order: its armature ``Ia`` (the drive's inertia seen at the
+#: actuator, kg·m² or kg), viscous friction ``fv`` (N·m·s/rad or N·s/m) and Coulomb friction ``fc`` (N·m or N).
+DRIVE_PARAMETERS = ("Ia", "fv", "fc")
 #: The symmetric unit matrices of the inertia entries (xx, yy, zz, xy, xz, yz).
 _INERTIA_UNITS = np.array([[[1, 0, 0], [0, 0, 0], [0, 0, 0]], [[0, 0, 0], [0, 1, 0], [0, 0, 0]],
                            [[0, 0, 0], [0, 0, 0], [0, 0, 1]], [[0, 1, 0], [1, 0, 0], [0, 0, 0]],
@@ -121,6 +125,36 @@ def inertial_parameters(model) -> np.ndarray:
         else:
             values += [m, *(m * c), float(body.inertia) + m * float(c @ c)][:count]
     return np.array(values)
+
+
+def drive_parameter_names(model) -> tuple[str, ...]:
+    """The names of the drive parameters (:data:`DRIVE_PARAMETERS`) of every actuator, ``"drive<j>.<parameter>"``:
+    ``drive2.fv`` is the second actuator's viscous friction.
+
+    >>> import pkmlab
+    >>> drive_parameter_names(pkmlab.load("five_bar"))
+    ('drive1.Ia', 'drive1.fv', 'drive1.fc', 'drive2.Ia', 'drive2.fv', 'drive2.fc')
+    """
+    model = as_model(model)
+    return tuple(f"drive{j + 1}.{p}" for j in range(model.n_actuators) for p in DRIVE_PARAMETERS)
+
+
+def drive_regressor(theta_dot, theta_ddot) -> np.ndarray:
+    """The drives' columns of the regressor (..., n, 3n): each actuator's effort ``Ia θ̈ + fv θ̇ + fc sign(θ̇)``
+    written linearly in its :data:`DRIVE_PARAMETERS` (Coulomb friction exact: zero at rest)."""
+    theta_dot, theta_ddot = np.asarray(theta_dot, dtype=float), np.asarray(theta_ddot, dtype=float)
+    na = theta_dot.shape[-1]
+    columns = np.stack([theta_ddot, theta_dot, np.sign(theta_dot)], axis=-1)  # (..., n, 3)
+    out = np.zeros((*theta_dot.shape, na, len(DRIVE_PARAMETERS)))
+    j = np.arange(na)
+    out[..., j, j, :] = columns
+    return out.reshape(*theta_dot.shape, na * len(DRIVE_PARAMETERS))
+
+
+def parameter_names(model, drives: bool = False) -> tuple[str, ...]:
+    """The names of the regressor's columns: :func:`inertial_parameter_names`, then with ``drives``
+    :func:`drive_parameter_names`."""
+    return inertial_parameter_names(model) + (drive_parameter_names(model) if drives else ())
 
 
 def _com_indices(model: MechanismModel) -> np.ndarray:
@@ -207,10 +241,11 @@ def _spatial_columns(J, bias, R, q_dots, q_ddots, gravity) -> np.ndarray:
     return np.stack(columns, axis=2)
 
 
-def dynamics_regressor(model, q, theta_dot, theta_ddot) -> np.ndarray:
+def dynamics_regressor(model, q, theta_dot, theta_ddot, *, drives: bool = False) -> np.ndarray:
     """The regressor ``Y`` of the actuator-space inverse dynamics: ``τ = Y π`` with ``π`` the standard inertial
     parameters (:func:`inertial_parameters`), at configurations ``q`` on the loop closures, actuator rates
-    ``theta_dot`` and accelerations ``theta_ddot`` (eq. 35 written linearly in the inertial parameters).
+    ``theta_dot`` and accelerations ``theta_ddot`` (eq. 35 written linearly in the inertial parameters); with
+    ``drives``, followed by the drives' columns (:func:`drive_regressor`), for efforts measured at the motors.
 
     Parameters
     ----------
@@ -220,11 +255,14 @@ def dynamics_regressor(model, q, theta_dot, theta_ddot) -> np.ndarray:
     theta_dot, theta_ddot : array_like, shape (..., n_actuators)
         The actuators' rates and accelerations (broadcast against ``q``).
 
+    drives : bool
+        Append the drives' columns (armature, viscous and Coulomb friction of every actuator).
+
     Returns
     -------
     ndarray, shape (..., n_actuators, p)
-        One column per parameter of :func:`inertial_parameter_names`, in the actuators' units (N·m or N) per
-        unit of the parameter.
+        One column per parameter of :func:`parameter_names`, in the actuators' units (N·m or N) per unit of
+        the parameter.
 
     Examples
     --------
@@ -238,9 +276,12 @@ def dynamics_regressor(model, q, theta_dot, theta_ddot) -> np.ndarray:
     True
     """
     model = as_model(model)
+    drives = as_flag("drives", drives)
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
                                                       ("theta_ddot", theta_ddot, na))
+    if len(qs) == 0:
+        return np.zeros((*shape, na, len(parameter_names(model, drives))))
     check_loop_closure(model, qs, shape)
     Z = coordinate_jacobian(model, qs)
     q_dots = np.einsum("kij,kj->ki", Z, theta_dots)
@@ -254,6 +295,8 @@ def dynamics_regressor(model, q, theta_dot, theta_ddot) -> np.ndarray:
         Y = np.einsum("kna,kpn->kap", Z, full)
     if not np.all(np.isfinite(Y)):
         raise InvalidParameterError("theta_dot or theta_ddot overflows the regressor (values too large)")
+    if drives:
+        Y = np.concatenate([Y, drive_regressor(theta_dots, theta_ddots)], axis=-1)
     return Y.reshape(*shape, na, Y.shape[-1])
 
 
@@ -314,7 +357,7 @@ class BaseParameters:
     names : tuple of str
         Each base parameter as the combination it is, e.g. ``"body1_1.Izz + 0.04 body1_2.m"``.
     parameters : tuple of str
-        The standard parameters (:func:`inertial_parameter_names`).
+        The standard parameters (:func:`parameter_names`: the inertial ones, then any drives').
     independent : ndarray of int, shape (r,)
         The standard parameter each base parameter is named after (its first term).
     combination : ndarray, shape (r, p)
@@ -368,13 +411,15 @@ def _priority(model: MechanismModel, names: tuple[str, ...]) -> list[int]:
 
     def key(j):
         body, parameter = names[j].split(".")
+        if body not in body_rank:  # a drive's parameters come last: an armature regroups onto the link it turns
+            return len(body_rank), DRIVE_PARAMETERS.index(parameter), j
         kind = 2 if parameter == "m" else 1 if parameter.startswith("m") else 0
         return body_rank[body], kind, j
 
     return sorted(range(len(names)), key=key)
 
 
-def base_parameters(model, states=None, *, seed: int = 0) -> BaseParameters:
+def base_parameters(model, states=None, *, seed: int = 0, drives: bool = False) -> BaseParameters:
     """The base parameters of ``model``: the combinations of its standard inertial parameters that the efforts
     determine, found from the regressor stacked over many states.
 
@@ -391,6 +436,9 @@ def base_parameters(model, states=None, *, seed: int = 0) -> BaseParameters:
         The states to stack the regressor over (default :func:`random_states` of 64 states from ``seed``).
     seed : int
         The random states' seed when ``states`` is not given.
+    drives : bool
+        Include the drives' parameters (:func:`drive_parameter_names`): an actuator's armature then regroups
+        onto the link it turns where the two move together.
 
     Returns
     -------
@@ -406,18 +454,19 @@ def base_parameters(model, states=None, *, seed: int = 0) -> BaseParameters:
     from ..errors import SingularityError
 
     model = as_model(model)
+    drives = as_flag("drives", drives)
     if states is None:
         states = random_states(model, seed=seed)
     elif not isinstance(states, tuple | list) or len(states) != 3:
         raise InvalidParameterError(f"states must be (q, theta_dot, theta_ddot), got {shown(states, 60)}")
     try:
-        Y = dynamics_regressor(model, *states)
+        Y = dynamics_regressor(model, *states, drives=drives)
     except (InvalidParameterError, SingularityError) as exc:
         raise type(exc)(f"states: {exc}") from None
     W = Y.reshape(-1, Y.shape[-1])
     norms = np.linalg.norm(W, axis=0)
     zero = norms <= ZERO_TOL * max(norms.max(), 1e-300)
-    names = inertial_parameter_names(model)
+    names = parameter_names(model, drives)
     kept: list[int] = []
     basis = np.zeros((W.shape[0], 0))
     for j in _priority(model, names):  # Gram–Schmidt: a column is kept if it adds a direction

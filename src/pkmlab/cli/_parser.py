@@ -241,6 +241,24 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.set_defaults(func=_command("mujoco", "cmd_export_mjcf"))
 
+    p = sub.add_parser("identify", help="dynamic identification: the machine's base parameters, with their "
+                       "standard deviations, from a log of measured actuators and efforts")
+    p.add_argument("log", metavar="LOG.csv", help="columns t, theta1..n, tau1..n at a fixed rate (the run.csv of "
+                   "pkmlab simulate is one); pose columns, when all there, choose the starting assembly mode")
+    p.add_argument("--window", type=float, default=0.05, metavar="S", help="the Savitzky-Golay filter's window (s) "
+                   "that smooths and differentiates the actuators and smooths the efforts; default 0.05")
+    p.add_argument("--polyorder", type=int, default=4, metavar="K", help="the filter's polynomial order (2..10, "
+                   "default 4)")
+    p.add_argument("--drives", action="store_true", help="also each actuator's armature and viscous and Coulomb "
+                   "friction")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode whose home configuration chooses the "
+                   "starting assembly mode when the log has no pose columns (default the first)")
+    p.add_argument("--out", metavar="DIR", help="also write identification.json and base_parameters.csv there: a new "
+                   "or empty folder, or an earlier result of pkmlab identify")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("identify", "cmd_identify"))
+
     p = sub.add_parser("animate", help="GIF of a run written by pkmlab reproduce or pkmlab simulate")
     p.add_argument("result_dir", metavar="RESULT_DIR", help="folder written by pkmlab reproduce or pkmlab simulate")
     p.add_argument("--out", required=True, metavar="FILE.gif", help="the animated GIF")

@@ -138,8 +138,9 @@ def manipulator_to_toml(model: Planar3RRR, comment: str | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def read_result_csv(path: str | Path, columns) -> dict:
-    """The named ``columns`` of a result CSV (header row, then one row per sample) as float arrays.
+def read_result_csv(path: str | Path, columns, optional=()) -> dict:
+    """The named ``columns`` of a result CSV (header row, then one row per sample) as float arrays, and the
+    ``optional`` columns that the file has.
 
     Written by :meth:`pkmlab.simulation.result.SimulationResult.to_csv` (columns
     :data:`pkmlab.simulation.result.COLUMNS`); other columns are ignored. A missing file, missing
@@ -163,6 +164,7 @@ def read_result_csv(path: str | Path, columns) -> dict:
     if missing:
         plural = "s" if len(missing) > 1 else ""
         raise FileFormatError(f"{path}: missing column{plural} {', '.join(missing)}")
+    columns = [*columns, *(c for c in optional if c in header and c not in columns)]
     index = {c: header.index(c) for c in columns}
     rows = []
     try:

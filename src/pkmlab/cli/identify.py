@@ -1,0 +1,60 @@
+"""``pkmlab identify``: a machine's base parameters estimated from a log of its actuators and efforts.
+
+JSON (``--json``): ``{"mechanism", "log", "window_s", "polyorder", "drives", ...}`` and the estimate's
+summary (:meth:`pkmlab.algorithms.identification.Identification.summary`): ``base_parameters`` (name, estimate,
+sigma, relative_sigma_percent), ``condition_number``, ``samples``, ``effort_sigma``, ``rms_residual``,
+``unidentifiable``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+
+from ._common import mechanism_name, model_of, strict_json, table, working_mode
+
+
+def _rows(summary: dict) -> list[list]:
+    return [[row["name"], f"{row['estimate']:.6g}", f"{row['sigma']:.3g}", f"{row['relative_sigma_percent']:.3g}"]
+            for row in summary["base_parameters"]]
+
+
+def _csv(summary: dict) -> str:
+    lines = ["name,estimate,sigma,relative_sigma_percent"]
+    lines += [f"\"{row['name']}\",{row['estimate']!r},{row['sigma']!r},{row['relative_sigma_percent']!r}"
+              for row in summary["base_parameters"]]
+    return "\n".join(lines) + "\n"
+
+
+def cmd_identify(args) -> dict:
+    """``identify``: read the log, filter it, estimate the base parameters by weighted least squares; print the
+    table (or the JSON), and with ``--out`` write it."""
+    from ..algorithms.identification import filter_measurements, identify
+    from ..formats.measurements import read_measurement_log
+    from ..outputs import atomic_output_dir
+
+    model = model_of(args)
+    mode = working_mode(args, model)
+    provenance = {"log": str(args.log), "window_s": args.window, "polyorder": args.polyorder, "drives": args.drives}
+    folder = (atomic_output_dir(args.out, "identify", inputs=[args.log], provenance=provenance) if args.out else
+              contextlib.nullcontext())
+    with folder as tmp:  # a folder that cannot take the results is refused before the log is read
+        log = read_measurement_log(args.log, model)
+        data = filter_measurements(model, log.t, log.theta, log.tau, window=args.window, polyorder=args.polyorder,
+                                   pose=log.pose, mode=mode, first_row=1)
+        result = identify(model, *data.states, data.tau, drives=args.drives)
+        out = {"mechanism": mechanism_name(args, model), **provenance, **result.summary()}
+        if tmp is not None:
+            (tmp / "identification.json").write_text(json.dumps(strict_json(out), indent=2) + "\n")
+            (tmp / "base_parameters.csv").write_text(_csv(out))
+    if not args.json:
+        print(f"{model.name}: {len(out['base_parameters'])} base parameters from {out['samples']} samples of "
+              f"{args.log} (condition number {out['condition_number']:.4g})")
+        print(table(["base parameter", "estimate", "sigma", "sigma %"], _rows(out)))
+        rms = ", ".join(f"{v:.3g}" for v in out["rms_residual"])
+        print(f"rms effort residual per actuator: {rms}")
+        if out["unidentifiable"]:
+            print(f"unidentifiable (no effort depends on them): {', '.join(out['unidentifiable'])}")
+        if args.out:
+            print(f"results in {args.out}/")
+    return out
