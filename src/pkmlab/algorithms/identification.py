@@ -171,13 +171,11 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
 
     model = as_model(model)
     na = model.n_actuators
-    ts, _ = as_batch("t", np.asarray(t, dtype=float)[..., None] if np.ndim(t) == 1 else t, 1)
-    ts = ts[:, 0]
     thetas, _ = as_batch("theta", theta, na)
+    ts = as_batch("t", t, len(thetas), single=True)[0][0]  # one time per row of theta
     taus, _ = as_batch("tau", tau, na)
-    if not (len(thetas) == len(taus) == len(ts)):
-        raise InvalidParameterError(f"t, theta and tau must have as many rows, got {len(ts)}, {len(thetas)} and "
-                                    f"{len(taus)}")
+    if len(taus) != len(thetas):
+        raise InvalidParameterError(f"tau must have as many rows as theta ({len(thetas)}), got {len(taus)}")
     window = as_real("window", window, "positive")
     polyorder = as_count("polyorder", polyorder, 2, 10)
     if not (isinstance(decimate, str) and decimate == "auto"):

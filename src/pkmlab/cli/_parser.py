@@ -245,10 +245,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "standard deviations, from a log of measured actuators and efforts")
     p.add_argument("log", metavar="LOG.csv", help="columns t, theta1..n, tau1..n at a fixed rate (the run.csv of "
                    "pkmlab simulate is one); pose columns, when all there, choose the starting assembly mode")
-    p.add_argument("--window", type=float, default=0.05, metavar="S", help="the Savitzky-Golay filter's window (s) "
-                   "that smooths and differentiates the actuators and smooths the efforts; default 0.05")
-    p.add_argument("--polyorder", type=int, default=4, metavar="K", help="the filter's polynomial order (2..10, "
-                   "default 4)")
+    p.add_argument("--window", type=float, metavar="S", help="the Savitzky-Golay filter's window (s) that smooths "
+                   "and differentiates the actuators and smooths the efforts; default 0.05")
+    p.add_argument("--polyorder", type=int, metavar="K", help="the filter's polynomial order (2..10, default 4)")
     p.add_argument("--drives", action="store_true", help="also each actuator's armature and viscous and Coulomb "
                    "friction")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode whose home configuration chooses the "

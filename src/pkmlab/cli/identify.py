@@ -29,18 +29,20 @@ def _csv(summary: dict) -> str:
 def cmd_identify(args) -> dict:
     """``identify``: read the log, filter it, estimate the base parameters by weighted least squares; print the
     table (or the JSON), and with ``--out`` write it."""
-    from ..algorithms.identification import filter_measurements, identify
+    from ..algorithms.identification import DEFAULT_POLYORDER, DEFAULT_WINDOW, filter_measurements, identify
     from ..formats.measurements import read_measurement_log
     from ..outputs import atomic_output_dir
 
     model = model_of(args)
     mode = working_mode(args, model)
-    provenance = {"log": str(args.log), "window_s": args.window, "polyorder": args.polyorder, "drives": args.drives}
+    window = DEFAULT_WINDOW if args.window is None else args.window
+    polyorder = DEFAULT_POLYORDER if args.polyorder is None else args.polyorder
+    provenance = {"log": str(args.log), "window_s": window, "polyorder": polyorder, "drives": args.drives}
     folder = (atomic_output_dir(args.out, "identify", inputs=[args.log], provenance=provenance) if args.out else
               contextlib.nullcontext())
     with folder as tmp:  # a folder that cannot take the results is refused before the log is read
         log = read_measurement_log(args.log, model)
-        data = filter_measurements(model, log.t, log.theta, log.tau, window=args.window, polyorder=args.polyorder,
+        data = filter_measurements(model, log.t, log.theta, log.tau, window=window, polyorder=polyorder,
                                    pose=log.pose, mode=mode, first_row=1)
         result = identify(model, *data.states, data.tau, drives=args.drives)
         out = {"mechanism": mechanism_name(args, model), **provenance, **result.summary()}
