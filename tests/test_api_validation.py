@@ -31,7 +31,8 @@ from hypothesis.extra import numpy as hnp
 
 import pkmlab
 from pkmlab.control.controller import ControllerSpec
-from pkmlab.control.trajectory import Circle, Line, Trajectory, WaypointTrajectory
+from pkmlab.control.excitation import excitation_trajectory
+from pkmlab.control.trajectory import Circle, FourierTrajectory, Line, Trajectory, WaypointTrajectory
 from pkmlab.formats.scenario import SCENARIO_DIR
 from pkmlab.paper import dynamics
 from pkmlab.paper import kinematics as kin
@@ -267,6 +268,14 @@ TARGETS = [
     Target("Trajectory", Trajectory, dict(path=CIRCLE, speed=0.2, law="cubic"), then=_use_trajectory),
     Target("WaypointTrajectory", WaypointTrajectory, dict(points=((0.2, 0.2, 0.0), (0.3, 0.2, 0.1)), speed=0.1,
                                                           law="cubic"), then=_use_trajectory),
+    Target("FourierTrajectory", FourierTrajectory, dict(center=(0.25, 0.21, 0.0), period=2.0,
+                                                        a=np.array([[0.01, 0.0, 0.02], [-0.01, 0.0, -0.02]]),
+                                                        b=np.array([[0.02, 0.01, 0.0], [-0.01, -0.005, 0.0]]),
+                                                        periods=1), then=_use_trajectory),
+    Target("excitation_trajectory", excitation_trajectory,
+           dict(model=GENERIC, period=2.0, harmonics=2, periods=1, center=None, mode=None, excursion=0.02,
+                velocity=None, effort=None, singularity_margin=0.05, drives=False, seed=0, iterations=1,
+                callback=None), examples=30),
     Target("ControllerSpec", ControllerSpec, dict(kind="computed_torque", kp=400.0, kv=None),
            then=lambda spec: spec.velocity_gain),
     # scenarios and simulation (an accepted scenario is prepared for its run: pre-flight, desired motion)

@@ -112,6 +112,17 @@ def test_scenario_files_give_spatial_circles_and_splines():
             [0, 0, -0.75], [0.05, 0, -0.72]]}}, "bad.toml")
 
 
+def test_the_report_of_a_spline_run_describes_its_timing(tmp_path):
+    from pkmlab.report import simulation_report
+
+    scenario = scenario_from_dict({"mechanism": {"preset": "delta"}, "trajectory": {
+        "type": "spline", "points": [[0, 0, -0.75], [0.05, 0, -0.72], [0, 0.05, -0.75]], "durations": [0.2, 0.2]}},
+        "spline.toml")
+    simulation_report(scenario, tmp_path / "out", figures=False)
+    report = (tmp_path / "out" / "REPORT.md").read_text()
+    assert "3 waypoints from [0.0, 0.0, -0.75]" in report and "a cubic spline through them" in report
+
+
 def test_a_stewart_platform_follows_a_circle_in_a_tilted_plane():
     scenario = scenario_from_dict(_stewart_circle(normal=[0.0, math.sin(0.3), math.cos(0.3)]), "circle.toml")
     result = pkmlab.simulate(scenario)

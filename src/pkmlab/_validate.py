@@ -126,3 +126,22 @@ def as_flag(name: str, value) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise InvalidParameterError(f"{name} must be True or False, got {shown(value)}")
     return bool(value)
+
+
+def as_limits(name: str, value, n: int, per: str = "actuator") -> np.ndarray | None:
+    """A limit per actuator (``n``,) (or per ``per``): one positive number for all, or ``n`` of them; None stays
+    None."""
+    if value is None:
+        return None
+    wrong = InvalidParameterError(f"{name} must be a positive number or {n}, one per {per}, got {shown(value, 50)}")
+    if isinstance(value, bool | str | bytes | dict | set):
+        raise wrong
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise wrong from None
+    if v.ndim == 0:
+        v = np.full(n, float(v))
+    if v.shape != (n,) or v.dtype.kind == "b" or not np.all(np.isfinite(v)) or np.any(v <= 0):
+        raise wrong
+    return v

@@ -290,18 +290,23 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
     retimed = traj if isinstance(traj, TimeOptimal) else None
     traj = traj.original if retimed else traj
     path = getattr(traj, "path", None)
+    timing = f"average speed {getattr(traj, 'speed', 0.0):g} m/s, {getattr(traj, 'law', '')} time law"
     if path is not None and hasattr(path, "radius"):
         shape = (f"circle, centre ({path.center[0]:g}, {path.center[1]:g}) m, radius {path.radius:g} m, "
                  f"{path.turns:g} turn(s)")
     elif path is not None:
         shape = f"line from {list(path.start)} to {list(path.end)}"
+    elif hasattr(traj, "harmonics"):
+        shape = (f"Fourier series of {traj.harmonics} harmonics about {[float(v) for v in traj.center]}, "
+                 f"period {traj.period:g} s, {traj.periods} period(s)")
+        timing = "periodic, at rest at the start and end of each period"
     elif hasattr(traj, "durations"):
         shape = (f"{len(traj.points)} waypoints from {list(traj.points[0])}, segment times "
                  f"{', '.join(f'{d:g}' for d in traj.durations)} s")
+        timing = (f"{traj.law} time law per segment" if hasattr(traj, "law")
+                  else "a cubic spline through them, at rest at its ends")
     else:
         shape = f"{len(traj.segments) + 1} waypoints"
-    timing = (f"{traj.law} time law per segment" if hasattr(traj, "durations")
-              else f"average speed {traj.speed:g} m/s, {traj.law} time law")
     if retimed is not None:
         limits = "; ".join(f"{kind} {', '.join(f'{v:g}' for v in value)}" for kind, value in retimed.limits.items())
         timing = (f"time-optimal under the actuators' limits ({limits}); the path's own timing {traj.duration:.4g} s, "

@@ -258,6 +258,39 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.set_defaults(func=_command("identify", "cmd_identify"))
 
+    p = sub.add_parser("excite", help="an excitation trajectory for identification: a periodic motion of the pose "
+                       "that makes the base parameters well determined, within limits; written as a scenario to run "
+                       "and a table of the actuators' motion")
+    p.add_argument("--out", required=True, metavar="DIR", help="write excitation.toml (a scenario pkmlab simulate "
+                   "runs), excitation.csv and excitation.json there: a new or empty folder, or an earlier result of "
+                   "pkmlab excite")
+    p.add_argument("--period", type=float, default=10.0, metavar="S", help="the period (s); default 10")
+    p.add_argument("--harmonics", type=int, default=5, metavar="K", help="harmonics per pose coordinate (2..20, "
+                   "default 5)")
+    p.add_argument("--periods", type=int, default=1, metavar="N", help="times the period is repeated (default 1)")
+    p.add_argument("--center", nargs="+", type=float, metavar="POSE", help="the pose the motion is about, where it "
+                   "starts and ends (default a pose far from singularities)")
+    p.add_argument("--excursion", nargs="+", type=float, metavar="E", help="largest distance from the centre: one "
+                   "number, or one per pose coordinate (m, rad); default 0.1 of the machine's size, 0.3 rad")
+    p.add_argument("--velocity", nargs="+", type=float, metavar="V", help="largest actuator rate (rad/s, m/s): one "
+                   "number or one per actuator; default none")
+    p.add_argument("--effort", nargs="+", type=float, metavar="F", help="largest effort of the model (N m, N): one "
+                   "number or one per actuator; default none")
+    p.add_argument("--margin", type=float, default=0.05, metavar="S", help="the smallest |S| along the motion "
+                   "(default 0.05)")
+    p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode (default the first)")
+    p.add_argument("--drives", action="store_true", help="excite the drives' armature and friction too")
+    p.add_argument("--seed", type=int, default=0, help="the optimisation's random start (default 0)")
+    p.add_argument("--iterations", type=int, default=50, metavar="N", help="the optimiser's largest number of "
+                   "iterations (default 50)")
+    p.add_argument("--rate", type=float, default=1000.0, metavar="HZ", help="samples per second of excitation.csv "
+                   "and the scenario's controller (default 1000)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _accept_negative_numbers(p)
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("excite", "cmd_excite"))
+
     p = sub.add_parser("animate", help="GIF of a run written by pkmlab reproduce or pkmlab simulate")
     p.add_argument("result_dir", metavar="RESULT_DIR", help="folder written by pkmlab reproduce or pkmlab simulate")
     p.add_argument("--out", required=True, metavar="FILE.gif", help="the animated GIF")

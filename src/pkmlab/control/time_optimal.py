@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import as_count, as_real
+from .._validate import as_count, as_limits, as_real
 from ..errors import InvalidParameterError, PkmlabError, SingularityError, shown
 
 #: The default number of grid intervals along the path, and the most.
@@ -95,21 +95,6 @@ class TimeOptimal:
         return x, x1 * u_dot[..., None], x2 * (u_dot**2)[..., None] + x1 * u_ddot[..., None]
 
 
-def _limit(name: str, value, n: int) -> np.ndarray | None:
-    if value is None:
-        return None
-    wrong = InvalidParameterError(f"{name} must be a positive number or {n}, one per actuator, got {shown(value, 50)}")
-    if isinstance(value, bool | str | bytes | dict | set):
-        raise wrong
-    try:
-        v = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise wrong from None
-    if v.ndim == 0:
-        v = np.full(n, float(v))
-    if v.shape != (n,) or v.dtype.kind == "b" or not np.all(np.isfinite(v)) or np.any(v <= 0):
-        raise wrong
-    return v
 
 
 def _where(x: np.ndarray) -> str:
@@ -196,7 +181,7 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
         raise InvalidParameterError("mode must be one of the machine's working modes, not \"auto\" (a scenario's "
                                     "timing chooses it as its run does)")
     n = model.n_actuators
-    v_lim, a_lim, e_lim = (_limit(name, value, n) for name, value in
+    v_lim, a_lim, e_lim = (as_limits(name, value, n) for name, value in
                            (("velocity", velocity), ("acceleration", acceleration), ("effort", effort)))
     if v_lim is None and a_lim is None and e_lim is None:
         raise InvalidParameterError("time-optimal timing needs limits: give velocity, acceleration or effort")

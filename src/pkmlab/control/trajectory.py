@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._validate import as_batch, as_choice, as_real
+from .._validate import as_batch, as_choice, as_count, as_real
 from ..errors import InvalidParameterError, shown
 
 
@@ -51,6 +51,14 @@ def _finite_vector(name, value, n):
     return as_batch(name, value, n, single=True)[0][0]
 
 
+def _shape(value) -> tuple[int, ...] | None:
+    """The array shape of ``value``, None for a ragged one."""
+    try:
+        return np.shape(value)
+    except ValueError:
+        return None
+
+
 def _times(t) -> np.ndarray:
     """Times ``t`` (any shape) as a float array."""
     try:
@@ -62,6 +70,9 @@ def _times(t) -> np.ndarray:
     return t
 
 
+#: The coefficients of a :class:`FourierTrajectory` start at rest when their sums are below this share of the
+#: largest (per harmonic): round-off of coefficients written to a file and read back.
+REST_TOL = 1e-9
 #: How :class:`TimedWaypoints` turn a rigid platform between waypoints.
 ORIENTATION_PATHS = ("angles", "geodesic")
 
@@ -527,6 +538,84 @@ class Spline:
         pose = spline(clamped)
         return pose, np.where(inside[..., None], spline(clamped, 1), 0.0), np.where(inside[..., None],
                                                                                     spline(clamped, 2), 0.0)
+
+
+@dataclass(frozen=True)
+class FourierTrajectory:
+    """A periodic motion of the pose: in every coordinate ``i`` a finite Fourier series of ``period`` ``T``
+    (``ω = 2π / T``) whose velocity is
+
+        ``ṗ_i(t) = Σ_k a_ki cos(k ω t) + b_ki sin(k ω t)``,   ``k = 1 … harmonics``,
+
+    integrated from ``p_i(0) = center_i`` (Swevers et al., "Optimal robot excitation and identification",
+    1997). The coefficients ``a`` and ``b`` (harmonics, dimension) must start and end each period at rest,
+    ``Σ_k a_ki = 0`` and ``Σ_k k b_ki = 0``, so that a run repeats it ``periods`` times without a jump and is at
+    rest at ``center`` before 0 and after the end. The actuators, functions of the pose, are periodic too.
+    """
+
+    center: tuple
+    period: float
+    a: np.ndarray
+    b: np.ndarray
+    periods: int = 1
+
+    def __post_init__(self):
+        shape = _shape(self.center)
+        if shape is None or len(shape) != 1 or not 1 <= shape[0] <= 6:
+            raise InvalidParameterError(f"center must be a pose of 1 to 6 numbers, got {shown(self.center)}")
+        center = np.array(_finite_vector("center", self.center, shape[0]))
+        period = _positive("period", self.period)
+        periods = as_count("periods", self.periods)
+        dim = len(center)
+        for name, value in (("a", self.a), ("b", self.b)):
+            shape = _shape(value)  # a ragged one: as_batch names it
+            if shape is not None and len(shape) == 2 and shape[1] != dim:
+                raise InvalidParameterError(f"{name} has {shape[1]} numbers per harmonic, but center is a pose of "
+                                            f"{dim}: one per pose coordinate")
+        a, b = (as_batch(name, value, dim)[0] for name, value in (("a", self.a), ("b", self.b)))
+        if a.shape != b.shape:
+            raise InvalidParameterError(f"a and b must have as many harmonics, got {a.shape[0]} and {b.shape[0]}")
+        k = np.arange(1, a.shape[0] + 1)[:, None]
+        scale = max(float(np.abs(a).max()), float(np.abs(b).max()), 1e-300)
+        for name, rest in (("a", a.sum(axis=0)), ("b", (k * b).sum(axis=0))):
+            i = int(np.argmax(np.abs(rest)))
+            if abs(rest[i]) > REST_TOL * scale * a.shape[0]:
+                law = "Σ_k a_k" if name == "a" else "Σ_k k b_k"
+                raise InvalidParameterError(f"{name} of coordinate {i + 1} does not start at rest: {law} = "
+                                            f"{rest[i]:.4g}, must be 0")
+        for name, value in (("center", center), ("a", a), ("b", b)):
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "period", period)
+        object.__setattr__(self, "periods", periods)
+
+    @property
+    def dimension(self) -> int:
+        return len(self.center)
+
+    @property
+    def harmonics(self) -> int:
+        return self.a.shape[0]
+
+    @property
+    def duration(self) -> float:
+        return self.period * self.periods
+
+    def desired(self, t):
+        """``(pose, pose_dot, pose_ddot)``, each (..., dimension), at times ``t`` (at rest at ``center`` before 0
+        and after the end)."""
+        t = _times(t)
+        outside = ((t < 0.0) | (t > self.duration))[..., None]
+        t = np.where(outside[..., 0], 0.0, t)
+        w = 2 * math.pi / self.period
+        k = np.arange(1, self.harmonics + 1)
+        phase = w * t[..., None] * k  # (..., harmonics)
+        c, s = np.cos(phase), np.sin(phase)
+        kw = (w * k)[:, None]
+        pose = self.center + s @ (self.a / kw) - (c - 1.0) @ (self.b / kw)
+        pose_dot, pose_ddot = c @ self.a + s @ self.b, c @ (self.b * kw) - s @ (self.a * kw)
+        return (np.where(outside, self.center, pose), np.where(outside, 0.0, pose_dot),
+                np.where(outside, 0.0, pose_ddot))
 
 
 # ------------------------------------------------------------------ the path alone

@@ -10,7 +10,7 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     length_scale = 1.15         # the bodies' and platform's lengths ×; the base is unchanged
 
     [trajectory]
-    type = "circle"             # circle | line | waypoints | spline
+    type = "circle"             # circle | line | waypoints | spline | fourier
     center = [0.25, 0.21]
     radius = 0.05
     start_angle = 3.14159265    # default: pi, the leftmost point
@@ -24,6 +24,9 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     #   pitch, yaw] with orientation_path = "geodesic" turns by the shortest rotation between points
     # spline: points and durations as waypoints, passed without stopping (a C2 cubic spline, at rest at its ends)
     # a spatial machine's circle: center = [x, y, z], normal = [0, 0, 1], orientation = [roll, pitch, yaw]
+    # fourier: a periodic motion of the pose (what pkmlab excite writes): center = a pose of the machine's
+    #   coordinates, period (s), periods (default 1), a and b = one row per harmonic k of the velocity's
+    #   cosine and sine coefficients, each row one number per coordinate; Σ a_k = 0 and Σ k b_k = 0 (at rest)
 
     [controller]
     type = "computed_torque"    # computed_torque | pd
@@ -71,6 +74,7 @@ from ..control.time_optimal import GRID, MAX_GRID, time_optimal
 from ..control.trajectory import (
     ORIENTATION_PATHS,
     Circle,
+    FourierTrajectory,
     Line,
     SpatialCircle,
     Spline,
@@ -90,7 +94,8 @@ TABLES = {
     "mechanism": ("preset", "file", "name", "dimension", "gravity", "platform", "leg"),
     "plant": ("mass_scale", "length_scale"),
     "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
-                   "normal", "orientation", "start", "end", "points", "durations"),
+                   "normal", "orientation", "start", "end", "points", "durations", "orientation_path", "period",
+                   "periods", "a", "b"),
     "controller": ("type", "kp", "kv", "sample_time"),
     "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps"),
     "timing": ("velocity", "acceleration", "effort", "grid"),
@@ -101,6 +106,7 @@ TRAJECTORY_KEYS = {
     "line": ("start", "end"),
     "waypoints": ("points", "durations", "orientation_path"),
     "spline": ("points", "durations"),
+    "fourier": ("center", "period", "periods", "a", "b"),
 }
 TIME_LAWS = ("cubic", "quintic")
 #: Runs longer than this many samples are refused (memory: ~200 bytes per sample).
@@ -288,7 +294,7 @@ def _plant(rd: _Reader, table: dict, model):
                              f"length_scale = {length:g}): {exc}") from None
 
 
-def _trajectory(rd: _Reader, table: dict):
+def _trajectory(rd: _Reader, table: dict, model: MechanismModel):
     name = "trajectory"
     kind = rd.choice(table, name, "type", tuple(TRAJECTORY_KEYS))
     valid = ("type", "speed", "time_law", *TRAJECTORY_KEYS[kind])
@@ -299,6 +305,8 @@ def _trajectory(rd: _Reader, table: dict):
             raise rd.format_error(f"{rd.where(name, key)} does not apply to a {kind} trajectory "
                                   f"(its keys: {', '.join(valid)})")
         raise rd.format_error(f"unknown key '{_key(key)}' in [{name}]{suggestion(key, valid)}")
+    if kind == "fourier":
+        return _fourier(rd, table, model)
     if kind == "waypoints" and "durations" in table:
         return _timed_waypoints(rd, table)
     if kind == "spline":
@@ -370,6 +378,40 @@ def _spatial_circle(rd: _Reader, table: dict, speed: float, law: str) -> Traject
     path = SpatialCircle(center, radius, normal, rd.number(table, name, "start_angle", math.pi), tuple(orientation),
                          rd.number(table, name, "turns", 1.0, "positive"))
     return Trajectory(path, speed, law)
+
+
+def _fourier(rd: _Reader, table: dict, model: MechanismModel) -> FourierTrajectory:
+    """``type = "fourier"``: a periodic motion of the machine's pose coordinates about ``center``, the velocity's
+    Fourier coefficients ``a`` (cosines) and ``b`` (sines), one row per harmonic (what ``pkmlab excite``
+    writes)."""
+    name = "trajectory"
+    for key in ("speed", "time_law"):
+        if key in table:
+            raise rd.format_error(f"{rd.where(name, key)} does not apply to a fourier trajectory (its period sets "
+                                  "its timing)")
+    names = model.pose_names
+    center = rd.vector(rd.required(table, name, "center", f"[{', '.join(names)}]"), rd.where(name, "center"),
+                       len(names), f"[{', '.join(names)}]")
+    period = rd.check_number(rd.required(table, name, "period", "in s"), rd.where(name, "period"), "positive")
+    periods = table.get("periods", 1)
+    if isinstance(periods, bool) or not isinstance(periods, int) or periods < 1:
+        raise rd.value_error(f"{rd.where(name, 'periods')} must be a positive integer, got {show(periods)}")
+    rows = {}
+    for key in ("a", "b"):
+        value = rd.required(table, name, key, "one row per harmonic of one number per pose coordinate")
+        kwhere = rd.where(name, key)
+        if not isinstance(value, list) or not value:
+            raise rd.value_error(f"{kwhere} must be a list of harmonics, each of {len(center)} numbers, got "
+                                 f"{show(value)}")
+        rows[key] = [rd.vector(row, f"{kwhere}[{i}]", len(center), "(one per pose coordinate, like center)")
+                     for i, row in enumerate(value)]
+    if len(rows["a"]) != len(rows["b"]):
+        raise rd.value_error(f"{rd.where(name, 'b')} must have as many harmonics as a ({len(rows['a'])}), got "
+                             f"{len(rows['b'])}")
+    try:
+        return FourierTrajectory(tuple(center), period, np.array(rows["a"]), np.array(rows["b"]), periods)
+    except InvalidParameterError as error:
+        raise rd.value_error(f"[{name}].{error}") from None
 
 
 def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
@@ -514,7 +556,7 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
     else:
         model = load("paper")
     plant = _plant(rd, rd.table(data, "plant"), model)
-    trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True))
+    trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True), model)
     controller, sample_time = _controller(rd, rd.table(data, "controller"))
     options = _simulation(rd, rd.table(data, "simulation"))
     try:
@@ -545,6 +587,13 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
     except PkmlabError as exc:  # every value was checked above: a safety net for the message's file name
         raise rd.value_error(str(exc)) from None
     return scenario if timing is None else _time_optimal(rd, scenario, timing)
+
+
+def fourier_table(trajectory: FourierTrajectory) -> dict:
+    """The ``[trajectory]`` table of a :class:`~pkmlab.control.trajectory.FourierTrajectory` (read back by
+    :func:`scenario_from_dict` to the same coefficients: floats are written to their last digit)."""
+    return {"type": "fourier", "center": trajectory.center.tolist(), "period": trajectory.period,
+            "periods": trajectory.periods, "a": trajectory.a.tolist(), "b": trajectory.b.tolist()}
 
 
 def scenario_to_toml(data: dict, comment: str | None = None) -> str:

@@ -123,10 +123,11 @@ def _check_pose_dimension(model: MechanismModel, trajectory) -> None:
     """The trajectory's poses are the machine's: a spatial machine's path is given in its own coordinates
     (:class:`~pkmlab.control.trajectory.TimedWaypoints` of ``(x, y, z[, roll, pitch, yaw])``); a planar path
     ``(x, y, alpha)`` serves a planar machine."""
-    from ..control.trajectory import Spline, TimedWaypoints
+    from ..control.trajectory import FourierTrajectory, Spline, TimedWaypoints
 
     m = model.description
-    in_pose = isinstance(trajectory, TimedWaypoints | Spline) or getattr(trajectory, "spatial", False)
+    in_pose = (isinstance(trajectory, TimedWaypoints | Spline | FourierTrajectory)
+               or getattr(trajectory, "spatial", False))
     width = trajectory.dimension if in_pose else 3
     spatial = getattr(m, "spatial", False)
     if spatial and not in_pose:
