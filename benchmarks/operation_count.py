@@ -234,7 +234,7 @@ def count_preset(name: str, samples: int | None = None) -> dict:
             status, _k = kernels.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta[:count],
                                                    d.theta_dot[:count], d.theta_ddot[:count], q_plant0, q_ctrl0,
                                                    plant.P, ctrl.P, prep.kind, prep.kp, prep.kv, prep.singularity_guard,
-                                                   *outs)
+                                                   *prep.realism, *outs, np.zeros((0, n)))
         finally:
             for key, function in originals.items():
                 setattr(kernels, key, function)

@@ -236,10 +236,12 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
         return np.zeros((count, kernels.N_COORDINATES)), np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count)
 
     buffers = outputs(n)
+    ideal = (np.zeros((0, 5)), np.zeros((0, 3)), np.zeros(3), np.zeros((0, 3)), -1, 0)  # ideal drives and sensors
 
     def loop(n_sub=1, ts=1e-3, dd=d):
         return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot, result.q[0], dd.q[0], P,
-                                         P, 0, 1000.0, kv, 0.01, *(b[: dd.theta.shape[0]] for b in buffers))
+                                         P, 0, 1000.0, kv, 0.01, *ideal, *(b[: dd.theta.shape[0]] for b in buffers),
+                                         np.zeros((0, 3)))
 
     times, _ = h.time_runs(loop, repeats)
     rows.append(h.rate_row("sim_nominal_loop", f"nominal case, compiled sampled-data loop only ({n} samples)", times,

@@ -38,6 +38,7 @@ from pkmlab.paper import dynamics
 from pkmlab.paper import kinematics as kin
 from pkmlab.paper.geometry import Planar3RRR
 from pkmlab.paper.plant import FullPlant, ReducedPlant
+from pkmlab.simulation.realism import Drives, Sensors
 from pkmlab.simulation.run import prepare_run
 
 # ------------------------------------------------------------------ valid arguments
@@ -281,7 +282,13 @@ TARGETS = [
     # scenarios and simulation (an accepted scenario is prepared for its run: pre-flight, desired motion)
     Target("Scenario", pkmlab.Scenario, dict(model=GENERIC, trajectory=TRAJECTORY, plant=None, controller=CONTROLLER,
                                              sample_time=0.01, working_mode="auto", singularity_margin=0.05,
-                                             singularity_guard=0.01, substeps=1, name="mine"), then=prepare_run),
+                                             singularity_guard=0.01, substeps=1, name="mine",
+                                             drives=Drives(viscous=0.01), sensors=Sensors(resolution=1e-4), seed=0),
+           then=prepare_run),
+    Target("Drives", Drives, dict(gear_ratio=2.0, armature=(1e-5, 1e-5, 2e-5), viscous=0.01, coulomb=0.002,
+                                  coulomb_rate=1e-3, effort_limit=1.0, effort_noise=0.0), then=lambda d: d.table(3)),
+    Target("Sensors", Sensors, dict(resolution=1e-4, noise=(0.0, 1e-5, 0.0), delay=1, rates="difference"),
+           then=lambda s: s.resolutions(3)),
     Target("Scenario.replace", SCENARIO.replace, {}, _fields(pkmlab.Scenario), then=prepare_run),
     _sig(pkmlab.simulate, scenario=SCENARIO),
     _sig(pkmlab.simulate_batch, scenarios=[SCENARIO], on_error="raise"),

@@ -150,13 +150,26 @@ def _pixels(page) -> np.ndarray:
     return np.asarray(Image.open(BytesIO(page.screenshot())).convert("RGB")).astype(int)
 
 
+def _settled_pixels(page, tries: int = 30) -> np.ndarray:
+    """A screenshot once the drawing has settled: two in a row alike (a busy machine may still be drawing fonts,
+    anti-aliasing or a transition when a fixed wait is over)."""
+    last = _pixels(page)
+    for _ in range(tries):
+        page.wait_for_timeout(150)
+        now = _pixels(page)
+        if np.array_equal(now, last):
+            return now
+        last = now
+    return last
+
+
 def test_the_slider_moves_the_machine_and_nothing_else(browser, tmp_path, nominal_result):
     path = write_html(tmp_path / "nominal.html", [RunView.from_result(nominal_result)], "nominal")
     page, errors = _open(browser, path)
     page.wait_for_timeout(300)  # the first drawing settled (fonts, anti-aliasing) before the first screenshot
     geometry = page.evaluate(GEOMETRY)
     cursors_before = [page.evaluate(CURSOR, s["axis"]) for s in geometry["series"]]
-    before = _pixels(page)
+    before = _settled_pixels(page)
     rail = geometry["rail"]
     page.mouse.click(rail["x0"] + 0.6 * (rail["x1"] - rail["x0"]), rail["y"])
     page.mouse.move(1, 1)  # away from the figure, whose tool bar shows while the mouse is over it
@@ -165,7 +178,7 @@ def test_the_slider_moves_the_machine_and_nothing_else(browser, tmp_path, nomina
             break
         page.wait_for_timeout(100)
     page.wait_for_timeout(400)
-    after = _pixels(page)
+    after = _settled_pixels(page)
     cursors_after = [page.evaluate(CURSOR, s["axis"]) for s in geometry["series"]]
     assert errors == []
     assert all(b < a for b, a in zip(cursors_before, cursors_after, strict=True))  # every cursor went forward

@@ -9,7 +9,8 @@ A log is a CSV file with a header row and one row per sample, at a fixed rate::
 ``t`` in seconds, ``theta<j>`` the measured actuator values (rad, or m for a prismatic actuator), ``tau<j>``
 the efforts (N·m, or N). Other columns are ignored, except the pose's (``x``, ``y``, ``alpha``, … as the
 machine names them): when a log has them all, their first row chooses the assembly mode the log starts in. The
-``run.csv`` of ``pkmlab simulate`` is such a log.
+``run.csv`` of ``pkmlab simulate`` is such a log; when its run had sensors, their readings ``theta<j>_m`` are
+read instead of the plant's exact ``theta<j>`` (a real machine logs what its encoders read).
 """
 
 from __future__ import annotations
@@ -58,7 +59,10 @@ def read_measurement_log(path: str | Path, model) -> MeasurementLog:
     n = model.n_actuators
     theta_names = [f"theta{j + 1}" for j in range(n)]
     tau_names = [f"tau{j + 1}" for j in range(n)]
-    data = read_result_csv(path, ["t", *theta_names, *tau_names], optional=model.pose_names)
+    measured = [f"theta{j + 1}_m" for j in range(n)]
+    data = read_result_csv(path, ["t", *theta_names, *tau_names], optional=(*model.pose_names, *measured))
+    if all(c in data for c in measured):  # a pkmlab run with sensors: what they read, as a machine logs it
+        theta_names = measured
     t = data["t"]
     if len(t) < 2:
         raise FileFormatError(f"{path}: too few samples ({len(t)} row): a log needs many rows at a fixed rate")

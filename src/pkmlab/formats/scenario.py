@@ -9,6 +9,16 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     mass_scale = 1.15           # masses ×; inertias × mass_scale·length_scale²
     length_scale = 1.15         # the bodies' and platform's lengths ×; the base is unchanged
 
+    # the plant's drives, optional (one number, or one per actuator; pkmlab.simulation.realism):
+    # gear_ratio = 1.0, armature (the motor's, kg m2), viscous, coulomb (at the joint), coulomb_rate = 1e-3
+    # (0: exact sign), effort_limit (the motor's), effort_noise (its standard deviation)
+
+    [sensors]                   # optional: what the controller measures, instead of the plant's exact state
+    resolution = 1.5e-4         # the encoder's step at the joint (rad or m), one number or one per actuator
+    noise = 0.0                 # white noise on the readings (standard deviation)
+    delay = 0                   # samples between a reading and the effort computed from it
+    rates = "difference"        # difference (the readings differenced) | exact (the plant's rates)
+
     [trajectory]
     type = "circle"             # circle | line | waypoints | spline | fourier
     center = [0.25, 0.21]
@@ -45,6 +55,7 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     singularity_margin = 0.05   # refuse paths whose min |S| is below this
     singularity_guard = 0.01    # stop a run when the plant's |S| falls below this
     substeps = 1                # Runge-Kutta (RK4) steps per sample
+    seed = 0                    # the drives' and sensors' noise
 
 A ``[manipulator]`` table (the paper's 3-RRR with ``preset`` and ``[manipulator.params]`` overrides of
 pkmlab 0.2) is still read, with a :class:`~pkmlab.errors.PkmlabDeprecationWarning` that gives the
@@ -85,6 +96,7 @@ from ..control.trajectory import (
 )
 from ..errors import FileFormatError, InvalidParameterError, PkmlabDeprecationWarning, PkmlabError, shown
 from ..model.mechanism_model import MechanismModel, load
+from ..simulation.realism import SENSED_RATES, Drives, Sensors
 from ..simulation.scenario import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
 from .params import PARAM_KEYS, PRESETS, manipulator_from_dict
 
@@ -92,12 +104,14 @@ from .params import PARAM_KEYS, PRESETS, manipulator_from_dict
 TABLES = {
     "manipulator": ("preset", "params"),
     "mechanism": ("preset", "file", "name", "dimension", "gravity", "platform", "leg"),
-    "plant": ("mass_scale", "length_scale"),
+    "plant": ("mass_scale", "length_scale", "gear_ratio", "armature", "viscous", "coulomb", "coulomb_rate",
+              "effort_limit", "effort_noise"),
+    "sensors": ("resolution", "noise", "delay", "rates"),
     "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
                    "normal", "orientation", "start", "end", "points", "durations", "orientation_path", "period",
                    "periods", "a", "b"),
     "controller": ("type", "kp", "kv", "sample_time"),
-    "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps"),
+    "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps", "seed"),
     "timing": ("velocity", "acceleration", "effort", "grid"),
 }
 #: Keys of ``[trajectory]`` by its ``type``, besides ``type``, ``speed`` and ``time_law``.
@@ -278,6 +292,51 @@ def _mechanism(rd: _Reader, table: dict, folder: Path):
         return MechanismModel.from_description(mechanism_from_dict(table, "[mechanism]"))
     except PkmlabError as exc:
         raise rd.value_error(str(exc)) from None
+
+
+def _per_actuator(rd: _Reader, table: dict, name: str, key: str, n: int, sign: str, limit: bool = False):
+    """A number, or a list of one per actuator, at ``[name].key`` (``inf`` allowed for a ``limit``)."""
+    value = table[key]
+    where = rd.where(name, key)
+
+    def one(v, at):
+        if limit and isinstance(v, float) and v == math.inf:
+            return v
+        return rd.check_number(v, at, sign)
+
+    if isinstance(value, list):
+        if len(value) != n:
+            raise rd.value_error(f"{where} must be one number or {n}, one per actuator, got {show(value)}")
+        return tuple(one(v, f"{where}[{i}]") for i, v in enumerate(value))
+    return one(value, where)
+
+
+#: The keys of ``[plant]`` that declare its drives (:class:`~pkmlab.simulation.realism.Drives`), with the sign of
+#: their values.
+DRIVE_KEYS = {"gear_ratio": "positive", "armature": "non-negative", "viscous": "non-negative",
+              "coulomb": "non-negative", "effort_limit": "positive", "effort_noise": "non-negative"}
+
+
+def _drives(rd: _Reader, table: dict, model) -> Drives | None:
+    given = {key: _per_actuator(rd, table, "plant", key, model.n_actuators, sign, key == "effort_limit")
+             for key, sign in DRIVE_KEYS.items() if key in table}
+    if "coulomb_rate" in table:
+        given["coulomb_rate"] = rd.number(table, "plant", "coulomb_rate", None, "non-negative")
+    return Drives(**given) if given else None
+
+
+def _sensors(rd: _Reader, table: dict, model) -> Sensors | None:
+    name = "sensors"
+    rd.known_keys(table, name, TABLES[name])
+    if not table:
+        return None
+    given = {key: _per_actuator(rd, table, name, key, model.n_actuators, "non-negative")
+             for key in ("resolution", "noise") if key in table}
+    delay = table.get("delay", 0)
+    if isinstance(delay, bool) or not isinstance(delay, int) or not 0 <= delay <= 1000:
+        raise rd.value_error(f"{rd.where(name, 'delay')} must be an integer number of samples from 0 to 1000, got "
+                             f"{show(delay)}")
+    return Sensors(**given, delay=delay, rates=rd.choice(table, name, "rates", SENSED_RATES, "difference"))
 
 
 def _plant(rd: _Reader, table: dict, model):
@@ -472,6 +531,10 @@ def _simulation(rd: _Reader, table: dict) -> dict:
         raise rd.value_error(f"{rd.where(name, 'substeps')} must be an integer from 1 to {MAX_SUBSTEPS}, "
                              f"got {show(substeps)}")
     out["substeps"] = substeps
+    seed = table.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise rd.value_error(f"{rd.where(name, 'seed')} must be a non-negative integer, got {show(seed)}")
+    out["seed"] = seed
     return out
 
 
@@ -556,6 +619,8 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
     else:
         model = load("paper")
     plant = _plant(rd, rd.table(data, "plant"), model)
+    drives = _drives(rd, rd.table(data, "plant"), model)
+    sensors = _sensors(rd, rd.table(data, "sensors"), model)
     trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True), model)
     controller, sample_time = _controller(rd, rd.table(data, "controller"))
     options = _simulation(rd, rd.table(data, "simulation"))
@@ -582,8 +647,11 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         name = Path(str(source)).stem or "scenario"
     timing = _timing(rd, rd.table(data, "timing"), model) if "timing" in data else None
     try:
+        if sample_time == 0 and (drives is not None or sensors is not None):
+            raise rd.format_error("the plant's drives and [sensors] apply to sampled-data control, but "
+                                  "[controller].sample_time = 0 selects continuous-time control")
         scenario = Scenario(model, trajectory, plant=plant, controller=controller, sample_time=sample_time,
-                            name=name, **options)
+                            name=name, drives=drives, sensors=sensors, **options)
     except PkmlabError as exc:  # every value was checked above: a safety net for the message's file name
         raise rd.value_error(str(exc)) from None
     return scenario if timing is None else _time_optimal(rd, scenario, timing)

@@ -53,6 +53,9 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
         raise PkmlabError("MuJoCo is not installed: pip install 'pkmlab[mujoco]' (or pip install mujoco)") from None
     if not isinstance(scenario, Scenario):
         raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__}")
+    if scenario.drives is not None or scenario.sensors is not None:
+        raise InvalidParameterError("the MuJoCo plant has ideal drives and sensors: remove the scenario's drives and "
+                                    "sensors, or run it on pkmlab's plant")
     ts = scenario.sample_time
     if ts <= 0:
         raise InvalidParameterError("the MuJoCo plant runs sampled-data control: give the scenario a sample_time "

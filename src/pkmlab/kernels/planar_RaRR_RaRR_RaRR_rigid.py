@@ -657,6 +657,22 @@ MAX_CHORD = 8
 BASE = 0
 TRIAL = 1
 
+#: The plant's drives (:mod:`pkmlab.simulation.realism`): one row per actuator of these columns, at the joint —
+#: the reflected armature (kg m² or kg), viscous and Coulomb friction, the rate below which Coulomb friction is
+#: smoothed (0: exact, ``fc sign(θ̇)``) and the largest effort; no rows for ideal drives.
+ARMATURE = 0
+VISCOUS = 1
+COULOMB = 2
+COULOMB_RATE = 3
+EFFORT_LIMIT = 4
+DRIVE_COLUMNS = 5
+NO_DRIVES = np.zeros((0, DRIVE_COLUMNS))
+#: How the controller gets the actuators' rates (the loop's ``sensing``): the plant's own state (ideal sensors),
+#: the plant's exact rates beside measured values, or the measured values differenced sample to sample.
+IDEAL_SENSORS = -1
+EXACT_RATES = 0
+DIFFERENCED_RATES = 1
+
 # Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
 # respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
 # point): eliminating the tracked point with these unit pivots leaves a system of DIM equations fewer in
@@ -1272,12 +1288,13 @@ def computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d
 
 # ---- pkmlab.codegen.core.loop, bound to the kernels above ----
 @njit(**NO_REFCOUNT)
-def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known):
+def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known, drive):
     """``θ̈`` of the actuator-space plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
 
     ``slot = BASE``: ``θ`` is the base's own; otherwise the passive coordinates are first found by
     branch following from the base. ``known``: the workspace already holds the model there
-    (:func:`actuator_space_model` at the base and ``θ̇``, see :func:`copy_model`).
+    (:func:`actuator_space_model` at the base and ``θ̇``, see :func:`copy_model`). ``drive``: the drives'
+    rows (:data:`ARMATURE` …), none for ideal drives (:func:`drive_accelerations`).
     """
     if slot != BASE:
         status = follow_branch(ws, theta, P, singularity_guard)
@@ -1287,7 +1304,31 @@ def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known):
         return SINGULAR
     if slot == BASE:
         keep_base_factors(ws)
+    if drive.shape[0] > 0:
+        return drive_accelerations(ws, theta_dot, tau, drive)
     if not solve_accelerations(ws, tau):
+        return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def drive_accelerations(ws, theta_dot, tau, drive):
+    """``θ̈`` of a plant with drives into ``ws.theta_ddot``, from the model at ``θ̇`` in the workspace:
+
+        ``(Mθ + Ia) θ̈ = τ - fv θ̇ - fc φ(θ̇) - cθ - gθ``,   ``φ = tanh(θ̇ / v_c)`` (``sign(θ̇)`` when ``v_c = 0``)
+
+    with each actuator's reflected armature ``Ia``, viscous ``fv`` and Coulomb ``fc`` friction (``τ`` the
+    effort the drive applies). ``Mθ`` is overwritten. Returns the status."""
+    for i in range(N_ACTUATORS):
+        ws.m_theta[i, i] += drive[i, ARMATURE]
+        rate, band = theta_dot[i], drive[i, COULOMB_RATE]
+        if band > 0.0:
+            phi = math.tanh(rate / band)
+        else:
+            phi = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else 0.0)
+        ws.theta_ddot[i] = (tau[i] - drive[i, VISCOUS] * rate - drive[i, COULOMB] * phi - ws.c_theta[i]
+                            - ws.g_theta[i])
+    if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
         return SINGULAR
     return OK
 
@@ -1326,13 +1367,13 @@ def copy_model(source, destination):
 
 
 @njit(**NO_REFCOUNT)
-def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known):
+def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known, drive):
     """Advance the actuator-space plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
 
     ``x`` (2n,) = ``(θ, θ̇)`` is updated in place and the base configuration moved along; stages
     find their passive coordinates by branch following from the start of the step. ``work`` is a
     (5, 2n) scratch array. ``known``: the workspace already holds the model at the sample's start
-    (its first stage). Returns the status.
+    (its first stage). ``drive``: as for :func:`plant_stage`. Returns the status.
     """
     n = N_ACTUATORS
     h = dt / n_sub
@@ -1344,7 +1385,7 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known):
             for i in range(2 * n):
                 y[i] = x[i] + c * k[stage - 1, i] if stage > 0 else x[i]
             status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE if stage == 0 else TRIAL,
-                                 known and step == 0 and stage == 0)
+                                 known and step == 0 and stage == 0, drive)
             if status != OK:
                 return status
             for i in range(n):
@@ -1361,17 +1402,43 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known):
 
 @njit(cache=True)
 def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                      kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s):
+                      kind, kp, kv, singularity_guard, drive, effort_noise, resolution, theta_noise, sensing, delay,
+                      out_q, out_theta_dot, out_tau, out_s, out_theta_m):
     """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
     returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
-    own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, efforts and ``S``."""
+    own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, the commanded efforts and
+    ``S``, and what the controller measured.
+
+    The plant's drives (``drive``, rows of :data:`ARMATURE` …, none for ideal drives) saturate the held effort
+    at their limit, add ``effort_noise[k]`` to it (no rows: none) and oppose friction. With ``sensing`` not
+    :data:`IDEAL_SENSORS` the controller sees only measurements, recorded in ``out_theta_m``: the plant's
+    ``θ`` plus ``theta_noise[k]`` (no rows: none), rounded to each actuator's ``resolution`` (0: none), taken
+    ``delay`` samples earlier; its rates the plant's own (:data:`EXACT_RATES`) or the measured values
+    differenced (:data:`DIFFERENCED_RATES`)."""
     return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
-                              P_plant, P_ctrl, kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s)
+                              P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, effort_noise, resolution,
+                              theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)
+
+
+@njit(**NO_REFCOUNT)
+def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m):
+    """The controller's measurement at sample ``k`` of the plant's state ``x = (θ, θ̇)`` into
+    ``out_theta_m[k]`` and ``theta_dot_m[k]`` (:func:`sampled_data_loop`)."""
+    n = N_ACTUATORS
+    for i in range(n):
+        value = x[i] + (theta_noise[k, i] if theta_noise.shape[0] > 0 else 0.0)
+        step = resolution[i]
+        out_theta_m[k, i] = step * math.floor(value / step + 0.5) if step > 0.0 else value
+        if sensing == DIFFERENCED_RATES:
+            theta_dot_m[k, i] = (out_theta_m[k, i] - out_theta_m[k - 1, i]) / ts if k > 0 else x[n + i]
+        else:
+            theta_dot_m[k, i] = x[n + i]
 
 
 @njit(cache=True)
 def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant,
-                       P_ctrl, kind, kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s):
+                       P_ctrl, kind, kp, kv, singularity_guard, drive, effort_noise, resolution, theta_noise, sensing,
+                       delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
     n = N_ACTUATORS
     plant, ctrl = workspaces[0], workspaces[1]
     set_base(plant, q_plant0, P_plant)
@@ -1381,11 +1448,15 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
         x[i] = q_plant0[i]
     work = np.empty((5, 2 * n))
     tau = np.zeros(n)
-    # a computed-torque controller whose model is the plant (the nominal cases): from the second sample on, its
-    # model's configuration at the measured θ is the plant's own (same machine, same branch: the plant's
-    # branch following has just reached it and checked its S), and the model it evaluates there is the plant's
-    # at the sample's start, the RK4 step's first stage: both taken over instead of computed twice
-    same = kind == 0
+    applied = np.zeros(n)
+    ideal = sensing == IDEAL_SENSORS
+    theta_dot_m = np.zeros((theta_d.shape[0] if not ideal else 0, n))
+    # a computed-torque controller whose model is the plant (the nominal cases), which measures the plant's own
+    # state: from the second sample on, its model's configuration at the measured θ is the plant's own (same
+    # machine, same branch: the plant's branch following has just reached it and checked its S), and the model
+    # it evaluates there is the plant's at the sample's start, the RK4 step's first stage: both taken over
+    # instead of computed twice
+    same = kind == 0 and ideal and drive.shape[0] == 0
     for i in range(P_plant.size):
         same = same and P_plant[i] == P_ctrl[i]
     for k in range(theta_d.shape[0]):
@@ -1397,9 +1468,14 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
             copy_base(plant, ctrl)
             status = computed_torque(kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl, ctrl,
                                      tau)
-        else:
+        elif ideal:
             status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
                                     singularity_guard, ctrl, tau)
+        else:
+            measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
+            j = max(k - delay, 0)
+            status = control_effort(kind, kp, kv, out_theta_m[j], theta_dot_m[j], theta_d[k], theta_dot_d[k],
+                                    theta_ddot_d[k], P_ctrl, singularity_guard, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
         out_tau[k] = tau
@@ -1407,7 +1483,14 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
             break
         if shared:
             copy_model(ctrl, plant)
-        status = rk4_sample(plant, x, tau, P_plant, ts, n_sub, singularity_guard, work, shared)
+        held = tau
+        if drive.shape[0] > 0:  # the drive applies the command within its limit, with its noise
+            for i in range(n):
+                limit = drive[i, EFFORT_LIMIT]
+                applied[i] = min(max(tau[i], -limit), limit) + (effort_noise[k, i] if effort_noise.shape[0] > 0
+                                                                 else 0.0)
+            held = applied
+        status = rk4_sample(plant, x, held, P_plant, ts, n_sub, singularity_guard, work, shared, drive)
         if status != OK:
             return status, k
     return OK, -1
@@ -1415,13 +1498,15 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
 
 @njit(cache=True, parallel=True)
 def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind,
-                       kp, kv, singularity_guard, out_q, out_theta_dot, out_tau, out_s, out_status, out_k):
+                       kp, kv, singularity_guard, drive, effort_noise, resolution, theta_noise, sensing, delay, out_q,
+                       out_theta_dot, out_tau, out_s, out_theta_m, out_status, out_k):
     """:func:`sampled_data_loop` for a batch of runs (leading axis) over the CPU cores; each run executes
     exactly the code of a single run."""
     for r in prange(theta_d.shape[0]):
         status, k = sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
                                       q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], singularity_guard[r],
-                                      out_q[r], out_theta_dot[r], out_tau[r], out_s[r])
+                                      drive[r], effort_noise[r], resolution[r], theta_noise[r], sensing[r], delay[r],
+                                      out_q[r], out_theta_dot[r], out_tau[r], out_s[r], out_theta_m[r])
         out_status[r] = status
         out_k[r] = k
 
@@ -1473,7 +1558,7 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, q_out)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, singularity_guard, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False)
+        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False, NO_DRIVES)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:

@@ -44,6 +44,7 @@ class SimulationResult:
     pose_d: np.ndarray
     S: np.ndarray
     closure_violation: np.ndarray | None = None  # a MuJoCo plant's loop-closure violation (m), per sample
+    theta_measured: np.ndarray | None = None  # what the controller's sensors read (N, n), when it had sensors
 
     @property
     def theta(self) -> np.ndarray:
@@ -52,9 +53,12 @@ class SimulationResult:
     @property
     def columns(self) -> tuple[str, ...]:
         """Names of the columns of :meth:`table`: ``t``, ``theta1..n``, ``theta1_d..``, ``tau1..n``, the pose's
-        coordinates, their desired values (``x_d``...), ``S`` (for the paper's machine :data:`COLUMNS`)."""
-        extra = ("closure_violation_m",) if self.closure_violation is not None else ()
+        coordinates, their desired values (``x_d``...), ``S`` (for the paper's machine :data:`COLUMNS`), then a
+        MuJoCo plant's ``closure_violation_m`` and the sensors' readings ``theta1_m..n`` when there are."""
         n = self.tau.shape[1]
+        extra = ("closure_violation_m",) if self.closure_violation is not None else ()
+        if self.theta_measured is not None:
+            extra += tuple(f"theta{i + 1}_m" for i in range(n))
         names = self.pose_names
         return ("t", *(f"theta{i + 1}" for i in range(n)), *(f"theta{i + 1}_d" for i in range(n)),
                 *(f"tau{i + 1}" for i in range(n)), *names, *(f"{v}_d" for v in names), "S", *extra)
@@ -112,6 +116,8 @@ class SimulationResult:
     def table(self) -> np.ndarray:
         """The (N, len(columns)) array of :attr:`columns`."""
         extra = [] if self.closure_violation is None else [self.closure_violation]
+        if self.theta_measured is not None:
+            extra.append(self.theta_measured)
         return np.column_stack([self.t, self.theta, self.theta_d, self.tau, self.pose, self.pose_d, self.S, *extra])
 
     def to_dataframe(self):

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -89,6 +90,40 @@ class PreparedRun:
     singularity_guard: float
     P_ctrl: np.ndarray  # the packed parameters of the controller's model and of the plant, as the loop reads them
     P_plant: np.ndarray
+    realism: Realism  # the plant's drives and the controller's sensors, as the loop reads them
+
+
+class Realism(NamedTuple):
+    """The compiled loop's arguments for the plant's drives and the controller's sensors
+    (:mod:`~pkmlab.simulation.realism`): no rows, ``sensing = -1`` for the ideal plant and exact state."""
+
+    drive: np.ndarray  # (n, 5) or (0, 5)
+    effort_noise: np.ndarray  # (N, n) or (0, n)
+    resolution: np.ndarray  # (n,)
+    theta_noise: np.ndarray  # (N, n) or (0, n)
+    sensing: int
+    delay: int
+
+    @property
+    def signature(self) -> tuple:
+        """What runs of one compiled batch call must share: which arrays have rows."""
+        return (self.drive.shape[0], self.effort_noise.shape[0], self.theta_noise.shape[0], self.sensing >= 0)
+
+
+def realism(scenario: Scenario, count: int) -> Realism:
+    """The loop's drive and sensor arrays of ``scenario`` over ``count`` samples, its noise drawn from its seed."""
+    from .realism import noise_rows
+
+    n = scenario.model.n_actuators
+    drives, sensors = scenario.drives, scenario.sensors
+    drive = drives.table(n) if drives is not None else np.zeros((0, 5))
+    effort_noise = (noise_rows(drives.noise_levels(n), count, scenario.seed, 0) if drives is not None
+                    else np.zeros((0, n)))
+    if sensors is None:
+        return Realism(drive, effort_noise, np.zeros(n), np.zeros((0, n)), -1, 0)
+    return Realism(drive, effort_noise, sensors.resolutions(n),
+                   noise_rows(sensors.noise_levels(n), count, scenario.seed, 1),
+                   1 if sensors.rates == "difference" else 0, sensors.delay)
 
 
 def sample_times(scenario: Scenario) -> np.ndarray:
@@ -153,7 +188,7 @@ def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> Prepar
     spec = scenario.controller
     prep = PreparedRun(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
                      float(spec.velocity_gain), float(scenario.singularity_guard), scenario.model.P,
-                     scenario.plant_model.P)
+                     scenario.plant_model.P, realism(scenario, t.size))
     if scenario.sample_time > 0:
         _check_sampled_data_stability(scenario, prep)
     else:
@@ -365,7 +400,8 @@ def _loop_failure(scenario: Scenario, prep: PreparedRun, status: int, q: np.ndar
             f"near pose {pose_text(pose)}")
 
 
-def run_result(scenario: Scenario, prep: PreparedRun, q, theta_dot, tau, pose=None, s=None) -> SimulationResult:
+def run_result(scenario: Scenario, prep: PreparedRun, q, theta_dot, tau, pose=None, s=None,
+               theta_measured=None) -> SimulationResult:
     """The result of a run; ``pose`` and ``S`` of the plant are computed unless the loop recorded them."""
     desired = prep.desired
     model = scenario.plant_model
@@ -382,7 +418,8 @@ def run_result(scenario: Scenario, prep: PreparedRun, q, theta_dot, tau, pose=No
     turns = np.round((q[:, :n] - desired.theta) / (2 * np.pi))  # θ_d on θ's side of 2π
     turns[:, ~np.array(model.kernels.ANGLES[:n])] = 0.0
     theta_d = desired.theta + 2 * np.pi * turns
-    return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, desired.pose, s)
+    return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, desired.pose, s,
+                            theta_measured=theta_measured)
 
 
 def simulate(scenario: Scenario) -> SimulationResult:
@@ -409,14 +446,15 @@ def simulate(scenario: Scenario) -> SimulationResult:
     k_, n = ctrl.kernels, ctrl.n_actuators
     count = prep.t.size
     q, theta_dot, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
-    d = prep.desired
+    d, r = prep.desired, prep.realism
+    theta_m = np.zeros((count if r.sensing >= 0 else 0, n))
     status, k_fail = k_.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
                                           d.theta_ddot, q_plant0, q_ctrl0, prep.P_plant, prep.P_ctrl, prep.kind,
-                                          prep.kp, prep.kv, prep.singularity_guard, q, theta_dot, tau, s)
+                                          prep.kp, prep.kv, prep.singularity_guard, *r, q, theta_dot, tau, s, theta_m)
     pose = q[:, -_dof(plant):].copy()
     if status != k_.OK:
         raise _loop_error(scenario, prep, status, q, k_fail)
-    return run_result(scenario, prep, q, theta_dot, tau, pose, s)
+    return run_result(scenario, prep, q, theta_dot, tau, pose, s, theta_m if r.sensing >= 0 else None)
 
 
 def _dof(model: MechanismModel) -> int:
@@ -543,11 +581,11 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     live = [i for i, p in enumerate(preps) if p is not None]
     results: list = [errors.get(i) if on_error == "return" else None for i in range(len(scenarios))]
     groups: dict = {}  # one compiled call per structure: its generated loop
-    for i in live:
-        groups.setdefault(scenarios[i].model.kernels, []).append(i)
-    for kernels, members in groups.items():
+    for i in live:  # and per shape of the drive and sensor arrays, which one call stacks
+        groups.setdefault((scenarios[i].model.kernels, preps[i].realism.signature), []).append(i)
+    for (kernels, _signature), members in groups.items():
         outcome = _run_batch(kernels, [scenarios[i] for i in members], [preps[i] for i in members])
-        for i, (status, q, theta_dot, tau, pose, s, k_fail) in zip(members, outcome, strict=True):
+        for i, (status, q, theta_dot, tau, pose, s, k_fail, theta_m) in zip(members, outcome, strict=True):
             sc, p = scenarios[i], preps[i]
             if status != kernels.OK:
                 error = _loop_error(sc, p, status, q, k_fail, f"run {i} ({sc.name}): ")
@@ -556,13 +594,14 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
                 if on_error == "return":
                     results[i] = error
                 continue
-            results[i] = run_result(sc, p, q, theta_dot, tau, pose, s)
+            results[i] = run_result(sc, p, q, theta_dot, tau, pose, s, theta_m)
     return results
 
 
 def _run_batch(kernels, scenarios: list, preps: list) -> list:
-    """Run prepared scenarios of one structure (``kernels``) in one parallel compiled call; per run
-    ``(status, q, θ̇, τ, pose, S, k_fail)``, configurations in each scenario's own coordinates."""
+    """Run prepared scenarios of one structure (``kernels``) and one shape of drive and sensor arrays in one
+    parallel compiled call; per run ``(status, q, θ̇, τ, pose, S, k_fail, θ measured or None)``, configurations in
+    each scenario's own coordinates."""
     m, n = len(scenarios), preps[0].t.size
     loop = scenarios[0].model
     n_act, n_q, P_len = loop.n_actuators, kernels.N_COORDINATES, loop.P.size
@@ -571,6 +610,10 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     P_plant, P_ctrl = np.empty((m, P_len)), np.empty((m, P_len))
     ts, n_sub, kind = np.empty(m), np.empty(m, np.int64), np.empty(m, np.int64)
     kp, kv, guards = np.empty(m), np.empty(m), np.empty(m)
+    real = preps[0].realism
+    drive, effort_noise, theta_noise = (np.empty((m, *a.shape)) for a in (real.drive, real.effort_noise,
+                                                                           real.theta_noise))
+    resolution, sensing, delay = np.empty((m, n_act)), np.empty(m, np.int64), np.empty(m, np.int64)
     for r, (sc, p) in enumerate(zip(scenarios, preps, strict=True)):
         for name in stack:
             stack[name][r] = getattr(p.desired, name)
@@ -578,10 +621,14 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
         P_plant[r], P_ctrl[r] = p.P_plant, p.P_ctrl
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
         kp[r], kv[r], guards[r] = p.kp, p.kv, p.singularity_guard
+        drive[r], effort_noise[r], resolution[r], theta_noise[r], sensing[r], delay[r] = p.realism
     q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
     s = np.zeros((m, n))
+    theta_m = np.zeros((m, n if real.sensing >= 0 else 0, n_act))
     status, k_fail = np.zeros(m, np.int64), np.zeros(m, np.int64)
     kernels.sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant,
-                               P_ctrl, kind, kp, kv, guards, q, theta_dot, tau, s, status, k_fail)
+                               P_ctrl, kind, kp, kv, guards, drive, effort_noise, resolution, theta_noise, sensing,
+                               delay, q, theta_dot, tau, s, theta_m, status, k_fail)
     dof = _dof(loop)
-    return [(status[r], q[r], theta_dot[r], tau[r], q[r, :, -dof:].copy(), s[r], k_fail[r]) for r in range(m)]
+    return [(status[r], q[r], theta_dot[r], tau[r], q[r, :, -dof:].copy(), s[r], k_fail[r],
+             theta_m[r] if real.sensing >= 0 else None) for r in range(m)]

@@ -22,6 +22,7 @@ from ..errors import (
     shown,
 )
 from ..model.mechanism_model import MechanismModel
+from .realism import Drives, Sensors, check_sizes
 
 #: A scenario of more samples than this is refused (memory: ~200 bytes per sample).
 MAX_SAMPLES = 10_000_000
@@ -57,6 +58,14 @@ class Scenario:
     substeps : int
         Runge–Kutta steps per sample for the plant (sampled-data control), 1 to :data:`MAX_SUBSTEPS`.
     name : str
+    drives : Drives or None
+        The plant's drives: gear, armature, friction, effort limit and noise (:mod:`~pkmlab.simulation.realism`);
+        None for ideal drives. Sampled-data control only.
+    sensors : Sensors or None
+        What the controller measures: quantised, noisy, delayed actuator values; None for the plant's exact
+        state. Sampled-data control only.
+    seed : int
+        The seed of the drives' and sensors' noise.
     """
 
     model: MechanismModel
@@ -69,6 +78,9 @@ class Scenario:
     singularity_guard: float = 0.01
     substeps: int = 1
     name: str = "scenario"
+    drives: Drives | None = None
+    sensors: Sensors | None = None
+    seed: int = 0
 
     def __post_init__(self):
         set_ = object.__setattr__  # a frozen dataclass: the normalised values are stored so
@@ -90,6 +102,15 @@ class Scenario:
                                         f"{shown(self.controller, 50)}")
         set_(self, "sample_time", as_real("sample_time", self.sample_time, "non-negative"))
         set_(self, "substeps", as_count("substeps", self.substeps, 1, MAX_SUBSTEPS))
+        for name, kind in (("drives", Drives), ("sensors", Sensors)):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, kind):
+                raise InvalidParameterError(f"{name} must be a {kind.__name__} or None, got {type(value).__name__} "
+                                            f"{shown(value, 50)}")
+        check_sizes(self.drives, self.sensors, self.model.n_actuators)
+        set_(self, "seed", as_count("seed", self.seed, 0))
+        if self.sample_time == 0 and (self.drives is not None or self.sensors is not None):
+            raise InvalidParameterError("drives and sensors apply to sampled-data control: give sample_time > 0")
         for name in ("singularity_margin", "singularity_guard"):
             set_(self, name, as_real(name, getattr(self, name), "non-negative"))
         _check_pose_dimension(self.model, self.trajectory)

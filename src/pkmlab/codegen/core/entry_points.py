@@ -24,7 +24,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     from .branch_following import follow_branch_in_steps, singularity_measure
     from .control import computed_torque, control_effort
     from .loop import plant_stage
-    from .workspace import BASE, OK, make_workspaces
+    from .workspace import BASE, NO_DRIVES, OK, make_workspaces
 
 # ==== TEMPLATE
 @njit(cache=True)
@@ -73,7 +73,7 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, q_out)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, singularity_guard, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False)
+        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False, NO_DRIVES)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:

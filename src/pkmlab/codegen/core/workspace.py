@@ -77,6 +77,22 @@ MAX_CHORD = 8
 BASE = 0
 TRIAL = 1
 
+#: The plant's drives (:mod:`pkmlab.simulation.realism`): one row per actuator of these columns, at the joint —
+#: the reflected armature (kg m² or kg), viscous and Coulomb friction, the rate below which Coulomb friction is
+#: smoothed (0: exact, ``fc sign(θ̇)``) and the largest effort; no rows for ideal drives.
+ARMATURE = 0
+VISCOUS = 1
+COULOMB = 2
+COULOMB_RATE = 3
+EFFORT_LIMIT = 4
+DRIVE_COLUMNS = 5
+NO_DRIVES = np.zeros((0, DRIVE_COLUMNS))
+#: How the controller gets the actuators' rates (the loop's ``sensing``): the plant's own state (ideal sensors),
+#: the plant's exact rates beside measured values, or the measured values differenced sample to sample.
+IDEAL_SENSORS = -1
+EXACT_RATES = 0
+DIFFERENCED_RATES = 1
+
 # Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
 # respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
 # point): eliminating the tracked point with these unit pivots leaves a system of DIM equations fewer in
