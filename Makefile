@@ -11,7 +11,7 @@ install: $(STAMP)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,mujoco,bench,study]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,mujoco,bench,study,identify]'
 	touch $(STAMP)
 
 reproduce: install

@@ -30,6 +30,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import pkmlab
+from pkmlab.algorithms.consistency import identified_model, physically_consistent
 from pkmlab.control.controller import ControllerSpec
 from pkmlab.control.excitation import excitation_trajectory
 from pkmlab.control.trajectory import Circle, FourierTrajectory, Line, Trajectory, WaypointTrajectory
@@ -184,6 +185,7 @@ _LOG_T = np.linspace(0.0, 0.04, 41)
 _LOG_THETA = THETA + 0.05 * np.sin(40.0 * _LOG_T)[:, None]
 _STATES = pkmlab.random_states(GENERIC, 8, seed=1)
 _STATES_TAU = pkmlab.inverse_dynamics(GENERIC, *_STATES)
+_IDENTIFIED = pkmlab.identify(GENERIC, *_STATES, _STATES_TAU)
 
 
 def _use_trajectory(trajectory):
@@ -226,6 +228,10 @@ TARGETS = [
     Target("identify", pkmlab.identify, dict(model=GENERIC, q=_STATES[0], theta_dot=_STATES[1],
                                              theta_ddot=_STATES[2], tau=_STATES_TAU, drives=False, base=None),
            examples=60),
+    Target("physically_consistent", physically_consistent,
+           dict(model=GENERIC, identification=_IDENTIFIED, prior=None, slack=0.01, min_mass=None), examples=15),
+    Target("identified_model", identified_model, dict(model=GENERIC, parameters=pkmlab.inertial_parameters(GENERIC)),
+           examples=40),
     Target("ActuatorSpacePlant.simulate", _actuator_space_plant,
            {**_SPACE_PLANT, "singularity_guard": 1e-6, "theta_dot0": np.zeros(3)},
            names=_SPACE_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),

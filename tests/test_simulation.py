@@ -337,7 +337,8 @@ def test_plant_integrator_is_fourth_order_and_one_step_per_sample_is_below_1e_12
         ws = workspaces[0]
         kernels.set_base(ws, q0, machine.P)
         x = np.concatenate([q0[:3], w0])
-        assert kernels.rk4_sample(ws, x, tau, machine.P, span, n_sub, 1e-3, np.empty((5, 6)), False) == kernels.OK
+        assert kernels.rk4_sample(ws, x, tau, machine.P, span, n_sub, 1e-3, np.empty((5, 6)), False,
+                                  kernels.NO_DRIVES) == kernels.OK
         errors.append(np.abs(x - ref_state).max())
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all((orders > 3.5) & (orders < 4.6)), (errors, orders)

@@ -235,6 +235,8 @@ class Identification:
         The measured efforts less those the estimate predicts.
     condition_number : float
         :func:`scaled_condition_number` of the weighted observation matrix.
+    covariance : ndarray, shape (r, r)
+        The estimate's covariance (``sigma`` is the root of its diagonal).
     """
 
     base: BaseParameters
@@ -243,6 +245,7 @@ class Identification:
     effort_sigma: np.ndarray
     residual: np.ndarray
     condition_number: float
+    covariance: np.ndarray | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -364,4 +367,4 @@ def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, base
     covariance = s2 * np.linalg.inv(Ww.T @ Ww)
     residual = (y - W @ estimate).reshape(na, count).T
     return Identification(base, estimate, np.sqrt(np.clip(np.diag(covariance), 0.0, None)), effort_sigma, residual,
-                          scaled_condition_number(Ww))
+                          scaled_condition_number(Ww), covariance)

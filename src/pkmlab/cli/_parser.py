@@ -252,6 +252,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "friction")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode whose home configuration chooses the "
                    "starting assembly mode when the log has no pose columns (default the first)")
+    p.add_argument("--consistent", action="store_true", help="also the physically consistent estimate (every body's "
+                   "mass and inertia real), and with --out identified.toml: the machine with them, a description "
+                   "file pkmlab simulate takes")
     p.add_argument("--out", metavar="DIR", help="also write identification.json and base_parameters.csv there: a new "
                    "or empty folder, or an earlier result of pkmlab identify")
     mechanism(p)

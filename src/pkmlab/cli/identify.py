@@ -3,7 +3,10 @@
 JSON (``--json``): ``{"mechanism", "log", "window_s", "polyorder", "drives", ...}`` and the estimate's
 summary (:meth:`pkmlab.algorithms.identification.Identification.summary`): ``base_parameters`` (name, estimate,
 sigma, relative_sigma_percent), ``condition_number``, ``samples``, ``effort_sigma``, ``rms_residual``,
-``unidentifiable``.
+``unidentifiable``; with ``--consistent``, ``consistent``: ``{"distance", "parameters": {name: value}}`` (the
+physically consistent standard parameters, :func:`pkmlab.algorithms.consistency.physically_consistent`), and
+``identified.toml`` written: the machine's description with the identified masses, mass centres and inertias,
+which ``pkmlab simulate`` takes as the controller's model.
 """
 
 from __future__ import annotations
@@ -46,9 +49,23 @@ def cmd_identify(args) -> dict:
                                    pose=log.pose, mode=mode, first_row=1)
         result = identify(model, *data.states, data.tau, drives=args.drives)
         out = {"mechanism": mechanism_name(args, model), **provenance, **result.summary()}
+        identified = None
+        if args.consistent:
+            from ..algorithms.consistency import identified_model, physically_consistent
+            from ..description.files import mechanism_to_toml
+
+            consistent = physically_consistent(model, result)
+            out["consistent"] = {"distance": consistent.distance,
+                                 "parameters": dict(zip(consistent.names, consistent.parameters.tolist(),
+                                                        strict=True))}
+            identified = mechanism_to_toml(identified_model(model, consistent).description,
+                                           f"{model.name} identified by pkmlab identify from {args.log}: the "
+                                           "physically consistent estimate's masses, mass centres and inertias")
         if tmp is not None:
             (tmp / "identification.json").write_text(json.dumps(strict_json(out), indent=2) + "\n")
             (tmp / "base_parameters.csv").write_text(_csv(out))
+            if identified is not None:
+                (tmp / "identified.toml").write_text(identified)
     if not args.json:
         print(f"{model.name}: {len(out['base_parameters'])} base parameters from {out['samples']} samples of "
               f"{args.log} (condition number {out['condition_number']:.4g})")
@@ -57,6 +74,9 @@ def cmd_identify(args) -> dict:
         print(f"rms effort residual per actuator: {rms}")
         if out["unidentifiable"]:
             print(f"unidentifiable (no effort depends on them): {', '.join(out['unidentifiable'])}")
+        if args.consistent:
+            print(f"physically consistent estimate: Mahalanobis distance {out['consistent']['distance']:.3g} to the "
+                  "least-squares one" + (f"; the machine in {args.out}/identified.toml" if args.out else ""))
         if args.out:
             print(f"results in {args.out}/")
     return out
