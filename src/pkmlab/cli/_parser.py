@@ -261,6 +261,18 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.set_defaults(func=_command("identify", "cmd_identify"))
 
+    p = sub.add_parser("calibrate", help="kinematic calibration: the machine's geometry and actuator offsets from "
+                       "its readings at externally measured poses")
+    p.add_argument("poses", metavar="POSES.csv", help="one row per measured pose: theta1..n and the measured x, y[, z] "
+                   "(or, with --measure pose, every pose coordinate)")
+    p.add_argument("--measure", choices=("position", "pose"), default="position", help="what the instrument "
+                   "measures: the tracked point (a laser tracker, default) or the whole pose")
+    p.add_argument("--out", metavar="DIR", help="also write calibration.json and calibrated.toml there: a new or empty "
+                   "folder, or an earlier result of pkmlab calibrate")
+    mechanism(p)
+    common(p)
+    p.set_defaults(func=_command("calibrate", "cmd_calibrate"))
+
     p = sub.add_parser("excite", help="an excitation trajectory for identification: a periodic motion of the pose "
                        "that makes the base parameters well determined, within limits; written as a scenario to run "
                        "and a table of the actuators' motion")

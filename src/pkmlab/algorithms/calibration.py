@@ -1,0 +1,388 @@
+"""Kinematic calibration of any described mechanism: its geometry identified from measured actuators and
+external measurements of the platform.
+
+What is calibrated. The description's geometric parameters — every leg's base point, every body's tip (its
+joint-to-joint vector, hence the link lengths), the platform's attachment points — and each actuator's zero
+offset (``θ_true = θ_read + δ``): :func:`geometric_parameters` names them (``base2_y``, ``body1_2_tip_x``,
+``attach3_x``, ``offset1``). Joint axes are kept as described.
+
+The measurement model. A pose ``k`` is the machine at rest at the actuator readings ``θ_k`` with the platform
+measured by an external instrument: its tracked point (a laser tracker, ``measure = "position"``) or its whole
+pose (``"pose"``). With parameters ``p`` the forward kinematics ``x(θ_k + δ; p)`` — by branch following from the
+assembly mode nearest the measurement, so that every pose stays in the mode it was measured in — predicts it;
+calibration solves ``min_p Σ_k ‖x_k,measured - x(θ_k + δ; p)‖²`` by SciPy's trust-region least squares (its
+Jacobian by finite differences of the compiled branch following).
+
+Identifiability. The Jacobian ``J`` of the predictions with respect to the parameters (each scaled by the
+machine's size, or a radian) tells what the poses can determine: its singular values ``σ_i``; Borm and Menq's
+observability index ``O1 = (σ_1 ⋯ σ_r)^(1/r) / √N`` (larger is better); and a QR factorisation with column
+pivoting picks the parameters it determines independently. The others — combinations that move no measured
+coordinate, e.g. a base point shifted along with its link — are kept at their described values and listed as
+fixed. :func:`select_poses` chooses, among candidate poses, those that maximise ``log det(Jᵀ J)`` (D-optimality),
+greedily.
+
+The estimate's standard deviations are ``s² (JᵀJ)⁻¹`` at the solution (``s²`` the residual variance), for the
+measurement noise the residuals show.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .._validate import as_batch, as_choice, as_count
+from ..errors import InvalidParameterError
+from ..model import mechanism_model as mm
+from ..model.mechanism_model import MechanismModel
+from .kinematics import as_model, length_scale
+
+__all__ = ["Calibration", "geometric_parameters", "calibrate", "calibration_jacobian", "select_poses"]
+
+_GEOMETRY = re.compile(r"^(base\d+|body\d+_\d+_tip|attach\d+)_[xyz]$")
+#: A parameter whose pivot in the scaled Jacobian's QR factorisation is below this share of the first is not
+#: determined by the poses.
+RANK_TOL = 1e-6
+#: The finite-difference step of the Jacobian, as a share of the machine's size (or of a radian).
+STEP = 1e-7
+
+
+def geometric_parameters(model) -> tuple[str, ...]:
+    """The names of ``model``'s geometric parameters (the module's text), in the packed vector's order, then the
+    actuators' offsets ``offset<j>``.
+
+    >>> import pkmlab
+    >>> geometric_parameters(pkmlab.load("five_bar"))[:4]
+    ('base1_x', 'base1_y', 'body1_1_tip_x', 'body1_1_tip_y')
+    """
+    model = as_model(model)
+    names = [n for n in model.kernels.PARAMETERS if _GEOMETRY.match(n)]
+    return (*names, *(f"offset{j + 1}" for j in range(model.n_actuators)))
+
+
+def _scales(model: MechanismModel, names) -> np.ndarray:
+    size = length_scale(model)
+    kinds = model.description.actuator_kinds
+    return np.array([(1.0 if kinds[int(n[6:]) - 1] == "R" else size) if n.startswith("offset") else size
+                     for n in names])
+
+
+def _measured_columns(model: MechanismModel, measure: str) -> list[int]:
+    """The pose's coordinates an instrument measures: the tracked point's, or every one."""
+    names = model.pose_names
+    if measure == "pose":
+        return list(range(len(names)))
+    return [i for i, n in enumerate(names) if n in ("x", "y", "z")]
+
+
+class _Predictor:
+    """The predicted measurements of poses ``theta`` (N, n) for parameters, by branch following in the packed
+    vector from configurations ``q`` of the previous evaluation."""
+
+    def __init__(self, model: MechanismModel, names, theta, q_start, columns):
+        self.model, self.theta, self.q = model, theta, q_start
+        index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
+        self.geometry = np.array([index[n] for n in names if not n.startswith("offset")], dtype=np.int64)
+        self.offsets = np.array([int(n[6:]) - 1 for n in names if n.startswith("offset")], dtype=np.int64)
+        self.columns = columns
+        self.dof = model.description.dof
+
+    def __call__(self, p: np.ndarray) -> np.ndarray:
+        """The predicted measurements (N, len(columns)) at parameters ``p``; NaN rows where the machine cannot be
+        assembled."""
+        P = self.model.P.copy()
+        g = len(self.geometry)
+        P[self.geometry] = p[:g]
+        theta = self.theta.copy()
+        theta[:, self.offsets] += p[g:]
+        out = np.empty_like(self.q)
+        status = np.empty(len(theta), dtype=np.int64)
+        self.model.kernels.branch_following_batch(self.q, np.ascontiguousarray(theta), P, 1e-9, np.inf, out, status)
+        pose = out[:, -self.dof:][:, self.columns]
+        pose[status != self.model.kernels.OK] = np.nan
+        return pose
+
+
+def _start_configurations(model: MechanismModel, theta: np.ndarray, measured: np.ndarray, columns) -> np.ndarray:
+    """Each pose's configuration at its readings in the assembly mode nearest its measurement (the nominal
+    geometry): the inverse kinematics of a fully measured pose (in the working mode whose actuators are nearest
+    the readings) moved to the readings by branch following, or else the forward kinematics' solution nearest the
+    measured point."""
+    from .kinematics import forward_kinematics
+
+    dof, n, k_ = model.description.dof, model.n_actuators, model.kernels
+    count = len(theta)
+    out = np.full((count, k_.N_COORDINATES), np.nan)
+    if len(columns) == dof:
+        best_gap = np.full(count, np.inf)
+        for mode in mm.working_modes(model):
+            q, _s, _failure = mm.path_inverse_kinematics(model, measured, mode)
+            with np.errstate(invalid="ignore"):
+                gap = np.abs(np.angle(np.exp(1j * (q[:, :n] - theta)))).max(axis=1)
+            better = np.isfinite(gap) & (gap < best_gap)
+            out[better], best_gap[better] = q[better], gap[better]
+        found = np.isfinite(best_gap)
+        if found.any():
+            moved, status = np.empty((int(found.sum()), k_.N_COORDINATES)), np.empty(int(found.sum()), np.int64)
+            k_.branch_following_batch(np.ascontiguousarray(out[found]), np.ascontiguousarray(theta[found]), model.P,
+                                      1e-9, np.inf, moved, status)
+            moved[status != k_.OK] = np.nan
+            out[found] = moved
+    for k in np.flatnonzero(~np.all(np.isfinite(out), axis=1)):
+        fk = forward_kinematics(model, theta[k])
+        if int(fk.count) == 0:
+            raise InvalidParameterError(f"pose {k}: the readings theta = {theta[k].tolist()} assemble the "
+                                        "described machine in no way: are they of this machine?")
+        gaps = np.linalg.norm(fk.pose[: int(fk.count)][:, columns] - measured[k][columns], axis=1)
+        out[k] = fk.q[int(np.argmin(gaps))]
+    return out
+
+
+def calibration_jacobian(model, theta, measured, *, measure: str = "position", names=None) -> np.ndarray:
+    """The Jacobian (N·m, p) of the predicted measurements of the poses at readings ``theta`` (N, n) with respect
+    to the parameters ``names`` (default every :func:`geometric_parameters`), each in units of its scale (the
+    machine's size, or a radian): what :func:`calibrate` and :func:`select_poses` analyse."""
+    model = as_model(model)
+    names = geometric_parameters(model) if names is None else tuple(names)
+    theta, measured, columns = _inputs(model, theta, measured, measure)
+    q = _start_configurations(model, theta, measured, columns)
+    predictor = _Predictor(model, names, theta, q, columns)
+    return _jacobian(predictor, _nominal(model, names), _scales(model, names))
+
+
+def _nominal(model: MechanismModel, names) -> np.ndarray:
+    index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
+    return np.array([0.0 if n.startswith("offset") else model.P[index[n]] for n in names])
+
+
+def _jacobian(predictor: _Predictor, p: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    base = predictor(p).ravel()
+    J = np.empty((base.size, p.size))
+    for i in range(p.size):
+        step = STEP * scales[i]
+        dp = p.copy()
+        dp[i] += step
+        J[:, i] = (predictor(dp).ravel() - base) / STEP  # per unit of scale
+    return J
+
+
+def _inputs(model: MechanismModel, theta, measured, measure: str):
+    measure = as_choice("measure", measure, ("position", "pose"))
+    theta, _ = as_batch("theta", theta, model.n_actuators)
+    columns = _measured_columns(model, measure)
+    dof = model.description.dof
+    width = np.shape(measured)[-1] if np.ndim(measured) == 2 else 0
+    if width == dof:
+        measured = as_batch("measured", measured, dof)[0]
+    elif width == len(columns):
+        short = as_batch("measured", measured, len(columns))[0]
+        measured = np.full((len(short), dof), np.nan)
+        measured[:, columns] = short
+    else:
+        what = "pose" if measure == "pose" else "tracked point"
+        raise InvalidParameterError(f"measured must be one row per pose of the {what} "
+                                    f"({', '.join(model.pose_names[c] for c in columns)}), got shape "
+                                    f"{np.shape(measured)}")
+    if len(measured) != len(theta):
+        raise InvalidParameterError(f"measured has {len(measured)} poses but theta {len(theta)}: one each")
+    return theta, measured, columns
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A calibrated geometry (:func:`calibrate`).
+
+    Attributes
+    ----------
+    names : tuple of str
+        Every parameter considered (:func:`geometric_parameters`).
+    nominal, estimate : ndarray, shape (p,)
+        Their described and calibrated values (m; rad or m for an offset); fixed ones are equal.
+    sigma : ndarray, shape (p,)
+        The estimate's standard deviations (0 for a fixed parameter).
+    fixed : tuple of str
+        The parameters the poses do not determine, kept as described.
+    singular_values : ndarray
+        Of the scaled Jacobian of the identified parameters at the solution.
+    observability : float
+        Borm and Menq's O1 of those.
+    rms_before, rms_after : float
+        The RMS of the measured coordinates' residuals with the described and the calibrated geometry.
+    residual : ndarray, shape (N, m)
+        The residuals after calibration.
+    model : MechanismModel
+        The calibrated machine (offsets are the actuators', not the description's: add them to the readings).
+    """
+
+    names: tuple[str, ...]
+    nominal: np.ndarray
+    estimate: np.ndarray
+    sigma: np.ndarray
+    fixed: tuple[str, ...]
+    singular_values: np.ndarray
+    observability: float
+    rms_before: float
+    rms_after: float
+    residual: np.ndarray
+    model: MechanismModel
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """The actuators' zero offsets (n_actuators,): ``θ_true = θ_read + offsets``."""
+        return np.array([e for n, e in zip(self.names, self.estimate, strict=True) if n.startswith("offset")])
+
+    def error(self) -> np.ndarray:
+        """``estimate - nominal`` (p,)."""
+        return self.estimate - self.nominal
+
+    def summary(self) -> dict:
+        rows = [{"name": n, "nominal": float(a), "estimate": float(e), "sigma": float(s), "fixed": n in self.fixed}
+                for n, a, e, s in zip(self.names, self.nominal, self.estimate, self.sigma, strict=True)]
+        return {"parameters": rows, "fixed": list(self.fixed), "observability_O1": self.observability,
+                "condition_number": float(self.singular_values[0] / self.singular_values[-1]),
+                "rms_before": self.rms_before, "rms_after": self.rms_after, "poses": int(self.residual.shape[0])}
+
+
+def _independent(J: np.ndarray) -> np.ndarray:
+    """The columns of ``J`` a QR factorisation with pivoting finds independent (sorted)."""
+    from scipy.linalg import qr
+
+    norms = np.linalg.norm(J, axis=0)
+    live = np.flatnonzero(norms > RANK_TOL * max(norms.max(), 1e-300))
+    if live.size == 0:
+        return live
+    _q, r, pivots = qr(J[:, live], mode="economic", pivoting=True)
+    diag = np.abs(np.diag(r))
+    rank = int(np.sum(diag > RANK_TOL * diag[0]))
+    return np.sort(live[pivots[:rank]])
+
+
+def _with_geometry(description, values: dict):
+    """``description`` with the packed geometric parameters ``values`` (name: value) written into its fields."""
+    def point(old, prefix):
+        return tuple(values.get(f"{prefix}_{c}", v) for c, v in zip("xyz", old, strict=False))
+
+    legs = []
+    for i, leg in enumerate(description.legs):
+        bodies = tuple(replace(b, tip=point(b.tip, f"body{i + 1}_{k + 1}_tip")) for k, b in enumerate(leg.bodies))
+        legs.append(replace(leg, base=point(leg.base, f"base{i + 1}"), bodies=bodies))
+    p = description.platform
+    attachments = tuple(point(a, f"attach{i + 1}") for i, a in enumerate(p.attachments))
+    return replace(description, legs=tuple(legs), platform=replace(p, attachments=attachments))
+
+
+def calibrate(model, theta, measured, *, measure: str = "position", names=None, max_iterations: int = 50
+              ) -> Calibration:
+    """The geometry of ``model`` calibrated from actuator readings and external measurements (the module's text).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine as described (the nominal geometry, the start).
+    theta : array_like, shape (N, n_actuators)
+        The actuators' readings at each measured pose.
+    measured : array_like, shape (N, 2 or 3) or (N, dof)
+        The measured tracked point (``measure="position"``) or whole pose (``"pose"``) at each.
+    measure : {"position", "pose"}
+        What the instrument measures.
+    names : sequence of str, optional
+        The parameters to calibrate (default every :func:`geometric_parameters`).
+    max_iterations : int
+        Of the least-squares solver (in Jacobian evaluations).
+
+    Returns
+    -------
+    Calibration
+
+    Raises
+    ------
+    InvalidParameterError
+        For poses that cannot determine anything, readings that do not assemble the machine, or fewer measured
+        coordinates than parameters to identify.
+    """
+    from scipy.optimize import least_squares
+
+    model = as_model(model)
+    all_names = geometric_parameters(model)
+    names = all_names if names is None else tuple(names)
+    for n in names:
+        if n not in all_names:
+            raise InvalidParameterError(f"no geometric parameter {n!r} (pkmlab.geometric_parameters: "
+                                        f"{', '.join(all_names[:6])}, ...)")
+    max_iterations = as_count("max_iterations", max_iterations, 1, 10_000)
+    theta, measured, columns = _inputs(model, theta, measured, measure)
+    q = _start_configurations(model, theta, measured, columns)
+    predictor = _Predictor(model, names, theta, q, columns)
+    target = measured[:, columns].ravel()
+    nominal, scales = _nominal(model, names), _scales(model, names)
+    before = predictor(nominal).ravel() - target
+    J = _jacobian(predictor, nominal, scales)
+    keep = _independent(J)
+    if keep.size == 0:
+        raise InvalidParameterError("the poses determine none of the parameters: measure poses that move the "
+                                    "platform in the measured coordinates")
+    if target.size <= keep.size:
+        raise InvalidParameterError(f"too few measurements: {target.size} measured coordinates for {keep.size} "
+                                    "identifiable parameters; measure more poses")
+
+    def residual(x):
+        p = nominal.copy()
+        p[keep] = nominal[keep] + x * scales[keep]
+        r = predictor(p).ravel() - target
+        return np.where(np.isfinite(r), r, 1.0)  # a pose that no longer assembles: far off
+
+    def jacobian(x):
+        p = nominal.copy()
+        p[keep] = nominal[keep] + x * scales[keep]
+        return _jacobian(predictor, p, scales)[:, keep]
+
+    solution = least_squares(residual, np.zeros(keep.size), jac=jacobian, method="lm",
+                             max_nfev=max_iterations * (keep.size + 1))
+    estimate = nominal.copy()
+    estimate[keep] = nominal[keep] + solution.x * scales[keep]
+    after = residual(solution.x)
+    Jk = jacobian(solution.x)
+    dof_res = max(target.size - keep.size, 1)
+    s2 = float(after @ after) / dof_res
+    sigma = np.zeros(len(names))
+    sigma[keep] = np.sqrt(np.clip(np.diag(np.linalg.pinv(Jk.T @ Jk)), 0.0, None) * s2) * scales[keep]
+    singular = np.linalg.svd(Jk, compute_uv=False)
+    o1 = float(np.exp(np.mean(np.log(singular))) / np.sqrt(len(theta)))
+    values = {n: e for n, e in zip(names, estimate, strict=True) if not n.startswith("offset")}
+    calibrated = MechanismModel.from_description(_with_geometry(model.description, values))
+    fixed = tuple(n for i, n in enumerate(names) if i not in set(keep.tolist()))
+    return Calibration(names, nominal, estimate, sigma, fixed, singular, o1, float(np.sqrt(np.mean(before**2))),
+                       float(np.sqrt(np.mean(after**2))), after.reshape(len(theta), -1), calibrated)
+
+
+def select_poses(model, theta_candidates, measured_candidates, count: int, *, measure: str = "position",
+                 names=None) -> np.ndarray:
+    """The indices of ``count`` candidate poses that maximise ``log det(Jᵀ J)`` of the identifiable parameters
+    (D-optimality), chosen greedily: each next pose the one that raises it most.
+
+    ``theta_candidates`` (M, n) and ``measured_candidates`` (M, ·) as for :func:`calibrate` (the nominal
+    machine's poses, e.g. from its inverse kinematics at poses spread over its workspace).
+    """
+    model = as_model(model)
+    theta, measured, columns = _inputs(model, theta_candidates, measured_candidates, measure)
+    count = as_count("count", count, 1, len(theta))
+    J = calibration_jacobian(model, theta, measured[:, columns] if len(columns) < model.description.dof else measured,
+                             measure=measure, names=names)
+    m = len(columns)
+    keep = _independent(J)
+    rows = J[:, keep].reshape(len(theta), m, keep.size)
+    chosen: list[int] = []
+    information = np.eye(keep.size) * 1e-9  # a start that makes the first choices' determinants comparable
+    for _ in range(count):
+        inverse = np.linalg.inv(information)
+        # det(A + Bᵀ B) / det(A) = det(1 + B A⁻¹ Bᵀ) per candidate B (m, r)
+        gain = np.linalg.slogdet(np.eye(m) + rows @ inverse @ np.swapaxes(rows, 1, 2))[1]
+        gain[chosen] = -np.inf
+        k = int(np.argmax(gain))
+        chosen.append(k)
+        information = information + rows[k].T @ rows[k]
+    if len(chosen) * m <= keep.size:
+        raise InvalidParameterError(f"{count} poses measure {count * m} coordinates, not enough for {keep.size} "
+                                    f"parameters: choose at least {keep.size // m + 1}")
+    return np.array(chosen)

@@ -1,0 +1,167 @@
+"""Kinematic calibration: a known perturbation of the geometry recovered from poses measured with noise — checked
+on held-out poses through the calibrated machine's own inverse kinematics —, exactly without noise, what the
+poses cannot determine reported as fixed (a passive link's tip across its length, which only turns a joint no
+instrument sees; every fixed column in the span of the identified ones), D-optimal poses observing more than
+random ones, and bad input refused by name."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pkmlab
+from pkmlab.algorithms import calibration as cal
+from pkmlab.model import mechanism_model as mm
+
+
+def _perturbed(model, rng, size=1e-3):
+    """The machine with every geometric parameter moved by up to ``size`` (m), and actuator offsets of up to
+    0.5° (revolute) or ``size`` (prismatic)."""
+    index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
+    values = {n: model.P[index[n]] + rng.uniform(-size, size) for n in cal.geometric_parameters(model)
+              if not n.startswith("offset")}
+    true = pkmlab.MechanismModel.from_description(cal._with_geometry(model.description, values))
+    kinds = np.array([k == "R" for k in model.description.actuator_kinds])
+    offsets = np.where(kinds, np.deg2rad(0.5), size) * rng.uniform(-1, 1, model.n_actuators)
+    return true, offsets
+
+
+def _poses(true, offsets, count, rng, span=0.1):
+    """``count`` poses of the true machine away from singularities, and the readings its actuators give there."""
+    mode = mm.working_modes(true)[0]
+    centre = mm.well_conditioned_configuration(true, mode)[-true.description.dof:]
+    size = cal.length_scale(true)
+    scale = np.array([span * size if n in ("x", "y", "z") else 3 * span for n in true.pose_names])
+    poses, thetas = [], []
+    while len(poses) < count:
+        pose = centre + rng.uniform(-1, 1, len(centre)) * scale
+        try:
+            q = mm.inverse_kinematics(true, pose, mode)
+        except pkmlab.PkmlabError:
+            continue
+        if abs(mm.singularity_measure(true, q)) > 0.05:
+            poses.append(pose)
+            thetas.append(q[:true.n_actuators] - offsets)
+    return np.array(poses), np.array(thetas)
+
+
+def _position_error(model, offsets, poses, thetas):
+    """Held-out check by the calibrated machine's inverse kinematics: how far (m) each measured pose's point is
+    from where the calibrated machine puts it at the readings (its forward kinematics nearest the pose)."""
+    point = [i for i, n in enumerate(model.pose_names) if n in ("x", "y", "z")]
+    errors = []
+    for pose, theta in zip(poses, thetas, strict=True):
+        fk = pkmlab.forward_kinematics(model, theta + offsets)
+        points = fk.pose[: int(fk.count)][:, point]
+        errors.append(np.linalg.norm(points - pose[point], axis=1).min())
+    return np.array(errors)
+
+
+def test_a_delta_is_calibrated_to_the_measurement_noise():
+    rng = np.random.default_rng(0)
+    model = pkmlab.load("delta")
+    true, offsets = _perturbed(model, rng)
+    poses, thetas = _poses(true, offsets, 90, rng)
+    noise = 1e-5
+    measured = poses + noise * rng.standard_normal(poses.shape)
+    result = cal.calibrate(model, thetas[:40], measured[:40])
+    assert result.rms_before > 50 * noise
+    assert result.rms_after < 1.3 * noise
+    errors = _position_error(result.model, result.offsets, poses[40:], thetas[40:])
+    assert errors.max() <= 2 * noise, errors.max()
+
+
+def test_noise_free_poses_give_an_exact_machine():
+    rng = np.random.default_rng(1)
+    model = pkmlab.load("paper")
+    true, offsets = _perturbed(model, rng)
+    poses, thetas = _poses(true, offsets, 50, rng)
+    result = cal.calibrate(model, thetas[:30], poses[:30, :2])
+    assert result.rms_after < 1e-10
+    errors = _position_error(result.model, result.offsets, poses[30:], thetas[30:])
+    assert errors.max() < 1e-9
+    # a passive link's tip across its length only turns a passive joint's zero: nothing measured sees it
+    assert {"body1_2_tip_y", "body2_2_tip_y", "body3_2_tip_y"} <= set(result.fixed)
+
+
+def test_the_fixed_parameters_are_combinations_of_the_identified_ones():
+    rng = np.random.default_rng(2)
+    model = pkmlab.load("delta")
+    poses, thetas = _poses(model, np.zeros(3), 30, rng)
+    J = cal.calibration_jacobian(model, thetas, poses)
+    result = cal.calibrate(model, thetas, poses)
+    fixed = [result.names.index(n) for n in result.fixed]
+    kept = [i for i in range(len(result.names)) if i not in fixed]
+    for i in fixed:  # each fixed column is explained by the identified ones
+        coefficients = np.linalg.lstsq(J[:, kept], J[:, i], rcond=None)[0]
+        assert np.linalg.norm(J[:, kept] @ coefficients - J[:, i]) <= 1e-5 * np.linalg.norm(J, 2)
+    assert np.linalg.matrix_rank(J[:, kept], tol=1e-6 * np.linalg.norm(J, 2)) == len(kept)
+
+
+def test_d_optimal_poses_observe_more_than_random_ones():
+    rng = np.random.default_rng(3)
+    model = pkmlab.load("delta")
+    poses, thetas = _poses(model, np.zeros(3), 200, rng)
+    J = cal.calibration_jacobian(model, thetas, poses)
+    keep = cal._independent(J)
+    rows = J[:, keep].reshape(200, 3, keep.size)
+
+    def logdet(indices):
+        return np.linalg.slogdet(np.einsum("kij,kil->jl", rows[indices], rows[indices]))[1]
+
+    chosen = cal.select_poses(model, thetas, poses, 12)
+    assert len(set(chosen.tolist())) == 12
+    random = [logdet(rng.choice(200, 12, replace=False)) for _ in range(20)]
+    assert logdet(chosen) > max(random)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda t, m: (t[:3], m[:3]), r"too few measurements: 9 measured coordinates"),
+    (lambda t, m: (t, m[:-1]), r"measured has 19 poses but theta 20"),
+    (lambda t, m: (t, m[:, :2]), r"measured must be one row per pose of the tracked point \(x, y, z\)"),
+])
+def test_bad_calibration_input_is_refused_by_name(change, message):
+    rng = np.random.default_rng(4)
+    model = pkmlab.load("delta")
+    poses, thetas = _poses(model, np.zeros(3), 20, rng)
+    theta, measured = change(thetas, poses)
+    with pytest.raises(pkmlab.PkmlabError, match=message):
+        cal.calibrate(model, theta, measured)
+
+
+def test_readings_that_do_not_assemble_the_machine_name_their_pose():
+    rng = np.random.default_rng(5)
+    model = pkmlab.load("paper")
+    poses, thetas = _poses(model, np.zeros(3), 12, rng)
+    thetas[5] = [0.0, 0.0, 0.0]  # the paper's machine cannot be assembled there
+    with pytest.raises(pkmlab.PkmlabError, match=r"pose 5: the readings theta = \[0.0, 0.0, 0.0\] assemble"):
+        cal.calibrate(model, thetas, poses[:, :2])
+
+
+def _pkmlab(*args, cwd):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "pkmlab.cli", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_pkmlab_calibrate_writes_a_calibrated_description(tmp_path):
+    import json
+
+    rng = np.random.default_rng(6)
+    model = pkmlab.load("delta")
+    true, offsets = _perturbed(model, rng)
+    poses, thetas = _poses(true, offsets, 60, rng)
+    table = np.column_stack([thetas[:40], poses[:40]])
+    rows = ["theta1,theta2,theta3,x,y,z"] + [",".join(repr(float(v)) for v in row) for row in table]
+    (tmp_path / "poses.csv").write_text("\n".join(rows) + "\n")
+    done = _pkmlab("calibrate", "poses.csv", "--mechanism", "delta", "--out", "cal", "--json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout)
+    assert out == json.loads((tmp_path / "cal" / "calibration.json").read_text()) and out["rms_after"] < 1e-9
+    calibrated = pkmlab.load(str(tmp_path / "cal" / "calibrated.toml"))
+    assert _position_error(calibrated, np.array(out["offsets"]), poses[40:], thetas[40:]).max() < 1e-8
+    (tmp_path / "bad.csv").write_text("theta1,theta2,theta3,x,y\n0.1,0.2,0.3,0.0,0.0\n")
+    bad = _pkmlab("calibrate", "bad.csv", "--mechanism", "delta", "--out", "cal2", cwd=tmp_path)
+    assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "missing column z" in bad.stderr
+    assert not (tmp_path / "cal2").exists()
