@@ -236,7 +236,8 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
         return np.zeros((count, kernels.N_COORDINATES)), np.zeros((count, 3)), np.zeros((count, 3)), np.zeros(count)
 
     buffers = outputs(n)
-    ideal = (np.zeros((0, 5)), np.zeros((0, 3)), np.zeros(3), np.zeros((0, 3)), -1, 0)  # ideal drives and sensors
+    # ideal drives, no compensation, ideal sensors
+    ideal = (np.zeros((0, 5)), np.zeros((0, 5)), np.zeros((0, 3)), np.zeros(3), np.zeros((0, 3)), -1, 0)
 
     def loop(n_sub=1, ts=1e-3, dd=d):
         return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot, result.q[0], dd.q[0], P,

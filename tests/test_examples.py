@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-EXAMPLES = sorted((Path(__file__).parents[1] / "examples").glob("*.py"))
+EXAMPLES = sorted([*(Path(__file__).parents[1] / "examples").glob("*.py"),
+                   *(Path(__file__).parents[1] / "examples" / "identification").glob("*.py")])
 
 
 @pytest.mark.parametrize("script", EXAMPLES, ids=[p.name for p in EXAMPLES])

@@ -126,3 +126,31 @@ def test_a_scenario_file_declares_drives_and_sensors():
     assert scenario.drives.table(3)[:, 0].tolist() == pytest.approx([1e-3, 2e-3, 1e-3])
     assert scenario.drives.table(3)[:, 4].tolist() == [0.2, 0.2, 0.2]
     assert scenario.sensors == Sensors(resolution=1e-4, delay=1, rates="exact") and scenario.seed == 4
+
+
+def test_computed_torque_adds_its_model_of_the_drives():
+    """The recorded command is the rigid model's computed torque (recomputed by the public inverse dynamics)
+    plus the compensation ``Ia v + fv θ̇ + fc tanh(θ̇ / v_c)``."""
+    model_drives = Drives(armature=(1e-4, 2e-4, 3e-4), viscous=0.01, coulomb=0.002, coulomb_rate=0.05)
+    scenario = NOMINAL.replace(controller_drives=model_drives, drives=Drives(viscous=0.01, coulomb=0.002))
+    result = pkmlab.simulate(scenario)
+    d = prepare_run(scenario).desired
+    spec = scenario.controller
+    for k in (3, 500, 1100):
+        rate = result.theta_dot[k]
+        v = (d.theta_ddot[k] - spec.kp * (result.theta[k] - d.theta[k])
+             - spec.velocity_gain * (rate - d.theta_dot[k]))
+        rigid = pkmlab.inverse_dynamics(MODEL, result.q[k], rate, v)
+        expected = rigid + np.array([1e-4, 2e-4, 3e-4]) * v + 0.01 * rate + 0.002 * np.tanh(rate / 0.05)
+        assert np.allclose(result.tau[k], expected, rtol=1e-9, atol=1e-12)
+
+
+def test_controller_drives_are_read_from_the_controller_table_and_need_computed_torque():
+    data = {"trajectory": {"type": "circle", "center": [0.25, 0.21], "radius": 0.05, "speed": 0.2},
+            "controller": {"viscous": [0.01, 0.02, 0.01], "coulomb_rate": 0.0}}
+    scenario = scenario_from_dict(data, "x.toml")
+    assert scenario.controller_drives.table(3)[:, 1].tolist() == [0.01, 0.02, 0.01]
+    with pytest.raises(pkmlab.PkmlabError, match=r"a pd controller has no model to add them to"):
+        scenario_from_dict({**data, "controller": {**data["controller"], "type": "pd", "kp": 10.0}}, "x.toml")
+    with pytest.raises(pkmlab.PkmlabError, match=r"unknown key 'effort_limit' in \[controller\]"):
+        scenario_from_dict({**data, "controller": {"effort_limit": 1.0}}, "x.toml")

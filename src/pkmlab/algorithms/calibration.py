@@ -100,8 +100,16 @@ class _Predictor:
         status = np.empty(len(theta), dtype=np.int64)
         self.model.kernels.branch_following_batch(self.q, np.ascontiguousarray(theta), P, 1e-9, np.inf, out, status)
         pose = out[:, -self.dof:][:, self.columns]
-        pose[status != self.model.kernels.OK] = np.nan
+        ok = status == self.model.kernels.OK
+        pose[~ok] = np.nan
+        self.last = (out, ok)
         return pose
+
+    def accept(self) -> None:
+        """Start the next evaluations from the last one's configurations (continuation along the solver's
+        accepted steps: a rejected trial far away must not move the poses to another branch)."""
+        out, ok = self.last
+        self.q[ok] = out[ok]
 
 
 def _start_configurations(model: MechanismModel, theta: np.ndarray, measured: np.ndarray, columns) -> np.ndarray:
@@ -164,7 +172,7 @@ def _jacobian(predictor: _Predictor, p: np.ndarray, scales: np.ndarray) -> np.nd
         dp = p.copy()
         dp[i] += step
         J[:, i] = (predictor(dp).ravel() - base) / STEP  # per unit of scale
-    return J
+    return np.nan_to_num(J, nan=0.0)  # a pose that does not assemble tells nothing about its neighbourhood
 
 
 def _inputs(model: MechanismModel, theta, measured, measure: str):
@@ -326,11 +334,17 @@ def calibrate(model, theta, measured, *, measure: str = "position", names=None, 
         raise InvalidParameterError(f"too few measurements: {target.size} measured coordinates for {keep.size} "
                                     "identifiable parameters; measure more poses")
 
+    best = [np.inf]
+
     def residual(x):
         p = nominal.copy()
         p[keep] = nominal[keep] + x * scales[keep]
         r = predictor(p).ravel() - target
-        return np.where(np.isfinite(r), r, 1.0)  # a pose that no longer assembles: far off
+        r = np.where(np.isfinite(r), r, 1.0)  # a pose that no longer assembles: far off
+        if r @ r < best[0]:
+            best[0] = float(r @ r)
+            predictor.accept()
+        return r
 
     def jacobian(x):
         p = nominal.copy()

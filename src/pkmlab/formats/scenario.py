@@ -43,6 +43,8 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     kp = 1000.0
     kv = 63.2                   # default 2*sqrt(kp)
     sample_time = 0.001         # seconds; 0 = continuous-time control
+    # computed torque's model of the drives, compensated (e.g. identified): gear_ratio, armature, viscous,
+    # coulomb, coulomb_rate, as the plant's keys
 
     [timing]                    # optional: the path on its time-optimal timing under actuator limits
     velocity = [3.0, 3.0, 3.0]  # rad/s or m/s per actuator (one number: every actuator alike)
@@ -110,7 +112,7 @@ TABLES = {
     "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
                    "normal", "orientation", "start", "end", "points", "durations", "orientation_path", "period",
                    "periods", "a", "b"),
-    "controller": ("type", "kp", "kv", "sample_time"),
+    "controller": ("type", "kp", "kv", "sample_time", "gear_ratio", "armature", "viscous", "coulomb", "coulomb_rate"),
     "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps", "seed"),
     "timing": ("velocity", "acceleration", "effort", "grid"),
 }
@@ -317,11 +319,13 @@ DRIVE_KEYS = {"gear_ratio": "positive", "armature": "non-negative", "viscous": "
               "coulomb": "non-negative", "effort_limit": "positive", "effort_noise": "non-negative"}
 
 
-def _drives(rd: _Reader, table: dict, model) -> Drives | None:
-    given = {key: _per_actuator(rd, table, "plant", key, model.n_actuators, sign, key == "effort_limit")
+def _drives(rd: _Reader, table: dict, model, name: str = "plant") -> Drives | None:
+    """The drives ``[name]`` declares (``[plant]``: the plant's; ``[controller]``: its model of them, which
+    computed torque compensates), or None."""
+    given = {key: _per_actuator(rd, table, name, key, model.n_actuators, sign, key == "effort_limit")
              for key, sign in DRIVE_KEYS.items() if key in table}
     if "coulomb_rate" in table:
-        given["coulomb_rate"] = rd.number(table, "plant", "coulomb_rate", None, "non-negative")
+        given["coulomb_rate"] = rd.number(table, name, "coulomb_rate", None, "non-negative")
     return Drives(**given) if given else None
 
 
@@ -620,6 +624,7 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         model = load("paper")
     plant = _plant(rd, rd.table(data, "plant"), model)
     drives = _drives(rd, rd.table(data, "plant"), model)
+    controller_drives = _drives(rd, rd.table(data, "controller"), model, "controller")
     sensors = _sensors(rd, rd.table(data, "sensors"), model)
     trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True), model)
     controller, sample_time = _controller(rd, rd.table(data, "controller"))
@@ -647,11 +652,12 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         name = Path(str(source)).stem or "scenario"
     timing = _timing(rd, rd.table(data, "timing"), model) if "timing" in data else None
     try:
-        if sample_time == 0 and (drives is not None or sensors is not None):
-            raise rd.format_error("the plant's drives and [sensors] apply to sampled-data control, but "
+        if sample_time == 0 and (drives is not None or sensors is not None or controller_drives is not None):
+            raise rd.format_error("drives and [sensors] apply to sampled-data control, but "
                                   "[controller].sample_time = 0 selects continuous-time control")
         scenario = Scenario(model, trajectory, plant=plant, controller=controller, sample_time=sample_time,
-                            name=name, drives=drives, sensors=sensors, **options)
+                            name=name, drives=drives, sensors=sensors, controller_drives=controller_drives,
+                            **options)
     except PkmlabError as exc:  # every value was checked above: a safety net for the message's file name
         raise rd.value_error(str(exc)) from None
     return scenario if timing is None else _time_optimal(rd, scenario, timing)

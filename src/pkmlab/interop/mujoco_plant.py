@@ -53,7 +53,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
         raise PkmlabError("MuJoCo is not installed: pip install 'pkmlab[mujoco]' (or pip install mujoco)") from None
     if not isinstance(scenario, Scenario):
         raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__}")
-    if scenario.drives is not None or scenario.sensors is not None:
+    if scenario.drives is not None or scenario.sensors is not None or scenario.controller_drives is not None:
         raise InvalidParameterError("the MuJoCo plant has ideal drives and sensors: remove the scenario's drives and "
                                     "sensors, or run it on pkmlab's plant")
     ts = scenario.sample_time

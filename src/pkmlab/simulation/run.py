@@ -98,6 +98,7 @@ class Realism(NamedTuple):
     (:mod:`~pkmlab.simulation.realism`): no rows, ``sensing = -1`` for the ideal plant and exact state."""
 
     drive: np.ndarray  # (n, 5) or (0, 5)
+    ctrl_drive: np.ndarray  # the controller's model of the drives: (n, 5) or (0, 5)
     effort_noise: np.ndarray  # (N, n) or (0, n)
     resolution: np.ndarray  # (n,)
     theta_noise: np.ndarray  # (N, n) or (0, n)
@@ -107,7 +108,8 @@ class Realism(NamedTuple):
     @property
     def signature(self) -> tuple:
         """What runs of one compiled batch call must share: which arrays have rows."""
-        return (self.drive.shape[0], self.effort_noise.shape[0], self.theta_noise.shape[0], self.sensing >= 0)
+        return (self.drive.shape[0], self.ctrl_drive.shape[0], self.effort_noise.shape[0], self.theta_noise.shape[0],
+                self.sensing >= 0)
 
 
 def realism(scenario: Scenario, count: int) -> Realism:
@@ -117,11 +119,13 @@ def realism(scenario: Scenario, count: int) -> Realism:
     n = scenario.model.n_actuators
     drives, sensors = scenario.drives, scenario.sensors
     drive = drives.table(n) if drives is not None else np.zeros((0, 5))
+    ctrl_drive = (scenario.controller_drives.table(n) if scenario.controller_drives is not None
+                  else np.zeros((0, 5)))
     effort_noise = (noise_rows(drives.noise_levels(n), count, scenario.seed, 0) if drives is not None
                     else np.zeros((0, n)))
     if sensors is None:
-        return Realism(drive, effort_noise, np.zeros(n), np.zeros((0, n)), -1, 0)
-    return Realism(drive, effort_noise, sensors.resolutions(n),
+        return Realism(drive, ctrl_drive, effort_noise, np.zeros(n), np.zeros((0, n)), -1, 0)
+    return Realism(drive, ctrl_drive, effort_noise, sensors.resolutions(n),
                    noise_rows(sensors.noise_levels(n), count, scenario.seed, 1),
                    1 if sensors.rates == "difference" else 0, sensors.delay)
 
@@ -611,8 +615,8 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     ts, n_sub, kind = np.empty(m), np.empty(m, np.int64), np.empty(m, np.int64)
     kp, kv, guards = np.empty(m), np.empty(m), np.empty(m)
     real = preps[0].realism
-    drive, effort_noise, theta_noise = (np.empty((m, *a.shape)) for a in (real.drive, real.effort_noise,
-                                                                           real.theta_noise))
+    drive, ctrl_drive, effort_noise, theta_noise = (np.empty((m, *a.shape)) for a in (
+        real.drive, real.ctrl_drive, real.effort_noise, real.theta_noise))
     resolution, sensing, delay = np.empty((m, n_act)), np.empty(m, np.int64), np.empty(m, np.int64)
     for r, (sc, p) in enumerate(zip(scenarios, preps, strict=True)):
         for name in stack:
@@ -621,14 +625,14 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
         P_plant[r], P_ctrl[r] = p.P_plant, p.P_ctrl
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
         kp[r], kv[r], guards[r] = p.kp, p.kv, p.singularity_guard
-        drive[r], effort_noise[r], resolution[r], theta_noise[r], sensing[r], delay[r] = p.realism
+        drive[r], ctrl_drive[r], effort_noise[r], resolution[r], theta_noise[r], sensing[r], delay[r] = p.realism
     q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
     s = np.zeros((m, n))
     theta_m = np.zeros((m, n if real.sensing >= 0 else 0, n_act))
     status, k_fail = np.zeros(m, np.int64), np.zeros(m, np.int64)
     kernels.sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant,
-                               P_ctrl, kind, kp, kv, guards, drive, effort_noise, resolution, theta_noise, sensing,
-                               delay, q, theta_dot, tau, s, theta_m, status, k_fail)
+                               P_ctrl, kind, kp, kv, guards, drive, ctrl_drive, effort_noise, resolution, theta_noise,
+                               sensing, delay, q, theta_dot, tau, s, theta_m, status, k_fail)
     dof = _dof(loop)
     return [(status[r], q[r], theta_dot[r], tau[r], q[r, :, -dof:].copy(), s[r], k_fail[r],
              theta_m[r] if real.sensing >= 0 else None) for r in range(m)]

@@ -66,6 +66,10 @@ class Scenario:
         state. Sampled-data control only.
     seed : int
         The seed of the drives' and sensors' noise.
+    controller_drives : Drives or None
+        The controller's model of the drives (e.g. identified): computed torque adds ``Ia v + fv θ̇ + fc φ(θ̇)``
+        (``v`` the acceleration it commands) at the rates it uses; its effort limit and noise are not used. None:
+        no compensation. Sampled-data computed torque only.
     """
 
     model: MechanismModel
@@ -81,6 +85,7 @@ class Scenario:
     drives: Drives | None = None
     sensors: Sensors | None = None
     seed: int = 0
+    controller_drives: Drives | None = None
 
     def __post_init__(self):
         set_ = object.__setattr__  # a frozen dataclass: the normalised values are stored so
@@ -102,14 +107,19 @@ class Scenario:
                                         f"{shown(self.controller, 50)}")
         set_(self, "sample_time", as_real("sample_time", self.sample_time, "non-negative"))
         set_(self, "substeps", as_count("substeps", self.substeps, 1, MAX_SUBSTEPS))
-        for name, kind in (("drives", Drives), ("sensors", Sensors)):
+        for name, kind in (("drives", Drives), ("sensors", Sensors), ("controller_drives", Drives)):
             value = getattr(self, name)
             if value is not None and not isinstance(value, kind):
                 raise InvalidParameterError(f"{name} must be a {kind.__name__} or None, got {type(value).__name__} "
                                             f"{shown(value, 50)}")
         check_sizes(self.drives, self.sensors, self.model.n_actuators)
+        check_sizes(self.controller_drives, None, self.model.n_actuators)
+        if self.controller_drives is not None and self.controller.kind != "computed_torque":
+            raise InvalidParameterError(f"controller_drives are computed torque's model of the drives; a "
+                                        f"{self.controller.kind} controller has no model to add them to")
         set_(self, "seed", as_count("seed", self.seed, 0))
-        if self.sample_time == 0 and (self.drives is not None or self.sensors is not None):
+        if self.sample_time == 0 and (self.drives is not None or self.sensors is not None
+                                      or self.controller_drives is not None):
             raise InvalidParameterError("drives and sensors apply to sampled-data control: give sample_time > 0")
         for name in ("singularity_margin", "singularity_guard"):
             set_(self, name, as_real(name, getattr(self, name), "non-negative"))

@@ -153,8 +153,8 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known, drive):
 
 @njit(cache=True)
 def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                      kind, kp, kv, singularity_guard, drive, effort_noise, resolution, theta_noise, sensing, delay,
-                      out_q, out_theta_dot, out_tau, out_s, out_theta_m):
+                      kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
+                      sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
     """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
     returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
     own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, the commanded efforts and
@@ -165,10 +165,12 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     :data:`IDEAL_SENSORS` the controller sees only measurements, recorded in ``out_theta_m``: the plant's
     ``θ`` plus ``theta_noise[k]`` (no rows: none), rounded to each actuator's ``resolution`` (0: none), taken
     ``delay`` samples earlier; its rates the plant's own (:data:`EXACT_RATES`) or the measured values
-    differenced (:data:`DIFFERENCED_RATES`)."""
+    differenced (:data:`DIFFERENCED_RATES`). ``ctrl_drive`` (rows as ``drive``'s, none: no compensation) is the
+    controller's model of the drives: computed torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
     return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
-                              P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, effort_noise, resolution,
-                              theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)
+                              P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise,
+                              resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
+                              out_theta_m)
 
 
 @njit(**NO_REFCOUNT)
@@ -188,8 +190,8 @@ def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m
 
 @njit(cache=True)
 def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant,
-                       P_ctrl, kind, kp, kv, singularity_guard, drive, effort_noise, resolution, theta_noise, sensing,
-                       delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
+                       P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
+                       theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
     n = N_ACTUATORS
     plant, ctrl = workspaces[0], workspaces[1]
     set_base(plant, q_plant0, P_plant)
@@ -215,6 +217,7 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
         out_s[k] = plant.s[BASE]
         out_theta_dot[k] = x[n:]
         shared = same and k > 0
+        j = max(k - delay, 0)
         if shared:
             copy_base(plant, ctrl)
             status = computed_torque(kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl, ctrl,
@@ -224,11 +227,12 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
                                     singularity_guard, ctrl, tau)
         else:
             measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
-            j = max(k - delay, 0)
             status = control_effort(kind, kp, kv, out_theta_m[j], theta_dot_m[j], theta_d[k], theta_dot_d[k],
                                     theta_ddot_d[k], P_ctrl, singularity_guard, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
+        if kind == 0 and ctrl_drive.shape[0] > 0:
+            compensate_drives(ctrl, tau, x[n:] if ideal else theta_dot_m[j], ctrl_drive)
         out_tau[k] = tau
         if k == theta_d.shape[0] - 1:
             break
@@ -247,16 +251,30 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
     return OK, -1
 
 
+@njit(**NO_REFCOUNT)
+def compensate_drives(ws, tau, theta_dot, drive):
+    """Add the controller's model of the drives to computed torque's efforts ``tau``: ``Ia v + fv θ̇ + fc φ(θ̇)``,
+    ``v`` the commanded acceleration (kept in ``ws.theta_ddot``), ``φ`` as the plant's (:func:`drive_accelerations`)."""
+    for i in range(N_ACTUATORS):
+        rate, band = theta_dot[i], drive[i, COULOMB_RATE]
+        if band > 0.0:
+            phi = math.tanh(rate / band)
+        else:
+            phi = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else 0.0)
+        tau[i] += drive[i, ARMATURE] * ws.theta_ddot[i] + drive[i, VISCOUS] * rate + drive[i, COULOMB] * phi
+
+
 @njit(cache=True, parallel=True)
 def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind,
-                       kp, kv, singularity_guard, drive, effort_noise, resolution, theta_noise, sensing, delay, out_q,
-                       out_theta_dot, out_tau, out_s, out_theta_m, out_status, out_k):
+                       kp, kv, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing,
+                       delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m, out_status, out_k):
     """:func:`sampled_data_loop` for a batch of runs (leading axis) over the CPU cores; each run executes
     exactly the code of a single run."""
     for r in prange(theta_d.shape[0]):
         status, k = sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
                                       q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], singularity_guard[r],
-                                      drive[r], effort_noise[r], resolution[r], theta_noise[r], sensing[r], delay[r],
+                                      drive[r], ctrl_drive[r], effort_noise[r], resolution[r], theta_noise[r],
+                                      sensing[r], delay[r],
                                       out_q[r], out_theta_dot[r], out_tau[r], out_s[r], out_theta_m[r])
         out_status[r] = status
         out_k[r] = k
