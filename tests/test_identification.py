@@ -271,3 +271,17 @@ def test_a_log_that_leaves_the_machine_names_the_row(tmp_path, paper_log):
     assert done.returncode == 1
     assert len(done.stderr.splitlines()) == 1
     assert re.search(r"leaves the machine's reach: theta at row \d+ .* cannot be reached", done.stderr)
+
+
+def test_identify_validates_on_a_held_out_log(tmp_path, paper_log):
+    t, q, tau = paper_log
+    log = _write_log(tmp_path / "log.csv", PAPER, t, q[:, :3], tau, pose=q[:, -3:])
+    t2, q2, rates2, accelerations2 = fourier_motion(PAPER, seconds=3.0, seed=9)  # another motion
+    held = pkmlab.inverse_dynamics(PAPER, q2, rates2, accelerations2)
+    other = _write_log(tmp_path / "held.csv", PAPER, t2, q2[:, :3], held, pose=q2[:, -3:])
+    done = _pkmlab("identify", str(log), "--validate", str(other), "--out", "result", "--json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    validation = json.loads(done.stdout)["validation"]
+    # the noise-free held-out efforts predicted to a small share of their size (the estimate's noise only)
+    assert all(e < 0.05 * r for e, r in zip(validation["rms_error"], validation["rms_effort"], strict=True))
+    assert (tmp_path / "result" / "prediction.png").stat().st_size > 10_000

@@ -252,6 +252,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "friction")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode whose home configuration chooses the "
                    "starting assembly mode when the log has no pose columns (default the first)")
+    p.add_argument("--validate", metavar="LOG.csv", help="a held-out log of the same machine: its efforts against "
+                   "the estimate's prediction (RMS in the JSON; with --out, prediction.png)")
     p.add_argument("--consistent", action="store_true", help="also the physically consistent estimate (every body's "
                    "mass and inertia real), and with --out identified.toml: the machine with them, a description "
                    "file pkmlab simulate takes")

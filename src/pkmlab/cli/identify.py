@@ -41,7 +41,8 @@ def cmd_identify(args) -> dict:
     window = DEFAULT_WINDOW if args.window is None else args.window
     polyorder = DEFAULT_POLYORDER if args.polyorder is None else args.polyorder
     provenance = {"log": str(args.log), "window_s": window, "polyorder": polyorder, "drives": args.drives}
-    folder = (atomic_output_dir(args.out, "identify", inputs=[args.log], provenance=provenance) if args.out else
+    inputs = [args.log, *([args.validate] if args.validate else [])]
+    folder = (atomic_output_dir(args.out, "identify", inputs=inputs, provenance=provenance) if args.out else
               contextlib.nullcontext())
     with folder as tmp:  # a folder that cannot take the results is refused before the log is read
         log = read_measurement_log(args.log, model)
@@ -61,7 +62,32 @@ def cmd_identify(args) -> dict:
             identified = mechanism_to_toml(identified_model(model, consistent).description,
                                            f"{model.name} identified by pkmlab identify from {args.log}: the "
                                            "physically consistent estimate's masses, mass centres and inertias")
+        figure = None
+        if args.validate:  # a held-out log: its efforts against the estimate's prediction at its states
+            import numpy as np
+
+            held = read_measurement_log(args.validate, model)
+            other = filter_measurements(model, held.t, held.theta, held.tau, window=window, polyorder=polyorder,
+                                        pose=held.pose, mode=mode, first_row=1)
+            predicted = result.predict(model, *other.states)
+            rms = np.sqrt(np.mean((other.tau - predicted) ** 2, axis=0))
+            out["validation"] = {"log": str(args.validate), "samples": int(len(other.t)),
+                                 "rms_error": rms.tolist(),
+                                 "rms_effort": np.sqrt(np.mean(other.tau**2, axis=0)).tolist()}
+            if tmp is not None:
+                import matplotlib
+
+                matplotlib.use("Agg")
+                from ..views.plotting import plot_effort_prediction
+
+                figure = plot_effort_prediction(other.t, other.tau, predicted,
+                                                kinds=model.description.actuator_kinds).figure
         if tmp is not None:
+            if figure is not None:
+                import matplotlib.pyplot as plt
+
+                figure.savefig(tmp / "prediction.png", dpi=130)
+                plt.close(figure)
             (tmp / "identification.json").write_text(json.dumps(strict_json(out), indent=2) + "\n")
             (tmp / "base_parameters.csv").write_text(_csv(out))
             if identified is not None:
@@ -74,6 +100,11 @@ def cmd_identify(args) -> dict:
         print(f"rms effort residual per actuator: {rms}")
         if out["unidentifiable"]:
             print(f"unidentifiable (no effort depends on them): {', '.join(out['unidentifiable'])}")
+        if args.validate:
+            errors = ", ".join(f"{e:.3g} of {r:.3g}" for e, r in zip(out["validation"]["rms_error"],
+                                                                    out["validation"]["rms_effort"], strict=True))
+            print(f"held-out {args.validate}: RMS effort error per actuator {errors}"
+                  + (f" (figure {args.out}/prediction.png)" if args.out else ""))
         if args.consistent:
             print(f"physically consistent estimate: Mahalanobis distance {out['consistent']['distance']:.3g} to the "
                   "least-squares one" + (f"; the machine in {args.out}/identified.toml" if args.out else ""))

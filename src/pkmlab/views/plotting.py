@@ -397,3 +397,25 @@ def plot_spatial_workspace(ws, model=None, fig=None):
     mode = "".join("+" if v > 0 else "-" for v in ws.mode) or "its one mode"
     fig.suptitle(f"{name}workspace in horizontal slices, working mode {mode} (S = 0 in black)")
     return fig
+
+
+def plot_effort_prediction(t, measured, predicted, ax=None, kinds=None):
+    """Measured efforts (N, n) against those an identified model predicts at the same states, one colour per
+    actuator, on a log the identification did not see: the report of :func:`pkmlab.identify`'s validation."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _fig, ax = plt.subplots(figsize=(7.0, 3.6))
+    measured, predicted = np.asarray(measured), np.asarray(predicted)
+    for j in range(measured.shape[1]):
+        line, = ax.plot(t, measured[:, j], lw=1.0, label=f"tau{j + 1} measured")
+        ax.plot(t, predicted[:, j], lw=1.0, ls="--", color=line.get_color(), label=f"tau{j + 1} predicted")
+    unit = "N m" if kinds is None or set(kinds) == {"R"} else ("N" if set(kinds) == {"P"} else "N m or N")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel(f"effort ({unit})")
+    rms = np.sqrt(np.mean((measured - predicted) ** 2, axis=0))
+    ax.set_title("held-out efforts: measured and predicted (RMS error " + ", ".join(f"{v:.3g}" for v in rms) + ")",
+                 fontsize=9)
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3)
+    return ax
