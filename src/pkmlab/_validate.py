@@ -145,3 +145,11 @@ def as_limits(name: str, value, n: int, per: str = "actuator") -> np.ndarray | N
     if v.shape != (n,) or v.dtype.kind == "b" or not np.all(np.isfinite(v)) or np.any(v <= 0):
         raise wrong
     return v
+
+
+def shape_of(value) -> tuple[int, ...] | None:
+    """The array shape of ``value``, or None for a ragged one (whose error :func:`as_batch` then names)."""
+    try:
+        return np.shape(value)
+    except ValueError:
+        return None

@@ -152,11 +152,28 @@ def calibration_jacobian(model, theta, measured, *, measure: str = "position", n
     to the parameters ``names`` (default every :func:`geometric_parameters`), each in units of its scale (the
     machine's size, or a radian): what :func:`calibrate` and :func:`select_poses` analyse."""
     model = as_model(model)
-    names = geometric_parameters(model) if names is None else tuple(names)
     theta, measured, columns = _inputs(model, theta, measured, measure)
+    return _nominal_jacobian(model, _names(model, names), theta, measured, columns)
+
+
+def _nominal_jacobian(model: MechanismModel, names, theta, measured, columns) -> np.ndarray:
+    """:func:`calibration_jacobian` of checked inputs."""
     q = _start_configurations(model, theta, measured, columns)
     predictor = _Predictor(model, names, theta, q, columns)
     return _jacobian(predictor, _nominal(model, names), _scales(model, names))
+
+
+def _names(model: MechanismModel, names) -> tuple[str, ...]:
+    """The parameters to calibrate: ``names`` checked against :func:`geometric_parameters` (default all)."""
+    every = geometric_parameters(model)
+    if names is None:
+        return every
+    names = tuple(names)
+    for n in names:
+        if n not in every:
+            raise InvalidParameterError(f"no geometric parameter {n!r} (pkmlab.geometric_parameters: "
+                                        f"{', '.join(every[:6])}, ...)")
+    return names
 
 
 def _nominal(model: MechanismModel, names) -> np.ndarray:
@@ -312,12 +329,7 @@ def calibrate(model, theta, measured, *, measure: str = "position", names=None, 
     from scipy.optimize import least_squares
 
     model = as_model(model)
-    all_names = geometric_parameters(model)
-    names = all_names if names is None else tuple(names)
-    for n in names:
-        if n not in all_names:
-            raise InvalidParameterError(f"no geometric parameter {n!r} (pkmlab.geometric_parameters: "
-                                        f"{', '.join(all_names[:6])}, ...)")
+    names = _names(model, names)
     max_iterations = as_count("max_iterations", max_iterations, 1, 10_000)
     theta, measured, columns = _inputs(model, theta, measured, measure)
     q = _start_configurations(model, theta, measured, columns)
@@ -381,8 +393,7 @@ def select_poses(model, theta_candidates, measured_candidates, count: int, *, me
     model = as_model(model)
     theta, measured, columns = _inputs(model, theta_candidates, measured_candidates, measure)
     count = as_count("count", count, 1, len(theta))
-    J = calibration_jacobian(model, theta, measured[:, columns] if len(columns) < model.description.dof else measured,
-                             measure=measure, names=names)
+    J = _nominal_jacobian(model, _names(model, names), theta, measured, columns)
     m = len(columns)
     keep = _independent(J)
     rows = J[:, keep].reshape(len(theta), m, keep.size)

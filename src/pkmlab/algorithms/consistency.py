@@ -32,7 +32,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .._validate import as_batch, as_real
+from .._validate import as_batch, as_real, shape_of
 from ..errors import InvalidParameterError, PkmlabError, shown
 from ..model.mechanism_model import MechanismModel
 from .identification import Identification
@@ -257,10 +257,7 @@ def identified_model(model, parameters) -> MechanismModel:
     if isinstance(parameters, ConsistentEstimate):
         parameters = parameters.parameters
     counts = _counts(model)
-    try:
-        shape = np.shape(parameters)
-    except ValueError:  # ragged: as_batch names it
-        shape = ()
+    shape = shape_of(parameters) or ()
     size = shape[0] if len(shape) == 1 else sum(counts)
     if size not in (sum(counts), len(parameter_names(model, True))):
         raise InvalidParameterError(f"parameters must be the {sum(counts)} standard inertial parameters (or "

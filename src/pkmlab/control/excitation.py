@@ -30,10 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validate import as_batch, as_count, as_flag, as_limits, as_real
-from ..algorithms.dynamics import actuator_space_model
 from ..algorithms.identification import scaled_condition_number
 from ..algorithms.kinematics import as_model, as_working_mode, length_scale
-from ..algorithms.regressor import base_parameters, dynamics_regressor
+from ..algorithms.regressor import base_parameters, dynamics_regressor, inertial_parameters
 from ..errors import InvalidParameterError, SingularityError, UnreachablePoseError, shown
 from ..model import mechanism_model as mm
 from .trajectory import FourierTrajectory, JointMotion
@@ -107,8 +106,7 @@ class Excitation:
     def summary(self) -> dict:
         """A JSON-ready summary."""
         tr = self.trajectory
-        limits = {k: (None if v is None else np.asarray(v).tolist()) if k != "singularity_margin" else v
-                  for k, v in self.limits.items()}
+        limits = {k: None if v is None else np.asarray(v).tolist() for k, v in self.limits.items()}
         return {"period_s": tr.period, "periods": tr.periods, "harmonics": tr.harmonics,
                 "duration_s": tr.duration, "center": tr.center.tolist(), "working_mode": list(self.mode),
                 "condition_number": self.condition_number, "start_condition_number": self.start_condition_number,
@@ -140,6 +138,7 @@ class _Problem:
         self.period, self.H = period, harmonics
         self.velocity, self.effort, self.margin = velocity, effort, margin
         self.base, self.drives = base, drives
+        self.pi = inertial_parameters(model)
         self.t = np.arange(samples) * period / samples
         self.w = 2 * math.pi / period
         self.k = np.arange(1, harmonics + 1)[:, None]
@@ -187,8 +186,7 @@ class _Problem:
                 Y = dynamics_regressor(model, q[ok], theta_dot[ok], theta_ddot[ok], drives=self.drives)
                 W = np.swapaxes(self.base.regressor(Y), 0, 1).reshape(-1, self.base.rank)
                 objective = math.log(scaled_condition_number(W))
-                r = actuator_space_model(model, q[ok], theta_dot[ok])
-                tau = np.einsum("kij,kj->ki", r.M, theta_ddot[ok]) + r.c + r.g
+                tau = Y[..., :self.pi.size] @ self.pi  # the model's efforts, Y π = τ (drives' columns zero)
             details["effort"] = np.abs(tau).max(axis=0)
             if self.effort is not None:
                 full = np.full((len(t), n), -1.0)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._validate import as_batch, as_choice, as_count, as_real
+from .._validate import as_batch, as_choice, as_count, as_real, shape_of
 from ..errors import InvalidParameterError, shown
 
 
@@ -49,14 +49,6 @@ def _positive(name, value):
 
 def _finite_vector(name, value, n):
     return as_batch(name, value, n, single=True)[0][0]
-
-
-def _shape(value) -> tuple[int, ...] | None:
-    """The array shape of ``value``, None for a ragged one."""
-    try:
-        return np.shape(value)
-    except ValueError:
-        return None
 
 
 def _times(t) -> np.ndarray:
@@ -560,7 +552,7 @@ class FourierTrajectory:
     periods: int = 1
 
     def __post_init__(self):
-        shape = _shape(self.center)
+        shape = shape_of(self.center)
         if shape is None or len(shape) != 1 or not 1 <= shape[0] <= 6:
             raise InvalidParameterError(f"center must be a pose of 1 to 6 numbers, got {shown(self.center)}")
         center = np.array(_finite_vector("center", self.center, shape[0]))
@@ -568,7 +560,7 @@ class FourierTrajectory:
         periods = as_count("periods", self.periods)
         dim = len(center)
         for name, value in (("a", self.a), ("b", self.b)):
-            shape = _shape(value)  # a ragged one: as_batch names it
+            shape = shape_of(value)
             if shape is not None and len(shape) == 2 and shape[1] != dim:
                 raise InvalidParameterError(f"{name} has {shape[1]} numbers per harmonic, but center is a pose of "
                                             f"{dim}: one per pose coordinate")

@@ -7008,6 +7008,18 @@ def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known, dr
     return OK
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def drive_friction(drive, i, rate):
+    """Actuator ``i``'s friction ``fv θ̇ + fc φ(θ̇)`` at the rate ``rate``: ``φ = tanh(θ̇ / v_c)``, or ``sign(θ̇)``
+    when ``v_c = 0`` (the drive rows' :data:`VISCOUS`, :data:`COULOMB`, :data:`COULOMB_RATE`)."""
+    band = drive[i, COULOMB_RATE]
+    if band > 0.0:
+        phi = math.tanh(rate / band)
+    else:
+        phi = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else 0.0)
+    return drive[i, VISCOUS] * rate + drive[i, COULOMB] * phi
+
+
 @njit(**NO_REFCOUNT)
 def drive_accelerations(ws, theta_dot, tau, drive):
     """``θ̈`` of a plant with drives into ``ws.theta_ddot``, from the model at ``θ̇`` in the workspace:
@@ -7018,13 +7030,7 @@ def drive_accelerations(ws, theta_dot, tau, drive):
     effort the drive applies). ``Mθ`` is overwritten. Returns the status."""
     for i in range(N_ACTUATORS):
         ws.m_theta[i, i] += drive[i, ARMATURE]
-        rate, band = theta_dot[i], drive[i, COULOMB_RATE]
-        if band > 0.0:
-            phi = math.tanh(rate / band)
-        else:
-            phi = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else 0.0)
-        ws.theta_ddot[i] = (tau[i] - drive[i, VISCOUS] * rate - drive[i, COULOMB] * phi - ws.c_theta[i]
-                            - ws.g_theta[i])
+        ws.theta_ddot[i] = tau[i] - drive_friction(drive, i, theta_dot[i]) - ws.c_theta[i] - ws.g_theta[i]
     if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
         return SINGULAR
     return OK
@@ -7200,14 +7206,10 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
 @njit(**NO_REFCOUNT)
 def compensate_drives(ws, tau, theta_dot, drive):
     """Add the controller's model of the drives to computed torque's efforts ``tau``: ``Ia v + fv θ̇ + fc φ(θ̇)``,
-    ``v`` the commanded acceleration (kept in ``ws.theta_ddot``), ``φ`` as the plant's (:func:`drive_accelerations`)."""
+    ``v`` the commanded acceleration (kept in ``ws.theta_ddot``), the friction as the plant's
+    (:func:`drive_friction`)."""
     for i in range(N_ACTUATORS):
-        rate, band = theta_dot[i], drive[i, COULOMB_RATE]
-        if band > 0.0:
-            phi = math.tanh(rate / band)
-        else:
-            phi = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else 0.0)
-        tau[i] += drive[i, ARMATURE] * ws.theta_ddot[i] + drive[i, VISCOUS] * rate + drive[i, COULOMB] * phi
+        tau[i] += drive[i, ARMATURE] * ws.theta_ddot[i] + drive_friction(drive, i, theta_dot[i])
 
 
 @njit(cache=True, parallel=True)

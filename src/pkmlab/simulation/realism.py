@@ -39,14 +39,12 @@ __all__ = ["Drives", "Sensors", "SENSED_RATES"]
 
 #: How :class:`Sensors` give the actuators' rates.
 SENSED_RATES = ("difference", "exact")
-#: Drive columns, in the compiled loop's order (:mod:`pkmlab.codegen.core.workspace`).
-_COLUMNS = ("armature", "viscous", "coulomb", "coulomb_rate", "effort_limit")
 
 
 def _per_actuator(name: str, value, sign: str, allow_inf: bool = False) -> tuple[float, ...] | float:
     """One number, or a tuple of numbers, checked (each ``sign``; ``inf`` allowed for a limit)."""
     if isinstance(value, list | tuple | np.ndarray):
-        arr = list(np.asarray(value, dtype=object).ravel()) if not isinstance(value, list | tuple) else list(value)
+        arr = list(np.ravel(value)) if isinstance(value, np.ndarray) else list(value)
         if not arr:
             raise InvalidParameterError(f"{name} must be a number or one per actuator, got {shown(value)}")
         return tuple(_one(f"{name}[{i}]", v, sign, allow_inf) for i, v in enumerate(arr))
