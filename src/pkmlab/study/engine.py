@@ -253,9 +253,12 @@ def dask_client(workers: int | None, scheduler: str | None, client):
     except ValueError:  # not the main thread: nothing to protect
         previous = None
     try:
-        # dashboard_address=":0": a free port (None still takes 8787, and warns when another cluster holds it)
+        # dashboard_address=":0": a free port (None still takes 8787, and warns when another cluster holds it).
+        # silence_logs=CRITICAL: every failure that matters reaches this process as an exception (a task's
+        # error, a killed worker, a lost scheduler); what Dask logs at ERROR are its processes losing each
+        # other while the cluster stops (a worker's heartbeat to a scheduler already closed, after Ctrl-C)
         cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                           dashboard_address=":0", silence_logs=logging.ERROR)
+                                           dashboard_address=":0", silence_logs=logging.CRITICAL)
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
