@@ -1,6 +1,7 @@
 """The example scripts in examples/ run as a user would run them."""
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +12,17 @@ EXAMPLES = sorted([*(Path(__file__).parents[1] / "examples").glob("*.py"),
                    *(Path(__file__).parents[1] / "examples" / "identification").glob("*.py")])
 
 
+def _last_number(label: str, out: str) -> float:
+    return float(re.findall(rf"{label}: *([0-9.eE+-]+)", out)[-1])
+
+
+#: What an example promises, checked on what it prints.
+PROMISES = {
+    # the loop closed: the real machine's path error, calibrated and identified, within 3x the nominal case's
+    "paper_loop.py": lambda out: _last_number("ratio to the nominal case", out) <= 3.0,
+}
+
+
 @pytest.mark.parametrize("script", EXAMPLES, ids=[p.name for p in EXAMPLES])
 def test_example_runs(script, tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg")
@@ -19,6 +31,8 @@ def test_example_runs(script, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip()
     assert "Traceback" not in proc.stderr
+    if script.name in PROMISES:
+        assert PROMISES[script.name](proc.stdout), proc.stdout
 
 
 def test_there_are_examples():

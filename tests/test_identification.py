@@ -144,6 +144,25 @@ def test_drive_friction_and_armature_are_identified_and_regrouped():
     assert np.allclose(result.estimate, result.base.of(pi), rtol=1e-9, atol=1e-12)
 
 
+def test_smooth_coulomb_friction_is_identified_with_its_own_model_and_biased_by_a_sign():
+    """Near rest, where an excitation starts and ends, fc tanh(θ̇ / v_c) is not fc sign(θ̇): identified with the
+    plant's model the drives come back exactly; fitted with a sign, they do not."""
+    q, theta_dot, theta_ddot = pkmlab.random_states(FIVE_BAR, 200, seed=11)
+    theta_dot = theta_dot * 2e-3  # rates of the order of the friction's band
+    band, fv, fc, armature = 1e-3, np.array([0.05, 0.08]), np.array([0.02, 0.01]), np.array([1e-3, 2e-3])
+    tau = (pkmlab.inverse_dynamics(FIVE_BAR, q, theta_dot, theta_ddot) + fv * theta_dot
+           + fc * np.tanh(theta_dot / band) + armature * theta_ddot)
+    smooth = pkmlab.identify(FIVE_BAR, q, theta_dot, theta_ddot, tau, drives=True, coulomb_rate=band)
+    pi = np.concatenate([pkmlab.inertial_parameters(FIVE_BAR), [1e-3, 0.05, 0.02, 2e-3, 0.08, 0.01]])
+    assert np.allclose(smooth.estimate, smooth.base.of(pi), rtol=1e-8, atol=1e-12)
+    assert np.allclose(smooth.predict(FIVE_BAR, q, theta_dot, theta_ddot), tau, rtol=0, atol=1e-12)
+    sign = pkmlab.identify(FIVE_BAR, q, theta_dot, theta_ddot, tau, drives=True)
+    values = dict(zip(sign.names, sign.estimate, strict=True))
+    assert abs(values["drive2.fc"] / 0.01 - 1) > 0.1
+    with pytest.raises(pkmlab.PkmlabError, match="coulomb_rate"):
+        pkmlab.identify(FIVE_BAR, q, theta_dot, theta_ddot, tau, drives=True, coulomb_rate=-1.0)
+
+
 def test_data_that_do_not_excite_a_parameter_are_refused_by_name():
     q, theta_dot, theta_ddot = pkmlab.random_states(PAPER, 50, seed=1)
     at_rest = np.zeros_like(theta_dot)
@@ -260,6 +279,15 @@ def test_a_bad_log_is_refused_in_one_line_and_nothing_is_written(tmp_path, paper
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("pkmlab identify: error: "), done.stderr
     assert re.search(message, lines[0]), lines[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["log.csv"]
+
+
+def test_a_friction_model_without_the_drives_is_refused(tmp_path, paper_log):
+    t, q, tau = paper_log
+    log = _write_log(tmp_path / "log.csv", PAPER, t[:400], q[:400, :3], tau[:400])
+    done = _pkmlab("identify", str(log), "--coulomb-rate", "1e-3", "--out", "result", cwd=tmp_path)
+    assert done.returncode == 1 and done.stderr.strip() == ("pkmlab identify: error: --coulomb-rate is the drives' "
+                                                            "friction model: it needs --drives")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["log.csv"]
 
 

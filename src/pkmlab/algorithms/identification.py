@@ -237,6 +237,8 @@ class Identification:
         :func:`scaled_condition_number` of the weighted observation matrix.
     covariance : ndarray, shape (r, r)
         The estimate's covariance (``sigma`` is the root of its diagonal).
+    coulomb_rate : float
+        The drives' Coulomb friction model the estimate is for (:func:`~pkmlab.algorithms.regressor.coulomb_shape`).
     """
 
     base: BaseParameters
@@ -246,6 +248,7 @@ class Identification:
     residual: np.ndarray
     condition_number: float
     covariance: np.ndarray | None = None
+    coulomb_rate: float = 0.0
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -265,7 +268,7 @@ class Identification:
 
     def predict(self, model, q, theta_dot, theta_ddot) -> np.ndarray:
         """The efforts (..., n_actuators) that the estimate predicts at the states given (e.g. a held-out run)."""
-        Y = dynamics_regressor(model, q, theta_dot, theta_ddot, drives=self.drives)
+        Y = dynamics_regressor(model, q, theta_dot, theta_ddot, drives=self.drives, coulomb_rate=self.coulomb_rate)
         return self.base.regressor(Y) @ self.estimate
 
     def summary(self) -> dict:
@@ -297,7 +300,8 @@ def _check_excitation(W: np.ndarray, names: tuple[str, ...]) -> None:
                                     f"{s[0] / max(s[-1], 1e-300):.3g}): a richer motion is needed")
 
 
-def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, base=None) -> Identification:
+def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, coulomb_rate: float = 0.0,
+             base=None) -> Identification:
     """The base parameters of ``model`` estimated from states and measured efforts by weighted least squares.
 
     Parameters
@@ -312,6 +316,10 @@ def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, base
         The measured efforts.
     drives : bool
         Estimate the drives' armature, viscous and Coulomb friction too.
+    coulomb_rate : float
+        With ``drives``: the Coulomb friction model ``fc tanh(θ̇ / coulomb_rate)``, or ``fc sign(θ̇)`` for 0
+        (default). The model the controller will compensate with; the two differ most near rest, where a
+        sign fitted to a smooth friction (or the reverse) biases every estimate.
     base : BaseParameters, optional
         The base parameters to estimate (default :func:`~pkmlab.algorithms.regressor.base_parameters` of
         ``model``).
@@ -339,6 +347,7 @@ def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, base
     """
     model = as_model(model)
     drives = as_flag("drives", drives)
+    coulomb_rate = as_real("coulomb_rate", coulomb_rate, "non-negative")
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, theta_ddots, taus, _ = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
                                                         ("theta_ddot", theta_ddot, na), ("tau", tau, na))
@@ -351,7 +360,8 @@ def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, base
     count, r = len(qs), base.rank
     if count * na < r:
         raise InvalidParameterError(f"too few samples: {count} × {na} efforts for {r} base parameters")
-    Yb = base.regressor(dynamics_regressor(model, qs, theta_dots, theta_ddots, drives=drives))  # (N, n, r)
+    Yb = base.regressor(dynamics_regressor(model, qs, theta_dots, theta_ddots, drives=drives,
+                                           coulomb_rate=coulomb_rate))  # (N, n, r)
     W = np.swapaxes(Yb, 0, 1).reshape(na * count, r)  # actuator by actuator
     y = taus.T.reshape(-1)
     _check_excitation(W, base.names)
@@ -367,4 +377,4 @@ def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, base
     covariance = s2 * np.linalg.inv(Ww.T @ Ww)
     residual = (y - W @ estimate).reshape(na, count).T
     return Identification(base, estimate, np.sqrt(np.clip(np.diag(covariance), 0.0, None)), effort_sigma, residual,
-                          scaled_condition_number(Ww), covariance)
+                          scaled_condition_number(Ww), covariance, coulomb_rate)

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import as_broadcast, as_count, as_flag
+from .._validate import as_broadcast, as_count, as_flag, as_real
 from ..errors import InvalidParameterError, shown
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
@@ -139,12 +139,19 @@ def drive_parameter_names(model) -> tuple[str, ...]:
     return tuple(f"drive{j + 1}.{p}" for j in range(model.n_actuators) for p in DRIVE_PARAMETERS)
 
 
-def drive_regressor(theta_dot, theta_ddot) -> np.ndarray:
-    """The drives' columns of the regressor (..., n, 3n): each actuator's effort ``Ia θ̈ + fv θ̇ + fc sign(θ̇)``
-    written linearly in its :data:`DRIVE_PARAMETERS` (Coulomb friction exact: zero at rest)."""
+def coulomb_shape(theta_dot, coulomb_rate: float = 0.0) -> np.ndarray:
+    """The shape ``φ(θ̇)`` of Coulomb friction ``fc φ(θ̇)``: ``tanh(θ̇ / v_c)`` for a rate ``v_c > 0`` (the smooth
+    model of :class:`~pkmlab.simulation.realism.Drives`), ``sign(θ̇)`` for ``v_c = 0`` (exact: zero at rest)."""
+    theta_dot = np.asarray(theta_dot, dtype=float)
+    return np.tanh(theta_dot / coulomb_rate) if coulomb_rate > 0 else np.sign(theta_dot)
+
+
+def drive_regressor(theta_dot, theta_ddot, coulomb_rate: float = 0.0) -> np.ndarray:
+    """The drives' columns of the regressor (..., n, 3n): each actuator's effort ``Ia θ̈ + fv θ̇ + fc φ(θ̇)``
+    written linearly in its :data:`DRIVE_PARAMETERS`, ``φ`` of :func:`coulomb_shape` at ``coulomb_rate``."""
     theta_dot, theta_ddot = np.asarray(theta_dot, dtype=float), np.asarray(theta_ddot, dtype=float)
     na = theta_dot.shape[-1]
-    columns = np.stack([theta_ddot, theta_dot, np.sign(theta_dot)], axis=-1)  # (..., n, 3)
+    columns = np.stack([theta_ddot, theta_dot, coulomb_shape(theta_dot, coulomb_rate)], axis=-1)  # (..., n, 3)
     out = np.zeros((*theta_dot.shape, na, len(DRIVE_PARAMETERS)))
     j = np.arange(na)
     out[..., j, j, :] = columns
@@ -241,7 +248,8 @@ def _spatial_columns(J, bias, R, q_dots, q_ddots, gravity) -> np.ndarray:
     return np.stack(columns, axis=2)
 
 
-def dynamics_regressor(model, q, theta_dot, theta_ddot, *, drives: bool = False) -> np.ndarray:
+def dynamics_regressor(model, q, theta_dot, theta_ddot, *, drives: bool = False,
+                       coulomb_rate: float = 0.0) -> np.ndarray:
     """The regressor ``Y`` of the actuator-space inverse dynamics: ``τ = Y π`` with ``π`` the standard inertial
     parameters (:func:`inertial_parameters`), at configurations ``q`` on the loop closures, actuator rates
     ``theta_dot`` and accelerations ``theta_ddot`` (eq. 35 written linearly in the inertial parameters); with
@@ -257,6 +265,9 @@ def dynamics_regressor(model, q, theta_dot, theta_ddot, *, drives: bool = False)
 
     drives : bool
         Append the drives' columns (armature, viscous and Coulomb friction of every actuator).
+    coulomb_rate : float
+        The drives' Coulomb friction model (:func:`coulomb_shape`): ``tanh(θ̇ / coulomb_rate)``, or ``sign(θ̇)``
+        for 0 (default). Identify with the model the controller will compensate with.
 
     Returns
     -------
@@ -277,6 +288,7 @@ def dynamics_regressor(model, q, theta_dot, theta_ddot, *, drives: bool = False)
     """
     model = as_model(model)
     drives = as_flag("drives", drives)
+    coulomb_rate = as_real("coulomb_rate", coulomb_rate, "non-negative")
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
                                                       ("theta_ddot", theta_ddot, na))
@@ -296,7 +308,7 @@ def dynamics_regressor(model, q, theta_dot, theta_ddot, *, drives: bool = False)
     if not np.all(np.isfinite(Y)):
         raise InvalidParameterError("theta_dot or theta_ddot overflows the regressor (values too large)")
     if drives:
-        Y = np.concatenate([Y, drive_regressor(theta_dots, theta_ddots)], axis=-1)
+        Y = np.concatenate([Y, drive_regressor(theta_dots, theta_ddots, coulomb_rate)], axis=-1)
     return Y.reshape(*shape, na, Y.shape[-1])
 
 

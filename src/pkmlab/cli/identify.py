@@ -1,6 +1,7 @@
 """``pkmlab identify``: a machine's base parameters estimated from a log of its actuators and efforts.
 
-JSON (``--json``): ``{"mechanism", "log", "window_s", "polyorder", "drives", ...}`` and the estimate's
+JSON (``--json``): ``{"mechanism", "log", "window_s", "polyorder", "drives", ...}`` (with ``--drives``, also
+``coulomb_rate``, the friction model estimated) and the estimate's
 summary (:meth:`pkmlab.algorithms.identification.Identification.summary`): ``base_parameters`` (name, estimate,
 sigma, relative_sigma_percent), ``condition_number``, ``samples``, ``effort_sigma``, ``rms_residual``,
 ``unidentifiable``; with ``--consistent``, ``consistent``: ``{"distance", "parameters": {name: value}}`` (the
@@ -14,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import json
 
+from ..errors import InvalidParameterError
 from ._common import mechanism_name, model_of, strict_json, table, working_mode
 
 
@@ -40,7 +42,11 @@ def cmd_identify(args) -> dict:
     mode = working_mode(args, model)
     window = DEFAULT_WINDOW if args.window is None else args.window
     polyorder = DEFAULT_POLYORDER if args.polyorder is None else args.polyorder
-    provenance = {"log": str(args.log), "window_s": window, "polyorder": polyorder, "drives": args.drives}
+    coulomb_rate = 0.0 if args.coulomb_rate is None else args.coulomb_rate
+    if args.coulomb_rate is not None and not args.drives:
+        raise InvalidParameterError("--coulomb-rate is the drives' friction model: it needs --drives")
+    provenance = {"log": str(args.log), "window_s": window, "polyorder": polyorder, "drives": args.drives,
+                  **({"coulomb_rate": coulomb_rate} if args.drives else {})}
     inputs = [args.log, *([args.validate] if args.validate else [])]
     folder = (atomic_output_dir(args.out, "identify", inputs=inputs, provenance=provenance) if args.out else
               contextlib.nullcontext())
@@ -48,7 +54,7 @@ def cmd_identify(args) -> dict:
         log = read_measurement_log(args.log, model)
         data = filter_measurements(model, log.t, log.theta, log.tau, window=window, polyorder=polyorder,
                                    pose=log.pose, mode=mode, first_row=1)
-        result = identify(model, *data.states, data.tau, drives=args.drives)
+        result = identify(model, *data.states, data.tau, drives=args.drives, coulomb_rate=coulomb_rate)
         out = {"mechanism": mechanism_name(args, model), **provenance, **result.summary()}
         identified = None
         if args.consistent:
