@@ -172,25 +172,12 @@ def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts
     return rows + more, checks
 
 
-def _measured_poses(model, true, offsets, count: int, rng) -> tuple[np.ndarray, np.ndarray]:
-    """``count`` poses of the machine ``true`` around its home configuration (±10 % of its size, ±0.3 rad), away
-    from singularities, and its actuators' readings there (less ``offsets``)."""
-    from pkmlab.algorithms.kinematics import length_scale
+def _measured_poses(true, offsets, count: int, rng) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` poses of the machine ``true`` around its home configuration and its actuators' readings there."""
+    from pkmlab.algorithms.calibration import reachable_poses
 
-    mode = mm.working_modes(true)[0]
-    centre = mm.well_conditioned_configuration(true, mode)[-true.description.dof:]
-    scale = np.array([0.1 * length_scale(true) if n in ("x", "y", "z") else 0.3 for n in true.pose_names])
-    poses, thetas = [], []
-    while len(poses) < count:
-        pose = centre + rng.uniform(-1, 1, len(centre)) * scale
-        try:
-            q = mm.inverse_kinematics(true, pose, mode)
-        except pkmlab.PkmlabError:
-            continue
-        if abs(mm.singularity_measure(true, q)) > 0.05:
-            poses.append(pose)
-            thetas.append(q[:true.n_actuators] - offsets)
-    return np.array(poses), np.array(thetas)
+    poses, q = reachable_poses(true, count, rng)
+    return poses, q[:, :true.n_actuators] - offsets
 
 
 def _calibration_rows(h, repeats: int) -> tuple[list[dict], dict]:
@@ -201,15 +188,11 @@ def _calibration_rows(h, repeats: int) -> tuple[list[dict], dict]:
 
     rng = np.random.default_rng(11)
     model = mm.MechanismModel.from_preset("stewart")
-    index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
-    values = {n: model.P[index[n]] + rng.uniform(-1e-3, 1e-3) for n in cal.geometric_parameters(model)
-              if not n.startswith("offset")}
-    true = mm.MechanismModel.from_description(cal._with_geometry(model.description, values))
-    offsets = rng.uniform(-1e-3, 1e-3, model.n_actuators)
-    poses, thetas = _measured_poses(model, true, offsets, 50, rng)
+    true, offsets = cal.perturbed_geometry(model, rng, 1e-3)
+    poses, thetas = _measured_poses(true, offsets, 50, rng)
     measured = poses + 1e-5 * rng.standard_normal(poses.shape)
     times, result = h.time_runs(lambda: cal.calibrate(model, thetas, measured, measure="pose"), repeats)
-    candidates, readings = _measured_poses(model, model, np.zeros(model.n_actuators), 2000, rng)
+    candidates, readings = _measured_poses(model, np.zeros(model.n_actuators), 2000, rng)
     select_times, _chosen = h.time_runs(lambda: cal.select_poses(model, readings, candidates, 50, measure="pose"),
                                         1, warmup=0)
     rows = [h.rate_row("calibrate_stewart_50", "calibration of a Stewart platform from 50 measured poses (1 mm "

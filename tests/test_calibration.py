@@ -11,38 +11,16 @@ import pytest
 
 import pkmlab
 from pkmlab.algorithms import calibration as cal
-from pkmlab.model import mechanism_model as mm
 
 
 def _perturbed(model, rng, size=1e-3):
-    """The machine with every geometric parameter moved by up to ``size`` (m), and actuator offsets of up to
-    0.5° (revolute) or ``size`` (prismatic)."""
-    index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
-    values = {n: model.P[index[n]] + rng.uniform(-size, size) for n in cal.geometric_parameters(model)
-              if not n.startswith("offset")}
-    true = pkmlab.MechanismModel.from_description(cal._with_geometry(model.description, values))
-    kinds = np.array([k == "R" for k in model.description.actuator_kinds])
-    offsets = np.where(kinds, np.deg2rad(0.5), size) * rng.uniform(-1, 1, model.n_actuators)
-    return true, offsets
+    return cal.perturbed_geometry(model, rng, size)
 
 
 def _poses(true, offsets, count, rng, span=0.1):
     """``count`` poses of the true machine away from singularities, and the readings its actuators give there."""
-    mode = mm.working_modes(true)[0]
-    centre = mm.well_conditioned_configuration(true, mode)[-true.description.dof:]
-    size = cal.length_scale(true)
-    scale = np.array([span * size if n in ("x", "y", "z") else 3 * span for n in true.pose_names])
-    poses, thetas = [], []
-    while len(poses) < count:
-        pose = centre + rng.uniform(-1, 1, len(centre)) * scale
-        try:
-            q = mm.inverse_kinematics(true, pose, mode)
-        except pkmlab.PkmlabError:
-            continue
-        if abs(mm.singularity_measure(true, q)) > 0.05:
-            poses.append(pose)
-            thetas.append(q[:true.n_actuators] - offsets)
-    return np.array(poses), np.array(thetas)
+    poses, q = cal.reachable_poses(true, count, rng, span=span, turn=3 * span)
+    return poses, q[:, :true.n_actuators] - offsets
 
 
 def _position_error(model, offsets, poses, thetas):
@@ -165,3 +143,17 @@ def test_pkmlab_calibrate_writes_a_calibrated_description(tmp_path):
     bad = _pkmlab("calibrate", "bad.csv", "--mechanism", "delta", "--out", "cal2", cwd=tmp_path)
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "missing column z" in bad.stderr
     assert not (tmp_path / "cal2").exists()
+
+
+def test_a_machine_as_built_is_the_description_with_its_geometry_moved():
+    model = pkmlab.load("five_bar")
+    built, offsets = cal.perturbed_geometry(model, np.random.default_rng(4), size=1e-3)
+    index = [model.kernels.PARAMETERS.index(n) for n in cal.geometric_parameters(model) if not n.startswith("offset")]
+    moved = built.P[index] - model.P[index]
+    assert 0 < np.abs(moved).max() <= 1e-3 and np.abs(offsets).max() <= np.deg2rad(0.5)
+    others = np.setdiff1d(np.arange(len(model.P)), index)
+    assert np.array_equal(built.P[others], model.P[others])  # masses, inertias, axes: as described
+    with pytest.raises(pkmlab.PkmlabError, match="'offset1' is not a geometric parameter"):
+        cal.with_geometry(model, {"offset1": 0.1})
+    with pytest.raises(pkmlab.PkmlabError, match="only 0 of 3 poses .* reachable with"):
+        cal.reachable_poses(model, 3, np.random.default_rng(0), margin=1e6)

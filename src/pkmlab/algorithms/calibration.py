@@ -33,12 +33,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .._validate import as_batch, as_choice, as_count
-from ..errors import InvalidParameterError
+from ..errors import InvalidParameterError, PkmlabError
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
 from .kinematics import as_model, length_scale
 
-__all__ = ["Calibration", "geometric_parameters", "calibrate", "calibration_jacobian", "select_poses"]
+__all__ = ["Calibration", "geometric_parameters", "with_geometry", "perturbed_geometry", "reachable_poses", "calibrate",
+           "calibration_jacobian", "select_poses"]
 
 _GEOMETRY = re.compile(r"^(base\d+|body\d+_\d+_tip|attach\d+)_[xyz]$")
 #: A parameter whose pivot in the scaled Jacobian's QR factorisation is below this share of the first is not
@@ -281,6 +282,94 @@ def _independent(J: np.ndarray) -> np.ndarray:
     diag = np.abs(np.diag(r))
     rank = int(np.sum(diag > RANK_TOL * diag[0]))
     return np.sort(live[pivots[:rank]])
+
+
+def with_geometry(model, values: dict) -> MechanismModel:
+    """``model`` with some of its geometric parameters (:func:`geometric_parameters`, offsets excepted) set to
+    ``values`` ({name: value}, m): a machine as built rather than as drawn.
+
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> float(with_geometry(model, {"base1_x": -0.26}).P[model.kernels.PARAMETERS.index("base1_x")])
+    -0.26
+    """
+    model = as_model(model)
+    if not isinstance(values, dict):
+        raise InvalidParameterError(f"values must be a dict {{name: value}}, got {type(values).__name__}")
+    known = set(geometric_parameters(model))
+    for name, value in values.items():
+        if name not in known or str(name).startswith("offset"):
+            raise InvalidParameterError(f"{name!r} is not a geometric parameter of this machine (offsets are the "
+                                        "actuators', not the description's)")
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not np.isfinite(value):
+            raise InvalidParameterError(f"{name} must be a finite number (m), got {value!r}")
+    return MechanismModel.from_description(_with_geometry(model.description, values))
+
+
+def perturbed_geometry(model, rng, size: float = 1e-3, angle: float = float(np.deg2rad(0.5))
+                       ) -> tuple[MechanismModel, np.ndarray]:
+    """A machine built with errors: every geometric parameter moved by a uniform draw in ``[-size, size]`` (m),
+    and actuator zero offsets drawn in ``[-angle, angle]`` (rad; ``[-size, size]`` for a prismatic actuator).
+
+    Returns the machine and its offsets ``δ`` (n_actuators,): its readings are ``θ_read = θ_true - δ``.
+    Draws the parameters in :func:`geometric_parameters`' order, then the offsets."""
+    from .._validate import as_real
+
+    model = as_model(model)
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidParameterError(f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got "
+                                    f"{type(rng).__name__}")
+    size, angle = as_real("size", size, "non-negative"), as_real("angle", angle, "non-negative")
+    index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
+    values = {n: float(model.P[index[n]] + rng.uniform(-size, size)) for n in geometric_parameters(model)
+              if not n.startswith("offset")}
+    revolute = np.array([k == "R" for k in model.description.actuator_kinds])
+    offsets = np.where(revolute, angle, size) * rng.uniform(-1, 1, model.n_actuators)
+    return with_geometry(model, values), offsets
+
+
+#: The most draws :func:`reachable_poses` tries per pose it returns before giving up.
+TRIES_PER_POSE = 200
+
+
+def reachable_poses(model, count: int, rng, *, span: float = 0.1, turn: float = 0.3, margin: float = 0.05,
+                    mode=None) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` poses drawn uniformly about the home configuration of a working mode — within ``span`` of the
+    machine's size (:func:`~pkmlab.algorithms.kinematics.length_scale`) in position and ``turn`` rad in
+    orientation —, kept where the inverse kinematics has a solution with ``|S|`` above ``margin``: the candidate
+    measurement poses of a calibration.
+
+    Returns the poses (count, dof) and their configurations (count, n) in ``mode`` (default the first working
+    mode); the actuators are their first ``n_actuators`` columns."""
+    from .._validate import as_real
+    from .kinematics import as_working_mode
+
+    model = as_model(model)
+    count = as_count("count", count, 1)
+    span, turn = as_real("span", span, "positive"), as_real("turn", turn, "non-negative")
+    margin = as_real("margin", margin, "non-negative")
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidParameterError(f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got "
+                                    f"{type(rng).__name__}")
+    mode = mm.working_modes(model)[0] if mode is None else as_working_mode(model, mode, "mode")
+    centre = mm.well_conditioned_configuration(model, mode)[-model.description.dof:]
+    scale = np.array([span * length_scale(model) if n in ("x", "y", "z") else turn for n in model.pose_names])
+    poses, configurations = [], []
+    for _ in range(TRIES_PER_POSE * count):
+        if len(poses) == count:
+            break
+        pose = centre + rng.uniform(-1, 1, len(centre)) * scale
+        try:
+            q = mm.inverse_kinematics(model, pose, mode)
+        except PkmlabError:
+            continue
+        if abs(mm.singularity_measure(model, q)) > margin:
+            poses.append(pose)
+            configurations.append(q)
+    if len(poses) < count:
+        raise InvalidParameterError(f"only {len(poses)} of {count} poses drawn within span {span:g} and turn "
+                                    f"{turn:g} are reachable with |S| > {margin:g}: a smaller region or margin")
+    return np.array(poses), np.array(configurations)
 
 
 def _with_geometry(description, values: dict):
