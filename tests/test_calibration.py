@@ -133,14 +133,26 @@ def test_pkmlab_calibrate_writes_a_calibrated_description(tmp_path):
     table = np.column_stack([thetas[:40], poses[:40]])
     rows = ["theta1,theta2,theta3,x,y,z"] + [",".join(repr(float(v)) for v in row) for row in table]
     (tmp_path / "poses.csv").write_text("\n".join(rows) + "\n")
-    done = _pkmlab("calibrate", "poses.csv", "--mechanism", "delta", "--out", "cal", "--json", cwd=tmp_path)
+    held = ["theta1,theta2,theta3,x,y,z"] + [",".join(repr(float(v)) for v in row)
+                                            for row in np.column_stack([thetas[40:], poses[40:]])]
+    (tmp_path / "held.csv").write_text("\n".join(held) + "\n")
+    done = _pkmlab("calibrate", "poses.csv", "--mechanism", "delta", "--validate", "held.csv", "--out", "cal",
+                   "--json", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     out = json.loads(done.stdout)
     assert out == json.loads((tmp_path / "cal" / "calibration.json").read_text()) and out["rms_after"] < 1e-9
     calibrated = pkmlab.load(str(tmp_path / "cal" / "calibrated.toml"))
-    assert _position_error(calibrated, np.array(out["offsets"]), poses[40:], thetas[40:]).max() < 1e-8
+    errors = _position_error(calibrated, np.array(out["offsets"]), poses[40:], thetas[40:])
+    assert errors.max() < 1e-8
+    # the report's held-out check agrees with this one's (forward kinematics nearest each pose)
+    described = _position_error(model, np.zeros(3), poses[40:], thetas[40:])
+    check = out["validation"]
+    assert check["poses"] == 20 and check["max_point_error_after"] < 1e-8
+    assert check["max_point_error_before"] == pytest.approx(described.max(), rel=1e-6)
+    assert (tmp_path / "cal" / "validation.png").stat().st_size > 10_000
     (tmp_path / "bad.csv").write_text("theta1,theta2,theta3,x,y\n0.1,0.2,0.3,0.0,0.0\n")
-    bad = _pkmlab("calibrate", "bad.csv", "--mechanism", "delta", "--out", "cal2", cwd=tmp_path)
+    bad = _pkmlab("calibrate", "poses.csv", "--validate", "bad.csv", "--mechanism", "delta", "--out", "cal2",
+                  cwd=tmp_path)
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "missing column z" in bad.stderr
     assert not (tmp_path / "cal2").exists()
 

@@ -39,7 +39,7 @@ from ..model.mechanism_model import MechanismModel
 from .kinematics import as_model, length_scale
 
 __all__ = ["Calibration", "geometric_parameters", "with_geometry", "perturbed_geometry", "reachable_poses", "calibrate",
-           "calibration_jacobian", "select_poses"]
+           "calibration_jacobian", "select_poses", "predicted_measurements"]
 
 _GEOMETRY = re.compile(r"^(base\d+|body\d+_\d+_tip|attach\d+)_[xyz]$")
 #: A parameter whose pivot in the scaled Jacobian's QR factorisation is below this share of the first is not
@@ -146,6 +146,20 @@ def _start_configurations(model: MechanismModel, theta: np.ndarray, measured: np
         gaps = np.linalg.norm(fk.pose[: int(fk.count)][:, columns] - measured[k][columns], axis=1)
         out[k] = fk.q[int(np.argmin(gaps))]
     return out
+
+
+def predicted_measurements(model, theta, measured, *, measure: str = "position", offsets=None) -> np.ndarray:
+    """What the instrument would measure (N, m) of ``model`` at the readings ``theta`` (N, n_actuators) plus the
+    actuators' ``offsets`` (e.g. :attr:`Calibration.offsets`; default none), each pose in the assembly mode
+    nearest its measurement ``measured`` (as for :func:`calibrate`): a calibration's check on held-out poses
+    is ``measured - predicted_measurements(calibration.model, theta, measured, offsets=calibration.offsets)``."""
+    model = as_model(model)
+    theta, measured, columns = _inputs(model, theta, measured, measure)
+    if offsets is not None:
+        offsets = as_batch("offsets", offsets, model.n_actuators, single=True)[0][0]
+        theta = theta + offsets
+    q = _start_configurations(model, theta, measured, columns)
+    return q[:, -model.description.dof:][:, columns]
 
 
 def calibration_jacobian(model, theta, measured, *, measure: str = "position", names=None) -> np.ndarray:

@@ -271,6 +271,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "(or, with --measure pose, every pose coordinate)")
     p.add_argument("--measure", choices=("position", "pose"), default="position", help="what the instrument "
                    "measures: the tracked point (a laser tracker, default) or the whole pose")
+    p.add_argument("--validate", metavar="HELD.csv", help="held-out poses in the same format: each one's error "
+                   "predicted from its readings by the described and the calibrated machine (in the JSON; with --out, "
+                   "validation.png)")
     p.add_argument("--out", metavar="DIR", help="also write calibration.json and calibrated.toml there: a new or empty "
                    "folder, or an earlier result of pkmlab calibrate")
     mechanism(p)

@@ -5,7 +5,10 @@ names — ``x, y[, z]`` for a laser tracker (``--measure position``, the default
 (``--measure pose``). JSON (``--json``): ``{"mechanism", "poses_file", "measure", ...}`` and the calibration's
 summary (:meth:`pkmlab.algorithms.calibration.Calibration.summary`); with ``--out`` also ``calibration.json``
 and ``calibrated.toml`` (the description with the calibrated geometry; the actuators' offsets are in the JSON:
-add them to the readings).
+add them to the readings). ``--validate HELD.csv`` (held-out poses, same format) adds ``validation``:
+``{"poses", "rms_before", "rms_after", "max_point_error_before", "max_point_error_after", "poses_file"}`` — each
+held-out pose predicted from its readings by the described and the calibrated machine — and with ``--out``
+``validation.png``.
 """
 
 from __future__ import annotations
@@ -32,6 +35,38 @@ def _read(path, model, measure: str):
     return theta, np.column_stack([data[c] for c in measured])
 
 
+def _validation(model, result, theta, measured, measure: str):
+    """The held-out poses' errors: measured against predicted from the readings by the described and the calibrated
+    machine — RMS over the measured coordinates, and the tracked point's distance per pose."""
+    import numpy as np
+
+    from ..algorithms.calibration import predicted_measurements
+
+    described = measured - predicted_measurements(model, theta, measured, measure=measure)
+    calibrated = measured - predicted_measurements(result.model, theta, measured, measure=measure,
+                                                   offsets=result.offsets)
+    names = model.pose_names if measure == "pose" else [n for n in model.pose_names if n in ("x", "y", "z")]
+    point = [i for i, n in enumerate(names) if n in ("x", "y", "z")]
+    before, after = (np.linalg.norm(e[:, point], axis=1) for e in (described, calibrated))
+    summary = {"poses": int(len(theta)), "rms_before": float(np.sqrt(np.nanmean(described**2))),
+               "rms_after": float(np.sqrt(np.nanmean(calibrated**2))), "max_point_error_before": float(before.max()),
+               "max_point_error_after": float(after.max())}
+    return summary, (before, after)
+
+
+def _figure(path, before, after, unit) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..views.plotting import plot_calibration_validation
+
+    figure = plot_calibration_validation(before, after, unit=unit).figure
+    figure.savefig(path, dpi=130, bbox_inches="tight")
+    plt.close(figure)
+
+
 def cmd_calibrate(args) -> dict:
     """``calibrate``: read the poses, calibrate, print the table (or the JSON), and with ``--out`` write it."""
     from ..algorithms.calibration import calibrate
@@ -40,14 +75,21 @@ def cmd_calibrate(args) -> dict:
 
     model = model_of(args)
     provenance = {"poses_file": str(args.poses), "measure": args.measure}
-    folder = (atomic_output_dir(args.out, "calibrate", inputs=[args.poses], provenance=provenance) if args.out else
+    inputs = [args.poses, *([args.validate] if args.validate else [])]
+    folder = (atomic_output_dir(args.out, "calibrate", inputs=inputs, provenance=provenance) if args.out else
               contextlib.nullcontext())
     with folder as tmp:
         theta, measured = _read(args.poses, model, args.measure)
+        held = _read(args.validate, model, args.measure) if args.validate else None  # refused before any work
         result = calibrate(model, theta, measured, measure=args.measure)
         out = {"mechanism": mechanism_name(args, model), **provenance, **result.summary(),
                "offsets": result.offsets.tolist()}
+        if held is not None:
+            out["validation"], errors = _validation(model, result, *held, args.measure)
+            out["validation"]["poses_file"] = str(args.validate)
         if tmp is not None:
+            if held is not None:
+                _figure(tmp / "validation.png", *errors, "m" if set(model.pose_names) & {"x", "y", "z"} else "")
             (tmp / "calibration.json").write_text(json.dumps(strict_json(out), indent=2) + "\n")
             (tmp / "calibrated.toml").write_text(mechanism_to_toml(
                 result.model.description, f"{model.name} calibrated by pkmlab calibrate from {args.poses}; the "
@@ -60,6 +102,12 @@ def cmd_calibrate(args) -> dict:
         print(table(["parameter", "nominal", "calibrated", "sigma"], rows))
         if out["fixed"]:
             print(f"fixed (the poses do not determine them): {', '.join(out['fixed'])}")
+        if held is not None:
+            check = out["validation"]
+            print(f"held-out {args.validate} ({check['poses']} poses): RMS error {check['rms_before']:.3g} -> "
+                  f"{check['rms_after']:.3g}, worst point {check['max_point_error_before']:.3g} -> "
+                  f"{check['max_point_error_after']:.3g}"
+                  + (f" (figure {args.out}/validation.png)" if args.out else ""))
         if args.out:
             print(f"results in {args.out}/")
     return out

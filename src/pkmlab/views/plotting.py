@@ -419,3 +419,25 @@ def plot_effort_prediction(t, measured, predicted, ax=None, kinds=None):
     ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
     return ax
+
+
+def plot_calibration_validation(before, after, ax=None, unit="m", noise=None):
+    """The error at each held-out pose (N,) with the described and with the calibrated geometry, on a log scale,
+    and the instrument's noise if given: the report of :func:`pkmlab.algorithms.calibration.calibrate`'s
+    validation."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _fig, ax = plt.subplots(figsize=(7.0, 3.6))
+    before, after = np.asarray(before, dtype=float), np.asarray(after, dtype=float)
+    poses = np.arange(1, len(before) + 1)
+    ax.semilogy(poses, before, "o", ms=4, label=f"described (worst {before.max():.3g} {unit})")
+    ax.semilogy(poses, after, "s", ms=4, label=f"calibrated (worst {after.max():.3g} {unit})")
+    if noise is not None:
+        ax.axhline(noise, color="0.4", lw=1.0, ls=":", label=f"measurement noise {noise:.3g} {unit}")
+    ax.set_xlabel("held-out pose")
+    ax.set_ylabel(f"error ({unit})")
+    ax.set_title("held-out poses: measured against predicted from the readings", fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, which="both")
+    return ax
