@@ -220,7 +220,8 @@ def _identification_rows(h, repeats: int) -> tuple[list[dict], dict]:
     tau = tau + 0.01 * np.abs(tau).max() * np.random.default_rng(0).standard_normal(tau.shape)
 
     def job():
-        data = filter_measurements(model, motion.t, motion.theta, tau, pose=motion.pose[0], mode=excitation.mode)
+        data = filter_measurements(model, motion.t, motion.theta, tau, pose=motion.pose[0], mode=excitation.mode,
+                                   efforts="sampled")  # the efforts at the samples' instants
         return identify(model, *data.states, data.tau, base=base_parameters(model))
 
     times, result = h.time_runs(job, repeats)

@@ -93,11 +93,11 @@ def test_weighting_by_each_actuators_noise_beats_ordinary_least_squares():
 def test_a_logged_motion_is_filtered_to_its_exact_rates_and_accelerations():
     t, q, theta_dot, theta_ddot = fourier_motion(PAPER)
     tau = pkmlab.inverse_dynamics(PAPER, q, theta_dot, theta_ddot)
-    data = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, decimate=1)
+    data = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, decimate=1, efforts="sampled")
     assert np.abs(data.q - q).max() < 1e-9
     assert np.abs(data.theta_dot - theta_dot).max() < 1e-5 * np.abs(theta_dot).max()
     assert np.abs(data.theta_ddot - theta_ddot).max() < 1e-3 * np.abs(theta_ddot).max()
-    kept = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau)
+    kept = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, efforts="sampled")
     d = decimation(51, 4)
     assert d == 15 and np.array_equal(kept.t, t[::d]) and np.array_equal(kept.q, data.q[::d])
     result = pkmlab.identify(PAPER, *kept.states, kept.tau)
@@ -120,7 +120,7 @@ def test_the_reported_sigma_of_a_filtered_noisy_log_is_its_spread():
     runs = []
     for _ in range(60):
         data = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau + 0.01 * rng.standard_normal(tau.shape),
-                                          q_start=q[0])
+                                          q_start=q[0], efforts="sampled")
         runs.append(pkmlab.identify(PAPER, *data.states, data.tau, base=base))
     ratio = np.mean([r.sigma for r in runs], axis=0) / np.std([r.estimate for r in runs], axis=0, ddof=1)
     assert abs(np.exp(np.mean(np.log(ratio))) - 1.0) < 0.2, ratio
@@ -242,7 +242,7 @@ def paper_log():
 def test_identify_reads_a_log_and_writes_its_results(tmp_path, paper_log):
     t, q, tau = paper_log
     log = _write_log(tmp_path / "log.csv", PAPER, t, q[:, :3], tau, pose=q[:, -3:])
-    done = _pkmlab("identify", str(log), "--out", "result", "--json", cwd=tmp_path)
+    done = _pkmlab("identify", str(log), "--efforts", "sampled", "--out", "result", "--json", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     out = json.loads(done.stdout)
     written = json.loads((tmp_path / "result" / "identification.json").read_text())
@@ -254,7 +254,7 @@ def test_identify_reads_a_log_and_writes_its_results(tmp_path, paper_log):
         assert abs(row["estimate"] - value) < 5 * row["sigma"] + 1e-9, row
     csv_lines = (tmp_path / "result" / "base_parameters.csv").read_text().splitlines()
     assert csv_lines[0] == "name,estimate,sigma,relative_sigma_percent" and len(csv_lines) == 14
-    table = _pkmlab("identify", str(log), cwd=tmp_path)
+    table = _pkmlab("identify", str(log), "--efforts", "sampled", cwd=tmp_path)
     assert table.returncode == 0 and "platform.Izz" in table.stdout and "sigma %" in table.stdout
 
 
@@ -307,7 +307,8 @@ def test_identify_validates_on_a_held_out_log(tmp_path, paper_log):
     t2, q2, rates2, accelerations2 = fourier_motion(PAPER, seconds=3.0, seed=9)  # another motion
     held = pkmlab.inverse_dynamics(PAPER, q2, rates2, accelerations2)
     other = _write_log(tmp_path / "held.csv", PAPER, t2, q2[:, :3], held, pose=q2[:, -3:])
-    done = _pkmlab("identify", str(log), "--validate", str(other), "--out", "result", "--json", cwd=tmp_path)
+    done = _pkmlab("identify", str(log), "--efforts", "sampled", "--validate", str(other), "--out", "result", "--json",
+                   cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     validation = json.loads(done.stdout)["validation"]
     # the noise-free held-out efforts predicted to a small share of their size (the estimate's noise only)

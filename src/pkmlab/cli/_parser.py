@@ -250,6 +250,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--polyorder", type=int, metavar="K", help="the filter's polynomial order (2..10, default 4)")
     p.add_argument("--drives", action="store_true", help="also each actuator's armature and viscous and Coulomb "
                    "friction")
+    p.add_argument("--efforts", choices=("held", "sampled"), default="held", help="how the logged efforts act: held "
+                   "from each sample to the next (commanded efforts, pkmlab simulate's tau; default) or sampled at "
+                   "their instants (a measurement)")
     p.add_argument("--coulomb-rate", type=float, metavar="V", help="with --drives, the Coulomb friction model "
                    "fc tanh(rate / V) (the [plant] key coulomb_rate); default 0, fc sign(rate)")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode whose home configuration chooses the "

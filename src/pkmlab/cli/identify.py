@@ -1,6 +1,6 @@
 """``pkmlab identify``: a machine's base parameters estimated from a log of its actuators and efforts.
 
-JSON (``--json``): ``{"mechanism", "log", "window_s", "polyorder", "drives", ...}`` (with ``--drives``, also
+JSON (``--json``): ``{"mechanism", "log", "window_s", "polyorder", "efforts", "drives", ...}`` (with ``--drives``, also
 ``coulomb_rate``, the friction model estimated) and the estimate's
 summary (:meth:`pkmlab.algorithms.identification.Identification.summary`): ``base_parameters`` (name, estimate,
 sigma, relative_sigma_percent), ``condition_number``, ``samples``, ``effort_sigma``, ``rms_residual``,
@@ -45,7 +45,8 @@ def cmd_identify(args) -> dict:
     coulomb_rate = 0.0 if args.coulomb_rate is None else args.coulomb_rate
     if args.coulomb_rate is not None and not args.drives:
         raise InvalidParameterError("--coulomb-rate is the drives' friction model: it needs --drives")
-    provenance = {"log": str(args.log), "window_s": window, "polyorder": polyorder, "drives": args.drives,
+    provenance = {"log": str(args.log), "window_s": window, "polyorder": polyorder, "efforts": args.efforts,
+                  "drives": args.drives,
                   **({"coulomb_rate": coulomb_rate} if args.drives else {})}
     inputs = [args.log, *([args.validate] if args.validate else [])]
     folder = (atomic_output_dir(args.out, "identify", inputs=inputs, provenance=provenance) if args.out else
@@ -53,7 +54,7 @@ def cmd_identify(args) -> dict:
     with folder as tmp:  # a folder that cannot take the results is refused before the log is read
         log = read_measurement_log(args.log, model)
         data = filter_measurements(model, log.t, log.theta, log.tau, window=window, polyorder=polyorder,
-                                   pose=log.pose, mode=mode, first_row=1)
+                                   pose=log.pose, mode=mode, first_row=1, efforts=args.efforts)
         result = identify(model, *data.states, data.tau, drives=args.drives, coulomb_rate=coulomb_rate)
         out = {"mechanism": mechanism_name(args, model), **provenance, **result.summary()}
         identified = None
@@ -74,7 +75,7 @@ def cmd_identify(args) -> dict:
 
             held = read_measurement_log(args.validate, model)
             other = filter_measurements(model, held.t, held.theta, held.tau, window=window, polyorder=polyorder,
-                                        pose=held.pose, mode=mode, first_row=1)
+                                        pose=held.pose, mode=mode, first_row=1, efforts=args.efforts)
             predicted = result.predict(model, *other.states)
             rms = np.sqrt(np.mean((other.tau - predicted) ** 2, axis=0))
             out["validation"] = {"log": str(args.validate), "samples": int(len(other.t)),

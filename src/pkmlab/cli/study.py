@@ -25,6 +25,7 @@ def _execution(args) -> dict:
 def cmd_sweep(args) -> dict:
     """A study file: every run on a Dask cluster (local by default), its table, summary.json and figures."""
     from ..study import StudyInterrupted, load_study, sweep
+    from ..study.jobs import HEADLINE
 
     study = load_study(args.study)
     if args.heatmap is not None:
@@ -41,15 +42,16 @@ def cmd_sweep(args) -> dict:
         run = summary["execution"]
         print(f"{study.name}: {summary['runs']} runs, {summary['ok']} ok, {summary['failed']} failed"
               + (f" ({', '.join(f'{k} {v}' for k, v in summary['failures'].items())})" if summary["failed"] else ""))
-        error = summary["metrics"].get("max_path_error_m")
+        (first, first_label, _), (second, second_label, _) = HEADLINE[study.job]
+        error = summary["metrics"].get(first)
         if error:
-            print(f"max path error: median {error['median']:.3e} m, worst {error['max']:.3e} m")
+            print(f"{first_label}: median {error['median']:.3e}, worst {error['max']:.3e}")
         best = summary.get("best_point")
         if best:
             values = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
                                for k, v in best["values"].items())
-            print(f"least worst-case error: {values or 'the base'}: {best['worst_max_path_error_m']:.3e} m, "
-                  f"peak effort {best['worst_peak_effort']:.4g}")
+            print(f"best point ({values or 'the base'}): worst {first_label} {best[f'worst_{first}']:.3e}, "
+                  f"{second_label} {best[f'worst_{second}']:.4g}")
         print(f"{run['runs_run']} runs in {run['wall_time_s']:.1f} s ({run['runs_per_s']:.1f} runs/s on "
               f"{run['workers']} worker{'s' if run['workers'] != 1 else ''}); table in {args.out}/runs.parquet")
     return summary

@@ -50,19 +50,21 @@ from ..errors import FileFormatError, InvalidParameterError, PkmlabError, shown
 from ..formats.params import PARAM_KEYS
 from ..formats.scenario import TABLES, scenario_from_dict
 from ..simulation.uncertainty import check_bounds
+from .jobs import COUNTS, JOBS, OPTIONS, TABLE, check_option, job_options, option_keys
 
 #: The keys of a study file's ``[study]`` table.
-STUDY_KEYS = ("name", "base", "draws", "seed", "combine")
+STUDY_KEYS = ("name", "base", "draws", "seed", "combine", "job")
 #: How a study's axes make its points: every combination, or value by value.
 COMBINE = ("cross", "zip")
 #: The tables of a study file.
-STUDY_TABLES = ("study", "base", "grid", "uncertainty")
+STUDY_TABLES = ("study", "base", "grid", "uncertainty", "identification", "calibration")
 #: The keys of a range: ``{start, stop, num[, scale]}``.
 RANGE_KEYS = ("start", "stop", "num", "scale")
 #: At most this many runs in one study (the table's memory: about 1 kB per run).
 MAX_RUNS = 50_000_000
 #: Axes whose values are counts (kept as integers).
-INTEGER_KEYS = ("simulation.substeps",)
+INTEGER_KEYS = ("simulation.substeps", "trajectory.periods",
+                *(f"{table}.{key}" for job, table in TABLE.items() for key in COUNTS if key in OPTIONS[job]))
 
 
 def axis_keys() -> tuple[str, ...]:
@@ -215,17 +217,29 @@ class Study:
     name: str = "study"
     source: str = "<study>"
     combine: str = "cross"
+    job: str = "simulate"
+    options: dict = field(default_factory=dict)
 
     # ---------------------------------------------------------------- construction
     @classmethod
     def create(cls, base, grid: dict | None = None, uncertainty: dict | None = None, draws: int = 0, seed: int = 0,
-               name: str | None = None, source: str = "<study>", combine: str = "cross") -> Study:
+               name: str | None = None, source: str = "<study>", combine: str = "cross", job: str = "simulate",
+               options: dict | None = None) -> Study:
         """A checked study from ``base`` (a scenario file's path, or its tables as a dict), ``grid``
         ({axis key: list of values or {start, stop, num[, scale]}}), ``uncertainty`` ({quantity: spread or
-        [low, high]}), ``draws``, ``seed`` and ``combine`` (``"cross"``: every combination of the axes'
-        values; ``"zip"``: value by value). Every problem is one line naming the key and the value."""
+        [low, high]}), ``draws``, ``seed``, ``combine`` (``"cross"``: every combination of the axes'
+        values; ``"zip"``: value by value), ``job`` (what a run does: :data:`~pkmlab.study.jobs.JOBS`) and its
+        ``options`` (:mod:`pkmlab.study.jobs`). Every problem is one line naming the key and the value."""
         if not isinstance(source, str):
             raise InvalidParameterError(f"source must be a string (the study file's name), got {shown(source)}")
+        if not (isinstance(job, str) and job in JOBS):
+            raise _error(source, f"[study].job must be one of {', '.join(JOBS)}, got {shown(job)}")
+        if options and job not in TABLE:
+            raise _error(source, f"options are for the identify and calibrate jobs, not {job!r}")
+        try:
+            resolved = job_options(job, options or {}, f"[{TABLE[job]}]" if job in TABLE else "options")
+        except InvalidParameterError as exc:
+            raise _error(source, str(exc)) from None
         if name is not None and not (isinstance(name, str) and name):
             raise _error(source, f"name must be a non-empty string, got {shown(name)}")
         if not (isinstance(combine, str) and combine in COMBINE):
@@ -235,7 +249,7 @@ class Study:
             name = name or Path(base).stem
         if not isinstance(grid if grid is not None else {}, dict):
             raise _error(source, f"grid must be a table of axes, got {shown(grid)}")
-        valid = axis_keys()
+        valid = (*axis_keys(), *option_keys(job))
         axes = []
         for key, spec in (grid or {}).items():
             if key not in valid:
@@ -245,6 +259,12 @@ class Study:
                 hint = f" (did you mean '{close[0]}'?)" if close else f" (axes are table.key, e.g. {valid[0]})"
                 raise _error(source, f"[grid]: '{key}' is not a scenario value{hint}")
             axes.append((key, axis_values(key, spec, source, unique=combine == "cross")))
+            if key in option_keys(job):
+                for i, value in enumerate(axes[-1][1]):
+                    try:
+                        check_option(job, key.split(".", 1)[1], value, f"[grid].{json.dumps(key)}[{i}]")
+                    except InvalidParameterError as exc:
+                        raise _error(source, str(exc)) from None
         if isinstance(draws, bool) or not isinstance(draws, int) or draws < 0:
             raise _error(source, f"[study].draws must be a non-negative integer, got {shown(draws)}")
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -253,15 +273,19 @@ class Study:
             bounds = check_bounds(uncertainty or {}, "[uncertainty]")
         except InvalidParameterError as exc:
             raise _error(source, str(exc)) from None
+        if job == "calibrate" and bounds:
+            raise _error(source, "[uncertainty] draws plants' masses and lengths; a calibration study draws the "
+                         "machine's geometry errors ([calibration].size, angle): leave it out")
         if bounds and draws == 0:
             raise _error(source, "[uncertainty] is given but [study].draws = 0: say how many plants to draw")
-        if draws and not bounds:
+        if draws and not bounds and job != "calibrate":
             raise _error(source, f"[study].draws = {draws} but no [uncertainty]: give the quantities to draw "
                          "(mass, length, inertia)")
         if combine == "zip" and len({len(values) for _key, values in axes}) > 1:
             raise _error(source, "[study].combine = \"zip\" pairs the axes value by value: they need as many values "
                          "each, got " + ", ".join(f"{key}: {len(values)}" for key, values in axes))
-        study = cls(data, tuple(axes), bounds, draws, seed, name or Path(source).stem or "study", source, combine)
+        study = cls(data, tuple(axes), bounds, draws, seed, name or Path(source).stem or "study", source, combine,
+                    job, resolved)
         study.check()
         return study
 
@@ -277,6 +301,8 @@ class Study:
         except PkmlabError as exc:
             raise _error(self.source, f"the base scenario: {exc}") from None
         for key, values in self.axes:
+            if key in option_keys(self.job):  # checked as the job's options
+                continue
             for value in values:
                 data = copy.deepcopy(self.base)
                 _set(data, key, value)
@@ -295,7 +321,7 @@ class Study:
         from ..errors import AssemblyError, UnstableControlError
         from ..simulation.run import prepare_run
 
-        if not self.draws:
+        if not self.draws or self.job == "calibrate":  # a calibration draws geometry errors, not plants
             return
         try:
             nominal = self.nominal_scenario(0)
@@ -356,9 +382,20 @@ class Study:
     def point_data(self, point: int) -> dict:
         """The scenario data (tables) of grid point ``point``."""
         data = copy.deepcopy(self.base)
+        options = option_keys(self.job)
         for key, value in self.point_values(point).items():
-            _set(data, key, value)
+            if key not in options:
+                _set(data, key, value)
         return data
+
+    def point_options(self, point: int) -> dict:
+        """The job's options at grid point ``point`` (:mod:`pkmlab.study.jobs`)."""
+        options = dict(self.options)
+        keys = option_keys(self.job)
+        for key, value in self.point_values(point).items():
+            if key in keys:
+                options[key.split(".", 1)[1]] = check_option(self.job, key.split(".", 1)[1], value, key)
+        return options
 
     def nominal_scenario(self, point: int):
         """The scenario of grid point ``point`` with the plant it names (before any draw)."""
@@ -371,7 +408,7 @@ class Study:
         from ..simulation.uncertainty import draw_factors
 
         point, draw = self.locate(run)
-        if not self.draws:
+        if not self.draws or self.job == "calibrate":
             return {}
         scenario = self.nominal_scenario(point) if scenario is None else scenario
         return draw_factors(scenario.plant_model, self.uncertainty, self.seed, draw)
@@ -384,7 +421,7 @@ class Study:
 
         point, _draw = self.locate(run)
         nominal = self.nominal_scenario(point) if nominal is None else nominal
-        if not self.draws:
+        if not self.draws or self.job == "calibrate":
             return nominal.replace(name=f"{self.name} run {run}")
         plant = perturbed_plant(nominal.plant_model, self.factors(run, nominal) if factors is None else factors)
         return nominal.replace(plant=plant, name=f"{self.name} run {run}")
@@ -397,7 +434,7 @@ class Study:
         """The names of the drawn factors (the table's ``plant.*`` columns), from the base's plant."""
         from ..simulation.uncertainty import uncertain_parameters
 
-        if not self.draws:
+        if not self.draws or self.job == "calibrate":
             return ()
         return uncertain_parameters(self.base_scenario().plant_model, tuple(self.uncertainty))
 
@@ -405,9 +442,10 @@ class Study:
     def definition(self) -> dict:
         """The study as JSON-able data: what :attr:`digest` hashes and ``study.json`` keeps."""
         # the axes in their order: it decides which grid point each run number is
+        job = {"job": self.job, "options": self.options} if self.job != "simulate" else {}
         return {"base": self.base, "grid": [[k, list(v)] for k, v in self.axes],
                 "uncertainty": {k: list(v) for k, v in self.uncertainty.items()}, "draws": self.draws,
-                "seed": self.seed, "combine": self.combine, "pkmlab": __version__}
+                "seed": self.seed, "combine": self.combine, **job, "pkmlab": __version__}
 
     @property
     def digest(self) -> str:
@@ -447,8 +485,14 @@ def study_from_dict(data: dict, source: str = "<study>") -> Study:
     name = head.get("name", Path(source).stem or "study")
     if not isinstance(name, str) or not name:
         raise FileFormatError(f"{source}: [study].name must be a non-empty string, got {shown(name)}")
+    job = head.get("job", "simulate")
+    for table in TABLE.values():
+        if table in data and TABLE.get(job) != table:
+            raise FileFormatError(f"{source}: [{table}] is the options of job = "
+                                  f"\"{next(j for j, t in TABLE.items() if t == table)}\", not of job = {shown(job)}")
+    options = data.get(TABLE[job], {}) if isinstance(job, str) and job in TABLE else {}
     return Study.create(base, data.get("grid", {}), data.get("uncertainty", {}), head.get("draws", 0),
-                        head.get("seed", 0), name, source, head.get("combine", "cross"))
+                        head.get("seed", 0), name, source, head.get("combine", "cross"), job, options)
 
 
 def load_study(path) -> Study:

@@ -40,7 +40,7 @@ def _worst(frame, by: list[str], metric: str):
     return worst, failed
 
 
-def plot_map(frame, metric: str, x: str, y: str, title: str):
+def plot_map(frame, metric: str, x: str, y: str, title: str, label: str | None = None):
     """Heat map of the worst ``metric`` over the cells of axes ``x`` and ``y`` (log colour scale)."""
     from matplotlib.colors import LogNorm
     from matplotlib.patches import Rectangle
@@ -58,7 +58,7 @@ def plot_map(frame, metric: str, x: str, y: str, title: str):
     finite = grid[np.isfinite(grid) & (grid > 0)]
     norm = LogNorm(finite.min(), finite.max()) if finite.size and finite.min() < finite.max() else None
     image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto", cmap="viridis", norm=norm)
-    fig.colorbar(image, ax=ax, label=f"worst {LABELS.get(metric, metric)}")
+    fig.colorbar(image, ax=ax, label=f"worst {label or LABELS.get(metric, metric)}")
     light = image.norm(grid) > 0.6  # dark text on the colour map's light end
     for i in range(len(ys)):
         for j in range(len(xs)):
@@ -76,7 +76,7 @@ def plot_map(frame, metric: str, x: str, y: str, title: str):
     return fig
 
 
-def plot_line(frame, metric: str, x: str, title: str):
+def plot_line(frame, metric: str, x: str, title: str, label: str | None = None):
     """The worst, median and best ``metric`` against one axis (failed runs marked)."""
     ok = frame[frame["status"] == "ok"]
     stats = ok.groupby(x, sort=True)[metric].agg(["min", "median", "max"])
@@ -93,22 +93,24 @@ def plot_line(frame, metric: str, x: str, title: str):
                     ha="center", va="bottom")
     ax.set_yscale("log")
     ax.set_xlabel(x)
-    ax.set_ylabel(LABELS.get(metric, metric))
+    ax.set_ylabel(label or LABELS.get(metric, metric))
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     return fig
 
 
-def plot_distributions(frame, by: str | None, title: str):
-    """Empirical distributions (CDFs) of the max path error and the peak effort over the runs, one curve per
-    value of axis ``by`` (at most eight; one curve for all runs without it)."""
+def plot_distributions(frame, by: str | None, title: str, labels: dict | None = None):
+    """Empirical distributions (CDFs) of two metrics (``labels``: {metric: label}, default the max path error and
+    the peak effort) over the runs, one curve per value of axis ``by`` (at most eight; one curve for all runs
+    without it)."""
+    labels = LABELS if labels is None else labels
     from matplotlib.ticker import NullFormatter
 
     ok = frame[frame["status"] == "ok"]
     fig = _figure((10.0, 4.0))
     axes = fig.subplots(1, 2)
     groups = list(ok.groupby(by, sort=True)) if by is not None and ok[by].nunique() <= 8 else [("all runs", ok)]
-    for ax, metric in zip(axes, LABELS, strict=True):
+    for ax, metric in zip(axes, labels, strict=True):
         for value, part in groups:
             data = np.sort(part[metric].to_numpy())
             if data.size:
@@ -116,7 +118,7 @@ def plot_distributions(frame, by: str | None, title: str):
                 ax.step(data, np.arange(1, data.size + 1) / data.size, where="post", label=label)
         ax.set_xscale("log")
         ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels of a short log range overlap
-        ax.set_xlabel(LABELS[metric])
+        ax.set_xlabel(labels[metric])
         ax.set_ylabel("fraction of runs ≤ value")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
@@ -163,21 +165,27 @@ def plot_failures(frame, axes: list[str], title: str):
     return fig
 
 
-def study_figures(frame, axes: list[str], name: str, heatmap: tuple[str, str] | None = None) -> dict:
+def study_figures(frame, axes: list[str], name: str, heatmap: tuple[str, str] | None = None,
+                  headline=None) -> dict:
     """Every figure of a study: ``{file name: Figure}``. ``heatmap`` names the two axes of the maps (default:
-    the first two axes that vary)."""
+    the first two axes that vary); ``headline`` the two metrics mapped, ``((metric, label, file stem), ...)``
+    (default the max path error and the peak effort)."""
+    if headline is None:
+        headline = (("max_path_error_m", LABELS["max_path_error_m"], "error_map"),
+                    ("peak_effort", LABELS["peak_effort"], "effort_map"))
+    labels = {metric: label for metric, label, _stem in headline}
     varying = varying_axes(frame, axes)
     pair = list(heatmap) if heatmap else varying[:2]
     figures = {}
-    for metric, stem in (("max_path_error_m", "error_map"), ("peak_effort", "effort_map")):
+    for metric, label, stem in headline:
         if (frame["status"] == "ok").sum() == 0:
             break
         if len(pair) == 2:
-            figures[f"{stem}.png"] = plot_map(frame, metric, pair[1], pair[0], f"{name}: worst {LABELS[metric]}")
+            figures[f"{stem}.png"] = plot_map(frame, metric, pair[1], pair[0], f"{name}: worst {label}", label)
         elif len(pair) == 1:
-            figures[f"{stem}.png"] = plot_line(frame, metric, pair[0], f"{name}: {LABELS[metric]}")
+            figures[f"{stem}.png"] = plot_line(frame, metric, pair[0], f"{name}: {label}", label)
     if frame["draw"].nunique() > 1 and (frame["status"] == "ok").any():
         figures["distributions.png"] = plot_distributions(frame, varying[0] if varying else None,
-                                                          f"{name}: under uncertainty")
+                                                          f"{name}: under uncertainty", labels)
     figures["failures.png"] = plot_failures(frame, pair, name)
     return figures

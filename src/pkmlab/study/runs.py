@@ -23,6 +23,7 @@ from ..errors import (
     UnstableControlError,
 )
 from .definition import Study
+from .jobs import METRICS, calibration_metrics, identification_metrics
 
 #: Why a run failed, by the class of its error (the first match counts: subclasses first).
 REASONS = (
@@ -44,13 +45,16 @@ def reason_of(exc: PkmlabError) -> str:
 
 def metric_columns(study: Study) -> tuple[str, ...]:
     """The metrics of a study's table, from its base machine: the summary's numbers (one peak effort
-    per actuator and their maximum), ``min_abs_S`` and the number of samples."""
+    per actuator and their maximum), ``min_abs_S`` and the number of samples, then its job's
+    (:data:`~pkmlab.study.jobs.METRICS`); a calibration study's are its job's alone (it simulates nothing)."""
+    if study.job == "calibrate":
+        return METRICS["calibrate"]
     model = study.base_scenario().model  # not grid point 0's: that one may be a combination that fails
     names = model.pose_names
     orientation = ("max_orientation_error_rad",) if {"alpha", "roll"} & set(names) else ()
     n = model.n_actuators
     return ("max_path_error_m", "rms_path_error_m", *orientation, "max_joint_error", "peak_effort",
-            *(f"peak_effort_{i + 1}" for i in range(n)), "min_abs_S", "samples")
+            *(f"peak_effort_{i + 1}" for i in range(n)), "min_abs_S", "samples", *METRICS[study.job])
 
 
 def columns(study: Study) -> tuple[str, ...]:
@@ -65,8 +69,9 @@ def _cell(value):
     return json.dumps(value) if isinstance(value, list) else value
 
 
-def _row(study: Study, run: int, layout: tuple, factors: dict, result=None, error=None, samples=0) -> dict:
-    """The row of ``run``; ``layout`` is ``(metric columns, factor names)``."""
+def _row(study: Study, run: int, layout: tuple, factors: dict, result=None, error=None, samples=0,
+         extra: dict | None = None) -> dict:
+    """The row of ``run``; ``layout`` is ``(metric columns, factor names)``; ``extra`` the job's metrics."""
     metrics, factor_names = layout
     point, draw = study.locate(run)
     row = {"run": run, "point": point, "draw": draw}
@@ -75,7 +80,8 @@ def _row(study: Study, run: int, layout: tuple, factors: dict, result=None, erro
     row["status"] = "ok" if error is None else "failed"
     row["reason"] = "" if error is None else reason_of(error)
     row.update(dict.fromkeys(metrics, math.nan))
-    row["samples"] = samples
+    if "samples" in metrics:
+        row["samples"] = samples
     row["working_mode"] = ""
     row["message"] = "" if error is None else str(error)
     if result is not None:
@@ -88,6 +94,7 @@ def _row(study: Study, run: int, layout: tuple, factors: dict, result=None, erro
         row.update({f"peak_effort_{i + 1}": v for i, v in enumerate(efforts)})
         row["working_mode"] = "".join("+" if m > 0 else "-" for m in summary["working_mode"])
         row["samples"] = int(result.t.size)
+    row.update(extra or {})
     return row
 
 
@@ -109,6 +116,8 @@ def run_chunk(study: Study, runs, threads: int | None = None) -> list[dict]:
 
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     layout = (metric_columns(study), study.factor_names())
+    if study.job == "calibrate":
+        return [_calibration_row(study, int(run), layout) for run in runs]
     rows: dict[int, dict] = {}
     nominal: dict[int, object] = {}
     scenarios: dict[int, tuple] = {}
@@ -153,6 +162,24 @@ def run_chunk(study: Study, runs, threads: int | None = None) -> list[dict]:
             if isinstance(result, PkmlabError):
                 error = _without_batch_prefix(result, index, batch[index].name) if samples else result
                 rows[run] = _row(study, run, layout, factors, error=error, samples=samples)
+            elif study.job == "identify":
+                try:
+                    extra = identification_metrics(batch[index], result, study.point_options(study.locate(run)[0]))
+                except PkmlabError as exc:
+                    rows[run] = _row(study, run, layout, factors, error=exc, samples=samples)
+                else:
+                    rows[run] = _row(study, run, layout, factors, result=result, extra=extra)
             else:
                 rows[run] = _row(study, run, layout, factors, result=result)
     return [rows[int(run)] for run in runs]
+
+
+def _calibration_row(study: Study, run: int, layout: tuple) -> dict:
+    """The row of ``run`` of a calibration study: the machine of its grid point, calibrated (no simulation)."""
+    point, draw = study.locate(run)
+    try:
+        model = study.nominal_scenario(point).model
+        extra = calibration_metrics(model, study.point_options(point), study.seed, draw)
+    except PkmlabError as exc:
+        return _row(study, run, layout, {}, error=exc)
+    return _row(study, run, layout, {}, extra=extra)

@@ -10,6 +10,7 @@ from ..errors import InvalidParameterError
 from ..outputs import atomic_file
 from .definition import Study, load_study, study_from_dict
 from .engine import run_study
+from .jobs import HEADLINE, METRICS
 
 
 def _study(study) -> Study:
@@ -32,11 +33,12 @@ def _statistics(values) -> dict:
 
 def summarize(study: Study, frame, stats: dict | None = None) -> dict:
     """The study's ``summary.json``: counts, failures by reason, statistics of every metric over the runs that
-    finished, the grid point with the least worst-case path error among those where no run failed, and how
-    the study ran (``stats``)."""
+    finished, the grid point with the least worst-case headline metric (the path error; a job's own,
+    :data:`~pkmlab.study.jobs.HEADLINE`) among those where no run failed, and how the study ran (``stats``)."""
     ok = frame[frame["status"] == "ok"]
     metrics = [c for c in ("max_path_error_m", "rms_path_error_m", "max_orientation_error_rad", "max_joint_error",
-                           "peak_effort", "min_abs_S") if c in frame]
+                           "peak_effort", "min_abs_S", *METRICS[study.job]) if c in frame]
+    (first, *_), (second, *_) = HEADLINE[study.job]
     summary = {
         "study": study.name, "digest": study.digest, "runs": int(len(frame)), "ok": int(len(ok)),
         "failed": int(len(frame) - len(ok)),
@@ -45,15 +47,14 @@ def summarize(study: Study, frame, stats: dict | None = None) -> dict:
         "uncertainty": {k: list(v) for k, v in study.uncertainty.items()},
         "metrics": {m: _statistics(ok[m]) for m in metrics},
     }
-    per_point = frame.groupby("point").agg(worst_error=("max_path_error_m", "max"),
-                                           worst_effort=("peak_effort", "max"),
+    per_point = frame.groupby("point").agg(worst_first=(first, "max"), worst_second=(second, "max"),
                                            failed=("status", lambda s: int((s != "ok").sum())))
     clean = per_point[per_point["failed"] == 0].dropna()
     if not clean.empty:
-        point = int(clean["worst_error"].idxmin())
+        point = int(clean["worst_first"].idxmin())
         summary["best_point"] = {"point": point, "values": study.point_values(point),
-                                 "worst_max_path_error_m": float(clean.loc[point, "worst_error"]),
-                                 "worst_peak_effort": float(clean.loc[point, "worst_effort"])}
+                                 f"worst_{first}": float(clean.loc[point, "worst_first"]),
+                                 f"worst_{second}": float(clean.loc[point, "worst_second"])}
     if stats is not None:
         summary["execution"] = {k: (float(v) if isinstance(v, float) and math.isfinite(v) else v)
                                 for k, v in stats.items()}
@@ -109,7 +110,8 @@ def write_outputs(study: Study, table, frame, summary: dict, out: Path, *, csv: 
     if figures and len(frame):
         from .figures import study_figures
 
-        for name, fig in study_figures(frame, [k for k, _ in study.axes], study.name, heatmap).items():
+        for name, fig in study_figures(frame, [k for k, _ in study.axes], study.name, heatmap,
+                                       HEADLINE[study.job]).items():
             with atomic_file(out / "figures" / name) as tmp:
                 fig.savefig(tmp, dpi=130, format="png")
 
