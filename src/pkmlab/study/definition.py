@@ -20,6 +20,11 @@ A study file (``pkmlab sweep SWEEP.toml``) is declarative TOML, like a scenario 
 With ``combine = "zip"`` in ``[study]`` the axes are not crossed but paired, value by value (all of
 one length): points ``(kp, kv)`` chosen together, as a tuner does.
 
+With ``job = "identify"`` or ``job = "calibrate"`` in ``[study]`` a run identifies the plant from its
+simulated log, or calibrates a machine built with errors, with the options of an ``[identification]`` or a
+``[calibration]`` table, each of them an axis too (``"calibration.noise" = [1e-6, 1e-5]``):
+:mod:`pkmlab.study.jobs`.
+
 An axis is any value of a scenario file, written ``table.key`` (``controller.kp``,
 ``trajectory.speed``, ``controller.sample_time``, ``plant.mass_scale``, ``simulation.substeps``,
 ``manipulator.params.l`` ...); the machine itself is the base's. Runs are numbered grid point by grid
