@@ -101,6 +101,79 @@ def test_the_drives_friction_and_armature_are_identified_from_a_run(tmp_path):
             assert value == pytest.approx(truth, rel=0.05), (j, name)
 
 
+def test_stick_slip_friction_holds_the_machine_at_rest_until_an_effort_exceeds_it():
+    """Karnopp's law at rest: with every actuator stuck the friction that holds actuator ``i`` is its effort
+    (no rates, no gravity), so the machine stays exactly where it is while every ``|τ_i| <= fc`` and moves after
+    the first command with an ``|τ_i| > fc``; the smooth law of the same ``fc`` creeps from the first sample."""
+    fc = 0.2
+    result = pkmlab.simulate(NOMINAL.replace(drives=Drives(coulomb=fc, coulomb_rate=1e-3, stick_slip=True)))
+    moving = np.any(result.theta != result.theta[0], axis=1)
+    start = int(np.argmax(moving))
+    assert start > 5 and moving[start:].sum() > 0.9 * (moving.size - start)
+    assert np.all(result.theta_dot[:start] == 0.0)
+    assert np.abs(result.tau[:start - 1]).max() <= fc
+    assert np.abs(result.tau[start - 1]).max() > fc
+    smooth = pkmlab.simulate(NOMINAL.replace(drives=Drives(coulomb=fc, coulomb_rate=1e-3)))
+    assert np.all(smooth.theta[1] != smooth.theta[0])
+
+
+def test_an_actuator_held_by_stick_slip_friction_leaves_the_others_to_the_rigid_dynamics():
+    """Actuator 1 held by a friction it never overcomes: it does not move, and the other two obey the rigid
+    actuator-space dynamics (the public inverse dynamics of the recorded motion) with their effort alone."""
+    ts = 2e-4
+    drives = Drives(coulomb=(1e3, 0.0, 0.0), coulomb_rate=1e-3, stick_slip=True)
+    result = pkmlab.simulate(NOMINAL.replace(drives=drives, sample_time=ts))
+    assert np.all(result.theta[:, 0] == result.theta[0, 0]) and np.all(result.theta_dot[:, 0] == 0.0)
+    assert np.abs(result.theta[:, 1:] - result.theta[0, 1:]).max(axis=0).min() > 0.05
+    a, rate = _actuator_accelerations(result, ts)
+    q_mid = pkmlab.follow_path(MODEL, result.q[0], 0.5 * (result.theta[1:] + result.theta[:-1]))
+    rigid = pkmlab.inverse_dynamics(MODEL, q_mid, rate, a)
+    applied = result.tau[:-1]
+    scale = np.abs(applied[:, 1:]).max()
+    assert np.abs(applied[:, 1:] - rigid[:, 1:]).max() < 2e-3 * scale
+    assert np.abs(applied[:, 0] - rigid[:, 0]).max() > 0.1 * scale  # actuator 1's friction holds it
+
+
+def test_small_stick_slip_friction_is_tracked_as_the_smooth_law():
+    """Away from rest the two laws are the same friction ``fc sign(θ̇)`` (the smooth one to ``tanh``'s
+    saturation): computed torque's path error agrees to 1 %."""
+    stick = pkmlab.simulate(NOMINAL.replace(drives=Drives(coulomb=0.02, coulomb_rate=1e-3, stick_slip=True)))
+    smooth = pkmlab.simulate(NOMINAL.replace(drives=Drives(coulomb=0.02, coulomb_rate=1e-3)))
+    ideal = pkmlab.simulate(NOMINAL)
+    error = stick.summary()["max_path_error_m"]
+    assert error == pytest.approx(smooth.summary()["max_path_error_m"], rel=0.01)
+    assert error > 3 * ideal.summary()["max_path_error_m"]
+
+
+def test_continuous_time_computed_torque_with_the_drives_model_is_exact():
+    """Continuous-time control of a plant with geared drives, armature and smooth friction: computed torque that
+    compensates the same drives tracks to the integrator's tolerance; without the compensation it does not."""
+    drives = Drives(gear_ratio=3.0, armature=2e-5, viscous=0.01, coulomb=0.004, coulomb_rate=0.05)
+    fast = NOMINAL.trajectory.__class__(path=NOMINAL.trajectory.path, speed=0.6, law=NOMINAL.trajectory.law)
+    scenario = NOMINAL.replace(sample_time=0.0, trajectory=fast, drives=drives)
+    exact = pkmlab.simulate(scenario.replace(controller_drives=drives)).summary()["max_path_error_m"]
+    uncompensated = pkmlab.simulate(scenario).summary()["max_path_error_m"]
+    assert exact < 1e-11 and uncompensated > 1e-5
+
+
+@pytest.mark.parametrize("drives, sensors, message", [
+    (Drives(coulomb=0.01, stick_slip=True), None, r"its drives' stick-slip Coulomb friction switches within a step"),
+    (Drives(coulomb=0.01, coulomb_rate=0.0), None, r"its drives' exact \(coulomb_rate = 0\) Coulomb friction"),
+    (Drives(effort_noise=1e-3), None, r"effort_noise is drawn once per sample"),
+    (None, Sensors(resolution=1e-4), r"sensors read the plant once per sample"),
+])
+def test_continuous_time_refuses_what_has_no_samples_or_no_smooth_law(drives, sensors, message):
+    with pytest.raises(pkmlab.PkmlabError, match=message):
+        NOMINAL.replace(sample_time=0.0, drives=drives, sensors=sensors)
+
+
+def test_stick_slip_needs_its_window():
+    with pytest.raises(pkmlab.PkmlabError, match=r"stick_slip friction needs coulomb_rate > 0"):
+        Drives(coulomb=0.1, coulomb_rate=0.0, stick_slip=True)
+    with pytest.raises(pkmlab.PkmlabError, match=r"stick_slip must be true or false, got 1"):
+        Drives(stick_slip=1)
+
+
 @pytest.mark.parametrize("tables, message", [
     ({"plant": {"viscous": -0.1}}, r"\[plant\]\.viscous must be a non-negative number"),
     ({"plant": {"coulomb": [0.1, 0.1]}}, r"\[plant\]\.coulomb must be one number or 3, one per actuator"),
@@ -109,6 +182,9 @@ def test_the_drives_friction_and_armature_are_identified_from_a_run(tmp_path):
     ({"sensors": {"resolutoin": 1e-4}}, r"unknown key 'resolutoin' in \[sensors\].*resolution"),
     ({"sensors": {"noise": 1e-5}, "controller": {"sample_time": 0.0}}, r"apply to sampled-data control"),
     ({"simulation": {"seed": -1}}, r"\[simulation\]\.seed must be a non-negative integer"),
+    ({"plant": {"stick_slip": "yes"}}, r"\[plant\]\.stick_slip must be true or false, got \"yes\""),
+    ({"plant": {"stick_slip": True, "coulomb_rate": 0.0}},
+     r"\[plant\]: stick_slip friction needs coulomb_rate > 0"),
 ])
 def test_bad_drive_and_sensor_keys_are_refused_by_key(tables, message):
     data = {"trajectory": {"type": "circle", "center": [0.25, 0.21], "radius": 0.05, "speed": 0.2}, **tables}

@@ -11,7 +11,8 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
 
     # the plant's drives, optional (one number, or one per actuator; pkmlab.simulation.realism):
     # gear_ratio = 1.0, armature (the motor's, kg m2), viscous, coulomb (at the joint), coulomb_rate = 1e-3
-    # (0: exact sign), effort_limit (the motor's), effort_noise (its standard deviation)
+    # (0: exact sign), stick_slip = false (true: stick-slip friction, Karnopp's model: coulomb_rate is the window
+    # of rates that count as rest), effort_limit (the motor's), effort_noise (its standard deviation)
 
     [sensors]                   # optional: what the controller measures, instead of the plant's exact state
     resolution = 1.5e-4         # the encoder's step at the joint (rad or m), one number or one per actuator
@@ -107,12 +108,13 @@ TABLES = {
     "manipulator": ("preset", "params"),
     "mechanism": ("preset", "file", "name", "dimension", "gravity", "platform", "leg"),
     "plant": ("mass_scale", "length_scale", "gear_ratio", "armature", "viscous", "coulomb", "coulomb_rate",
-              "effort_limit", "effort_noise"),
+              "stick_slip", "effort_limit", "effort_noise"),
     "sensors": ("resolution", "noise", "delay", "rates"),
     "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
                    "normal", "orientation", "start", "end", "points", "durations", "orientation_path", "period",
                    "periods", "a", "b"),
-    "controller": ("type", "kp", "kv", "sample_time", "gear_ratio", "armature", "viscous", "coulomb", "coulomb_rate"),
+    "controller": ("type", "kp", "kv", "sample_time", "gear_ratio", "armature", "viscous", "coulomb", "coulomb_rate",
+                   "stick_slip"),
     "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps", "seed"),
     "timing": ("velocity", "acceleration", "effort", "grid"),
 }
@@ -326,7 +328,15 @@ def _drives(rd: _Reader, table: dict, model, name: str = "plant") -> Drives | No
              for key, sign in DRIVE_KEYS.items() if key in table}
     if "coulomb_rate" in table:
         given["coulomb_rate"] = rd.number(table, name, "coulomb_rate", None, "non-negative")
-    return Drives(**given) if given else None
+    if "stick_slip" in table:
+        if not isinstance(table["stick_slip"], bool):
+            raise rd.value_error(f"{rd.where(name, 'stick_slip')} must be true or false, got "
+                                 f"{show(table['stick_slip'])}")
+        given["stick_slip"] = table["stick_slip"]
+    try:
+        return Drives(**given) if given else None
+    except InvalidParameterError as exc:
+        raise rd.value_error(f"{rd.where(name)}: {exc}") from None
 
 
 def _sensors(rd: _Reader, table: dict, model) -> Sensors | None:

@@ -130,14 +130,19 @@ def joint_names(model) -> tuple[str, ...]:
 
 
 def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", closures: str = "stiff",
-         solref=None, solimp=None) -> str:
+         solref=None, solimp=None, drives=None) -> str:
     """The MJCF text of a :class:`~pkmlab.model.mechanism_model.MechanismModel` (module docstring), with a keyframe
     ``"pkmlab"`` at configuration ``q`` (default :func:`home_configuration`). ``closures`` sets the
     loop-closure constraints: ``"stiff"`` (default, :data:`STIFF_SOLREF`, :data:`STIFF_SOLIMP`: they then
     behave like the rigid machine) or ``"soft"`` (MuJoCo's defaults, :data:`DEFAULT_SOLREF`,
     :data:`DEFAULT_SOLIMP`); ``solref`` or ``solimp``, when given, replaces that setting's own. An XML
-    comment before the constraints says which settings the file uses, and why."""
+    comment before the constraints says which settings the file uses, and why.
+
+    ``drives`` (a :class:`~pkmlab.simulation.realism.Drives`, optional) puts the drives on the actuated joints as
+    MuJoCo models them (:func:`drive_attributes`); their effort limit and noise are the controller's side (the
+    MuJoCo plant applies them to the command)."""
     m = model.description
+    drive_attrs = drive_attributes(model, drives)
     named_solref, named_solimp = closure_settings(closures)
     solref = named_solref if solref is None else tuple(float(v) for v in solref)
     solimp = named_solimp if solimp is None else tuple(float(v) for v in solimp)
@@ -176,7 +181,8 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
             for axis in axes:
                 jname = next(joints)
                 kind = "slide" if joint.kind == "P" else "hinge"
-                body_lines.append(f'{pad}  <joint name="{jname}" type="{kind}" axis="{_numbers(axis)}"/>')
+                extra = drive_attrs[i] if joint.actuated else ""
+                body_lines.append(f'{pad}  <joint name="{jname}" type="{kind}" axis="{_numbers(axis)}"{extra}/>')
                 if joint.actuated:
                     actuators.append(f'    <motor name="actuator{i + 1}" joint="{jname}" gear="1"/>')
             if _spatial(m):
@@ -236,6 +242,31 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
               "  <keyframe>", f'    <key name="pkmlab" qpos="{_numbers(qpos)}"/>', "  </keyframe>",
               "</mujoco>"]
     return "\n".join(lines) + "\n"
+
+
+def drive_attributes(model, drives) -> list[str]:
+    """Each actuated joint's MJCF attributes for ``drives`` (a :class:`~pkmlab.simulation.realism.Drives` or None:
+    none): the reflected armature as ``armature``, viscous friction as ``damping`` and Coulomb friction as
+    ``frictionloss`` — MuJoCo's dry friction, a stick–slip law solved with the constraints, so only stick–slip
+    friction (``stick_slip``) has its counterpart there. Refused where MuJoCo's joint value is not pkmlab's
+    actuator (a planar leg's actuated revolute after its first joint: MuJoCo's angle is relative)."""
+    n = model.n_actuators
+    if drives is None:
+        return [""] * n
+    table = drives.table(n)
+    m = model.description
+    if np.any(table[:, 2] > 0) and not drives.stick_slip:
+        law = "exact sign" if drives.coulomb_rate == 0 else "smooth tanh"
+        raise InvalidParameterError(f"MuJoCo's Coulomb friction (frictionloss) is stick-slip friction, not pkmlab's "
+                                    f"{law} law: declare the drives' stick_slip = true, or run on pkmlab's plant")
+    for i, leg in enumerate(m.legs):
+        k = next(k for k, joint in enumerate(leg.joints) if joint.actuated)
+        if not _spatial(m) and leg.joints[k].kind == "R" and k > 0:
+            raise InvalidParameterError(f"leg {i + 1}: its actuated revolute is joint {k + 1}, whose MuJoCo angle is "
+                                        "relative and pkmlab's absolute: drives on it are not exported")
+    names = ("armature", "damping", "frictionloss")
+    return ["".join(f' {name}="{float(table[i, c])!r}"' for c, name in enumerate(names) if table[i, c] > 0)
+            for i in range(n)]
 
 
 def _closure_comment(closures: str, solref, solimp) -> str:

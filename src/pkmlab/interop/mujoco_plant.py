@@ -2,13 +2,20 @@
 
 The controller is the one of :func:`pkmlab.simulation.run.simulate` — computed torque (or PD) on the
 controller's own model, its passive coordinates followed by branch following from the measured actuators,
-the effort held over each sample — compiled as :func:`pkmlab.codegen.core.entry_points.control_effort_from`. The
-plant is MuJoCo stepping :func:`pkmlab.interop.mujoco_export.mjcf` of the scenario's plant model (its time step
+the effort held over each sample — compiled as :func:`pkmlab.codegen.core.entry_points.measured_control_effort`.
+The plant is MuJoCo stepping :func:`pkmlab.interop.mujoco_export.mjcf` of the scenario's plant model (its time step
 ``timestep``, which must divide the sample time, and its integrator), started at rest at the plant's
 configuration of :func:`~pkmlab.simulation.run.simulate`. Each sample measures MuJoCo's actuated joints
 (pkmlab's actuator values, :func:`~pkmlab.interop.mujoco_export.q_from_qpos`), and records, besides what every run
 records, MuJoCo's loop-closure violation: the largest distance between a leg's end and its platform
 attachment point (m) — zero for pkmlab's own plant, whose loops are closed to round-off.
+
+A scenario's drives and sensors apply as on pkmlab's plant: the controller sees the sensors' readings, the
+command is saturated and its noise added by the same compiled code
+(:func:`pkmlab.codegen.core.entry_points.measured_control_effort`); the drives' armature, viscous and Coulomb
+friction are MuJoCo's joint ``armature``, ``damping`` and ``frictionloss``
+(:func:`pkmlab.interop.mujoco_export.drive_attributes`) — MuJoCo's dry friction is stick–slip, so Coulomb friction
+is taken only as stick–slip friction (``stick_slip = true``).
 
 Needs ``mujoco`` (``pip install pkmlab[mujoco]``).
 """
@@ -53,9 +60,6 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
         raise PkmlabError("MuJoCo is not installed: pip install 'pkmlab[mujoco]' (or pip install mujoco)") from None
     if not isinstance(scenario, Scenario):
         raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__}")
-    if scenario.drives is not None or scenario.sensors is not None or scenario.controller_drives is not None:
-        raise InvalidParameterError("the MuJoCo plant has ideal drives and sensors: remove the scenario's drives and "
-                                    "sensors, or run it on pkmlab's plant")
     ts = scenario.sample_time
     if ts <= 0:
         raise InvalidParameterError("the MuJoCo plant runs sampled-data control: give the scenario a sample_time "
@@ -73,7 +77,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     ctrl, plant = scenario.model, scenario.plant_model
     q_plant0, q_ctrl = prep.q_plant0, prep.q_ctrl0.copy()
     model = mujoco.MjModel.from_xml_string(mx.mjcf(plant, q_plant0, timestep=step, integrator=integrator,
-                                                   closures=closures))
+                                                   closures=closures, drives=scenario.drives))
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)
@@ -81,7 +85,8 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     q = np.zeros((count, q_plant0.size))
     theta_dot, tau, s, violation = (np.zeros((count, n)), np.zeros((count, n)), np.zeros(count),
                                     np.zeros(count))
-    q_out, effort = np.empty_like(q_ctrl), np.zeros(n)
+    q_out, effort, applied, r = np.empty_like(q_ctrl), np.zeros(n), np.zeros(n), prep.realism
+    theta_m, theta_dot_m = np.zeros((count if r.sensing >= 0 else 0, n)), np.zeros((count if r.sensing >= 0 else 0, n))
     affine = mx.affine_map(plant)  # the coordinate maps as one matrix where they are linear
     for k in range(count):
         if affine is None:
@@ -91,9 +96,12 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
             q[k] = affine[0] @ data.qpos + affine[1]
             theta_dot[k] = affine[0][:n] @ data.qvel
         violation[k] = float(np.abs(data.efc_pos).max()) if data.nefc else 0.0
-        status = ctrl.kernels.control_effort_from(q_ctrl, prep.kind, prep.kp, prep.kv, q[k, :n], theta_dot[k],
-                                                  d.theta[k], d.theta_dot[k], d.theta_ddot[k], ctrl.P,
-                                                  prep.singularity_guard, q_out, effort)
+        status = ctrl.kernels.measured_control_effort(k, ts, np.concatenate([q[k, :n], theta_dot[k]]), q_ctrl,
+                                                      prep.kind, prep.kp, prep.kv, d.theta[k], d.theta_dot[k],
+                                                      d.theta_ddot[k], ctrl.P, prep.singularity_guard, r.drive,
+                                                      r.ctrl_drive, r.effort_noise, r.resolution, r.theta_noise,
+                                                      r.sensing, r.delay, theta_m, theta_dot_m, q_out, effort,
+                                                      applied)
         if status != ctrl.kernels.OK:
             pose = pose_text(q[k, -plant.description.dof:])
             raise PkmlabError(f"run stopped at t = {prep.t[k]:.4f} s: the controller's model "
@@ -102,7 +110,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
         tau[k] = effort
         if k == count - 1:
             break
-        data.ctrl[:] = effort
+        data.ctrl[:] = applied
         for _ in range(steps):
             mujoco.mj_step(model, data)
         if not math.isfinite(float(data.qpos.sum() + data.qvel.sum())) \
@@ -112,5 +120,5 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                                        "or another integrator")
     plant.kernels.singularity_measures(q, plant.P, s)  # of every recorded configuration, at once
     pose = q[:, -plant.description.dof:].copy()
-    result = run_result(scenario, prep, q, theta_dot, tau, pose, s)
+    result = run_result(scenario, prep, q, theta_dot, tau, pose, s, theta_m if r.sensing >= 0 else None)
     return replace(result, closure_violation=violation)

@@ -587,13 +587,15 @@ TRIAL = 1
 
 #: The plant's drives (:mod:`pkmlab.simulation.realism`): one row per actuator of these columns, at the joint —
 #: the reflected armature (kg m² or kg), viscous and Coulomb friction, the rate below which Coulomb friction is
-#: smoothed (0: exact, ``fc sign(θ̇)``) and the largest effort; no rows for ideal drives.
+#: smoothed (0: exact, ``fc sign(θ̇)``) or, for stick–slip, the rate below which the actuator may stick (Karnopp's
+#: window), the largest effort, and 1 for stick–slip friction; no rows for ideal drives.
 ARMATURE = 0
 VISCOUS = 1
 COULOMB = 2
 COULOMB_RATE = 3
 EFFORT_LIMIT = 4
-DRIVE_COLUMNS = 5
+STICK_SLIP = 5
+DRIVE_COLUMNS = 6
 NO_DRIVES = np.zeros((0, DRIVE_COLUMNS))
 #: How the controller gets the actuators' rates (the loop's ``sensing``): the plant's own state (ideal sensors),
 #: the plant's exact rates beside measured values, or the measured values differenced sample to sample.
@@ -635,6 +637,9 @@ WORKSPACE = np.dtype([
     ("g_theta", np.float64, (N_ACTUATORS,)),  # gθ = ∂V/∂θ
     ("theta_ddot", np.float64, (N_ACTUATORS,)),
     ("ldl", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # factor of Mθ
+    ("m_drives", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # Mθ + Ia, kept while stuck actuators' rows are replaced
+    ("free_rhs", np.float64, (N_ACTUATORS,)),  # the efforts less friction of the actuators that move
+    ("stuck", np.int64, (N_ACTUATORS,)),  # 1 for an actuator held by its stick-slip friction
     ("lines", np.float64, (N_ACTUATORS, LINE_WIDTH)),  # the legs' lines of action
     ("lu_base", np.float64, (REDUCED, REDUCED)),  # the same factors at the base, kept for branch following from it
     ("piv_base", np.int64, (REDUCED,)),
@@ -1242,9 +1247,13 @@ def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known, dr
 @njit(**NO_REFCOUNT_INLINE)
 def drive_friction(drive, i, rate):
     """Actuator ``i``'s friction ``fv θ̇ + fc φ(θ̇)`` at the rate ``rate``: ``φ = tanh(θ̇ / v_c)``, or ``sign(θ̇)``
-    when ``v_c = 0`` (the drive rows' :data:`VISCOUS`, :data:`COULOMB`, :data:`COULOMB_RATE`)."""
+    when ``v_c = 0`` (the drive rows' :data:`VISCOUS`, :data:`COULOMB`, :data:`COULOMB_RATE`); for stick–slip
+    friction (:data:`STICK_SLIP`) ``sign(θ̇)`` outside Karnopp's window ``|θ̇| < v_c`` and 0 inside it, where the
+    friction is whatever holds the actuator (:func:`stick_slip_accelerations`)."""
     band = drive[i, COULOMB_RATE]
-    if band > 0.0:
+    if drive[i, STICK_SLIP] > 0.0:
+        phi = 0.0 if abs(rate) < band else (1.0 if rate > 0.0 else -1.0)
+    elif band > 0.0:
         phi = math.tanh(rate / band)
     else:
         phi = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else 0.0)
@@ -1259,11 +1268,52 @@ def drive_accelerations(ws, theta_dot, tau, drive):
 
     with each actuator's reflected armature ``Ia``, viscous ``fv`` and Coulomb ``fc`` friction (``τ`` the
     effort the drive applies). ``Mθ`` is overwritten. Returns the status."""
+    sticking = False
     for i in range(N_ACTUATORS):
         ws.m_theta[i, i] += drive[i, ARMATURE]
         ws.theta_ddot[i] = tau[i] - drive_friction(drive, i, theta_dot[i]) - ws.c_theta[i] - ws.g_theta[i]
+        ws.stuck[i] = 1 if drive[i, STICK_SLIP] > 0.0 and abs(theta_dot[i]) < drive[i, COULOMB_RATE] else 0
+        sticking = sticking or ws.stuck[i] == 1
+    if sticking:
+        return stick_slip_accelerations(ws, drive)
     if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
         return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def stick_slip_accelerations(ws, drive):
+    """``θ̈`` with the actuators of ``ws.stuck`` (inside Karnopp's window) held at ``θ̈ = 0`` by their friction
+    while it can hold them: ``ws.m_theta`` is ``Mθ + Ia`` and ``ws.theta_ddot`` the efforts less every other
+    friction (:func:`drive_accelerations`). The held actuators' rows are solved away; the friction that holds
+    each, ``F_i = rhs_i - Σ_j (Mθ + Ia)_ij θ̈_j``, is checked against ``fc_i``, and the actuator that exceeds it
+    most slips, its friction ``fc_i sign(F_i)``; again until every held one holds (at most once per actuator)."""
+    for i in range(N_ACTUATORS):
+        ws.free_rhs[i] = ws.theta_ddot[i]
+        for j in range(N_ACTUATORS):
+            ws.m_drives[i, j] = ws.m_theta[i, j]
+    for _ in range(N_ACTUATORS + 1):
+        for i in range(N_ACTUATORS):
+            for j in range(N_ACTUATORS):
+                held = ws.stuck[i] == 1 or ws.stuck[j] == 1
+                ws.m_theta[i, j] = (1.0 if i == j else 0.0) if held else ws.m_drives[i, j]
+            ws.theta_ddot[i] = 0.0 if ws.stuck[i] == 1 else ws.free_rhs[i]
+        if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
+            return SINGULAR
+        worst, excess, force = -1, 1.0, 0.0
+        for i in range(N_ACTUATORS):
+            if ws.stuck[i] == 1:
+                f = ws.free_rhs[i]
+                for j in range(N_ACTUATORS):
+                    f -= ws.m_drives[i, j] * ws.theta_ddot[j]
+                limit = drive[i, COULOMB]
+                ratio = abs(f) / limit if limit > 0.0 else (math.inf if f != 0.0 else 0.0)
+                if ratio > excess:
+                    worst, excess, force = i, ratio, f
+        if worst < 0:
+            return OK
+        ws.stuck[worst] = 0
+        ws.free_rhs[worst] -= drive[worst, COULOMB] * (1.0 if force > 0.0 else -1.0)
     return OK
 
 
@@ -1422,16 +1472,22 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
         if shared:
             copy_model(ctrl, plant)
         held = tau
-        if drive.shape[0] > 0:  # the drive applies the command within its limit, with its noise
-            for i in range(n):
-                limit = drive[i, EFFORT_LIMIT]
-                applied[i] = min(max(tau[i], -limit), limit) + (effort_noise[k, i] if effort_noise.shape[0] > 0
-                                                                 else 0.0)
+        if drive.shape[0] > 0:
+            drive_effort(drive, tau, effort_noise, k, applied)
             held = applied
         status = rk4_sample(plant, x, held, P_plant, ts, n_sub, singularity_guard, work, shared, drive)
         if status != OK:
             return status, k
     return OK, -1
+
+
+@njit(**NO_REFCOUNT)
+def drive_effort(drive, tau, effort_noise, k, applied):
+    """The effort the plant's drives apply at sample ``k`` for the command ``tau``, into ``applied``: the command
+    within each drive's :data:`EFFORT_LIMIT`, plus ``effort_noise[k]`` (no rows: none)."""
+    for i in range(N_ACTUATORS):
+        limit = drive[i, EFFORT_LIMIT]
+        applied[i] = min(max(tau[i], -limit), limit) + (effort_noise[k, i] if effort_noise.shape[0] > 0 else 0.0)
 
 
 @njit(**NO_REFCOUNT)
@@ -1491,22 +1547,23 @@ def constraint_biases(qs, q_dots, P, out):
 # arrays in and out, the workspace made inside (making one costs well under a microsecond), then passed
 # with the array that holds it to the function that does the work
 @njit(cache=True)
-def actuator_space_rhs(q_base, y, tau, P, singularity_guard, q_out):
+def actuator_space_rhs(q_base, y, tau, P, singularity_guard, drive, q_out):
     """``(θ̇, θ̈)`` of the actuator-space plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
     the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
-    configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
-    return _actuator_space_rhs(make_workspaces(1), q_base, y, tau, P, singularity_guard, q_out)
+    configuration reached into ``q_out``; ``drive`` the plant's drives (:func:`plant_stage`, no rows: ideal).
+    Returns ``(ẏ, status)``."""
+    return _actuator_space_rhs(make_workspaces(1), q_base, y, tau, P, singularity_guard, drive, q_out)
 
 
 @njit(cache=True)
-def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, q_out):
+def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive, q_out):
     n = N_ACTUATORS
     ws = workspaces[0]
     out = np.zeros(2 * n)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, singularity_guard, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False, NO_DRIVES)
+        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False, drive)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:
@@ -1517,17 +1574,10 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, q_out)
 
 
 @njit(cache=True)
-def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
-                        singularity_guard, q_out, tau):
-    """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
-    configuration at the measured ``theta`` into ``q_out``. Returns the status."""
-    return _control_effort_from(make_workspaces(1), q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
-                                theta_ddot_d, P, singularity_guard, q_out, tau)
-
-
-@njit(cache=True)
 def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
                          singularity_guard, q_out, tau):
+    """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its configuration
+    at the measured ``theta`` into ``q_out``. Returns the status."""
     ws = workspaces[0]
     if kind == 1:  # PD: no model to move
         q_out[:] = q_base
@@ -1540,6 +1590,37 @@ def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, the
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     return status
+
+
+@njit(cache=True)
+def measured_control_effort(k, ts, x, q_base, kind, kp, kv, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
+                            drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_theta_m,
+                            theta_dot_m, q_out, tau, applied):
+    """Sample ``k`` of :func:`sampled_data_loop`'s controller for a plant integrated elsewhere (MuJoCo, an adaptive
+    integrator), at the plant's state ``x = (θ, θ̇)``: the measurement (``sensing`` not :data:`IDEAL_SENSORS`:
+    into ``out_theta_m[k]`` and ``theta_dot_m[k]``, the controller using sample ``k - delay``'s), the effort of
+    :func:`_control_effort_from` into ``tau`` with the controller's model of the drives ``ctrl_drive``, and the
+    effort the plant's drives ``drive`` apply (:func:`drive_effort`; no rows: the command) into ``applied``; the
+    arguments as :func:`sampled_data_loop`'s. Returns the status."""
+    n = N_ACTUATORS
+    workspaces = make_workspaces(1)
+    if sensing == IDEAL_SENSORS:
+        theta, theta_dot = x[:n], x[n:]
+    else:
+        measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
+        j = max(k - delay, 0)
+        theta, theta_dot = out_theta_m[j], theta_dot_m[j]
+    status = _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
+                                  theta_ddot_d, P, singularity_guard, q_out, tau)
+    if status != OK:
+        return status
+    if kind == 0 and ctrl_drive.shape[0] > 0:
+        compensate_drives(workspaces[0], tau, theta_dot, ctrl_drive)
+    if drive.shape[0] > 0:
+        drive_effort(drive, tau, effort_noise, k, applied)
+    else:
+        applied[:] = tau
+    return OK
 
 
 @njit(cache=True)

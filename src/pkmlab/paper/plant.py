@@ -135,7 +135,8 @@ class ReducedPlant:
             nonlocal evaluations
             evaluations += 1
             effort = np.asarray(effort_of(t, y[:3], y[3:]), dtype=float)
-            ydot, status = kernels.actuator_space_rhs(q_last, y, effort, P, self.singularity_guard, q_work)
+            ydot, status = kernels.actuator_space_rhs(q_last, y, effort, P, self.singularity_guard, kernels.NO_DRIVES,
+                                                      q_work)
             if status != kernels.OK:
                 why = (f"reached a gain-type singularity (|S| < singularity_guard = {self.singularity_guard:g})"
                        if status == kernels.SINGULAR else "could not follow its assembly mode")

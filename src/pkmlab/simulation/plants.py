@@ -236,7 +236,7 @@ class ActuatorSpacePlant:
             evaluations += 1
             efforts = effort(t, y[:na], y[na:])
             y_dot, status = kernels.actuator_space_rhs(q_last, np.ascontiguousarray(y), efforts, P, singularity_guard,
-                                                       q_work)
+                                                       kernels.NO_DRIVES, q_work)
             if status != kernels.OK:
                 why = (f"reached a gain-type singularity (|S| < singularity_guard = {singularity_guard:g})"
                        if status == kernels.SINGULAR else "could not follow its assembly mode")

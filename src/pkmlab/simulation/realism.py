@@ -6,7 +6,12 @@ the motor's rotor inertia ``I_m`` is felt at the joint as the armature ``N² I_m
 ``τ_m,max`` limits the joint's effort to ``N τ_m,max`` (the command is saturated there); friction is given at
 the joint, viscous ``fv θ̇`` and Coulomb ``fc φ(θ̇)``. The Coulomb law is smooth, ``φ = tanh(θ̇ / v_c)`` with
 ``coulomb_rate = v_c`` > 0 (a fixed-step integrator needs it: the exact law switches within a step), or exact,
-``φ = sign(θ̇)`` (zero at rest, no stiction) with ``coulomb_rate = 0``. The effort the drive applies may carry
+``φ = sign(θ̇)`` (zero at rest, no stiction) with ``coulomb_rate = 0``, or stick–slip (``stick_slip = True``,
+Karnopp's model): outside a window ``|θ̇| < v_c`` the friction is ``fc sign(θ̇)``; inside it an actuator sticks —
+its acceleration is zero, the friction whatever holds it — as long as that friction stays within ``fc``, and
+slips when the efforts on it exceed that (the actuators are solved together: one sticking changes what the
+others feel). A rate below the window counts as rest, so the window is the model's resolution of rest. The
+effort the drive applies may carry
 white noise (``effort_noise``, its standard deviation), drawn once per sample and held with the command. The
 plant's actuator-space dynamics become
 
@@ -80,11 +85,14 @@ class Drives:
     coulomb : float or tuple
         ``fc`` at the joint (N m or N).
     coulomb_rate : float
-        ``v_c`` of the smooth Coulomb law (rad/s or m/s); 0 for the exact ``sign(θ̇)``.
+        ``v_c`` of the smooth Coulomb law (rad/s or m/s); 0 for the exact ``sign(θ̇)``; with ``stick_slip``,
+        Karnopp's window (> 0).
     effort_limit : float or tuple
         The motor's largest torque (N m or N; ``inf``: none); the joint's is ``N`` times it.
     effort_noise : float or tuple
         The standard deviation of the applied effort's white noise at the joint (N m or N).
+    stick_slip : bool
+        Stick–slip Coulomb friction (Karnopp's model) instead of the smooth or signed law.
     """
 
     gear_ratio: float | tuple = 1.0
@@ -94,6 +102,7 @@ class Drives:
     coulomb_rate: float = 1e-3
     effort_limit: float | tuple = math.inf
     effort_noise: float | tuple = 0.0
+    stick_slip: bool = False
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -102,14 +111,20 @@ class Drives:
             set_(self, name, _per_actuator(name, getattr(self, name), "non-negative"))
         set_(self, "coulomb_rate", as_real("coulomb_rate", self.coulomb_rate, "non-negative"))
         set_(self, "effort_limit", _per_actuator("effort_limit", self.effort_limit, "positive", allow_inf=True))
+        if not isinstance(self.stick_slip, (bool, np.bool_)):
+            raise InvalidParameterError(f"stick_slip must be true or false, got {shown(self.stick_slip)}")
+        set_(self, "stick_slip", bool(self.stick_slip))
+        if self.stick_slip and not self.coulomb_rate > 0:
+            raise InvalidParameterError("stick_slip friction needs coulomb_rate > 0: the window of rates that count "
+                                        "as rest (Karnopp's model)")
 
     def table(self, n: int) -> np.ndarray:
-        """The compiled loop's drive rows (n, 5) at the joint: reflected armature, viscous, Coulomb, its rate,
-        effort limit."""
+        """The compiled loop's drive rows (n, 6) at the joint: reflected armature, viscous, Coulomb, its rate,
+        effort limit, stick–slip (1) or not (0)."""
         ratio = _column("gear_ratio", self.gear_ratio, n)
         columns = [ratio**2 * _column("armature", self.armature, n), _column("viscous", self.viscous, n),
                    _column("coulomb", self.coulomb, n), np.full(n, self.coulomb_rate),
-                   ratio * _column("effort_limit", self.effort_limit, n)]
+                   ratio * _column("effort_limit", self.effort_limit, n), np.full(n, float(self.stick_slip))]
         return np.ascontiguousarray(np.stack(columns, axis=1))
 
     def noise_levels(self, n: int) -> np.ndarray:

@@ -97,8 +97,8 @@ class Realism(NamedTuple):
     """The compiled loop's arguments for the plant's drives and the controller's sensors
     (:mod:`~pkmlab.simulation.realism`): no rows, ``sensing = -1`` for the ideal plant and exact state."""
 
-    drive: np.ndarray  # (n, 5) or (0, 5)
-    ctrl_drive: np.ndarray  # the controller's model of the drives: (n, 5) or (0, 5)
+    drive: np.ndarray  # (n, DRIVE_COLUMNS) or (0, DRIVE_COLUMNS): Drives.table
+    ctrl_drive: np.ndarray  # the controller's model of the drives, as drive
     effort_noise: np.ndarray  # (N, n) or (0, n)
     resolution: np.ndarray  # (n,)
     theta_noise: np.ndarray  # (N, n) or (0, n)
@@ -118,9 +118,9 @@ def realism(scenario: Scenario, count: int) -> Realism:
 
     n = scenario.model.n_actuators
     drives, sensors = scenario.drives, scenario.sensors
-    drive = drives.table(n) if drives is not None else np.zeros((0, 5))
-    ctrl_drive = (scenario.controller_drives.table(n) if scenario.controller_drives is not None
-                  else np.zeros((0, 5)))
+    ideal = scenario.model.kernels.NO_DRIVES
+    drive = drives.table(n) if drives is not None else ideal
+    ctrl_drive = scenario.controller_drives.table(n) if scenario.controller_drives is not None else ideal
     effort_noise = (noise_rows(drives.noise_levels(n), count, scenario.seed, 0) if drives is not None
                     else np.zeros((0, n)))
     if sensors is None:
@@ -473,12 +473,15 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
     P_plant, P_ctrl = plant.P, ctrl.P
     # the last configurations reached: each evaluation branch-follows from there
     q_plant, q_ctrl, q_next = q_plant0.copy(), q_ctrl0.copy(), np.empty_like(q_plant0)
-    tau = np.zeros(n)
+    tau, applied, r = np.zeros(n), np.zeros(n), prep.realism
+    readings = np.zeros((0, n))  # continuous-time control reads the plant's state
 
     def control(time, theta, theta_dot):
         d = _joint_motion_at(scenario, prep, time)
-        status = k_.control_effort_from(q_ctrl, prep.kind, prep.kp, prep.kv, theta, theta_dot, *d, P_ctrl,
-                                        prep.singularity_guard, q_next, tau)
+        status = k_.measured_control_effort(0, 0.0, np.concatenate([theta, theta_dot]), q_ctrl, prep.kind, prep.kp,
+                                            prep.kv, *d, P_ctrl, prep.singularity_guard, r.drive, r.ctrl_drive,
+                                            r.effort_noise, r.resolution, r.theta_noise, r.sensing, r.delay,
+                                            readings, readings, q_next, tau, applied)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model "
                                        f"{branch_failure_text(status, prep.singularity_guard)}")
@@ -487,7 +490,7 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
 
     def rhs(time, y):
         control(time, y[:n], y[n:])
-        y_dot, status = k_.actuator_space_rhs(q_plant, y, tau, P_plant, prep.singularity_guard, q_next)
+        y_dot, status = k_.actuator_space_rhs(q_plant, y, applied, P_plant, prep.singularity_guard, r.drive, q_next)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant "
                                        f"{branch_failure_text(status, prep.singularity_guard)}")
@@ -508,7 +511,7 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
     efforts = np.empty((prep.t.size, n))
     q_ctrl[:] = q_ctrl0
     for k in range(prep.t.size):
-        efforts[k] = control(prep.t[k], sol.y[:n, k].copy(), sol.y[n:, k].copy())
+        efforts[k] = control(prep.t[k], sol.y[:n, k].copy(), sol.y[n:, k].copy())  # the commands
     return q, sol.y[n:].T.copy(), efforts
 
 

@@ -60,7 +60,8 @@ class Scenario:
     name : str
     drives : Drives or None
         The plant's drives: gear, armature, friction, effort limit and noise (:mod:`~pkmlab.simulation.realism`);
-        None for ideal drives. Sampled-data control only.
+        None for ideal drives. Continuous-time control takes smooth friction (``coulomb_rate > 0``, no
+        ``stick_slip``) and no effort noise.
     sensors : Sensors or None
         What the controller measures: quantised, noisy, delayed actuator values; None for the plant's exact
         state. Sampled-data control only.
@@ -69,7 +70,7 @@ class Scenario:
     controller_drives : Drives or None
         The controller's model of the drives (e.g. identified): computed torque adds ``Ia v + fv θ̇ + fc φ(θ̇)``
         (``v`` the acceleration it commands) at the rates it uses; its effort limit and noise are not used. None:
-        no compensation. Sampled-data computed torque only.
+        no compensation. Computed torque only.
     """
 
     model: MechanismModel
@@ -118,9 +119,8 @@ class Scenario:
             raise InvalidParameterError(f"controller_drives are computed torque's model of the drives; a "
                                         f"{self.controller.kind} controller has no model to add them to")
         set_(self, "seed", as_count("seed", self.seed, 0))
-        if self.sample_time == 0 and (self.drives is not None or self.sensors is not None
-                                      or self.controller_drives is not None):
-            raise InvalidParameterError("drives and sensors apply to sampled-data control: give sample_time > 0")
+        if self.sample_time == 0:
+            _check_continuous_realism(self.drives, self.sensors)
         for name in ("singularity_margin", "singularity_guard"):
             set_(self, name, as_real(name, getattr(self, name), "non-negative"))
         _check_pose_dimension(self.model, self.trajectory)
@@ -148,6 +148,25 @@ class Scenario:
                 raise InvalidParameterError(f"{name} is not a field of Scenario "
                                             f"(fields: {', '.join(self.__dataclass_fields__)})")
         return replace(self, **changes)
+
+
+def _check_continuous_realism(drives: Drives | None, sensors: Sensors | None) -> None:
+    """Continuous-time control integrates a smooth plant with an adaptive integrator: its drives' friction must be
+    smooth, and noise and sensors, drawn or read once per sample, have no samples to belong to."""
+    if sensors is not None:
+        raise InvalidParameterError("sensors read the plant once per sample: they apply to sampled-data control "
+                                    "(give sample_time > 0)")
+    if drives is None:
+        return
+    friction = any(c > 0 for c in np.atleast_1d(drives.coulomb))
+    if friction and (drives.stick_slip or drives.coulomb_rate == 0):
+        law = "stick-slip" if drives.stick_slip else "exact (coulomb_rate = 0)"
+        raise InvalidParameterError(f"continuous-time control integrates a smooth plant; its drives' {law} Coulomb "
+                                    "friction switches within a step: give coulomb_rate > 0 without stick_slip, "
+                                    "or sample_time > 0")
+    if any(v > 0 for v in np.atleast_1d(drives.effort_noise)):
+        raise InvalidParameterError("effort_noise is drawn once per sample: it applies to sampled-data control "
+                                    "(give sample_time > 0)")
 
 
 def _check_pose_dimension(model: MechanismModel, trajectory) -> None:

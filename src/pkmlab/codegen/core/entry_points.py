@@ -23,8 +23,8 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 
     from .branch_following import follow_branch_in_steps, singularity_measure
     from .control import computed_torque, control_effort
-    from .loop import plant_stage
-    from .workspace import BASE, NO_DRIVES, OK, make_workspaces
+    from .loop import compensate_drives, drive_effort, measure, plant_stage
+    from .workspace import BASE, IDEAL_SENSORS, OK, make_workspaces
 
 # ==== TEMPLATE
 @njit(cache=True)
@@ -58,22 +58,23 @@ def constraint_biases(qs, q_dots, P, out):
 # arrays in and out, the workspace made inside (making one costs well under a microsecond), then passed
 # with the array that holds it to the function that does the work
 @njit(cache=True)
-def actuator_space_rhs(q_base, y, tau, P, singularity_guard, q_out):
+def actuator_space_rhs(q_base, y, tau, P, singularity_guard, drive, q_out):
     """``(θ̇, θ̈)`` of the actuator-space plant at ``y = (θ, θ̇)`` under efforts ``tau``, for an adaptive integrator;
     the passive coordinates by branch following from ``q_base`` (a configuration on the manifold), the
-    configuration reached into ``q_out``. Returns ``(ẏ, status)``."""
-    return _actuator_space_rhs(make_workspaces(1), q_base, y, tau, P, singularity_guard, q_out)
+    configuration reached into ``q_out``; ``drive`` the plant's drives (:func:`plant_stage`, no rows: ideal).
+    Returns ``(ẏ, status)``."""
+    return _actuator_space_rhs(make_workspaces(1), q_base, y, tau, P, singularity_guard, drive, q_out)
 
 
 @njit(cache=True)
-def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, q_out):
+def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive, q_out):
     n = N_ACTUATORS
     ws = workspaces[0]
     out = np.zeros(2 * n)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, singularity_guard, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False, NO_DRIVES)
+        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False, drive)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:
@@ -84,17 +85,10 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, q_out)
 
 
 @njit(cache=True)
-def control_effort_from(q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
-                        singularity_guard, q_out, tau):
-    """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its
-    configuration at the measured ``theta`` into ``q_out``. Returns the status."""
-    return _control_effort_from(make_workspaces(1), q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
-                                theta_ddot_d, P, singularity_guard, q_out, tau)
-
-
-@njit(cache=True)
 def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
                          singularity_guard, q_out, tau):
+    """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its configuration
+    at the measured ``theta`` into ``q_out``. Returns the status."""
     ws = workspaces[0]
     if kind == 1:  # PD: no model to move
         q_out[:] = q_base
@@ -107,6 +101,37 @@ def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, the
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     return status
+
+
+@njit(cache=True)
+def measured_control_effort(k, ts, x, q_base, kind, kp, kv, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
+                            drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_theta_m,
+                            theta_dot_m, q_out, tau, applied):
+    """Sample ``k`` of :func:`sampled_data_loop`'s controller for a plant integrated elsewhere (MuJoCo, an adaptive
+    integrator), at the plant's state ``x = (θ, θ̇)``: the measurement (``sensing`` not :data:`IDEAL_SENSORS`:
+    into ``out_theta_m[k]`` and ``theta_dot_m[k]``, the controller using sample ``k - delay``'s), the effort of
+    :func:`_control_effort_from` into ``tau`` with the controller's model of the drives ``ctrl_drive``, and the
+    effort the plant's drives ``drive`` apply (:func:`drive_effort`; no rows: the command) into ``applied``; the
+    arguments as :func:`sampled_data_loop`'s. Returns the status."""
+    n = N_ACTUATORS
+    workspaces = make_workspaces(1)
+    if sensing == IDEAL_SENSORS:
+        theta, theta_dot = x[:n], x[n:]
+    else:
+        measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
+        j = max(k - delay, 0)
+        theta, theta_dot = out_theta_m[j], theta_dot_m[j]
+    status = _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
+                                  theta_ddot_d, P, singularity_guard, q_out, tau)
+    if status != OK:
+        return status
+    if kind == 0 and ctrl_drive.shape[0] > 0:
+        compensate_drives(workspaces[0], tau, theta_dot, ctrl_drive)
+    if drive.shape[0] > 0:
+        drive_effort(drive, tau, effort_noise, k, applied)
+    else:
+        applied[:] = tau
+    return OK
 
 
 @njit(cache=True)

@@ -31,6 +31,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         OK,
         REDUCED,
         SINGULAR,
+        STICK_SLIP,
         TRIAL,
         VISCOUS,
         ldlt_solve,
@@ -65,9 +66,13 @@ def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known, dr
 @njit(**NO_REFCOUNT_INLINE)
 def drive_friction(drive, i, rate):
     """Actuator ``i``'s friction ``fv θ̇ + fc φ(θ̇)`` at the rate ``rate``: ``φ = tanh(θ̇ / v_c)``, or ``sign(θ̇)``
-    when ``v_c = 0`` (the drive rows' :data:`VISCOUS`, :data:`COULOMB`, :data:`COULOMB_RATE`)."""
+    when ``v_c = 0`` (the drive rows' :data:`VISCOUS`, :data:`COULOMB`, :data:`COULOMB_RATE`); for stick–slip
+    friction (:data:`STICK_SLIP`) ``sign(θ̇)`` outside Karnopp's window ``|θ̇| < v_c`` and 0 inside it, where the
+    friction is whatever holds the actuator (:func:`stick_slip_accelerations`)."""
     band = drive[i, COULOMB_RATE]
-    if band > 0.0:
+    if drive[i, STICK_SLIP] > 0.0:
+        phi = 0.0 if abs(rate) < band else (1.0 if rate > 0.0 else -1.0)
+    elif band > 0.0:
         phi = math.tanh(rate / band)
     else:
         phi = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else 0.0)
@@ -82,11 +87,52 @@ def drive_accelerations(ws, theta_dot, tau, drive):
 
     with each actuator's reflected armature ``Ia``, viscous ``fv`` and Coulomb ``fc`` friction (``τ`` the
     effort the drive applies). ``Mθ`` is overwritten. Returns the status."""
+    sticking = False
     for i in range(N_ACTUATORS):
         ws.m_theta[i, i] += drive[i, ARMATURE]
         ws.theta_ddot[i] = tau[i] - drive_friction(drive, i, theta_dot[i]) - ws.c_theta[i] - ws.g_theta[i]
+        ws.stuck[i] = 1 if drive[i, STICK_SLIP] > 0.0 and abs(theta_dot[i]) < drive[i, COULOMB_RATE] else 0
+        sticking = sticking or ws.stuck[i] == 1
+    if sticking:
+        return stick_slip_accelerations(ws, drive)
     if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
         return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def stick_slip_accelerations(ws, drive):
+    """``θ̈`` with the actuators of ``ws.stuck`` (inside Karnopp's window) held at ``θ̈ = 0`` by their friction
+    while it can hold them: ``ws.m_theta`` is ``Mθ + Ia`` and ``ws.theta_ddot`` the efforts less every other
+    friction (:func:`drive_accelerations`). The held actuators' rows are solved away; the friction that holds
+    each, ``F_i = rhs_i - Σ_j (Mθ + Ia)_ij θ̈_j``, is checked against ``fc_i``, and the actuator that exceeds it
+    most slips, its friction ``fc_i sign(F_i)``; again until every held one holds (at most once per actuator)."""
+    for i in range(N_ACTUATORS):
+        ws.free_rhs[i] = ws.theta_ddot[i]
+        for j in range(N_ACTUATORS):
+            ws.m_drives[i, j] = ws.m_theta[i, j]
+    for _ in range(N_ACTUATORS + 1):
+        for i in range(N_ACTUATORS):
+            for j in range(N_ACTUATORS):
+                held = ws.stuck[i] == 1 or ws.stuck[j] == 1
+                ws.m_theta[i, j] = (1.0 if i == j else 0.0) if held else ws.m_drives[i, j]
+            ws.theta_ddot[i] = 0.0 if ws.stuck[i] == 1 else ws.free_rhs[i]
+        if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
+            return SINGULAR
+        worst, excess, force = -1, 1.0, 0.0
+        for i in range(N_ACTUATORS):
+            if ws.stuck[i] == 1:
+                f = ws.free_rhs[i]
+                for j in range(N_ACTUATORS):
+                    f -= ws.m_drives[i, j] * ws.theta_ddot[j]
+                limit = drive[i, COULOMB]
+                ratio = abs(f) / limit if limit > 0.0 else (math.inf if f != 0.0 else 0.0)
+                if ratio > excess:
+                    worst, excess, force = i, ratio, f
+        if worst < 0:
+            return OK
+        ws.stuck[worst] = 0
+        ws.free_rhs[worst] -= drive[worst, COULOMB] * (1.0 if force > 0.0 else -1.0)
     return OK
 
 
@@ -245,16 +291,22 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
         if shared:
             copy_model(ctrl, plant)
         held = tau
-        if drive.shape[0] > 0:  # the drive applies the command within its limit, with its noise
-            for i in range(n):
-                limit = drive[i, EFFORT_LIMIT]
-                applied[i] = min(max(tau[i], -limit), limit) + (effort_noise[k, i] if effort_noise.shape[0] > 0
-                                                                 else 0.0)
+        if drive.shape[0] > 0:
+            drive_effort(drive, tau, effort_noise, k, applied)
             held = applied
         status = rk4_sample(plant, x, held, P_plant, ts, n_sub, singularity_guard, work, shared, drive)
         if status != OK:
             return status, k
     return OK, -1
+
+
+@njit(**NO_REFCOUNT)
+def drive_effort(drive, tau, effort_noise, k, applied):
+    """The effort the plant's drives apply at sample ``k`` for the command ``tau``, into ``applied``: the command
+    within each drive's :data:`EFFORT_LIMIT`, plus ``effort_noise[k]`` (no rows: none)."""
+    for i in range(N_ACTUATORS):
+        limit = drive[i, EFFORT_LIMIT]
+        applied[i] = min(max(tau[i], -limit), limit) + (effort_noise[k, i] if effort_noise.shape[0] > 0 else 0.0)
 
 
 @njit(**NO_REFCOUNT)

@@ -79,13 +79,15 @@ TRIAL = 1
 
 #: The plant's drives (:mod:`pkmlab.simulation.realism`): one row per actuator of these columns, at the joint —
 #: the reflected armature (kg m² or kg), viscous and Coulomb friction, the rate below which Coulomb friction is
-#: smoothed (0: exact, ``fc sign(θ̇)``) and the largest effort; no rows for ideal drives.
+#: smoothed (0: exact, ``fc sign(θ̇)``) or, for stick–slip, the rate below which the actuator may stick (Karnopp's
+#: window), the largest effort, and 1 for stick–slip friction; no rows for ideal drives.
 ARMATURE = 0
 VISCOUS = 1
 COULOMB = 2
 COULOMB_RATE = 3
 EFFORT_LIMIT = 4
-DRIVE_COLUMNS = 5
+STICK_SLIP = 5
+DRIVE_COLUMNS = 6
 NO_DRIVES = np.zeros((0, DRIVE_COLUMNS))
 #: How the controller gets the actuators' rates (the loop's ``sensing``): the plant's own state (ideal sensors),
 #: the plant's exact rates beside measured values, or the measured values differenced sample to sample.
@@ -127,6 +129,9 @@ WORKSPACE = np.dtype([
     ("g_theta", np.float64, (N_ACTUATORS,)),  # gθ = ∂V/∂θ
     ("theta_ddot", np.float64, (N_ACTUATORS,)),
     ("ldl", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # factor of Mθ
+    ("m_drives", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # Mθ + Ia, kept while stuck actuators' rows are replaced
+    ("free_rhs", np.float64, (N_ACTUATORS,)),  # the efforts less friction of the actuators that move
+    ("stuck", np.int64, (N_ACTUATORS,)),  # 1 for an actuator held by its stick-slip friction
     ("lines", np.float64, (N_ACTUATORS, LINE_WIDTH)),  # the legs' lines of action
     ("lu_base", np.float64, (REDUCED, REDUCED)),  # the same factors at the base, kept for branch following from it
     ("piv_base", np.int64, (REDUCED,)),
