@@ -267,6 +267,8 @@ def test_identify_reads_a_log_and_writes_its_results(tmp_path, paper_log):
      r"column theta1 reaches .* cannot be radians"),
     (lambda h, rows: (h, rows[:1]), r"too few samples \(1 row\)"),
     (lambda h, rows: (h, rows[:30]), r"too few samples: 30 rows, and the filter's window"),
+    (lambda h, rows: (h, [[str(float(r[0]) * 1000), *r[1:]] for r in rows]),
+     r"log.csv: the filter's window of 0.05 s spans 0.05 samples at the log's step of 1 s.*is t in seconds\?"),
 ])
 def test_a_bad_log_is_refused_in_one_line_and_nothing_is_written(tmp_path, paper_log, change, message):
     t, q, tau = paper_log

@@ -3,8 +3,14 @@ external measurements of the platform.
 
 What is calibrated. The description's geometric parameters — every leg's base point, every body's tip (its
 joint-to-joint vector, hence the link lengths), the platform's attachment points — and each actuator's zero
-offset (``θ_true = θ_read + δ``): :func:`geometric_parameters` names them (``base2_y``, ``body1_2_tip_x``,
-``attach3_x``, ``offset1``). Joint axes are kept as described.
+offset (``θ_true = θ_read + δ``) — and its joint axes, as small turns from the described ones (rad): a planar
+rail's angle (``rail1_angle``); a spatial revolute's or prismatic joint's axis turned about two directions
+perpendicular to it (``axis1_1_tilt_u``, ``_tilt_v``: ``u`` the unit ``a × e`` for the world axis ``e`` least
+aligned with the axis ``a``, ``v = a × u``); a universal joint's two axes turned together, keeping them
+perpendicular, about the x, y and z of the frame they are given in (``axis1_2_turn_x``, ``_y``, ``_z``; a turn
+about the first axis alone only moves the zero of a passive coordinate, and is found unidentifiable).
+:func:`geometric_parameters` names them all (``base2_y``, ``body1_2_tip_x``, ``attach3_x``, ``rail1_angle``,
+``offset1``).
 
 The measurement model. A pose ``k`` is the machine at rest at the actuator readings ``θ_k`` with the platform
 measured by an external instrument: its tracked point (a laser tracker, ``measure = "position"``) or its whole
@@ -27,6 +33,7 @@ measurement noise the residuals show.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, replace
 
@@ -49,9 +56,74 @@ RANK_TOL = 1e-6
 STEP = 1e-7
 
 
+@dataclass(frozen=True)
+class _AxisTurn:
+    """The turn parameters of one joint's axes (rad; the module's text) and the packed vector's entries of those
+    axes: a planar rail's ``(cos, sin)``, or a spatial joint's axis or pair of axes (3 or 6 components)."""
+
+    names: tuple[str, ...]
+    leg: int
+    joint: int
+    index: np.ndarray
+    nominal: np.ndarray
+    basis: np.ndarray | None  # (len(names), 3): each turn's direction (spatial); None for a rail's angle
+
+    def rotation(self, turns) -> np.ndarray:
+        from ..description.spatial import axis_rotation
+
+        omega = np.asarray(turns, dtype=float) @ self.basis
+        angle = float(np.linalg.norm(omega))
+        return axis_rotation(omega / angle, angle) if angle > 0 else np.eye(3)
+
+    def values(self, turns) -> np.ndarray:
+        """The packed entries of the axes turned by ``turns`` (len(names),)."""
+        if self.basis is None:
+            angle = float(np.arctan2(self.nominal[1], self.nominal[0])) + float(turns[0])
+            return np.array([np.cos(angle), np.sin(angle)])
+        return (self.nominal.reshape(-1, 3) @ self.rotation(turns).T).ravel()
+
+
+def _perpendicular_basis(axis) -> np.ndarray:
+    """``u = a × e / |a × e|`` for the world axis ``e`` least aligned with ``a``, and ``v = a × u``."""
+    a = np.asarray(axis, dtype=float)
+    e = np.eye(3)[int(np.argmin(np.abs(a)))]
+    u = np.cross(a, e)
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(a, u)])
+
+
+def _axis_turns(model: MechanismModel) -> tuple[_AxisTurn, ...]:
+    """Every joint axis's turn parameters, leg by leg and joint by joint (the module's text)."""
+    index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
+    m = model.description
+    turns = []
+    for i, leg in enumerate(m.legs):
+        if not hasattr(leg.joints[0], "axes"):  # planar: a rail's angle
+            if f"rail{i + 1}_x" in index:
+                entries = np.array([index[f"rail{i + 1}_{c}"] for c in "xy"])
+                turns.append(_AxisTurn((f"rail{i + 1}_angle",), i, 0, entries, model.P[entries].copy(), None))
+            continue
+        for k, joint in enumerate(leg.joints):
+            if not joint.axes:
+                continue
+            keys = [f"axis{i + 1}_{k + 1}{'ab'[a]}_{c}" for a in range(len(joint.axes)) for c in "xyz"]
+            entries = np.array([index[key] for key in keys])
+            if len(joint.axes) == 1:
+                names, basis = (f"axis{i + 1}_{k + 1}_tilt_u", f"axis{i + 1}_{k + 1}_tilt_v"), \
+                    _perpendicular_basis(joint.axes[0])
+            else:
+                names, basis = tuple(f"axis{i + 1}_{k + 1}_turn_{c}" for c in "xyz"), np.eye(3)
+            turns.append(_AxisTurn(names, i, k, entries, model.P[entries].copy(), basis))
+    return tuple(turns)
+
+
+def _turned(turn: _AxisTurn, values: dict) -> np.ndarray:
+    return np.array([float(values.get(n, 0.0)) for n in turn.names])
+
+
 def geometric_parameters(model) -> tuple[str, ...]:
     """The names of ``model``'s geometric parameters (the module's text), in the packed vector's order, then the
-    actuators' offsets ``offset<j>``.
+    turns of its joint axes, then the actuators' offsets ``offset<j>``.
 
     >>> import pkmlab
     >>> geometric_parameters(pkmlab.load("five_bar"))[:4]
@@ -59,14 +131,20 @@ def geometric_parameters(model) -> tuple[str, ...]:
     """
     model = as_model(model)
     names = [n for n in model.kernels.PARAMETERS if _GEOMETRY.match(n)]
-    return (*names, *(f"offset{j + 1}" for j in range(model.n_actuators)))
+    turns = [n for turn in _axis_turns(model) for n in turn.names]
+    return (*names, *turns, *(f"offset{j + 1}" for j in range(model.n_actuators)))
+
+
+def _is_angle(name: str) -> bool:
+    """A parameter in radians from its described value (a turn of an axis), not a coordinate in metres."""
+    return name.endswith("_angle") or "_tilt_" in name or "_turn_" in name
 
 
 def _scales(model: MechanismModel, names) -> np.ndarray:
     size = length_scale(model)
     kinds = model.description.actuator_kinds
-    return np.array([(1.0 if kinds[int(n[6:]) - 1] == "R" else size) if n.startswith("offset") else size
-                     for n in names])
+    return np.array([(1.0 if kinds[int(n[6:]) - 1] == "R" else size) if n.startswith("offset")
+                     else 1.0 if _is_angle(n) else size for n in names])
 
 
 def _measured_columns(model: MechanismModel, measure: str) -> list[int]:
@@ -84,8 +162,15 @@ class _Predictor:
     def __init__(self, model: MechanismModel, names, theta, q_start, columns):
         self.model, self.theta, self.q = model, theta, q_start
         index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
-        self.geometry = np.array([index[n] for n in names if not n.startswith("offset")], dtype=np.int64)
+        position = {n: i for i, n in enumerate(names)}
+        points = [n for n in names if not n.startswith("offset") and not _is_angle(n)]
+        self.geometry = np.array([index[n] for n in points], dtype=np.int64)
+        self.points = np.array([position[n] for n in points], dtype=np.int64)
+        # each turned joint: its turns' places in the vector (-1: not calibrated, kept at 0)
+        self.turns = [(turn, np.array([position.get(n, -1) for n in turn.names]))
+                      for turn in _axis_turns(model) if any(n in position for n in turn.names)]
         self.offsets = np.array([int(n[6:]) - 1 for n in names if n.startswith("offset")], dtype=np.int64)
+        self.offset_places = np.array([position[n] for n in names if n.startswith("offset")], dtype=np.int64)
         self.columns = columns
         self.dof = model.description.dof
 
@@ -93,10 +178,11 @@ class _Predictor:
         """The predicted measurements (N, len(columns)) at parameters ``p``; NaN rows where the machine cannot be
         assembled."""
         P = self.model.P.copy()
-        g = len(self.geometry)
-        P[self.geometry] = p[:g]
+        P[self.geometry] = p[self.points]
+        for turn, places in self.turns:
+            P[turn.index] = turn.values(np.where(places >= 0, p[np.maximum(places, 0)], 0.0))
         theta = self.theta.copy()
-        theta[:, self.offsets] += p[g:]
+        theta[:, self.offsets] += p[self.offset_places]
         out = np.empty_like(self.q)
         status = np.empty(len(theta), dtype=np.int64)
         self.model.kernels.branch_following_batch(self.q, np.ascontiguousarray(theta), P, 1e-9, np.inf, out, status)
@@ -193,7 +279,7 @@ def _names(model: MechanismModel, names) -> tuple[str, ...]:
 
 def _nominal(model: MechanismModel, names) -> np.ndarray:
     index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
-    return np.array([0.0 if n.startswith("offset") else model.P[index[n]] for n in names])
+    return np.array([0.0 if n.startswith("offset") or _is_angle(n) else model.P[index[n]] for n in names])
 
 
 def _jacobian(predictor: _Predictor, p: np.ndarray, scales: np.ndarray) -> np.ndarray:
@@ -238,7 +324,8 @@ class Calibration:
     names : tuple of str
         Every parameter considered (:func:`geometric_parameters`).
     nominal, estimate : ndarray, shape (p,)
-        Their described and calibrated values (m; rad or m for an offset); fixed ones are equal.
+        Their described and calibrated values (m; rad or m for an offset; rad from the described axis, 0, for a
+        turn of an axis); fixed ones are equal.
     sigma : ndarray, shape (p,)
         The estimate's standard deviations (0 for a fixed parameter).
     fixed : tuple of str
@@ -300,7 +387,8 @@ def _independent(J: np.ndarray) -> np.ndarray:
 
 def with_geometry(model, values: dict) -> MechanismModel:
     """``model`` with some of its geometric parameters (:func:`geometric_parameters`, offsets excepted) set to
-    ``values`` ({name: value}, m): a machine as built rather than as drawn.
+    ``values`` ({name: value}: a point's coordinate in m, an axis's turn from the described one in rad): a
+    machine as built rather than as drawn.
 
     >>> import pkmlab
     >>> model = pkmlab.load("five_bar")
@@ -316,14 +404,16 @@ def with_geometry(model, values: dict) -> MechanismModel:
             raise InvalidParameterError(f"{name!r} is not a geometric parameter of this machine (offsets are the "
                                         "actuators', not the description's)")
         if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not np.isfinite(value):
-            raise InvalidParameterError(f"{name} must be a finite number (m), got {value!r}")
-    return MechanismModel.from_description(_with_geometry(model.description, values))
+            raise InvalidParameterError(f"{name} must be a finite number ({'rad' if _is_angle(name) else 'm'}), "
+                                        f"got {value!r}")
+    return MechanismModel.from_description(_with_geometry(model, values))
 
 
 def perturbed_geometry(model, rng, size: float = 1e-3, angle: float = float(np.deg2rad(0.5))
                        ) -> tuple[MechanismModel, np.ndarray]:
-    """A machine built with errors: every geometric parameter moved by a uniform draw in ``[-size, size]`` (m),
-    and actuator zero offsets drawn in ``[-angle, angle]`` (rad; ``[-size, size]`` for a prismatic actuator).
+    """A machine built with errors: every point's coordinate moved by a uniform draw in ``[-size, size]`` (m),
+    every axis turned by draws in ``[-angle, angle]`` (rad), and actuator zero offsets drawn in
+    ``[-angle, angle]`` (rad; ``[-size, size]`` for a prismatic actuator).
 
     Returns the machine and its offsets ``δ`` (n_actuators,): its readings are ``θ_read = θ_true - δ``.
     Draws the parameters in :func:`geometric_parameters`' order, then the offsets."""
@@ -335,8 +425,9 @@ def perturbed_geometry(model, rng, size: float = 1e-3, angle: float = float(np.d
                                     f"{type(rng).__name__}")
     size, angle = as_real("size", size, "non-negative"), as_real("angle", angle, "non-negative")
     index = {n: i for i, n in enumerate(model.kernels.PARAMETERS)}
-    values = {n: float(model.P[index[n]] + rng.uniform(-size, size)) for n in geometric_parameters(model)
-              if not n.startswith("offset")}
+    values = {n: float(rng.uniform(-angle, angle)) if _is_angle(n) else float(model.P[index[n]]
+                                                                              + rng.uniform(-size, size))
+              for n in geometric_parameters(model) if not n.startswith("offset")}
     revolute = np.array([k == "R" for k in model.description.actuator_kinds])
     offsets = np.where(revolute, angle, size) * rng.uniform(-1, 1, model.n_actuators)
     return with_geometry(model, values), offsets
@@ -386,15 +477,29 @@ def reachable_poses(model, count: int, rng, *, span: float = 0.1, turn: float = 
     return np.array(poses), np.array(configurations)
 
 
-def _with_geometry(description, values: dict):
-    """``description`` with the packed geometric parameters ``values`` (name: value) written into its fields."""
+def _with_geometry(model: MechanismModel, values: dict):
+    """``model``'s description with the geometric parameters ``values`` (name: value) written into its fields."""
+    description = model.description
+
     def point(old, prefix):
         return tuple(values.get(f"{prefix}_{c}", v) for c, v in zip("xyz", old, strict=False))
 
+    joints = {}  # (leg, joint): the joint with its axes turned
+    for turn in _axis_turns(model):
+        if any(n in values for n in turn.names):
+            joint = description.legs[turn.leg].joints[turn.joint]
+            turns = _turned(turn, values)
+            if turn.basis is None:
+                joints[turn.leg, turn.joint] = replace(joint, axis=float(joint.axis + turns[0]))
+            else:
+                rot = turn.rotation(turns)
+                joints[turn.leg, turn.joint] = replace(joint, axes=tuple(tuple(float(c) for c in rot @ np.array(a))
+                                                                         for a in joint.axes))
     legs = []
     for i, leg in enumerate(description.legs):
         bodies = tuple(replace(b, tip=point(b.tip, f"body{i + 1}_{k + 1}_tip")) for k, b in enumerate(leg.bodies))
-        legs.append(replace(leg, base=point(leg.base, f"base{i + 1}"), bodies=bodies))
+        legs.append(replace(leg, base=point(leg.base, f"base{i + 1}"), bodies=bodies,
+                            joints=tuple(joints.get((i, k), j) for k, j in enumerate(leg.joints))))
     p = description.platform
     attachments = tuple(point(a, f"attach{i + 1}") for i, a in enumerate(p.attachments))
     return replace(description, legs=tuple(legs), platform=replace(p, attachments=attachments))
@@ -440,6 +545,7 @@ def calibrate(model, theta, measured, *, measure: str = "position", names=None, 
     target = measured[:, columns].ravel()
     nominal, scales = _nominal(model, names), _scales(model, names)
     before = predictor(nominal).ravel() - target
+    _check_units(model, before)
     J = _jacobian(predictor, nominal, scales)
     keep = _independent(J)
     if keep.size == 0:
@@ -468,6 +574,10 @@ def calibrate(model, theta, measured, *, measure: str = "position", names=None, 
 
     solution = least_squares(residual, np.zeros(keep.size), jac=jacobian, method="lm",
                              max_nfev=max_iterations * (keep.size + 1))
+    if solution.status == 0:
+        raise PkmlabError(f"the calibration did not converge in max_iterations = {max_iterations} (RMS residual "
+                          f"{np.sqrt(best[0] / target.size):.3g}, from {np.sqrt(np.nanmean(before**2)):.3g}): more "
+                          "iterations, or poses nearer the described machine's")
     estimate = nominal.copy()
     estimate[keep] = nominal[keep] + solution.x * scales[keep]
     after = residual(solution.x)
@@ -479,10 +589,22 @@ def calibrate(model, theta, measured, *, measure: str = "position", names=None, 
     singular = np.linalg.svd(Jk, compute_uv=False)
     o1 = float(np.exp(np.mean(np.log(singular))) / np.sqrt(len(theta)))
     values = {n: e for n, e in zip(names, estimate, strict=True) if not n.startswith("offset")}
-    calibrated = MechanismModel.from_description(_with_geometry(model.description, values))
+    calibrated = MechanismModel.from_description(_with_geometry(model, values))
     fixed = tuple(n for i, n in enumerate(names) if i not in set(keep.tolist()))
     return Calibration(names, nominal, estimate, sigma, fixed, singular, o1, float(np.sqrt(np.mean(before**2))),
                        float(np.sqrt(np.mean(after**2))), after.reshape(len(theta), -1), calibrated)
+
+
+def _check_units(model: MechanismModel, before: np.ndarray) -> None:
+    """Measurements farther from the described machine's predictions than the machine's size are not of it in
+    metres and radians (millimetres, degrees, another machine): refused before anything is fitted to them."""
+    size = length_scale(model)
+    finite = before[np.isfinite(before)]
+    gap = float(np.sqrt(np.mean(finite**2))) if finite.size else math.inf
+    if gap > size:
+        raise InvalidParameterError(f"the measurements are {gap:.3g} (RMS) from where the described machine puts "
+                                    f"them, more than its size ({size:.3g} m): are they in metres and radians, and "
+                                    "of this machine?")
 
 
 def select_poses(model, theta_candidates, measured_candidates, count: int, *, measure: str = "position",

@@ -87,9 +87,15 @@ def sampling_step(t: np.ndarray, first_row: int = 0) -> float:
 
 
 def _window_samples(window: float, step: float, polyorder: int, count: int) -> int:
-    """The window in samples: odd, longer than the polynomial's order, no longer than the log."""
-    length = max(int(round(window / step)), polyorder + 1)
+    """The window in samples: odd, longer than the polynomial's order, no longer than the log. A window shorter
+    than the polynomial needs is refused: it would fit the samples, not filter them (and is most often a log whose
+    time is not in seconds)."""
+    length = int(round(window / step))
     length += 1 - length % 2
+    if length < polyorder + 2:
+        raise InvalidParameterError(f"the filter's window of {window:g} s spans {window / step:.3g} samples at the "
+                                    f"log's step of {step:.6g} s, and a polynomial of order {polyorder} needs "
+                                    f"{polyorder + 3 - polyorder % 2}: is t in seconds? (else a longer window)")
     if length > count:
         raise InvalidParameterError(f"too few samples: {count} rows, and the filter's window of {window:g} s needs "
                                     f"{length} at the log's step of {step:.6g} s")

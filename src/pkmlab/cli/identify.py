@@ -53,8 +53,11 @@ def cmd_identify(args) -> dict:
               contextlib.nullcontext())
     with folder as tmp:  # a folder that cannot take the results is refused before the log is read
         log = read_measurement_log(args.log, model)
-        data = filter_measurements(model, log.t, log.theta, log.tau, window=window, polyorder=polyorder,
-                                   pose=log.pose, mode=mode, first_row=1, efforts=args.efforts)
+        try:
+            data = filter_measurements(model, log.t, log.theta, log.tau, window=window, polyorder=polyorder,
+                                       pose=log.pose, mode=mode, first_row=1, efforts=args.efforts)
+        except InvalidParameterError as exc:  # its rows are the file's: say which file
+            raise InvalidParameterError(f"{args.log}: {exc}") from None
         result = identify(model, *data.states, data.tau, drives=args.drives, coulomb_rate=coulomb_rate)
         out = {"mechanism": mechanism_name(args, model), **provenance, **result.summary()}
         identified = None
