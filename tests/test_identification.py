@@ -316,3 +316,52 @@ def test_identify_validates_on_a_held_out_log(tmp_path, paper_log):
     # the noise-free held-out efforts predicted to a small share of their size (the estimate's noise only)
     assert all(e < 0.05 * r for e, r in zip(validation["rms_error"], validation["rms_effort"], strict=True))
     assert (tmp_path / "result" / "prediction.png").stat().st_size > 10_000
+
+
+def test_the_identified_machine_and_drives_run_as_the_controllers_model_from_files(tmp_path):
+    """A user's loop by files alone: a run of the plant with drives and an encoder (examples/identification/
+    excitation.toml), identified with --drives --consistent; its controller.toml, pasted into a scenario of the
+    real machine, makes the controller compute with identified.toml and the identified drives — the friction
+    found to 5 % — and the circle tracked closer than with the described model alone."""
+    import shutil
+    import tomllib
+
+    shutil.copy(Path(__file__).parents[1] / "examples" / "identification" / "excitation.toml", tmp_path)
+    run = _pkmlab("simulate", "excitation.toml", "--out", "run", "--no-figures", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    done = _pkmlab("identify", "run/run.csv", "--drives", "--coulomb-rate", "1e-3", "--consistent", "--out", "id",
+                   cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    controller = tomllib.loads((tmp_path / "id" / "controller.toml").read_text())["controller"]
+    assert controller["mechanism"] == "identified.toml"
+    assert controller["viscous"] == pytest.approx([0.01] * 3, rel=0.05)
+    real = {"mechanism": {"preset": "paper"},
+            "trajectory": {"type": "circle", "center": [0.25, 0.21], "radius": 0.05, "speed": 0.2},
+            "plant": {"armature": 2e-4, "viscous": 0.01, "coulomb": 0.003, "coulomb_rate": 1e-3},
+            "simulation": {"working_mode": "auto"}}
+    identified = pkmlab.load_scenario(_toml(tmp_path / "id" / "real.toml", {**real, "controller": controller}))
+    assert identified.model.description == pkmlab.load(tmp_path / "id" / "identified.toml").description
+    assert identified.plant_model.description == PAPER.description
+    assert identified.controller_drives.viscous == pytest.approx(tuple(controller["viscous"]))
+    described = pkmlab.load_scenario(_toml(tmp_path / "id" / "described.toml", real))
+    errors = [pkmlab.simulate(s).summary()["max_path_error_m"] for s in (identified, described)]
+    assert errors[0] < 0.5 * errors[1], errors
+    (tmp_path / "delta.toml").write_text(pkmlab.description.files.mechanism_to_toml(pkmlab.load("delta").description,
+                                                                                   "a Delta"))
+    bad = _pkmlab("simulate", _toml(tmp_path / "bad.toml", {**real, "controller": {"mechanism": "delta.toml"}}),
+                  "--out", "bad", cwd=tmp_path)
+    assert bad.returncode == 1 and len(bad.stderr.splitlines()) == 1, bad.stderr
+    assert "[controller].mechanism 'delta.toml' is a 3-R*US, the machine a 3-R*RR" in bad.stderr, bad.stderr
+    assert not (tmp_path / "bad").exists()
+
+
+def _toml(path, data: dict):
+    """``data`` (tables of scalars and lists) written as a TOML file at ``path``."""
+    from pkmlab.description._fields import toml_value
+
+    lines = []
+    for name, table in data.items():
+        lines.append(f"[{name}]")
+        lines += [f"{key} = {toml_value(value)}" for key, value in table.items()]
+    path.write_text("\n".join(lines) + "\n")
+    return path

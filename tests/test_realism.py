@@ -53,9 +53,10 @@ def test_the_ideal_plant_has_no_readings_and_its_columns_are_unchanged():
     assert np.array_equal(same.tau, result.tau) and np.array_equal(same.q, result.q)
 
 
-def test_the_controller_computes_from_delayed_quantised_readings():
+@pytest.mark.parametrize("rates", ["difference", "backward2"])
+def test_the_controller_computes_from_delayed_quantised_readings(rates):
     ts, res, delay = 1e-3, 2 * np.pi / 40_000, 2
-    scenario = NOMINAL.replace(sensors=Sensors(resolution=res, delay=delay, rates="difference"))
+    scenario = NOMINAL.replace(sensors=Sensors(resolution=res, delay=delay, rates=rates))
     result = pkmlab.simulate(scenario)
     m = result.theta_measured
     assert np.allclose(m / res, np.round(m / res), atol=1e-6, rtol=0)
@@ -64,7 +65,7 @@ def test_the_controller_computes_from_delayed_quantised_readings():
     spec = scenario.controller
     for k in (5, 400, 1200):
         j = k - delay
-        rate = (m[j] - m[j - 1]) / ts
+        rate = (m[j] - m[j - 1]) / ts if rates == "difference" else (3 * m[j] - 4 * m[j - 1] + m[j - 2]) / (2 * ts)
         q = pkmlab.branch_following(MODEL, result.q[j], m[j], singularity_guard=1e-6)
         v = d.theta_ddot[k] - spec.kp * (m[j] - d.theta[k]) - spec.velocity_gain * (rate - d.theta_dot[k])
         expected = pkmlab.inverse_dynamics(MODEL, q, rate, v)
@@ -177,7 +178,8 @@ def test_stick_slip_needs_its_window():
 @pytest.mark.parametrize("tables, message", [
     ({"plant": {"viscous": -0.1}}, r"\[plant\]\.viscous must be a non-negative number"),
     ({"plant": {"coulomb": [0.1, 0.1]}}, r"\[plant\]\.coulomb must be one number or 3, one per actuator"),
-    ({"sensors": {"rates": "tacho"}}, r"\[sensors\]\.rates = \"tacho\" is not known; choose one of: difference, exact"),
+    ({"sensors": {"rates": "tacho"}},
+     r"\[sensors\]\.rates = \"tacho\" is not known; choose one of: difference, backward2, exact"),
     ({"sensors": {"delay": 1.5}}, r"\[sensors\]\.delay must be an integer number of samples"),
     ({"sensors": {"resolutoin": 1e-4}}, r"unknown key 'resolutoin' in \[sensors\].*resolution"),
     ({"sensors": {"noise": 1e-5}, "controller": {"sample_time": 0.0}}, r"apply to sampled-data control"),

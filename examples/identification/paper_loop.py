@@ -20,16 +20,17 @@ rng = np.random.default_rng(2026)
 model = pkmlab.load("paper")                                  # what we believe
 true = scaled_model(model, mass=1.15, length=1.15)            # what the machine is
 drives = Drives(armature=2e-4, viscous=0.01, coulomb=0.003, coulomb_rate=1e-3)
-# a 20-bit encoder for the positions and the drive's own rate measurement: rates differenced from the encoder
-# lag half a sample, which alone costs about 60 um on this circle (a velocity observer is what removes it)
-encoder = Sensors(resolution=2 * np.pi / 2**20, rates="exact")
+# a 20-bit encoder, the only sensor: the rates are its readings' second-order backward difference — the first
+# difference lags half a sample, which alone costs about 60 um on this circle (rates="difference"); a drive with a
+# tachometer would give rates="exact"
+encoder = Sensors(resolution=2 * np.pi / 2**20, rates="backward2")
 nominal = pkmlab.paper_scenario("nominal")
 mode = pkmlab.simulate(nominal).working_mode  # the task's working mode: every pose below is measured in it
 nominal = nominal.replace(working_mode=mode)
 
 
-def path_error(controller_model, controller_drives=None):
-    run = pkmlab.simulate(nominal.replace(model=controller_model, plant=true, drives=drives, sensors=encoder,
+def path_error(controller_model, controller_drives=None, sensors=encoder):
+    run = pkmlab.simulate(nominal.replace(model=controller_model, plant=true, drives=drives, sensors=sensors,
                                           controller_drives=controller_drives))
     return run.summary()["max_path_error_m"]
 
@@ -68,14 +69,13 @@ data = pkmlab.filter_measurements(geometry, run.t, run.theta_measured, run.tau, 
 identification = pkmlab.identify(geometry, *data.states, data.tau, drives=True, coulomb_rate=drives.coulomb_rate)
 estimate = physically_consistent(geometry, identification)
 identified = identified_model(geometry, estimate)
-compensation = Drives(armature=tuple(estimate.value(f"drive{j}.Ia") for j in (1, 2, 3)),
-                      viscous=tuple(estimate.value(f"drive{j}.fv") for j in (1, 2, 3)),
-                      coulomb=tuple(estimate.value(f"drive{j}.fc") for j in (1, 2, 3)),
-                      coulomb_rate=drives.coulomb_rate)
+compensation = Drives.from_estimate(estimate, 3, coulomb_rate=drives.coulomb_rate)
 print(f"identification: condition number {identification.condition_number:.3g}; viscous friction "
       f"{', '.join(f'{v:.4f}' for v in compensation.viscous)} (true 0.0100)")
 
 # 3. the circle again, the controller computing with the calibrated, identified model and drives
 closed = path_error(identified, compensation)
 print(f"real plant, calibrated and identified:    {closed:.3e} m")
+tachometer = path_error(identified, compensation, Sensors(resolution=encoder.resolution, rates="exact"))
+print(f"  with a tachometer for the rates:        {tachometer:.3e} m ({tachometer / reference:.2f}x)")
 print(f"ratio to the nominal case: {closed / reference:.2f}")

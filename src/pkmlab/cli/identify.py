@@ -7,7 +7,8 @@ sigma, relative_sigma_percent), ``condition_number``, ``samples``, ``effort_sigm
 ``unidentifiable``; with ``--consistent``, ``consistent``: ``{"distance", "parameters": {name: value}}`` (the
 physically consistent standard parameters, :func:`pkmlab.algorithms.consistency.physically_consistent`), and
 ``identified.toml`` written: the machine's description with the identified masses, mass centres and inertias,
-which ``pkmlab simulate`` takes as the controller's model.
+and ``controller.toml``: the ``[controller]`` table of a scenario that computes with it (and, with ``--drives``,
+compensates the identified drives) against the scenario's machine as the plant.
 """
 
 from __future__ import annotations
@@ -28,6 +29,26 @@ def _csv(summary: dict) -> str:
     lines = ["name,estimate,sigma,relative_sigma_percent"]
     lines += [f"\"{row['name']}\",{row['estimate']!r},{row['sigma']!r},{row['relative_sigma_percent']!r}"
               for row in summary["base_parameters"]]
+    return "\n".join(lines) + "\n"
+
+
+def _controller_table(model, consistent, args, coulomb_rate: float) -> str:
+    """``controller.toml``: a scenario's ``[controller]`` table that computes with the identified machine
+    (``identified.toml`` beside it) and, with ``--drives``, compensates its identified drives."""
+    from ..description._fields import toml_value
+
+    lines = [f"# pkmlab identify --consistent{' --drives' if args.drives else ''} of {args.log}: computed torque's "
+             "model of the identified machine, the [controller] table of a scenario",
+             "# whose machine is the real one (its plant). The path is relative to the scenario's folder: keep the "
+             "two files together, or change it.",
+             "[controller]", 'mechanism = "identified.toml"']
+    if args.drives:
+        from ..simulation.realism import Drives
+
+        drives = Drives.from_estimate(consistent, model.n_actuators, coulomb_rate=coulomb_rate)
+        lines += ["gear_ratio = 1.0  # the armature is the identified one, at the joint",
+                  f"armature = {toml_value(list(drives.armature))}", f"viscous = {toml_value(list(drives.viscous))}",
+                  f"coulomb = {toml_value(list(drives.coulomb))}", f"coulomb_rate = {toml_value(coulomb_rate)}"]
     return "\n".join(lines) + "\n"
 
 
@@ -72,6 +93,7 @@ def cmd_identify(args) -> dict:
             identified = mechanism_to_toml(identified_model(model, consistent).description,
                                            f"{model.name} identified by pkmlab identify from {args.log}: the "
                                            "physically consistent estimate's masses, mass centres and inertias")
+            controller = _controller_table(model, consistent, args, coulomb_rate)
         figure = None
         if args.validate:  # a held-out log: its efforts against the estimate's prediction at its states
             import numpy as np
@@ -102,6 +124,7 @@ def cmd_identify(args) -> dict:
             (tmp / "base_parameters.csv").write_text(_csv(out))
             if identified is not None:
                 (tmp / "identified.toml").write_text(identified)
+                (tmp / "controller.toml").write_text(controller)
     if not args.json:
         print(f"{model.name}: {len(out['base_parameters'])} base parameters from {out['samples']} samples of "
               f"{args.log} (condition number {out['condition_number']:.4g})")

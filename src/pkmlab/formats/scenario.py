@@ -44,8 +44,10 @@ Declarative, like MJCF: data, never code. Every table but ``[trajectory]`` is op
     kp = 1000.0
     kv = 63.2                   # default 2*sqrt(kp)
     sample_time = 0.001         # seconds; 0 = continuous-time control
+    # mechanism = "identified.toml": the controller's own model (a description of the machine's structure; the
+    #   scenario's machine is then the plant) — what pkmlab identify --consistent writes
     # computed torque's model of the drives, compensated (e.g. identified): gear_ratio, armature, viscous,
-    # coulomb, coulomb_rate, as the plant's keys
+    # coulomb, coulomb_rate, stick_slip, as the plant's keys (pkmlab identify --drives --out writes them)
 
     [timing]                    # optional: the path on its time-optimal timing under actuator limits
     velocity = [3.0, 3.0, 3.0]  # rad/s or m/s per actuator (one number: every actuator alike)
@@ -113,8 +115,8 @@ TABLES = {
     "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
                    "normal", "orientation", "start", "end", "points", "durations", "orientation_path", "period",
                    "periods", "a", "b"),
-    "controller": ("type", "kp", "kv", "sample_time", "gear_ratio", "armature", "viscous", "coulomb", "coulomb_rate",
-                   "stick_slip"),
+    "controller": ("type", "kp", "kv", "sample_time", "mechanism", "gear_ratio", "armature", "viscous", "coulomb",
+                   "coulomb_rate", "stick_slip"),
     "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps", "seed"),
     "timing": ("velocity", "acceleration", "effort", "grid"),
 }
@@ -296,6 +298,26 @@ def _mechanism(rd: _Reader, table: dict, folder: Path):
         return MechanismModel.from_description(mechanism_from_dict(table, "[mechanism]"))
     except PkmlabError as exc:
         raise rd.value_error(str(exc)) from None
+
+
+def _controller_model(rd: _Reader, table: dict, machine: MechanismModel, folder: Path) -> MechanismModel | None:
+    """``[controller].mechanism = "PATH"``: the controller's own model of the machine (e.g. the identified one,
+    ``pkmlab identify --consistent``), a description file of the same structure as the scenario's machine."""
+    if "mechanism" not in table:
+        return None
+    from ..description.files import load_mechanism
+
+    path = table["mechanism"]
+    if not isinstance(path, str) or not path:
+        raise rd.value_error(f"{rd.where('controller', 'mechanism')} must be a file name, got {show(path)}")
+    try:
+        model = MechanismModel.from_description(load_mechanism(folder / path))
+    except PkmlabError as exc:
+        raise rd.value_error(f"[controller].mechanism: {exc}") from None
+    if model.kernels is not machine.kernels:
+        raise rd.value_error(f"[controller].mechanism {path!r} is a {model.description.notation}, the machine a "
+                             f"{machine.description.notation}: the controller's model must have its structure")
+    return model
 
 
 def _per_actuator(rd: _Reader, table: dict, name: str, key: str, n: int, sign: str, limit: bool = False):
@@ -633,6 +655,9 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
     else:
         model = load("paper")
     plant = _plant(rd, rd.table(data, "plant"), model)
+    controller_model = _controller_model(rd, rd.table(data, "controller"), model, Path(str(source)).parent)
+    if controller_model is not None:  # the scenario's machine is the plant; the controller computes with its own
+        plant, model = plant or model, controller_model
     drives = _drives(rd, rd.table(data, "plant"), model)
     controller_drives = _drives(rd, rd.table(data, "controller"), model, "controller")
     sensors = _sensors(rd, rd.table(data, "sensors"), model)
@@ -662,9 +687,6 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         name = Path(str(source)).stem or "scenario"
     timing = _timing(rd, rd.table(data, "timing"), model) if "timing" in data else None
     try:
-        if sample_time == 0 and (drives is not None or sensors is not None or controller_drives is not None):
-            raise rd.format_error("drives and [sensors] apply to sampled-data control, but "
-                                  "[controller].sample_time = 0 selects continuous-time control")
         scenario = Scenario(model, trajectory, plant=plant, controller=controller, sample_time=sample_time,
                             name=name, drives=drives, sensors=sensors, controller_drives=controller_drives,
                             **options)

@@ -3920,10 +3920,12 @@ STICK_SLIP = 5
 DRIVE_COLUMNS = 6
 NO_DRIVES = np.zeros((0, DRIVE_COLUMNS))
 #: How the controller gets the actuators' rates (the loop's ``sensing``): the plant's own state (ideal sensors),
-#: the plant's exact rates beside measured values, or the measured values differenced sample to sample.
+#: the plant's exact rates beside measured values, the measured values differenced sample to sample, or their
+#: second-order backward difference ``(3 θ_k - 4 θ_k-1 + θ_k-2) / (2 Ts)`` (no half-sample lag).
 IDEAL_SENSORS = -1
 EXACT_RATES = 0
 DIFFERENCED_RATES = 1
+BACKWARD_RATES = 2
 
 # Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
 # respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
@@ -4719,9 +4721,10 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     at their limit, add ``effort_noise[k]`` to it (no rows: none) and oppose friction. With ``sensing`` not
     :data:`IDEAL_SENSORS` the controller sees only measurements, recorded in ``out_theta_m``: the plant's
     ``θ`` plus ``theta_noise[k]`` (no rows: none), rounded to each actuator's ``resolution`` (0: none), taken
-    ``delay`` samples earlier; its rates the plant's own (:data:`EXACT_RATES`) or the measured values
-    differenced (:data:`DIFFERENCED_RATES`). ``ctrl_drive`` (rows as ``drive``'s, none: no compensation) is the
-    controller's model of the drives: computed torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
+    ``delay`` samples earlier; its rates the plant's own (:data:`EXACT_RATES`), the measured values differenced
+    (:data:`DIFFERENCED_RATES`) or their second-order backward difference (:data:`BACKWARD_RATES`).
+    ``ctrl_drive`` (rows as ``drive``'s, none: no compensation) is the controller's model of the drives: computed
+    torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
     return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
                               P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise,
                               resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
@@ -4737,8 +4740,11 @@ def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m
         value = x[i] + (theta_noise[k, i] if theta_noise.shape[0] > 0 else 0.0)
         step = resolution[i]
         out_theta_m[k, i] = step * math.floor(value / step + 0.5) if step > 0.0 else value
-        if sensing == DIFFERENCED_RATES:
+        if sensing == DIFFERENCED_RATES or (sensing == BACKWARD_RATES and k == 1):
             theta_dot_m[k, i] = (out_theta_m[k, i] - out_theta_m[k - 1, i]) / ts if k > 0 else x[n + i]
+        elif sensing == BACKWARD_RATES:
+            theta_dot_m[k, i] = ((3.0 * out_theta_m[k, i] - 4.0 * out_theta_m[k - 1, i] + out_theta_m[k - 2, i])
+                                 / (2.0 * ts) if k > 1 else x[n + i])
         else:
             theta_dot_m[k, i] = x[n + i]
 

@@ -23,7 +23,9 @@ plant's actuator-space dynamics become
 of ``resolution`` (at the joint, rad or m: a motor encoder of ``c`` counts per turn behind a gear ``N`` reads
 ``2π / (c N)``), rounded to it, after white noise of standard deviation ``noise``; taken ``delay`` samples
 earlier; its rate either the encoder's values differenced sample to sample (``rates = "difference"``, what a
-drive without a tachometer has) or the plant's exact rate (``"exact"``). The measurements are recorded with
+drive without a tachometer has: half a sample late), their second-order backward difference ``(3 θ_k -
+4 θ_k-1 + θ_k-2) / (2 Ts)`` (``"backward2"``: no lag to first order, 1.8 times the difference's quantisation
+noise), or the plant's exact rate (``"exact"``: a tachometer). The measurements are recorded with
 the run (``theta_measured``, the ``theta<j>_m`` columns of ``run.csv``) — what a real machine logs.
 
 Noise is drawn from NumPy's generator seeded by the scenario's ``seed``: the efforts' from ``(seed, 0)``, the
@@ -43,7 +45,7 @@ from ..errors import InvalidParameterError, shown
 __all__ = ["Drives", "Sensors", "SENSED_RATES"]
 
 #: How :class:`Sensors` give the actuators' rates.
-SENSED_RATES = ("difference", "exact")
+SENSED_RATES = ("difference", "backward2", "exact")
 
 
 def _per_actuator(name: str, value, sign: str, allow_inf: bool = False) -> tuple[float, ...] | float:
@@ -118,6 +120,28 @@ class Drives:
             raise InvalidParameterError("stick_slip friction needs coulomb_rate > 0: the window of rates that count "
                                         "as rest (Karnopp's model)")
 
+    @classmethod
+    def from_estimate(cls, estimate, n: int, *, coulomb_rate: float = 1e-3, stick_slip: bool = False) -> Drives:
+        """The drives of an identified machine: each actuator's ``drive<j>.Ia``, ``.fv`` and ``.fc`` of
+        ``estimate`` (a :class:`~pkmlab.algorithms.consistency.ConsistentEstimate` of an identification with
+        drives), at the joint (``gear_ratio = 1``), with the friction law it was identified with — computed
+        torque's model of them (``Scenario(controller_drives=...)``).
+
+        Parameters
+        ----------
+        estimate : ConsistentEstimate
+            Anything with ``value(name)`` of those names.
+        n : int
+            The number of actuators.
+        coulomb_rate, stick_slip :
+            The Coulomb law (as :class:`Drives`'; ``coulomb_rate`` the one identified with).
+        """
+        def column(name: str) -> tuple[float, ...]:
+            return tuple(max(float(estimate.value(f"drive{j + 1}.{name}")), 0.0) for j in range(n))
+
+        return cls(armature=column("Ia"), viscous=column("fv"), coulomb=column("fc"), coulomb_rate=coulomb_rate,
+                   stick_slip=stick_slip)
+
     def table(self, n: int) -> np.ndarray:
         """The compiled loop's drive rows (n, 6) at the joint: reflected armature, viscous, Coulomb, its rate,
         effort limit, stick–slip (1) or not (0)."""
@@ -147,8 +171,9 @@ class Sensors:
         The standard deviation of the measured values' white noise (rad or m).
     delay : int
         Samples between a measurement and the effort computed from it.
-    rates : {"difference", "exact"}
-        The rates the controller uses: the measured values differenced, or the plant's own.
+    rates : {"difference", "backward2", "exact"}
+        The rates the controller uses: the measured values differenced, their second-order backward difference,
+        or the plant's own.
     """
 
     resolution: float | tuple = 0.0

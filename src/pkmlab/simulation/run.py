@@ -127,7 +127,13 @@ def realism(scenario: Scenario, count: int) -> Realism:
         return Realism(drive, ctrl_drive, effort_noise, np.zeros(n), np.zeros((0, n)), -1, 0)
     return Realism(drive, ctrl_drive, effort_noise, sensors.resolutions(n),
                    noise_rows(sensors.noise_levels(n), count, scenario.seed, 1),
-                   1 if sensors.rates == "difference" else 0, sensors.delay)
+                   _sensing(scenario.model.kernels, sensors.rates), sensors.delay)
+
+
+def _sensing(kernels, rates: str) -> int:
+    """The loop's ``sensing`` for :class:`~pkmlab.simulation.realism.Sensors`' ``rates``."""
+    return {"exact": kernels.EXACT_RATES, "difference": kernels.DIFFERENCED_RATES,
+            "backward2": kernels.BACKWARD_RATES}[rates]
 
 
 def sample_times(scenario: Scenario) -> np.ndarray:

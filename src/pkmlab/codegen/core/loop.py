@@ -21,6 +21,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     from .dynamics import actuator_space_model, solve_accelerations
     from .workspace import (
         ARMATURE,
+        BACKWARD_RATES,
         BASE,
         CONTROLLER,
         COULOMB,
@@ -216,9 +217,10 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     at their limit, add ``effort_noise[k]`` to it (no rows: none) and oppose friction. With ``sensing`` not
     :data:`IDEAL_SENSORS` the controller sees only measurements, recorded in ``out_theta_m``: the plant's
     ``θ`` plus ``theta_noise[k]`` (no rows: none), rounded to each actuator's ``resolution`` (0: none), taken
-    ``delay`` samples earlier; its rates the plant's own (:data:`EXACT_RATES`) or the measured values
-    differenced (:data:`DIFFERENCED_RATES`). ``ctrl_drive`` (rows as ``drive``'s, none: no compensation) is the
-    controller's model of the drives: computed torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
+    ``delay`` samples earlier; its rates the plant's own (:data:`EXACT_RATES`), the measured values differenced
+    (:data:`DIFFERENCED_RATES`) or their second-order backward difference (:data:`BACKWARD_RATES`).
+    ``ctrl_drive`` (rows as ``drive``'s, none: no compensation) is the controller's model of the drives: computed
+    torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
     return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
                               P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise,
                               resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
@@ -234,8 +236,11 @@ def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m
         value = x[i] + (theta_noise[k, i] if theta_noise.shape[0] > 0 else 0.0)
         step = resolution[i]
         out_theta_m[k, i] = step * math.floor(value / step + 0.5) if step > 0.0 else value
-        if sensing == DIFFERENCED_RATES:
+        if sensing == DIFFERENCED_RATES or (sensing == BACKWARD_RATES and k == 1):
             theta_dot_m[k, i] = (out_theta_m[k, i] - out_theta_m[k - 1, i]) / ts if k > 0 else x[n + i]
+        elif sensing == BACKWARD_RATES:
+            theta_dot_m[k, i] = ((3.0 * out_theta_m[k, i] - 4.0 * out_theta_m[k - 1, i] + out_theta_m[k - 2, i])
+                                 / (2.0 * ts) if k > 1 else x[n + i])
         else:
             theta_dot_m[k, i] = x[n + i]
 

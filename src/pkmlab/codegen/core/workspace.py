@@ -90,10 +90,12 @@ STICK_SLIP = 5
 DRIVE_COLUMNS = 6
 NO_DRIVES = np.zeros((0, DRIVE_COLUMNS))
 #: How the controller gets the actuators' rates (the loop's ``sensing``): the plant's own state (ideal sensors),
-#: the plant's exact rates beside measured values, or the measured values differenced sample to sample.
+#: the plant's exact rates beside measured values, the measured values differenced sample to sample, or their
+#: second-order backward difference ``(3 θ_k - 4 θ_k-1 + θ_k-2) / (2 Ts)`` (no half-sample lag).
 IDEAL_SENSORS = -1
 EXACT_RATES = 0
 DIFFERENCED_RATES = 1
+BACKWARD_RATES = 2
 
 # Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
 # respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
