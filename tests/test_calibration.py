@@ -62,6 +62,13 @@ def test_noise_free_poses_give_an_exact_machine():
     assert errors.max() < 1e-9
     # a passive link's tip across its length only turns a passive joint's zero: nothing measured sees it
     assert {"body1_2_tip_y", "body2_2_tip_y", "body3_2_tip_y"} <= set(result.fixed)
+    assert all(result.aliases[f"body{j}_2_tip_y"] == {} for j in (1, 2, 3))
+    # an actuator's zero turns its link: the tip of a link of length l across it by l per radian
+    for j, leg in enumerate(model.description.legs, start=1):
+        length = float(np.hypot(*leg.bodies[0].tip))
+        assert result.aliases[f"offset{j}"].keys() == {f"body{j}_1_tip_y"}
+        assert result.aliases[f"offset{j}"][f"body{j}_1_tip_y"] == pytest.approx(length, rel=1e-5)
+    assert len(result.summary()["singular_values"]) == len(result.names) - len(result.fixed)
 
 
 def test_the_fixed_parameters_are_combinations_of_the_identified_ones():

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -340,6 +340,10 @@ class Calibration:
         The residuals after calibration.
     model : MechanismModel
         The calibrated machine (offsets are the actuators', not the description's: add them to the readings).
+    aliases : dict
+        Each fixed parameter as the identified ones it cannot be told from: ``{fixed: {identified: c}}``, a change
+        ``d`` of the fixed one moving the predictions as changes ``c d`` of those (each in its own unit; terms
+        below 1e-3 of the largest left out; empty: it moves no measured coordinate at all).
     """
 
     names: tuple[str, ...]
@@ -353,6 +357,7 @@ class Calibration:
     rms_after: float
     residual: np.ndarray
     model: MechanismModel
+    aliases: dict = field(default_factory=dict)
 
     @property
     def offsets(self) -> np.ndarray:
@@ -366,7 +371,8 @@ class Calibration:
     def summary(self) -> dict:
         rows = [{"name": n, "nominal": float(a), "estimate": float(e), "sigma": float(s), "fixed": n in self.fixed}
                 for n, a, e, s in zip(self.names, self.nominal, self.estimate, self.sigma, strict=True)]
-        return {"parameters": rows, "fixed": list(self.fixed), "observability_O1": self.observability,
+        return {"parameters": rows, "fixed": list(self.fixed), "aliases": self.aliases,
+                "observability_O1": self.observability, "singular_values": self.singular_values.tolist(),
                 "condition_number": float(self.singular_values[0] / self.singular_values[-1]),
                 "rms_before": self.rms_before, "rms_after": self.rms_after, "poses": int(self.residual.shape[0])}
 
@@ -383,6 +389,19 @@ def _independent(J: np.ndarray) -> np.ndarray:
     diag = np.abs(np.diag(r))
     rank = int(np.sum(diag > RANK_TOL * diag[0]))
     return np.sort(live[pivots[:rank]])
+
+
+def _aliases(J: np.ndarray, keep: np.ndarray, names, scales: np.ndarray) -> dict:
+    """:attr:`Calibration.aliases` from the scaled Jacobian ``J`` and the identified columns ``keep``."""
+    out = {}
+    for i in sorted(set(range(len(names))) - set(keep.tolist())):
+        if not np.linalg.norm(J[:, i]) > RANK_TOL * max(np.linalg.norm(J, 2), 1e-300):
+            out[names[i]] = {}
+            continue
+        c = np.linalg.lstsq(J[:, keep], J[:, i], rcond=None)[0] * scales[keep] / scales[i]
+        big = np.abs(c) > 1e-3 * np.abs(c).max()
+        out[names[i]] = {names[k]: float(v) for k, v, b in zip(keep, c, big, strict=True) if b}
+    return out
 
 
 def with_geometry(model, values: dict) -> MechanismModel:
@@ -592,7 +611,8 @@ def calibrate(model, theta, measured, *, measure: str = "position", names=None, 
     calibrated = MechanismModel.from_description(_with_geometry(model, values))
     fixed = tuple(n for i, n in enumerate(names) if i not in set(keep.tolist()))
     return Calibration(names, nominal, estimate, sigma, fixed, singular, o1, float(np.sqrt(np.mean(before**2))),
-                       float(np.sqrt(np.mean(after**2))), after.reshape(len(theta), -1), calibrated)
+                       float(np.sqrt(np.mean(after**2))), after.reshape(len(theta), -1), calibrated,
+                       _aliases(J, keep, names, scales))
 
 
 def _check_units(model: MechanismModel, before: np.ndarray) -> None:
