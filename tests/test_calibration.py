@@ -6,6 +6,8 @@ random ones, and bad input refused by name."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -223,3 +225,19 @@ def test_spatial_axes_turn_as_rotations_and_are_calibrated_exactly():
     result = cal.calibrate(model, thetas[:40], poses[:40])
     assert result.rms_before > 1e-5 and result.rms_after < 1e-10
     assert _position_error(result.model, result.offsets, poses[40:], thetas[40:]).max() < 1e-9
+
+
+def test_axes_a_legs_kinematics_rests_on_keep_their_relation():
+    """The 3-RRS's parallel hinges turn as one (a machine as built is still a 3-RRS), and the 3-UPU's axes, which
+    keep its platform level, are not turned at all."""
+    mechanisms = Path(__file__).parents[1] / "examples" / "mechanisms"
+    rrs = pkmlab.load(mechanisms / "3rrs.toml")
+    names = cal.geometric_parameters(rrs)
+    assert {"axis1_1_2_tilt_u", "axis1_1_2_tilt_v"} <= set(names) and "axis1_1_tilt_u" not in names
+    built, _ = cal.perturbed_geometry(rrs, np.random.default_rng(7))
+    for leg, described in zip(built.description.legs, rrs.description.legs, strict=True):
+        first, second = leg.joints[0].axes[0], leg.joints[1].axes[0]
+        assert abs(abs(np.dot(first, second)) - 1) < 1e-12  # still parallel
+        assert abs(np.dot(first, described.joints[0].axes[0])) < 1 - 1e-9  # and turned
+    upu = pkmlab.load(mechanisms / "3upu.toml")
+    assert not any("_tilt_" in n or "_turn_" in n for n in cal.geometric_parameters(upu))

@@ -8,7 +8,11 @@ rail's angle (``rail1_angle``); a spatial revolute's or prismatic joint's axis t
 perpendicular to it (``axis1_1_tilt_u``, ``_tilt_v``: ``u`` the unit ``a × e`` for the world axis ``e`` least
 aligned with the axis ``a``, ``v = a × u``); a universal joint's two axes turned together, keeping them
 perpendicular, about the x, y and z of the frame they are given in (``axis1_2_turn_x``, ``_y``, ``_z``; a turn
-about the first axis alone only moves the zero of a passive coordinate, and is found unidentifiable).
+about the first axis alone only moves the zero of a passive coordinate, and is found unidentifiable). A leg's
+parallel hinges or slides turn together, kept parallel (``axis1_1_2_tilt_u``: joints 1 and 2 of leg 1): a leg's
+kinematics may rest on them being so (the 3-RRS's). The axes of
+a leg that ends in a universal joint at the platform (Tsai's 3-UPU) are kept as described: they are what keeps a
+translating platform level, and turned alone they would let it turn.
 :func:`geometric_parameters` names them all (``base2_y``, ``body1_2_tip_x``, ``attach3_x``, ``rail1_angle``,
 ``offset1``).
 
@@ -63,7 +67,7 @@ class _AxisTurn:
 
     names: tuple[str, ...]
     leg: int
-    joint: int
+    joints: tuple[int, ...]  # the leg's joints it turns (parallel hinges or slides turn together)
     index: np.ndarray
     nominal: np.ndarray
     basis: np.ndarray | None  # (len(names), 3): each turn's direction (spatial); None for a rail's angle
@@ -101,20 +105,42 @@ def _axis_turns(model: MechanismModel) -> tuple[_AxisTurn, ...]:
         if not hasattr(leg.joints[0], "axes"):  # planar: a rail's angle
             if f"rail{i + 1}_x" in index:
                 entries = np.array([index[f"rail{i + 1}_{c}"] for c in "xy"])
-                turns.append(_AxisTurn((f"rail{i + 1}_angle",), i, 0, entries, model.P[entries].copy(), None))
+                turns.append(_AxisTurn((f"rail{i + 1}_angle",), i, (0,), entries, model.P[entries].copy(), None))
             continue
-        for k, joint in enumerate(leg.joints):
-            if not joint.axes:
-                continue
-            keys = [f"axis{i + 1}_{k + 1}{'ab'[a]}_{c}" for a in range(len(joint.axes)) for c in "xyz"]
+        if leg.joints[-1].kind == "U":  # its axes keep the platform level: turned alone, they would turn it
+            continue
+        for group in _turn_groups(leg):
+            keys = [f"axis{i + 1}_{k + 1}{'ab'[a]}_{c}" for k in group for a in range(len(leg.joints[k].axes))
+                    for c in "xyz"]
             entries = np.array([index[key] for key in keys])
-            if len(joint.axes) == 1:
-                names, basis = (f"axis{i + 1}_{k + 1}_tilt_u", f"axis{i + 1}_{k + 1}_tilt_v"), \
-                    _perpendicular_basis(joint.axes[0])
+            stem = f"axis{i + 1}_" + "_".join(str(k + 1) for k in group)
+            if len(leg.joints[group[0]].axes) == 1:
+                names, basis = (f"{stem}_tilt_u", f"{stem}_tilt_v"), _perpendicular_basis(leg.joints[group[0]].axes[0])
             else:
-                names, basis = tuple(f"axis{i + 1}_{k + 1}_turn_{c}" for c in "xyz"), np.eye(3)
-            turns.append(_AxisTurn(names, i, k, entries, model.P[entries].copy(), basis))
+                names, basis = tuple(f"{stem}_turn_{c}" for c in "xyz"), np.eye(3)
+            turns.append(_AxisTurn(names, i, group, entries, model.P[entries].copy(), basis))
     return tuple(turns)
+
+
+def _turn_groups(leg) -> list[tuple[int, ...]]:
+    """The leg's joints with axes, as the groups turned together: a universal joint alone; revolute and prismatic
+    joints whose axes are parallel in the description together (a leg's parallel hinges, as the 3-RRS's, are what
+    its kinematics rests on: one turn keeps them parallel)."""
+    groups: list[list[int]] = []
+    for k, joint in enumerate(leg.joints):
+        if not joint.axes:
+            continue
+        if len(joint.axes) == 1:
+            for group in groups:
+                first = leg.joints[group[0]]
+                if len(first.axes) == 1 and abs(abs(float(np.dot(first.axes[0], joint.axes[0]))) - 1.0) < 1e-12:
+                    group.append(k)
+                    break
+            else:
+                groups.append([k])
+        else:
+            groups.append([k])
+    return [tuple(g) for g in groups]
 
 
 def _turned(turn: _AxisTurn, values: dict) -> np.ndarray:
@@ -505,15 +531,17 @@ def _with_geometry(model: MechanismModel, values: dict):
 
     joints = {}  # (leg, joint): the joint with its axes turned
     for turn in _axis_turns(model):
-        if any(n in values for n in turn.names):
-            joint = description.legs[turn.leg].joints[turn.joint]
-            turns = _turned(turn, values)
+        if not any(n in values for n in turn.names):
+            continue
+        turns = _turned(turn, values)
+        for k in turn.joints:
+            joint = description.legs[turn.leg].joints[k]
             if turn.basis is None:
-                joints[turn.leg, turn.joint] = replace(joint, axis=float(joint.axis + turns[0]))
+                joints[turn.leg, k] = replace(joint, axis=float(joint.axis + turns[0]))
             else:
                 rot = turn.rotation(turns)
-                joints[turn.leg, turn.joint] = replace(joint, axes=tuple(tuple(float(c) for c in rot @ np.array(a))
-                                                                         for a in joint.axes))
+                joints[turn.leg, k] = replace(joint, axes=tuple(tuple(float(c) for c in rot @ np.array(a))
+                                                                for a in joint.axes))
     legs = []
     for i, leg in enumerate(description.legs):
         bodies = tuple(replace(b, tip=point(b.tip, f"body{i + 1}_{k + 1}_tip")) for k, b in enumerate(leg.bodies))
