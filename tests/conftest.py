@@ -23,6 +23,8 @@ from pkmlab.paper.geometry import Planar3RRR  # noqa: E402
 #: name or parameters say "delta" or "stewart" count too.
 SPATIAL_FILES = {"test_delta.py", "test_stewart.py", "test_stewart_fk.py", "test_spatial_kernels.py",
                  "test_lower_mobility.py", "test_upu.py", "test_singularity_kinds.py", "test_rrs.py"}
+#: Tests of the spatial presets that neither file nor name says: examples that calibrate a Delta and a Stewart.
+SPATIAL_TESTS = {"test_example_runs[calibration.py]"}
 #: Below this many selected tests, the spatial kernels are not compiled ahead (a few tests run as usual).
 WARM_FROM = 200
 _warm: subprocess.Popen | None = None
@@ -30,7 +32,7 @@ _warm: subprocess.Popen | None = None
 
 def _spatial(item) -> bool:
     name = item.name.lower()
-    return item.path.name in SPATIAL_FILES or "delta" in name or "stewart" in name
+    return item.path.name in SPATIAL_FILES or "delta" in name or "stewart" in name or item.name in SPATIAL_TESTS
 
 
 def pytest_collection_modifyitems(session, config, items):

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 import pkmlab
-from pkmlab.algorithms import assembly, general_fk
+from pkmlab.algorithms import assembly, calibration, general_fk
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: A regular pose of each machine (as in the tests) and the scenario file of a short tracking run.
@@ -66,6 +66,10 @@ def warm(name: str) -> None:
     pkmlab.inverse_dynamics(model, q, theta_dot, np.zeros(n))
     pkmlab.forward_dynamics(model, q, theta_dot, np.zeros(n))
     pkmlab.branch_following(model, q, q[:n] + 1e-3)
+    pkmlab.follow_path(model, q, np.linspace(q[:n], q[:n] + 1e-3, 3))  # and calibration's batch of it
+    pkmlab.inverse_kinematics(model, pose, pkmlab.working_modes(model)[0], on_unreachable="nan")
+    calibration.predicted_measurements(model, q[None, :n], np.asarray(pose, dtype=float)[None, :],
+                                       measure="pose")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assembly.assembly_modes(model, q[:n])

@@ -2,9 +2,9 @@
 (D-optimal among candidates spread over the workspace), the machine as built driven to them and measured by an
 instrument with 10 um of noise, its geometry calibrated, and the result checked on 50 held-out poses.
 
-The Delta's geometry is off by up to 1 mm and its encoders' zeros by up to 0.5 deg, and a laser tracker measures
-its platform's point; the Stewart platform's 42 joint positions are off by up to 1 mm and its 6 legs' zeros by up
-to 1 mm, and its whole pose is measured (10 um, 10 urad).
+The Delta's geometry is off by up to 1 mm and its joint axes and encoders' zeros by up to 0.5 deg, and a laser
+tracker measures its platform's point; the Stewart platform's 42 joint positions are off by up to 1 mm, its joint
+axes by up to 0.5 deg and its 6 legs' zeros by up to 1 mm, and its whole pose is measured (10 um, 10 urad).
 
 Run: python examples/identification/calibration.py   (about 10 s once compiled)
 """
