@@ -377,7 +377,7 @@ def _follow_and_forward_dynamics(ws, thetas, theta_dots, taus, P, singularity_gu
     status = 0
     for k in range(1, thetas.shape[0]):
         status |= PAPER_KERNELS.plant_stage(ws, thetas[k], theta_dots[k], taus[k], P, singularity_guard,
-                                            PAPER_KERNELS.TRIAL, False)
+                                            PAPER_KERNELS.TRIAL, False, PAPER_KERNELS.NO_DRIVES)
         PAPER_KERNELS.accept_trial(ws)
         for i in range(3):
             out[k, i] = ws.theta_ddot[i]

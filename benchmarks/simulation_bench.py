@@ -237,7 +237,7 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
 
     buffers = outputs(n)
     # ideal drives, no compensation, ideal sensors
-    ideal = (np.zeros((0, 5)), np.zeros((0, 5)), np.zeros((0, 3)), np.zeros(3), np.zeros((0, 3)), -1, 0)
+    ideal = (kernels.NO_DRIVES, kernels.NO_DRIVES, np.zeros((0, 3)), np.zeros(3), np.zeros((0, 3)), -1, 0)
 
     def loop(n_sub=1, ts=1e-3, dd=d):
         return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot, result.q[0], dd.q[0], P,
@@ -330,7 +330,8 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
         ws = workspaces[0]
         kernels.set_base(ws, np.ascontiguousarray(fast.q[k]), fast_machine.P)
         x = np.concatenate([fast.q[k, :3], fast.theta_dot[k]])
-        kernels.rk4_sample(ws, x, fast.tau[k], fast_machine.P, 1e-3, n_sub, 1e-3, np.empty((5, 6)), False)
+        kernels.rk4_sample(ws, x, fast.tau[k], fast_machine.P, 1e-3, n_sub, 1e-3, np.empty((5, 6)), False,
+                           kernels.NO_DRIVES)
         errors[n_sub] = float(np.abs(x - ref_x).max())
         rows.append(h.metric_row(f"rk4_error_{n_sub}_steps", f"plant RK4, {n_sub} step(s) per 1 ms sample: error "
                                  "vs DOP853 1e-13 (fast case, fastest state)", errors[n_sub], "rad, rad/s"))

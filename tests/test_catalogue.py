@@ -114,3 +114,19 @@ def test_catalogue_scenarios_name_their_machine_and_its_pose(name):
     if dof < 6:
         scenario = pkmlab.load_scenario(path)
         assert scenario.model.description == load_mechanism(CATALOGUE / name)
+
+
+def test_an_axis_that_is_not_a_unit_vector_is_refused_by_leg_joint_and_axis(tmp_path):
+    """A direction written to six digits is normalised; one that is not a unit vector at all is a mistake, refused
+    in one line naming where it is (it was silently normalised into another machine)."""
+    text = (CATALOGUE / "3prs.toml").read_text()
+    assert "axes = [[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]]" in text
+    assert "[0.5, -0.866025403784, 0.0]]" in text
+    (tmp_path / "six.toml").write_text(text.replace("[0.5, -0.866025403784, 0.0]]", "[0.5, -0.866025, 0.0]]", 1))
+    axis = load_mechanism(tmp_path / "six.toml").legs[1].joints[1].axes[0]
+    assert np.linalg.norm(axis) == pytest.approx(1.0, abs=1e-15) and axis[0] == pytest.approx(0.5, abs=1e-6)
+    (tmp_path / "bad.toml").write_text(text.replace("[[0.0, 0.0, 1.0], [-1.0", "[[0.3, 0.0, 1.0], [-1.0", 1))
+    with pytest.raises(pkmlab.PkmlabError) as refused:
+        load_mechanism(tmp_path / "bad.toml")
+    message = str(refused.value)
+    assert "\n" not in message and "leg 1, joint 1 (P): axis 1 must be a unit vector, got [0.3, 0.0, 1.0]" in message

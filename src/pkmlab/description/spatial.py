@@ -80,6 +80,10 @@ def _vector(where: str, value) -> tuple[float, float, float]:
     return tuple(finite_number(f"{where}[{k}]", v) for k, v in enumerate(value))
 
 
+#: How far from 1 an axis's norm may be (a unit vector written to five digits) and be normalised; beyond, refused.
+UNIT_TOLERANCE = 1e-5
+
+
 def _unit(where: str, value) -> tuple[float, float, float]:
     v = np.array(_vector(where, value))
     norm = float(np.linalg.norm(v))
@@ -87,6 +91,9 @@ def _unit(where: str, value) -> tuple[float, float, float]:
         raise InvalidParameterError(f"{where} must be a non-zero direction, got {list(value)!r}")
     if abs(norm - 1.0) <= 1e-15:  # unit already (to round-off): kept as given, so that a description reads back equal
         return tuple(float(c) for c in v)
+    if abs(norm - 1.0) > UNIT_TOLERANCE:  # not a unit vector written to few digits: a mistake, not to be guessed at
+        raise InvalidParameterError(f"{where} must be a unit vector, got {list(value)!r} (norm {norm:.6g}): divide it "
+                                    "by its norm")
     return tuple(float(c) for c in v / norm)
 
 

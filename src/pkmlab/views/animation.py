@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import AssemblyError, BranchFollowingError
+from ..errors import AssemblyError, BranchFollowingError, PkmlabError
 from ..outputs import atomic_file
 
 
@@ -166,7 +166,15 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
         # a six-degree-of-freedom platform: the recorded start pose's inverse kinematics (its one working
         # mode), the recorded actuators checked against it below
         # (of the working mode whose actuators are the recorded ones)
-        candidates = [mm.inverse_kinematics(model, pose0, mode) for mode in mm.working_modes(model)]
+        candidates = []
+        for mode in mm.working_modes(model):  # the modes that reach it: a leg's other branch may leave its stroke
+            try:
+                candidates.append(mm.inverse_kinematics(model, pose0, mode))
+            except PkmlabError:
+                continue
+        if not candidates:
+            raise AssemblyError(f"the recorded start pose {np.round(pose0, 6).tolist()} is reached in no working "
+                                "mode of this machine: is it the one that produced the run?")
         solutions = [(min(candidates, key=lambda q: float(np.abs(q[:len(m.legs)] - theta[0]).max())), 0.0)]
         if np.abs(solutions[0][0][:len(m.legs)] - theta[0]).max() > 1e-6:
             raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} do not hold the "
