@@ -227,7 +227,7 @@ def test_spatial_axes_turn_as_rotations_and_are_calibrated_exactly():
     assert _position_error(result.model, result.offsets, poses[40:], thetas[40:]).max() < 1e-9
 
 
-def test_axes_a_legs_kinematics_rests_on_keep_their_relation():
+def test_the_3rrs_parallel_hinges_turn_as_one_and_the_3upu_axes_are_kept():
     """The 3-RRS's parallel hinges turn as one (a machine as built is still a 3-RRS), and the 3-UPU's axes, which
     keep its platform level, are not turned at all."""
     mechanisms = Path(__file__).parents[1] / "examples" / "mechanisms"
