@@ -25,8 +25,6 @@ SPATIAL_FILES = {"test_delta.py", "test_stewart.py", "test_stewart_fk.py", "test
                  "test_lower_mobility.py", "test_upu.py", "test_singularity_kinds.py", "test_rrs.py"}
 #: Tests of the spatial presets that neither file nor name says: examples that calibrate a Delta and a Stewart.
 SPATIAL_TESTS = {"test_example_runs[calibration.py]"}
-#: The catalogue machines whose kernels warm_kernels.py compiles too: tests that name them wait for it.
-WARMED = ("3prs", "3upu", "3rrs")
 #: Below this many selected tests, the spatial kernels are not compiled ahead (a few tests run as usual).
 WARM_FROM = 200
 _warm: subprocess.Popen | None = None
@@ -34,8 +32,7 @@ _warm: subprocess.Popen | None = None
 
 def _spatial(item) -> bool:
     name = item.name.lower()
-    return (item.path.name in SPATIAL_FILES or "delta" in name or "stewart" in name or item.name in SPATIAL_TESTS
-            or any(machine in name for machine in WARMED))
+    return item.path.name in SPATIAL_FILES or "delta" in name or "stewart" in name or item.name in SPATIAL_TESTS
 
 
 def pytest_collection_modifyitems(session, config, items):
