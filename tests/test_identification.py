@@ -355,13 +355,10 @@ def test_the_identified_machine_and_drives_run_as_the_controllers_model_from_fil
     assert not (tmp_path / "bad").exists()
 
 
-def _toml(path, data: dict):
-    """``data`` (tables of scalars and lists) written as a TOML file at ``path``."""
-    from pkmlab.description._fields import toml_value
 
-    lines = []
-    for name, table in data.items():
-        lines.append(f"[{name}]")
-        lines += [f"{key} = {toml_value(value)}" for key, value in table.items()]
-    path.write_text("\n".join(lines) + "\n")
+def _toml(path, data: dict):
+    """``data`` written as a scenario file at ``path``."""
+    from pkmlab.formats.scenario import scenario_to_toml
+
+    path.write_text(scenario_to_toml(data))
     return path

@@ -534,12 +534,12 @@ def _with_geometry(model: MechanismModel, values: dict):
         if not any(n in values for n in turn.names):
             continue
         turns = _turned(turn, values)
+        rot = turn.rotation(turns) if turn.basis is not None else None
         for k in turn.joints:
             joint = description.legs[turn.leg].joints[k]
-            if turn.basis is None:
+            if rot is None:
                 joints[turn.leg, k] = replace(joint, axis=float(joint.axis + turns[0]))
             else:
-                rot = turn.rotation(turns)
                 joints[turn.leg, k] = replace(joint, axes=tuple(tuple(float(c) for c in rot @ np.array(a))
                                                                 for a in joint.axes))
     legs = []

@@ -35,21 +35,20 @@ def _csv(summary: dict) -> str:
 def _controller_table(model, consistent, args, coulomb_rate: float) -> str:
     """``controller.toml``: a scenario's ``[controller]`` table that computes with the identified machine
     (``identified.toml`` beside it) and, with ``--drives``, compensates its identified drives."""
-    from ..description._fields import toml_value
+    from ..formats.scenario import scenario_to_toml
 
-    lines = [f"# pkmlab identify --consistent{' --drives' if args.drives else ''} of {args.log}: computed torque's "
-             "model of the identified machine, the [controller] table of a scenario",
-             "# whose machine is the real one (its plant). The path is relative to the scenario's folder: keep the "
-             "two files together, or change it.",
-             "[controller]", 'mechanism = "identified.toml"']
+    table = {"mechanism": "identified.toml"}
     if args.drives:
         from ..simulation.realism import Drives
 
         drives = Drives.from_estimate(consistent, model.n_actuators, coulomb_rate=coulomb_rate)
-        lines += ["gear_ratio = 1.0  # the armature is the identified one, at the joint",
-                  f"armature = {toml_value(list(drives.armature))}", f"viscous = {toml_value(list(drives.viscous))}",
-                  f"coulomb = {toml_value(list(drives.coulomb))}", f"coulomb_rate = {toml_value(coulomb_rate)}"]
-    return "\n".join(lines) + "\n"
+        table |= {"gear_ratio": 1.0, "armature": list(drives.armature), "viscous": list(drives.viscous),
+                  "coulomb": list(drives.coulomb), "coulomb_rate": coulomb_rate}
+    comment = (f"pkmlab identify --consistent{' --drives' if args.drives else ''} of {args.log}: computed torque's "
+               "model of the identified machine\n(the armature is the identified one, at the joint: gear_ratio = 1), "
+               "the [controller] table of a scenario whose machine is\nthe real one (its plant). The path is relative "
+               "to the scenario's folder: keep the two files together, or change it.")
+    return scenario_to_toml({"controller": table}, comment)
 
 
 def cmd_identify(args) -> dict:

@@ -284,20 +284,30 @@ def _manipulator(rd: _Reader, table: dict):
 def _mechanism(rd: _Reader, table: dict, folder: Path):
     """The controller's model of a ``[mechanism]`` table: ``preset = "NAME"``, ``file = "PATH"`` (a
     mechanism file, relative to the scenario's folder) or a description inline."""
-    from ..description.files import load_mechanism, mechanism_from_dict
+    from ..description.files import mechanism_from_dict
 
+    if "file" in table:
+        others = sorted(set(table) - {"file"})
+        if others:
+            raise rd.value_error(f"[mechanism] has file and {', '.join(others)}: give one of them")
+        return _description_file(rd, "[mechanism].file", table["file"], folder)
     try:
-        if "file" in table:
-            others = sorted(set(table) - {"file"})
-            if others:
-                raise InvalidParameterError(f"[mechanism] has file and {', '.join(others)}: give one of them")
-            path = table["file"]
-            if not isinstance(path, str) or not path:
-                raise InvalidParameterError(f"[mechanism].file must be a file name, got {show(path)}")
-            return MechanismModel.from_description(load_mechanism(folder / path))
         return MechanismModel.from_description(mechanism_from_dict(table, "[mechanism]"))
     except PkmlabError as exc:
         raise rd.value_error(str(exc)) from None
+
+
+def _description_file(rd: _Reader, where: str, path, folder: Path, named: bool = False) -> MechanismModel:
+    """The machine of the description file ``path`` (relative to the scenario's ``folder``) the key ``where``
+    names; the file's own errors with ``where`` before them when ``named``."""
+    from ..description.files import load_mechanism
+
+    if not isinstance(path, str) or not path:
+        raise rd.value_error(f"{where} must be a file name, got {show(path)}")
+    try:
+        return MechanismModel.from_description(load_mechanism(folder / path))
+    except PkmlabError as exc:
+        raise rd.value_error(f"{where}: {exc}" if named else str(exc)) from None
 
 
 def _controller_model(rd: _Reader, table: dict, machine: MechanismModel, folder: Path) -> MechanismModel | None:
@@ -305,15 +315,8 @@ def _controller_model(rd: _Reader, table: dict, machine: MechanismModel, folder:
     ``pkmlab identify --consistent``), a description file of the same structure as the scenario's machine."""
     if "mechanism" not in table:
         return None
-    from ..description.files import load_mechanism
-
     path = table["mechanism"]
-    if not isinstance(path, str) or not path:
-        raise rd.value_error(f"{rd.where('controller', 'mechanism')} must be a file name, got {show(path)}")
-    try:
-        model = MechanismModel.from_description(load_mechanism(folder / path))
-    except PkmlabError as exc:
-        raise rd.value_error(f"[controller].mechanism: {exc}") from None
+    model = _description_file(rd, "[controller].mechanism", path, folder, named=True)
     if model.kernels is not machine.kernels:
         raise rd.value_error(f"[controller].mechanism {path!r} is a {model.description.notation}, the machine a "
                              f"{machine.description.notation}: the controller's model must have its structure")

@@ -253,9 +253,9 @@ def drive_attributes(model, drives) -> list[str]:
     n = model.n_actuators
     if drives is None:
         return [""] * n
-    table = drives.table(n)
+    table, k_ = drives.table(n), model.kernels
     m = model.description
-    if np.any(table[:, 2] > 0) and not drives.stick_slip:
+    if np.any(table[:, k_.COULOMB] > 0) and not drives.stick_slip:
         law = "exact sign" if drives.coulomb_rate == 0 else "smooth tanh"
         raise InvalidParameterError(f"MuJoCo's Coulomb friction (frictionloss) is stick-slip friction, not pkmlab's "
                                     f"{law} law: declare the drives' stick_slip = true, or run on pkmlab's plant")
@@ -264,8 +264,8 @@ def drive_attributes(model, drives) -> list[str]:
         if not _spatial(m) and leg.joints[k].kind == "R" and k > 0:
             raise InvalidParameterError(f"leg {i + 1}: its actuated revolute is joint {k + 1}, whose MuJoCo angle is "
                                         "relative and pkmlab's absolute: drives on it are not exported")
-    names = ("armature", "damping", "frictionloss")
-    return ["".join(f' {name}="{float(table[i, c])!r}"' for c, name in enumerate(names) if table[i, c] > 0)
+    names = {"armature": k_.ARMATURE, "damping": k_.VISCOUS, "frictionloss": k_.COULOMB}
+    return ["".join(f' {name}="{float(table[i, c])!r}"' for name, c in names.items() if table[i, c] > 0)
             for i in range(n)]
 
 

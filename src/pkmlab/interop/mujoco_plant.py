@@ -86,7 +86,8 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     theta_dot, tau, s, violation = (np.zeros((count, n)), np.zeros((count, n)), np.zeros(count),
                                     np.zeros(count))
     q_out, effort, applied, r = np.empty_like(q_ctrl), np.zeros(n), np.zeros(n), prep.realism
-    theta_m, theta_dot_m = np.zeros((count if r.sensing >= 0 else 0, n)), np.zeros((count if r.sensing >= 0 else 0, n))
+    readings = count if r.sensing >= 0 else 0  # rows of the controller's readings (none: it reads the state)
+    theta_m, theta_dot_m = np.zeros((readings, n)), np.zeros((readings, n))
     affine = mx.affine_map(plant)  # the coordinate maps as one matrix where they are linear
     for k in range(count):
         if affine is None:
