@@ -82,26 +82,43 @@ def _leg_plan(leg):
     return last, [k for k in passive if k != last]
 
 
-def _rotation(sp, axis, c, s):
-    k = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    a = sp.Matrix(axis)
-    return c * sp.eye(3) + s * k + (1 - c) * (a * a.T)
+def _rotation(axis, c, s, symbolic: bool):
+    """The rotation by the angle of cosine ``c`` and sine ``s`` about the unit ``axis`` (Rodrigues), as a SymPy
+    matrix or a NumPy array."""
+    if symbolic:
+        import sympy as sp
+
+        k, a, eye = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]]), \
+            sp.Matrix(axis), sp.eye(3)
+    else:
+        k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]], dtype=float)
+        a, eye = np.array(axis, dtype=float).reshape(3, 1), np.eye(3)
+    return c * eye + s * k + (1 - c) * (a @ a.T)
 
 
-def _chain(leg, values: dict, joints, point, rot):
-    """Walk ``leg``'s ``joints`` (indices) from ``point`` in frame ``rot`` with their ``values`` (per joint: the
-    ``(cos, sin)`` pair of each angle, or the slide): the point reached and the frame, as SymPy matrices (the
-    chain of :func:`~pkmlab.description.spatial.leg_frames` with an angle's cosine and sine for the angle)."""
-    import sympy as sp
+def _chain(leg, values: dict, joints, start, symbolic: bool = True):
+    """Walk ``leg``'s ``joints`` (indices) from the point ``start`` with their ``values`` (per joint: the
+    ``(cos, sin)`` pair of each angle, or the slide): the point reached (3, 1) and the frame (3, 3) — the chain
+    of :func:`~pkmlab.description.spatial.leg_frames` with an angle's cosine and sine for the angle, as SymPy
+    matrices or (``symbolic=False``) NumPy arrays."""
+    if symbolic:
+        import sympy as sp
 
+        column, rot = sp.Matrix, sp.eye(3)
+    else:
+        def column(v):
+            return np.array(v, dtype=float).reshape(3, 1)
+
+        rot = np.eye(3)
+    point = column(start)
     for k in joints:
         joint, body = leg.joints[k], leg.bodies[k]
         if joint.kind == "P":
-            point = point + values[k][0] * (rot * sp.Matrix(joint.axes[0]))
+            point = point + values[k][0] * (rot @ column(joint.axes[0]))
         else:
             for axis, (c, s) in zip(joint.axes, values[k], strict=True):
-                rot = rot * _rotation(sp, axis, c, s)
-        point = point + rot * sp.Matrix(body.tip)
+                rot = rot @ _rotation(axis, c, s, symbolic)
+        point = point + rot @ column(body.tip)
     return point, rot
 
 
@@ -161,14 +178,14 @@ def build_system(description):
         p_num = X * D + R_num * sp.Matrix(m.platform.attachments[i])  # D·(x + R a_i)
         n_joints = len(leg.joints) - 1
         if last is None:
-            end, _rot = _chain(leg, values, range(n_joints), sp.Matrix(leg.base), sp.eye(3))
+            end, _rot = _chain(leg, values, range(n_joints), leg.base)
             equations += list(p_num - end * D)
             legs_layout.append(("point", last, unknown_joints))
             continue
-        centre, rot = _chain(leg, values, range(last), sp.Matrix(leg.base), sp.eye(3))
+        centre, rot = _chain(leg, values, range(last), leg.base)
         joint = leg.joints[last]
         # w: from the eliminated joint to the spherical joint, in the frame after the eliminated joint's turns
-        w, _rot = _chain(leg, values, range(last + 1, n_joints), sp.Matrix(leg.bodies[last].tip), sp.eye(3))
+        w, _rot = _chain(leg, values, range(last + 1, n_joints), leg.bodies[last].tip)
         d = p_num - centre * D
         if joint.kind == "U":
             equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
@@ -185,57 +202,23 @@ def build_system(description):
     return equations, unknowns, params, {"legs": legs_layout, "R0": np.array(R0, dtype=float), "rigid": rigid}
 
 
-def _numpy_function(sp, exprs, args, name: str):
-    """A NumPy function ``f(z, p) -> (P, len(exprs))`` of SymPy ``exprs`` in the symbols ``args`` (the columns
-    of ``z`` then of ``p``), common subexpressions shared."""
-    from sympy.printing.numpy import NumPyPrinter
-
-    printer = NumPyPrinter({"fully_qualified_modules": False, "inline": True})
-    subs, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_c"))
-    lines = [f"def {name}(z, p):"]
-    nz = args[0]
-    for k, s in enumerate(nz):
-        lines.append(f"    {s} = z[:, {k}]")
-    for k, s in enumerate(args[1]):
-        lines.append(f"    {s} = p[:, {k}]")
-    for s, e in subs:
-        lines.append(f"    {s} = {printer.doprint(e)}")
-    lines.append(f"    out = np.zeros((z.shape[0], {len(reduced)}), dtype=complex)")
-    for k, e in enumerate(reduced):
-        if e != 0:
-            lines.append(f"    out[:, {k}] = {printer.doprint(e)}")
-    lines.append("    return out")
-    namespace = {"np": np, "sqrt": np.sqrt}
-    exec("\n".join(lines), namespace)  # noqa: S102 -- code printed from pkmlab's own derivation
-    return namespace[name]
-
-
 @functools.lru_cache(maxsize=16)
 def _family(description):
+    """The offset family ``F(z; θ) − b`` of ``description`` (module docstring) as a straight-line program of
+    ``(z, θ, b)``, both ``θ`` and ``b`` moving; with the number of unknowns and of actuator parameters, the layout
+    and the unknowns' names."""
     import sympy as sp
+
+    from ..description.mobility import _size
+    from ..numerics.straight_line import compile_program
 
     equations, unknowns, params, layout = build_system(description)
     n, m = len(unknowns), len(params)
     offsets = list(sp.symbols(f"b0:{n}"))
     all_params = params + offsets
-    F = [e - b for e, b in zip(equations, offsets, strict=True)]
-    Fm = sp.Matrix(F)
-    J = Fm.jacobian(unknowns)
-    Jp = sp.Matrix(equations).jacobian(params)
-    f = _numpy_function(sp, F, (unknowns, all_params), "F")
-    jf = _numpy_function(sp, list(J), (unknowns, all_params), "J")
-    jp = _numpy_function(sp, list(Jp), (unknowns, all_params), "Jp")
-
-    def dF_dx(z, p):
-        return jf(z, p).reshape(len(z), n, n)
-
-    def dF_dp(z, p, dp):
-        g = jp(z, p).reshape(len(z), n, m)
-        return np.einsum("kij,kj->ki", g, dp[:, :m]) - dp[:, m:]
-
-    from ..description.mobility import _size
-
-    family = homotopy.Family(f, dF_dx, dF_dp, scale=_size(description))
+    F = sp.Matrix([e - b for e, b in zip(equations, offsets, strict=True)])
+    program = compile_program([*F, *F.jacobian(unknowns), *F.jacobian(all_params)], [*unknowns, *all_params])
+    family = homotopy.Family(program, n, m + n, scale=_size(description))
     return family, n, m, layout, [str(u) for u in unknowns]
 
 
@@ -325,11 +308,8 @@ def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], la
         if last is not None:
             pairs = {k: [(np.cos(a), np.sin(a)) for a in v] if leg.joints[k].kind != "P" else v
                      for k, v in joint_values.items()}
-            import sympy as sp
-
-            centre, rot = _chain(leg, pairs, range(last), sp.Matrix(leg.base), sp.eye(3))
-            w, _ = _chain(leg, pairs, range(last + 1, len(leg.joints) - 1), sp.Matrix(leg.bodies[last].tip), sp.eye(3))
-            centre, rot, w = (np.array(v, dtype=float) for v in (centre, rot, w))
+            centre, rot = _chain(leg, pairs, range(last), leg.base, symbolic=False)
+            w, _ = _chain(leg, pairs, range(last + 1, len(leg.joints) - 1), leg.bodies[last].tip, symbolic=False)
             centre, w = centre.ravel(), w.ravel()
             target = X + R @ np.array(m.platform.attachments[i])
             local = rot.T @ (target - centre)
