@@ -261,8 +261,8 @@ def solve_generic_instance(description):
     p0 = np.concatenate([theta0, b0])
     offset_solutions, loops = homotopy.monodromy_solve(family, z0, p0, rng)
     p1 = np.concatenate([rng.standard_normal(m) + 1j * rng.standard_normal(m), np.zeros(n)])
-    z, regular, _diverged = homotopy.parameter_homotopy(family, offset_solutions, p0, p1)
-    machine = homotopy.distinct(z[regular], family.scale)
+    ends = homotopy.parameter_homotopy(family, offset_solutions, p0, p1)
+    machine = homotopy.distinct(ends.x[ends.regular], family.scale)
     checked, more = homotopy.monodromy_solve(family, machine[0], p1, rng, known=machine, free=m, stale_loops=3)
     return checked, p1, loops + more
 
@@ -331,25 +331,99 @@ def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], la
 IMAG_TOL = 1e-7
 
 
+#: Solves along a detour through generic complex parameters after a solve whose paths were not all clean.
+DETOURS = 2
+
+
+def _reach(description) -> float:
+    """A bound of the distance of the platform's tracked point from the origin at any real configuration: the
+    farthest base point, plus the leg's bodies and its slides' strokes, plus the farthest attachment; infinite
+    where a slide has no stroke."""
+    bound = 0.0
+    for leg in description.legs:
+        slide = 0.0
+        for joint in leg.joints[:-1]:
+            if joint.kind == "P":
+                if not joint.actuated or leg.stroke is None:
+                    return np.inf
+                slide += max(abs(v) for v in leg.stroke)
+        bound = max(bound, float(np.linalg.norm(leg.base)) + slide
+                    + sum(float(np.linalg.norm(b.tip)) for b in leg.bodies))
+    return bound + max(float(np.linalg.norm(a)) for a in description.platform.attachments)
+
+
+#: A path stopped short of the target with its tracked point this many times :func:`_reach` away is taken as a
+#: path to infinity (a solution of the generic instance with none at the target, no real assembly mode).
+ESCAPED = 100.0
+
+
+def _escaped(ends, names: list[str], reach: float):
+    """``ends`` with the paths that stopped far beyond the machine's reach (:data:`ESCAPED`) marked as diverged."""
+    position = [names.index(c) for c in ("X", "Y", "Z")]
+    far = ~ends.reached & (np.abs(ends.x[:, position]).max(axis=1) > ESCAPED * reach)
+    return ends._replace(diverged=ends.diverged | far, reached=ends.reached | far)
+
+
+def _jumped(ends, scale: float) -> int:
+    """How many paths ended at a regular solution another path had reached (a path jumped)."""
+    x = ends.x[ends.regular]
+    return len(x) - len(homotopy.distinct(x, scale))
+
+
 def general_assembly_modes(model, theta) -> GeneralAssembly:
     """The real endpoints of the parameter homotopy of ``model`` at actuator values ``theta`` as configurations
     (module docstring), before Newton's method polishes them on ``η = 0``
-    (:func:`pkmlab.algorithms.assembly.assembly_modes` does, and merges repeats)."""
+    (:func:`pkmlab.algorithms.assembly.assembly_modes` does, and merges repeats).
+
+    A solve in which a path stopped short of the target (it met a near-singularity on its way, or a solution
+    far out in the orientation's chart), jumped onto another path's solution or went to infinity is repeated
+    along a detour — from the generic solutions to generic complex parameters, then to the target — which
+    takes every path along another way (at most :data:`DETOURS` times). The solve is complete when an attempt
+    ended every path at a distinct regular solution, when the attempts together found as many distinct regular
+    solutions as there are paths (a target has no more isolated solutions than a generic instance), or when a
+    detour whose every path reached the target found no solution the attempts before it had not (a path that
+    jumped onto a path to infinity is seen by no single attempt); otherwise what the last attempt left unsure
+    is reported."""
     m = model.description
     theta = np.asarray(theta, dtype=float)
     family, n, _m, layout, names = _family(m)
     sols, p_generic, loops = generic_solutions(m)
-    z, regular, diverged = homotopy.parameter_homotopy(family, sols, p_generic, _parameters(m, theta, n))
-    finite = np.isfinite(z).all(axis=1)
-    size = np.maximum(np.abs(z).max(axis=1, initial=0.0), 1.0) * max(family.scale, 1.0)
-    imaginary = np.abs(z.imag).max(axis=1, initial=0.0) / size
-    # a singular endpoint far from the reals is no missing real assembly mode: only the near-real ones are doubts
-    singular = ~regular & ~diverged & finite & (imaginary < 1e-4)
+    target = _parameters(m, theta, n)
+    reach = _reach(m)
+    ends = _escaped(homotopy.parameter_homotopy(family, sols, p_generic, target), names, reach)
+    attempts = [ends]
+    rng = np.random.default_rng(SEED + 1)
+
+    def distinct_regular(group) -> int:
+        return len(homotopy.distinct(np.concatenate([e.x[e.regular] for e in group]), family.scale))
+
+    def complete() -> bool:
+        settled = ends.reached.all() and not _jumped(ends, family.scale)
+        if settled and not ends.diverged.any():
+            return True
+        if distinct_regular(attempts) == len(sols):
+            return True
+        return settled and len(attempts) > 1 and distinct_regular(attempts) == distinct_regular(attempts[:-1])
+
+    while not complete() and len(attempts) <= DETOURS:
+        via = p_generic + (rng.standard_normal(len(p_generic)) + 1j * rng.standard_normal(len(p_generic))) \
+            * np.maximum(np.abs(p_generic), 1.0)
+        middle = homotopy.parameter_homotopy(family, sols, p_generic, via)
+        ends = _escaped(homotopy.parameter_homotopy(family, middle.x[middle.regular], via, target), names, reach)
+        ends = ends._replace(reached=np.concatenate([ends.reached, np.zeros(len(sols) - len(ends.x), dtype=bool)]))
+        attempts.append(ends)
     found = []
-    for k in np.flatnonzero(finite & ~diverged):
-        if imaginary[k] > IMAG_TOL:
-            continue
-        q = _configuration(model, theta, z[k].real, names, layout)
-        if q is not None:
-            found.append(q)
-    return GeneralAssembly(found, len(sols), int(np.sum(~finite)), int(np.sum(singular)), loops)
+    for e in attempts:
+        size = np.maximum(np.abs(e.x).max(axis=1, initial=0.0), 1.0) * max(family.scale, 1.0)
+        imaginary = np.abs(e.x.imag).max(axis=1, initial=0.0) / size
+        for k in np.flatnonzero(np.isfinite(e.x).all(axis=1) & ~e.diverged & e.reached[:len(e.x)]
+                                & (imaginary <= IMAG_TOL)):
+            q = _configuration(model, theta, e.x[k].real, names, layout)
+            if q is not None:
+                found.append(q)
+    if complete():
+        return GeneralAssembly(found, len(sols), 0, 0, loops)
+    # a singular endpoint far from the reals is no missing real assembly mode: only the near-real ones are doubts
+    singular = ~ends.regular & ~ends.diverged & ends.reached[:len(ends.x)] & (imaginary < 1e-4)
+    failed = int(np.sum(~ends.reached)) + _jumped(ends, family.scale)
+    return GeneralAssembly(found, len(sols), failed, int(np.sum(singular)), loops)

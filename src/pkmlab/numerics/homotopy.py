@@ -35,6 +35,7 @@ in Engineering and Science*, World Scientific, 2005 (chapters 7, 10 and 15).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -185,19 +186,30 @@ def distinct(points: np.ndarray, scale: float, tol: float = 1e-7) -> np.ndarray:
     return np.array(out) if out else np.zeros((0, points.shape[1]), dtype=complex)
 
 
-def parameter_homotopy(family: Family, solutions: np.ndarray, p0: np.ndarray, p1: np.ndarray):
-    """The endpoints at ``p₁`` of the paths from ``solutions`` (P, n) at ``p₀`` (m,): ``(x, regular, diverged)``,
-    each endpoint polished by Newton's method at ``p₁``. The paths are tracked by the compiled tracker
+class Endpoints(NamedTuple):
+    """The ends of a parameter homotopy's paths: the points ``x`` (P, n), polished by Newton's method at the
+    target; whether each is a regular solution there, went to infinity, and reached the target at all (a path
+    that stopped short of it — near a singular endpoint or stalled — is neither regular nor diverged)."""
+
+    x: np.ndarray
+    regular: np.ndarray
+    diverged: np.ndarray
+    reached: np.ndarray
+
+
+def parameter_homotopy(family: Family, solutions: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> Endpoints:
+    """The endpoints at ``p₁`` of the paths from ``solutions`` (P, n) at ``p₀`` (m,) (:class:`Endpoints`), each
+    polished by Newton's method at ``p₁``. The paths are tracked by the compiled tracker
     (:func:`pkmlab.numerics.tracker.track_paths`) with the rules of :func:`track`."""
     from .tracker import track_paths
 
     program = family.program
-    x, _t, diverged = track_paths(program.code, program.register_file(), program.outputs, family.n, family.moving,
-                                  np.ascontiguousarray(solutions, dtype=complex), np.asarray(p0, dtype=complex),
-                                  np.asarray(p1, dtype=complex), 0.0, float(family.scale), DIVERGED, MAX_STEPS,
-                                  1e-3)
+    x, t, diverged = track_paths(program.code, program.register_file(), program.outputs, family.n, family.moving,
+                                 np.ascontiguousarray(solutions, dtype=complex), np.asarray(p0, dtype=complex),
+                                 np.asarray(p1, dtype=complex), 0.0, float(family.scale), DIVERGED, MAX_STEPS,
+                                 1e-3)
     x, regular = newton_polish(family, x, p1)
-    return x, regular & ~diverged, diverged
+    return Endpoints(x, regular & ~diverged, diverged, diverged | (t <= 1e-15))
 
 
 def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.random.Generator, *,
@@ -221,7 +233,7 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
         x = sols
         ok = np.ones(len(x), dtype=bool)
         for start, end in ((p0, pa), (pa, pb), (pb, p0)):
-            x, regular, _div = parameter_homotopy(family, x, start, end)
+            x, regular, _div, _reached = parameter_homotopy(family, x, start, end)
             ok &= regular
         merged = distinct(np.concatenate([sols, x[ok]]), family.scale)
         stale = stale + 1 if len(merged) == len(sols) else 0
