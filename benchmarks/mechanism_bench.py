@@ -164,12 +164,39 @@ def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts
                                  f"{preset_name}'s (as many legs)", ratio, "x"))
     if not all(math.isfinite(c["max_path_error_m"]) for c in checks.values()):
         raise AssertionError("a default run did not finish")
+    more, checks["stewart_40"] = _forty_poses_rows(h, 3 if quick else 7)
+    rows += more
     more, checks["time_optimal"] = _time_optimal_rows(h, 3 if quick else 7)
     rows += more
     more, checks["identification"] = _identification_rows(h, 3 if quick else 5)
     rows += more
     more, checks["calibration"] = _calibration_rows(h, 3 if quick else 5)
     return rows + more, checks
+
+
+#: Dietmaier's Stewart-Gough platform and leg lengths with 40 real poses (examples/stewart_dietmaier.toml).
+DIETMAIER_THETA = [1.0, 0.645275, 1.086284, 1.503439, 1.281933, 0.771071]
+
+
+def _forty_poses_rows(h, repeats: int) -> tuple[list[dict], dict]:
+    """Forward kinematics of a general Stewart-Gough platform at actuators with 40 real poses: its fast path
+    (the 128-path total-degree homotopy) and the general method (the parameter homotopy of 40 paths)."""
+    from pkmlab.algorithms.general_fk import generic_solutions
+
+    model = pkmlab.load(EXAMPLES / "stewart_dietmaier.toml")
+    theta = np.array(DIETMAIER_THETA)
+    generic_solutions(model.description)  # its monodromy, once per machine (the rows above time one)
+    fast, found_fast = h.time_runs(lambda: assembly.assembly_modes(model, theta), repeats)
+    general, found = h.time_runs(lambda: assembly.general_spatial_assembly_modes(model, theta), repeats)
+    if len(found) != 40 or len(found_fast) != 40:
+        raise AssertionError(f"Dietmaier's platform: {len(found_fast)} and {len(found)} poses, not 40")
+    rows = [h.rate_row("mech_stewart40_fk", "Stewart platform, 40 real poses: forward kinematics, fast path", fast, 1,
+                       "solve", compare=False),
+            h.rate_row("mech_stewart40_fk_general", "Stewart platform, 40 real poses: the general method", general, 1,
+                       "solve", compare=False),
+            h.metric_row("mech_stewart40_fk_fast_vs_general", "Stewart platform, 40 real poses: fast path's time / "
+                         "the general method's", float(np.median(fast)) / float(np.median(general)), "x")]
+    return rows, {"fast_s": float(np.median(fast)), "general_s": float(np.median(general))}
 
 
 def _measured_poses(true, offsets, count: int, rng) -> tuple[np.ndarray, np.ndarray]:

@@ -255,7 +255,8 @@ def assert_closes_loops(geometry: Geometry, theta, sol: dict, tol: float = 1e-10
 def test_fk_json_structure(capsys):
     theta = [s["theta"] for s in ik_solutions(capsys, (0.2, 0.21, 0.0), "--mode", "+", "-", "+")][0]
     result = run_json(capsys, "fk", *map(repr, theta))
-    assert set(result) == {"mechanism", "pose_names", "solutions"}
+    assert set(result) == {"mechanism", "pose_names", "solutions", "method"}
+    assert result["method"].endswith(": complete")  # the paper's sextic: every real root, nothing to doubt
     assert result["mechanism"] == "paper" and result["pose_names"] == ["x", "y", "alpha"]
     solutions = result["solutions"]
     assert 1 <= len(solutions) <= 6
@@ -308,7 +309,8 @@ def test_fk_table(capsys):
     lines = out.strip().splitlines()
     assert f"{len(solutions)} assembly mode" in lines[0]
     assert lines[1].split() == ["#", "x", "y", "alpha", "q1_2", "q2_2", "q3_2", "S"]
-    rows = [line.split() for line in lines[2:]]
+    assert lines[-1].startswith("method: ") and lines[-1].endswith(": complete")
+    rows = [line.split() for line in lines[2:-1]]
     assert [row[0] for row in rows] == [str(j + 1) for j in range(len(solutions))]
     for row, sol in zip(rows, solutions, strict=True):
         np.testing.assert_allclose([float(v) for v in row[1:]], [*sol["pose"], *sol["passive"], sol["S"]], rtol=0,

@@ -73,7 +73,8 @@ def test_fk_of_ik_round_trips_with_the_default_output_too(capsys, name):
         assert code == 0 and err == ""
         table = out.strip().splitlines()
         assert table[1].split()[:len(pose) + 1] == ["#", *SHAPES[name][0]]
-        poses = [[float(v) for v in line.split()[1:len(pose) + 1]] for line in table[2:]]
+        assert table[-1].startswith("method: ")  # the completeness statement closes the table
+        poses = [[float(v) for v in line.split()[1:len(pose) + 1]] for line in table[2:-1]]
         assert min(gap(p, pose) for p in poses) < 1e-4  # the actuators were rounded to 6 decimals
 
 
@@ -140,7 +141,8 @@ def test_every_preset_answers_ik_fk_and_dynamics_with_the_same_keys(capsys, name
         assert set(s) == IK_KEYS and len(s["mode"]) == signs and len(s["theta"]) == n and len(s["passive"]) == passive
     theta = max(ik["solutions"], key=lambda s: abs(s["S"]))["theta"]
     fk = run_json(capsys, "fk", "--mechanism", name, *theta)
-    assert set(fk) == {"mechanism", "pose_names", "solutions"} and fk["pose_names"] == list(pose_names)
+    assert set(fk) == {"mechanism", "pose_names", "solutions", "method"} and fk["pose_names"] == list(pose_names)
+    assert "complete" in fk["method"]
     for s in fk["solutions"]:
         assert set(s) == FK_KEYS and len(s["pose"]) == len(pose_names) and len(s["passive"]) == passive
     dynamics = run_json(capsys, "dynamics", "--mechanism", name, *theta, "--rates", *[0.1] * n, "--near", *pose)

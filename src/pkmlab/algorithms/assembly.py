@@ -69,6 +69,33 @@ def five_bar_assembly_modes(model: MechanismModel, theta) -> list[np.ndarray]:
     return out
 
 
+def method_statement(model: MechanismModel) -> str:
+    """Which method :func:`assembly_modes` uses for ``model``, and what it guarantees: the completeness statement
+    that ``pkmlab fk`` prints beside the assembly modes (a solve that cannot keep the guarantee warns with
+    :class:`~pkmlab.errors.IncompleteSolutionWarning`)."""
+    from ..description.leg_types import SOLVERS
+
+    m = model.description
+    if getattr(m, "spatial", False):
+        if m.platform.kind == "rigid" and len(m.legs) == 6 and all(leg.notation == "UP*S" for leg in m.legs):
+            return ("every real pose of the six leg lengths: a total-degree homotopy of 128 paths on the "
+                    "soma-coordinate quadrics (up to 40 poses), checked for jumps and conjugate pairs: complete "
+                    "unless a warning says otherwise")
+        if m.platform.kind == "translating" and all(leg.notation == "R*US" for leg in m.legs):
+            return "both intersections of three spheres (closed form): complete"
+        from .general_fk import generic_solutions
+
+        solutions, _p, loops = generic_solutions(m)
+        return (f"a parameter homotopy from the {len(solutions)} complex solutions of a generic instance (found by "
+                f"monodromy, {loops} loops): complete unless a warning says otherwise")
+    if any(leg.notation not in SOLVERS for leg in m.legs):
+        return ("the loci's intersections along a sweep of the platform's orientation, every sign change and dip "
+                "refined: complete unless a warning says otherwise")
+    if m.platform.kind == "point":
+        return "both intersections of two circles (closed form): complete"
+    return "every real root of one degree-6 polynomial (the paper's eq. 12, Gosselin's general form): complete"
+
+
 def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float]]:
     """Every assembly mode ``[(q, S), ...]`` (sorted by the platform's angle) at ``actuators``.
 

@@ -32,7 +32,7 @@ from .._validate import as_batch, as_broadcast, as_choice, as_mode, as_real, ind
 from ..errors import BranchFollowingError, IncompleteSolutionWarning, InvalidParameterError, SingularityError, shown
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
-from .assembly import assembly_modes
+from .assembly import assembly_modes, method_statement
 
 __all__ = [
     "SINGULAR_S",
@@ -243,6 +243,9 @@ class ForwardKinematicsSolution:
     S : ndarray, shape (..., m)
     count : ndarray of int, shape (...)
         How many assembly modes exist (0 where the machine cannot be assembled).
+    method : str
+        The method that found them and what it guarantees
+        (:func:`~pkmlab.algorithms.assembly.method_statement`).
 
     For a single ``θ`` the object is a sequence of :class:`AssemblyMode`.
     """
@@ -251,6 +254,7 @@ class ForwardKinematicsSolution:
     pose: np.ndarray
     S: np.ndarray
     count: np.ndarray
+    method: str = ""
 
     def __len__(self) -> int:
         if self.count.ndim:
@@ -317,7 +321,7 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
         for j, (qj, sj) in enumerate(solutions):
             q[k, j], s[k, j] = qj, sj
     return ForwardKinematicsSolution(q.reshape(*shape, most, n), q[..., n - dof:].reshape(*shape, most, dof),
-                                     s.reshape(*shape, most), count.reshape(shape))
+                                     s.reshape(*shape, most), count.reshape(shape), method_statement(model))
 
 
 def branch_following(model: MechanismModel, q_previous, theta, *, singularity_guard: float = SINGULAR_S,

@@ -153,4 +153,6 @@ def cmd_fk(args) -> dict:
         rows = [[str(j + 1), *sol["pose"], *sol["passive"], sol["S"], *_kind_values(sol)]
                 for j, sol in enumerate(solutions)]
         print(table(["#", *model.pose_names, *passive_names(model), "S", *_KIND_COLUMNS[:2 * args.kinds]], rows))
-    return {"mechanism": mechanism_name(args, model), "pose_names": list(model.pose_names), "solutions": solutions}
+        print(f"method: {found.method}")
+    return {"mechanism": mechanism_name(args, model), "pose_names": list(model.pose_names), "solutions": solutions,
+            "method": found.method}

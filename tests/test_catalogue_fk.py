@@ -1,0 +1,132 @@
+"""Forward kinematics of the catalogue machines the other files leave to this one (the 3-RPS, the 6-RUS, the
+6-PUS), against a method independent of the polynomial system the homotopy tracks: Newton's method on the
+generated kernels' loop closures ``η = 0`` from 10,000 random configurations (passive angles over a turn, the
+platform anywhere in its reach, every orientation). The multistart may find fewer platform poses than the
+homotopy, never more; every pose the homotopy gives closes the loops; the inverse kinematics' pose is among
+them. At ``θ = 0`` the six-legged machines are symmetric and some paths go to infinity: there the 6-PUS has 8
+real assembly modes, of which a solve that trusted its first attempt missed one without a word.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pkmlab
+from pkmlab.algorithms.assembly import assembly_modes
+from pkmlab.errors import IncompleteSolutionWarning
+from pkmlab.model import mechanism_model as mm
+from pkmlab.model.reach import spatial_extent
+
+CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
+STARTS = 10_000
+#: file, a regular pose (as in test_catalogue)
+MACHINES = {
+    "3rps.toml": [0.5, 0.05, -0.03],
+    "6rus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
+    "6pus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
+}
+
+
+def _wrapped(a: np.ndarray) -> np.ndarray:
+    return np.angle(np.exp(1j * a))
+
+
+def _pose_columns(model) -> list[int]:
+    return [model.coordinates.index(c) for c in model.description.platform.q_pose_names]
+
+
+def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tuple[np.ndarray, int]:
+    """The distinct platform poses (roll, pitch, yaw with |pitch| <= pi/2, as pkmlab gives them) of the
+    configurations that damped Newton steps on ``η = 0`` reach from ``starts`` random ones at actuators
+    ``theta``, all starts stepped together; and how many starts converged."""
+    k = model.kernels
+    n, N = model.n_actuators, len(model.coordinates)
+    names = model.coordinates
+    box = spatial_extent(model.description)
+    rng = np.random.default_rng(seed)
+    q = np.empty((starts, N))
+    q[:, :n] = theta
+    for c in range(n, N):
+        q[:, c] = rng.uniform(*box["xyz".index(names[c])], starts) if names[c] in "xyz" else \
+            rng.uniform(-np.pi, np.pi, starts)
+    active = np.ones(starts, dtype=bool)
+    converged = np.zeros(starts, dtype=bool)
+    sc = np.zeros((N, 2))
+    eta = np.empty((starts, k.N_CONSTRAINTS))
+    for _ in range(40):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        for i in idx:
+            k.trig(q[i], sc)
+            k.constraints(q[i], sc, model.P, eta[i])
+        done = idx[np.abs(eta[idx]).max(axis=1) < 1e-12]
+        converged[done] = True
+        active[done] = False
+        idx = np.flatnonzero(active)
+        jac = np.empty((idx.size, k.N_CONSTRAINTS, N))
+        k.constraint_jacobians(np.ascontiguousarray(q[idx]), model.P, jac)
+        with np.errstate(all="ignore"):
+            a = jac[:, :, n:]
+            ok = np.linalg.cond(a) < 1e12
+            step = np.zeros((idx.size, N - n))
+            step[ok] = np.linalg.solve(a[ok], -eta[idx][ok][..., None])[..., 0]
+        ok &= np.isfinite(step).all(axis=1)
+        active[idx[~ok]] = False
+        idx, step = idx[ok], step[ok]
+        q[idx, n:] += step * np.minimum(1.0, 0.5 / np.abs(step).max(axis=1))[:, None]
+    poses = q[converged][:, _pose_columns(model)]
+    pose_names = model.description.platform.q_pose_names
+    roll, pitch, yaw = (pose_names.index(c) for c in ("roll", "pitch", "yaw"))
+    flip = np.cos(poses[:, pitch]) < 0
+    poses[flip, roll] += np.pi
+    poses[flip, pitch] = np.pi - poses[flip, pitch]
+    poses[flip, yaw] += np.pi
+    angular = np.array([c in ("roll", "pitch", "yaw") for c in pose_names])
+    poses[:, angular] = _wrapped(poses[:, angular])
+    distinct: list[np.ndarray] = []
+    for p in poses:
+        if all(np.abs(_wrapped(p - d)).max() > 1e-7 for d in distinct):
+            distinct.append(p)
+    return np.array(distinct), int(converged.sum())
+
+
+def _forward_poses(model, theta) -> np.ndarray:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IncompleteSolutionWarning)  # a solve unsure of itself fails the test
+        found = assembly_modes(model, theta)
+    for q, _s in found:
+        assert np.abs(pkmlab.constraint_residual(model, q)).max() < 1e-11
+    return np.array([q[_pose_columns(model)] for q, _s in found])
+
+
+def _contains(poses: np.ndarray, pose: np.ndarray, tol: float = 1e-7) -> bool:
+    return bool(len(poses)) and bool((np.abs(_wrapped(poses - pose)).max(axis=1) < tol).any())
+
+
+@pytest.mark.parametrize("name", sorted(MACHINES))
+def test_forward_kinematics_finds_every_pose_a_newton_multistart_finds(name):
+    model = pkmlab.load(CATALOGUE / name)
+    q = mm.inverse_kinematics(model, MACHINES[name], mm.working_modes(model)[0])
+    theta = q[:model.n_actuators]
+    poses = _forward_poses(model, theta)
+    assert _contains(poses, q[_pose_columns(model)], 1e-9)
+    multistart, converged = _multistart_poses(model, theta)
+    assert converged > STARTS // 20
+    assert all(_contains(poses, p) for p in multistart), "a pose the homotopy missed"
+    assert len(multistart) >= 2  # the check has teeth: it finds more than the pose it started from
+
+
+@pytest.mark.parametrize("name", ["6pus.toml", "6rus.toml"])
+def test_a_symmetric_six_legged_machine_keeps_every_assembly_mode_where_paths_go_to_infinity(name):
+    model = pkmlab.load(CATALOGUE / name)
+    theta = np.zeros(6)
+    poses = _forward_poses(model, theta)
+    multistart, _converged = _multistart_poses(model, theta)
+    assert all(_contains(poses, p) for p in multistart), "a pose the homotopy missed"
+    # mirror images in the base plane come in pairs (z -> -z with the platform turned over): an even count
+    assert len(poses) == 8 and len(multistart) == 8
