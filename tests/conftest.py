@@ -22,7 +22,8 @@ from pkmlab.paper.geometry import Planar3RRR  # noqa: E402
 #: Files whose tests are about the spatial presets (the Delta, the Stewart platform); tests elsewhere whose
 #: name or parameters say "delta" or "stewart" count too.
 SPATIAL_FILES = {"test_delta.py", "test_stewart.py", "test_stewart_fk.py", "test_spatial_kernels.py",
-                 "test_lower_mobility.py", "test_upu.py", "test_singularity_kinds.py", "test_rrs.py"}
+                 "test_lower_mobility.py", "test_upu.py", "test_singularity_kinds.py", "test_rrs.py",
+                 "test_catalogue_fk.py"}
 #: Tests of the spatial presets that neither file nor name says: examples that calibrate a Delta and a Stewart.
 SPATIAL_TESTS = {"test_example_runs[calibration.py]"}
 #: Below this many selected tests, the spatial kernels are not compiled ahead (a few tests run as usual).

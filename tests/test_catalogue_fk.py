@@ -20,6 +20,7 @@ from pkmlab.algorithms.assembly import assembly_modes
 from pkmlab.errors import IncompleteSolutionWarning
 from pkmlab.model import mechanism_model as mm
 from pkmlab.model.reach import spatial_extent
+from pkmlab.numerics.homotopy import batched_solve
 
 CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
 STARTS = 10_000
@@ -71,11 +72,8 @@ def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tupl
         jac = np.empty((idx.size, k.N_CONSTRAINTS, N))
         k.constraint_jacobians(np.ascontiguousarray(q[idx]), model.P, jac)
         with np.errstate(all="ignore"):
-            a = jac[:, :, n:]
-            ok = np.linalg.cond(a) < 1e12
-            step = np.zeros((idx.size, N - n))
-            step[ok] = np.linalg.solve(a[ok], -eta[idx][ok][..., None])[..., 0]
-        ok &= np.isfinite(step).all(axis=1)
+            step = batched_solve(jac[:, :, n:], -eta[idx])  # NaN where singular
+        ok = np.isfinite(step).all(axis=1)
         active[idx[~ok]] = False
         idx, step = idx[ok], step[ok]
         q[idx, n:] += step * np.minimum(1.0, 0.5 / np.abs(step).max(axis=1))[:, None]

@@ -1,5 +1,6 @@
-"""Compile the kernels of the spatial machines (the Delta, the Stewart platform, the 3-PRS, the 3-UPU, the 3-RRS) into
-the kernel cache, by calling every compiled entry point the test suite calls on them.
+"""Compile the kernels of the spatial machines (the Delta, the Stewart platform, the 3-PRS, the 3-UPU, the 3-RRS; for
+their forward kinematics the 3-RPS, the 6-RUS and the 6-PUS) into the kernel cache, by calling every compiled entry
+point the test suite calls on them.
 
 Their first compiles are the largest cost of a test run on a fresh checkout (about a minute for the Stewart
 platform's actuator-space model alone). ``conftest.py`` starts this script in a second process when a test
@@ -28,6 +29,10 @@ MACHINES = {
     str(EXAMPLES / "mechanisms" / "3upu.toml"): ([0.02, -0.01, 0.62], "mechanisms/3upu_motion.toml"),
     str(EXAMPLES / "mechanisms" / "3rrs.toml"): ([0.34, 0.05, -0.03], "mechanisms/3rrs_motion.toml"),
 }
+#: Machines whose tests call only their forward kinematics and the loop closures' kernels (test_catalogue_fk).
+FORWARD_ONLY = {str(EXAMPLES / "mechanisms" / name): pose for name, pose in
+                (("3rps.toml", [0.5, 0.05, -0.03]), ("6rus.toml", [0.0, 0.0, -0.30, 0.05, -0.03, 0.1]),
+                 ("6pus.toml", [0.0, 0.0, -0.30, 0.05, -0.03, 0.1]))}
 #: Machines whose tests call only the kinematics, the actuator-space model and one sampled-data run.
 LIGHT = {str(EXAMPLES / "mechanisms" / name) for name in ("3prs.toml", "3upu.toml", "3rrs.toml")}
 
@@ -43,7 +48,21 @@ def warm_light(name: str) -> None:
     general_fk.generic_solutions(model.description)  # its monodromy, kept in the cache folder
 
 
+def warm_forward(name: str) -> None:
+    model = pkmlab.load(name)
+    q = pkmlab.inverse_kinematics(model, FORWARD_ONLY[name], pkmlab.working_modes(model)[0]).q
+    n = model.n_actuators
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assembly.assembly_modes(model, q[:n])  # its kernels, its monodromy (kept in the cache folder), the tracker
+    k = model.kernels
+    k.constraint_jacobians(q[None, :], model.P, np.empty((1, k.N_CONSTRAINTS, len(q))))
+
+
 def warm(name: str) -> None:
+    if name in FORWARD_ONLY:
+        warm_forward(name)
+        return
     if name in LIGHT:
         warm_light(name)
         return
@@ -82,7 +101,7 @@ def warm(name: str) -> None:
 
 
 def main(names: list[str]) -> int:
-    for name in names or list(MACHINES):
+    for name in names or [*MACHINES, *FORWARD_ONLY]:
         warm(name)
     return 0
 

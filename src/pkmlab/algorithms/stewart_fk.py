@@ -21,10 +21,11 @@ on the degenerate set ``e = 0, g·g = 0``, where every equation vanishes.
 Method. A total-degree homotopy ``H(x, t) = (1 − t) F(x) + γ t G(x)`` with ``G_k = x_k² − x_7²``
 (``k = 0..6``, 128 start points ``x = (±1, ..., ±1, 1)``), a random complex ``γ`` (the gamma trick: for all but
 finitely many ``γ`` on the unit circle no path meets a singularity for ``t ∈ (0, 1]``), on a random complex
-affine patch ``c·x = 1`` (no path then runs off to infinity). The 128 paths are tracked together, vectorised
-over paths, each with its own adaptive step: a fourth-order Runge–Kutta predictor on the Davidenko equation
-``dx/dt = −H_x⁻¹ H_t`` and a Newton corrector that must contract fast, else the step is halved
-(:func:`pkmlab.numerics.homotopy.track`). The paths stop at a small ``t``; the end game is Newton's method on
+affine patch ``c·x = 1`` (no path then runs off to infinity). The 128 paths are tracked each with its own
+adaptive step: a fourth-order Runge–Kutta predictor on the Davidenko equation ``dx/dt = −H_x⁻¹ H_t`` and a
+Newton corrector that must contract fast, else the step is halved (:func:`pkmlab.numerics.tracker.track_paths`,
+on a straight-line program of the homotopy written as a family ``s₀ F(x) + s₁ G(x)`` whose parameters
+``(s₀, s₁)`` go from ``(0, γ)`` to ``(1, 0)``). The paths stop at a small ``t``; the end game is Newton's method on
 ``F`` at ``t = 0``: a path to a pose ends at a regular solution, where it converges quadratically and ``e`` is
 of the size of ``x``; a path to the degenerate set ends where the Jacobian is singular and ``e → 0`` (like
 ``√t``: its tracking stops near ``t ≈ 1e-8``, and ``|e| / |x|`` is then some 1e-4, against at least
@@ -46,6 +47,7 @@ Robot Kinematics: Analysis and Control, Kluwer, 1998, 7–16.
 
 from __future__ import annotations
 
+import functools
 import math
 import operator
 import warnings
@@ -53,7 +55,9 @@ import warnings
 import numpy as np
 
 from ..errors import IncompleteSolutionWarning, InvalidParameterError, shown
-from ..numerics.homotopy import batched_solve, track
+from ..numerics.homotopy import Family, batched_solve
+from ..numerics.straight_line import compile_program
+from ..numerics.tracker import track_paths
 
 __all__ = ["assembly_modes"]
 
@@ -160,50 +164,41 @@ def _quadrics(base: np.ndarray, platform: np.ndarray, lengths: np.ndarray) -> np
 # --------------------------------------------------------------------------- path tracking
 
 
-class _Homotopy:
-    """``H(x, t) = (1 − t) F(x) + γ t G(x)`` with the patch ``c·x = 1``, evaluated for many paths at once."""
+#: Pairs (i, j), i <= j, of the upper triangle of a symmetric 8×8 matrix: a leg quadric's coefficients.
+_UPPER = [(i, j) for i in range(8) for j in range(i, 8)]
 
-    def __init__(self, Q: np.ndarray, gamma: complex, patch: np.ndarray):
-        self.Q = Q.astype(complex)
-        self.gamma = gamma
-        self.patch = patch
 
-    def _parts(self, x: np.ndarray):
-        Qx = np.einsum("kij,pj->pki", self.Q, x)  # (P, 7, 8)
-        F = np.einsum("pki,pi->pk", Qx, x)
-        G = x[:, :7] ** 2 - x[:, 7:] ** 2
-        dG = np.zeros_like(Qx)
-        idx = np.arange(7)
-        dG[:, idx, idx] = x[:, :7]
-        dG[:, :, 7] = -x[:, 7:]
-        return F, G, 2 * Qx, 2 * dG
+@functools.cache
+def _family() -> Family:
+    """The homotopy ``H(x, t) = (1 − t) F(x) + γ t G(x)`` with the patch ``c·x = 1`` as a family
+    ``s₀ F(x) + s₁ G(x)`` whose two moving parameters go from ``(0, γ)`` at ``t = 1`` to ``(1, 0)`` at ``t = 0``,
+    its fixed parameters the six leg quadrics' upper triangles and the patch: a straight-line program, the
+    same for every platform (:mod:`pkmlab.numerics.straight_line`)."""
+    import sympy as sp
 
-    def jacobian(self, x: np.ndarray, t: np.ndarray):
-        """``(H, H_t, J)``: the homotopy, its t-derivative and the 8×8 Jacobian with the patch row."""
-        F, G, dF, dG = self._parts(x)
-        s = (1 - t)[:, None]
-        gt = (self.gamma * t)[:, None]
-        H = s * F + gt * G
-        Ht = self.gamma * G - F
-        J = np.empty((x.shape[0], 8, 8), dtype=complex)
-        J[:, :7] = s[:, :, None] * dF + gt[:, :, None] * dG
-        J[:, 7] = self.patch
-        return H, Ht, J
+    x = sp.symbols("x0:8")
+    s0, s1 = sp.symbols("s0 s1")
+    q = [sp.symbols(f"q{k}_0:{len(_UPPER)}") for k in range(6)]
+    c = sp.symbols("c0:8")
+    study = _quadrics(np.zeros((6, 3)), np.zeros((6, 3)), np.zeros(6))[6]
+    H = []
+    for k in range(7):
+        if k < 6:
+            F = sum((1 if i == j else 2) * q[k][u] * x[i] * x[j] for u, (i, j) in enumerate(_UPPER))
+        else:
+            F = sum(sp.nsimplify(study[i, j]) * x[i] * x[j] for i in range(8) for j in range(8))
+        H.append(s0 * F + s1 * (x[k] ** 2 - x[7] ** 2))
+    H.append(sum(ci * xi for ci, xi in zip(c, x, strict=True)) - 1)
+    H = sp.Matrix(H)
+    fixed = [v for row in q for v in row] + list(c)
+    program = compile_program([*H, *H.jacobian(x), *H.jacobian([s0, s1])], [*x, s0, s1, *fixed])
+    return Family(program, 8, 2, scale=0.0)
 
-    def tangent(self, x: np.ndarray, t: np.ndarray, _idx=None) -> np.ndarray:
-        """``dx/dt`` along the paths."""
-        _, Ht, J = self.jacobian(x, t)
-        rhs = np.zeros((x.shape[0], 8), dtype=complex)
-        rhs[:, :7] = -Ht
-        return batched_solve(J, rhs)
 
-    def newton(self, x: np.ndarray, t: np.ndarray, _idx=None) -> np.ndarray:
-        """One Newton correction at fixed ``t``."""
-        H, _, J = self.jacobian(x, t)
-        rhs = np.empty((x.shape[0], 8), dtype=complex)
-        rhs[:, :7] = -H
-        rhs[:, 7] = 1 - x @ self.patch
-        return batched_solve(J, rhs)
+def _parameters(Q: np.ndarray, s: tuple[complex, complex], patch: np.ndarray) -> np.ndarray:
+    """The family's parameters: ``s``, then the leg quadrics' upper triangles, then the patch."""
+    upper = [Q[k, i, j] for k in range(6) for i, j in _UPPER]
+    return np.array([*s, *upper, *patch], dtype=complex)
 
 
 def _start_points(patch: np.ndarray) -> np.ndarray:
@@ -273,11 +268,13 @@ def _run(Q: np.ndarray, rng: np.random.Generator, real_ratio: float):
     """
     gamma = np.exp(2j * np.pi * rng.random())
     patch = (rng.standard_normal(8) + 1j * rng.standard_normal(8)) / 4
+    family = _family()
+    program = family.program
+    # a projective system on a patch: no scale floor, no divergence, stalls judged at any t
+    ends, t_stop, _diverged = track_paths(program.code, program.register_file(), program.outputs, 8, 2,
+                                          _start_points(patch), _parameters(Q, (0, gamma), patch),
+                                          _parameters(Q, (1, 0), patch), _T_END, 0.0, math.inf, _MAX_STEPS, 0.0)
     with np.errstate(all="ignore"):
-        hom = _Homotopy(Q, gamma, patch)
-        # a projective system on a patch: no scale floor, no divergence, stalls judged at any t
-        ends, t_stop, _diverged = track(hom, _start_points(patch), _T_END, scale=0.0, bound=math.inf,
-                                        max_steps=_MAX_STEPS, stall_floor=0.0)
         x, regular, ratio = _end_game(Q, patch, ends)
     x = x / np.linalg.norm(x, axis=1)[:, None]
     problems = []

@@ -6,10 +6,9 @@ fourth-order Runge–Kutta predictor on the Davidenko equation ``dx/dt = −H_x�
 that must contract fast, else the step is halved — each path with its own adaptive step. A path
 stops where it reaches ``t = 0``, where it diverges (its ``|x|`` beyond a bound: a solution of the start
 system with none at the target, gone to infinity) or where its step has to shrink below ``1e-9 t``
-(near a singular endpoint). A parameter homotopy's paths are tracked by compiled code
-(:func:`pkmlab.numerics.tracker.track_paths`) on a straight-line program of the family
-(:mod:`pkmlab.numerics.straight_line`); :func:`track` follows the same rules vectorised over paths in NumPy,
-for a homotopy given as Python methods (:mod:`pkmlab.algorithms.stewart_fk`'s).
+(near a singular endpoint). The paths are tracked by compiled code, shared among the cores
+(:func:`pkmlab.numerics.tracker.track_paths`), on a straight-line program of the family
+(:mod:`pkmlab.numerics.straight_line`): a family is data, and one compiled tracker serves every machine.
 
 What this module offers on top of tracking:
 
@@ -41,10 +40,6 @@ import numpy as np
 
 from .straight_line import Program
 
-#: Relative size of Newton's last correction for a corrector step to be accepted.
-TRACK_TOL = 1e-9
-#: Largest first Newton correction (relative to |x|) of an accepted corrector step.
-FIRST_STEP = 1e-2
 #: Most predictor-corrector iterations per path.
 MAX_STEPS = 4000
 #: A path whose |x| exceeds this (relative to the system's scale) has gone to infinity.
@@ -91,72 +86,6 @@ class Family:
         """``∂F/∂x`` at the rows of ``x`` and ``p``: (P, n, n)."""
         n = self.n
         return self._outputs(x, p)[:, n:n + n * n].reshape(-1, n, n)
-
-
-def track(hom, x: np.ndarray, t_end: float = 0.0, *, scale: float = 1.0, bound: float = DIVERGED,
-          max_steps: int = MAX_STEPS, stall_floor: float = 1e-3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Track every path of ``hom`` from ``t = 1`` (``x`` (P, n), its solutions there) towards ``t_end``.
-
-    ``hom`` gives ``tangent(x, t, idx)`` (``dx/dt``) and ``newton(x, t, idx)`` (a Newton correction) for the
-    paths ``idx``. A corrector's tolerances are relative to ``|x|``, or to ``1e-3 scale`` where ``|x|`` is
-    smaller (a solution of the size ``scale``); a path whose ``|x|`` exceeds ``bound · max(scale, 1)`` has
-    diverged; a path stops where its step has to shrink below ``1e-9 max(t, stall_floor)`` — near a singular
-    endpoint (for a projective system, ``scale = 0``, ``bound = inf``, ``stall_floor = 0``: a path to a degenerate
-    set converging like ``√t`` stops around ``t ≈ 1e-8``).
-
-    Returns the endpoints, the ``t`` each reached, and whether each diverged (went to infinity).
-    """
-    P = x.shape[0]
-    x = np.array(x, dtype=complex)
-    t = np.ones(P)
-    h = np.full(P, 0.05)
-    successes = np.zeros(P, dtype=int)
-    active = np.ones(P, dtype=bool)
-    diverged = np.zeros(P, dtype=bool)
-    bound = bound * max(scale, 1.0)
-    done = max(t_end * (1 + 1e-9), 1e-15)  # t_end, reached to round-off
-    with np.errstate(all="ignore"):
-        for _ in range(max_steps):
-            idx = np.flatnonzero(active)
-            if idx.size == 0:
-                break
-            xa, ta = x[idx], t[idx]
-            ha = np.minimum(h[idx], ta - t_end)
-            dt = -ha[:, None]
-            k1 = hom.tangent(xa, ta, idx)
-            k2 = hom.tangent(xa + dt / 2 * k1, ta - ha / 2, idx)
-            k3 = hom.tangent(xa + dt / 2 * k2, ta - ha / 2, idx)
-            k4 = hom.tangent(xa + dt * k3, ta - ha, idx)
-            t1 = ta - ha
-            x1 = xa + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            size = np.maximum(np.linalg.norm(x1, axis=1), 1e-3 * scale)
-            ok = np.isfinite(x1).all(axis=1)
-            prev = None
-            for it in range(3):
-                dx = hom.newton(x1, t1, idx)
-                n = np.linalg.norm(dx, axis=1)
-                n = np.where(np.isfinite(n), n, np.inf)
-                if it == 0:
-                    ok &= n <= FIRST_STEP * size
-                else:
-                    ok &= (n <= 0.25 * prev) | (n <= TRACK_TOL * size)
-                x1 = x1 + np.where(np.isfinite(dx), dx, 0)
-                prev = n
-            ok &= prev <= TRACK_TOL * size
-            acc, rej = idx[ok], idx[~ok]
-            x[acc], t[acc] = x1[ok], t1[ok]
-            successes[acc] += 1
-            grow = acc[successes[acc] >= 3]
-            h[grow] = np.minimum(2 * h[grow], 0.25)
-            successes[grow] = 0
-            h[rej] *= 0.5
-            successes[rej] = 0
-            far = acc[np.linalg.norm(x[acc], axis=1) > bound]
-            diverged[far] = True
-            active[far] = False
-            active[acc[t[acc] <= done]] = False
-            active[rej[h[rej] < 1e-9 * np.maximum(t[rej], stall_floor)]] = False
-    return x, t, diverged
 
 
 def newton_polish(family: Family, x: np.ndarray, p: np.ndarray, iterations: int = 6):

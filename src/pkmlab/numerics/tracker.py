@@ -18,7 +18,7 @@ from .. import _compile_cache
 
 if _compile_cache.INTERPRETED:  # this module is compiled all the same (module docstring)
     _compile_cache.configure()
-from numba import njit  # noqa: E402
+from numba import njit, prange  # noqa: E402
 
 #: Relative size of Newton's last correction for a corrector step to be accepted.
 TRACK_TOL = 1e-9
@@ -130,19 +130,8 @@ def _norm(v):
 
 
 @njit(cache=True)
-def track_paths(code, registers, outputs, n, moving, x0, p0, p1, t_end, scale, bound, max_steps, stall_floor):
-    """Every path of the homotopy ``F(x; t p₀ + (1 − t) p₁) = 0`` from its start ``x0[i]`` at ``t = 1`` towards
-    ``t_end`` (:func:`pkmlab.numerics.homotopy.track`, whose rules it follows): a fourth-order Runge–Kutta
-    predictor on ``dx/dt`` and three Newton corrections that must contract, the step doubled after three
-    accepted steps (at most 0.25) and halved after a rejected one. Returns the endpoints, the ``t`` each
-    reached and whether each diverged."""
-    P = x0.shape[0]
-    xs = x0.copy()
-    ts = np.ones(P)
-    diverged = np.zeros(P, dtype=np.bool_)
-    done = max(t_end * (1 + 1e-9), 1e-15)
-    bound = bound * max(scale, 1.0)
-    r = registers.copy()
+def _track_one(code, r, outputs, n, moving, x, p0, p1, t_end, bound, scale, max_steps, stall_floor):
+    """Track one path from ``x`` (overwritten with its end) at ``t = 1``: returns ``(t reached, diverged)``."""
     A = np.empty((n, n), dtype=np.complex128)
     k1 = np.empty(n, dtype=np.complex128)
     k2 = np.empty(n, dtype=np.complex128)
@@ -150,52 +139,71 @@ def track_paths(code, registers, outputs, n, moving, x0, p0, p1, t_end, scale, b
     k4 = np.empty(n, dtype=np.complex128)
     y = np.empty(n, dtype=np.complex128)
     dx = np.empty(n, dtype=np.complex128)
-    for i in range(P):
-        x = xs[i]
-        t, h, successes = 1.0, 0.05, 0
-        for _ in range(max_steps):
-            if t <= done:
-                break
-            ha = min(h, t - t_end)
-            ok = _tangent(code, r, outputs, n, moving, x, p0, p1, t, A, k1)
-            y[:] = x - ha / 2 * k1
-            ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha / 2, A, k2)
-            y[:] = x - ha / 2 * k2
-            ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha / 2, A, k3)
-            y[:] = x - ha * k3
-            ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha, A, k4)
-            t1 = t - ha
-            y[:] = x - ha / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            size = max(_norm(y), 1e-3 * scale)
-            prev = np.inf
-            if ok:
-                for it in range(3):
-                    good = _newton(code, r, outputs, n, y, p0, p1, t1, A, dx)
-                    step = _norm(dx) if good else np.inf
-                    if not np.isfinite(step):
-                        step = np.inf
-                    if it == 0:
-                        ok = ok and step <= FIRST_STEP * size
-                    else:
-                        ok = ok and (step <= 0.25 * prev or step <= TRACK_TOL * size)
-                    if np.isfinite(step):
-                        y += dx
-                    prev = step
-                ok = ok and prev <= TRACK_TOL * size
-            if ok:
-                x[:] = y
-                t = t1
-                successes += 1
-                if successes >= 3:
-                    h = min(2 * h, 0.25)
-                    successes = 0
-                if _norm(x) > bound:
-                    diverged[i] = True
-                    break
-            else:
-                h *= 0.5
+    done = max(t_end * (1 + 1e-9), 1e-15)
+    t, h, successes = 1.0, 0.05, 0
+    for _ in range(max_steps):
+        if t <= done:
+            break
+        ha = min(h, t - t_end)
+        ok = _tangent(code, r, outputs, n, moving, x, p0, p1, t, A, k1)
+        y[:] = x - ha / 2 * k1
+        ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha / 2, A, k2)
+        y[:] = x - ha / 2 * k2
+        ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha / 2, A, k3)
+        y[:] = x - ha * k3
+        ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha, A, k4)
+        t1 = t - ha
+        y[:] = x - ha / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        size = max(_norm(y), 1e-3 * scale)
+        prev = np.inf
+        if ok:
+            for it in range(3):
+                good = _newton(code, r, outputs, n, y, p0, p1, t1, A, dx)
+                step = _norm(dx) if good else np.inf
+                if not np.isfinite(step):
+                    step = np.inf
+                if it == 0:
+                    ok = ok and step <= FIRST_STEP * size
+                else:
+                    ok = ok and (step <= 0.25 * prev or step <= TRACK_TOL * size)
+                if np.isfinite(step):
+                    y += dx
+                prev = step
+            ok = ok and prev <= TRACK_TOL * size
+        if ok:
+            x[:] = y
+            t = t1
+            successes += 1
+            if successes >= 3:
+                h = min(2 * h, 0.25)
                 successes = 0
-                if h < 1e-9 * max(t, stall_floor):
-                    break
-        ts[i] = t
+            if _norm(x) > bound:
+                return t, True
+        else:
+            h *= 0.5
+            successes = 0
+            if h < 1e-9 * max(t, stall_floor):
+                break
+    return t, False
+
+
+@njit(cache=True, parallel=True)
+def track_paths(code, registers, outputs, n, moving, x0, p0, p1, t_end, scale, bound, max_steps, stall_floor):
+    """Every path of the homotopy ``F(x; t p₀ + (1 − t) p₁) = 0`` from its start ``x0[i]`` at ``t = 1`` towards
+    ``t_end``, the paths shared among the cores: a fourth-order Runge–Kutta predictor on ``dx/dt`` and three
+    Newton corrections that must contract (the first at most :data:`FIRST_STEP` of ``|x|``, the last below
+    :data:`TRACK_TOL`), the step doubled after three accepted steps (at most 0.25) and halved after a rejected
+    one. A path stops at ``t_end``, where ``|x|`` exceeds ``bound · max(scale, 1)`` (diverged), or where its step
+    falls below ``1e-9 max(t, stall_floor)`` (near a singular endpoint); corrections are relative to ``|x|``, or
+    to ``1e-3 scale`` where ``|x|`` is smaller. Returns the endpoints, the ``t`` each reached and whether each
+    diverged."""
+    P = x0.shape[0]
+    xs = x0.copy()
+    ts = np.ones(P)
+    diverged = np.zeros(P, dtype=np.bool_)
+    limit = bound * max(scale, 1.0)
+    for i in prange(P):
+        r = registers.copy()
+        ts[i], diverged[i] = _track_one(code, r, outputs, n, moving, xs[i], p0, p1, t_end, limit, scale, max_steps,
+                                        stall_floor)
     return xs, ts, diverged
