@@ -99,3 +99,10 @@ class Progress:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def notice(message: str, stream=None) -> None:
+    """Say ``message`` as one line on stderr (or ``stream``), terminal or not — a log, a pipe and a notebook's cell
+    see it too: what takes time while it happens and happens once (a machine structure's first derivation, a
+    first solve that pkmlab keeps)."""
+    print(f"pkmlab: {message}", file=sys.stderr if stream is None else stream, flush=True)

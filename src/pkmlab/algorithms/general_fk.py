@@ -238,6 +238,10 @@ def generic_solutions(description):
     if path.exists():
         with np.load(path) as data:
             return data["solutions"], data["parameters"], int(data["loops"])
+    from ..progress import notice
+
+    notice(f"{description.name}: solving its forward kinematics at generic actuator values, once (monodromy, seconds; "
+           "kept in the cache)")
     solutions, parameters, loops = solve_generic_instance(description)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".generic-", suffix=".npz")
