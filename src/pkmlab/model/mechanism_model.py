@@ -188,11 +188,12 @@ def _user_structure_kernels(description: Mechanism) -> ModuleType:
     folder = CACHE_DIR / "kernels"
     path = folder / f"{name}.py"
     if not path.exists():
+        from .._compile_cache import INTERPRETED
         from ..progress import notice
 
+        compiling = "" if INTERPRETED else ", then compiling them as they are first used (up to a minute)"
         notice(f"{description.name}: a machine structure new to this installation ({derived.structure(description)}): "
-               "deriving its kernels (seconds), then compiling them as they are first used (up to a minute); once, "
-               "later runs read them from the cache")
+               f"deriving its kernels (seconds){compiling}; once, later runs read them from the cache")
         source = derived.generate_source(description)
         folder.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}-", suffix=".tmp")
