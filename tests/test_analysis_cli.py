@@ -412,6 +412,31 @@ def test_progress_draws_percentages():
     assert silent.getvalue() == ""
 
 
+def test_a_long_job_off_a_terminal_says_how_far_it_is_in_whole_lines(monkeypatch):
+    """A log or a pipe gets no bar (no carriage return) but, every STATUS_EVERY seconds of a long job, one whole
+    line with the percentage, the count and the time left, and a last line saying where it ended; a quick job
+    says nothing there."""
+    clock = iter(np.arange(0.0, 1000.0, 4.0))  # each look at the clock 4 s later
+    monkeypatch.setattr(pkmlab.progress.time, "monotonic", lambda: next(clock))
+    log = io.StringIO()
+    with Progress(10, "sweep", stream=log, unit="runs") as bar:
+        for _ in range(6):
+            bar.update()
+    lines = log.getvalue().splitlines()
+    assert "\r" not in log.getvalue() and len(lines) >= 2
+    assert lines[0].startswith("pkmlab: sweep: ") and "/10 runs, ETA " in lines[0]
+    assert lines[-1] == "pkmlab: sweep: stopped at 60% (6/10 runs)"
+    monkeypatch.setattr(pkmlab.progress.time, "monotonic", lambda: 0.0)  # a quick job
+    quick = io.StringIO()
+    with Progress(10, "sweep", stream=quick, unit="runs") as bar:
+        bar.update(10)
+    assert quick.getvalue() == ""
+    quiet = io.StringIO()
+    with Progress(10, "sweep", stream=quiet, enabled=False, status_every=0.0) as bar:
+        bar.update(10)
+    assert quiet.getvalue() == ""
+
+
 @pytest.mark.parametrize("module", [pkmlab.views.animation, pkmlab.progress])
 def test_docstring_examples(module):
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
