@@ -960,6 +960,12 @@ def main(argv: list[str] | None = None) -> int:
     rows += study_rows
     checks["study"] = study_checks
 
+    progress("memory of a long run against its length")
+    import memory_bench
+
+    memory, checks["memory"] = memory_bench.memory_rows(sys.modules[__name__], args.quick)
+    rows += memory
+
     progress("start-up of the command line")
     import startup_bench
 

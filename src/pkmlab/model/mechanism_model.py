@@ -534,6 +534,10 @@ def well_conditioned_configuration(model: MechanismModel, mode: tuple[int, ...])
     return q[int(np.nanargmax(np.abs(s)))]
 
 
+#: Samples of a path whose Jacobians :func:`path_rates` holds at once.
+PATH_CHUNK = 8192
+
+
 def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarray, np.ndarray, int]:
     """Actuator rates and accelerations along configurations ``q`` (K, n_coordinates) whose pose moves
     with ``pose_dot``, ``pose_ddot`` (K, dof): differentiating ``η(q) = 0`` once and twice,
@@ -546,15 +550,19 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
     """
     k_ = model.kernels
     count, n, N, dof = q.shape[0], model.n_actuators, k_.N_COORDINATES, model.description.dof
-    j_eta, gamma = np.empty((count, k_.N_CONSTRAINTS, N)), np.empty((count, k_.N_CONSTRAINTS))
-    k_.constraint_jacobians(np.ascontiguousarray(q), model.P, j_eta)
-    a, b = j_eta[:, :, :N - dof], j_eta[:, :, N - dof:]
-    singular = ~(np.linalg.cond(a) < 1e12)
-    if singular.any():
-        k = int(np.argmax(singular))
-        return np.empty((count, n)), np.empty((count, n)), k
-    u_dot = np.linalg.solve(a, -np.einsum("kij,kj->ki", b, pose_dot)[..., None])[..., 0]
-    q_dot = np.concatenate([u_dot, pose_dot], axis=1)
-    k_.constraint_biases(np.ascontiguousarray(q), q_dot, model.P, gamma)
-    u_ddot = np.linalg.solve(a, (-np.einsum("kij,kj->ki", b, pose_ddot) - gamma)[..., None])[..., 0]
-    return u_dot[:, :n].copy(), u_ddot[:, :n].copy(), -1
+    theta_dot, theta_ddot = np.empty((count, n)), np.empty((count, n))
+    for start in range(0, count, PATH_CHUNK):  # a chunk at a time: a long path's Jacobians never all at once
+        rows = slice(start, min(start + PATH_CHUNK, count))
+        qc = np.ascontiguousarray(q[rows])
+        j_eta, gamma = np.empty((len(qc), k_.N_CONSTRAINTS, N)), np.empty((len(qc), k_.N_CONSTRAINTS))
+        k_.constraint_jacobians(qc, model.P, j_eta)
+        a, b = j_eta[:, :, :N - dof], j_eta[:, :, N - dof:]
+        singular = ~(np.linalg.cond(a) < 1e12)
+        if singular.any():
+            return np.empty((count, n)), np.empty((count, n)), start + int(np.argmax(singular))
+        u_dot = np.linalg.solve(a, -np.einsum("kij,kj->ki", b, pose_dot[rows])[..., None])[..., 0]
+        q_dot = np.concatenate([u_dot, pose_dot[rows]], axis=1)
+        k_.constraint_biases(qc, q_dot, model.P, gamma)
+        u_ddot = np.linalg.solve(a, (-np.einsum("kij,kj->ki", b, pose_ddot[rows]) - gamma)[..., None])[..., 0]
+        theta_dot[rows], theta_ddot[rows] = u_dot[:, :n], u_ddot[:, :n]
+    return theta_dot, theta_ddot, -1

@@ -21,6 +21,10 @@ COLUMNS = ("t", "theta1", "theta2", "theta3", "theta1_d", "theta2_d", "theta3_d"
 
 
 # ------------------------------------------------------------------ results
+#: Rows of a run's table that :meth:`SimulationResult.to_csv` turns into text at once.
+CSV_CHUNK = 8192
+
+
 @dataclass(frozen=True)
 class SimulationResult:
     """Every time series of a run, one row per sample ``t = 0 … T`` (inclusive).
@@ -113,12 +117,13 @@ class SimulationResult:
             out["max_closure_violation_m"] = float(self.closure_violation.max())
         return out
 
-    def table(self) -> np.ndarray:
-        """The (N, len(columns)) array of :attr:`columns`."""
-        extra = [] if self.closure_violation is None else [self.closure_violation]
+    def table(self, rows: slice = slice(None)) -> np.ndarray:
+        """The (N, len(columns)) array of :attr:`columns` (of the samples ``rows``)."""
+        extra = [] if self.closure_violation is None else [self.closure_violation[rows]]
         if self.theta_measured is not None:
-            extra.append(self.theta_measured)
-        return np.column_stack([self.t, self.theta, self.theta_d, self.tau, self.pose, self.pose_d, self.S, *extra])
+            extra.append(self.theta_measured[rows])
+        return np.column_stack([self.t[rows], self.theta[rows], self.theta_d[rows], self.tau[rows], self.pose[rows],
+                                self.pose_d[rows], self.S[rows], *extra])
 
     def to_dataframe(self):
         """The time series as a pandas ``DataFrame`` (columns :attr:`columns`, indexed by sample), for the users
@@ -138,9 +143,14 @@ class SimulationResult:
     def to_csv(self, path) -> Path:
         """Write the time series (columns :attr:`columns`) atomically. The folder of ``path`` must exist:
         :class:`~pkmlab.outputs.OutputFileError` names the path otherwise, or when it is a folder."""
-        # every value as the shortest text that reads back to the same float (repr); no value needs quoting
-        lines = [",".join(self.columns), *(",".join(map(repr, row)) for row in self.table().tolist())]
-        return _write_atomic(path, "\n".join(lines) + "\n")
+        # every value as the shortest text that reads back to the same float (repr); no value needs quoting; a
+        # chunk of rows at a time, so that a long run's text is never all in memory
+        with atomic_file(path, make_folder=False) as tmp, open(tmp, "w") as f:
+            f.write(",".join(self.columns) + "\n")
+            for start in range(0, self.t.size, CSV_CHUNK):
+                rows = self.table(slice(start, start + CSV_CHUNK)).tolist()
+                f.write("".join(",".join(map(repr, row)) + "\n" for row in rows))
+        return Path(path)
 
     def to_json(self, path) -> Path:
         """Write the summary and the time series as JSON, atomically (``path`` as for :meth:`to_csv`)."""

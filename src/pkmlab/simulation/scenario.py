@@ -24,7 +24,9 @@ from ..errors import (
 from ..model.mechanism_model import MechanismModel
 from .realism import Drives, Sensors, check_sizes
 
-#: A scenario of more samples than this is refused (memory: ~200 bytes per sample).
+#: A scenario of more samples than this is refused. Memory: some 380 bytes per sample at the peak of a three-legged
+#: machine's run (its result keeps 208), the CSV written a chunk at a time (``make bench``: ``memory_*``): about
+#: 4 GB at the cap.
 MAX_SAMPLES = 10_000_000
 
 
@@ -269,7 +271,9 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray):
     model = scenario.model
     pose = np.ascontiguousarray(pose[:, :model.dof])
     modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
-    first_failure, reaching = None, []  # (mode, min |S|, its sample, |S|, q) of the modes reaching the whole path
+    # (mode, min |S|, its sample, |S|, q) of the modes reaching the whole path that may still be the best: the first
+    # whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory)
+    first_failure, candidates, top = None, [], -np.inf
     for mode in modes:
         q, s, failure = path_inverse_kinematics(model, pose, mode)
         if failure is not None:
@@ -277,13 +281,14 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray):
                 first_failure = failure  # the mode that gets furthest names the problem
             continue
         k = int(np.argmin(np.abs(s)))
-        reaching.append((mode, float(abs(s[k])), k, np.abs(s), q))
-    if not reaching:
+        top = max(top, float(abs(s[k])))
+        candidates = [c for c in [*candidates, (mode, float(abs(s[k])), k, np.abs(s), q)] if c[1] >= top - 1e-9]
+        del q, s
+    if not candidates:
         k, exc = first_failure
         raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {pose_text(pose[k])}: "
                                    f"{exc}") from None
-    top = max(r[1] for r in reaching)
-    best, best_min, closest, abs_s, best_q = next(r for r in reaching if r[1] >= top - 1e-9)
+    best, best_min, closest, abs_s, best_q = candidates[0]
     if best_min < scenario.singularity_margin:
         near, margin = apart(best_min, scenario.singularity_margin)
         every = "in every admissible working mode" if len(modes) > 1 else "in its working mode"
