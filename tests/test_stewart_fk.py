@@ -268,3 +268,25 @@ def test_architecturally_singular_platform_warns():
 def test_bad_input_is_refused(base, platform, lengths, seed, match):
     with pytest.raises(InvalidParameterError, match=match):
         assembly_modes(base, platform, lengths, seed=seed)
+
+
+def test_the_fast_path_and_the_general_method_find_dietmaiers_forty_postures_alike():
+    """The 128-path soma-coordinate homotopy (the fast path) and the general method's parameter homotopy of 40 paths
+    on another polynomial system (the Cayley parameters of the rotation, the legs' spheres) give the same 40 real
+    configurations of the description file of Dietmaier's platform, and both close its loops."""
+    from pathlib import Path
+
+    import pkmlab
+    from pkmlab.algorithms.assembly import assembly_modes as machine_assembly_modes
+    from pkmlab.algorithms.assembly import general_spatial_assembly_modes
+
+    model = pkmlab.load(Path(__file__).resolve().parents[1] / "examples" / "stewart_dietmaier.toml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IncompleteSolutionWarning)
+        fast = [q for q, _s in machine_assembly_modes(model, DIETMAIER_LENGTHS)]
+        general = [q for q, _s in general_spatial_assembly_modes(model, DIETMAIER_LENGTHS)]
+    assert len(fast) == len(general) == 40
+    for q in general:
+        assert np.abs(pkmlab.constraint_residual(model, q)).max() < 1e-11
+        gaps = [np.abs(np.angle(np.exp(1j * (q - f)))).max() for f in fast]
+        assert min(gaps) < 1e-8
