@@ -28,8 +28,14 @@ on the generated kernels' ``η = 0``; duplicates are merged.
 
 **Completeness.** Every isolated solution at the target is the end of a path (the coefficient-parameter
 theorem), provided the generic instance's solutions are all known: monodromy's stopping rule (no new
-solution in several loops in a row) is said with its count; paths that failed or ended at singular
-solutions are reported (:class:`GeneralAssembly`).
+solution in several loops in a row) is said with its count. A solve is complete when its paths all ended at
+distinct regular solutions, or — where some went to infinity, stopped short or jumped — when detours through
+other generic parameters confirm it (:func:`general_assembly_modes`); otherwise the paths that failed or
+ended at singular solutions are reported (:class:`GeneralAssembly`).
+
+**Speed.** The family and its derivatives are a straight-line program (:mod:`pkmlab.numerics.straight_line`),
+built once per machine from the SymPy system above (a second or two) and run by one compiled tracker
+(:mod:`pkmlab.numerics.tracker`) for every machine: a solve of 16–40 paths takes 15–30 ms.
 """
 
 from __future__ import annotations
