@@ -257,12 +257,17 @@ def generic_solutions(description):
     return solutions, parameters, loops
 
 
+#: Monodromy loops in the actuators alone that must find no new solution of the generic instance (each costs some
+#: 20–40 ms: ten of them add a few tenths of a second to a machine's first solve).
+CHECK_LOOPS = 10
+
+
 def solve_generic_instance(description):
     """The machine's assembly modes at generic complex actuator parameters ``θ₁`` (cached): the solutions of
     the offset family at ``(θ₀, b₀)`` by monodromy, carried to ``(θ₁, 0)`` by a parameter homotopy, the paths
     that end there regular kept (the offset family has more solutions than the machine: the others go to
-    infinity or to singular points), then checked by monodromy loops in ``θ`` alone (``b = 0``), which must
-    find nothing new. Returns ``(solutions, (θ₁, 0), loops)``."""
+    infinity or to singular points), then more monodromy loops in ``θ`` alone (``b = 0``) until
+    :data:`CHECK_LOOPS` in a row find nothing new. Returns ``(solutions, (θ₁, 0), loops)``."""
     family, n, m, _layout, _names = _family(description)
     rng = np.random.default_rng(SEED)
     z0 = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 0.5
@@ -273,7 +278,8 @@ def solve_generic_instance(description):
     p1 = np.concatenate([rng.standard_normal(m) + 1j * rng.standard_normal(m), np.zeros(n)])
     ends = homotopy.parameter_homotopy(family, offset_solutions, p0, p1)
     machine = homotopy.distinct(ends.x[ends.regular], family.scale)
-    checked, more = homotopy.monodromy_solve(family, machine[0], p1, rng, known=machine, free=m, stale_loops=3)
+    checked, more = homotopy.monodromy_solve(family, machine[0], p1, rng, known=machine, free=m,
+                                            stale_loops=CHECK_LOOPS)
     return checked, p1, loops + more
 
 
