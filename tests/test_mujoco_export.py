@@ -18,7 +18,7 @@ mujoco = pytest.importorskip("mujoco")
 NAMES = sorted(PRESETS)
 #: The catalogue's machines (examples/mechanisms), checked as the presets are.
 CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / name)
-             for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml")]
+             for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml", "6rus.toml", "6pus.toml")]
 
 
 def _states(model, count: int, seed: int):

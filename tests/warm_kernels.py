@@ -29,7 +29,8 @@ MACHINES = {
     str(EXAMPLES / "mechanisms" / "3upu.toml"): ([0.02, -0.01, 0.62], "mechanisms/3upu_motion.toml"),
     str(EXAMPLES / "mechanisms" / "3rrs.toml"): ([0.34, 0.05, -0.03], "mechanisms/3rrs_motion.toml"),
 }
-#: Machines whose tests call only their forward kinematics and the loop closures' kernels (test_catalogue_fk).
+#: Machines whose tests call only their forward kinematics, the loop closures' kernels (test_catalogue_fk) and the
+#: actuator-space model (test_mujoco_export).
 FORWARD_ONLY = {str(EXAMPLES / "mechanisms" / name): pose for name, pose in
                 (("3rps.toml", [0.5, 0.05, -0.03]), ("6rus.toml", [0.0, 0.0, -0.30, 0.05, -0.03, 0.1]),
                  ("6pus.toml", [0.0, 0.0, -0.30, 0.05, -0.03, 0.1]))}
@@ -57,6 +58,7 @@ def warm_forward(name: str) -> None:
         assembly.assembly_modes(model, q[:n])  # its kernels, its monodromy (kept in the cache folder), the tracker
     k = model.kernels
     k.constraint_jacobians(q[None, :], model.P, np.empty((1, k.N_CONSTRAINTS, len(q))))
+    pkmlab.actuator_space_model(model, q, np.linspace(0.1, 0.2, n))  # MuJoCo's hard-constraint check
 
 
 def warm(name: str) -> None:
