@@ -20,7 +20,7 @@ from pkmlab.paper import kinematics as kin  # noqa: E402
 from pkmlab.paper.geometry import Planar3RRR  # noqa: E402
 
 #: Files whose tests are about the spatial presets (the Delta, the Stewart platform); tests elsewhere whose
-#: name or parameters say "delta" or "stewart" count too.
+#: name or parameters name a machine of WARMED count too.
 SPATIAL_FILES = {"test_delta.py", "test_stewart.py", "test_stewart_fk.py", "test_spatial_kernels.py",
                  "test_lower_mobility.py", "test_upu.py", "test_singularity_kinds.py", "test_rrs.py",
                  "test_catalogue_fk.py"}
@@ -31,9 +31,13 @@ WARM_FROM = 200
 _warm: subprocess.Popen | None = None
 
 
+#: Machines warm_kernels.py compiles whose name, in a test's parameters, makes it one of the spatial tests.
+WARMED = ("delta", "stewart", "6rus", "6pus")
+
+
 def _spatial(item) -> bool:
     name = item.name.lower()
-    return item.path.name in SPATIAL_FILES or "delta" in name or "stewart" in name or item.name in SPATIAL_TESTS
+    return item.path.name in SPATIAL_FILES or any(m in name for m in WARMED) or item.name in SPATIAL_TESTS
 
 
 def pytest_collection_modifyitems(session, config, items):
