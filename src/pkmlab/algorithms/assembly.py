@@ -69,31 +69,51 @@ def five_bar_assembly_modes(model: MechanismModel, theta) -> list[np.ndarray]:
     return out
 
 
-def method_statement(model: MechanismModel) -> str:
-    """Which method :func:`assembly_modes` uses for ``model``, and what it guarantees: the completeness statement
-    that ``pkmlab fk`` prints beside the assembly modes (a solve that cannot keep the guarantee warns with
-    :class:`~pkmlab.errors.IncompleteSolutionWarning`)."""
+def fk_method(model: MechanismModel) -> str:
+    """The method :func:`assembly_modes` uses for ``model``: ``"soma"`` (six UP*S legs, the Stewart–Gough
+    platform), ``"three_spheres"`` (a translating platform on R*US legs, the Delta), ``"general_spatial"`` (any
+    other spatial machine), ``"orientation_sweep"`` (a planar machine with a leg of no closed form),
+    ``"two_circles"`` (a point platform: the five-bar) or ``"sextic"`` (a planar three-leg machine on circles)."""
     from ..description.leg_types import SOLVERS
 
     m = model.description
     if getattr(m, "spatial", False):
         if m.platform.kind == "rigid" and len(m.legs) == 6 and all(leg.notation == "UP*S" for leg in m.legs):
-            return ("every real pose of the six leg lengths: a total-degree homotopy of 128 paths on the "
-                    "soma-coordinate quadrics (up to 40 poses), checked for jumps and conjugate pairs: complete "
-                    "unless a warning says otherwise")
+            return "soma"
         if m.platform.kind == "translating" and all(leg.notation == "R*US" for leg in m.legs):
-            return "both intersections of three spheres (closed form): complete"
-        from .general_fk import generic_solutions
-
-        solutions, _p, loops = generic_solutions(m)
-        return (f"a parameter homotopy from the {len(solutions)} complex solutions of a generic instance (found by "
-                f"monodromy, {loops} loops): complete unless a warning says otherwise")
+            return "three_spheres"
+        return "general_spatial"
     if any(leg.notation not in SOLVERS for leg in m.legs):
-        return ("the loci's intersections along a sweep of the platform's orientation, every sign change and dip "
-                "refined: complete unless a warning says otherwise")
-    if m.platform.kind == "point":
-        return "both intersections of two circles (closed form): complete"
-    return "every real root of one degree-6 polynomial (the paper's eq. 12, Gosselin's general form): complete"
+        return "orientation_sweep"
+    return "two_circles" if m.platform.kind == "point" else "sextic"
+
+
+#: What each method of :func:`fk_method` finds and guarantees.
+METHOD_STATEMENTS = {
+    "soma": "every real pose of the six leg lengths: a total-degree homotopy of 128 paths on the soma-coordinate "
+            "quadrics (up to 40 poses), checked for jumps and conjugate pairs: complete unless a warning says "
+            "otherwise",
+    "three_spheres": "both intersections of three spheres (closed form): complete",
+    "general_spatial": "a parameter homotopy from the {solutions} complex solutions of a generic instance (found by "
+                       "monodromy, {loops} loops): complete unless a warning says otherwise",
+    "orientation_sweep": "the loci's intersections along a sweep of the platform's orientation, every sign change "
+                         "and dip refined: complete unless a warning says otherwise",
+    "two_circles": "both intersections of two circles (closed form): complete",
+    "sextic": "every real root of one degree-6 polynomial (the paper's eq. 12, Gosselin's general form): complete",
+}
+
+
+def method_statement(model: MechanismModel) -> str:
+    """Which method :func:`assembly_modes` uses for ``model``, and what it guarantees: the completeness statement
+    that ``pkmlab fk`` prints beside the assembly modes (a solve that cannot keep the guarantee warns with
+    :class:`~pkmlab.errors.IncompleteSolutionWarning`)."""
+    method = fk_method(model)
+    if method != "general_spatial":
+        return METHOD_STATEMENTS[method]
+    from .general_fk import generic_solutions
+
+    solutions, _p, loops = generic_solutions(model.description)
+    return METHOD_STATEMENTS[method].format(solutions=len(solutions), loops=loops)
 
 
 def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float]]:
@@ -107,12 +127,15 @@ def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float
     (:class:`~pkmlab.errors.IncompleteSolutionWarning`) where it cannot guarantee that it found every
     assembly mode.
     """
-    from ..description.leg_types import SOLVERS
-
     theta = _actuator_values(model, theta)
-    if getattr(model.description, "spatial", False):
-        return _spatial_assembly_modes(model, theta)
-    if any(leg.notation not in SOLVERS for leg in model.description.legs):
+    method = fk_method(model)
+    if method == "soma":
+        return _stewart_assembly_modes(model, theta)
+    if method == "three_spheres":
+        return _delta_assembly_modes(model, theta)
+    if method == "general_spatial":
+        return general_spatial_assembly_modes(model, theta)
+    if method == "orientation_sweep":
         solutions, doubt = general_assembly_modes(model, theta)
         if doubt:
             import warnings
@@ -127,7 +150,7 @@ def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float
     from .three_circles import OK, three_circles
 
     m = model.description
-    if m.platform.kind == "point":
+    if method == "two_circles":
         return [(q, singularity_measure(model, q)) for q in five_bar_assembly_modes(model, theta)]
     circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
     centres = np.array([c for c, _r in circles])
@@ -153,17 +176,13 @@ def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float
     return _polished(model, configurations)
 
 
-def _spatial_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tuple[np.ndarray, float]]:
-    """Every assembly mode of a spatial machine: for a translating platform on three R*US legs (the Delta)
-    the two points where three spheres meet (:func:`~pkmlab.description.spatial_legs.delta_forward_kinematics`),
-    the forearms' universal-joint angles from them, each polished by Newton's method on ``η = 0``."""
+def _delta_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """Every assembly mode of a translating platform on three R*US legs (the Delta): the two points where three
+    spheres meet (:func:`~pkmlab.description.spatial_legs.delta_forward_kinematics`), the forearms'
+    universal-joint angles from them, each polished by Newton's method on ``η = 0``."""
     from ..description.spatial_legs import delta_forward_kinematics, forearm_angles
 
     m = model.description
-    if m.platform.kind == "rigid" and len(m.legs) == 6 and all(leg.notation == "UP*S" for leg in m.legs):
-        return _stewart_assembly_modes(model, theta)
-    if m.platform.kind != "translating" or any(leg.notation != "R*US" for leg in m.legs):
-        return general_spatial_assembly_modes(model, theta)
     configurations = []
     for point in delta_forward_kinematics(m, theta):
         passive = []

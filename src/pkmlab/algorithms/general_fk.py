@@ -88,43 +88,27 @@ def _leg_plan(leg):
     return last, [k for k in passive if k != last]
 
 
-def _rotation(axis, c, s, symbolic: bool):
-    """The rotation by the angle of cosine ``c`` and sine ``s`` about the unit ``axis`` (Rodrigues), as a SymPy
-    matrix or a NumPy array."""
-    if symbolic:
-        import sympy as sp
-
-        k, a, eye = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]]), \
-            sp.Matrix(axis), sp.eye(3)
-    else:
-        k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]], dtype=float)
-        a, eye = np.array(axis, dtype=float).reshape(3, 1), np.eye(3)
-    return c * eye + s * k + (1 - c) * (a @ a.T)
+def _rotation(sp, axis, c, s):
+    k = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    a = sp.Matrix(axis)
+    return c * sp.eye(3) + s * k + (1 - c) * (a * a.T)
 
 
-def _chain(leg, values: dict, joints, start, symbolic: bool = True):
+def _chain(leg, values: dict, joints, start):
     """Walk ``leg``'s ``joints`` (indices) from the point ``start`` with their ``values`` (per joint: the
-    ``(cos, sin)`` pair of each angle, or the slide): the point reached (3, 1) and the frame (3, 3) — the chain
-    of :func:`~pkmlab.description.spatial.leg_frames` with an angle's cosine and sine for the angle, as SymPy
-    matrices or (``symbolic=False``) NumPy arrays."""
-    if symbolic:
-        import sympy as sp
+    ``(cos, sin)`` pair of each angle, or the slide): the point reached and the frame, as SymPy matrices (the
+    chain of :func:`~pkmlab.description.spatial.leg_frames` with an angle's cosine and sine for the angle)."""
+    import sympy as sp
 
-        column, rot = sp.Matrix, sp.eye(3)
-    else:
-        def column(v):
-            return np.array(v, dtype=float).reshape(3, 1)
-
-        rot = np.eye(3)
-    point = column(start)
+    point, rot = sp.Matrix(start), sp.eye(3)
     for k in joints:
         joint, body = leg.joints[k], leg.bodies[k]
         if joint.kind == "P":
-            point = point + values[k][0] * (rot @ column(joint.axes[0]))
+            point = point + values[k][0] * (rot * sp.Matrix(joint.axes[0]))
         else:
             for axis, (c, s) in zip(joint.axes, values[k], strict=True):
-                rot = rot @ _rotation(axis, c, s, symbolic)
-        point = point + rot @ column(body.tip)
+                rot = rot * _rotation(sp, axis, c, s)
+        point = point + rot * sp.Matrix(body.tip)
     return point, rot
 
 
@@ -299,7 +283,7 @@ def _cayley(R0: np.ndarray, g: np.ndarray) -> np.ndarray:
 def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], layout: dict) -> np.ndarray | None:
     """The configuration ``q`` of a real solution ``z`` (module docstring), before polishing; None when an
     eliminated universal joint cannot turn its body that way (its own singularity)."""
-    from ..description.spatial import orientation_angles
+    from ..description.spatial import leg_frames, orientation_angles
     from ..description.spatial_legs import turn_onto, universal_angles
 
     m = model.description
@@ -322,11 +306,12 @@ def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], la
                 joint_values[k] = [float(np.arctan2(value[f"s{i + 1}_{k + 1}{ab}"], value[f"c{i + 1}_{k + 1}{ab}"]))
                                    for ab in "ab"[:joint.coordinates]]
         if last is not None:
-            pairs = {k: [(np.cos(a), np.sin(a)) for a in v] if leg.joints[k].kind != "P" else v
-                     for k, v in joint_values.items()}
-            centre, rot = _chain(leg, pairs, range(last), leg.base, symbolic=False)
-            w, _ = _chain(leg, pairs, range(last + 1, len(leg.joints) - 1), leg.bodies[last].tip, symbolic=False)
-            centre, w = centre.ravel(), w.ravel()
+            # the leg's chain with the eliminated joint unturned: its centre, the frame it turns in, and the
+            # spherical joint's centre w from it in that frame
+            unturned = {**joint_values, last: [0.0] * leg.joints[last].coordinates}
+            frames = leg_frames(leg, [v for k in range(len(leg.joints) - 1) for v in unturned[k]])
+            centre, rot = frames[last]
+            w = rot.T @ (frames[-1][0] - centre)
             target = X + R @ np.array(m.platform.attachments[i])
             local = rot.T @ (target - centre)
             joint = leg.joints[last]
@@ -380,6 +365,12 @@ def _escaped(ends, names: list[str], reach: float):
     return ends._replace(diverged=ends.diverged | far, reached=ends.reached | far)
 
 
+def _imaginary(z: np.ndarray, scale: float) -> np.ndarray:
+    """The largest imaginary part of each endpoint (P, n), relative to its size and the machine's."""
+    size = np.maximum(np.abs(z).max(axis=1, initial=0.0), 1.0) * max(scale, 1.0)
+    return np.abs(z.imag).max(axis=1, initial=0.0) / size
+
+
 def _jumped(ends, scale: float) -> int:
     """How many paths ended at a regular solution another path had reached (a path jumped)."""
     x = ends.x[ends.regular]
@@ -407,39 +398,39 @@ def general_assembly_modes(model, theta) -> GeneralAssembly:
     target = _parameters(m, theta, n)
     reach = _reach(m)
     ends = _escaped(homotopy.parameter_homotopy(family, sols, p_generic, target), names, reach)
-    attempts = [ends]
+    attempts, lost = [ends], 0  # lost: paths of the last detour that failed on its way to the generic point
     rng = np.random.default_rng(SEED + 1)
 
     def distinct_regular(group) -> int:
         return len(homotopy.distinct(np.concatenate([e.x[e.regular] for e in group]), family.scale))
 
     def complete() -> bool:
-        settled = ends.reached.all() and not _jumped(ends, family.scale)
+        settled = not lost and ends.reached.all() and not _jumped(ends, family.scale)
         if settled and not ends.diverged.any():
             return True
         if distinct_regular(attempts) == len(sols):
             return True
         return settled and len(attempts) > 1 and distinct_regular(attempts) == distinct_regular(attempts[:-1])
 
-    while not complete() and len(attempts) <= DETOURS:
+    done = complete()
+    while not done and len(attempts) <= DETOURS:
         via = p_generic + (rng.standard_normal(len(p_generic)) + 1j * rng.standard_normal(len(p_generic))) \
             * np.maximum(np.abs(p_generic), 1.0)
         middle = homotopy.parameter_homotopy(family, sols, p_generic, via)
         ends = _escaped(homotopy.parameter_homotopy(family, middle.x[middle.regular], via, target), names, reach)
-        ends = ends._replace(reached=np.concatenate([ends.reached, np.zeros(len(sols) - len(ends.x), dtype=bool)]))
+        lost = len(sols) - len(ends.x)
         attempts.append(ends)
+        done = complete()
     found = []
     for e in attempts:
-        size = np.maximum(np.abs(e.x).max(axis=1, initial=0.0), 1.0) * max(family.scale, 1.0)
-        imaginary = np.abs(e.x.imag).max(axis=1, initial=0.0) / size
-        for k in np.flatnonzero(np.isfinite(e.x).all(axis=1) & ~e.diverged & e.reached[:len(e.x)]
-                                & (imaginary <= IMAG_TOL)):
+        real = np.isfinite(e.x).all(axis=1) & ~e.diverged & e.reached & (_imaginary(e.x, family.scale) <= IMAG_TOL)
+        for k in np.flatnonzero(real):
             q = _configuration(model, theta, e.x[k].real, names, layout)
             if q is not None:
                 found.append(q)
-    if complete():
+    if done:
         return GeneralAssembly(found, len(sols), 0, 0, loops)
     # a singular endpoint far from the reals is no missing real assembly mode: only the near-real ones are doubts
-    singular = ~ends.regular & ~ends.diverged & ends.reached[:len(ends.x)] & (imaginary < 1e-4)
-    failed = int(np.sum(~ends.reached)) + _jumped(ends, family.scale)
+    singular = ~ends.regular & ~ends.diverged & ends.reached & (_imaginary(ends.x, family.scale) < 1e-4)
+    failed = lost + int(np.sum(~ends.reached)) + _jumped(ends, family.scale)
     return GeneralAssembly(found, len(sols), failed, int(np.sum(singular)), loops)
