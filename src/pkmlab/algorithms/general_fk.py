@@ -192,6 +192,16 @@ def build_system(description):
     return equations, unknowns, params, {"legs": legs_layout, "R0": np.array(R0, dtype=float), "rigid": rigid}
 
 
+def _key(description) -> str:
+    """The name of what pkmlab keeps of ``description``'s forward kinematics in its cache folder: a digest of its
+    TOML form and of :data:`SEED`."""
+    import hashlib
+
+    from ..description.spatial import spatial_mechanism_to_toml
+
+    return hashlib.sha1(f"{SEED}\n{spatial_mechanism_to_toml(description)}".encode()).hexdigest()[:20]
+
+
 @functools.lru_cache(maxsize=16)
 def _family(description):
     """The offset family ``F(z; θ) − b`` of ``description`` (module docstring) as a straight-line program of
@@ -200,14 +210,18 @@ def _family(description):
     import sympy as sp
 
     from ..description.mobility import _size
-    from ..numerics.straight_line import compile_program
+    from ..numerics.straight_line import cached_program, compile_program
 
     equations, unknowns, params, layout = build_system(description)
     n, m = len(unknowns), len(params)
-    offsets = list(sp.symbols(f"b0:{n}"))
-    all_params = params + offsets
-    F = sp.Matrix([e - b for e, b in zip(equations, offsets, strict=True)])
-    program = compile_program([*F, *F.jacobian(unknowns), *F.jacobian(all_params)], [*unknowns, *all_params])
+
+    def derive():
+        offsets = list(sp.symbols(f"b0:{n}"))
+        all_params = params + offsets
+        F = sp.Matrix([e - b for e, b in zip(equations, offsets, strict=True)])
+        return compile_program([*F, *F.jacobian(unknowns), *F.jacobian(all_params)], [*unknowns, *all_params])
+
+    program = cached_program(f"general_fk-{_key(description)}", derive)
     family = homotopy.Family(program, n, m + n, scale=_size(description))
     return family, n, m, layout, [str(u) for u in unknowns]
 
@@ -216,15 +230,10 @@ def _family(description):
 def generic_solutions(description):
     """:func:`solve_generic_instance`, kept in pkmlab's cache folder beside the compiled kernels (keyed by the
     description's TOML form): a later process reads it instead of running monodromy again."""
-    import hashlib
-    import os
-    import tempfile
-
     from .._compile_cache import CACHE_DIR
-    from ..description.spatial import spatial_mechanism_to_toml
+    from ..outputs import atomic_file
 
-    key = hashlib.sha1(f"{SEED}\n{spatial_mechanism_to_toml(description)}".encode()).hexdigest()[:20]
-    path = CACHE_DIR / "assembly" / f"{key}.npz"
+    path = CACHE_DIR / "assembly" / f"{_key(description)}.npz"
     if path.exists():
         with np.load(path) as data:
             return data["solutions"], data["parameters"], int(data["loops"])
@@ -233,11 +242,8 @@ def generic_solutions(description):
     notice(f"{description.name}: solving its forward kinematics at generic actuator values, once (monodromy, seconds; "
            "kept in the cache)")
     solutions, parameters, loops = solve_generic_instance(description)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".generic-", suffix=".npz")
-    with os.fdopen(fd, "wb") as f:
+    with atomic_file(path) as tmp, open(tmp, "wb") as f:
         np.savez(f, solutions=solutions, parameters=parameters, loops=loops)
-    os.replace(tmp, path)
     return solutions, parameters, loops
 
 

@@ -56,7 +56,7 @@ import numpy as np
 
 from ..errors import IncompleteSolutionWarning, InvalidParameterError, shown
 from ..numerics.homotopy import Family, batched_solve
-from ..numerics.straight_line import compile_program
+from ..numerics.straight_line import cached_program, compile_program
 from ..numerics.tracker import track_paths
 
 __all__ = ["assembly_modes"]
@@ -170,10 +170,15 @@ _UPPER = [(i, j) for i in range(8) for j in range(i, 8)]
 
 @functools.cache
 def _family() -> Family:
-    """The homotopy ``H(x, t) = (1 − t) F(x) + γ t G(x)`` with the patch ``c·x = 1`` as a family
-    ``s₀ F(x) + s₁ G(x)`` whose two moving parameters go from ``(0, γ)`` at ``t = 1`` to ``(1, 0)`` at ``t = 0``,
-    its fixed parameters the six leg quadrics' upper triangles and the patch: a straight-line program, the
-    same for every platform (:mod:`pkmlab.numerics.straight_line`)."""
+    """:func:`_soma_program` as a family (derived once per installation, then read from the cache folder)."""
+    return Family(cached_program("stewart_soma", _soma_program), 8, 2, scale=0.0)
+
+
+def _soma_program():
+    """The straight-line program (:mod:`pkmlab.numerics.straight_line`) of the homotopy
+    ``H(x, t) = (1 − t) F(x) + γ t G(x)`` with the patch ``c·x = 1``, written as a family ``s₀ F(x) + s₁ G(x)`` whose
+    two moving parameters go from ``(0, γ)`` at ``t = 1`` to ``(1, 0)`` at ``t = 0``, its fixed parameters the six
+    leg quadrics' upper triangles and the patch: the same for every platform."""
     import sympy as sp
 
     x = sp.symbols("x0:8")
@@ -191,8 +196,7 @@ def _family() -> Family:
     H.append(sum(ci * xi for ci, xi in zip(c, x, strict=True)) - 1)
     H = sp.Matrix(H)
     fixed = [v for row in q for v in row] + list(c)
-    program = compile_program([*H, *H.jacobian(x), *H.jacobian([s0, s1])], [*x, s0, s1, *fixed])
-    return Family(program, 8, 2, scale=0.0)
+    return compile_program([*H, *H.jacobian(x), *H.jacobian([s0, s1])], [*x, s0, s1, *fixed])
 
 
 def _parameters(Q: np.ndarray, s: tuple[complex, complex], patch: np.ndarray) -> np.ndarray:

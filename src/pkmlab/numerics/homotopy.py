@@ -80,12 +80,13 @@ class Family:
 
     def F(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """``F`` at the rows of ``x`` (P, n) and ``p`` (P, m) or (m,): (P, n)."""
-        return self._outputs(x, p)[:, :self.n]
+        return self.F_and_jacobian(x, p)[0]
 
-    def dF_dx(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """``∂F/∂x`` at the rows of ``x`` and ``p``: (P, n, n)."""
+    def F_and_jacobian(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``F`` (P, n) and ``∂F/∂x`` (P, n, n) at the rows of ``x`` and ``p``, from one run of the program."""
         n = self.n
-        return self._outputs(x, p)[:, n:n + n * n].reshape(-1, n, n)
+        out = self._outputs(x, p)
+        return out[:, :n], out[:, n:n + n * n].reshape(-1, n, n)
 
 
 def newton_polish(family: Family, x: np.ndarray, p: np.ndarray, iterations: int = 6):
@@ -95,12 +96,13 @@ def newton_polish(family: Family, x: np.ndarray, p: np.ndarray, iterations: int 
     last = np.full(x.shape[0], np.inf)
     with np.errstate(all="ignore"):
         for _ in range(iterations):
-            dx = batched_solve(family.dF_dx(x, p), -family.F(x, p))
+            F, jacobian = family.F_and_jacobian(x, p)
+            dx = batched_solve(jacobian, -F)
             bad = ~np.isfinite(dx).all(axis=1)
             dx[bad] = 0
             last = np.where(bad, np.inf, np.linalg.norm(dx, axis=1))
             x = x + dx
-        sv = np.linalg.svd(family.dF_dx(x, p), compute_uv=False)
+        sv = np.linalg.svd(family.F_and_jacobian(x, p)[1], compute_uv=False)
     norm = np.maximum(np.linalg.norm(x, axis=1), family.scale)
     regular = (last <= 1e-10 * norm) & (sv[:, -1] > 1e-12 * sv[:, 0]) & np.isfinite(x).all(axis=1)
     return x, regular

@@ -13,6 +13,7 @@ machine — runs it. Every instruction has two operands; a SymPy ``Add`` or ``Mu
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -136,3 +137,22 @@ def compile_program(outputs, inputs) -> Program:
     table = np.array([(k, placed(a), placed(b), placed(d)) for k, a, b, d in code], dtype=np.int64).reshape(-1, 4)
     return Program(table, n_in + n_const + len(temporaries), n_in, np.array(constants, dtype=complex),
                    np.array([placed(r) for r in results], dtype=np.int64))
+
+
+def cached_program(key: str, build: Callable[[], Program]) -> Program:
+    """``build()``'s program, kept in pkmlab's cache folder under ``key``: a later process reads it instead of
+    deriving it again (a second or two of SymPy per system). The folder is this version of pkmlab's own, so a
+    changed derivation is derived anew."""
+    from .._compile_cache import CACHE_DIR
+    from ..outputs import atomic_file
+
+    path = CACHE_DIR / "programs" / f"{key}.npz"
+    if path.exists():
+        with np.load(path) as data:
+            return Program(data["code"], int(data["registers"]), int(data["inputs"]), data["constants"],
+                           data["outputs"])
+    program = build()
+    with atomic_file(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, code=program.code, registers=program.registers, inputs=program.inputs,
+                 constants=program.constants, outputs=program.outputs)
+    return program
