@@ -87,3 +87,23 @@ def test_the_tracker_finds_both_intersections_of_two_circles():
     found = sorted(ends.x.real.tolist(), key=lambda v: v[1])
     np.testing.assert_allclose(found, expected, atol=1e-12)
     assert np.abs(ends.x.imag).max() < 1e-12
+
+
+def test_a_cached_program_is_derived_once_and_read_back_the_same(tmp_path, monkeypatch):
+    from pkmlab import _compile_cache
+    from pkmlab.numerics.straight_line import cached_program
+
+    monkeypatch.setattr(_compile_cache, "CACHE_DIR", tmp_path)
+    x, y = sp.symbols("x y")
+    calls = []
+
+    def build():
+        calls.append(1)
+        return compile_program([x**3 * y - sp.Rational(1, 3), x / (1 + y**2)], [x, y])
+
+    first = cached_program("demo", build)
+    second = cached_program("demo", build)
+    assert len(calls) == 1 and (tmp_path / "programs" / "demo.npz").exists()
+    points = np.array([[0.3 + 0.1j, -1.2 + 0.4j], [2.0, 0.5]])
+    np.testing.assert_array_equal(second(points), first(points))
+    np.testing.assert_array_equal(second.code, first.code)
