@@ -283,7 +283,6 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray):
         k = int(np.argmin(np.abs(s)))
         top = max(top, float(abs(s[k])))
         candidates = [c for c in [*candidates, (mode, float(abs(s[k])), k, np.abs(s), q)] if c[1] >= top - 1e-9]
-        del q, s
     if not candidates:
         k, exc = first_failure
         raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {pose_text(pose[k])}: "
