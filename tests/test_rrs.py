@@ -25,7 +25,6 @@ from pkmlab.description import spatial_legs
 from pkmlab.description.files import load_mechanism
 from pkmlab.description.mobility import mobility
 from pkmlab.description.spatial import SpatialJoint, leg_frames
-from pkmlab.errors import InvalidParameterError
 from pkmlab.model import mechanism_model as mm
 
 RRS = Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / "3rrs.toml"
@@ -68,18 +67,30 @@ def test_both_roots_of_each_leg_reach_the_point_and_knee_out_is_farther_from_the
         np.testing.assert_allclose(np.angle(np.exp(1j * (solved.coordinates - angles))), 0.0, atol=1e-12)
 
 
-def test_points_the_leg_cannot_reach_are_named_and_skew_hinges_refused():
+def test_points_the_leg_cannot_reach_are_named_and_skew_hinges_solved_by_the_general_method():
     m = load_mechanism(RRS)
     leg = m.legs[0]
     solved = spatial_legs.leg_inverse_kinematics_batch(leg, 0, np.array([[0.02, 0.15, 0.3], [0.0, 0.3, 0.9]]), 1)
     assert solved.bad.all()
     assert "leg 1 (R*RS) cannot reach the point (0.02, 0.15, 0.3): it is off the plane its link moves" in solved.why(0)
     assert "its link of 0.35 m cannot join the circle of its crank's tip" in solved.why(1)
-    # the link's hinge turned out of parallel: its spherical joint no longer moves in a plane
+    # the link's hinge turned out of parallel: its spherical joint no longer moves in a plane but on a surface,
+    # which the general method solves (here two branches, the crank's larger angle +1); the chain's own angles
+    # are found again at points of it, in one of the two
     skewed = replace(leg, joints=(leg.joints[0], SpatialJoint("R", False, ((-0.8, 0.6, 0.0),)), leg.joints[2]))
-    with pytest.raises(InvalidParameterError, match=r"^leg 1 \(R\*RS\): pkmlab solves an R\*RS leg whose two hinges "
-                                                    r"are parallel"):
-        spatial_legs.leg_inverse_kinematics_batch(skewed, 0, np.array([[0.0, 0.15, 0.35]]), 1)
+    assert not spatial_legs.has_closed_form(skewed) and spatial_legs.working_modes(skewed) == (1, -1)
+    angles = np.random.default_rng(5).uniform(-0.8, 0.8, size=(30, 2))
+    points = np.array([leg_frames(skewed, v)[-1][0] for v in angles])
+    both = [spatial_legs.leg_inverse_kinematics_batch(skewed, 0, points, sigma) for sigma in (1, -1)]
+    assert not any(solved.bad.any() for solved in both)
+    assert np.all(both[0].coordinates[:, 0] > both[1].coordinates[:, 0])
+    for solved in both:
+        reached = np.array([leg_frames(skewed, v)[-1][0] for v in solved.coordinates])
+        np.testing.assert_allclose(reached, points, atol=1e-14)
+    error = np.minimum(*[np.abs(np.angle(np.exp(1j * (solved.coordinates - angles)))).max(axis=1) for solved in both])
+    assert error.max() < 1e-12
+    off = spatial_legs.leg_inverse_kinematics_batch(skewed, 0, points[:1] + [[0.0, 0.0, 0.01]], 1)
+    assert off.bad[0] and off.why(0).startswith("leg 1 (R*RS) cannot reach the point")
 
 
 def test_inverse_kinematics_of_every_working_mode_closes_the_loops(rrs):

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..description.general_legs import symbolic_chain
 from ..errors import InvalidParameterError
 from ..numerics import homotopy
 from .stewart_fk import rotation_of_quaternion
@@ -86,30 +87,6 @@ def _leg_plan(leg):
     if last is not None and joints[last].kind == "P":
         return None, passive
     return last, [k for k in passive if k != last]
-
-
-def _rotation(sp, axis, c, s):
-    k = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    a = sp.Matrix(axis)
-    return c * sp.eye(3) + s * k + (1 - c) * (a * a.T)
-
-
-def _chain(leg, values: dict, joints, start):
-    """Walk ``leg``'s ``joints`` (indices) from the point ``start`` with their ``values`` (per joint: the
-    ``(cos, sin)`` pair of each angle, or the slide): the point reached and the frame, as SymPy matrices (the
-    chain of :func:`~pkmlab.description.spatial.leg_frames` with an angle's cosine and sine for the angle)."""
-    import sympy as sp
-
-    point, rot = sp.Matrix(start), sp.eye(3)
-    for k in joints:
-        joint, body = leg.joints[k], leg.bodies[k]
-        if joint.kind == "P":
-            point = point + values[k][0] * (rot * sp.Matrix(joint.axes[0]))
-        else:
-            for axis, (c, s) in zip(joint.axes, values[k], strict=True):
-                rot = rot * _rotation(sp, axis, c, s)
-        point = point + rot * sp.Matrix(body.tip)
-    return point, rot
 
 
 def build_system(description):
@@ -168,14 +145,14 @@ def build_system(description):
         p_num = X * D + R_num * sp.Matrix(m.platform.attachments[i])  # D·(x + R a_i)
         n_joints = len(leg.joints) - 1
         if last is None:
-            end, _rot = _chain(leg, values, range(n_joints), leg.base)
+            end, _rot = symbolic_chain(leg, values, range(n_joints), leg.base)
             equations += list(p_num - end * D)
             legs_layout.append(("point", last, unknown_joints))
             continue
-        centre, rot = _chain(leg, values, range(last), leg.base)
+        centre, rot = symbolic_chain(leg, values, range(last), leg.base)
         joint = leg.joints[last]
         # w: from the eliminated joint to the spherical joint, in the frame after the eliminated joint's turns
-        w, _rot = _chain(leg, values, range(last + 1, n_joints), leg.bodies[last].tip)
+        w, _rot = symbolic_chain(leg, values, range(last + 1, n_joints), leg.bodies[last].tip)
         d = p_num - centre * D
         if joint.kind == "U":
             equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
@@ -230,47 +207,23 @@ def _family(description):
 def generic_solutions(description):
     """:func:`solve_generic_instance`, kept in pkmlab's cache folder beside the compiled kernels (keyed by the
     description's TOML form): a later process reads it instead of running monodromy again."""
-    from .._compile_cache import CACHE_DIR
-    from ..outputs import atomic_file
 
-    path = CACHE_DIR / "assembly" / f"{_key(description)}.npz"
-    if path.exists():
-        with np.load(path) as data:
-            return data["solutions"], data["parameters"], int(data["loops"])
-    from ..progress import notice
+    def solve():
+        solutions, parameters, loops = solve_generic_instance(description)
+        return {"solutions": solutions, "parameters": parameters, "loops": np.array(loops)}
 
-    notice(f"{description.name}: solving its forward kinematics at generic actuator values, once (monodromy, seconds; "
-           "kept in the cache)")
-    solutions, parameters, loops = solve_generic_instance(description)
-    with atomic_file(path) as tmp, open(tmp, "wb") as f:
-        np.savez(f, solutions=solutions, parameters=parameters, loops=loops)
-    return solutions, parameters, loops
-
-
-#: Monodromy loops in the actuators alone that must find no new solution of the generic instance (each costs some
-#: 20–40 ms: ten of them add a few tenths of a second to a machine's first solve).
-CHECK_LOOPS = 10
+    data = homotopy.cached_arrays(
+        f"assembly/{_key(description)}", solve, f"{description.name}: solving its forward kinematics at generic "
+        "actuator values, once (monodromy, seconds; kept in the cache)")
+    return data["solutions"], data["parameters"], int(data["loops"])
 
 
 def solve_generic_instance(description):
     """The machine's assembly modes at generic complex actuator parameters ``θ₁`` (cached): the solutions of
-    the offset family at ``(θ₀, b₀)`` by monodromy, carried to ``(θ₁, 0)`` by a parameter homotopy, the paths
-    that end there regular kept (the offset family has more solutions than the machine: the others go to
-    infinity or to singular points), then more monodromy loops in ``θ`` alone (``b = 0``) until
-    :data:`CHECK_LOOPS` in a row find nothing new. Returns ``(solutions, (θ₁, 0), loops)``."""
+    the offset family ``F(z; θ) − b`` (:func:`pkmlab.numerics.homotopy.generic_instance`), monodromy in ``θ``
+    alone confirming them. Returns ``(solutions, (θ₁, 0), loops)``."""
     family, n, m, _layout, _names = _family(description)
-    rng = np.random.default_rng(SEED)
-    z0 = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 0.5
-    theta0 = rng.standard_normal(m) + 1j * rng.standard_normal(m)
-    b0 = family.F(z0[None], np.concatenate([theta0, np.zeros(n)])[None])[0]
-    p0 = np.concatenate([theta0, b0])
-    offset_solutions, loops = homotopy.monodromy_solve(family, z0, p0, rng)
-    p1 = np.concatenate([rng.standard_normal(m) + 1j * rng.standard_normal(m), np.zeros(n)])
-    ends = homotopy.parameter_homotopy(family, offset_solutions, p0, p1)
-    machine = homotopy.distinct(ends.x[ends.regular], family.scale)
-    checked, more = homotopy.monodromy_solve(family, machine[0], p1, rng, known=machine, free=m,
-                                            stale_loops=CHECK_LOOPS)
-    return checked, p1, loops + more
+    return homotopy.generic_instance(family, n, m, np.random.default_rng(SEED))
 
 
 # ------------------------------------------------------------------ solving

@@ -275,9 +275,10 @@ def _run(Q: np.ndarray, rng: np.random.Generator, real_ratio: float):
     family = _family()
     program = family.program
     # a projective system on a patch: no scale floor, no divergence, stalls judged at any t
-    ends, t_stop, _diverged = track_paths(program.code, program.register_file(), program.outputs, 8, 2,
-                                          _start_points(patch), _parameters(Q, (0, gamma), patch),
-                                          _parameters(Q, (1, 0), patch), _T_END, 0.0, math.inf, _MAX_STEPS, 0.0)
+    starts = _start_points(patch)
+    p0, p1 = (np.tile(_parameters(Q, s, patch), (len(starts), 1)) for s in ((0, gamma), (1, 0)))  # one row a path
+    ends, t_stop, _diverged = track_paths(program.code, program.register_file(), program.outputs, 8, 2, starts, p0,
+                                          p1, _T_END, 0.0, math.inf, _MAX_STEPS, 0.0)
     with np.errstate(all="ignore"):
         x, regular, ratio = _end_game(Q, patch, ends)
     x = x / np.linalg.norm(x, axis=1)[:, None]

@@ -117,7 +117,7 @@ class Excitation:
 
 def _motion(model, trajectory: FourierTrajectory, mode, t: np.ndarray) -> JointMotion:
     pose, pose_dot, pose_ddot = trajectory.desired(t)
-    q, s, failure = mm.path_inverse_kinematics(model, pose, mode)
+    q, s, failure = mm.path_inverse_kinematics(model, pose, mode, follow=True)
     if failure is not None:
         raise UnreachablePoseError(f"the excitation leaves the workspace at t = {t[failure[0]]:.4f} s: "
                                    f"{failure[1]}") from None
@@ -167,7 +167,7 @@ class _Problem:
         model, n = self.model, self.model.n_actuators
         pose, pose_dot, pose_ddot = self.trajectory(x).desired(t)
         deviation = (pose - self.center) / self.E
-        q, s, _failure = mm.path_inverse_kinematics(model, pose, self.mode)
+        q, s, _failure = mm.path_inverse_kinematics(model, pose, self.mode, follow=True)
         ok = np.all(np.isfinite(q), axis=1)
         theta_dot = np.full((len(t), n), np.nan)
         theta_ddot = np.full((len(t), n), np.nan)

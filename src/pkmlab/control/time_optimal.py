@@ -109,7 +109,7 @@ def path_coefficients(model, at, mode, u: np.ndarray, piece: int | None = None):
 
     x, x1, x2 = (np.ascontiguousarray(np.asarray(a, dtype=float)) for a in at(u, piece))
     dof = model.description.dof
-    q, _s, failure = path_inverse_kinematics(model, x[:, :dof], mode)
+    q, _s, failure = path_inverse_kinematics(model, x[:, :dof], mode, follow=True)
     if failure is not None:
         k, error = failure
         raise type(error)(f"the path at the pose {_where(x[k, :dof])}: {error}")

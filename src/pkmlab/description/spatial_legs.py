@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidParameterError
+from . import general_legs
 from .leg_types import Solved, mark_outside_stroke
 from .spatial import SpatialLeg, SpatialMechanism
 
@@ -58,9 +58,21 @@ def _leg(leg: SpatialLeg, number: int) -> str:
     return f"leg {number + 1} ({leg.notation})"
 
 
-def working_modes(leg: SpatialLeg) -> tuple[int, ...]:
+def has_closed_form(leg: SpatialLeg) -> bool:
+    """Whether pkmlab solves ``leg`` in closed form (module docstring); every other leg is solved by the general
+    method (:mod:`pkmlab.description.general_legs`)."""
+    notation = position_notation(leg)
+    if notation == "R*RS":
+        return abs(abs(float(np.dot(leg.joints[0].axes[0], leg.joints[1].axes[0]))) - 1.0) <= 1e-9
+    return notation in SOLVED
+
+
+def working_modes(leg: SpatialLeg) -> tuple:
     """``(+1, -1)`` for a leg with two inverse-kinematic branches (R*US, P*US, a P*RS whose slide is across its
-    hinge), ``()`` for one."""
+    hinge), ``()`` for one; a leg of the general method has its own
+    (:func:`pkmlab.description.general_legs.working_modes`: up to four, as pairs of signs)."""
+    if not has_closed_form(leg):
+        return general_legs.working_modes(leg)
     notation = position_notation(leg)
     if notation in ("R*US", "P*US", "R*RS"):
         return (1, -1)
@@ -313,10 +325,6 @@ def _rrs(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> 
     crank_joint, hinge = leg.joints[0], leg.joints[1]
     crank, link = leg.bodies
     a = np.array(crank_joint.axes[0])
-    if abs(abs(float(a @ np.array(hinge.axes[0]))) - 1.0) > 1e-9:
-        raise InvalidParameterError(f"{_leg(leg, number)}: pkmlab solves an R*RS leg whose two hinges are parallel "
-                                    f"(its link moves in a plane), not axes {list(crank_joint.axes[0])} and "
-                                    f"{list(hinge.axes[0])}")
     t1, t2 = np.array(crank.tip), np.array(link.tip)
     along = (t1 @ a) * a
     u1, u2 = t1 - along, t2 - (t2 @ a) * a
@@ -347,20 +355,22 @@ def _rrs(leg: SpatialLeg, number: int, points: np.ndarray, sigma: int, axis) -> 
     return Solved(np.column_stack([theta, phi]), bad, why)
 
 
-def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None) -> Solved:
+def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: int = 1, axis=None,
+                                 follow: bool = False) -> Solved:
     """The leg's joint coordinates (K, 3 or 2), in the order of its joints, for its platform joint at ``points``
-    (K, 3) in working mode ``sigma``; unreachable rows flagged in ``bad`` (``why(k)`` says why). ``axis`` is
-    the machine's :func:`central_axis`, which tells an R*US leg's working modes apart (default: the z
-    axis)."""
+    (K, 3) in working mode ``sigma`` (a pair of signs for a leg of four branches); unreachable rows flagged in
+    ``bad`` (``why(k)`` says why). ``axis`` is the machine's :func:`central_axis`, which tells an R*US leg's
+    working modes apart (default: the z axis). A leg without a closed form is solved by the general method
+    (:mod:`pkmlab.description.general_legs`), which follows its branch by continuity along ``points`` that are a
+    path when ``follow`` is set (the closed forms' modes are continuous away from singularities)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    if not has_closed_form(leg):
+        return general_legs.general_inverse_kinematics_batch(leg, number, points, sigma, follow)
     if axis is None:
         axis = (np.zeros(3), np.array([0.0, 0.0, 1.0]))
     solver = {"R*US": _rus, "UP*S": _ups, "P*US": _pus, "P*RS": _prs, "RP*S": _rps,
-              "R*RS": _rrs}.get(position_notation(leg))
-    if solver is None:
-        raise InvalidParameterError(f"{_leg(leg, number)}: pkmlab solves the inverse kinematics of "
-                                    f"spatial legs {', '.join(SOLVED)} (or their chains ended in a U) in closed "
-                                    f"form, not {leg.notation} yet")
-    return solver(leg, number, np.asarray(points, dtype=float).reshape(-1, 3), sigma, axis)
+              "R*RS": _rrs}[position_notation(leg)]
+    return solver(leg, number, points, sigma, axis)
 
 
 def delta_forward_kinematics(mechanism: SpatialMechanism, theta) -> list[np.ndarray]:

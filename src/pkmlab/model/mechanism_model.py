@@ -401,13 +401,20 @@ def constrained_accelerations(model: MechanismModel, q, q_dot, tau) -> tuple[np.
 
 
 # ------------------------------------------------------------------ inverse kinematics
+def _leg_signs(modes: tuple) -> int:
+    """How many signs of a working mode a leg takes: 0 (one branch), 1 (``(1, -1)``), or the length of its
+    modes' tuples (a leg of the general method with four branches: two)."""
+    return 0 if not modes else len(modes[0]) if isinstance(modes[0], tuple) else 1
+
+
 def working_modes(model: MechanismModel) -> list[tuple[int, ...]]:
-    """Every working mode: one sign per two-branch leg, +1 before -1, in lexicographic order
-    (``[()]`` when no leg has two branches, as for the 3-RPR)."""
+    """Every working mode: one sign per two-branch leg (two for a leg of four branches), +1 before -1, in
+    lexicographic order (``[()]`` when no leg has two branches, as for the 3-RPR)."""
     import itertools
 
     leg_modes = leg_solver(model.description).working_modes
-    return list(itertools.product(*[leg_modes(leg) for leg in model.description.legs if leg_modes(leg)]))
+    per_leg = [[m if isinstance(m, tuple) else (m,) for m in leg_modes(leg)] for leg in model.description.legs]
+    return [sum(combination, ()) for combination in itertools.product(*[modes for modes in per_leg if modes])]
 
 
 def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
@@ -431,14 +438,16 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
     return q[0]
 
 
-def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
+def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, follow: bool = False):
     """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach;
     the legs that cannot, a bit mask per pose (K,) (bit ``i`` for leg ``i + 1``); and the first failure
-    ``(k, leg, message)`` (else None)."""
+    ``(k, leg, message)`` (else None). ``follow``: the poses are a finely sampled path, along which a leg of the
+    general method follows its branch by continuity
+    (:func:`~pkmlab.description.general_legs.general_inverse_kinematics_batch`)."""
     m = model.description
     solver = leg_solver(m)
     leg_inverse_kinematics_batch, leg_modes = solver.leg_inverse_kinematics_batch, solver.working_modes
-    extra = (solver.central_axis(m),) if getattr(m, "spatial", False) else ()
+    extra = (solver.central_axis(m), follow) if getattr(m, "spatial", False) else ()
     signs = iter(tuple(mode))
     actuators, passive, unreachable = [], [], np.zeros(len(poses), dtype=np.int64)
     first = None
@@ -453,9 +462,12 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode):
         q_pose = whole[:, order]
         poses = whole
     for i, leg in enumerate(m.legs):
-        sigma = next(signs, None) if leg_modes(leg) else 1
-        if sigma not in (1, -1):
-            raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg, got {tuple(mode)}")
+        width = _leg_signs(leg_modes(leg))
+        sigma = tuple(next(signs, None) for _ in range(width)) if width else (1,)
+        if any(s not in (1, -1) for s in sigma):
+            raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg (two per leg of four "
+                                        f"branches), got {tuple(mode)}")
+        sigma = sigma[0] if len(sigma) == 1 else sigma
         solved = leg_inverse_kinematics_batch(leg, i, attachment_points_of(m, i, poses), sigma, *extra)
         if solved.bad.any():
             k = int(np.argmax(solved.bad))
@@ -490,8 +502,10 @@ def singularity_measure(model: MechanismModel, q) -> float:
 
 
 # ------------------------------------------------------------------ along a path
-def path_inverse_kinematics(model: MechanismModel, poses, mode) -> tuple[np.ndarray, np.ndarray, tuple | None]:
-    """Inverse kinematics of many poses ``(K, dof)`` in one working ``mode``, at once.
+def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = False
+                            ) -> tuple[np.ndarray, np.ndarray, tuple | None]:
+    """Inverse kinematics of many poses ``(K, dof)`` in one working ``mode``, at once; ``follow`` when they are
+    a finely sampled path (:func:`inverse_kinematics_batch`).
 
     Returns ``(q (K, n_coordinates), S (K,), failure)``: rows that cannot be reached are NaN, and
     ``failure`` is ``(k, error)`` for the first of them (the error names the leg), else None.
@@ -499,7 +513,7 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode) -> tuple[np.ndar
     from ..errors import UnreachablePoseError
 
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
-    q, _unreachable, first = inverse_kinematics_batch(model, poses, mode)
+    q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow)
     s = np.empty(poses.shape[0])
     model.kernels.singularity_measures(q, model.P, s)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))

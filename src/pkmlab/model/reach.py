@@ -106,7 +106,7 @@ def _check_spatial_assembly(description) -> None:
 
     m = description
     mobility(m)
-    solved = all(spatial_legs.position_notation(leg) in spatial_legs.SOLVED for leg in m.legs)
+    solved = all(spatial_legs.has_closed_form(leg) for leg in m.legs)
     if m.platform.parasitic_names or not solved:
         return
     box = spatial_extent(m)

@@ -129,16 +129,18 @@ class Endpoints(NamedTuple):
 
 
 def parameter_homotopy(family: Family, solutions: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> Endpoints:
-    """The endpoints at ``p₁`` of the paths from ``solutions`` (P, n) at ``p₀`` (m,) (:class:`Endpoints`), each
-    polished by Newton's method at ``p₁``. The paths are tracked by the compiled tracker
-    (:func:`pkmlab.numerics.tracker.track_paths`) with the rules of :func:`track`."""
+    """The endpoints at ``p₁`` of the paths from ``solutions`` (P, n) at ``p₀`` (:class:`Endpoints`), each
+    polished by Newton's method at ``p₁``; ``p0`` and ``p1`` are (m,), shared by every path, or (P, m), one row
+    per path (many targets at once). The paths are tracked by the compiled tracker
+    (:func:`pkmlab.numerics.tracker.track_paths`)."""
     from .tracker import track_paths
 
     program = family.program
+    solutions = np.ascontiguousarray(solutions, dtype=complex)
+    rows = (solutions.shape[0], np.shape(p0)[-1])
+    p0, p1 = (np.ascontiguousarray(np.broadcast_to(np.asarray(p, dtype=complex), rows)) for p in (p0, p1))
     x, t, diverged = track_paths(program.code, program.register_file(), program.outputs, family.n, family.moving,
-                                 np.ascontiguousarray(solutions, dtype=complex), np.asarray(p0, dtype=complex),
-                                 np.asarray(p1, dtype=complex), 0.0, float(family.scale), DIVERGED, MAX_STEPS,
-                                 1e-3)
+                                 solutions, p0, p1, 0.0, float(family.scale), DIVERGED, MAX_STEPS, 1e-3)
     x, regular = newton_polish(family, x, p1)
     return Endpoints(x, regular & ~diverged, diverged, diverged | (t <= 1e-15))
 
@@ -170,3 +172,48 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
         stale = stale + 1 if len(merged) == len(sols) else 0
         sols = merged
     return sols, loops
+
+
+#: Monodromy loops in the problem's own parameters that must find no new solution of a generic instance (each
+#: costs some 20–40 ms for a machine: ten of them add a few tenths of a second to its first solve).
+CHECK_LOOPS = 10
+
+
+def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, check_loops: int = CHECK_LOOPS):
+    """Every solution of ``F(z; θ) = 0`` at generic complex parameters ``θ₁`` (m,), for an offset family
+    ``F(z; θ) − b`` (parameters ``(θ, b)``, ``b`` of length ``n``): a random complex ``z₀`` solves it at
+    ``b₀ = F(z₀; θ₀)``; monodromy finds the others at ``(θ₀, b₀)``; a parameter homotopy carries them to
+    ``(θ₁, 0)``, where the paths that end regular are kept (the offset family has more solutions than the
+    problem: the others go to infinity or to singular points); then more monodromy loops in ``θ`` alone until
+    ``check_loops`` in a row find nothing new. Returns ``(solutions, (θ₁, 0), loops)``."""
+    z0 = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 0.5
+    theta0 = rng.standard_normal(m) + 1j * rng.standard_normal(m)
+    b0 = family.F(z0[None], np.concatenate([theta0, np.zeros(n)])[None])[0]
+    p0 = np.concatenate([theta0, b0])
+    offset_solutions, loops = monodromy_solve(family, z0, p0, rng)
+    p1 = np.concatenate([rng.standard_normal(m) + 1j * rng.standard_normal(m), np.zeros(n)])
+    ends = parameter_homotopy(family, offset_solutions, p0, p1)
+    solutions = distinct(ends.x[ends.regular], family.scale)
+    if not len(solutions):
+        return solutions, p1, loops
+    checked, more = monodromy_solve(family, solutions[0], p1, rng, known=solutions, free=m, stale_loops=check_loops)
+    return checked, p1, loops + more
+
+
+def cached_arrays(name: str, compute, notice_text: str) -> dict:
+    """``compute()``'s arrays (a dict), kept in pkmlab's cache folder as ``name``: a later process reads them
+    instead of computing them again (a generic instance's monodromy, seconds). ``notice_text`` is said, once,
+    when they are computed."""
+    from .._compile_cache import CACHE_DIR
+    from ..outputs import atomic_file
+    from ..progress import notice
+
+    path = CACHE_DIR / "generic" / f"{name}.npz"
+    if path.exists():
+        with np.load(path) as data:
+            return {k: data[k] for k in data.files}
+    notice(notice_text)
+    arrays = compute()
+    with atomic_file(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **arrays)
+    return arrays

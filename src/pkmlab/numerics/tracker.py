@@ -189,8 +189,9 @@ def _track_one(code, r, outputs, n, moving, x, p0, p1, t_end, bound, scale, max_
 
 @njit(cache=True, parallel=True)
 def track_paths(code, registers, outputs, n, moving, x0, p0, p1, t_end, scale, bound, max_steps, stall_floor):
-    """Every path of the homotopy ``F(x; t p₀ + (1 − t) p₁) = 0`` from its start ``x0[i]`` at ``t = 1`` towards
-    ``t_end``, the paths shared among the cores: a fourth-order Runge–Kutta predictor on ``dx/dt`` and three
+    """Every path of the homotopy ``F(x; t p₀[i] + (1 − t) p₁[i]) = 0`` from its start ``x0[i]`` at ``t = 1``
+    towards ``t_end`` (each path its own parameters, ``p0`` and ``p1`` (P, m): many targets solved at once), the
+    paths shared among the cores: a fourth-order Runge–Kutta predictor on ``dx/dt`` and three
     Newton corrections that must contract (the first at most :data:`FIRST_STEP` of ``|x|``, the last below
     :data:`TRACK_TOL`), the step doubled after three accepted steps (at most 0.25) and halved after a rejected
     one. A path stops at ``t_end``, where ``|x|`` exceeds ``bound · max(scale, 1)`` (diverged), or where its step
@@ -204,6 +205,6 @@ def track_paths(code, registers, outputs, n, moving, x0, p0, p1, t_end, scale, b
     limit = bound * max(scale, 1.0)
     for i in prange(P):
         r = registers.copy()
-        ts[i], diverged[i] = _track_one(code, r, outputs, n, moving, xs[i], p0, p1, t_end, limit, scale, max_steps,
-                                        stall_floor)
+        ts[i], diverged[i] = _track_one(code, r, outputs, n, moving, xs[i], p0[i], p1[i], t_end, limit, scale,
+                                        max_steps, stall_floor)
     return xs, ts, diverged

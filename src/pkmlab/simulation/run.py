@@ -288,7 +288,8 @@ def _path_modal_gains(scenario: Scenario, prep: PreparedRun) -> tuple[np.ndarray
         # there, and near S = 0 the plant's Mθ grows without bound (μ → 0: sluggish, not unstable).
         from ..model.mechanism_model import path_inverse_kinematics
 
-        ik_q, ik_s, _failure = path_inverse_kinematics(scenario.plant_model, desired.pose[idx], prep.mode)
+        ik_q, ik_s, _failure = path_inverse_kinematics(scenario.plant_model, desired.pose[idx], prep.mode,
+                                                     follow=True)
         ok = np.abs(np.nan_to_num(ik_s)) >= max(prep.singularity_guard, 1e-6)
         q_plant = np.vstack([prep.q_plant0, ik_q[ok]])
         q_ctrl, k = np.vstack([prep.q_ctrl0, desired.q[idx][ok]]), np.append(0, idx[ok])

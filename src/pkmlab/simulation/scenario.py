@@ -275,7 +275,7 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray):
     # whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory)
     first_failure, candidates, top = None, [], -np.inf
     for mode in modes:
-        q, s, failure = path_inverse_kinematics(model, pose, mode)
+        q, s, failure = path_inverse_kinematics(model, pose, mode, follow=True)
         if failure is not None:
             if first_failure is None or failure[0] > first_failure[0]:
                 first_failure = failure  # the mode that gets furthest names the problem
