@@ -18,7 +18,7 @@ reproduce: install
 	$(BIN)/pkmlab reproduce --out out
 
 lint: install
-	$(BIN)/ruff check src tests benchmarks examples
+	$(BIN)/ruff check src tests benchmarks examples docs
 	$(BIN)/lint-imports --no-cache
 
 # The views' tests open pages in a real headless browser: Debian's Chromium (the tests skip without it).

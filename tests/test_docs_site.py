@@ -55,6 +55,18 @@ def test_every_public_name_has_its_documentation(site):
     assert set(pkmlab.__all__) == {"__version__", *pkmlab._WHERE}
 
 
+def test_docstrings_cross_references_are_links(site):
+    """Sphinx's roles in docstrings (":class:`~pkmlab.errors.IncompleteSolutionWarning`") show as code, linked to
+    the entry they name where the site has one, never as the role's raw text."""
+    pages = sorted((site / "reference" / "api").glob("*/index.html"))
+    assert len(pages) == len(set(pkmlab._WHERE.values()))
+    role = re.compile(r":(?:class|func|meth|mod|data|attr|exc|obj):<code>")
+    for page in pages:
+        assert not role.search(page.read_text(encoding="utf-8")), page
+    kinematics = (site / "reference" / "api" / "algorithms.kinematics" / "index.html").read_text(encoding="utf-8")
+    assert 'href="../errors/#pkmlab.errors.IncompleteSolutionWarning"' in kinematics
+
+
 def test_command_line_reference_is_the_parser(site):
     """Every command of the parser has its section, with every one of its options, on the command line page."""
     page = site / "reference" / "cli" / "index.html"

@@ -9,6 +9,7 @@ documentation, in its module's page, without editing the docs. Each page shows o
 
 from __future__ import annotations
 
+import functools
 import re
 import sys
 from pathlib import Path
@@ -22,6 +23,7 @@ sys.path.insert(0, str(ROOT / "src"))
 FOLDER = "reference/api"
 
 
+@functools.cache
 def public_modules() -> dict[str, list[str]]:
     """Each module (dotted, under ``pkmlab``) and the public names it defines, in the order of ``_WHERE``."""
     import pkmlab
@@ -82,21 +84,43 @@ def index_page(modules: dict[str, list[str]]) -> str:
     ])
 
 
-# Sphinx's roles, which many docstrings use (":class:`~pkmlab.errors.PkmlabError`"), as Markdown renders them:
-# the role's name, then the target as code. Shown as the code alone, the last part only after a "~", as Sphinx
-# would show it.
+# Sphinx's roles, which many docstrings use (":class:`~pkmlab.errors.PkmlabError`"), come out of Markdown as the
+# role's name followed by the target as code. Each becomes the code alone, as Sphinx shows it (the last part only
+# after a "~"), linked to the target's entry when the site has one: an optional cross-reference, which the
+# autorefs plugin resolves where it can and leaves as text where it cannot, without a warning.
 _ROLE = re.compile(r":(?:py:)?(?:class|func|meth|mod|data|attr|exc|obj|const):<code>(~?)([^<]*)</code>")
 
 
-def _role_as_code(match: re.Match) -> str:
-    target = match.group(2)
-    return f"<code>{target.rsplit('.', 1)[-1] if match.group(1) else target}</code>"
+def _candidates(target: str, module: str | None) -> list[str]:
+    """The identifiers a role's target may name, likeliest first: a public name of ``pkmlab`` (``pkmlab.load``,
+    ``SimulationResult``) at its definition, a name relative to the page's module, the target as written."""
+    top = {name: identifier(where, name) for where, names in public_modules().items() for name in names}
+    bare = target.removeprefix("pkmlab.")
+    if bare in top:
+        return [top[bare], target]
+    if module is None or target.startswith("pkmlab."):
+        return [target]
+    # A dotted name outside pkmlab is another package's (numba.set_num_threads) or a class's member: as written
+    # first, so that the text shown where it resolves nowhere is the docstring's own.
+    relative = f"pkmlab.{module}.{target}"
+    return [target, relative] if "." in target else [relative, target]
+
+
+def _role_as_code(match: re.Match, module: str | None) -> str:
+    tilde, target = match.groups()
+    code = f"<code>{target.rsplit('.', 1)[-1] if tilde else target}</code>"
+    first, *rest = _candidates(target, module)
+    # autorefs tries the identifier, then the slug: the two likeliest candidates.
+    slug = f' slug="{rest[0]}"' if rest else ""
+    return f'<autoref identifier="{first}"{slug} optional>{code}</autoref>'
 
 
 def on_page_content(html: str, page, config, files) -> str:
     if not page.file.src_uri.startswith(f"{FOLDER}/"):
         return html
-    return _ROLE.sub(_role_as_code, html)
+    stem = page.file.src_uri.removeprefix(f"{FOLDER}/").removesuffix(".md")
+    module = None if stem == "index" else stem
+    return _ROLE.sub(lambda m: _role_as_code(m, module), html)
 
 
 def on_files(files, config):
