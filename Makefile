@@ -4,21 +4,21 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install reproduce test lint bench derive clean browser
+.PHONY: install reproduce test lint bench derive clean browser docs
 
 install: $(STAMP)
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,mujoco,bench,study,identify]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,mujoco,bench,study,identify,docs]'
 	touch $(STAMP)
 
 reproduce: install
 	$(BIN)/pkmlab reproduce --out out
 
 lint: install
-	$(BIN)/ruff check src tests benchmarks examples
+	$(BIN)/ruff check src tests benchmarks examples docs
 	$(BIN)/lint-imports --no-cache
 
 # The views' tests open pages in a real headless browser: Debian's Chromium (the tests skip without it).
@@ -32,6 +32,12 @@ browser:
 test: lint browser
 	$(BIN)/python -m pytest
 
+# The documentation site (mkdocs.yml, docs/) into site/: a warning (a broken link, a docstring griffe cannot
+# read) fails the build. The API reference, the command line reference and the performance tables are written
+# from the sources and benchmarks/results.json as it builds (docs/_hooks/).
+docs: install
+	$(BIN)/mkdocs build --strict --site-dir site
+
 bench: install
 	$(BIN)/python benchmarks/run.py
 
@@ -41,4 +47,4 @@ derive: install
 	$(BIN)/python -m pkmlab.codegen.spatial
 
 clean:
-	rm -rf $(VENV) out build src/*.egg-info
+	rm -rf $(VENV) out build site src/*.egg-info

@@ -4,6 +4,8 @@ Every machine — the paper's 3-RRR (Nasa & Bandyopadhyay, "Trajectory-tracking 
 parallel manipulator"), the other presets, and any mechanism you describe — loads as one model type and
 answers the same functions:
 
+Examples
+--------
 >>> import pkmlab
 >>> model = pkmlab.load("paper")
 >>> fk = pkmlab.forward_kinematics(model, [1.6146, 1.9831, -1.1846])

@@ -113,6 +113,8 @@ def singularity_map(
     the first, ``(1, 1, 1)`` for the paper's 3-RRR); ``alpha`` is ignored by a 2-DOF machine. ``progress``, when
     given, is called with the number of grid rows just computed.
 
+    Examples
+    --------
     >>> from pkmlab import load
     >>> m = singularity_map(load("paper"), resolution=11)
     >>> m.S.shape

@@ -100,6 +100,8 @@ def inertial_parameter_names(model) -> tuple[str, ...]:
     ``body1_2.mx`` is the first moment along x of leg 1's second body, ``platform.Izz`` the platform's inertia
     about its reference point.
 
+    Examples
+    --------
     >>> import pkmlab
     >>> inertial_parameter_names(pkmlab.load("paper"))[:4]
     ('body1_1.m', 'body1_1.mx', 'body1_1.my', 'body1_1.Izz')
@@ -131,6 +133,8 @@ def drive_parameter_names(model) -> tuple[str, ...]:
     """The names of the drive parameters (:data:`DRIVE_PARAMETERS`) of every actuator, ``"drive<j>.<parameter>"``:
     ``drive2.fv`` is the second actuator's viscous friction.
 
+    Examples
+    --------
     >>> import pkmlab
     >>> drive_parameter_names(pkmlab.load("five_bar"))
     ('drive1.Ia', 'drive1.fv', 'drive1.fc', 'drive2.Ia', 'drive2.fv', 'drive2.fc')

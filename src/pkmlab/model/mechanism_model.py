@@ -39,6 +39,8 @@ from .reach import attachment_points_of, check_assembly, leg_solver
 class MechanismModel:
     """A described mechanism with its packed parameters and generated kernels.
 
+    Examples
+    --------
     >>> model = MechanismModel.from_preset("five_bar")
     >>> model.coordinates
     ('a1', 'a2', 'q1_2', 'q2_2', 'x', 'y')

@@ -436,6 +436,8 @@ def run_result(scenario: Scenario, prep: PreparedRun, q, theta_dot, tau, pose=No
 def simulate(scenario: Scenario) -> SimulationResult:
     """Run a closed-loop scenario and return its :class:`SimulationResult`.
 
+    Examples
+    --------
     >>> from pkmlab import paper_scenario
     >>> result = simulate(paper_scenario("nominal"))
     >>> result.summary()["working_mode"]
@@ -557,6 +559,8 @@ def simulate_batch(scenarios, *, on_error: str = "raise") -> list:
     that a study can count why runs failed. Use ``NUMBA_NUM_THREADS`` (or
     :func:`numba.set_num_threads`) to choose how many cores.
 
+    Examples
+    --------
     >>> from pkmlab import ControllerSpec, paper_scenario, simulate_batch
     >>> base = paper_scenario("disturbed")
     >>> runs = simulate_batch([base.replace(controller=ControllerSpec(kp=kp)) for kp in (400.0, 1000.0)])

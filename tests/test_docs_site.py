@@ -1,0 +1,181 @@
+"""The documentation site (mkdocs.yml, docs/): it builds with warnings as errors, its generated references cover
+what they are written from, and its pages render and search in a real headless browser."""
+
+import functools
+import http.server
+import importlib.util
+import json
+import re
+import shutil
+import subprocess
+import sys
+import threading
+from pathlib import Path
+from urllib.parse import urlsplit
+
+import pytest
+
+import pkmlab
+from pkmlab.cli._parser import build_parser
+
+ROOT = Path(__file__).parents[1]
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+#: The packages `make docs` needs (the `docs` extra), each by the module it installs.
+TOOLS = {"mkdocs": "mkdocs", "mkdocs-material": "material", "mkdocstrings": "mkdocstrings",
+         "mkdocstrings-python": "mkdocstrings_handlers"}
+MISSING = [package for package, module in TOOLS.items() if importlib.util.find_spec(module) is None]
+
+pytestmark = pytest.mark.skipif(bool(MISSING), reason=f"the documentation tools are not installed: "
+                                f"{', '.join(MISSING)} (pip install -e '.[docs]')")
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """The site, built as `make docs` builds it (strict: any warning fails), into a folder of the test's own."""
+    out = tmp_path_factory.mktemp("site")
+    proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert not re.search(r"^WARNING\b", proc.stderr, re.MULTILINE), proc.stderr
+    return out
+
+
+def _ids(page: Path) -> set[str]:
+    return set(re.findall(r'\bid="([^"]+)"', page.read_text(encoding="utf-8")))
+
+
+def test_every_public_name_has_its_documentation(site):
+    """Each name of `pkmlab.__all__` has an entry, with its anchor, on the page of the module that defines it."""
+    missing = []
+    for name, module in pkmlab._WHERE.items():
+        ids = _ids(site / "reference" / "api" / module / "index.html")
+        if f"pkmlab.{module}.{name}" not in ids and f"pkmlab.{module}.{name}.{name}" not in ids:
+            missing.append(f"pkmlab.{module}.{name}")
+    assert not missing, missing
+    assert set(pkmlab.__all__) == {"__version__", *pkmlab._WHERE}
+
+
+def test_docstrings_cross_references_are_links(site):
+    """Sphinx's roles in docstrings (":class:`~pkmlab.errors.IncompleteSolutionWarning`") show as code, linked to
+    the entry they name where the site has one, never as the role's raw text."""
+    pages = sorted((site / "reference" / "api").glob("*/index.html"))
+    assert len(pages) == len(set(pkmlab._WHERE.values()))
+    role = re.compile(r":(?:class|func|meth|mod|data|attr|exc|obj):<code>")
+    for page in pages:
+        assert not role.search(page.read_text(encoding="utf-8")), page
+    kinematics = (site / "reference" / "api" / "algorithms.kinematics" / "index.html").read_text(encoding="utf-8")
+    assert 'href="../errors/#pkmlab.errors.IncompleteSolutionWarning"' in kinematics
+
+
+def test_command_line_reference_is_the_parser(site):
+    """Every command of the parser has its section, with every one of its options, on the command line page."""
+    page = site / "reference" / "cli" / "index.html"
+    html, ids = page.read_text(encoding="utf-8"), _ids(page)
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    assert len(sub.choices) >= 10
+    for name, command in sub.choices.items():
+        assert f"pkmlab-{name}" in ids, name
+        section = html.split(f'id="pkmlab-{name}"', 1)[1].split("<h2", 1)[0]
+        for action in command._actions:
+            for flag in action.option_strings:
+                if flag not in ("-h", "--help"):
+                    assert f"<code>{flag}</code>" in section, (name, flag)
+
+
+def test_performance_tables_are_the_results(site):
+    """The performance page has one row per timed operation of benchmarks/results.json, with its median."""
+    results = json.loads((ROOT / "benchmarks" / "results.json").read_text(encoding="utf-8"))["results"]
+    html = (site / "performance" / "index.html").read_text(encoding="utf-8")
+    per_op = [r for r in results.values() if r["kind"] == "per_op"]
+    assert per_op
+    for row in per_op:
+        assert f"{row['per_second']:,.0f} {row['op']}s/s" in html, row["name"]
+    assert html.count("<tr>") >= len(results)  # one row per result, and the header rows
+
+
+def test_changelog_is_included(site):
+    html = (site / "changelog" / "index.html").read_text(encoding="utf-8")
+    first_heading = re.search(r"^## (.+)$", (ROOT / "CHANGELOG.md").read_text(encoding="utf-8"), re.MULTILINE)
+    assert first_heading.group(1) in html
+    assert "--8&lt;--" not in html and "--8<--" not in html  # the include was done, not shown
+
+
+# ------------------------------------------------------------------ in a real browser
+@pytest.fixture(scope="module")
+def server(site):
+    """The built site over HTTP on the loopback interface: its search runs in a web worker, which a page opened
+    from a file may not start."""
+    class Quiet(http.server.SimpleHTTPRequestHandler):
+        def log_message(self, *args):  # a line per request would bury a failure's own output
+            pass
+
+    httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(Quiet, directory=str(site)))
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    yield f"http://127.0.0.1:{httpd.server_address[1]}"
+    httpd.shutdown()
+    httpd.server_close()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    if CHROMIUM is None:
+        pytest.skip("Chromium is not installed (make test installs Debian's chromium)")
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=[
+            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", "--no-first-run", "--disable-quic"])
+        yield b
+        b.close()
+
+
+def _open(browser, url: str, base: str):
+    """The page at ``url``, loaded, and the list its console errors, uncaught exceptions and any request for
+    something outside the site go to (the site reads offline: no web fonts, no scripts from elsewhere)."""
+    page = browser.new_page()
+    errors = []
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("request", lambda r: errors.append(f"fetched {r.url}") if not r.url.startswith(base) else None)
+    page.goto(url, wait_until="load")
+    return page, errors
+
+
+PAGES = {
+    "": "pkmlab",
+    "getting-started/": "A first machine in Python",
+    "theory/paper/": "Trajectory-tracking control of a planar 3-RRR parallel",
+    "theory/glossary/": "One name per quantity",
+    "reference/api/algorithms.kinematics/": "forward_kinematics",
+    "reference/cli/": "pkmlab fk",
+    "performance/": "Timed operations",
+    "changelog/": "Unreleased",
+}
+
+
+def test_pages_render_without_errors(server, browser):
+    for path, text in PAGES.items():
+        page, errors = _open(browser, f"{server}/{path}", server)
+        try:
+            page.wait_for_selector("article.md-content__inner")
+            assert text in page.inner_text("article.md-content__inner"), path
+            assert page.locator("nav.md-nav--primary").count() == 1, path  # the theme's navigation is there
+            page.wait_for_timeout(200)  # late script errors
+            assert not errors, (path, errors)
+        finally:
+            page.close()
+
+
+def test_search_finds_forward_kinematics(server, browser):
+    page, errors = _open(browser, f"{server}/", server)
+    try:
+        page.fill("input.md-search__input", "forward_kinematics")  # as typed in the header's search box
+        page.wait_for_selector(".md-search-result__item a", timeout=15_000)
+        links = page.eval_on_selector_all(".md-search-result__item a", "as => as.map(a => a.href)")
+        found = {(urlsplit(href).path, urlsplit(href).fragment) for href in links}  # the query highlights the word
+        assert ("/reference/api/algorithms.kinematics/", "pkmlab.algorithms.kinematics.forward_kinematics") in found, \
+            links
+        assert not errors, errors
+    finally:
+        page.close()
