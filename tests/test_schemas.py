@@ -8,15 +8,14 @@ import re
 import tomllib
 from pathlib import Path
 
+import jsonschema
 import pytest
 
-jsonschema = pytest.importorskip("jsonschema")
-
-from pkmlab.description.files import load_mechanism, mechanism_from_dict  # noqa: E402
-from pkmlab.errors import PkmlabDeprecationWarning, PkmlabError  # noqa: E402
-from pkmlab.formats import schemas  # noqa: E402
-from pkmlab.formats.scenario import SCENARIO_DIR, scenario_from_dict  # noqa: E402
-from pkmlab.study.definition import study_from_dict  # noqa: E402
+from pkmlab.description.files import load_mechanism, mechanism_from_dict
+from pkmlab.errors import PkmlabDeprecationWarning, PkmlabError
+from pkmlab.formats import schemas
+from pkmlab.formats.scenario import SCENARIO_DIR, scenario_from_dict
+from pkmlab.study.definition import study_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
