@@ -72,14 +72,16 @@ def test_schemas_are_package_data():
 
 
 def test_keys_carry_documentation():
-    """Every key of every table has a description; a key with a unit says it; refs point at definitions."""
+    """Every key of every table has a type and a description; a key with a unit says it; refs point at
+    definitions."""
     schema = json.loads(schemas.path("sweep").read_text(encoding="utf-8"))
     tables = [d for d in schema["definitions"].values() if "properties" in d]
     assert len(tables) > 15
     for table in tables:
         for name, prop in table["properties"].items():
-            if prop is not False and set(prop) != {"$ref"}:  # a table's own definition has its description
+            if prop is not False and "$ref" not in prop:  # a table's own definition has its description
                 assert prop.get("description"), name
+                assert prop.get("type"), name
     kp = schema["definitions"]["controller"]["properties"]["kp"]
     assert kp["default"] == 1000.0 and kp["exclusiveMinimum"] == 0 and "1/s^2" in kp["description"]
     assert schema["definitions"]["planar_body"]["properties"]["mass"]["description"].endswith("Unit: kg.")
@@ -202,6 +204,7 @@ def both(*edits):
 BAD = [
     ("description", "no [mechanism]", remover("mechanism"), "no [mechanism]"),
     ("description", "unknown key", setter("mechanism/colour", "red"), "colour"),
+    ("description", "empty name", setter("mechanism/name", ""), "name"),
     ("description", "typo'd key", both(remover("mechanism/leg/0/joints"), setter("mechanism/leg/0/joint", "R*RR")),
      "joint"),
     ("description", "missing platform", remover("mechanism/platform"), "platform is required"),
@@ -325,6 +328,8 @@ GOOD = [
     ("sweep", "a log range", setter("grid/controller.sample_time", {"start": 5e-4, "stop": 2e-3, "num": 3,
                                                                     "scale": "log"})),
     ("sweep", "drawn plants", both(setter("study/draws", 2), setter("uncertainty/length", [0.95, 1.05]))),
+    ("sweep", "an identification's options", both(setter("study/job", "identify"), setter("identification/window", 0.1),
+                                                  setter("grid/identification.polyorder", [3, 4]))),
 ]
 
 

@@ -22,7 +22,7 @@ VECTOR = {"type": "array", "items": NUMBER, "minItems": 3, "maxItems": 3}
 def per_actuator(sign: str = "") -> dict:
     """One number for every actuator, or a list of one per actuator (their count is the machine's)."""
     one = {"type": "number", **bound(sign)}
-    return {"anyOf": [one, {"type": "array", "items": one, "minItems": 1}]}
+    return {"type": ["number", "array"], "anyOf": [one, {"type": "array", "items": one, "minItems": 1}]}
 
 
 def bound(sign: str) -> dict:

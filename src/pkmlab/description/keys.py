@@ -7,14 +7,15 @@ from .._keys import NUMBER, POINT, VECTOR, Key
 
 _STROKE = {"type": "array", "items": NUMBER, "minItems": 2, "maxItems": 2}
 #: A 3x3 tensor, or one number for that number times the identity.
-_TENSOR = {"anyOf": [{"type": "number", "minimum": 0},
+_TENSOR = {"type": ["number", "array"], "anyOf": [{"type": "number", "minimum": 0},
                      {"type": "array", "minItems": 3, "maxItems": 3, "items": VECTOR}]}
 
 #: The keys of ``[mechanism]`` before its kind is known: a preset, or a planar or spatial description.
 MECHANISM = (
     Key("preset", "string", "A preset machine of pkmlab; no other key may be given with it.",
         examples=("paper", "delta")),
-    Key("name", "string", "The machine's name.", default="mechanism", examples=("3-RRR",)),
+    Key("name", "string", "The machine's name.", default="mechanism", examples=("3-RRR",),
+        schema={"type": "string", "minLength": 1}),
     Key("dimension", "integer", "2 for a planar machine (in the x-y plane), 3 for a spatial one.", default=2,
         schema={"type": "integer", "enum": [2, 3]}),
     Key("gravity", "array", "The gravity vector [gx, gy] in the plane of a planar machine.", "m/s^2",

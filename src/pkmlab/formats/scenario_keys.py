@@ -17,12 +17,12 @@ from .params import PARAM_KEYS, PRESETS
 _POSE = {"type": "array", "items": NUMBER, "minItems": 2, "maxItems": 6}
 _ROWS = {"type": "array", "minItems": 1, "items": {"type": "array", "items": NUMBER, "minItems": 1}}
 #: A working mode as ``inverse_kinematics(mode=...)`` takes it: "auto", signs "+-+", or [1, -1, 1].
-_MODE = {"anyOf": [{"type": "string", "pattern": r"^(auto|[+-]+)$"},
+_MODE = {"type": ["string", "array"], "anyOf": [{"type": "string", "pattern": r"^(auto|[+-]+)$"},
                    {"type": "array", "minItems": 1,
                     "items": {"anyOf": [{"type": "integer", "enum": [1, -1]},
                                         {"type": "string", "enum": ["+", "-", "+1", "-1", "1"]}]}}]}
 _PARAMS = {"type": "object", "propertyNames": {"enum": list(PARAM_KEYS)},
-           "additionalProperties": {"anyOf": [NUMBER, {"type": "array"}]}}
+           "additionalProperties": {"type": ["number", "array"]}}
 
 #: The drives' keys, of ``[plant]`` (the plant's) and of ``[controller]`` (the model computed torque compensates).
 DRIVES = (
@@ -100,7 +100,7 @@ SCENARIO = {
         Key("normal", "array", "A spatial circle's plane normal [x, y, z].", default=(0.0, 0.0, 1.0), schema=VECTOR,
             only=("circle",)),
         Key("orientation", "array", "A spatial circle's platform orientation held, [roll, pitch, yaw] (none for a "
-            "translating platform).", "rad", schema={"anyOf": [VECTOR, {"type": "array", "maxItems": 0}]},
+            "translating platform).", "rad", schema={"type": "array", "anyOf": [VECTOR, {"maxItems": 0}]},
             only=("circle",)),
         Key("start", "array", "The line's first pose [x, y, alpha].", "m, rad", schema=VECTOR, only=("line",)),
         Key("end", "array", "The line's last pose [x, y, alpha].", "m, rad", schema=VECTOR, only=("line",)),

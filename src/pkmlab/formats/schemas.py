@@ -181,13 +181,13 @@ def _axis(name: str) -> dict:
         spec = None
     else:
         spec = key(SCENARIO[table], rest)
-    values = spec.value_schema() if spec is not None else {"anyOf": [{"type": "number"}, {"type": "array"}]}
+    values = spec.value_schema() if spec is not None else {"type": ["number", "array"]}
     numeric = spec is None or spec.many or spec.type in ("number", "integer")
     text = f"Values of {name}" + (f": {spec.description}" if spec is not None else " (a deprecated 3-RRR parameter).")
     listed = {"type": "array", "minItems": 1, "items": values}
     return {"description": text + " A list of values" + (", or a range {start, stop, num[, scale]}." if numeric
                                                           else "."),
-            **({"anyOf": [listed, _ref("range")]} if numeric else listed)}
+            **({"type": ["array", "object"], "anyOf": [listed, _ref("range")]} if numeric else listed)}
 
 
 def sweep_schema() -> dict:

@@ -41,7 +41,8 @@ RANGE = (
 UNCERTAINTY = tuple(
     Key(q, "number", f"The plant's {q} factors: a spread s (uniform in [1 - s, 1 + s]) or two factors [low, high].",
         examples=(0.15, [0.9, 1.1]),
-        schema={"anyOf": [{"type": "number", "minimum": 0, "exclusiveMaximum": 1},
+        schema={"type": ["number", "array"],
+                "anyOf": [{"type": "number", "minimum": 0, "exclusiveMaximum": 1},
                           {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0}, "minItems": 2,
                            "maxItems": 2}]})
     for q in QUANTITIES)
