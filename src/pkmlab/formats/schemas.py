@@ -101,10 +101,9 @@ def description_schema() -> dict:
 
 
 # ------------------------------------------------------------------ a scenario
-def _has(table: str, name: str, value) -> dict:
-    """The condition ``[table].name == value`` (the key given)."""
-    return {"properties": {name: {"const": value}}, "required": [name]} if table == "" else \
-        {"properties": {table: {"properties": {name: {"const": value}}, "required": [name]}}, "required": [table]}
+def _is(name: str, value) -> dict:
+    """The condition: the key ``name`` is given, and is ``value``."""
+    return {"properties": {name: {"const": value}}, "required": [name]}
 
 
 def _absent(*keys: str) -> dict:
@@ -129,10 +128,10 @@ def _trajectory() -> dict:
     rules = []
     for kind in TRAJECTORY_TYPES:
         then = {"propertyNames": {"enum": [*TRAJECTORY_COMMON, *trajectory_keys(kind)]}, **_TRAJECTORY_RULES[kind]}
-        rules.append({"if": _has("", "type", kind), "then": then})
+        rules.append({"if": _is("type", kind), "then": then})
     # a circle's centre [x, y, z] makes it a spatial one: normal and orientation, not alpha
     spatial = {"properties": {"center": {"minItems": 3}}, "required": ["center"]}
-    rules.append({"if": _has("", "type", "circle"), "then": {
+    rules.append({"if": _is("type", "circle"), "then": {
         "properties": {"center": {"maxItems": 3}},
         "if": spatial, "then": _absent("alpha", "alpha_end"), "else": _absent("normal", "orientation")}})
     out["allOf"] = rules
@@ -204,7 +203,7 @@ def sweep_schema() -> dict:
         defs[table] = table_schema(OPTIONS[job], TABLES_OF_A_STUDY[table])
     tables = {name: _ref("scenario" if name == "base" else name) for name in TABLES_OF_A_STUDY}
     # a job's options, as a table or as axes, belong to that job only
-    rules = [{"if": _has("study", "job", job), "else": {
+    rules = [{"if": {"properties": {"study": _is("job", job)}, "required": ["study"]}, "else": {
         "properties": {table: False, "grid": {"propertyNames": {"not": {"pattern": f"^{table}\\."}}}}}}
         for job, table in TABLE.items()]
     return {"$schema": _DRAFT, "title": "pkmlab study file",
