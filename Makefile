@@ -4,7 +4,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install reproduce test lint bench derive clean browser docs
+.PHONY: install reproduce test lint bench derive schemas clean browser docs
 
 install: $(STAMP)
 
@@ -45,6 +45,10 @@ derive: install
 	$(BIN)/python -m pkmlab.codegen.rrr3_sextic
 	$(BIN)/python -m pkmlab.codegen.planar
 	$(BIN)/python -m pkmlab.codegen.spatial
+
+# The JSON Schemas of the TOML files (src/pkmlab/schemas/), written again from the loaders' key tables.
+schemas: install
+	$(BIN)/python -m pkmlab.formats.schemas --write
 
 clean:
 	rm -rf $(VENV) out build site src/*.egg-info

@@ -12,8 +12,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from .._files import read_toml
+from .._keys import key
 from ..errors import InvalidParameterError
 from ._fields import known_keys
+from .keys import MECHANISM
 from .mechanism import MECHANISM_KEYS, Mechanism, planar_mechanism_from_dict, planar_mechanism_to_toml
 from .presets import preset
 from .spatial import SpatialMechanism, spatial_mechanism_from_dict, spatial_mechanism_to_toml
@@ -35,7 +37,7 @@ def mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mechanism |
             raise InvalidParameterError(f"{where}: give either preset or a description ({', '.join(others)}), "
                                         "not both")
         return preset(table["preset"])
-    dimension = table.get("dimension", 2)
+    dimension = table.get("dimension", key(MECHANISM, "dimension").default)
     if dimension not in (2, 3) or isinstance(dimension, bool):
         raise InvalidParameterError(f"{where}.dimension must be 2 (a planar machine) or 3 (a spatial one), got "
                                     f"{dimension!r}")

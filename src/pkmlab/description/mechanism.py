@@ -38,8 +38,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._keys import defaults, names
 from ..errors import InvalidParameterError
 from ._fields import finite_number, known_keys, required, stroke, toml_value
+from .keys import MECHANISM, PLANAR_BODY, PLANAR_LEG, PLANAR_PLATFORM
 
 JOINT_KINDS = ("R", "P")
 PLATFORM_KINDS = ("rigid", "point")
@@ -325,11 +327,13 @@ def attachment_points(mechanism: Mechanism, leg: int, poses: np.ndarray) -> np.n
 
 
 # ------------------------------------------------------------------ the TOML form
-#: Keys of the TOML form, by table.
-MECHANISM_KEYS = ("preset", "name", "dimension", "gravity", "platform", "leg")
-PLATFORM_KEYS = ("kind", "attachments", "mass", "com", "inertia")
-LEG_KEYS = ("base", "joints", "axis", "stroke", "bodies")
-BODY_KEYS = ("tip", "mass", "com", "inertia")
+#: Keys of the TOML form, by table (declared in :mod:`pkmlab.description.keys`).
+MECHANISM_KEYS = names(MECHANISM)
+PLATFORM_KEYS = names(PLANAR_PLATFORM)
+LEG_KEYS = names(PLANAR_LEG)
+BODY_KEYS = names(PLANAR_BODY)
+_DEFAULTS = {"mechanism": defaults(MECHANISM), "platform": defaults(PLANAR_PLATFORM), "leg": defaults(PLANAR_LEG),
+             "body": defaults(PLANAR_BODY)}
 _JOINTS = re.compile(r"^([RP]\*?)+$")
 
 
@@ -387,20 +391,20 @@ def planar_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Mech
         joints = list(_joints(required(leg, "joints", lw), lw))
         if "axis" in leg:
             joints[0] = Joint(joints[0].kind, joints[0].actuated, leg["axis"])
-        bodies = leg.get("bodies", [])
+        bodies = leg.get("bodies", _DEFAULTS["leg"]["bodies"])
         if not isinstance(bodies, list):
             raise InvalidParameterError(f"{lw}.bodies must be a list of bodies")
         parsed = []
         for k, body in enumerate(bodies):
             bw = f"{lw}.bodies[{k + 1}]"
-            body = known_keys(body, BODY_KEYS, bw)
-            parsed.append(Body(body.get("tip", (0.0, 0.0)), required(body, "mass", bw), body.get("com", (0.0, 0.0)),
-                               body.get("inertia", 0.0)))
+            body = {**_DEFAULTS["body"], **known_keys(body, BODY_KEYS, bw)}
+            parsed.append(Body(body["tip"], required(body, "mass", bw), body["com"], body["inertia"]))
         legs.append(Leg(required(leg, "base", lw), tuple(joints), tuple(parsed), leg.get("stroke")))
-    return Mechanism(table.get("name", "mechanism"), tuple(legs),
-                     Platform(kind, tuple(attachments), platform.get("mass", 0.0), platform.get("com", (0.0, 0.0)),
-                              platform.get("inertia", 0.0)),
-                     table.get("gravity", (0.0, 0.0)))
+    platform = {**_DEFAULTS["platform"], **platform}
+    table = {**_DEFAULTS["mechanism"], **table}
+    return Mechanism(table["name"], tuple(legs),
+                     Platform(kind, tuple(attachments), platform["mass"], platform["com"], platform["inertia"]),
+                     table["gravity"])
 
 
 def planar_mechanism_to_toml(mechanism: Mechanism, comment: str | None = None) -> str:

@@ -57,8 +57,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._keys import defaults, names
 from ..errors import InvalidParameterError
 from ._fields import finite_number, known_keys, required, stroke, toml_value
+from .keys import SPATIAL_BODY, SPATIAL_LEG, SPATIAL_MECHANISM, SPATIAL_PLATFORM
 from .mechanism import JointChain, LegsAndPose, platform_and_legs
 
 SPATIAL_JOINTS = ("R", "P", "U", "S")
@@ -490,10 +492,13 @@ def attachment_points(mechanism: SpatialMechanism, leg: int, poses: np.ndarray) 
 
 
 # ------------------------------------------------------------------ the TOML form
-MECHANISM_KEYS = ("name", "gravity", "platform", "leg")
-PLATFORM_KEYS = ("kind", "attachments", "mass", "com", "inertia", "controlled")
-LEG_KEYS = ("base", "joints", "axes", "stroke", "bodies")
-BODY_KEYS = ("tip", "mass", "com", "inertia")
+#: Keys of the TOML form, by table (declared in :mod:`pkmlab.description.keys`).
+MECHANISM_KEYS = names(SPATIAL_MECHANISM)
+PLATFORM_KEYS = names(SPATIAL_PLATFORM)
+LEG_KEYS = names(SPATIAL_LEG)
+BODY_KEYS = names(SPATIAL_BODY)
+_DEFAULTS = {"mechanism": defaults(SPATIAL_MECHANISM), "platform": defaults(SPATIAL_PLATFORM),
+             "leg": defaults(SPATIAL_LEG), "body": defaults(SPATIAL_BODY)}
 _JOINTS = re.compile(r"^([RPUS]\*?)+$")
 
 
@@ -518,7 +523,7 @@ def spatial_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Spa
             raise InvalidParameterError(f"{lw}.joints must be letters R, P, U, S from the base to the platform, the "
                                         f"actuated one starred, e.g. \"UP*S\" or \"R*US\"; got {text!r}")
         kinds = [m.group(0) for m in re.finditer(r"[RPUS]\*?", compact)]
-        axes = leg.get("axes", [])
+        axes = leg.get("axes", _DEFAULTS["leg"]["axes"])
         movable = [k for k in kinds if k[0] != "S"]
         if not isinstance(axes, list) or len(axes) != len(movable):
             raise InvalidParameterError(f"{lw}.axes needs one entry per joint but the S ({len(movable)}): a vector "
@@ -534,21 +539,21 @@ def spatial_mechanism_from_dict(table: dict, source: str = "[mechanism]") -> Spa
             elif k[0] != "S":
                 given = (given,)
             joints.append(SpatialJoint(k[0], k.endswith("*"), given))
-        bodies = leg.get("bodies", [])
+        bodies = leg.get("bodies", _DEFAULTS["leg"]["bodies"])
         if not isinstance(bodies, list):
             raise InvalidParameterError(f"{lw}.bodies must be a list of bodies")
         parsed = []
         for k, body in enumerate(bodies):
             bw = f"{lw}.bodies[{k + 1}]"
-            body = known_keys(body, BODY_KEYS, bw)
-            parsed.append(SpatialBody(body.get("tip", (0.0, 0.0, 0.0)), required(body, "mass", bw),
-                                      body.get("com", (0.0, 0.0, 0.0)), body.get("inertia", 0.0)))
+            body = {**_DEFAULTS["body"], **known_keys(body, BODY_KEYS, bw)}
+            parsed.append(SpatialBody(body["tip"], required(body, "mass", bw), body["com"], body["inertia"]))
         legs.append(SpatialLeg(required(leg, "base", lw), tuple(joints), tuple(parsed), leg.get("stroke")))
-    return SpatialMechanism(table.get("name", "mechanism"), tuple(legs),
-                            SpatialPlatform(kind, tuple(attachments), platform.get("mass", 0.0),
-                                            platform.get("com", (0.0, 0.0, 0.0)), platform.get("inertia", 0.0),
-                                            platform.get("controlled")),
-                            table.get("gravity", (0.0, 0.0, 0.0)))
+    platform = {**_DEFAULTS["platform"], **platform}
+    table = {**_DEFAULTS["mechanism"], **table}
+    return SpatialMechanism(table["name"], tuple(legs),
+                            SpatialPlatform(kind, tuple(attachments), platform["mass"], platform["com"],
+                                            platform["inertia"], platform.get("controlled")),
+                            table["gravity"])
 
 
 def scaled_spatial_mechanism(mechanism: SpatialMechanism, mass: float = 1.0, length: float = 1.0) -> SpatialMechanism:

@@ -84,11 +84,11 @@ import numpy as np
 
 from .._files import parse_toml, read_toml
 from .._format import apart, suggestion
+from .._keys import key as _spec
 from ..algorithms.kinematics import as_working_mode
-from ..control.controller import CONTROLLER_TYPES, ControllerSpec
-from ..control.time_optimal import GRID, MAX_GRID, time_optimal
+from ..control.controller import ControllerSpec
+from ..control.time_optimal import time_optimal
 from ..control.trajectory import (
-    ORIENTATION_PATHS,
     Circle,
     FourierTrajectory,
     Line,
@@ -101,34 +101,14 @@ from ..control.trajectory import (
 )
 from ..errors import FileFormatError, InvalidParameterError, PkmlabDeprecationWarning, PkmlabError, shown
 from ..model.mechanism_model import MechanismModel, load
-from ..simulation.realism import SENSED_RATES, Drives, Sensors
-from ..simulation.scenario import MAX_SAMPLES, MAX_SUBSTEPS, Scenario, scaled_model
+from ..simulation.realism import Drives, Sensors
+from ..simulation.scenario import MAX_SAMPLES, Scenario, scaled_model
 from .params import PARAM_KEYS, PRESETS, manipulator_from_dict
+from .scenario_keys import DRIVES, PLANT_DRIVES, SCENARIO, TABLES, TRAJECTORY_TYPES, trajectory_keys
 
-#: The tables of a scenario file and their keys.
-TABLES = {
-    "manipulator": ("preset", "params"),
-    "mechanism": ("preset", "file", "name", "dimension", "gravity", "platform", "leg"),
-    "plant": ("mass_scale", "length_scale", "gear_ratio", "armature", "viscous", "coulomb", "coulomb_rate",
-              "stick_slip", "effort_limit", "effort_noise"),
-    "sensors": ("resolution", "noise", "delay", "rates"),
-    "trajectory": ("type", "speed", "time_law", "center", "radius", "start_angle", "alpha", "alpha_end", "turns",
-                   "normal", "orientation", "start", "end", "points", "durations", "orientation_path", "period",
-                   "periods", "a", "b"),
-    "controller": ("type", "kp", "kv", "sample_time", "mechanism", "gear_ratio", "armature", "viscous", "coulomb",
-                   "coulomb_rate", "stick_slip"),
-    "simulation": ("working_mode", "singularity_margin", "singularity_guard", "substeps", "seed"),
-    "timing": ("velocity", "acceleration", "effort", "grid"),
-}
 #: Keys of ``[trajectory]`` by its ``type``, besides ``type``, ``speed`` and ``time_law``.
-TRAJECTORY_KEYS = {
-    "circle": ("center", "radius", "start_angle", "alpha", "alpha_end", "turns", "normal", "orientation"),
-    "line": ("start", "end"),
-    "waypoints": ("points", "durations", "orientation_path"),
-    "spline": ("points", "durations"),
-    "fourier": ("center", "period", "periods", "a", "b"),
-}
-TIME_LAWS = ("cubic", "quintic")
+TRAJECTORY_KEYS = {kind: trajectory_keys(kind) for kind in TRAJECTORY_TYPES}
+TIME_LAWS = _spec(SCENARIO["trajectory"], "time_law").choices
 #: Runs longer than this many samples are refused (memory: ~200 bytes per sample).
 _PER_LEG = ("l", "r", "mass_l", "mass_r", "inertia_l", "inertia_r")
 _SCALAR = ("b", "a", "mass_a", "inertia_a")
@@ -223,6 +203,18 @@ class _Reader:
             raise self.value_error(f"{where} must be {n} numbers {what}, got {show(value)}")
         return tuple(self.check_number(v, f"{where}[{i}]") for i, v in enumerate(value))
 
+    def spec_number(self, table: dict, name: str, key: str):
+        """The number ``[name].key`` as its declaration (:mod:`pkmlab.formats.scenario_keys`) says: its sign, and its
+        default (None without one)."""
+        k = _spec(SCENARIO[name], key)
+        return self.number(table, name, key, k.default if k.has_default else None, k.sign)
+
+    def spec_choice(self, table: dict, name: str, key: str) -> str:
+        """The word ``[name].key`` among its declared choices, its declared default if absent (required without
+        one)."""
+        k = _spec(SCENARIO[name], key)
+        return self.choice(table, name, key, k.choices, k.default if k.has_default else None)
+
     def choice(self, table: dict, name: str, key: str, choices, default=None) -> str:
         if key not in table:
             if default is None:
@@ -241,7 +233,7 @@ class _Reader:
 # ------------------------------------------------------------------ the tables
 def _manipulator(rd: _Reader, table: dict):
     rd.known_keys(table, "manipulator", TABLES["manipulator"])
-    preset = table.get("preset", "paper")
+    preset = table.get("preset", _spec(SCENARIO["manipulator"], "preset").default)
     if not isinstance(preset, str) or preset not in PRESETS:
         close = difflib.get_close_matches(preset, list(PRESETS), n=1) if isinstance(preset, str) else []
         hint = f" (did you mean '{close[0]}'?)" if close else f"; presets: {', '.join(PRESETS)}"
@@ -342,8 +334,7 @@ def _per_actuator(rd: _Reader, table: dict, name: str, key: str, n: int, sign: s
 
 #: The keys of ``[plant]`` that declare its drives (:class:`~pkmlab.simulation.realism.Drives`), with the sign of
 #: their values.
-DRIVE_KEYS = {"gear_ratio": "positive", "armature": "non-negative", "viscous": "non-negative",
-              "coulomb": "non-negative", "effort_limit": "positive", "effort_noise": "non-negative"}
+DRIVE_KEYS = {k.name: k.sign for k in (*DRIVES, *PLANT_DRIVES) if k.many}
 
 
 def _drives(rd: _Reader, table: dict, model, name: str = "plant") -> Drives | None:
@@ -352,7 +343,8 @@ def _drives(rd: _Reader, table: dict, model, name: str = "plant") -> Drives | No
     given = {key: _per_actuator(rd, table, name, key, model.n_actuators, sign, key == "effort_limit")
              for key, sign in DRIVE_KEYS.items() if key in table}
     if "coulomb_rate" in table:
-        given["coulomb_rate"] = rd.number(table, name, "coulomb_rate", None, "non-negative")
+        # no default here: Drives has it, and None tells it the key was not given
+        given["coulomb_rate"] = rd.number(table, name, "coulomb_rate", None, _spec(DRIVES, "coulomb_rate").sign)
     if "stick_slip" in table:
         if not isinstance(table["stick_slip"], bool):
             raise rd.value_error(f"{rd.where(name, 'stick_slip')} must be true or false, got "
@@ -369,19 +361,20 @@ def _sensors(rd: _Reader, table: dict, model) -> Sensors | None:
     rd.known_keys(table, name, TABLES[name])
     if not table:
         return None
-    given = {key: _per_actuator(rd, table, name, key, model.n_actuators, "non-negative")
-             for key in ("resolution", "noise") if key in table}
-    delay = table.get("delay", 0)
-    if isinstance(delay, bool) or not isinstance(delay, int) or not 0 <= delay <= 1000:
-        raise rd.value_error(f"{rd.where(name, 'delay')} must be an integer number of samples from 0 to 1000, got "
-                             f"{show(delay)}")
-    return Sensors(**given, delay=delay, rates=rd.choice(table, name, "rates", SENSED_RATES, "difference"))
+    given = {k.name: _per_actuator(rd, table, name, k.name, model.n_actuators, k.sign)
+             for k in SCENARIO[name] if k.many and k.name in table}
+    spec = _spec(SCENARIO[name], "delay")
+    delay = table.get("delay", spec.default)
+    if isinstance(delay, bool) or not isinstance(delay, int) or not spec.minimum <= delay <= spec.maximum:
+        raise rd.value_error(f"{rd.where(name, 'delay')} must be an integer number of samples from {spec.minimum} to "
+                             f"{spec.maximum}, got {show(delay)}")
+    return Sensors(**given, delay=delay, rates=rd.spec_choice(table, name, "rates"))
 
 
 def _plant(rd: _Reader, table: dict, model):
     rd.known_keys(table, "plant", TABLES["plant"])
-    mass = rd.number(table, "plant", "mass_scale", 1.0, "positive")
-    length = rd.number(table, "plant", "length_scale", 1.0, "positive")
+    mass = rd.spec_number(table, "plant", "mass_scale")
+    length = rd.spec_number(table, "plant", "length_scale")
     if mass == 1.0 and length == 1.0:
         return None
     try:
@@ -394,7 +387,7 @@ def _plant(rd: _Reader, table: dict, model):
 
 def _trajectory(rd: _Reader, table: dict, model: MechanismModel):
     name = "trajectory"
-    kind = rd.choice(table, name, "type", tuple(TRAJECTORY_KEYS))
+    kind = rd.spec_choice(table, name, "type")
     valid = ("type", "speed", "time_law", *TRAJECTORY_KEYS[kind])
     for key in table:
         if key in valid:
@@ -417,8 +410,8 @@ def _trajectory(rd: _Reader, table: dict, model: MechanismModel):
         waypoints = _timed_waypoints(rd, table)
         return Spline(waypoints.points, waypoints.durations)
     speed = rd.check_number(rd.required(table, name, "speed", "the average speed in m/s"),
-                            rd.where(name, "speed"), "positive")
-    law = rd.choice(table, name, "time_law", TIME_LAWS, "cubic")
+                            rd.where(name, "speed"), _spec(SCENARIO[name], "speed").sign)
+    law = rd.spec_choice(table, name, "time_law")
     if kind == "circle" and isinstance(table.get("center"), list) and len(table["center"]) == 3:
         return _spatial_circle(rd, table, speed, law)
     for key in ("normal", "orientation"):
@@ -427,10 +420,10 @@ def _trajectory(rd: _Reader, table: dict, model: MechanismModel):
     if kind == "circle":
         center = rd.vector(rd.required(table, name, "center", "[x, y] in m"), rd.where(name, "center"), 2, "[x, y]")
         radius = rd.check_number(rd.required(table, name, "radius", "in m"), rd.where(name, "radius"), "positive")
-        start_angle = rd.number(table, name, "start_angle", math.pi)
-        alpha = rd.number(table, name, "alpha", 0.0)
-        alpha_end = rd.number(table, name, "alpha_end", None)
-        turns = rd.number(table, name, "turns", 1.0, "positive")
+        start_angle = rd.spec_number(table, name, "start_angle")
+        alpha = rd.spec_number(table, name, "alpha")
+        alpha_end = rd.spec_number(table, name, "alpha_end")
+        turns = rd.spec_number(table, name, "turns")
         path = Circle(center, radius, start_angle=start_angle, alpha=alpha, alpha_end=alpha_end, turns=turns)
         trajectory = Trajectory(path, speed, law)
     elif kind == "line":
@@ -467,14 +460,15 @@ def _spatial_circle(rd: _Reader, table: dict, speed: float, law: str) -> Traject
                                   "orientation = [roll, pitch, yaw]")
     center = rd.vector(table["center"], rd.where(name, "center"), 3, "[x, y, z]")
     radius = rd.check_number(rd.required(table, name, "radius", "in m"), rd.where(name, "radius"), "positive")
-    normal = rd.vector(table.get("normal", [0.0, 0.0, 1.0]), rd.where(name, "normal"), 3, "[x, y, z]")
+    normal = rd.vector(table.get("normal", list(_spec(SCENARIO[name], "normal").default)), rd.where(name, "normal"), 3,
+                       "[x, y, z]")
     if not np.linalg.norm(normal) > 0:
         raise rd.value_error(f"{rd.where(name, 'normal')} must be a non-zero vector, got {show(table['normal'])}")
     orientation = table.get("orientation", [])
     if orientation != []:
         orientation = rd.vector(orientation, rd.where(name, "orientation"), 3, "[roll, pitch, yaw] in rad")
-    path = SpatialCircle(center, radius, normal, rd.number(table, name, "start_angle", math.pi), tuple(orientation),
-                         rd.number(table, name, "turns", 1.0, "positive"))
+    path = SpatialCircle(center, radius, normal, rd.spec_number(table, name, "start_angle"), tuple(orientation),
+                         rd.spec_number(table, name, "turns"))
     return Trajectory(path, speed, law)
 
 
@@ -491,7 +485,7 @@ def _fourier(rd: _Reader, table: dict, model: MechanismModel) -> FourierTrajecto
     center = rd.vector(rd.required(table, name, "center", f"[{', '.join(names)}]"), rd.where(name, "center"),
                        len(names), f"[{', '.join(names)}]")
     period = rd.check_number(rd.required(table, name, "period", "in s"), rd.where(name, "period"), "positive")
-    periods = table.get("periods", 1)
+    periods = table.get("periods", _spec(SCENARIO[name], "periods").default)
     if isinstance(periods, bool) or not isinstance(periods, int) or periods < 1:
         raise rd.value_error(f"{rd.where(name, 'periods')} must be a positive integer, got {show(periods)}")
     rows = {}
@@ -537,7 +531,7 @@ def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
         raise rd.value_error(f"{dwhere} must be {len(poses) - 1} times in s, one per segment, got {show(durations)}")
     times = [rd.check_number(d, f"{dwhere}[{i}]", "positive") for i, d in enumerate(durations)]
     law = rd.choice(table, name, "time_law", TIME_LAWS, "quintic")
-    turn = rd.choice(table, name, "orientation_path", ORIENTATION_PATHS, "angles")
+    turn = rd.spec_choice(table, name, "orientation_path")
     if turn == "geodesic" and width != 6:
         raise rd.value_error(f"{rd.where(name, 'orientation_path')} = \"geodesic\" turns a rigid platform's whole "
                              f"orientation: its points are [x, y, z, roll, pitch, yaw], not {width} numbers")
@@ -550,10 +544,10 @@ def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
 def _controller(rd: _Reader, table: dict) -> tuple[ControllerSpec, float]:
     name = "controller"
     rd.known_keys(table, name, TABLES[name])
-    kind = rd.choice(table, name, "type", tuple(CONTROLLER_TYPES), "computed_torque")
-    kp = rd.number(table, name, "kp", 1000.0, "positive")
-    kv = rd.number(table, name, "kv", None, "non-negative")
-    sample_time = rd.number(table, name, "sample_time", 1e-3, "non-negative")
+    kind = rd.spec_choice(table, name, "type")
+    kp = rd.spec_number(table, name, "kp")
+    kv = rd.spec_number(table, name, "kv")
+    sample_time = rd.spec_number(table, name, "sample_time")
     return ControllerSpec(kind, kp=kp, kv=kv), sample_time
 
 
@@ -562,15 +556,17 @@ def _simulation(rd: _Reader, table: dict) -> dict:
     rd.known_keys(table, name, TABLES[name])
     # the working mode as inverse_kinematics(mode=...) and --mode spell it ("auto", [1, -1, 1], "+-+"), checked
     # against the machine's two-branch legs by Scenario (whose message scenario_from_dict names the file in)
-    out = {"working_mode": table.get("working_mode", "auto")}
-    out["singularity_margin"] = rd.number(table, name, "singularity_margin", 0.05, "non-negative")
-    out["singularity_guard"] = rd.number(table, name, "singularity_guard", 0.01, "non-negative")
-    substeps = table.get("substeps", 1)
-    if isinstance(substeps, bool) or not isinstance(substeps, int) or not 1 <= substeps <= MAX_SUBSTEPS:
-        raise rd.value_error(f"{rd.where(name, 'substeps')} must be an integer from 1 to {MAX_SUBSTEPS}, "
+    keys = SCENARIO[name]
+    out = {"working_mode": table.get("working_mode", _spec(keys, "working_mode").default)}
+    out["singularity_margin"] = rd.spec_number(table, name, "singularity_margin")
+    out["singularity_guard"] = rd.spec_number(table, name, "singularity_guard")
+    spec = _spec(keys, "substeps")
+    substeps = table.get("substeps", spec.default)
+    if isinstance(substeps, bool) or not isinstance(substeps, int) or not spec.minimum <= substeps <= spec.maximum:
+        raise rd.value_error(f"{rd.where(name, 'substeps')} must be an integer from {spec.minimum} to {spec.maximum}, "
                              f"got {show(substeps)}")
     out["substeps"] = substeps
-    seed = table.get("seed", 0)
+    seed = table.get("seed", _spec(keys, "seed").default)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise rd.value_error(f"{rd.where(name, 'seed')} must be a non-negative integer, got {show(seed)}")
     out["seed"] = seed
@@ -596,9 +592,11 @@ def _timing(rd: _Reader, table: dict, model: MechanismModel) -> dict:
             out[key] = rd.check_number(value, where, "positive")
     if not out:
         raise rd.format_error(f"{rd.where(name)} needs at least one limit: velocity, acceleration or effort")
-    grid = table.get("grid", GRID)
-    if isinstance(grid, bool) or not isinstance(grid, int) or not 10 <= grid <= MAX_GRID:
-        raise rd.value_error(f"{rd.where(name, 'grid')} must be an integer from 10 to {MAX_GRID}, got {show(grid)}")
+    spec = _spec(SCENARIO[name], "grid")
+    grid = table.get("grid", spec.default)
+    if isinstance(grid, bool) or not isinstance(grid, int) or not spec.minimum <= grid <= spec.maximum:
+        raise rd.value_error(f"{rd.where(name, 'grid')} must be an integer from {spec.minimum} to {spec.maximum}, got "
+                             f"{show(grid)}")
     out["grid"] = grid
     return out
 

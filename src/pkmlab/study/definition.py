@@ -50,35 +50,34 @@ import numpy as np
 
 from .._files import read_toml
 from .._format import suggestion
+from .._keys import defaults
+from .._keys import key as declared
 from .._version import __version__
 from ..errors import FileFormatError, InvalidParameterError, PkmlabError, shown
-from ..formats.params import PARAM_KEYS
-from ..formats.scenario import TABLES, scenario_from_dict
+from ..formats.scenario import scenario_from_dict
+from ..formats.study_keys import (
+    JOBS,
+    RANGE,
+    RANGE_KEYS,
+    STUDY,
+    STUDY_KEYS,
+    STUDY_TABLES,
+    TABLE,
+    axis_keys,
+    option_keys,
+)
 from ..simulation.uncertainty import check_bounds
-from .jobs import COUNTS, JOBS, OPTIONS, TABLE, check_option, job_options, option_keys
+from .jobs import COUNTS, OPTIONS, check_option, job_options
 
-#: The keys of a study file's ``[study]`` table.
-STUDY_KEYS = ("name", "base", "draws", "seed", "combine", "job")
 #: How a study's axes make its points: every combination, or value by value.
-COMBINE = ("cross", "zip")
-#: The tables of a study file.
-STUDY_TABLES = ("study", "base", "grid", "uncertainty", "identification", "calibration")
-#: The keys of a range: ``{start, stop, num[, scale]}``.
-RANGE_KEYS = ("start", "stop", "num", "scale")
+COMBINE = declared(STUDY, "combine").choices
+#: The defaults of ``[study]`` and of a range (declared in :mod:`pkmlab.formats.study_keys`).
+_STUDY_DEFAULTS, _RANGE_DEFAULTS = defaults(STUDY), defaults(RANGE)
 #: At most this many runs in one study (the table's memory: about 1 kB per run).
 MAX_RUNS = 50_000_000
 #: Axes whose values are counts (kept as integers).
 INTEGER_KEYS = ("simulation.substeps", "trajectory.periods",
                 *(f"{table}.{key}" for job, table in TABLE.items() for key in COUNTS if key in OPTIONS[job]))
-
-
-def axis_keys() -> tuple[str, ...]:
-    """Every scenario value an axis may vary: ``table.key`` for the scenario tables' keys, and
-    ``manipulator.params.<name>``. The machine's structure (``[mechanism]``, ``manipulator.preset``)
-    is the base's: a study compares runs of one machine."""
-    keys = [f"{table}.{key}" for table, names in TABLES.items() if table not in ("mechanism", "manipulator")
-            for key in names]
-    return (*keys, *(f"manipulator.params.{k}" for k in PARAM_KEYS))
 
 
 def _error(source: str, text: str) -> InvalidParameterError:
@@ -104,7 +103,7 @@ def axis_values(key: str, spec, source: str = "<study>", unique: bool = True) ->
         for k in spec:
             if k not in RANGE_KEYS:
                 raise _error(source, f"unknown key '{k}' in the range {where}{suggestion(str(k), RANGE_KEYS)}")
-        missing = [k for k in ("start", "stop", "num") if k not in spec]
+        missing = [k.name for k in RANGE if k.required and k.name not in spec]
         if missing:
             raise _error(source, f"the range {where} needs {', '.join(missing)} (a range is {{start, stop, num}})")
         start, stop, num = spec["start"], spec["stop"], spec["num"]
@@ -113,8 +112,8 @@ def axis_values(key: str, spec, source: str = "<study>", unique: bool = True) ->
                 raise _error(source, f"{where}.{name} must be a finite number, got {shown(v)}")
         if isinstance(num, bool) or not isinstance(num, int) or num < 1:
             raise _error(source, f"{where}.num must be a positive integer, got {shown(num)}")
-        scale = spec.get("scale", "linear")
-        if scale not in ("linear", "log"):
+        scale = spec.get("scale", _RANGE_DEFAULTS["scale"])
+        if scale not in declared(RANGE, "scale").choices:
             raise _error(source, f"{where}.scale must be \"linear\" or \"log\", got {shown(scale)}")
         if num > MAX_RUNS:
             raise _error(source, f"{where}.num = {num}: more values than a study may run ({MAX_RUNS})")
@@ -233,7 +232,7 @@ class Study:
         """A checked study from ``base`` (a scenario file's path, or its tables as a dict), ``grid``
         ({axis key: list of values or {start, stop, num[, scale]}}), ``uncertainty`` ({quantity: spread or
         [low, high]}), ``draws``, ``seed``, ``combine`` (``"cross"``: every combination of the axes'
-        values; ``"zip"``: value by value), ``job`` (what a run does: :data:`~pkmlab.study.jobs.JOBS`) and its
+        values; ``"zip"``: value by value), ``job`` (what a run does: :data:`~pkmlab.formats.study_keys.JOBS`) and its
         ``options`` (:mod:`pkmlab.study.jobs`). Every problem is one line naming the key and the value."""
         if not isinstance(source, str):
             raise InvalidParameterError(f"source must be a string (the study file's name), got {shown(source)}")
@@ -490,14 +489,15 @@ def study_from_dict(data: dict, source: str = "<study>") -> Study:
     name = head.get("name", Path(source).stem or "study")
     if not isinstance(name, str) or not name:
         raise FileFormatError(f"{source}: [study].name must be a non-empty string, got {shown(name)}")
-    job = head.get("job", "simulate")
+    job = head.get("job", _STUDY_DEFAULTS["job"])
     for table in TABLE.values():
         if table in data and TABLE.get(job) != table:
             raise FileFormatError(f"{source}: [{table}] is the options of job = "
                                   f"\"{next(j for j, t in TABLE.items() if t == table)}\", not of job = {shown(job)}")
     options = data.get(TABLE[job], {}) if isinstance(job, str) and job in TABLE else {}
-    return Study.create(base, data.get("grid", {}), data.get("uncertainty", {}), head.get("draws", 0),
-                        head.get("seed", 0), name, source, head.get("combine", "cross"), job, options)
+    head = {**_STUDY_DEFAULTS, **head}
+    return Study.create(base, data.get("grid", {}), data.get("uncertainty", {}), head["draws"], head["seed"], name,
+                        source, head["combine"], job, options)
 
 
 def load_study(path) -> Study:

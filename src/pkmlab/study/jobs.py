@@ -46,23 +46,16 @@ import math
 
 import numpy as np
 
+from .._keys import defaults
 from ..errors import InvalidParameterError, shown
+from ..formats.study_keys import OPTIONS as _DECLARED
 
-#: What a run of a study does.
-JOBS = ("simulate", "identify", "calibrate")
-#: The study file's table of each job's options.
-TABLE = {"identify": "identification", "calibrate": "calibration"}
-#: Each job's options and their defaults.
-OPTIONS = {
-    "simulate": {},
-    "identify": {"window": 0.05, "polyorder": 4, "drives": False, "coulomb_rate": 0.0},
-    "calibrate": {"poses": 40, "noise": 1e-5, "measure": "position", "size": 1e-3, "angle": float(np.deg2rad(0.5)),
-                  "held_out": 50, "candidates": 0, "span": 0.1, "turn": 0.3},
-}
+#: Each job's options and their defaults (declared in :mod:`pkmlab.formats.study_keys`).
+OPTIONS = {job: defaults(keys) for job, keys in _DECLARED.items()}
 #: Options that are counts, and options that are flags or words.
-COUNTS = ("polyorder", "poses", "held_out", "candidates")
-FLAGS = ("drives",)
-WORDS = {"measure": ("position", "pose")}
+COUNTS = tuple(k.name for keys in _DECLARED.values() for k in keys if k.type == "integer")
+FLAGS = tuple(k.name for keys in _DECLARED.values() for k in keys if k.type == "boolean")
+WORDS = {k.name: k.choices for keys in _DECLARED.values() for k in keys if k.choices}
 #: The metrics each job adds to the table.
 METRICS = {
     "simulate": (),
@@ -81,11 +74,6 @@ HEADLINE = {
 }
 
 
-def option_keys(job: str) -> tuple[str, ...]:
-    """The axis keys of ``job``'s options: ``identification.window`` ..."""
-    return tuple(f"{TABLE[job]}.{key}" for key in OPTIONS[job]) if job in TABLE else ()
-
-
 def check_option(job: str, key: str, value, where: str):
     """``value`` of option ``key`` of ``job`` as the job uses it, or an error naming ``where``."""
     if key not in OPTIONS[job]:
@@ -102,14 +90,15 @@ def check_option(job: str, key: str, value, where: str):
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
         raise InvalidParameterError(f"{where}.{key} must be a finite number, got {shown(value)}")
+    spec = next(k for k in _DECLARED[job] if k.name == key)
     if key in COUNTS:
-        if float(value) != int(value) or value < 0 or (key != "candidates" and value < 1):
-            kind = "non-negative" if key == "candidates" else "positive"
+        if float(value) != int(value) or value < spec.minimum:
+            kind = "non-negative" if spec.minimum == 0 else "positive"
             raise InvalidParameterError(f"{where}.{key} must be a {kind} integer, got {shown(value)}")
         return int(value)
-    if value < 0 or (value == 0 and key in ("window", "span")):
-        raise InvalidParameterError(f"{where}.{key} must be {'positive' if key in ('window', 'span') else '>= 0'}, "
-                                    f"got {shown(value)}")
+    positive = spec.sign == "positive"
+    if value < 0 or (value == 0 and positive):
+        raise InvalidParameterError(f"{where}.{key} must be {'positive' if positive else '>= 0'}, got {shown(value)}")
     return float(value)
 
 
