@@ -166,6 +166,8 @@ def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts
         raise AssertionError("a default run did not finish")
     more, checks["stewart_40"] = _forty_poses_rows(h, 3 if quick else 7)
     rows += more
+    more, checks["general_leg"] = _general_leg_rows(h, 3 if quick else 7)
+    rows += more
     more, checks["time_optimal"] = _time_optimal_rows(h, 3 if quick else 7)
     rows += more
     more, checks["identification"] = _identification_rows(h, 3 if quick else 5)
@@ -197,6 +199,45 @@ def _forty_poses_rows(h, repeats: int) -> tuple[list[dict], dict]:
             h.metric_row("mech_stewart40_fk_fast_vs_general", "Stewart platform, 40 real poses: fast path's time / "
                          "the general method's", float(np.median(fast)) / float(np.median(general)), "x")]
     return rows, {"fast_s": float(np.median(fast)), "general_s": float(np.median(general))}
+
+
+def _general_leg_rows(h, repeats: int) -> tuple[list[dict], dict]:
+    """Inverse kinematics of a leg without a closed form (an R*RRS leg: the 6-RUS's universal joints split into
+    two hinges 2 cm apart), every real solution at 1,000 points by the general method, against the R*US leg's
+    closed form at the same points."""
+    import dataclasses
+
+    from pkmlab.description import general_legs, spatial_legs
+    from pkmlab.description.files import load_mechanism
+    from pkmlab.description.spatial import SpatialBody, SpatialJoint
+
+    rus = load_mechanism(EXAMPLES / "mechanisms" / "6rus.toml").legs[0]
+    a1, a2 = (np.array(a) for a in rus.joints[1].axes)
+    offset = 0.02 * np.cross(a1, a2) / np.linalg.norm(np.cross(a1, a2))
+    leg = dataclasses.replace(
+        rus, joints=(rus.joints[0], SpatialJoint("R", False, (tuple(a1),)), SpatialJoint("R", False, (tuple(a2),)),
+                     rus.joints[2]),
+        bodies=(rus.bodies[0], SpatialBody(tuple(offset), 0.05, tuple(offset / 2), ((1e-5, 0, 0), (0, 1e-5, 0),
+                                                                                  (0, 0, 1e-5))), rus.bodies[1]))
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-0.8, 0.8, (1000, 3))
+    points = general_legs.leg_points(leg, q)[0]
+    general_legs.general_leg(leg)  # its monodromy, once per leg (kept in the cache)
+
+    def general():
+        general_legs._solved.cache_clear()  # every repeat solves anew
+        return general_legs.real_solutions(leg, points)
+
+    times, found = h.time_runs(general, repeats)
+    closed, _ = h.time_runs(lambda: spatial_legs.leg_inverse_kinematics_batch(rus, 0, points, 1), repeats)
+    per_point = float(np.median(times)) / len(points)
+    rows = [h.rate_row("leg_ik_general_rrrs", "an R*RRS leg: every real solution by the general method (1,000 "
+                       "points)", times, len(points), "point", compare=False),
+            h.rate_row("leg_ik_closed_rus", "an R*US leg: its closed form, one working mode (1,000 points)", closed,
+                       len(points), "point", compare=False),
+            h.metric_row("leg_ik_general_vs_closed", "leg inverse kinematics: the general method's time / a closed "
+                         "form's", float(np.median(times)) / float(np.median(closed)), "x")]
+    return rows, {"per_point_s": per_point, "mean_solutions": float(np.mean([len(f) for f in found]))}
 
 
 def _measured_poses(true, offsets, count: int, rng) -> tuple[np.ndarray, np.ndarray]:

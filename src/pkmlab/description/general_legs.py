@@ -327,13 +327,17 @@ def _solved(leg, data: bytes):
     world = np.frombuffer(data).reshape(-1, 3)
     canonical, frame = canonical_frame(leg)
     found = _canonical_solutions(canonical, (world - np.asarray(leg.base)) @ frame)
-    polished = [_polish(leg, q, world[k]) for k, q in enumerate(found)]
-    return [(q, mode_labels(leg, q)) for q in polished]
+    counts = np.array([len(q) for q in found])
+    # every point's solutions at once: polished on the leg itself, then their determinants
+    every = _polish(leg, np.concatenate(found), np.repeat(world, counts, axis=0))
+    det = np.linalg.det(leg_points(leg, every)[1]) if _coordinates(leg) == 3 and len(every) else np.zeros(len(every))
+    ends = np.cumsum(counts)
+    return [(every[e - c:e], mode_labels(leg, every[e - c:e], det[e - c:e])) for c, e in zip(counts, ends, strict=True)]
 
 
 def _polish(leg, q: np.ndarray, centre: np.ndarray, iterations: int = 2) -> np.ndarray:
     """``q`` (k, m) after Newton's (Gauss–Newton's for two coordinates) corrections on the leg's chain towards
-    ``centre`` (3,): the canonical leg's solutions on the leg itself."""
+    ``centre`` (3,) or (k, 3): the canonical leg's solutions on the leg itself."""
     for _ in range(iterations if len(q) else 0):
         point, jac = leg_points(leg, q)
         q = q - (np.linalg.pinv(jac) @ (point - centre)[..., None])[..., 0]
@@ -370,14 +374,15 @@ def _canonical_solutions(leg, points: np.ndarray) -> list[np.ndarray]:
                 continue
             start, p0 = np.tile(middle.x, (len(rows), 1)), via
         ends = homotopy.parameter_homotopy(g.family, start, p0, np.repeat(targets[rows], N, axis=0))
-        x = ends.x.reshape(len(rows), N, n)
         ok = (ends.reached & (ends.regular | ends.diverged)).reshape(len(rows), N)
-        for r, k in enumerate(rows):
-            z = x[r][ok[r]]
-            size = np.maximum(np.abs(z).max(axis=1, initial=0.0), 1.0)
-            z = z[np.abs(z.imag).max(axis=1, initial=0.0) <= IMAG_TOL * size].real
-            z = z[_residual(leg, g.names, z, points[k]) <= RESIDUAL_TOL] if len(z) else z
-            found[k] += list(_to_coordinates(leg, g.names, z)) if len(z) else []
+        owner = np.repeat(rows, N)  # the point of each path
+        size = np.maximum(np.abs(ends.x).max(axis=1), 1.0)
+        real = ok.ravel() & ~ends.diverged & (np.abs(ends.x.imag).max(axis=1) <= IMAG_TOL * size)
+        z, owner = ends.x[real].real, owner[real]
+        if len(z):
+            keep = _residual(leg, g.names, z, points[owner]) <= RESIDUAL_TOL
+            for k, q in zip(owner[keep], _to_coordinates(leg, g.names, z[keep]), strict=True):
+                found[k].append(q)
         rows = rows[~ok.all(axis=1)]
     return [_distinct(np.array(f).reshape(-1, _coordinates(leg))) for f in found]
 
@@ -401,8 +406,9 @@ def working_modes(leg) -> tuple:
     return () if signs == 0 else (1, -1) if signs == 1 else ((1, 1), (1, -1), (-1, 1), (-1, -1))
 
 
-def mode_labels(leg, q: np.ndarray) -> list[tuple[int, ...]]:
-    """The working mode of each of the leg's real solutions ``q`` (k, m) at one centre (module docstring)."""
+def mode_labels(leg, q: np.ndarray, det: np.ndarray | None = None) -> list[tuple[int, ...]]:
+    """The working mode of each of the leg's real solutions ``q`` (k, m) at one centre (module docstring);
+    ``det`` (k,), their ``det ∂p/∂q``, is computed unless given."""
     signs = general_leg(leg).signs
     if signs == 0 or not len(q):
         return [() for _ in q]
@@ -413,7 +419,7 @@ def mode_labels(leg, q: np.ndarray) -> list[tuple[int, ...]]:
         if signs == 1:
             return [(1 if r == 0 else -1,) for r in rank]
         return [(1 if r < 2 else -1, 1 if r % 2 == 0 else -1) for r in rank]
-    det = np.linalg.det(leg_points(leg, q)[1])
+    det = np.linalg.det(leg_points(leg, q)[1]) if det is None else det
     first = np.where(det > 0, 1, -1)
     if signs == 1:
         return [(int(s),) for s in first]

@@ -525,7 +525,8 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = F
 def well_conditioned_configuration(model: MechanismModel, mode: tuple[int, ...]) -> np.ndarray:
     """A configuration far from the gain-type singularities in working mode ``mode``: the pose of largest ``|S|``
     on a grid over the machine's region (planar: the assembly check's region and 12 orientations; spatial: its
-    legs' reach, level; a machine of lower mobility: the pose its mobility computation found)."""
+    legs' reach, level, 25 points a side — 9 where a leg has no closed form; a machine of lower mobility: the pose
+    its mobility computation found)."""
     from ..errors import PkmlabError
     from .reach import planar_extent, spatial_extent
 
@@ -536,7 +537,11 @@ def well_conditioned_configuration(model: MechanismModel, mode: tuple[int, ...])
 
         return inverse_kinematics(model, home_configuration(model)[-m.dof:], mode)
     if spatial:
-        axes = [np.linspace(lo, hi, 25) for lo, hi in spatial_extent(m)]
+        from ..description.spatial_legs import has_closed_form
+
+        # a leg without a closed form costs a homotopy per point (about a millisecond): a coarser grid
+        count = 25 if all(has_closed_form(leg) for leg in m.legs) else 9
+        axes = [np.linspace(lo, hi, count) for lo, hi in spatial_extent(m)]
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
         poses = np.column_stack([grid, np.zeros((len(grid), m.dof - 3))])
     else:
