@@ -18,7 +18,8 @@ mujoco = pytest.importorskip("mujoco")
 NAMES = sorted(PRESETS)
 #: The catalogue's machines (examples/mechanisms), checked as the presets are.
 CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / name)
-             for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml", "6rus.toml", "6pus.toml")]
+             for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml", "6rus.toml", "6pus.toml")] + [
+    str(Path(__file__).resolve().parents[1] / "examples" / "3rrs_tilted.toml")]  # legs of the general method
 
 
 def _states(model, count: int, seed: int):

@@ -12,6 +12,7 @@ turned as a whole, and when a point is solved alone or among others.
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -37,6 +38,9 @@ def _skew_rrr_leg() -> SpatialLeg:
               SpatialJoint("R", False, (axes[2],)), SpatialJoint("S", False, ()))
     bodies = tuple(SpatialBody(t, 0.1, (0.0, 0.0, 0.0), ((1e-4, 0, 0), (0, 1e-4, 0), (0, 0, 1e-4))) for t in tips)
     return SpatialLeg((0.1, -0.05, 0.02), joints, bodies)
+
+
+TILTED = Path(__file__).resolve().parents[1] / "examples" / "3rrs_tilted.toml"
 
 
 @pytest.fixture(scope="module")
@@ -175,31 +179,32 @@ def test_a_leg_of_one_or_four_coordinates_is_refused_naming_it(leg):
         spatial_legs.leg_inverse_kinematics_batch(extra, 1, np.zeros((1, 3)), 1)
 
 
-def test_a_skew_3rrs_goes_through_inverse_and_forward_kinematics(tmp_path):
-    """The catalogue's 3-RRS with each link's hinge tilted out of parallel with its crank's: no closed form. Its
-    inverse kinematics (the parasitic motion, then each leg by the general method) closes the loops, and its
-    forward kinematics at those actuators finds the configuration again."""
-    from pathlib import Path
+def test_a_tilted_3rrs_goes_through_inverse_and_forward_kinematics_and_its_default_run():
+    """``examples/3rrs_tilted.toml``: the catalogue's 3-RRS with each link's hinge tilted out of parallel with its
+    crank's, so no leg has a closed form. Its inverse kinematics (the parasitic motion, then each leg by the general
+    method) closes the loops by the readable chain; its forward kinematics at those actuators finds the
+    configuration again, and a Newton multistart of 10,000 starts on the kernels' loop closures finds no assembly
+    mode it did not; its default run is tracked with its parasitic motion on the loop closures."""
+    from test_lower_mobility import _independent_residual, _multistart
 
-    from test_lower_mobility import _independent_residual
-
-    from pkmlab.description.files import load_mechanism
     from pkmlab.model import mechanism_model as mm
     from pkmlab.model.parasitic import home_configuration
 
-    m = load_mechanism(Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / "3rrs.toml")
-
-    def tilt(leg):
-        a = np.array(leg.joints[0].axes[0])
-        b = a * np.cos(0.4) + np.array([0.0, 0.0, 1.0]) * np.sin(0.4)
-        return replace(leg, joints=(leg.joints[0], SpatialJoint("R", False, (_unit(b),)), leg.joints[2]))
-
-    skew = pkmlab.load(replace(m, name="3-RRS, tilted hinges", legs=tuple(tilt(leg) for leg in m.legs)))
-    assert all(not spatial_legs.has_closed_form(leg) for leg in skew.description.legs)
-    pose = home_configuration(skew)[-3:] + np.array([0.01, 0.02, -0.02])
-    for mode in mm.working_modes(skew):
-        q = mm.inverse_kinematics(skew, pose, mode)
+    tilted = pkmlab.load(TILTED)
+    assert all(not spatial_legs.has_closed_form(leg) for leg in tilted.description.legs)
+    pose = home_configuration(tilted)[-3:] + np.array([0.01, 0.02, -0.02])
+    for mode in mm.working_modes(tilted):
+        q = mm.inverse_kinematics(tilted, pose, mode)
         np.testing.assert_allclose(q[-3:], pose, atol=0)
-        assert _independent_residual(skew.description, q, skew.coordinates) < 1e-12
-        found = pkmlab.forward_kinematics(skew, q[:3])
+        assert _independent_residual(tilted.description, q, tilted.coordinates) < 1e-12
+        found = pkmlab.forward_kinematics(tilted, q[:3])
         assert np.abs(np.angle(np.exp(1j * (found.q - q)))).max(axis=1).min() < 1e-9
+        for c in found.q:
+            assert _independent_residual(tilted.description, c, tilted.coordinates) < 1e-11
+    multistart, converged = _multistart(tilted, q[:3], 10_000)
+    assert converged > 100 and multistart
+    assert all(np.abs(np.angle(np.exp(1j * (found.q - c)))).max(axis=1).min() < 1e-7 for c in multistart)
+    result = pkmlab.simulate(pkmlab.load_scenario(TILTED.parent / "3rrs_tilted_motion.toml"))
+    summary = result.summary()
+    assert summary["max_path_error_m"] < 1e-5 and summary["max_orientation_error_rad"] < 1e-4
+    assert max(_independent_residual(tilted.description, qk, tilted.coordinates) for qk in result.q[::25]) < 1e-10
