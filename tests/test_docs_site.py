@@ -171,7 +171,8 @@ def test_search_finds_forward_kinematics(server, browser):
     page, errors = _open(browser, f"{server}/", server)
     try:
         page.fill("input.md-search__input", "forward_kinematics")  # as typed in the header's search box
-        page.wait_for_selector(".md-search-result__item a", timeout=15_000)
+        # the search index is built in a web worker as the page opens: seconds on a busy machine
+        page.wait_for_selector(".md-search-result__item a", timeout=60_000)
         links = page.eval_on_selector_all(".md-search-result__item a", "as => as.map(a => a.href)")
         found = {(urlsplit(href).path, urlsplit(href).fragment) for href in links}  # the query highlights the word
         assert ("/reference/api/algorithms.kinematics/", "pkmlab.algorithms.kinematics.forward_kinematics") in found, \
