@@ -145,6 +145,12 @@ def _open(browser, url: str, base: str):
 PAGES = {
     "": "pkmlab",
     "getting-started/": "A first machine in Python",
+    "tutorials/paper/": "The paper, step by step",
+    "tutorials/your-machine/": "Legs without a closed form",
+    "how-to/singularities/": "Check a path for singularities",
+    "reference/scenario-files/": "A real plant and its sensors",
+    "reference/outputs/": "nothing of yours is deleted",
+    "development/": "Layout",
     "theory/paper/": "Trajectory-tracking control of a planar 3-RRR parallel",
     "theory/glossary/": "One name per quantity",
     "reference/api/algorithms.kinematics/": "forward_kinematics",

@@ -252,15 +252,16 @@ def test_branch_following_stops_at_a_singularity():
             q = pkmlab.branch_following(model, q, mm.inverse_kinematics(model, [0.25, 0.21, alpha], ())[:3])
 
 
-def test_the_readme_example_runs(tmp_path, monkeypatch):
+def test_the_planar_machine_tutorial_example_runs(tmp_path, monkeypatch):
+    """The example of docs/tutorials/your-machine.md, "A planar machine", runs as it is written."""
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
-    section = readme[readme.index("## Beyond the paper"):]
+    page = (Path(__file__).resolve().parent.parent / "docs" / "tutorials" / "your-machine.md").read_text()
+    section = page[page.index("## A planar machine"):]
     block = section[section.index("```python\n") + len("```python\n"):]
     monkeypatch.chdir(tmp_path)
     namespace = {}
-    exec(block[: block.index("```")], namespace)  # noqa: S102 - the README's own example
+    exec(block[: block.index("```")], namespace)  # noqa: S102 - the tutorial's own example
     assert namespace["mine"] == preset("3rpr") and namespace["reduced"].M.shape == (2, 2)
     assert len(namespace["both"]) == 2
 

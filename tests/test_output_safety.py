@@ -1,7 +1,7 @@
 """Nothing lost, nothing silently wrong: output folders, provenance, refusals that tell the truth.
 
-Each test names the promise it backs (README "Scenario files and pkmlab simulate", "Command
-line", "Quick start") or the failure it guards against.
+Each test names the promise it backs (the documentation's pages on output folders and exit codes, the command
+line's output, scenario files, parameter files, getting started: :data:`PROMISES`) or the failure it guards against.
 """
 
 import json
@@ -97,8 +97,8 @@ def quick(monkeypatch, results):
     ["reproduce", "--no-figures"],
     ["demo", "--resolution", 5],
 ])
-def test_readme_promise_a_folder_holding_anything_else_is_refused_never_deleted(capsys, tmp_path, quick, command):
-    """README: "a folder holding anything else is refused, never deleted" — even one with a summary.json."""
+def test_promise_a_folder_holding_anything_else_is_refused_never_deleted(capsys, tmp_path, quick, command):
+    """Scenario files: "a folder holding anything else is refused, never deleted" — even one with a summary.json."""
     out = tmp_path / "results"
     before = user_folder(out)
     message = assert_user_error(*run(capsys, *command, "--out", out))
@@ -162,7 +162,7 @@ def test_results_of_another_command_are_not_replaced(capsys, tmp_path, quick):
 
 
 def test_replacing_an_earlier_result_of_the_same_command_is_said(capsys, tmp_path, quick):
-    """README: an earlier result is replaced — not silently: a note names what it was."""
+    """Output folders: an earlier result is replaced — not silently: a note names what it was."""
     out = tmp_path / "out"
     assert run(capsys, "reproduce", "--out", out, "--no-figures")[0] == 0
     code, _stdout, err = run(capsys, "reproduce", "--out", out, "--no-figures", "--control", "continuous")
@@ -486,8 +486,8 @@ def test_json_helper_never_writes_nan():
     assert json.dumps(_strict_json(value), allow_nan=False) == '{"a": [1.0, null], "b": {"c": null}, "d": 2.0}'
 
 
-def test_readme_promise_refused_before_anything_is_computed(capsys, tmp_path, monkeypatch):
-    """README: "Anything else is refused, with exit code 1, before anything is computed"."""
+def test_promise_refused_before_anything_is_computed(capsys, tmp_path, monkeypatch):
+    """Output folders: "Anything else is refused, with exit code 1, before anything is computed"."""
     def must_not_run(*_args, **_kwargs):
         raise AssertionError("simulated although the output folder is refused")
 
@@ -500,30 +500,40 @@ def test_readme_promise_refused_before_anything_is_computed(capsys, tmp_path, mo
     assert snapshot(out) == before
 
 
-# ------------------------------------------------------------------ every promise of the README has its test
+# ------------------------------------------------------------------ every promise of the documentation has its test
+#: The documentation's pages that promise (``docs/`` paths; a page that includes a reference page shipped with the
+#: package, ``--8<-- "src/pkmlab/help/TOPIC.md"``, is read with it), each promise's text and the test that backs it.
+OUTPUTS, CLI_OUTPUT = "reference/outputs.md", "reference/cli-output.md"
+SCENARIO_FILES, PARAMETER_FILES = "reference/scenario-files.md", "reference/parameter-files.md"
 PROMISES = {
     "a folder holding\nanything else is refused, never deleted":
-        "test_readme_promise_a_folder_holding_anything_else_is_refused_never_deleted",
-    "before anything is computed, and\nnothing is touched": "test_readme_promise_refused_before_anything_is_computed",
-    "a result in which you edited or added a file": "test_an_earlier_result_with_a_file_added_or_changed_is_refused",
-    "a result of another command": "test_results_of_another_command_are_not_replaced",
-    "a folder\nthat holds the run's own input file": "test_an_input_inside_the_output_folder_survives",
-    "a note on stderr says what\nwas replaced": "test_replacing_an_earlier_result_of_the_same_command_is_said",
-    "never a mix": "test_kill_9_mid_write_leaves_the_old_result_or_the_new_one",
-    "removed by the next run into `DIR`": "test_kill_9_mid_write_leaves_the_old_result_or_the_new_one",
-    "an error or Ctrl-C leaves nothing behind": "test_interrupt_during_the_simulation_leaves_nothing",
-    "JSON output is strict JSON": "test_json_output_is_strict_json_even_for_errors",
-    "`141` the reader of the\noutput went away": "test_a_closed_pipe_ends_quietly",
-    "`130` interrupted (Ctrl-C, start-up included)": "test_ctrl_c_during_start_up_is_no_traceback",
-    "`2` a\nmalformed command line": "test_malformed_command_line_exits_2",
-    "a number that is NaN or infinite": "test_every_non_finite_number_of_the_command_line_is_named",
+        (SCENARIO_FILES, "test_promise_a_folder_holding_anything_else_is_refused_never_deleted"),
+    "before anything is computed, and\nnothing is touched":
+        (OUTPUTS, "test_promise_refused_before_anything_is_computed"),
+    "a result in which you edited or added a file":
+        (OUTPUTS, "test_an_earlier_result_with_a_file_added_or_changed_is_refused"),
+    "a result of another command": (OUTPUTS, "test_results_of_another_command_are_not_replaced"),
+    "a folder\nthat holds the run's own input file": (OUTPUTS, "test_an_input_inside_the_output_folder_survives"),
+    "a note on stderr says what\nwas replaced":
+        (OUTPUTS, "test_replacing_an_earlier_result_of_the_same_command_is_said"),
+    "never a mix": (OUTPUTS, "test_kill_9_mid_write_leaves_the_old_result_or_the_new_one"),
+    "removed by the next run into `DIR`": (OUTPUTS, "test_kill_9_mid_write_leaves_the_old_result_or_the_new_one"),
+    "an error or Ctrl-C leaves nothing behind": (SCENARIO_FILES, "test_interrupt_during_the_simulation_leaves_nothing"),
+    "JSON output is strict JSON": (OUTPUTS, "test_json_output_is_strict_json_even_for_errors"),
+    "`141` the reader of the\noutput went away": (OUTPUTS, "test_a_closed_pipe_ends_quietly"),
+    "`130` interrupted (Ctrl-C, start-up included)": (OUTPUTS, "test_ctrl_c_during_start_up_is_no_traceback"),
+    "`2` a\nmalformed command line": (OUTPUTS, "test_malformed_command_line_exits_2"),
+    "a number that is NaN or infinite": (OUTPUTS, "test_every_non_finite_number_of_the_command_line_is_named"),
     "A mistake in the file is reported in one line that names the file and the key, and nothing is\nwritten":
-        "test_bad_scenario_is_refused_with_one_line_and_writes_nothing",
-    "at a gain-type singularity (`|S| < 1e-6`) it\n  refuses": "test_dynamics_at_a_singularity_is_refused",
-    "exit code 1 and one line, for every machine": "test_no_assembly_mode_is_exit_1_and_one_line",
-    "that these are not the paper's numbers": "test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so",
-    "said once on the terminal": "test_first_run_says_it_compiles",
-    "a file of yours of the same name is refused": "test_a_file_pkmlab_did_not_write_is_not_replaced_without_force",
+        (SCENARIO_FILES, "test_bad_scenario_is_refused_with_one_line_and_writes_nothing"),
+    "at a gain-type singularity (`|S| < 1e-6`) it\n  refuses":
+        (CLI_OUTPUT, "test_dynamics_at_a_singularity_is_refused"),
+    "exit code 1 and one line, for every machine": (CLI_OUTPUT, "test_no_assembly_mode_is_exit_1_and_one_line"),
+    "that these are not the paper's numbers":
+        (PARAMETER_FILES, "test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so"),
+    "said once on the terminal": ("getting-started.md", "test_first_run_says_it_compiles"),
+    "a file of yours of the same name is refused":
+        (OUTPUTS, "test_a_file_pkmlab_did_not_write_is_not_replaced_without_force"),
 }
 
 
@@ -556,13 +566,23 @@ def test_a_file_pkmlab_did_not_write_is_not_replaced_without_force(capsys, tmp_p
     assert mine.read_bytes() == written + b" edited"
 
 
-def test_every_readme_promise_about_outputs_errors_and_exit_codes_has_a_test():
-    readme = " ".join((ROOT / "README.md").read_text().split())
+def documentation_page(page: str) -> str:
+    """The text of the documentation's page ``docs/PAGE`` as the site shows it: an included file (a reference page
+    shipped with the package) read in place of its include line."""
+    text = (ROOT / "docs" / page).read_text(encoding="utf-8")
+    return re.sub(r'^--8<-- "([^"]+)"$', lambda m: (ROOT / m.group(1)).read_text(encoding="utf-8"), text,
+                  flags=re.MULTILINE)
+
+
+def test_every_documented_promise_about_outputs_errors_and_exit_codes_has_a_test():
     tests = " ".join((ROOT / "tests" / name).read_text() for name in sorted(os.listdir(ROOT / "tests"))
                      if name.startswith("test_") and name.endswith(".py"))
-    for promise, test in PROMISES.items():
-        assert " ".join(promise.split()) in readme, f"the README no longer says: {promise!r}"
-        assert f"def {test}(" in tests, f"no test {test} backs the README's {promise!r}"
+    nav = (ROOT / "mkdocs.yml").read_text(encoding="utf-8")
+    for promise, (page, test) in PROMISES.items():
+        assert f": {page}\n" in nav, f"{page} is not a page of the documentation site"
+        text = " ".join(documentation_page(page).split())
+        assert " ".join(promise.split()) in text, f"docs/{page} no longer says: {promise!r}"
+        assert f"def {test}(" in tests, f"no test {test} backs docs/{page}'s {promise!r}"
 
 
 # ------------------------------------------------------------------ output folders fuzzed

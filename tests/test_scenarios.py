@@ -656,9 +656,13 @@ def test_fuzz_loader_with_random_bytes(fuzz_dir, blob):
     _load_or_refuse(path)
 
 
-def test_readme_scenario_example_loads():
-    readme = (ROOT / "README.md").read_text()
-    section = readme[readme.index("## Scenario files and `pkmlab simulate`"):]
+def test_documented_scenario_example_loads():
+    """The example of the scenario files' page (``pkmlab help scenario-files``; docs/reference/scenario-files.md
+    includes it) is a valid scenario, read as it says."""
+    page = (ROOT / "src" / "pkmlab" / "help" / "scenario-files.md").read_text()
+    assert (ROOT / "docs" / "reference" / "scenario-files.md").read_text() == \
+        '--8<-- "src/pkmlab/help/scenario-files.md"\n'
+    section = page[page.index("# Scenario files and `pkmlab simulate`"):]
     block = section[section.index("```toml\n") + len("```toml\n"):]
     block = block[: block.index("```")]
     s = scenario_from_dict(tomllib.loads(block), "my_run.toml")

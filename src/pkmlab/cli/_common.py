@@ -16,7 +16,7 @@ DEFAULT_MECHANISM = "paper"
 #: What ``--params`` says when it is used: how to give the same machine the way every machine is given (a
 #: command without ``--mechanism``, as ``reproduce``, says where the machine goes instead).
 PARAMS_DEPRECATED = ("--params (a parameter file of the paper's 3-RRR) is deprecated and will be removed: write the "
-                     "machine as a description file (README, 'Your own manipulator', converts a parameter file) and "
+                     "machine as a description file (pkmlab help parameter-files converts a parameter file) and "
                      "give it with {instead}")
 PARAMS_INSTEAD = "--mechanism FILE.toml"
 PARAMS_INSTEAD_SIMULATE = "pkmlab simulate SCENARIO.toml --mechanism FILE.toml, which runs a scenario on it"

@@ -8,6 +8,7 @@ import re
 
 from .._version import __version__
 from ._common import DEFAULT_MECHANISM, MAX_RESOLUTION
+from .help import TOPICS as HELP_TOPICS
 
 # argparse reads only "-1" and "-1.5" as negative numbers: "-1e-3", "-1.2E+00" or "-inf" would be
 # taken for unknown options and the positional argument reported missing. Widen its matcher (a
@@ -104,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
     p = sub.add_parser("simulate", help="simulate a scenario file: summary, time series, figures, REPORT.md")
-    p.add_argument("scenario", metavar="SCENARIO.toml", help="the scenario (format: README, 'Scenario files')")
+    p.add_argument("scenario", metavar="SCENARIO.toml", help="the scenario (format: pkmlab help scenario-files)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder: new, empty, or an earlier result of "
                    "pkmlab simulate (replaced when the run succeeds; anything else in it is refused, never deleted)")
     p.add_argument("--no-figures", action="store_true", help="skip the figures")
@@ -136,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("sweep", help="a study: a scenario over a grid of values and drawn plants, on a Dask "
                        "cluster; its table (Parquet), summary.json and figures")
-    p.add_argument("study", metavar="SWEEP.toml", help="the study (format: README, 'Studies')")
+    p.add_argument("study", metavar="SWEEP.toml", help="the study (format: pkmlab help study-files)")
     p.add_argument("--out", required=True, metavar="DIR", help="the study's folder: new or empty, or this study's "
                    "(with --resume)")
     p.add_argument("--resume", action="store_true", help="finish the study DIR holds, running only what is missing")
@@ -332,6 +333,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mechanism", metavar="NAME|FILE.toml", help="the described machine that produced the run "
                    "(default: RESULT_DIR/plant.toml when it holds a [mechanism] table)")
     p.set_defaults(func=_command("animate", "cmd_animate"))
+    p = sub.add_parser("help", help="print a reference page shipped with pkmlab: file formats, output folders, "
+                       "exit codes (without TOPIC: the list of topics)")
+    p.add_argument("topic", nargs="?", choices=tuple(HELP_TOPICS), metavar="TOPIC",
+                   help=f"one of: {', '.join(HELP_TOPICS)}")
+    p.set_defaults(func=_command("help", "cmd_help"), quiet=True)
+
     for command in sub.choices.values():  # each command knows its parser: its errors show its usage
         command.set_defaults(parser=command)
     return parser

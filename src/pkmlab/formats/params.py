@@ -1,6 +1,6 @@
 """Reading user files: manipulator parameters from TOML (``--params FILE.toml``).
 
-Format (the ``[manipulator]`` table of a scenario file; see the README)::
+Format (the ``[manipulator]`` table of a scenario file; ``pkmlab help parameter-files``)::
 
     [manipulator]
     preset = "paper"          # optional, the default
