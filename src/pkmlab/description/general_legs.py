@@ -126,11 +126,10 @@ def leg_points(leg, coordinates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class GeneralLeg:
-    """What pkmlab keeps of a leg it solves by the general method: its family of systems (a straight-line
-    program of ``(z, v, b)``: the unknowns, the centre, the offsets), the names of the unknowns, the
-    solutions at the generic parameters ``p_generic``, the random rows that square a two-coordinate leg's
-    system (None for three coordinates), the leg's branches (solutions at a generic reachable centre) and the
-    monodromy loops run."""
+    """What pkmlab keeps of a (canonical) leg it solves by the general method: its family of systems (a
+    straight-line program of ``(z, v, b)``: the unknowns, the centre, the offsets), the names of the unknowns,
+    the solutions at the generic parameters ``p_generic``, the leg's branches (its solutions at a generic centre
+    it reaches) and the monodromy loops run."""
 
     family: homotopy.Family
     names: tuple[str, ...]

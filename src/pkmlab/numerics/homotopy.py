@@ -152,9 +152,15 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
     (or from ``known`` solutions), loops moving only the first ``free`` parameters (all by default).
 
     Returns ``(solutions (N, n), loops)``: the loops run. Stops after ``stale_loops`` loops in a row
-    add nothing."""
+    add nothing. A solve that lasts says how far it is on stderr every
+    :data:`~pkmlab.progress.STATUS_EVERY` seconds (a system of many solutions takes minutes)."""
+    import time
+
+    from ..progress import STATUS_EVERY, notice
+
     sols = (x0[None, :] if known is None else known).astype(complex)
     stale, loops = 0, 0
+    said = time.monotonic()
     m = len(p0)
     free = m if free is None else free
     while stale < stale_loops and loops < max_loops:
@@ -171,6 +177,10 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
         merged = distinct(np.concatenate([sols, x[ok]]), family.scale)
         stale = stale + 1 if len(merged) == len(sols) else 0
         sols = merged
+        if time.monotonic() - said >= STATUS_EVERY:
+            notice(f"monodromy: {len(sols)} solutions after {loops} loops ({stale} in a row found none; it stops "
+                   f"at {stale_loops})")
+            said = time.monotonic()
     return sols, loops
 
 
