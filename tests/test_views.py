@@ -14,7 +14,6 @@ from pkmlab.paper.geometry import Planar3RRR
 from pkmlab.views.html import write_html
 from pkmlab.views.run import RunView
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 EXAMPLES = Path(__file__).parents[1] / "examples"
 
 
@@ -99,19 +98,6 @@ def test_view_of_a_damaged_result_is_one_line_and_writes_nothing(tmp_path, resul
 
 
 # ------------------------------------------------------------------ in a real browser
-@pytest.fixture(scope="module")
-def browser():
-    if CHROMIUM is None:
-        pytest.skip("Chromium is not installed (make test installs Debian's chromium)")
-    sync_api = pytest.importorskip("playwright.sync_api")
-    with sync_api.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=[
-            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-            "--disable-sync", "--no-first-run", "--disable-quic"])
-        yield b
-        b.close()
-
-
 def _open(browser, path: Path, figure: str = "run-0", height: int = 1300):
     """The page at ``path`` once its figure ``figure`` is drawn, and the list its console errors and any request
     for something other than the file itself go to."""

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..description.general_legs import symbolic_chain
+from ..description.general_legs import joint_unknowns, symbolic_chain
 from ..errors import InvalidParameterError
 from ..numerics import homotopy
 from .stewart_fk import rotation_of_quaternion
@@ -126,19 +126,9 @@ def build_system(description):
         values = {}  # joint index -> tuple of (c, s) pairs (angles) or a value (slide)
         unknown_joints = []
         for k in free:
-            joint = leg.joints[k]
-            if joint.kind == "P":
-                v = sp.Symbol(f"l{i + 1}_{k + 1}")
-                unknowns.append(v)
-                values[k] = (v,)
-            else:
-                pairs = []
-                for a in range(joint.coordinates):
-                    c, s = sp.symbols(f"c{i + 1}_{k + 1}{'ab'[a]} s{i + 1}_{k + 1}{'ab'[a]}")
-                    unknowns += [c, s]
-                    equations.append(c * c + s * s - 1)
-                    pairs.append((c, s))
-                values[k] = tuple(pairs)
+            values[k], more, circles = joint_unknowns(leg.joints[k], f"{i + 1}_{k + 1}")
+            unknowns += more
+            equations += circles
             unknown_joints.append(k)
         values[leg.actuated] = (theta,) if actuated.kind == "R" else theta
 

@@ -162,24 +162,34 @@ def _combination(m: int) -> np.ndarray | None:
     return rows / np.linalg.norm(rows, axis=1)[:, None]
 
 
+def joint_unknowns(joint, suffix: str):
+    """A joint's unknowns in a polynomial system, named with ``suffix``: a slide ``l{suffix}``, or each angle as
+    its cosine and sine ``c{suffix}a``, ``s{suffix}a`` (``b`` for a universal joint's second) with
+    ``c² + s² − 1 = 0``. Returns ``(values, unknowns, equations)``: ``values`` as :func:`symbolic_chain` takes
+    them."""
+    import sympy as sp
+
+    if joint.kind == "P":
+        v = sp.Symbol(f"l{suffix}")
+        return (v,), [v], []
+    pairs, unknowns, equations = [], [], []
+    for a in range(joint.coordinates):
+        c, s = sp.symbols(f"c{suffix}{'ab'[a]} s{suffix}{'ab'[a]}")
+        unknowns += [c, s]
+        equations.append(c * c + s * s - 1)
+        pairs.append((c, s))
+    return tuple(pairs), unknowns, equations
+
+
 def _system(leg):
     """``(equations, unknowns, centre symbols)`` of the leg's system (module docstring), SymPy."""
     import sympy as sp
 
     values, unknowns, equations = {}, [], []
     for k, joint in enumerate(leg.joints[:-1]):
-        if joint.kind == "P":
-            v = sp.Symbol(f"l{k + 1}")
-            unknowns.append(v)
-            values[k] = (v,)
-            continue
-        pairs = []
-        for a in range(joint.coordinates):
-            c, s = sp.symbols(f"c{k + 1}{'ab'[a]} s{k + 1}{'ab'[a]}")
-            unknowns += [c, s]
-            equations.append(c * c + s * s - 1)
-            pairs.append((c, s))
-        values[k] = tuple(pairs)
+        values[k], more, circles = joint_unknowns(joint, f"{k + 1}")
+        unknowns += more
+        equations += circles
     centre = sp.Matrix(sp.symbols("vx vy vz"))
     end, _rot = symbolic_chain(leg, values, range(len(leg.joints) - 1), leg.base)
     position = end - centre
