@@ -434,3 +434,33 @@ def test_an_effort_function_of_the_wrong_shape_is_refused():
 
 def test_a_scenario_with_a_string_working_mode_runs():
     assert pkmlab.simulate(SCENARIO.replace(working_mode="-+-")).working_mode == (-1, 1, -1)
+
+
+# ------------------------------------------------------------------ numbers written as text or truth values
+def _numeric_params(target: Target) -> list[str]:
+    """The parameters of ``target`` whose valid value is an array of floats (not a mode, a name or a path)."""
+    return [p for p in target.params if isinstance(target.valid.get(p), np.ndarray)
+            and target.valid[p].dtype.kind == "f" and target.valid[p].size]
+
+
+_NUMERIC = [(t, p) for t in TARGETS for p in _numeric_params(t)]
+
+
+@pytest.mark.parametrize("spelling", ["text", "truth"])
+@pytest.mark.parametrize(("target", "param"), _NUMERIC, ids=[f"{t.name}-{p}" for t, p in _NUMERIC])
+def test_numbers_written_as_text_or_truth_values_are_refused_by_name(target, param, spelling):
+    """NumPy reads ``"0.1667"`` as 0.1667 and ``True`` as 1: an array argument given as text or as truth values
+    (Planar3RRR(passive_lengths="0.1667") was accepted) is refused, naming the argument, not converted."""
+    valid = target.valid[param]
+    bad = (valid.astype(str) if spelling == "text" else valid != 0).tolist()
+    with pytest.raises(pkmlab.PkmlabError) as info:
+        target.call(**{**target.valid, param: bad})
+    assert any(re.search(p, str(info.value)) for p in _patterns(target, param, bad)), str(info.value)
+
+
+@pytest.mark.parametrize("field", ["passive_lengths", "active_lengths", "active_masses"])
+def test_planar3rrr_refuses_a_length_written_as_text(field):
+    arrays = {name: getattr(MODEL, name) for name in ("base_points", "active_lengths", "passive_lengths",
+                                                       "platform_side")}
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"must be a number or a list of 3 numbers, got '0.1667'"):
+        Planar3RRR(**{**arrays, field: "0.1667"})
