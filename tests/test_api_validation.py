@@ -6,9 +6,10 @@ array, NaN, infinity, a huge number, or an object of the wrong class (a Scenario
 belongs...). The property: the call succeeds, or raises a :class:`pkmlab.PkmlabError` whose
 message is a single line naming the argument by its parameter name (for :class:`Planar3RRR`,
 the paper's names ``l``, ``r``, ``a``... are accepted too). Never an AttributeError, a
-TypeError, a raw NumPy error. A value accepted must also be usable: what a constructor
-returns is put to use (a scenario is prepared for its run, a trajectory evaluated...), which
-must then succeed or raise a one-line PkmlabError. ``pytest -s`` prints how many inputs each
+TypeError, a raw NumPy error, nor a NumPy warning on the way (RuntimeWarnings are errors here).
+A value accepted must also be usable: what a constructor returns is put to use (a scenario is
+prepared for its run, a trajectory evaluated...), which must then succeed or raise a one-line
+PkmlabError. ``pytest -s`` prints how many inputs each
 target received.
 """
 
@@ -357,7 +358,9 @@ def report_counts():
         print(f"  {name:45s} {n:5d}")
 
 
-@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # overflow inside NumPy on the huge values is expected
+# NumPy's warnings are errors here: a huge value is refused by its name, or computed quietly (an overflow
+# the function then names), never warned of with NumPy's words first
+@pytest.mark.filterwarnings("error::RuntimeWarning")
 @pytest.mark.parametrize("target", TARGETS, ids=lambda t: t.name)
 def test_wrong_arguments_are_refused_by_name(target):
     @settings(FUZZ, max_examples=target.examples)
@@ -464,3 +467,13 @@ def test_planar3rrr_refuses_a_length_written_as_text(field):
                                                        "platform_side")}
     with pytest.raises(pkmlab.InvalidParameterError, match=r"must be a number or a list of 3 numbers, got '0.1667'"):
         Planar3RRR(**{**arrays, field: "0.1667"})
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize("make", [lambda v: Trajectory(CIRCLE, v), lambda v: WaypointTrajectory(((0.2, 0.2, 0.0),
+                                                                                                 (0.3, 0.2, 0.1)), v)])
+def test_a_speed_near_the_float_range_is_named_without_numpys_warning(make):
+    """speed = 3e153 m/s: the motion's accelerations (L / T^2) overflowed, with NumPy's warning."""
+    trajectory = make(3.0680122625494442e153)
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"^speed = 3\.06801e\+153 m/s is too high for a path"):
+        trajectory.desired(np.linspace(0.0, trajectory.duration, 5))
