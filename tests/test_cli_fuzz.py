@@ -268,3 +268,11 @@ def test_a_library_warning_is_dropped_before_an_error_and_said_as_a_note_otherwi
     lines = err.strip("\n").split("\n")
     note = "pkmlab ik: note: a computation warned on the way (RuntimeWarning"
     assert len(lines) == 1 and lines[0].startswith(note), err
+
+
+@pytest.mark.parametrize("command", ["singularity-map", "workspace"])
+def test_an_orientation_for_a_machine_without_one_is_refused(capsys, tmp_path, command):
+    """`singularity-map --mechanism five_bar --alpha 0.3` reported "S at alpha = 0.3 rad" for a point platform."""
+    out = tmp_path / "map.png"
+    message = assert_user_error(*run(capsys, command, "--mechanism", "five_bar", "--alpha", 0.3, "--out", out))
+    assert "--alpha" in message and "no orientation" in message and not out.exists()
