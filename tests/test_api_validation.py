@@ -6,9 +6,10 @@ array, NaN, infinity, a huge number, or an object of the wrong class (a Scenario
 belongs...). The property: the call succeeds, or raises a :class:`pkmlab.PkmlabError` whose
 message is a single line naming the argument by its parameter name (for :class:`Planar3RRR`,
 the paper's names ``l``, ``r``, ``a``... are accepted too). Never an AttributeError, a
-TypeError, a raw NumPy error. A value accepted must also be usable: what a constructor
-returns is put to use (a scenario is prepared for its run, a trajectory evaluated...), which
-must then succeed or raise a one-line PkmlabError. ``pytest -s`` prints how many inputs each
+TypeError, a raw NumPy error, nor a NumPy warning on the way (RuntimeWarnings are errors here).
+A value accepted must also be usable: what a constructor returns is put to use (a scenario is
+prepared for its run, a trajectory evaluated...), which must then succeed or raise a one-line
+PkmlabError. ``pytest -s`` prints how many inputs each
 target received.
 """
 
@@ -357,7 +358,9 @@ def report_counts():
         print(f"  {name:45s} {n:5d}")
 
 
-@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # overflow inside NumPy on the huge values is expected
+# NumPy's warnings are errors here: a huge value is refused by its name, or computed quietly (an overflow
+# the function then names), never warned of with NumPy's words first
+@pytest.mark.filterwarnings("error::RuntimeWarning")
 @pytest.mark.parametrize("target", TARGETS, ids=lambda t: t.name)
 def test_wrong_arguments_are_refused_by_name(target):
     @settings(FUZZ, max_examples=target.examples)
@@ -434,3 +437,43 @@ def test_an_effort_function_of_the_wrong_shape_is_refused():
 
 def test_a_scenario_with_a_string_working_mode_runs():
     assert pkmlab.simulate(SCENARIO.replace(working_mode="-+-")).working_mode == (-1, 1, -1)
+
+
+# ------------------------------------------------------------------ numbers written as text or truth values
+def _numeric_params(target: Target) -> list[str]:
+    """The parameters of ``target`` whose valid value is an array of floats (not a mode, a name or a path)."""
+    return [p for p in target.params if isinstance(target.valid.get(p), np.ndarray)
+            and target.valid[p].dtype.kind == "f" and target.valid[p].size]
+
+
+_NUMERIC = [(t, p) for t in TARGETS for p in _numeric_params(t)]
+
+
+@pytest.mark.parametrize("spelling", ["text", "truth"])
+@pytest.mark.parametrize(("target", "param"), _NUMERIC, ids=[f"{t.name}-{p}" for t, p in _NUMERIC])
+def test_numbers_written_as_text_or_truth_values_are_refused_by_name(target, param, spelling):
+    """NumPy reads ``"0.1667"`` as 0.1667 and ``True`` as 1: an array argument given as text or as truth values
+    (Planar3RRR(passive_lengths="0.1667") was accepted) is refused, naming the argument, not converted."""
+    valid = target.valid[param]
+    bad = (valid.astype(str) if spelling == "text" else valid != 0).tolist()
+    with pytest.raises(pkmlab.PkmlabError) as info:
+        target.call(**{**target.valid, param: bad})
+    assert any(re.search(p, str(info.value)) for p in _patterns(target, param, bad)), str(info.value)
+
+
+@pytest.mark.parametrize("field", ["passive_lengths", "active_lengths", "active_masses"])
+def test_planar3rrr_refuses_a_length_written_as_text(field):
+    arrays = {name: getattr(MODEL, name) for name in ("base_points", "active_lengths", "passive_lengths",
+                                                       "platform_side")}
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"must be a number or a list of 3 numbers, got '0.1667'"):
+        Planar3RRR(**{**arrays, field: "0.1667"})
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize("make", [lambda v: Trajectory(CIRCLE, v), lambda v: WaypointTrajectory(((0.2, 0.2, 0.0),
+                                                                                                 (0.3, 0.2, 0.1)), v)])
+def test_a_speed_near_the_float_range_is_named_without_numpys_warning(make):
+    """speed = 3e153 m/s: the motion's accelerations (L / T^2) overflowed, with NumPy's warning."""
+    trajectory = make(3.0680122625494442e153)
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"^speed = 3\.06801e\+153 m/s is too high for a path"):
+        trajectory.desired(np.linspace(0.0, trajectory.duration, 5))

@@ -86,7 +86,7 @@ def _files(folder):
 @settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
                                                                    HealthCheck.too_slow])
 @given(data=st.data())
-def test_fuzz_the_command_line(data, playground, capsys, monkeypatch):
+def test_fuzz_the_command_line(data, playground, capsys, monkeypatch, warnings_on_stderr):
     # a fuzzed `reproduce` or `simulate` that is valid would run for seconds: stop it at the simulation
     def no_simulation(*_args, **_kwargs):
         raise pkmlab.PkmlabError("(fuzz: simulation skipped)")
@@ -103,6 +103,7 @@ def test_fuzz_the_command_line(data, playground, capsys, monkeypatch):
         code = exc.code
     out, err = capsys.readouterr()
     assert "Traceback" not in err, (argv, err)
+    assert "Warning:" not in err, (argv, err)  # no library's warning text: pkmlab's own words only
     assert code in (0, 1, 2), (argv, code, err)
     if code == 1:
         if "--json" in argv:
@@ -198,3 +199,80 @@ def test_a_non_finite_number_beyond_the_expected_count_is_named(capsys):
     """Found by the fuzzer: `ik 0 0 0 nan` once failed with an IndexError while naming the argument."""
     message = assert_user_error(*run(capsys, "ik", 0, 0, 0, "nan"))
     assert "must be finite" in message
+
+
+# ------------------------------------------------------------------ no library's warning reaches the user
+@pytest.fixture
+def warnings_on_stderr(monkeypatch):
+    """Warnings shown on stderr, as outside pytest (which records them instead)."""
+    import sys
+    import warnings
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+    monkeypatch.setattr(warnings, "showwarning", show)
+
+
+def _scenario_with(tmp_path, old: str, new: str):
+    from pkmlab.formats.scenario import SCENARIO_DIR
+
+    path = tmp_path / "s.toml"
+    path.write_text((SCENARIO_DIR / "nominal.toml").read_text().replace(old, new, 1))
+    return path
+
+
+def test_a_gain_near_the_float_range_gets_its_error_alone(capsys, tmp_path, warnings_on_stderr):
+    """kp = 1e300 printed NumPy's "overflow encountered in multiply" before the (right) error."""
+    out = tmp_path / "out"
+    message = assert_user_error(*run(capsys, "simulate", _scenario_with(tmp_path, "kp = 1000.0", "kp = 1e300"),
+                                     "--out", out))
+    assert "unstable" in message and "kp = 1e+300" in message and not out.exists()
+
+
+def test_a_description_number_near_the_float_range_is_refused_by_name(capsys, tmp_path, warnings_on_stderr):
+    """base = [1e300, 0] printed NumPy's overflow warning, then blamed the legs' reach on a grid up to 1e300 m."""
+    from pkmlab.description.mechanism import planar_mechanism_to_toml
+    from pkmlab.description.presets import preset
+
+    path = tmp_path / "far.toml"
+    path.write_text(planar_mechanism_to_toml(preset("3rpr")).replace("base = [0.0, 0.0]", "base = [1e300, 0.0]", 1))
+    assert "1e300" in path.read_text()
+    message = assert_user_error(*run(capsys, "ik", 0.25, 0.2, 0, "--mechanism", path))
+    assert "leg 1: base[0] = 1e+300 is beyond any machine" in message
+
+
+def test_a_library_warning_is_dropped_before_an_error_and_said_as_a_note_otherwise(capsys, monkeypatch,
+                                                                                  warnings_on_stderr):
+    """Whatever library warns on the way: a failing command says its own error alone, a succeeding one says the
+    warning in one pkmlab note line (never Python's two-line warning text)."""
+    import warnings
+
+    import pkmlab.algorithms.kinematics as kinematics
+
+    solve = kinematics.inverse_kinematics
+
+    def warning_then(fail):
+        def inverse_kinematics(*args, **kwargs):
+            warnings.warn("overflow encountered in multiply", RuntimeWarning, stacklevel=1)
+            if fail:
+                raise pkmlab.InvalidParameterError("pose: the true reason")
+            return solve(*args, **kwargs)
+        return inverse_kinematics
+
+    monkeypatch.setattr(kinematics, "inverse_kinematics", warning_then(fail=True))
+    assert assert_user_error(*run(capsys, "ik", 0.2, 0.21, 0)) == "pkmlab ik: error: pose: the true reason"
+    monkeypatch.setattr(kinematics, "inverse_kinematics", warning_then(fail=False))
+    code, out, err = run(capsys, "ik", 0.2, 0.21, 0)
+    assert code == 0 and out
+    lines = err.strip("\n").split("\n")
+    note = "pkmlab ik: note: a computation warned on the way (RuntimeWarning"
+    assert len(lines) == 1 and lines[0].startswith(note), err
+
+
+@pytest.mark.parametrize("command", ["singularity-map", "workspace"])
+def test_an_orientation_for_a_machine_without_one_is_refused(capsys, tmp_path, command):
+    """`singularity-map --mechanism five_bar --alpha 0.3` reported "S at alpha = 0.3 rad" for a point platform."""
+    out = tmp_path / "map.png"
+    message = assert_user_error(*run(capsys, command, "--mechanism", "five_bar", "--alpha", 0.3, "--out", out))
+    assert "--alpha" in message and "no orientation" in message and not out.exists()

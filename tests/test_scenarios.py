@@ -454,6 +454,9 @@ def test_simulate_fast_example_gives_the_library_summary(tmp_path, capsys, fast_
     provenance = summary.pop("provenance")
     assert provenance["control"] == "sampled" and provenance["sample_time_s"] == 1e-3
     assert provenance["scenario"] == str(EXAMPLES / "fast.toml") and provenance["pkmlab_version"] == pkmlab.__version__
+    units = summary.pop("units")  # every figure's unit: the 3-RRR's actuators are revolute
+    assert set(units) == SUMMARY_KEYS and units["peak_effort"] == units["peak_torque_Nm"] == "N*m"
+    assert units["max_joint_error"] == "rad" and units["max_path_error_m"] == "m" and units["min_abs_S"] == ""
     assert summary == json.loads(json.dumps(fast_result.summary()))
     assert set(summary) == SUMMARY_KEYS
     rows = (out / "run.csv").read_text().splitlines()
@@ -481,7 +484,7 @@ def test_simulate_disturbed_with_figures_and_json(tmp_path, capsys):
     assert code == 0 and err == ""
     printed = json.loads(stdout)
     assert printed == json.loads((out / "summary.json").read_text())
-    assert printed["scenario"] == "disturbed" and set(printed) == SUMMARY_KEYS | {"scenario", "provenance"}
+    assert printed["scenario"] == "disturbed" and set(printed) == SUMMARY_KEYS | {"scenario", "units", "provenance"}
     figures = ["path.png", "path_error.png", "alpha.png", "torques.png", "singularity_along_path.png"]
     report = (out / "REPORT.md").read_text()
     for name in figures:

@@ -407,6 +407,41 @@ def test_tune_finds_gains_no_worse_than_the_scenarios(tmp_path, capsys):
                                uncertainty={"mass": 0.15, "inertia": 0.15}, draws=2, seed=0), workers=0)
     assert check["max_path_error_m"].max() == best["error"]
     assert (tmp_path / "t" / "tradeoff.png").stat().st_size > 10_000
+    # every effort with its unit (the 3-RRR's actuators are revolute)
+    assert f"peak effort {best['worst_effort']:.4g} N m (limit 1.6 N m)" in out, out
+    assert f"peak effort {base['worst_effort']:.4g} N m" in out, out
+
+
+def test_the_default_kp_box_ends_at_the_sampled_data_stability_limit():
+    """The default box went to kp = 1e6 whatever the sample time and the plants: with critical damping the loop
+    x' = (1 - mu kp Ts^2/2) ... is stable while mu sqrt(kp) Ts < 1, so at Ts = 1 ms, plants drawn within 15 % of
+    the model (mu up to 1/0.85) make kp <= (0.85 / 1 ms)^2 = 722,500 the limit; continuous control keeps 1e6."""
+    from pkmlab.study.definition import scenario_tables
+    from pkmlab.study.tuning import KP_RANGE, default_kp_range
+
+    tables = scenario_tables(FAST)
+    (lo, hi), reason = default_kp_range(tables, 0.15)
+    assert lo == KP_RANGE[0] and 0.999 * 722_500 <= hi <= 722_500
+    assert reason == "the sampled-data stability limit at Ts = 1 ms for plants drawn within 0.15 of the model"
+    coarse = {**tables, "controller": {**tables["controller"], "sample_time": 0.004}}
+    assert 0.999 * 62_500 <= default_kp_range(coarse)[0][1] <= 62_500  # (1 / 4 ms)^2
+    continuous = {**tables, "controller": {**tables["controller"], "sample_time": 0.0}}
+    assert default_kp_range(continuous) == (KP_RANGE, "")
+
+
+def test_a_tuned_gain_at_an_end_of_its_box_is_said():
+    from pkmlab.study.tuning import TuningResult
+
+    def result(kp, zeta):
+        best = {"kp": kp, "kv": 2 * zeta * math.sqrt(kp), "zeta": zeta}
+        return TuningResult(1.0, 1.0, [], best, best, kp_range=(10.0, 722_000.0), zeta_range=(0.3, 3.0),
+                            kp_range_reason="the sampled-data stability limit at Ts = 1 ms")
+
+    assert result(1000.0, 1.0).on_bound == []
+    (said,) = result(658_133.0, 1.0).on_bound
+    assert said.startswith("the tuned kp = 658133 lies at the upper end of its search box (10 to 722000: the "
+                           "sampled-data stability limit at Ts = 1 ms)")
+    assert [s.split(" lies")[0] for s in result(11.0, 0.3).on_bound] == ["the tuned kp = 11", "the tuned zeta = 0.3"]
 
 
 def test_a_search_box_without_the_scenarios_gains_is_searched_and_they_are_the_baseline_beside_it():

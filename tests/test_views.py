@@ -74,6 +74,31 @@ def test_view_command_adds_the_page_to_the_result(result_dir, capsys):
     assert code == 0, err
 
 
+def test_every_figure_of_a_result_has_its_unit(result_dir, capsys):
+    """summary.json and REPORT.html's table gave ``peak_effort 0.319, 0.293, 0.294`` with no unit."""
+    import re
+
+    summary = json.loads((result_dir / "summary.json").read_text())
+    assert summary["units"]["peak_effort"] == "N*m" and summary["units"]["max_joint_error"] == "rad"
+    assert summary["units"]["max_path_error_m"] == "m" and summary["units"]["min_abs_S"] == ""
+    code, _out, err = run(capsys, "view", result_dir, "--out", result_dir.parent / "units.html")
+    assert code == 0, err
+    rows = dict(re.findall(r"<tr><th>([^<]+)</th><td>([^<]*)</td></tr>",
+                           (result_dir.parent / "units.html").read_text()))
+    assert rows["peak_effort"].endswith(" N·m") and rows["max_path_error_m"].endswith(" m"), rows
+    assert rows["max_joint_error"].endswith(" rad") and "units" not in rows
+
+
+def test_a_prismatic_machines_efforts_are_in_newtons():
+    from pkmlab.simulation.result import summary_units
+    from pkmlab.views.html import summary_table
+
+    table = summary_table({"peak_effort": [1.5, 2.0, 2.5], "max_joint_error": 1e-5},
+                          summary_units(pkmlab.load("3prr")))
+    assert "<th>peak_effort</th><td>1.5, 2, 2.5 N</td>" in table, table
+    assert "<th>max_joint_error</th><td>1e-05 m</td>" in table, table
+
+
 @pytest.mark.parametrize("damage, message", [
     ("truncate", "row 1572 (line 1573) has"),
     ("rename", "missing column tau2"),

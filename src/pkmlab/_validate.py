@@ -17,13 +17,7 @@ def as_batch(name: str, value, n: int, *, single: bool = False) -> tuple[np.ndar
 
     ``single=True`` accepts exactly one vector, shape ``(n,)`` (the leading shape is then ``()``).
     """
-    complex_ = getattr(value, "dtype", None) is not None and np.dtype(value.dtype).kind == "c"
-    try:
-        if complex_:  # NumPy would drop the imaginary part with a mere warning
-            raise TypeError
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise InvalidParameterError(f"{name} must be real numbers, got {shown(value)}") from None
+    arr = real_array(name, value)
     if single and arr.shape != (n,):
         raise InvalidParameterError(f"{name} must be {n} numbers (shape ({n},)), got shape {arr.shape}")
     if arr.ndim == 0 or arr.shape[-1] != n:
@@ -32,6 +26,33 @@ def as_batch(name: str, value, n: int, *, single: bool = False) -> tuple[np.ndar
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise InvalidParameterError(f"{name} must be finite, got {arr[tuple(bad)]} at index {tuple(bad.tolist())}")
     return _kernel_input(arr.reshape(-1, n)), arr.shape[:-1]
+
+
+#: What NumPy would convert to a float, wrongly: text, truth values and complex numbers.
+_NOT_REAL = (str, bytes, bool, np.bool_, complex, np.complexfloating)
+
+
+def real_array(name: str, value, what: str = "real numbers") -> np.ndarray:
+    """``value`` as a float array of any shape, or one :class:`InvalidParameterError` line naming ``name``.
+
+    Only numbers are numbers: text (``"0.1667"``, ``["1", "2"]``), truth values (``True``, a boolean mask) and
+    complex values are refused, not converted — NumPy would read ``"0.1667"`` as 0.1667, ``True`` as 1 and drop
+    an imaginary part, so a slip would give an answer instead of an error.
+    """
+    wrong = InvalidParameterError(f"{name} must be {what}, got {shown(value)}")
+    if isinstance(value, (str, bytes, bool, np.bool_, dict, set)):
+        raise wrong
+    try:
+        raw = np.asarray(value)
+        # a list mixing kinds is converted to a common one ([True, 1.0] to floats): look at each of its items
+        items = raw if isinstance(value, np.ndarray) else np.asarray(value, dtype=object)
+        if items.dtype.kind == "O" and any(isinstance(v, _NOT_REAL) for v in items.reshape(-1)):
+            raise TypeError
+        if raw.dtype.kind not in "iufO":  # text, truth values, complex, dates...
+            raise TypeError
+        return np.asarray(raw, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise wrong from None
 
 
 def _kernel_input(arr: np.ndarray) -> np.ndarray:
@@ -134,11 +155,9 @@ def as_limits(name: str, value, n: int, per: str = "actuator") -> np.ndarray | N
     if value is None:
         return None
     wrong = InvalidParameterError(f"{name} must be a positive number or {n}, one per {per}, got {shown(value, 50)}")
-    if isinstance(value, bool | str | bytes | dict | set):
-        raise wrong
     try:
-        v = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
+        v = real_array(name, value)
+    except InvalidParameterError:
         raise wrong from None
     if v.ndim == 0:
         v = np.full(n, float(v))

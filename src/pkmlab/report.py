@@ -23,7 +23,7 @@ from .errors import PkmlabError
 from .formats.scenario import PAPER_CASES, SCENARIO_DIR, paper_scenario
 from .outputs import atomic_output_dir
 from .simulation import run as simulation
-from .simulation.result import SimulationResult, actuator_kinds
+from .simulation.result import SimulationResult, actuator_kinds, summary_units
 from .simulation.run import simulate
 from .simulation.scenario import Scenario
 
@@ -250,7 +250,8 @@ def reproduce(out: str | os.PathLike = "out", control: str = "sampled", figures:
     with atomic_output_dir(out, "reproduce", inputs=inputs, provenance=prov, note=note) as tmp:
         say(f"simulating the paper's cases ({control} control) ...")
         results = run_cases(scenarios)
-        summary = {"cases": {name: results[name].summary() for name in PAPER_CASES}, "provenance": prov}
+        cases = {name: results[name].summary() for name in PAPER_CASES}
+        summary = {"cases": cases, "units": _units_of(cases["nominal"], scenarios["nominal"].model), "provenance": prov}
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         (tmp / "mechanism.toml").write_text(mechanism_to_toml(
             scenarios["nominal"].model.description, "The controller's model of the paper's cases, written by pkmlab."))
@@ -325,11 +326,18 @@ def _describe(scenario: Scenario) -> list[tuple[str, str]]:
     ]
 
 
+def _units_of(summary: dict, model) -> dict[str, str]:
+    """The unit of each key of a run's ``summary`` on ``model``'s machine (``summary.json``'s ``"units"``)."""
+    units = summary_units(model)
+    return {key: units.get(key, "") for key in summary}
+
+
 def _summary_table(result: SimulationResult, s: dict) -> list[str]:
     """The summary as a Markdown table (units as the machine's: rad or m, N·m or N)."""
     kinds = actuator_kinds(result.scenario.model)
     joint_unit = "rad" if kinds == {"R"} else ("m" if kinds == {"P"} else "rad or m")
-    effort = "peak torques (N·m)" if kinds == {"R"} else ("peak forces (N)" if kinds == {"P"} else "peak efforts")
+    effort = ("peak torques (N·m)" if kinds == {"R"} else "peak forces (N)" if kinds == {"P"}
+              else "peak efforts (N·m or N)")
     alpha = "max_orientation_error_rad" in s
     spatial = getattr(result.scenario.model.description, "spatial", False)
     turn = "max orientation error (rad)" if spatial else "max α error (rad)"
@@ -401,7 +409,9 @@ def simulation_report(scenario: Scenario, out: str | os.PathLike, figures: bool 
             result = simulate_mujoco(scenario, **mujoco)
         else:
             result = simulation.simulate(scenario)
-        summary = {"scenario": scenario.name, **result.summary(), "provenance": prov}
+        numbers = result.summary()
+        summary = {"scenario": scenario.name, **numbers, "units": _units_of(numbers, result.scenario.model),
+                   "provenance": prov}
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         if text is not None:
             (tmp / "scenario.toml").write_text(text)

@@ -103,25 +103,43 @@ def _quiet_stdout() -> None:
 def _with_notes(args):
     """Run the command; what pkmlab's general methods warn of (an assembly mode that may be missing) is
     said as one note line each, a deprecated input (a scenario's ``[manipulator]`` table) as a note once the
-    command has succeeded, other warnings as Python shows them."""
+    command has succeeded. Another library's warning (NumPy's "overflow encountered in multiply" on a gain of
+    1e300...) is no reason a user can act on: dropped when the command fails with its own one-line error (which
+    gives the true reason), one note line (:func:`library_note`) when it succeeds."""
     import warnings
 
     from ..errors import IncompleteSolutionWarning, PkmlabDeprecationWarning
 
     caught: list = []
+    refused = False
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", IncompleteSolutionWarning)
             warnings.simplefilter("always", PkmlabDeprecationWarning)
             return args.func(args)
+    except PkmlabError:
+        refused = True
+        raise
     finally:  # said also when the command then fails, once the recording has stopped
+        said: set[str] = set()
         for w in caught:
             if issubclass(w.category, IncompleteSolutionWarning):
                 notes(args)(str(w.message))
             elif issubclass(w.category, PkmlabDeprecationWarning):
                 deprecated(args, str(w.message))
-            else:
-                warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+            elif not refused and (note := library_note(w)) not in said:
+                said.add(note)
+                notes(args)(note)
+
+
+def library_note(w) -> str:
+    """A warning of a library that reached the command (``w``, a ``warnings.WarningMessage``) as one note line in
+    pkmlab's words, naming where it arose: the result is pkmlab's, the warning a sign of something to report."""
+    import os
+
+    where = os.path.basename(w.filename)
+    text = " ".join(str(w.message).split())
+    return f"a computation warned on the way ({w.category.__name__} at {where}:{w.lineno}: {text}); please report it"
 
 
 #: The one-shot commands: one evaluation at a single pose or state, whose kernels are quicker to run interpreted

@@ -164,9 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quantile", type=float, default=1.0, metavar="Q", help="minimise this quantile of the max path "
                    "error over the plants (default 1: the worst case)")
     p.add_argument("--critical", action="store_true", help="tune kp alone, kv = 2 sqrt(kp) (critical damping)")
-    p.add_argument("--kp-range", type=float, nargs=2, default=[10.0, 1e6], metavar=("LO", "HI"),
-                   help="the search box of kp, 1/s^2 (default 10 1e6): bound it by what the machine's sensors and "
-                   "drives allow, which the model does not know")
+    p.add_argument("--kp-range", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="the search box of kp, 1/s^2 (default 10 to 1e6 or, under sampled-data computed torque, the "
+                   "loop's stability limit if lower): bound it by what the machine's sensors and drives allow, which "
+                   "the model does not know")
     p.add_argument("--zeta-range", type=float, nargs=2, metavar=("LO", "HI"),
                    help="the search box of the damping ratio, kv = 2 zeta sqrt(kp) (default 0.3 3; not with "
                    "--critical)")

@@ -57,6 +57,15 @@ def cmd_sweep(args) -> dict:
     return summary
 
 
+def _effort_unit(scenario_file) -> str:
+    """The unit of the efforts of the scenario's machine: N m (revolute actuators), N (prismatic), or both."""
+    from ..formats.scenario import load_scenario
+    from ..simulation.result import actuator_kinds
+
+    kinds = actuator_kinds(load_scenario(scenario_file).model)
+    return "N m" if kinds == {"R"} else ("N" if kinds == {"P"} else "N m or N")
+
+
 def cmd_tune(args) -> dict:
     """A scenario's gains tuned for an effort limit over an uncertainty set: tuned.toml, trials.csv, tuning.json
     and tradeoff.png in --out."""
@@ -85,26 +94,33 @@ def cmd_tune(args) -> dict:
         with bar:
             result = tune(args.scenario, args.max_effort, uncertainty=args.uncertainty,
                           quantities=tuple(args.uncertain), draws=args.draws, seed=args.seed, quantile=args.quantile,
-                          critical=args.critical, trials=args.trials, kp_range=tuple(args.kp_range),
+                          critical=args.critical, trials=args.trials,
+                          kp_range=None if args.kp_range is None else tuple(args.kp_range),
                           zeta_range=tuple(args.zeta_range or ZETA_RANGE), workers=execution["workers"],
                           scheduler=execution["scheduler"], chunk_size=execution["chunk_size"],
                           progress=lambda done, _total: bar.update(done - bar.count))
         summary = write_tuning(result, folder, args.scenario)
+    unit = _effort_unit(args.scenario)
     if result.best is None:
-        raise InvalidParameterError(f"no gains tried keep the peak effort within {args.max_effort:g} on every plant "
-                                    f"(the least reached: {result.trials['worst_effort'].min():.4g}); the trials are "
-                                    f"in {args.out}/")
+        raise InvalidParameterError(f"no gains tried keep the peak effort within {args.max_effort:g} {unit} on every "
+                                    f"plant (the least reached: {result.trials['worst_effort'].min():.4g} {unit}); the "
+                                    f"trials are in {args.out}/")
     if not args.json:
         best, base = result.best, result.baseline
         what = "worst-case" if args.quantile == 1 else f"{args.quantile:g}-quantile"
         print(f"tuned: kp = {best['kp']:.6g}, kv = {best['kv']:.6g} (zeta = {best['zeta']:.3g}): {what} max path "
-              f"error {best['error']:.4e} m, peak effort {best['worst_effort']:.4g} (limit {args.max_effort:g})")
+              f"error {best['error']:.4e} m, peak effort {best['worst_effort']:.4g} {unit} (limit "
+              f"{args.max_effort:g} {unit})")
         which = "the scenario's kp, critically damped" if args.critical else "the scenario's gains"
         if math.isfinite(base["error"]):
             print(f"{which} (kp = {base['kp']:.6g}, kv = {base['kv']:.6g}): {base['error']:.4e} m, "
-                  f"peak effort {base['worst_effort']:.4g}")
+                  f"peak effort {base['worst_effort']:.4g} {unit}")
         else:
             print(f"{which} (kp = {base['kp']:.6g}, kv = {base['kv']:.6g}): some run failed")
         print(f"{len(result.trials)} candidates x {max(args.draws, 1)} plants; pkmlab simulate {args.out}/tuned.toml "
               "runs the tuned scenario")
+    say = notes(args)
+    for sentence in result.on_bound:  # the optimum may lie beyond the box: the user decides whether to widen it
+        say(f"{sentence}: {'widen --kp-range' if sentence.startswith('the tuned kp') else 'widen --zeta-range'} "
+            "if the machine allows")
     return summary

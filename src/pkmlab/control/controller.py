@@ -89,13 +89,16 @@ def sampled_data_spectral_radius(kp, kv, ts, mu):
     True
     """
     kp, kv, ts, mu = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (kp, kv, ts, mu)))
-    a = 0.5 * mu * kp * ts * ts
-    b = mu * kv * ts
-    half_trace = 1.0 - 0.5 * (a + b)
-    det = 1.0 + a - b
-    disc = half_trace * half_trace - det
-    # real eigenvalues: half_trace ± √disc; a complex pair: both of modulus √det
-    rho = np.where(disc >= 0.0, np.abs(half_trace) + np.sqrt(np.abs(disc)), np.sqrt(np.abs(det)))
+    # gains near the float range (kp = 1e300) overflow here: the radius is then inf (or NaN), which every caller
+    # reads as unstable and says so in its own words; NumPy's warnings would only come first, with other words
+    with np.errstate(over="ignore", invalid="ignore"):
+        a = 0.5 * mu * kp * ts * ts
+        b = mu * kv * ts
+        half_trace = 1.0 - 0.5 * (a + b)
+        det = 1.0 + a - b
+        disc = half_trace * half_trace - det
+        # real eigenvalues: half_trace ± √disc; a complex pair: both of modulus √det
+        rho = np.where(disc >= 0.0, np.abs(half_trace) + np.sqrt(np.abs(disc)), np.sqrt(np.abs(det)))
     return float(rho) if rho.ndim == 0 else rho
 
 

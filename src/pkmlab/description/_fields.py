@@ -9,15 +9,22 @@ import math
 
 from ..errors import InvalidParameterError
 
+#: The largest magnitude of a description's number (m, kg, kg·m², m/s², rad): far beyond any machine, and far
+#: enough below the float range that the kinematics and dynamics (products of a few of them) cannot overflow.
+MAX_MAGNITUDE = 1e9
+
 
 def finite_number(where: str, value, *, positive: bool = False, non_negative: bool = False) -> float:
-    """A finite float; bools and strings are slips, not numbers."""
+    """A finite float of magnitude at most :data:`MAX_MAGNITUDE`; bools and strings are slips, not numbers."""
     try:
         v = None if isinstance(value, (bool, str, bytes)) else float(value)
     except (TypeError, ValueError, OverflowError):
         v = None
     if v is None or not math.isfinite(v):
         raise InvalidParameterError(f"{where} must be a finite number, got {value!r}")
+    if abs(v) > MAX_MAGNITUDE:
+        raise InvalidParameterError(f"{where} = {v:g} is beyond any machine: a description's numbers (SI units) must "
+                                    f"be at most {MAX_MAGNITUDE:g} in magnitude")
     if positive and v <= 0:
         raise InvalidParameterError(f"{where} must be positive, got {v:g}")
     if non_negative and v < 0:

@@ -29,6 +29,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .._validate import real_array
 from ..description import _rrr3_layout as layout  # the packed parameters' layout the compiled kernels read
 from ..errors import InvalidParameterError, shown
 
@@ -45,10 +46,7 @@ COORDINATE_NAMES = ("theta1", "theta2", "theta3", "phi1", "phi2", "phi3", "alpha
 
 
 def _per_leg(name: str, value) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise InvalidParameterError(f"{name} must be a number or a list of 3 numbers, got {shown(value)}") from None
+    arr = real_array(name, value, "a number or a list of 3 numbers")
     if arr.ndim == 0:
         arr = np.full(3, float(arr))
     if arr.shape != (3,):
@@ -58,10 +56,7 @@ def _per_leg(name: str, value) -> np.ndarray:
 
 def _float_array(label: str, value) -> np.ndarray:
     """``value`` as a float array; a non-numeric or ragged value is an :class:`InvalidParameterError`."""
-    try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise InvalidParameterError(f"{label} must be numeric, got {shown(value)}") from None
+    return real_array(label, value, "numeric")
 
 
 def _frozen(arr: np.ndarray) -> np.ndarray:

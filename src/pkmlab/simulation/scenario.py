@@ -301,4 +301,5 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray):
 
 
 def pose_text(pose) -> str:
-    return "(" + ", ".join(f"{v:.4f}" for v in pose) + ")"
+    """A pose to four decimals (a machine's poses), a huge coordinate in exponent form: the message stays short."""
+    return "(" + ", ".join(f"{v:.4f}" if abs(v) < 1e6 else f"{v:.4g}" for v in pose) + ")"

@@ -41,9 +41,13 @@ from ..outputs import atomic_file
 from .definition import Study, scenario_tables
 from .engine import dask_client, run_study
 
-#: Default search box: kp (1/s²) and the damping ratio ζ.
+#: Default search box: kp (1/s²) and the damping ratio ζ. Under sampled-data control the default kp box ends at
+#: the loop's stability limit (:func:`default_kp_range`), when that is lower.
 KP_RANGE = (10.0, 1e6)
 ZETA_RANGE = (0.3, 3.0)
+#: A tuned gain within this fraction of its box's span (in log kp, in log ζ) of one of its ends is said to lie on
+#: it: the optimum may be beyond it.
+ON_BOUND = 0.02
 
 
 @dataclass
@@ -62,12 +66,38 @@ class TuningResult:
     scenario: dict = field(default_factory=dict)
     uncertainty: dict = field(default_factory=dict)
     draws: int = 0
+    kp_range: tuple = KP_RANGE
+    zeta_range: tuple | None = ZETA_RANGE
+    #: Why the kp box ends where it does (the default box: the sampled-data stability limit...).
+    kp_range_reason: str = ""
+
+    @property
+    def on_bound(self) -> list[str]:
+        """The tuned gains that lie at an end of their search box (within :data:`ON_BOUND` of its span, in log
+        scale), each as a sentence: the best gains may lie beyond it, or the box is what limits them."""
+        if self.best is None:
+            return []
+        said = []
+        boxes = [("kp", self.best["kp"], self.kp_range)]
+        if self.zeta_range is not None:
+            boxes.append(("zeta", self.best["zeta"], self.zeta_range))
+        for name, value, (lo, hi) in boxes:
+            span = math.log(hi / lo)
+            for end, which in ((lo, "lower"), (hi, "upper")):
+                if abs(math.log(value / end)) <= ON_BOUND * span:
+                    said_why = name == "kp" and which == "upper" and self.kp_range_reason
+                    why = f": {self.kp_range_reason}" if said_why else ""
+                    said.append(f"the tuned {name} = {value:.6g} lies at the {which} end of its search box ({lo:g} to "
+                                f"{hi:g}{why}); the best {name} may lie beyond it")
+        return said
 
     def summary(self) -> dict:
         return {"max_effort": self.max_effort, "quantile": self.quantile, "draws": self.draws,
                 "uncertainty": dict(self.uncertainty), "best": self.best,
                 "baseline": self.baseline, "tradeoff": [{"effort_limit": e, "error": v} for e, v in self.tradeoff],
-                "trials": len(self.trials)}
+                "trials": len(self.trials), "kp_range": list(self.kp_range),
+                "zeta_range": None if self.zeta_range is None else list(self.zeta_range),
+                "kp_range_reason": self.kp_range_reason, "on_bound": self.on_bound}
 
 
 def _objective(errors: np.ndarray, quantile: float) -> float:
@@ -88,7 +118,7 @@ def _pareto(trials) -> list[tuple[float, float]]:
 
 def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=("mass", "inertia"),
          draws: int = 16, seed: int = 0, quantile: float = 1.0, critical: bool = False, trials: int = 48,
-         batch: int = 8, kp_range=KP_RANGE, zeta_range=ZETA_RANGE, workers: int | None = None,
+         batch: int = 8, kp_range=None, zeta_range=ZETA_RANGE, workers: int | None = None,
          scheduler: str | None = None, client=None, chunk_size: int | None = None, progress=None) -> TuningResult:
     """Tune the gains of ``scenario`` (a scenario file or its tables) for peak effort ≤ ``max_effort``.
 
@@ -96,7 +126,9 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     by default: a length the controller's model gets wrong is a kinematic error no gain removes); ``draws``
     plants make the uncertainty set (0: the scenario's plant alone). ``trials`` candidates are evaluated in
     batches of ``batch`` (one study each, on the cluster of ``workers``/``scheduler``/``client``, in chunks of
-    ``chunk_size`` runs).
+    ``chunk_size`` runs). ``kp_range`` defaults to :func:`default_kp_range`: 10 to the sampled-data loop's
+    stability limit (at most 1e6); the result says when a tuned gain lies at an end of its box
+    (:attr:`TuningResult.on_bound`).
     ``progress(done, total)`` is called after each batch."""
     from .engine import require_module
 
@@ -109,6 +141,10 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     for name, value, low in (("trials", trials, 1), ("batch", batch, 1), ("draws", draws, 0)):
         as_count(name, value, low)
     bounds = {q: uncertainty for q in quantities} if draws else {}
+    reason = ""
+    if kp_range is None:
+        kp_range, reason = default_kp_range(base, uncertainty if draws and {"mass", "inertia"} & set(quantities)
+                                            else 0.0)
     kp_lo, kp_hi = _box("kp_range", kp_range)
     z_lo, z_hi = _box("zeta_range", zeta_range)
     controller = base.get("controller", {})
@@ -178,7 +214,30 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
     if best is not None:
         tuned.setdefault("controller", {}).update(kp=best["kp"], kv=best["kv"])
     return TuningResult(max_effort, quantile, frame, best, _plain(frame.iloc[0].to_dict()), _pareto(searched), tuned,
-                        bounds, draws)
+                        bounds, draws, (kp_lo, kp_hi), None if critical else (z_lo, z_hi), reason)
+
+
+def default_kp_range(base: dict, spread: float = 0.0) -> tuple[tuple[float, float], str]:
+    """The default kp box of a scenario (its tables ``base``) and why it ends there: :data:`KP_RANGE`, its upper
+    end lowered, under sampled-data computed torque, to the largest critically damped kp whose loop is stable
+    (rounded down to three digits) — beyond it every candidate's run is refused as unstable. ``spread``, the
+    uncertainty of the drawn masses and inertias, raises the loop's modal gains to ``1 / (1 - spread)`` (a plant
+    lighter than the model). Continuous-time control and the PD law keep :data:`KP_RANGE`."""
+    from ..control.controller import largest_stable_kp
+    from ..formats.scenario import scenario_from_dict
+
+    scenario = scenario_from_dict(copy.deepcopy(base), "<tune>")
+    ts = scenario.sample_time
+    if not ts > 0 or scenario.controller.kind != "computed_torque":
+        return KP_RANGE, ""
+    mu = 1.0 / (1.0 - min(spread, 0.5))
+    limit = largest_stable_kp(ts, [mu])
+    if limit is None or not limit < KP_RANGE[1]:
+        return KP_RANGE, ""
+    digit = 10.0 ** (math.floor(math.log10(limit)) - 2)
+    limit = float(f"{math.floor(limit / digit) * digit:.3g}")
+    drawn = "" if spread == 0 else f" for plants drawn within {spread:g} of the model"
+    return (KP_RANGE[0], limit), f"the sampled-data stability limit at Ts = {ts * 1e3:g} ms{drawn}"
 
 
 def _box(name: str, value) -> tuple[float, float]:

@@ -33,9 +33,16 @@ def _cell(value) -> str:
     return html.escape(str(value))
 
 
-def summary_table(summary: dict) -> str:
-    """A run's summary as an HTML table (one row per quantity)."""
-    rows = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{_cell(v)}</td></tr>" for k, v in summary.items())
+def summary_table(summary: dict, units: dict | None = None) -> str:
+    """A run's summary as an HTML table (one row per quantity, its unit beside its value: ``units``, a machine's
+    :func:`~pkmlab.simulation.result.summary_units`; ``N*m`` written N·m)."""
+    units = units or {}
+
+    def unit(key) -> str:
+        text = units.get(key, "").replace("*", "·").replace("|", " or ").replace(",", ", ")
+        return f" {html.escape(text)}" if text else ""
+
+    rows = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{_cell(v)}{unit(k)}</td></tr>" for k, v in summary.items())
     return f'<table class="summary">{rows}</table>'
 
 
@@ -55,7 +62,7 @@ def page(views: list[RunView], title: str, note: str = "") -> str:
         if len(views) > 1:
             parts.append(f'<h2 id="{html.escape(view.name)}">{html.escape(view.name)}</h2>')
         if view.summary:
-            parts.append(summary_table(view.summary))
+            parts.append(summary_table(view.summary, view.units))
         fig = run_figure(view)
         parts.append(pio.to_html(fig, validate=False, include_plotlyjs=False, full_html=False, auto_play=False,
                                  div_id=f"run-{i}", config={"responsive": True, "displaylogo": False}))

@@ -49,6 +49,8 @@ class RunView:
     series: dict = field(default_factory=dict)
     summary: dict = field(default_factory=dict)
     scenario_text: str = ""
+    #: The unit of each of ``summary``'s quantities (:func:`~pkmlab.simulation.result.summary_units`).
+    units: dict = field(default_factory=dict)
 
     @property
     def spatial(self) -> bool:
@@ -61,7 +63,7 @@ class RunView:
         configurations ``q`` (N, n_coordinates), poses, efforts and ``S``; ``frames`` animation frames at most
         (:data:`MAX_FRAMES`)."""
         from ..model.mechanism_model import joint_positions, tracked_point
-        from ..simulation.result import orientation_error, path_error
+        from ..simulation.result import orientation_error, path_error, summary_units
 
         t, q, pose, pose_d, tau, S = (np.asarray(a, dtype=float) for a in (t, q, pose, pose_d, tau, S))
         description = model.description
@@ -90,7 +92,8 @@ class RunView:
         series["singularity measure S"] = ("", {"S": S})
         legs = description.legs
         return cls(name, t, samples, joints, [leg.actuated for leg in legs], [len(leg.joints) for leg in legs],
-                   description.platform.kind != "point", desired, actual, series, dict(summary or {}), scenario_text)
+                   description.platform.kind != "point", desired, actual, series,
+                   {k: v for k, v in (summary or {}).items() if k != "units"}, scenario_text, summary_units(model))
 
     @classmethod
     def from_result(cls, result, name: str | None = None, scenario_text: str = "") -> RunView:
