@@ -208,3 +208,24 @@ def test_a_tilted_3rrs_goes_through_inverse_and_forward_kinematics_and_its_defau
     summary = result.summary()
     assert summary["max_path_error_m"] < 1e-5 and summary["max_orientation_error_rad"] < 1e-4
     assert max(_independent_residual(tilted.description, qk, tilted.coordinates) for qk in result.q[::25]) < 1e-10
+
+
+def test_a_machine_of_too_many_complex_assembly_modes_is_refused_saying_so(monkeypatch):
+    """A machine whose forward-kinematics system has more complex solutions than the general method takes on (six
+    R*RRS legs: thousands, an hour of monodromy) is refused in one line once monodromy passes the bound — here the
+    tilted 3-RRS (64 for its offset system) under a bound of 10 — and nothing is kept in the cache."""
+    from pkmlab.algorithms import general_fk
+    from pkmlab.description.files import load_mechanism
+
+    monkeypatch.setattr(general_fk, "MAX_GENERIC", 10)
+    capped = pkmlab.load(replace(load_mechanism(TILTED), name="3-RRS tilted, capped"))
+    path = general_fk._key(capped.description)
+    with pytest.raises(pkmlab.AssemblyError) as refused:
+        general_fk.generic_solutions(capped.description)
+    message = str(refused.value)
+    assert "\n" not in message
+    assert message.startswith("3-RRS tilted, capped: its forward-kinematics system has more than 10 complex "
+                              "solutions at generic actuator values (")
+    from pkmlab._compile_cache import CACHE_DIR
+
+    assert not (CACHE_DIR / "generic" / "assembly" / f"{path}.npz").exists()

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..description.general_legs import joint_unknowns, symbolic_chain
-from ..errors import InvalidParameterError
+from ..errors import AssemblyError, InvalidParameterError
 from ..numerics import homotopy
 from .stewart_fk import rotation_of_quaternion
 
@@ -208,12 +208,26 @@ def generic_solutions(description):
     return data["solutions"], data["parameters"], int(data["loops"])
 
 
+#: Most solutions of a machine's offset family that monodromy looks for (the catalogue's have 64 to 80; a machine
+#: of six R*RRS legs has thousands, which would take monodromy an hour and every solve seconds).
+MAX_GENERIC = 1000
+
+
 def solve_generic_instance(description):
     """The machine's assembly modes at generic complex actuator parameters ``θ₁`` (cached): the solutions of
     the offset family ``F(z; θ) − b`` (:func:`pkmlab.numerics.homotopy.generic_instance`), monodromy in ``θ``
-    alone confirming them. Returns ``(solutions, (θ₁, 0), loops)``."""
+    alone confirming them. Returns ``(solutions, (θ₁, 0), loops)``. A machine whose offset family has more than
+    :data:`MAX_GENERIC` solutions is refused (:class:`~pkmlab.errors.AssemblyError`), saying so."""
     family, n, m, _layout, _names = _family(description)
-    return homotopy.generic_instance(family, n, m, np.random.default_rng(SEED))
+    try:
+        return homotopy.generic_instance(family, n, m, np.random.default_rng(SEED), max_solutions=MAX_GENERIC)
+    except homotopy.TooManySolutions as many:
+        raise AssemblyError(
+            f"{description.name}: its forward-kinematics system has more than {MAX_GENERIC} complex solutions at "
+            f"generic actuator values ({many.count} after {many.loops} monodromy loops; the catalogue's machines "
+            "have at most 80), more than pkmlab's general method takes on: every assembly mode of this machine "
+            "cannot be listed (inverse kinematics, dynamics and runs from a known configuration do not need "
+            "them)") from None
 
 
 # ------------------------------------------------------------------ solving

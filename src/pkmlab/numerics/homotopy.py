@@ -145,15 +145,25 @@ def parameter_homotopy(family: Family, solutions: np.ndarray, p0: np.ndarray, p1
     return Endpoints(x, regular & ~diverged, diverged, diverged | (t <= 1e-15))
 
 
+class TooManySolutions(Exception):
+    """Monodromy found more solutions than the caller takes on: ``count`` after ``loops`` loops (and more may
+    follow)."""
+
+    def __init__(self, count: int, loops: int):
+        super().__init__(f"more than {count - 1} solutions ({count} after {loops} monodromy loops)")
+        self.count, self.loops = count, loops
+
+
 def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.random.Generator, *,
                     known: np.ndarray | None = None, free: int | None = None, stale_loops: int = 8,
-                    max_loops: int = 100):
+                    max_loops: int = 100, max_solutions: int | None = None):
     """Every solution at the generic complex parameters ``p0`` (m,) found by monodromy from one, ``x0`` (n,)
     (or from ``known`` solutions), loops moving only the first ``free`` parameters (all by default).
 
     Returns ``(solutions (N, n), loops)``: the loops run. Stops after ``stale_loops`` loops in a row
     add nothing. A solve that lasts says how far it is on stderr every
-    :data:`~pkmlab.progress.STATUS_EVERY` seconds (a system of many solutions takes minutes)."""
+    :data:`~pkmlab.progress.STATUS_EVERY` seconds (a system of many solutions takes minutes); one that finds more
+    than ``max_solutions`` raises :class:`TooManySolutions`."""
     import time
 
     from ..progress import STATUS_EVERY, notice
@@ -177,6 +187,8 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
         merged = distinct(np.concatenate([sols, x[ok]]), family.scale)
         stale = stale + 1 if len(merged) == len(sols) else 0
         sols = merged
+        if max_solutions is not None and len(sols) > max_solutions:
+            raise TooManySolutions(len(sols), loops)
         if time.monotonic() - said >= STATUS_EVERY:
             notice(f"monodromy: {len(sols)} solutions after {loops} loops ({stale} in a row found none; it stops "
                    f"at {stale_loops})")
@@ -189,18 +201,20 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
 CHECK_LOOPS = 10
 
 
-def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, check_loops: int = CHECK_LOOPS):
+def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, check_loops: int = CHECK_LOOPS,
+                     max_solutions: int | None = None):
     """Every solution of ``F(z; θ) = 0`` at generic complex parameters ``θ₁`` (m,), for an offset family
     ``F(z; θ) − b`` (parameters ``(θ, b)``, ``b`` of length ``n``): a random complex ``z₀`` solves it at
     ``b₀ = F(z₀; θ₀)``; monodromy finds the others at ``(θ₀, b₀)``; a parameter homotopy carries them to
     ``(θ₁, 0)``, where the paths that end regular are kept (the offset family has more solutions than the
     problem: the others go to infinity or to singular points); then more monodromy loops in ``θ`` alone until
-    ``check_loops`` in a row find nothing new. Returns ``(solutions, (θ₁, 0), loops)``."""
+    ``check_loops`` in a row find nothing new. Returns ``(solutions, (θ₁, 0), loops)``; raises
+    :class:`TooManySolutions` where the offset family has more than ``max_solutions``."""
     z0 = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 0.5
     theta0 = rng.standard_normal(m) + 1j * rng.standard_normal(m)
     b0 = family.F(z0[None], np.concatenate([theta0, np.zeros(n)])[None])[0]
     p0 = np.concatenate([theta0, b0])
-    offset_solutions, loops = monodromy_solve(family, z0, p0, rng)
+    offset_solutions, loops = monodromy_solve(family, z0, p0, rng, max_solutions=max_solutions)
     p1 = np.concatenate([rng.standard_normal(m) + 1j * rng.standard_normal(m), np.zeros(n)])
     ends = parameter_homotopy(family, offset_solutions, p0, p1)
     solutions = distinct(ends.x[ends.regular], family.scale)
