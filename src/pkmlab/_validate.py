@@ -108,8 +108,14 @@ def as_mode(mode, name: str = "mode", count: int = 3) -> np.ndarray:
     return arr.astype(np.int64)
 
 
-def as_real(name: str, value, sign: str = "") -> float:
-    """A scalar option as a finite float, ``sign`` ``"positive"`` or ``"non-negative"`` when required.
+#: The largest magnitude of a physical quantity of a machine (m, kg, kg·m², a gear ratio...): far beyond any machine,
+#: and far enough below the float range that products of a few of them cannot overflow.
+MAX_MAGNITUDE = 1e9
+
+
+def as_real(name: str, value, sign: str = "", bounded: bool = False) -> float:
+    """A scalar option as a finite float, ``sign`` ``"positive"`` or ``"non-negative"`` when required, and at most
+    :data:`MAX_MAGNITUDE` in magnitude when ``bounded`` (a machine's physical quantity, not a gain).
 
     Bools, strings and arrays are refused, not converted: ``True`` or ``"0.1"`` are slips, not numbers.
     """
@@ -123,6 +129,9 @@ def as_real(name: str, value, sign: str = "") -> float:
             v = math.inf
     if not math.isfinite(v) or (sign == "positive" and v <= 0) or (sign == "non-negative" and v < 0):
         raise InvalidParameterError(f"{name} must be a {sign or 'finite'} number, got {shown(value)}")
+    if bounded and abs(v) > MAX_MAGNITUDE:
+        raise InvalidParameterError(f"{name} = {v:g} is beyond any machine: at most {MAX_MAGNITUDE:g} in magnitude "
+                                    "(SI units)")
     return v
 
 

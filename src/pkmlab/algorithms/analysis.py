@@ -69,6 +69,8 @@ def _axis(name: str, bounds, default, resolution: int) -> np.ndarray:
     if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(hi - lo)) or not lo < hi:
         raise InvalidParameterError(f"{name} must be two finite numbers with min < max (and a finite span), "
                                     f"got ({lo:g}, {hi:g})")
+    for v in (lo, hi):
+        as_real(name, v, bounded=True)  # metres beyond any machine: its map would overflow
     return np.linspace(lo, hi, resolution)
 
 

@@ -7,11 +7,8 @@ import difflib
 import json
 import math
 
+from .._validate import MAX_MAGNITUDE
 from ..errors import InvalidParameterError
-
-#: The largest magnitude of a description's number (m, kg, kg·m², m/s², rad): far beyond any machine, and far
-#: enough below the float range that the kinematics and dynamics (products of a few of them) cannot overflow.
-MAX_MAGNITUDE = 1e9
 
 
 def finite_number(where: str, value, *, positive: bool = False, non_negative: bool = False) -> float:

@@ -61,7 +61,7 @@ def _per_actuator(name: str, value, sign: str, allow_inf: bool = False) -> tuple
 def _one(name: str, value, sign: str, allow_inf: bool) -> float:
     if allow_inf and isinstance(value, float | int) and not isinstance(value, bool) and value == math.inf:
         return math.inf
-    return as_real(name, value, sign)
+    return as_real(name, value, sign, bounded=True)
 
 
 def _column(name: str, value, n: int) -> np.ndarray:
