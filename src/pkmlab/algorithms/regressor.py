@@ -371,7 +371,7 @@ class BaseParameters:
     Attributes
     ----------
     names : tuple of str
-        Each base parameter as the combination it is, e.g. ``"body1_1.Izz + 0.04 body1_2.m"``.
+        Each base parameter as the combination it is, e.g. ``"body1_1.Izz + 0.0625 body1_2.m"``.
     parameters : tuple of str
         The standard parameters (:func:`parameter_names`: the inertial ones, then any drives').
     independent : ndarray of int, shape (r,)
@@ -462,10 +462,17 @@ def base_parameters(model, states=None, *, seed: int = 0, drives: bool = False) 
 
     Examples
     --------
+    The five-bar moves in a horizontal plane (no gravity), so the first moments and masses of its actuated
+    links move no effort; its distal links' masses regroup onto the actuated links' inertias (``0.0625 =
+    0.25²`` m², the actuated link's length squared), and the loop closure ties each distal link's first moment
+    to the others:
+
     >>> import pkmlab
     >>> base = base_parameters(pkmlab.load("five_bar"))
     >>> base.rank, base.names[0]
-    (5, 'body1_1.mx + 0.2 body1_2.m')
+    (7, 'body1_1.Izz + 0.0625 body1_2.m - 0.208333 body1_2.mx')
+    >>> base.unidentifiable[:3]
+    ('body1_1.m', 'body1_1.mx', 'body1_1.my')
     """
     from ..errors import SingularityError
 
