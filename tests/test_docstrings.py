@@ -11,7 +11,8 @@ MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics
            "pkmlab.description.mechanism", "pkmlab.description.files", "pkmlab.model.mechanism_model",
            "pkmlab.views.animation", "pkmlab.algorithms.stewart_fk", "pkmlab.simulation.uncertainty", "pkmlab.progress",
            "pkmlab.algorithms.singularities", "pkmlab.control.time_optimal",
-           "pkmlab.algorithms.regressor"]
+           "pkmlab.algorithms.regressor", "pkmlab.simulation.run", "pkmlab.simulation.scenario",
+           "pkmlab.simulation.result"]
 
 
 @pytest.mark.parametrize("name", MODULES)
