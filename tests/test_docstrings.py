@@ -12,7 +12,8 @@ MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics
            "pkmlab.views.animation", "pkmlab.algorithms.stewart_fk", "pkmlab.simulation.uncertainty", "pkmlab.progress",
            "pkmlab.algorithms.singularities", "pkmlab.control.time_optimal",
            "pkmlab.algorithms.regressor", "pkmlab.simulation.run", "pkmlab.simulation.scenario",
-           "pkmlab.simulation.result", "pkmlab.formats.scenario", "pkmlab.errors"]
+           "pkmlab.simulation.result", "pkmlab.formats.scenario", "pkmlab.errors",
+           "pkmlab.algorithms.identification"]
 
 
 @pytest.mark.parametrize("name", MODULES)
