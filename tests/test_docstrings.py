@@ -13,7 +13,8 @@ MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics
            "pkmlab.algorithms.singularities", "pkmlab.control.time_optimal",
            "pkmlab.algorithms.regressor", "pkmlab.simulation.run", "pkmlab.simulation.scenario",
            "pkmlab.simulation.result", "pkmlab.formats.scenario", "pkmlab.errors",
-           "pkmlab.algorithms.identification", "pkmlab.study.definition", "pkmlab.study.sweep", "pkmlab.study.tuning"]
+           "pkmlab.algorithms.identification", "pkmlab.study.definition", "pkmlab.study.sweep", "pkmlab.study.tuning",
+           "pkmlab.views.notebook"]
 
 
 @pytest.mark.parametrize("name", MODULES)
