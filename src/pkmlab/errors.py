@@ -49,6 +49,15 @@ class UnstableControlError(InvalidParameterError):
 
     Refused before running (spectral-radius check), or a run whose tracking error diverged. A subclass of
     :class:`InvalidParameterError`.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> stiff = pkmlab.paper_scenario("fast").replace(controller=pkmlab.ControllerSpec(kp=1e7))
+    >>> pkmlab.simulate(stiff)
+    Traceback (most recent call last):
+    ...
+    pkmlab.errors.UnstableControlError: the sampled-data loop is unstable: computed torque with kp = 1e+07, ...
     """
 
 
@@ -105,6 +114,17 @@ class BranchFollowingError(SingularityError):
 
     A subclass of :class:`SingularityError`: raised by :func:`~pkmlab.branch_following`,
     :func:`~pkmlab.follow_path` (with attributes ``row`` and ``reason``) and a run that nears a singularity.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.2, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> try:
+    ...     pkmlab.follow_path(model, q, [q[:3], q[:3] + [0.2, 0.0, 0.0]])
+    ... except pkmlab.BranchFollowingError as exc:
+    ...     print(exc.row, exc.reason)
+    1 a jump of 0.2, more than max_step = 0.05
     """
 
 

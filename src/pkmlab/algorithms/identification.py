@@ -149,9 +149,10 @@ def decimation(length: int, polyorder: int) -> int:
 def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
                         polyorder: int = DEFAULT_POLYORDER, decimate="auto", q_start=None, pose=None,
                         mode=None, first_row: int = 0, efforts: str = "held") -> Measurements:
-    """States from a log of measured actuators and efforts at a fixed rate: Savitzky–Golay smoothing and
-    differentiation of ``theta``, the same smoothing of ``tau`` (parallel filtering), and the configurations by
-    branch following.
+    """States from a log of measured actuators and efforts at a fixed rate.
+
+    Savitzky–Golay smoothing and differentiation of ``theta``, the same smoothing of ``tau`` (parallel
+    filtering), and the configurations by branch following.
 
     Parameters
     ----------

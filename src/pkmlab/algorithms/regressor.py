@@ -457,8 +457,9 @@ def random_states(model, count: int = 64, *, seed: int = 0, mode=None) -> tuple[
 
 @dataclass(frozen=True)
 class BaseParameters:
-    """The base parameters of a model (:func:`base_parameters`): the fewest combinations of the standard
-    inertial parameters that determine the efforts.
+    """The base parameters of a model (:func:`base_parameters`).
+
+    The fewest combinations of the standard inertial parameters that determine the efforts.
 
     Attributes
     ----------
@@ -559,8 +560,9 @@ def _priority(model: MechanismModel, names: tuple[str, ...]) -> list[int]:
 
 
 def base_parameters(model, states=None, *, seed: int = 0, drives: bool = False) -> BaseParameters:
-    """The base parameters of ``model``: the combinations of its standard inertial parameters that the efforts
-    determine, found from the regressor stacked over many states.
+    """The base parameters of ``model``: the combinations of its standard inertial parameters the efforts determine.
+
+    They are found from the regressor stacked over many states.
 
     A column of the stacked regressor that is zero is unidentifiable; the others are taken in turn — the
     platform's, then the legs' bodies' from the base, each body's inertias, first moments, then mass — and a

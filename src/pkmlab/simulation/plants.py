@@ -163,8 +163,9 @@ def _finite_or_raise(values: np.ndarray, t: float, what: str) -> None:
 
 # ------------------------------------------------------------------ the plants
 class ActuatorSpacePlant:
-    """The machine integrated in the actuator space: state ``(θ, θ̇)`` and eq. (35), ``Mθ θ̈ + cθ + gθ = τ``,
-    the passive coordinates by the compiled core's branch following.
+    """The machine integrated in the actuator space: state ``(θ, θ̇)`` and eq. (35), ``Mθ θ̈ + cθ + gθ = τ``.
+
+    The passive coordinates follow by the compiled core's branch following; DOP853 integrates the state.
 
     Parameters
     ----------
@@ -275,8 +276,9 @@ class ActuatorSpacePlant:
 
 
 class FullSpacePlant:
-    """The machine integrated in all ``n`` coordinates with the loop-closure multipliers (eq. 26) as an
-    index-1 differential-algebraic system with Baumgarte stabilisation — no actuator-space reduction.
+    """The machine integrated in all ``n`` coordinates with the loop-closure multipliers (eq. 26).
+
+    An index-1 differential-algebraic system with Baumgarte stabilisation — no actuator-space reduction.
 
     At every evaluation it solves the saddle-point system ``M q̈ + C q̇ + g = Q(τ) + Jηqᵀ λ``,
     ``Jηq q̈ = -J̇ηq q̇ - 2ω Jηq q̇ - ω² η`` for ``(q̈, λ)``, where ``Q`` applies ``τ`` to the actuated

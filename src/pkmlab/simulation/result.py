@@ -27,8 +27,9 @@ CSV_CHUNK = 8192
 
 @dataclass(frozen=True)
 class SimulationResult:
-    """Every time series of a run, one row per sample ``t = 0 … T`` (inclusive): what :func:`~pkmlab.simulate`
-    returns (conventions §8).
+    """Every time series of a run, one row per sample ``t = 0 … T`` (inclusive).
+
+    What :func:`~pkmlab.simulate` returns (conventions §8).
 
     Attributes
     ----------
@@ -83,9 +84,7 @@ class SimulationResult:
 
     @property
     def theta(self) -> np.ndarray:
-        """The plant's actuator values ``θ`` (N, n_actuators): the first columns of ``q`` (rad, or m for prismatic
-        actuators).
-        """
+        """The plant's actuator values ``θ`` (N, n_actuators): the first columns of ``q`` (rad, or m if prismatic)."""
         return self.q[:, :self.tau.shape[1]]
 
     @property
