@@ -10,7 +10,11 @@ MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics
            "pkmlab.algorithms.analysis", "pkmlab.paper.dynamics", "pkmlab.control.controller", "pkmlab._format",
            "pkmlab.description.mechanism", "pkmlab.description.files", "pkmlab.model.mechanism_model",
            "pkmlab.views.animation", "pkmlab.algorithms.stewart_fk", "pkmlab.simulation.uncertainty", "pkmlab.progress",
-           "pkmlab.algorithms.singularities", "pkmlab.control.time_optimal"]
+           "pkmlab.algorithms.singularities", "pkmlab.control.time_optimal",
+           "pkmlab.algorithms.regressor", "pkmlab.simulation.run", "pkmlab.simulation.scenario",
+           "pkmlab.simulation.result", "pkmlab.formats.scenario", "pkmlab.errors",
+           "pkmlab.algorithms.identification", "pkmlab.study.definition", "pkmlab.study.sweep", "pkmlab.study.tuning",
+           "pkmlab.views.notebook"]
 
 
 @pytest.mark.parametrize("name", MODULES)

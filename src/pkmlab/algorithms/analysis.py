@@ -17,10 +17,30 @@ from ..model.reach import planar_extent
 
 @dataclass(frozen=True)
 class SingularityMap:
-    """``S`` over a grid of platform positions at a fixed orientation and working mode.
+    """``S`` over a grid of platform positions at a fixed orientation and working mode (:func:`singularity_map`).
 
     ``S[j, i]`` is the singularity measure at ``(x[i], y[j])``; NaN where the pose is out of
     reach. ``S = 0`` marks gain-type singularities (paper figure 3).
+
+    Attributes
+    ----------
+    x : ndarray, shape (resolution,)
+        The grid's x coordinates (m).
+    y : ndarray, shape (resolution,)
+        The grid's y coordinates (m).
+    S : ndarray, shape (resolution, resolution)
+        The singularity measure, rows along ``y`` (dimensionless; NaN out of reach).
+    alpha : float
+        The platform's orientation (rad).
+    mode : tuple of int
+        The working mode.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> m = pkmlab.singularity_map(pkmlab.load("paper"), resolution=11)
+    >>> m.mode, int(m.reachable.sum())
+    ((1, 1, 1), 20)
     """
 
     x: np.ndarray
@@ -31,6 +51,7 @@ class SingularityMap:
 
     @property
     def reachable(self) -> np.ndarray:
+        """Where the pose is reachable (``S`` finite), boolean, shape (resolution, resolution)."""
         return np.isfinite(self.S)
 
 
@@ -111,16 +132,42 @@ def singularity_map(
 ) -> SingularityMap:
     """``S(φ)`` of inverse-kinematics solutions over an ``x``–``y`` grid (eq. 19, figure 3).
 
-    ``model`` is any planar :class:`~pkmlab.model.mechanism_model.MechanismModel`; ``mode`` its working mode (default:
-    the first, ``(1, 1, 1)`` for the paper's 3-RRR); ``alpha`` is ignored by a 2-DOF machine. ``progress``, when
-    given, is called with the number of grid rows just computed.
+    Parameters
+    ----------
+    model : MechanismModel
+        Any planar machine (:func:`pkmlab.load`); a spatial one is refused.
+    alpha : float
+        The platform's orientation (rad, default 0); ignored by a 2-DOF machine.
+    mode : sequence of signs, optional
+        The working mode (default: the first, ``(1, 1, 1)`` for the paper's 3-RRR).
+    x_range, y_range : (float, float), optional
+        The grid's bounds (m; default: a region covering the base and every leg's reach).
+    resolution : int
+        Grid points per axis, 2 to :data:`MAX_RESOLUTION` (default 201).
+    progress : callable, optional
+        Called with the number of grid rows just computed (1, after each row).
+
+    Returns
+    -------
+    SingularityMap
+        ``x``, ``y`` (resolution,), ``S`` (resolution, resolution), ``alpha``, ``mode``.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is spatial or not a model, ``mode`` is not one of its working modes, a range is not two
+        finite numbers with min < max, or ``resolution`` or ``progress`` is refused.
 
     Examples
     --------
+    >>> import numpy as np
     >>> from pkmlab import load
     >>> m = singularity_map(load("paper"), resolution=11)
     >>> m.S.shape
     (11, 11)
+    >>> five = singularity_map(load("five_bar"), x_range=(-0.2, 0.2), y_range=(0.1, 0.4), resolution=5)
+    >>> np.round(five.S[0], 3).tolist()
+    [-0.57, -0.866, -1.0, -0.919, -0.315]
     """
     from .kinematics import as_working_mode
 

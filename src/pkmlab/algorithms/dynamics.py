@@ -50,11 +50,11 @@ class FullSpaceModel:
     Attributes
     ----------
     M : ndarray, shape (..., n, n)
-        The mass matrix ``M(q)`` (eq. 23).
+        The mass matrix ``M(q)`` (eq. 23; kg, kg·m, kg·m² by the coordinates' units).
     c : ndarray, shape (..., n)
-        ``C(q, q̇) q̇``: the Coriolis and centrifugal forces (eq. 24).
+        ``C(q, q̇) q̇``: the Coriolis and centrifugal forces (eq. 24; N·m or N per coordinate).
     g : ndarray, shape (..., n)
-        ``g(q) = ∂V/∂q``: the generalised forces that hold the bodies still against gravity.
+        ``g(q) = ∂V/∂q``: the generalised forces that hold the bodies still against gravity (N·m or N).
     """
 
     M: np.ndarray
@@ -69,7 +69,7 @@ class ConstrainedDynamics:
     Attributes
     ----------
     q_ddot : ndarray, shape (..., n)
-        The coordinates' accelerations.
+        The coordinates' accelerations (rad/s² or m/s² per coordinate).
     multipliers : ndarray, shape (..., n_constraints)
         The loop-closure multipliers ``λ`` of eq. (26): the forces (N, one per constraint row, in the
         constraints' order) with which each leg holds its attachment point on the platform.
@@ -86,11 +86,11 @@ class ActuatorSpaceModel:
     Attributes
     ----------
     M : ndarray, shape (..., n_actuators, n_actuators)
-        ``Mθ = Jqθᵀ M Jqθ``, symmetric positive definite away from singularities.
+        ``Mθ = Jqθᵀ M Jqθ`` (kg·m² or kg), symmetric positive definite away from singularities.
     c : ndarray, shape (..., n_actuators)
-        ``cθ = Cθ θ̇``: the Coriolis and centrifugal efforts.
+        ``cθ = Cθ θ̇``: the Coriolis and centrifugal efforts (N·m or N).
     g : ndarray, shape (..., n_actuators)
-        ``gθ = ∂V/∂θ``: the efforts that hold the machine still against gravity.
+        ``gθ = ∂V/∂θ``: the efforts that hold the machine still against gravity (N·m or N).
     """
 
     M: np.ndarray
@@ -109,8 +109,41 @@ _QUIET = {"over": "ignore", "invalid": "ignore", "divide": "ignore"}
 
 
 def full_space_model(model: MechanismModel, q, q_dot) -> FullSpaceModel:
-    """``(M, C q̇, g)`` of the unconstrained bodies at configurations ``q`` and rates ``q_dot`` (..., n)
-    (eqs. 23–24, with gravity): the Newton–Euler equations of every body in the coordinates ``q``."""
+    """The unconstrained bodies' model ``(M, C q̇, g)`` in the full coordinates (eqs. 23–24, with gravity).
+
+    The Newton–Euler equations of every body in the coordinates ``q``; the loop closures are not applied
+    (:func:`constrained_dynamics` applies them).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations (rad or m per entry).
+    q_dot : array_like, shape (..., n)
+        The coordinates' rates (rad/s or m/s; broadcast against ``q``).
+
+    Returns
+    -------
+    FullSpaceModel
+        ``M`` (..., n, n), ``c`` (..., n), ``g`` (..., n).
+
+    Raises
+    ------
+    InvalidParameterError
+        If the shapes do not broadcast, or ``q_dot`` overflows the model.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> q = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
+    >>> q_dot = pkmlab.coordinate_rates(model, q, [0.5, -0.2])
+    >>> full = pkmlab.full_space_model(model, q, q_dot)
+    >>> full.M.shape, full.c.shape
+    ((6, 6), (6,))
+    """
     model = as_model(model)
     n = len(model.coordinates)
     qs, qds, shape = as_broadcast(("q", q, n), ("q_dot", q_dot, n))
@@ -123,20 +156,44 @@ def full_space_model(model: MechanismModel, q, q_dot) -> FullSpaceModel:
 
 
 def constrained_dynamics(model: MechanismModel, q, q_dot, tau) -> ConstrainedDynamics:
-    """The accelerations and loop-closure multipliers of the full model under actuator efforts ``tau``
-    (eq. 26): ``M q̈ + C q̇ + g = Q(τ) + Jηqᵀ λ``, ``Jηq q̈ + J̇ηq q̇ = 0``, where ``Q`` applies ``τ`` to the
-    actuated coordinates.
+    """The accelerations and loop-closure multipliers of the full model under actuator efforts ``tau`` (eq. 26).
+
+    ``M q̈ + C q̇ + g = Q(τ) + Jηqᵀ λ``, ``Jηq q̈ + J̇ηq q̇ = 0``, where ``Q`` applies ``τ`` to the actuated
+    coordinates.
 
     Parameters
     ----------
-    q, q_dot : array_like, shape (..., n)
-        Configurations on the loop closure and rates tangent to it (:func:`~pkmlab.coordinate_rates`).
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+    q_dot : array_like, shape (..., n)
+        Rates tangent to it (rad/s or m/s; :func:`~pkmlab.coordinate_rates`).
     tau : array_like, shape (..., n_actuators)
-        Actuator efforts (N·m or N).
+        Actuator efforts (N·m or N); all three broadcast.
 
     Returns
     -------
     ConstrainedDynamics
+        ``q_ddot`` (..., n) and ``multipliers`` (..., n_constraints; N).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure, the shapes do not broadcast, or ``q_dot`` or ``tau`` overflows.
+    SingularityError
+        Where the constrained model is singular (a gain-type singularity).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> q = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
+    >>> q_dot = pkmlab.coordinate_rates(model, q, [0.5, -0.2])
+    >>> tau = pkmlab.inverse_dynamics(model, q, [0.5, -0.2], [1.0, 2.0])
+    >>> np.round(pkmlab.constrained_dynamics(model, q, q_dot, tau).q_ddot, 4).tolist()
+    [1.0, 2.0, 1.3877, 0.5058, -0.402, 0.1321]
     """
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
@@ -173,14 +230,43 @@ def _regular(model: MechanismModel, qs: np.ndarray, shape) -> None:
 
 
 def actuator_space_model(model: MechanismModel, q, theta_dot) -> ActuatorSpaceModel:
-    """``(Mθ, cθ, gθ)`` of ``Mθ θ̈ + cθ + gθ = τ`` (eq. 35, with gravity) at configurations ``q`` (..., n) on
-    the loop closure and actuator rates ``theta_dot`` (..., n_actuators): the compiled core's own numbers,
-    those a simulation integrates.
+    """The actuator-space model ``(Mθ, cθ, gθ)`` of ``Mθ θ̈ + cθ + gθ = τ`` (eq. 35, with gravity).
+
+    The compiled core's own numbers, those a simulation integrates.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+    theta_dot : array_like, shape (..., n_actuators)
+        The actuator rates (rad/s or m/s; broadcast against ``q``).
+
+    Returns
+    -------
+    ActuatorSpaceModel
+        ``M`` (..., n_actuators, n_actuators), ``c`` and ``g`` (..., n_actuators).
 
     Raises
     ------
     SingularityError
-        At a gain-type singularity (``|S| < 1e-6``).
+        At a gain-type singularity (``|S| < 1e-6``, :data:`~pkmlab.SINGULAR_S`).
+    InvalidParameterError
+        If ``q`` is off the loop closure, the shapes do not broadcast, or ``theta_dot`` overflows the model.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> q = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
+    >>> asm = pkmlab.actuator_space_model(model, q, [0.5, -0.2])
+    >>> np.round(asm.M, 4)
+    array([[ 0.0331, -0.0091],
+           [-0.0091,  0.0331]])
+    >>> np.round(asm.c, 4).tolist(), asm.g.tolist()
+    ([0.0056, -0.0085], [0.0, 0.0])
     """
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
@@ -197,8 +283,40 @@ def actuator_space_model(model: MechanismModel, q, theta_dot) -> ActuatorSpaceMo
 
 
 def inverse_dynamics(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndarray:
-    """The actuator efforts ``τ = Mθ θ̈ + cθ + gθ`` (..., n_actuators) that give the actuators the
-    accelerations ``theta_ddot`` (eq. 35)."""
+    """The actuator efforts ``τ = Mθ θ̈ + cθ + gθ`` that give the actuators the accelerations ``theta_ddot`` (eq. 35).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+    theta_dot : array_like, shape (..., n_actuators)
+        The actuator rates (rad/s or m/s).
+    theta_ddot : array_like, shape (..., n_actuators)
+        The actuator accelerations (rad/s² or m/s²); all three broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., n_actuators)
+        The efforts ``τ`` (N·m for a revolute actuator, N for a prismatic one).
+
+    Raises
+    ------
+    SingularityError
+        At a gain-type singularity (``|S| < 1e-6``).
+    InvalidParameterError
+        If ``q`` is off the loop closure, the shapes do not broadcast, or the values overflow.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> q = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
+    >>> np.round(pkmlab.inverse_dynamics(model, q, [0.5, -0.2], [1.0, 2.0]), 4).tolist()
+    [0.0204, 0.0486]
+    """
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
@@ -211,8 +329,41 @@ def inverse_dynamics(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndar
 
 
 def forward_dynamics(model: MechanismModel, q, theta_dot, tau) -> np.ndarray:
-    """The actuator accelerations ``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` (..., n_actuators) under efforts ``tau``
-    (eq. 35)."""
+    """The actuator accelerations ``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` under efforts ``tau`` (eq. 35).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+    theta_dot : array_like, shape (..., n_actuators)
+        The actuator rates (rad/s or m/s).
+    tau : array_like, shape (..., n_actuators)
+        The actuator efforts (N·m or N); all three broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., n_actuators)
+        The actuator accelerations ``θ̈`` (rad/s² or m/s²).
+
+    Raises
+    ------
+    SingularityError
+        At a gain-type singularity (``|S| < 1e-6``).
+    InvalidParameterError
+        If ``q`` is off the loop closure, the shapes do not broadcast, or the values overflow.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> q = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
+    >>> tau = pkmlab.inverse_dynamics(model, q, [0.5, -0.2], [1.0, 2.0])
+    >>> np.round(pkmlab.forward_dynamics(model, q, [0.5, -0.2], tau), 6).tolist()
+    [1.0, 2.0]
+    """
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, taus, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("tau", tau, na))

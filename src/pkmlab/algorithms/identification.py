@@ -53,9 +53,29 @@ UNEXCITED = 1e10
 # ------------------------------------------------------------------ from a log to states
 @dataclass(frozen=True)
 class Measurements:
-    """A log filtered into states (:func:`filter_measurements`): ``t`` (N,), the configurations ``q`` (N, n),
-    the actuator rates ``theta_dot`` and accelerations ``theta_ddot`` (N, n_actuators) and the efforts ``tau``
-    (N, n_actuators), all smoothed by the same filter."""
+    """A log filtered into states (:func:`filter_measurements`), all smoothed by the same filter.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        The kept sample times (s).
+    q : ndarray, shape (N, n)
+        The configurations, by branch following (rad or m per entry).
+    theta_dot : ndarray, shape (N, n_actuators)
+        The actuator rates (rad/s or m/s).
+    theta_ddot : ndarray, shape (N, n_actuators)
+        The actuator accelerations (rad/s² or m/s²).
+    tau : ndarray, shape (N, n_actuators)
+        The efforts (N·m or N).
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> run = pkmlab.simulate(pkmlab.paper_scenario("fast"))
+    >>> log = pkmlab.filter_measurements(run.scenario.model, run.t, run.theta, run.tau, q_start=run.q[0])
+    >>> log.q.shape, [a.shape for a in log.states[1:]]
+    ((53, 9), [(53, 3), (53, 3)])
+    """
 
     t: np.ndarray
     q: np.ndarray
@@ -129,13 +149,15 @@ def decimation(length: int, polyorder: int) -> int:
 def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
                         polyorder: int = DEFAULT_POLYORDER, decimate="auto", q_start=None, pose=None,
                         mode=None, first_row: int = 0, efforts: str = "held") -> Measurements:
-    """States from a log of measured actuators and efforts at a fixed rate: Savitzky–Golay smoothing and
-    differentiation of ``theta``, the same smoothing of ``tau`` (parallel filtering), and the configurations by
-    branch following.
+    """States from a log of measured actuators and efforts at a fixed rate.
+
+    Savitzky–Golay smoothing and differentiation of ``theta``, the same smoothing of ``tau`` (parallel
+    filtering), and the configurations by branch following.
 
     Parameters
     ----------
     model : MechanismModel
+        The machine the log is of (:func:`pkmlab.load`).
     t : array_like, shape (N,)
         The sample times (s), increasing at a fixed rate.
     theta : array_like, shape (N, n_actuators)
@@ -177,6 +199,14 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
         Naming the row where time does not increase or the rate changes, or too few samples for the window.
     BranchFollowingError
         Naming the first row the machine cannot reach from the one before it.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> run = pkmlab.simulate(pkmlab.paper_scenario("fast"))
+    >>> log = filter_measurements(run.scenario.model, run.t, run.theta, run.tau, q_start=run.q[0])
+    >>> run.t.size, log.t.size
+    (787, 53)
     """
     from scipy.signal import savgol_filter
 
@@ -242,19 +272,30 @@ class Identification:
     base : BaseParameters
         What was estimated: ``base.names[i]`` is the combination ``estimate[i]`` is the value of.
     estimate : ndarray, shape (r,)
-        The weighted-least-squares estimate of the base parameters.
+        The weighted-least-squares estimate of the base parameters (kg, kg·m, kg·m², by combination).
     sigma : ndarray, shape (r,)
-        Its standard deviations.
+        Its standard deviations (same units).
     effort_sigma : ndarray, shape (n_actuators,)
-        Each actuator's effort-error standard deviation, from its residuals (the rows' weights were ``1/σ_j``).
+        Each actuator's effort-error standard deviation (N·m or N), from its residuals (the rows' weights were
+        ``1/σ_j``).
     residual : ndarray, shape (N, n_actuators)
-        The measured efforts less those the estimate predicts.
+        The measured efforts less those the estimate predicts (N·m or N).
     condition_number : float
         :func:`scaled_condition_number` of the weighted observation matrix.
     covariance : ndarray, shape (r, r)
         The estimate's covariance (``sigma`` is the root of its diagonal).
     coulomb_rate : float
         The drives' Coulomb friction model the estimate is for (:func:`~pkmlab.algorithms.regressor.coulomb_shape`).
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> q, theta_dot, theta_ddot = pkmlab.random_states(model, 50)
+    >>> tau = pkmlab.inverse_dynamics(model, q, theta_dot, theta_ddot)
+    >>> result = pkmlab.identify(model, q, theta_dot, theta_ddot, tau)
+    >>> result.names[1], result.drives, list(result.summary())[:3]
+    ('body1_2.my', False, ['base_parameters', 'condition_number', 'samples'])
     """
 
     base: BaseParameters
@@ -283,13 +324,35 @@ class Identification:
         return any(name.startswith("drive") for name in self.base.parameters)
 
     def predict(self, model, q, theta_dot, theta_ddot) -> np.ndarray:
-        """The efforts (..., n_actuators) that the estimate predicts at the states given (e.g. a held-out run)."""
+        """The efforts that the estimate predicts at the states given (e.g. a held-out run).
+
+        Parameters
+        ----------
+        model : MechanismModel
+            The machine the estimate is of.
+        q : array_like, shape (..., n)
+            Configurations on the loop closures (rad or m per entry).
+        theta_dot, theta_ddot : array_like, shape (..., n_actuators)
+            The actuator rates (rad/s or m/s) and accelerations (rad/s² or m/s²).
+
+        Returns
+        -------
+        ndarray, shape (..., n_actuators)
+            The efforts (N·m or N).
+        """
         Y = dynamics_regressor(model, q, theta_dot, theta_ddot, drives=self.drives, coulomb_rate=self.coulomb_rate)
         return self.base.regressor(Y) @ self.estimate
 
     def summary(self) -> dict:
-        """The estimate as plain data: one record per base parameter, the condition number, the effort-error
-        standard deviations and the RMS residual per actuator, the unidentifiable parameters."""
+        """The estimate as plain data.
+
+        Returns
+        -------
+        dict
+            ``base_parameters`` (one record per base parameter: ``name``, ``estimate``, ``sigma``,
+            ``relative_sigma_percent``), ``condition_number``, ``samples``, ``effort_sigma`` and ``rms_residual``
+            (one per actuator, N·m or N), ``unidentifiable``.
+        """
         rows = [{"name": n, "estimate": float(e), "sigma": float(s), "relative_sigma_percent": float(r)}
                 for n, e, s, r in zip(self.names, self.estimate, self.sigma, self.relative_sigma, strict=True)]
         return {"base_parameters": rows, "condition_number": self.condition_number,
@@ -325,11 +388,12 @@ def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, coul
     model : MechanismModel
         The machine whose geometry the data come from (its inertial parameters are not used).
     q : array_like, shape (N, n)
-        Configurations on the loop closures.
+        Configurations on the loop closures (rad or m per entry).
     theta_dot, theta_ddot : array_like, shape (N, n_actuators)
-        The actuators' rates and accelerations (from a log: :func:`filter_measurements`).
+        The actuators' rates (rad/s or m/s) and accelerations (rad/s² or m/s²; from a log:
+        :func:`filter_measurements`).
     tau : array_like, shape (N, n_actuators)
-        The measured efforts.
+        The measured efforts (N·m or N).
     drives : bool
         Estimate the drives' armature, viscous and Coulomb friction too.
     coulomb_rate : float
@@ -343,11 +407,16 @@ def identify(model, q, theta_dot, theta_ddot, tau, *, drives: bool = False, coul
     Returns
     -------
     Identification
+        The estimate, its standard deviations and covariance, the residuals and the condition number.
 
     Raises
     ------
     InvalidParameterError
-        With fewer equations than base parameters, or data that leave one undetermined (named).
+        With fewer equations than base parameters, data that leave one undetermined (named), ``base`` not the
+        base parameters of ``model`` (with ``drives`` as given), or states that are refused (off the loop
+        closures, shapes that do not broadcast).
+    SingularityError
+        If a state is at a gain-type singularity.
 
     Examples
     --------

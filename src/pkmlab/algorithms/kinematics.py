@@ -109,20 +109,31 @@ def constraint_residuals(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------ inverse kinematics
 @dataclass(frozen=True)
 class InverseKinematicsSolution:
-    """Result of :func:`inverse_kinematics`.
+    """Result of :func:`inverse_kinematics`: the configurations at given poses, in one working mode or in all.
 
     Attributes
     ----------
     q : ndarray, shape (..., n) for one working mode, (..., n_modes, n) for all of them
-        Configurations, in the order of ``modes``; NaN where a leg cannot reach (``on_unreachable="nan"``).
+        Configurations (rad or m per entry, ``model.coordinates``), in the order of ``modes``; NaN where a leg
+        cannot reach (``on_unreachable="nan"``).
     modes : ndarray of int, shape (k,) or (n_modes, k)
         The working modes: one sign per two-branch leg (``k`` may be 0: one mode, no signs).
     unreachable_legs : ndarray of int, shape (...) or (..., n_modes)
         Bit ``i`` set where leg ``i + 1`` cannot reach.
     S : ndarray, shape (...) or (..., n_modes)
-        The singularity measure of each solution (NaN where unreachable).
+        The singularity measure of each solution (dimensionless; NaN where unreachable).
     n_actuators : int
         How many of ``q``'s leading entries are the actuators.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> ik = pkmlab.inverse_kinematics(pkmlab.load("paper"), [0.20, 0.21, 0.0])
+    >>> ik.q.shape, ik.modes.shape
+    ((8, 9), (8, 3))
+    >>> bool(ik.reachable.all())
+    True
     """
 
     q: np.ndarray
@@ -133,11 +144,12 @@ class InverseKinematicsSolution:
 
     @property
     def theta(self) -> np.ndarray:
-        """The actuator values ``θ`` (..., n_actuators)."""
+        """The actuator values ``θ``, ``q[..., :n_actuators]`` (rad or m), shape (..., n_actuators)."""
         return self.q[..., :self.n_actuators]
 
     @property
     def reachable(self) -> np.ndarray:
+        """Where every leg reaches (``unreachable_legs == 0``), boolean, shape as ``unreachable_legs``."""
         return self.unreachable_legs == 0
 
 
@@ -159,21 +171,51 @@ def as_working_mode(model: MechanismModel, mode, name: str = "working_mode"):
 
 
 def working_modes(model: MechanismModel) -> np.ndarray:
-    """Every working mode (n_modes, k): one sign per two-branch leg, +1 before -1, lexicographic order
-    (one empty mode, shape (1, 0), when no leg has two branches, as for the 3-RPR)."""
+    """Every working mode of ``model``: one sign per two-branch leg.
+
+    The modes are listed +1 before -1, in lexicographic order (conventions §3 defines the signs); a machine with
+    no two-branch leg, as the 3-RPR, has one empty mode, shape (1, 0).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+
+    Returns
+    -------
+    ndarray of int, shape (n_modes, k)
+        ``k`` signs (+1 or -1) per mode.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is not a pkmlab model.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> modes = pkmlab.working_modes(pkmlab.load("paper"))
+    >>> modes.shape, modes[:2].tolist()
+    ((8, 3), [[1, 1, 1], [1, 1, -1]])
+    >>> pkmlab.working_modes(pkmlab.load("3rpr")).shape
+    (1, 0)
+    """
     modes = mm.working_modes(as_model(model))
     return np.array(modes, dtype=np.int64).reshape(len(modes), -1)
 
 
 def inverse_kinematics(model: MechanismModel, pose, mode=None, *, on_unreachable: str = "raise"):
-    """The configurations that put the platform at ``pose``, in every working mode or in one
-    (closed form per leg type; conventions §3 defines the modes' signs).
+    """The configurations that put the platform at ``pose``, in every working mode or in one.
+
+    Closed form per leg type; conventions §3 defines the modes' signs. Each solution's singularity measure is
+    computed too.
 
     Parameters
     ----------
     model : MechanismModel
+        The machine (:func:`pkmlab.load`).
     pose : array_like, shape (..., dof)
-        The platform's pose (``model.pose_names``; metres and radians).
+        The platform's pose (``model.pose_names``; m and rad).
     mode : sequence of signs, optional
         One working mode (``(1, -1, 1)``, ``"+-+"``); every mode (:func:`working_modes`) when omitted.
     on_unreachable : {"raise", "nan"}
@@ -183,6 +225,28 @@ def inverse_kinematics(model: MechanismModel, pose, mode=None, *, on_unreachable
     Returns
     -------
     InverseKinematicsSolution
+        ``q`` (..., n) and ``S`` (...) for one mode; (..., n_modes, n) and (..., n_modes) for all;
+        ``unreachable_legs`` a bit per leg that cannot reach.
+
+    Raises
+    ------
+    UnreachablePoseError
+        With ``on_unreachable="raise"``, where a leg cannot reach the pose (its ``legs`` and ``index`` say which).
+    InvalidParameterError
+        If ``pose`` does not have ``dof`` components, ``mode`` is not one sign per two-branch leg, or
+        ``on_unreachable`` is neither choice.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> ik = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1))
+    >>> np.round(ik.theta, 4).tolist(), f"{float(ik.S):.4f}"
+    ([1.6146, 1.9831, -1.1846], '-0.7446')
+    >>> far = pkmlab.inverse_kinematics(model, [[0.2, 0.21, 0.0], [2.0, 2.0, 0.0]], mode="+-+", on_unreachable="nan")
+    >>> far.unreachable_legs.tolist()
+    [0, 7]
     """
     from ..errors import UnreachablePoseError
 
@@ -222,8 +286,26 @@ def inverse_kinematics(model: MechanismModel, pose, mode=None, *, on_unreachable
 # ------------------------------------------------------------------ forward kinematics
 @dataclass(frozen=True)
 class AssemblyMode:
-    """One solution of forward kinematics: the configuration ``q`` (n,), the platform's ``pose`` (dof,)
-    and the singularity measure ``S`` there."""
+    """One solution of forward kinematics (conventions §3).
+
+    Attributes
+    ----------
+    q : ndarray, shape (n,)
+        The configuration (rad or m per entry).
+    pose : ndarray, shape (dof,)
+        The platform's pose, ``q[-dof:]`` (m, rad).
+    S : float
+        The singularity measure there (dimensionless).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> fk = pkmlab.forward_kinematics(pkmlab.load("paper"), [1.6146, 1.9831, -1.1846])
+    >>> mode = fk[0]
+    >>> np.round(mode.pose, 2).tolist(), f"{mode.S:.3f}"
+    ([0.22, 0.3, -0.58], '0.815')
+    """
 
     q: np.ndarray
     pose: np.ndarray
@@ -232,7 +314,9 @@ class AssemblyMode:
 
 @dataclass(frozen=True)
 class ForwardKinematicsSolution:
-    """Every assembly mode for each ``θ`` of a batch.
+    """Every assembly mode for each ``θ`` of a batch: the result of :func:`forward_kinematics`.
+
+    For a single ``θ`` the object is a sequence of :class:`AssemblyMode` (``len``, indexing, iteration).
 
     Attributes
     ----------
@@ -240,14 +324,22 @@ class ForwardKinematicsSolution:
         Up to ``m`` configurations per ``θ`` (``m`` the most found in the batch), sorted by the pose's
         last coordinate; the first ``count`` are valid, the rest NaN.
     pose : ndarray, shape (..., m, dof)
+        The platform's pose of each (m, rad).
     S : ndarray, shape (..., m)
+        The singularity measure of each (dimensionless).
     count : ndarray of int, shape (...)
         How many assembly modes exist (0 where the machine cannot be assembled).
     method : str
         The method that found them and what it guarantees
         (:func:`~pkmlab.algorithms.assembly.method_statement`).
 
-    For a single ``θ`` the object is a sequence of :class:`AssemblyMode`.
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> fk = pkmlab.forward_kinematics(pkmlab.load("paper"), [1.6146, 1.9831, -1.1846])
+    >>> len(fk), (np.round(fk.pose, 2) + 0.0).tolist()
+    (2, [[0.22, 0.3, -0.58], [0.2, 0.21, 0.0]])
     """
 
     q: np.ndarray
@@ -269,7 +361,32 @@ class ForwardKinematicsSolution:
         return AssemblyMode(self.q[j].copy(), self.pose[j].copy(), float(self.S[j]))
 
     def nearest(self, pose) -> AssemblyMode:
-        """The assembly mode whose pose is nearest to ``pose`` (angles compared modulo 2π)."""
+        """The assembly mode whose pose is nearest to ``pose`` (angles compared modulo 2π).
+
+        Parameters
+        ----------
+        pose : array_like, shape (dof,)
+            The pose to compare with (m, rad).
+
+        Returns
+        -------
+        AssemblyMode
+
+        Raises
+        ------
+        IndexError
+            If there is no assembly mode.
+        TypeError
+            If the solution is a batch (use one ``θ``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import pkmlab
+        >>> fk = pkmlab.forward_kinematics(pkmlab.load("paper"), [1.6146, 1.9831, -1.1846])
+        >>> (np.round(fk.nearest([0.2, 0.2, 0.0]).pose, 3) + 0.0).tolist()
+        [0.2, 0.21, 0.0]
+        """
         n = len(self)
         if n == 0:
             raise IndexError("no assembly mode")
@@ -286,7 +403,7 @@ def _pose_angles(dof: int) -> np.ndarray:
 
 
 def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolution:
-    """Every assembly mode at the actuator values ``theta`` (..., n_actuators).
+    """Every assembly mode at the actuator values ``theta``.
 
     Planar machines whose legs hold their attachment points on circles: the real roots of one degree-6
     polynomial (the paper's eq. 12 in Gosselin's general form); the five-bar: two circles; the Delta: three
@@ -295,10 +412,40 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
     (:class:`~pkmlab.errors.IncompleteSolutionWarning`) where it cannot be sure it found every mode. Each
     configuration is polished by Newton's method on ``η = 0``.
 
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    theta : array_like, shape (..., n_actuators)
+        The actuator values (rad for a revolute actuator, m for a prismatic one).
+
     Returns
     -------
     ForwardKinematicsSolution
-        ``count`` is 0 where the machine cannot be assembled.
+        ``q`` (..., m, n), ``pose`` (..., m, dof), ``S`` (..., m), ``count`` (...): ``count`` is 0 where the
+        machine cannot be assembled.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``theta`` does not have ``n_actuators`` components, or an entry is refused (the message names it).
+    SingularityError
+        Where the method cannot solve at an entry of ``theta`` (the message names it).
+
+    Warns
+    -----
+    IncompleteSolutionWarning
+        Where the orientation sweep cannot be sure it found every assembly mode.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> fk = pkmlab.forward_kinematics(pkmlab.load("paper"), [1.6146, 1.9831, -1.1846])
+    >>> int(fk.count), np.round(fk.S, 3).tolist()
+    (2, [0.815, -0.745])
+    >>> fk.method
+    "every real root of one degree-6 polynomial (the paper's eq. 12, Gosselin's general form): complete"
     """
     model = as_model(model)
     thetas, shape = as_batch("theta", theta, model.n_actuators)
@@ -326,30 +473,46 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
 
 def branch_following(model: MechanismModel, q_previous, theta, *, singularity_guard: float = SINGULAR_S,
                      max_step: float = 0.05) -> np.ndarray:
-    """The configuration at ``theta`` continuously connected to ``q_previous`` (paper §3.2): the forward
-    kinematics a simulation uses, the compiled core's own.
+    """The configuration at ``theta`` continuously connected to ``q_previous`` (paper §3.2).
+
+    The forward kinematics a simulation uses, the compiled core's own: the actuators are moved from
+    ``q_previous``'s to ``theta`` in sub-steps, the passive coordinates and the pose solved at each.
 
     Parameters
     ----------
     model : MechanismModel
+        The machine (:func:`pkmlab.load`).
     q_previous : array_like, shape (..., n)
-        Configurations on the loop closure (the assembly modes to follow).
+        Configurations on the loop closure (the assembly modes to follow; rad or m per entry).
     theta : array_like, shape (..., n_actuators)
-        The actuator values to follow them to (broadcast against ``q_previous``).
+        The actuator values to follow them to (rad or m; broadcast against ``q_previous``).
     singularity_guard : float
-        The guard: the way may not come nearer a gain-type singularity (``|S|`` below it).
+        The guard (dimensionless, non-negative): the way may not come nearer a gain-type singularity
+        (``|S|`` below it). Default :data:`SINGULAR_S`.
     max_step : float
-        The largest sub-step in the actuators (halved where one fails; an angle moves the shorter way
-        round, by at most π).
+        The largest sub-step in the actuators (rad or m, positive; halved where one fails; an angle moves the
+        shorter way round, by at most π).
 
     Returns
     -------
     ndarray, shape (..., n)
+        The configurations at ``theta``.
 
     Raises
     ------
     BranchFollowingError
         Where the way nears a gain-type singularity or the passive coordinates cannot be found.
+    InvalidParameterError
+        If an argument has the wrong shape or value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> np.round(pkmlab.branch_following(model, q, q[:3] + 0.01)[-3:], 4).tolist()
+    [0.1994, 0.2095, -0.0316]
     """
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
@@ -373,31 +536,48 @@ def branch_following(model: MechanismModel, q_previous, theta, *, singularity_gu
 
 def follow_path(model: MechanismModel, q_start, theta, *, singularity_guard: float = SINGULAR_S,
                 max_step: float = 0.05) -> np.ndarray:
-    """The configurations along a path of actuator values ``theta`` (K, n_actuators), each followed from the one
-    before it and the first from ``q_start`` (paper §3.2, as a simulation follows its plant): what a log of
+    """The configurations along a path of actuator values ``theta``, each followed from the one before it.
+
+    The first is followed from ``q_start`` (paper §3.2, as a simulation follows its plant): what a log of
     measured actuators gives of the passive joints and the pose.
 
     Parameters
     ----------
     model : MechanismModel
+        The machine (:func:`pkmlab.load`).
     q_start : array_like, shape (n,)
-        A configuration on the loop closure near ``theta[0]`` (the assembly mode to follow).
+        A configuration on the loop closure near ``theta[0]`` (the assembly mode to follow; rad or m per entry).
     theta : array_like, shape (K, n_actuators)
-        The actuator values in turn, sampled densely enough that each step stays on the branch.
+        The actuator values in turn (rad or m), sampled densely enough that each step stays on the branch.
     singularity_guard : float
-        The path may not come nearer a gain-type singularity (``|S|`` below it).
+        The path may not come nearer a gain-type singularity (``|S|`` below it; dimensionless).
     max_step : float
-        The largest change of an actuator from one row to the next: a longer step could land on another
-        branch unseen, so it is refused (sample the path more densely).
+        The largest change of an actuator from one row to the next (rad or m): a longer step could land on
+        another branch unseen, so it is refused (sample the path more densely).
 
     Returns
     -------
     ndarray, shape (K, n)
+        The configuration at each row of ``theta``.
 
     Raises
     ------
     BranchFollowingError
-        Naming the first row of ``theta`` that cannot be reached, or that jumps farther than ``max_step``.
+        Naming the first row of ``theta`` that cannot be reached, or that jumps farther than ``max_step``
+        (its ``row`` and ``reason`` attributes say which and why).
+    InvalidParameterError
+        If ``q_start`` is off the loop closure, or an argument has the wrong shape or value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q0 = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> theta = q0[:3] + np.linspace(0.0, 0.05, 6)[:, None] * [1.0, 0.0, 0.0]
+    >>> qs = pkmlab.follow_path(model, q0, theta)
+    >>> qs.shape, np.round(qs[-1, -3:], 4).tolist()
+    ((6, 9), [0.2005, 0.2263, -0.0976])
     """
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
@@ -431,15 +611,73 @@ def follow_path(model: MechanismModel, q_start, theta, *, singularity_guard: flo
 
 # ------------------------------------------------------------------ first-order kinematics
 def constraint_residual(model: MechanismModel, q) -> np.ndarray:
-    """The loop-closure residual ``η(q)`` (..., n_constraints): for each leg, the end of its chain minus its
-    platform attachment point (zero on the manifold; the paper's eqs. 2–6 for its machine)."""
+    """The loop-closure residual ``η(q)``.
+
+    For each leg, the end of its chain minus its platform attachment point (zero on the manifold; the paper's
+    eqs. 2–6 for its machine).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations (rad or m per entry).
+
+    Returns
+    -------
+    ndarray, shape (..., n_constraints)
+        The residuals (m), 2 rows per leg in the plane, 3 in space.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` does not have ``n`` components.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> eta = pkmlab.constraint_residual(model, q)
+    >>> eta.shape, bool(np.abs(eta).max() < 1e-12)
+    ((6,), True)
+    """
     model = as_model(model)
     qs, shape = _configurations(model, q)
     return constraint_residuals(model, qs).reshape(*shape, model.kernels.N_CONSTRAINTS)
 
 
 def constraint_jacobian(model: MechanismModel, q) -> np.ndarray:
-    """``Jηq = ∂η/∂q`` (..., n_constraints, n)."""
+    """The constraint Jacobian ``Jηq = ∂η/∂q``.
+
+    Its columns of the actuators are ``Jηθ``, those of the passive joints and the pose ``Jηφ``.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations (rad or m per entry); need not be on the loop closure.
+
+    Returns
+    -------
+    ndarray, shape (..., n_constraints, n)
+        m per unit of each coordinate (m/rad or m/m).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` does not have ``n`` components.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> pkmlab.constraint_jacobian(model, q).shape
+    (6, 9)
+    """
     model = as_model(model)
     qs, shape = _configurations(model, q)
     k = model.kernels
@@ -462,8 +700,39 @@ def _dependent_solve(model: MechanismModel, j_eta: np.ndarray, rhs: np.ndarray, 
 
 
 def coordinate_jacobian(model: MechanismModel, q) -> np.ndarray:
-    """``Jqθ = ∂q/∂θ`` (..., n, n_actuators) on the loop closure: ``q̇ = Jqθ θ̇`` (the paper's eq. 31, for
-    every machine). Its first rows are the identity."""
+    """The coordinate Jacobian ``Jqθ = ∂q/∂θ`` on the loop closure.
+
+    ``q̇ = Jqθ θ̇`` (the paper's eq. 31, for every machine). Its first ``n_actuators`` rows are the identity.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+
+    Returns
+    -------
+    ndarray, shape (..., n, n_actuators)
+        Each coordinate's rate per unit actuator rate.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual) or does not have ``n`` components.
+    SingularityError
+        At a gain-type singularity, where the passive coordinates' rates are undetermined.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> J = pkmlab.coordinate_jacobian(model, q)
+    >>> J.shape, bool(np.array_equal(J[:3], np.eye(3)))
+    ((9, 3), True)
+    """
     model = as_model(model)
     qs, shape = _configurations(model, q)
     check_loop_closure(model, qs, shape)
@@ -475,21 +744,116 @@ def coordinate_jacobian(model: MechanismModel, q) -> np.ndarray:
 
 
 def velocity_jacobian(model: MechanismModel, q) -> np.ndarray:
-    """``Jv = ∂pose/∂θ`` (..., dof, n_actuators): the platform's pose rates from the actuator rates (the last
-    ``dof`` rows of :func:`coordinate_jacobian`)."""
+    """The velocity Jacobian ``Jv = ∂pose/∂θ``: the platform's pose rates from the actuator rates.
+
+    The last ``dof`` rows of :func:`coordinate_jacobian`, orientation included.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+
+    Returns
+    -------
+    ndarray, shape (..., dof, n_actuators)
+        The pose's rates (m/s, rad/s) per unit actuator rate (rad/s or m/s).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual) or does not have ``n`` components.
+    SingularityError
+        At a gain-type singularity.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> np.round(pkmlab.velocity_jacobian(model, q), 4)
+    array([[-0.0029, -0.1431,  0.0861],
+           [ 0.2654, -0.3092, -0.0161],
+           [-1.5534, -0.2195, -1.3871]])
+    """
     return coordinate_jacobian(model, q)[..., -as_model(model).description.dof:, :]
 
 
 def coordinate_rates(model: MechanismModel, q, theta_dot) -> np.ndarray:
-    """``q̇ = Jqθ θ̇`` (..., n) at configurations ``q`` for actuator rates ``theta_dot`` (broadcast)."""
+    """The coordinates' rates ``q̇ = Jqθ θ̇`` at configurations ``q`` for actuator rates ``theta_dot``.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+    theta_dot : array_like, shape (..., n_actuators)
+        The actuator rates (rad/s or m/s; broadcast against ``q``).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        rad/s or m/s per coordinate.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure or the shapes do not broadcast.
+    SingularityError
+        At a gain-type singularity.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> np.round(pkmlab.coordinate_rates(model, q, [0.1, 0.0, 0.0]), 4).tolist()
+    [0.1, 0.0, 0.0, 0.2515, -0.107, -0.1721, -0.0003, 0.0265, -0.1553]
+    """
     model = as_model(model)
     qs, theta_dots, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
     return np.einsum("kij,kj->ki", coordinate_jacobian(model, qs), theta_dots).reshape(*shape, len(model.coordinates))
 
 
 def acceleration_bias(model: MechanismModel, q, theta_dot) -> np.ndarray:
-    """``J̇qθ θ̇`` (..., n): the coordinates' accelerations at zero actuator acceleration, so that
-    ``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (the paper's eq. 32, for every machine)."""
+    """The acceleration bias ``J̇qθ θ̇``: the coordinates' accelerations at zero actuator acceleration.
+
+    So that ``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (the paper's eq. 32, for every machine); zero in the actuators' rows.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+    theta_dot : array_like, shape (..., n_actuators)
+        The actuator rates (rad/s or m/s; broadcast against ``q``).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        rad/s² or m/s² per coordinate.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure, the shapes do not broadcast, or ``theta_dot`` overflows the result.
+    SingularityError
+        At a gain-type singularity.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> np.round(pkmlab.acceleration_bias(model, q, [0.1, 0.0, 0.0]), 4).tolist()
+    [0.0, 0.0, 0.0, 0.1413, -0.0614, -0.1041, 0.0037, 0.0159, -0.1039]
+    """
     model = as_model(model)
     qs, theta_dots, shape = as_broadcast(("q", q, len(model.coordinates)), ("theta_dot", theta_dot, model.n_actuators))
     q_dot = coordinate_rates(model, qs, theta_dots)
@@ -504,7 +868,40 @@ def acceleration_bias(model: MechanismModel, q, theta_dot) -> np.ndarray:
 
 
 def coordinate_accelerations(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndarray:
-    """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., n)."""
+    """The coordinates' accelerations ``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (the paper's eq. 32).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+    theta_dot : array_like, shape (..., n_actuators)
+        The actuator rates (rad/s or m/s).
+    theta_ddot : array_like, shape (..., n_actuators)
+        The actuator accelerations (rad/s² or m/s²); all three broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        rad/s² or m/s² per coordinate.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure, the shapes do not broadcast, or the rates overflow.
+    SingularityError
+        At a gain-type singularity.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> np.round(pkmlab.coordinate_accelerations(model, q, [0.1, 0.0, 0.0], [1.0, 0.0, 0.0]), 4).tolist()
+    [1.0, 0.0, 0.0, 2.6567, -1.1311, -1.8255, 0.0007, 0.2813, -1.6573]
+    """
     model = as_model(model)
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
@@ -515,10 +912,37 @@ def coordinate_accelerations(model: MechanismModel, q, theta_dot, theta_ddot) ->
 
 
 def singularity_measure(model: MechanismModel, q) -> np.ndarray:
-    """The gain-type singularity measure ``S`` (...) at configurations ``q`` on the loop closures: zero where the
-    passive motion is undetermined (conventions §2: the determinant of the legs' lines of action, the paper's
-    eq. 19 for its machine; ``sin(φ1 - φ2)`` for the five-bar). A configuration off them is refused, naming its
-    residual."""
+    """The gain-type singularity measure ``S`` at configurations ``q`` on the loop closures.
+
+    Zero where the passive motion is undetermined, with its sign (conventions §2: the determinant of the legs'
+    lines of action, the paper's eq. 19 for its machine; ``sin(φ1 - φ2)`` for the five-bar).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        ``S``, dimensionless.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (the measure of a configuration the machine cannot be in means
+        nothing; the message names its residual) or does not have ``n`` components.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> f"{float(pkmlab.singularity_measure(model, q)):.4f}"
+    '-0.7446'
+    """
     model = as_model(model)
     qs, shape = _configurations(model, q)
     check_loop_closure(model, qs, shape)  # the measure of a configuration the machine cannot be in means nothing

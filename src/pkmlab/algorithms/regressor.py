@@ -96,9 +96,25 @@ def _counts(model: MechanismModel) -> list[int]:
 
 
 def inertial_parameter_names(model) -> tuple[str, ...]:
-    """The names of the standard inertial parameters (:func:`inertial_parameters`), ``"<body>.<parameter>"``:
+    """The names of the standard inertial parameters (:func:`inertial_parameters`), ``"<body>.<parameter>"``.
+
     ``body1_2.mx`` is the first moment along x of leg 1's second body, ``platform.Izz`` the platform's inertia
-    about its reference point.
+    about its reference point. A planar body has ``m, mx, my, Izz`` (a point platform ``m`` only), a spatial one
+    ``m, mx, my, mz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz``; the legs' bodies come first, leg by leg, then the platform.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+
+    Returns
+    -------
+    tuple of str, length p
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is not a pkmlab model.
 
     Examples
     --------
@@ -113,9 +129,33 @@ def inertial_parameter_names(model) -> tuple[str, ...]:
 
 
 def inertial_parameters(model) -> np.ndarray:
-    """The standard inertial parameters ``π`` (p,) of ``model``'s bodies (:func:`inertial_parameter_names`; kg,
-    kg·m, kg·m²), from the description's masses, mass centres and inertias about them (the parallel-axis
-    theorem moves the inertia to the body frame's origin)."""
+    """The standard inertial parameters ``π`` of ``model``'s bodies (:func:`inertial_parameter_names`).
+
+    From the description's masses, mass centres and inertias about them (the parallel-axis theorem moves the
+    inertia to the body frame's origin).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+
+    Returns
+    -------
+    ndarray, shape (p,)
+        Masses (kg), first moments (kg·m) and inertias (kg·m²), in the names' order.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is not a pkmlab model.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> np.round(inertial_parameters(pkmlab.load("five_bar"))[:4], 5).tolist()
+    [0.3, 0.0375, 0.0, 0.00629]
+    """
     model = as_model(model)
     values = []
     for (_, body), count in zip(_bodies(model), _counts(model), strict=True):
@@ -130,8 +170,24 @@ def inertial_parameters(model) -> np.ndarray:
 
 
 def drive_parameter_names(model) -> tuple[str, ...]:
-    """The names of the drive parameters (:data:`DRIVE_PARAMETERS`) of every actuator, ``"drive<j>.<parameter>"``:
-    ``drive2.fv`` is the second actuator's viscous friction.
+    """The names of the drive parameters (:data:`DRIVE_PARAMETERS`) of every actuator, ``"drive<j>.<parameter>"``.
+
+    ``drive2.fv`` is the second actuator's viscous friction; ``Ia`` is the armature (kg·m² or kg), ``fv`` the
+    viscous friction (N·m·s/rad or N·s/m), ``fc`` the Coulomb friction (N·m or N).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+
+    Returns
+    -------
+    tuple of str, length 3 n_actuators
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is not a pkmlab model.
 
     Examples
     --------
@@ -254,30 +310,41 @@ def _spatial_columns(J, bias, R, q_dots, q_ddots, gravity) -> np.ndarray:
 
 def dynamics_regressor(model, q, theta_dot, theta_ddot, *, drives: bool = False,
                        coulomb_rate: float = 0.0) -> np.ndarray:
-    """The regressor ``Y`` of the actuator-space inverse dynamics: ``τ = Y π`` with ``π`` the standard inertial
-    parameters (:func:`inertial_parameters`), at configurations ``q`` on the loop closures, actuator rates
-    ``theta_dot`` and accelerations ``theta_ddot`` (eq. 35 written linearly in the inertial parameters); with
-    ``drives``, followed by the drives' columns (:func:`drive_regressor`), for efforts measured at the motors.
+    """The regressor ``Y`` of the actuator-space inverse dynamics: ``τ = Y π``.
+
+    ``π`` are the standard inertial parameters (:func:`inertial_parameters`), at configurations ``q`` on the loop
+    closures, actuator rates ``theta_dot`` and accelerations ``theta_ddot`` (eq. 35 written linearly in the
+    inertial parameters); with ``drives``, followed by the drives' columns (:func:`drive_regressor`), for
+    efforts measured at the motors.
 
     Parameters
     ----------
     model : MechanismModel
+        The machine (:func:`pkmlab.load`).
     q : array_like, shape (..., n)
-        Configurations on the loop closures (a configuration off them is refused, naming its residual).
+        Configurations on the loop closures (rad or m per entry; a configuration off them is refused, naming
+        its residual).
     theta_dot, theta_ddot : array_like, shape (..., n_actuators)
-        The actuators' rates and accelerations (broadcast against ``q``).
-
+        The actuators' rates (rad/s or m/s) and accelerations (rad/s² or m/s²), broadcast against ``q``.
     drives : bool
         Append the drives' columns (armature, viscous and Coulomb friction of every actuator).
     coulomb_rate : float
         The drives' Coulomb friction model (:func:`coulomb_shape`): ``tanh(θ̇ / coulomb_rate)``, or ``sign(θ̇)``
-        for 0 (default). Identify with the model the controller will compensate with.
+        for 0 (default); rad/s or m/s. Identify with the model the controller will compensate with.
 
     Returns
     -------
     ndarray, shape (..., n_actuators, p)
         One column per parameter of :func:`parameter_names`, in the actuators' units (N·m or N) per unit of
         the parameter.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closures, the shapes do not broadcast, an option is refused, or the rates or
+        accelerations overflow the regressor.
+    SingularityError
+        At a gain-type singularity.
 
     Examples
     --------
@@ -321,16 +388,41 @@ MAX_STATES = 100_000
 
 
 def random_states(model, count: int = 64, *, seed: int = 0, mode=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``count`` random states ``(q, θ̇, θ̈)`` of ``model``, away from its singularities: a random walk of the
-    actuators from a well-conditioned configuration of working mode ``mode`` (default the first), each step
+    """``count`` random states ``(q, θ̇, θ̈)`` of ``model``, away from its singularities.
+
+    A random walk of the actuators from a well-conditioned configuration of working mode ``mode``, each step
     followed on its assembly mode (steps that near a singularity are drawn again), with rates and accelerations
-    drawn from a standard normal distribution (rad/s or m/s, and per second). Reproducible from ``seed`` (a
-    non-negative integer); ``mode`` is one sign per two-branch leg, or ``"auto"``.
+    drawn from a standard normal distribution (rad/s or m/s, and per second). Reproducible from ``seed``.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    count : int
+        How many states, 1 to :data:`MAX_STATES` (default 64).
+    seed : int
+        The random generator's seed, a non-negative integer.
+    mode : sequence of signs or "auto", optional
+        One sign per two-branch leg; the first working mode when omitted or ``"auto"``.
 
     Returns
     -------
     q : ndarray, shape (count, n)
+        Configurations on the loop closures (rad or m per entry).
     theta_dot, theta_ddot : ndarray, shape (count, n_actuators)
+        Actuator rates (rad/s or m/s) and accelerations (rad/s² or m/s²).
+
+    Raises
+    ------
+    InvalidParameterError
+        If an argument is refused, or fewer than ``count`` states away from the singularities are found.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> q, theta_dot, theta_ddot = pkmlab.random_states(pkmlab.load("five_bar"), 8, seed=1)
+    >>> q.shape, theta_dot.shape, theta_ddot.shape
+    ((8, 6), (8, 2), (8, 2))
     """
     from ..errors import BranchFollowingError
     from .kinematics import as_working_mode, branch_following, length_scale, singularity_measure
@@ -365,13 +457,14 @@ def random_states(model, count: int = 64, *, seed: int = 0, mode=None) -> tuple[
 
 @dataclass(frozen=True)
 class BaseParameters:
-    """The base parameters of a model (:func:`base_parameters`): the fewest combinations of the standard
-    inertial parameters that determine the efforts.
+    """The base parameters of a model (:func:`base_parameters`).
+
+    The fewest combinations of the standard inertial parameters that determine the efforts.
 
     Attributes
     ----------
     names : tuple of str
-        Each base parameter as the combination it is, e.g. ``"body1_1.Izz + 0.04 body1_2.m"``.
+        Each base parameter as the combination it is, e.g. ``"body1_1.Izz + 0.0625 body1_2.m"``.
     parameters : tuple of str
         The standard parameters (:func:`parameter_names`: the inertial ones, then any drives').
     independent : ndarray of int, shape (r,)
@@ -381,6 +474,18 @@ class BaseParameters:
         dependent ones, 0 elsewhere.
     unidentifiable : tuple of str
         The standard parameters that move no effort at all.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> base = pkmlab.base_parameters(model)
+    >>> q, theta_dot, theta_ddot = pkmlab.random_states(model, 8, seed=1)
+    >>> Y = pkmlab.dynamics_regressor(model, q, theta_dot, theta_ddot)
+    >>> pi = pkmlab.inertial_parameters(model)
+    >>> bool(np.allclose(base.regressor(Y) @ base.of(pi), Y @ pi))
+    True
     """
 
     names: tuple[str, ...]
@@ -391,16 +496,35 @@ class BaseParameters:
 
     @property
     def rank(self) -> int:
-        """The number of base parameters."""
+        """The number of base parameters ``r``."""
         return len(self.independent)
 
     def of(self, pi) -> np.ndarray:
-        """The base parameters ``π_b`` (..., r) of standard parameters ``pi`` (..., p)."""
+        """The base parameters ``π_b`` of standard parameters ``pi``.
+
+        Parameters
+        ----------
+        pi : array_like, shape (..., p)
+            Standard parameters (kg, kg·m, kg·m², and the drives').
+
+        Returns
+        -------
+        ndarray, shape (..., r)
+        """
         return np.asarray(pi, dtype=float) @ self.combination.T
 
     def regressor(self, Y) -> np.ndarray:
-        """The base regressor ``Y_b`` (..., n_actuators, r) of a regressor ``Y`` (..., n_actuators, p): its
-        independent columns, so that ``Y_b π_b = Y π``."""
+        """The base regressor ``Y_b`` of a regressor ``Y``: its independent columns, so that ``Y_b π_b = Y π``.
+
+        Parameters
+        ----------
+        Y : array_like, shape (..., n_actuators, p)
+            A regressor (:func:`dynamics_regressor`).
+
+        Returns
+        -------
+        ndarray, shape (..., n_actuators, r)
+        """
         return np.asarray(Y)[..., self.independent]
 
 
@@ -436,8 +560,9 @@ def _priority(model: MechanismModel, names: tuple[str, ...]) -> list[int]:
 
 
 def base_parameters(model, states=None, *, seed: int = 0, drives: bool = False) -> BaseParameters:
-    """The base parameters of ``model``: the combinations of its standard inertial parameters that the efforts
-    determine, found from the regressor stacked over many states.
+    """The base parameters of ``model``: the combinations of its standard inertial parameters the efforts determine.
+
+    They are found from the regressor stacked over many states.
 
     A column of the stacked regressor that is zero is unidentifiable; the others are taken in turn — the
     platform's, then the legs' bodies' from the base, each body's inertias, first moments, then mass — and a
@@ -448,8 +573,10 @@ def base_parameters(model, states=None, *, seed: int = 0, drives: bool = False) 
     Parameters
     ----------
     model : MechanismModel
+        The machine (:func:`pkmlab.load`).
     states : tuple (q, theta_dot, theta_ddot), optional
-        The states to stack the regressor over (default :func:`random_states` of 64 states from ``seed``).
+        The states to stack the regressor over, shapes (K, n), (K, n_actuators), (K, n_actuators) (default
+        :func:`random_states` of 64 states from ``seed``).
     seed : int
         The random states' seed when ``states`` is not given.
     drives : bool
@@ -459,13 +586,29 @@ def base_parameters(model, states=None, *, seed: int = 0, drives: bool = False) 
     Returns
     -------
     BaseParameters
+        The names, the combination matrix (r, p) and the unidentifiable parameters.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``states`` is not ``(q, theta_dot, theta_ddot)`` or a state is refused (off the loop closures, wrong
+        shape), or an option is refused.
+    SingularityError
+        If a state is at a gain-type singularity.
 
     Examples
     --------
+    The five-bar moves in a horizontal plane (no gravity), so the first moments and masses of its actuated
+    links move no effort; its distal links' masses regroup onto the actuated links' inertias (``0.0625 =
+    0.25²`` m², the actuated link's length squared), and the loop closure ties each distal link's first moment
+    to the others:
+
     >>> import pkmlab
     >>> base = base_parameters(pkmlab.load("five_bar"))
     >>> base.rank, base.names[0]
-    (5, 'body1_1.mx + 0.2 body1_2.m')
+    (7, 'body1_1.Izz + 0.0625 body1_2.m - 0.208333 body1_2.mx')
+    >>> base.unidentifiable[:3]
+    ('body1_1.m', 'body1_1.mx', 'body1_1.my')
     """
     from ..errors import SingularityError
 

@@ -43,15 +43,41 @@ from .kinematics import _configurations, as_model, check_loop_closure, singulari
 
 @dataclass(frozen=True)
 class Singularities:
-    """The three measures at configurations (each ``(...)``, as ``q``'s leading shape): ``inverse`` (serial),
-    ``forward`` (parallel: ``S``) and ``constraint``; a measure near zero is near a singularity of its kind."""
+    """The three singularity measures at configurations (:func:`singularity_kinds`).
+
+    A measure near zero is near a singularity of its kind; each is dimensionless, and the inverse and constraint
+    measures are at most 1 in magnitude (module docstring).
+
+    Attributes
+    ----------
+    inverse : ndarray, shape (...)
+        The inverse (serial, type 1) measure.
+    forward : ndarray, shape (...)
+        The forward (parallel, type 2) measure: ``S`` (:func:`~pkmlab.singularity_measure`), with its sign.
+    constraint : ndarray, shape (...)
+        The constraint measure, non-negative.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.25, 0.2, 0.0], (-1, 1, -1)).q
+    >>> kinds = pkmlab.singularity_kinds(model, q)
+    >>> f"{float(kinds.inverse):.4f} {float(kinds.forward):.4f} {float(kinds.constraint):.4f}", kinds.nearest()
+    ('0.6721 1.4141 0.6792', 'inverse')
+    """
 
     inverse: np.ndarray
     forward: np.ndarray
     constraint: np.ndarray
 
     def nearest(self) -> str:
-        """The kind whose measure is smallest in magnitude (over every configuration given)."""
+        """The kind whose measure is smallest in magnitude (over every configuration given).
+
+        Returns
+        -------
+        {"inverse", "forward", "constraint"}
+        """
         kinds = {"inverse": self.inverse, "forward": self.forward, "constraint": self.constraint}
         return min(kinds, key=lambda k: float(np.min(np.abs(kinds[k]))))
 
@@ -97,8 +123,24 @@ def _orientation_free(model: MechanismModel, q: np.ndarray, size: float) -> np.n
 
 
 def singularity_kinds(model: MechanismModel, q) -> Singularities:
-    """The inverse, forward and constraint singularity measures (module docstring) at configurations ``q``
-    (..., n_coordinates) on the loop closures (a configuration off them is refused, naming its residual).
+    """The inverse, forward and constraint singularity measures (module docstring) at configurations ``q``.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closures (rad or m per entry).
+
+    Returns
+    -------
+    Singularities
+        ``inverse``, ``forward``, ``constraint``, each shape (...), dimensionless.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closures (naming its residual) or does not have ``n`` components.
 
     Examples
     --------

@@ -33,11 +33,35 @@ CONTROLLER_TYPES = {"computed_torque": COMPUTED_TORQUE, "pd": PD}
 
 @dataclass(frozen=True)
 class ControllerSpec:
-    """Which controller and its gains. ``kind`` is ``"computed_torque"`` or ``"pd"``.
+    """Which controller and its gains.
 
     For computed torque ``kp`` (1/s²) and ``kv`` (1/s) shape the error dynamics
     ``ë + kv ė + kp e = 0``; for the PD law ``τ = -kp e - kv ė`` they are in N·m/rad and
-    N·m·s/rad. ``kv`` defaults to ``2√kp`` (critical damping of the linearised loop).
+    N·m·s/rad (N/m and N·s/m for a prismatic actuator). ``kv`` defaults to ``2√kp`` (critical damping of the
+    linearised loop).
+
+    Parameters
+    ----------
+    kind : {"computed_torque", "pd"}
+        The control law (default ``"computed_torque"``).
+    kp : float
+        The proportional gain, non-negative (default 1000).
+    kv : float or None
+        The derivative gain, non-negative; None for ``2√kp`` (:attr:`velocity_gain`).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``kind`` is neither law, or a gain is negative or not a finite number.
+
+    Examples
+    --------
+    >>> from pkmlab import ControllerSpec
+    >>> spec = ControllerSpec(kp=400.0)
+    >>> spec.kind, spec.velocity_gain
+    ('computed_torque', 40.0)
+    >>> ControllerSpec("pd", kp=50.0, kv=2.0).velocity_gain
+    2.0
     """
 
     kind: str = "computed_torque"
@@ -54,6 +78,7 @@ class ControllerSpec:
 
     @property
     def velocity_gain(self) -> float:
+        """The derivative gain in use: ``kv``, or ``2√kp`` where ``kv`` is None (1/s, or N·m·s/rad for the PD law)."""
         return 2.0 * math.sqrt(self.kp) if self.kv is None else float(self.kv)
 
 

@@ -42,12 +42,39 @@ GRID, MAX_GRID = 400, 100_000
 
 @dataclass(frozen=True, eq=False)  # arrays: equal only to itself (hashable, so batches share its desired motion)
 class TimeOptimal:
-    """A trajectory's poses on a time-optimal timing (:func:`time_optimal`): at the grid ``u`` (N + 1,) of the
-    path's parameter (``geometry``, the ``original`` trajectory's :class:`~pkmlab.control.trajectory.PathGeometry`),
-    the path speed ``u_dot`` (N + 1,) and the times ``t_grid`` (N + 1,) they are reached; on each interval the
-    constant ``u_ddot`` (N,). ``limits`` are the actuators' (``{"velocity": (n,), ...}``, those given);
-    ``binding`` (N + 1,) names, at each grid point, the limit nearest to bounding the timing found, as
-    ``(kind, actuator)``."""
+    """A trajectory's poses on a time-optimal timing (:func:`time_optimal`).
+
+    A trajectory itself (``desired``, ``duration``), for a :class:`~pkmlab.Scenario`; at rest at both ends.
+
+    Attributes
+    ----------
+    original : trajectory
+        The trajectory whose path is retimed.
+    geometry : PathGeometry
+        The ``original`` trajectory's :class:`~pkmlab.control.trajectory.PathGeometry`: the path as a function of
+        its parameter ``u``.
+    u : ndarray, shape (N + 1,)
+        The grid of the path's parameter.
+    u_dot : ndarray, shape (N + 1,)
+        The path speed at each grid point (per s).
+    u_ddot : ndarray, shape (N,)
+        The constant path acceleration on each interval (per s²).
+    t_grid : ndarray, shape (N + 1,)
+        The times (s) the grid points are reached.
+    limits : dict
+        The actuators' limits that were given (``{"velocity": (n,), ...}``).
+    binding : tuple of (str, int), length N + 1
+        At each grid point, the limit nearest to bounding the timing found, as ``(kind, actuator)``.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> from pkmlab.control.trajectory import paper_trajectory
+    >>> fast = pkmlab.time_optimal(paper_trajectory(0.2), pkmlab.load("paper"), (-1, 1, -1), velocity=2.0)
+    >>> pose, pose_dot, pose_ddot = fast.desired([0.0, fast.duration])
+    >>> pose.shape, float(abs(pose_dot).max())
+    ((2, 3), 0.0)
+    """
 
     original: object
     geometry: object
@@ -60,10 +87,12 @@ class TimeOptimal:
 
     @property
     def duration(self) -> float:
+        """The time (s) the timing takes: the last of ``t_grid``."""
         return float(self.t_grid[-1])
 
     @property
     def dimension(self) -> int:
+        """The number of the path's pose coordinates (the original trajectory's; 3 for a planar ``(x, y, alpha)``)."""
         return int(getattr(self.original, "dimension", 3))
 
     @property
@@ -74,8 +103,20 @@ class TimeOptimal:
         return isinstance(self.original, TimedWaypoints | Spline) or bool(getattr(self.original, "spatial", False))
 
     def timing(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(u, u̇, ü)`` at times ``t`` (...): ``u`` a quadratic of time on each interval, at rest outside
-        ``[0, duration)`` (at ``t = 0``, ``u̇ = 0`` and ``ü`` the first interval's)."""
+        """The path's parameter and its rates ``(u, u̇, ü)`` at times ``t``.
+
+        ``u`` is a quadratic of time on each interval, at rest outside ``[0, duration)`` (at ``t = 0``, ``u̇ = 0``
+        and ``ü`` the first interval's).
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Times (s).
+
+        Returns
+        -------
+        u, u_dot, u_ddot : ndarray, shape (...)
+        """
         t = np.asarray(t, dtype=float)
         flat = np.clip(t.reshape(-1), 0.0, self.duration)
         k = np.clip(np.searchsorted(self.t_grid, flat, side="right") - 1, 0, len(self.u_ddot) - 1)
@@ -88,8 +129,21 @@ class TimeOptimal:
         return u.reshape(t.shape), u_dot.reshape(t.shape), u_ddot.reshape(t.shape)
 
     def desired(self, t):
-        """``(pose, pose_dot, pose_ddot)``, each (..., d), at times ``t``: the path's ``x(u(t))``,
-        ``x' u̇`` and ``x'' u̇² + x' ü``."""
+        """The desired poses and their derivatives ``(pose, pose_dot, pose_ddot)`` at times ``t``.
+
+        The path's ``x(u(t))``, ``x' u̇`` and ``x'' u̇² + x' ü``.
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Times (s).
+
+        Returns
+        -------
+        pose, pose_dot, pose_ddot : ndarray, shape (..., d)
+            The poses (m, rad), their rates (m/s, rad/s) and accelerations (m/s², rad/s²); ``d`` is
+            :attr:`dimension`.
+        """
         u, u_dot, u_ddot = self.timing(t)
         x, x1, x2 = (np.asarray(a, dtype=float) for a in self.geometry.at(u))
         return x, x1 * u_dot[..., None], x2 * (u_dot**2)[..., None] + x1 * u_ddot[..., None]
@@ -132,14 +186,14 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
 
     Parameters
     ----------
-    trajectory
+    trajectory : trajectory
         Any trajectory (``desired(t)``, ``duration``): its poses give the path (module docstring).
     model : MechanismModel
         The machine (its controller's model): inverse kinematics and inverse dynamics.
-    mode : tuple
-        The working mode the path is followed in.
+    mode : tuple of int
+        The working mode the path is followed in (one sign per two-branch leg; not ``"auto"``).
     velocity, acceleration, effort : array_like (n,) or float, optional
-        The actuators' limits: rad/s or m/s, rad/s² or m/s², N m or N (a number for every actuator alike). At
+        The actuators' limits: rad/s or m/s, rad/s² or m/s², N·m or N (a number for every actuator alike). At
         least one.
     grid : int
         Intervals of the grid along the path, shared among its pieces in proportion to their parameter's length, at
@@ -153,7 +207,9 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
     Raises
     ------
     InvalidParameterError
-        Limits that are not positive numbers, one per actuator, or none given; a grid below 10.
+        Limits that are not positive numbers, one per actuator, or none given; a grid below 10; a
+        ``trajectory`` without ``desired`` and a positive ``duration``; a ``mode`` the machine does not have,
+        or ``"auto"``.
     PkmlabError
         A pose the effort limits cannot hold against gravity (naming the actuator and the pose), or no timing
         that meets the limits.

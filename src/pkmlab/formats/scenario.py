@@ -719,7 +719,33 @@ def scenario_from_text(text: str, source: str | Path) -> Scenario:
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Read a scenario file (format: this module's docstring); its name is the file's stem."""
+    """Read a scenario file (format: this module's docstring); its name is the file's stem.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scenario file (TOML).
+
+    Returns
+    -------
+    Scenario
+        The run the file describes, ready for :func:`~pkmlab.simulate`.
+
+    Raises
+    ------
+    FileFormatError
+        If the file cannot be read, is malformed TOML, or does not follow the format (an unknown table or key).
+    InvalidParameterError
+        If ``path`` is not a file name, or a value in the file is refused (the message names the file and the key).
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> from pkmlab.formats.scenario import SCENARIO_DIR
+    >>> scenario = pkmlab.load_scenario(SCENARIO_DIR / "fast.toml")
+    >>> scenario.name, f"{scenario.trajectory.duration:.4f}", scenario.controller.kp
+    ('fast', '0.7854', 1000.0)
+    """
     if not isinstance(path, str) and not hasattr(path, "__fspath__"):
         raise InvalidParameterError(f"path must be a file name (a str or a pathlib.Path), got {type(path).__name__} "
                                     f"{shown(path, 50)}")
@@ -742,7 +768,28 @@ def paper_scenario(name: str = "nominal") -> Scenario:
     * ``nominal``: the circle at 0.2 m/s, plant = model;
     * ``disturbed``: plant masses and link lengths ×1.15, inertias ×1.15³, base unchanged;
     * ``fast``: 0.4 m/s, plant = model;
-    * ``disturbed_dynamics``: masses and inertias ×1.15, lengths unchanged (a variant).
+    * ``disturbed_dynamics``: masses and inertias ×1.15, lengths unchanged (a variant, not a file).
+
+    Parameters
+    ----------
+    name : {"nominal", "disturbed", "fast", "disturbed_dynamics"}
+        The case (default ``"nominal"``).
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``name`` is not one of the cases.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> scenario = pkmlab.paper_scenario("disturbed")
+    >>> scenario.plant is None, f"{scenario.plant_model.description.platform.mass:.4f}"
+    (False, '0.2691')
     """
     if isinstance(name, str) and name in PAPER_CASES:
         return load_scenario(SCENARIO_DIR / f"{name}.toml")

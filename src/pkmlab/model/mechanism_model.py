@@ -39,11 +39,26 @@ from .reach import attachment_points_of, check_assembly, leg_solver
 class MechanismModel:
     """A described mechanism with its packed parameters and generated kernels.
 
+    The immutable pair (description, packed parameters ``P``) bound to the compiled kernels of its structure:
+    what :func:`load` returns and every function of pkmlab takes first. Machines of one structure share one
+    compiled module and differ only in ``P``.
+
+    Attributes
+    ----------
+    description : Mechanism or SpatialMechanism
+        The machine as data: legs, platform, bodies, gravity, name.
+    P : ndarray, shape (p,)
+        The packed parameters the kernels read (read-only).
+    kernels : module
+        The generated kernels of the structure.
+
     Examples
     --------
     >>> model = MechanismModel.from_preset("five_bar")
     >>> model.coordinates
     ('a1', 'a2', 'q1_2', 'q2_2', 'x', 'y')
+    >>> model.n_actuators, model.dof, model.pose_names
+    (2, 2, ('x', 'y'))
     """
 
     description: Mechanism
@@ -52,6 +67,22 @@ class MechanismModel:
 
     @classmethod
     def from_description(cls, description: Mechanism) -> MechanismModel:
+        """The model of a description.
+
+        Parameters
+        ----------
+        description : Mechanism or SpatialMechanism
+            The machine as data.
+
+        Returns
+        -------
+        MechanismModel
+
+        Raises
+        ------
+        InvalidParameterError
+            If ``description`` is not a description, or the platform cannot be assembled on its legs.
+        """
         from ..description.spatial import SpatialMechanism
 
         if not isinstance(description, Mechanism | SpatialMechanism):
@@ -62,6 +93,17 @@ class MechanismModel:
 
     @classmethod
     def from_preset(cls, name: str) -> MechanismModel:
+        """The model of a preset (``"paper"``, ``"five_bar"``, ``"3rpr"``, ``"3prr"``, ``"delta"``, ``"stewart"``).
+
+        Parameters
+        ----------
+        name : str
+            The preset's name.
+
+        Returns
+        -------
+        MechanismModel
+        """
         return cls.from_description(preset(name))
 
     @classmethod
@@ -73,14 +115,17 @@ class MechanismModel:
 
     @property
     def coordinates(self) -> tuple[str, ...]:
+        """The names of the coordinates ``q``, in order: actuators ``a1 …``, passive joints ``q<leg>_<joint>``, pose."""
         return self.kernels.COORDINATES
 
     @property
     def n_actuators(self) -> int:
+        """The number of actuators ``n_a`` (one per leg)."""
         return len(self.description.legs)
 
     @property
     def name(self) -> str:
+        """The machine's name (the description's)."""
         return self.description.name
 
     @property
@@ -90,6 +135,7 @@ class MechanismModel:
 
     @property
     def dof(self) -> int:
+        """The number of pose coordinates ``dof`` (``len(pose_names)``)."""
         return self.description.dof
 
     @property
@@ -116,12 +162,24 @@ def load(source) -> MechanismModel:
     MechanismModel
         The immutable description bound to its structure's compiled kernels.
 
+    Raises
+    ------
+    InvalidParameterError
+        If ``source`` is none of these, a description file has no ``[mechanism]`` table or an invalid entry, or
+        the platform cannot be assembled on its legs.
+    FileFormatError
+        If a description file cannot be read.
+
     Examples
     --------
     >>> import pkmlab
     >>> model = pkmlab.load("paper")
     >>> model.coordinates
     ('a1', 'a2', 'a3', 'q1_2', 'q2_2', 'q3_2', 'x', 'y', 'alpha')
+    >>> model.n_actuators, model.dof
+    (3, 3)
+    >>> pkmlab.load(model) is model
+    True
     """
     import os
     from pathlib import Path

@@ -60,6 +60,16 @@ class PlantRun:
         How many times the plant's right-hand side was evaluated.
     n_actuators : int
         How many of the coordinates' leading entries are the actuators.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> q0 = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
+    >>> run = pkmlab.ActuatorSpacePlant(model).simulate(q0, [0.0, 0.0], [0.0, 0.0], 0.02, t_eval=[0.0, 0.01, 0.02])
+    >>> run.t.tolist(), run.theta_dot.shape, bool(np.allclose(run.theta, q0[:2]))
+    ([0.0, 0.01, 0.02], (3, 2), True)
     """
 
     t: np.ndarray
@@ -153,18 +163,27 @@ def _finite_or_raise(values: np.ndarray, t: float, what: str) -> None:
 
 # ------------------------------------------------------------------ the plants
 class ActuatorSpacePlant:
-    """The machine integrated in the actuator space: state ``(θ, θ̇)`` and eq. (35), ``Mθ θ̈ + cθ + gθ = τ``,
-    the passive coordinates by the compiled core's branch following.
+    """The machine integrated in the actuator space: state ``(θ, θ̇)`` and eq. (35), ``Mθ θ̈ + cθ + gθ = τ``.
+
+    The passive coordinates follow by the compiled core's branch following; DOP853 integrates the state.
 
     Parameters
     ----------
     model : MechanismModel
         The plant's own machine (:func:`pkmlab.load`; it may differ from a controller's model).
     rtol, atol : float
-        DOP853's relative and absolute tolerances on the state ``(θ, θ̇)``.
+        DOP853's relative and absolute tolerances on the state ``(θ, θ̇)`` (``atol`` in rad and rad/s, or m
+        and m/s); defaults 1e-11 and 1e-12.
     singularity_guard : float
         Branch following stops the run with :class:`~pkmlab.errors.BranchFollowingError` when ``|S|``
-        falls below this (a gain-type singularity, where eq. 35 does not exist).
+        falls below this (a gain-type singularity, where eq. 35 does not exist; default
+        :data:`~pkmlab.SINGULAR_S`).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is not a pkmlab model, ``rtol`` is not positive, or ``atol`` or ``singularity_guard`` is
+        negative.
 
     Examples
     --------
@@ -257,8 +276,9 @@ class ActuatorSpacePlant:
 
 
 class FullSpacePlant:
-    """The machine integrated in all ``n`` coordinates with the loop-closure multipliers (eq. 26) as an
-    index-1 differential-algebraic system with Baumgarte stabilisation — no actuator-space reduction.
+    """The machine integrated in all ``n`` coordinates with the loop-closure multipliers (eq. 26).
+
+    An index-1 differential-algebraic system with Baumgarte stabilisation — no actuator-space reduction.
 
     At every evaluation it solves the saddle-point system ``M q̈ + C q̇ + g = Q(τ) + Jηqᵀ λ``,
     ``Jηq q̈ = -J̇ηq q̇ - 2ω Jηq q̇ - ω² η`` for ``(q̈, λ)``, where ``Q`` applies ``τ`` to the actuated
@@ -269,10 +289,17 @@ class FullSpacePlant:
     model : MechanismModel
         The plant's own machine (:func:`pkmlab.load`).
     rtol, atol : float
-        DOP853's relative and absolute tolerances on the state ``(q, q̇)``.
+        DOP853's relative and absolute tolerances on the state ``(q, q̇)`` (``atol`` in the coordinates'
+        units and theirs per second); defaults 1e-11 and 1e-12.
     stabilization : float
-        The Baumgarte rate ω (1/s) of ``η̈ + 2ω η̇ + ω² η = 0`` (critically damped); 0 integrates
+        The Baumgarte rate ω (1/s) of ``η̈ + 2ω η̇ + ω² η = 0`` (critically damped; default 20); 0 integrates
         ``η̈ = 0`` alone, and the drift grows.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is not a pkmlab model, ``rtol`` is not positive, or ``atol`` or ``stabilization`` is
+        negative.
 
     Examples
     --------

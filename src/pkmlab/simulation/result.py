@@ -29,12 +29,44 @@ CSV_CHUNK = 8192
 class SimulationResult:
     """Every time series of a run, one row per sample ``t = 0 … T`` (inclusive).
 
-    ``q`` (N, n_coordinates) is the plant's configuration, ``theta`` its first ``n`` columns (the
-    actuator values: angles in rad, or lengths in m for prismatic actuators), ``pose`` (N, dof) the
-    plant's pose from its own geometry (``(x, y, alpha)``, or ``(x, y)`` for a 2-DOF machine),
-    ``pose_d`` the desired pose, ``theta_d`` the desired actuator values (controller's model), ``tau``
-    (N, n) the actuator efforts (N·m, or N for prismatic actuators), ``S`` (N,) the plant's
-    singularity measure.
+    What :func:`~pkmlab.simulate` returns (conventions §8).
+
+    Attributes
+    ----------
+    scenario : Scenario
+        The scenario that was run.
+    working_mode : tuple of int
+        The working mode the run followed (one sign per two-branch leg).
+    t : ndarray, shape (N,)
+        The sample times (s).
+    q : ndarray, shape (N, n)
+        The plant's configuration (rad or m per entry).
+    theta_dot : ndarray, shape (N, n_actuators)
+        The plant's actuator rates (rad/s or m/s).
+    theta_d : ndarray, shape (N, n_actuators)
+        The desired actuator values (the controller's model; rad or m), on the side of 2π of ``theta``.
+    tau : ndarray, shape (N, n_actuators)
+        The actuator efforts (N·m, or N for prismatic actuators).
+    pose : ndarray, shape (N, dof)
+        The plant's pose from its own geometry (``(x, y, alpha)``, or ``(x, y)`` for a 2-DOF machine; m, rad).
+    pose_d : ndarray, shape (N, dof)
+        The desired pose (m, rad).
+    S : ndarray, shape (N,)
+        The plant's singularity measure.
+    closure_violation : ndarray, shape (N,), or None
+        A MuJoCo plant's loop-closure violation (m), per sample; None for pkmlab's plant.
+    theta_measured : ndarray, shape (N, n_actuators), or None
+        What the controller's sensors read (rad or m), when it had sensors.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> result = pkmlab.simulate(pkmlab.paper_scenario("fast"))
+    >>> result.q.shape, result.theta.shape, result.pose_names
+    ((787, 9), (787, 3), ('x', 'y', 'alpha'))
+    >>> result.table().shape == (787, len(result.columns))
+    True
     """
 
     scenario: Scenario
@@ -52,6 +84,7 @@ class SimulationResult:
 
     @property
     def theta(self) -> np.ndarray:
+        """The plant's actuator values ``θ`` (N, n_actuators): the first columns of ``q`` (rad, or m if prismatic)."""
         return self.q[:, :self.tau.shape[1]]
 
     @property
@@ -86,12 +119,25 @@ class SimulationResult:
     def summary(self) -> dict:
         """The run's summary, one key set for every machine (:func:`summary_units` gives each key's unit).
 
-        ``max_path_error_m``, ``rms_path_error_m``; ``max_orientation_error_rad`` where the pose has an
-        orientation, and ``max_alpha_error_rad`` (the same value) where it is the planar angle ``alpha``;
-        ``max_joint_error`` and ``peak_effort`` (one per actuator) in the actuators' units, also named with
-        their unit where every actuator has the same kind: ``max_joint_error_rad`` and ``peak_torque_Nm`` for
-        revolute actuators, ``max_joint_error_m`` and ``peak_force_N`` for prismatic ones; ``min_abs_S``;
-        ``working_mode``; ``max_closure_violation_m`` for a MuJoCo plant.
+        Returns
+        -------
+        dict
+            ``max_path_error_m``, ``rms_path_error_m``; ``max_orientation_error_rad`` where the pose has an
+            orientation, and ``max_alpha_error_rad`` (the same value) where it is the planar angle ``alpha``;
+            ``max_joint_error`` and ``peak_effort`` (one per actuator) in the actuators' units, also named with
+            their unit where every actuator has the same kind: ``max_joint_error_rad`` and ``peak_torque_Nm`` for
+            revolute actuators, ``max_joint_error_m`` and ``peak_force_N`` for prismatic ones; ``min_abs_S``;
+            ``working_mode``; ``max_closure_violation_m`` for a MuJoCo plant.
+
+        Examples
+        --------
+        >>> import pkmlab
+        >>> summary = pkmlab.simulate(pkmlab.paper_scenario("fast")).summary()
+        >>> list(summary)
+        ['max_path_error_m', 'rms_path_error_m', 'max_orientation_error_rad', 'max_alpha_error_rad', 'max_joint_error',
+        'peak_effort', 'max_joint_error_rad', 'peak_torque_Nm', 'min_abs_S', 'working_mode']
+        >>> f"{summary['min_abs_S']:.3f}"
+        '1.080'
         """
         err = self.path_error
         joint = actuator_errors(self.scenario.plant_model, self.theta, self.theta_d)
@@ -118,7 +164,18 @@ class SimulationResult:
         return out
 
     def table(self, rows: slice = slice(None)) -> np.ndarray:
-        """The (N, len(columns)) array of :attr:`columns` (of the samples ``rows``)."""
+        """The time series as one array, columns :attr:`columns`.
+
+        Parameters
+        ----------
+        rows : slice
+            The samples to include (default all).
+
+        Returns
+        -------
+        ndarray, shape (N, len(columns))
+            In the columns' units (s, rad or m, N·m or N, m and rad of the pose, ``S`` dimensionless).
+        """
         extra = [] if self.closure_violation is None else [self.closure_violation[rows]]
         if self.theta_measured is not None:
             extra.append(self.theta_measured[rows])
@@ -141,8 +198,25 @@ class SimulationResult:
         return pd.DataFrame(self.table(), columns=list(self.columns))
 
     def to_csv(self, path) -> Path:
-        """Write the time series (columns :attr:`columns`) atomically. The folder of ``path`` must exist:
-        :class:`~pkmlab.outputs.OutputFileError` names the path otherwise, or when it is a folder."""
+        """Write the time series (columns :attr:`columns`) atomically, as CSV.
+
+        Every value is written as the shortest text that reads back to the same float.
+
+        Parameters
+        ----------
+        path : str or path
+            The file to write; its folder must exist.
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+
+        Raises
+        ------
+        OutputFileError
+            Naming the path, when its folder does not exist or it is a folder.
+        """
         # every value as the shortest text that reads back to the same float (repr); no value needs quoting; a
         # chunk of rows at a time, so that a long run's text is never all in memory
         with atomic_file(path, make_folder=False) as tmp, open(tmp, "w") as f:
@@ -153,7 +227,23 @@ class SimulationResult:
         return Path(path)
 
     def to_json(self, path) -> Path:
-        """Write the summary and the time series as JSON, atomically (``path`` as for :meth:`to_csv`)."""
+        """Write the summary and the time series as JSON, atomically.
+
+        Parameters
+        ----------
+        path : str or path
+            The file to write; its folder must exist.
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``, holding ``{"summary": ..., "columns": [...], "rows": [[...], ...]}``.
+
+        Raises
+        ------
+        OutputFileError
+            Naming the path, when its folder does not exist or it is a folder.
+        """
         data = {"summary": self.summary(), "columns": list(self.columns), "rows": self.table().tolist()}
         return _write_atomic(path, json.dumps(data))
 

@@ -36,30 +36,35 @@ MAX_SUBSTEPS = 1000
 
 @dataclass(frozen=True)
 class Scenario:
-    """Everything that defines one closed-loop run.
+    """Everything that defines one closed-loop run: the plain value :func:`~pkmlab.simulate` takes.
 
-    Attributes
+    Every field is checked when the scenario is made (and again by :meth:`replace`); the working mode is
+    stored as ``"auto"`` or a tuple of ints.
+
+    Parameters
     ----------
     model : MechanismModel
         The controller's model of the machine (``pkmlab.load("paper")``, any preset or description),
         used for inverse kinematics, the pre-flight check and computed torque.
+    trajectory : Trajectory-like
+        Gives ``desired(t) -> (pose, pose_dot, pose_ddot)`` (m, rad and their rates) and ``duration`` (s).
     plant : MechanismModel or None
         The real machine, of the model's structure with other numbers; ``None`` means identical to ``model``.
-    trajectory : Trajectory-like
-        Gives ``desired(t) -> (pose, pose_dot, pose_ddot)`` and ``duration``.
     controller : ControllerSpec
+        The control law and its gains (default computed torque, ``kp = 1000``).
     sample_time : float
-        ``Ts`` in seconds; ``0`` selects continuous-time control.
+        ``Ts`` in s (default 1e-3); ``0`` selects continuous-time control.
     working_mode : "auto" or signs
-        ``"auto"`` picks the mode maximising ``min |S|`` along the path (docs/conventions.md §3); else one sign
+        ``"auto"`` picks the mode maximising ``min |S|`` along the path (conventions §3); else one sign
         per two-branch leg (``"+-+"``, ``(1, -1, 1)``...), stored as a tuple of ints.
     singularity_margin : float
-        Paths with ``min |S|`` below this in every admissible mode are refused before simulating.
+        Paths with ``min |S|`` below this in every admissible mode are refused before simulating (default 0.05).
     singularity_guard : float
-        A run stops with an error when the plant's ``|S|`` falls below this.
+        A run stops with an error when the plant's ``|S|`` falls below this (default 0.01).
     substeps : int
         Runge–Kutta steps per sample for the plant (sampled-data control), 1 to :data:`MAX_SUBSTEPS`.
     name : str
+        The run's name (a scenario file's stem).
     drives : Drives or None
         The plant's drives: gear, armature, friction, effort limit and noise (:mod:`~pkmlab.simulation.realism`);
         None for ideal drives. Continuous-time control takes smooth friction (``coulomb_rate > 0``, no
@@ -68,11 +73,30 @@ class Scenario:
         What the controller measures: quantised, noisy, delayed actuator values; None for the plant's exact
         state. Sampled-data control only.
     seed : int
-        The seed of the drives' and sensors' noise.
+        The seed of the drives' and sensors' noise (non-negative).
     controller_drives : Drives or None
         The controller's model of the drives (e.g. identified): computed torque adds ``Ia v + fv θ̇ + fc φ(θ̇)``
         (``v`` the acceleration it commands) at the rates it uses; its effort limit and noise are not used. None:
         no compensation. Computed torque only.
+
+    Raises
+    ------
+    InvalidParameterError
+        If a field has the wrong type or value: a model that is not a :class:`MechanismModel`, a plant of another
+        structure, a trajectory without ``desired`` and a positive ``duration``, poses of the wrong dimension, a
+        working mode the machine does not have, sensors or non-smooth friction with continuous-time control,
+        ``substeps`` other than 1 with continuous-time control, or a number of samples outside 1 to
+        :data:`MAX_SAMPLES`.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> from pkmlab.control.trajectory import paper_trajectory
+    >>> scenario = pkmlab.Scenario(pkmlab.load("paper"), paper_trajectory(0.4), name="fast")
+    >>> scenario.sample_time, scenario.controller.kind, scenario.working_mode
+    (0.001, 'computed_torque', 'auto')
+    >>> scenario.replace(sample_time=2e-3, working_mode="-+-").working_mode
+    (-1, 1, -1)
     """
 
     model: MechanismModel
@@ -141,10 +165,32 @@ class Scenario:
 
     @property
     def plant_model(self) -> MechanismModel:
+        """The plant's model: ``plant``, or ``model`` where ``plant`` is None."""
         return self.model if self.plant is None else self.plant
 
     def replace(self, **changes) -> Scenario:
-        """A copy with some fields changed (validated again)."""
+        """A copy with some fields changed (validated again).
+
+        Parameters
+        ----------
+        **changes
+            New values of fields, by name.
+
+        Returns
+        -------
+        Scenario
+
+        Raises
+        ------
+        InvalidParameterError
+            If a name is not a field, or a value is refused (as when a scenario is made).
+
+        Examples
+        --------
+        >>> import pkmlab
+        >>> pkmlab.paper_scenario("nominal").replace(sample_time=5e-4).sample_time
+        0.0005
+        """
         for name in changes:
             if name not in self.__dataclass_fields__:
                 raise InvalidParameterError(f"{name} is not a field of Scenario "
@@ -218,12 +264,38 @@ def scaled_model(model: MechanismModel, mass: float = 1.0, length: float = 1.0) 
 
 
 def perturbed_model(model: MechanismModel, rng: np.random.Generator, spread: float = 0.15) -> MechanismModel:
-    """A machine whose every body's mass, inertia and lengths are multiplied by its own factor drawn uniformly
-    from ``[1 - spread, 1 + spread]`` — one draw of an uncertainty study. The base points are unchanged.
-    Raises if the draw cannot be assembled.
+    """A machine whose every body's mass, inertia and lengths are multiplied by its own random factor.
 
-    The factors are drawn quantity by quantity (lengths, masses, inertias), and within a quantity body by
-    body from the base (every leg's first body, then every leg's second...), the platform last.
+    Each factor is drawn uniformly from ``[1 - spread, 1 + spread]`` — one draw of an uncertainty study. The base
+    points are unchanged. The factors are drawn quantity by quantity (lengths, masses, inertias), and within a
+    quantity body by body from the base (every leg's first body, then every leg's second...), the platform last.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The nominal machine.
+    rng : numpy.random.Generator
+        The random generator (``np.random.default_rng(seed)``; a ``RandomState`` is accepted too).
+    spread : float
+        The largest relative change, in ``[0, 1)`` (default 0.15: ±15 %).
+
+    Returns
+    -------
+    MechanismModel
+        The perturbed machine, of ``model``'s structure (a plant for :class:`Scenario`).
+
+    Raises
+    ------
+    InvalidParameterError
+        If an argument is refused, or the machine drawn cannot be assembled.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> plant = pkmlab.perturbed_model(pkmlab.load("paper"), np.random.default_rng(0))
+    >>> f"{plant.description.platform.mass:.4f}"
+    '0.2013'
     """
     check_model(model, "model")
     if not isinstance(rng, (np.random.Generator, np.random.RandomState)):

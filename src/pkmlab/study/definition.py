@@ -204,13 +204,45 @@ def scenario_tables(scenario, source: str = "<scenario>", what: str = "scenario"
 
 @dataclass(frozen=True)
 class Study:
-    """A study: runs of ``base`` (scenario data, as a scenario file's tables) at every point of the grid of
-    ``axes`` and, per point, ``draws`` plants drawn within ``uncertainty`` (see :mod:`pkmlab.simulation.uncertainty`).
+    """A study: runs of ``base`` at every point of the grid of ``axes`` and, per point, ``draws`` plants.
 
-    Build one with :func:`load_study` (a study file) or directly::
+    ``base`` is scenario data, as a scenario file's tables; the plants are drawn within ``uncertainty`` (see
+    :mod:`pkmlab.simulation.uncertainty`). Build one with :func:`load_study` (a study file) or :meth:`create`,
+    which check it; run it with :func:`~pkmlab.sweep`.
 
-        Study.create("examples/fast.toml", grid={"controller.kp": [500.0, 1000.0]},
-                     uncertainty={"mass": 0.15}, draws=20, seed=1)
+    Attributes
+    ----------
+    base : dict
+        The base scenario's tables.
+    axes : tuple of (str, tuple)
+        Each axis's key (``"controller.kp"``) and values.
+    uncertainty : dict
+        The drawn quantities' bounds, ``{quantity: (low, high)}`` factors.
+    draws : int
+        Plants drawn per grid point (0: the scenario's plant, once).
+    seed : int
+        The draws' seed.
+    name : str
+        The study's name.
+    source : str
+        The study file's name (or ``"<study>"``), at the start of every error message.
+    combine : {"cross", "zip"}
+        Every combination of the axes' values, or value by value.
+    job : str
+        What a run does (``"simulate"``, ``"identify"``, ``"calibrate"``).
+    options : dict
+        The job's options (:mod:`pkmlab.study.jobs`).
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> from pkmlab.formats.scenario import SCENARIO_DIR
+    >>> study = pkmlab.Study.create(SCENARIO_DIR / "fast.toml", grid={"controller.kp": [500.0, 1000.0]},
+    ...                             uncertainty={"mass": 0.15}, draws=3, seed=1)
+    >>> study.name, study.shape, study.size
+    ('fast', (2,), 6)
+    >>> study.point_values(1), study.locate(4)
+    ({'controller.kp': 1000.0}, (1, 1))
     """
 
     base: dict
@@ -229,11 +261,42 @@ class Study:
     def create(cls, base, grid: dict | None = None, uncertainty: dict | None = None, draws: int = 0, seed: int = 0,
                name: str | None = None, source: str = "<study>", combine: str = "cross", job: str = "simulate",
                options: dict | None = None) -> Study:
-        """A checked study from ``base`` (a scenario file's path, or its tables as a dict), ``grid``
-        ({axis key: list of values or {start, stop, num[, scale]}}), ``uncertainty`` ({quantity: spread or
-        [low, high]}), ``draws``, ``seed``, ``combine`` (``"cross"``: every combination of the axes'
-        values; ``"zip"``: value by value), ``job`` (what a run does: :data:`~pkmlab.formats.study_keys.JOBS`) and its
-        ``options`` (:mod:`pkmlab.study.jobs`). Every problem is one line naming the key and the value."""
+        """A checked study.
+
+        Parameters
+        ----------
+        base : str, path or dict
+            A scenario file's path, or its tables as a dict.
+        grid : dict, optional
+            ``{axis key: list of values or {start, stop, num[, scale]}}``; an axis key is ``table.key`` of a scenario
+            file (``"controller.kp"``, ``"trajectory.speed"``...).
+        uncertainty : dict, optional
+            ``{quantity: spread or [low, high]}``, quantities ``mass``, ``length``, ``inertia``.
+        draws : int
+            Plants drawn per grid point (0: none; needs ``uncertainty`` otherwise).
+        seed : int
+            The draws' seed, non-negative.
+        name : str, optional
+            The study's name (default the base file's stem, or the source's).
+        source : str
+            The study file's name, at the start of every error message.
+        combine : {"cross", "zip"}
+            ``"cross"``: every combination of the axes' values; ``"zip"``: value by value.
+        job : str
+            What a run does (:data:`~pkmlab.formats.study_keys.JOBS`).
+        options : dict, optional
+            The job's options (:mod:`pkmlab.study.jobs`).
+
+        Returns
+        -------
+        Study
+
+        Raises
+        ------
+        InvalidParameterError
+            Every problem, in one line naming the key and the value (:class:`~pkmlab.errors.FileFormatError` for a
+            base file that cannot be read).
+        """
         if not isinstance(source, str):
             raise InvalidParameterError(f"source must be a string (the study file's name), got {shown(source)}")
         if not (isinstance(job, str) and job in JOBS):
@@ -367,7 +430,7 @@ class Study:
 
     @property
     def size(self) -> int:
-        """The number of runs."""
+        """The number of runs: grid points × runs per point."""
         return self.points * self.per_point
 
     def locate(self, run: int) -> tuple[int, int]:
@@ -419,8 +482,20 @@ class Study:
 
     def scenario(self, run: int, nominal=None, factors: dict | None = None):
         """The :class:`~pkmlab.simulation.scenario.Scenario` of ``run`` — what ``simulate`` runs to reproduce its row.
-        ``nominal`` is its grid point's :meth:`nominal_scenario` and ``factors`` its :meth:`factors`, if already
-        known."""
+
+        Parameters
+        ----------
+        run : int
+            The run's number (``0 … size - 1``).
+        nominal : Scenario, optional
+            The grid point's scenario, if already built (:meth:`nominal_scenario`).
+        factors : dict, optional
+            The plant's factors, if already drawn (:meth:`factors`).
+
+        Returns
+        -------
+        Scenario
+        """
         from ..simulation.uncertainty import perturbed_plant
 
         point, _draw = self.locate(run)
@@ -501,7 +576,41 @@ def study_from_dict(data: dict, source: str = "<study>") -> Study:
 
 
 def load_study(path) -> Study:
-    """Read a study file (format: this module's docstring)."""
+    """Read a study file (format: this module's docstring).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The study file (TOML).
+
+    Returns
+    -------
+    Study
+        The checked study, ready for :func:`~pkmlab.sweep`.
+
+    Raises
+    ------
+    FileFormatError
+        If the file cannot be read, is malformed TOML, or does not follow the format.
+    InvalidParameterError
+        If ``path`` is not a file name, or a value is refused (the message names the file and the key).
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> import tempfile
+    >>> import pkmlab
+    >>> from pkmlab.formats.scenario import SCENARIO_DIR
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> lines = ["[study]", f"base = '{(SCENARIO_DIR / 'fast.toml').as_posix()}'", "[grid]",
+    ...          '"controller.kp" = [500.0, 1000.0]']
+    >>> _ = (folder / "kp.toml").write_text(chr(10).join(lines))
+    >>> study = pkmlab.load_study(folder / "kp.toml")
+    >>> study.name, study.size
+    ('kp', 2)
+    >>> import shutil
+    >>> shutil.rmtree(folder)
+    """
     if not isinstance(path, str) and not hasattr(path, "__fspath__"):
         raise InvalidParameterError(f"path must be a file name (a str or a pathlib.Path), got {type(path).__name__} "
                                     f"{shown(path, 50)}")

@@ -64,17 +64,61 @@ def summarize(study: Study, frame, stats: dict | None = None) -> dict:
 def sweep(study, out=None, *, workers: int | None = None, scheduler: str | None = None, client=None,
           chunk_size: int | None = None, resume: bool = False, csv: bool = False, figures: bool = True,
           heatmap: tuple[str, str] | None = None, progress: bool = False, on_chunk=None, note=None):
-    """Run a study and return its table, a ``pandas.DataFrame`` with one row per run (columns: ``run``,
-    ``point``, ``draw``, each axis, each drawn factor ``plant.*``, ``status``, ``reason``, the metrics,
-    ``working_mode``, ``message``); ``table.attrs["summary"]`` is the summary.
+    """Run a study and return its table, one row per run.
 
-    ``study`` is a :class:`~pkmlab.study.Study`, a study file or its tables. With ``out`` the study's folder
+    The table is the same, bit for bit, however the study is run, and each row is what
+    :func:`~pkmlab.simulation.run.simulate` gives for ``study.scenario(run)``. With ``out`` the study's folder
     receives the chunks as they finish, then ``runs.parquet`` (and ``runs.csv`` with ``csv``),
-    ``summary.json`` and ``figures/`` (heat maps over ``heatmap``'s two axes, distributions, failures);
-    ``resume`` finishes a study that folder holds. Where the runs execute: see :mod:`pkmlab.study.engine`
-    (``workers``, ``scheduler``, ``client``; ``workers=0`` in this process). The table is the same, bit
-    for bit, however the study is run, and each row is what :func:`~pkmlab.simulation.run.simulate` gives for
-    ``study.scenario(run)``.
+    ``summary.json`` and ``figures/`` (heat maps over ``heatmap``'s two axes, distributions, failures).
+    Needs the ``study`` extra (pandas, PyArrow; Dask to run on several workers).
+
+    Parameters
+    ----------
+    study : Study, str, path or dict
+        A :class:`~pkmlab.study.Study`, a study file or its tables.
+    out : str or path, optional
+        The study's folder for its files; nothing is written without it.
+    workers, scheduler, client : optional
+        Where the runs execute (:mod:`pkmlab.study.engine`): ``workers=0`` in this process, else a local Dask
+        cluster of ``workers`` processes, the Dask ``scheduler`` at an address, or a Dask ``client``.
+    chunk_size : int, optional
+        Runs per chunk (a task of the cluster, a file of the folder).
+    resume : bool
+        Finish a study that ``out`` holds.
+    csv : bool
+        Also write ``runs.csv``.
+    figures : bool
+        Write the figures (with ``out``; default True).
+    heatmap : (str, str), optional
+        The two axes of the heat maps.
+    progress : bool
+        Show the progress on the terminal.
+    on_chunk, note : callable, optional
+        Called as chunks finish, and with notes for the user.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``run``, ``point``, ``draw``, each axis, each drawn factor ``plant.*``, ``status``, ``reason``,
+        the metrics (``max_path_error_m``...), ``working_mode``, ``message``; ``table.attrs["summary"]`` is the
+        summary.
+
+    Raises
+    ------
+    InvalidParameterError
+        If the study is refused, or ``heatmap`` names a key that is not an axis.
+    StudyError
+        If ``out`` holds other files or a study another process is running, or without the ``study`` extra
+        installed, saying how to install it.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> from pkmlab.formats.scenario import SCENARIO_DIR
+    >>> study = pkmlab.Study.create(SCENARIO_DIR / "fast.toml", grid={"controller.kp": [500.0, 1000.0]})
+    >>> table = pkmlab.sweep(study, workers=0)
+    >>> table[["controller.kp", "status"]].values.tolist()
+    [[500.0, 'ok'], [1000.0, 'ok']]
     """
     from .engine import require_module
 

@@ -120,16 +120,67 @@ def tune(scenario, max_effort: float, *, uncertainty: float = 0.15, quantities=(
          draws: int = 16, seed: int = 0, quantile: float = 1.0, critical: bool = False, trials: int = 48,
          batch: int = 8, kp_range=None, zeta_range=ZETA_RANGE, workers: int | None = None,
          scheduler: str | None = None, client=None, chunk_size: int | None = None, progress=None) -> TuningResult:
-    """Tune the gains of ``scenario`` (a scenario file or its tables) for peak effort ≤ ``max_effort``.
+    """Tune the gains of ``scenario`` for a peak effort at most ``max_effort``, against an uncertainty set of plants.
 
     ``uncertainty`` is the spread of the factors drawn for ``quantities`` (0.15: ±15 %; lengths are left out
     by default: a length the controller's model gets wrong is a kinematic error no gain removes); ``draws``
-    plants make the uncertainty set (0: the scenario's plant alone). ``trials`` candidates are evaluated in
-    batches of ``batch`` (one study each, on the cluster of ``workers``/``scheduler``/``client``, in chunks of
-    ``chunk_size`` runs). ``kp_range`` defaults to :func:`default_kp_range`: 10 to the sampled-data loop's
-    stability limit (at most 1e6); the result says when a tuned gain lies at an end of its box
-    (:attr:`TuningResult.on_bound`).
-    ``progress(done, total)`` is called after each batch."""
+    plants make the uncertainty set (0: the scenario's plant alone). ``trials`` candidates ``(kp, ζ)`` are
+    evaluated in batches of ``batch`` (one study each, on the cluster of ``workers``/``scheduler``/``client``, in
+    chunks of ``chunk_size`` runs), searched by Optuna's TPE sampler; the scenario's own gains are the first
+    candidate (the baseline). The result says when a tuned gain lies at an end of its box
+    (:attr:`TuningResult.on_bound`). Needs the ``study`` extra (Optuna, pandas).
+
+    Parameters
+    ----------
+    scenario : str, path or dict
+        A scenario file or its tables.
+    max_effort : float
+        The actuators' effort limit (N·m or N), positive.
+    uncertainty : float
+        The factors' spread (default 0.15).
+    quantities : tuple of str
+        The drawn quantities (default ``("mass", "inertia")``).
+    draws : int
+        Plants in the uncertainty set (default 16; 0: the scenario's plant alone).
+    seed : int
+        The draws' and the sampler's seed.
+    quantile : float
+        The objective: this quantile of the path error over the set, in (0, 1] (default 1: the worst case).
+    critical : bool
+        Search ``kp`` alone with critical damping ``kv = 2√kp``.
+    trials, batch : int
+        Candidates in all, and per batch.
+    kp_range, zeta_range : (float, float)
+        The search box of ``kp`` and of the damping ratio ``ζ``; ``kp_range`` defaults to
+        :func:`default_kp_range`: 10 to the sampled-data loop's stability limit (at most 1e6).
+    workers, scheduler, client, chunk_size : optional
+        Where the runs execute (as :func:`~pkmlab.sweep`).
+    progress : callable, optional
+        ``progress(done, total)``, called after each batch.
+
+    Returns
+    -------
+    TuningResult
+        ``trials`` (a ``pandas.DataFrame``, one row per candidate: ``kp``, ``kv``, ``zeta``, ``error`` (m),
+        ``worst_error``, ``worst_effort``, ``failed``, ``feasible``), ``best`` and ``baseline`` (rows of it),
+        ``tradeoff`` (the Pareto front ``(effort limit, least error)``), ``scenario`` (the tuned scenario's tables).
+
+    Raises
+    ------
+    InvalidParameterError
+        If an argument is refused (``max_effort`` not positive, ``quantile`` outside (0, 1], a count or a box
+        that is not valid, a scenario that is refused).
+    StudyError
+        Without the ``study`` extra installed, saying how to install it.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> from pkmlab.formats.scenario import SCENARIO_DIR
+    >>> result = pkmlab.tune(SCENARIO_DIR / "fast.toml", 2.0, draws=0, trials=2, batch=2, workers=0)
+    >>> len(result.trials), result.baseline["kp"], result.best["feasible"]
+    (2, 1000.0, True)
+    """
     from .engine import require_module
 
     optuna = require_module("optuna")

@@ -113,8 +113,31 @@ def _check_result(result) -> None:
 
 
 def plot(result):
-    """The interactive figure of a result (the machine animated beside its time series) as a
-    ``plotly.graph_objects.Figure``, shown inline by Jupyter (``pkmlab.plot``)."""
+    """The interactive figure of a result: the machine animated beside its time series (``pkmlab.plot``).
+
+    Shown inline by Jupyter. Needs Plotly.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run (:func:`~pkmlab.simulate`).
+
+    Returns
+    -------
+    plotly.graph_objects.Figure
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``result`` is not a :class:`~pkmlab.SimulationResult`.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> figure = pkmlab.plot(pkmlab.simulate(pkmlab.paper_scenario("fast")))
+    >>> type(figure).__name__, len(figure.frames) > 0
+    ('Figure', True)
+    """
     _check_result(result)
     import plotly.graph_objects as go
 
@@ -124,8 +147,36 @@ def plot(result):
 
 
 def draw(model, q, title: str | None = None):
-    """A machine at configuration ``q`` (n,) as a ``plotly`` figure: its bodies, the platform and the tracked
-    point — hover shows the joints' coordinates (``pkmlab.draw``)."""
+    """A machine at one configuration as a Plotly figure (``pkmlab.draw``).
+
+    Its bodies, the platform and the tracked point; hover shows the joints' coordinates. Needs Plotly.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (n,)
+        The configuration (rad or m per entry).
+    title : str, optional
+        The figure's title (default the machine's name and its pose).
+
+    Returns
+    -------
+    plotly.graph_objects.Figure
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is not a model, ``q`` does not have ``n`` components, or ``title`` is not text.
+
+    Examples
+    --------
+    >>> import pkmlab
+    >>> model = pkmlab.load("five_bar")
+    >>> q = pkmlab.inverse_kinematics(model, [0.0, 0.35], mode=(1, -1)).q
+    >>> pkmlab.draw(model, q).layout.title.text
+    'five_bar at x = 0.000, y = 0.350'
+    """
     import plotly.graph_objects as go
 
     from ..algorithms.kinematics import as_model
@@ -153,7 +204,33 @@ def draw(model, q, title: str | None = None):
 
 
 def show(result) -> None:
-    """Display a result's interactive view in the notebook (Plotly's code embedded: works offline)."""
+    """Display a result's interactive view in the notebook (Plotly's code embedded: works offline).
+
+    Needs Plotly and IPython.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run (:func:`~pkmlab.simulate`).
+
+    Returns
+    -------
+    None
+        The view is displayed (as HTML), not returned.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``result`` is not a :class:`~pkmlab.SimulationResult`.
+
+    Examples
+    --------
+    Outside a notebook, IPython's display prints the object's text:
+
+    >>> import pkmlab
+    >>> pkmlab.show(pkmlab.simulate(pkmlab.paper_scenario("fast")))
+    <IPython.core.display.HTML object>
+    """
     _check_result(result)
     import plotly.io as pio
     from IPython.display import HTML, display
