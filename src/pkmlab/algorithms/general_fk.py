@@ -174,23 +174,11 @@ def _family(description):
     """The offset family ``F(z; θ) − b`` of ``description`` (module docstring) as a straight-line program of
     ``(z, θ, b)``, both ``θ`` and ``b`` moving; with the number of unknowns and of actuator parameters, the layout
     and the unknowns' names."""
-    import sympy as sp
-
     from ..description.mobility import _size
-    from ..numerics.straight_line import cached_program, compile_program
 
     equations, unknowns, params, layout = build_system(description)
-    n, m = len(unknowns), len(params)
-
-    def derive():
-        offsets = list(sp.symbols(f"b0:{n}"))
-        all_params = params + offsets
-        F = sp.Matrix([e - b for e, b in zip(equations, offsets, strict=True)])
-        return compile_program([*F, *F.jacobian(unknowns), *F.jacobian(all_params)], [*unknowns, *all_params])
-
-    program = cached_program(f"general_fk-{_key(description)}", derive)
-    family = homotopy.Family(program, n, m + n, scale=_size(description))
-    return family, n, m, layout, [str(u) for u in unknowns]
+    family = homotopy.offset_family(f"general_fk-{_key(description)}", equations, unknowns, params, _size(description))
+    return family, len(unknowns), len(params), layout, [str(u) for u in unknowns]
 
 
 @functools.lru_cache(maxsize=16)

@@ -263,21 +263,10 @@ def general_leg(leg) -> GeneralLeg:
 
 @functools.lru_cache(maxsize=64)
 def _general_leg(leg) -> GeneralLeg:
-    import sympy as sp
-
-    from ..numerics.straight_line import cached_program, compile_program
-
     key = _key(leg)
     equations, unknowns, centre = _system(leg)
     n = len(unknowns)
-
-    def derive():
-        offsets = list(sp.symbols(f"b0:{n}"))
-        F = sp.Matrix([e - b for e, b in zip(equations, offsets, strict=True)])
-        parameters = centre + offsets
-        return compile_program([*F, *F.jacobian(unknowns), *F.jacobian(parameters)], [*unknowns, *parameters])
-
-    family = homotopy.Family(cached_program(f"general_leg-{key}", derive), n, 3 + n, scale=1.0)
+    family = homotopy.offset_family(f"general_leg-{key}", equations, unknowns, centre)
     names = tuple(str(u) for u in unknowns)
 
     def solve():
@@ -408,11 +397,11 @@ def _distinct(q: np.ndarray) -> np.ndarray:
 def working_modes(leg) -> tuple:
     """The leg's working modes: ``()`` for one branch, ``(1, -1)`` for two, the four pairs
     ``((1, 1), (1, -1), (-1, 1), (-1, -1))`` for three or four (module docstring)."""
-    signs = general_leg(leg).signs
-    if signs > 1 and general_leg(leg).branches > MAX_BRANCHES:
-        raise InvalidParameterError(f"a {leg.notation} leg has {general_leg(leg).branches} inverse-kinematic "
-                                    f"branches; pkmlab labels at most {MAX_BRANCHES}")
-    return () if signs == 0 else (1, -1) if signs == 1 else ((1, 1), (1, -1), (-1, 1), (-1, -1))
+    g = general_leg(leg)
+    if g.branches > MAX_BRANCHES:
+        raise InvalidParameterError(f"a {leg.notation} leg has {g.branches} inverse-kinematic branches; pkmlab "
+                                    f"labels at most {MAX_BRANCHES}")
+    return () if g.signs == 0 else (1, -1) if g.signs == 1 else ((1, 1), (1, -1), (-1, 1), (-1, -1))
 
 
 def mode_labels(leg, q: np.ndarray, det: np.ndarray | None = None) -> list[tuple[int, ...]]:

@@ -89,6 +89,25 @@ class Family:
         return out[:, :n], out[:, n:n + n * n].reshape(-1, n, n)
 
 
+def offset_family(name: str, equations, unknowns, parameters, scale: float = 1.0) -> Family:
+    """The offset family ``F(z; p) − b`` of the SymPy ``equations`` in ``unknowns`` and ``parameters`` (both moving:
+    the form :func:`generic_instance` solves), its straight-line program derived once and kept in the cache folder
+    as ``name`` (:func:`~pkmlab.numerics.straight_line.cached_program`)."""
+    import sympy as sp
+
+    from .straight_line import cached_program, compile_program
+
+    n = len(unknowns)
+
+    def derive():
+        offsets = list(sp.symbols(f"b0:{n}"))
+        moving = [*parameters, *offsets]
+        F = sp.Matrix([e - b for e, b in zip(equations, offsets, strict=True)])
+        return compile_program([*F, *F.jacobian(unknowns), *F.jacobian(moving)], [*unknowns, *moving])
+
+    return Family(cached_program(name, derive), n, len(parameters) + n, scale=scale)
+
+
 def newton_polish(family: Family, x: np.ndarray, p: np.ndarray, iterations: int = 6):
     """Newton's method on ``F(x; p) = 0`` from ``x`` (P, n); returns the points, whether each converged to a
     regular solution (last correction at round-off, a well-conditioned Jacobian)."""
