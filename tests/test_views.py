@@ -204,11 +204,23 @@ def test_the_slider_moves_the_machine_and_nothing_else(browser, tmp_path, nomina
         near_cursor |= rows & ((np.abs(xs - x_old) <= 3) | (np.abs(xs - x_new) <= 3))
     on_slider = (ys >= geometry["slider"]["y0"] - 30) & (ys <= geometry["slider"]["y1"] + 5)
     elsewhere = ~(in_machine | near_cursor | on_slider)
-    # nowhere else: at most a few stray pixels of anti-aliasing where Plotly redraws a plot's curves under its
-    # moving cursor (seen: 1 or 2 pixels in one run of five), against the thousands of the machine's
-    stray = list(zip(xs[elsewhere][:5], ys[elsewhere][:5], strict=True))
-    assert elsewhere.sum() <= 5, (f"{elsewhere.sum()} pixels changed away from the machine, cursors and slider, "
-                                  f"e.g. at {stray}; cursors {cursors_before} -> {cursors_after}")
+    # Plotly redraws a plot's curves under its moving cursor, and a busy machine may anti-alias a curve's edge
+    # differently (seen: 1 to 12 pixels): a changed pixel within a pixel of a stroke drawn in both screenshots is
+    # that edge. Anything else (a curve moved, added or gone, a label changed) leaves the stroke of one of them.
+    edge = _near_stroke(before) & _near_stroke(after)
+    redrawn = elsewhere & edge[ys, xs]
+    moved = elsewhere & ~edge[ys, xs]
+    stray = list(zip(xs[moved][:5], ys[moved][:5], strict=True))
+    assert moved.sum() <= 2, (f"{moved.sum()} pixels changed away from the machine, cursors, slider and the curves' "
+                              f"edges, e.g. at {stray}; cursors {cursors_before} -> {cursors_after}")
+    assert redrawn.sum() <= 50  # an edge's anti-aliasing, not a curve drawn again elsewhere
+
+
+def _near_stroke(pixels: np.ndarray) -> np.ndarray:
+    """Where a screenshot has drawing (a pixel well away from the white background) within one pixel."""
+    from scipy.ndimage import binary_dilation
+
+    return binary_dilation(np.abs(255 - pixels).sum(axis=2) > 150, iterations=1)
 
 
 def test_hover_shows_the_values(browser, tmp_path, nominal_result):

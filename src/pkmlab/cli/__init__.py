@@ -227,7 +227,8 @@ def _on_interrupt(_signum, _frame):
 def _interrupt_from_callbacks(hook=sys.unraisablehook):
     """``sys.unraisablehook`` that turns a Ctrl-C caught inside a callback from compiled code (Numba's
     LLVM engine calls back into Python while it compiles; an exception there cannot propagate and would
-    be printed as "Exception ignored", then lost) into a Ctrl-C delivered again to the main program."""
+    be printed as "Exception ignored", then lost) into a Ctrl-C delivered again to the main program, and
+    that keeps quiet, once interrupted, about the finalisers of what the interrupt left half-built."""
     import signal
 
     def interrupt(*_args):
@@ -238,8 +239,10 @@ def _interrupt_from_callbacks(hook=sys.unraisablehook):
             # raised here it would be caught again: deliver it a moment later, once out of the callback
             signal.signal(signal.SIGALRM, interrupt)
             signal.setitimer(signal.ITIMER_REAL, 0.005)
-        else:
+        elif not _INTERRUPTED:
             hook(info)
+        # else: an object the interrupt left half-built (an LLVM pass builder whose constructor it cut short)
+        # fails in its finaliser; that is the interrupt's doing, already reported in one line
 
     return unraisable
 
