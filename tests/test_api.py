@@ -297,6 +297,46 @@ def test_a_configuration_off_the_loop_closure_is_refused_naming_its_residual(mod
             call()
 
 
+def test_the_papers_own_formulation_refuses_a_configuration_off_the_loop_closure_too():
+    """``pkmlab.paper``'s functions of the closed chain (Jacobians, rates, S, the constrained and reduced models,
+    branch following) refuse what the unified API refuses; the full-space model and the residual itself, defined
+    for any seven numbers, do not."""
+    from pkmlab.paper import dynamics as dyn
+    from pkmlab.paper import kinematics as kin
+    from pkmlab.paper.geometry import Planar3RRR
+
+    paper = Planar3RRR.paper()
+    q = kin.inverse_kinematics(paper, POSES["paper"], mode=(1, -1, 1)).q.copy()
+    q[0] += 0.3
+    zero = np.zeros(3)
+    for name, call in (("q", lambda: kin.velocity_jacobian(paper, q)), ("q", lambda: kin.passive_jacobian(paper, q)),
+                       ("q", lambda: kin.singularity_measure(paper, q)),
+                       ("q", lambda: kin.coordinate_rates(paper, q, zero)),
+                       ("q", lambda: dyn.actuator_space_model(paper, q, zero)),
+                       ("q", lambda: dyn.actuator_space_coriolis_matrix(paper, q, zero)),
+                       ("q", lambda: dyn.forward_dynamics(paper, q, zero, zero)),
+                       ("q", lambda: dyn.constrained_accelerations(paper, q, np.zeros(7), zero)),
+                       ("q_previous", lambda: kin.branch_following(paper, q, q[:3]))):
+        with pytest.raises(pkmlab.InvalidParameterError, match=rf"^{name} is off the loop closure: max \|eta"):
+            call()
+    assert np.abs(kin.constraint_residual(paper, q)).max() > 0.01
+    assert np.isfinite(dyn.mass_matrix(paper, q)).all()
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, 1e200])
+def test_the_papers_own_formulation_refuses_rates_that_are_not_finite_or_overflow(bad):
+    from pkmlab.paper import dynamics as dyn
+    from pkmlab.paper import kinematics as kin
+    from pkmlab.paper.geometry import Planar3RRR
+
+    paper = Planar3RRR.paper()
+    q = kin.inverse_kinematics(paper, POSES["paper"], mode=(1, -1, 1)).q
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"^theta_dot"):
+        dyn.actuator_space_model(paper, q, [bad, 0.0, 0.0])
+    with pytest.raises(pkmlab.InvalidParameterError, match=r"^(q_dot|theta_dot)"):
+        dyn.constrained_accelerations(paper, q, np.full(7, bad), [0.0, 0.0, 0.0])
+
+
 @pytest.mark.parametrize("bad", [np.nan, np.inf, 1e200])
 def test_rates_that_are_not_finite_or_overflow_are_refused(models, bad):
     model = models["paper"]

@@ -333,8 +333,14 @@ def test_batched_jacobians_equal_single(paper):
 
 # ------------------------------------------------------------------ singularity
 @SETTINGS
-@given(q=st.lists(st.floats(-np.pi, np.pi), min_size=7, max_size=7).map(np.array))
-def test_singularity_measure_matches_eq_19_and_the_determinant(paper, q):
+@given(x=st.floats(0.1, 0.42), y=st.floats(0.05, 0.38), alpha=st.floats(-0.8, 0.8),
+       mode=st.sampled_from([tuple(m) for m in WORKING_MODES]))
+def test_singularity_measure_matches_eq_19_and_the_determinant(paper, x, y, alpha, mode):
+    """At configurations of the machine (the measure refuses any other): eq. (19)'s closed form, and the
+    determinant of the constraint Jacobian by finite differences."""
+    ik = kin.inverse_kinematics(paper, [x, y, alpha], mode=mode, on_unreachable="nan")
+    assume(np.isfinite(ik.S))
+    q = ik.q
     s = kin.singularity_measure(paper, q)
     assert s == pytest.approx(ref.S_closed_form(q), abs=1e-12)
     det = np.linalg.det(ref.numeric_jacobian(ref.eta, q)[:, 3:])

@@ -332,6 +332,39 @@ def test_a_study_on_an_existing_cluster_by_its_address(cluster, reference, tmp_p
     assert code == 1 and "give one of them" in err and not (tmp_path / "o2").exists()
 
 
+def _runs_that_warn(on: bool) -> None:
+    """On a worker: its runs raise NumPy's overflow warning first (``on``), or run as they are."""
+    import numpy
+
+    import pkmlab.study.engine as engine
+
+    original = getattr(engine, "_original_run_chunk", engine.run_chunk)
+    engine._original_run_chunk = original
+
+    def warned(*args, **kwargs):
+        numpy.float64(1e300) * numpy.float64(1e300)  # "overflow encountered in scalar multiply"
+        return original(*args, **kwargs)
+
+    engine.run_chunk = warned if on else original
+
+
+def test_a_workers_warning_is_one_note_of_the_command(cluster, tmp_path, capsys):
+    """A library's warning inside a run on a worker reaches the command, which says it once, in one note line
+    (a worker's own stderr would have printed it raw, apart from the command's output)."""
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(f'[study]\nbase = "{FAST}"\n[grid]\n"controller.kp" = [400.0, 2000.0]\n')
+    cluster.run(_runs_that_warn, True)
+    try:
+        code, out, err = run(capsys, "sweep", spec, "--out", tmp_path / "out", "--scheduler",
+                             cluster.scheduler.address, "--no-figures", "--chunk-size", "1")
+    finally:
+        cluster.run(_runs_that_warn, False)
+    assert code == 0 and "2 runs, 2 ok" in out, err
+    notes = [line for line in err.splitlines() if "RuntimeWarning" in line]
+    assert len(notes) == 1 and "overflow encountered in scalar multiply" in notes[0], err
+    assert "a computation warned on the way" in notes[0] and "please report it" in notes[0]
+
+
 def test_unreachable_scheduler_is_one_line(monkeypatch):
     from pkmlab.study import engine
 

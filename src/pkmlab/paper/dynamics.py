@@ -9,7 +9,9 @@ machine's description, :meth:`~pkmlab.model.mechanism_model.MechanismModel.from_
 simulation integrates and the computed-torque controller uses.
 
 Configurations ``q`` must lie on the constraint manifold (from inverse kinematics, forward
-kinematics or branch following); velocities are given as actuated rates ``θ̇`` and lifted
+kinematics or branch following): the functions of the constrained or reduced model refuse one whose
+loop-closure residual exceeds ``CLOSURE_TOLERANCE`` times the machine's size, naming it, and rates or
+efforts so large that the model overflows are refused too; velocities are given as actuated rates ``θ̇`` and lifted
 with ``q̇ = Jqθ θ̇`` (eq. 31), except in the full-space functions that take ``q̇`` itself.
 Every function broadcasts over leading dimensions.
 
@@ -34,11 +36,12 @@ import numpy as np
 
 from .._compile_cache import njit
 from .._validate import as_batch, as_broadcast, as_pair
+from ..errors import InvalidParameterError
 from ..model.mechanism_model import MechanismModel
 from ..numerics import closed_chain, lagrangian
 from . import rrr3
 from .geometry import Planar3RRR
-from .kinematics import as_paper_model, coordinates_from_3rrr, require_regular
+from .kinematics import as_paper_model, constraint_residual, coordinates_from_3rrr, require_on_closure, require_regular
 
 __all__ = [
     "mass_matrix",
@@ -104,6 +107,16 @@ def _coriolis_theta_batch(qs, theta_dots, P, out, ok):
         ok[k] = ok[k] and ok_solve
 
 
+def _on_closure(model, qs, shape) -> None:
+    require_on_closure(model, constraint_residual(model, qs).reshape(-1, 4), shape)
+
+
+def _finite(name: str, *arrays) -> None:
+    """Refuse a result that overflowed (rates of 1e200 squared), naming the input that was too large."""
+    if not all(np.all(np.isfinite(a)) for a in arrays):
+        raise InvalidParameterError(f"{name} overflows the model (values too large)")
+
+
 # ------------------------------------------------------------------ full configuration space
 def _full_space(model, q, q_dot):
     qs, qds, shape = as_pair("q", q, 7, "q_dot", q_dot, 7)
@@ -148,8 +161,12 @@ def _constrained(model, q, q_dot, tau, explicit=False):
     multipliers = np.empty((n, 4))
     lam_explicit = np.empty((n, 4))
     ok = np.zeros(n, dtype=np.bool_)
-    _constrained_batch(qs, qds, taus, as_paper_model(model).packed, explicit, q_ddot, multipliers, lam_explicit, ok)
+    _on_closure(model, qs, shape)
+    with np.errstate(over="ignore", invalid="ignore"):
+        _constrained_batch(qs, qds, taus, as_paper_model(model).packed, explicit, q_ddot, multipliers, lam_explicit,
+                           ok)
     require_regular(ok, shape, "the constrained dynamics")
+    _finite("q_dot or tau", q_ddot, multipliers, lam_explicit)
     return shape, q_ddot, multipliers, lam_explicit
 
 
@@ -181,6 +198,7 @@ def actuator_space_model(model: Planar3RRR, q, theta_dot) -> tuple[np.ndarray, n
 def _reduced_model(model, qs, theta_dots, shape, what):
     """``(Mθ, Cθ θ̇)`` (K, 3, 3), (K, 3) at configurations ``qs`` (K, 7): the compiled core's actuator-space model
     (:func:`pkmlab.codegen.core.dynamics.actuator_space_model`) on the machine's description, the simulation's own."""
+    _on_closure(model, qs, shape)
     machine = MechanismModel.from_3rrr(as_paper_model(model))
     n = qs.shape[0]
     m, c, g = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))
@@ -190,6 +208,7 @@ def _reduced_model(model, qs, theta_dots, shape, what):
     if first_singular >= 0:
         ok[first_singular] = False
     require_regular(ok, shape, what)
+    _finite("theta_dot", c)
     return m, c  # no gravity: the paper's machine is horizontal
 
 
@@ -198,8 +217,11 @@ def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarra
     qs, theta_dots, shape = as_pair("q", q, 7, "theta_dot", theta_dot, 3)
     out = np.empty((qs.shape[0], 3, 3))
     ok = np.zeros(qs.shape[0], dtype=np.bool_)
-    _coriolis_theta_batch(qs, theta_dots, as_paper_model(model).packed, out, ok)
+    _on_closure(model, qs, shape)
+    with np.errstate(over="ignore", invalid="ignore"):
+        _coriolis_theta_batch(qs, theta_dots, as_paper_model(model).packed, out, ok)
     require_regular(ok, shape, "C_theta")
+    _finite("theta_dot", out)
     return out.reshape(*shape, 3, 3)
 
 
@@ -208,11 +230,17 @@ def inverse_dynamics(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
     qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3),
                                                       ("theta_ddot", theta_ddot, 3))
     m_theta, c_theta = actuator_space_model(model, qs.reshape(*shape, 7), theta_dots.reshape(*shape, 3))
-    return np.einsum("...ij,...j->...i", m_theta, theta_ddots.reshape(*shape, 3)) + c_theta
+    with np.errstate(over="ignore", invalid="ignore"):
+        tau = np.einsum("...ij,...j->...i", m_theta, theta_ddots.reshape(*shape, 3)) + c_theta
+    _finite("theta_ddot", tau)
+    return tau
 
 
 def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
     """Actuated accelerations ``θ̈ = Mθ⁻¹ (τ - Cθ θ̇)`` (..., 3) under torques ``τ`` (eq. 35)."""
     qs, theta_dots, taus, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3), ("tau", tau, 3))
     m, c = _reduced_model(model, qs, theta_dots, shape, "the forward dynamics")
-    return np.linalg.solve(m, (taus - c)[..., None])[..., 0].reshape(*shape, 3)
+    with np.errstate(over="ignore", invalid="ignore"):
+        theta_ddot = np.linalg.solve(m, (taus - c)[..., None])[..., 0]
+    _finite("tau", theta_ddot)
+    return theta_ddot.reshape(*shape, 3)

@@ -28,6 +28,7 @@ import numpy as np
 
 from .._compile_cache import njit
 from .._validate import as_batch, as_broadcast, as_choice, as_mode, as_pair, as_real, index_text
+from ..algorithms.kinematics import CLOSURE_TOLERANCE
 from ..errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError, shown
 from ..numerics import closed_chain
 from . import rrr3
@@ -182,7 +183,7 @@ def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: st
         k = int(bad[0])
         raise _unreachable_error(model, poses[k], int(unreachable[k].max()), k, shape)
     q[unreachable != 0] = np.nan
-    s = singularity_measure(model, np.where(np.isnan(q), 0.0, q))
+    s = -determinant_formula(model, np.where(np.isnan(q), 0.0, q)) / rrr3.singularity_scale(model.packed)
     s[unreachable != 0] = np.nan
     if mode is not None:
         q, unreachable, s, modes = q[:, 0], unreachable[:, 0], s[:, 0], modes[0]
@@ -335,6 +336,7 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, singularity_guard:
         the way (a gain-type singularity), or the corrector does not converge.
     """
     q_prev, thetas, shape = as_pair("q_previous", q_previous, 7, "theta", theta, 3)
+    require_on_closure(model, _first_order(model, q_prev)[1], shape, "q_previous")
     from ..model.mechanism_model import MechanismModel
 
     # the compiled core's branch following on the machine's description: the simulation's own
@@ -392,6 +394,28 @@ def _first_order(model, q):
     return shape, residual, j_eta_q, j_pose_q, j_q_theta, det, ok
 
 
+def length_scale(model: Planar3RRR) -> float:
+    """The machine's size (m): its largest base distance, link length or platform side (what the closure
+    tolerance is scaled by, as for any machine: :data:`pkmlab.algorithms.kinematics.CLOSURE_TOLERANCE`)."""
+    model = as_paper_model(model)
+    return float(max(np.abs(model.base_points).max(), model.active_lengths.max(), model.passive_lengths.max(),
+                     model.platform_side))
+
+
+def require_on_closure(model, residual, shape, name: str = "q") -> None:
+    """Refuse configurations whose loop-closure residual ``max |η(q)|`` (from :func:`constraint_residual`, (K, 4))
+    exceeds ``CLOSURE_TOLERANCE`` times the machine's size: the Jacobians, the singularity measure and the
+    actuator-space model are those of the closed chain, and off it they would be numbers of nothing."""
+    worst = np.abs(residual).max(axis=-1)
+    tolerance = CLOSURE_TOLERANCE * length_scale(model)
+    bad = np.flatnonzero(~(worst <= tolerance))
+    if bad.size:
+        k = int(bad[0])
+        raise InvalidParameterError(
+            f"{name}{index_text(k, shape)} is off the loop closure: max |eta(q)| = {worst[k]:.3g} m exceeds "
+            f"{tolerance:.3g} m (a configuration from inverse or forward kinematics or branch following is on it)")
+
+
 def require_regular(ok, shape, what, name: str = "q"):
     if not np.all(ok):
         k = int(np.flatnonzero(~ok)[0])
@@ -422,21 +446,24 @@ def constraint_jacobian(model: Planar3RRR, q) -> np.ndarray:
 
 def passive_jacobian(model: Planar3RRR, q) -> np.ndarray:
     """``Jφθ = -Jηφ⁻¹ Jηθ`` (..., 4, 3), eq. (15): ``φ̇ = Jφθ θ̇``."""
-    shape, _r, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
+    shape, residual, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
+    require_on_closure(model, residual, shape)
     require_regular(ok, shape, "J_phi_theta")
     return j_q_theta[:, 3:, :].reshape(*shape, 4, 3)
 
 
 def actuated_jacobian(model: Planar3RRR, q) -> np.ndarray:
     """``Jqθ = [I3; Jφθ]`` (..., 7, 3), eq. (31): ``q̇ = Jqθ θ̇``."""
-    shape, _r, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
+    shape, residual, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
+    require_on_closure(model, residual, shape)
     require_regular(ok, shape, "J_q_theta")
     return j_q_theta.reshape(*shape, 7, 3)
 
 
 def platform_jacobian(model: Planar3RRR, q) -> np.ndarray:
     """``∂(ẋ, ẏ, α̇)/∂θ̇`` (..., 3, 3): ``Jpq Jqθ`` with the orientation row added (eqs. 14–17)."""
-    shape, _r, _j, j_pose_q, j_q_theta, _d, ok = _first_order(model, q)
+    shape, residual, _j, j_pose_q, j_q_theta, _d, ok = _first_order(model, q)
+    require_on_closure(model, residual, shape)
     require_regular(ok, shape, "the platform Jacobian")
     return (j_pose_q @ j_q_theta).reshape(*shape, 3, 3)
 
@@ -453,6 +480,7 @@ def _second_order(model, q, theta_dot):
     bias = np.empty((n, 7))
     pose_bias = np.empty((n, 3))
     ok = np.zeros(n, dtype=np.bool_)
+    require_on_closure(model, _first_order(model, qs)[1], shape)
     _second_order_batch(qs, theta_dots, as_paper_model(model).packed, q_dot, bias, pose_bias, ok)
     require_regular(ok, shape, "the passive rates")
     return shape, q_dot, bias, pose_bias
@@ -485,16 +513,26 @@ def coordinate_accelerations(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.
     return bias + np.einsum("...ij,...j->...i", j_q_theta, theta_ddots)
 
 
-def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
-    """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity."""
+def determinant_formula(model: Planar3RRR, q) -> np.ndarray:
+    """Eq. (18)'s ``det(Jηφ)`` (...) as a formula of any seven numbers ``q``, on the loop closure or not: what
+    :func:`forward_singularity_determinant` evaluates once ``q`` is checked (and inverse kinematics, at the
+    configurations it has just built)."""
     qs, shape = as_batch("q", q, 7)
     det = np.empty(qs.shape[0])
     _determinant_batch(qs, as_paper_model(model).packed, det)
     return det.reshape(shape)
 
 
+def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
+    """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity. ``q`` must be on the loop closure."""
+    qs, shape = as_batch("q", q, 7)
+    require_on_closure(model, _first_order(model, qs)[1], shape)
+    return determinant_formula(model, qs).reshape(shape)
+
+
 def singularity_measure(model: Planar3RRR, q) -> np.ndarray:
-    """``S = -det(Jηφ) / (a r1 r2 r3)`` (...), eq. (19) with conventions §2's sign.
+    """``S = -det(Jηφ) / (a r1 r2 r3)`` (...), eq. (19) with conventions §2's sign. ``q`` must be on the loop
+    closure.
 
     For the paper's geometry (equal ``r_i``, equilateral platform) this is
     ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``.

@@ -332,10 +332,26 @@ def execute(study: Study, todo: list[int], *, folder: StudyFolder | None = None,
     return kept, stats
 
 
-def _timed_chunk(study: Study, chunk: list[int], threads: int) -> tuple[list[dict], float]:
+def _timed_chunk(study: Study, chunk: list[int], threads: int) -> tuple[list[dict], float, list[tuple]]:
+    """A chunk's rows and compute time, run on a worker, with the warnings it raised: a worker's own warnings
+    would go to its stderr, raw, past what the caller makes of them (:func:`_warn_again`)."""
+    import warnings
+
     t0 = time.perf_counter()
-    rows = run_chunk(study, chunk, threads)
-    return rows, time.perf_counter() - t0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rows = run_chunk(study, chunk, threads)
+    said = {(w.category, str(w.message), w.filename, w.lineno) for w in caught}
+    return rows, time.perf_counter() - t0, sorted(said, key=str)
+
+
+def _warn_again(caught: list[tuple]) -> None:
+    """Raise in this process the warnings a worker recorded, where they arose (the command line says each in
+    one note line, as for a run of its own)."""
+    import warnings
+
+    for category, message, filename, lineno in caught:
+        warnings.warn_explicit(message, category, filename, lineno)
 
 
 @contextlib.contextmanager
@@ -379,11 +395,12 @@ def _run_on_dask(dask, study: Study, chunks: list[list[int]], threads: int, fini
                     continue
                 for future in batch:
                     try:
-                        rows, seconds = future.result()
+                        rows, seconds, caught = future.result()
                     except distributed.KilledWorker:
                         chunk = first[future.key]
                         raise StudyError(f"the chunk of runs {chunk[0]}..{chunk[-1]} killed the workers that ran it "
                                          "(out of memory?); what is written is kept: --resume runs the rest") from None
+                    _warn_again(caught)
                     finished(rows, seconds)
     except (OSError, TimeoutError, distributed.comm.CommClosedError) as exc:
         raise StudyError(f"lost the Dask cluster ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}); "
