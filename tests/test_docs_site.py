@@ -91,6 +91,37 @@ def test_performance_tables_are_the_results(site):
     assert html.count("<tr>") >= len(results)  # one row per result, and the header rows
 
 
+def test_tutorials_show_what_their_code_printed_and_drew_in_this_build(site):
+    """Every Python block of the tutorials and how-to guides ran as the site built: the paper's tutorial shows the
+    output of its blocks and three figures, each a PNG the build drew (none is in docs/), and so on."""
+    figures = {"tutorials/paper": 3, "tutorials/delta-stewart": 2, "tutorials/your-machine": 1,
+               "how-to/figures": 1, "how-to/many-plants": 1}
+    for page, count in figures.items():
+        html = (site / page / "index.html").read_text(encoding="utf-8")
+        drawn = re.findall(r'<img [^>]*src="(\.\./plots/[^"]+\.png)"', html)
+        assert len(drawn) == count, (page, drawn)
+        for src in drawn:
+            png = (site / page / src).resolve()
+            assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000, png
+            assert not list((ROOT / "docs").rglob(png.name)), png.name  # drawn, not pasted
+    paper = (site / "tutorials" / "paper" / "index.html").read_text(encoding="utf-8")
+    assert paper.count(">Output<") >= 2  # what its blocks printed: the assembly modes, a run's summary
+
+
+def test_a_block_that_fails_fails_the_build_naming_its_page_and_block():
+    """The page runner (docs/_hooks/run_pages.py) turns an error of a block into the build's error."""
+    spec = importlib.util.spec_from_file_location("run_pages", ROOT / "docs" / "_hooks" / "run_pages.py")
+    run_pages = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(run_pages)
+    from mkdocs.exceptions import PluginError
+
+    page = ("```python\nx = 1\nprint(x + 1)\n```\n\ntext\n\n"
+            "```python\nimport pkmlab\npkmlab.load('no_such_machine')\n```\n")
+    with pytest.raises(PluginError, match=r"^tutorials/broken\.md: its Python block 2 fails as written:\n"):
+        run_pages._run_page("tutorials/broken.md", page, None, [])
+    assert run_pages._run_page("tutorials/fine.md", page.split("text")[0], None, []) == [("2\n", [])]
+
+
 def test_changelog_is_included(site):
     html = (site / "changelog" / "index.html").read_text(encoding="utf-8")
     first_heading = re.search(r"^## (.+)$", (ROOT / "CHANGELOG.md").read_text(encoding="utf-8"), re.MULTILINE)
