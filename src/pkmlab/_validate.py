@@ -39,9 +39,11 @@ def real_array(name: str, value, what: str = "real numbers") -> np.ndarray:
     complex values are refused, not converted — NumPy would read ``"0.1667"`` as 0.1667, ``True`` as 1 and drop
     an imaginary part, so a slip would give an answer instead of an error.
     """
-    wrong = InvalidParameterError(f"{name} must be {what}, got {shown(value)}")
+    def wrong() -> InvalidParameterError:  # written only when refused: the repr of a large array costs milliseconds
+        return InvalidParameterError(f"{name} must be {what}, got {shown(value)}")
+
     if isinstance(value, (str, bytes, bool, np.bool_, dict, set)):
-        raise wrong
+        raise wrong()
     try:
         raw = np.asarray(value)
         # a list mixing kinds is converted to a common one ([True, 1.0] to floats): look at each of its items
@@ -52,7 +54,7 @@ def real_array(name: str, value, what: str = "real numbers") -> np.ndarray:
             raise TypeError
         return np.asarray(raw, dtype=float)
     except (TypeError, ValueError, OverflowError):
-        raise wrong from None
+        raise wrong() from None
 
 
 def _kernel_input(arr: np.ndarray) -> np.ndarray:
