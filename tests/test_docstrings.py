@@ -14,7 +14,8 @@ MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics
            "pkmlab.algorithms.regressor", "pkmlab.simulation.run", "pkmlab.simulation.scenario",
            "pkmlab.simulation.result", "pkmlab.formats.scenario", "pkmlab.errors",
            "pkmlab.algorithms.identification", "pkmlab.study.definition", "pkmlab.study.sweep", "pkmlab.study.tuning",
-           "pkmlab.views.notebook"]
+           "pkmlab.views.notebook", "pkmlab.algorithms.calibration", "pkmlab.algorithms.consistency",
+           "pkmlab.formats.measurements", "pkmlab.cli"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -151,6 +151,24 @@ def geometric_parameters(model) -> tuple[str, ...]:
     """The names of ``model``'s geometric parameters (the module's text), in the packed vector's order, then the
     turns of its joint axes, then the actuators' offsets ``offset<j>``.
 
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+
+    Returns
+    -------
+    tuple of str
+        Points' coordinates (m) such as ``base1_x``, ``body1_2_tip_y``, ``attach3_x``; axes' turns (rad) such as
+        ``rail1_angle`` or ``axis1_1_tilt_u``; and ``offset1``, ... (rad, or m for a prismatic actuator).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``model`` is not a pkmlab model.
+
+    Examples
+    --------
     >>> import pkmlab
     >>> geometric_parameters(pkmlab.load("five_bar"))[:4]
     ('base1_x', 'base1_y', 'body1_1_tip_x', 'body1_1_tip_y')
@@ -264,7 +282,42 @@ def predicted_measurements(model, theta, measured, *, measure: str = "position",
     """What the instrument would measure (N, m) of ``model`` at the readings ``theta`` (N, n_actuators) plus the
     actuators' ``offsets`` (e.g. :attr:`Calibration.offsets`; default none), each pose in the assembly mode
     nearest its measurement ``measured`` (as for :func:`calibrate`): a calibration's check on held-out poses
-    is ``measured - predicted_measurements(calibration.model, theta, measured, offsets=calibration.offsets)``."""
+    is ``measured - predicted_measurements(calibration.model, theta, measured, offsets=calibration.offsets)``.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`, :func:`with_geometry`, :attr:`Calibration.model`).
+    theta : array_like, shape (N, n_actuators)
+        The actuators' readings at each pose (rad, or m for a prismatic actuator).
+    measured : array_like, shape (N, m) or (N, dof)
+        The measured tracked point (``measure="position"``, m) or whole pose (``"pose"``, m and rad) at each:
+        what chooses the assembly mode.
+    measure : {"position", "pose"}
+        What the instrument measures.
+    offsets : array_like, shape (n_actuators,), optional
+        Added to the readings (rad, or m for a prismatic actuator).
+
+    Returns
+    -------
+    ndarray, shape (N, m)
+        The measured coordinates the machine predicts (m, and rad for an orientation).
+
+    Raises
+    ------
+    InvalidParameterError
+        If the readings do not assemble the machine, or the arguments' shapes do not agree.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> from pkmlab.algorithms.calibration import predicted_measurements, reachable_poses
+    >>> model = pkmlab.load("five_bar")
+    >>> poses, q = reachable_poses(model, 8, np.random.default_rng(1))
+    >>> bool(np.allclose(predicted_measurements(model, q[:, :2], poses), poses))  # the machine's own poses
+    True
+    """
     model = as_model(model)
     theta, measured, columns = _inputs(model, theta, measured, measure)
     if offsets is not None:
@@ -277,7 +330,45 @@ def predicted_measurements(model, theta, measured, *, measure: str = "position",
 def calibration_jacobian(model, theta, measured, *, measure: str = "position", names=None) -> np.ndarray:
     """The Jacobian (N·m, p) of the predicted measurements of the poses at readings ``theta`` (N, n) with respect
     to the parameters ``names`` (default every :func:`geometric_parameters`), each in units of its scale (the
-    machine's size, or a radian): what :func:`calibrate` and :func:`select_poses` analyse."""
+    machine's size, or a radian): what :func:`calibrate` and :func:`select_poses` analyse.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine as described (:func:`pkmlab.load`): the Jacobian is at its nominal geometry.
+    theta : array_like, shape (N, n_actuators)
+        The actuators' readings at each pose (rad, or m for a prismatic actuator).
+    measured : array_like, shape (N, m) or (N, dof)
+        The measured tracked point (``measure="position"``, m) or whole pose (``"pose"``, m and rad) at each:
+        what chooses the assembly mode.
+    measure : {"position", "pose"}
+        What the instrument measures (``m`` coordinates per pose).
+    names : sequence of str, optional
+        The parameters (default every :func:`geometric_parameters`).
+
+    Returns
+    -------
+    ndarray, shape (N * m, p)
+        Row ``k * m + i``: measured coordinate ``i`` of pose ``k`` (m, or rad), per unit of each parameter's
+        scale.
+
+    Raises
+    ------
+    InvalidParameterError
+        For a name that is not a geometric parameter, readings that do not assemble the machine, or arguments
+        whose shapes do not agree.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> from pkmlab.algorithms.calibration import calibration_jacobian, reachable_poses
+    >>> model = pkmlab.load("five_bar")
+    >>> poses, q = reachable_poses(model, 8, np.random.default_rng(1))
+    >>> jac = calibration_jacobian(model, q[:, :2], poses)
+    >>> jac.shape, int(np.linalg.matrix_rank(jac, tol=1e-6 * np.linalg.norm(jac, 2)))  # 10 of 14 determined
+    ((16, 14), 10)
+    """
     model = as_model(model)
     theta, measured, columns = _inputs(model, theta, measured, measure)
     return _nominal_jacobian(model, _names(model, names), theta, measured, columns)
@@ -435,6 +526,27 @@ def with_geometry(model, values: dict) -> MechanismModel:
     ``values`` ({name: value}: a point's coordinate in m, an axis's turn from the described one in rad): a
     machine as built rather than as drawn.
 
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine as described (:func:`pkmlab.load`).
+    values : dict
+        ``{name: value}``: a point's coordinate (m) or an axis's turn from the described one (rad); the
+        parameters not named keep their described values.
+
+    Returns
+    -------
+    MechanismModel
+        The machine with that geometry (its inertias unchanged).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``values`` is not a dict, names something that is not a geometric parameter (or an actuator's
+        offset), or gives a value that is not a finite number.
+
+    Examples
+    --------
     >>> import pkmlab
     >>> model = pkmlab.load("five_bar")
     >>> float(with_geometry(model, {"base1_x": -0.26}).P[model.kernels.PARAMETERS.index("base1_x")])
@@ -461,7 +573,42 @@ def perturbed_geometry(model, rng, size: float = 1e-3, angle: float = float(np.d
     ``[-angle, angle]`` (rad; ``[-size, size]`` for a prismatic actuator).
 
     Returns the machine and its offsets ``δ`` (n_actuators,): its readings are ``θ_read = θ_true - δ``.
-    Draws the parameters in :func:`geometric_parameters`' order, then the offsets."""
+    Draws the parameters in :func:`geometric_parameters`' order, then the offsets.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine as described (:func:`pkmlab.load`).
+    rng : numpy.random.Generator
+        The source of the draws (``np.random.default_rng(seed)``: the same seed, the same machine).
+    size : float
+        The largest error of a point's coordinate (m), and of a prismatic actuator's offset.
+    angle : float
+        The largest turn of an axis and offset of a revolute actuator (rad; default 0.5°).
+
+    Returns
+    -------
+    built : MechanismModel
+        The machine as built.
+    offsets : ndarray, shape (n_actuators,)
+        Its actuators' zero offsets ``δ`` (rad, or m for a prismatic actuator).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``rng`` is not a ``numpy.random.Generator`` or ``size`` or ``angle`` is negative.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> from pkmlab.algorithms.calibration import perturbed_geometry
+    >>> model = pkmlab.load("five_bar")
+    >>> built, offsets = perturbed_geometry(model, np.random.default_rng(0), size=1e-3)
+    >>> i = model.kernels.PARAMETERS.index("base1_x")
+    >>> bool(abs(built.P[i] - model.P[i]) <= 1e-3), offsets.shape, bool(np.all(np.abs(offsets) <= np.deg2rad(0.5)))
+    (True, (2,), True)
+    """
     from .._validate import as_real
 
     model = as_model(model)
@@ -490,7 +637,51 @@ def reachable_poses(model, count: int, rng, *, span: float = 0.1, turn: float = 
     measurement poses of a calibration.
 
     Returns the poses (count, dof) and their configurations (count, n) in ``mode`` (default the first working
-    mode); the actuators are their first ``n_actuators`` columns."""
+    mode); the actuators are their first ``n_actuators`` columns.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    count : int
+        How many poses (at least 1).
+    rng : numpy.random.Generator
+        The source of the draws (``np.random.default_rng(seed)``).
+    span : float
+        The half-width of the region in each position coordinate, as a share of the machine's size
+        (dimensionless, positive).
+    turn : float
+        The half-width of the region in each orientation coordinate (rad).
+    margin : float
+        The least ``|S|`` (dimensionless) of a pose kept.
+    mode : sequence of signs, optional
+        The working mode (default the machine's first).
+
+    Returns
+    -------
+    poses : ndarray, shape (count, dof)
+        The poses (m, and rad for an orientation).
+    configurations : ndarray, shape (count, n)
+        Their configurations on the loop closure in ``mode`` (rad or m per entry).
+
+    Raises
+    ------
+    InvalidParameterError
+        If fewer than ``count`` poses are found in ``TRIES_PER_POSE * count`` draws (a smaller region or margin),
+        or an argument has the wrong type or value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> from pkmlab.algorithms.calibration import reachable_poses
+    >>> model = pkmlab.load("five_bar")
+    >>> poses, q = reachable_poses(model, 8, np.random.default_rng(1))
+    >>> poses.shape, q.shape, bool(np.allclose(q[:, -2:], poses))  # the pose is the configuration's last entries
+    ((8, 2), (8, 6), True)
+    >>> bool(np.all(np.abs(pkmlab.singularity_measure(model, q)) > 0.05))
+    True
+    """
     from .._validate import as_real
     from .kinematics import as_working_mode
 
@@ -580,6 +771,22 @@ def calibrate(model, theta, measured, *, measure: str = "position", names=None, 
     InvalidParameterError
         For poses that cannot determine anything, readings that do not assemble the machine, or fewer measured
         coordinates than parameters to identify.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> from pkmlab.algorithms.calibration import calibrate, perturbed_geometry, predicted_measurements, reachable_poses
+    >>> model = pkmlab.load("five_bar")
+    >>> built, offsets = perturbed_geometry(model, np.random.default_rng(0))  # the machine as built
+    >>> poses, q = reachable_poses(built, 12, np.random.default_rng(1))  # measured exactly
+    >>> theta = q[:, :2] - offsets  # what its actuators read
+    >>> result = calibrate(model, theta, poses)
+    >>> bool(result.rms_before > 1e-4 and result.rms_after < 1e-12), result.fixed
+    (True, ('body1_2_tip_y', 'body2_2_tip_y', 'offset1', 'offset2'))
+    >>> predicted = predicted_measurements(result.model, theta, poses, offsets=result.offsets)
+    >>> bool(np.allclose(predicted, poses, atol=1e-12))
+    True
     """
     from scipy.optimize import least_squares
 
@@ -662,6 +869,43 @@ def select_poses(model, theta_candidates, measured_candidates, count: int, *, me
 
     ``theta_candidates`` (M, n) and ``measured_candidates`` (M, ·) as for :func:`calibrate` (the nominal
     machine's poses, e.g. from its inverse kinematics at poses spread over its workspace).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine as described (:func:`pkmlab.load`).
+    theta_candidates : array_like, shape (M, n_actuators)
+        The actuators' values at each candidate pose (rad, or m for a prismatic actuator).
+    measured_candidates : array_like, shape (M, m) or (M, dof)
+        The tracked point (``measure="position"``, m) or whole pose (``"pose"``, m and rad) at each.
+    count : int
+        How many poses to choose (1 to M).
+    measure : {"position", "pose"}
+        What the instrument measures.
+    names : sequence of str, optional
+        The parameters to calibrate (default every :func:`geometric_parameters`).
+
+    Returns
+    -------
+    ndarray of int, shape (count,)
+        The chosen candidates' indices, in the order chosen.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``count`` poses measure too few coordinates for the identifiable parameters, a name is not a geometric
+        parameter, or the arguments' shapes do not agree.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> from pkmlab.algorithms.calibration import reachable_poses, select_poses
+    >>> model = pkmlab.load("five_bar")
+    >>> poses, q = reachable_poses(model, 8, np.random.default_rng(1))
+    >>> chosen = select_poses(model, q[:, :2], poses, 6)
+    >>> chosen.shape, len(set(chosen.tolist()))
+    ((6,), 6)
     """
     model = as_model(model)
     theta, measured, columns = _inputs(model, theta_candidates, measured_candidates, measure)

@@ -252,7 +252,40 @@ def identified_model(model, parameters) -> MechanismModel:
     """``model`` with every body's mass, mass centre and inertia from the standard parameters ``parameters``
     (p,) (a :class:`ConsistentEstimate`'s, or :func:`~pkmlab.algorithms.regressor.inertial_parameters`'s),
     the geometry unchanged: the controller's model of an identified machine (drive parameters, if given, are
-    not part of a description and are left out)."""
+    not part of a description and are left out).
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`): its geometry.
+    parameters : ConsistentEstimate or array_like, shape (p,)
+        The standard inertial parameters (:func:`~pkmlab.algorithms.regressor.parameter_names`), each body's mass
+        (kg), first moments (kg·m) and inertias about its frame's origin (kg·m²); with the drives' parameters
+        after them, or without.
+
+    Returns
+    -------
+    MechanismModel
+        The machine with those bodies, each inertia about its mass centre made physical (non-negative principal
+        moments obeying the triangle inequality, as a consistent estimate's are to the solver's tolerance).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``parameters`` has neither the bodies' nor the bodies' and drives' number of entries, or gives a body a
+        mass that is not positive.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> from pkmlab.algorithms.consistency import identified_model
+    >>> model = pkmlab.load("five_bar")
+    >>> again = identified_model(model, pkmlab.inertial_parameters(model))  # the description's own bodies
+    >>> states = pkmlab.random_states(model, 5, seed=0)
+    >>> bool(np.allclose(pkmlab.inverse_dynamics(again, *states), pkmlab.inverse_dynamics(model, *states)))
+    True
+    """
     model = as_model(model)
     if isinstance(parameters, ConsistentEstimate):
         parameters = parameters.parameters

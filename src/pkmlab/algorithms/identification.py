@@ -91,7 +91,38 @@ class Measurements:
 
 def sampling_step(t: np.ndarray, first_row: int = 0) -> float:
     """The fixed step of the times ``t`` (N,), refusing a time that does not increase or a rate that is not fixed,
-    by row (numbered from ``first_row``)."""
+    by row (numbered from ``first_row``).
+
+    The step is the median of the differences; each may depart from it by ``UNIFORM_TOL`` of it.
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        The sample times (s).
+    first_row : int
+        The number of the first sample in messages (1 for a log file's first data row).
+
+    Returns
+    -------
+    float
+        The sampling step (s).
+
+    Raises
+    ------
+    InvalidParameterError
+        Naming the first row whose time is not after the row before it, or whose step departs from the others.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.algorithms.identification import sampling_step
+    >>> sampling_step(np.arange(5) * 0.01)
+    0.01
+    >>> sampling_step(np.array([0.0, 0.01, 0.01]), first_row=1)
+    Traceback (most recent call last):
+        ...
+    pkmlab.errors.InvalidParameterError: t at row 3 (0.01 s) is not after the row before it (0.01 s): time must increase
+    """
     dt = np.diff(t)
     if np.any(dt <= 0):
         k = int(np.flatnonzero(dt <= 0)[0]) + 1
@@ -141,7 +172,26 @@ def _start_configuration(model: MechanismModel, theta0: np.ndarray, pose, mode) 
 
 def decimation(length: int, polyorder: int) -> int:
     """One sample in how many to keep after a Savitzky–Golay filter of ``length`` samples and order
-    ``polyorder``: the ratio of the Nyquist frequency to the filter's cut-off (Schafer 2011)."""
+    ``polyorder``: the ratio of the Nyquist frequency to the filter's cut-off (Schafer 2011).
+
+    Parameters
+    ----------
+    length : int
+        The filter's window (samples, odd).
+    polyorder : int
+        The order of its polynomial.
+
+    Returns
+    -------
+    int
+        The decimation factor, at least 1.
+
+    Examples
+    --------
+    >>> from pkmlab.algorithms.identification import decimation
+    >>> decimation(51, 4), decimation(5, 4)
+    (15, 1)
+    """
     half = (length - 1) / 2
     return max(1, int(round((3.2 * half - 4.6) / (polyorder + 1))))
 
@@ -254,7 +304,30 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
 # ------------------------------------------------------------------ estimation
 def scaled_condition_number(W) -> float:
     """The condition number of an observation matrix ``W`` (rows, r) with its columns scaled to unit length:
-    independent of the parameters' units, it measures how well the data separate them (1 is best)."""
+    independent of the parameters' units, it measures how well the data separate them (1 is best).
+
+    Parameters
+    ----------
+    W : array_like, shape (rows, r)
+        The observation matrix (its columns in any units).
+
+    Returns
+    -------
+    float
+        The ratio of the largest to the smallest singular value of the scaled matrix (dimensionless, at least 1);
+        infinite when a column is zero or the scaled matrix has a zero singular value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.algorithms.identification import scaled_condition_number
+    >>> scaled_condition_number([[1.0, 0.0], [0.0, 1e-3]])  # orthogonal columns, whatever their units
+    1.0
+    >>> round(scaled_condition_number(np.array([[1.0, 1.0], [0.0, 1e-3]])), 1)  # nearly parallel columns
+    2000.0
+    >>> scaled_condition_number([[1.0, 0.0], [2.0, 0.0]])
+    inf
+    """
     W = np.asarray(W, dtype=float)
     norms = np.linalg.norm(W, axis=0)
     if not np.all(norms > 0):

@@ -395,21 +395,43 @@ def _check(base, platform, lengths, seed):
 def assembly_modes(base, platform, lengths, *, seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
     """Every real assembly mode of a Stewart–Gough platform, by homotopy continuation.
 
-    ``base``: the base points ``b_i`` (6, 3) in the world frame; ``platform``: the platform points
-    ``a_i`` (6, 3) in the platform frame; ``lengths``: the leg lengths ``rho_i`` (6,), leg ``i``
-    joining ``b_i`` to ``a_i``. Returns a list of poses ``(R, p)`` — ``R`` (3, 3) a rotation matrix,
-    ``p`` (3,) — with platform point ``i`` at ``p + R a_i``, each polished so that
-    ``max_i | |p + R a_i − b_i| − rho_i | < 1e-10 · size`` (``size``: the largest of the leg lengths
-    and of the distances of the points from their centroids). At most 40 poses (a general platform);
-    sorted by ``p`` then ``R``, lexicographically. An empty list: the legs cannot be assembled.
+    Each pose is polished so that ``max_i | |p + R a_i − b_i| − rho_i | < 1e-10 · size`` (``size``: the largest
+    of the leg lengths and of the distances of the points from their centroids). At most 40 poses (a general
+    platform). ``seed`` fixes the random complex constants of the homotopy: the result is deterministic for a
+    given seed.
 
-    ``seed`` fixes the random complex constants of the homotopy: the result is deterministic for a
-    given seed. Where the method cannot vouch for completeness (a double root, a non-general
-    platform with infinitely many poses) it warns with
-    :class:`~pkmlab.errors.IncompleteSolutionWarning`. Raises
-    :class:`~pkmlab.errors.InvalidParameterError` for arrays of the wrong shape, non-finite values
-    and non-positive lengths.
+    Parameters
+    ----------
+    base : array_like, shape (6, 3)
+        The base points ``b_i`` in the world frame (m).
+    platform : array_like, shape (6, 3)
+        The platform points ``a_i`` in the platform frame (m).
+    lengths : array_like, shape (6,)
+        The leg lengths ``rho_i`` (m), leg ``i`` joining ``b_i`` to ``a_i``; finite and positive.
+    seed : int
+        Non-negative: the seed of the homotopy's random constants.
 
+    Returns
+    -------
+    list of tuple (ndarray, ndarray)
+        The poses ``(R, p)`` — ``R`` (3, 3) a rotation matrix, ``p`` (3,) in m — with platform point ``i`` at
+        ``p + R a_i``, sorted by ``p`` then ``R``, lexicographically. An empty list: the legs cannot be
+        assembled.
+
+    Raises
+    ------
+    InvalidParameterError
+        For arrays of the wrong shape, non-finite values, non-positive lengths, or a seed that is not a
+        non-negative integer.
+
+    Warns
+    -----
+    IncompleteSolutionWarning
+        Where the method cannot vouch for completeness (a double root, a non-general platform with infinitely
+        many poses): real assembly modes may be missing.
+
+    Examples
+    --------
     >>> import numpy as np
     >>> b, a = np.deg2rad([0, 100, 120, 220, 240, 340]), np.deg2rad([40, 80, 160, 200, 280, 320])
     >>> base = np.c_[np.cos(b), np.sin(b), np.zeros(6)]

@@ -196,7 +196,37 @@ def main(argv: list[str] | None = None, one_shot_interpreted: bool = False) -> i
 
     ``one_shot_interpreted`` (the executable's choice, :func:`entry`): in a process that has not loaded any
     kernel yet, the one-shot commands (``ik`` ...) run their kernels interpreted: the same code, without
-    the 0.4 s of importing Numba and loading compiled kernels."""
+    the 0.4 s of importing Numba and loading compiled kernels.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The command line's arguments after ``pkmlab`` (default ``sys.argv[1:]``).
+    one_shot_interpreted : bool
+        Run a one-shot command's kernels interpreted, when none is loaded yet.
+
+    Returns
+    -------
+    int
+        The exit code. A pkmlab error (an unreachable pose, an invalid parameter, an unreadable file...) is
+        reported as one line on stderr, or as ``{"error": ...}`` on stdout with ``--json``, and gives 1.
+
+    Raises
+    ------
+    SystemExit
+        From the parser, for a malformed command line (code 2) or ``--help`` and ``--version`` (code 0).
+
+    Examples
+    --------
+    >>> from pkmlab.cli import main
+    >>> main(["ik", "0.2", "0.21", "0", "--mode", "+-+"])
+    inverse kinematics of the paper (3-R*RR) at x = 0.2, y = 0.21, alpha = 0
+         mode     theta1     theta2     theta3       q1_2       q2_2       q3_2          S
+    (+, -, +)  +1.614598  +1.983105  -1.184617  -0.472346  -2.804508  +2.751289  -0.744577
+    0
+    >>> main(["ik", "5", "0.21", "0"])  # out of reach: the reason is one line on stderr
+    1
+    """
     try:
         return _run(argv, one_shot_interpreted)
     except KeyboardInterrupt:

@@ -46,7 +46,25 @@ class MeasurementLog:
 
 
 def read_measurement_log(path: str | Path, model) -> MeasurementLog:
-    """The log at ``path`` of ``model``'s actuators and efforts.
+    r"""The log at ``path`` of ``model``'s actuators and efforts.
+
+    The columns are those of the module's text: ``t`` (s), ``theta<j>`` (rad, or m for a prismatic actuator),
+    ``tau<j>`` (N·m, or N), and optionally the pose's; a run's sensor readings ``theta<j>_m``, when it has them
+    all, are read in place of ``theta<j>``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    model : MechanismModel
+        The machine the log is of (:func:`pkmlab.load`): its number of actuators, their kinds and its pose's
+        names.
+
+    Returns
+    -------
+    MeasurementLog
+        ``t`` (N,) in s, ``theta`` and ``tau`` (N, n_actuators), and ``pose`` (dof,) at the first row (m and
+        rad), or None when the log has no pose columns.
 
     Raises
     ------
@@ -54,6 +72,26 @@ def read_measurement_log(path: str | Path, model) -> MeasurementLog:
         In one line naming the file and the column or row: a missing column, a value that is not a finite
         number, time that does not increase or a rate that changes, values that cannot be in the machine's
         units, fewer than two rows.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import pkmlab
+    >>> from pkmlab.formats.measurements import read_measurement_log
+    >>> model = pkmlab.load("five_bar")
+    >>> folder = tempfile.TemporaryDirectory()
+    >>> path = Path(folder.name) / "log.csv"
+    >>> _ = path.write_text("t,theta1,theta2,tau1,tau2\n0.00,1.0,2.0,0.1,0.2\n0.01,1.1,2.1,0.1,0.2\n")
+    >>> log = read_measurement_log(path, model)
+    >>> log.t.tolist(), log.theta.tolist(), log.pose is None
+    ([0.0, 0.01], [[1.0, 2.0], [1.1, 2.1]], True)
+    >>> _ = path.write_text("t,theta1,theta2,tau1,tau2\n0.00,57.3,2.0,0.1,0.2\n0.01,57.4,2.1,0.1,0.2\n")
+    >>> read_measurement_log(path, model)  # degrees
+    Traceback (most recent call last):
+        ...
+    pkmlab.errors.FileFormatError: .../log.csv: column theta1 reaches 57.4, which cannot be radians of a revolute ...
+    >>> folder.cleanup()
     """
     path = Path(path)
     n = model.n_actuators

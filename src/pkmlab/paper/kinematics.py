@@ -158,6 +158,7 @@ def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: st
     Parameters
     ----------
     model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
     pose : array_like, shape (..., 3)
         Platform centroid ``(x, y)`` in metres and orientation ``α`` in radians.
     mode : sequence of 3 signs, optional
@@ -171,6 +172,32 @@ def inverse_kinematics(model: Planar3RRR, pose, mode=None, *, on_unreachable: st
     Returns
     -------
     InverseKinematicsSolution
+        ``q`` of shape (..., 7) = ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad) for one working mode, (..., 8, 7) for all
+        of them (in the order of ``modes``), each on the loop closure; ``unreachable_legs`` and the singularity
+        measure ``S`` (dimensionless, eq. 19) of each solution.
+
+    Raises
+    ------
+    UnreachablePoseError
+        With ``on_unreachable="raise"``, for the first pose that a leg cannot reach in a requested working mode
+        (its ``legs`` and ``index`` attributes say which).
+    InvalidParameterError
+        If ``pose`` does not have 3 components, ``mode`` is not three signs or ``model`` is not a Planar3RRR.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import inverse_kinematics
+    >>> model = Planar3RRR.paper()
+    >>> ik = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1))
+    >>> ik.q.shape, np.round(ik.theta, 4).tolist(), round(float(ik.S), 4)
+    ((7,), [1.6146, 1.9831, -1.1846], -0.7446)
+    >>> inverse_kinematics(model, [0.20, 0.21, 0.0]).q.shape  # all eight working modes
+    (8, 7)
+    >>> far = inverse_kinematics(model, [5.0, 0.0, 0.0], mode=(1, 1, 1), on_unreachable="nan")
+    >>> bool(np.isnan(far.q).all()), int(far.unreachable_legs)  # bit i set: leg i + 1 cannot reach
+    (True, 7)
     """
     as_choice("on_unreachable", on_unreachable, ("raise", "nan"))
     poses, shape = as_batch("pose", pose, 3)
@@ -227,7 +254,36 @@ def _unreachable_error(model, pose, mask, flat, shape) -> UnreachablePoseError:
 
 
 def working_mode_of(model: Planar3RRR, q) -> np.ndarray:
-    """Working mode ``σ`` (..., 3) of configurations ``q``: the sign of ``(p_i - b_i) × (e_i - b_i)``."""
+    """Working mode ``σ`` (..., 3) of configurations ``q``: the sign of ``(p_i - b_i) × (e_i - b_i)``.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad); the elbows ``e_i`` and attachment points ``p_i``
+        are those of the legs' own angles.
+
+    Returns
+    -------
+    ndarray of int, shape (..., 3)
+        ``σ_i = +1`` when elbow ``e_i`` lies to the left of the directed line ``b_i → p_i``, else -1.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` does not have 7 components or ``model`` is not a Planar3RRR.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import inverse_kinematics, working_mode_of
+    >>> model = Planar3RRR.paper()
+    >>> ik = inverse_kinematics(model, [0.20, 0.21, 0.0])  # all eight working modes
+    >>> bool(np.array_equal(working_mode_of(model, ik.q), ik.modes))
+    True
+    """
     qs, shape = as_batch("q", q, 7)
     b = as_paper_model(model).base_points
     e = b + model.active_lengths[:, None] * np.stack([np.cos(qs[:, :3]), np.sin(qs[:, :3])], axis=-1)
@@ -298,6 +354,41 @@ def forward_kinematics(model: Planar3RRR, theta) -> ForwardKinematicsSolution:
     Each real root of the sextic (eq. 12) is turned into a configuration and polished with
     Newton's method on ``η = 0``, so each returned ``q`` satisfies the loop closure to
     round-off. ``count`` is 0 where the mechanism cannot be assembled.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    theta : array_like, shape (..., 3)
+        Actuated angles ``(θ1, θ2, θ3)`` (rad).
+
+    Returns
+    -------
+    ForwardKinematicsSolution
+        Up to six assembly modes per ``θ``, sorted by ``α``: ``q`` (..., 6, 7) (rad), ``pose`` (..., 6, 3)
+        (``x``, ``y`` in m, ``α`` in rad) and ``S`` (..., 6) (dimensionless, eq. 19), of which the first
+        ``count`` (...) are valid and the rest NaN. For a single ``θ`` it is a sequence of :class:`AssemblyMode`.
+
+    Raises
+    ------
+    SingularityError
+        If the polynomial vanishes identically at a ``θ`` (an architecture singularity: a continuum of assembly
+        modes).
+    InvalidParameterError
+        If ``theta`` does not have 3 components or ``model`` is not a Planar3RRR.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import constraint_residual, forward_kinematics, inverse_kinematics
+    >>> model = Planar3RRR.paper()
+    >>> theta = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).theta
+    >>> fk = forward_kinematics(model, theta)
+    >>> int(fk.count), fk.q.shape, np.round(fk.pose[:2], 4).tolist()
+    (2, (6, 7), [[0.2203, 0.2955, -0.5753], [0.2, 0.21, 0.0]])
+    >>> bool(np.abs(constraint_residual(model, fk.q[:2])).max() < 1e-12)  # on the loop closure
+    True
     """
     thetas, shape = as_batch("theta", theta, 3)
     n = thetas.shape[0]
@@ -329,11 +420,45 @@ def branch_following(model: Planar3RRR, q_previous, theta, *, singularity_guard:
     modes, the one on the same branch as the previous configuration. Cheap in the common
     case (one predictor-corrector step); a large step is subdivided.
 
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q_previous : array_like, shape (..., 7)
+        Configurations on the loop closure (rad): the assembly modes to follow.
+    theta : array_like, shape (..., 3)
+        The actuated angles to move to (rad), broadcast against ``q_previous``.
+    singularity_guard : float
+        The least ``|S|`` (dimensionless, eq. 19) the branch may come to on the way.
+
+    Returns
+    -------
+    ndarray, shape (..., 7)
+        The configurations at ``theta`` on the branches of ``q_previous`` (rad; the passive angles ``φ`` in
+        (-π, π]).
+
     Raises
     ------
     BranchFollowingError
         When the branch cannot be followed: ``|S|`` falls to ``singularity_guard`` or changes sign on
         the way (a gain-type singularity), or the corrector does not converge.
+    InvalidParameterError
+        If ``q_previous`` is off the loop closure (naming its residual), or an argument has the wrong shape or
+        value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import (branch_following, constraint_residual, inverse_kinematics,
+    ...                                      platform_pose, working_mode_of)
+    >>> model = Planar3RRR.paper()
+    >>> q0 = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> q1 = branch_following(model, q0, q0[:3] + [0.01, 0.0, 0.0])
+    >>> np.round(platform_pose(model, q1), 4).tolist(), working_mode_of(model, q1).tolist()
+    ([0.2, 0.2127, -0.0161], [1, -1, 1])
+    >>> bool(np.abs(constraint_residual(model, q1)).max() < 1e-12)
+    True
     """
     q_prev, thetas, shape = as_pair("q_previous", q_previous, 7, "theta", theta, 3)
     require_on_closure(model, _first_order(model, q_prev)[1], shape, "q_previous")
@@ -425,7 +550,38 @@ def require_regular(ok, shape, what, name: str = "q"):
 
 
 def platform_pose(model: Planar3RRR, q) -> np.ndarray:
-    """Platform pose ``(x, y, α)`` (..., 3) of configurations ``q`` (eq. 13, centroid position)."""
+    """Platform pose ``(x, y, α)`` (..., 3) of configurations ``q`` (eq. 13, centroid position).
+
+    The centroid is reached through leg 1 (``θ1``, ``φ1``) and the orientation ``α``; ``q`` is not checked
+    against the loop closure.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        The centroid ``(x, y)`` (m) and the orientation ``α`` (rad).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` does not have 7 components or ``model`` is not a Planar3RRR.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import inverse_kinematics, platform_pose
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> bool(np.allclose(platform_pose(model, q), [0.20, 0.21, 0.0], atol=1e-12))
+    True
+    """
     qs, shape = as_batch("q", q, 7)
     out = np.empty((qs.shape[0], 3))
     _pose_batch(qs, as_paper_model(model).packed, out)
@@ -433,19 +589,118 @@ def platform_pose(model: Planar3RRR, q) -> np.ndarray:
 
 
 def constraint_residual(model: Planar3RRR, q) -> np.ndarray:
-    """Loop-closure residual ``η(q)`` (..., 4), eqs. (2), (3), (5), (6)."""
+    """Loop-closure residual ``η(q)`` (..., 4), eqs. (2), (3), (5), (6).
+
+    Any configuration is accepted: ``η`` is zero on the loop closure only.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad), on the loop closure or not.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        The gaps (m) in x and y at ``p2`` through loop 1, then at ``p3`` through loop 2.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` does not have 7 components or ``model`` is not a Planar3RRR.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import constraint_residual, inverse_kinematics
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> bool(np.abs(constraint_residual(model, q)).max() < 1e-12)
+    True
+    >>> bool(np.abs(constraint_residual(model, q + [0, 0, 0, 0.01, 0, 0, 0])).max() > 1e-4)  # φ1 moved alone
+    True
+    """
     shape, residual, *_ = _first_order(model, q)
     return residual.reshape(*shape, 4)
 
 
 def constraint_jacobian(model: Planar3RRR, q) -> np.ndarray:
-    """``Jηq = ∂η/∂q`` (..., 4, 7) = ``[Jηθ | Jηφ]`` (paper §2.3)."""
+    """``Jηq = ∂η/∂q`` (..., 4, 7) = ``[Jηθ | Jηφ]`` (paper §2.3).
+
+    Any configuration is accepted, as for :func:`constraint_residual`.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad), on the loop closure or not.
+
+    Returns
+    -------
+    ndarray, shape (..., 4, 7)
+        The derivatives of ``η`` (m) by the coordinates (rad): m per rad.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` does not have 7 components or ``model`` is not a Planar3RRR.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import constraint_jacobian, coordinate_rates, inverse_kinematics
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> jac = constraint_jacobian(model, q)
+    >>> jac.shape, bool(np.allclose(jac @ coordinate_rates(model, q, [0.1, -0.2, 0.3]), 0.0))  # Jηq q̇ = 0
+    ((4, 7), True)
+    """
     shape, _r, j_eta_q, *_ = _first_order(model, q)
     return j_eta_q.reshape(*shape, 4, 7)
 
 
 def passive_jacobian(model: Planar3RRR, q) -> np.ndarray:
-    """``Jφθ = -Jηφ⁻¹ Jηθ`` (..., 4, 3), eq. (15): ``φ̇ = Jφθ θ̇``."""
+    """``Jφθ = -Jηφ⁻¹ Jηθ`` (..., 4, 3), eq. (15): ``φ̇ = Jφθ θ̇``.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 4, 3)
+        The rates of ``(φ1, φ2, φ3, α)`` per unit rate of ``(θ1, θ2, θ3)`` (rad per rad).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), does not have 7 components, or ``model`` is not a
+        Planar3RRR.
+    SingularityError
+        At a gain-type singularity (``det(Jηφ) = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import constraint_jacobian, inverse_kinematics, passive_jacobian
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> jac, j_phi_theta = constraint_jacobian(model, q), passive_jacobian(model, q)
+    >>> bool(np.allclose(jac[:, :3] + jac[:, 3:] @ j_phi_theta, 0.0))  # Jηθ + Jηφ Jφθ = 0
+    True
+    >>> passive_jacobian(model, q + [0, 0, 0, 0.01, 0, 0, 0])
+    Traceback (most recent call last):
+        ...
+    pkmlab.errors.InvalidParameterError: q is off the loop closure: max |eta(q)| = 0.00149 m exceeds ...
+    """
     shape, residual, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
     require_on_closure(model, residual, shape)
     require_regular(ok, shape, "J_phi_theta")
@@ -453,7 +708,39 @@ def passive_jacobian(model: Planar3RRR, q) -> np.ndarray:
 
 
 def actuated_jacobian(model: Planar3RRR, q) -> np.ndarray:
-    """``Jqθ = [I3; Jφθ]`` (..., 7, 3), eq. (31): ``q̇ = Jqθ θ̇``."""
+    """``Jqθ = [I3; Jφθ]`` (..., 7, 3), eq. (31): ``q̇ = Jqθ θ̇``.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 7, 3)
+        The rates of the seven coordinates per unit rate of ``(θ1, θ2, θ3)`` (rad per rad).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), does not have 7 components, or ``model`` is not a
+        Planar3RRR.
+    SingularityError
+        At a gain-type singularity (``det(Jηφ) = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import actuated_jacobian, inverse_kinematics, passive_jacobian
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> j_q_theta = actuated_jacobian(model, q)
+    >>> bool(np.allclose(j_q_theta[:3], np.eye(3)) and np.allclose(j_q_theta[3:], passive_jacobian(model, q)))
+    True
+    """
     shape, residual, _j, _jp, j_q_theta, _d, ok = _first_order(model, q)
     require_on_closure(model, residual, shape)
     require_regular(ok, shape, "J_q_theta")
@@ -461,7 +748,41 @@ def actuated_jacobian(model: Planar3RRR, q) -> np.ndarray:
 
 
 def platform_jacobian(model: Planar3RRR, q) -> np.ndarray:
-    """``∂(ẋ, ẏ, α̇)/∂θ̇`` (..., 3, 3): ``Jpq Jqθ`` with the orientation row added (eqs. 14–17)."""
+    """``∂(ẋ, ẏ, α̇)/∂θ̇`` (..., 3, 3): ``Jpq Jqθ`` with the orientation row added (eqs. 14–17).
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        Rows ``ẋ``, ``ẏ`` (m per rad) and ``α̇`` (rad per rad) per unit rate of ``(θ1, θ2, θ3)``.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), does not have 7 components, or ``model`` is not a
+        Planar3RRR.
+    SingularityError
+        At a gain-type singularity (``det(Jηφ) = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import branch_following, inverse_kinematics, platform_jacobian, platform_pose
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> theta_dot, h = np.array([0.1, -0.2, 0.3]), 1e-6
+    >>> moved = branch_following(model, q, q[:3] + h * theta_dot)  # a finite difference along the branch
+    >>> pose_dot = (platform_pose(model, moved) - platform_pose(model, q)) / h
+    >>> bool(np.allclose(pose_dot, platform_jacobian(model, q) @ theta_dot, atol=1e-5))
+    True
+    """
     shape, residual, _j, j_pose_q, j_q_theta, _d, ok = _first_order(model, q)
     require_on_closure(model, residual, shape)
     require_regular(ok, shape, "the platform Jacobian")
@@ -469,7 +790,39 @@ def platform_jacobian(model: Planar3RRR, q) -> np.ndarray:
 
 
 def velocity_jacobian(model: Planar3RRR, q) -> np.ndarray:
-    """``Jv = Jpθ + Jpφ Jφθ`` (..., 2, 3), eq. (16): centroid velocity ``ṗ = Jv θ̇``."""
+    """``Jv = Jpθ + Jpφ Jφθ`` (..., 2, 3), eq. (16): centroid velocity ``ṗ = Jv θ̇``.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+
+    Returns
+    -------
+    ndarray, shape (..., 2, 3)
+        The centroid's velocity (m/s) per unit rate of ``(θ1, θ2, θ3)`` (rad/s): m per rad. The first two rows
+        of :func:`platform_jacobian`.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), does not have 7 components, or ``model`` is not a
+        Planar3RRR.
+    SingularityError
+        At a gain-type singularity (``det(Jηφ) = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import inverse_kinematics, velocity_jacobian
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> np.round(velocity_jacobian(model, q), 4).tolist()
+    [[-0.0029, -0.1431, 0.0861], [0.2654, -0.3092, -0.0161]]
+    """
     return platform_jacobian(model, q)[..., :2, :]
 
 
@@ -487,24 +840,159 @@ def _second_order(model, q, theta_dot):
 
 
 def coordinate_rates(model: Planar3RRR, q, theta_dot) -> np.ndarray:
-    """``q̇ = Jqθ θ̇`` (..., 7), eq. (31)."""
+    """``q̇ = Jqθ θ̇`` (..., 7), eq. (31).
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+    theta_dot : array_like, shape (..., 3)
+        Actuated rates ``(θ̇1, θ̇2, θ̇3)`` (rad/s), broadcast against ``q``.
+
+    Returns
+    -------
+    ndarray, shape (..., 7)
+        The rates of the seven coordinates (rad/s); the first three are ``theta_dot``.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), or an argument has the wrong shape.
+    SingularityError
+        At a gain-type singularity (``det(Jηφ) = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import coordinate_rates, inverse_kinematics
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> np.round(coordinate_rates(model, q, [0.1, -0.2, 0.3]), 4).tolist()
+    [0.1, -0.2, 0.3, 0.7922, -0.1941, -0.3586, -0.5276]
+    """
     shape, q_dot, _b, _pb = _second_order(model, q, theta_dot)
     return q_dot.reshape(*shape, 7)
 
 
 def passive_rates(model: Planar3RRR, q, theta_dot) -> np.ndarray:
-    """``φ̇ = Jφθ θ̇`` (..., 4) = ``(φ̇1, φ̇2, φ̇3, α̇)``, eq. (15)."""
+    """``φ̇ = Jφθ θ̇`` (..., 4) = ``(φ̇1, φ̇2, φ̇3, α̇)``, eq. (15).
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+    theta_dot : array_like, shape (..., 3)
+        Actuated rates ``(θ̇1, θ̇2, θ̇3)`` (rad/s), broadcast against ``q``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``(φ̇1, φ̇2, φ̇3, α̇)`` (rad/s).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), or an argument has the wrong shape.
+    SingularityError
+        At a gain-type singularity (``det(Jηφ) = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import inverse_kinematics, passive_jacobian, passive_rates
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> theta_dot = np.array([0.1, -0.2, 0.3])
+    >>> bool(np.allclose(passive_rates(model, q, theta_dot), passive_jacobian(model, q) @ theta_dot))
+    True
+    """
     return coordinate_rates(model, q, theta_dot)[..., 3:]
 
 
 def acceleration_bias(model: Planar3RRR, q, theta_dot) -> np.ndarray:
-    """``J̇qθ θ̇`` (..., 7): ``q̈`` when ``θ̈ = 0`` (eq. 32); zero in the actuated rows."""
+    """``J̇qθ θ̇`` (..., 7): ``q̈`` when ``θ̈ = 0`` (eq. 32); zero in the actuated rows.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+    theta_dot : array_like, shape (..., 3)
+        Actuated rates ``(θ̇1, θ̇2, θ̇3)`` (rad/s), broadcast against ``q``.
+
+    Returns
+    -------
+    ndarray, shape (..., 7)
+        The coordinates' accelerations (rad/s²) at ``θ̈ = 0``.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), or an argument has the wrong shape.
+    SingularityError
+        At a gain-type singularity (``det(Jηφ) = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import acceleration_bias, inverse_kinematics
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> np.round(acceleration_bias(model, q, [0.1, -0.2, 0.3]), 4).tolist()
+    [0.0, 0.0, 0.0, 1.203, -0.8442, -0.8555, -0.7837]
+    """
     shape, _qd, bias, _pb = _second_order(model, q, theta_dot)
     return bias.reshape(*shape, 7)
 
 
 def coordinate_accelerations(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
-    """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., 7), eq. (32)."""
+    """``q̈ = Jqθ θ̈ + J̇qθ θ̇`` (..., 7), eq. (32).
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+    theta_dot : array_like, shape (..., 3)
+        Actuated rates ``(θ̇1, θ̇2, θ̇3)`` (rad/s).
+    theta_ddot : array_like, shape (..., 3)
+        Actuated accelerations ``(θ̈1, θ̈2, θ̈3)`` (rad/s²); the three arguments are broadcast together.
+
+    Returns
+    -------
+    ndarray, shape (..., 7)
+        The coordinates' accelerations (rad/s²); the first three are ``theta_ddot``.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), or an argument has the wrong shape.
+    SingularityError
+        At a gain-type singularity (``det(Jηφ) = 0``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import (acceleration_bias, actuated_jacobian, coordinate_accelerations,
+    ...                                      inverse_kinematics)
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> theta_dot, theta_ddot = np.array([0.1, -0.2, 0.3]), np.array([1.0, 0.0, -0.5])
+    >>> q_ddot = coordinate_accelerations(model, q, theta_dot, theta_ddot)
+    >>> expected = actuated_jacobian(model, q) @ theta_ddot + acceleration_bias(model, q, theta_dot)
+    >>> bool(np.allclose(q_ddot, expected)), np.round(q_ddot[:3], 4).tolist()
+    (True, [1.0, 0.0, -0.5])
+    """
     qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, 7), ("theta_dot", theta_dot, 3),
                                                       ("theta_ddot", theta_ddot, 3))
     qs, theta_dots, theta_ddots = qs.reshape(*shape, 7), theta_dots.reshape(*shape, 3), theta_ddots.reshape(*shape, 3)
@@ -524,7 +1012,36 @@ def determinant_formula(model: Planar3RRR, q) -> np.ndarray:
 
 
 def forward_singularity_determinant(model: Planar3RRR, q) -> np.ndarray:
-    """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity. ``q`` must be on the loop closure."""
+    """``det(Jηφ)`` (...), eq. (18); zero at a gain-type singularity. ``q`` must be on the loop closure.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        The determinant (m⁴: each entry of ``Jηφ`` in m per rad); :func:`singularity_measure` is it made
+        dimensionless.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), does not have 7 components, or ``model`` is not a
+        Planar3RRR.
+
+    Examples
+    --------
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import forward_singularity_determinant, inverse_kinematics
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> round(float(forward_singularity_determinant(model, q)), 7)
+    0.0004311
+    """
     qs, shape = as_batch("q", q, 7)
     require_on_closure(model, _first_order(model, qs)[1], shape)
     return determinant_formula(model, qs).reshape(shape)
@@ -536,6 +1053,38 @@ def singularity_measure(model: Planar3RRR, q) -> np.ndarray:
 
     For the paper's geometry (equal ``r_i``, equilateral platform) this is
     ``sin(φ1 - α) sin(φ2 - φ3) + sin(φ1 - φ2) sin(α + 2π/3 - φ3)``.
+
+    Parameters
+    ----------
+    model : Planar3RRR
+        The machine (e.g. :meth:`Planar3RRR.paper() <pkmlab.paper.geometry.Planar3RRR.paper>`).
+    q : array_like, shape (..., 7)
+        Configurations on the loop closure, ``(θ1, θ2, θ3, φ1, φ2, φ3, α)`` (rad).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        ``S`` (dimensionless): zero at a gain-type singularity, changing sign across one.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure (naming its residual), does not have 7 components, or ``model`` is not a
+        Planar3RRR.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pkmlab.paper.geometry import Planar3RRR
+    >>> from pkmlab.paper.kinematics import inverse_kinematics, singularity_measure
+    >>> model = Planar3RRR.paper()
+    >>> q = inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> phi1, phi2, phi3, alpha = q[3:]
+    >>> formula = (np.sin(phi1 - alpha) * np.sin(phi2 - phi3)
+    ...            + np.sin(phi1 - phi2) * np.sin(alpha + 2 * np.pi / 3 - phi3))
+    >>> s = float(singularity_measure(model, q))
+    >>> round(s, 4), bool(np.isclose(s, formula))
+    (-0.7446, True)
     """
     return -forward_singularity_determinant(model, q) / rrr3.singularity_scale(model.packed)
 
