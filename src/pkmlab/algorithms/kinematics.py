@@ -88,13 +88,18 @@ def _configurations(model: MechanismModel, q, name: str = "q"):
 
 def check_loop_closure(model: MechanismModel, qs: np.ndarray, shape, name: str = "q") -> None:
     """Refuse configurations off the loop-closure manifold, naming the first and its residual."""
-    residual = np.abs(constraint_residuals(model, qs)).max(axis=1)
-    tolerance = CLOSURE_TOLERANCE * length_scale(model)
-    bad = np.flatnonzero(~(residual <= tolerance))
+    refuse_off_closure(constraint_residuals(model, qs), CLOSURE_TOLERANCE * length_scale(model), shape, name)
+
+
+def refuse_off_closure(residual: np.ndarray, tolerance: float, shape, name: str = "q") -> None:
+    """Refuse the first configuration whose loop-closure residual ``residual`` (K, m) exceeds ``tolerance`` (m) in
+    its largest entry (NaN included), naming it, its index in ``shape`` and the residual."""
+    worst = np.abs(residual).max(axis=-1)
+    bad = np.flatnonzero(~(worst <= tolerance))
     if bad.size:
         k = int(bad[0])
         raise InvalidParameterError(
-            f"{name}{index_text(k, shape)} is off the loop closure: max |eta(q)| = {residual[k]:.3g} m exceeds "
+            f"{name}{index_text(k, shape)} is off the loop closure: max |eta(q)| = {worst[k]:.3g} m exceeds "
             f"{tolerance:.3g} m (a configuration from inverse or forward kinematics or branch following is on it)")
 
 

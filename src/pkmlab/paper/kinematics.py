@@ -28,7 +28,7 @@ import numpy as np
 
 from .._compile_cache import njit
 from .._validate import as_batch, as_broadcast, as_choice, as_mode, as_pair, as_real, index_text
-from ..algorithms.kinematics import CLOSURE_TOLERANCE
+from ..algorithms.kinematics import CLOSURE_TOLERANCE, refuse_off_closure
 from ..errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError, shown
 from ..numerics import closed_chain
 from . import rrr3
@@ -531,14 +531,7 @@ def require_on_closure(model, residual, shape, name: str = "q") -> None:
     """Refuse configurations whose loop-closure residual ``max |η(q)|`` (from :func:`constraint_residual`, (K, 4))
     exceeds ``CLOSURE_TOLERANCE`` times the machine's size: the Jacobians, the singularity measure and the
     actuator-space model are those of the closed chain, and off it they would be numbers of nothing."""
-    worst = np.abs(residual).max(axis=-1)
-    tolerance = CLOSURE_TOLERANCE * length_scale(model)
-    bad = np.flatnonzero(~(worst <= tolerance))
-    if bad.size:
-        k = int(bad[0])
-        raise InvalidParameterError(
-            f"{name}{index_text(k, shape)} is off the loop closure: max |eta(q)| = {worst[k]:.3g} m exceeds "
-            f"{tolerance:.3g} m (a configuration from inverse or forward kinematics or branch following is on it)")
+    refuse_off_closure(residual, CLOSURE_TOLERANCE * length_scale(model), shape, name)
 
 
 def require_regular(ok, shape, what, name: str = "q"):
