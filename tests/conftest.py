@@ -20,11 +20,12 @@ from pkmlab.cli import main  # noqa: E402
 from pkmlab.paper import kinematics as kin  # noqa: E402
 from pkmlab.paper.geometry import Planar3RRR  # noqa: E402
 
-#: Files whose tests are about the spatial presets (the Delta, the Stewart platform); tests elsewhere whose
-#: name or parameters name a machine of WARMED count too.
+#: Files whose tests are about the spatial presets (the Delta, the Stewart platform), or run them (the documentation
+#: site's build runs the tutorials, the Delta's among them); tests elsewhere whose name or parameters name a machine of
+#: WARMED count too.
 SPATIAL_FILES = {"test_delta.py", "test_stewart.py", "test_stewart_fk.py", "test_spatial_kernels.py",
                  "test_lower_mobility.py", "test_upu.py", "test_singularity_kinds.py", "test_rrs.py",
-                 "test_catalogue_fk.py"}
+                 "test_catalogue_fk.py", "test_docs_site.py"}
 #: Tests of the spatial presets that neither file nor name says: examples that calibrate a Delta and a Stewart.
 SPATIAL_TESTS = {"test_example_runs[calibration.py]"}
 #: Below this many selected tests, the spatial kernels are not compiled ahead (a few tests run as usual).

@@ -236,7 +236,8 @@ def test_branch_following_refuses_a_step_rather_than_land_in_another_assembly_mo
     point it reached, used to converge to a configuration whole turns away in another assembly mode."""
     model = Planar3RRR.paper()
     q_prev = np.array([0.35857836, 3.26478706, -2.08201745, 1.89909434, 1.83196474, -0.01415614, -1.17227581])
-    q_prev = kin.branch_following(model, q_prev, q_prev[:3])  # onto the manifold to round-off
+    # onto the manifold to round-off: the assembly mode at these actuators nearest the rounded configuration
+    q_prev = kin.forward_kinematics(model, q_prev[:3]).nearest(kin.platform_pose(model, q_prev)).q
     target = q_prev[:3] + np.array([0.005037, 0.00186, 0.001426])
     try:
         q = kin.branch_following(model, q_prev, target)
