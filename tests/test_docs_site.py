@@ -122,6 +122,36 @@ def test_a_block_that_fails_fails_the_build_naming_its_page_and_block():
     assert run_pages._run_page("tutorials/fine.md", page.split("text")[0], None, []) == [("2\n", [])]
 
 
+def test_the_figures_of_a_block_are_its_own():
+    """A block's figures are those it left open, saved into the site; one open before it (another page's, a test's)
+    is not taken."""
+    import types
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    spec = importlib.util.spec_from_file_location("run_pages", ROOT / "docs" / "_hooks" / "run_pages.py")
+    run_pages = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(run_pages)
+    # the site's files as MkDocs makes them during a build (File.generated reads the plugin being run)
+    run_pages.File = types.SimpleNamespace(generated=lambda config, name, content: types.SimpleNamespace(
+        src_uri=name, content=content))
+    files = []
+    elsewhere = plt.figure()
+    try:
+        page = ("```python\nimport matplotlib.pyplot as plt\nfig, ax = plt.subplots()\nax.plot([0, 1], [1, 0])\n```\n\n"
+                "```python\nprint('no figure')\n```\n")
+        outputs = run_pages._run_page("how-to/drawn.md", page, None, files)
+        assert outputs == [("", ["how-to/plots/drawn-1-1.png"]), ("no figure\n", [])]
+        assert [f.src_uri for f in files] == ["how-to/plots/drawn-1-1.png"]
+        assert files[0].content[:8] == b"\x89PNG\r\n\x1a\n"
+        assert plt.fignum_exists(elsewhere.number) and plt.get_fignums() == [elsewhere.number]
+    finally:
+        plt.close(elsewhere)
+
+
 def test_changelog_is_included(site):
     html = (site / "changelog" / "index.html").read_text(encoding="utf-8")
     first_heading = re.search(r"^## (.+)$", (ROOT / "CHANGELOG.md").read_text(encoding="utf-8"), re.MULTILINE)

@@ -57,6 +57,7 @@ def _run_page(uri: str, markdown: str, config, files) -> list[tuple[str, list[st
         try:
             for k, match in enumerate(_blocks(markdown), start=1):
                 printed = io.StringIO()
+                before = set(plt.get_fignums())  # a figure open already is not this block's
                 try:
                     with contextlib.redirect_stdout(printed):
                         exec(compile(match.group(1), f"{uri}, block {k}", "exec"), namespace)  # noqa: S102
@@ -64,13 +65,14 @@ def _run_page(uri: str, markdown: str, config, files) -> list[tuple[str, list[st
                     trace = "".join(traceback.format_exception(exc)[-3:]).strip()
                     raise PluginError(f"{uri}: its Python block {k} fails as written:\n{trace}") from None
                 figures = []
-                for j, number in enumerate(plt.get_fignums(), start=1):
+                drawn = [number for number in plt.get_fignums() if number not in before]
+                for j, number in enumerate(drawn, start=1):
                     data = io.BytesIO()
                     plt.figure(number).savefig(data, format="png", dpi=DPI)
+                    plt.close(number)
                     name = f"{folder}/plots/{stem}-{k}-{j}.png"
                     files.append(File.generated(config, name, content=data.getvalue()))
                     figures.append(name)
-                plt.close("all")
                 outputs.append((printed.getvalue(), figures))
         finally:
             os.chdir(here)
