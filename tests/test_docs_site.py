@@ -108,11 +108,17 @@ def test_tutorials_show_what_their_code_printed_and_drew_in_this_build(site):
     assert paper.count(">Output<") >= 2  # what its blocks printed: the assembly modes, a run's summary
 
 
+def _page_runner():
+    """docs/_hooks/run_pages.py, the hook that runs the tutorials' blocks as the site builds, as a module."""
+    spec = importlib.util.spec_from_file_location("run_pages", ROOT / "docs" / "_hooks" / "run_pages.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def test_a_block_that_fails_fails_the_build_naming_its_page_and_block():
     """The page runner (docs/_hooks/run_pages.py) turns an error of a block into the build's error."""
-    spec = importlib.util.spec_from_file_location("run_pages", ROOT / "docs" / "_hooks" / "run_pages.py")
-    run_pages = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(run_pages)
+    run_pages = _page_runner()
     from mkdocs.exceptions import PluginError
 
     page = ("```python\nx = 1\nprint(x + 1)\n```\n\ntext\n\n"
@@ -132,9 +138,7 @@ def test_the_figures_of_a_block_are_its_own():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    spec = importlib.util.spec_from_file_location("run_pages", ROOT / "docs" / "_hooks" / "run_pages.py")
-    run_pages = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(run_pages)
+    run_pages = _page_runner()
     # the site's files as MkDocs makes them during a build (File.generated reads the plugin being run)
     run_pages.File = types.SimpleNamespace(generated=lambda config, name, content: types.SimpleNamespace(
         src_uri=name, content=content))
