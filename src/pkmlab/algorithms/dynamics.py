@@ -98,12 +98,13 @@ class ActuatorSpaceModel:
     g: np.ndarray
 
 
-def _finite(name: str, *arrays) -> None:
+def refuse_overflow(name: str, *arrays) -> None:
+    """Refuse a result that overflowed (rates of 1e200 squared), naming the input ``name`` that was too large."""
     if not all(np.all(np.isfinite(a)) for a in arrays):
         raise InvalidParameterError(f"{name} overflows the model (values too large)")
 
 
-#: What the computations below run under: an overflow is refused after them (:func:`_finite`, naming the input),
+#: What the computations below run under: an overflow is refused after them (:func:`refuse_overflow`, naming the input),
 #: so NumPy's own warnings of it would only come first with the wrong words.
 _QUIET = {"over": "ignore", "invalid": "ignore", "divide": "ignore"}
 
@@ -151,7 +152,7 @@ def full_space_model(model: MechanismModel, q, q_dot) -> FullSpaceModel:
     with np.errstate(**_QUIET):
         for k in range(len(qs)):
             M[k], c[k], g[k] = mm.full_space_model(model, qs[k], qds[k])
-    _finite("q_dot", c)
+    refuse_overflow("q_dot", c)
     return FullSpaceModel(M.reshape(*shape, n, n), c.reshape(*shape, n), g.reshape(*shape, n))
 
 
@@ -214,7 +215,7 @@ def constrained_dynamics(model: MechanismModel, q, q_dot, tau) -> ConstrainedDyn
         if not ok:
             raise SingularityError(f"q{index_text(k, shape)}: the constrained model is singular there "
                                    "(a gain-type singularity)")
-    _finite("q_dot or tau", q_ddot, multipliers)
+    refuse_overflow("q_dot or tau", q_ddot, multipliers)
     return ConstrainedDynamics(q_ddot.reshape(*shape, n), multipliers.reshape(*shape, k_.N_CONSTRAINTS))
 
 
@@ -278,7 +279,7 @@ def actuator_space_model(model: MechanismModel, q, theta_dot) -> ActuatorSpaceMo
         failed = model.kernels.actuator_space_models(qs, theta_dots, model.P, M, c, g)
     if failed >= 0:
         raise SingularityError(f"q{index_text(int(failed), shape)} is at a gain-type singularity")
-    _finite("theta_dot", c)
+    refuse_overflow("theta_dot", c)
     return ActuatorSpaceModel(M.reshape(*shape, na, na), c.reshape(*shape, na), g.reshape(*shape, na))
 
 
@@ -324,7 +325,7 @@ def inverse_dynamics(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndar
     r = actuator_space_model(model, qs, theta_dots)
     with np.errstate(**_QUIET):
         tau = np.einsum("kij,kj->ki", r.M, theta_ddots) + r.c + r.g
-    _finite("theta_ddot", tau)
+    refuse_overflow("theta_ddot", tau)
     return tau.reshape(*shape, na)
 
 
@@ -370,5 +371,5 @@ def forward_dynamics(model: MechanismModel, q, theta_dot, tau) -> np.ndarray:
     r = actuator_space_model(model, qs, theta_dots)
     with np.errstate(**_QUIET):
         theta_ddot = np.linalg.solve(r.M, (taus - r.c - r.g)[..., None])[..., 0]
-    _finite("tau", theta_ddot)
+    refuse_overflow("tau", theta_ddot)
     return theta_ddot.reshape(*shape, na)

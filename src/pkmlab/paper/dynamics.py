@@ -36,7 +36,7 @@ import numpy as np
 
 from .._compile_cache import njit
 from .._validate import as_batch, as_broadcast, as_pair
-from ..errors import InvalidParameterError
+from ..algorithms.dynamics import refuse_overflow
 from ..model.mechanism_model import MechanismModel
 from ..numerics import closed_chain, lagrangian
 from . import rrr3
@@ -109,12 +109,6 @@ def _coriolis_theta_batch(qs, theta_dots, P, out, ok):
 
 def _on_closure(model, qs, shape) -> None:
     require_on_closure(model, constraint_residual(model, qs).reshape(-1, 4), shape)
-
-
-def _finite(name: str, *arrays) -> None:
-    """Refuse a result that overflowed (rates of 1e200 squared), naming the input that was too large."""
-    if not all(np.all(np.isfinite(a)) for a in arrays):
-        raise InvalidParameterError(f"{name} overflows the model (values too large)")
 
 
 # ------------------------------------------------------------------ full configuration space
@@ -299,7 +293,7 @@ def _constrained(model, q, q_dot, tau, explicit=False):
         _constrained_batch(qs, qds, taus, as_paper_model(model).packed, explicit, q_ddot, multipliers, lam_explicit,
                            ok)
     require_regular(ok, shape, "the constrained dynamics")
-    _finite("q_dot or tau", q_ddot, multipliers, lam_explicit)
+    refuse_overflow("q_dot or tau", q_ddot, multipliers, lam_explicit)
     return shape, q_ddot, multipliers, lam_explicit
 
 
@@ -460,7 +454,7 @@ def _reduced_model(model, qs, theta_dots, shape, what):
     if first_singular >= 0:
         ok[first_singular] = False
     require_regular(ok, shape, what)
-    _finite("theta_dot", c)
+    refuse_overflow("theta_dot", c)
     return m, c  # no gravity: the paper's machine is horizontal
 
 
@@ -509,7 +503,7 @@ def actuator_space_coriolis_matrix(model: Planar3RRR, q, theta_dot) -> np.ndarra
     with np.errstate(over="ignore", invalid="ignore"):
         _coriolis_theta_batch(qs, theta_dots, as_paper_model(model).packed, out, ok)
     require_regular(ok, shape, "C_theta")
-    _finite("theta_dot", out)
+    refuse_overflow("theta_dot", out)
     return out.reshape(*shape, 3, 3)
 
 
@@ -556,7 +550,7 @@ def inverse_dynamics(model: Planar3RRR, q, theta_dot, theta_ddot) -> np.ndarray:
     m_theta, c_theta = actuator_space_model(model, qs.reshape(*shape, 7), theta_dots.reshape(*shape, 3))
     with np.errstate(over="ignore", invalid="ignore"):
         tau = np.einsum("...ij,...j->...i", m_theta, theta_ddots.reshape(*shape, 3)) + c_theta
-    _finite("theta_ddot", tau)
+    refuse_overflow("theta_ddot", tau)
     return tau
 
 
@@ -607,5 +601,5 @@ def forward_dynamics(model: Planar3RRR, q, theta_dot, tau) -> np.ndarray:
     m, c = _reduced_model(model, qs, theta_dots, shape, "the forward dynamics")
     with np.errstate(over="ignore", invalid="ignore"):
         theta_ddot = np.linalg.solve(m, (taus - c)[..., None])[..., 0]
-    _finite("tau", theta_ddot)
+    refuse_overflow("tau", theta_ddot)
     return theta_ddot.reshape(*shape, 3)
