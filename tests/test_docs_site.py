@@ -20,7 +20,8 @@ from pkmlab.cli._parser import build_parser
 ROOT = Path(__file__).parents[1]
 #: The packages `make docs` needs (the `docs` extra), each by the module it installs.
 TOOLS = {"mkdocs": "mkdocs", "mkdocs-material": "material", "mkdocstrings": "mkdocstrings",
-         "mkdocstrings-python": "mkdocstrings_handlers"}
+         "mkdocstrings-python": "mkdocstrings_handlers", "nbclient": "nbclient", "nbformat": "nbformat",
+         "ipykernel": "ipykernel"}
 MISSING = [package for package, module in TOOLS.items() if importlib.util.find_spec(module) is None]
 
 pytestmark = pytest.mark.skipif(bool(MISSING), reason=f"the documentation tools are not installed: "
@@ -155,6 +156,93 @@ def test_the_figures_of_a_block_are_its_own():
         assert plt.get_fignums() == open_before  # the block's own figure closed once saved, the others left
     finally:
         plt.close(elsewhere)
+
+
+def _notebook_hook():
+    """docs/_hooks/render_notebook.py, the hook that runs the notebook tour as the site builds, as a module."""
+    spec = importlib.util.spec_from_file_location("render_notebook", ROOT / "docs" / "_hooks" / "render_notebook.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def tour(site):
+    """The notebook tour (examples/tour.ipynb) as the build ran it in a Jupyter kernel, published beside its page."""
+    import nbformat
+
+    return nbformat.read(site / "tutorials" / "tour.ipynb", as_version=4)
+
+
+def _outputs(cell) -> dict:
+    data = {}
+    for output in cell.outputs:
+        assert output.output_type != "error", "".join(output.get("traceback", []))
+        data.update(output.get("data", {}))
+    return data
+
+
+def test_every_cell_of_the_tour_ran_in_the_build(tour):
+    source = json.loads((ROOT / "examples" / "tour.ipynb").read_text(encoding="utf-8"))
+    assert [c.source for c in tour.cells] == ["".join(c["source"]) for c in source["cells"]]
+    for cell in tour.cells:
+        if cell.cell_type == "code":
+            assert cell.execution_count is not None and cell.outputs, cell.source
+            _outputs(cell)
+
+
+@pytest.mark.parametrize(("last_line", "title"), [
+    ("model", "paper (3-R*RR)"),
+    ("ik", "Inverse kinematics"),
+    ("fk", "Forward kinematics: every assembly mode"),
+    ("results['fast']", "Run of fast"),
+    ("delta", "delta (3-R*US)"),
+    ("scenario", "Scenario"),
+    ("run", "Run of"),
+])
+def test_objects_show_as_tables_in_the_tour(tour, last_line, title):
+    """pkmlab's objects show as tables in Jupyter: the views layer registers them with IPython's HTML formatter on
+    ``import pkmlab`` (the objects themselves know nothing of their display)."""
+    cell = next(c for c in tour.cells if c.cell_type == "code" and c.source.strip().splitlines()[-1] == last_line)
+    html = _outputs(cell).get("text/html", "")
+    assert "<table" in html and title in html
+
+
+def test_machines_and_runs_draw_as_plotly_figures_in_the_tour(tour):
+    for start in ("pkmlab.draw(", "pkmlab.plot(", "pkmlab.show("):
+        cell = next(c for c in tour.cells if c.cell_type == "code" and c.source.startswith(start))
+        data = _outputs(cell)
+        assert "application/vnd.plotly.v1+json" in data or "plotly" in data.get("text/html", "").lower()
+
+
+def test_the_tour_page_shows_its_tables_and_live_figures_offline(server, browser):
+    """The tour's page: the notebook's text, its code, its tables and its three Plotly figures drawn by the
+    site's own copy of Plotly (nothing fetched from elsewhere, no script error)."""
+    page, errors = _open(browser, f"{server}/tutorials/tour/", server)
+    try:
+        page.wait_for_selector("article .js-plotly-plot .main-svg")
+        article = page.inner_text("article.md-content__inner")
+        assert "A second machine: the Delta robot" in article and "pkmlab.simulate(scenario)" in article
+        assert page.locator("article .js-plotly-plot").count() == 3
+        assert page.locator("article table").count() >= 7
+        assert not page.locator("article p", has_text="PKMLAB_NOTEBOOK_OUTPUT").count()  # every output in place
+        page.wait_for_timeout(200)
+        assert not errors, errors
+    finally:
+        page.close()
+
+
+def test_a_cell_that_fails_fails_the_build_naming_it(tmp_path):
+    import nbformat
+    from mkdocs.exceptions import PluginError
+
+    cells = [nbformat.v4.new_markdown_cell("# A notebook"), nbformat.v4.new_code_cell("x = 1"),
+             nbformat.v4.new_code_cell("import pkmlab\npkmlab.load('no_such_machine')")]
+    path = tmp_path / "broken.ipynb"
+    nbformat.write(nbformat.v4.new_notebook(cells=cells), path)
+    with pytest.raises(PluginError, match=r"^broken\.ipynb: its code cell 2 fails: InvalidParameterError: source "
+                                          r"must be a preset"):
+        _notebook_hook()._execute(path)
 
 
 def test_changelog_is_included(site):

@@ -132,6 +132,20 @@ class AssemblyError(PkmlabError, ValueError):
     """Actuator values for which the mechanism cannot be assembled (no forward solution).
 
     Also a :class:`ValueError`.
+
+    Examples
+    --------
+    A plant whose links are 20 % shorter than the controller's model cannot reach the actuator values the run
+    starts at:
+
+    >>> import pkmlab
+    >>> from pkmlab.description.mechanism import scaled_mechanism
+    >>> model = pkmlab.load("paper")
+    >>> plant = pkmlab.MechanismModel.from_description(scaled_mechanism(model.description, length=0.8))
+    >>> pkmlab.simulate(pkmlab.paper_scenario("nominal").replace(plant=plant))
+    Traceback (most recent call last):
+    ...
+    pkmlab.errors.AssemblyError: the plant cannot be assembled at the start actuators [0.189012, 3.112031, -2.642405]
     """
 
 
@@ -139,6 +153,18 @@ class IncompleteSolutionWarning(UserWarning):
     """A general method found solutions but cannot guarantee that it found all of them.
 
     For example forward kinematics near a double root: the message says where.
+
+    Examples
+    --------
+    A warning, so that the solutions found are still returned; where an incomplete answer must stop the work,
+    make it an error:
+
+    >>> import warnings
+    >>> import pkmlab
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("error", pkmlab.IncompleteSolutionWarning)
+    ...     len(pkmlab.forward_kinematics(pkmlab.load("paper"), [1.0, 2.0, -2.0]).q)
+    2
     """
 
 

@@ -55,6 +55,16 @@ class FullSpaceModel:
         ``C(q, q̇) q̇``: the Coriolis and centrifugal forces (eq. 24; N·m or N per coordinate).
     g : ndarray, shape (..., n)
         ``g(q) = ∂V/∂q``: the generalised forces that hold the bodies still against gravity (N·m or N).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.2, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> full = pkmlab.full_space_model(model, q, np.zeros(9))
+    >>> full.M.shape, bool(np.allclose(full.M, full.M.T)), bool(np.all(full.c == 0.0))
+    ((9, 9), True, True)
     """
 
     M: np.ndarray
@@ -73,6 +83,19 @@ class ConstrainedDynamics:
     multipliers : ndarray, shape (..., n_constraints)
         The loop-closure multipliers ``λ`` of eq. (26): the forces (N, one per constraint row, in the
         constraints' order) with which each leg holds its attachment point on the platform.
+
+    Examples
+    --------
+    At rest under the efforts that hold it against gravity, the Delta stays at rest:
+
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> delta = pkmlab.load("delta")
+    >>> q = pkmlab.inverse_kinematics(delta, [0.0, 0.0, -0.8], mode=(1, 1, 1)).q
+    >>> g = pkmlab.actuator_space_model(delta, q, np.zeros(3)).g
+    >>> motion = pkmlab.constrained_dynamics(delta, q, np.zeros(12), g)
+    >>> bool(np.abs(motion.q_ddot).max() < 1e-9), motion.multipliers.shape
+    (True, (9,))
     """
 
     q_ddot: np.ndarray
@@ -91,6 +114,16 @@ class ActuatorSpaceModel:
         ``cθ = Cθ θ̇``: the Coriolis and centrifugal efforts (N·m or N).
     g : ndarray, shape (..., n_actuators)
         ``gθ = ∂V/∂θ``: the efforts that hold the machine still against gravity (N·m or N).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.2, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> actuator = pkmlab.actuator_space_model(model, q, [0.1, 0.0, 0.0])
+    >>> bool(np.allclose(actuator.M, actuator.M.T)), bool(np.all(np.linalg.eigvalsh(actuator.M) > 0))
+    (True, True)
     """
 
     M: np.ndarray
