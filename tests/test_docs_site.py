@@ -54,11 +54,23 @@ def test_every_public_name_has_its_documentation(site):
     assert set(pkmlab.__all__) == {"__version__", *pkmlab._WHERE}
 
 
+def test_the_papers_own_formulation_is_documented_name_by_name(site):
+    """`pkmlab.paper`'s modules, not re-exported by `pkmlab`: each name of their `__all__` has its entry."""
+    import pkmlab.paper.dynamics
+    import pkmlab.paper.kinematics
+
+    for module in (pkmlab.paper.kinematics, pkmlab.paper.dynamics):
+        stem = module.__name__.removeprefix("pkmlab.")
+        ids = _ids(site / "reference" / "api" / stem / "index.html")
+        assert {f"{module.__name__}.{name}" for name in module.__all__} <= ids, stem
+    assert "pkmlab.paper.geometry.Planar3RRR" in _ids(site / "reference" / "api" / "paper.geometry" / "index.html")
+
+
 def test_docstrings_cross_references_are_links(site):
     """Sphinx's roles in docstrings (":class:`~pkmlab.errors.IncompleteSolutionWarning`") show as code, linked to
     the entry they name where the site has one, never as the role's raw text."""
     pages = sorted((site / "reference" / "api").glob("*/index.html"))
-    assert len(pages) == len(set(pkmlab._WHERE.values()))
+    assert len(pages) == len(set(pkmlab._WHERE.values())) + 3  # and pkmlab.paper's geometry, kinematics, dynamics
     role = re.compile(r":(?:class|func|meth|mod|data|attr|exc|obj):<code>")
     for page in pages:
         assert not role.search(page.read_text(encoding="utf-8")), page

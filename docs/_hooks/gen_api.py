@@ -21,6 +21,9 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "src"))
 
 FOLDER = "reference/api"
+#: The paper's own formulation (``pkmlab.paper``: the paper's 3-RRR in its 7-vector ``(θ, φ, α)``), documented
+#: module by module, each by its ``__all__``: not re-exported by ``pkmlab``, public all the same.
+PAPER_MODULES = ("paper.geometry", "paper.kinematics", "paper.dynamics")
 
 
 @functools.cache
@@ -31,6 +34,22 @@ def public_modules() -> dict[str, list[str]]:
     modules: dict[str, list[str]] = {}
     for name, module in pkmlab._WHERE.items():
         modules.setdefault(module, []).append(name)
+    return modules
+
+
+@functools.cache
+def paper_modules() -> dict[str, list[str]]:
+    """Each module of :data:`PAPER_MODULES` and its public names (its ``__all__``, else the classes and functions
+    it defines)."""
+    import importlib
+
+    modules = {}
+    for module in PAPER_MODULES:
+        found = importlib.import_module(f"pkmlab.{module}")
+        names = getattr(found, "__all__", None) or [
+            name for name, value in vars(found).items()
+            if not name.startswith("_") and getattr(value, "__module__", None) == found.__name__]
+        modules[module] = list(names)
     return modules
 
 
@@ -81,6 +100,14 @@ def index_page(modules: dict[str, list[str]]) -> str:
         "| --- | --- |",
         *rows,
         "",
+        "## The paper's own formulation",
+        "",
+        "`pkmlab.paper` keeps the paper's 3-RRR in the paper's own terms (its 7-vector `(θ, φ, α)`, its equations "
+        "one function each): the independent formulation pkmlab's general machinery is checked against. Import "
+        "it from its modules:",
+        "",
+        *(f"- [`pkmlab.{module}`]({module}.md)" for module in PAPER_MODULES),
+        "",
     ])
 
 
@@ -126,7 +153,7 @@ def on_page_content(html: str, page, config, files) -> str:
 def on_files(files, config):
     modules = public_modules()
     files.append(File.generated(config, f"{FOLDER}/index.md", content=index_page(modules)))
-    for module, names in modules.items():
+    for module, names in {**modules, **paper_modules()}.items():
         files.append(File.generated(config, page_path(module), content=module_page(module, names)))
     return files
 
