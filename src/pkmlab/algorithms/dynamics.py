@@ -119,11 +119,13 @@ class ActuatorSpaceModel:
     --------
     >>> import numpy as np
     >>> import pkmlab
-    >>> model = pkmlab.load("paper")
-    >>> q = pkmlab.inverse_kinematics(model, [0.2, 0.21, 0.0], mode=(1, -1, 1)).q
-    >>> actuator = pkmlab.actuator_space_model(model, q, [0.1, 0.0, 0.0])
+    >>> delta = pkmlab.load("delta")
+    >>> q = pkmlab.inverse_kinematics(delta, [0.0, 0.0, -0.8], mode=(1, 1, 1)).q
+    >>> actuator = pkmlab.actuator_space_model(delta, q, [0.1, 0.0, 0.0])
     >>> bool(np.allclose(actuator.M, actuator.M.T)), bool(np.all(np.linalg.eigvalsh(actuator.M) > 0))
     (True, True)
+    >>> bool(np.allclose(actuator.g, actuator.g[0]))  # three legs alike at the centre hold alike against gravity
+    True
     """
 
     M: np.ndarray
