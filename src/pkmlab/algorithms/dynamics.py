@@ -86,16 +86,20 @@ class ConstrainedDynamics:
 
     Examples
     --------
-    At rest under the efforts that hold it against gravity, the Delta stays at rest:
+    From rest, an effort on the first actuator accelerates the machine along its loop closures
+    (``Jηq q̈ = 0``), its actuators as :func:`forward_dynamics` says:
 
     >>> import numpy as np
     >>> import pkmlab
-    >>> delta = pkmlab.load("delta")
-    >>> q = pkmlab.inverse_kinematics(delta, [0.0, 0.0, -0.8], mode=(1, 1, 1)).q
-    >>> g = pkmlab.actuator_space_model(delta, q, np.zeros(3)).g
-    >>> motion = pkmlab.constrained_dynamics(delta, q, np.zeros(12), g)
-    >>> bool(np.abs(motion.q_ddot).max() < 1e-9), motion.multipliers.shape
-    (True, (9,))
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.2, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> motion = pkmlab.constrained_dynamics(model, q, np.zeros(9), [0.1, 0.0, 0.0])
+    >>> bool(np.abs(pkmlab.constraint_jacobian(model, q) @ motion.q_ddot).max() < 1e-12)
+    True
+    >>> bool(np.allclose(motion.q_ddot[:3], pkmlab.forward_dynamics(model, q, np.zeros(3), [0.1, 0.0, 0.0])))
+    True
+    >>> motion.multipliers.shape
+    (6,)
     """
 
     q_ddot: np.ndarray
@@ -119,12 +123,12 @@ class ActuatorSpaceModel:
     --------
     >>> import numpy as np
     >>> import pkmlab
-    >>> delta = pkmlab.load("delta")
-    >>> q = pkmlab.inverse_kinematics(delta, [0.0, 0.0, -0.8], mode=(1, 1, 1)).q
-    >>> actuator = pkmlab.actuator_space_model(delta, q, [0.1, 0.0, 0.0])
+    >>> five_bar = pkmlab.load("five_bar")
+    >>> q = pkmlab.inverse_kinematics(five_bar, [0.0, 0.35], mode=(1, -1)).q
+    >>> actuator = pkmlab.actuator_space_model(five_bar, q, [0.1, 0.0])
     >>> bool(np.allclose(actuator.M, actuator.M.T)), bool(np.all(np.linalg.eigvalsh(actuator.M) > 0))
     (True, True)
-    >>> bool(np.allclose(actuator.g, actuator.g[0]))  # three legs alike at the centre hold alike against gravity
+    >>> bool(np.allclose(actuator.M[0, 0], actuator.M[1, 1]))  # the symmetric machine on its axis of symmetry
     True
     """
 

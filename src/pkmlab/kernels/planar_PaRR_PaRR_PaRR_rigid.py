@@ -1403,10 +1403,30 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     (:data:`DIFFERENCED_RATES`) or their second-order backward difference (:data:`BACKWARD_RATES`).
     ``ctrl_drive`` (rows as ``drive``'s, none: no compensation) is the controller's model of the drives: computed
     torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
-    return _sampled_data_loop(make_workspaces(2), ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0,
-                              P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise,
-                              resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
-                              out_theta_m)
+    count, n = theta_d.shape[0], N_ACTUATORS
+    theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, n))
+    return _sampled_data_loop(make_workspaces(2), np.zeros(2 * n), theta_dot_m, 0, count, ts, n_sub,
+                              theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv,
+                              singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing,
+                              delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)
+
+
+@njit(cache=True)
+def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0,
+                       q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise,
+                       resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
+    """Samples ``k0 … k0 + len(theta_d) - 1`` of a sampled-data run of ``count`` samples: :func:`sampled_data_loop`
+    in pieces, so that a long run needs its desired motion one piece at a time. The piece's desired motion
+    (``theta_d`` …) has a row per sample of the piece; the recorded series (``out_q`` …, ``effort_noise``,
+    ``theta_noise``) a row per sample of the run. ``workspaces`` (:func:`make_workspaces` of 2), ``x`` (2n,
+    zeros) and ``theta_dot_m`` (the controller's measured rates, which its delayed and differenced measurements
+    read back: shaped as ``out_theta_m``, zeros) are the run's state, made once by the caller and handed
+    from one piece to the next: the pieces compute exactly what the whole run computes. Returns ``(status, k)``
+    as :func:`sampled_data_loop`, ``k`` the run's sample."""
+    return _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d,
+                              q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive,
+                              effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau,
+                              out_s, out_theta_m)
 
 
 @njit(**NO_REFCOUNT)
@@ -1428,21 +1448,22 @@ def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m
 
 
 @njit(cache=True)
-def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant,
-                       P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
-                       theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
+def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d,
+                       q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive,
+                       effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
+                       out_theta_m):
     n = N_ACTUATORS
     plant, ctrl = workspaces[0], workspaces[1]
-    set_base(plant, q_plant0, P_plant)
-    set_base(ctrl, q_ctrl0, P_ctrl)
-    x = np.zeros(2 * n)
-    for i in range(n):
-        x[i] = q_plant0[i]
+    if k0 == 0:  # the run starts: the plant at rest at q_plant0, the controller's model at q_ctrl0
+        set_base(plant, q_plant0, P_plant)
+        set_base(ctrl, q_ctrl0, P_ctrl)
+        for i in range(n):
+            x[i] = q_plant0[i]
+            x[n + i] = 0.0
     work = np.empty((5, 2 * n))
     tau = np.zeros(n)
     applied = np.zeros(n)
     ideal = sensing == IDEAL_SENSORS
-    theta_dot_m = np.zeros((theta_d.shape[0] if not ideal else 0, n))
     # a computed-torque controller whose model is the plant (the nominal cases), which measures the plant's own
     # state: from the second sample on, its model's configuration at the measured θ is the plant's own (same
     # machine, same branch: the plant's branch following has just reached it and checked its S), and the model
@@ -1451,7 +1472,8 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
     same = kind == 0 and ideal and drive.shape[0] == 0
     for i in range(P_plant.size):
         same = same and P_plant[i] == P_ctrl[i]
-    for k in range(theta_d.shape[0]):
+    for c in range(theta_d.shape[0]):
+        k = k0 + c  # the run's sample; c, the piece's
         out_q[k] = plant.q[BASE]
         out_s[k] = plant.s[BASE]
         out_theta_dot[k] = x[n:]
@@ -1459,21 +1481,21 @@ def _sampled_data_loop(workspaces, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d
         j = max(k - delay, 0)
         if shared:
             copy_base(plant, ctrl)
-            status = computed_torque(kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl, ctrl,
+            status = computed_torque(kp, kv, x[:n], x[n:], theta_d[c], theta_dot_d[c], theta_ddot_d[c], P_ctrl, ctrl,
                                      tau)
         elif ideal:
-            status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[k], theta_dot_d[k], theta_ddot_d[k], P_ctrl,
+            status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[c], theta_dot_d[c], theta_ddot_d[c], P_ctrl,
                                     singularity_guard, ctrl, tau)
         else:
             measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
-            status = control_effort(kind, kp, kv, out_theta_m[j], theta_dot_m[j], theta_d[k], theta_dot_d[k],
-                                    theta_ddot_d[k], P_ctrl, singularity_guard, ctrl, tau)
+            status = control_effort(kind, kp, kv, out_theta_m[j], theta_dot_m[j], theta_d[c], theta_dot_d[c],
+                                    theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
         if kind == 0 and ctrl_drive.shape[0] > 0:
             compensate_drives(ctrl, tau, x[n:] if ideal else theta_dot_m[j], ctrl_drive)
         out_tau[k] = tau
-        if k == theta_d.shape[0] - 1:
+        if k == count - 1:
             break
         if shared:
             copy_model(ctrl, plant)

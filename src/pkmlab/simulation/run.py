@@ -50,8 +50,13 @@ from ..model.mechanism_model import MechanismModel
 from .result import SimulationResult, actuator_errors
 from .scenario import Scenario, best_working_mode, pose_text
 
-
 # ------------------------------------------------------------------ simulate
+#: Samples of a sampled-data run that the compiled loop runs at a time (:func:`simulate`), its state handed from one
+#: piece to the next: the pieces compute exactly what the whole run would, and each reads only its own piece of the
+#: desired motion.
+SIMULATION_PIECE = 65536
+
+
 def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray) -> np.ndarray:
     """The plant at rest at the controller's inverse-kinematic actuator values, in its assembly mode nearest
     the controller's configuration (docs/conventions.md §5)."""
@@ -496,12 +501,18 @@ def simulate(scenario: Scenario) -> SimulationResult:
     q, theta_dot, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
     d, r = prep.desired, prep.realism
     theta_m = np.zeros((count if r.sensing >= 0 else 0, n))
-    status, k_fail = k_.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot,
-                                          d.theta_ddot, q_plant0, q_ctrl0, prep.P_plant, prep.P_ctrl, prep.kind,
-                                          prep.kp, prep.kv, prep.singularity_guard, *r, q, theta_dot, tau, s, theta_m)
+    # the loop's state, handed from one piece of the run to the next
+    workspaces, x, theta_dot_m = k_.make_workspaces(2), np.zeros(2 * n), np.zeros_like(theta_m)
+    for k0 in range(0, count, SIMULATION_PIECE):
+        piece = slice(k0, min(count, k0 + SIMULATION_PIECE))
+        status, k_fail = k_.sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, scenario.sample_time,
+                                               scenario.substeps, d.theta[piece], d.theta_dot[piece],
+                                               d.theta_ddot[piece], q_plant0, q_ctrl0, prep.P_plant, prep.P_ctrl,
+                                               prep.kind, prep.kp, prep.kv, prep.singularity_guard, *r, q, theta_dot,
+                                               tau, s, theta_m)
+        if status != k_.OK:
+            raise _loop_error(scenario, prep, status, q, k_fail)
     pose = q[:, -_dof(plant):].copy()
-    if status != k_.OK:
-        raise _loop_error(scenario, prep, status, q, k_fail)
     return run_result(scenario, prep, q, theta_dot, tau, pose, s, theta_m if r.sensing >= 0 else None)
 
 
