@@ -41,7 +41,8 @@ def _peak(samples: int) -> dict:
 
 
 def memory_rows(h, quick: bool) -> tuple[list[dict], dict]:
-    small, large = (_peak(n) for n in ((50_000, 300_000) if quick else (100_000, 1_000_000)))
+    # both runs several pieces long (SIMULATION_PIECE samples): the pieces' own buffers are part of the fixed base
+    small, large = (_peak(n) for n in ((150_000, 600_000) if quick else (300_000, 2_000_000)))
     samples = large["samples"] - small["samples"]
     run = (large["run_bytes"] - small["run_bytes"]) / samples
     csv = (large["csv_bytes"] - small["csv_bytes"]) / samples

@@ -348,8 +348,9 @@ def test_plant_integrator_is_fourth_order_and_one_step_per_sample_is_below_1e_12
 
 @pytest.mark.parametrize("case", ["nominal", "disturbed", "sensors and drives"])
 def test_a_run_in_pieces_is_the_run_in_one(case, monkeypatch):
-    """The compiled loop runs a long run a piece at a time (`SIMULATION_PIECE` samples), its state handed from one
-    piece to the next: every recorded number is the one-piece run's, bit for bit, whatever the pieces' length —
+    """A long run is made a piece at a time (`SIMULATION_PIECE` samples): its working mode chosen along the path
+    piece by piece, its desired motion made for one piece at a time, the compiled loop's state handed from one
+    piece to the next. Every recorded number is the one-piece run's, bit for bit, whatever the pieces' length —
     the model shared with the plant (nominal), a plant of its own (disturbed), delayed and quantised readings with
     noise and drives whose noise is drawn per sample."""
     from pkmlab.simulation import run as run_module
@@ -364,7 +365,54 @@ def test_a_run_in_pieces_is_the_run_in_one(case, monkeypatch):
     assert whole.t.size < run_module.SIMULATION_PIECE  # one piece
     monkeypatch.setattr(run_module, "SIMULATION_PIECE", 97)  # 17 pieces, the last one short
     pieces = simulate(scenario)
-    for name in ("q", "theta_dot", "tau", "S", "theta_d", "pose", "theta_measured"):
+    for name in ("q", "theta_dot", "tau", "S", "theta_d", "pose", "pose_d", "theta_measured"):
         a, b = getattr(whole, name), getattr(pieces, name)
         assert (a is None and b is None) or np.array_equal(a, b), name
     assert case != "sensors and drives" or whole.theta_measured is not None
+
+
+@pytest.mark.parametrize(("scenario", "message"), [
+    (Scenario(pkmlab.load("paper"), Trajectory(Line((0.25, 0.2, 0.0), (0.9, 0.2, 0.0)), 0.2)),
+     r"leaves the workspace at t = "),
+    (Scenario(pkmlab.load("paper"), paper_trajectory(0.2), singularity_margin=1.2), r"comes within 1\.08"),
+    (Scenario(pkmlab.load("paper"), paper_trajectory(0.2), singularity_margin=5.0), r"the whole path lies within"),
+], ids=["unreachable", "near a singularity", "all near a singularity"])
+def test_a_path_refused_in_pieces_is_refused_in_the_same_words(scenario, message, monkeypatch):
+    """The working mode chosen a piece of the path at a time: the refusal names the same time and pose."""
+    from pkmlab.simulation import run as run_module
+
+    with pytest.raises(PkmlabError, match=message) as whole:
+        simulate(scenario)
+    monkeypatch.setattr(run_module, "SIMULATION_PIECE", 97)
+    with pytest.raises(PkmlabError, match=message) as pieces:
+        simulate(scenario)
+    assert str(pieces.value) == str(whole.value)
+
+
+def test_a_long_run_holds_its_result_and_one_piece_of_its_path(monkeypatch):
+    """Beyond the arrays its result keeps, a run holds a working set of one piece of its path, whatever its length
+    (traced allocations: deterministic). The pose is a view of the configurations, not a copy."""
+    import tracemalloc
+
+    from pkmlab.simulation import run as run_module
+
+    monkeypatch.setattr(run_module, "SIMULATION_PIECE", 500)
+    nominal = paper_scenario("nominal")
+    simulate(nominal)  # kernels loaded, caches filled
+    beyond = []
+    for samples in (10_000, 20_000):
+        scenario = nominal.replace(trajectory=paper_trajectory(nominal.trajectory.duration * 0.2 / (samples * 1e-3)))
+        tracemalloc.start()
+        try:
+            result = simulate(scenario)
+            _current, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+        kept = sum(a.nbytes for a in (result.t, result.q, result.theta_dot, result.tau, result.S, result.theta_d,
+                                       result.pose_d))
+        assert np.shares_memory(result.pose, result.q)
+        beyond.append(peak - kept)
+    # a piece of 500 samples costs some 1.3 kB per sample while it is made; the whole path held at once, 200 B
+    # per sample of the run (2 MB at 10,000 samples), would also double with the run
+    assert max(beyond) < 500 * 2000
+    assert abs(beyond[1] - beyond[0]) < 0.2 * beyond[0]

@@ -48,7 +48,9 @@ class SimulationResult:
     tau : ndarray, shape (N, n_actuators)
         The actuator efforts (N·m, or N for prismatic actuators).
     pose : ndarray, shape (N, dof)
-        The plant's pose from its own geometry (``(x, y, alpha)``, or ``(x, y)`` for a 2-DOF machine; m, rad).
+        The plant's pose from its own geometry (``(x, y, alpha)``, or ``(x, y)`` for a 2-DOF machine; m, rad): the
+        last columns of ``q`` (a view of them after a run of the compiled loop), its angles on the desired ones'
+        side of 2π.
     pose_d : ndarray, shape (N, dof)
         The desired pose (m, rad).
     S : ndarray, shape (N,)

@@ -43,6 +43,7 @@ from ..errors import (
     InvalidParameterError,
     PkmlabError,
     SingularityError,
+    UnreachablePoseError,
     UnstableControlError,
     shown,
 )
@@ -86,7 +87,7 @@ class PreparedRun:
 
     t: np.ndarray
     mode: tuple[int, int, int]
-    desired: object
+    motion: DesiredMotion
     q_ctrl0: np.ndarray
     q_plant0: np.ndarray
     kind: int
@@ -96,6 +97,11 @@ class PreparedRun:
     P_ctrl: np.ndarray  # the packed parameters of the controller's model and of the plant, as the loop reads them
     P_plant: np.ndarray
     realism: Realism  # the plant's drives and the controller's sensors, as the loop reads them
+
+    @property
+    def desired(self):
+        """The whole run's desired motion (a :class:`~pkmlab.control.trajectory.JointMotion`)."""
+        return self.motion.whole()
 
 
 class Realism(NamedTuple):
@@ -149,17 +155,103 @@ def sample_times(scenario: Scenario) -> np.ndarray:
     return np.arange(n) * step
 
 
-def _desired_motion(scenario: Scenario, t: np.ndarray):
-    """The working mode and the desired actuator motion in it, from one evaluation of the trajectory."""
-    full = [np.asarray(a, dtype=float) for a in scenario.trajectory.desired(t)]
-    mode, _min_s, q = best_working_mode(scenario, t, full[0])
-    return mode, _joint_motion(scenario.model, full, q, t)
+class DesiredMotion:
+    """The desired motion of a run in its working mode, from the trajectory's poses by the exact inverse kinematics
+    and its derivatives, made :data:`SIMULATION_PIECE` samples at a time: a long run holds one piece of it at a
+    time. A run of one piece keeps it whole (:meth:`whole`), as the batches and the plants other than the
+    compiled loop read it."""
+
+    def __init__(self, scenario: Scenario, t: np.ndarray):
+        """Choose the working mode along the path (:func:`~pkmlab.simulation.scenario.best_working_mode`, a piece
+        at a time) and prepare the desired motion in it."""
+        self.scenario, self.t = scenario, t
+        self._evaluated: tuple[tuple[int, int], list[np.ndarray]] | None = None
+        self.mode, _min_s, q = best_working_mode(scenario, t, lambda rows: self._poses(rows)[0], SIMULATION_PIECE)
+        self._whole = None
+        if q is not None:  # the path's inverse kinematics, known from the choice of the working mode
+            self._whole = _joint_motion(scenario.model, self._poses(slice(0, t.size)), q, t)
+            self._evaluated = None
+        self._first = None
+
+    def _poses(self, rows: slice) -> list[np.ndarray]:
+        """The trajectory's ``(pose, pose_dot, pose_ddot)`` at the samples ``rows`` (the last rows asked for kept:
+        each working mode's inverse kinematics reads the same poses)."""
+        if self._evaluated is None or self._evaluated[0] != (rows.start, rows.stop):
+            self._evaluated = ((rows.start, rows.stop),
+                               [np.asarray(a, dtype=float) for a in self.scenario.trajectory.desired(self.t[rows])])
+        return self._evaluated[1]
+
+    def pieces(self):
+        """Each piece of the run in order, as ``(rows, JointMotion of those rows)``: the actuators' angles unwrapped
+        along the whole path, as in :meth:`whole`."""
+        count = self.t.size
+        if self._whole is not None:
+            yield slice(0, count), self._whole
+            return
+        previous = None
+        for k0 in range(0, count, SIMULATION_PIECE):
+            rows = slice(k0, min(count, k0 + SIMULATION_PIECE))
+            motion = self._piece(rows, previous)
+            previous = motion.theta[-1]
+            yield rows, motion
+
+    def _piece(self, rows: slice, previous: np.ndarray | None):
+        from ..model.mechanism_model import path_inverse_kinematics
+
+        if rows.start == 0 and self._first is not None:
+            return self._first
+        model, full = self.scenario.model, self._poses(rows)
+        q, _s, failure = path_inverse_kinematics(model, np.ascontiguousarray(full[0][:, :model.dof]), self.mode,
+                                                 follow=True)
+        if failure is not None:  # the working mode reached every pose when chosen: a leg's branch lost on the way
+            k, exc = failure
+            raise UnreachablePoseError(f"the path leaves the workspace at t = {self.t[rows][k]:.4f} s, pose "
+                                       f"{pose_text(full[0][k, :model.dof])}: {exc}") from None
+        motion = _joint_motion(model, full, q, self.t[rows], previous)
+        if rows.start == 0:
+            self._first = motion
+        return motion
+
+    def first(self):
+        """The first piece's desired motion (the whole run's if it is one piece)."""
+        return self._whole if self._whole is not None else self._piece(slice(0, min(self.t.size, SIMULATION_PIECE)),
+                                                                       None)
+
+    def at(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The desired configurations and poses at the samples ``rows``, each by the inverse kinematics of its pose
+        in the run's working mode."""
+        from ..model.mechanism_model import path_inverse_kinematics
+
+        if self._whole is not None:
+            return self._whole.q[rows], self._whole.pose[rows]
+        model = self.scenario.model
+        pose = np.asarray(self.scenario.trajectory.desired(self.t[rows])[0], dtype=float)
+        pose = np.ascontiguousarray(pose[:, :model.dof])
+        return path_inverse_kinematics(model, pose, self.mode)[0], pose
+
+    def whole(self):
+        """The whole run's desired motion, one :class:`~pkmlab.control.trajectory.JointMotion` (kept for a run
+        of one piece)."""
+        if self._whole is not None:
+            return self._whole
+        from ..control.trajectory import JointMotion
+
+        parts = [motion for _rows, motion in self.pieces()]
+        return JointMotion(self.t, *(np.concatenate([getattr(m, name) for m in parts])
+                                     for name in ("q", "pose", "theta", "theta_dot", "theta_ddot")))
 
 
-def _joint_motion(model: MechanismModel, full, q: np.ndarray, t: np.ndarray):
+def _desired_motion(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, ...], DesiredMotion]:
+    """The working mode and the desired actuator motion in it."""
+    motion = DesiredMotion(scenario, t)
+    return motion.mode, motion
+
+
+def _joint_motion(model: MechanismModel, full, q: np.ndarray, t: np.ndarray, previous: np.ndarray | None = None):
     """The desired actuator motion of the desired ``full = (pose, pose_dot, pose_ddot)`` at ``t``, whose inverse
     kinematics in the run's working mode is ``q``: the first and second derivatives of that inverse kinematics
-    (:func:`~pkmlab.model.mechanism_model.path_rates`), angles unwrapped along it."""
+    (:func:`~pkmlab.model.mechanism_model.path_rates`), angles unwrapped along it — from ``previous``, the
+    actuators' values at the sample before (a piece of a longer path), if given."""
     from ..control.trajectory import JointMotion
     from ..model.mechanism_model import path_rates
 
@@ -177,7 +269,10 @@ def _joint_motion(model: MechanismModel, full, q: np.ndarray, t: np.ndarray):
                                f"at t = {t[k]:.4f} s, pose {pose_text(pose[k])}")
     n = model.n_actuators
     angles = np.array(model.kernels.ANGLES[:n])
-    q[:, :n][:, angles] = np.unwrap(q[:, :n][:, angles], axis=0)
+    if previous is None:
+        q[:, :n][:, angles] = np.unwrap(q[:, :n][:, angles], axis=0)
+    else:
+        q[:, :n][:, angles] = np.unwrap(np.vstack([previous[angles], q[:, :n][:, angles]]), axis=0)[1:]
     return JointMotion(t, q, pose, q[:, :n].copy(), theta_dot, theta_ddot)
 
 
@@ -193,15 +288,15 @@ def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> Prepar
         except TypeError:
             key = None
     if key is not None and key in desired_cache:
-        mode, desired = desired_cache[key]
+        mode, motion = desired_cache[key]
     else:
-        mode, desired = _desired_motion(scenario, t)
+        mode, motion = _desired_motion(scenario, t)
         if key is not None:
-            desired_cache[key] = (mode, desired)
-    q_ctrl0 = desired.q[0].copy()
+            desired_cache[key] = (mode, motion)
+    q_ctrl0 = motion.first().q[0].copy()
     q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
     spec = scenario.controller
-    prep = PreparedRun(t, mode, desired, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
+    prep = PreparedRun(t, mode, motion, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
                      float(spec.velocity_gain), float(scenario.singularity_guard), scenario.model.P,
                      scenario.plant_model.P, realism(scenario, t.size))
     if scenario.sample_time > 0:
@@ -282,8 +377,8 @@ def _path_modal_gains(scenario: Scenario, prep: PreparedRun) -> tuple[np.ndarray
     n = prep.t.size
     step = max(STABILITY_STRIDE, math.ceil(n / STABILITY_POINTS))
     idx = np.unique(np.append(np.arange(0, n, step), n - 1))
-    desired = prep.desired
-    q_ctrl, q_plant, k = desired.q[idx], desired.q[idx], idx
+    q_desired, pose_desired = prep.motion.at(idx)
+    q_ctrl, q_plant, k = q_desired, q_desired, idx
     if scenario.plant_model is not scenario.model and scenario.plant_model != scenario.model:
         # The plant's configurations are known only once it has run. A tracking plant's platform
         # follows the desired poses, so the plant's own inverse kinematics of those poses, in the run's
@@ -293,11 +388,10 @@ def _path_modal_gains(scenario: Scenario, prep: PreparedRun) -> tuple[np.ndarray
         # there, and near S = 0 the plant's Mθ grows without bound (μ → 0: sluggish, not unstable).
         from ..model.mechanism_model import path_inverse_kinematics
 
-        ik_q, ik_s, _failure = path_inverse_kinematics(scenario.plant_model, desired.pose[idx], prep.mode,
-                                                     follow=True)
+        ik_q, ik_s, _failure = path_inverse_kinematics(scenario.plant_model, pose_desired, prep.mode, follow=True)
         ok = np.abs(np.nan_to_num(ik_s)) >= max(prep.singularity_guard, 1e-6)
         q_plant = np.vstack([prep.q_plant0, ik_q[ok]])
-        q_ctrl, k = np.vstack([prep.q_ctrl0, desired.q[idx][ok]]), np.append(0, idx[ok])
+        q_ctrl, k = np.vstack([prep.q_ctrl0, q_desired[ok]]), np.append(0, idx[ok])
     return _modal_gains(scenario, prep.kind, q_ctrl, q_plant), k
 
 
@@ -357,8 +451,10 @@ def _check_continuous_stiffness(scenario: Scenario, prep: PreparedRun) -> None:
         f"{_round_down(kp_max)} with kv = 2*sqrt(kp)) or use sampled-data control (sample_time > 0)")
 
 
-def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: int) -> str | None:
-    """Why a run that stopped at sample ``k_fail`` diverged, or ``None`` if it did not.
+def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: int, theta_d: np.ndarray,
+                q_d: np.ndarray) -> str | None:
+    """Why a run that stopped at sample ``k_fail`` diverged, or ``None`` if it did not; ``theta_d`` the desired
+    actuator values up to that sample at least, ``q_d`` the desired configuration there.
 
     It diverged when the loop is unstable at its last configuration (the plant where it was recorded,
     the controller's model on the desired path), or when its joint error grew a hundredfold or more
@@ -367,13 +463,13 @@ def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: in
     if k_fail < 1:
         return None
     n = scenario.model.n_actuators
-    e = np.abs(actuator_errors(scenario.model, q[:k_fail + 1, :n], prep.desired.theta[:k_fail + 1])).max(axis=1)
+    e = np.abs(actuator_errors(scenario.model, q[:k_fail + 1, :n], theta_d[:k_fail + 1])).max(axis=1)
     window = max(1, min(50, k_fail // 2))
     before = float(e[max(0, k_fail - 2 * window):k_fail - window + 1].max())
     growth = (f"the joint error grew from {before:.2g} to {e[k_fail]:.2g} rad in {window} "
               f"sample{'s' if window > 1 else ''}")
     try:
-        mu = _modal_gains(scenario, prep.kind, prep.desired.q[k_fail:k_fail + 1], q[k_fail:k_fail + 1])
+        mu = _modal_gains(scenario, prep.kind, q_d[None, :], q[k_fail:k_fail + 1])
         rho = float(sampled_data_spectral_radius(prep.kp, prep.kv, scenario.sample_time, mu).max())
     except (PkmlabError, np.linalg.LinAlgError):  # the plant at a singularity: no model there
         rho = 0.0
@@ -394,9 +490,13 @@ def _pose_of(model: MechanismModel, q: np.ndarray) -> np.ndarray:
 
 
 def _loop_error(scenario: Scenario, prep: PreparedRun, status: int, q: np.ndarray, k_fail: int,
-                prefix: str = "") -> PkmlabError:
-    """The error of a run stopped in the compiled loop: diverged (unstable) or near a singularity."""
-    diverged = _divergence(scenario, prep, q, k_fail)
+                prefix: str = "", theta_d: np.ndarray | None = None, q_d: np.ndarray | None = None) -> PkmlabError:
+    """The error of a run stopped in the compiled loop: diverged (unstable) or near a singularity; ``theta_d`` and
+    ``q_d`` as for :func:`_divergence` (default: from the whole desired motion)."""
+    if theta_d is None:
+        desired = prep.desired
+        theta_d, q_d = desired.theta, desired.q[k_fail]
+    diverged = _divergence(scenario, prep, q, k_fail, theta_d, q_d)
     if diverged is not None:
         return UnstableControlError(f"{prefix}run stopped at t = {prep.t[k_fail]:.4f} s: {diverged}")
     return BranchFollowingError(prefix + _loop_failure(scenario, prep, status, q, k_fail))
@@ -417,24 +517,33 @@ def _loop_failure(scenario: Scenario, prep: PreparedRun, status: int, q: np.ndar
 
 
 def run_result(scenario: Scenario, prep: PreparedRun, q, theta_dot, tau, pose=None, s=None,
-               theta_measured=None) -> SimulationResult:
-    """The result of a run; ``pose`` and ``S`` of the plant are computed unless the loop recorded them."""
-    desired = prep.desired
+               theta_measured=None, theta_d=None, pose_d=None) -> SimulationResult:
+    """The result of a run; ``pose`` and ``S`` of the plant are computed unless the loop recorded them.
+
+    ``theta_d`` (N, n), the desired actuator values, becomes the result's in place, and ``pose_d`` (N, dof) are
+    the desired poses; by default a copy of the desired motion's, and its poses. The plant's orientation angles
+    (in ``pose``) and ``theta_d`` are put on the desired ones', and on the plant's, side of 2π, a piece of rows at
+    a time (a long run's memory)."""
     model = scenario.plant_model
+    if theta_d is None:
+        desired = prep.desired
+        theta_d, pose_d = desired.theta.copy(), desired.pose
     pose = _pose_of(model, q) if pose is None else pose
     if s is None:
         from ..model.mechanism_model import singularity_measure
 
         s = np.array([singularity_measure(model, qk) for qk in q])
-    names = model.pose_names
-    for k, name in enumerate(names):  # orientation angles on the desired one's side of 2π
-        if name in ("alpha", "roll", "pitch", "yaw"):
-            pose[:, k] = desired.pose[:, k] + np.angle(np.exp(1j * (pose[:, k] - desired.pose[:, k])))
     n = model.n_actuators
-    turns = np.round((q[:, :n] - desired.theta) / (2 * np.pi))  # θ_d on θ's side of 2π
-    turns[:, ~np.array(model.kernels.ANGLES[:n])] = 0.0
-    theta_d = desired.theta + 2 * np.pi * turns
-    return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, desired.pose, s,
+    orientation = [k for k, name in enumerate(model.pose_names) if name in ("alpha", "roll", "pitch", "yaw")]
+    angles = np.array(model.kernels.ANGLES[:n])
+    for k0 in range(0, q.shape[0], SIMULATION_PIECE):
+        rows = slice(k0, k0 + SIMULATION_PIECE)
+        for k in orientation:  # the plant's orientation angles on the desired one's side of 2π
+            pose[rows, k] -= 2 * np.pi * np.round((pose[rows, k] - pose_d[rows, k]) / (2 * np.pi))
+        turns = np.round((q[rows, :n] - theta_d[rows]) / (2 * np.pi))  # θ_d on θ's side of 2π
+        turns[:, ~angles] = 0.0
+        theta_d[rows] += 2 * np.pi * turns
+    return SimulationResult(scenario, prep.mode, prep.t, q, theta_dot, theta_d, tau, pose, pose_d, s,
                             theta_measured=theta_measured)
 
 
@@ -499,21 +608,22 @@ def simulate(scenario: Scenario) -> SimulationResult:
     k_, n = ctrl.kernels, ctrl.n_actuators
     count = prep.t.size
     q, theta_dot, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
-    d, r = prep.desired, prep.realism
+    r = prep.realism
     theta_m = np.zeros((count if r.sensing >= 0 else 0, n))
+    theta_d, pose_d = np.empty((count, n)), np.empty((count, _dof(ctrl)))  # the desired motion the result keeps
     # the loop's state, handed from one piece of the run to the next
     workspaces, x, theta_dot_m = k_.make_workspaces(2), np.zeros(2 * n), np.zeros_like(theta_m)
-    for k0 in range(0, count, SIMULATION_PIECE):
-        piece = slice(k0, min(count, k0 + SIMULATION_PIECE))
-        status, k_fail = k_.sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, scenario.sample_time,
-                                               scenario.substeps, d.theta[piece], d.theta_dot[piece],
-                                               d.theta_ddot[piece], q_plant0, q_ctrl0, prep.P_plant, prep.P_ctrl,
-                                               prep.kind, prep.kp, prep.kv, prep.singularity_guard, *r, q, theta_dot,
-                                               tau, s, theta_m)
+    for rows, d in prep.motion.pieces():
+        theta_d[rows], pose_d[rows] = d.theta, d.pose
+        status, k_fail = k_.sampled_data_chunk(workspaces, x, theta_dot_m, rows.start, count, scenario.sample_time,
+                                               scenario.substeps, d.theta, d.theta_dot, d.theta_ddot, q_plant0,
+                                               q_ctrl0, prep.P_plant, prep.P_ctrl, prep.kind, prep.kp, prep.kv,
+                                               prep.singularity_guard, *r, q, theta_dot, tau, s, theta_m)
         if status != k_.OK:
-            raise _loop_error(scenario, prep, status, q, k_fail)
-    pose = q[:, -_dof(plant):].copy()
-    return run_result(scenario, prep, q, theta_dot, tau, pose, s, theta_m if r.sensing >= 0 else None)
+            raise _loop_error(scenario, prep, status, q, k_fail, theta_d=theta_d, q_d=d.q[k_fail - rows.start])
+    # the plant's pose is its configuration's last coordinates: a view of q, not a copy (a long run's memory)
+    return run_result(scenario, prep, q, theta_dot, tau, q[:, -_dof(plant):], s, theta_m if r.sensing >= 0 else None,
+                      theta_d, pose_d)
 
 
 def _dof(model: MechanismModel) -> int:

@@ -24,9 +24,11 @@ from ..errors import (
 from ..model.mechanism_model import MechanismModel
 from .realism import Drives, Sensors, check_sizes
 
-#: A scenario of more samples than this is refused. Memory: some 380 bytes per sample at the peak of a three-legged
-#: machine's run (its result keeps 208), the CSV written a chunk at a time (``make bench``: ``memory_*``): about
-#: 4 GB at the cap.
+#: A scenario of more samples than this is refused. Memory: a three-legged machine's sampled-data run keeps 184 bytes
+#: per sample (its result: ``t``, ``q``, the rates, efforts, ``S``, the desired actuators and poses; the pose is a
+#: view of ``q``) and makes its desired motion a piece at a time, the CSV written a chunk at a time (``make bench``:
+#: ``memory_*``, 186 bytes per sample beyond a fixed base): about 1.9 GB at the cap; sensors add 48 bytes per sample
+#: (the readings and their rates), each source of noise 24.
 MAX_SAMPLES = 10_000_000
 
 
@@ -335,40 +337,61 @@ def choose_working_mode(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, .
     return mode, min_s
 
 
-def best_working_mode(scenario: Scenario, t: np.ndarray, pose: np.ndarray):
+def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None = None):
     """:func:`choose_working_mode` of the desired poses ``pose`` (N, ≥ dof) at ``t``, and the inverse kinematics
-    of the path in that mode (N, n_coordinates), which the desired motion goes on from."""
+    of the path in that mode (N, n_coordinates), which the desired motion goes on from.
+
+    ``pose`` may instead be a function of a slice of the samples that returns their poses: the path is then taken
+    ``piece`` samples at a time and none of it is kept (a long run's memory), and the inverse kinematics returned
+    is None unless the path is one piece."""
     from ..model.mechanism_model import path_inverse_kinematics, working_modes
 
     model = scenario.model
-    pose = np.ascontiguousarray(pose[:, :model.dof])
+    count = t.size
+    step = piece or count
+    pieces = [slice(k0, min(count, k0 + step)) for k0 in range(0, count, step)]
+    poses_of = pose if callable(pose) else (lambda rows: pose[rows])
+
+    def poses(rows: slice) -> np.ndarray:
+        return np.ascontiguousarray(np.asarray(poses_of(rows), dtype=float)[:, :model.dof])
+
     modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
-    # (mode, min |S|, its sample, |S|, q) of the modes reaching the whole path that may still be the best: the first
-    # whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory)
+    # (mode, min |S|, its sample, max |S|, q) of the modes reaching the whole path that may still be the best: the
+    # first whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory)
     first_failure, candidates, top = None, [], -np.inf
     for mode in modes:
-        q, s, failure = path_inverse_kinematics(model, pose, mode, follow=True)
+        lowest, closest, highest, failure, q = np.inf, 0, 0.0, None, None
+        for rows in pieces:
+            q, s, failure = path_inverse_kinematics(model, poses(rows), mode, follow=True)
+            if failure is not None:
+                failure = (failure[0] + rows.start, failure[1])
+                break
+            a = np.abs(s)
+            k = int(np.argmin(a))
+            if a[k] < lowest:  # the first sample of the smallest |S|
+                lowest, closest = float(a[k]), k + rows.start
+            highest = max(highest, float(a.max()))
         if failure is not None:
             if first_failure is None or failure[0] > first_failure[0]:
                 first_failure = failure  # the mode that gets furthest names the problem
             continue
-        k = int(np.argmin(np.abs(s)))
-        top = max(top, float(abs(s[k])))
-        candidates = [c for c in [*candidates, (mode, float(abs(s[k])), k, np.abs(s), q)] if c[1] >= top - 1e-9]
+        top = max(top, lowest)
+        kept = q if len(pieces) == 1 else None
+        candidates = [c for c in [*candidates, (mode, lowest, closest, highest, kept)] if c[1] >= top - 1e-9]
     if not candidates:
         k, exc = first_failure
-        raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose {pose_text(pose[k])}: "
-                                   f"{exc}") from None
-    best, best_min, closest, abs_s, best_q = candidates[0]
+        raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose "
+                                   f"{pose_text(poses(slice(k, k + 1))[0])}: {exc}") from None
+    best, best_min, closest, highest, best_q = candidates[0]
     if best_min < scenario.singularity_margin:
         near, margin = apart(best_min, scenario.singularity_margin)
         every = "in every admissible working mode" if len(modes) > 1 else "in its working mode"
-        if np.all(abs_s < scenario.singularity_margin):
+        if highest < scenario.singularity_margin:
             raise SingularityError(f"the whole path lies within |S| < {margin} of a gain-type singularity {every} "
-                                   f"(max |S| = {abs_s.max():.3g}, at pose {pose_text(pose[0])} and on)")
+                                   f"(max |S| = {highest:.3g}, at pose {pose_text(poses(slice(0, 1))[0])} and on)")
         raise SingularityError(
             f"the path comes within {near} of a gain-type singularity (margin {margin}) {every}; closest at "
-            f"t = {t[closest]:.4f} s, pose {pose_text(pose[closest])}")
+            f"t = {t[closest]:.4f} s, pose {pose_text(poses(slice(closest, closest + 1))[0])}")
     return tuple(best), best_min, best_q
 
 
