@@ -16,9 +16,16 @@ settings.load_profile("explore" if os.environ.get("PKMLAB_EXPLORE") else "ci")
 
 sys.path.insert(0, str(Path(__file__).parent))
 
+import pkmlab  # noqa: E402
 from pkmlab.cli import main  # noqa: E402
+from pkmlab.description.presets import PRESETS  # noqa: E402
 from pkmlab.paper import kinematics as kin  # noqa: E402
 from pkmlab.paper.geometry import Planar3RRR  # noqa: E402
+
+# Every shipped machine structure bound once as the session starts: on a fresh checkout the first binding of each
+# says on stderr that its kernels compile as they are first used, a line of the session's, not of a test's.
+for _preset in PRESETS:
+    pkmlab.load(_preset)
 
 #: Files whose tests are about the spatial presets (the Delta, the Stewart platform), or run them (the documentation
 #: site's build runs the tutorials, the Delta's among them); tests elsewhere whose name or parameters name a machine of

@@ -450,25 +450,33 @@ def test_ctrl_c_during_start_up_is_no_traceback():
         assert 130 in codes, interpreted  # the signal did arrive during the start-up
 
 
-def test_first_run_says_it_compiles(capsys, monkeypatch):
-    """The first run compiles for about a minute: a person watching is told, once, on stderr."""
+@pytest.mark.parametrize("terminal", [True, False])
+def test_first_run_says_it_compiles(capsys, monkeypatch, terminal):
+    """The first run of a machine structure compiles for up to a minute: it is said once per process on stderr,
+    on a terminal or not (a log, a pipe, a notebook), not by a run whose kernels are in the cache."""
     from pkmlab import _compile_cache
+    from pkmlab.model import mechanism_model
 
-    monkeypatch.setattr(_compile_cache, "is_cold", lambda: True)
-    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    monkeypatch.setattr(mechanism_model, "_SPOKEN", set())
+    monkeypatch.setattr(_compile_cache, "has_compiled", lambda name: False)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: terminal, raising=False)
     code, _out, err = run(capsys, "ik", 0.2, 0.21, 0, "--mode", "+", "+", "+")
-    assert code == 0 and err.count("compiling") == 1
-    monkeypatch.setattr(_compile_cache, "is_cold", lambda: False)
+    assert code == 0 and err.count("compiling") == 1 and err.startswith("pkmlab: paper: compiling"), err
+    assert run(capsys, "ik", 0.2, 0.21, 0)[2] == ""  # once per process
+    monkeypatch.setattr(mechanism_model, "_SPOKEN", set())
+    monkeypatch.setattr(_compile_cache, "has_compiled", lambda name: True)
     assert run(capsys, "ik", 0.2, 0.21, 0)[2] == ""
 
 
-def test_is_cold_reads_the_kernel_cache(tmp_path, monkeypatch):
+def test_has_compiled_reads_the_kernel_cache(tmp_path, monkeypatch):
     from pkmlab import _compile_cache
 
     monkeypatch.setattr(_compile_cache, "CACHE_DIR", tmp_path)
-    assert _compile_cache.is_cold()
-    (tmp_path / "kinematics._ik-1.py311.nbi").write_bytes(b"")
-    assert not _compile_cache.is_cold()
+    assert not _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid")
+    (tmp_path / "kernels_1f").mkdir()
+    (tmp_path / "kernels_1f" / "planar_RaRR_RaRR_RaRR_rigid._ik-1.py311.nbi").write_bytes(b"")
+    assert _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid")
+    assert not _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_point")
 
 
 def test_every_non_finite_number_of_the_command_line_is_named(capsys):
@@ -531,7 +539,8 @@ PROMISES = {
     "exit code 1 and one line, for every machine": (CLI_OUTPUT, "test_no_assembly_mode_is_exit_1_and_one_line"),
     "that these are not the paper's numbers":
         (PARAMETER_FILES, "test_reproduce_with_params_runs_the_cases_on_that_machine_and_says_so"),
-    "said once on the terminal": ("getting-started.md", "test_first_run_says_it_compiles"),
+    "said once on stderr: on a terminal, in a log or in a notebook":
+        ("getting-started.md", "test_first_run_says_it_compiles"),
     "a file of yours of the same name is refused":
         (OUTPUTS, "test_a_file_pkmlab_did_not_write_is_not_replaced_without_force"),
 }

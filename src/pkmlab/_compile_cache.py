@@ -76,10 +76,10 @@ else:
     from numba import njit, prange  # noqa: F401  (re-exported: every kernel module's compiler)
 
 
-def is_cold() -> bool:
-    """True when no kernel of this version of pkmlab has been compiled and cached yet: the next
-    calls compile (about a minute in all)."""
-    return not INTERPRETED and not any(CACHE_DIR.rglob("*.nbi"))
+def has_compiled(module_name: str) -> bool:
+    """Whether a kernel of the module ``module_name`` is in this version's cache (Numba names a kernel's files
+    after the last part of its module's name)."""
+    return any(CACHE_DIR.rglob(f"{module_name.rsplit('.', 1)[-1]}.*.nbi"))
 
 #: Numba options of the allocation-free kernels of the hot path (they only read and write
 #: arrays they are given, typically a workspace's). Numba's reference counting, on by

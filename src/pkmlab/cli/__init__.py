@@ -79,15 +79,6 @@ def _check_mode(args) -> None:
     args.mode = tuple(1 if c == "+" else -1 for c in text)
 
 
-def _compile_notice(args) -> None:
-    """Say once, on a terminal, why the first run after installing pkmlab is slow."""
-    from .. import _compile_cache
-
-    if _compile_cache.is_cold() and sys.stderr.isatty() and not getattr(args, "quiet", False):
-        print("pkmlab: first run of this version: compiling its numerical kernels for this machine "
-              "(about a minute, once) ...", file=sys.stderr, flush=True)
-
-
 def _quiet_stdout() -> None:
     """After a closed pipe (`pkmlab fk ... | head -1`), send what is left of stdout nowhere, so that
     Python's final flush does not report the broken pipe again."""
@@ -173,7 +164,6 @@ def _command(args) -> int:
     try:
         _check_finite(args)
         _check_mode(args)
-        _compile_notice(args)
         result = _with_notes(args)
     except PkmlabError as exc:
         print_error(args, exc)

@@ -218,10 +218,31 @@ def _bind(description: Mechanism) -> MechanismModel:
         kernels = importlib.import_module(f"..kernels.{derived.generated_path(description).stem}",
                                           __package__)
     except ModuleNotFoundError:
-        kernels = _user_structure_kernels(description)
+        kernels = _user_structure_kernels(description)  # (a new structure's derivation says what takes time)
+    else:
+        _say_if_compiling(kernels, description)
     P = derived.pack(description)
     P.setflags(write=False)
     return MechanismModel(description, P, kernels)
+
+
+#: The shipped structures whose first compilation this process has spoken of.
+_SPOKEN: set[str] = set()
+
+
+def _say_if_compiling(kernels: ModuleType, description) -> None:
+    """Say once per process, on stderr — terminal or not: a log, a pipe and a notebook see it too — that a shipped
+    structure's kernels compile as they are first used, when none of them is in the cache yet (the first run
+    after installing or upgrading pkmlab)."""
+    from .._compile_cache import INTERPRETED, has_compiled
+    from ..progress import notice
+
+    if INTERPRETED or kernels.__name__ in _SPOKEN:
+        return
+    _SPOKEN.add(kernels.__name__)
+    if not has_compiled(kernels.__name__):
+        notice(f"{description.name}: compiling the numerical kernels of this machine structure as they are first "
+               "used (up to a minute, once: later runs read them from the cache)")
 
 
 @functools.lru_cache(maxsize=64)
