@@ -1442,7 +1442,8 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
     count, n = theta_d.shape[0], N_ACTUATORS
     theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, n))
-    return _sampled_data_loop(make_workspaces(2), np.zeros(2 * n), theta_dot_m, 0, count, ts, n_sub,
+    start = count - count  # 0, typed as sampled_data_chunk's k0 (not a literal): one compiled loop for both
+    return _sampled_data_loop(make_workspaces(2), np.zeros(2 * n), theta_dot_m, start, count, ts, n_sub,
                               theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv,
                               singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing,
                               delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)

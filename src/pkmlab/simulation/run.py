@@ -812,6 +812,10 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
         kp[r], kv[r], guards[r] = p.kp, p.kv, p.singularity_guard
         drive[r], ctrl_drive[r], effort_noise[r], resolution[r], theta_noise[r], sensing[r], delay[r] = p.realism
+    # read-only as a model's own parameters are (simulate passes those): the runs of a batch and a single run then
+    # call one compiled loop, not two of different argument types
+    P_plant.setflags(write=False)
+    P_ctrl.setflags(write=False)
     q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
     s = np.zeros((m, n))
     theta_m = np.zeros((m, n if real.sensing >= 0 else 0, n_act))
