@@ -121,9 +121,10 @@ def test_tutorials_show_what_their_code_printed_and_drew_in_this_build(site):
     assert paper.count(">Output<") >= 2  # what its blocks printed: the assembly modes, a run's summary
 
 
-def _page_runner():
-    """docs/_hooks/run_pages.py, the hook that runs the tutorials' blocks as the site builds, as a module."""
-    spec = importlib.util.spec_from_file_location("run_pages", ROOT / "docs" / "_hooks" / "run_pages.py")
+def _hook(name: str):
+    """The site's build hook ``docs/_hooks/NAME.py`` as a module: ``run_pages`` runs the tutorials' blocks,
+    ``render_notebook`` the notebook tour."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "docs" / "_hooks" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -131,7 +132,7 @@ def _page_runner():
 
 def test_a_block_that_fails_fails_the_build_naming_its_page_and_block():
     """The page runner (docs/_hooks/run_pages.py) turns an error of a block into the build's error."""
-    run_pages = _page_runner()
+    run_pages = _hook("run_pages")
     from mkdocs.exceptions import PluginError
 
     page = ("```python\nx = 1\nprint(x + 1)\n```\n\ntext\n\n"
@@ -151,7 +152,7 @@ def test_the_figures_of_a_block_are_its_own():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    run_pages = _page_runner()
+    run_pages = _hook("run_pages")
     # the site's files as MkDocs makes them during a build (File.generated reads the plugin being run)
     run_pages.File = types.SimpleNamespace(generated=lambda config, name, content: types.SimpleNamespace(
         src_uri=name, content=content))
@@ -168,14 +169,6 @@ def test_the_figures_of_a_block_are_its_own():
         assert plt.get_fignums() == open_before  # the block's own figure closed once saved, the others left
     finally:
         plt.close(elsewhere)
-
-
-def _notebook_hook():
-    """docs/_hooks/render_notebook.py, the hook that runs the notebook tour as the site builds, as a module."""
-    spec = importlib.util.spec_from_file_location("render_notebook", ROOT / "docs" / "_hooks" / "render_notebook.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 @pytest.fixture(scope="module")
@@ -254,7 +247,7 @@ def test_a_cell_that_fails_fails_the_build_naming_it(tmp_path):
     nbformat.write(nbformat.v4.new_notebook(cells=cells), path)
     with pytest.raises(PluginError, match=r"^broken\.ipynb: its code cell 2 fails: InvalidParameterError: source "
                                           r"must be a preset"):
-        _notebook_hook()._execute(path)
+        _hook("render_notebook")._execute(path)
 
 
 def test_changelog_is_included(site):

@@ -86,7 +86,6 @@ class PreparedRun:
     """Everything a run needs before its loop: sample grid, working mode, desired motion, start."""
 
     t: np.ndarray
-    mode: tuple[int, int, int]
     motion: DesiredMotion
     q_ctrl0: np.ndarray
     q_plant0: np.ndarray
@@ -97,6 +96,11 @@ class PreparedRun:
     P_ctrl: np.ndarray  # the packed parameters of the controller's model and of the plant, as the loop reads them
     P_plant: np.ndarray
     realism: Realism  # the plant's drives and the controller's sensors, as the loop reads them
+
+    @property
+    def mode(self) -> tuple[int, ...]:
+        """The run's working mode."""
+        return self.motion.mode
 
     @property
     def desired(self):
@@ -214,8 +218,7 @@ class DesiredMotion:
 
     def first(self):
         """The first piece's desired motion (the whole run's if it is one piece)."""
-        return self._whole if self._whole is not None else self._piece(slice(0, min(self.t.size, SIMULATION_PIECE)),
-                                                                       None)
+        return next(self.pieces())[1]
 
     def at(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The desired configurations and poses at the samples ``rows``, each by the inverse kinematics of its pose
@@ -239,12 +242,6 @@ class DesiredMotion:
         parts = [motion for _rows, motion in self.pieces()]
         return JointMotion(self.t, *(np.concatenate([getattr(m, name) for m in parts])
                                      for name in ("q", "pose", "theta", "theta_dot", "theta_ddot")))
-
-
-def _desired_motion(scenario: Scenario, t: np.ndarray) -> tuple[tuple[int, ...], DesiredMotion]:
-    """The working mode and the desired actuator motion in it."""
-    motion = DesiredMotion(scenario, t)
-    return motion.mode, motion
 
 
 def _joint_motion(model: MechanismModel, full, q: np.ndarray, t: np.ndarray, previous: np.ndarray | None = None):
@@ -288,15 +285,15 @@ def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> Prepar
         except TypeError:
             key = None
     if key is not None and key in desired_cache:
-        mode, motion = desired_cache[key]
+        motion = desired_cache[key]
     else:
-        mode, motion = _desired_motion(scenario, t)
+        motion = DesiredMotion(scenario, t)
         if key is not None:
-            desired_cache[key] = (mode, motion)
+            desired_cache[key] = motion
     q_ctrl0 = motion.first().q[0].copy()
     q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
     spec = scenario.controller
-    prep = PreparedRun(t, mode, motion, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
+    prep = PreparedRun(t, motion, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
                      float(spec.velocity_gain), float(scenario.singularity_guard), scenario.model.P,
                      scenario.plant_model.P, realism(scenario, t.size))
     if scenario.sample_time > 0:
