@@ -3,11 +3,13 @@
 
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pytest
 import sympy as sp
 
-from pkmlab.codegen import spatial
+from pkmlab.codegen import provenance, spatial
 from pkmlab.description.presets import SPATIAL_PRESETS, preset
 from pkmlab.description.spatial import attachment_point, leg_frames
 from pkmlab.model.mechanism_model import MechanismModel, _evaluate, constraint_residual
@@ -17,11 +19,41 @@ NAMES = sorted(SPATIAL_PRESETS)
 
 @pytest.mark.parametrize("name", NAMES)
 def test_generated_file_is_current(name):
+    """The committed module is the derivation's text: by ``make derive``'s record of its inputs and text while
+    neither has changed (the planar machines' modules are derived again in every run,
+    ``test_generated_kinematics``), else by deriving it again."""
     m = preset(name)
-    committed = spatial.generated_path(m).read_text()
+    path = spatial.generated_path(m)
+    committed = path.read_text()
     if f"Derived with SymPy {sp.__version__}." not in committed:
         pytest.skip("another SymPy: the numeric checks below still hold")
-    assert committed == spatial.generate_source(m), "run `make derive` to regenerate the kernels"
+    if not provenance.recorded_current(path):
+        assert committed == spatial.generate_source(m), "run `make derive` to regenerate the kernels"
+
+
+def test_the_derivation_record_is_of_the_derivations_inputs_and_text(tmp_path, monkeypatch):
+    """A module is recorded current only with the inputs and the text ``make derive`` recorded: an edited module
+    or an edited source of the derivation is not."""
+    package = tmp_path / "pkmlab"
+    package.mkdir()
+    for entry in provenance.INPUTS:  # a copy of the derivation's sources
+        source = provenance.PACKAGE / entry
+        (shutil.copytree if source.is_dir() else shutil.copy2)(source, package / entry)
+    monkeypatch.setattr(provenance, "PACKAGE", package)
+    monkeypatch.setattr(provenance, "RECORD", package / "kernels" / "provenance.json")
+    module = package / "kernels" / "spatial_x.py"
+    module.parent.mkdir()
+    module.write_text("A = 1\n")
+    assert not provenance.recorded_current(module)  # no record
+    provenance.record({module.name: module.read_text()})
+    assert provenance.recorded_current(module)
+    module.write_text("A = 2\n")
+    assert not provenance.recorded_current(module)  # edited by hand
+    module.write_text("A = 1\n")
+    assert provenance.recorded_current(module)
+    with (package / "description" / "spatial.py").open("a") as f:
+        f.write("\n# an edit\n")
+    assert not provenance.recorded_current(module)  # a source of the derivation edited
 
 
 def _legs(m, q):

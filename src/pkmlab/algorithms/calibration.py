@@ -227,6 +227,7 @@ class _Predictor:
             P[turn.index] = turn.values(np.where(places >= 0, p[np.maximum(places, 0)], 0.0))
         theta = self.theta.copy()
         theta[:, self.offsets] += p[self.offset_places]
+        P.setflags(write=False)  # as every model's: the kernels are compiled for read-only parameters only
         out = np.empty_like(self.q)
         status = np.empty(len(theta), dtype=np.int64)
         self.model.kernels.branch_following_batch(self.q, np.ascontiguousarray(theta), P, 1e-9, np.inf, out, status)

@@ -244,6 +244,7 @@ def _with_com(model: MechanismModel, com) -> np.ndarray:
     index = _com_indices(model)
     for d in range(index.shape[1]):
         P[index[:, d][index[:, d] >= 0]] = com[d]
+    P.setflags(write=False)  # as every model's: the kernels are compiled for read-only parameters only
     return P
 
 

@@ -405,7 +405,9 @@ def regenerate(argv, presets, derivation, name: str) -> int:
     parser = argparse.ArgumentParser(description=derivation.__doc__.splitlines()[0], prog=f"python -m {name}")
     parser.add_argument("--check", action="store_true", help="fail if a file is not current")
     args = parser.parse_args(argv)
-    stale = 0
+    from .provenance import record
+
+    stale, written = 0, {}
     for make in presets.values():
         mechanism = make()
         path, source = derivation.generated_path(mechanism), derivation.generate_source(mechanism)
@@ -416,7 +418,10 @@ def regenerate(argv, presets, derivation, name: str) -> int:
             continue
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(source)
+        written[path.name] = source
         print(f"wrote {path}")
+    if written:
+        record(written)
     return 1 if stale else 0
 
 

@@ -4160,7 +4160,7 @@ def passive_determinant(q, sc, P, lines):
 def factor_passive(ws, q, sc, P):
     """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
     reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
-    constraint_jacobian(q, sc, P, ws.j_eta)
+    constraint_jacobian(q, sc, P, ws.j_eta[:])
     n = N_ACTUATORS
     for k in range(REDUCED):
         c = n + reduced_column(k)
@@ -4192,7 +4192,7 @@ def correct_passive(ws, q, sc, P):
     place); returns the status."""
     n = N_ACTUATORS
     for _ in range(MAX_NEWTON):
-        constraints(q, sc, P, ws.eta)
+        constraints(q, sc, P, ws.eta[:])
         if not factor_passive(ws, q, sc, P):
             return SINGULAR
         passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
@@ -4272,7 +4272,7 @@ def follow_branch(ws, theta, P, singularity_guard):
     status = NOT_CONVERGED
     previous = np.inf
     for _ in range(MAX_CHORD):
-        constraints(trial, sc, P, ws.eta)
+        constraints(trial, sc, P, ws.eta[:])
         passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
@@ -4293,7 +4293,7 @@ def follow_branch(ws, theta, P, singularity_guard):
         status = correct_passive(ws, trial, sc, P)
         if status != OK:
             return status
-    s = singularity_measure(trial, sc, P, ws.lines)
+    s = singularity_measure(trial, sc, P, ws.lines[:])
     ws.s[TRIAL] = s
     if abs(s) < singularity_guard or s * ws.s[BASE] < 0.0:
         return SINGULAR
@@ -4317,7 +4317,7 @@ def set_base(ws, q, P):
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = q[i]
     trig(q, ws.sc[BASE])
-    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines)
+    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines[:])
     ws.base_factored[0] = 0
 
 
@@ -4346,7 +4346,7 @@ def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step
         for k in range(1, steps + 1):
             for j in range(n):  # the sub-step's target, on q_previous's side of 2π
                 ws.target[j] = q_previous[j] + actuator_error(theta, q_previous, j) * (k / steps)
-            status = follow_branch(ws, ws.target, P, singularity_guard)
+            status = follow_branch(ws, ws.target[:], P, singularity_guard)
             if status != OK:
                 break
             accept_trial(ws)
@@ -4379,7 +4379,7 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         for j in range(n):
             acc += ws.j_q_theta[i, j] * theta_dot[j]
         ws.q_dot[i] = acc
-    constraint_bias(q, sc, ws.q_dot, P, ws.gamma)
+    constraint_bias(q, sc, ws.q_dot[:], P, ws.gamma[:])
     for k in range(N_CONSTRAINTS):  # φ̈ at θ̈ = 0: -Jηφ⁻¹ J̇ηq q̇ (eq. 32)
         ws.gamma[k] = -ws.gamma[k]
     passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
@@ -4387,8 +4387,8 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         ws.bias_q[i] = 0.0
     for k in range(N_CONSTRAINTS):
         ws.bias_q[n + k] = ws.gamma[k]
-    body_jacobian_values(q, sc, P, ws.jb)
-    body_bias(q, sc, ws.q_dot, P, ws.bb)
+    body_jacobian_values(q, sc, P, ws.jb[:])
+    body_bias(q, sc, ws.q_dot[:], P, ws.bb[:])
     for b in range(N_BODIES):
         for r in range(BODY_ROWS):
             for j in range(n):
@@ -4914,7 +4914,9 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive,
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, singularity_guard, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False, drive)
+        # the base stage and no known passive motion, typed as the loop passes them (not literals): one compiled
+        # plant_stage for both
+        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, n - n + BASE, n < 0, drive)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:

@@ -596,7 +596,7 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = F
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
     q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow)
     s = np.empty(poses.shape[0])
-    model.kernels.singularity_measures(q, model.P, s)
+    model.kernels.singularity_measures(np.ascontiguousarray(q), model.P, s)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))
     return q, s, failure
 

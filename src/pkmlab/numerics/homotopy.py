@@ -157,7 +157,8 @@ def parameter_homotopy(family: Family, solutions: np.ndarray, p0: np.ndarray, p1
     program = family.program
     solutions = np.ascontiguousarray(solutions, dtype=complex)
     rows = (solutions.shape[0], np.shape(p0)[-1])
-    p0, p1 = (np.ascontiguousarray(np.broadcast_to(np.asarray(p, dtype=complex), rows)) for p in (p0, p1))
+    # copies, writable whatever the caller passed: the tracker is compiled for one kind of array
+    p0, p1 = (np.broadcast_to(np.asarray(p, dtype=complex), rows).copy() for p in (p0, p1))
     x, t, diverged = track_paths(program.code, program.register_file(), program.outputs, family.n, family.moving,
                                  solutions, p0, p1, 0.0, float(family.scale), DIVERGED, MAX_STEPS, 1e-3)
     x, regular = newton_polish(family, x, p1)

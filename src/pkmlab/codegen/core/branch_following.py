@@ -202,7 +202,7 @@ def passive_determinant(q, sc, P, lines):
 def factor_passive(ws, q, sc, P):
     """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
     reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
-    constraint_jacobian(q, sc, P, ws.j_eta)
+    constraint_jacobian(q, sc, P, ws.j_eta[:])
     n = N_ACTUATORS
     for k in range(REDUCED):
         c = n + reduced_column(k)
@@ -234,7 +234,7 @@ def correct_passive(ws, q, sc, P):
     place); returns the status."""
     n = N_ACTUATORS
     for _ in range(MAX_NEWTON):
-        constraints(q, sc, P, ws.eta)
+        constraints(q, sc, P, ws.eta[:])
         if not factor_passive(ws, q, sc, P):
             return SINGULAR
         passive_solve(ws.lu, ws.piv, ws.top, ws.eta, ws.work)
@@ -314,7 +314,7 @@ def follow_branch(ws, theta, P, singularity_guard):
     status = NOT_CONVERGED
     previous = np.inf
     for _ in range(MAX_CHORD):
-        constraints(trial, sc, P, ws.eta)
+        constraints(trial, sc, P, ws.eta[:])
         passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
@@ -335,7 +335,7 @@ def follow_branch(ws, theta, P, singularity_guard):
         status = correct_passive(ws, trial, sc, P)
         if status != OK:
             return status
-    s = singularity_measure(trial, sc, P, ws.lines)
+    s = singularity_measure(trial, sc, P, ws.lines[:])
     ws.s[TRIAL] = s
     if abs(s) < singularity_guard or s * ws.s[BASE] < 0.0:
         return SINGULAR
@@ -359,7 +359,7 @@ def set_base(ws, q, P):
     for i in range(N_COORDINATES):
         ws.q[BASE, i] = q[i]
     trig(q, ws.sc[BASE])
-    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines)
+    ws.s[BASE] = singularity_measure(q, ws.sc[BASE], P, ws.lines[:])
     ws.base_factored[0] = 0
 
 
@@ -388,7 +388,7 @@ def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step
         for k in range(1, steps + 1):
             for j in range(n):  # the sub-step's target, on q_previous's side of 2π
                 ws.target[j] = q_previous[j] + actuator_error(theta, q_previous, j) * (k / steps)
-            status = follow_branch(ws, ws.target, P, singularity_guard)
+            status = follow_branch(ws, ws.target[:], P, singularity_guard)
             if status != OK:
                 break
             accept_trial(ws)

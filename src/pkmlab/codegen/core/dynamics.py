@@ -58,7 +58,7 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         for j in range(n):
             acc += ws.j_q_theta[i, j] * theta_dot[j]
         ws.q_dot[i] = acc
-    constraint_bias(q, sc, ws.q_dot, P, ws.gamma)
+    constraint_bias(q, sc, ws.q_dot[:], P, ws.gamma[:])
     for k in range(N_CONSTRAINTS):  # φ̈ at θ̈ = 0: -Jηφ⁻¹ J̇ηq q̇ (eq. 32)
         ws.gamma[k] = -ws.gamma[k]
     passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
@@ -66,8 +66,8 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         ws.bias_q[i] = 0.0
     for k in range(N_CONSTRAINTS):
         ws.bias_q[n + k] = ws.gamma[k]
-    body_jacobian_values(q, sc, P, ws.jb)
-    body_bias(q, sc, ws.q_dot, P, ws.bb)
+    body_jacobian_values(q, sc, P, ws.jb[:])
+    body_bias(q, sc, ws.q_dot[:], P, ws.bb[:])
     for b in range(N_BODIES):
         for r in range(BODY_ROWS):
             for j in range(n):

@@ -74,7 +74,9 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive,
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, y[:n], P, singularity_guard, np.inf)
     if status == OK:
-        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, BASE, False, drive)
+        # the base stage and no known passive motion, typed as the loop passes them (not literals): one compiled
+        # plant_stage for both
+        status = plant_stage(ws, y[:n], y[n:], tau, P, singularity_guard, n - n + BASE, n < 0, drive)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     if status == OK:
