@@ -479,6 +479,33 @@ def test_has_compiled_reads_the_kernel_cache(tmp_path, monkeypatch):
     assert not _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_point")
 
 
+def test_a_new_cache_folder_removes_those_of_other_versions_unused_for_a_week(tmp_path, monkeypatch):
+    """The first process of a new version of the sources removes the cache folders no process has used for
+    STALE_AFTER_DAYS; one used since (by its marker, or its own time without one) and anything not a cache
+    folder of pkmlab's stay."""
+    from pkmlab import _compile_cache
+
+    monkeypatch.setenv("PKMLAB_CACHE_DIR", str(tmp_path))
+    old = time.time() - (_compile_cache.STALE_AFTER_DAYS + 1) * 86400
+    recent = time.time() - (_compile_cache.STALE_AFTER_DAYS - 1) * 86400
+    folders = {name: tmp_path / name for name in ("numba-old", "numba-unmarked", "numba-recent", "written")}
+    for folder in folders.values():
+        (folder / "kernels").mkdir(parents=True)
+    os.utime(folders["numba-unmarked"], (old, old))
+    os.utime(folders["written"], (old, old))
+    for name, when in (("numba-old", old), ("numba-recent", recent)):
+        (folders[name] / _compile_cache.LAST_USED).touch()
+        os.utime(folders[name] / _compile_cache.LAST_USED, (when, when))
+    os.utime(folders["numba-recent"], (old, old))  # its marker, not its own time, says when it was used
+
+    cache = _compile_cache.cache_folder()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["numba-recent", "written", cache.name])
+    assert (cache / _compile_cache.LAST_USED).exists()
+    (tmp_path / "numba-old").mkdir()
+    os.utime(tmp_path / "numba-old", (old, old))
+    assert _compile_cache.cache_folder() == cache and (tmp_path / "numba-old").exists()  # not a new folder: kept
+
+
 def test_every_non_finite_number_of_the_command_line_is_named(capsys):
     for argv, name in [(["dynamics", 0.19, 3.11, -2.64, "--near", 0.2, "inf", 0], "--near"),
                        (["ik", 0.2, 0.21, "nan"], "alpha"),

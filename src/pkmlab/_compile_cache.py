@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import tempfile
+import time
 from pathlib import Path
 
 #: True in a process whose kernels run interpreted (``PKMLAB_INTERPRETED=1`` when pkmlab was imported).
@@ -44,12 +46,45 @@ def cache_folder() -> Path:
         digest.update(path.relative_to(package).as_posix().encode())
         digest.update(path.read_bytes())
     cache = cache_base() / f"numba-{digest.hexdigest()[:16]}"
+    new = not cache.exists()
     try:
         cache.mkdir(parents=True, exist_ok=True)
     except OSError:  # read-only home: fall back to the temporary folder
         cache = Path(tempfile.gettempdir()) / "pkmlab-cache" / cache.name
+        new = not cache.exists()
         cache.mkdir(parents=True, exist_ok=True)
+    try:
+        (cache / LAST_USED).touch()
+    except OSError:
+        pass
+    if new:
+        prune(cache.parent, keep=cache)
     return cache
+
+
+#: A process marks the cache folder it uses by this file's time.
+LAST_USED = "last-used"
+#: The cache folder of another version of pkmlab's sources unused this long is removed when a new one is made.
+STALE_AFTER_DAYS = 7
+
+
+def prune(base: Path, keep: Path) -> list[Path]:
+    """Remove from ``base`` the cache folders (``numba-*``) other than ``keep`` that no process has used for
+    :data:`STALE_AFTER_DAYS`: each holds the compiled kernels of one version of the sources, a few hundred
+    megabytes that nothing reads once pkmlab is upgraded or edited. A folder still in use, by another
+    installation or a long session, is kept by its last use. Returns the folders removed."""
+    limit = time.time() - STALE_AFTER_DAYS * 86400
+    removed = []
+    for folder in sorted(base.glob("numba-*")):
+        marker = folder / LAST_USED
+        try:
+            used = (marker if marker.exists() else folder).stat().st_mtime
+        except OSError:
+            continue
+        if folder != keep and folder.is_dir() and used < limit:
+            shutil.rmtree(folder, ignore_errors=True)
+            removed.append(folder)
+    return removed
 
 
 def configure() -> Path:
