@@ -1,5 +1,5 @@
 """Legs with no closed form of their own: pkmlab's general method — each leg's locus (a circle or a
-line), its inverse kinematics by bracketing and bisection, forward kinematics by a sweep of the
+line), its inverse kinematics by the roots of the gap to it, forward kinematics by a sweep of the
 platform's orientation. Checked against the closed forms of the presets' leg types, and on a 3-R*PR
 machine read from its own file against a multi-start Newton search and the geometry of its legs' lines."""
 
@@ -79,6 +79,40 @@ def test_the_general_leg_method_finds_exactly_the_closed_forms_solutions(name):
             assert len(mine) == len({tuple(np.round(c, 9)) for c in theirs}), (name, i, k)
             for c in theirs:
                 assert min(_wrapped_gap(np.array(g), c, angles).max() for g in mine) < 1e-9
+
+
+@pytest.mark.parametrize("joints", ["R*PR", "RR*R", "PR*R", "R*RR", "P*RR", "RP*R"])
+def test_every_leg_of_the_general_method_ends_at_its_point_in_both_working_modes(joints):
+    """Any three-joint leg (its actuator anywhere, skewed links and a slanted rail): each solution's chain
+    (:func:`~pkmlab.description.mechanism.leg_chain`, the plain statement of the conventions) ends at the point,
+    the two working modes are distinct solutions with the gap to the locus rising and falling through them,
+    and a point is refused exactly when no actuator value of that mode exists (sampled densely)."""
+    from pkmlab.description.mechanism import Body, Joint, Leg, leg_chain
+
+    kinds = joints.replace("*", "")
+    actuated = joints.index("*") - 1
+    leg = Leg((0.1, -0.05), tuple(Joint(k, i == actuated, 0.4 if k == "P" and i == 0 else None)
+                                  for i, k in enumerate(kinds)),
+              (Body((0.3, 0.07), 1.0, (0.1, 0.0), 1e-3), Body((0.22, -0.05), 1.0, (0.1, 0.0), 1e-3)))
+    locus = lt.Locus(leg, 0)
+    rng = np.random.default_rng(2)
+    points = np.array(leg.base) + rng.uniform(-0.7, 0.7, (200, 2))
+    lo, hi = locus.domain()
+    samples = np.linspace(lo, hi, 8001)
+    every_gap = locus.gap(samples[None, :], points[:, None, :])
+    for sigma in (1, -1):
+        solved = lt._general(leg, 0, points, sigma)
+        assert (~solved.bad).sum() > 20  # not a vacuous check: points reached in each mode
+        for k, gaps in enumerate(every_gap):
+            crossings = np.flatnonzero(np.sign(gaps[:-1]) * np.sign(gaps[1:]) < 0)
+            wanted = [c for c in crossings if (gaps[c + 1] > gaps[c]) == (sigma > 0)]
+            if solved.bad[k]:
+                assert len(wanted) != 1, (joints, sigma, k)
+                continue
+            end = np.array(leg_chain(leg, solved.coordinates[k])[-1][0])
+            assert np.abs(end - points[k]).max() < 1e-12, (joints, sigma, k)
+            a = solved.coordinates[k, leg.actuated]
+            assert len(wanted) == 1 and samples[wanted[0]] - 1e-9 <= a <= samples[wanted[0] + 1] + 1e-9
 
 
 @pytest.mark.parametrize("name", sorted(PLANAR_PRESETS))

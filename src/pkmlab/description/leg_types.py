@@ -12,9 +12,10 @@ machines has a closed-form solution, with at most two branches:
   displacement), ``-1`` for the smaller.
 
 Any other leg of an actuator, one passive joint and the platform's revolute (``R*PR``, ``RR*R``,
-``PR*R``, ...) is solved by a general method (:class:`Locus`, :func:`_general`): with its actuator
-held the leg's end lies on a circle or a line, and the actuator values that put the attachment point
-on it are bracketed on a fine grid and bisected; checked against the three closed forms by the tests.
+``PR*R``, ...) is solved by a general method, in closed form too (:class:`Locus`, :func:`_general`): with its
+actuator held the leg's end lies on a circle or a line, and the actuator values that put the attachment point
+on it are the roots of a first-degree trigonometric polynomial in a revolute actuator, or of a quadratic in a
+prismatic one; checked against the three closed forms by the tests.
 
 Each solver returns the leg's joint coordinates in joint order (the actuated one included), or
 raises :class:`~pkmlab.errors.UnreachablePoseError` naming the leg (out of reach, or outside its
@@ -225,40 +226,52 @@ class Locus:
         return -reach, reach
 
 
-#: The general method samples the actuator's domain at this many points before bisecting each sign change.
-GENERAL_SAMPLES = 1441
+def _actuator_roots(locus: Locus, point: np.ndarray, sigma: int, lo: float, hi: float):
+    """The actuator values in ``[lo, hi]`` that put ``point`` (K, 2) on the locus with the gap rising (``sigma =
+    +1``) or falling (``-1``) through them: the first of them (K,) and how many there are (K,).
+
+    The gap is exactly a polynomial in the actuator, read off three of its values: ``c0 + c1 cos a + c2 sin a``
+    for a revolute actuator (``A(a)`` and ``B(a)`` turn with ``a``, and a turn keeps lengths and cross
+    products), ``q0 + q1 a + q2 a²`` for a prismatic one."""
+    if locus.angle:
+        g0, g90, g180 = (locus.gap(np.full(len(point), a), point) for a in (0.0, 0.5 * math.pi, math.pi))
+        c0, c1, c2 = 0.5 * (g0 + g180), 0.5 * (g0 - g180), g90 - 0.5 * (g0 + g180)
+        r = np.hypot(c1, c2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cos_delta = -c0 / r
+        # c1 cos a + c2 sin a = r cos(a - ψ) = -c0 at a = ψ ∓ δ, where the gap rises (-) or falls (+)
+        delta = np.arccos(np.clip(cos_delta, -1.0, 1.0))
+        crossing = (np.abs(cos_delta) <= 1.0) & (np.sin(delta) > 0.0)  # a tangency is no crossing
+        root = np.where(crossing, np.arctan2(c2, c1) - sigma * delta, lo)  # (where none: refused, kept finite)
+        turns = 2.0 * math.pi
+        if locus.leg.stroke is None:  # a whole turn: one value, in [-π, π)
+            return root - turns * np.floor((root + math.pi) / turns), crossing.astype(np.int64)
+        first, last = np.ceil((lo - root) / turns), np.floor((hi - root) / turns)
+        count = np.where(crossing, np.maximum(last - first + 1.0, 0.0), 0.0).astype(np.int64)
+        return root + turns * first, count
+    g_minus, g0, g_plus = (locus.gap(np.full(len(point), a), point) for a in (-1.0, 0.0, 1.0))
+    q0, q1, q2 = g0, 0.5 * (g_plus - g_minus), 0.5 * (g_plus + g_minus) - g0
+    disc = q1 * q1 - 4.0 * q2 * q0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -0.5 * (q1 + np.copysign(np.sqrt(np.maximum(disc, 0.0)), q1))  # the two roots without cancellation
+        roots = np.stack([t / q2, q0 / t])
+        slope = q1 + 2.0 * q2 * roots
+    wanted = (disc >= 0.0) & ((slope > 0.0) if sigma > 0 else (slope < 0.0)) & (lo <= roots) & (roots <= hi)
+    count = wanted.sum(axis=0)
+    # where there is none, a value of the domain: the point is refused, its coordinates only kept finite
+    return np.where(wanted[0], roots[0], np.where(count > 0, roots[1], lo)), count
 
 
 def _general(leg: Leg, number: int, point: np.ndarray, sigma: int) -> Solved:
-    """Inverse kinematics of any leg of :class:`Locus` form, by a general method: the attachment point lies on
-    the leg's locus for the actuator values where :meth:`Locus.gap` vanishes; they are bracketed by its sign
-    changes on a fine grid over the actuator's domain and refined by bisection to round-off. A leg has two
-    such values in general: working mode ``σ = +1`` for the one where the gap grows with the actuator value,
-    ``-1`` where it falls. More than one value of the asked sign is refused (the working mode would be
-    ambiguous)."""
+    """Inverse kinematics of any leg of :class:`Locus` form, in closed form: the attachment point lies on the
+    leg's locus for the actuator values where :meth:`Locus.gap` vanishes, the roots of a first-degree
+    trigonometric polynomial (a revolute actuator) or of a quadratic (a prismatic one) over the actuator's
+    domain (:func:`_actuator_roots`). A leg has two such values in general: working mode ``σ = +1`` for the one
+    where the gap grows with the actuator value, ``-1`` where it falls. More than one value of the asked sign
+    (a stroke longer than a turn) is refused: the working mode would be ambiguous."""
     locus = Locus(leg, number)
     lo, hi = locus.domain()
-    grid = np.linspace(lo, hi, GENERAL_SAMPLES)
-    gaps = locus.gap(grid[None, :], point[:, None, :])  # (K, G)
-    if locus.angle and leg.stroke is None:  # a whole turn: -π and π are one actuator value
-        gaps[:, -1] = gaps[:, 0]
-    left, right = gaps[:, :-1], gaps[:, 1:]
-    # a sign change, a root on a sample counted once (as the right end of its interval)
-    crossing = ((left < 0) & (right >= 0)) | ((left > 0) & (right <= 0))
-    rising = right > left
-    wanted = crossing & (rising if sigma > 0 else ~rising)
-    count = wanted.sum(axis=1)
-    first = np.argmax(wanted, axis=1)
-    k_all = np.arange(point.shape[0])
-    left, right = grid[first], grid[first + 1]
-    g_left = gaps[k_all, first]
-    for _ in range(60):  # bisection to the last bit
-        middle = 0.5 * (left + right)
-        g_mid = locus.gap(middle, point)
-        same = np.sign(g_mid) == np.sign(g_left)
-        left, g_left = np.where(same, middle, left), np.where(same, g_mid, g_left)
-        right = np.where(same, right, middle)
-    actuator = 0.5 * (left + right)
+    actuator, count = _actuator_roots(locus, point, sigma, lo, hi)
     passive = locus.passive_coordinate(actuator, point)
     bad = count != 1
 
