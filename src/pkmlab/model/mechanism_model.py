@@ -566,7 +566,9 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
         unreachable[failed] = failed_legs
         if first_failure is not None and (first is None or first_failure[0] <= first[0]):
             first = (first_failure[0], 0, first_failure[1])
-    q = np.column_stack([*actuators, *passive, q_pose])
+    # C order whatever the columns' (a lower-mobility platform's pose columns may be in Fortran order): the kernels
+    # are compiled for one layout of q
+    q = np.ascontiguousarray(np.column_stack([*actuators, *passive, q_pose]))
     q[unreachable != 0] = np.nan
     return q, unreachable, first
 
@@ -596,7 +598,7 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = F
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
     q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow)
     s = np.empty(poses.shape[0])
-    model.kernels.singularity_measures(np.ascontiguousarray(q), model.P, s)
+    model.kernels.singularity_measures(q, model.P, s)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))
     return q, s, failure
 
