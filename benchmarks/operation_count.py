@@ -8,11 +8,12 @@ The count has two parts, neither estimated by hand:
   them: each ``+ - * /`` (and ``+=``...) on values is one operation, ``x**k`` is ``k - 1``; index
   arithmetic (inside subscripts and ``range``), comparisons and copies are not counted; ``sqrt`` is
   counted as an operation, ``sin``/``cos``/``atan2``... apart (a libm call costs far more). Loops over the
-  structure's sizes (``range(N_ACTUATORS)``...) are unrolled with their true trip counts, branches on the
-  structure's constants (``if DIM == 3``) resolved, a branch on the run's values counted as its costlier
-  side; constant expressions are folded, as the compiler folds them; a floating-point ``%`` is a libm
-  call. A data-dependent loop (the chord iterations) counts its own operations once per call (about ten
-  per pass: under 1 % of a sample) — its passes are the calls of the kernels inside it;
+  structure's sizes (``range(N_ACTUATORS)``, a constant tuple of legs) are unrolled with their true trip
+  counts, branches on the structure's constants (``if DIM == 3``) resolved, a branch on the run's values
+  counted as its costlier side; constant expressions are folded, as the compiler folds them; a
+  floating-point ``%`` is a libm call. A data-dependent loop (the chord iterations) counts its own
+  operations once per call (about ten per pass: under 1 % of a sample) — its passes are the calls of
+  the kernels inside it;
 * **calls per sample**, counted over the whole of the preset's default run with the kernels
   interpreted (``PKMLAB_INTERPRETED=1``: the same source, run by Python) and every function wrapped by a
   counter: the chord iterations, Newton fall-backs and the controller's reuse of the plant's model are
@@ -152,6 +153,10 @@ class _Counter(ast.NodeVisitor):
                 bounds = range(*values)
             if any(isinstance(a, ast.Name) and a.id.startswith("MAX_") for a in node.iter.args):
                 bounds = None  # an iteration limit, not a size: one pass per call (its passes are counted calls)
+        elif isinstance(node.target, ast.Name):  # over a constant tuple (a generated kernel's legs of one type)
+            values = self._value(node.iter)
+            if isinstance(values, tuple) and all(isinstance(v, int) for v in values):
+                bounds = values
         if bounds is None:  # data-dependent: one pass (names it binds are not constants after it)
             flops, transcendental, env = self._branch(node.body)
             self.flops += flops

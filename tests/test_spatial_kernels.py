@@ -3,18 +3,34 @@
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 import sympy as sp
 
 from pkmlab.codegen import provenance, spatial
+from pkmlab.description.files import load_mechanism
 from pkmlab.description.presets import SPATIAL_PRESETS, preset
-from pkmlab.description.spatial import attachment_point, leg_frames
-from pkmlab.model.mechanism_model import MechanismModel, _evaluate, constraint_residual
+from pkmlab.description.spatial import attachment_point, full_poses, leg_frames
+from pkmlab.model.mechanism_model import MechanismModel, _bind, _evaluate, constraint_residual
 
 NAMES = sorted(SPATIAL_PRESETS)
+MECHANISMS = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
+#: The kernels' checks run on the presets and on a structure of two types of legs, whose kernels loop over each
+#: type apart: a 3-RPS whose third leg is a 3-PRS's (its kernels only: such a platform cannot be assembled).
+MODELS = [*NAMES, "mixed"]
+
+
+@functools.cache
+def _model(name: str) -> MechanismModel:
+    if name != "mixed":
+        return MechanismModel.from_preset(name)
+    rps, prs = load_mechanism(MECHANISMS / "3rps.toml"), load_mechanism(MECHANISMS / "3prs.toml")
+    return _bind(dataclasses.replace(rps, name="3-RPS with a PRS leg", legs=(*rps.legs[:2], prs.legs[2])))
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -59,7 +75,7 @@ def test_the_derivation_record_is_of_the_derivations_inputs_and_text(tmp_path, m
 
 
 def _legs(m, q):
-    n, passive, out = len(m.legs), iter(q[len(m.legs):len(q) - m.dof]), []
+    n, passive, out = len(m.legs), iter(q[len(m.legs):len(q) - len(m.platform.q_pose_names)]), []
     for i, leg in enumerate(m.legs):
         coords = []
         for j in leg.joints[:-1]:
@@ -69,9 +85,9 @@ def _legs(m, q):
     return out
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", MODELS)
 def test_constraints_and_body_positions_are_the_described_chains(name):
-    model = MechanismModel.from_preset(name)
+    model = _model(name)
     m, k = model.description, model.kernels
     rng = np.random.default_rng(3)
     for _ in range(20):
@@ -82,7 +98,8 @@ def test_constraints_and_body_positions_are_the_described_chains(name):
         for i, (leg, coords) in enumerate(zip(m.legs, _legs(m, q), strict=True)):
             frames = leg_frames(leg, coords)
             end = frames[-1][0]
-            np.testing.assert_allclose(eta[3 * i:3 * i + 3], end - attachment_point(m, i, q[-m.dof:]), atol=1e-12)
+            pose = full_poses(m, q[len(q) - k.N_POSE:])
+            np.testing.assert_allclose(eta[3 * i:3 * i + 3], end - attachment_point(m, i, pose), atol=1e-12)
             for (origin, rot), body in zip(frames, leg.bodies, strict=False):
                 np.testing.assert_allclose(coms[b], origin + rot @ np.array(body.com), atol=1e-12)
                 b += 1
@@ -95,10 +112,10 @@ def _body_rotations(m, q):
     return out
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", MODELS)
 def test_body_jacobians_against_finite_differences(name):
     """Linear rows: the mass centres' derivatives; angular rows: ω in the body frame, from Rᵀ Ṙ."""
-    model = MechanismModel.from_preset(name)
+    model = _model(name)
     m, k = model.description, model.kernels
     rng = np.random.default_rng(8)
     h = 1e-6
@@ -119,9 +136,9 @@ def test_body_jacobians_against_finite_differences(name):
         np.testing.assert_allclose(bias, (jp - jm) @ q_dot / (2 * h), atol=1e-6)
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", MODELS)
 def test_constraint_jacobian_and_bias_against_finite_differences(name):
-    model = MechanismModel.from_preset(name)
+    model = _model(name)
     k = model.kernels
     rng = np.random.default_rng(12)
     h = 1e-6

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -205,19 +206,48 @@ def jacobian_and_bias(exprs, q, q_dot):
 
 
 # ------------------------------------------------------------------ code generation
-def _emit(lines, name, args, doc, outputs, indices):
+@dataclass(frozen=True)
+class Block:
+    """Outputs of a kernel written by one stretch of straight-line code: ``out[index] = output`` (or ``return
+    output`` for the index ``"return"``), its common subexpressions shared (``sympy.cse``). With ``loop`` (a
+    ``for`` line, e.g. over the legs of one type), the code is the body of that loop: the outputs are one leg's, of
+    the names ``unpack`` binds from the loop variable (each line kept only where the code uses its name), and
+    ``trig`` maps the cosines and sines of its angles to the names of the trig table that ``unpack`` binds."""
+
+    outputs: list
+    indices: list[str]
+    loop: str | None = None
+    unpack: tuple[str, ...] = ()
+    trig: dict = field(default_factory=dict)
+
+
+def _emit(lines, name, args, doc, blocks, fill=False):
+    """A compiled kernel writing the outputs of ``blocks``; ``fill``: every entry of ``out`` it does not write is
+    0 (a sparse Jacobian), as is every output that is 0."""
     import sympy as sp
 
     lines += ["", "", "@njit(cache=True)", f"def {name}({args}):", f'    """{doc}"""']
-    nonzero = [(ix, e) for ix, e in zip(indices, outputs, strict=True) if e != 0]
-    replacements, reduced = sp.cse([e for _ix, e in nonzero], symbols=sp.numbered_symbols("w"), order="canonical")
-    for sym, expr in replacements:
-        lines.append(f"    {sym} = {sp.pycode(expr)}")
-    zero = [ix for ix, e in zip(indices, outputs, strict=True) if e == 0]
-    if zero:
-        lines.append("    out[:] = 0.0")
-    for (ix, _e), expr in zip(nonzero, reduced, strict=True):
-        lines.append(f"    return {sp.pycode(expr)}" if ix == "return" else f"    out[{ix}] = {sp.pycode(expr)}")
+    fill = fill or any(e == 0 for block in blocks for e in block.outputs)
+    for number, block in enumerate(blocks):
+        nonzero = [(ix, e) for ix, e in zip(block.indices, block.outputs, strict=True) if e != 0]
+        symbols = sp.numbered_symbols("w" if number == 0 else f"w{number}_")
+        replacements, reduced = sp.cse([e for _ix, e in nonzero], symbols=symbols, order="canonical")
+        body = [f"{sym} = {sp.pycode(expr)}" for sym, expr in replacements]
+        if fill and number == 0:
+            if block.loop:
+                lines.append("    out[:] = 0.0")
+            else:
+                body.append("out[:] = 0.0")
+        body += [f"return {sp.pycode(expr)}" if ix == "return" else f"out[{ix}] = {sp.pycode(expr)}"
+                 for (ix, _e), expr in zip(nonzero, reduced, strict=True)]
+        if block.loop is None:
+            lines += [f"    {line}" for line in body]
+        elif nonzero:
+            kept: list[str] = []
+            for line in reversed(block.unpack):  # an index bound for the unpacking lines is kept with them
+                if _used(line, "\n".join(kept + body)):
+                    kept.insert(0, line)
+            lines += [f"    {block.loop}", *(f"        {line}" for line in kept + body)]
 
 
 def generate_source(mechanism: Mechanism) -> str:
@@ -276,6 +306,7 @@ def generate_source(mechanism: Mechanism) -> str:
         ("platform_size", "P", "The mean distance between the platform's attachment points (1 for a point).",
          [size], ["return"]),
     ]
+    kernels = [(name, args, doc, [Block(outputs, indices)]) for name, args, doc, outputs, indices in kernels]
     return write_module(header, q, q_dot, coordinate_names(mechanism), coordinate_angles(mechanism),
                         parameter_names(mechanism), len(mechanism.legs), kernels)
 
@@ -334,9 +365,9 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
 
 def write_module(header: list[str], q, q_dot, names, angle_flags, parameters, n_actuators: int, kernels) -> str:
     """The text of a generated module: ``header`` (docstring, imports, constants), the trig-table kernels
-    ``trig`` and ``trig_passive``, one compiled kernel per ``(name, args, doc, outputs, indices)`` of
-    ``kernels`` (``out[index] = output``, or ``return output`` for the index ``"return"``; a kernel reads
-    ``q_dot`` when its arguments name it), then the compiled core of :mod:`pkmlab.codegen.core`."""
+    ``trig`` and ``trig_passive``, one compiled kernel per ``(name, args, doc, blocks[, fill])`` of ``kernels``
+    (:class:`Block`, :func:`_emit`; a kernel reads ``q_dot`` when its arguments name it), then the compiled core
+    of :mod:`pkmlab.codegen.core`."""
     import sympy as sp
 
     from .core import template
@@ -361,11 +392,13 @@ def write_module(header: list[str], q, q_dot, names, angle_flags, parameters, n_
               '    """Write the passive angles\' rows of the trig table sc (the actuators\' rows are kept)."""']
     lines += [f"    sc[{k}, 0], sc[{k}, 1] = math.cos(q[{k}]), math.sin(q[{k}])" for k in angles
               if k >= n_actuators] or ["    pass"]
-    for name, args, doc, outputs, indices in kernels:
+    for name, args, doc, blocks, *fill in kernels:
         start = len(lines)
-        outputs = [sp.sympify(e).xreplace(trig) for e in outputs]
-        assert not any(e.has(sp.sin, sp.cos) for e in outputs), f"{name}: trigonometry left after the trig table"
-        _emit(lines, name, args, doc, outputs, indices)
+        blocks = [replace(block, outputs=[sp.sympify(e).xreplace({**trig, **block.trig}) for e in block.outputs])
+                  for block in blocks]
+        assert not any(e.has(sp.sin, sp.cos) for block in blocks for e in block.outputs), \
+            f"{name}: trigonometry left after the trig table"
+        _emit(lines, name, args, doc, blocks, *fill)
         body_start = start + 5
         prelude = [f"    {line}" for line in unpack + unpack_sc + (unpack_q_dot if "q_dot" in args.split(", ") else [])
                    + unpack_p]
