@@ -35,8 +35,9 @@ test: lint browser
 # The documentation site (mkdocs.yml, docs/) into site/: a warning (a broken link, a docstring griffe cannot
 # read) fails the build. The API reference, the command line reference and the performance tables are written
 # from the sources and benchmarks/results.json as it builds (docs/_hooks/).
+# NO_MKDOCS_2_WARNING: the theme's banner about its end of life (docs/development.md says what follows it).
 docs: install
-	$(BIN)/mkdocs build --strict --site-dir site
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
 bench: install
 	$(BIN)/python benchmarks/run.py
