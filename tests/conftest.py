@@ -33,8 +33,9 @@ for _preset in PRESETS:
 SPATIAL_FILES = {"test_delta.py", "test_stewart.py", "test_stewart_fk.py", "test_spatial_kernels.py",
                  "test_lower_mobility.py", "test_upu.py", "test_singularity_kinds.py", "test_rrs.py",
                  "test_catalogue_fk.py", "test_docs_site.py"}
-#: Tests of the spatial presets that neither file nor name says: examples that calibrate a Delta and a Stewart.
-SPATIAL_TESTS = {"test_example_runs[calibration.py]"}
+#: Tests of the spatial presets that neither file nor name says: examples that calibrate a Delta and a Stewart, the
+#: Delta's dynamics over a batch of leading axes.
+SPATIAL_TESTS = {"test_example_runs[calibration.py]", "test_dynamics_are_batched_over_leading_axes"}
 #: Below this many selected tests, the spatial kernels are not compiled ahead (a few tests run as usual).
 WARM_FROM = 200
 _warm: subprocess.Popen | None = None
