@@ -326,8 +326,8 @@ def test_the_working_mode_tie_rule_is_within_1e_9_of_the_best(monkeypatch):
     real = mm.path_inverse_kinematics
     min_s = {(1, 1): 0.5, (1, -1): 0.5 + 0.6e-9, (-1, 1): 0.5 + 1.2e-9, (-1, -1): 0.1}
 
-    def stub(model, poses, mode, follow=False, legs=None):
-        q, _s, _failure = real(model, poses, (1, -1), follow, legs)
+    def stub(model, poses, mode, follow=False, branches=None):
+        q, _s, _failure = real(model, poses, (1, -1), follow, branches)
         return q, np.full(len(poses), min_s[tuple(mode)]), None
 
     monkeypatch.setattr(mm, "path_inverse_kinematics", stub)

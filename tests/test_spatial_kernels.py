@@ -137,6 +137,22 @@ def test_body_jacobians_against_finite_differences(name):
 
 
 @pytest.mark.parametrize("name", MODELS)
+def test_the_jacobians_non_zeros_are_the_dense_jacobians_entries(name):
+    """``body_jacobian_values`` at ``(JB_BODY, JB_ROW, JB_COL)`` is ``body_jacobians``, which is 0 elsewhere: each
+    leg's non-zeros found at its offset ``LEG_JB`` (legs of two types in the mixed structure)."""
+    model = _model(name)
+    k = model.kernels
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        q = rng.uniform(-np.pi, np.pi, k.N_COORDINATES)
+        dense = _evaluate(model, k.body_jacobians, (k.N_BODIES, 6, k.N_COORDINATES), q)
+        values = _evaluate(model, k.body_jacobian_values, (k.N_JB,), q)
+        np.testing.assert_array_equal(values, dense[k.JB_BODY, k.JB_ROW, k.JB_COL])
+        dense[k.JB_BODY, k.JB_ROW, k.JB_COL] = 0.0
+        assert not dense.any()
+
+
+@pytest.mark.parametrize("name", MODELS)
 def test_constraint_jacobian_and_bias_against_finite_differences(name):
     model = _model(name)
     k = model.kernels

@@ -189,7 +189,7 @@ def derive_leg(mechanism: SpatialMechanism, leg) -> dict:
     every joint's position, base to platform; "lines" (6, or none)}``."""
     import sympy as sp
 
-    pose, pose_dot, point_p, platform_rot, _omega = _platform(sp, mechanism)
+    pose, pose_dot, point_p, platform_rot, _ = _platform(sp, mechanism)
     names = ["a", *_leg_coordinate_names(leg, "")]
     own, own_dot = _symbols(sp, names), _symbols(sp, [f"{n}_dot" for n in names])
     rate = dict(zip(own, own_dot, strict=True))
@@ -271,13 +271,24 @@ def _plus(base: str, k: int) -> str:
     return f"{base} + {k}" if k else base
 
 
+def _column(c: int, own: int, leg, iq, pose0: int):
+    """The column in ``q`` of a leg's local coordinate ``c`` (its actuator, its ``own`` passive ones, then the
+    pose's): a number for numbers ``leg`` and ``iq`` (where its passive ones start), an expression for names."""
+    if c == 0:
+        return leg
+    if c <= own:
+        return _plus(iq, c - 1) if isinstance(iq, str) else iq + c - 1
+    return pose0 + c - 1 - own
+
+
 def generate_source(mechanism: SpatialMechanism) -> str:
     """The text of the generated module of ``mechanism``'s structure.
 
-    Every kernel runs one loop over the legs of each type, whose body is one leg's derivation (the legs' own
-    coordinates and parameters read at the offsets ``LEG_Q``, ``LEG_P``, ``LEG_ATTACH`` of each leg), and then
-    writes the platform's rows: code the size of one leg, not of the machine — a Stewart platform's kernels are a
-    sixth of what they would be unrolled, and compile in proportion."""
+    Every kernel but ``platform_size`` runs one loop over the legs of each type, whose body is one leg's
+    derivation (each leg's own coordinates, parameters, bodies and Jacobian non-zeros found at its offsets
+    ``LEG_Q``, ``LEG_P``, ``LEG_ATTACH``, ``LEG_BODY``, ``LEG_JB``), then, for the bodies' kernels, writes the
+    platform's rows: code the size of one leg, not of the machine — a Stewart platform's kernels are a sixth of
+    what they would be unrolled, and compile in proportion."""
     import sympy as sp
 
     d = derive(mechanism)
@@ -288,24 +299,27 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     names, parameters = coordinate_names(mechanism), parameter_names(mechanism)
     # where each leg's own coordinates, parameters, attachment point, bodies and Jacobian non-zeros start
     leg_q, leg_p, leg_attach, leg_body, leg_jb = [], [], [], [], []
-    leg_nonzero = {}  # per type of leg: its bodies' Jacobians' non-zeros (body, row, local column)
+    # per type of leg, in its local coordinates: Jηq and its bias, the bodies' Jacobians and bias, the count of its
+    # passive coordinates, its bodies' Jacobians' non-zeros (body, row, local column)
+    local = {}
     for notation, t in d["legs"].items():
-        j_body = sp.Matrix([e for _pos, v, w in t["bodies"] for e in [*v, *w]]).jacobian(t["q_dot"])
-        leg_nonzero[notation] = [(k, r, c) for k in range(len(t["bodies"])) for r in range(6)
-                                 for c in range(len(t["q"])) if j_body[6 * k + r, c] != 0]
-    own = [len(t["q"]) - n_pose - 1 for t in (d["legs"][leg.notation] for leg in mechanism.legs)]
+        rows = sp.Matrix([e for _pos, v, w in t["bodies"] for e in [*v, *w]])
+        j_eta, b_eta = jacobian_and_bias(t["eta"], t["q"], t["q_dot"])
+        j_body = rows.jacobian(t["q_dot"])
+        local[notation] = {"j_eta": j_eta, "b_eta": b_eta, "j_body": j_body,
+                           "b_body": rows.jacobian(t["q"]) * sp.Matrix(t["q_dot"]), "own": len(t["q"]) - n_pose - 1,
+                           "nonzero": [(k, r, c) for k in range(len(t["bodies"])) for r in range(6)
+                                       for c in range(len(t["q"])) if j_body[6 * k + r, c] != 0]}
     nonzero = []
     for i, leg in enumerate(mechanism.legs):
-        leg_q.append(n + sum(own[:i]))
+        own = local[leg.notation]["own"]
+        leg_q.append(n + sum(local[other.notation]["own"] for other in mechanism.legs[:i]))
         leg_p.append(parameters.index(f"base{i + 1}_x"))
         leg_attach.append(parameters.index(f"attach{i + 1}_x"))
         leg_body.append(sum(len(other.bodies) for other in mechanism.legs[:i]))
         leg_jb.append(len(nonzero))
-
-        def column(c, i=i):
-            return i if c == 0 else leg_q[i] + c - 1 if c <= own[i] else pose0 + c - 1 - own[i]
-
-        nonzero += [(leg_body[i] + k, r, column(c)) for k, r, c in leg_nonzero[leg.notation]]
+        nonzero += [(leg_body[i] + k, r, _column(c, own, i, leg_q[i], pose0))
+                    for k, r, c in local[leg.notation]["nonzero"]]
     point = [list(names).index(c) for c in "xyz"]
     for t in d["legs"].values():  # the compiled core eliminates the tracked point with these unit pivots
         j = sp.Matrix(t["eta"]).jacobian([t["q"][len(t["q"]) - nq + c] for c in point])
@@ -364,43 +378,36 @@ def generate_source(mechanism: SpatialMechanism) -> str:
             blocks.append(Block(outputs, indices, loops[notation], tuple(unpack), trig))
         return blocks
 
-    def column(t, c):
-        own_count = len(t["q"]) - n_pose - 1
-        return "leg" if c == 0 else _plus("iq", c - 1) if c <= own_count else str(pose0 + c - 1 - own_count)
-
-    def leg_jacobians(t):
-        rows = sp.Matrix([e for _pos, v, w in t["bodies"] for e in [*v, *w]])
-        return rows.jacobian(t["q_dot"]), rows.jacobian(t["q"]) * sp.Matrix(t["q_dot"])
+    def column(notation, c):
+        return _column(c, local[notation]["own"], "leg", "iq", pose0)
 
     def constraints(t, _notation):
         return t["eta"], [_plus("3 * leg", r) for r in range(3)]
 
-    def constraint_jacobian(t, _notation):
-        j = sp.Matrix(t["eta"]).jacobian(t["q"])
+    def constraint_jacobian(t, notation):
+        j = local[notation]["j_eta"]
         entries = [(r, c) for r in range(3) for c in range(len(t["q"])) if j[r, c] != 0]
-        return [j[r, c] for r, c in entries], [f"{_plus('3 * leg', r)}, {column(t, c)}" for r, c in entries]
+        return [j[r, c] for r, c in entries], [f"{_plus('3 * leg', r)}, {column(notation, c)}" for r, c in entries]
 
-    def constraint_bias(t, _notation):
-        _j, bias = jacobian_and_bias(t["eta"], t["q"], t["q_dot"])
-        return list(bias), [_plus("3 * leg", r) for r in range(3)]
+    def constraint_bias(_t, notation):
+        return list(local[notation]["b_eta"]), [_plus("3 * leg", r) for r in range(3)]
 
     def body_poses(t, _notation):
         return ([e for pos, _v, _w in t["bodies"] for e in pos],
                 [f"{_plus('ib', k)}, {c}" for k in range(len(t["bodies"])) for c in range(3)])
 
-    def body_jacobians(t, notation):
-        j, _bias = leg_jacobians(t)
-        return ([j[6 * k + r, c] for k, r, c in leg_nonzero[notation]],
-                [f"{_plus('ib', k)}, {r}, {column(t, c)}" for k, r, c in leg_nonzero[notation]])
+    def body_jacobians(_t, notation):
+        j, entries = local[notation]["j_body"], local[notation]["nonzero"]
+        return ([j[6 * k + r, c] for k, r, c in entries],
+                [f"{_plus('ib', k)}, {r}, {column(notation, c)}" for k, r, c in entries])
 
-    def body_jacobian_values(t, notation):
-        j, _bias = leg_jacobians(t)
-        return ([j[6 * k + r, c] for k, r, c in leg_nonzero[notation]],
-                [_plus("jb", z) for z in range(len(leg_nonzero[notation]))])
+    def body_jacobian_values(_t, notation):
+        j, entries = local[notation]["j_body"], local[notation]["nonzero"]
+        return [j[6 * k + r, c] for k, r, c in entries], [_plus("jb", z) for z in range(len(entries))]
 
-    def body_bias(t, _notation):
-        _j, bias = leg_jacobians(t)
-        return list(bias), [f"{_plus('ib', k)}, {r}" for k in range(len(t["bodies"])) for r in range(6)]
+    def body_bias(t, notation):
+        return (list(local[notation]["b_body"]),
+                [f"{_plus('ib', k)}, {r}" for k in range(len(t["bodies"])) for r in range(6)])
 
     def joint_points(t, _notation):
         padded = t["joints"] + [t["joints"][-1]] * (width - len(t["joints"]))  # short legs repeat their end

@@ -520,15 +520,16 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
 
 
 def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, follow: bool = False,
-                             legs: dict | None = None):
+                             branches: dict | None = None):
     """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach;
     the legs that cannot, a bit mask per pose (K,) (bit ``i`` for leg ``i + 1``); and the first failure
     ``(k, leg, message)`` (else None). ``follow``: the poses are a finely sampled path, along which a leg of the
     general method follows its branch by continuity
-    (:func:`~pkmlab.description.general_legs.general_inverse_kinematics_batch`). ``legs``: a dict that calls on
-    the same poses in other modes share, so that each leg's branch (and a lower-mobility platform's whole pose) is
-    solved once for all the modes — ``2n`` leg solutions for the ``2ⁿ`` modes of ``n`` two-branch legs."""
-    legs = {} if legs is None else legs
+    (:func:`~pkmlab.description.general_legs.general_inverse_kinematics_batch`). ``branches``: a dict that calls
+    on the same poses with the same ``follow`` in other modes share, so that each leg's branch (and a
+    lower-mobility platform's whole pose) is solved once for all the modes — ``2n`` leg solutions for the ``2ⁿ``
+    modes of ``n`` two-branch legs."""
+    branches = {} if branches is None else branches
     m = model.description
     solver = leg_solver(m)
     leg_inverse_kinematics_batch, leg_modes = solver.leg_inverse_kinematics_batch, solver.working_modes
@@ -542,9 +543,9 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
         # working modes, which only choose among the configurations at one pose)
         from .parasitic import parasitic_poses
 
-        if "pose" not in legs:
-            legs["pose"] = parasitic_poses(model, poses)
-        whole, failed, first_failure = legs["pose"]
+        if "pose" not in branches:
+            branches["pose"] = parasitic_poses(model, poses)
+        whole, failed, first_failure = branches["pose"]
         order = [m.platform.full_pose_names.index(c) for c in m.platform.q_pose_names]
         q_pose = whole[:, order]
         poses = whole
@@ -555,9 +556,10 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
             raise InvalidParameterError(f"mode must be one sign (+1 or -1) per two-branch leg (two per leg of four "
                                         f"branches), got {tuple(mode)}")
         sigma = sigma[0] if len(sigma) == 1 else sigma
-        if (i, sigma) not in legs:
-            legs[i, sigma] = leg_inverse_kinematics_batch(leg, i, attachment_points_of(m, i, poses), sigma, *extra)
-        solved = legs[i, sigma]
+        if (i, sigma) not in branches:
+            branches[i, sigma] = leg_inverse_kinematics_batch(leg, i, attachment_points_of(m, i, poses), sigma,
+                                                              *extra)
+        solved = branches[i, sigma]
         if solved.bad.any():
             k = int(np.argmax(solved.bad))
             if first is None or k < first[0]:
@@ -593,10 +595,10 @@ def singularity_measure(model: MechanismModel, q) -> float:
 
 
 # ------------------------------------------------------------------ along a path
-def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = False, legs: dict | None = None
-                            ) -> tuple[np.ndarray, np.ndarray, tuple | None]:
+def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = False,
+                            branches: dict | None = None) -> tuple[np.ndarray, np.ndarray, tuple | None]:
     """Inverse kinematics of many poses ``(K, dof)`` in one working ``mode``, at once; ``follow`` when they are
-    a finely sampled path, ``legs`` shared by the calls on the same poses in other modes
+    a finely sampled path, ``branches`` shared by the calls on the same poses in other modes
     (:func:`inverse_kinematics_batch`).
 
     Returns ``(q (K, n_coordinates), S (K,), failure)``: rows that cannot be reached are NaN, and
@@ -605,7 +607,7 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = F
     from ..errors import UnreachablePoseError
 
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
-    q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow, legs)
+    q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow, branches)
     s = np.empty(poses.shape[0])
     model.kernels.singularity_measures(q, model.P, s)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))

@@ -359,12 +359,12 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
     # (mode, min |S|, its sample, max |S|, q) of the modes reaching the whole path that may still be the best: the
     # first whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory)
     first_failure, candidates, top = None, [], -np.inf
-    # a path of one piece: each leg's two branches solved once for all the modes (a long run's are not kept)
-    legs = {} if len(pieces) == 1 else None
+    # a path of one piece: each leg's branches solved once for all the modes (a long run's are not kept)
+    branches = {} if len(pieces) == 1 else None
     for mode in modes:
         lowest, closest, highest, failure, q = np.inf, 0, 0.0, None, None
         for rows in pieces:
-            q, s, failure = path_inverse_kinematics(model, poses(rows), mode, follow=True, legs=legs)
+            q, s, failure = path_inverse_kinematics(model, poses(rows), mode, follow=True, branches=branches)
             if failure is not None:
                 failure = (failure[0] + rows.start, failure[1])
                 break
