@@ -15,7 +15,7 @@ import sympy as sp
 from pkmlab.codegen import provenance, spatial
 from pkmlab.description.files import load_mechanism
 from pkmlab.description.presets import SPATIAL_PRESETS, preset
-from pkmlab.description.spatial import attachment_point, full_poses, leg_frames
+from pkmlab.description.spatial import attachment_point, full_poses, leg_frames, orientation
 from pkmlab.model.mechanism_model import MechanismModel, _bind, _evaluate, constraint_residual
 
 NAMES = sorted(SPATIAL_PRESETS)
@@ -106,10 +106,12 @@ def test_constraints_and_body_positions_are_the_described_chains(name):
 
 
 def _body_rotations(m, q):
+    """Every body's orientation, the legs' (from the chain conventions) then the platform's (``Rz Ry Rx``)."""
     out = []
     for leg, coords in zip(m.legs, _legs(m, q), strict=True):
         out += [rot for _origin, rot in leg_frames(leg, coords)[:-1]]
-    return out
+    pose = full_poses(m, q[len(q) - len(m.platform.q_pose_names):])
+    return [*out, orientation(*pose[3:6]) if m.platform.kind == "rigid" else np.eye(3)]
 
 
 @pytest.mark.parametrize("name", MODELS)
