@@ -91,8 +91,13 @@ def _leg_angles(leg) -> list[bool]:
     return [joint.kind != "P" for joint in leg.joints[:-1] if not joint.actuated for _ in range(joint.coordinates)]
 
 
+def _actuator_angle(leg) -> bool:
+    """Whether a leg's actuator is an angle (a revolute joint)."""
+    return leg.joints[leg.actuated].kind == "R"
+
+
 def coordinate_angles(mechanism: SpatialMechanism) -> tuple[bool, ...]:
-    angles = [leg.joints[leg.actuated].kind == "R" for leg in mechanism.legs]
+    angles = [_actuator_angle(leg) for leg in mechanism.legs]
     for leg in mechanism.legs:
         angles += _leg_angles(leg)
     return (*angles, *(name in ("roll", "pitch", "yaw") for name in mechanism.platform.q_pose_names))
@@ -353,30 +358,31 @@ def generate_source(mechanism: SpatialMechanism) -> str:
             header.append(f"LEGS_{g} = {tuple(members)!r}  # the legs {notation}")
             loops[notation] = f"for leg in LEGS_{g}:"
 
+    # per type of leg, the lines that bind its names in a pass of the loop (each kept where used), and the names
+    # of the trig table's entries of its angles
+    unpacks = {}
+    for notation, t in d["legs"].items():
+        unpack = ["iq = LEG_Q[leg]", "ip = LEG_P[leg]", "ia = LEG_ATTACH[leg]", "ib = LEG_BODY[leg]",
+                  "jb = LEG_JB[leg]"]
+        trig = {}
+        first = mechanism.legs[groups[notation][0]]
+        angles = [_actuator_angle(first), *_leg_angles(first)]
+        for k, (symbol, angle) in enumerate(zip(t["q"], angles, strict=False)):  # its own coordinates
+            name, where = str(symbol), _column(k, local[notation]["own"], "leg", "iq", pose0)
+            unpack.append(f"{name} = q[{where}]")
+            if angle:
+                c, s = sp.symbols(f"c_{name} s_{name}", real=True)
+                trig[sp.cos(symbol)], trig[sp.sin(symbol)] = c, s
+                unpack += [f"c_{name} = sc[{where}, 0]", f"s_{name} = sc[{where}, 1]"]
+            unpack.append(f"{name}_dot = q_dot[{where}]")
+        own_parameters = [name for name in t["P"] if not name.startswith("attach_")]
+        unpack += [f"{name} = P[{_plus('ip', k)}]" for k, name in enumerate(own_parameters)]
+        unpack += [f"attach_{c} = P[{_plus('ia', k)}]" for k, c in enumerate("xyz")]
+        unpacks[notation] = (tuple(unpack), trig)
+
     def leg_blocks(kernel):
         """One block per type of leg: ``kernel(t, notation)`` gives its outputs and indices."""
-        blocks = []
-        for notation, t in d["legs"].items():
-            outputs, indices = kernel(t, notation)
-            own_names = [str(v) for v in t["q"][:len(t["q"]) - n_pose]]
-            unpack = ["iq = LEG_Q[leg]", "ip = LEG_P[leg]", "ia = LEG_ATTACH[leg]", "ib = LEG_BODY[leg]",
-                      "jb = LEG_JB[leg]"]
-            trig = {}
-            first = mechanism.legs[groups[notation][0]]
-            angles = [first.joints[first.actuated].kind == "R", *_leg_angles(first)]
-            for k, (name, angle) in enumerate(zip(own_names, angles, strict=True)):
-                where = "leg" if k == 0 else _plus("iq", k - 1)
-                unpack.append(f"{name} = q[{where}]")
-                if angle:
-                    c, s = sp.symbols(f"c_{name} s_{name}", real=True)
-                    trig[sp.cos(t["q"][k])], trig[sp.sin(t["q"][k])] = c, s
-                    unpack += [f"c_{name} = sc[{where}, 0]", f"s_{name} = sc[{where}, 1]"]
-                unpack.append(f"{name}_dot = q_dot[{where}]")
-            own_parameters = [name for name in t["P"] if not name.startswith("attach_")]
-            unpack += [f"{name} = P[{_plus('ip', k)}]" for k, name in enumerate(own_parameters)]
-            unpack += [f"attach_{c} = P[{_plus('ia', k)}]" for k, c in enumerate("xyz")]
-            blocks.append(Block(outputs, indices, loops[notation], tuple(unpack), trig))
-        return blocks
+        return [Block(*kernel(t, notation), loops[notation], *unpacks[notation]) for notation, t in d["legs"].items()]
 
     def column(notation, c):
         return _column(c, local[notation]["own"], "leg", "iq", pose0)
