@@ -37,15 +37,19 @@ def cache_base() -> Path:
     return Path(base)
 
 
+def digest_sources(digest, root: Path, files) -> str:
+    """``digest`` (a :mod:`hashlib` object) of ``files``' names relative to ``root`` and contents, in the order
+    given: what tells one version of pkmlab's sources from another."""
+    for path in files:
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
 def cache_folder() -> Path:
     """The folder of this version's compiled kernels (and of the kernels generated for new structures),
     made if missing."""
     package = Path(__file__).resolve().parent
-    digest = hashlib.sha1()
-    for path in sorted(package.rglob("*.py")):
-        digest.update(path.relative_to(package).as_posix().encode())
-        digest.update(path.read_bytes())
-    cache = cache_base() / f"numba-{digest.hexdigest()[:16]}"
+    cache = cache_base() / f"numba-{digest_sources(hashlib.sha1(), package, sorted(package.rglob('*.py')))[:16]}"
     new = not cache.exists()
     try:
         cache.mkdir(parents=True, exist_ok=True)

@@ -25,12 +25,11 @@ def inputs_digest() -> str:
     """The digest of SymPy's version and of every file of :data:`INPUTS`, names and contents."""
     import sympy as sp
 
-    digest = hashlib.sha256(f"sympy {sp.__version__}\n".encode())
-    for entry in INPUTS:
-        path = PACKAGE / entry
-        for file in sorted(path.rglob("*.py")) if path.is_dir() else [path]:
-            digest.update(file.relative_to(PACKAGE).as_posix().encode() + b"\0" + file.read_bytes())
-    return digest.hexdigest()
+    from .._compile_cache import digest_sources
+
+    files = [file for entry in INPUTS for file in
+             (sorted((PACKAGE / entry).rglob("*.py")) if (PACKAGE / entry).is_dir() else [PACKAGE / entry])]
+    return digest_sources(hashlib.sha256(f"sympy {sp.__version__}\n".encode()), PACKAGE, files)
 
 
 def text_digest(text: str) -> str:
