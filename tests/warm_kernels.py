@@ -1,7 +1,6 @@
 """Compile the kernels of the spatial machines (the Delta, the Stewart platform, the 3-PRS, the 3-UPU, the 3-RRS; for
 their forward kinematics the 3-RPS, the 6-RUS and the 6-PUS) into the kernel cache, by calling every compiled entry
-point the test suite calls on them — and first the continuous-time runs of two planar machines, which the tests reach
-late in their planar part.
+point the test suite calls on them.
 
 Their first compiles are the largest cost of a test run on a fresh checkout (about a minute for the Stewart
 platform's actuator-space model alone). ``conftest.py`` starts this script in a second process when a test
@@ -12,7 +11,6 @@ the tests compile what they need themselves (as without it). Run alone: ``python
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 import warnings
 from pathlib import Path
@@ -21,7 +19,6 @@ import numpy as np
 
 import pkmlab
 from pkmlab.algorithms import assembly, calibration, general_fk
-from pkmlab.control.trajectory import Trajectory
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: A regular pose of each machine (as in the tests) and the scenario file of a short tracking run.
@@ -37,9 +34,6 @@ MACHINES = {
 FORWARD_ONLY = {str(EXAMPLES / "mechanisms" / name): pose for name, pose in
                 (("3rps.toml", [0.5, 0.05, -0.03]), ("6rus.toml", [0.0, 0.0, -0.30, 0.05, -0.03, 0.1]),
                  ("6pus.toml", [0.0, 0.0, -0.30, 0.05, -0.03, 0.1]))}
-#: Planar machines whose continuous-time run (and its sampled-data twin) test_machine_simulation makes, with the
-#: scenario file of their circle.
-CONTINUOUS = {"3rpr": "3rpr_circle.toml", "3prr": "3prr_circle.toml"}
 #: Machines whose tests call only the kinematics, the actuator-space model and one sampled-data run.
 LIGHT = {str(EXAMPLES / "mechanisms" / name) for name in ("3prs.toml", "3upu.toml", "3rrs.toml")}
 
@@ -67,18 +61,7 @@ def warm_forward(name: str) -> None:
     pkmlab.actuator_space_model(model, q, np.linspace(0.1, 0.2, n))  # MuJoCo's hard-constraint check
 
 
-def warm_continuous(name: str) -> None:
-    scenario = pkmlab.load_scenario(EXAMPLES / CONTINUOUS[name])
-    trajectory = scenario.trajectory
-    short = Trajectory(dataclasses.replace(trajectory.path, turns=0.05), trajectory.speed, trajectory.law)
-    for sample_time in (0.0, 1e-3):
-        pkmlab.simulate(scenario.replace(trajectory=short, sample_time=sample_time))
-
-
 def warm(name: str) -> None:
-    if name in CONTINUOUS:
-        warm_continuous(name)
-        return
     if name in FORWARD_ONLY:
         warm_forward(name)
         return
@@ -120,7 +103,7 @@ def warm(name: str) -> None:
 
 
 def main(names: list[str]) -> int:
-    for name in names or [*CONTINUOUS, *MACHINES, *FORWARD_ONLY]:
+    for name in names or [*MACHINES, *FORWARD_ONLY]:
         warm(name)
     return 0
 
