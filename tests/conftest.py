@@ -53,9 +53,14 @@ def _spatial(item) -> bool:
 def pytest_collection_modifyitems(session, config, items):
     """Run the tests of the spatial presets last and compile their kernels meanwhile, in a second process
     (``warm_kernels.py``) on the core the tests leave idle: their first compiles are the largest cost of a
-    run from a fresh checkout, and the tests then load them from the on-disk kernel cache."""
+    run from a fresh checkout, and the tests then load them from the on-disk kernel cache.
+
+    Not in a run by several workers (``pytest -n``, as ``make test`` runs): they share the cores already, and a
+    function two of them reach at once compiles once (``pkmlab._compile_cache``)."""
     global _warm
     items.sort(key=_spatial)  # stable: each group keeps its order
+    if hasattr(config, "workerinput"):
+        return
     if len(items) >= WARM_FROM and any(_spatial(item) for item in items) and not os.environ.get("PKMLAB_INTERPRETED"):
         # at the lowest priority: the tests' own subprocesses (a browser drawing a page, Dask workers) come first
         _warm = subprocess.Popen([sys.executable, str(Path(__file__).parent / "warm_kernels.py")],

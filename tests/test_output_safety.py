@@ -506,6 +506,29 @@ def test_a_new_cache_folder_removes_those_of_other_versions_unused_for_a_week(tm
     assert _compile_cache.cache_folder() == cache and (tmp_path / "numba-old").exists()  # not a new folder: kept
 
 
+def test_two_processes_reaching_one_function_at_once_compile_it_once(tmp_path):
+    """Two processes started together on an empty cache, each calling the same cached kernel: one compiles it,
+    the other waits for it and loads it from the cache (Numba's own counts of cache misses and hits), and both
+    get its value."""
+    body = "\n".join(f"    y = y * 0.999 + x * {k}.0 - (y * y) / (1.0 + {k}.0 * x * x)" for k in range(1, 300))
+    (tmp_path / "slow_kernel.py").write_text("from pkmlab._compile_cache import njit\n\n\n@njit(cache=True)\n"
+                                              f"def f(x):\n    y = x\n{body}\n    return y\n")
+    code = ("import json, sys\nsys.path.insert(0, sys.argv[1])\nimport slow_kernel\nvalue = slow_kernel.f(0.5)\n"
+            "stats = slow_kernel.f.stats\nprint(json.dumps([sum(stats.cache_misses.values()), "
+            "sum(stats.cache_hits.values()), value]))")
+    env = {**os.environ, "PKMLAB_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("PKMLAB_INTERPRETED", None)
+    processes = [subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], env=env, stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    results = []
+    for process in processes:
+        out, err = process.communicate(timeout=600)
+        assert process.returncode == 0, err
+        results.append(json.loads(out))
+    assert sorted(r[:2] for r in results) == [[0, 1], [1, 0]], results
+    assert results[0][2] == results[1][2]
+
+
 def test_every_non_finite_number_of_the_command_line_is_named(capsys):
     for argv, name in [(["dynamics", 0.19, 3.11, -2.64, "--near", 0.2, "inf", 0], "--near"),
                        (["ik", 0.2, 0.21, "nan"], "alpha"),

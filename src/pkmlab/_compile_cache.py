@@ -5,7 +5,8 @@ only: a kernel that calls a changed kernel in *another* module would be loaded s
 cache directory is therefore keyed by a hash of all of pkmlab's sources, so that any change
 (an upgrade, a local edit) starts from a fresh cache, and the source tree stays clean.
 
-Kernels are decorated with this module's :func:`njit` (Numba's). A process started with
+Kernels are decorated with this module's :func:`njit` (Numba's, whose cached functions compile under a lock
+that processes share, so that two processes reaching a function at once compile it once). A process started with
 ``PKMLAB_INTERPRETED=1`` runs the same kernels interpreted instead: Numba is not imported and
 nothing is loaded from the cache. Importing Numba and loading the compiled kernels of a
 command costs about 0.4 s; one pose's kinematics interpreted costs a few milliseconds, so the
@@ -17,12 +18,18 @@ Must run before any module that defines compiled kernels is imported.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import shutil
 import tempfile
 import time
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # Windows: no compile lock
+    fcntl = None
 
 #: True in a process whose kernels run interpreted (``PKMLAB_INTERPRETED=1`` when pkmlab was imported).
 INTERPRETED = os.environ.get("PKMLAB_INTERPRETED") == "1"
@@ -107,12 +114,74 @@ def _interpreted_njit(*args, **_options):
     return lambda function: function
 
 
+#: The functions this process is compiling, whose locks it holds (a recursive function asks again).
+_HELD: set[str] = set()
+
+
+@contextlib.contextmanager
+def _compile_lock(name: str):
+    """Hold the lock file of the cached function ``name`` while it compiles: a second process that reaches the
+    same function waits, then loads the first's compiled code from the cache instead of compiling it too (test
+    workers, a batch's processes, two commands started at once). No lock where the cache folder is read-only
+    or the system has no ``flock``: each process then compiles, as it would without."""
+    if fcntl is None or name in _HELD:
+        yield
+        return
+    locks = CACHE_DIR / "locks"
+    try:
+        locks.mkdir(exist_ok=True)
+        handle = open(locks / (hashlib.sha1(name.encode()).hexdigest()[:20] + ".lock"), "a")
+    except OSError:
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        _HELD.add(name)
+        try:
+            yield
+        finally:
+            _HELD.discard(name)
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _locked(dispatcher):
+    """``dispatcher`` (a cached Numba function) whose compilations hold its lock (:func:`_compile_lock`). Numba
+    calls ``compile`` for a signature it has not compiled in this process, and looks in its cache first; the
+    lock makes that look happen after another process's compilation is saved. Callers lock before callees,
+    along a call graph without cycles, so two processes cannot wait for each other."""
+    compile_signature = dispatcher.compile
+    name = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}"
+
+    def compile(sig):
+        with _compile_lock(name):
+            return compile_signature(sig)
+
+    dispatcher.compile = compile
+    return dispatcher
+
+
+def _cached_njit(*args, **options):
+    """Numba's ``njit`` (``@njit``, ``@njit(...)``), whose cached functions compile under a lock shared by
+    processes (:func:`_locked`)."""
+    import numba
+
+    if args and callable(args[0]):
+        dispatcher = numba.njit(*args, **options)
+        return _locked(dispatcher) if options.get("cache") else dispatcher
+    decorate = numba.njit(*args, **options)
+    if not options.get("cache"):
+        return decorate
+    return lambda function: _locked(decorate(function))
+
+
 if INTERPRETED:
     CACHE_DIR = cache_folder()  # (kernels generated for a new structure are kept there too)
     njit, prange = _interpreted_njit, range
 else:
     CACHE_DIR = configure()
-    from numba import njit, prange  # noqa: F401  (re-exported: every kernel module's compiler)
+    from numba import prange  # noqa: F401  (re-exported: every kernel module's compiler)
+
+    njit = _cached_njit
 
 
 def has_compiled(module_name: str) -> bool:

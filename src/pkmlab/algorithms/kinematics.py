@@ -32,6 +32,7 @@ from .._validate import as_batch, as_broadcast, as_choice, as_mode, as_real, ind
 from ..errors import BranchFollowingError, IncompleteSolutionWarning, InvalidParameterError, SingularityError, shown
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
+from ..numerics.batched import first_singular
 from .assembly import assembly_modes, method_statement
 
 __all__ = [
@@ -696,9 +697,8 @@ def _dependent_solve(model: MechanismModel, j_eta: np.ndarray, rhs: np.ndarray, 
     raises at a gain-type singularity (``∂η/∂u`` singular)."""
     na = model.n_actuators
     a = j_eta[:, :, na:]
-    singular = ~(np.linalg.cond(a) < 1e12)
-    if singular.any():
-        k = int(np.argmax(singular))
+    k = first_singular(a)
+    if k >= 0:
         raise SingularityError(f"{name}{index_text(k, shape)} is at a gain-type singularity: the passive "
                                "coordinates' rates are undetermined (d eta / d(passive, pose) is singular)")
     return -np.linalg.solve(a, rhs)

@@ -32,6 +32,7 @@ from ..description.mechanism import Mechanism
 from ..description.presets import preset
 from ..errors import InvalidParameterError, SingularityError
 from ..numerics import lagrangian
+from ..numerics.batched import first_singular
 from .reach import attachment_points_of, check_assembly, leg_solver
 
 
@@ -659,7 +660,7 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
 
     with ``u`` the actuators and passive joints, ``A = ∂η/∂u``, ``B = ∂η/∂pose`` (paper eqs. 14–17, 32).
     Returns ``(θ̇, θ̈, k)``: ``k`` the first sample where ``A`` is singular (the pose at the edge of the
-    workspace: an inverse-kinematic singularity), else -1.
+    workspace: an inverse-kinematic singularity; :func:`~pkmlab.numerics.batched.first_singular`), else -1.
     """
     k_ = model.kernels
     count, n, N, dof = q.shape[0], model.n_actuators, k_.N_COORDINATES, model.description.dof
@@ -670,9 +671,9 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
         j_eta, gamma = np.empty((len(qc), k_.N_CONSTRAINTS, N)), np.empty((len(qc), k_.N_CONSTRAINTS))
         k_.constraint_jacobians(qc, model.P, j_eta)
         a, b = j_eta[:, :, :N - dof], j_eta[:, :, N - dof:]
-        singular = ~(np.linalg.cond(a) < 1e12)
-        if singular.any():
-            return np.empty((count, n)), np.empty((count, n)), start + int(np.argmax(singular))
+        singular = first_singular(a)
+        if singular >= 0:
+            return np.empty((count, n)), np.empty((count, n)), start + singular
         u_dot = np.linalg.solve(a, -np.einsum("kij,kj->ki", b, pose_dot[rows])[..., None])[..., 0]
         q_dot = np.concatenate([u_dot, pose_dot[rows]], axis=1)
         k_.constraint_biases(qc, q_dot, model.P, gamma)
