@@ -30,9 +30,9 @@ browser:
 	    echo "make: could not install Chromium: the browser tests will be skipped"; }
 
 # The tests run on every core (pytest-xdist), each test file in one worker: a file's shared fixtures (a documentation
-# site built, a browser started) are made once.
+# site built, a browser started) are made once; the longest files first (tests/conftest.py).
 test: lint browser
-	$(BIN)/python -m pytest -n auto --dist loadfile
+	$(BIN)/python -m pytest -n auto --dist loadfile --no-loadscope-reorder
 
 # The documentation site (mkdocs.yml, docs/) into site/: a warning (a broken link, a docstring griffe cannot
 # read) fails the build. The API reference, the command line reference and the performance tables are written
