@@ -1203,9 +1203,11 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
         trig(qs[k], sc)
         if not actuator_space_model(ws, qs[k], sc, theta_dots[k], P):
             return k
-        m_out[k] = ws.m_theta
-        c_out[k] = ws.c_theta
-        g_out[k] = ws.g_theta
+        for i in range(N_ACTUATORS):  # element by element: an array assigned to a slice compiles its error message
+            c_out[k, i] = ws.c_theta[i]
+            g_out[k, i] = ws.g_theta[i]
+            for j in range(N_ACTUATORS):
+                m_out[k, i, j] = ws.m_theta[i, j]
     return -1
 
 
@@ -1512,9 +1514,12 @@ def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
         same = same and P_plant[i] == P_ctrl[i]
     for c in range(theta_d.shape[0]):
         k = k0 + c  # the run's sample; c, the piece's
-        out_q[k] = plant.q[BASE]
+        # element by element: an array assigned to a slice compiles its error message (seconds, in every process)
+        for i in range(N_COORDINATES):
+            out_q[k, i] = plant.q[BASE, i]
         out_s[k] = plant.s[BASE]
-        out_theta_dot[k] = x[n:]
+        for i in range(n):
+            out_theta_dot[k, i] = x[n + i]
         shared = same and k > 0
         j = max(k - delay, 0)
         if shared:
@@ -1532,7 +1537,8 @@ def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
             return CONTROLLER + status, k
         if kind == 0 and ctrl_drive.shape[0] > 0:
             compensate_drives(ctrl, tau, x[n:] if ideal else theta_dot_m[j], ctrl_drive)
-        out_tau[k] = tau
+        for i in range(n):
+            out_tau[k, i] = tau[i]
         if k == count - 1:
             break
         if shared:
@@ -1648,7 +1654,8 @@ def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, the
     at the measured ``theta`` into ``q_out``. Returns the status."""
     ws = workspaces[0]
     if kind == 1:  # PD: no model to move
-        q_out[:] = q_base
+        for i in range(N_COORDINATES):
+            q_out[i] = q_base[i]
         return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
                               ws, tau)
     # computed torque: the model follows the measurement, in sub-steps where needed
@@ -1687,7 +1694,8 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, theta_d, theta_dot_d
     if drive.shape[0] > 0:
         drive_effort(drive, tau, effort_noise, k, applied)
     else:
-        applied[:] = tau
+        for i in range(N_ACTUATORS):
+            applied[i] = tau[i]
     return OK
 
 

@@ -88,7 +88,8 @@ def solve(A, b):
 @njit(cache=True)
 def _load(r, x, p0, p1, t):
     n = x.shape[0]
-    r[:n] = x
+    for i in range(n):  # element by element: an array assigned to a slice compiles its error message (seconds)
+        r[i] = x[i]
     for k in range(p0.shape[0]):
         r[n + k] = t * p0[k] + (1 - t) * p1[k]
 
@@ -171,7 +172,8 @@ def _track_one(code, r, outputs, n, moving, x, p0, p1, t_end, bound, scale, max_
                 prev = step
             ok = ok and prev <= TRACK_TOL * size
         if ok:
-            x[:] = y
+            for i in range(x.shape[0]):
+                x[i] = y[i]
             t = t1
             successes += 1
             if successes >= 3:

@@ -167,9 +167,11 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
         trig(qs[k], sc)
         if not actuator_space_model(ws, qs[k], sc, theta_dots[k], P):
             return k
-        m_out[k] = ws.m_theta
-        c_out[k] = ws.c_theta
-        g_out[k] = ws.g_theta
+        for i in range(N_ACTUATORS):  # element by element: an array assigned to a slice compiles its error message
+            c_out[k, i] = ws.c_theta[i]
+            g_out[k, i] = ws.g_theta[i]
+            for j in range(N_ACTUATORS):
+                m_out[k, i, j] = ws.m_theta[i, j]
     return -1
 
 

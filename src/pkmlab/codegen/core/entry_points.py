@@ -93,7 +93,8 @@ def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, the
     at the measured ``theta`` into ``q_out``. Returns the status."""
     ws = workspaces[0]
     if kind == 1:  # PD: no model to move
-        q_out[:] = q_base
+        for i in range(N_COORDINATES):
+            q_out[i] = q_base[i]
         return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
                               ws, tau)
     # computed torque: the model follows the measurement, in sub-steps where needed
@@ -132,7 +133,8 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, theta_d, theta_dot_d
     if drive.shape[0] > 0:
         drive_effort(drive, tau, effort_noise, k, applied)
     else:
-        applied[:] = tau
+        for i in range(N_ACTUATORS):
+            applied[i] = tau[i]
     return OK
 
 

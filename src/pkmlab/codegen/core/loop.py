@@ -293,9 +293,12 @@ def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
         same = same and P_plant[i] == P_ctrl[i]
     for c in range(theta_d.shape[0]):
         k = k0 + c  # the run's sample; c, the piece's
-        out_q[k] = plant.q[BASE]
+        # element by element: an array assigned to a slice compiles its error message (seconds, in every process)
+        for i in range(N_COORDINATES):
+            out_q[k, i] = plant.q[BASE, i]
         out_s[k] = plant.s[BASE]
-        out_theta_dot[k] = x[n:]
+        for i in range(n):
+            out_theta_dot[k, i] = x[n + i]
         shared = same and k > 0
         j = max(k - delay, 0)
         if shared:
@@ -313,7 +316,8 @@ def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
             return CONTROLLER + status, k
         if kind == 0 and ctrl_drive.shape[0] > 0:
             compensate_drives(ctrl, tau, x[n:] if ideal else theta_dot_m[j], ctrl_drive)
-        out_tau[k] = tau
+        for i in range(n):
+            out_tau[k, i] = tau[i]
         if k == count - 1:
             break
         if shared:
