@@ -971,6 +971,10 @@ def main(argv: list[str] | None = None) -> int:
 
     startup, checks["startup_ms"] = startup_bench.startup_rows(sys.modules[__name__], args.quick)
     rows += startup
+    if not args.quick:
+        progress("first start from an empty kernel cache")
+        cold, checks["cold_start_s"] = startup_bench.cold_rows(sys.modules[__name__])
+        rows += cold
 
     for row in rows:
         if row["kind"] == "per_op" and row["key"] == BASELINES.get(row["baseline"]):

@@ -7,10 +7,15 @@
 
 Each figure is the median of several processes started one after the other, after one unmeasured start
 (the operating system's file cache warm, pkmlab's kernels compiled).
+
+And the first start, each process with an empty kernel cache of its own (:func:`cold_rows`): the paper's
+reproduction, a preset's first run (the Delta's pick-and-place) and a new structure's first run (the
+catalogue's 6-RUS: its derivation, then its compilation) — what a user waits for on a fresh install.
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import subprocess
 import sys
@@ -20,6 +25,7 @@ from pathlib import Path
 
 PYTHON = sys.executable
 PKMLAB = str(Path(sys.executable).with_name("pkmlab"))
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 def _process_seconds(command: list[str], repeats: int, fresh_dir: bool = False) -> float:
@@ -56,3 +62,33 @@ def startup_rows(h, quick: bool) -> tuple[list[dict], dict]:
             h.metric_row("startup_reproduce_ratio", "ratio: pkmlab reproduce --no-figures / import numpy, "
                          "scipy.integrate, numba", figures["reproduce"] / figures["import_numpy_scipy_numba"], "x")]
     return rows, {k: v * 1e3 for k, v in figures.items()}
+
+
+def _cold_seconds(command: list[str]) -> float:
+    """Wall time of ``command`` as a new process whose kernel cache is a new, empty folder (``{out}`` in it
+    replaced by a new folder): everything it runs is compiled, a new structure derived too."""
+    with tempfile.TemporaryDirectory() as tmp:
+        argv = [a.replace("{out}", str(Path(tmp) / "out")) for a in command]
+        env = {**os.environ, "PKMLAB_CACHE_DIR": str(Path(tmp) / "cache")}
+        env.pop("NUMBA_CACHE_DIR", None)
+        start = time.perf_counter()
+        subprocess.run(argv, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+        return time.perf_counter() - start
+
+
+def cold_rows(h) -> tuple[list[dict], dict]:
+    """The first start of three commands, each from an empty kernel cache (module docstring); one run each."""
+    run = "import pkmlab; pkmlab.simulate(pkmlab.load_scenario({!r}))"
+    figures = {
+        "reproduce": _cold_seconds([PKMLAB, "reproduce", "--no-figures", "--out", "{out}"]),
+        "simulate_delta": _cold_seconds([PYTHON, "-c", run.format(str(EXAMPLES / "delta_pick_and_place.toml"))]),
+        "simulate_new_structure": _cold_seconds([PYTHON, "-c", run.format(str(EXAMPLES / "mechanisms" /
+                                                                             "6rus_motion.toml"))]),
+    }
+    rows = [h.section_row("first start from an empty kernel cache (whole processes, one each)"),
+            h.metric_row("cold_reproduce", "pkmlab reproduce --no-figures, empty cache", figures["reproduce"], "s"),
+            h.metric_row("cold_simulate_delta", "a preset's first run: the Delta's pick-and-place, empty cache",
+                         figures["simulate_delta"], "s"),
+            h.metric_row("cold_simulate_new_structure", "a new structure's first run (derived, compiled): the "
+                         "6-RUS's default scenario, empty cache", figures["simulate_new_structure"], "s")]
+    return rows, figures
