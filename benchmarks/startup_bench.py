@@ -72,8 +72,11 @@ def _cold_seconds(command: list[str]) -> float:
         env = {**os.environ, "PKMLAB_CACHE_DIR": str(Path(tmp) / "cache")}
         env.pop("NUMBA_CACHE_DIR", None)
         start = time.perf_counter()
-        subprocess.run(argv, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
-        return time.perf_counter() - start
+        done = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+        seconds = time.perf_counter() - start
+        if done.returncode != 0:
+            raise RuntimeError(f"{' '.join(command)} failed from an empty kernel cache: {done.stderr.strip()}")
+        return seconds
 
 
 def cold_rows(h) -> tuple[list[dict], dict]:

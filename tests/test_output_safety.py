@@ -513,13 +513,17 @@ def test_two_processes_reaching_one_function_at_once_compile_it_once(tmp_path):
     body = "\n".join(f"    y = y * 0.999 + x * {k}.0 - (y * y) / (1.0 + {k}.0 * x * x)" for k in range(1, 300))
     (tmp_path / "slow_kernel.py").write_text("from pkmlab._compile_cache import njit\n\n\n@njit(cache=True)\n"
                                               f"def f(x):\n    y = x\n{body}\n    return y\n")
-    code = ("import json, sys\nsys.path.insert(0, sys.argv[1])\nimport slow_kernel\nvalue = slow_kernel.f(0.5)\n"
-            "stats = slow_kernel.f.stats\nprint(json.dumps([sum(stats.cache_misses.values()), "
-            "sum(stats.cache_hits.values()), value]))")
+    # each process, once started, says so and waits for the other: both then call the kernel at the same moment
+    code = ("import json, pathlib, sys, time\nsys.path.insert(0, sys.argv[1])\nimport slow_kernel\n"
+            "folder = pathlib.Path(sys.argv[1])\n(folder / ('ready' + sys.argv[2])).touch()\n"
+            "deadline = time.monotonic() + 120\n"
+            "while len(list(folder.glob('ready*'))) < 2 and time.monotonic() < deadline:\n    time.sleep(0.001)\n"
+            "value = slow_kernel.f(0.5)\nstats = slow_kernel.f.stats\n"
+            "print(json.dumps([sum(stats.cache_misses.values()), sum(stats.cache_hits.values()), value]))")
     env = {**os.environ, "PKMLAB_CACHE_DIR": str(tmp_path / "cache")}
     env.pop("PKMLAB_INTERPRETED", None)
-    processes = [subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], env=env, stdout=subprocess.PIPE,
-                                  stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    processes = [subprocess.Popen([sys.executable, "-c", code, str(tmp_path), str(i)], env=env,
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for i in range(2)]
     results = []
     for process in processes:
         out, err = process.communicate(timeout=600)

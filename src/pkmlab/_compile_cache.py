@@ -114,16 +114,36 @@ def _interpreted_njit(*args, **_options):
     return lambda function: function
 
 
-#: The functions this process is compiling, whose locks it holds (a recursive function asks again).
+#: The functions this process is compiling, whose locks it holds (a recursive function asks again); guarded by
+#: Numba's compiler lock, which every compilation in the process holds.
 _HELD: set[str] = set()
+#: Longest wait for another process's compilation (s): past it (a process stopped while compiling), compile here.
+LOCK_WAIT = 300.0
+
+
+def _acquire(handle) -> bool:
+    """Lock ``handle`` (flock), waiting at most :data:`LOCK_WAIT`; False where the file system has no locks or the
+    wait was too long."""
+    deadline = time.monotonic() + LOCK_WAIT
+    while True:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return True
+        except BlockingIOError:
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(0.02)
+        except OSError:  # a file system without locks (some network mounts)
+            return False
 
 
 @contextlib.contextmanager
 def _compile_lock(name: str):
     """Hold the lock file of the cached function ``name`` while it compiles: a second process that reaches the
     same function waits, then loads the first's compiled code from the cache instead of compiling it too (test
-    workers, a batch's processes, two commands started at once). No lock where the cache folder is read-only
-    or the system has no ``flock``: each process then compiles, as it would without."""
+    workers, a batch's processes, two commands started at once). No lock where the cache folder is read-only,
+    the file system or the system has no ``flock``, or another process has held it for :data:`LOCK_WAIT`: each
+    process then compiles, as it would without."""
     if fcntl is None or name in _HELD:
         yield
         return
@@ -135,7 +155,9 @@ def _compile_lock(name: str):
         yield
         return
     with handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
+        if not _acquire(handle):
+            yield
+            return
         _HELD.add(name)
         try:
             yield
@@ -146,23 +168,32 @@ def _compile_lock(name: str):
 
 def _locked(dispatcher):
     """``dispatcher`` (a cached Numba function) whose compilations hold its lock (:func:`_compile_lock`). Numba
-    calls ``compile`` for a signature it has not compiled in this process, and looks in its cache first; the
-    lock makes that look happen after another process's compilation is saved. Callers lock before callees,
-    along a call graph without cycles, so two processes cannot wait for each other."""
+    calls ``compile`` for a signature at each call site it types, and looks in its cache first; the lock makes
+    that look happen after another process's compilation is saved. The lock is taken inside Numba's own
+    compiler lock (held by every compilation of the process, and by a nested one already), so threads of one
+    process take the two in one order; callers lock before callees, along a call graph without cycles, so two
+    processes cannot wait for each other. A signature already compiled here takes no lock."""
+    from numba.core.compiler_lock import global_compiler_lock
+    from numba.core.sigutils import normalize_signature
+
     compile_signature = dispatcher.compile
     name = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}"
 
     def compile(sig):
-        with _compile_lock(name):
-            return compile_signature(sig)
+        with global_compiler_lock:
+            if tuple(normalize_signature(sig)[0]) in dispatcher.overloads:
+                return compile_signature(sig)
+            with _compile_lock(name):
+                return compile_signature(sig)
 
     dispatcher.compile = compile
     return dispatcher
 
 
-def _cached_njit(*args, **options):
+def compiled_njit(*args, **options):
     """Numba's ``njit`` (``@njit``, ``@njit(...)``), whose cached functions compile under a lock shared by
-    processes (:func:`_locked`)."""
+    processes (:func:`_locked`): every kernel's compiler (:data:`njit`), and the one of modules compiled even in
+    an interpreted process."""
     import numba
 
     if args and callable(args[0]):
@@ -181,7 +212,7 @@ else:
     CACHE_DIR = configure()
     from numba import prange  # noqa: F401  (re-exported: every kernel module's compiler)
 
-    njit = _cached_njit
+    njit = compiled_njit
 
 
 def has_compiled(module_name: str) -> bool:

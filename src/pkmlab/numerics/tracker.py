@@ -18,7 +18,9 @@ from .. import _compile_cache
 
 if _compile_cache.INTERPRETED:  # this module is compiled all the same (module docstring)
     _compile_cache.configure()
-from numba import njit, prange  # noqa: E402
+from numba import prange  # noqa: E402
+
+njit = _compile_cache.compiled_njit
 
 #: Relative size of Newton's last correction for a corrector step to be accepted.
 TRACK_TOL = 1e-9
@@ -147,14 +149,18 @@ def _track_one(code, r, outputs, n, moving, x, p0, p1, t_end, bound, scale, max_
             break
         ha = min(h, t - t_end)
         ok = _tangent(code, r, outputs, n, moving, x, p0, p1, t, A, k1)
-        y[:] = x - ha / 2 * k1
+        for i in range(n):  # element by element: an array assigned to a slice compiles its error message
+            y[i] = x[i] - ha / 2 * k1[i]
         ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha / 2, A, k2)
-        y[:] = x - ha / 2 * k2
+        for i in range(n):
+            y[i] = x[i] - ha / 2 * k2[i]
         ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha / 2, A, k3)
-        y[:] = x - ha * k3
+        for i in range(n):
+            y[i] = x[i] - ha * k3[i]
         ok = ok and _tangent(code, r, outputs, n, moving, y, p0, p1, t - ha, A, k4)
         t1 = t - ha
-        y[:] = x - ha / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        for i in range(n):
+            y[i] = x[i] - ha / 6 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
         size = max(_norm(y), 1e-3 * scale)
         prev = np.inf
         if ok:
@@ -172,7 +178,7 @@ def _track_one(code, r, outputs, n, moving, x, p0, p1, t_end, bound, scale, max_
                 prev = step
             ok = ok and prev <= TRACK_TOL * size
         if ok:
-            for i in range(x.shape[0]):
+            for i in range(n):
                 x[i] = y[i]
             t = t1
             successes += 1
