@@ -224,12 +224,9 @@ def solve_generic_instance(description):
             "have at most 80), more than pkmlab's general method takes on: every assembly mode of this machine "
             "cannot be listed (inverse kinematics, dynamics and runs from a known configuration do not need "
             "them)") from None
-    if len(other):
+    if len(other):  # the first's solutions are distinct already: merging keeps them, in their order
         ends = homotopy.parameter_homotopy(family, other, p2, p1)
-        carried = ends.x[ends.regular]
-        if len(carried):
-            solutions = homotopy.distinct(np.vstack([solutions, carried]) if len(solutions) else carried,
-                                          family.scale)
+        solutions = homotopy.distinct(np.vstack([solutions, ends.x[ends.regular]]), family.scale)
     return solutions, p1, loops + more
 
 
