@@ -27,6 +27,7 @@ STARTS = 10_000
 #: file, a regular pose (as in test_catalogue)
 MACHINES = {
     "3rps.toml": [0.5, 0.05, -0.03],
+    "3upu_wrist.toml": [0.1, -0.05, 0.2],
     "6rus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
     "6pus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
 }

@@ -18,7 +18,8 @@ mujoco = pytest.importorskip("mujoco")
 NAMES = sorted(PRESETS)
 #: The catalogue's machines (examples/mechanisms), checked as the presets are.
 CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / name)
-             for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml", "6rus.toml", "6pus.toml")] + [
+             for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml", "6rus.toml", "6pus.toml",
+                          "3upu_wrist.toml")] + [  # universal joints at a rigid platform: a tendon holds their axes
     str(Path(__file__).resolve().parents[1] / "examples" / "3rrs_tilted.toml")]  # legs of the general method
 
 
@@ -37,8 +38,8 @@ def _states(model, count: int, seed: int):
             q = mm.inverse_kinematics(model, pose, mode)
         except (UnreachablePoseError, InvalidParameterError):
             continue
-        if abs(mm.singularity_measure(model, q)) < 0.05:
-            continue
+        if abs(mm.singularity_measure(model, q)) < min(0.05, 0.5 * abs(mm.singularity_measure(model, home))):
+            continue  # (a machine of many passive coordinates has a small S everywhere: a 3-UPU wrist's is 0.01)
         theta_dot = rng.normal(0.0, 0.5, n)
         jac = mm.constraint_jacobian(model, q)
         q_dot = np.concatenate([theta_dot, np.linalg.solve(jac[:, n:], -jac[:, :n] @ theta_dot)])
@@ -101,10 +102,20 @@ def test_coordinates_map_both_ways(name):
         assert np.abs(jac @ d.qvel).max() < 1e-12 * (1 + np.abs(d.qvel).max())
 
 
+def _site_motion(m, d, site: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A site's position, linear velocity and linear acceleration (world frame)."""
+    k = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
+    v, a = np.zeros(6), np.zeros(6)
+    mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_SITE, k, v, 0)
+    mujoco.mj_objectAcceleration(m, d, mujoco.mjtObj.mjOBJ_SITE, k, a, 0)
+    return d.site_xpos[k].copy(), v[3:], a[3:]
+
+
 def _hard_solve(m, d, legs: int):
     """MuJoCo's own mass matrix, bias forces, actuation and constraint Jacobian, with the loop closures as
     hard constraints: ``[M Jᵀ; J 0] [q̈; λ] = [τ - bias; -J̇ q̇]``, ``J̇ q̇`` from the sites' accelerations at
-    ``q̈ = 0``."""
+    ``q̈ = 0``: a connect's the difference of its two sites', a tendon's (a universal joint's axes at a rigid
+    platform) the second derivative of the distance between its two sites."""
     M = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, M)
     J = d.efc_J.reshape(d.nefc, m.nv).copy()
@@ -113,13 +124,15 @@ def _hard_solve(m, d, legs: int):
     mujoco.mj_rnePostConstraint(m, d)
     gamma = []
     for i in range(legs):
-        acc = []
-        for site in (f"leg{i + 1}_end", f"platform_a{i + 1}"):
-            a = np.zeros(6)
-            mujoco.mj_objectAcceleration(m, d, mujoco.mjtObj.mjOBJ_SITE, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE,
-                                                                                            site), a, 0)
-            acc.append(a[3:])
-        gamma += list(acc[0] - acc[1])
+        (_p1, _v1, a1), (_p2, _v2, a2) = (_site_motion(m, d, s) for s in (f"leg{i + 1}_end", f"platform_a{i + 1}"))
+        gamma += list(a1 - a2)
+    for i in range(legs):
+        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, f"hold{i + 1}") < 0:
+            continue
+        (p1, v1, a1), (p2, v2, a2) = (_site_motion(m, d, s) for s in (f"leg{i + 1}_axis", f"platform_axis{i + 1}"))
+        r, v, a = p1 - p2, v1 - v2, a1 - a2
+        length = np.linalg.norm(r)
+        gamma.append((v @ v + r @ a) / length - (r @ v) ** 2 / length ** 3)
     kkt = np.block([[M, J.T], [J, np.zeros((len(J), len(J)))]])
     # the planar machines' z rows are identically zero: a least-squares solve of the consistent system
     return np.linalg.lstsq(kkt, np.concatenate([force, -np.array(gamma)]), rcond=None)[0][:m.nv]

@@ -99,13 +99,25 @@ def test_universal_joints_that_do_not_hold_the_platform_level_are_refused():
         mobility(SpatialMechanism(m.name, same, m.platform, m.gravity))
 
 
-def test_a_leg_ending_in_a_universal_joint_needs_a_translating_platform():
+def test_on_a_rigid_platform_the_same_legs_hold_it_level_by_their_orientation_rows(upu):
+    """Tsai's legs under a rigid platform controlled in x, y, z: each universal joint's orientation row (its axes
+    perpendicular) replaces the translating platform's fixed orientation; the machine is the same — its
+    parasitic roll, pitch and yaw stay 0, its actuators are the translating description's."""
     m = load_mechanism(UPU)
     p = m.platform
-    rigid = SpatialPlatform("rigid", p.attachments, p.mass, p.com, p.inertia, controlled=("x", "y", "z"))
-    with pytest.raises(InvalidParameterError, match=r"leg 1 \(UP\*U\) ends in a universal joint, which pkmlab models "
-                                                    "under a translating platform only"):
-        SpatialMechanism(m.name, m.legs, rigid, m.gravity)
+    rigid = SpatialMechanism(m.name, m.legs, SpatialPlatform("rigid", p.attachments, p.mass, p.com, p.inertia,
+                                                             controlled=("x", "y", "z")), m.gravity)
+    r = mobility(rigid)
+    assert (r.mobility, r.rank, r.constraints) == (3, 12, 12)
+    model = mm.MechanismModel.from_description(rigid)
+    for pose in (POSE, POSE + [0.04, 0.03, -0.05]):
+        q = mm.inverse_kinematics(model, pose, ())
+        np.testing.assert_allclose(q[-6:-3], 0.0, atol=1e-12)  # roll, pitch, yaw: parasitic, level
+        np.testing.assert_allclose(q[:3], mm.inverse_kinematics(upu, pose, ())[:3], atol=1e-12)
+
+
+def test_a_leg_ending_in_an_actuated_universal_joint_is_refused():
+    m = load_mechanism(UPU)
     actuated = replace(m.legs[0], joints=(*m.legs[0].joints[:-1], SpatialJoint("U", True, m.legs[0].joints[-1].axes)))
     with pytest.raises(InvalidParameterError, match="leg 1: its last joint carries the platform and must be a passive"):
         _with_leg(m, 0, SpatialLeg(actuated.base, actuated.joints, actuated.bodies, actuated.stroke))

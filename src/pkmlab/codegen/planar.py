@@ -312,13 +312,14 @@ def generate_source(mechanism: Mechanism) -> str:
 
 
 def module_header(kind: str, mechanism, structure_name: str, names, angles, parameters, sizes, dims_comment: str,
-                  dims, weights_comment: str, indices, nonzero, layout) -> list[str]:
+                  dims, weights_comment: str, indices, nonzero, layout, point_rows=None) -> list[str]:
     """The head of a generated module of ``kind`` ("planar" or "spatial"): its docstring, imports and the
     constants the compiled core reads — coordinates, sizes ``(N_COORDINATES, N_CONSTRAINTS, N_BODIES)``,
     ``dims = (DIM, ANGULAR, BODY_ROWS, LINE_WIDTH)``, the positions in ``P`` of the masses, inertias and
     gravity (``indices``), the bodies' Jacobians' structural non-zeros ``(body, row, column)``, and
     ``layout = (N_POSE, point, lines)``: how many of ``q``'s last coordinates are the platform's pose, the
-    columns of ``Jηφ`` of the tracked point (x, y[, z]), whether the singularity measure is the legs' lines'."""
+    columns of ``Jηφ`` of the tracked point (x, y[, z]), whether the singularity measure is the legs' lines';
+    ``point_rows``, how many of ``η``'s rows are the legs' points' (DIM per leg, first; default all of them)."""
     import sympy as sp
 
     mass, inertia, gravity = indices
@@ -341,6 +342,9 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
         f"PARAMETERS = {tuple(parameters)!r}",
         f"N_COORDINATES, N_CONSTRAINTS, N_BODIES = {sizes[0]}, {sizes[1]}, {sizes[2]}",
         f"N_ACTUATORS, DOF = {len(mechanism.legs)}, {mechanism.dof}",
+        "# the rows of eta that close each leg's end point on the platform (DIM per leg, leg by leg; the others "
+        "do not move with the tracked point)",
+        f"POINT_ROWS = {sizes[1] if point_rows is None else point_rows}",
         "# the platform's pose: q's last N_POSE coordinates (its parasitic ones, then the DOF it is controlled in)",
         f"N_POSE = {n_pose}",
         "# the columns of J_eta_phi of the tracked point, and the others (the reduced system's, in order)",

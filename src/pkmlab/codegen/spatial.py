@@ -11,8 +11,9 @@ It derives, with SymPy:
 * the loop-closure constraints ``η(q) = 0`` — for each leg, the centre of its platform joint (the
   end of its chain) minus its platform attachment point, x, y then z (3 per leg: a universal joint
   under a translating platform closes the loop at its centre too, its angles following from the
-  leg's, :mod:`pkmlab.description.spatial`); their Jacobian and
-  the bias ``J̇ηq q̇`` (paper eqs. 14–17, 32);
+  leg's, :mod:`pkmlab.description.spatial`), then, after every leg's, one row per leg ending in a
+  universal joint under a rigid platform: its two axes perpendicular (:mod:`pkmlab.description.mobility`;
+  rows ``LEG_ETA``); their Jacobian and the bias ``J̇ηq q̇`` (paper eqs. 14–17, 32);
 * for every body (the legs' bodies, then the platform) the velocity of its mass centre (3 rows) and
   its angular velocity in its own frame ``ω`` (3 rows), both linear in ``q̇``: their Jacobian
   ``J_b = ∂(v, ω)/∂q̇`` and bias ``J̇_b q̇`` — with the 3×3 inertia tensors, everything the compiled
@@ -41,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..description.mobility import orientation_rows
 from ..description.spatial import SpatialMechanism
 from .planar import GENERATED_DIR, Block, jacobian_and_bias, module_header, regenerate, write_module
 
@@ -66,7 +68,7 @@ def measures_lines(mechanism: SpatialMechanism) -> bool:
         rotary = [j for j in leg.joints[:-1] if j.kind != "P" and not j.actuated]
         if not rotary or rotary[-1].kind != "U":
             return False
-    return True
+    return not orientation_rows(mechanism)  # a universal joint at a rigid platform carries moments too
 
 
 def _leg_coordinate_names(leg, tag: str) -> list[str]:
@@ -190,8 +192,9 @@ def derive_leg(mechanism: SpatialMechanism, leg) -> dict:
     The leg's coordinates are ``a`` (its actuator), its passive ones ``q_<joint>`` and the platform's pose; its
     parameters ``base_x``, ``axis_<joint><a|b>_x``, ``body_<k>_tip_x``..., and ``attach_x``... (its platform
     attachment point). Returns ``{"q", "q_dot": the leg's coordinates and rates, then the pose's; "P": its
-    parameters' symbols by name; "eta" (3); "bodies": [(position (3), velocity (3), ω (3)), ...]; "joints":
-    every joint's position, base to platform; "lines" (6, or none)}``."""
+    parameters' symbols by name; "eta": its point rows (3), then its orientation row if it has one;
+    "bodies": [(position (3), velocity (3), ω (3)), ...]; "joints": every joint's position, base to platform;
+    "lines" (6, or none)}``."""
     import sympy as sp
 
     pose, pose_dot, point_p, platform_rot, _ = _platform(sp, mechanism)
@@ -231,7 +234,11 @@ def derive_leg(mechanism: SpatialMechanism, leg) -> dict:
     target = point_p + platform_rot * vec("attach")
     joints.append(target)
     lines = [*(target - point_p), *(target - rotary)] if measures_lines(mechanism) else []
-    return {"q": (*own, *pose), "q_dot": (*own_dot, *pose_dot), "P": P, "eta": list(point - target),
+    eta = list(point - target)
+    if mechanism.platform.kind == "rigid" and leg.joints[-1].kind == "U":
+        k = len(leg.joints)
+        eta.append(((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"axis_{k}b")))[0])
+    return {"q": (*own, *pose), "q_dot": (*own_dot, *pose_dot), "P": P, "eta": eta,
             "bodies": bodies, "joints": joints, "lines": lines}
 
 
@@ -299,7 +306,8 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     d = derive(mechanism)
     q, q_dot = d["q"], d["q_dot"]
     n, nq, n_pose = len(mechanism.legs), len(q), len(mechanism.platform.q_pose_names)
-    m, nb = 3 * n, sum(len(leg.bodies) for leg in mechanism.legs) + 1
+    ends = orientation_rows(mechanism)
+    m, nb = 3 * n + len(ends), sum(len(leg.bodies) for leg in mechanism.legs) + 1
     pose0 = nq - n_pose
     names, parameters = coordinate_names(mechanism), parameter_names(mechanism)
     # where each leg's own coordinates, parameters, attachment point, bodies and Jacobian non-zeros start
@@ -328,7 +336,8 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     point = [list(names).index(c) for c in "xyz"]
     for t in d["legs"].values():  # the compiled core eliminates the tracked point with these unit pivots
         j = sp.Matrix(t["eta"]).jacobian([t["q"][len(t["q"]) - nq + c] for c in point])
-        assert j == -sp.eye(3), "a leg's closure moves with the tracked point as -I"
+        assert j[:3, :] == -sp.eye(3), "a leg's closure moves with the tracked point as -I"
+        assert j[3:, :].is_zero_matrix, "an orientation row does not move with the tracked point"
     com, com_velocity, omega = d["platform"]
     platform_rows = [*com_velocity, *omega]
     platform_jacobian = sp.Matrix(platform_rows).jacobian(q_dot[pose0:])
@@ -342,11 +351,14 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         "for Jηq)", (3, 3, 6, 6 if lines_of_action else -(-m * nq // n)),
         "# where each body's mass and inertia tensor (xx, yy, zz, xy, xz, yz) and the gravity are in P",
         [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero,
-        layout=(n_pose, [c - n for c in point], lines_of_action))
+        layout=(n_pose, [c - n for c in point], lines_of_action), point_rows=3 * n)
     header += ["# where each leg's passive coordinates (in q), parameters and attachment point (in P), bodies and "
                "bodies' Jacobians' non-zeros start",
                f"LEG_Q = {tuple(leg_q)!r}", f"LEG_P = {tuple(leg_p)!r}", f"LEG_ATTACH = {tuple(leg_attach)!r}",
                f"LEG_BODY = {tuple(leg_body)!r}", f"LEG_JB = {tuple(leg_jb)!r}"]
+    if ends:
+        header += ["# the row of eta of each leg's orientation row (-1: none)",
+                   f"LEG_ETA = {tuple(3 * n + ends.index(i) if i in ends else -1 for i in range(n))!r}"]
     groups = {}
     for i, leg in enumerate(mechanism.legs):
         groups.setdefault(leg.notation, []).append(i)
@@ -363,7 +375,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     unpacks = {}
     for notation, t in d["legs"].items():
         unpack = ["iq = LEG_Q[leg]", "ip = LEG_P[leg]", "ia = LEG_ATTACH[leg]", "ib = LEG_BODY[leg]",
-                  "jb = LEG_JB[leg]"]
+                  "jb = LEG_JB[leg]", *(["ie = LEG_ETA[leg]"] if ends else [])]
         trig = {}
         first = mechanism.legs[groups[notation][0]]
         angles = [_actuator_angle(first), *_leg_angles(first)]
@@ -387,16 +399,19 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     def column(notation, c):
         return _column(c, local[notation]["own"], "leg", "iq", pose0)
 
+    def row(r):  # a leg's r-th row of eta: its point rows, then its orientation row
+        return _plus("3 * leg", r) if r < 3 else "ie"
+
     def constraints(t, _notation):
-        return t["eta"], [_plus("3 * leg", r) for r in range(3)]
+        return t["eta"], [row(r) for r in range(len(t["eta"]))]
 
     def constraint_jacobian(t, notation):
         j = local[notation]["j_eta"]
-        entries = [(r, c) for r in range(3) for c in range(len(t["q"])) if j[r, c] != 0]
-        return [j[r, c] for r, c in entries], [f"{_plus('3 * leg', r)}, {column(notation, c)}" for r, c in entries]
+        entries = [(r, c) for r in range(len(t["eta"])) for c in range(len(t["q"])) if j[r, c] != 0]
+        return [j[r, c] for r, c in entries], [f"{row(r)}, {column(notation, c)}" for r, c in entries]
 
-    def constraint_bias(_t, notation):
-        return list(local[notation]["b_eta"]), [_plus("3 * leg", r) for r in range(3)]
+    def constraint_bias(t, notation):
+        return list(local[notation]["b_eta"]), [row(r) for r in range(len(t["eta"]))]
 
     def body_poses(t, _notation):
         return ([e for pos, _v, _w in t["bodies"] for e in pos],

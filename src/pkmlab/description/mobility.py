@@ -3,8 +3,11 @@ configurations, not a joint count.
 
 A machine's configurations are its legs' joint coordinates and its platform's whole pose, ``x`` (every
 coordinate, actuated or not, the pose as :attr:`~pkmlab.description.spatial.SpatialPlatform.full_pose_names`),
-bound by the loop closures ``η(x) = 0`` (each leg's spherical joint at its platform attachment point: 3
-equations per leg). Near a generic configuration these define a manifold of dimension
+bound by the loop closures ``η(x) = 0``: each leg's platform joint at its platform attachment point (3
+equations per leg, its *point rows*), then, for each leg that ends in a universal joint under a rigid platform,
+that joint's two axes perpendicular, ``(R_leg a₁)·(R a₂) = 0`` (its first axis turning with the leg's last body,
+its second with the platform: one *orientation row*; the joint can then turn the body onto the platform). Near
+a generic configuration these define a manifold of dimension
 
     mobility = dim x - rank ∂η/∂x,
 
@@ -18,7 +21,8 @@ A description is accepted when its mobility is the number of its actuators and o
 coordinates, its constraints are independent, its actuators determine its configuration (locked, they
 leave no motion), and its controlled coordinates do too (no motion leaves them unchanged). Each refusal
 is one line giving the computed numbers and each leg's share: the number of the platform's freedoms a
-leg removes (``3 -`` the rank of its end point's Jacobian, for a leg ending in a spherical joint).
+leg removes (its rows less the rank of their Jacobian in the leg's own coordinates: ``3 -`` the rank of its end
+point's Jacobian, for a leg ending in a spherical joint).
 """
 
 from __future__ import annotations
@@ -118,8 +122,24 @@ def _leg_twist(leg, coordinates) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     return point, rot, linear, angular
 
 
+def orientation_rows(mechanism) -> tuple[int, ...]:
+    """The legs that close the loop by an orientation row (module docstring): those ending in a universal joint
+    under a rigid platform, in order; their rows follow every leg's point rows."""
+    if mechanism.platform.kind != "rigid":
+        return ()
+    return tuple(i for i, leg in enumerate(mechanism.legs) if leg.joints[-1].kind == "U")
+
+
+def leg_rows(mechanism, leg: int) -> list[int]:
+    """The rows of ``η`` of leg ``leg`` (0-based): its point rows, then its orientation row if it has one."""
+    ends = orientation_rows(mechanism)
+    extra = [3 * len(mechanism.legs) + ends.index(leg)] if leg in ends else []
+    return [3 * leg, 3 * leg + 1, 3 * leg + 2, *extra]
+
+
 def residual(mechanism, x: np.ndarray) -> np.ndarray:
-    """``η(x)``: each leg's spherical joint minus its attachment point (3 per leg)."""
+    """``η(x)`` (module docstring): each leg's platform joint minus its attachment point (3 per leg), then the
+    orientation rows."""
     return _residual_and_jacobian(mechanism, x)[0]
 
 
@@ -134,7 +154,8 @@ def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.nda
     counts, starts, n_pose = _layout(mechanism)
     pose = x[starts[-1]:]
     n = len(mechanism.legs)
-    eta, jac = np.zeros(3 * n), np.zeros((3 * n, len(x)))
+    ends = orientation_rows(mechanism)
+    eta, jac = np.zeros(3 * n + len(ends)), np.zeros((3 * n + len(ends), len(x)))
     rigid = n_pose == 6
     rot = orientation(*pose[3:6]) if rigid else np.eye(3)
     turns = []
@@ -145,7 +166,7 @@ def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.nda
             e[k] = h
             turns.append((orientation(*(pose[3:6] + e)) - orientation(*(pose[3:6] - e))) / (2 * h))
     for i, leg in enumerate(mechanism.legs):
-        end, j_leg = _leg_end(leg, x[starts[i]:starts[i + 1]])
+        end, leg_rot, j_leg, j_turn = _leg_twist(leg, x[starts[i]:starts[i + 1]])
         a = np.array(mechanism.platform.attachments[i])
         rows = slice(3 * i, 3 * i + 3)
         eta[rows] = end - pose[:3] - rot @ a
@@ -153,6 +174,14 @@ def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.nda
         jac[rows, starts[-1]:starts[-1] + 3] = -np.eye(3)
         for k, d_rot in enumerate(turns):
             jac[rows, starts[-1] + 3 + k] = -d_rot @ a
+        if i in ends:  # (R_leg a1)·(R a2): the leg's turns move the first axis, the platform's the second
+            r = 3 * n + ends.index(i)
+            a1, a2 = (np.array(v) for v in leg.joints[-1].axes)
+            u1, u2 = leg_rot @ a1, rot @ a2
+            eta[r] = u1 @ u2
+            jac[r, starts[i]:starts[i + 1]] = np.cross(j_turn.T, u1) @ u2
+            for k, d_rot in enumerate(turns):
+                jac[r, starts[-1] + 3 + k] = u1 @ (d_rot @ a2)
     return eta, jac
 
 
@@ -234,7 +263,7 @@ def mobility(mechanism, *, check: bool = True, seed: int = 0) -> Mobility:
     result = _computed(mechanism, seed)
     if check:
         _check(mechanism, result)
-        if any(leg.joints[-1].kind == "U" for leg in mechanism.legs):
+        if mechanism.platform.kind == "translating" and any(leg.joints[-1].kind == "U" for leg in mechanism.legs):
             check_platform_joints(mechanism, result, seed)
     return result
 
@@ -267,8 +296,10 @@ def _computed(m, seed: int) -> Mobility:
     pose_names = m.platform.full_pose_names
     controlled = [starts[-1] + pose_names.index(c) for c in m.platform.pose_names]
 
+    rows = [leg_rows(m, i) for i in range(len(m.legs))]
+
     def ranks_at(j):
-        shares = tuple(3 - _rank(j[3 * i:3 * i + 3, starts[i]:starts[i + 1]]) for i in range(len(m.legs)))
+        shares = tuple(len(rows[i]) - _rank(j[rows[i], starts[i]:starts[i + 1]]) for i in range(len(m.legs)))
         return (_rank(j), _rank(np.delete(j, actuated, axis=1)), _rank(np.delete(j, controlled, axis=1)), shares)
 
     # every rank can only drop at special configurations: each is the largest over the samples (one sample may
@@ -279,7 +310,7 @@ def _computed(m, seed: int) -> Mobility:
     best = int(np.argmax([sum(r[:3]) for r in samples]))
     x = found[best]
     x.setflags(write=False)  # shared by every caller of the cached result
-    return Mobility(n_coordinates - rank, rank, n_coordinates, len(m.legs) * 3, shares, x, actuated_rank,
+    return Mobility(n_coordinates - rank, rank, n_coordinates, sum(map(len, rows)), shares, x, actuated_rank,
                     controlled_rank)
 
 

@@ -23,10 +23,11 @@ Conventions (pkmlab's, for every spatial mechanism):
   - ``S`` (spherical, no coordinate): the last joint, and only there: it carries the platform at
     the tip of the leg's last body (the platform's attachment point of that leg).
 
-  The last joint is the leg's *platform joint*: an ``S``, or a passive ``U`` under a translating platform
-  (a 3-UPU): its first axis fixed in the leg's last body, its second in the platform. A platform joint's
-  angles are not coordinates: they follow from the leg's last body and the platform's fixed orientation
-  (:func:`platform_joint_angles`), and the leg's joint coordinates are those of the joints before it.
+  The last joint is the leg's *platform joint*: an ``S``, or a passive ``U`` (a 3-UPU): its first axis fixed
+  in the leg's last body, its second in the platform. A platform joint's angles are not coordinates: they
+  follow from the leg's last body and the platform's orientation (:func:`platform_joint_angles`), and the
+  leg's joint coordinates are those of the joints before it. Under a rigid platform a ``U`` closes the loop
+  by one equation more than an ``S``: its two axes stay perpendicular (:mod:`pkmlab.description.mobility`).
 
   One joint of each leg, ``R*`` or ``P*``, anywhere in the chain, is actuated.
 * The platform is ``translating`` (pose ``(x, y, z)``: its orientation is held fixed by its legs —
@@ -232,12 +233,6 @@ class SpatialMechanism(LegsAndPose):
             raise InvalidParameterError(f"a {platform.kind} platform (pose {', '.join(platform.pose_names)}) needs "
                                         f"{dof} actuated legs, got {len(legs)}")
         set_(self, "legs", tuple(self._checked_leg(i + 1, leg) for i, leg in enumerate(legs)))
-        for i, leg in enumerate(self.legs):
-            if leg.joints[-1].kind == "U" and platform.kind != "translating":
-                raise InvalidParameterError(
-                    f"leg {i + 1} ({leg.notation}) ends in a universal joint, which pkmlab models under a translating "
-                    "platform only (its angles follow from the leg and the platform's fixed orientation); on a "
-                    f"{platform.kind} platform end the leg in a spherical joint (S)")
         set_(self, "platform", self._checked_platform(platform))
 
     def _checked_leg(self, number: int, leg: SpatialLeg) -> SpatialLeg:
@@ -251,8 +246,7 @@ class SpatialMechanism(LegsAndPose):
                 raise InvalidParameterError(f"{where}, joint {k + 1}: unknown joint type {kind!r} (use R, P, U or S)")
         if not joints or joints[-1].kind not in PLATFORM_JOINTS or joints[-1].actuated:
             raise InvalidParameterError(f"{where}: its last joint carries the platform and must be a passive "
-                                        "spherical joint (S) or, under a translating platform, a passive universal "
-                                        "joint (U)")
+                                        "spherical joint (S) or a passive universal joint (U)")
         if any(j.kind == "S" for j in joints[:-1]):
             raise InvalidParameterError(f"{where}: a spherical joint (S) may only be the last joint")
         actuated = [k for k, j in enumerate(joints) if j.actuated]
@@ -456,13 +450,15 @@ def leg_coordinate_count(leg: SpatialLeg) -> int:
     return sum(j.coordinates for j in leg.joints[:-1])
 
 
-def platform_joint_angles(leg: SpatialLeg, rotation) -> tuple[float, float, float]:
+def platform_joint_angles(leg: SpatialLeg, rotation, platform_rotation=None) -> tuple[float, float, float]:
     """The angles ``(q1, q2)`` of the universal joint that ends ``leg``, whose last body has the
-    orientation ``rotation`` (3, 3) under a platform of fixed orientation ``I``, and how far the joint
-    misses it: ``|Rot(a1, q1) Rot(a2, q2) - rotationᵀ|`` (0 when the joint can turn the body onto the
-    platform)."""
+    orientation ``rotation`` (3, 3) under a platform of orientation ``platform_rotation`` (default ``I``, a
+    translating platform's), and how far the joint misses it: ``|Rot(a1, q1) Rot(a2, q2) - target|`` with
+    ``target = rotationᵀ platform_rotation`` (0 when the joint can turn the body onto the platform)."""
     a1, a2 = (np.array(a, dtype=float) for a in leg.joints[-1].axes)
     target = np.asarray(rotation, dtype=float).T  # the platform's frame in the last body's
+    if platform_rotation is not None:
+        target = target @ np.asarray(platform_rotation, dtype=float)
     # Rot(a1, q1) Rot(a2, q2) a2 = Rot(a1, q1) a2: the first angle turns a2 onto target·a2 about a1
     w = target @ a2
     q1 = math.atan2(float(np.cross(a2, w) @ a1), float(a2 @ w - (a2 @ a1) * (w @ a1)))

@@ -13,7 +13,10 @@ loops. pkmlab writes every mechanism the same way:
 * every leg is closed on the platform by an ``<equality><connect>`` between a site at the end of its
   chain and a site at its platform attachment point (3 scalar rows; in the plane the z row is satisfied
   identically). The spherical joint that ends a spatial leg is exactly such a point constraint; the
-  planar revolute that carries a platform is one too, its angle being free. MuJoCo's constraints are
+  planar revolute that carries a platform is one too, its angle being free. A universal joint that carries a
+  rigid platform is that point constraint and its two axes kept perpendicular: a spatial tendon between a site
+  :data:`AXIS_SITE` along its first axis (on the leg's last body) and one as far along its second (on the
+  platform), its length held at ``√2`` times that distance by an ``<equality><tendon>``. MuJoCo's constraints are
   soft; by default they get the stiffest setting it accepts (``closures="stiff"``), with which MuJoCo's
   machine behaves like the rigid one, or MuJoCo's own defaults (``closures="soft"``), with which the loops
   open by up to a few millimetres — the file says which, in a comment before them;
@@ -75,6 +78,10 @@ CLOSURE_NOTES = {
             "gravity), and the tracked point strays up to 7 mm from the rigid machine's. closures=\"stiff\" "
             "(pkmlab's default) makes them behave like the rigid machine.",
 }
+
+
+#: How far from a universal joint's centre (m) the two sites of its axes' tendon are (module docstring).
+AXIS_SITE = 0.1
 
 
 def closure_settings(closures: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
@@ -157,8 +164,9 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
     qpos = qpos_from_q(model, q)
     notes: list[str] = []
     gravity = (*m.gravity, 0.0) if not _spatial(m) else m.gravity
-    body_lines, actuators, equalities = [], [], []
+    body_lines, actuators, equalities, tendons = [], [], [], []
     joints = iter(joint_names(model))
+    held = _held(m)
     for i, leg in enumerate(m.legs):
         depth = 2
         opened = 0
@@ -196,6 +204,9 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
         last = leg.bodies[-1]
         tip = (*last.tip, 0.0) if not _spatial(m) else last.tip
         body_lines.append(f'{"  " * depth}<site name="leg{i + 1}_end" pos="{_numbers(tip)}"/>')
+        if i in held:
+            axis = np.array(tip) + AXIS_SITE * np.array(leg.joints[-1].axes[0])
+            body_lines.append(f'{"  " * depth}<site name="leg{i + 1}_axis" pos="{_numbers(axis)}"/>')
         for _ in range(opened):
             depth -= 1
             body_lines.append(f'{"  " * depth}</body>')
@@ -219,6 +230,15 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
         attachments = [(*a, 0.0) for a in platform.attachments]
     for i, a in enumerate(attachments):
         body_lines.append(f'      <site name="platform_a{i + 1}" pos="{_numbers(a)}"/>')
+    for i in held:
+        axis = np.array(attachments[i]) + AXIS_SITE * np.array(m.legs[i].joints[-1].axes[1])
+        body_lines.append(f'      <site name="platform_axis{i + 1}" pos="{_numbers(axis)}"/>')
+        tendons += [f'    <spatial name="hold{i + 1}">', f'      <site site="leg{i + 1}_axis"/>',
+                    f'      <site site="platform_axis{i + 1}"/>', "    </spatial>"]
+        # MuJoCo holds a tendon at its length in qpos0 (every joint 0, the platform at the origin) plus polycoef[0]
+        equalities.append(f'    <tendon name="hold{i + 1}" tendon1="hold{i + 1}" '
+                          f'polycoef="{_numbers((math.sqrt(2.0) * AXIS_SITE - _axis_length0(m, i), 0, 0, 0, 0))}" '
+                          f'solref="{_numbers(solref)}" solimp="{_numbers(solimp)}"/>')
     body_lines.append("    </body>")
     comment = [f"pkmlab: the {m.name} ({m.notation}), {len(m.legs)} legs closed on the platform by connect "
                "constraints; " + ("joint values as pkmlab's (relative), the platform's pose last"
@@ -237,11 +257,32 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
               'solver="Newton" tolerance="1e-10" iterations="50">',
               '    <flag contact="disable"/>', "  </option>",
               "  <worldbody>", *body_lines, "  </worldbody>",
+              *(["  <tendon>", *tendons, "  </tendon>"] if tendons else []),
               "  <equality>", _closure_comment(closures, solref, solimp), *equalities, "  </equality>",
               "  <actuator>", *actuators, "  </actuator>",
               "  <keyframe>", f'    <key name="pkmlab" qpos="{_numbers(qpos)}"/>', "  </keyframe>",
               "</mujoco>"]
     return "\n".join(lines) + "\n"
+
+
+def _held(m) -> tuple[int, ...]:
+    """The legs whose universal joint carries a rigid platform (module docstring)."""
+    if not _spatial(m):
+        return ()
+    from ..description.mobility import orientation_rows
+
+    return orientation_rows(m)
+
+
+def _axis_length0(m, leg: int) -> float:
+    """The length of leg ``leg``'s axes' tendon in MuJoCo's ``qpos0``: the leg at its zero configuration, the
+    platform at the origin, unturned."""
+    from ..description.spatial import leg_coordinate_count, leg_frames
+
+    chain = m.legs[leg]
+    end = leg_frames(chain, np.zeros(leg_coordinate_count(chain)))[-1][0]
+    a1, a2 = (np.array(a) for a in chain.joints[-1].axes)
+    return float(np.linalg.norm(end + AXIS_SITE * a1 - np.array(m.platform.attachments[leg]) - AXIS_SITE * a2))
 
 
 def drive_attributes(model, drives) -> list[str]:

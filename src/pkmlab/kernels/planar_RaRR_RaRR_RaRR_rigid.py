@@ -14,6 +14,8 @@ ANGLES = (True, True, True, True, True, True, False, False, True)  # which coord
 PARAMETERS = ('base1_x', 'base1_y', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_mass', 'body1_1_inertia', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_mass', 'body1_2_inertia', 'base2_x', 'base2_y', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_mass', 'body2_1_inertia', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_mass', 'body2_2_inertia', 'base3_x', 'base3_y', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_mass', 'body3_1_inertia', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_mass', 'body3_2_inertia', 'attach1_x', 'attach1_y', 'attach2_x', 'attach2_y', 'attach3_x', 'attach3_y', 'platform_com_x', 'platform_com_y', 'platform_mass', 'platform_inertia', 'gravity_x', 'gravity_y')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 9, 6, 7
 N_ACTUATORS, DOF = 3, 3
+# the rows of eta that close each leg's end point on the platform (DIM per leg, leg by leg; the others do not move with the tracked point)
+POINT_ROWS = 6
 # the platform's pose: q's last N_POSE coordinates (its parasitic ones, then the DOF it is controlled in)
 N_POSE = 3
 # the columns of J_eta_phi of the tracked point, and the others (the reduced system's, in order)
@@ -677,10 +679,11 @@ EXACT_RATES = 0
 DIFFERENCED_RATES = 1
 BACKWARD_RATES = 2
 
-# Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
-# respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
-# point): eliminating the tracked point with these unit pivots leaves a system of DIM equations fewer in
-# the other passive coordinates (the passive joints, the orientation and any parasitic motion), to be
+# Every leg closes on the platform by DIM equations (2 in the plane, 3 in space: its point rows, the first
+# POINT_ROWS of η) whose derivatives with respect to the tracked point (x, y[, z]) are minus the identity
+# (η = end of the leg's chain - attachment point); the rows after them (a universal joint's at a rigid
+# platform) do not depend on it. Eliminating the tracked point with these unit pivots leaves a system of DIM
+# equations fewer in the other passive coordinates (the passive joints, the orientation and any parasitic motion), to be
 # factored instead of the whole of Jηφ. POINT_COLUMNS are the tracked point's columns in Jηφ,
 # REDUCED_COLUMNS the others (the generated module's).
 REDUCED = N_CONSTRAINTS - DIM
@@ -762,11 +765,11 @@ def reduced_column(k):
 @njit(**NO_REFCOUNT)
 def passive_solve(lu, piv, top, b, work):
     """Overwrite ``b`` (m,) with ``Jηφ⁻¹ b`` from the factors of the reduced system (:func:`factor_passive`):
-    its rows are the constraints' rows DIM.. minus row 0 (x), 1 (y) or 2 (z), free of the tracked point;
-    then the tracked point from rows 0 .. DIM - 1 (``top``: their entries in the reduced system's columns).
-    ``work`` is an (m,) scratch array."""
+    its rows are the constraints' rows DIM.. minus row 0 (x), 1 (y) or 2 (z) (the point rows; the rows after
+    them do not move with the tracked point), free of the tracked point; then the tracked point from rows
+    0 .. DIM - 1 (``top``: their entries in the reduced system's columns). ``work`` is an (m,) scratch array."""
     for r in range(REDUCED):
-        work[r] = b[r + DIM] - b[r % DIM]
+        work[r] = b[r + DIM] - b[r % DIM] if r + DIM < POINT_ROWS else b[r + DIM]
     lu_solve_factored(lu, piv, work, REDUCED)
     for d in range(DIM):
         acc = -b[d]
@@ -917,7 +920,7 @@ def factor_passive(ws, q, sc, P):
         for d in range(DIM):
             ws.top[d, k] = ws.j_eta[d, c]
         for r in range(REDUCED):
-            ws.reduced[r, k] = ws.j_eta[r + DIM, c] - ws.j_eta[r % DIM, c]
+            ws.reduced[r, k] = ws.j_eta[r + DIM, c] - (ws.j_eta[r % DIM, c] if r + DIM < POINT_ROWS else 0.0)
     ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 

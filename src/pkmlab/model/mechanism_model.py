@@ -339,7 +339,7 @@ def _q_pose_names(description) -> tuple[str, ...]:
 
 
 def platform_joint_names(description) -> tuple[str, ...]:
-    """The names of the angles of the universal joints that carry a translating platform (a 3-UPU's), as
+    """The names of the angles of the universal joints that carry the platform (a 3-UPU's), as
     :func:`platform_joint_angles` gives them: ``q<leg>_<joint>a``, ``…b``; empty for other machines."""
     if not getattr(description, "spatial", False):
         return ()
@@ -350,9 +350,9 @@ def platform_joint_names(description) -> tuple[str, ...]:
 def platform_joint_angles(model: MechanismModel, q) -> np.ndarray:
     """The angles of the universal joints that carry the platform (:func:`platform_joint_names`) at
     configurations ``q`` (..., n_coordinates), (..., 2 per such leg): not coordinates of ``q``, they follow from
-    each leg's last body and the platform's fixed orientation
+    each leg's last body and the platform's orientation
     (:func:`~pkmlab.description.spatial.platform_joint_angles`)."""
-    from ..description.spatial import leg_frames
+    from ..description.spatial import full_poses, leg_frames, orientation
     from ..description.spatial import platform_joint_angles as angles_of
 
     m = model.description
@@ -360,11 +360,13 @@ def platform_joint_angles(model: MechanismModel, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     flat = q.reshape(-1, q.shape[-1])
     out = np.empty((len(flat), len(names)))
+    n_pose = len(m.platform.q_pose_names) if names else 0
     for r, qr in enumerate(flat):
         column = 0
+        platform = orientation(*full_poses(m, qr[len(qr) - n_pose:])[3:]) if m.platform.kind == "rigid" else None
         for leg, values in zip(m.legs, leg_joint_values(model, qr), strict=True):
             if leg.joints[-1].kind == "U":
-                out[r, column:column + 2] = angles_of(leg, leg_frames(leg, values)[-1][1])[:2]
+                out[r, column:column + 2] = angles_of(leg, leg_frames(leg, values)[-1][1], platform)[:2]
                 column += 2
     return out.reshape(*q.shape[:-1], len(names))
 

@@ -33,7 +33,7 @@ def configuration_of(description, x: np.ndarray) -> np.ndarray:
     as :mod:`pkmlab.description.mobility` orders them)."""
     actuators, passive, at = [], [], 0
     for leg in description.legs:
-        for joint in leg.joints:
+        for joint in leg.joints[:-1]:  # the platform joint has no coordinate
             values = list(x[at:at + joint.coordinates])
             at += joint.coordinates
             (actuators if joint.actuated else passive).extend(values)

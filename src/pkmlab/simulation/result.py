@@ -299,7 +299,7 @@ def orientation_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray
 
         # the angle of E = R_dᵀ R: cos from its trace (1 + 2 cos), sin from its skew part (|E - Eᵀ| = 2 sin·√2),
         # together by atan2 — exact to round-off for small angles too, where arccos of the trace is not
-        e = np.einsum("kji,kjl->kil", orientations(pose_d[:, 3:6]), orientations(pose[:, 3:6]))
+        e = np.einsum("kji,kjl->kil", orientations(pose_d[:, turns]), orientations(pose[:, turns]))
         skew = np.stack([e[:, 2, 1] - e[:, 1, 2], e[:, 0, 2] - e[:, 2, 0], e[:, 1, 0] - e[:, 0, 1]], axis=1)
         return np.arctan2(np.linalg.norm(skew, axis=1) / 2, (np.trace(e, axis1=1, axis2=2) - 1) / 2)
     return None

@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         N_CONSTRAINTS,
         N_COORDINATES,
         POINT_COLUMNS,
+        POINT_ROWS,
         REDUCED_COLUMNS,
         constraint_jacobian,
         constraints,
@@ -54,11 +55,11 @@ def reduced_column(k):
 @njit(**NO_REFCOUNT)
 def passive_solve(lu, piv, top, b, work):
     """Overwrite ``b`` (m,) with ``Jηφ⁻¹ b`` from the factors of the reduced system (:func:`factor_passive`):
-    its rows are the constraints' rows DIM.. minus row 0 (x), 1 (y) or 2 (z), free of the tracked point;
-    then the tracked point from rows 0 .. DIM - 1 (``top``: their entries in the reduced system's columns).
-    ``work`` is an (m,) scratch array."""
+    its rows are the constraints' rows DIM.. minus row 0 (x), 1 (y) or 2 (z) (the point rows; the rows after
+    them do not move with the tracked point), free of the tracked point; then the tracked point from rows
+    0 .. DIM - 1 (``top``: their entries in the reduced system's columns). ``work`` is an (m,) scratch array."""
     for r in range(REDUCED):
-        work[r] = b[r + DIM] - b[r % DIM]
+        work[r] = b[r + DIM] - b[r % DIM] if r + DIM < POINT_ROWS else b[r + DIM]
     lu_solve_factored(lu, piv, work, REDUCED)
     for d in range(DIM):
         acc = -b[d]
@@ -209,7 +210,7 @@ def factor_passive(ws, q, sc, P):
         for d in range(DIM):
             ws.top[d, k] = ws.j_eta[d, c]
         for r in range(REDUCED):
-            ws.reduced[r, k] = ws.j_eta[r + DIM, c] - ws.j_eta[r % DIM, c]
+            ws.reduced[r, k] = ws.j_eta[r + DIM, c] - (ws.j_eta[r % DIM, c] if r + DIM < POINT_ROWS else 0.0)
     ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 

@@ -97,10 +97,11 @@ EXACT_RATES = 0
 DIFFERENCED_RATES = 1
 BACKWARD_RATES = 2
 
-# Every leg closes on the platform by DIM equations (2 in the plane, 3 in space) whose derivatives with
-# respect to the tracked point (x, y[, z]) are minus the identity (η = end of the leg's chain - attachment
-# point): eliminating the tracked point with these unit pivots leaves a system of DIM equations fewer in
-# the other passive coordinates (the passive joints, the orientation and any parasitic motion), to be
+# Every leg closes on the platform by DIM equations (2 in the plane, 3 in space: its point rows, the first
+# POINT_ROWS of η) whose derivatives with respect to the tracked point (x, y[, z]) are minus the identity
+# (η = end of the leg's chain - attachment point); the rows after them (a universal joint's at a rigid
+# platform) do not depend on it. Eliminating the tracked point with these unit pivots leaves a system of DIM
+# equations fewer in the other passive coordinates (the passive joints, the orientation and any parasitic motion), to be
 # factored instead of the whole of Jηφ. POINT_COLUMNS are the tracked point's columns in Jηφ,
 # REDUCED_COLUMNS the others (the generated module's).
 REDUCED = N_CONSTRAINTS - DIM
