@@ -1,7 +1,8 @@
 """Forward kinematics of the catalogue machines the other files leave to this one (the 3-RPS, the 6-RUS, the
 6-PUS), against a method independent of the polynomial system the homotopy tracks: Newton's method on the
 generated kernels' loop closures ``η = 0`` from 10,000 random configurations (passive angles over a turn, the
-platform anywhere in its reach, every orientation). The multistart may find fewer platform poses than the
+platform anywhere in its reach, every orientation; an overconstrained machine's ends kept where the rows its model
+sets aside hold too). The multistart may find fewer platform poses than the
 homotopy, never more; every pose the homotopy gives closes the loops; the inverse kinematics' pose is among
 them. At ``θ = 0`` the six-legged machines are symmetric and some paths go to infinity: there the 6-PUS has 8
 real assembly modes, of which a solve that trusted its first attempt missed one without a word.
@@ -28,6 +29,7 @@ STARTS = 10_000
 MACHINES = {
     "3rps.toml": [0.5, 0.05, -0.03],
     "3upu_wrist.toml": [0.1, -0.05, 0.2],
+    "agile_eye.toml": [0.1, -0.05, 0.2],
     "6rus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
     "6pus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
 }
@@ -78,6 +80,10 @@ def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tupl
         active[idx[~ok]] = False
         idx, step = idx[ok], step[ok]
         q[idx, n:] += step * np.minimum(1.0, 0.5 / np.abs(step).max(axis=1))[:, None]
+    # an overconstrained machine's own configurations: its rows set aside hold too (the Agile Eye's kept rows, its
+    # points', have others, where the platform leaves the centre)
+    converged &= np.array([np.abs(mm.set_aside_residual(model, qk)).max(initial=0.0) < 1e-9 if ok else False
+                           for qk, ok in zip(q, converged, strict=True)])
     poses = q[converged][:, _pose_columns(model)]
     pose_names = model.description.platform.q_pose_names
     roll, pitch, yaw = (pose_names.index(c) for c in ("roll", "pitch", "yaw"))

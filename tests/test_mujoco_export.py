@@ -19,7 +19,9 @@ NAMES = sorted(PRESETS)
 #: The catalogue's machines (examples/mechanisms), checked as the presets are.
 CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / name)
              for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml", "6rus.toml", "6pus.toml",
-                          "3upu_wrist.toml")] + [  # universal joints at a rigid platform: a tendon holds their axes
+                          # universal joints at a rigid platform (a tendon holds their axes), revolute ones (two
+                          # connects on each axis, rows dependent as the machine's are)
+                          "3upu_wrist.toml", "agile_eye.toml")] + [
     str(Path(__file__).resolve().parents[1] / "examples" / "3rrs_tilted.toml")]  # legs of the general method
 
 
@@ -126,11 +128,14 @@ def _hard_solve(m, d, legs: int):
     for i in range(legs):
         (_p1, _v1, a1), (_p2, _v2, a2) = (_site_motion(m, d, s) for s in (f"leg{i + 1}_end", f"platform_a{i + 1}"))
         gamma += list(a1 - a2)
-    for i in range(legs):
-        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, f"hold{i + 1}") < 0:
+    for i in range(legs):  # a platform joint's axis: a revolute joint's second connect, a universal one's tendon
+        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"leg{i + 1}_axis") < 0:
             continue
         (p1, v1, a1), (p2, v2, a2) = (_site_motion(m, d, s) for s in (f"leg{i + 1}_axis", f"platform_axis{i + 1}"))
         r, v, a = p1 - p2, v1 - v2, a1 - a2
+        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TENDON, f"hold{i + 1}") < 0:
+            gamma += list(a)
+            continue
         length = np.linalg.norm(r)
         gamma.append((v @ v + r @ a) / length - (r @ v) ** 2 / length ** 3)
     kkt = np.block([[M, J.T], [J, np.zeros((len(J), len(J)))]])

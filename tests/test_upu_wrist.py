@@ -83,9 +83,8 @@ def test_the_generated_closures_are_the_descriptions_and_their_jacobian_their_de
 
 
 def test_its_run_tracks_the_orientation_with_the_centre_held(wrist):
-    from pkmlab.formats.scenario import load_scenario
 
-    result = pkmlab.simulate(load_scenario(EXAMPLES / "3upu_wrist_motion.toml"))
+    result = pkmlab.simulate(pkmlab.load_scenario(EXAMPLES / "3upu_wrist_motion.toml"))
     # within the time law's discretisation at a 1 ms sample (the 3-PRS's run: a few 1e-5)
     assert 0 < result.orientation_error.max() < 1e-4
     np.testing.assert_allclose(result.q[:, 9:12], np.broadcast_to(CENTRE, (len(result.q), 3)), atol=1e-10)

@@ -21,8 +21,13 @@ from ..model.mechanism_model import (
     constraint_jacobian,
     constraint_residual,
     inverse_kinematics_batch,
+    set_aside_residual,
     singularity_measure,
 )
+
+#: Largest row an overconstrained machine sets aside (rad or m) at an assembly mode of its own: the others of its
+#: kept rows miss them by far more.
+SET_ASIDE_TOL = 1e-9
 
 
 def newton_passive(model: MechanismModel, q: np.ndarray, tol: float, iterations: int = 30) -> bool:
@@ -209,7 +214,9 @@ def general_spatial_assembly_modes(model: MechanismModel, theta) -> list[tuple[n
     if found.doubt:
         warnings.warn(f"forward kinematics at actuators {np.round(theta, 6).tolist()}: {found.doubt}: an assembly "
                       "mode there may be missing", IncompleteSolutionWarning, stacklevel=3)
-    return _polished(model, found.configurations)
+    # an overconstrained machine's rows set aside hold at its own assembly modes, not at the others of its kept rows
+    return [(q, s) for q, s in _polished(model, found.configurations)
+            if np.abs(set_aside_residual(model, q)).max(initial=0.0) < SET_ASIDE_TOL]
 
 
 def _stewart_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tuple[np.ndarray, float]]:

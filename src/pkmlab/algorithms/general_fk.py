@@ -12,11 +12,12 @@ point ``p_i = x + R a_i``; its last passive joint is eliminated in closed form:
 * a prismatic joint: not eliminated (its slide is an unknown, the leg's three equations kept).
 
 A leg that ends in a universal joint under a rigid platform adds its orientation row ``(R_leg a₁)·(R a₂) = 0``
-(:mod:`pkmlab.description.mobility`). A universal joint eliminated in such a leg keeps its first angle as an
-unknown and eliminates its second as a hinge (the circle above); the hinge's turn ``H`` of any vector ``e`` of
-the frame after it follows from where it takes ``w``, ``v = H w``: with ``⊥`` the parts across its axis ``a``,
-``|w⊥|² H e = |w⊥|² (e·a) a + (e⊥·w⊥) v⊥ + (e⊥·(a × w⊥)) a × v⊥`` — polynomial, so the row is too (a whole
-universal joint, whose two angles ``v`` determines only up to a square root, would not give one).
+(:mod:`pkmlab.description.mobility`; the rows an overconstrained machine sets aside are not in the system: its
+solutions where they do not vanish, the assembly modes of the machine its kept rows describe but not of this
+one, are dropped after polishing). Where the leg's last passive joint is a universal one eliminated as a sphere,
+the row is polynomial when the joint's second axis is the platform joint's first and stays across the leg (each
+leg's inner axes parallel, as in every 3-UPU): ``R_leg a₁`` is then along ``(R u₁) × (p_i − c)``. Other legs with
+such a row are refused (a universal joint's two angles follow from ``p_i − c`` only up to a square root).
 
 Every other passive angle ``φ`` is the pair ``(cos φ, sin φ)`` with ``c² + s² = 1``; the orientation is the
 Cayley map ``R = R₀ ((1 − |g|²) I + 2 g gᵀ + 2 [g]×) / (1 + |g|²)`` of three unknowns ``g`` about a fixed
@@ -55,8 +56,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..description.general_legs import _rotation, joint_unknowns, symbolic_chain
-from ..description.spatial import SpatialJoint
+from ..description.general_legs import joint_unknowns, symbolic_chain
+from ..description.mobility import orientation_rows
 from ..errors import AssemblyError, InvalidParameterError
 from ..numerics import homotopy
 from .stewart_fk import rotation_of_quaternion
@@ -123,6 +124,7 @@ def build_system(description):
         R0 = sp.eye(3)
         D, R_num = sp.Integer(1), sp.eye(3)
     legs_layout = []
+    kept = orientation_rows(m)
     for i, leg in enumerate(m.legs):
         last, free = _leg_plan(leg)
         actuated = leg.joints[leg.actuated]
@@ -145,7 +147,7 @@ def build_system(description):
 
         p_num = X * D + R_num * sp.Matrix(m.platform.attachments[i])  # D·(x + R a_i)
         n_joints = len(leg.joints) - 1
-        held = rigid and leg.joints[-1].kind == "U"  # an orientation row (module docstring)
+        held = i in kept  # an orientation row the model keeps (module docstring)
         a1, a2 = (sp.Matrix(a) for a in leg.joints[-1].axes) if held else (None, None)
         if last is None:
             end, rot = symbolic_chain(leg, values, range(n_joints), leg.base)
@@ -159,29 +161,23 @@ def build_system(description):
         # w: from the eliminated joint to the spherical joint, in the frame after the eliminated joint's turns
         w, after = symbolic_chain(leg, values, range(last + 1, n_joints), leg.bodies[last].tip)
         d = p_num - centre * D
-        if joint.kind == "U" and (not held or _inner_axes_parallel(joint, after * a1, w)):
+        if held and not (joint.kind == "U" and _inner_axes_parallel(joint, after * a1, w)):
+            raise InvalidParameterError(
+                f"{m.name}: leg {i + 1} ({leg.notation}): its universal joint at the platform and its last passive "
+                f"joint ({joint.kind}, joint {last + 1}) do not give its orientation row as a polynomial (pkmlab's "
+                "forward kinematics takes such a leg where that joint is universal, its second axis the platform "
+                "joint's first, as in every 3-UPU)")
+        if joint.kind == "U":
             equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
             if held:  # R_leg a1 is the joint's second axis turned, across both its first and d: ∝ (R u1) × d
                 equations.append((((rot * sp.Matrix(joint.axes[0])).cross(d)).T * (R_num * a2))[0])
             legs_layout.append(("sphere", last, unknown_joints))
-            continue
-        axis = sp.Matrix(joint.axes[-1])
-        if joint.kind == "U":  # its first angle an unknown, its second the eliminated hinge
-            first, more, circles = joint_unknowns(SpatialJoint("R", False, joint.axes[:1]), f"{i + 1}_{last + 1}")
-            unknowns += more
-            equations += circles
-            rot = rot * _rotation(sp, joint.axes[0], *first[0])
-        normal = rot * axis
-        equations.append((d.T * normal)[0] - (w.T * axis)[0] * D)
-        equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
-        legs_layout.append(("circle", last, unknown_joints))
-        if held:
-            e = after * a1
-            e_across, w_across = e - e.dot(axis) * axis, w - w.dot(axis) * axis
-            v = rot.T * d - D * w.dot(axis) * axis  # D v⊥, in the hinge's frame
-            turned = (D * e.dot(axis) * w_across.dot(w_across) * axis + e_across.dot(w_across) * v
-                      + e_across.dot(axis.cross(w_across)) * axis.cross(v))
-            equations.append(((rot * turned).T * (R_num * a2))[0])
+        else:
+            axis = sp.Matrix(joint.axes[0])
+            normal = rot * axis
+            equations.append((d.T * normal)[0] - (w.T * axis)[0] * D)
+            equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
+            legs_layout.append(("circle", last, unknown_joints))
     if len(equations) != len(unknowns):
         raise InvalidParameterError(f"{m.name}: its forward-kinematics system has {len(equations)} equations in "
                                     f"{len(unknowns)} unknowns (a leg pkmlab cannot reduce)")
@@ -291,7 +287,7 @@ def _cayley(R0: np.ndarray, g: np.ndarray) -> np.ndarray:
 def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], layout: dict) -> np.ndarray | None:
     """The configuration ``q`` of a real solution ``z`` (module docstring), before polishing; None when an
     eliminated universal joint cannot turn its body that way (its own singularity)."""
-    from ..description.spatial import axis_rotation, leg_frames, orientation_angles
+    from ..description.spatial import leg_frames, orientation_angles
     from ..description.spatial_legs import turn_onto, universal_angles
 
     m = model.description
@@ -303,7 +299,7 @@ def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], la
     else:
         R, whole = np.eye(3), X
     actuators, passive = [], []
-    for i, (leg, (kind, last, _free)) in enumerate(zip(m.legs, layout["legs"], strict=True)):
+    for i, (leg, (_kind, last, _free)) in enumerate(zip(m.legs, layout["legs"], strict=True)):
         joint_values: dict[int, list[float]] = {leg.actuated: [float(theta[i])]}
         for k, joint in enumerate(leg.joints[:-1]):
             if joint.actuated or k == last:
@@ -323,15 +319,11 @@ def _configuration(model, theta: np.ndarray, z: np.ndarray, names: list[str], la
             target = X + R @ np.array(m.platform.attachments[i])
             local = rot.T @ (target - centre)
             joint = leg.joints[last]
-            if kind == "sphere":
+            if joint.kind == "U":
                 q1, q2, bad = universal_angles(joint.axes, w, local[None, :])
                 if bad[0]:
                     return None
                 joint_values[last] = [float(q1[0]), float(q2[0])]
-            elif joint.kind == "U":  # its first angle solved for, its second the eliminated hinge's
-                first = float(np.arctan2(value[f"s{i + 1}_{last + 1}a"], value[f"c{i + 1}_{last + 1}a"]))
-                local = axis_rotation(joint.axes[0], -first) @ local
-                joint_values[last] = [first, float(turn_onto(np.array(joint.axes[1]), w, local[None, :])[0])]
             else:
                 joint_values[last] = [float(turn_onto(np.array(joint.axes[0]), w, local[None, :])[0])]
         for k, joint in enumerate(leg.joints[:-1]):

@@ -16,10 +16,11 @@ velocity-equation model of the instantaneous kinematics", ICRA 1994):
 * **constraint**: the whole ``∂η/∂q`` — singular where the loop closures themselves degenerate, the legs'
   constraint wrenches become dependent and the machine gains a motion that neither its actuators nor its
   controlled coordinates see (a 3-UPU whose legs are parallel can tilt; a 3-PRS can turn about the line
-  its legs' constraint forces meet). The closures of legs that end in a universal joint include their
-  orientation closures, with the platform's orientation free
+  its legs' constraint forces meet). Under a translating platform the closures of legs that end in a
+  universal joint include their orientation closures, with the platform's orientation free
   (:func:`~pkmlab.description.mobility.orientation_free_closures`): the translating platform's model holds
-  it level, the real machine only while its joints' constraint couples span the rotations.
+  it level, the real machine only while its joints' constraint couples span the rotations (a rigid
+  platform's model has its universal joints' orientation rows already).
 
 Each is made dimensionless as ``S`` is: the columns of angles (lever arms, in metres) divided by the
 platform's size ``ℓ`` (the mean distance between its attachment points), every row scaled to unit length.
@@ -159,7 +160,10 @@ def singularity_kinds(model: MechanismModel, q) -> Singularities:
     m = model.description
     size = platform_size(model)
     n_keep = len(model.coordinates) - model.dof  # θ, φ and the parasitic coordinates
-    ends_in_u = getattr(m, "spatial", False) and any(leg.joints[-1].kind == "U" for leg in m.legs)
+    # under a translating platform a universal joint's orientation closures are not the model's rows (a rigid
+    # platform's are)
+    ends_in_u = getattr(m, "spatial", False) and m.platform.kind == "translating" and any(
+        leg.joints[-1].kind == "U" for leg in m.legs)
     inverse, constraint = np.empty(len(qs)), np.empty(len(qs))
     for k, qk in enumerate(qs):
         jac = _scaled_jacobian(model, qk, size)

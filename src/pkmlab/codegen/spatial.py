@@ -13,7 +13,9 @@ It derives, with SymPy:
   under a translating platform closes the loop at its centre too, its angles following from the
   leg's, :mod:`pkmlab.description.spatial`), then, after every leg's, one row per leg ending in a
   universal joint under a rigid platform: its two axes perpendicular (:mod:`pkmlab.description.mobility`;
-  rows ``LEG_ETA``); their Jacobian and the bias ``J̇ηq q̇`` (paper eqs. 14–17, 32);
+  rows ``LEG_ETA``; the orientation rows an overconstrained machine sets aside are not generated: a spherical
+  wrist's legs ending in revolute joints close at their points alone); their Jacobian and the bias ``J̇ηq q̇``
+  (paper eqs. 14–17, 32);
 * for every body (the legs' bodies, then the platform) the velocity of its mass centre (3 rows) and
   its angular velocity in its own frame ``ω`` (3 rows), both linear in ``q̇``: their Jacobian
   ``J_b = ∂(v, ω)/∂q̇`` and bias ``J̇_b q̇`` — with the 3×3 inertia tensors, everything the compiled
@@ -42,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..description.mobility import orientation_rows
+from ..description.mobility import all_orientation_rows, orientation_rows
 from ..description.spatial import SpatialMechanism
 from .planar import GENERATED_DIR, Block, jacobian_and_bias, module_header, regenerate, write_module
 
@@ -53,8 +55,13 @@ def structure(mechanism: SpatialMechanism) -> str:
     """``"RaUS_RaUS_RaUS_translating"`` for the Delta (``a`` marks the actuated joint); a platform of lower
     mobility adds its controlled coordinates (``"PaRS_PaRS_PaRS_rigid_z_roll_pitch"``)."""
     name = "_".join(leg.notation.replace("*", "a") for leg in mechanism.legs) + "_" + mechanism.platform.kind
-    return name + "".join(f"_{c}" for c in mechanism.platform.pose_names) if mechanism.platform.parasitic_names \
+    name = name + "".join(f"_{c}" for c in mechanism.platform.pose_names) if mechanism.platform.parasitic_names \
         else name
+    ends = sorted({i for i, _k in all_orientation_rows(mechanism)})
+    kept = orientation_rows(mechanism)
+    if len(kept) < len(ends):  # some legs' orientation rows set aside: say whose are kept (1) or not (0)
+        name += "_rows_" + "".join("1" if i in kept else "0" for i in ends)
+    return name
 
 
 def measures_lines(mechanism: SpatialMechanism) -> bool:
@@ -235,7 +242,7 @@ def derive_leg(mechanism: SpatialMechanism, leg) -> dict:
     joints.append(target)
     lines = [*(target - point_p), *(target - rotary)] if measures_lines(mechanism) else []
     eta = list(point - target)
-    if mechanism.platform.kind == "rigid" and leg.joints[-1].kind == "U":
+    if leg.notation in {mechanism.legs[i].notation for i in orientation_rows(mechanism)}:  # a U's (R's are refused)
         k = len(leg.joints)
         eta.append(((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"axis_{k}b")))[0])
     return {"q": (*own, *pose), "q_dot": (*own_dot, *pose_dot), "P": P, "eta": eta,

@@ -4,10 +4,11 @@ configurations, not a joint count.
 A machine's configurations are its legs' joint coordinates and its platform's whole pose, ``x`` (every
 coordinate, actuated or not, the pose as :attr:`~pkmlab.description.spatial.SpatialPlatform.full_pose_names`),
 bound by the loop closures ``η(x) = 0``: each leg's platform joint at its platform attachment point (3
-equations per leg, its *point rows*), then, for each leg that ends in a universal joint under a rigid platform,
-that joint's two axes perpendicular, ``(R_leg a₁)·(R a₂) = 0`` (its first axis turning with the leg's last body,
-its second with the platform: one *orientation row*; the joint can then turn the body onto the platform). Near
-a generic configuration these define a manifold of dimension
+equations per leg, its *point rows*), then the *orientation rows* of the legs that end in a universal or a
+revolute joint under a rigid platform: a universal joint's two axes perpendicular, ``(R_leg a₁)·(R a₂) = 0`` (its
+first axis turning with the leg's last body, its second with the platform: one row; the joint can then turn the
+body onto the platform), a revolute joint's axis the same in both, ``(R_leg a)·(R b₁) = (R_leg a)·(R b₂) = 0``
+(``b₁``, ``b₂`` across ``a``: two rows). Near a generic configuration these define a manifold of dimension
 
     mobility = dim x - rank ∂η/∂x,
 
@@ -17,8 +18,16 @@ taken at a few configurations found by projecting random starts onto ``η = 0`` 
 minimum-norm steps), the largest of them (a rank can only drop at special configurations), with the
 columns of angles scaled by the machine's size so that metres and radians weigh alike.
 
+**Overconstrained machines.** Where the rows are dependent at every configuration (a spherical 3-RRR, the
+Agile Eye, whose orientation rows all follow from its point rows), the model keeps an independent set: every
+point row, and the orientation rows of the legs of the types (notations) that add to the rank
+(:func:`orientation_rows`), chosen at a generic configuration. Near it the kept rows define the same manifold
+(the same dimension, and it lies in theirs); the rows set aside are checked to vanish at generic configurations
+of the kept ones (:func:`check_kept_rows`), and a machine whose rows no choice of leg types makes independent is
+refused.
+
 A description is accepted when its mobility is the number of its actuators and of its controlled pose
-coordinates, its constraints are independent, its actuators determine its configuration (locked, they
+coordinates, its constraints are independent (or kept so), its actuators determine its configuration (locked, they
 leave no motion), and its controlled coordinates do too (no motion leaves them unchanged). Each refusal
 is one line giving the computed numbers and each leg's share: the number of the platform's freedoms a
 leg removes (its rows less the rank of their Jacobian in the leg's own coordinates: ``3 -`` the rank of its end
@@ -28,6 +37,7 @@ point's Jacobian, for a leg ending in a spherical joint).
 from __future__ import annotations
 
 import functools
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,7 +58,8 @@ class Mobility:
 
     ``mobility`` is ``coordinates - rank``; ``leg_constraints`` the number of the platform's freedoms each leg
     removes; ``configuration`` one generic configuration found (legs' joint coordinates leg by leg, then the
-    whole pose)."""
+    whole pose); ``kept`` the rows of ``η`` the model keeps (every one where they are independent; None where no
+    choice of leg types makes them so, module docstring)."""
 
     mobility: int
     rank: int
@@ -58,6 +69,7 @@ class Mobility:
     configuration: np.ndarray
     actuated_rank: int
     controlled_rank: int
+    kept: tuple[int, ...] | None = None
 
     @property
     def summary(self) -> str:
@@ -122,19 +134,49 @@ def _leg_twist(leg, coordinates) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     return point, rot, linear, angular
 
 
-def orientation_rows(mechanism) -> tuple[int, ...]:
-    """The legs that close the loop by an orientation row (module docstring): those ending in a universal joint
-    under a rigid platform, in order; their rows follow every leg's point rows."""
+#: Orientation rows of each platform joint under a rigid platform (module docstring).
+PLATFORM_JOINT_ROWS = {"S": 0, "U": 1, "R": 2}
+
+
+def all_orientation_rows(mechanism) -> tuple[tuple[int, int], ...]:
+    """Every orientation row of ``mechanism`` (module docstring) as ``(leg, k)``, leg by leg: they follow every
+    leg's point rows in ``η``."""
     if mechanism.platform.kind != "rigid":
         return ()
-    return tuple(i for i, leg in enumerate(mechanism.legs) if leg.joints[-1].kind == "U")
+    return tuple((i, k) for i, leg in enumerate(mechanism.legs)
+                 for k in range(PLATFORM_JOINT_ROWS[leg.joints[-1].kind]))
+
+
+def kept_rows(mechanism) -> tuple[int, ...]:
+    """The rows of ``η`` the model of ``mechanism`` keeps (module docstring; every row of a machine whose rows are
+    independent), in order."""
+    return _computed(mechanism, 0).kept or ()
+
+
+def orientation_rows(mechanism) -> tuple[int, ...]:
+    """The legs whose orientation rows the model keeps (module docstring), in order: every leg ending in a
+    universal joint under a rigid platform unless its rows depend on the others."""
+    if not all_orientation_rows(mechanism):
+        return ()
+    n_point = 3 * len(mechanism.legs)
+    rows = all_orientation_rows(mechanism)
+    return tuple(sorted({rows[r - n_point][0] for r in kept_rows(mechanism) if r >= n_point}))
 
 
 def leg_rows(mechanism, leg: int) -> list[int]:
-    """The rows of ``η`` of leg ``leg`` (0-based): its point rows, then its orientation row if it has one."""
-    ends = orientation_rows(mechanism)
-    extra = [3 * len(mechanism.legs) + ends.index(leg)] if leg in ends else []
+    """The rows of ``η`` of leg ``leg`` (0-based): its point rows, then its orientation rows."""
+    n_point = 3 * len(mechanism.legs)
+    extra = [n_point + r for r, (i, _k) in enumerate(all_orientation_rows(mechanism)) if i == leg]
     return [3 * leg, 3 * leg + 1, 3 * leg + 2, *extra]
+
+
+def across(axis) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors across the unit ``axis`` and across each other: a revolute platform joint's rows'
+    ``b₁``, ``b₂`` (the first across the world axis least along ``axis``)."""
+    a = np.asarray(axis, dtype=float)
+    b1 = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
+    b1 /= np.linalg.norm(b1)
+    return b1, np.cross(a, b1)
 
 
 def residual(mechanism, x: np.ndarray) -> np.ndarray:
@@ -154,8 +196,8 @@ def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.nda
     counts, starts, n_pose = _layout(mechanism)
     pose = x[starts[-1]:]
     n = len(mechanism.legs)
-    ends = orientation_rows(mechanism)
-    eta, jac = np.zeros(3 * n + len(ends)), np.zeros((3 * n + len(ends), len(x)))
+    orient = all_orientation_rows(mechanism)
+    eta, jac = np.zeros(3 * n + len(orient)), np.zeros((3 * n + len(orient), len(x)))
     rigid = n_pose == 6
     rot = orientation(*pose[3:6]) if rigid else np.eye(3)
     turns = []
@@ -174,14 +216,18 @@ def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.nda
         jac[rows, starts[-1]:starts[-1] + 3] = -np.eye(3)
         for k, d_rot in enumerate(turns):
             jac[rows, starts[-1] + 3 + k] = -d_rot @ a
-        if i in ends:  # (R_leg a1)·(R a2): the leg's turns move the first axis, the platform's the second
-            r = 3 * n + ends.index(i)
-            a1, a2 = (np.array(v) for v in leg.joints[-1].axes)
-            u1, u2 = leg_rot @ a1, rot @ a2
+        # (R_leg a)·(R b) = 0: the leg's turns move a, the platform's b
+        rows_i = [3 * n + r for r, (j, _k) in enumerate(orient) if j == i]
+        if not rows_i:
+            continue
+        joint = leg.joints[-1]
+        pairs = [joint.axes] if joint.kind == "U" else [(joint.axes[0], b) for b in across(joint.axes[0])]
+        for r, (a, b) in zip(rows_i, pairs, strict=True):
+            u1, u2 = leg_rot @ np.array(a), rot @ np.array(b)
             eta[r] = u1 @ u2
             jac[r, starts[i]:starts[i + 1]] = np.cross(j_turn.T, u1) @ u2
             for k, d_rot in enumerate(turns):
-                jac[r, starts[-1] + 3 + k] = u1 @ (d_rot @ a2)
+                jac[r, starts[-1] + 3 + k] = u1 @ (d_rot @ np.array(b))
     return eta, jac
 
 
@@ -217,19 +263,19 @@ def _start(mechanism, rng: np.random.Generator, size: float) -> np.ndarray:
     return np.concatenate([x, pose])
 
 
-def project(mechanism, x: np.ndarray, size: float) -> np.ndarray | None:
-    """``x`` moved onto ``η = 0`` by Gauss–Newton's minimum-norm steps (halved while they do not reduce the
-    residual); None when it does not get there."""
+def project(mechanism, x: np.ndarray, size: float, rows=slice(None)) -> np.ndarray | None:
+    """``x`` moved onto ``η = 0`` (its ``rows``) by Gauss–Newton's minimum-norm steps (halved while they do not
+    reduce the residual); None when it does not get there."""
     scale = np.where(_angle_columns(mechanism), size, 1.0)  # columns in metres per unit of the coordinate
-    value = np.linalg.norm(residual(mechanism, x))
+    value = np.linalg.norm(residual(mechanism, x)[rows])
     for _ in range(ITERATIONS):
         if value < 1e-11 * size:
             return x
-        j = jacobian(mechanism, x) / scale
-        step = np.linalg.lstsq(j, -residual(mechanism, x), rcond=None)[0] / scale
+        j = jacobian(mechanism, x)[rows] / scale
+        step = np.linalg.lstsq(j, -residual(mechanism, x)[rows], rcond=None)[0] / scale
         for _ in range(12):
             trial = x + step
-            trial_value = np.linalg.norm(residual(mechanism, trial))
+            trial_value = np.linalg.norm(residual(mechanism, trial)[rows])
             if trial_value < value:
                 break
             step = step / 2
@@ -237,6 +283,53 @@ def project(mechanism, x: np.ndarray, size: float) -> np.ndarray | None:
             return None
         x, value = trial, trial_value
     return x if value < 1e-11 * size else None
+
+
+def _kept_rows(m, j: np.ndarray, rank: int) -> tuple[int, ...] | None:
+    """The rows of ``η`` the model keeps (module docstring) from the scaled Jacobian ``j`` at a generic
+    configuration of rank ``rank``: every point row, and the orientation rows of as many leg types as can be kept
+    independent; None where no choice makes the kept rows independent and of that rank."""
+    n_point = 3 * len(m.legs)
+    orient = all_orientation_rows(m)
+    notations = list(dict.fromkeys(m.legs[i].notation for i, _k in orient))
+    for size in range(len(notations), -1, -1):
+        for chosen in itertools.combinations(notations, size):
+            rows = [*range(n_point), *(n_point + r for r, (i, _k) in enumerate(orient) if m.legs[i].notation in chosen)]
+            if len(rows) == rank and _rank(j[rows]) == rank:
+                return tuple(rows)
+    return None
+
+
+def check_kept_rows(mechanism, result: Mobility, seed: int = 0) -> None:
+    """The rows the model sets aside (module docstring) vanish at generic configurations of the kept ones (the
+    configurations near ``result``'s that Gauss–Newton reaches on the kept rows alone): else the kept rows
+    describe another machine, refused naming a leg whose rows fail."""
+    m = mechanism
+    rows = list(result.kept)
+    aside = [r for r in range(result.constraints) if r not in rows]
+    if not aside:
+        return
+    rng = np.random.default_rng(seed + 2)
+    size = _size(m)
+    angles = _angle_columns(m)
+    orient = all_orientation_rows(m)
+    n_point = 3 * len(m.legs)
+    checked = [result.configuration]
+    for _ in range(STARTS):
+        if len(checked) > SAMPLES:
+            break
+        nudge = rng.normal(0.0, 0.05, result.configuration.shape) * np.where(angles, 1.0, size)
+        x = project(m, result.configuration + nudge, size, rows)
+        if x is not None:
+            checked.append(x)
+    for x in checked:
+        miss = np.abs(residual(m, x)[aside])
+        if miss.max() > 1e-9:
+            leg = orient[aside[int(np.argmax(miss))] - n_point][0]
+            raise InvalidParameterError(
+                f"{m.name}: leg {leg + 1} ({m.legs[leg].notation}): its platform joint's orientation rows, dependent "
+                "on the other loop closures at a generic configuration, do not hold where the others do (missed by "
+                f"{miss.max():.3g} rad): the machine's closures have no independent set pkmlab can keep")
 
 
 def _rank(matrix: np.ndarray) -> int:
@@ -263,6 +356,7 @@ def mobility(mechanism, *, check: bool = True, seed: int = 0) -> Mobility:
     result = _computed(mechanism, seed)
     if check:
         _check(mechanism, result)
+        check_kept_rows(mechanism, result, seed)
         if mechanism.platform.kind == "translating" and any(leg.joints[-1].kind == "U" for leg in mechanism.legs):
             check_platform_joints(mechanism, result, seed)
     return result
@@ -310,8 +404,9 @@ def _computed(m, seed: int) -> Mobility:
     best = int(np.argmax([sum(r[:3]) for r in samples]))
     x = found[best]
     x.setflags(write=False)  # shared by every caller of the cached result
+    kept = _kept_rows(m, jacobian(m, x) * scale, rank)
     return Mobility(n_coordinates - rank, rank, n_coordinates, sum(map(len, rows)), shares, x, actuated_rank,
-                    controlled_rank)
+                    controlled_rank, kept)
 
 
 def check_parallelograms(mechanism) -> None:
@@ -435,11 +530,17 @@ def _check(m, r: Mobility) -> None:
         raise InvalidParameterError(
             f"{m.name}: its computed mobility is {r.mobility}, not the {dof} of its controlled pose "
             f"({', '.join(names)}) and actuators — {kind} freedoms than it controls ({r.summary})")
-    if r.rank < r.constraints:
+    if r.kept is None:
         raise InvalidParameterError(
-            f"{m.name}: its {r.constraints} loop-closure equations are dependent (rank {r.rank}): an overconstrained "
-            "machine, whose constraint forces its motion does not determine; pkmlab models machines with independent "
-            "loop closures")
+            f"{m.name}: its {r.constraints} loop-closure equations are dependent (rank {r.rank}) and no choice of "
+            "its legs' orientation rows leaves an independent set with every point row: an overconstrained machine "
+            "pkmlab does not model yet")
+    for i in orientation_rows(m):
+        if m.legs[i].joints[-1].kind == "R":
+            raise InvalidParameterError(
+                f"{m.name}: leg {i + 1} ({m.legs[i].notation}) ends in a revolute joint whose orientation rows are "
+                "independent of the other loop closures: pkmlab models such a leg where they are not (a spherical "
+                "wrist's, whose legs' axes meet at its centre)")
     if r.actuated_rank < r.rank:
         raise InvalidParameterError(
             f"{m.name}: with its actuators locked it can still move ({r.rank - r.actuated_rank} freedom(s)): an "

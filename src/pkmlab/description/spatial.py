@@ -27,7 +27,9 @@ Conventions (pkmlab's, for every spatial mechanism):
   in the leg's last body, its second in the platform. A platform joint's angles are not coordinates: they
   follow from the leg's last body and the platform's orientation (:func:`platform_joint_angles`), and the
   leg's joint coordinates are those of the joints before it. Under a rigid platform a ``U`` closes the loop
-  by one equation more than an ``S``: its two axes stay perpendicular (:mod:`pkmlab.description.mobility`).
+  by one equation more than an ``S``: its two axes stay perpendicular (:mod:`pkmlab.description.mobility`);
+  and a leg may end in a passive ``R``, its axis fixed in both the leg's last body and the platform (two
+  equations more: a spherical wrist's, whose axes all meet at its centre).
 
   One joint of each leg, ``R*`` or ``P*``, anywhere in the chain, is actuated.
 * The platform is ``translating`` (pose ``(x, y, z)``: its orientation is held fixed by its legs —
@@ -66,7 +68,7 @@ from .mechanism import JointChain, LegsAndPose, platform_and_legs
 
 SPATIAL_JOINTS = ("R", "P", "U", "S")
 #: The joints that may carry the platform, a leg's last (module docstring).
-PLATFORM_JOINTS = ("S", "U")
+PLATFORM_JOINTS = ("S", "U", "R")
 SPATIAL_PLATFORMS = ("translating", "rigid")
 #: The pose's coordinates of each platform kind.
 POSE_NAMES = {"translating": ("x", "y", "z"), "rigid": ("x", "y", "z", "roll", "pitch", "yaw")}
@@ -233,6 +235,10 @@ class SpatialMechanism(LegsAndPose):
             raise InvalidParameterError(f"a {platform.kind} platform (pose {', '.join(platform.pose_names)}) needs "
                                         f"{dof} actuated legs, got {len(legs)}")
         set_(self, "legs", tuple(self._checked_leg(i + 1, leg) for i, leg in enumerate(legs)))
+        for i, leg in enumerate(self.legs):
+            if leg.joints[-1].kind == "R" and platform.kind != "rigid":
+                raise InvalidParameterError(f"leg {i + 1} ({leg.notation}) ends in a revolute joint, which carries a "
+                                            "rigid platform only (a translating platform's legs end in S or U)")
         set_(self, "platform", self._checked_platform(platform))
 
     def _checked_leg(self, number: int, leg: SpatialLeg) -> SpatialLeg:
@@ -246,7 +252,8 @@ class SpatialMechanism(LegsAndPose):
                 raise InvalidParameterError(f"{where}, joint {k + 1}: unknown joint type {kind!r} (use R, P, U or S)")
         if not joints or joints[-1].kind not in PLATFORM_JOINTS or joints[-1].actuated:
             raise InvalidParameterError(f"{where}: its last joint carries the platform and must be a passive "
-                                        "spherical joint (S) or a passive universal joint (U)")
+                                        "spherical joint (S), universal joint (U) or, under a rigid platform, "
+                                        "revolute joint (R)")
         if any(j.kind == "S" for j in joints[:-1]):
             raise InvalidParameterError(f"{where}: a spherical joint (S) may only be the last joint")
         actuated = [k for k, j in enumerate(joints) if j.actuated]

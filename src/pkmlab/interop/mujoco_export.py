@@ -16,7 +16,9 @@ loops. pkmlab writes every mechanism the same way:
   planar revolute that carries a platform is one too, its angle being free. A universal joint that carries a
   rigid platform is that point constraint and its two axes kept perpendicular: a spatial tendon between a site
   :data:`AXIS_SITE` along its first axis (on the leg's last body) and one as far along its second (on the
-  platform), its length held at ``√2`` times that distance by an ``<equality><tendon>``. MuJoCo's constraints are
+  platform), its length held at ``√2`` times that distance by an ``<equality><tendon>``; a revolute joint is two
+  point constraints on its axis, the second ``connect`` :data:`AXIS_SITE` along it (rows that, like the
+  machine's own, depend on the others: MuJoCo's solver takes them as they are). MuJoCo's constraints are
   soft; by default they get the stiffest setting it accepts (``closures="stiff"``), with which MuJoCo's
   machine behaves like the rigid one, or MuJoCo's own defaults (``closures="soft"``), with which the loops
   open by up to a few millimetres — the file says which, in a comment before them;
@@ -204,7 +206,7 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
         last = leg.bodies[-1]
         tip = (*last.tip, 0.0) if not _spatial(m) else last.tip
         body_lines.append(f'{"  " * depth}<site name="leg{i + 1}_end" pos="{_numbers(tip)}"/>')
-        if i in held:
+        if i in held:  # a point on its first axis (a revolute joint's only one)
             axis = np.array(tip) + AXIS_SITE * np.array(leg.joints[-1].axes[0])
             body_lines.append(f'{"  " * depth}<site name="leg{i + 1}_axis" pos="{_numbers(axis)}"/>')
         for _ in range(opened):
@@ -231,8 +233,13 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
     for i, a in enumerate(attachments):
         body_lines.append(f'      <site name="platform_a{i + 1}" pos="{_numbers(a)}"/>')
     for i in held:
-        axis = np.array(attachments[i]) + AXIS_SITE * np.array(m.legs[i].joints[-1].axes[1])
+        joint = m.legs[i].joints[-1]
+        axis = np.array(attachments[i]) + AXIS_SITE * np.array(joint.axes[-1])
         body_lines.append(f'      <site name="platform_axis{i + 1}" pos="{_numbers(axis)}"/>')
+        if joint.kind == "R":
+            equalities.append(f'    <connect name="axis{i + 1}" site1="leg{i + 1}_axis" site2="platform_axis{i + 1}" '
+                              f'solref="{_numbers(solref)}" solimp="{_numbers(solimp)}"/>')
+            continue
         tendons += [f'    <spatial name="hold{i + 1}">', f'      <site site="leg{i + 1}_axis"/>',
                     f'      <site site="platform_axis{i + 1}"/>', "    </spatial>"]
         # MuJoCo holds a tendon at its length in qpos0 (every joint 0, the platform at the origin) plus polycoef[0]
@@ -266,12 +273,13 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
 
 
 def _held(m) -> tuple[int, ...]:
-    """The legs whose universal joint carries a rigid platform (module docstring)."""
+    """The legs whose universal or revolute joint carries a rigid platform (module docstring): every one, whether
+    the model keeps its orientation rows or sets them aside."""
     if not _spatial(m):
         return ()
-    from ..description.mobility import orientation_rows
+    from ..description.mobility import all_orientation_rows
 
-    return orientation_rows(m)
+    return tuple(sorted({i for i, _k in all_orientation_rows(m)}))
 
 
 def _axis_length0(m, leg: int) -> float:

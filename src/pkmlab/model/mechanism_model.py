@@ -371,6 +371,25 @@ def platform_joint_angles(model: MechanismModel, q) -> np.ndarray:
     return out.reshape(*q.shape[:-1], len(names))
 
 
+def set_aside_residual(model: MechanismModel, q) -> np.ndarray:
+    """The loop-closure rows an overconstrained machine's model sets aside (:mod:`pkmlab.description.mobility`) at
+    configuration ``q`` (n_coordinates,): zero on the machine's own configurations, not on the others of its kept
+    rows (a spherical wrist's platform moved off its centre); empty where none are set aside."""
+    m = model.description
+    if not getattr(m, "spatial", False) or m.platform.kind != "rigid":
+        return np.zeros(0)
+    from ..description import mobility
+    from ..description.spatial import full_poses
+
+    kept = mobility.kept_rows(m)
+    aside = [r for r in range(3 * len(m.legs) + len(mobility.all_orientation_rows(m))) if r not in kept]
+    if not aside:
+        return np.zeros(0)
+    q = np.asarray(q, dtype=float)
+    x = np.concatenate([*map(np.array, leg_joint_values(model, q)), full_poses(m, q[len(q) - 6:])])
+    return mobility.residual(m, x)[aside]
+
+
 def _evaluate(model: MechanismModel, fn, shape, q, *args) -> np.ndarray:
     """``fn``'s output (``shape``) at configuration ``q``; ``args`` between the trig table and ``P``."""
     out = np.empty(shape)
