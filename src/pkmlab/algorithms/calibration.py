@@ -174,9 +174,22 @@ def geometric_parameters(model) -> tuple[str, ...]:
     ('base1_x', 'base1_y', 'body1_1_tip_x', 'body1_1_tip_y')
     """
     model = as_model(model)
+    _check_calibratable(model)
     names = [n for n in model.kernels.PARAMETERS if _GEOMETRY.match(n)]
     turns = [n for turn in _axis_turns(model) for n in turn.names]
     return (*names, *turns, *(f"offset{j + 1}" for j in range(model.n_actuators)))
+
+
+def _check_calibratable(model: MechanismModel) -> None:
+    """Refuse, in one line, a machine whose legs end in universal or revolute joints under a rigid platform (a
+    3-UPU wrist, the Agile Eye): its motion rests on axes that meet at one centre, which the parameters turned and
+    moved one at a time would not keep (the machine so perturbed has another mobility)."""
+    from ..description.mobility import all_orientation_rows
+
+    m = model.description
+    if getattr(m, "spatial", False) and all_orientation_rows(m):
+        raise InvalidParameterError(f"{m.name}: its platform is carried by universal or revolute joints whose axes its "
+                                    "motion needs as they are; pkmlab does not calibrate such a machine")
 
 
 def _is_angle(name: str) -> bool:

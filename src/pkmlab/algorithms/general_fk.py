@@ -184,12 +184,18 @@ def build_system(description):
     return equations, unknowns, params, {"legs": legs_layout, "R0": np.array(R0, dtype=float), "rigid": rigid}
 
 
+#: Coefficients below this vanish in :func:`_inner_axes_parallel`: axes written to six digits are parallel (the
+#: polynomial system is then that close to the machine's, whose own rows polish every solution to round-off).
+PARALLEL_TOL = 1e-6
+
+
 def _vanishes(expression) -> bool:
-    """Whether a polynomial of the actuators' parameters is zero (its coefficients round-off)."""
+    """Whether a polynomial of the actuators' parameters is zero (every coefficient below :data:`PARALLEL_TOL`)."""
     import sympy as sp
 
-    return all(abs(complex(c)) < 1e-12 for c in sp.Poly(sp.expand(expression), *expression.free_symbols).coeffs()) \
-        if expression.free_symbols else abs(complex(expression)) < 1e-12
+    values = sp.Poly(sp.expand(expression), *expression.free_symbols).coeffs() if expression.free_symbols \
+        else [expression]
+    return all(abs(complex(c)) < PARALLEL_TOL for c in values)
 
 
 def _inner_axes_parallel(joint, e, w) -> bool:

@@ -63,8 +63,8 @@ def _write_animation(args, data: dict, tracked, source: str, csv_path: Path, out
 
     import numpy as np
 
-    recorded = np.column_stack([data[c] for c in ("x", "y", "z") if c in data][:tracked.shape[1]])
-    deviation = float(np.max(np.linalg.norm(tracked - recorded, axis=1)))
+    recorded = [data[c] for c in ("x", "y", "z") if c in data][:tracked.shape[1]]  # none for a wrist's run
+    deviation = float(np.max(np.linalg.norm(tracked - np.column_stack(recorded), axis=1))) if recorded else 0.0
     if deviation > 1e-3:
         print(f"pkmlab animate: warning: the machine rebuilt from the recorded actuators puts the tracked point up "
               f"to {deviation * 1e3:.3g} mm from the CSV's; is the machine ({source}) the one that produced "

@@ -53,7 +53,8 @@ _INERTIA = ("xx", "yy", "zz", "xy", "xz", "yz")
 
 def structure(mechanism: SpatialMechanism) -> str:
     """``"RaUS_RaUS_RaUS_translating"`` for the Delta (``a`` marks the actuated joint); a platform of lower
-    mobility adds its controlled coordinates (``"PaRS_PaRS_PaRS_rigid_z_roll_pitch"``)."""
+    mobility adds its controlled coordinates (``"PaRS_PaRS_PaRS_rigid_z_roll_pitch"``), an overconstrained
+    machine which of its legs' orientation rows are kept (``"..._rows_000"``: none of the Agile Eye's)."""
     name = "_".join(leg.notation.replace("*", "a") for leg in mechanism.legs) + "_" + mechanism.platform.kind
     name = name + "".join(f"_{c}" for c in mechanism.platform.pose_names) if mechanism.platform.parasitic_names \
         else name
@@ -242,7 +243,8 @@ def derive_leg(mechanism: SpatialMechanism, leg) -> dict:
     joints.append(target)
     lines = [*(target - point_p), *(target - rotary)] if measures_lines(mechanism) else []
     eta = list(point - target)
-    if leg.notation in {mechanism.legs[i].notation for i in orientation_rows(mechanism)}:  # a U's (R's are refused)
+    if leg.notation in {mechanism.legs[i].notation for i in orientation_rows(mechanism)}:
+        assert leg.joints[-1].kind == "U", "a leg ending in R whose rows are kept is refused by its mobility"
         k = len(leg.joints)
         eta.append(((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"axis_{k}b")))[0])
     return {"q": (*own, *pose), "q_dot": (*own_dot, *pose_dot), "P": P, "eta": eta,

@@ -179,10 +179,10 @@ def across(axis) -> tuple[np.ndarray, np.ndarray]:
     return b1, np.cross(a, b1)
 
 
-def residual(mechanism, x: np.ndarray) -> np.ndarray:
+def residual(mechanism, x: np.ndarray, *, jacobian: bool = True) -> np.ndarray:
     """``η(x)`` (module docstring): each leg's platform joint minus its attachment point (3 per leg), then the
-    orientation rows."""
-    return _residual_and_jacobian(mechanism, x)[0]
+    orientation rows. ``jacobian=False`` skips the work only :func:`jacobian` needs."""
+    return _residual_and_jacobian(mechanism, x, jacobian)[0]
 
 
 def jacobian(mechanism, x: np.ndarray) -> np.ndarray:
@@ -190,7 +190,7 @@ def jacobian(mechanism, x: np.ndarray) -> np.ndarray:
     return _residual_and_jacobian(mechanism, x)[1]
 
 
-def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _residual_and_jacobian(mechanism, x: np.ndarray, with_jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
     from .spatial import orientation
 
     counts, starts, n_pose = _layout(mechanism)
@@ -201,7 +201,7 @@ def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.nda
     rigid = n_pose == 6
     rot = orientation(*pose[3:6]) if rigid else np.eye(3)
     turns = []
-    if rigid:
+    if rigid and with_jacobian:
         h = 1e-7
         for k in range(3):
             e = np.zeros(3)
@@ -314,14 +314,17 @@ def check_kept_rows(mechanism, result: Mobility, seed: int = 0) -> None:
     angles = _angle_columns(m)
     orient = all_orientation_rows(m)
     n_point = 3 * len(m.legs)
-    checked = [result.configuration]
+    checked = []  # configurations of the kept rows alone (result's own closes every row)
     for _ in range(STARTS):
-        if len(checked) > SAMPLES:
+        if len(checked) == SAMPLES:
             break
         nudge = rng.normal(0.0, 0.05, result.configuration.shape) * np.where(angles, 1.0, size)
         x = project(m, result.configuration + nudge, size, rows)
         if x is not None:
             checked.append(x)
+    if not checked:
+        raise InvalidParameterError(f"{m.name}: no configuration of its kept loop closures was found near its "
+                                    f"generic one ({STARTS} tries): the rows it sets aside cannot be checked")
     for x in checked:
         miss = np.abs(residual(m, x)[aside])
         if miss.max() > 1e-9:
@@ -348,8 +351,9 @@ def mobility(mechanism, *, check: bool = True, seed: int = 0) -> Mobility:
     InvalidParameterError
         A translating platform on legs that cannot hold its orientation (:func:`check_parallelograms`); no
         configuration could be found (the legs cannot meet the platform near their zero configuration); or,
-        with ``check``, the mobility is not the number of actuators, the constraints are dependent, the locked
-        actuators leave a motion, or the controlled coordinates do not determine the configuration.
+        with ``check``, the mobility is not the number of actuators, the constraints are dependent with no
+        independent set to keep (or the rows set aside do not hold), the locked actuators leave a motion, or the
+        controlled coordinates do not determine the configuration.
     """
     if check and mechanism.platform.kind == "translating":
         check_parallelograms(mechanism)
@@ -404,7 +408,9 @@ def _computed(m, seed: int) -> Mobility:
     best = int(np.argmax([sum(r[:3]) for r in samples]))
     x = found[best]
     x.setflags(write=False)  # shared by every caller of the cached result
-    kept = _kept_rows(m, jacobian(m, x) * scale, rank)
+    # the rows kept, chosen at a sample of the whole rank
+    kept = _kept_rows(m, jacobian(m, next(y for y, r in zip(found, samples, strict=True) if r[0] == rank)) * scale,
+                      rank)
     return Mobility(n_coordinates - rank, rank, n_coordinates, sum(map(len, rows)), shares, x, actuated_rank,
                     controlled_rank, kept)
 
@@ -535,7 +541,8 @@ def _check(m, r: Mobility) -> None:
             f"{m.name}: its {r.constraints} loop-closure equations are dependent (rank {r.rank}) and no choice of "
             "its legs' orientation rows leaves an independent set with every point row: an overconstrained machine "
             "pkmlab does not model yet")
-    for i in orientation_rows(m):
+    n_point = 3 * len(m.legs)
+    for i in sorted({all_orientation_rows(m)[k - n_point][0] for k in r.kept if k >= n_point}):
         if m.legs[i].joints[-1].kind == "R":
             raise InvalidParameterError(
                 f"{m.name}: leg {i + 1} ({m.legs[i].notation}) ends in a revolute joint whose orientation rows are "

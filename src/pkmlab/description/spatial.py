@@ -158,7 +158,7 @@ class SpatialJoint:
 
 @dataclass(frozen=True)
 class SpatialLeg(JointChain):
-    """A serial chain from ``base`` to the platform: ``joints`` (the last the platform joint, an S or a U),
+    """A serial chain from ``base`` to the platform: ``joints`` (the last the platform joint, an S, a U or an R),
     ``bodies`` (one after each joint but the platform joint), the actuator's ``stroke`` (lower, upper) or None."""
 
     base: tuple[float, float, float]

@@ -360,7 +360,9 @@ def platform_joint_angles(model: MechanismModel, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     flat = q.reshape(-1, q.shape[-1])
     out = np.empty((len(flat), len(names)))
-    n_pose = len(m.platform.q_pose_names) if names else 0
+    if not names:
+        return out.reshape(*q.shape[:-1], 0)
+    n_pose = len(m.platform.q_pose_names)
     for r, qr in enumerate(flat):
         column = 0
         platform = orientation(*full_poses(m, qr[len(qr) - n_pose:])[3:]) if m.platform.kind == "rigid" else None
@@ -379,15 +381,12 @@ def set_aside_residual(model: MechanismModel, q) -> np.ndarray:
     if not getattr(m, "spatial", False) or m.platform.kind != "rigid":
         return np.zeros(0)
     from ..description import mobility
-    from ..description.spatial import full_poses
 
     kept = mobility.kept_rows(m)
     aside = [r for r in range(3 * len(m.legs) + len(mobility.all_orientation_rows(m))) if r not in kept]
     if not aside:
         return np.zeros(0)
-    q = np.asarray(q, dtype=float)
-    x = np.concatenate([*map(np.array, leg_joint_values(model, q)), full_poses(m, q[len(q) - 6:])])
-    return mobility.residual(m, x)[aside]
+    return mobility.residual(m, _description_coordinates(model, np.asarray(q, dtype=float)), jacobian=False)[aside]
 
 
 def _evaluate(model: MechanismModel, fn, shape, q, *args) -> np.ndarray:
@@ -601,8 +600,55 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
     # C order whatever the columns' (a lower-mobility platform's pose columns may be in Fortran order): the kernels
     # are compiled for one layout of q
     q = np.ascontiguousarray(np.column_stack([*actuators, *passive, q_pose]))
+    missed = _platform_joint_misses(model, q, unreachable)
+    if missed is not None:
+        unreachable |= missed[0]
+        if first is None or missed[1][0] < first[0]:
+            first = missed[1]
     q[unreachable != 0] = np.nan
     return q, unreachable, first
+
+
+#: Largest orientation row (rad) of a configuration inverse kinematics gives: a leg's platform joint that misses by
+#: more cannot carry the platform in that working mode.
+ORIENTATION_TOL = 1e-9
+
+
+def _platform_joint_misses(model: MechanismModel, q: np.ndarray, unreachable: np.ndarray):
+    """For a machine whose legs end in a universal or revolute joint under a rigid platform: each leg's working
+    mode places its platform joint's centre, but only some turn its last body so that the joint can carry the
+    platform (its orientation rows, :mod:`pkmlab.description.mobility`). Returns the legs that cannot, a bit
+    mask per configuration, and the first ``(k, leg, message)``; None when every one can (or the machine has no
+    such rows)."""
+    m = model.description
+    if not getattr(m, "spatial", False):
+        return None
+    from ..description import mobility
+
+    orient = mobility.all_orientation_rows(m)
+    if not orient:
+        return None
+    n_point = 3 * len(m.legs)
+    missed, first = np.zeros(len(q), dtype=np.int64), None
+    for k in np.flatnonzero(unreachable == 0):
+        rows = mobility.residual(m, _description_coordinates(model, q[k]), jacobian=False)[n_point:]
+        for r, (leg, _row) in enumerate(orient):
+            if abs(rows[r]) > ORIENTATION_TOL and not missed[k] >> leg & 1:
+                missed[k] |= 1 << leg
+                if first is None:
+                    first = (int(k), leg, f"leg {leg + 1} ({m.legs[leg].notation}): its platform joint cannot carry "
+                                          f"the platform in this working mode (its axes miss by {abs(rows[r]):.3g} "
+                                          "rad): try another")
+    return None if first is None else (missed, first)
+
+
+def _description_coordinates(model: MechanismModel, q: np.ndarray) -> np.ndarray:
+    """``x`` of :mod:`pkmlab.description.mobility` (legs' joint coordinates leg by leg, the whole pose) of ``q``."""
+    from ..description.spatial import full_poses
+
+    m = model.description
+    return np.concatenate([*map(np.array, leg_joint_values(model, q)),
+                           full_poses(m, q[len(q) - len(m.platform.q_pose_names):])])
 
 
 # ------------------------------------------------------------------ singularity measure
