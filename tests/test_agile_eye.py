@@ -71,6 +71,10 @@ def test_the_platform_turns_about_the_centre_in_every_working_mode(eye):
             np.testing.assert_allclose(whole[:3], 0.0, atol=1e-12)  # x, y, z parasitic: the centre
             assert _independent_residual(m, q, eye.coordinates) < 1e-12
             assert _axes_agree(eye, q) < 1e-12 and np.abs(mm.set_aside_residual(eye, q)).max() < 1e-12
+    # off the closures, the batch of orientation rows inverse kinematics checks is the description's residual's
+    x = np.concatenate([*map(np.array, mm.leg_joint_values(eye, q)), full_poses(m, q[-6:])]) + 0.05
+    np.testing.assert_allclose(mob.orientation_residuals(m, x[None])[0], mob.residual(m, x)[9:], atol=1e-14)
+    assert np.abs(mob.residual(m, x)[9:]).max() > 1e-3
 
 
 def test_forward_kinematics_gives_its_eight_assembly_modes_each_about_the_centre(eye):

@@ -75,7 +75,10 @@ def test_the_generated_closures_are_the_descriptions_and_their_jacobian_their_de
         q = mm.inverse_kinematics(wrist, pose, ()) + rng.normal(0.0, 0.02, 15)
         eta = mm.constraint_residual(wrist, q)
         assert np.abs(eta).max() > 1e-3
-        np.testing.assert_allclose(eta, mob.residual(wrist.description, _whole_x(wrist, q)), atol=1e-14)
+        x = _whole_x(wrist, q)
+        np.testing.assert_allclose(eta, mob.residual(wrist.description, x), atol=1e-14)
+        # the batch of orientation rows inverse kinematics checks: the same rows
+        np.testing.assert_allclose(mob.orientation_residuals(wrist.description, x[None])[0], eta[9:], atol=1e-14)
         jac, h = mm.constraint_jacobian(wrist, q), 1e-6
         numeric = np.column_stack([(mm.constraint_residual(wrist, q + h * e) - mm.constraint_residual(wrist, q - h * e))
                                    / (2 * h) for e in np.eye(15)])

@@ -179,6 +179,44 @@ def across(axis) -> tuple[np.ndarray, np.ndarray]:
     return b1, np.cross(a, b1)
 
 
+def orientation_residuals(mechanism, x: np.ndarray) -> np.ndarray:
+    """The orientation rows of ``η`` (module docstring) at many configurations ``x`` (K, n) at once, (K, rows):
+    :func:`residual`'s last rows, each leg's last body turned by its joints' rotations in a batch."""
+    from .spatial import orientations
+
+    x = np.asarray(x, dtype=float)
+    orient = all_orientation_rows(mechanism)
+    out = np.empty((len(x), len(orient)))
+    if not orient:
+        return out
+    _counts, starts, _n_pose = _layout(mechanism)
+    platform = orientations(x[:, starts[-1] + 3:starts[-1] + 6])
+    for i in sorted({i for i, _k in orient}):
+        leg = mechanism.legs[i]
+        rot, column = np.broadcast_to(np.eye(3), (len(x), 3, 3)), starts[i]
+        for joint in leg.joints[:-1]:
+            if joint.kind == "P":
+                column += 1
+                continue
+            for axis in joint.axes:
+                rot = rot @ _axis_rotations(axis, x[:, column])
+                column += 1
+        joint = leg.joints[-1]
+        pairs = [joint.axes] if joint.kind == "U" else [(joint.axes[0], b) for b in across(joint.axes[0])]
+        rows = [r for r, (j, _k) in enumerate(orient) if j == i]
+        for r, (a, b) in zip(rows, pairs, strict=True):
+            out[:, r] = np.einsum("ki,ki->k", rot @ np.array(a), platform @ np.array(b))
+    return out
+
+
+def _axis_rotations(axis, angles: np.ndarray) -> np.ndarray:
+    """Rodrigues' rotations (K, 3, 3) by ``angles`` (K,) about the unit ``axis``."""
+    a = np.asarray(axis, dtype=float)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    c, s = np.cos(angles)[:, None, None], np.sin(angles)[:, None, None]
+    return c * np.eye(3) + s * k + (1 - c) * np.outer(a, a)
+
+
 def residual(mechanism, x: np.ndarray, *, jacobian: bool = True) -> np.ndarray:
     """``η(x)`` (module docstring): each leg's platform joint minus its attachment point (3 per leg), then the
     orientation rows. ``jacobian=False`` skips the work only :func:`jacobian` needs."""

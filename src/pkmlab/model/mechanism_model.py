@@ -628,27 +628,31 @@ def _platform_joint_misses(model: MechanismModel, q: np.ndarray, unreachable: np
     orient = mobility.all_orientation_rows(m)
     if not orient:
         return None
-    n_point = 3 * len(m.legs)
+    placed = np.flatnonzero(unreachable == 0)
+    rows = np.abs(mobility.orientation_residuals(m, _description_coordinates(model, q[placed])))
     missed, first = np.zeros(len(q), dtype=np.int64), None
-    for k in np.flatnonzero(unreachable == 0):
-        rows = mobility.residual(m, _description_coordinates(model, q[k]), jacobian=False)[n_point:]
-        for r, (leg, _row) in enumerate(orient):
-            if abs(rows[r]) > ORIENTATION_TOL and not missed[k] >> leg & 1:
-                missed[k] |= 1 << leg
-                if first is None:
-                    first = (int(k), leg, f"leg {leg + 1} ({m.legs[leg].notation}): its platform joint cannot carry "
-                                          f"the platform in this working mode (its axes miss by {abs(rows[r]):.3g} "
+    for r, (leg, _row) in enumerate(orient):
+        bad = rows[:, r] > ORIENTATION_TOL
+        missed[placed[bad]] |= 1 << leg
+        if bad.any() and (first is None or placed[bad][0] < first[0]):
+            k = int(np.argmax(bad))
+            first = (int(placed[k]), leg, f"leg {leg + 1} ({m.legs[leg].notation}): its platform joint cannot carry "
+                                          f"the platform in this working mode (its axes miss by {rows[k, r]:.3g} "
                                           "rad): try another")
     return None if first is None else (missed, first)
 
 
 def _description_coordinates(model: MechanismModel, q: np.ndarray) -> np.ndarray:
-    """``x`` of :mod:`pkmlab.description.mobility` (legs' joint coordinates leg by leg, the whole pose) of ``q``."""
+    """``x`` of :mod:`pkmlab.description.mobility` (legs' joint coordinates leg by leg, the whole pose) of
+    configurations ``q`` (..., n_coordinates)."""
     from ..description.spatial import full_poses
 
     m = model.description
-    return np.concatenate([*map(np.array, leg_joint_values(model, q)),
-                           full_poses(m, q[len(q) - len(m.platform.q_pose_names):])])
+    n, n_pose = len(m.legs), len(m.platform.q_pose_names)
+    passive = iter(range(n, q.shape[-1] - n_pose))
+    columns = [i if joint.actuated else next(passive) for i, leg in enumerate(m.legs) for joint in leg.joints[:-1]
+               for _ in range(joint.coordinates)]
+    return np.concatenate([q[..., columns], full_poses(m, q[..., q.shape[-1] - n_pose:])], axis=-1)
 
 
 # ------------------------------------------------------------------ singularity measure
