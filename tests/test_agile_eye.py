@@ -119,6 +119,13 @@ def test_its_run_tracks_the_orientation_about_the_centre_to_the_samplings_first_
     assert result.orientation_error.max() < 2e-4 and 1.8 < ratio < 2.2
     np.testing.assert_allclose(result.q[:, 6:9], 0.0, atol=1e-10)  # x, y, z
     assert max(_axes_agree(eye, q) for q in result.q[::50]) < 1e-10
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from pkmlab.views.plotting import plot_path_3d
+
+    ax = plot_path_3d(result)  # its path is in the angles it controls, labelled so
+    assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_zlabel()) == ("roll (rad)", "pitch (rad)", "yaw (rad)")
 
 
 def test_a_run_without_a_tracked_position_animates_and_calibration_is_refused(eye, tmp_path, capsys):

@@ -268,17 +268,18 @@ def draw_spatial_mechanism(model, q, ax=None, title: str | None = None):
 
 
 def plot_path_3d(result, ax=None):
-    """The tracked point's path in space, tracked vs desired, with the path's projections on the walls
-    of the box (where the tracking error, too small to see in 3-D, shows as a gap)."""
+    """The path of the pose's first three controlled coordinates, tracked vs desired: the tracked point's, or a
+    platform of lower mobility's (a 3-PRS's z, roll and pitch, a wrist's roll, pitch and yaw, each axis labelled
+    with its unit)."""
     ax = _axes3d(ax)
     d, p = result.pose_d[:, :3], result.pose[:, :3]
     ax.plot(*d.T, "k--", lw=1.5, label="desired")
     ax.plot(*p.T, color="tab:red", lw=1.2, label="tracked")
     ax.scatter(*d[0], color="k", s=15, label="start")
     equal_box(ax, np.vstack([d, p]))
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_zlabel("z (m)")
+    names = result.pose_names[:3]
+    for set_label, name in zip((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel), names, strict=True):
+        set_label(f"{name} ({'rad' if name in ('roll', 'pitch', 'yaw') else 'm'})")
     ax.legend(fontsize=8)
     ax.set_title(f"path tracked vs desired ({_case(result)})")
     return ax
