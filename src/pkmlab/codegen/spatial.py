@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..description.mobility import all_orientation_rows, orientation_rows
+from ..description.mobility import orientation_legs, orientation_rows
 from ..description.spatial import SpatialMechanism
 from .planar import GENERATED_DIR, Block, jacobian_and_bias, module_header, regenerate, write_module
 
@@ -58,7 +58,7 @@ def structure(mechanism: SpatialMechanism) -> str:
     name = "_".join(leg.notation.replace("*", "a") for leg in mechanism.legs) + "_" + mechanism.platform.kind
     name = name + "".join(f"_{c}" for c in mechanism.platform.pose_names) if mechanism.platform.parasitic_names \
         else name
-    ends = sorted({i for i, _k in all_orientation_rows(mechanism)})
+    ends = orientation_legs(mechanism)
     kept = orientation_rows(mechanism)
     if len(kept) < len(ends):  # some legs' orientation rows set aside: say whose are kept (1) or not (0)
         name += "_rows_" + "".join("1" if i in kept else "0" for i in ends)

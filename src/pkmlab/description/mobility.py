@@ -147,6 +147,12 @@ def all_orientation_rows(mechanism) -> tuple[tuple[int, int], ...]:
                  for k in range(PLATFORM_JOINT_ROWS[leg.joints[-1].kind]))
 
 
+def orientation_legs(mechanism) -> tuple[int, ...]:
+    """The legs that have orientation rows (module docstring): those ending in a universal or revolute joint under a
+    rigid platform, in order."""
+    return tuple(sorted({i for i, _k in all_orientation_rows(mechanism)}))
+
+
 def kept_rows(mechanism) -> tuple[int, ...]:
     """The rows of ``η`` the model of ``mechanism`` keeps (module docstring; every row of a machine whose rows are
     independent), in order."""
@@ -156,11 +162,14 @@ def kept_rows(mechanism) -> tuple[int, ...]:
 def orientation_rows(mechanism) -> tuple[int, ...]:
     """The legs whose orientation rows the model keeps (module docstring), in order: every leg ending in a
     universal joint under a rigid platform unless its rows depend on the others."""
-    if not all_orientation_rows(mechanism):
-        return ()
+    return _kept_legs(mechanism, kept_rows(mechanism)) if all_orientation_rows(mechanism) else ()
+
+
+def _kept_legs(mechanism, kept) -> tuple[int, ...]:
+    """The legs with an orientation row among the rows ``kept``."""
     n_point = 3 * len(mechanism.legs)
     rows = all_orientation_rows(mechanism)
-    return tuple(sorted({rows[r - n_point][0] for r in kept_rows(mechanism) if r >= n_point}))
+    return tuple(sorted({rows[r - n_point][0] for r in kept if r >= n_point}))
 
 
 def leg_rows(mechanism, leg: int) -> list[int]:
@@ -168,6 +177,12 @@ def leg_rows(mechanism, leg: int) -> list[int]:
     n_point = 3 * len(mechanism.legs)
     extra = [n_point + r for r, (i, _k) in enumerate(all_orientation_rows(mechanism)) if i == leg]
     return [3 * leg, 3 * leg + 1, 3 * leg + 2, *extra]
+
+
+def _row_axes(joint) -> list[tuple]:
+    """The pairs ``(a, b)`` of a platform joint's orientation rows ``(R_leg a)·(R b) = 0``: a universal joint's two
+    axes; a revolute joint's axis with each of :func:`across` it."""
+    return [joint.axes] if joint.kind == "U" else [(joint.axes[0], b) for b in across(joint.axes[0])]
 
 
 def across(axis) -> tuple[np.ndarray, np.ndarray]:
@@ -191,7 +206,7 @@ def orientation_residuals(mechanism, x: np.ndarray) -> np.ndarray:
         return out
     _counts, starts, _n_pose = _layout(mechanism)
     platform = orientations(x[:, starts[-1] + 3:starts[-1] + 6])
-    for i in sorted({i for i, _k in orient}):
+    for i in orientation_legs(mechanism):
         leg = mechanism.legs[i]
         rot, column = np.broadcast_to(np.eye(3), (len(x), 3, 3)), starts[i]
         for joint in leg.joints[:-1]:
@@ -201,10 +216,8 @@ def orientation_residuals(mechanism, x: np.ndarray) -> np.ndarray:
             for axis in joint.axes:
                 rot = rot @ _axis_rotations(axis, x[:, column])
                 column += 1
-        joint = leg.joints[-1]
-        pairs = [joint.axes] if joint.kind == "U" else [(joint.axes[0], b) for b in across(joint.axes[0])]
         rows = [r for r, (j, _k) in enumerate(orient) if j == i]
-        for r, (a, b) in zip(rows, pairs, strict=True):
+        for r, (a, b) in zip(rows, _row_axes(leg.joints[-1]), strict=True):
             out[:, r] = np.einsum("ki,ki->k", rot @ np.array(a), platform @ np.array(b))
     return out
 
@@ -217,10 +230,10 @@ def _axis_rotations(axis, angles: np.ndarray) -> np.ndarray:
     return c * np.eye(3) + s * k + (1 - c) * np.outer(a, a)
 
 
-def residual(mechanism, x: np.ndarray, *, jacobian: bool = True) -> np.ndarray:
+def residual(mechanism, x: np.ndarray) -> np.ndarray:
     """``η(x)`` (module docstring): each leg's platform joint minus its attachment point (3 per leg), then the
-    orientation rows. ``jacobian=False`` skips the work only :func:`jacobian` needs."""
-    return _residual_and_jacobian(mechanism, x, jacobian)[0]
+    orientation rows."""
+    return _residual_and_jacobian(mechanism, x)[0]
 
 
 def jacobian(mechanism, x: np.ndarray) -> np.ndarray:
@@ -228,7 +241,7 @@ def jacobian(mechanism, x: np.ndarray) -> np.ndarray:
     return _residual_and_jacobian(mechanism, x)[1]
 
 
-def _residual_and_jacobian(mechanism, x: np.ndarray, with_jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def _residual_and_jacobian(mechanism, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     from .spatial import orientation
 
     counts, starts, n_pose = _layout(mechanism)
@@ -239,7 +252,7 @@ def _residual_and_jacobian(mechanism, x: np.ndarray, with_jacobian: bool = True)
     rigid = n_pose == 6
     rot = orientation(*pose[3:6]) if rigid else np.eye(3)
     turns = []
-    if rigid and with_jacobian:
+    if rigid:
         h = 1e-7
         for k in range(3):
             e = np.zeros(3)
@@ -258,9 +271,7 @@ def _residual_and_jacobian(mechanism, x: np.ndarray, with_jacobian: bool = True)
         rows_i = [3 * n + r for r, (j, _k) in enumerate(orient) if j == i]
         if not rows_i:
             continue
-        joint = leg.joints[-1]
-        pairs = [joint.axes] if joint.kind == "U" else [(joint.axes[0], b) for b in across(joint.axes[0])]
-        for r, (a, b) in zip(rows_i, pairs, strict=True):
+        for r, (a, b) in zip(rows_i, _row_axes(leg.joints[-1]), strict=True):
             u1, u2 = leg_rot @ np.array(a), rot @ np.array(b)
             eta[r] = u1 @ u2
             jac[r, starts[i]:starts[i + 1]] = np.cross(j_turn.T, u1) @ u2
@@ -338,6 +349,20 @@ def _kept_rows(m, j: np.ndarray, rank: int) -> tuple[int, ...] | None:
     return None
 
 
+def _nearby(m, x: np.ndarray, rng: np.random.Generator, size: float, count: int, rows=slice(None)) -> list:
+    """Up to ``count`` configurations near ``x``: random nudges (0.05 rad, 5 % of the machine's size) projected
+    onto ``η = 0`` (its ``rows``, :func:`project`), from at most :data:`STARTS` tries."""
+    scale = np.where(_angle_columns(m), 1.0, size)
+    found = []
+    for _ in range(STARTS):
+        if len(found) == count:
+            break
+        nudged = project(m, x + rng.normal(0.0, 0.05, x.shape) * scale, size, rows)
+        if nudged is not None:
+            found.append(nudged)
+    return found
+
+
 def check_kept_rows(mechanism, result: Mobility, seed: int = 0) -> None:
     """The rows the model sets aside (module docstring) vanish at generic configurations of the kept ones (the
     configurations near ``result``'s that Gauss–Newton reaches on the kept rows alone): else the kept rows
@@ -349,17 +374,10 @@ def check_kept_rows(mechanism, result: Mobility, seed: int = 0) -> None:
         return
     rng = np.random.default_rng(seed + 2)
     size = _size(m)
-    angles = _angle_columns(m)
     orient = all_orientation_rows(m)
     n_point = 3 * len(m.legs)
-    checked = []  # configurations of the kept rows alone (result's own closes every row)
-    for _ in range(STARTS):
-        if len(checked) == SAMPLES:
-            break
-        nudge = rng.normal(0.0, 0.05, result.configuration.shape) * np.where(angles, 1.0, size)
-        x = project(m, result.configuration + nudge, size, rows)
-        if x is not None:
-            checked.append(x)
+    # configurations of the kept rows alone (result's own closes every row)
+    checked = _nearby(m, result.configuration, rng, size, SAMPLES, rows)
     if not checked:
         raise InvalidParameterError(f"{m.name}: no configuration of its kept loop closures was found near its "
                                     f"generic one ({STARTS} tries): the rows it sets aside cannot be checked")
@@ -538,13 +556,7 @@ def check_platform_joints(mechanism, result: Mobility, seed: int = 0) -> None:
     m = mechanism
     rng = np.random.default_rng(seed + 1)
     size = _size(m)
-    angles = _angle_columns(m)
-    found = [np.array(result.configuration)]
-    while len(found) < SAMPLES:
-        nudge = rng.normal(0.0, 0.05, found[0].shape) * np.where(angles, 1.0, size)
-        x = project(m, found[0] + nudge, size)
-        if x is not None:
-            found.append(x)
+    found = [np.array(result.configuration), *_nearby(m, result.configuration, rng, size, SAMPLES - 1)]
     ends = [i for i, leg in enumerate(m.legs) if leg.joints[-1].kind == "U"]
     dof = len(m.platform.pose_names)
     for x in found:
@@ -579,8 +591,7 @@ def _check(m, r: Mobility) -> None:
             f"{m.name}: its {r.constraints} loop-closure equations are dependent (rank {r.rank}) and no choice of "
             "its legs' orientation rows leaves an independent set with every point row: an overconstrained machine "
             "pkmlab does not model yet")
-    n_point = 3 * len(m.legs)
-    for i in sorted({all_orientation_rows(m)[k - n_point][0] for k in r.kept if k >= n_point}):
+    for i in _kept_legs(m, r.kept):
         if m.legs[i].joints[-1].kind == "R":
             raise InvalidParameterError(
                 f"{m.name}: leg {i + 1} ({m.legs[i].notation}) ends in a revolute joint whose orientation rows are "

@@ -277,9 +277,9 @@ def _held(m) -> tuple[int, ...]:
     the model keeps its orientation rows or sets them aside."""
     if not _spatial(m):
         return ()
-    from ..description.mobility import all_orientation_rows
+    from ..description.mobility import orientation_legs
 
-    return tuple(sorted({i for i, _k in all_orientation_rows(m)}))
+    return orientation_legs(m)
 
 
 def _axis_length0(m, leg: int) -> float:

@@ -382,11 +382,13 @@ def set_aside_residual(model: MechanismModel, q) -> np.ndarray:
         return np.zeros(0)
     from ..description import mobility
 
-    kept = mobility.kept_rows(m)
-    aside = [r for r in range(3 * len(m.legs) + len(mobility.all_orientation_rows(m))) if r not in kept]
+    # every point row is kept: the rows set aside are orientation rows
+    n_point, kept = 3 * len(m.legs), mobility.kept_rows(m)
+    aside = [r for r in range(len(mobility.all_orientation_rows(m))) if n_point + r not in kept]
     if not aside:
         return np.zeros(0)
-    return mobility.residual(m, _description_coordinates(model, np.asarray(q, dtype=float)), jacobian=False)[aside]
+    x = _description_coordinates(model, np.asarray(q, dtype=float))
+    return mobility.orientation_residuals(m, x[None])[0, aside]
 
 
 def _evaluate(model: MechanismModel, fn, shape, q, *args) -> np.ndarray:
