@@ -159,7 +159,9 @@ def _three(**kw):
 BAD = {
     "unknown joint type": (_rigid([_leg("R*QR")] * 3), "leg[1].joints"),
     "no actuator": (_rigid(_three(joints="RRR")), "leg 1 (RRR) has no actuated joint"),
-    "two actuators": (_rigid(_three(joints="R*R*R")), "leg 1 (RRR) has 2 actuated joints"),
+    # a second actuator at the base moves an R*R leg, which holds the platform by two rows: a mobility of 3, not 6
+    "two actuators, too few joints": (_rigid(_three(joints="R*R*R")), "mobility (Grübler: 3 x 7 moving bodies - 2 x 9 "
+                                      "joints = 3) is not the 6 of its actuators"),
     "actuated last joint": (_rigid(_three(joints="RRR*")), "leg 1: its last joint carries the platform"),
     "legs of one joint too few": (_rigid([_leg("R*R", bodies=[{"tip": [0.3, 0], "mass": 1, "inertia": 1e-3}],
                                                base=b) for b in ([0, 0], [0.5, 0], [0.25, 0.43])]),

@@ -21,7 +21,9 @@ CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
              for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml", "6rus.toml", "6pus.toml",
                           # universal joints at a rigid platform (a tendon holds their axes), revolute ones (two
                           # connects on each axis, rows dependent as the machine's are)
-                          "3upu_wrist.toml", "agile_eye.toml")] + [
+                          "3upu_wrist.toml", "agile_eye.toml",
+                          # two actuators on a leg: a slider under each leg's actuated link (kinematic redundancy)
+                          "3prrr.toml")] + [
     str(Path(__file__).resolve().parents[1] / "examples" / "3rrs_tilted.toml")]  # legs of the general method
 
 
@@ -35,7 +37,7 @@ def _states(model, count: int, seed: int):
     n = model.n_actuators
     out = []
     while len(out) < count:
-        pose = home[-dof:] + rng.normal(0.0, 0.02, dof)
+        pose = mm.pose_of(model, home) + rng.normal(0.0, 0.02, dof)
         try:
             q = mm.inverse_kinematics(model, pose, mode)
         except (UnreachablePoseError, InvalidParameterError):
@@ -150,7 +152,7 @@ def test_mujocos_equations_with_hard_constraints_give_pkmlabs_accelerations(name
     n = model.n_actuators
     for q, q_dot, tau in _states(model, 4, 2):
         _set(model, m, d, q, q_dot, tau)
-        theirs = _hard_solve(m, d, n)[_actuated_dofs(m, n)]
+        theirs = _hard_solve(m, d, len(model.description.legs))[_actuated_dofs(m, n)]
         ours = _pkmlab_acceleration(model, q, q_dot, tau)
         assert np.abs(theirs - ours).max() < 1e-10 * (1 + np.abs(ours).max())
 

@@ -110,10 +110,12 @@ def _grid(model, alpha, x_range, y_range, resolution, progress) -> tuple[np.ndar
 def _machine_rows(model, x, y, alpha, modes, progress):
     """``S`` (rows, columns, modes) of a described mechanism's inverse kinematics over the grid, NaN out of
     reach, a row at a time."""
-    dof = model.description.dof
+    m = model.description
+    # a kinematically redundant machine's base actuators at zero, as its assembly check tries them
+    held = [np.full_like(x, alpha)] * (m.platform.kind == "rigid") + [np.zeros_like(x)] * len(m.redundancy_names)
     out = np.full((y.size, x.size, len(modes)), np.nan)
     for j, yj in enumerate(y):
-        poses = np.column_stack([x, np.full_like(x, yj)] + ([np.full_like(x, alpha)] if dof == 3 else []))
+        poses = np.column_stack([x, np.full_like(x, yj), *held])
         for k, mode in enumerate(modes):
             out[j, :, k] = path_inverse_kinematics(model, poses, mode)[1]
         if progress is not None:

@@ -49,11 +49,11 @@ def five_bar_assembly_modes(model: MechanismModel, theta) -> list[np.ndarray]:
     meet — none, one or two configurations."""
     from ..description.leg_types import leg_circle, leg_coordinates
 
-    m = model.description
-    if m.platform.kind != "point" or len(m.legs) != 2:
-        raise InvalidParameterError(f"{m.notation} is not a point platform on two legs")
+    if model.description.platform.kind != "point" or len(model.description.legs) != 2:
+        raise InvalidParameterError(f"{model.description.notation} is not a point platform on two legs")
     theta = np.asarray(theta, dtype=float)
-    circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
+    m, own, base = ordinary_machine(model, theta)
+    circles = [leg_circle(leg, t) for leg, t in zip(m.legs, own, strict=True)]
     elbows = [np.array(c) for c, _r in circles]
     radii = [r for _c, r in circles]
     d = elbows[1] - elbows[0]
@@ -69,9 +69,42 @@ def five_bar_assembly_modes(model: MechanismModel, theta) -> list[np.ndarray]:
     out = []
     for sign in ((1.0, -1.0) if across > 0 else (1.0,)):
         point = elbows[0] + along * ex + sign * across * n
-        passive = [leg_coordinates(leg, t, point)[1] for leg, t in zip(m.legs, theta, strict=True)]
-        out.append(np.array([*theta, *passive, *point]))
+        out.append(configuration(model, theta, base, [leg_coordinates(leg, t, point) for leg, t in
+                                                      zip(m.legs, own, strict=True)], point))
     return out
+
+
+def ordinary_machine(model: MechanismModel, theta: np.ndarray):
+    """The machine of one actuator per leg that ``model``'s is at actuator values ``theta`` (each kinematically
+    redundant leg's ordinary part on the base its first actuators put it on: what its forward kinematics solves),
+    each leg's own actuator's value ``(legs,)`` and its base actuators' values (a list of ``(moving_base,)``); the
+    description itself for a machine of one actuator per leg."""
+    from ..description.mechanism import Mechanism, moving_base, ordinary_part
+
+    m = model.description
+    legs, own, base, k = [], [], [], 0
+    for leg in m.legs:
+        values = np.asarray(theta[k:k + len(leg.actuated_joints)], dtype=float)
+        k += len(leg.actuated_joints)
+        own.append(float(values[-1]))
+        base.append(values[:-1])
+        if leg.moving_base:
+            origin, direction = moving_base(leg, values[None, :-1])
+            leg = ordinary_part(leg, origin[0], float(direction[0]))
+        legs.append(leg)
+    if not m.redundancy_names:
+        return m, np.array(own), base
+    return Mechanism(m.name, tuple(legs), m.platform, m.gravity), np.array(own), base
+
+
+def configuration(model: MechanismModel, theta: np.ndarray, base, coordinates, pose) -> np.ndarray:
+    """``q`` of actuator values ``theta`` and the platform's ``pose`` from each leg's joint coordinates as the
+    :func:`ordinary_machine`'s leg gives them (``coordinates``, one list per leg), its base actuators' values
+    ``base`` before them."""
+    passive = []
+    for leg, values, coords in zip(model.description.legs, base, coordinates, strict=True):
+        passive += [v for k, v in enumerate([*values, *coords]) if k not in leg.actuated_joints]
+    return np.array([*theta, *passive, *pose], dtype=float)
 
 
 def fk_method(model: MechanismModel) -> str:
@@ -80,6 +113,7 @@ def fk_method(model: MechanismModel) -> str:
     other spatial machine), ``"orientation_sweep"`` (a planar machine with a leg of no closed form),
     ``"two_circles"`` (a point platform: the five-bar) or ``"sextic"`` (a planar three-leg machine on circles)."""
     from ..description.leg_types import SOLVERS
+    from ..description.mechanism import ordinary_part
 
     m = model.description
     if getattr(m, "spatial", False):
@@ -88,7 +122,7 @@ def fk_method(model: MechanismModel) -> str:
         if m.platform.kind == "translating" and all(leg.notation == "R*US" for leg in m.legs):
             return "three_spheres"
         return "general_spatial"
-    if any(leg.notation not in SOLVERS for leg in m.legs):
+    if any(ordinary_part(leg).notation not in SOLVERS for leg in m.legs):
         return "orientation_sweep"
     return "two_circles" if m.platform.kind == "point" else "sextic"
 
@@ -154,10 +188,10 @@ def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float
     from ..description.mechanism import attachment_point
     from .three_circles import OK, three_circles
 
-    m = model.description
     if method == "two_circles":
         return [(q, singularity_measure(model, q)) for q in five_bar_assembly_modes(model, theta)]
-    circles = [leg_circle(leg, t) for leg, t in zip(m.legs, theta, strict=True)]
+    m, own, base = ordinary_machine(model, theta)
+    circles = [leg_circle(leg, t) for leg, t in zip(m.legs, own, strict=True)]
     centres = np.array([c for c, _r in circles])
     radii = np.array([r for _c, r in circles])
     a = np.array(m.platform.attachments)
@@ -173,11 +207,8 @@ def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float
         c, s = math.cos(alpha), math.sin(alpha)
         x, y = p1[j] - (c * a[0, 0] - s * a[0, 1], s * a[0, 0] + c * a[0, 1])
         pose = np.array([x, y, alpha])
-        passive = []
-        for i, leg in enumerate(m.legs):
-            coords = leg_coordinates(leg, theta[i], attachment_point(m, i, pose))
-            passive += [v for k, v in enumerate(coords) if k != leg.actuated]
-        configurations.append(np.array([*theta, *passive, *pose]))
+        configurations.append(configuration(model, theta, base, [
+            leg_coordinates(leg, own[i], attachment_point(m, i, pose)) for i, leg in enumerate(m.legs)], pose))
     return _polished(model, configurations)
 
 
@@ -266,8 +297,10 @@ def _actuator_values(model: MechanismModel, theta) -> np.ndarray:
     if theta.shape != (model.n_actuators,) or not np.all(np.isfinite(theta)):
         raise InvalidParameterError(f"theta must be {model.n_actuators} finite values, got "
                                     f"{np.asarray(theta).tolist()}")
-    for i, (leg, t) in enumerate(zip(m.legs, theta, strict=True)):
-        if leg.stroke is not None and leg.joints[leg.actuated].kind == "P" and not leg.stroke[0] <= t <= leg.stroke[1]:
+    for k, (i, joint) in enumerate(m.actuators):
+        leg, t = m.legs[i], theta[k]
+        if (joint == leg.actuated and leg.stroke is not None and leg.joints[joint].kind == "P"
+                and not leg.stroke[0] <= t <= leg.stroke[1]):
             raise InvalidParameterError(f"leg {i + 1}: actuator value {t:g} m is outside its stroke "
                                         f"[{leg.stroke[0]:g}, {leg.stroke[1]:g}] m")
     return theta
@@ -352,10 +385,10 @@ def general_assembly_modes(model: MechanismModel, theta) -> tuple[list[tuple[np.
     from ..description.leg_types import Locus
     from ..description.mechanism import attachment_points
 
-    m = model.description
     theta = _actuator_values(model, theta)
+    m, own, base = ordinary_machine(model, theta)
     loci = [Locus(leg, i) for i, leg in enumerate(m.legs)]
-    shapes = [(locus.kind, *locus.at(t)) for locus, t in zip(loci, theta, strict=True)]
+    shapes = [(locus.kind, *locus.at(t)) for locus, t in zip(loci, own, strict=True)]
     doubt, candidates = "", []
     if m.platform.kind == "point":
         reach = max(float(np.hypot(*shape[2])) if shape[0] == "circle" else 1.0 for shape in shapes)
@@ -446,12 +479,11 @@ def general_assembly_modes(model: MechanismModel, theta) -> tuple[list[tuple[np.
     configurations = []
     for pose in candidates:
         pose = pose[:m.dof]
-        passive = []
+        legs = []
         for i, (leg, locus) in enumerate(zip(m.legs, loci, strict=True)):
-            points = attachment_points(m, i, pose[None, :])
             coords = [0.0, 0.0]
-            coords[leg.actuated], coords[locus.passive] = theta[i], float(locus.passive_coordinate(theta[i],
-                                                                                                   points)[0])
-            passive += [v for k, v in enumerate(coords) if k != leg.actuated]
-        configurations.append(np.array([*theta, *passive, *pose]))
+            coords[leg.actuated] = own[i]
+            coords[locus.passive] = float(locus.passive_coordinate(own[i], attachment_points(m, i, pose[None, :]))[0])
+            legs.append(coords)
+        configurations.append(configuration(model, theta, base, legs, pose))
     return _polished(model, configurations), doubt

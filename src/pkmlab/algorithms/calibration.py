@@ -229,7 +229,6 @@ class _Predictor:
         self.offsets = np.array([int(n[6:]) - 1 for n in names if n.startswith("offset")], dtype=np.int64)
         self.offset_places = np.array([position[n] for n in names if n.startswith("offset")], dtype=np.int64)
         self.columns = columns
-        self.dof = model.description.dof
 
     def __call__(self, p: np.ndarray) -> np.ndarray:
         """The predicted measurements (N, len(columns)) at parameters ``p``; NaN rows where the machine cannot be
@@ -244,7 +243,7 @@ class _Predictor:
         out = np.empty_like(self.q)
         status = np.empty(len(theta), dtype=np.int64)
         self.model.kernels.branch_following_batch(self.q, np.ascontiguousarray(theta), P, 1e-9, np.inf, out, status)
-        pose = out[:, -self.dof:][:, self.columns]
+        pose = mm.pose_of(self.model, out)[:, self.columns]
         ok = status == self.model.kernels.OK
         pose[~ok] = np.nan
         self.last = (out, ok)
@@ -338,7 +337,7 @@ def predicted_measurements(model, theta, measured, *, measure: str = "position",
         offsets = as_batch("offsets", offsets, model.n_actuators, single=True)[0][0]
         theta = theta + offsets
     q = _start_configurations(model, theta, measured, columns)
-    return q[:, -model.description.dof:][:, columns]
+    return mm.pose_of(model, q)[:, columns]
 
 
 def calibration_jacobian(model, theta, measured, *, measure: str = "position", names=None) -> np.ndarray:
@@ -707,7 +706,7 @@ def reachable_poses(model, count: int, rng, *, span: float = 0.1, turn: float = 
         raise InvalidParameterError(f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got "
                                     f"{type(rng).__name__}")
     mode = mm.working_modes(model)[0] if mode is None else as_working_mode(model, mode, "mode")
-    centre = mm.well_conditioned_configuration(model, mode)[-model.description.dof:]
+    centre = mm.pose_of(model, mm.well_conditioned_configuration(model, mode))
     scale = np.array([span * length_scale(model) if n in ("x", "y", "z") else turn for n in model.pose_names])
     poses, configurations = [], []
     for _ in range(TRIES_PER_POSE * count):

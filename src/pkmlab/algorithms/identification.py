@@ -163,7 +163,7 @@ def _start_configuration(model: MechanismModel, theta0: np.ndarray, pose, mode) 
     qs = modes.q[:modes.count]
     if pose is not None:
         pose, _ = as_batch("pose", pose, model.description.dof, single=True)
-        gap = np.linalg.norm(qs[:, -model.description.dof:] - pose[0], axis=1)
+        gap = np.linalg.norm(mm.pose_of(model, qs) - pose[0], axis=1)
     else:
         mode = mm.working_modes(model)[0] if mode is None else mode
         gap = np.linalg.norm(qs - mm.well_conditioned_configuration(model, tuple(mode)), axis=1)

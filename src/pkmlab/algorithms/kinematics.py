@@ -338,6 +338,8 @@ class ForwardKinematicsSolution:
     method : str
         The method that found them and what it guarantees
         (:func:`~pkmlab.algorithms.assembly.method_statement`).
+    angles : tuple of bool
+        Which pose coordinates are angles (compared modulo 2π by :meth:`nearest`).
 
     Examples
     --------
@@ -353,6 +355,7 @@ class ForwardKinematicsSolution:
     S: np.ndarray
     count: np.ndarray
     method: str = ""
+    angles: tuple[bool, ...] = (False, False, True)
 
     def __len__(self) -> int:
         if self.count.ndim:
@@ -398,14 +401,9 @@ class ForwardKinematicsSolution:
             raise IndexError("no assembly mode")
         target = as_batch("pose", pose, self.pose.shape[-1], single=True)[0][0]
         d = self.pose[:n] - target
-        angular = _pose_angles(self.pose.shape[-1])
+        angular = np.array(self.angles, dtype=bool)
         d[:, angular] = np.angle(np.exp(1j * d[:, angular]))
         return self[int(np.argmin(np.linalg.norm(d, axis=1)))]
-
-
-def _pose_angles(dof: int) -> np.ndarray:
-    """Which pose coordinates are angles: ``(x, y)``, ``(x, y, α)``, ``(x, y, z)``, ``(x, y, z, roll, pitch, yaw)``."""
-    return np.array({2: [False] * 2, 3: [False, False, True], 6: [False] * 3 + [True] * 3}.get(dof, [False] * dof))
 
 
 def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolution:
@@ -466,15 +464,16 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
         for w in caught:
             warnings.warn(f"{w.message}{index_text(k, shape)}", w.category, stacklevel=2)
     most = max([len(f) for f in found] + [0])
-    n, dof = len(model.coordinates), model.description.dof
+    n, dof, columns = len(model.coordinates), model.description.dof, list(model.pose_columns)
     q = np.full((len(thetas), most, n), np.nan)
     s = np.full((len(thetas), most), np.nan)
     count = np.array([len(f) for f in found], dtype=np.int64)
     for k, solutions in enumerate(found):
         for j, (qj, sj) in enumerate(solutions):
             q[k, j], s[k, j] = qj, sj
-    return ForwardKinematicsSolution(q.reshape(*shape, most, n), q[..., n - dof:].reshape(*shape, most, dof),
-                                     s.reshape(*shape, most), count.reshape(shape), method_statement(model))
+    return ForwardKinematicsSolution(q.reshape(*shape, most, n), q[..., columns].reshape(*shape, most, dof),
+                                     s.reshape(*shape, most), count.reshape(shape), method_statement(model),
+                                     tuple(bool(model.kernels.ANGLES[c]) for c in columns))
 
 
 def branch_following(model: MechanismModel, q_previous, theta, *, singularity_guard: float = SINGULAR_S,
@@ -751,7 +750,8 @@ def coordinate_jacobian(model: MechanismModel, q) -> np.ndarray:
 def velocity_jacobian(model: MechanismModel, q) -> np.ndarray:
     """The velocity Jacobian ``Jv = ∂pose/∂θ``: the platform's pose rates from the actuator rates.
 
-    The last ``dof`` rows of :func:`coordinate_jacobian`, orientation included.
+    The rows of :func:`coordinate_jacobian` of the controlled coordinates (``q``'s last ``dof``; a kinematically
+    redundant machine's base actuators among its first), orientation included.
 
     Parameters
     ----------
@@ -783,7 +783,7 @@ def velocity_jacobian(model: MechanismModel, q) -> np.ndarray:
            [ 0.2654, -0.3092, -0.0161],
            [-1.5534, -0.2195, -1.3871]])
     """
-    return coordinate_jacobian(model, q)[..., -as_model(model).description.dof:, :]
+    return coordinate_jacobian(model, q)[..., list(as_model(model).pose_columns), :]
 
 
 def coordinate_rates(model: MechanismModel, q, theta_dot) -> np.ndarray:

@@ -159,7 +159,8 @@ def singularity_kinds(model: MechanismModel, q) -> Singularities:
     check_loop_closure(model, qs, shape)
     m = model.description
     size = platform_size(model)
-    n_keep = len(model.coordinates) - model.dof  # θ, φ and the parasitic coordinates
+    pose = set(model.pose_columns)  # the others: θ, φ and the parasitic coordinates
+    keep = [c for c in range(len(model.coordinates)) if c not in pose]
     # under a translating platform a universal joint's orientation closures are not the model's rows (a rigid
     # platform's are)
     ends_in_u = getattr(m, "spatial", False) and m.platform.kind == "translating" and any(
@@ -167,7 +168,7 @@ def singularity_kinds(model: MechanismModel, q) -> Singularities:
     inverse, constraint = np.empty(len(qs)), np.empty(len(qs))
     for k, qk in enumerate(qs):
         jac = _scaled_jacobian(model, qk, size)
-        inverse[k] = float(np.linalg.det(_unit_rows(jac[:, :n_keep])))
+        inverse[k] = float(np.linalg.det(_unit_rows(jac[:, keep])))
         whole = _orientation_free(model, qk, size) if ends_in_u else jac
         constraint[k] = _volume(_unit_rows(whole))
     forward = np.asarray(singularity_measure(model, qs), dtype=float)

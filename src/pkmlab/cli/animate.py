@@ -31,7 +31,7 @@ def _animate(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:
     from ..views.plotting import three_joint_planar
 
     model, source = machine
-    n_act, names = len(model.description.legs), model.description.pose_names
+    n_act, names = model.n_actuators, model.description.pose_names
     # the tracked point's coordinates the run recorded (a platform of lower mobility records only its controlled
     # ones: its parasitic x or y are drawn where the rebuilt machine puts them)
     position = tuple(c for c in ("x", "y", "z") if c in names)

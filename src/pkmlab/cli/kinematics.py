@@ -20,8 +20,12 @@ def passive_names(model) -> tuple[str, ...]:
     (:func:`~pkmlab.model.mechanism_model.platform_joint_names`)."""
     from ..model import mechanism_model as mm
 
-    return (*model.coordinates[model.n_actuators:len(model.coordinates) - model.dof],
-            *mm.platform_joint_names(model.description))
+    return (*(model.coordinates[c] for c in _passive_columns(model)), *mm.platform_joint_names(model.description))
+
+
+def _passive_columns(model) -> list[int]:
+    """The columns of ``q`` after the actuators that are not controlled coordinates."""
+    return [c for c in range(model.n_actuators, len(model.coordinates)) if c not in model.pose_columns]
 
 
 def passive_of(model, q) -> list[float]:
@@ -32,7 +36,7 @@ def passive_of(model, q) -> list[float]:
 
     q = np.asarray(q, dtype=float)
     extra = mm.platform_joint_angles(model, q) if mm.platform_joint_names(model.description) else []
-    return [float(v) for v in (*q[model.n_actuators:len(model.coordinates) - model.dof], *extra)]
+    return [float(v) for v in (*q[_passive_columns(model)], *extra)]
 
 
 def heading(args, model, what: str) -> str:

@@ -11,6 +11,7 @@ def cmd_export_mjcf(args) -> dict:
     first). What the export approximates is said on stderr, as notes."""
     from ..algorithms.kinematics import inverse_kinematics, working_modes
     from ..interop import mujoco_export as mx
+    from ..model import mechanism_model as mm
 
     closures = loop_closures(args, "--closures", args.closures, "--stiff", args.stiff)
     model = model_of(args)
@@ -30,10 +31,10 @@ def cmd_export_mjcf(args) -> dict:
     approximations = [line[5:-4] for line in text.splitlines() if line.startswith("<!-- Principal")]
     if not args.json:
         print(f"wrote {out}: the {model.description.name} ({model.description.notation}) for MuJoCo, keyframe "
-              f"\"pkmlab\" at pose {', '.join(f'{v:.6g}' for v in q[-model.description.dof:])}")
+              f"\"pkmlab\" at pose {', '.join(f'{v:.6g}' for v in mm.pose_of(model, q))}")
         say = notes(args)
         for note in approximations:
             say(note)
-    return {"mechanism": mechanism_name(args, model), "mjcf": str(out), "pose": q[-model.description.dof:].tolist(),
+    return {"mechanism": mechanism_name(args, model), "mjcf": str(out), "pose": mm.pose_of(model, q).tolist(),
             "qpos": mx.qpos_from_q(model, q).tolist(),
             "joints": list(mx.joint_names(model)), "approximations": approximations}

@@ -58,18 +58,18 @@ def structure(mechanism: Mechanism) -> str:
 
 def coordinate_names(mechanism: Mechanism) -> tuple[str, ...]:
     """Names of ``q``: ``a1..an`` (actuators), ``q<leg>_<joint>`` (passive joints), then the pose."""
-    names = [f"a{i + 1}" for i in range(len(mechanism.legs))]
+    names = [f"a{k + 1}" for k in range(len(mechanism.actuators))]
     for i, leg in enumerate(mechanism.legs):
         names += [f"q{i + 1}_{k + 1}" for k, j in enumerate(leg.joints[:-1]) if not j.actuated]
-    return (*names, *mechanism.pose_names)
+    return (*names, *mechanism.platform.pose_names)
 
 
 def coordinate_angles(mechanism: Mechanism) -> tuple[bool, ...]:
     """For each coordinate of :func:`coordinate_names`, whether it is an angle (a revolute joint's, or alpha)."""
-    angles = [leg.joints[leg.actuated].kind == "R" for leg in mechanism.legs]
+    angles = [kind == "R" for kind in mechanism.actuator_kinds]
     for leg in mechanism.legs:
         angles += [j.kind == "R" for j in leg.joints[:-1] if not j.actuated]
-    return (*angles, *(name == "alpha" for name in mechanism.pose_names))
+    return (*angles, *(name == "alpha" for name in mechanism.platform.pose_names))
 
 
 def parameter_names(mechanism: Mechanism) -> tuple[str, ...]:
@@ -120,11 +120,11 @@ def derive(mechanism: Mechanism) -> dict:
     q_dot = sp.symbols(" ".join(f"{n}_dot" for n in coordinate_names(mechanism)), real=True)
     P = dict(zip(parameter_names(mechanism), sp.symbols(" ".join(parameter_names(mechanism)), real=True),
                  strict=True))
-    n = len(mechanism.legs)
-    pose = q[len(q) - mechanism.dof:]
-    alpha = pose[2] if mechanism.dof == 3 else sp.Integer(0)
+    n, n_pose = len(mechanism.actuators), len(mechanism.platform.pose_names)
+    pose = q[len(q) - n_pose:]
+    alpha = pose[2] if mechanism.platform.kind == "rigid" else sp.Integer(0)
     platform_rot = sp.Matrix([[sp.cos(alpha), -sp.sin(alpha)], [sp.sin(alpha), sp.cos(alpha)]])
-    passive = iter(q[n:len(q) - mechanism.dof])
+    actuators, passive = iter(q[:n]), iter(q[n:len(q) - n_pose])
     eta, bodies, joints, slides = [], [], [], []
     for i, leg in enumerate(mechanism.legs):
         point = sp.Matrix([P[f"base{i + 1}_x"], P[f"base{i + 1}_y"]])
@@ -133,7 +133,7 @@ def derive(mechanism: Mechanism) -> dict:
         slides.append({})  # the direction of each prismatic joint's slide
         for k, (joint, _body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
             joints[i].append(point)
-            coordinate = q[i] if joint.actuated else next(passive)
+            coordinate = next(actuators) if joint.actuated else next(passive)
             if joint.kind == "R":  # the following body's absolute angle
                 direction, unit, origin = coordinate, (sp.cos(coordinate), sp.sin(coordinate)), point
             else:  # a slide along the rail (first joint) or along the preceding body, which keeps its direction
@@ -258,7 +258,8 @@ def generate_source(mechanism: Mechanism) -> str:
     nq, m, nb = len(q), len(d["eta"]), len(d["bodies"])
     j_eta, b_eta = jacobian_and_bias(d["eta"], q, q_dot)
     # the compiled core eliminates x and y with the unit pivots every leg's two equations have
-    x_col = nq - mechanism.dof
+    n_pose = len(mechanism.platform.pose_names)
+    x_col = nq - n_pose
     for i in range(len(mechanism.legs)):
         assert (j_eta[2 * i, x_col], j_eta[2 * i, x_col + 1]) == (-1, 0), "x-row of a leg: d/dx = -1, d/dy = 0"
         assert (j_eta[2 * i + 1, x_col], j_eta[2 * i + 1, x_col + 1]) == (0, -1), "y-row: d/dx = 0, d/dy = -1"
@@ -272,7 +273,7 @@ def generate_source(mechanism: Mechanism) -> str:
         "# in the plane: 2 linear and 1 angular rows per body Jacobian, lines of action (point, direction) of 4",
         (2, 1, 3, 4), "# where each body's mass and inertia (legs' bodies, then the platform) and the gravity are in P",
         [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero,
-        layout=(mechanism.dof, [x_col - len(mechanism.legs) + c for c in range(2)], True))
+        layout=(n_pose, [x_col - len(mechanism.actuators) + c for c in range(2)], True))
     width = max(len(leg.joints) for leg in mechanism.legs)
     points, where = [], []
     for i, leg_points in enumerate(d["joints"]):
@@ -298,9 +299,9 @@ def generate_source(mechanism: Mechanism) -> str:
          [str(z) for z in range(len(nonzero))]),
         ("body_bias", "q, sc, q_dot, P, out", "Write each body's dJ_b/dt q_dot (N_BODIES, 3) into out.",
          list(b_body), [f"{b}, {k}" for b in range(nb) for k in range(3)]),
-        ("joint_points", "q, sc, P, out", "Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, "
+        ("joint_points", "q, sc, P, out", "Write every joint's position (N_LEGS, JOINTS_PER_LEG, 2) into out, "
          "base to platform.", points, where),
-        ("leg_lines", "q, sc, P, out", "Write each leg's line of action (N_ACTUATORS, 4): its attachment point "
+        ("leg_lines", "q, sc, P, out", "Write each leg's line of action (N_LEGS, 4): its attachment point "
          "minus the tracked point, and its direction (unnormalised).", lines_,
          [f"{i}, {k}" for i in range(len(mechanism.legs)) for k in range(4)]),
         ("platform_size", "P", "The mean distance between the platform's attachment points (1 for a point).",
@@ -308,7 +309,7 @@ def generate_source(mechanism: Mechanism) -> str:
     ]
     kernels = [(name, args, doc, [Block(outputs, indices)]) for name, args, doc, outputs, indices in kernels]
     return write_module(header, q, q_dot, coordinate_names(mechanism), coordinate_angles(mechanism),
-                        parameter_names(mechanism), len(mechanism.legs), kernels)
+                        parameter_names(mechanism), len(mechanism.actuators), kernels)
 
 
 def module_header(kind: str, mechanism, structure_name: str, names, angles, parameters, sizes, dims_comment: str,
@@ -324,7 +325,7 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
 
     mass, inertia, gravity = indices
     n_pose, point, lines = layout
-    passive = sizes[0] - len(mechanism.legs)
+    passive = sizes[0] - len(mechanism.actuators)
     reduced = tuple(c for c in range(passive) if c not in point)
     return [
         f'"""GENERATED by ``python -m pkmlab.codegen.{kind}`` -- do not edit.',
@@ -341,7 +342,7 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
         f"ANGLES = {tuple(angles)!r}  # which coordinates are angles (wrapped modulo 2 pi)",
         f"PARAMETERS = {tuple(parameters)!r}",
         f"N_COORDINATES, N_CONSTRAINTS, N_BODIES = {sizes[0]}, {sizes[1]}, {sizes[2]}",
-        f"N_ACTUATORS, DOF = {len(mechanism.legs)}, {mechanism.dof}",
+        f"N_ACTUATORS, DOF, N_LEGS = {len(mechanism.actuators)}, {mechanism.dof}, {len(mechanism.legs)}",
         "# the rows of eta that close each leg's end point on the platform (DIM per leg, leg by leg; the others "
         "do not move with the tracked point)",
         f"POINT_ROWS = {sizes[1] if point_rows is None else point_rows}",

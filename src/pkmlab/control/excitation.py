@@ -244,8 +244,7 @@ def _within_limits(problem: _Problem, x: np.ndarray, t: np.ndarray, shrink: floa
 def _centre(model, center, mode, margin) -> np.ndarray:
     dof = model.description.dof
     if center is None:
-        q = mm.well_conditioned_configuration(model, mode)
-        return np.array(q[-dof:], dtype=float)
+        return mm.pose_of(model, mm.well_conditioned_configuration(model, mode)).copy()
     center = as_batch("center", center, dof, single=True)[0][0].copy()
     _q, s, failure = mm.path_inverse_kinematics(model, center[None], mode)
     if failure is not None:

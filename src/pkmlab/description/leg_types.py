@@ -25,11 +25,12 @@ actuator's stroke).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from ..errors import InvalidParameterError, UnreachablePoseError
-from .mechanism import Leg
+from .mechanism import Leg, moving_base, ordinary_part
 
 #: Leg types with a closed-form solution, and how many working modes each has.
 BRANCHES = {"R*RR": 2, "RP*R": 1, "P*RR": 2}
@@ -37,9 +38,10 @@ BRANCHES = {"R*RR": 2, "RP*R": 1, "P*RR": 2}
 
 def working_modes(leg: Leg) -> tuple[int, ...]:
     """The working modes of ``leg``: ``(1, -1)`` for a two-branch leg (every leg solved by the general method
-    is one), ``()`` for a single solution."""
-    _solver(leg, 0)
-    return (1, -1) if BRANCHES.get(leg.notation, 2) == 2 else ()
+    is one), ``()`` for a single solution; a kinematically redundant leg's are those of its ordinary part."""
+    part = ordinary_part(leg)
+    _solver(part, 0)
+    return (1, -1) if BRANCHES.get(part.notation, 2) == 2 else ()
 
 
 def _solver(leg: Leg, number: int):
@@ -287,10 +289,26 @@ def _general(leg: Leg, number: int, point: np.ndarray, sigma: int) -> Solved:
     return Solved(coordinates, bad, why)
 
 
-def leg_inverse_kinematics_batch(leg: Leg, number: int, points, sigma: int = 1) -> Solved:
+def leg_inverse_kinematics_batch(leg: Leg, number: int, points, sigma: int = 1, base_values=None) -> Solved:
     """:func:`leg_inverse_kinematics` of many attachment points ``(K, 2)`` at once: the coordinates
-    ``(K, joints)``, ``bad`` (K,) for the points out of reach and ``why(k)`` naming the reason."""
-    return _solver(leg, number)(leg, number, np.asarray(points, dtype=float).reshape(-1, 2), sigma)
+    ``(K, joints)``, ``bad`` (K,) for the points out of reach and ``why(k)`` naming the reason.
+
+    A kinematically redundant leg needs its base actuators' values ``(K, leg.moving_base)``: its ordinary part
+    is solved in the frame of the base they move (origin at its first joint, x axis along the body before it),
+    its angles turned back, its actuator's stroke checked on the values in the machine's frame."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if not leg.moving_base:
+        return _solver(leg, number)(leg, number, points, sigma)
+    values = np.asarray(base_values, dtype=float).reshape(len(points), leg.moving_base)
+    origin, direction = moving_base(leg, values)
+    part = replace(ordinary_part(leg), stroke=None)
+    c, s = np.cos(direction), np.sin(direction)
+    dx, dy = points[:, 0] - origin[:, 0], points[:, 1] - origin[:, 1]
+    solved = _solver(part, number)(part, number, np.column_stack([c * dx + s * dy, c * dy - s * dx]), sigma)
+    turns = np.array([j.kind == "R" for j in part.joints[:-1]])
+    coordinates = np.column_stack([values, solved.coordinates + np.where(turns, direction[:, None], 0.0)])
+    bad, why = mark_outside_stroke(leg, number, coordinates[:, leg.actuated], solved.bad, solved.why)
+    return Solved(coordinates, bad, why)
 
 
 def leg_inverse_kinematics(leg: Leg, number: int, point, sigma: int = 1) -> list[float]:
@@ -304,12 +322,23 @@ def leg_inverse_kinematics(leg: Leg, number: int, point, sigma: int = 1) -> list
 
 
 # ------------------------------------------------------------------ forward kinematics: the circle of a leg
-def leg_circle(leg: Leg, actuator: float) -> tuple[tuple[float, float], float]:
+def _placed(leg: Leg, base_values) -> Leg:
+    """``leg``'s ordinary part on the base its first actuators' ``base_values`` put it on (``leg`` itself for a leg
+    of one actuator)."""
+    if not leg.moving_base:
+        return leg
+    origin, direction = moving_base(leg, [base_values])
+    return ordinary_part(leg, origin[0], float(direction[0]))
+
+
+def leg_circle(leg: Leg, actuator: float, base_values=()) -> tuple[tuple[float, float], float]:
     """With its actuator at ``actuator``, every leg type here holds its platform attachment point on a
     circle: ``(centre, radius)`` — the elbow and the passive link (``R*RR``), the base pivot and the
-    leg's length (``RP*R``), the slider's pivot and the passive link (``P*RR``)."""
+    leg's length (``RP*R``), the slider's pivot and the passive link (``P*RR``); a kinematically redundant leg,
+    its ordinary part's on the base its first actuators' ``base_values`` put it on."""
     from .mechanism import leg_chain
 
+    leg = _placed(leg, base_values)
     _solver(leg, 0)
     if leg.notation == "RP*R":
         tx = leg.bodies[0].tip[0] + leg.bodies[1].tip[0] + actuator
@@ -318,9 +347,12 @@ def leg_circle(leg: Leg, actuator: float) -> tuple[tuple[float, float], float]:
     return centre, math.hypot(*leg.bodies[1].tip)
 
 
-def leg_coordinates(leg: Leg, actuator: float, point) -> list[float]:
+def leg_coordinates(leg: Leg, actuator: float, point, base_values=()) -> list[float]:
     """The joint coordinates (joint order, the last joint's excluded) of a leg whose actuator is at
-    ``actuator`` and whose end is at ``point`` (on its :func:`leg_circle`)."""
+    ``actuator`` and whose end is at ``point`` (on its :func:`leg_circle`); a kinematically redundant leg's start
+    with its first actuators' ``base_values``."""
+    if leg.moving_base:
+        return [*map(float, base_values), *leg_coordinates(_placed(leg, base_values), actuator, point)]
     _solver(leg, 0)
     if leg.notation == "RP*R":
         tx = leg.bodies[0].tip[0] + leg.bodies[1].tip[0] + actuator

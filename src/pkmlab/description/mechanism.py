@@ -24,9 +24,13 @@ Conventions (pkmlab's, for every mechanism):
 * The platform is ``rigid`` (pose ``(x, y, alpha)``: its reference point and the absolute angle
   of its frame's x axis; attachment points given in that frame) or a ``point`` (pose ``(x, y)``,
   2 DOF: every leg ends at the same point, which may carry a payload mass).
-* Exactly one joint per leg is actuated (``*`` after its letter in the TOML form:
+* One joint per leg is actuated (``*`` after its letter in the TOML form:
   ``joints = "R*RR"``, ``"RP*R"``, ``"P*RR"``); actuator values are angles (rad) or
-  displacements (m), efforts torques (N·m) or forces (N).
+  displacements (m), efforts torques (N·m) or forces (N). A *kinematically redundant* leg has more:
+  its first joints, from the base, are actuated too (``"P*R*RR"``, the 3-PRRR's) and carry an ordinary
+  leg on a base they move. Their values are controlled coordinates beside the platform's pose — the
+  machine has as many degrees of freedom as actuators, the platform three (or two) of them. Actuators
+  are numbered ``a1, a2, …`` leg by leg, base to platform.
 * Gravity is a vector in the plane, zero by default (a machine in the horizontal plane).
 """
 
@@ -55,17 +59,30 @@ class LegsAndPose:
 
     @property
     def dof(self) -> int:
-        """Degrees of freedom = number of actuators = the pose's dimension."""
-        return len(self.platform.pose_names)
+        """Degrees of freedom = number of actuators = the number of controlled coordinates (:attr:`pose_names`)."""
+        return len(self.pose_names)
 
     @property
     def pose_names(self) -> tuple[str, ...]:
-        return self.platform.pose_names
+        """The controlled coordinates: the platform's pose, then the actuators that move a kinematically redundant
+        leg's base (:attr:`redundancy_names`)."""
+        return (*self.platform.pose_names, *self.redundancy_names)
+
+    @property
+    def actuators(self) -> tuple[tuple[int, int], ...]:
+        """``(leg, joint)`` of every actuator ``a1, a2, …`` (0-based), leg by leg, base to platform."""
+        return tuple((i, k) for i, leg in enumerate(self.legs) for k in leg.actuated_joints)
+
+    @property
+    def redundancy_names(self) -> tuple[str, ...]:
+        """The actuators that move the base of a kinematically redundant leg (every actuator of a leg but its last),
+        ``("a1", "a3", "a5")`` for a 3-PRRR; empty for a machine of one actuator per leg."""
+        return tuple(f"a{k + 1}" for k, (i, joint) in enumerate(self.actuators) if joint != self.legs[i].actuated)
 
     @property
     def actuator_kinds(self) -> tuple[str, ...]:
-        """``"R"`` (an angle, torque in N·m) or ``"P"`` (a displacement, force in N) per leg."""
-        return tuple(leg.joints[leg.actuated].kind for leg in self.legs)
+        """``"R"`` (an angle, torque in N·m) or ``"P"`` (a displacement, force in N) per actuator."""
+        return tuple(self.legs[i].joints[k].kind for i, k in self.actuators)
 
     @property
     def notation(self) -> str:
@@ -112,8 +129,19 @@ class JointChain:
 
     @property
     def actuated(self) -> int:
-        """Index of the actuated joint."""
-        return next(i for i, j in enumerate(self.joints) if j.actuated)
+        """Index of the leg's own actuated joint: its only one, or a kinematically redundant leg's last."""
+        return max(i for i, j in enumerate(self.joints) if j.actuated)
+
+    @property
+    def actuated_joints(self) -> tuple[int, ...]:
+        """Indices of the leg's actuated joints, base to platform (one, but for a kinematically redundant leg)."""
+        return tuple(i for i, j in enumerate(self.joints) if j.actuated)
+
+    @property
+    def moving_base(self) -> int:
+        """How many joints at the base move the base of the leg's ordinary part: a kinematically redundant leg's
+        actuators but its last (0 for an ordinary leg)."""
+        return len(self.actuated_joints) - 1
 
     @property
     def notation(self) -> str:
@@ -124,7 +152,8 @@ class JointChain:
 @dataclass(frozen=True)
 class Leg(JointChain):
     """A serial chain from ``base`` to the platform: ``joints`` (the last one carries the platform),
-    ``bodies`` (one after each joint but the last), the actuator's ``stroke`` (lower, upper) or None."""
+    ``bodies`` (one after each joint but the last), the actuator's ``stroke`` (lower, upper) or None (a
+    kinematically redundant leg's: its last actuator's, the one of its ordinary part)."""
 
     base: tuple[float, float]
     joints: tuple[Joint, ...]
@@ -193,10 +222,15 @@ class Mechanism(LegsAndPose):
                 raise InvalidParameterError(f"{where}, joint {k + 1}: unknown joint type {kind!r} "
                                             f"(use R for revolute, P for prismatic)")
         actuated = [k for k, j in enumerate(joints) if j.actuated]
-        if len(actuated) != 1:
-            what = "no actuated joint" if not actuated else f"{len(actuated)} actuated joints"
-            raise InvalidParameterError(f"{where} ({''.join(j.kind for j in joints)}) has {what}: exactly one "
-                                        "joint per leg is actuated (mark it with *, e.g. R*RR)")
+        notation = "".join(j.kind + ("*" if j.actuated else "") for j in joints)
+        if not actuated:
+            raise InvalidParameterError(f"{where} ({notation}) has no actuated joint: one joint per leg is actuated "
+                                        "(mark it with *, e.g. R*RR)")
+        if actuated[:-1] != list(range(len(actuated) - 1)):
+            raise InvalidParameterError(f"{where} ({notation}) has {len(actuated)} actuated joints: a leg's extra "
+                                        "actuators are its first joints, from the base, moving the base of an "
+                                        "ordinary leg (kinematic redundancy, e.g. P*R*RR); otherwise one joint per "
+                                        "leg is actuated")
         last = joints[-1]
         if last.kind != "R" or last.actuated:
             raise InvalidParameterError(f"{where}: its last joint carries the platform and must be a passive "
@@ -258,21 +292,23 @@ class Mechanism(LegsAndPose):
                         finite_number("platform inertia", platform.inertia, positive=True))
 
     def _check_mobility(self) -> None:
-        """Grübler's count for planar chains, ``3 (bodies - 1) - 2 joints``, must equal the pose's dimension
-        (a point platform's idle spin about its own point discounted)."""
+        """Grübler's count for planar chains, ``3 (bodies - 1) - 2 joints``, must equal the number of actuators
+        (a point platform's idle spin about its own point discounted): the pose's dimension, plus the actuators
+        that move a kinematically redundant leg's base."""
         dof = len(self.platform.pose_names)
-        if len(self.legs) != dof:  # one actuator per leg: as many legs as the pose has coordinates
+        if len(self.legs) != dof:  # one ordinary leg per pose coordinate
             raise InvalidParameterError(f"a {self.platform.kind} platform (pose {', '.join(self.platform.pose_names)}) "
                                         f"needs {dof} actuated legs, got {len(self.legs)}")
         bodies = 1 + sum(len(leg.bodies) for leg in self.legs) + 1  # base, leg bodies, platform
         joints = sum(len(leg.joints) for leg in self.legs)
         mobility = 3 * (bodies - 1) - 2 * joints - (1 if self.platform.kind == "point" else 0)
-        if mobility != dof:
+        if mobility != self.dof:
+            extra = (f" and {len(self.redundancy_names)} moving its legs' bases" if self.redundancy_names else "")
             raise InvalidParameterError(
                 f"the mechanism's mobility (Grübler: 3 x {bodies - 1} moving bodies - 2 x {joints} joints"
                 f"{' - 1, the point platform' if self.platform.kind == 'point' else ''} = {mobility}) is not the "
-                f"{dof} of its pose ({', '.join(self.platform.pose_names)}); {len(self.legs)} legs of "
-                f"{', '.join(leg.notation for leg in self.legs)}")
+                f"{self.dof} of its actuators ({dof} for its pose {', '.join(self.platform.pose_names)}{extra}); "
+                f"{len(self.legs)} legs of {', '.join(leg.notation for leg in self.legs)}")
 
 
 # ------------------------------------------------------------------ leg kinematics (one numeric reference)
@@ -309,6 +345,39 @@ def leg_chain(leg: Leg, coordinates) -> list[tuple[tuple[float, float], float]]:
     return out
 
 
+def moving_base(leg: Leg, values) -> tuple[np.ndarray, np.ndarray]:
+    """Where the ordinary part of a kinematically redundant ``leg`` starts (:func:`ordinary_part`), for the values
+    ``(K, leg.moving_base)`` of its base actuators: the position of its first joint ``(K, 2)`` and the direction
+    of the body before it ``(K,)`` (rad) — the chain conventions of :func:`leg_chain`, for many values at once."""
+    values = np.asarray(values, dtype=float).reshape(-1, leg.moving_base)
+    point = np.tile(np.asarray(leg.base, dtype=float), (len(values), 1))
+    direction = np.zeros(len(values))
+    for k in range(leg.moving_base):
+        joint, body, v = leg.joints[k], leg.bodies[k], values[:, k]
+        if joint.kind == "R":
+            direction = v
+        else:
+            axis = np.full(len(values), joint.axis) if k == 0 else direction
+            point = point + v[:, None] * np.column_stack([np.cos(axis), np.sin(axis)])
+            direction = axis
+        c, s = np.cos(direction), np.sin(direction)
+        point = point + np.column_stack([c * body.tip[0] - s * body.tip[1], s * body.tip[0] + c * body.tip[1]])
+    return point, direction
+
+
+def ordinary_part(leg: Leg, origin=(0.0, 0.0), direction: float = 0.0) -> Leg:
+    """The ordinary leg (one actuator) that a kinematically redundant ``leg`` carries on the base its first
+    actuators move, with that base at ``origin`` and the body before it at angle ``direction`` (what a first
+    prismatic joint slides along); ``leg`` itself when it has one actuator."""
+    k = leg.moving_base
+    if not k:
+        return leg
+    joints = list(leg.joints[k:])
+    if joints[0].kind == "P":
+        joints[0] = Joint("P", joints[0].actuated, float(direction))
+    return Leg((float(origin[0]), float(origin[1])), tuple(joints), leg.bodies[k:], leg.stroke)
+
+
 def attachment_point(mechanism: Mechanism, leg: int, pose) -> tuple[float, float]:
     """Where leg ``leg`` (0-based) meets the platform at ``pose``: ``(x, y) + R(alpha)·attachment``."""
     pose = [float(v) for v in pose]
@@ -320,7 +389,7 @@ def attachment_point(mechanism: Mechanism, leg: int, pose) -> tuple[float, float
 
 def attachment_points(mechanism: Mechanism, leg: int, poses: np.ndarray) -> np.ndarray:
     """:func:`attachment_point` of many poses ``(K, dof)`` at once, ``(K, 2)``."""
-    alpha = poses[:, 2] if mechanism.dof == 3 else np.zeros(len(poses))
+    alpha = poses[:, 2] if mechanism.platform.kind == "rigid" else np.zeros(len(poses))
     ax, ay = mechanism.platform.attachments[leg]  # (0, 0) for a point platform
     c, s = np.cos(alpha), np.sin(alpha)
     return np.column_stack([poses[:, 0] + c * ax - s * ay, poses[:, 1] + s * ax + c * ay])

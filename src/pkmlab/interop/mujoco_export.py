@@ -124,6 +124,11 @@ def _planar_tensor(inertia: float) -> np.ndarray:
     return np.diag([inertia / 2, inertia / 2, inertia])
 
 
+def _platform_joints(m) -> tuple[str, ...]:
+    """The pose coordinates the platform's own joints move (all but a six-DOF platform's, which is free)."""
+    return m.pose_names if _spatial(m) else m.platform.pose_names
+
+
 def joint_names(model) -> tuple[str, ...]:
     """MuJoCo's joints in tree order (the order of ``qpos``'s legs part, then the platform's): leg ``i``'s
     joint ``k`` is ``leg<i>_j<k>`` (a universal joint's two hinges ``…a``, ``…b``)."""
@@ -135,7 +140,7 @@ def joint_names(model) -> tuple[str, ...]:
             names += [base + "a", base + "b"] if joint.kind == "U" else [base]
     if _spatial(m) and m.platform.kind == "rigid":
         return (*names, "platform_free")
-    return (*names, *(f"platform_{n}" for n in m.pose_names))
+    return (*names, *(f"platform_{n}" for n in _platform_joints(m)))
 
 
 def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", closures: str = "stiff",
@@ -169,6 +174,7 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
     body_lines, actuators, equalities, tendons = [], [], [], []
     joints = iter(joint_names(model))
     held = _held(m)
+    numbers = iter(range(model.n_actuators))  # the actuators a1, a2, ... leg by leg, base to platform
     for i, leg in enumerate(m.legs):
         depth = 2
         opened = 0
@@ -191,10 +197,11 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
             for axis in axes:
                 jname = next(joints)
                 kind = "slide" if joint.kind == "P" else "hinge"
-                extra = drive_attrs[i] if joint.actuated else ""
+                a = next(numbers) if joint.actuated else None
+                extra = drive_attrs[a] if joint.actuated else ""
                 body_lines.append(f'{pad}  <joint name="{jname}" type="{kind}" axis="{_numbers(axis)}"{extra}/>')
                 if joint.actuated:
-                    actuators.append(f'    <motor name="actuator{i + 1}" joint="{jname}" gear="1"/>')
+                    actuators.append(f'    <motor name="actuator{a + 1}" joint="{jname}" gear="1"/>')
             if _spatial(m):
                 body_lines.append(f"{pad}  " + _inertial(body.mass, body.com, body.inertia, notes,
                                                           f"leg {i + 1}, body {k + 1}"))
@@ -220,7 +227,7 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
         body_lines.append('      <freejoint name="platform_free"/>')
     else:
         axes = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
-        for name in m.pose_names:
+        for name in _platform_joints(m):
             kind, axis = ("hinge", (0, 0, 1)) if name == "alpha" else ("slide", axes[name])
             body_lines.append(f'      <joint name="platform_{name}" type="{kind}" axis="{_numbers(axis)}"/>')
     if _spatial(m):
@@ -308,9 +315,8 @@ def drive_attributes(model, drives) -> list[str]:
         law = "exact sign" if drives.coulomb_rate == 0 else "smooth tanh"
         raise InvalidParameterError(f"MuJoCo's Coulomb friction (frictionloss) is stick-slip friction, not pkmlab's "
                                     f"{law} law: declare the drives' stick_slip = true, or run on pkmlab's plant")
-    for i, leg in enumerate(m.legs):
-        k = next(k for k, joint in enumerate(leg.joints) if joint.actuated)
-        if not _spatial(m) and leg.joints[k].kind == "R" and k > 0:
+    for i, k in m.actuators:  # a revolute after another: its MuJoCo angle is relative, pkmlab's absolute
+        if not _spatial(m) and m.legs[i].joints[k].kind == "R" and any(j.kind == "R" for j in m.legs[i].joints[:k]):
             raise InvalidParameterError(f"leg {i + 1}: its actuated revolute is joint {k + 1}, whose MuJoCo angle is "
                                         "relative and pkmlab's absolute: drives on it are not exported")
     names = {"armature": k_.ARMATURE, "damping": k_.VISCOUS, "frictionloss": k_.COULOMB}
@@ -334,13 +340,13 @@ def _closure_comment(closures: str, solref, solimp) -> str:
 
 def _n_pose(m) -> int:
     """How many of ``q``'s last coordinates are the platform's pose (its parasitic ones included)."""
-    return len(m.platform.q_pose_names) if _spatial(m) else m.dof
+    return len(m.platform.q_pose_names) if _spatial(m) else len(m.platform.pose_names)
 
 
 def _whole_pose(m, q: np.ndarray) -> np.ndarray:
     """The platform's whole pose of ``q`` (or of its rates), in the order of its kind's pose names."""
     if not _spatial(m):
-        return q[len(q) - m.dof:]
+        return q[len(q) - _n_pose(m):]
     from ..description.spatial import full_poses
 
     return full_poses(m, q[len(q) - _n_pose(m):])
@@ -389,8 +395,8 @@ def _legs_from_mujoco(model, values: np.ndarray, rates: bool) -> tuple[list[floa
     """pkmlab's actuators then passive joint coordinates (or their rates) from MuJoCo's leg values; and how
     many of ``values`` the legs take."""
     m = model.description
-    actuators, passive, k = [0.0] * len(m.legs), [], 0
-    for i, leg in enumerate(m.legs):
+    actuators, passive, k = [], [], 0
+    for leg in m.legs:
         direction = 0.0  # the absolute angle (rate) of the body before the joint
         for j, joint in enumerate(leg.joints[:-1]):
             count = getattr(joint, "coordinates", 1)
@@ -403,7 +409,7 @@ def _legs_from_mujoco(model, values: np.ndarray, rates: bool) -> tuple[list[floa
                 elif j == 0:
                     direction = 0.0 if rates else joint.axis  # a rail's angle is constant
             if joint.actuated:
-                actuators[i] = got[0]
+                actuators.append(got[0])
             else:
                 passive += got
     return [*actuators, *passive], k

@@ -28,6 +28,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import InvalidParameterError, PkmlabError, UnstableControlError
+from ..model.mechanism_model import pose_of
 from ..simulation.result import SimulationResult
 from ..simulation.run import branch_failure_text, prepare_run, run_result
 from ..simulation.scenario import Scenario, pose_text
@@ -104,7 +105,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                                                       r.sensing, r.delay, theta_m, theta_dot_m, q_out, effort,
                                                       applied)
         if status != ctrl.kernels.OK:
-            pose = pose_text(q[k, -plant.description.dof:])
+            pose = pose_text(pose_of(plant, q[k]))
             raise PkmlabError(f"run stopped at t = {prep.t[k]:.4f} s: the controller's model "
                               f"{branch_failure_text(status, prep.singularity_guard)} near pose {pose}")
         q_ctrl[:] = q_out
@@ -120,6 +121,6 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                                        f"{prep.t[k + 1]:.4f} s (non-finite state): try a smaller --mujoco-timestep "
                                        "or another integrator")
     plant.kernels.singularity_measures(q, plant.P, s)  # of every recorded configuration, at once
-    pose = q[:, -plant.description.dof:].copy()
+    pose = pose_of(plant, q).copy()
     result = run_result(scenario, prep, q, theta_dot, tau, pose, s, theta_m if r.sensing >= 0 else None)
     return replace(result, closure_violation=violation)

@@ -13,7 +13,7 @@ COORDINATES = ('a1', 'a2', 'a3', 'q1_2', 'q2_2', 'q3_2', 'x', 'y', 'alpha')
 ANGLES = (False, False, False, True, True, True, False, False, True)  # which coordinates are angles (wrapped modulo 2 pi)
 PARAMETERS = ('base1_x', 'base1_y', 'rail1_x', 'rail1_y', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_mass', 'body1_1_inertia', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_mass', 'body1_2_inertia', 'base2_x', 'base2_y', 'rail2_x', 'rail2_y', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_mass', 'body2_1_inertia', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_mass', 'body2_2_inertia', 'base3_x', 'base3_y', 'rail3_x', 'rail3_y', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_mass', 'body3_1_inertia', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_mass', 'body3_2_inertia', 'attach1_x', 'attach1_y', 'attach2_x', 'attach2_y', 'attach3_x', 'attach3_y', 'platform_com_x', 'platform_com_y', 'platform_mass', 'platform_inertia', 'gravity_x', 'gravity_y')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 9, 6, 7
-N_ACTUATORS, DOF = 3, 3
+N_ACTUATORS, DOF, N_LEGS = 3, 3, 3
 # the rows of eta that close each leg's end point on the platform (DIM per leg, leg by leg; the others do not move with the tracked point)
 POINT_ROWS = 6
 # the platform's pose: q's last N_POSE coordinates (its parasitic ones, then the DOF it is controlled in)
@@ -434,7 +434,7 @@ def body_bias(q, sc, q_dot, P, out):
 
 @njit(cache=True)
 def joint_points(q, sc, P, out):
-    """Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 2) into out, base to platform."""
+    """Write every joint's position (N_LEGS, JOINTS_PER_LEG, 2) into out, base to platform."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
@@ -488,7 +488,7 @@ def joint_points(q, sc, P, out):
 
 @njit(cache=True)
 def leg_lines(q, sc, P, out):
-    """Write each leg's line of action (N_ACTUATORS, 4): its attachment point minus the tracked point, and its direction (unnormalised)."""
+    """Write each leg's line of action (N_LEGS, 4): its attachment point minus the tracked point, and its direction (unnormalised)."""
     a1 = q[0]
     a2 = q[1]
     a3 = q[2]
@@ -726,18 +726,18 @@ def singularity_measure(q, sc, P, lines):
 
     * any other machine: :func:`passive_determinant`.
 
-    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array (N_ACTUATORS >= N_LEGS).
     """
     if not MEASURE_LINES:
         return passive_determinant(q, sc, P, lines)
     leg_lines(q, sc, P, lines)
     if DIM == 3:
         return spatial_singularity_measure(P, lines)
-    for i in range(N_ACTUATORS):
+    for i in range(N_LEGS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
         lines[i, 3] /= norm
-    if N_ACTUATORS == 2:
+    if N_LEGS == 2:
         return lines[0, 3] * lines[1, 2] - lines[0, 2] * lines[1, 3]
     for i in range(3):  # the moment of each line about the tracked point, in place of r_i
         lines[i, 0] = lines[i, 0] * lines[i, 3] - lines[i, 1] * lines[i, 2]

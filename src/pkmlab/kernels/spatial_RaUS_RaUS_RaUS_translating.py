@@ -13,7 +13,7 @@ COORDINATES = ('a1', 'a2', 'a3', 'q1_2a', 'q1_2b', 'q2_2a', 'q2_2b', 'q3_2a', 'q
 ANGLES = (True, True, True, True, True, True, True, True, True, False, False, False)  # which coordinates are angles (wrapped modulo 2 pi)
 PARAMETERS = ('base1_x', 'base1_y', 'base1_z', 'axis1_1a_x', 'axis1_1a_y', 'axis1_1a_z', 'axis1_2a_x', 'axis1_2a_y', 'axis1_2a_z', 'axis1_2b_x', 'axis1_2b_y', 'axis1_2b_z', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_tip_z', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_com_z', 'body1_1_mass', 'body1_1_inertia_xx', 'body1_1_inertia_yy', 'body1_1_inertia_zz', 'body1_1_inertia_xy', 'body1_1_inertia_xz', 'body1_1_inertia_yz', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_tip_z', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_com_z', 'body1_2_mass', 'body1_2_inertia_xx', 'body1_2_inertia_yy', 'body1_2_inertia_zz', 'body1_2_inertia_xy', 'body1_2_inertia_xz', 'body1_2_inertia_yz', 'base2_x', 'base2_y', 'base2_z', 'axis2_1a_x', 'axis2_1a_y', 'axis2_1a_z', 'axis2_2a_x', 'axis2_2a_y', 'axis2_2a_z', 'axis2_2b_x', 'axis2_2b_y', 'axis2_2b_z', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_tip_z', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_com_z', 'body2_1_mass', 'body2_1_inertia_xx', 'body2_1_inertia_yy', 'body2_1_inertia_zz', 'body2_1_inertia_xy', 'body2_1_inertia_xz', 'body2_1_inertia_yz', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_tip_z', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_com_z', 'body2_2_mass', 'body2_2_inertia_xx', 'body2_2_inertia_yy', 'body2_2_inertia_zz', 'body2_2_inertia_xy', 'body2_2_inertia_xz', 'body2_2_inertia_yz', 'base3_x', 'base3_y', 'base3_z', 'axis3_1a_x', 'axis3_1a_y', 'axis3_1a_z', 'axis3_2a_x', 'axis3_2a_y', 'axis3_2a_z', 'axis3_2b_x', 'axis3_2b_y', 'axis3_2b_z', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_tip_z', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_com_z', 'body3_1_mass', 'body3_1_inertia_xx', 'body3_1_inertia_yy', 'body3_1_inertia_zz', 'body3_1_inertia_xy', 'body3_1_inertia_xz', 'body3_1_inertia_yz', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_tip_z', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_com_z', 'body3_2_mass', 'body3_2_inertia_xx', 'body3_2_inertia_yy', 'body3_2_inertia_zz', 'body3_2_inertia_xy', 'body3_2_inertia_xz', 'body3_2_inertia_yz', 'attach1_x', 'attach1_y', 'attach1_z', 'attach2_x', 'attach2_y', 'attach2_z', 'attach3_x', 'attach3_y', 'attach3_z', 'platform_com_x', 'platform_com_y', 'platform_com_z', 'platform_mass', 'platform_inertia_xx', 'platform_inertia_yy', 'platform_inertia_zz', 'platform_inertia_xy', 'platform_inertia_xz', 'platform_inertia_yz', 'gravity_x', 'gravity_y', 'gravity_z')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 12, 9, 7
-N_ACTUATORS, DOF = 3, 3
+N_ACTUATORS, DOF, N_LEGS = 3, 3, 3
 # the rows of eta that close each leg's end point on the platform (DIM per leg, leg by leg; the others do not move with the tracked point)
 POINT_ROWS = 9
 # the platform's pose: q's last N_POSE coordinates (its parasitic ones, then the DOF it is controlled in)
@@ -1594,18 +1594,18 @@ def singularity_measure(q, sc, P, lines):
 
     * any other machine: :func:`passive_determinant`.
 
-    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array (N_ACTUATORS >= N_LEGS).
     """
     if not MEASURE_LINES:
         return passive_determinant(q, sc, P, lines)
     leg_lines(q, sc, P, lines)
     if DIM == 3:
         return spatial_singularity_measure(P, lines)
-    for i in range(N_ACTUATORS):
+    for i in range(N_LEGS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
         lines[i, 3] /= norm
-    if N_ACTUATORS == 2:
+    if N_LEGS == 2:
         return lines[0, 3] * lines[1, 2] - lines[0, 2] * lines[1, 3]
     for i in range(3):  # the moment of each line about the tracked point, in place of r_i
         lines[i, 0] = lines[i, 0] * lines[i, 3] - lines[i, 1] * lines[i, 2]

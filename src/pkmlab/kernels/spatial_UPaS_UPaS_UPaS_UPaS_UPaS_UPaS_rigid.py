@@ -13,7 +13,7 @@ COORDINATES = ('a1', 'a2', 'a3', 'a4', 'a5', 'a6', 'q1_1a', 'q1_1b', 'q2_1a', 'q
 ANGLES = (False, False, False, False, False, False, True, True, True, True, True, True, True, True, True, True, True, True, False, False, False, True, True, True)  # which coordinates are angles (wrapped modulo 2 pi)
 PARAMETERS = ('base1_x', 'base1_y', 'base1_z', 'axis1_1a_x', 'axis1_1a_y', 'axis1_1a_z', 'axis1_1b_x', 'axis1_1b_y', 'axis1_1b_z', 'axis1_2a_x', 'axis1_2a_y', 'axis1_2a_z', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_tip_z', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_com_z', 'body1_1_mass', 'body1_1_inertia_xx', 'body1_1_inertia_yy', 'body1_1_inertia_zz', 'body1_1_inertia_xy', 'body1_1_inertia_xz', 'body1_1_inertia_yz', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_tip_z', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_com_z', 'body1_2_mass', 'body1_2_inertia_xx', 'body1_2_inertia_yy', 'body1_2_inertia_zz', 'body1_2_inertia_xy', 'body1_2_inertia_xz', 'body1_2_inertia_yz', 'base2_x', 'base2_y', 'base2_z', 'axis2_1a_x', 'axis2_1a_y', 'axis2_1a_z', 'axis2_1b_x', 'axis2_1b_y', 'axis2_1b_z', 'axis2_2a_x', 'axis2_2a_y', 'axis2_2a_z', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_tip_z', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_com_z', 'body2_1_mass', 'body2_1_inertia_xx', 'body2_1_inertia_yy', 'body2_1_inertia_zz', 'body2_1_inertia_xy', 'body2_1_inertia_xz', 'body2_1_inertia_yz', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_tip_z', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_com_z', 'body2_2_mass', 'body2_2_inertia_xx', 'body2_2_inertia_yy', 'body2_2_inertia_zz', 'body2_2_inertia_xy', 'body2_2_inertia_xz', 'body2_2_inertia_yz', 'base3_x', 'base3_y', 'base3_z', 'axis3_1a_x', 'axis3_1a_y', 'axis3_1a_z', 'axis3_1b_x', 'axis3_1b_y', 'axis3_1b_z', 'axis3_2a_x', 'axis3_2a_y', 'axis3_2a_z', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_tip_z', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_com_z', 'body3_1_mass', 'body3_1_inertia_xx', 'body3_1_inertia_yy', 'body3_1_inertia_zz', 'body3_1_inertia_xy', 'body3_1_inertia_xz', 'body3_1_inertia_yz', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_tip_z', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_com_z', 'body3_2_mass', 'body3_2_inertia_xx', 'body3_2_inertia_yy', 'body3_2_inertia_zz', 'body3_2_inertia_xy', 'body3_2_inertia_xz', 'body3_2_inertia_yz', 'base4_x', 'base4_y', 'base4_z', 'axis4_1a_x', 'axis4_1a_y', 'axis4_1a_z', 'axis4_1b_x', 'axis4_1b_y', 'axis4_1b_z', 'axis4_2a_x', 'axis4_2a_y', 'axis4_2a_z', 'body4_1_tip_x', 'body4_1_tip_y', 'body4_1_tip_z', 'body4_1_com_x', 'body4_1_com_y', 'body4_1_com_z', 'body4_1_mass', 'body4_1_inertia_xx', 'body4_1_inertia_yy', 'body4_1_inertia_zz', 'body4_1_inertia_xy', 'body4_1_inertia_xz', 'body4_1_inertia_yz', 'body4_2_tip_x', 'body4_2_tip_y', 'body4_2_tip_z', 'body4_2_com_x', 'body4_2_com_y', 'body4_2_com_z', 'body4_2_mass', 'body4_2_inertia_xx', 'body4_2_inertia_yy', 'body4_2_inertia_zz', 'body4_2_inertia_xy', 'body4_2_inertia_xz', 'body4_2_inertia_yz', 'base5_x', 'base5_y', 'base5_z', 'axis5_1a_x', 'axis5_1a_y', 'axis5_1a_z', 'axis5_1b_x', 'axis5_1b_y', 'axis5_1b_z', 'axis5_2a_x', 'axis5_2a_y', 'axis5_2a_z', 'body5_1_tip_x', 'body5_1_tip_y', 'body5_1_tip_z', 'body5_1_com_x', 'body5_1_com_y', 'body5_1_com_z', 'body5_1_mass', 'body5_1_inertia_xx', 'body5_1_inertia_yy', 'body5_1_inertia_zz', 'body5_1_inertia_xy', 'body5_1_inertia_xz', 'body5_1_inertia_yz', 'body5_2_tip_x', 'body5_2_tip_y', 'body5_2_tip_z', 'body5_2_com_x', 'body5_2_com_y', 'body5_2_com_z', 'body5_2_mass', 'body5_2_inertia_xx', 'body5_2_inertia_yy', 'body5_2_inertia_zz', 'body5_2_inertia_xy', 'body5_2_inertia_xz', 'body5_2_inertia_yz', 'base6_x', 'base6_y', 'base6_z', 'axis6_1a_x', 'axis6_1a_y', 'axis6_1a_z', 'axis6_1b_x', 'axis6_1b_y', 'axis6_1b_z', 'axis6_2a_x', 'axis6_2a_y', 'axis6_2a_z', 'body6_1_tip_x', 'body6_1_tip_y', 'body6_1_tip_z', 'body6_1_com_x', 'body6_1_com_y', 'body6_1_com_z', 'body6_1_mass', 'body6_1_inertia_xx', 'body6_1_inertia_yy', 'body6_1_inertia_zz', 'body6_1_inertia_xy', 'body6_1_inertia_xz', 'body6_1_inertia_yz', 'body6_2_tip_x', 'body6_2_tip_y', 'body6_2_tip_z', 'body6_2_com_x', 'body6_2_com_y', 'body6_2_com_z', 'body6_2_mass', 'body6_2_inertia_xx', 'body6_2_inertia_yy', 'body6_2_inertia_zz', 'body6_2_inertia_xy', 'body6_2_inertia_xz', 'body6_2_inertia_yz', 'attach1_x', 'attach1_y', 'attach1_z', 'attach2_x', 'attach2_y', 'attach2_z', 'attach3_x', 'attach3_y', 'attach3_z', 'attach4_x', 'attach4_y', 'attach4_z', 'attach5_x', 'attach5_y', 'attach5_z', 'attach6_x', 'attach6_y', 'attach6_z', 'platform_com_x', 'platform_com_y', 'platform_com_z', 'platform_mass', 'platform_inertia_xx', 'platform_inertia_yy', 'platform_inertia_zz', 'platform_inertia_xy', 'platform_inertia_xz', 'platform_inertia_yz', 'gravity_x', 'gravity_y', 'gravity_z')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 24, 18, 13
-N_ACTUATORS, DOF = 6, 6
+N_ACTUATORS, DOF, N_LEGS = 6, 6, 6
 # the rows of eta that close each leg's end point on the platform (DIM per leg, leg by leg; the others do not move with the tracked point)
 POINT_ROWS = 18
 # the platform's pose: q's last N_POSE coordinates (its parasitic ones, then the DOF it is controlled in)
@@ -1579,18 +1579,18 @@ def singularity_measure(q, sc, P, lines):
 
     * any other machine: :func:`passive_determinant`.
 
-    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array (N_ACTUATORS >= N_LEGS).
     """
     if not MEASURE_LINES:
         return passive_determinant(q, sc, P, lines)
     leg_lines(q, sc, P, lines)
     if DIM == 3:
         return spatial_singularity_measure(P, lines)
-    for i in range(N_ACTUATORS):
+    for i in range(N_LEGS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
         lines[i, 3] /= norm
-    if N_ACTUATORS == 2:
+    if N_LEGS == 2:
         return lines[0, 3] * lines[1, 2] - lines[0, 2] * lines[1, 3]
     for i in range(3):  # the moment of each line about the tracked point, in place of r_i
         lines[i, 0] = lines[i, 0] * lines[i, 3] - lines[i, 1] * lines[i, 2]

@@ -121,8 +121,8 @@ class MechanismModel:
 
     @property
     def n_actuators(self) -> int:
-        """The number of actuators ``n_a`` (one per leg)."""
-        return len(self.description.legs)
+        """The number of actuators ``n_a`` (one per leg, more on a kinematically redundant leg)."""
+        return len(self.description.actuators)
 
     @property
     def name(self) -> str:
@@ -131,8 +131,14 @@ class MechanismModel:
 
     @property
     def pose_names(self) -> tuple[str, ...]:
-        """The platform's pose coordinates, e.g. ``('x', 'y', 'alpha')``: the last entries of ``q``."""
+        """The controlled coordinates, e.g. ``('x', 'y', 'alpha')``: the platform's pose (the last entries of ``q``),
+        then the actuators that move a kinematically redundant leg's base (``q``'s first)."""
         return tuple(self.description.pose_names)
+
+    @property
+    def pose_columns(self) -> tuple[int, ...]:
+        """The columns of ``q`` that hold the controlled coordinates (:attr:`pose_names`), in their order."""
+        return tuple(self.coordinates.index(c) for c in self.pose_names)
 
     @property
     def dof(self) -> int:
@@ -321,21 +327,34 @@ def leg_joint_values(model: MechanismModel, q) -> list[list[float]]:
     """Each leg's joint coordinates, in the order of its joints (a universal joint's two), from the configuration
     ``q`` (n_coordinates,): what :func:`~pkmlab.description.spatial.leg_frames` and MuJoCo's joints read."""
     m = model.description
-    n = len(m.legs)
-    passive = iter(q[n:len(q) - len(_q_pose_names(m))])
+    n = len(m.actuators)
+    actuators, passive = iter(q[:n]), iter(q[n:len(q) - len(_q_pose_names(m))])
     out = []
-    for i, leg in enumerate(m.legs):
+    for leg in m.legs:
         values = []
         for joint in leg.joints[:-1]:
             count = getattr(joint, "coordinates", 1)
-            values += [float(q[i])] if joint.actuated else [float(next(passive)) for _ in range(count)]
+            values += [float(next(actuators))] if joint.actuated else [float(next(passive)) for _ in range(count)]
         out.append(values)
     return out
 
 
+def pose_of(model: MechanismModel, q) -> np.ndarray:
+    """The controlled coordinates (:attr:`MechanismModel.pose_names`) of configurations ``q`` (..., n_coordinates),
+    (..., dof): the platform's pose, and a kinematically redundant machine's base actuators — a view of ``q`` where
+    they are its last coordinates (every machine of one actuator per leg), else a copy."""
+    q, columns = np.asarray(q, dtype=float), model.pose_columns
+    n = q.shape[-1]
+    if columns == tuple(range(n - len(columns), n)):
+        return q[..., n - len(columns):]
+    return q[..., list(columns)]
+
+
 def _q_pose_names(description) -> tuple[str, ...]:
+    """The names of the platform's pose in ``q`` (its last coordinates; a lower-mobility platform's parasitic ones
+    included)."""
     platform = description.platform
-    return platform.q_pose_names if getattr(description, "spatial", False) else description.pose_names
+    return platform.q_pose_names if getattr(description, "spatial", False) else platform.pose_names
 
 
 def platform_joint_names(description) -> tuple[str, ...]:
@@ -559,7 +578,7 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
     extra = (solver.central_axis(m), follow) if getattr(m, "spatial", False) else ()
     signs = iter(tuple(mode))
     actuators, passive, unreachable = [], [], np.zeros(len(poses), dtype=np.int64)
-    first = None
+    first, whole_failed = None, None
     q_pose = poses
     if getattr(m, "spatial", False) and m.platform.parasitic_names:
         # a platform of lower mobility: its whole pose first (the parasitic motion does not depend on the legs'
@@ -571,7 +590,9 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
         whole, failed, first_failure = branches["pose"]
         order = [m.platform.full_pose_names.index(c) for c in m.platform.q_pose_names]
         q_pose = whole[:, order]
-        poses = whole
+        poses, whole_failed = whole, (failed, first_failure)
+    if m.redundancy_names:  # the platform's pose; each kinematically redundant leg's base actuators from the rest
+        q_pose, poses = poses[:, :len(m.platform.pose_names)], poses
     for i, leg in enumerate(m.legs):
         width = _leg_signs(leg_modes(leg))
         sigma = tuple(next(signs, None) for _ in range(width)) if width else (1,)
@@ -580,21 +601,24 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
                                         f"branches), got {tuple(mode)}")
         sigma = sigma[0] if len(sigma) == 1 else sigma
         if (i, sigma) not in branches:
+            base = (poses[:, [m.pose_names.index(f"a{m.actuators.index((i, k)) + 1}")
+                              for k in leg.actuated_joints[:-1]]],) if leg.moving_base else ()
             branches[i, sigma] = leg_inverse_kinematics_batch(leg, i, attachment_points_of(m, i, poses), sigma,
-                                                              *extra)
+                                                              *extra, *base)
         solved = branches[i, sigma]
         if solved.bad.any():
             k = int(np.argmax(solved.bad))
             if first is None or k < first[0]:
                 first = (k, i, solved.why(k))
             unreachable |= solved.bad.astype(np.int64) << i
-        # the actuator's column among the leg's joint coordinates (a spatial U joint before it has two)
-        column = sum(getattr(j, "coordinates", 1) for j in leg.joints[:leg.actuated])
-        actuators.append(solved.coordinates[:, column])
-        passive += [solved.coordinates[:, k] for k in range(solved.coordinates.shape[1]) if k != column]
+        # the actuators' columns among the leg's joint coordinates (a spatial U joint before one has two)
+        columns = [sum(getattr(j, "coordinates", 1) for j in leg.joints[:k]) for k in leg.actuated_joints]
+        actuators += [solved.coordinates[:, c] for c in columns]
+        passive += [solved.coordinates[:, k] for k in range(solved.coordinates.shape[1]) if k not in columns]
     if next(signs, None) is not None:
         raise InvalidParameterError(f"mode has more signs than two-branch legs, got {tuple(mode)}")
-    if q_pose is not poses:
+    if whole_failed is not None:
+        failed, first_failure = whole_failed
         failed_legs = (1 << len(m.legs)) - 1  # no pose: no leg can be placed
         unreachable[failed] = failed_legs
         if first_failure is not None and (first is None or first_failure[0] <= first[0]):
@@ -692,7 +716,7 @@ def well_conditioned_configuration(model: MechanismModel, mode: tuple[int, ...])
     """A configuration far from the gain-type singularities in working mode ``mode``: the pose of largest ``|S|``
     on a grid over the machine's region (planar: the assembly check's region and 12 orientations; spatial: its
     legs' reach, level, 25 points a side — 9 where a leg has no closed form; a machine of lower mobility: the pose
-    its mobility computation found)."""
+    its mobility computation found; a kinematically redundant machine's base actuators at zero)."""
     from ..errors import PkmlabError
     from .reach import planar_extent, spatial_extent
 
@@ -712,13 +736,20 @@ def well_conditioned_configuration(model: MechanismModel, mode: tuple[int, ...])
         poses = np.column_stack([grid, np.zeros((len(grid), m.dof - 3))])
     else:
         (x0, x1), (y0, y1) = planar_extent(m)
-        turns = np.linspace(-np.pi, np.pi, 12, endpoint=False) if m.dof == 3 else [0.0]
+        turns = np.linspace(-np.pi, np.pi, 12, endpoint=False) if m.platform.kind == "rigid" else [0.0]
         gx, gy, ga = np.meshgrid(np.linspace(x0, x1, 41), np.linspace(y0, y1, 41), turns)
-        poses = np.column_stack([gx.ravel(), gy.ravel(), ga.ravel()])[:, :m.dof]
+        poses = np.column_stack([gx.ravel(), gy.ravel(), ga.ravel()])[:, :len(m.platform.pose_names)]
+        # a kinematically redundant machine's base actuators at zero, as the assembly check tries them
+        poses = np.column_stack([poses, np.zeros((len(poses), len(m.redundancy_names)))])
     q, s, _failure = path_inverse_kinematics(model, poses, mode)
     if not np.isfinite(s).any():
         raise PkmlabError(f"{m.name}: no pose of the search grid can be assembled in working mode {mode}: give q")
     return q[int(np.nanargmax(np.abs(s)))]
+
+
+def _run_or_list(columns: list[int]) -> slice | list[int]:
+    """``columns`` as a slice where they are consecutive (indexing by it gives a view), else the list."""
+    return slice(columns[0], columns[-1] + 1) if columns == list(range(columns[0], columns[-1] + 1)) else columns
 
 
 #: Samples of a path whose Jacobians :func:`path_rates` holds at once.
@@ -731,25 +762,32 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
 
         ``A u̇ = -B ẋ``,   ``A ü = -B ẍ - J̇ηq q̇``
 
-    with ``u`` the actuators and passive joints, ``A = ∂η/∂u``, ``B = ∂η/∂pose`` (paper eqs. 14–17, 32).
+    with ``u`` the coordinates other than the controlled ones (the actuators and passive joints), ``A = ∂η/∂u``,
+    ``B = ∂η/∂pose`` (paper eqs. 14–17, 32).
     Returns ``(θ̇, θ̈, k)``: ``k`` the first sample where ``A`` is singular (the pose at the edge of the
     workspace: an inverse-kinematic singularity; :func:`~pkmlab.numerics.batched.first_singular`), else -1.
     """
     k_ = model.kernels
-    count, n, N, dof = q.shape[0], model.n_actuators, k_.N_COORDINATES, model.description.dof
+    count, n, N = q.shape[0], model.n_actuators, k_.N_COORDINATES
+    # the controlled coordinates' columns and the others': slices where they are runs (every machine of one actuator
+    # per leg), so that the Jacobians' blocks are views and the numbers those of one summation order
+    pose = _run_or_list(list(model.pose_columns))  # in the order of pose_dot's columns
+    others = _run_or_list([c for c in range(N) if c not in model.pose_columns])
     theta_dot, theta_ddot = np.empty((count, n)), np.empty((count, n))
     for start in range(0, count, PATH_CHUNK):  # a chunk at a time: a long path's Jacobians never all at once
         rows = slice(start, min(start + PATH_CHUNK, count))
         qc = np.ascontiguousarray(q[rows])
         j_eta, gamma = np.empty((len(qc), k_.N_CONSTRAINTS, N)), np.empty((len(qc), k_.N_CONSTRAINTS))
         k_.constraint_jacobians(qc, model.P, j_eta)
-        a, b = j_eta[:, :, :N - dof], j_eta[:, :, N - dof:]
+        a, b = j_eta[:, :, others], j_eta[:, :, pose]
         singular = first_singular(a)
         if singular >= 0:
             return np.empty((count, n)), np.empty((count, n)), start + singular
-        u_dot = np.linalg.solve(a, -np.einsum("kij,kj->ki", b, pose_dot[rows])[..., None])[..., 0]
-        q_dot = np.concatenate([u_dot, pose_dot[rows]], axis=1)
+        q_dot, q_ddot = np.empty((len(qc), N)), np.empty((len(qc), N))
+        q_dot[:, pose], q_ddot[:, pose] = pose_dot[rows], pose_ddot[rows]
+        q_dot[:, others] = np.linalg.solve(a, -np.einsum("kij,kj->ki", b, pose_dot[rows])[..., None])[..., 0]
         k_.constraint_biases(qc, q_dot, model.P, gamma)
-        u_ddot = np.linalg.solve(a, (-np.einsum("kij,kj->ki", b, pose_ddot[rows]) - gamma)[..., None])[..., 0]
-        theta_dot[rows], theta_ddot[rows] = u_dot[:, :n], u_ddot[:, :n]
+        rhs = -np.einsum("kij,kj->ki", b, pose_ddot[rows]) - gamma
+        q_ddot[:, others] = np.linalg.solve(a, rhs[..., None])[..., 0]
+        theta_dot[rows], theta_ddot[rows] = q_dot[:, :n], q_ddot[:, :n]
     return theta_dot, theta_ddot, -1

@@ -22,7 +22,7 @@ def planar_extent(description) -> tuple[tuple[float, float], tuple[float, float]
     legs = description.legs
     points = [leg.base for leg in legs]
     for leg in legs:  # a rail's far end
-        if leg.joints[0].kind == "P" and leg.stroke is not None:
+        if leg.joints[0].kind == "P" and leg.actuated == 0 and leg.stroke is not None:
             a = leg.joints[0].axis
             points.append((leg.base[0] + leg.stroke[1] * math.cos(a), leg.base[1] + leg.stroke[1] * math.sin(a)))
     reach = max(sum(math.hypot(*b.tip) for b in leg.bodies) + (leg.stroke[1] if leg.stroke else 0.0)
@@ -41,7 +41,8 @@ ASSEMBLY_GRIDS = ((81, 24), (241, 72))
 def check_assembly(description) -> None:
     """Refuse a machine whose platform can be assembled nowhere: no pose on a grid over its region
     (:func:`planar_extent`, every orientation) where every leg reaches its attachment
-    point in some working mode, within its stroke. Names the first leg that cannot join the others."""
+    point in some working mode, within its stroke. Names the first leg that cannot join the others. A kinematically
+    redundant leg is tried with the actuators that move its base at zero."""
     from ..description.leg_types import leg_inverse_kinematics_batch
     from ..description.leg_types import working_modes as leg_modes
     from ..description.mechanism import attachment_points
@@ -55,14 +56,16 @@ def check_assembly(description) -> None:
     for count, turns in ASSEMBLY_GRIDS:
         x, y = (a.ravel() for a in np.meshgrid(np.linspace(x0, x1, count), np.linspace(y0, y1, count)))
         # one orientation at a time: a machine that can be assembled is found so in the first one, usually
-        for alpha in (np.linspace(-np.pi, np.pi, turns, endpoint=False) if m.dof == 3 else (0.0,)):
-            poses = np.column_stack([x, y, np.full(x.size, alpha)])[:, :m.dof]
+        rigid = m.platform.kind == "rigid"
+        for alpha in (np.linspace(-np.pi, np.pi, turns, endpoint=False) if rigid else (0.0,)):
+            poses = np.column_stack([x, y, np.full(x.size, alpha)])[:, :len(m.platform.pose_names)]
             together = np.ones(x.size, dtype=bool)
             for i, leg in enumerate(m.legs):
                 points = attachment_points(m, i, poses)
                 reached = np.zeros(x.size, dtype=bool)
                 for sigma in leg_modes(leg) or (1,):
-                    reached |= ~leg_inverse_kinematics_batch(leg, i, points, sigma).bad
+                    reached |= ~leg_inverse_kinematics_batch(leg, i, points, sigma,
+                                                             np.zeros((x.size, leg.moving_base))).bad
                 together &= reached
                 if not together.any():
                     furthest = max(furthest, i)
@@ -71,7 +74,7 @@ def check_assembly(description) -> None:
                 return
     count, turns = ASSEMBLY_GRIDS[-1]
     others = f" together with legs 1..{furthest}" if furthest > 0 else ""
-    grid = f"{count} x {count} positions" + (f" x {turns} orientations" if m.dof == 3 else "")
+    grid = f"{count} x {count} positions" + (f" x {turns} orientations" if m.platform.kind == "rigid" else "")
     raise InvalidParameterError(
         f"{m.name}: the platform can be assembled nowhere: leg {furthest + 1} reaches its attachment point{others} "
         f"at no pose of a {grid} grid over x in [{x0:.3g}, {x1:.3g}] m, y in [{y0:.3g}, {y1:.3g}] m "

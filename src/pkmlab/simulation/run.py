@@ -47,7 +47,7 @@ from ..errors import (
     UnstableControlError,
     shown,
 )
-from ..model.mechanism_model import MechanismModel
+from ..model.mechanism_model import MechanismModel, pose_of
 from .result import SimulationResult, actuator_errors
 from .scenario import Scenario, best_working_mode, pose_text
 
@@ -482,8 +482,8 @@ def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: in
 
 
 def _pose_of(model: MechanismModel, q: np.ndarray) -> np.ndarray:
-    """The plant's pose at configurations ``q``: their last ``dof`` entries."""
-    return q[..., -model.description.dof:].copy()
+    """The plant's pose at configurations ``q`` (:func:`~pkmlab.model.mechanism_model.pose_of`), a copy."""
+    return pose_of(model, q).copy()
 
 
 def _loop_error(scenario: Scenario, prep: PreparedRun, status: int, q: np.ndarray, k_fail: int,
@@ -600,8 +600,7 @@ def simulate(scenario: Scenario) -> SimulationResult:
         q, theta_dot, tau = _continuous_time(scenario, prep, ctrl, plant, q_plant0, q_ctrl0)
         s = np.empty(q.shape[0])
         plant.kernels.singularity_measures(q, plant.P, s)
-        return run_result(scenario, prep, q, theta_dot, tau,
-                       q[:, -_dof(plant):].copy(), s)
+        return run_result(scenario, prep, q, theta_dot, tau, _pose_of(plant, q), s)
     k_, n = ctrl.kernels, ctrl.n_actuators
     count = prep.t.size
     q, theta_dot, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
@@ -618,8 +617,9 @@ def simulate(scenario: Scenario) -> SimulationResult:
                                                prep.singularity_guard, *r, q, theta_dot, tau, s, theta_m)
         if status != k_.OK:
             raise _loop_error(scenario, prep, status, q, k_fail, theta_d=theta_d, q_d=d.q[k_fail - rows.start])
-    # the plant's pose is its configuration's last coordinates: a view of q, not a copy (a long run's memory)
-    return run_result(scenario, prep, q, theta_dot, tau, q[:, -_dof(plant):], s, theta_m if r.sensing >= 0 else None,
+    # the plant's pose is its configuration's last coordinates: a view of q, not a copy (a long run's memory; a
+    # kinematically redundant machine's, whose base actuators are q's first, a copy)
+    return run_result(scenario, prep, q, theta_dot, tau, pose_of(plant, q), s, theta_m if r.sensing >= 0 else None,
                       theta_d, pose_d)
 
 
@@ -820,6 +820,5 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     kernels.sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant,
                                P_ctrl, kind, kp, kv, guards, drive, ctrl_drive, effort_noise, resolution, theta_noise,
                                sensing, delay, q, theta_dot, tau, s, theta_m, status, k_fail)
-    dof = _dof(loop)
-    return [(status[r], q[r], theta_dot[r], tau[r], q[r, :, -dof:].copy(), s[r], k_fail[r],
+    return [(status[r], q[r], theta_dot[r], tau[r], _pose_of(loop, q[r]), s[r], k_fail[r],
              theta_m[r] if real.sensing >= 0 else None) for r in range(m)]

@@ -184,10 +184,9 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
     if not solutions:
         raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} cannot be assembled "
                             "with this machine: is it the one that produced the run?")
-    dof = model.description.dof
     pose0 = np.asarray(pose0, dtype=float)
     q = np.empty((theta.shape[0], len(model.coordinates)))
-    q[0] = min((sol for sol, _s in solutions), key=lambda sol: float(np.abs(sol[-dof:] - pose0).max()))
+    q[0] = min((sol for sol, _s in solutions), key=lambda sol: float(np.abs(mm.pose_of(model, sol) - pose0).max()))
     for k in range(1, theta.shape[0]):
         try:
             q[k] = branch_following(model, q[k - 1], theta[k])
@@ -206,13 +205,12 @@ def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: 
     import matplotlib.pyplot as plt
     from matplotlib.animation import PillowWriter
 
-    from ..model.mechanism_model import joint_positions
+    from ..model.mechanism_model import joint_positions, tracked_point
     from .plotting import draw_mechanism
 
     path = Path(path)
     t, q, desired_xy = (np.asarray(a, dtype=float) for a in (t, q, desired_xy))
     frames = [int(k) for k in frames]
-    dof = model.description.dof
     points = joint_positions(model, q[frames])
     shown = np.vstack([points.reshape(-1, 2), desired_xy])
     lo, hi = shown.min(axis=0), shown.max(axis=0)
@@ -222,7 +220,7 @@ def write_machine_gif(model, t, q, desired_xy, path: str | os.PathLike, frames: 
     def draw(k: int) -> None:  # the whole frame anew: a machine's parts differ from one structure to another
         ax.cla()
         ax.plot(desired_xy[:, 0], desired_xy[:, 1], "--", color="tab:gray", lw=1.2, label="desired path")
-        ax.plot(q[:k + 1, -dof], q[:k + 1, -dof + 1], color="tab:red", lw=1.5, label="actual path")
+        ax.plot(*tracked_point(model, q[:k + 1]).T, color="tab:red", lw=1.5, label="actual path")
         draw_mechanism(model, q[k], ax=ax, title=f"{title}\nt = {t[k]:7.3f} s")
         ax.set_xlim(lo[0] - pad, hi[0] + pad)
         ax.set_ylim(lo[1] - pad, hi[1] + pad)
@@ -245,13 +243,12 @@ def write_spatial_gif(model, t, q, desired, path: str | os.PathLike, frames: Seq
     import matplotlib.pyplot as plt
     from matplotlib.animation import PillowWriter
 
-    from ..model.mechanism_model import joint_positions
+    from ..model.mechanism_model import joint_positions, pose_of
     from .plotting import draw_spatial_mechanism, equal_box
 
     path = Path(path)
     t, q, desired = (np.asarray(a, dtype=float) for a in (t, q, desired))
     frames = [int(k) for k in frames]
-    dof = model.description.dof
     points = joint_positions(model, q[frames])
     box = np.vstack([points.reshape(-1, 3), desired, [leg.base for leg in model.description.legs]])
     fig = plt.figure(figsize=(6.0, 5.6), dpi=dpi, layout="constrained")
@@ -260,7 +257,7 @@ def write_spatial_gif(model, t, q, desired, path: str | os.PathLike, frames: Seq
     def draw(k: int) -> None:
         ax.cla()
         ax.plot(*desired.T, "--", color="tab:gray", lw=1.2, label="desired path")
-        ax.plot(*q[:k + 1, -dof:][:, :3].T, color="tab:red", lw=1.5, label="actual path")
+        ax.plot(*pose_of(model, q[:k + 1])[:, :3].T, color="tab:red", lw=1.5, label="actual path")
         draw_spatial_mechanism(model, q[k], ax=ax, title=f"{title}\nt = {t[k]:7.3f} s")
         equal_box(ax, box)
 

@@ -64,7 +64,7 @@ def result_machine(folder: Path, case: str):
 def _columns(model) -> tuple[tuple[str, ...], int, tuple[str, ...]]:
     """The CSV columns a view needs, the number of actuators and the pose's names."""
     description = model.description
-    n = len(description.legs)
+    n = len(description.actuators)
     names = description.pose_names
     return (("t", *(f"theta{i + 1}" for i in range(n)), *(f"tau{i + 1}" for i in range(n)), *names,
              *(f"{v}_d" for v in names), "S"), n, names)

@@ -181,7 +181,7 @@ def draw(model, q, title: str | None = None):
 
     from ..algorithms.kinematics import as_model
     from ..errors import InvalidParameterError, shown
-    from ..model.mechanism_model import joint_positions, tracked_point
+    from ..model.mechanism_model import joint_positions, pose_of, tracked_point
     from .run import RunView, machine_lines, machine_traces
 
     model = as_model(model)
@@ -191,7 +191,7 @@ def draw(model, q, title: str | None = None):
     description = model.description
     joints = joint_positions(model, q[None])
     spatial = joints.shape[-1] == 3
-    pose = q[-description.dof:]
+    pose = pose_of(model, q)
     point = tracked_point(model, q)[None, :]
     one = RunView("", np.zeros(1), np.array([0]), joints, [leg.actuated for leg in description.legs],
                   [len(leg.joints) for leg in description.legs], description.platform.kind != "point", point, point)

@@ -184,7 +184,11 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
                     label="rails" if first else None)
             ax.plot(*pts[1], "s", color="tab:blue", ms=9,
                     label=("actuated sliders" if leg.joints[0].actuated else "sliders") if first else None)
-            ax.plot(pts[1:, 0], pts[1:, 1], color="tab:orange", lw=2, label="passive links" if first else None)
+            k = 1 + leg.moving_base  # a kinematically redundant leg's actuated link on its slider, then the passive
+            if leg.moving_base:
+                ax.plot(pts[1:k + 1, 0], pts[1:k + 1, 1], color="tab:blue", lw=3,
+                        label="actuated links" if first else None)
+            ax.plot(pts[k:, 0], pts[k:, 1], color="tab:orange", lw=2, label="passive links" if first else None)
         elif leg.joints[1].kind == "P":  # telescopic: the cylinder from the base, the rod to the platform
             end = pts[-1]
             along = end - pts[0]
@@ -200,7 +204,7 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
             ax.plot(*pts[1], "o", color="tab:blue", ms=5)
         ax.plot(*pts[0], "ks", ms=7, label="base" if first else None)
         ax.annotate(f"{i + 1}", pts[0], textcoords="offset points", xytext=(-10, -12), fontsize=8)
-    pose = q[-m.dof:]
+    pose = mm.pose_of(model, q)
     if m.platform.kind == "rigid":
         plat = np.vstack([points[:, -1], points[:1, -1]])
         ax.fill(plat[:, 0], plat[:, 1], color="tab:green", alpha=0.4, label="platform")
@@ -210,7 +214,8 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     ax.set_ylabel("y (m)")
     ax.legend(loc="upper right", fontsize=7)
     where = ", ".join(f"{n} = {v:.3f}" for n, v in zip(m.pose_names, pose, strict=True))
-    ax.set_title(title or f"{m.name} ({m.notation}) at {where}")
+    gap = "\n" if m.redundancy_names else " "  # a kinematically redundant machine's coordinates: a line of theirs
+    ax.set_title(title or f"{m.name} ({m.notation}){gap}at {where}")
     return ax
 
 
@@ -255,7 +260,7 @@ def draw_spatial_mechanism(model, q, ax=None, title: str | None = None):
         ax.scatter(*pts[1:-1].T, color="k", s=8)
     plat = np.vstack([points[:, -1], points[:1, -1]])
     ax.plot(*plat.T, color="tab:green", lw=2.5, label="platform")
-    pose = q[-m.dof:]
+    pose = mm.pose_of(model, q)
     ax.scatter(*mm.tracked_point(model, q), color="k", marker="+", s=60, label="tracked point")
     equal_box(ax, np.vstack([points.reshape(-1, 3), base]))
     ax.set_xlabel("x (m)")

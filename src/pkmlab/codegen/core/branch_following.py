@@ -19,6 +19,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         N_ACTUATORS,
         N_CONSTRAINTS,
         N_COORDINATES,
+        N_LEGS,
         POINT_COLUMNS,
         POINT_ROWS,
         REDUCED_COLUMNS,
@@ -88,18 +89,18 @@ def singularity_measure(q, sc, P, lines):
 
     * any other machine: :func:`passive_determinant`.
 
-    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array.
+    ``sc`` is ``q``'s trig table; ``lines`` an (N_ACTUATORS, LINE_WIDTH) scratch array (N_ACTUATORS >= N_LEGS).
     """
     if not MEASURE_LINES:
         return passive_determinant(q, sc, P, lines)
     leg_lines(q, sc, P, lines)
     if DIM == 3:
         return spatial_singularity_measure(P, lines)
-    for i in range(N_ACTUATORS):
+    for i in range(N_LEGS):
         norm = np.sqrt(lines[i, 2] ** 2 + lines[i, 3] ** 2)
         lines[i, 2] /= norm
         lines[i, 3] /= norm
-    if N_ACTUATORS == 2:
+    if N_LEGS == 2:
         return lines[0, 3] * lines[1, 2] - lines[0, 2] * lines[1, 3]
     for i in range(3):  # the moment of each line about the tracked point, in place of r_i
         lines[i, 0] = lines[i, 0] * lines[i, 3] - lines[i, 1] * lines[i, 2]
