@@ -52,7 +52,7 @@ def _chain_residual(model, q) -> float:
     worst = 0.0
     for i, (leg, values) in enumerate(zip(m.legs, mm.leg_joint_values(model, q), strict=True)):
         end = leg_chain(leg, values)[-1][0]
-        worst = max(worst, float(np.abs(np.subtract(end, attachment_point(m, i, [*pose, 0.0, 0.0, 0.0]))).max()))
+        worst = max(worst, float(np.abs(np.subtract(end, attachment_point(m, i, pose))).max()))
     return worst
 
 
@@ -204,17 +204,22 @@ VARIANTS = {
 }
 
 
-@pytest.mark.parametrize("legs", sorted(VARIANTS))
-def test_other_redundant_legs_close_their_chains_and_forward_kinematics_finds_them(legs, tmp_path):
+def _variant(legs: str, folder: Path):
+    """The model of the 3-PRRR's file changed to legs ``legs`` (:data:`VARIANTS`), written in ``folder``."""
     text = PRRR.read_text()
     for old, new in VARIANTS[legs][0]:
         assert old in text
         text = text.replace(old, new)
     if legs.startswith("R"):
         text = "\n".join(line for line in text.splitlines() if not line.startswith("axis = "))
-    path = tmp_path / "variant.toml"
+    path = folder / "variant.toml"
     path.write_text(text)
-    model = pkmlab.load(path)
+    return pkmlab.load(path)
+
+
+@pytest.mark.parametrize("legs", sorted(VARIANTS))
+def test_other_redundant_legs_close_their_chains_and_forward_kinematics_finds_them(legs, tmp_path):
+    model = _variant(legs, tmp_path)
     assert model.description.notation == f"3-{legs}" and model.dof == 6
     pose = np.array([0.26, 0.17, 0.1, *VARIANTS[legs][1]])
     for mode in mm.working_modes(model)[:4]:
@@ -255,3 +260,37 @@ def test_the_command_line_takes_it_from_its_description_file_alone(prrr, tmp_pat
         assert summary["max_path_error_m"] < 5e-5
     assert main(["view", str(tmp_path / "pkmlab"), "--out", str(tmp_path / "view.html")]) == 0
     assert (tmp_path / "view.html").stat().st_size > 0
+
+
+def test_a_revolute_actuated_after_another_drives_its_absolute_angle_in_mujoco(tmp_path):
+    """pkmlab's angles are absolute, MuJoCo's hinges relative: the second actuator of an R*R*RR leg is exported as a
+    motor on the sum of the leg's hinges up to it, and MuJoCo's hard-constraint solve of the export gives pkmlab's
+    accelerations (as for every machine of ``test_mujoco_export``)."""
+    pytest.importorskip("mujoco")
+    from test_mujoco_export import _actuator_accelerations, _hard_solve, _pkmlab_acceleration, _set, _states
+
+    from pkmlab.interop import mujoco_export as mx
+
+    model = _variant("R*R*RR", tmp_path)
+    m, d = mx.load_mujoco(model)
+    assert m.ntendon == 3 and m.nu == 6
+    for q, q_dot, tau in _states(model, 3, 4):
+        _set(model, m, d, q, q_dot, tau)
+        theirs = _actuator_accelerations(model, q, _hard_solve(m, d, 3))
+        ours = _pkmlab_acceleration(model, q, q_dot, tau)
+        assert np.abs(theirs - ours).max() < 1e-10 * (1 + np.abs(ours).max())
+
+
+def test_calibration_measures_the_platform_and_reads_the_sliders(prrr):
+    """An instrument measures the platform's pose (x, y, alpha); the sliders are actuators, read like the others.
+    Candidate poses move the sliders by lengths (not by the orientation's turn); the nominal machine predicts each
+    pose's measurement as its inverse kinematics' pose."""
+    from pkmlab.algorithms.calibration import predicted_measurements, reachable_poses
+    from pkmlab.algorithms.kinematics import length_scale
+
+    poses, qs = reachable_poses(prrr, 6, np.random.default_rng(0), span=0.1, turn=0.3)
+    centre = mm.pose_of(prrr, mm.well_conditioned_configuration(prrr, mm.working_modes(prrr)[0]))
+    assert np.abs(poses[:, 3:] - centre[3:]).max() <= 0.1 * length_scale(prrr)
+    predicted = predicted_measurements(prrr, qs[:, :6], poses[:, :3], measure="pose")
+    assert predicted.shape == (6, 3)
+    np.testing.assert_allclose(predicted, poses[:, :3], atol=1e-10)

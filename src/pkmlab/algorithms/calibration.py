@@ -205,10 +205,11 @@ def _scales(model: MechanismModel, names) -> np.ndarray:
 
 
 def _measured_columns(model: MechanismModel, measure: str) -> list[int]:
-    """The pose's coordinates an instrument measures: the tracked point's, or every one."""
+    """The pose's coordinates an instrument measures: the tracked point's, or every one of the platform's (a
+    kinematically redundant machine's base actuators are read, not measured)."""
     names = model.pose_names
     if measure == "pose":
-        return list(range(len(names)))
+        return [i for i, n in enumerate(names) if n not in model.description.redundancy_names]
     return [i for i, n in enumerate(names) if n in ("x", "y", "z")]
 
 
@@ -266,7 +267,7 @@ def _start_configurations(model: MechanismModel, theta: np.ndarray, measured: np
     dof, n, k_ = model.description.dof, model.n_actuators, model.kernels
     count = len(theta)
     out = np.full((count, k_.N_COORDINATES), np.nan)
-    if len(columns) == dof:
+    if len(columns) + len(model.description.redundancy_names) == dof:  # the whole pose: its inverse kinematics
         best_gap = np.full(count, np.inf)
         for mode in mm.working_modes(model):
             q, _s, _failure = mm.path_inverse_kinematics(model, measured, mode)
@@ -442,6 +443,10 @@ def _inputs(model: MechanismModel, theta, measured, measure: str):
                                     f"{np.shape(measured)}")
     if len(measured) != len(theta):
         raise InvalidParameterError(f"measured has {len(measured)} poses but theta {len(theta)}: one each")
+    redundancy = model.description.redundancy_names
+    if redundancy:  # a kinematically redundant machine's base actuators: their readings are their values
+        measured = measured.copy()
+        measured[:, [model.pose_names.index(n) for n in redundancy]] = theta[:, [int(n[1:]) - 1 for n in redundancy]]
     return theta, measured, columns
 
 
@@ -707,7 +712,10 @@ def reachable_poses(model, count: int, rng, *, span: float = 0.1, turn: float = 
                                     f"{type(rng).__name__}")
     mode = mm.working_modes(model)[0] if mode is None else as_working_mode(model, mode, "mode")
     centre = mm.pose_of(model, mm.well_conditioned_configuration(model, mode))
-    scale = np.array([span * length_scale(model) if n in ("x", "y", "z") else turn for n in model.pose_names])
+    # a kinematically redundant machine's base actuators (named a<k>) by their kind: a slide as a position
+    lengths = ("x", "y", "z", *(n for n in model.description.redundancy_names
+                                if model.description.actuator_kinds[int(n[1:]) - 1] == "P"))
+    scale = np.array([span * length_scale(model) if n in lengths else turn for n in model.pose_names])
     poses, configurations = [], []
     for _ in range(TRIES_PER_POSE * count):
         if len(poses) == count:

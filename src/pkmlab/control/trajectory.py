@@ -263,8 +263,8 @@ class TimedWaypoints:
 
     def __post_init__(self):
         pts = real_array("points", self.points, "a list of poses")
-        if pts.ndim != 2 or len(pts) < 2 or not 2 <= pts.shape[1] <= 6 or not np.all(np.isfinite(pts)):
-            raise InvalidParameterError(f"points must be at least two finite poses of 2 to 6 coordinates, got "
+        if pts.ndim != 2 or len(pts) < 2 or pts.shape[1] < 2 or not np.all(np.isfinite(pts)):
+            raise InvalidParameterError(f"points must be at least two finite poses of 2 or more coordinates, got "
                                         f"{shown(self.points, 60)}")
         try:
             durations = real_array("durations", self.durations)
@@ -558,8 +558,8 @@ class FourierTrajectory:
 
     def __post_init__(self):
         shape = shape_of(self.center)
-        if shape is None or len(shape) != 1 or not 1 <= shape[0] <= 6:
-            raise InvalidParameterError(f"center must be a pose of 1 to 6 numbers, got {shown(self.center)}")
+        if shape is None or len(shape) != 1 or shape[0] < 1:
+            raise InvalidParameterError(f"center must be a pose of 1 or more numbers, got {shown(self.center)}")
         center = np.array(_finite_vector("center", self.center, shape[0]))
         period = _positive("period", self.period)
         periods = as_count("periods", self.periods)

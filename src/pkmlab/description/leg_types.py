@@ -306,7 +306,9 @@ def leg_inverse_kinematics_batch(leg: Leg, number: int, points, sigma: int = 1, 
     dx, dy = points[:, 0] - origin[:, 0], points[:, 1] - origin[:, 1]
     solved = _solver(part, number)(part, number, np.column_stack([c * dx + s * dy, c * dy - s * dx]), sigma)
     turns = np.array([j.kind == "R" for j in part.joints[:-1]])
-    coordinates = np.column_stack([values, solved.coordinates + np.where(turns, direction[:, None], 0.0)])
+    # the angles turned back into the machine's frame and wrapped to (-pi, pi], where the stroke is read
+    turned = np.angle(np.exp(1j * (solved.coordinates + direction[:, None])))
+    coordinates = np.column_stack([values, np.where(turns, turned, solved.coordinates)])
     bad, why = mark_outside_stroke(leg, number, coordinates[:, leg.actuated], solved.bad, solved.why)
     return Solved(coordinates, bad, why)
 

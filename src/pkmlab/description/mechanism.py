@@ -379,9 +379,10 @@ def ordinary_part(leg: Leg, origin=(0.0, 0.0), direction: float = 0.0) -> Leg:
 
 
 def attachment_point(mechanism: Mechanism, leg: int, pose) -> tuple[float, float]:
-    """Where leg ``leg`` (0-based) meets the platform at ``pose``: ``(x, y) + R(alpha)·attachment``."""
+    """Where leg ``leg`` (0-based) meets the platform at ``pose``: ``(x, y) + R(alpha)·attachment``; ``pose`` the
+    platform's, or every controlled coordinate (a kinematically redundant machine's base actuators are not read)."""
     pose = [float(v) for v in pose]
-    if len(pose) != mechanism.dof:
+    if len(pose) not in (mechanism.dof, len(mechanism.platform.pose_names)):
         raise InvalidParameterError(f"pose must be ({', '.join(mechanism.pose_names)}), got {len(pose)} values")
     x, y = attachment_points(mechanism, leg, np.array([pose]))[0]
     return (float(x), float(y))

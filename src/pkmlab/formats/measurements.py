@@ -118,6 +118,10 @@ def read_measurement_log(path: str | Path, model) -> MeasurementLog:
             raise FileFormatError(f"{path}: column {theta_names[j]} reaches {size:g}, which cannot be metres of this "
                                   f"machine's slide (it is {length_scale(model):.3g} m across; millimetres?): log "
                                   "metres")
-    pose = (np.array([data[c][0] for c in model.pose_names])
-            if all(c in data for c in model.pose_names) else None)
+    # the first sample's pose, where the log has the platform's (a kinematically redundant machine's base actuators,
+    # controlled coordinates too, are their actuator columns)
+    columns = {c: data[c] if c in data else None for c in model.description.platform.pose_names}
+    columns.update({c: theta[:, int(c[1:]) - 1] for c in model.description.redundancy_names})
+    pose = (np.array([columns[c][0] for c in model.pose_names])
+            if all(columns.get(c) is not None for c in model.pose_names) else None)
     return MeasurementLog(t, theta, np.column_stack([data[c] for c in tau_names]), pose)

@@ -517,8 +517,8 @@ def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
     if not isinstance(points, list) or len(points) < 2:
         raise rd.value_error(f"{where} must be a list of at least two poses, got {show(points)}")
     width = len(points[0]) if isinstance(points[0], list) else 0
-    if not 2 <= width <= 6:
-        raise rd.value_error(f"{where}[0] must be a pose of 2 to 6 numbers ([x, y, z] for a Delta), got "
+    if width < 2:  # more than 6 for a kinematically redundant machine's controlled coordinates
+        raise rd.value_error(f"{where}[0] must be a pose of 2 or more numbers ([x, y, z] for a Delta), got "
                              f"{show(points[0])}")
     poses = [rd.vector(p, f"{where}[{i}]", width, "(a pose, like points[0])")
              for i, p in enumerate(points)]

@@ -14,7 +14,7 @@ from ..simulation.realism import SENSED_RATES
 from ..simulation.scenario import MAX_SUBSTEPS
 from .params import PARAM_KEYS, PRESETS
 
-_POSE = {"type": "array", "items": NUMBER, "minItems": 2, "maxItems": 6}
+_POSE = {"type": "array", "items": NUMBER, "minItems": 2}  # more than 6 for a kinematically redundant machine
 _ROWS = {"type": "array", "minItems": 1, "items": {"type": "array", "items": NUMBER, "minItems": 1}}
 #: A working mode as ``inverse_kinematics(mode=...)`` takes it: "auto", signs "+-+", or [1, -1, 1].
 _MODE = {"type": ["string", "array"], "anyOf": [{"type": "string", "pattern": r"^(auto|[+-]+)$"},

@@ -200,7 +200,14 @@ def mjcf(model, q=None, *, timestep: float = 0.001, integrator: str = "RK4", clo
                 a = next(numbers) if joint.actuated else None
                 extra = drive_attrs[a] if joint.actuated else ""
                 body_lines.append(f'{pad}  <joint name="{jname}" type="{kind}" axis="{_numbers(axis)}"{extra}/>')
-                if joint.actuated:
+                hinges = [f"leg{i + 1}_j{j + 1}" for j in range(k) if leg.joints[j].kind == "R"]
+                if joint.actuated and joint.kind == "R" and hinges and not _spatial(m):
+                    # pkmlab's effort turns the body's absolute angle, MuJoCo's hinges are relative: the motor acts
+                    # on their sum (a fixed tendon), the generalised force of the absolute angle on each hinge
+                    tendons += [f'    <fixed name="absolute{a + 1}">',
+                                *(f'      <joint joint="{h}" coef="1"/>' for h in (*hinges, jname)), "    </fixed>"]
+                    actuators.append(f'    <motor name="actuator{a + 1}" tendon="absolute{a + 1}" gear="1"/>')
+                elif joint.actuated:
                     actuators.append(f'    <motor name="actuator{a + 1}" joint="{jname}" gear="1"/>')
             if _spatial(m):
                 body_lines.append(f"{pad}  " + _inertial(body.mass, body.com, body.inertia, notes,

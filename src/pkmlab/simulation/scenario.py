@@ -238,6 +238,10 @@ def _check_pose_dimension(model: MechanismModel, trajectory) -> None:
         raise InvalidParameterError(f"a circle moves the platform's point in x, y and z, which the {m.name} does not "
                                     f"all control (its pose is {', '.join(m.pose_names)}): give waypoints or a "
                                     "spline")
+    if getattr(trajectory, "orientation_path", None) == "geodesic" and tuple(m.pose_names) != (
+            "x", "y", "z", "roll", "pitch", "yaw"):
+        raise InvalidParameterError(f"orientation_path = \"geodesic\" turns a rigid platform's whole orientation, "
+                                    f"which the {m.name} does not control (its pose is {', '.join(m.pose_names)})")
     # a planar path (x, y, alpha) serves a point platform too, whose alpha must then stay 0 (checked on the path)
     if width != m.dof and not (not spatial and m.dof == 2 and width == 3):
         raise InvalidParameterError(f"the trajectory's poses have {width} coordinates, but the {m.name}'s pose is "

@@ -193,7 +193,7 @@ def draw(model, q, title: str | None = None):
     spatial = joints.shape[-1] == 3
     pose = pose_of(model, q)
     point = tracked_point(model, q)[None, :]
-    one = RunView("", np.zeros(1), np.array([0]), joints, [leg.actuated for leg in description.legs],
+    one = RunView("", np.zeros(1), np.array([0]), joints, [leg.actuated_joints for leg in description.legs],
                   [len(leg.joints) for leg in description.legs], description.platform.kind != "point", point, point)
     fig = go.Figure(machine_traces(go, machine_lines(one, 0), spatial))
     where = ", ".join(f"{n} = {v:.3f}" for n, v in zip(description.pose_names, pose, strict=True))

@@ -178,7 +178,9 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
         first = i == 0
         if leg.joints[0].kind == "P":  # a rail from its base point along its axis, over the stroke
             u = np.array([np.cos(leg.joints[0].axis), np.sin(leg.joints[0].axis)])
-            lo, hi = leg.stroke if leg.stroke is not None else (0.0, float(np.hypot(*(pts[1] - pts[0]))))
+            # the rail over the slider's stroke (a kinematically redundant leg's stroke is its last actuator's)
+            lo, hi = (leg.stroke if leg.stroke is not None and leg.actuated == 0
+                      else (0.0, float(np.hypot(*(pts[1] - pts[0])))))
             rail = np.array([pts[0] + lo * u, pts[0] + hi * u])
             ax.plot(rail[:, 0], rail[:, 1], color="0.5", lw=4, alpha=0.5, solid_capstyle="butt",
                     label="rails" if first else None)
@@ -198,9 +200,14 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
                     solid_capstyle="butt", label="cylinders" if first else None)
             ax.plot([pts[0, 0], end[0]], [pts[0, 1], end[1]], color="tab:orange", lw=2,
                     label=("actuated rods" if leg.joints[1].actuated else "rods") if first else None)
-        else:  # R*RR: the actuated link, then the passive one
-            ax.plot(pts[:2, 0], pts[:2, 1], color="tab:blue", lw=3, label="actuated links" if first else None)
-            ax.plot(pts[1:, 0], pts[1:, 1], color="tab:orange", lw=2, label="passive links" if first else None)
+        else:  # R*RR (R*R*RR, …): each link bold where its joint is actuated
+            labelled = set()
+            for k in range(len(leg.joints) - 1):
+                actuated = leg.joints[k].actuated
+                name = "actuated links" if actuated else "passive links"
+                ax.plot(pts[k:k + 2, 0], pts[k:k + 2, 1], color="tab:blue" if actuated else "tab:orange",
+                        lw=3 if actuated else 2, label=name if first and name not in labelled else None)
+                labelled.add(name)
             ax.plot(*pts[1], "o", color="tab:blue", ms=5)
         ax.plot(*pts[0], "ks", ms=7, label="base" if first else None)
         ax.annotate(f"{i + 1}", pts[0], textcoords="offset points", xytext=(-10, -12), fontsize=8)

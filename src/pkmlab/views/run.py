@@ -31,8 +31,8 @@ class RunView:
 
     ``t`` (N,); ``samples`` the samples the animation shows (:func:`frame_samples`); ``joints`` (len(samples),
     legs, joints per leg, 2 or 3): every joint's position at those samples, the base joint first; ``actuated``
-    the index in a leg's joints of its actuated body's first joint (the body
-    drawn bold); ``leg_joints`` how many joints each leg has; ``rigid`` whether the platform is a body joining
+    each leg's actuated joints (:attr:`~pkmlab.description.mechanism.JointChain.actuated_joints`), whose bodies
+    are drawn bold; ``leg_joints`` how many joints each leg has; ``rigid`` whether the platform is a body joining
     the legs' last joints; ``desired`` and ``actual`` (N, 2 or 3) the tracked point; ``series`` the time series
     drawn beside it, ``{title: (unit, {name: (N,) values})}``; ``summary`` and ``scenario_text`` for the page.
     """
@@ -41,7 +41,7 @@ class RunView:
     t: np.ndarray
     samples: np.ndarray
     joints: np.ndarray
-    actuated: list[int]
+    actuated: list[tuple[int, ...]]
     leg_joints: list[int]
     rigid: bool
     desired: np.ndarray
@@ -91,7 +91,7 @@ class RunView:
         series["efforts"] = (unit, {f"τ{i + 1}": tau[:, i] for i in range(tau.shape[1])})
         series["singularity measure S"] = ("", {"S": S})
         legs = description.legs
-        return cls(name, t, samples, joints, [leg.actuated for leg in legs], [len(leg.joints) for leg in legs],
+        return cls(name, t, samples, joints, [leg.actuated_joints for leg in legs], [len(leg.joints) for leg in legs],
                    description.platform.kind != "point", desired, actual, series,
                    {k: v for k, v in (summary or {}).items() if k != "units"}, scenario_text, summary_units(model))
 
@@ -125,13 +125,13 @@ def machine_lines(view: RunView, j: int) -> dict[str, np.ndarray]:
     ones, the platform and the tracked point."""
     joints, k = view.joints[j], int(view.samples[j])
     actuated, passive = [], []
-    for leg, (a, count) in enumerate(zip(view.actuated, view.leg_joints, strict=True)):
+    for leg, (moved, count) in enumerate(zip(view.actuated, view.leg_joints, strict=True)):
         pts = joints[leg, :count]
-        actuated.append(pts[a:a + 2])
-        if a + 1 < count - 1:
-            passive.append(pts[a + 1:])
-        if a > 0:
-            passive.append(pts[:a + 1])
+        start = 0  # body k runs from joint k to joint k + 1: each run of actuated or passive bodies is one polyline
+        for k in range(1, count):
+            if k == count - 1 or (k in moved) != (start in moved):
+                (actuated if start in moved else passive).append(pts[start:k + 1])
+                start = k
     last = np.array([joints[leg, count - 1] for leg, count in enumerate(view.leg_joints)])
     platform = np.vstack([last, last[:1]]) if view.rigid else last[:0]
     return {"actuated": _nan_joined(actuated), "passive": _nan_joined(passive), "platform": platform,
