@@ -194,8 +194,17 @@ def _platform(sp, mechanism: SpatialMechanism):
     return pose, pose_dot, point, rot, omega
 
 
-def derive_leg(mechanism: SpatialMechanism, leg) -> dict:
-    """The symbolic kinematics of one leg of ``mechanism``, in the names of any leg of its type.
+def leg_types(mechanism: SpatialMechanism) -> list[str]:
+    """Each leg's type, what its kernels are derived once for: its notation, with ``"+row"`` where the model keeps
+    its orientation row (an overconstrained machine may keep the rows of some legs of one notation and set aside
+    the others': a 4-RUU's)."""
+    kept = orientation_rows(mechanism)
+    return [leg.notation + ("+row" if i in kept else "") for i, leg in enumerate(mechanism.legs)]
+
+
+def derive_leg(mechanism: SpatialMechanism, leg, row: bool = False) -> dict:
+    """The symbolic kinematics of one leg of ``mechanism``, in the names of any leg of its type (with its
+    orientation row where ``row``: :func:`leg_types`).
 
     The leg's coordinates are ``a`` (its actuator), its passive ones ``q_<joint>`` and the platform's pose; its
     parameters ``base_x``, ``axis_<joint><a|b>_x``, ``body_<k>_tip_x``..., and ``attach_x``... (its platform
@@ -243,7 +252,7 @@ def derive_leg(mechanism: SpatialMechanism, leg) -> dict:
     joints.append(target)
     lines = [*(target - point_p), *(target - rotary)] if measures_lines(mechanism) else []
     eta = list(point - target)
-    if leg.notation in {mechanism.legs[i].notation for i in orientation_rows(mechanism)}:
+    if row:
         assert leg.joints[-1].kind == "U", "a leg ending in R whose rows are kept is refused by its mobility"
         k = len(leg.joints)
         eta.append(((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"axis_{k}b")))[0])
@@ -253,7 +262,7 @@ def derive_leg(mechanism: SpatialMechanism, leg) -> dict:
 
 def derive(mechanism: SpatialMechanism) -> dict:
     """The symbolic kinematics of ``mechanism``'s structure: one derivation per type of leg (:func:`derive_leg`,
-    by the legs' notation), and the platform's — ``{"legs": {notation: derive_leg(...)}, "q", "q_dot": the
+    by :func:`leg_types`), and the platform's — ``{"legs": {type: derive_leg(...)}, "q", "q_dot": the
     machine's coordinates, "P": its parameters' symbols by name, "platform": (position (3), velocity (3), ω (3))
     of its mass centre, "size": the platform's (the mean distance between its attachment points, 1 when it
     translates)}``."""
@@ -274,9 +283,9 @@ def derive(mechanism: SpatialMechanism) -> dict:
     else:
         size = sp.Integer(1)
     legs = {}
-    for leg in mechanism.legs:
-        if leg.notation not in legs:
-            legs[leg.notation] = derive_leg(mechanism, leg)
+    for leg, kind in zip(mechanism.legs, leg_types(mechanism), strict=True):
+        if kind not in legs:
+            legs[kind] = derive_leg(mechanism, leg, kind.endswith("+row"))
     return {"legs": legs, "q": q, "q_dot": q_dot, "P": P, "platform": (com, com_velocity, omega), "size": size}
 
 
@@ -333,15 +342,16 @@ def generate_source(mechanism: SpatialMechanism) -> str:
                            "nonzero": [(k, r, c) for k in range(len(t["bodies"])) for r in range(6)
                                        for c in range(len(t["q"])) if j_body[6 * k + r, c] != 0]}
     nonzero = []
-    for i, leg in enumerate(mechanism.legs):
-        own = local[leg.notation]["own"]
-        leg_q.append(n + sum(local[other.notation]["own"] for other in mechanism.legs[:i]))
+    types = leg_types(mechanism)
+    for i in range(n):
+        own = local[types[i]]["own"]
+        leg_q.append(n + sum(local[other]["own"] for other in types[:i]))
         leg_p.append(parameters.index(f"base{i + 1}_x"))
         leg_attach.append(parameters.index(f"attach{i + 1}_x"))
         leg_body.append(sum(len(other.bodies) for other in mechanism.legs[:i]))
         leg_jb.append(len(nonzero))
         nonzero += [(leg_body[i] + k, r, _column(c, own, i, leg_q[i], pose0))
-                    for k, r, c in local[leg.notation]["nonzero"]]
+                    for k, r, c in local[types[i]]["nonzero"]]
     point = [list(names).index(c) for c in "xyz"]
     for t in d["legs"].values():  # the compiled core eliminates the tracked point with these unit pivots
         j = sp.Matrix(t["eta"]).jacobian([t["q"][len(t["q"]) - nq + c] for c in point])
@@ -369,8 +379,8 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         header += ["# the row of eta of each leg's orientation row (-1: none)",
                    f"LEG_ETA = {tuple(3 * n + ends.index(i) if i in ends else -1 for i in range(n))!r}"]
     groups = {}
-    for i, leg in enumerate(mechanism.legs):
-        groups.setdefault(leg.notation, []).append(i)
+    for i, kind in enumerate(types):
+        groups.setdefault(kind, []).append(i)
     loops = {}
     for g, (notation, members) in enumerate(groups.items()):
         if len(groups) == 1:

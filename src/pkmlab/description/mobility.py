@@ -20,11 +20,11 @@ columns of angles scaled by the machine's size so that metres and radians weigh 
 
 **Overconstrained machines.** Where the rows are dependent at every configuration (a spherical 3-RRR, the
 Agile Eye, whose orientation rows all follow from its point rows), the model keeps an independent set: every
-point row, and the orientation rows of the legs of the types (notations) that add to the rank
+point row, and the orientation rows of the legs of the types (notations) that add to the rank — or, where no
+choice of whole types does, of as many single legs as do (a 4-RUU keeps two of its four legs' rows)
 (:func:`orientation_rows`), chosen at a generic configuration. Near it the kept rows define the same manifold
 (the same dimension, and it lies in theirs); the rows set aside are checked to vanish at generic configurations
-of the kept ones (:func:`check_kept_rows`), and a machine whose rows no choice of leg types makes independent is
-refused.
+of the kept ones (:func:`check_kept_rows`), and a machine whose rows no choice makes independent is refused.
 
 A description is accepted when its mobility is the number of its actuators and of its controlled pose
 coordinates, its constraints are independent (or kept so), its actuators determine its configuration (locked, they
@@ -59,7 +59,7 @@ class Mobility:
     ``mobility`` is ``coordinates - rank``; ``leg_constraints`` the number of the platform's freedoms each leg
     removes; ``configuration`` one generic configuration found (legs' joint coordinates leg by leg, then the
     whole pose); ``kept`` the rows of ``η`` the model keeps (every one where they are independent; None where no
-    choice of leg types makes them so, module docstring)."""
+    choice of leg types or single legs makes them so, module docstring)."""
 
     mobility: int
     rank: int
@@ -337,15 +337,20 @@ def project(mechanism, x: np.ndarray, size: float, rows=slice(None)) -> np.ndarr
 def _kept_rows(m, j: np.ndarray, rank: int) -> tuple[int, ...] | None:
     """The rows of ``η`` the model keeps (module docstring) from the scaled Jacobian ``j`` at a generic
     configuration of rank ``rank``: every point row, and the orientation rows of as many leg types as can be kept
-    independent; None where no choice makes the kept rows independent and of that rank."""
+    independent — else of as many single legs, the first in order; None where no choice makes the kept rows
+    independent and of that rank."""
     n_point = 3 * len(m.legs)
     orient = all_orientation_rows(m)
     notations = list(dict.fromkeys(m.legs[i].notation for i, _k in orient))
-    for size in range(len(notations), -1, -1):
-        for chosen in itertools.combinations(notations, size):
-            rows = [*range(n_point), *(n_point + r for r, (i, _k) in enumerate(orient) if m.legs[i].notation in chosen)]
-            if len(rows) == rank and _rank(j[rows]) == rank:
-                return tuple(rows)
+    legs = list(dict.fromkeys(i for i, _k in orient))
+    # whole types first (every leg of a type alike: one derivation serves them), then single legs
+    choices = [*(({i for i in legs if m.legs[i].notation in chosen}) for size in range(len(notations), -1, -1)
+                 for chosen in itertools.combinations(notations, size)),
+               *(set(chosen) for size in range(len(legs), -1, -1) for chosen in itertools.combinations(legs, size))]
+    for chosen in choices:
+        rows = [*range(n_point), *(n_point + r for r, (i, _k) in enumerate(orient) if i in chosen)]
+        if len(rows) == rank and _rank(j[rows]) == rank:
+            return tuple(rows)
     return None
 
 
