@@ -28,6 +28,9 @@ from pkmlab.model import mechanism_model as mm
 #: hyperboloid, and every symmetric pose is singular there.
 MODE = (1, -1, 1, -1)
 HOME = [0.0, 0.0, -0.453, 0.0]
+#: The bodies' inertia tensors (kg m², about the mass centre, in the body's frame at the zero configuration).
+CRANK = "[[0.0005, 0.0, 0.0], [0.0, 0.002, 0.0], [0.0, 0.0, 0.002]]"
+FOREARM = "[[0.004, 0.0, 0.0], [0.0, 0.004, 0.0], [0.0, 0.0, 0.0003]]"
 
 
 def _description_text() -> str:
@@ -43,8 +46,8 @@ base = [{0.3 * c}, {0.3 * s}, 0.0]
 joints = "R*UU"
 axes = [[0.0, 0.0, 1.0], [[0.0, 0.0, 1.0], {across}], [{across}, [0.0, 0.0, 1.0]]]
 bodies = [
-  {{ tip = [{0.2 * c}, {0.2 * s}, 0.0], mass = 0.5, com = [{0.1 * c}, {0.1 * s}, 0.0], inertia = [[0.0005, 0.0, 0.0], [0.0, 0.002, 0.0], [0.0, 0.0, 0.002]] }},
-  {{ tip = [{-0.4 * c}, {-0.4 * s}, -0.4], mass = 0.3, com = [{-0.2 * c}, {-0.2 * s}, -0.2], inertia = [[0.004, 0.0, 0.0], [0.0, 0.004, 0.0], [0.0, 0.0, 0.0003]] }},
+  {{ tip = [{0.2 * c}, {0.2 * s}, 0.0], mass = 0.5, com = [{0.1 * c}, {0.1 * s}, 0.0], inertia = {CRANK} }},
+  {{ tip = [{-0.4 * c}, {-0.4 * s}, -0.4], mass = 0.3, com = [{-0.2 * c}, {-0.2 * s}, -0.2], inertia = {FOREARM} }},
 ]""")
     return """[mechanism]
 name = "4-RUU"
