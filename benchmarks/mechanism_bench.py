@@ -12,11 +12,11 @@ kernels and :mod:`pkmlab.codegen.core`'s compiled loop), the five-bar, the 3-RPR
   sample against the paper's nominal loop per sample (``sim_nominal_loop``) measured in the same run.
 
 And for the catalogue's machines (``examples/mechanisms``: a 3-PRS, a 3-RPS, a 3-UPU, a 3-UPU wrist, the Agile
-Eye, a 3-RRS, a 6-RUS, a 6-PUS, a 3-PRRR) the same rows, their loop per sample against the preset's with as many
-legs (the Delta's, the Stewart platform's, or for the planar 3-PRRR the paper's 3-RRR) in the same run, and the
-general forward kinematics (:mod:`pkmlab.algorithms.general_fk`): its generic instance solved by monodromy the
-first time (then read from the cache), and, for the Delta and the Stewart platform, the ratio of their fast paths
-to it at the same actuators.
+Eye, a 3-RRS, a 6-RUS, a 6-PUS, a 3-PUU, a 3-PRRR) the same rows, their loop per sample against the preset's
+with as many legs (the Delta's, the Stewart platform's, or for the planar 3-PRRR the paper's 3-RRR) in the same
+run, and the general forward kinematics (:mod:`pkmlab.algorithms.general_fk`): its generic instance solved by
+monodromy the first time (then read from the cache), and, for the Delta and the Stewart platform, the ratio of
+their fast paths to it at the same actuators.
 """
 
 from __future__ import annotations
@@ -42,14 +42,15 @@ DEFAULT_RUNS = {"paper": None, "five_bar": "five_bar_circle.toml", "3rpr": "3rpr
                 "3upu": "mechanisms/3upu_motion.toml", "3rrs": "mechanisms/3rrs_motion.toml",
                 "6rus": "mechanisms/6rus_motion.toml", "6pus": "mechanisms/6pus_motion.toml",
                 "3upu_wrist": "mechanisms/3upu_wrist_motion.toml", "agile_eye": "mechanisms/agile_eye_motion.toml",
-                "3prrr": "mechanisms/3prrr_motion.toml"}
+                "3prrr": "mechanisms/3prrr_motion.toml", "3puu": "mechanisms/3puu_motion.toml"}
 #: The catalogue's machines, each compared with the preset of as many legs.
 CATALOGUE = {"3prs": "delta", "3rps": "delta", "3upu": "delta", "3rrs": "delta", "6rus": "stewart",
-             "6pus": "stewart", "3upu_wrist": "delta", "agile_eye": "delta", "3prrr": "paper"}
+             "6pus": "stewart", "3upu_wrist": "delta", "agile_eye": "delta", "3prrr": "paper",
+             "3puu": "delta"}
 #: Forward kinematics of every assembly mode solves a polynomial system (the Stewart–Gough platform's: 128
 #: homotopy paths, ~0.3 s): fewer samples there.
 FK_SAMPLES = {"stewart": 4, "3prs": 4, "3rps": 4, "3upu": 4, "3rrs": 4, "6rus": 4, "6pus": 4, "3upu_wrist": 4,
-              "agile_eye": 4}
+              "agile_eye": 4, "3puu": 4}
 
 
 def _scenario(name: str) -> Scenario:

@@ -1,11 +1,12 @@
-"""Forward kinematics of the catalogue machines the other files leave to this one (the 3-RPS, the 6-RUS, the
-6-PUS), against a method independent of the polynomial system the homotopy tracks: Newton's method on the
-generated kernels' loop closures ``η = 0`` from 10,000 random configurations (passive angles over a turn, the
-platform anywhere in its reach, every orientation; an overconstrained machine's ends kept where the rows its model
-sets aside hold too). The multistart may find fewer platform poses than the
-homotopy, never more; every pose the homotopy gives closes the loops; the inverse kinematics' pose is among
-them. At ``θ = 0`` the six-legged machines are symmetric and some paths go to infinity: there the 6-PUS has 8
-real assembly modes, of which a solve that trusted its first attempt missed one without a word.
+"""Forward kinematics of the catalogue machines the other files leave to this one (the 3-RPS, the 3-PUU, the
+6-RUS, the 6-PUS, the 3-UPU wrist, the Agile Eye), against a method independent of the polynomial system the
+homotopy tracks: Newton's method on the generated kernels' loop closures ``η = 0`` from 10,000 random
+configurations (passive angles over a turn, the platform anywhere in its reach, every orientation; an
+overconstrained machine's ends kept where the rows its model sets aside hold too). The multistart may find fewer
+platform poses than the homotopy, never more; every pose the homotopy gives closes the loops; the inverse
+kinematics' pose is among them. At ``θ = 0`` the six-legged machines are symmetric and some paths go to
+infinity: there the 6-PUS has 8 real assembly modes, of which a solve that trusted its first attempt missed one
+without a word.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ STARTS = 10_000
 #: file, a regular pose (as in test_catalogue)
 MACHINES = {
     "3rps.toml": [0.5, 0.05, -0.03],
+    "3puu.toml": [0.03, -0.02, 0.04],
     "3upu_wrist.toml": [0.1, -0.05, 0.2],
     "agile_eye.toml": [0.1, -0.05, 0.2],
     "6rus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
@@ -86,11 +88,12 @@ def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tupl
                            for qk, ok in zip(q, converged, strict=True)])
     poses = q[converged][:, _pose_columns(model)]
     pose_names = model.description.platform.q_pose_names
-    roll, pitch, yaw = (pose_names.index(c) for c in ("roll", "pitch", "yaw"))
-    flip = np.cos(poses[:, pitch]) < 0
-    poses[flip, roll] += np.pi
-    poses[flip, pitch] = np.pi - poses[flip, pitch]
-    poses[flip, yaw] += np.pi
+    if "pitch" in pose_names:  # a platform that turns (a translating one's pose is x, y, z)
+        roll, pitch, yaw = (pose_names.index(c) for c in ("roll", "pitch", "yaw"))
+        flip = np.cos(poses[:, pitch]) < 0
+        poses[flip, roll] += np.pi
+        poses[flip, pitch] = np.pi - poses[flip, pitch]
+        poses[flip, yaw] += np.pi
     angular = np.array([c in ("roll", "pitch", "yaw") for c in pose_names])
     poses[:, angular] = _wrapped(poses[:, angular])
     distinct: list[np.ndarray] = []

@@ -21,7 +21,7 @@ CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
              for name in ("3prs.toml", "3rps.toml", "3upu.toml", "3rrs.toml", "6rus.toml", "6pus.toml",
                           # universal joints at a rigid platform (a tendon holds their axes), revolute ones (two
                           # connects on each axis, rows dependent as the machine's are)
-                          "3upu_wrist.toml", "agile_eye.toml",
+                          "3upu_wrist.toml", "agile_eye.toml", "3puu.toml",
                           # two actuators on a leg: a slider under each leg's actuated link (kinematic redundancy)
                           "3prrr.toml")] + [
     str(Path(__file__).resolve().parents[1] / "examples" / "3rrs_tilted.toml")]  # legs of the general method
