@@ -50,7 +50,9 @@ WARMED = ("delta", "stewart", "6rus", "6pus")
 #: together rather than one of them starting a long file as the other ends.
 LONGEST_FILES = ("test_mujoco_export.py", "test_api_validation.py", "test_study.py", "test_docs_site.py",
                  "test_api.py", "test_machine_simulation.py", "test_output_safety.py", "test_scenarios.py",
-                 "test_catalogue_fk.py", "test_spatial_general_legs.py", "test_identification.py", "test_delta.py")
+                 "test_catalogue_fk.py", "test_catalogue_runs.py", "test_catalogue_kinematics.py",
+                 "test_kinematic_redundancy.py", "test_overconstrained.py", "test_spatial_general_legs.py",
+                 "test_identification.py", "test_delta.py")
 
 
 def _first_files(item) -> int:
