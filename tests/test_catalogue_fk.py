@@ -45,25 +45,15 @@ def _pose_columns(model) -> list[int]:
     return [model.coordinates.index(c) for c in model.description.platform.q_pose_names]
 
 
-def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tuple[np.ndarray, int]:
-    """The distinct platform poses (roll, pitch, yaw with |pitch| <= pi/2, as pkmlab gives them) of the
-    configurations that damped Newton steps on ``η = 0`` reach from ``starts`` random ones at actuators
-    ``theta``, all starts stepped together; and how many starts converged."""
+def newton_starts(model, q: np.ndarray, iterations: int = 40) -> np.ndarray:
+    """Damped Newton steps (at most half a unit per coordinate) on the kernels' ``η = 0`` for the passive
+    coordinates of every start ``q`` (S, N) at once, the actuators held, in place; which starts converged
+    (``max |η| < 1e-12``)."""
     k = model.kernels
     n, N = model.n_actuators, len(model.coordinates)
-    names = model.coordinates
-    box = spatial_extent(model.description)
-    rng = np.random.default_rng(seed)
-    q = np.empty((starts, N))
-    q[:, :n] = theta
-    for c in range(n, N):
-        q[:, c] = rng.uniform(*box["xyz".index(names[c])], starts) if names[c] in "xyz" else \
-            rng.uniform(-np.pi, np.pi, starts)
-    active = np.ones(starts, dtype=bool)
-    converged = np.zeros(starts, dtype=bool)
-    sc = np.zeros((N, 2))
-    eta = np.empty((starts, k.N_CONSTRAINTS))
-    for _ in range(40):
+    active, converged = np.ones(len(q), dtype=bool), np.zeros(len(q), dtype=bool)
+    eta, sc = np.empty((len(q), k.N_CONSTRAINTS)), np.zeros((N, 2))
+    for _ in range(iterations):
         idx = np.flatnonzero(active)
         if idx.size == 0:
             break
@@ -71,8 +61,7 @@ def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tupl
             k.trig(q[i], sc)
             k.constraints(q[i], sc, model.P, eta[i])
         done = idx[np.abs(eta[idx]).max(axis=1) < 1e-12]
-        converged[done] = True
-        active[done] = False
+        converged[done], active[done] = True, False
         idx = np.flatnonzero(active)
         jac = np.empty((idx.size, k.N_CONSTRAINTS, N))
         k.constraint_jacobians(np.ascontiguousarray(q[idx]), model.P, jac)
@@ -82,6 +71,23 @@ def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tupl
         active[idx[~ok]] = False
         idx, step = idx[ok], step[ok]
         q[idx, n:] += step * np.minimum(1.0, 0.5 / np.abs(step).max(axis=1))[:, None]
+    return converged
+
+
+def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tuple[np.ndarray, int]:
+    """The distinct platform poses (roll, pitch, yaw with |pitch| <= pi/2, as pkmlab gives them) of the
+    configurations that damped Newton steps on ``η = 0`` reach from ``starts`` random ones at actuators
+    ``theta``, all starts stepped together; and how many starts converged."""
+    n, N = model.n_actuators, len(model.coordinates)
+    names = model.coordinates
+    box = spatial_extent(model.description)
+    rng = np.random.default_rng(seed)
+    q = np.empty((starts, N))
+    q[:, :n] = theta
+    for c in range(n, N):
+        q[:, c] = rng.uniform(*box["xyz".index(names[c])], starts) if names[c] in "xyz" else \
+            rng.uniform(-np.pi, np.pi, starts)
+    converged = newton_starts(model, q)
     # an overconstrained machine's own configurations: its rows set aside hold too (the Agile Eye's kept rows, its
     # points', have others, where the platform leaves the centre)
     converged &= np.array([np.abs(mm.set_aside_residual(model, qk)).max(initial=0.0) < 1e-9 if ok else False

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_catalogue_fk import newton_starts
 
 import pkmlab
 from pkmlab.algorithms.assembly import assembly_modes
@@ -26,7 +27,6 @@ from pkmlab.description.mechanism import Joint, attachment_point, leg_chain
 from pkmlab.errors import IncompleteSolutionWarning, InvalidParameterError
 from pkmlab.model import mechanism_model as mm
 from pkmlab.model.reach import planar_extent
-from pkmlab.numerics.homotopy import batched_solve
 
 CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
 PRRR = CATALOGUE / "3prrr.toml"
@@ -99,7 +99,6 @@ def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tupl
     """The distinct platform poses that damped Newton steps on the kernels' ``η = 0`` reach from ``starts`` random
     configurations at actuators ``theta`` (passive angles over a turn, the platform over the machine's region,
     every orientation), all starts stepped together; and how many converged."""
-    k = model.kernels
     n, N = model.n_actuators, len(model.coordinates)
     (x0, x1), (y0, y1) = planar_extent(model.description)
     rng = np.random.default_rng(seed)
@@ -108,26 +107,7 @@ def _multistart_poses(model, theta, starts: int = STARTS, seed: int = 5) -> tupl
     q[:, n:N - 3] = rng.uniform(-np.pi, np.pi, (starts, N - 3 - n))
     q[:, N - 3:] = np.column_stack([rng.uniform(x0, x1, starts), rng.uniform(y0, y1, starts),
                                     rng.uniform(-np.pi, np.pi, starts)])
-    active, converged = np.ones(starts, dtype=bool), np.zeros(starts, dtype=bool)
-    eta, sc = np.empty((starts, k.N_CONSTRAINTS)), np.zeros((N, 2))
-    for _ in range(60):
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
-            break
-        for i in idx:
-            k.trig(q[i], sc)
-            k.constraints(q[i], sc, model.P, eta[i])
-        done = idx[np.abs(eta[idx]).max(axis=1) < 1e-12]
-        converged[done], active[done] = True, False
-        idx = np.flatnonzero(active)
-        jac = np.empty((idx.size, k.N_CONSTRAINTS, N))
-        k.constraint_jacobians(np.ascontiguousarray(q[idx]), model.P, jac)
-        with np.errstate(all="ignore"):
-            step = batched_solve(jac[:, :, n:], -eta[idx])
-        ok = np.isfinite(step).all(axis=1)
-        active[idx[~ok]] = False
-        idx, step = idx[ok], step[ok]
-        q[idx, n:] += step * np.minimum(1.0, 0.5 / np.abs(step).max(axis=1))[:, None]
+    converged = newton_starts(model, q, 60)
     poses = q[converged][:, N - 3:]
     poses[:, 2] = np.angle(np.exp(1j * poses[:, 2]))
     distinct: list[np.ndarray] = []
