@@ -114,3 +114,16 @@ def test_a_description_file_round_trips(ruu, tmp_path):
     path = tmp_path / "again.toml"
     path.write_text(mechanism_to_toml(ruu.description))
     assert load_mechanism(path) == ruu.description
+
+
+def test_its_working_mode_is_followed_along_a_path(ruu):
+    """Its cranks turn about axes parallel to the machine's central axis, where "knee out" (the elbow farther from
+    that axis) swaps with no singularity: the label is the side of the plane through the crank's axis and the
+    point. Along a path through the pose where two elbows were as far from the axis, the actuators change smoothly
+    (a swap is a jump of about 2.6 rad in one step)."""
+    waypoints = np.array([HOME, [0.02, 0.0, -0.46, 0.05], [0.0, 0.015, -0.445, -0.05], HOME])
+    s = np.linspace(0.0, 1.0, 400)[:, None]
+    poses = np.concatenate([a + s * (b - a) for a, b in zip(waypoints[:-1], waypoints[1:], strict=True)])
+    q, _s, failure = mm.path_inverse_kinematics(ruu, poses, MODE, follow=True)
+    assert failure is None
+    assert np.abs(np.diff(q[:, :4], axis=0)).max() < 0.01

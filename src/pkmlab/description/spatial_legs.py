@@ -7,7 +7,10 @@ Legs of a :class:`~pkmlab.description.spatial.SpatialMechanism` that pkmlab solv
   two working modes. ``σ = +1`` is the root whose elbow (the arm's tip) lies farther from the
   machine's central axis — the line through the centroid of the legs' base points, normal to their
   plane (the Delta's z axis): "knee out". Where both elbows are as far (a measure-zero set), the root
-  with the larger ``θ - centre`` below is taken.
+  with the larger ``θ - centre`` below is taken. An arm turning about an axis parallel to the central axis
+  (a 4-RUU's crank) would have both elbows as far along a whole surface, where "knee out" swaps with no
+  singularity: its ``σ = +1`` is the root counter-clockwise (about the arm's axis) from the plane through that
+  axis and the point — the two roots meet only in that plane, at the leg's own singularity.
 * ``UP*S`` — a universal joint on the base, an actuated prismatic joint, a spherical joint on the
   platform (the Stewart–Gough platform's leg): the slide is the larger root of a quadratic (one
   working mode).
@@ -45,6 +48,9 @@ from .leg_types import Solved, mark_outside_stroke
 from .spatial import SpatialLeg, SpatialMechanism
 
 SOLVED = ("R*US", "UP*S", "P*US", "P*RS", "RP*S", "R*RS")
+#: An arm's axis whose cosine with the central axis is this close to ±1 is parallel to it (its working modes are
+#: labelled by the side of the point's plane, module docstring).
+PARALLEL = 1e-9
 
 
 def position_notation(leg: SpatialLeg) -> str:
@@ -188,7 +194,10 @@ def _crank_root(leg: SpatialLeg, alpha, beta, ratio, along, across, sigma: int, 
     roots = [np.angle(np.exp(1j * (centre + half))), np.angle(np.exp(1j * (centre - half)))]
     elbows = [np.array(leg.base) + along + rotate(axis_r, r, np.broadcast_to(across, (len(r), 3)).copy())
               for r in roots]
-    outer = _distance_from(axis, elbows[0]) > _distance_from(axis, elbows[1])
+    if abs(float(axis_r @ np.asarray(axis[1]))) > 1.0 - PARALLEL:  # by the side of the point's plane (module doc)
+        outer = np.ones(len(centre), dtype=bool)
+    else:
+        outer = _distance_from(axis, elbows[0]) > _distance_from(axis, elbows[1])
     first = outer if sigma > 0 else ~outer
     return np.where(first, roots[0], roots[1]), np.where(first[:, None], elbows[0], elbows[1])
 
