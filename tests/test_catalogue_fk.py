@@ -52,14 +52,14 @@ def newton_starts(model, q: np.ndarray, iterations: int = 40) -> np.ndarray:
     k = model.kernels
     n, N = model.n_actuators, len(model.coordinates)
     active, converged = np.ones(len(q), dtype=bool), np.zeros(len(q), dtype=bool)
-    eta, sc = np.empty((len(q), k.N_CONSTRAINTS)), np.zeros((N, 2))
+    eta = np.empty((len(q), k.N_CONSTRAINTS))
     for _ in range(iterations):
         idx = np.flatnonzero(active)
         if idx.size == 0:
             break
-        for i in idx:
-            k.trig(q[i], sc)
-            k.constraints(q[i], sc, model.P, eta[i])
+        residuals = np.empty((idx.size, k.N_CONSTRAINTS))
+        k.constraint_residuals(np.ascontiguousarray(q[idx]), model.P, residuals)
+        eta[idx] = residuals
         done = idx[np.abs(eta[idx]).max(axis=1) < 1e-12]
         converged[done], active[done] = True, False
         idx = np.flatnonzero(active)

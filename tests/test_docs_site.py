@@ -320,11 +320,21 @@ def test_pages_render_without_errors(server, browser):
 
 
 def test_search_finds_forward_kinematics(server, browser):
+    from playwright.sync_api import TimeoutError as PageTimeout
+
     page, errors = _open(browser, f"{server}/", server)
     try:
-        page.fill("input.md-search__input", "forward_kinematics")  # as typed in the header's search box
-        # the search index is built in a web worker as the page opens: seconds on a busy machine
-        page.wait_for_selector(".md-search-result__item a", timeout=60_000)
+        # the search index is built in a web worker as the page opens (seconds on a busy machine), and a query typed
+        # before it is ready may be answered by nothing: typed again until the results show, for up to a minute
+        for attempt in range(12):
+            page.fill("input.md-search__input", "")
+            page.fill("input.md-search__input", "forward_kinematics")  # as typed in the header's search box
+            try:
+                page.wait_for_selector(".md-search-result__item a", timeout=5_000)
+                break
+            except PageTimeout:
+                if attempt == 11:
+                    raise
         links = page.eval_on_selector_all(".md-search-result__item a", "as => as.map(a => a.href)")
         found = {(urlsplit(href).path, urlsplit(href).fragment) for href in links}  # the query highlights the word
         assert ("/reference/api/algorithms.kinematics/", "pkmlab.algorithms.kinematics.forward_kinematics") in found, \

@@ -213,36 +213,21 @@ def _multistart(model, theta, starts: int, seed: int = 1):
     """Distinct configurations at actuators ``theta`` found by Newton's method on the generated kernels' ``η = 0``
     from ``starts`` random configurations (passive angles over a turn, the platform anywhere in its reach): a
     method independent of the polynomial system the homotopy tracks."""
+    from test_catalogue_fk import newton_starts
+
     from pkmlab.algorithms.assembly import _polished
     from pkmlab.model.reach import spatial_extent
 
-    k = model.kernels
     rng = np.random.default_rng(seed)
     n, N = model.n_actuators, len(model.coordinates)
     box = spatial_extent(model.description)
     names = model.coordinates
-    sc = np.zeros((N, 2))
-    eta, jac = np.empty(k.N_CONSTRAINTS), np.empty((k.N_CONSTRAINTS, N))
-    found = []
-    for _ in range(starts):
-        q = np.empty(N)
-        q[:n] = theta
-        for c in range(n, N):
-            q[c] = rng.uniform(*box["xyz".index(names[c])]) if names[c] in "xyz" else rng.uniform(-np.pi, np.pi)
-        for _ in range(40):
-            k.trig(q, sc)
-            k.constraints(q, sc, model.P, eta)
-            if np.abs(eta).max() < 1e-12:
-                found.append(q.copy())
-                break
-            k.constraint_jacobian(q, sc, model.P, jac)
-            try:
-                step = np.linalg.solve(jac[:, n:], -eta)
-            except np.linalg.LinAlgError:
-                break
-            if not np.all(np.isfinite(step)):
-                break
-            q[n:] += step * min(1.0, 0.5 / np.abs(step).max())  # damped: a start far away is walked in
+    q = np.empty((starts, N))
+    q[:, :n] = theta
+    for c in range(n, N):
+        q[:, c] = rng.uniform(*box["xyz".index(names[c])], starts) if names[c] in "xyz" else \
+            rng.uniform(-np.pi, np.pi, starts)
+    found = list(q[newton_starts(model, q)])  # damped steps, all starts at once: a start far away is walked in
     roll, pitch, yaw = (names.index(c) for c in ("roll", "pitch", "yaw"))
     for q in found:  # one orientation has two roll, pitch, yaw: the one with |pitch| <= pi/2, as pkmlab gives
         if np.cos(q[pitch]) < 0:

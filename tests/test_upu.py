@@ -168,35 +168,19 @@ def test_forward_kinematics_finds_both_assembly_modes_and_no_more(upu):
 
 def _translating_multistart(model, theta, starts: int = 10_000):
     """:func:`test_lower_mobility._multistart` for a translating platform (no orientation to normalise)."""
+    from test_catalogue_fk import newton_starts
+
     from pkmlab.algorithms.assembly import _polished
     from pkmlab.model.reach import spatial_extent
 
-    k = model.kernels
     rng = np.random.default_rng(1)
     n, N = model.n_actuators, len(model.coordinates)
     box = spatial_extent(model.description)
-    sc = np.zeros((N, 2))
-    eta, jac = np.empty(k.N_CONSTRAINTS), np.empty((k.N_CONSTRAINTS, N))
-    found = []
-    for _ in range(starts):
-        q = np.empty(N)
-        q[:n] = theta
-        q[n:N - 3] = rng.uniform(-np.pi, np.pi, N - 3 - n)
-        q[N - 3:] = [rng.uniform(*box[c]) for c in range(3)]
-        for _ in range(40):
-            k.trig(q, sc)
-            k.constraints(q, sc, model.P, eta)
-            if np.abs(eta).max() < 1e-12:
-                found.append(q.copy())
-                break
-            k.constraint_jacobian(q, sc, model.P, jac)
-            try:
-                step = np.linalg.solve(jac[:, n:], -eta)
-            except np.linalg.LinAlgError:
-                break
-            if not np.all(np.isfinite(step)):
-                break
-            q[n:] += step * min(1.0, 0.5 / np.abs(step).max())
+    q = np.empty((starts, N))
+    q[:, :n] = theta
+    q[:, n:N - 3] = rng.uniform(-np.pi, np.pi, (starts, N - 3 - n))
+    q[:, N - 3:] = np.column_stack([rng.uniform(*box[c], starts) for c in range(3)])
+    found = list(q[newton_starts(model, q)])
     # a universal joint's two angles reach one direction twice, (a, b) and (a + π, π - b), the body spun half a
     # turn about itself: the one with the second angle nearer zero, as pkmlab gives
     for q in found:

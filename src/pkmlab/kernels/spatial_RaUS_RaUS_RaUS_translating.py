@@ -2432,6 +2432,15 @@ def singularity_measures(qs, P, out):
 
 
 @njit(cache=True)
+def constraint_residuals(qs, P, out):
+    """``η`` of every configuration ``qs`` (K, N) into ``out`` (K, m): a multistart's many starts at once."""
+    sc = np.zeros((N_COORDINATES, 2))
+    for k in range(qs.shape[0]):
+        trig(qs[k], sc)
+        constraints(qs[k], sc, P, out[k])
+
+
+@njit(cache=True)
 def constraint_jacobians(qs, P, out):
     """``Jηq`` of every configuration ``qs`` (K, N) into ``out`` (K, m, N)."""
     sc = np.zeros((N_COORDINATES, 2))

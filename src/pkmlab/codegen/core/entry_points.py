@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         N_COORDINATES,
         constraint_bias,
         constraint_jacobian,
+        constraints,
         trig,
     )
 
@@ -34,6 +35,15 @@ def singularity_measures(qs, P, out):
     for k in range(qs.shape[0]):
         trig(qs[k], sc)
         out[k] = singularity_measure(qs[k], sc, P, lines)
+
+
+@njit(cache=True)
+def constraint_residuals(qs, P, out):
+    """``η`` of every configuration ``qs`` (K, N) into ``out`` (K, m): a multistart's many starts at once."""
+    sc = np.zeros((N_COORDINATES, 2))
+    for k in range(qs.shape[0]):
+        trig(qs[k], sc)
+        constraints(qs[k], sc, P, out[k])
 
 
 @njit(cache=True)
