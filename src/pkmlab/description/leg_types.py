@@ -324,23 +324,13 @@ def leg_inverse_kinematics(leg: Leg, number: int, point, sigma: int = 1) -> list
 
 
 # ------------------------------------------------------------------ forward kinematics: the circle of a leg
-def _placed(leg: Leg, base_values) -> Leg:
-    """``leg``'s ordinary part on the base its first actuators' ``base_values`` put it on (``leg`` itself for a leg
-    of one actuator)."""
-    if not leg.moving_base:
-        return leg
-    origin, direction = moving_base(leg, [base_values])
-    return ordinary_part(leg, origin[0], float(direction[0]))
-
-
-def leg_circle(leg: Leg, actuator: float, base_values=()) -> tuple[tuple[float, float], float]:
+def leg_circle(leg: Leg, actuator: float) -> tuple[tuple[float, float], float]:
     """With its actuator at ``actuator``, every leg type here holds its platform attachment point on a
     circle: ``(centre, radius)`` — the elbow and the passive link (``R*RR``), the base pivot and the
-    leg's length (``RP*R``), the slider's pivot and the passive link (``P*RR``); a kinematically redundant leg,
-    its ordinary part's on the base its first actuators' ``base_values`` put it on."""
+    leg's length (``RP*R``), the slider's pivot and the passive link (``P*RR``). A kinematically redundant leg is
+    given as its ordinary part on its moved base (:func:`pkmlab.algorithms.assembly.ordinary_machine`)."""
     from .mechanism import leg_chain
 
-    leg = _placed(leg, base_values)
     _solver(leg, 0)
     if leg.notation == "RP*R":
         tx = leg.bodies[0].tip[0] + leg.bodies[1].tip[0] + actuator
@@ -349,12 +339,9 @@ def leg_circle(leg: Leg, actuator: float, base_values=()) -> tuple[tuple[float, 
     return centre, math.hypot(*leg.bodies[1].tip)
 
 
-def leg_coordinates(leg: Leg, actuator: float, point, base_values=()) -> list[float]:
+def leg_coordinates(leg: Leg, actuator: float, point) -> list[float]:
     """The joint coordinates (joint order, the last joint's excluded) of a leg whose actuator is at
-    ``actuator`` and whose end is at ``point`` (on its :func:`leg_circle`); a kinematically redundant leg's start
-    with its first actuators' ``base_values``."""
-    if leg.moving_base:
-        return [*map(float, base_values), *leg_coordinates(_placed(leg, base_values), actuator, point)]
+    ``actuator`` and whose end is at ``point`` (on its :func:`leg_circle`)."""
     _solver(leg, 0)
     if leg.notation == "RP*R":
         tx = leg.bodies[0].tip[0] + leg.bodies[1].tip[0] + actuator

@@ -342,12 +342,8 @@ def leg_joint_values(model: MechanismModel, q) -> list[list[float]]:
 def pose_of(model: MechanismModel, q) -> np.ndarray:
     """The controlled coordinates (:attr:`MechanismModel.pose_names`) of configurations ``q`` (..., n_coordinates),
     (..., dof): the platform's pose, and a kinematically redundant machine's base actuators — a view of ``q`` where
-    they are its last coordinates (every machine of one actuator per leg), else a copy."""
-    q, columns = np.asarray(q, dtype=float), model.pose_columns
-    n = q.shape[-1]
-    if columns == tuple(range(n - len(columns), n)):
-        return q[..., n - len(columns):]
-    return q[..., list(columns)]
+    they are consecutive (every machine of one actuator per leg), else a copy."""
+    return np.asarray(q, dtype=float)[..., _run_or_list(list(model.pose_columns))]
 
 
 def _q_pose_names(description) -> tuple[str, ...]:
