@@ -201,7 +201,7 @@ TARGETS = [
     _sig(pkmlab.load, source="five_bar"),
     _sig(pkmlab.working_modes, model=GENERIC),
     _sig(pkmlab.inverse_kinematics, model=GENERIC, pose=[0.2, 0.21, 0.0], mode=None, on_unreachable="raise"),
-    _sig(pkmlab.forward_kinematics, model=GENERIC, theta=THETA),
+    _sig(pkmlab.forward_kinematics, model=GENERIC, theta=THETA, actuators=None),
     _sig(pkmlab.branch_following, model=GENERIC, q_previous=G_Q, theta=THETA + 0.01, singularity_guard=1e-6,
          max_step=0.05),
     *(_sig(f, model=GENERIC, q=G_Q) for f in (
@@ -211,6 +211,11 @@ TARGETS = [
         pkmlab.coordinate_rates, pkmlab.acceleration_bias, pkmlab.actuator_space_model)),
     _sig(pkmlab.coordinate_accelerations, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
     _sig(pkmlab.full_space_model, model=GENERIC, q=G_Q, q_dot=G_Q_DOT),
+    *(_sig(f, model=GENERIC, q=G_Q) for f in (pkmlab.pose_coordinate_jacobian, pkmlab.actuation_jacobian)),
+    _sig(pkmlab.actuation_singularity_measure, model=GENERIC, q=G_Q, actuators=None),
+    _sig(pkmlab.pose_space_model, model=GENERIC, q=G_Q, pose_dot=[0.1, 0.0, 0.2]),
+    _sig(pkmlab.distribute_efforts, W=[[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]], force=[1.0, 0.0], method="minimum_norm",
+         weights=None, preload=None, limits=None, where=""),
     _sig(pkmlab.constrained_dynamics, model=GENERIC, q=G_Q, q_dot=G_Q_DOT, tau=TAU),
     _sig(pkmlab.inverse_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, theta_ddot=THETA_DDOT),
     _sig(pkmlab.forward_dynamics, model=GENERIC, q=G_Q, theta_dot=THETA_DOT, tau=TAU),
@@ -378,7 +383,8 @@ def test_every_public_callable_is_fuzzed():
     # results, built by pkmlab, not by users
     exempt = {"InverseKinematicsSolution", "ForwardKinematicsSolution", "AssemblyMode", "SimulationResult",
               "PlantRun", "SingularityMap", "Singularities", "TimeOptimal", "FullSpaceModel", "ConstrainedDynamics",
-              "ActuatorSpaceModel", "BaseParameters", "Identification", "Measurements",
+              "ActuatorSpaceModel", "BaseParameters", "Identification", "Measurements", "PoseSpaceModel",
+              "EffortDistribution",
               "MechanismModel",  # built by pkmlab.load, fuzzed above
               "sweep", "tune"}  # whole studies: their arguments are checked one by one in tests/test_study.py
     public = {name: getattr(pkmlab, name) for name in pkmlab.__all__}

@@ -161,12 +161,13 @@ BAD = {
     "no actuator": (_rigid(_three(joints="RRR")), "leg 1 (RRR) has no actuated joint"),
     # a second actuator at the base moves an R*R leg, which holds the platform by two rows: a mobility of 3, not 6
     "two actuators, too few joints": (_rigid(_three(joints="R*R*R")), "mobility (Grübler: 3 x 7 moving bodies - 2 x 9 "
-                                      "joints = 3) is not the 6 of its actuators"),
+                                      "joints = 3) is not its 6 degrees of freedom"),
     "actuated last joint": (_rigid(_three(joints="RRR*")), "leg 1: its last joint carries the platform"),
     "legs of one joint too few": (_rigid([_leg("R*R", bodies=[{"tip": [0.3, 0], "mass": 1, "inertia": 1e-3}],
                                                base=b) for b in ([0, 0], [0.5, 0], [0.25, 0.43])]),
                                   "mobility (Grübler"),
-    "two legs for a rigid platform": (_rigid(_three()[:2], attachments=[[0, 0], [0.1, 0]]), "needs 3 actuated legs"),
+    "two legs for a rigid platform": (_rigid(_three()[:2], attachments=[[0, 0], [0.1, 0]]),
+                                      "needs at least 3 actuated legs"),
     "a body too few": (_rigid([_leg(bodies=[{"tip": [0.25, 0], "mass": 0.4, "inertia": 2e-3}])] * 3), "2 bodies"),
     "zero-length link": (_rigid([_leg(bodies=[{"tip": [0.0, 0.0], "mass": 0.4, "inertia": 2e-3},
                                               {"tip": [0.2, 0.0], "mass": 0.3, "inertia": 1e-3}])] * 3),

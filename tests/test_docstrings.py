@@ -15,7 +15,7 @@ MODULES = ["pkmlab", "pkmlab.algorithms.kinematics", "pkmlab.algorithms.dynamics
            "pkmlab.simulation.result", "pkmlab.formats.scenario", "pkmlab.errors",
            "pkmlab.algorithms.identification", "pkmlab.study.definition", "pkmlab.study.sweep", "pkmlab.study.tuning",
            "pkmlab.views.notebook", "pkmlab.algorithms.calibration", "pkmlab.algorithms.consistency",
-           "pkmlab.formats.measurements", "pkmlab.cli"]
+           "pkmlab.formats.measurements", "pkmlab.cli", "pkmlab.algorithms.redundancy"]
 
 
 @pytest.mark.parametrize("name", MODULES)

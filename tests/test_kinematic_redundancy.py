@@ -75,8 +75,8 @@ def test_extra_actuators_not_at_the_base_and_a_wrong_count_are_refused_naming_th
     short = replace(leg, joints=(Joint("P", True, leg.joints[0].axis), Joint("R", True), Joint("R")),
                     bodies=leg.bodies[:2])
     with pytest.raises(InvalidParameterError, match=r"mobility \(Grübler: 3 x 9 moving bodies - 2 x 11 joints = 5\) "
-                                                    r"is not the 6 of its actuators \(3 for its pose x, y, alpha and 3 "
-                                                    r"moving its legs' bases\)"):
+                                                    r"is not its 6 degrees of freedom \(3 for its pose x, y, alpha "
+                                                    r"and 3 moving its legs' bases\)"):
         replace(m, legs=(m.legs[0], short, m.legs[2]))
 
 

@@ -171,9 +171,10 @@ def singularity_map(
     >>> np.round(five.S[0], 3).tolist()
     [-0.57, -0.866, -1.0, -0.919, -0.315]
     """
-    from .kinematics import as_working_mode
+    from .kinematics import as_working_mode, refuse_actuation_redundancy
 
     _planar(model, "singularity_map")
+    refuse_actuation_redundancy(_machine(model), "the singularity map of S")
     mode = as_working_mode(model, "auto" if mode is None else mode, "mode")
     mode = working_modes(model)[0] if mode == "auto" else mode
     x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)

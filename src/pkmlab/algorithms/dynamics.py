@@ -29,7 +29,7 @@ from ..errors import InvalidParameterError, SingularityError
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
 from ..numerics import lagrangian
-from .kinematics import SINGULAR_S, as_model, check_loop_closure, singularity_measure
+from .kinematics import SINGULAR_S, as_model, check_loop_closure, refuse_actuation_redundancy, singularity_measure
 
 __all__ = [
     "FullSpaceModel",
@@ -309,6 +309,7 @@ def actuator_space_model(model: MechanismModel, q, theta_dot) -> ActuatorSpaceMo
     ([0.0056, -0.0085], [0.0, 0.0])
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "the actuator-space model")
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na))
     check_loop_closure(model, qs, shape)
@@ -358,6 +359,7 @@ def inverse_dynamics(model: MechanismModel, q, theta_dot, theta_ddot) -> np.ndar
     [0.0204, 0.0486]
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "the actuator-space model")
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, theta_ddots, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na),
                                                       ("theta_ddot", theta_ddot, na))
@@ -405,6 +407,7 @@ def forward_dynamics(model: MechanismModel, q, theta_dot, tau) -> np.ndarray:
     [1.0, 2.0]
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "the actuator-space model")
     n, na = len(model.coordinates), model.n_actuators
     qs, theta_dots, taus, shape = as_broadcast(("q", q, n), ("theta_dot", theta_dot, na), ("tau", tau, na))
     r = actuator_space_model(model, qs, theta_dots)

@@ -23,6 +23,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass
 
@@ -53,6 +54,9 @@ __all__ = [
     "acceleration_bias",
     "coordinate_accelerations",
     "singularity_measure",
+    "pose_coordinate_jacobian",
+    "actuation_jacobian",
+    "actuation_singularity_measure",
 ]
 
 #: ``|S|`` below which a configuration counts as a gain-type singularity: the actuator-space model does not exist
@@ -70,6 +74,18 @@ def as_model(model, name: str = "model") -> MechanismModel:
         raise InvalidParameterError(f"{name} must be a pkmlab model (pkmlab.load('paper'), a preset name, or a "
                                     f"description file), got {type(model).__name__} {shown(model, 50)}")
     return model
+
+
+def refuse_actuation_redundancy(model: MechanismModel, what: str) -> None:
+    """Refuse a redundantly actuated machine in a function that takes its actuators as independent coordinates
+    (branch following, the actuator-space model…): it names the functions of its pose instead."""
+    extra = model.description.actuation_redundancy
+    if extra > 0:
+        raise InvalidParameterError(
+            f"{model.name}: {what} takes the actuators as the machine's coordinates, and its {model.n_actuators} "
+            f"actuators are {extra} more than its {model.dof} degrees of freedom (redundant actuation): use its pose "
+            "(pose_coordinate_jacobian, actuation_jacobian, actuation_singularity_measure, pose_space_model, "
+            "distribute_efforts)")
 
 
 def length_scale(model: MechanismModel) -> float:
@@ -127,7 +143,8 @@ class InverseKinematicsSolution:
     unreachable_legs : ndarray of int, shape (...) or (..., n_modes)
         Bit ``i`` set where leg ``i + 1`` cannot reach.
     S : ndarray, shape (...) or (..., n_modes)
-        The singularity measure of each solution (dimensionless; NaN where unreachable).
+        The singularity measure of each solution (dimensionless; NaN where unreachable); for a redundantly
+        actuated machine its actuation's, :func:`actuation_singularity_measure`.
     n_actuators : int
         How many of ``q``'s leading entries are the actuators.
 
@@ -279,8 +296,9 @@ def inverse_kinematics(model: MechanismModel, pose, mode=None, *, on_unreachable
                                        index=None if shape == () else tuple(int(i) for i in np.unravel_index(k, shape)))
     s = np.full(q.shape[:-1], np.nan)
     ok = unreachable == 0
-    if ok.any():
-        s[ok] = singularity_measure(model, q[ok])
+    if ok.any():  # a redundantly actuated machine's: its actuation's (S takes the actuators as its coordinates)
+        measure = actuation_singularity_measure if model.description.actuation_redundancy else singularity_measure
+        s[ok] = measure(model, q[ok])
     if mode is not None:
         return InverseKinematicsSolution(q[:, 0].reshape(*shape, n), modes[0], unreachable[:, 0].reshape(shape),
                                          s[:, 0].reshape(shape), model.n_actuators)
@@ -340,6 +358,10 @@ class ForwardKinematicsSolution:
         (:func:`~pkmlab.algorithms.assembly.method_statement`).
     angles : tuple of bool
         Which pose coordinates are angles (compared modulo 2π by :meth:`nearest`).
+    residual : ndarray, shape (..., m, n_actuators), or None
+        A redundantly actuated machine's (solved from a subset of its actuators): each actuator's given value minus
+        its value in the configuration found (angles modulo 2π) — zero on the subset, the measured-actuator
+        residual on the others: how far the given values are from a consistent set. None for other machines.
 
     Examples
     --------
@@ -356,6 +378,7 @@ class ForwardKinematicsSolution:
     count: np.ndarray
     method: str = ""
     angles: tuple[bool, ...] = (False, False, True)
+    residual: np.ndarray | None = None
 
     def __len__(self) -> int:
         if self.count.ndim:
@@ -406,7 +429,7 @@ class ForwardKinematicsSolution:
         return self[int(np.argmin(np.linalg.norm(d, axis=1)))]
 
 
-def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolution:
+def forward_kinematics(model: MechanismModel, theta, *, actuators=None) -> ForwardKinematicsSolution:
     """Every assembly mode at the actuator values ``theta``.
 
     Planar machines whose legs hold their attachment points on circles: the real roots of one degree-6
@@ -422,12 +445,18 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
         The machine (:func:`pkmlab.load`).
     theta : array_like, shape (..., n_actuators)
         The actuator values (rad for a revolute actuator, m for a prismatic one).
+    actuators : sequence of int, optional
+        A redundantly actuated machine's: the ``dof`` actuators (0-based, one per leg) whose values are solved
+        for, the others checked (:attr:`ForwardKinematicsSolution.residual`); the first ``dof`` by default.
+        Each assembly mode of the machine they alone would drive is completed by the other legs' inverse
+        kinematics, in the working mode nearest their given values. Choose actuators away from their own forward
+        singularities (:func:`actuation_singularity_measure` with ``actuators``).
 
     Returns
     -------
     ForwardKinematicsSolution
         ``q`` (..., m, n), ``pose`` (..., m, dof), ``S`` (..., m), ``count`` (...): ``count`` is 0 where the
-        machine cannot be assembled.
+        machine cannot be assembled; ``residual`` for a redundantly actuated machine.
 
     Raises
     ------
@@ -453,12 +482,14 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
     """
     model = as_model(model)
     thetas, shape = as_batch("theta", theta, model.n_actuators)
+    subset = _solved_actuators(model, actuators)
     found = []
     for k, t in enumerate(thetas):
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", IncompleteSolutionWarning)
-                found.append(assembly_modes(model, t))
+                found.append(assembly_modes(model, t) if subset is None
+                             else _redundant_assembly_modes(model, t, subset))
         except (InvalidParameterError, SingularityError) as exc:
             raise type(exc)(f"theta{index_text(k, shape)}: {exc}") from None
         for w in caught:
@@ -471,9 +502,91 @@ def forward_kinematics(model: MechanismModel, theta) -> ForwardKinematicsSolutio
     for k, solutions in enumerate(found):
         for j, (qj, sj) in enumerate(solutions):
             q[k, j], s[k, j] = qj, sj
+    residual = None
+    if subset is not None:
+        na = model.n_actuators
+        angles = np.asarray(model.kernels.ANGLES[:na], dtype=bool)
+        residual = thetas[:, None, :] - q[..., :na]
+        residual[..., angles] = np.angle(np.exp(1j * residual[..., angles]))
+        residual = residual.reshape(*shape, most, na)
+    method = method_statement(model) if subset is None else (
+        f"the actuators {', '.join(f'a{i + 1}' for i in subset)} solved by the machine they alone drive "
+        f"({method_statement(_sub_machine(model, subset))}), the others' legs completed by inverse kinematics")
     return ForwardKinematicsSolution(q.reshape(*shape, most, n), q[..., columns].reshape(*shape, most, dof),
-                                     s.reshape(*shape, most), count.reshape(shape), method_statement(model),
-                                     tuple(bool(model.kernels.ANGLES[c]) for c in columns))
+                                     s.reshape(*shape, most), count.reshape(shape), method,
+                                     tuple(bool(model.kernels.ANGLES[c]) for c in columns), residual)
+
+
+def _solved_actuators(model: MechanismModel, actuators) -> tuple[int, ...] | None:
+    """The actuators forward kinematics solves for: None (all) but for a redundantly actuated machine, whose
+    ``actuators`` (default: the first ``dof``) must be ``dof`` distinct ones of legs of one actuator each."""
+    m = model.description
+    if not m.actuation_redundancy:
+        if actuators is not None:
+            raise InvalidParameterError(f"actuators chooses the actuators a redundantly actuated machine's forward "
+                                        f"kinematics solves for; the {model.name} has as many as its degrees of "
+                                        "freedom")
+        return None
+    chosen = tuple(range(model.dof)) if actuators is None else actuators
+    try:
+        chosen = tuple(int(i) for i in chosen)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"actuators must be {model.dof} actuator indices, got {shown(actuators)}") from None
+    legs = [m.actuators[i][0] if 0 <= i < model.n_actuators else -1 for i in chosen]
+    if len(chosen) != model.dof or len(set(chosen)) != len(chosen) or min(legs) < 0:
+        raise InvalidParameterError(f"actuators must be {model.dof} distinct indices from 0 to "
+                                    f"{model.n_actuators - 1} ({model.name}), got {list(chosen)}")
+    for i, leg in zip(chosen, legs, strict=True):
+        if len(m.legs[leg].actuated_joints) != 1:
+            raise InvalidParameterError(f"actuator a{i + 1} is one of leg {leg + 1}'s "
+                                        f"{len(m.legs[leg].actuated_joints)} actuators: forward kinematics from a "
+                                        "subset takes legs of one actuator")
+    return chosen
+
+
+def _sub_machine(model: MechanismModel, actuators: tuple[int, ...]) -> MechanismModel:
+    """The machine of the legs of ``actuators`` alone (their platform attachments kept): one of as many actuators
+    as degrees of freedom, whose forward kinematics solves the redundant machine's."""
+    return _sub_machine_of(model.description, tuple(model.description.actuators[i][0] for i in actuators))
+
+
+@functools.lru_cache(maxsize=32)
+def _sub_machine_of(description, legs: tuple[int, ...]) -> MechanismModel:
+    import dataclasses
+
+    platform = description.platform
+    if not getattr(description, "spatial", False):
+        platform = dataclasses.replace(platform, attachments=tuple(platform.attachments[i] for i in legs))
+    else:
+        raise InvalidParameterError(f"{description.name}: forward kinematics from a subset of actuators is for "
+                                    "planar machines")
+    sub = dataclasses.replace(description, legs=tuple(description.legs[i] for i in legs), platform=platform)
+    return MechanismModel.from_description(sub)
+
+
+def _redundant_assembly_modes(model: MechanismModel, theta: np.ndarray, subset: tuple[int, ...]):
+    """Every assembly mode of the machine the ``subset`` of actuators drives, each completed by the other legs'
+    inverse kinematics in the working mode whose actuator values are nearest ``theta``'s (``[(q, S), …]``)."""
+    sub = _sub_machine(model, subset)
+    na = model.n_actuators
+    angles = np.asarray(model.kernels.ANGLES[:na], dtype=bool)
+    modes = [tuple(int(s) for s in mode) for mode in mm.working_modes(model)]
+    out = []
+    for q_sub, _s in assembly_modes(sub, theta[list(subset)]):
+        pose = mm.pose_of(sub, q_sub)
+        candidates = []
+        for mode in modes:
+            q, unreachable, _failure = mm.inverse_kinematics_batch(model, pose[None, :], mode)
+            if unreachable[0]:
+                continue
+            gap = theta - q[0, :na]
+            gap[angles] = np.angle(np.exp(1j * gap[angles]))
+            candidates.append((float(np.abs(gap[list(subset)]).max()), float(np.abs(gap).max()), q[0]))
+        if candidates:
+            candidates.sort(key=lambda c: (c[0] > 1e-6, c[1]))
+            q = candidates[0][2]
+            out.append((q, float(actuation_singularity_measure(model, q))))
+    return out
 
 
 def branch_following(model: MechanismModel, q_previous, theta, *, singularity_guard: float = SINGULAR_S,
@@ -520,6 +633,7 @@ def branch_following(model: MechanismModel, q_previous, theta, *, singularity_gu
     [0.1994, 0.2095, -0.0316]
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "branch following")
     n, na = len(model.coordinates), model.n_actuators
     qs, thetas, shape = as_broadcast(("q_previous", q_previous, n), ("theta", theta, na))
     singularity_guard = as_real("singularity_guard", singularity_guard, "non-negative")
@@ -585,6 +699,7 @@ def follow_path(model: MechanismModel, q_start, theta, *, singularity_guard: flo
     ((6, 9), [0.2005, 0.2263, -0.0976])
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "branch following")
     n, na = len(model.coordinates), model.n_actuators
     q0, _ = as_batch("q_start", q_start, n, single=True)
     thetas, _ = as_batch("theta", theta, na)
@@ -694,6 +809,7 @@ def constraint_jacobian(model: MechanismModel, q) -> np.ndarray:
 def _dependent_solve(model: MechanismModel, j_eta: np.ndarray, rhs: np.ndarray, shape, name: str) -> np.ndarray:
     """``-(∂η/∂u)⁻¹ rhs`` for the dependent coordinates ``u`` (passive joints and pose) of each configuration;
     raises at a gain-type singularity (``∂η/∂u`` singular)."""
+    refuse_actuation_redundancy(model, "the coordinates' rates from the actuators'")
     na = model.n_actuators
     a = j_eta[:, :, na:]
     k = first_singular(a)
@@ -916,6 +1032,175 @@ def coordinate_accelerations(model: MechanismModel, q, theta_dot, theta_ddot) ->
     return out.reshape(*shape, n)
 
 
+def _dependent(model: MechanismModel) -> list[int]:
+    pose = set(model.pose_columns)
+    return [i for i in range(len(model.coordinates)) if i not in pose]
+
+
+def _pose_solve(model: MechanismModel, j_eta: np.ndarray, rhs: np.ndarray, shape, name: str) -> np.ndarray:
+    """``-(∂η/∂u)⁻¹ rhs`` for the dependent coordinates ``u`` (every coordinate but the pose's) of each
+    configuration; raises where ``∂η/∂u`` is singular (a leg at a serial singularity)."""
+    a = j_eta[:, :, _dependent(model)]
+    if a.shape[1] != a.shape[2]:
+        raise InvalidParameterError(f"{model.name}: its loop closures ({a.shape[1]} rows) do not fix its "
+                                    f"{a.shape[2]} coordinates other than the pose")
+    for k in range(len(a)):
+        if np.linalg.cond(a[k]) > 1e12:
+            raise SingularityError(f"{name}{index_text(k, shape)} is at a serial singularity: a leg's joint rates "
+                                   "are undetermined by the pose's (d eta / d(actuators, passive) is singular)")
+    return -np.linalg.solve(a, rhs)
+
+
+def pose_coordinate_jacobian(model: MechanismModel, q) -> np.ndarray:
+    """The coordinate Jacobian with respect to the pose, ``Jqx = ∂q/∂x``, on the loop closure.
+
+    ``q̇ = Jqx ẋ``: its rows of the controlled coordinates are the identity, the others come from
+    ``Jηq q̇ = 0``. It exists wherever every leg's joint rates follow from its attachment's (no leg at a serial
+    singularity), forward singularities included.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+
+    Returns
+    -------
+    ndarray, shape (..., n, dof)
+        Each coordinate's rate per unit rate of each controlled coordinate.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure or does not have ``n`` components.
+    SingularityError
+        At a serial singularity of a leg.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("examples/mechanisms/4rrr.toml")
+    >>> q = pkmlab.inverse_kinematics(model, [0.26, 0.27, 0.1], mode=(1, 1, 1, 1)).q
+    >>> J = pkmlab.pose_coordinate_jacobian(model, q)
+    >>> J.shape, bool(np.array_equal(J[-3:], np.eye(3)))
+    ((11, 3), True)
+    """
+    model = as_model(model)
+    n = len(model.coordinates)
+    qs, shape = as_broadcast(("q", q, n))
+    check_loop_closure(model, qs, shape)
+    j_eta = constraint_jacobian(model, qs)
+    pose = list(model.pose_columns)
+    out = np.zeros((len(qs), n, model.dof))
+    out[:, pose, :] = np.eye(model.dof)
+    out[:, _dependent(model), :] = _pose_solve(model, j_eta, j_eta[:, :, pose], shape, "q")
+    return out.reshape(*shape, n, model.dof)
+
+
+def actuation_jacobian(model: MechanismModel, q) -> np.ndarray:
+    """The actuation Jacobian ``W = ∂θ/∂x``: the actuators' rates from the pose's, ``θ̇ = W ẋ``.
+
+    Its transpose maps actuator efforts to the generalised forces they exert in the pose (``Wᵀ τ``, the
+    platform wrench of the actuation). For a machine of as many actuators as degrees of freedom it is the
+    inverse of :func:`~pkmlab.algorithms.kinematics.velocity_jacobian`; for a redundantly actuated one it has
+    more rows than columns.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure (rad or m per entry).
+
+    Returns
+    -------
+    ndarray, shape (..., n_actuators, dof)
+        Each actuator's rate (rad/s or m/s) per unit rate of each controlled coordinate (m/s, rad/s).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure or does not have ``n`` components.
+    SingularityError
+        At a serial singularity of a leg.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("paper")
+    >>> q = pkmlab.inverse_kinematics(model, [0.20, 0.21, 0.0], mode=(1, -1, 1)).q
+    >>> bool(np.allclose(pkmlab.actuation_jacobian(model, q) @ pkmlab.velocity_jacobian(model, q), np.eye(3)))
+    True
+    """
+    model = as_model(model)
+    return pose_coordinate_jacobian(model, q)[..., :model.n_actuators, :]  # θ = q[..., :n_a]
+
+
+def _scaled(model: MechanismModel, W: np.ndarray) -> np.ndarray:
+    """``W`` with each orientation column divided by the platform's size ``ℓ`` (a turn at rate ``ω`` moves a point
+    ``ℓ`` from the centre at ``ℓ ω``): every column in actuator units per metre."""
+    size = float(model.kernels.platform_size(model.P))
+    orientation = [k for k, name in enumerate(model.pose_names) if name in ("alpha", "roll", "pitch", "yaw")]
+    scale = np.ones(model.dof)
+    scale[orientation] = 1.0 / size
+    return W * scale
+
+
+def actuation_singularity_measure(model: MechanismModel, q, actuators=None) -> np.ndarray:
+    """The forward singularity measure of the actuation: the smallest singular value of ``W`` (scaled).
+
+    Zero where a platform motion leaves every actuator still (a forward, or parallel, singularity), larger the
+    farther from one. ``W``'s orientation columns are divided by the platform's size ``ℓ`` (the mean distance
+    between its attachment points: a turn at rate ``ω`` moves a point ``ℓ`` from the centre at ``ℓ ω``), so that
+    every column is in actuator units per metre. Restricted to some ``actuators``, it is the measure of the machine
+    those alone would drive: a redundant machine's is at least that of each of its non-redundant sub-machines.
+
+    Parameters
+    ----------
+    model : MechanismModel
+        The machine (:func:`pkmlab.load`).
+    q : array_like, shape (..., n)
+        Configurations on the loop closure.
+    actuators : sequence of int, optional
+        The actuators (0-based) whose rows of ``W`` count; all by default.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        The smallest singular value (actuator units per metre: rad/m or m/m).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``q`` is off the loop closure, or ``actuators`` names no actuator of the machine.
+    SingularityError
+        At a serial singularity of a leg.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pkmlab
+    >>> model = pkmlab.load("examples/mechanisms/4rrr.toml")
+    >>> q = pkmlab.inverse_kinematics(model, [0.26, 0.27, 0.1], mode=(1, 1, 1, 1)).q
+    >>> every = pkmlab.actuation_singularity_measure(model, q)
+    >>> bool(every >= pkmlab.actuation_singularity_measure(model, q, actuators=[0, 1, 2]))
+    True
+    """
+    model = as_model(model)
+    W = _scaled(model, actuation_jacobian(model, q))
+    if actuators is not None:
+        listed = isinstance(actuators, list | tuple) or (isinstance(actuators, np.ndarray) and actuators.ndim == 1)
+        rows = list(actuators) if listed else []
+        if not rows or any(not isinstance(a, int | np.integer) or not 0 <= a < model.n_actuators for a in rows):
+            raise InvalidParameterError(f"actuators must be indices 0 to {model.n_actuators - 1} of {model.name}'s "
+                                        f"actuators, got {shown(actuators)}")
+        W = W[..., rows, :]
+    return np.linalg.svd(W, compute_uv=False)[..., -1]
+
+
 def singularity_measure(model: MechanismModel, q) -> np.ndarray:
     """The gain-type singularity measure ``S`` at configurations ``q`` on the loop closures.
 
@@ -949,6 +1234,7 @@ def singularity_measure(model: MechanismModel, q) -> np.ndarray:
     '-0.7446'
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "the singularity measure S")
     qs, shape = _configurations(model, q)
     check_loop_closure(model, qs, shape)  # the measure of a configuration the machine cannot be in means nothing
     out = np.empty(len(qs))

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
-from .kinematics import _configurations, as_model, check_loop_closure, singularity_measure
+from .kinematics import _configurations, as_model, check_loop_closure, refuse_actuation_redundancy, singularity_measure
 
 
 @dataclass(frozen=True)
@@ -155,6 +155,7 @@ def singularity_kinds(model: MechanismModel, q) -> Singularities:
     True
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "the singularity kinds")
     qs, shape = _configurations(model, q)
     check_loop_closure(model, qs, shape)
     m = model.description

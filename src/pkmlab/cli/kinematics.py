@@ -149,14 +149,22 @@ def cmd_fk(args) -> dict:
         raise AssemblyError(f"theta = {shown(args.theta)} cannot be assembled: forward kinematics of the "
                             f"{model.name} has no real solution")
     solutions = [{"pose": mode.pose.tolist(), "passive": passive_of(model, mode.q), "S": mode.S} for mode in found]
+    # a redundantly actuated machine's: how far each actuator's given value is from the configuration found
+    # (the first dof actuators are solved for, the others checked)
+    checked = [] if found.residual is None else list(range(model.dof, model.n_actuators))
+    for j, sol in enumerate(solutions):
+        if found.residual is not None:
+            sol["actuator_residual"] = found.residual[j].tolist()
     if args.kinds:
         _add_kinds(model, [mode.q for mode in found], solutions)
     if not args.json:
         print(heading(args, model, "forward kinematics") + f" at theta = {shown(args.theta)}: "
               f"{len(solutions)} assembly mode(s)")
-        rows = [[str(j + 1), *sol["pose"], *sol["passive"], sol["S"], *_kind_values(sol)]
+        rows = [[str(j + 1), *sol["pose"], *sol["passive"], sol["S"],
+                 *[sol["actuator_residual"][i] for i in checked], *_kind_values(sol)]
                 for j, sol in enumerate(solutions)]
-        print(table(["#", *model.pose_names, *passive_names(model), "S", *_KIND_COLUMNS[:2 * args.kinds]], rows))
+        print(table(["#", *model.pose_names, *passive_names(model), "S", *[f"residual{i + 1}" for i in checked],
+                     *_KIND_COLUMNS[:2 * args.kinds]], rows))
         print(f"method: {found.method}")
     return {"mechanism": mechanism_name(args, model), "pose_names": list(model.pose_names), "solutions": solutions,
             "method": found.method}

@@ -59,8 +59,16 @@ class LegsAndPose:
 
     @property
     def dof(self) -> int:
-        """Degrees of freedom = number of actuators = the number of controlled coordinates (:attr:`pose_names`)."""
+        """Degrees of freedom: the number of controlled coordinates (:attr:`pose_names`), the mobility; the number of
+        actuators too but for a redundantly actuated machine (:attr:`actuation_redundancy`)."""
         return len(self.pose_names)
+
+    @property
+    def actuation_redundancy(self) -> int:
+        """How many actuators the machine has beyond its degrees of freedom: 0, or, for a redundantly actuated
+        machine (a 4-RRR: four actuated legs for the platform's three coordinates), the dimension of its internal
+        efforts — the actuator efforts that balance each other and move nothing."""
+        return len(self.actuators) - self.dof
 
     @property
     def pose_names(self) -> tuple[str, ...]:
@@ -292,13 +300,14 @@ class Mechanism(LegsAndPose):
                         finite_number("platform inertia", platform.inertia, positive=True))
 
     def _check_mobility(self) -> None:
-        """Grübler's count for planar chains, ``3 (bodies - 1) - 2 joints``, must equal the number of actuators
-        (a point platform's idle spin about its own point discounted): the pose's dimension, plus the actuators
-        that move a kinematically redundant leg's base."""
+        """Grübler's count for planar chains, ``3 (bodies - 1) - 2 joints``, must equal the degrees of freedom (a
+        point platform's idle spin about its own point discounted): the pose's dimension, plus the actuators that
+        move a kinematically redundant leg's base. A leg beyond the pose's dimension adds an actuator, not a degree
+        of freedom: actuation redundancy."""
         dof = len(self.platform.pose_names)
-        if len(self.legs) != dof:  # one ordinary leg per pose coordinate
+        if len(self.legs) < dof:  # one ordinary leg per pose coordinate; more: actuation redundancy
             raise InvalidParameterError(f"a {self.platform.kind} platform (pose {', '.join(self.platform.pose_names)}) "
-                                        f"needs {dof} actuated legs, got {len(self.legs)}")
+                                        f"needs at least {dof} actuated legs, got {len(self.legs)}")
         bodies = 1 + sum(len(leg.bodies) for leg in self.legs) + 1  # base, leg bodies, platform
         joints = sum(len(leg.joints) for leg in self.legs)
         mobility = 3 * (bodies - 1) - 2 * joints - (1 if self.platform.kind == "point" else 0)
@@ -306,8 +315,8 @@ class Mechanism(LegsAndPose):
             extra = (f" and {len(self.redundancy_names)} moving its legs' bases" if self.redundancy_names else "")
             raise InvalidParameterError(
                 f"the mechanism's mobility (Grübler: 3 x {bodies - 1} moving bodies - 2 x {joints} joints"
-                f"{' - 1, the point platform' if self.platform.kind == 'point' else ''} = {mobility}) is not the "
-                f"{self.dof} of its actuators ({dof} for its pose {', '.join(self.platform.pose_names)}{extra}); "
+                f"{' - 1, the point platform' if self.platform.kind == 'point' else ''} = {mobility}) is not its "
+                f"{self.dof} degrees of freedom ({dof} for its pose {', '.join(self.platform.pose_names)}{extra}); "
                 f"{len(self.legs)} legs of {', '.join(leg.notation for leg in self.legs)}")
 
 

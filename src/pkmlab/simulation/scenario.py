@@ -119,6 +119,13 @@ class Scenario:
     def __post_init__(self):
         set_ = object.__setattr__  # a frozen dataclass: the normalised values are stored so
         check_model(self.model, "model")
+        extra = self.model.description.actuation_redundancy
+        if extra > 0:  # the compiled loop integrates the actuators as the machine's coordinates
+            raise InvalidParameterError(
+                f"{self.model.name}: its {self.model.n_actuators} actuators are {extra} more than its "
+                f"{self.model.dof} degrees of freedom (redundant actuation), and pkmlab's runs control machines of "
+                "as many actuators as degrees of freedom; its dynamics and effort distributions are "
+                "pkmlab.pose_space_model and pkmlab.distribute_efforts")
         if self.plant is not None:
             check_model(self.plant, "plant")
             if self.plant.kernels is not self.model.kernels:

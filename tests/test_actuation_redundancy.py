@@ -1,0 +1,280 @@
+"""A redundantly actuated machine: the 4-RRR of the catalogue (``examples/mechanisms/4rrr.toml``), four actuated
+R*RR legs for the platform's three coordinates.
+
+Independent checks: the loop closures by the readable chain of :func:`~pkmlab.description.mechanism.leg_chain`;
+the actuation Jacobian against central differences of the inverse kinematics; the pose-space dynamics against the
+full model's saddle-point solve (multipliers, no reduction) and against MuJoCo's hard-constraint solve of the
+exported model; the distributions against their optimality conditions written out separately (the weighted
+2-norm's Lagrange system, the limited 2-norm by a scalar minimisation over the internal effort); forward kinematics
+from each subset of three actuators against the pose the inverse kinematics started from; the actuation's
+singularity measure against the sub-machine's own measure ``S`` of the generated kernels.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from scipy.optimize import minimize_scalar
+
+import pkmlab
+from pkmlab.description.mechanism import attachment_point, leg_chain
+from pkmlab.errors import InvalidParameterError, SingularityError
+from pkmlab.interop import mujoco_export as mx
+from pkmlab.model import mechanism_model as mm
+
+RRRR = Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / "4rrr.toml"
+MODE = (1, -1, 1, 1)
+SUBSETS = list(itertools.combinations(range(4), 3))
+
+
+@pytest.fixture(scope="module")
+def rrrr():
+    return pkmlab.load(RRRR)
+
+
+def _poses(count: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(0.22, 0.30, count), rng.uniform(0.22, 0.30, count),
+                            rng.uniform(-0.4, 0.4, count)])
+
+
+def _chain_residual(model, q) -> float:
+    m = model.description
+    pose = mm.pose_of(model, q)
+    return max(float(np.abs(np.subtract(leg_chain(leg, values)[-1][0], attachment_point(m, i, pose))).max())
+               for i, (leg, values) in enumerate(zip(m.legs, mm.leg_joint_values(model, q), strict=True)))
+
+
+def _states(model, count: int, seed: int):
+    """Configurations in working mode :data:`MODE` with pose rates and the coordinates' rates they imply."""
+    rng = np.random.default_rng(seed)
+    for pose in _poses(count, seed):
+        q = mm.inverse_kinematics(model, pose, MODE)
+        pose_dot = rng.normal(0.0, [0.2, 0.2, 1.0])
+        yield q, pose_dot, pkmlab.pose_coordinate_jacobian(model, q) @ pose_dot
+
+
+def test_it_has_one_actuator_more_than_its_degrees_of_freedom(rrrr):
+    m = rrrr.description
+    assert (m.dof, rrrr.n_actuators, m.actuation_redundancy) == (3, 4, 1)
+    assert rrrr.coordinates == ("a1", "a2", "a3", "a4", "q1_2", "q2_2", "q3_2", "q4_2", "x", "y", "alpha")
+    assert len(mm.working_modes(rrrr)) == 16
+
+
+def test_inverse_kinematics_closes_every_leg_in_every_working_mode(rrrr):
+    solution = pkmlab.inverse_kinematics(rrrr, _poses(3, 1))
+    assert solution.q.shape == (3, 16, 11) and np.all(solution.unreachable_legs == 0)
+    for q in solution.q.reshape(-1, 11):
+        assert _chain_residual(rrrr, q) < 1e-14
+    assert np.all(solution.S > 0)  # the actuation's measure
+
+
+def test_the_actuation_jacobian_is_the_derivative_of_inverse_kinematics(rrrr):
+    h = 1e-6
+    for pose in _poses(4, 2):
+        q = mm.inverse_kinematics(rrrr, pose, MODE)
+        differences = np.column_stack([(mm.inverse_kinematics(rrrr, pose + h * e, MODE)[:4]
+                                        - mm.inverse_kinematics(rrrr, pose - h * e, MODE)[:4]) / (2 * h)
+                                       for e in np.eye(3)])
+        W = pkmlab.actuation_jacobian(rrrr, q)
+        assert np.abs(W - differences).max() < 1e-7 * (1 + np.abs(W).max())
+        jq = pkmlab.pose_coordinate_jacobian(rrrr, q)
+        assert np.abs(pkmlab.constraint_jacobian(rrrr, q) @ jq).max() < 1e-12  # tangent to the loop closures
+
+
+def test_the_fourth_leg_keeps_the_machine_away_from_the_singularities_of_any_three(rrrr):
+    """Along a sweep of the orientation, the sub-machine of legs 1-3 (a 3-RRR of its own) crosses a forward
+    singularity — its own measure S of the generated kernels changes sign — where its rows of W lose rank; the
+    four legs' measure stays well above zero, and above every sub-machine's everywhere."""
+    sub = pkmlab.MechanismModel.from_description(_legs(rrrr, (0, 1, 2)))
+    alphas = np.linspace(-1.2, 1.2, 241)
+    qs = np.array([mm.inverse_kinematics(rrrr, [0.26, 0.26, a], MODE) for a in alphas])
+    own = np.array([pkmlab.singularity_measure(sub, np.r_[q[:3], q[4:7], q[8:]]) for q in qs])
+    crossing = np.flatnonzero(np.diff(np.sign(own)) != 0)
+    assert crossing.size >= 1, "the sweep crosses no singularity of legs 1-3"
+    rows = pkmlab.actuation_singularity_measure(rrrr, qs, actuators=[0, 1, 2])
+    every = pkmlab.actuation_singularity_measure(rrrr, qs)
+    for k in crossing:  # where S changes sign, the sub-machine's rows of W are (near) rank-deficient
+        assert min(rows[k], rows[k + 1]) < 0.05 * every[k]
+    assert every.min() > 0.5
+    for subset in SUBSETS:
+        assert np.all(every >= pkmlab.actuation_singularity_measure(rrrr, qs, actuators=list(subset)) - 1e-12)
+
+
+def _legs(model, legs):
+    import dataclasses
+
+    m = model.description
+    platform = dataclasses.replace(m.platform, attachments=tuple(m.platform.attachments[i] for i in legs))
+    return dataclasses.replace(m, legs=tuple(m.legs[i] for i in legs), platform=platform)
+
+
+def test_pose_space_dynamics_give_the_saddle_point_solves_accelerations(rrrr):
+    """``Mx ẍ + cx + gx = Wᵀ τ``: efforts distributed for an acceleration give it back from the full model's
+    saddle-point system with the loop-closure multipliers, whatever internal efforts they carry."""
+    rng = np.random.default_rng(3)
+    for q, pose_dot, q_dot in _states(rrrr, 4, 3):
+        model_x = pkmlab.pose_space_model(rrrr, q, pose_dot)
+        assert np.allclose(model_x.M, model_x.M.T, atol=1e-15) and np.all(np.linalg.eigvalsh(model_x.M) > 0)
+        pose_ddot = rng.normal(0.0, [1.0, 1.0, 5.0])
+        force = model_x.M @ pose_ddot + model_x.c + model_x.g
+        for shared in (pkmlab.distribute_efforts(model_x.W, force),
+                       pkmlab.distribute_efforts(model_x.W, force, "preload", preload=[2.0, -2.0, 2.0, -2.0])):
+            motion = pkmlab.constrained_dynamics(rrrr, q, q_dot, shared.tau)
+            assert np.abs(mm.pose_of(rrrr, motion.q_ddot) - pose_ddot).max() < 1e-12 * (1 + np.abs(pose_ddot).max())
+
+
+def test_mujocos_hard_constraint_solve_gives_the_same_accelerations_under_distributed_efforts(rrrr):
+    from test_mujoco_export import _hard_solve
+
+    m, d = mx.load_mujoco(rrrr)
+    assert m.nu == 4
+    for q, pose_dot, q_dot in _states(rrrr, 3, 4):
+        model_x = pkmlab.pose_space_model(rrrr, q, pose_dot)
+        force = model_x.M @ np.array([0.5, -0.3, 2.0]) + model_x.c + model_x.g
+        tau = pkmlab.distribute_efforts(model_x.W, force, "preload", preload=[1.0, -1.0, 1.0, -1.0]).tau
+        d.qpos[:] = mx.qpos_from_q(rrrr, q)
+        d.qvel[:] = mx.qvel_from_q_dot(rrrr, q, q_dot)
+        d.ctrl[:] = tau
+        mujoco.mj_forward(m, d)
+        theirs = mx.q_dot_from_qvel(rrrr, q, _hard_solve(m, d, 4))
+        ours = pkmlab.constrained_dynamics(rrrr, q, q_dot, tau).q_ddot
+        assert np.abs(theirs - ours).max() < 1e-12 * (1 + np.abs(ours).max())
+
+
+@pytest.fixture(scope="module")
+def wrench(rrrr):
+    q = mm.inverse_kinematics(rrrr, [0.27, 0.25, 0.2], MODE)
+    model_x = pkmlab.pose_space_model(rrrr, q, [0.1, -0.1, 0.5])
+    return model_x.W, model_x.M @ np.array([1.0, 0.5, -3.0]) + model_x.c + model_x.g
+
+
+def test_every_distribution_exerts_the_force(wrench):
+    W, force = wrench
+    for method, options in (("minimum_norm", {}), ("weighted", {"weights": [1.0, 2.0, 4.0, 8.0]}),
+                            ("minimum_peak", {}), ("preload", {"preload": [1.0, 1.0, -1.0, 3.0]})):
+        for limits in (None, 1.02 * pkmlab.distribute_efforts(W, force, "minimum_peak").peak):
+            shared = pkmlab.distribute_efforts(W, force, method, limits=limits, **options)
+            assert np.abs(W.T @ shared.tau - force).max() < 1e-12 * (1 + np.abs(force).max()), (method, limits)
+            assert np.abs(W.T @ shared.internal).max() < 1e-12 * (1 + np.abs(shared.tau).max())
+            if limits is not None:
+                assert shared.peak <= limits * (1 + 1e-12), (method, shared.tau)
+
+
+def test_the_minimum_norm_is_the_pseudo_inverses_and_the_peak_no_larger(wrench):
+    W, force = wrench
+    least = pkmlab.distribute_efforts(W, force)
+    assert np.abs(least.tau - np.linalg.pinv(W.T) @ force).max() < 1e-12 * np.abs(least.tau).max()
+    assert np.abs(least.internal).max() < 1e-12 * np.abs(least.tau).max()
+    assert pkmlab.distribute_efforts(W, force, "minimum_peak").peak <= least.peak
+
+
+def test_the_weighted_distribution_solves_its_lagrange_system(wrench):
+    W, force = wrench
+    weights = np.array([1.0, 2.0, 4.0, 8.0])
+    kkt = np.block([[np.diag(weights), W], [W.T, np.zeros((3, 3))]])
+    expected = np.linalg.solve(kkt, np.r_[np.zeros(4), force])[:4]
+    shared = pkmlab.distribute_efforts(W, force, "weighted", weights=weights)
+    assert np.abs(shared.tau - expected).max() < 1e-12 * np.abs(expected).max()
+
+
+def test_the_limited_two_norm_is_the_least_norm_within_the_limits(wrench):
+    """One internal effort: the efforts are ``τ_p + z n``; the least norm within the limits, found over ``z`` by a
+    bounded scalar minimisation of its own, is the distribution's."""
+    W, force = wrench
+    free = pkmlab.distribute_efforts(W, force)
+    limit = 0.5 * (free.peak + pkmlab.distribute_efforts(W, force, "minimum_peak").peak)
+    shared = pkmlab.distribute_efforts(W, force, limits=limit)
+    n = free.null_space[:, 0]
+    interval = [(-limit - t) / c if c > 0 else (limit - t) / c for t, c in zip(free.tau, n, strict=True)]
+    upper = [(limit - t) / c if c > 0 else (-limit - t) / c for t, c in zip(free.tau, n, strict=True)]
+    best = minimize_scalar(lambda z: float(np.sum((free.tau + z * n) ** 2)), bounds=(max(interval), min(upper)),
+                           method="bounded", options={"xatol": 1e-14})
+    assert np.abs(shared.tau - (free.tau + best.x * n)).max() < 1e-7 * limit
+    assert shared.peak == pytest.approx(limit, rel=1e-12)  # the free optimum was beyond it: a limit is active
+
+
+def test_the_preload_is_the_internal_part_nearest_the_one_asked_for(wrench):
+    W, force = wrench
+    preload = np.array([3.0, -1.0, 2.0, -4.0])
+    shared = pkmlab.distribute_efforts(W, force, "preload", preload=preload)
+    n = shared.null_space
+    assert np.abs(n.T @ (shared.tau - pkmlab.distribute_efforts(W, force).tau) - n.T @ preload).max() < 1e-12 * 4
+
+
+def test_limits_no_efforts_can_hold_are_refused_naming_the_actuator(wrench):
+    W, force = wrench
+    peak = pkmlab.distribute_efforts(W, force, "minimum_peak").peak
+    for method in ("minimum_norm", "minimum_peak"):
+        with pytest.raises(InvalidParameterError) as refused:
+            pkmlab.distribute_efforts(W, force, method, limits=0.9 * peak, where="t = 0.25 s: ")
+        message = str(refused.value)
+        assert "\n" not in message
+        assert message.startswith("t = 0.25 s: the effort limits cannot be held: actuator a")
+    with pytest.raises(InvalidParameterError, match="weights must be 4 positive numbers"):
+        pkmlab.distribute_efforts(W, force, "weighted", weights=[1.0, -1.0, 1.0, 1.0])
+    with pytest.raises(InvalidParameterError, match="method must be .minimum_norm. or"):
+        pkmlab.distribute_efforts(W, force, "fastest")
+    with pytest.raises(SingularityError, match="forward singularity"):
+        pkmlab.distribute_efforts(np.c_[W[:, :2], W[:, 0] + W[:, 1]], force)
+
+
+def test_forward_kinematics_from_each_subset_finds_the_pose_and_reports_the_others_residual(rrrr):
+    pose = np.array([0.27, 0.25, 0.2])
+    q = mm.inverse_kinematics(rrrr, pose, MODE)
+    for subset in SUBSETS:
+        found = pkmlab.forward_kinematics(rrrr, q[:4], actuators=subset)
+        mode = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+        assert np.abs(found.pose[mode] - pose).max() < 1e-10
+        assert np.abs(found.residual[mode]).max() < 1e-10
+        for qj in found.q[:len(found)]:
+            assert _chain_residual(rrrr, qj) < 1e-12
+    moved = q[:4] + np.array([0.0, 0.0, 0.0, 0.01])  # a fourth reading inconsistent with the first three
+    found = pkmlab.forward_kinematics(rrrr, moved)
+    mode = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+    assert np.abs(found.pose[mode] - pose).max() < 1e-10
+    assert found.residual[mode] == pytest.approx([0.0, 0.0, 0.0, 0.01], abs=1e-10)
+    with pytest.raises(InvalidParameterError, match="actuators must be 3 distinct indices"):
+        pkmlab.forward_kinematics(rrrr, q[:4], actuators=[0, 0, 1])
+
+
+@pytest.mark.parametrize("call", [
+    lambda model, q: pkmlab.branch_following(model, q, q[:4]),
+    lambda model, q: pkmlab.actuator_space_model(model, q, np.zeros(4)),
+    lambda model, q: pkmlab.velocity_jacobian(model, q),
+    lambda model, q: pkmlab.singularity_measure(model, q),
+    lambda model, q: pkmlab.singularity_map(model, resolution=3),
+], ids=["branch_following", "actuator_space_model", "velocity_jacobian", "singularity_measure", "singularity_map"])
+def test_what_takes_the_actuators_as_coordinates_is_refused_in_one_line(rrrr, call):
+    q = mm.inverse_kinematics(rrrr, [0.26, 0.26, 0.0], MODE)
+    with pytest.raises(InvalidParameterError) as refused:
+        call(rrrr, q)
+    message = str(refused.value)
+    assert "\n" not in message and "4 actuators are 1 more than its 3 degrees of freedom" in message
+
+
+def test_the_command_line_solves_and_checks_its_actuators(capsys):
+    from pkmlab.cli import main
+
+    q = mm.inverse_kinematics(pkmlab.load(RRRR), [0.27, 0.25, 0.2], MODE)
+    theta = [*q[:3], q[3] + 0.01]
+    assert main(["fk", *map(str, theta), "--mechanism", str(RRRR), "--json"]) == 0
+    import json
+
+    out = json.loads(capsys.readouterr().out)
+    nearest = min(out["solutions"], key=lambda s: np.abs(np.subtract(s["pose"], [0.27, 0.25, 0.2])).max())
+    assert nearest["actuator_residual"] == pytest.approx([0.0, 0.0, 0.0, 0.01], abs=1e-9)
+
+
+def test_a_run_is_refused_in_one_line_naming_what_models_it(tmp_path):
+    scenario = tmp_path / "run.toml"
+    scenario.write_text(f'[mechanism]\nfile = "{RRRR.as_posix()}"\n\n[trajectory]\ntype = "waypoints"\n'
+                        'points = [[0.26, 0.26, 0.0], [0.28, 0.27, 0.1]]\ndurations = [0.4]\n')
+    with pytest.raises(InvalidParameterError) as refused:
+        pkmlab.load_scenario(scenario)
+    message = str(refused.value)
+    assert "\n" not in message and "redundant actuation" in message and "pkmlab.distribute_efforts" in message
