@@ -11,7 +11,7 @@ import numpy as np
 
 from .._validate import as_count, as_real
 from ..errors import InvalidParameterError, shown
-from ..model.mechanism_model import MechanismModel, path_inverse_kinematics, working_modes
+from ..model.mechanism_model import MechanismModel, inverse_kinematics_batch, path_inverse_kinematics, working_modes
 from ..model.reach import planar_extent
 
 
@@ -107,9 +107,12 @@ def _grid(model, alpha, x_range, y_range, resolution, progress) -> tuple[np.ndar
     return x, y, alpha
 
 
-def _machine_rows(model, x, y, alpha, modes, progress):
+def _machine_rows(model, x, y, alpha, modes, progress, actuators=None):
     """``S`` (rows, columns, modes) of a described mechanism's inverse kinematics over the grid, NaN out of
-    reach, a row at a time."""
+    reach, a row at a time; a redundantly actuated machine's actuation measure (of ``actuators``, all by
+    default) instead."""
+    from .kinematics import actuation_singularity_measure
+
     m = model.description
     # a kinematically redundant machine's base actuators at zero, as its assembly check tries them
     held = [np.full_like(x, alpha)] * (m.platform.kind == "rigid") + [np.zeros_like(x)] * len(m.redundancy_names)
@@ -117,7 +120,13 @@ def _machine_rows(model, x, y, alpha, modes, progress):
     for j, yj in enumerate(y):
         poses = np.column_stack([x, np.full_like(x, yj), *held])
         for k, mode in enumerate(modes):
-            out[j, :, k] = path_inverse_kinematics(model, poses, mode)[1]
+            if not m.actuation_redundancy:
+                out[j, :, k] = path_inverse_kinematics(model, poses, mode)[1]
+                continue
+            q = inverse_kinematics_batch(model, poses, mode)[0]
+            reached = np.all(np.isfinite(q), axis=1)
+            if reached.any():
+                out[j, reached, k] = actuation_singularity_measure(model, q[reached], actuators)
         if progress is not None:
             progress(1)
     return out
@@ -131,8 +140,14 @@ def singularity_map(
     y_range: tuple[float, float] | None = None,
     resolution: int = 201,
     progress: Callable[[int], None] | None = None,
+    actuators=None,
 ) -> SingularityMap:
     """``S(φ)`` of inverse-kinematics solutions over an ``x``–``y`` grid (eq. 19, figure 3).
+
+    For a redundantly actuated machine, the actuation's measure
+    (:func:`~pkmlab.algorithms.kinematics.actuation_singularity_measure`, zero at forward singularities, never
+    negative) of all its actuators or of some: the maps of all and of each ``dof`` of them show where the extra
+    actuators remove the singularities of the machines fewer would drive.
 
     Parameters
     ----------
@@ -148,6 +163,8 @@ def singularity_map(
         Grid points per axis, 2 to :data:`MAX_RESOLUTION` (default 201).
     progress : callable, optional
         Called with the number of grid rows just computed (1, after each row).
+    actuators : sequence of int, optional
+        A redundantly actuated machine's: the actuators (0-based) whose measure is mapped; all by default.
 
     Returns
     -------
@@ -171,14 +188,18 @@ def singularity_map(
     >>> np.round(five.S[0], 3).tolist()
     [-0.57, -0.866, -1.0, -0.919, -0.315]
     """
-    from .kinematics import as_working_mode, refuse_actuation_redundancy
+    from .kinematics import as_actuators, as_working_mode
 
     _planar(model, "singularity_map")
-    refuse_actuation_redundancy(_machine(model), "the singularity map of S")
+    if actuators is not None and not _machine(model).description.actuation_redundancy:
+        raise InvalidParameterError(f"actuators chooses the actuators of a redundantly actuated machine's map; the "
+                                    f"{model.name} has as many as its degrees of freedom")
     mode = as_working_mode(model, "auto" if mode is None else mode, "mode")
     mode = working_modes(model)[0] if mode == "auto" else mode
     x, y, alpha = _grid(model, alpha, x_range, y_range, resolution, progress)
-    return SingularityMap(x, y, _machine_rows(model, x, y, alpha, [mode], progress)[..., 0], alpha, mode)
+    if actuators is not None:  # refused before the grid's work, not after its first row
+        actuators = as_actuators(model, actuators)
+    return SingularityMap(x, y, _machine_rows(model, x, y, alpha, [mode], progress, actuators)[..., 0], alpha, mode)
 
 
 @dataclass(frozen=True)

@@ -1190,15 +1190,21 @@ def actuation_singularity_measure(model: MechanismModel, q, actuators=None) -> n
     True
     """
     model = as_model(model)
+    rows = as_actuators(model, actuators)
     W = _scaled(model, actuation_jacobian(model, q))
-    if actuators is not None:
-        listed = isinstance(actuators, list | tuple) or (isinstance(actuators, np.ndarray) and actuators.ndim == 1)
-        rows = list(actuators) if listed else []
-        if not rows or any(not isinstance(a, int | np.integer) or not 0 <= a < model.n_actuators for a in rows):
-            raise InvalidParameterError(f"actuators must be indices 0 to {model.n_actuators - 1} of {model.name}'s "
-                                        f"actuators, got {shown(actuators)}")
-        W = W[..., rows, :]
-    return np.linalg.svd(W, compute_uv=False)[..., -1]
+    return np.linalg.svd(W[..., rows, :], compute_uv=False)[..., -1]
+
+
+def as_actuators(model: MechanismModel, actuators) -> list[int]:
+    """``actuators`` as a list of the model's actuator indices (0-based; None: all), or one line refusing it."""
+    if actuators is None:
+        return list(range(model.n_actuators))
+    listed = isinstance(actuators, list | tuple) or (isinstance(actuators, np.ndarray) and actuators.ndim == 1)
+    rows = list(actuators) if listed else []
+    if not rows or any(not isinstance(a, int | np.integer) or not 0 <= a < model.n_actuators for a in rows):
+        raise InvalidParameterError(f"actuators must be indices 0 to {model.n_actuators - 1} of {model.name}'s "
+                                    f"actuators, got {shown(actuators)}")
+    return [int(a) for a in rows]
 
 
 def singularity_measure(model: MechanismModel, q) -> np.ndarray:

@@ -38,8 +38,12 @@ def plot_singularity_map(smap: SingularityMap, ax=None, model=None,
     ax = _axes(ax)
     finite = smap.S[np.isfinite(smap.S)]
     bound = float(np.max(np.abs(finite))) if finite.size else 1.0
-    cs = ax.contourf(smap.x, smap.y, smap.S, levels=np.linspace(-bound, bound, levels), cmap="RdBu_r")
-    ax.figure.colorbar(cs, ax=ax, label="singularity measure S")
+    # a redundantly actuated machine's map is of its actuation's measure σmin(W), never negative
+    actuation = model is not None and getattr(model.description, "actuation_redundancy", 0) > 0
+    name = "actuation measure σmin(W)" if actuation else "singularity measure S"
+    cs = ax.contourf(smap.x, smap.y, smap.S, levels=np.linspace(0.0 if actuation else -bound, bound, levels),
+                     cmap="Reds" if actuation else "RdBu_r")
+    ax.figure.colorbar(cs, ax=ax, label=name)
     if finite.size and finite.min() < 0 < finite.max():
         zero = ax.contour(smap.x, smap.y, smap.S, levels=[0.0], colors="k", linewidths=2.0)
         ax.clabel(zero, fmt={0.0: "S = 0"}, fontsize=8)
@@ -55,7 +59,7 @@ def plot_singularity_map(smap: SingularityMap, ax=None, model=None,
     mode = ", ".join(_sign(m) for m in smap.mode)
     where = f" at α = {smap.alpha:g} rad" if not (model is not None and getattr(model, "description", None)
                                                    and model.description.dof == 2) else ""
-    ax.set_title(f"Singularity measure S{where}\nworking mode ({mode})", fontsize=11)
+    ax.set_title(f"{name[0].upper()}{name[1:]}{where}\nworking mode ({mode})", fontsize=11)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_aspect("equal")
