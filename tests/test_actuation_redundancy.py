@@ -293,3 +293,52 @@ def test_a_run_is_refused_in_one_line_naming_what_models_it(tmp_path):
         pkmlab.load_scenario(scenario)
     message = str(refused.value)
     assert "\n" not in message and "redundant actuation" in message and "pkmlab.distribute_efforts" in message
+
+
+def test_the_paper_machine_with_a_fourth_leg_turns_through_the_3rrrs_forward_singularity():
+    """``examples/mechanisms/3rrr_redundant.toml``: the paper's legs and platform and a fourth leg. Its platform,
+    turned from -0.6 to -1.3 rad at the middle of the workspace by a quintic time law in 0.5 s, crosses a forward
+    singularity of the paper's 3-RRR (its ``S`` changes sign): the 3-RRR's own efforts for that motion grow without
+    bound near it, the four legs' (minimum norm) stay small, their measure far from zero all along."""
+    redundant, paper = pkmlab.load(RRRR.parent / "3rrr_redundant.toml"), pkmlab.load("paper")
+    assert redundant.description.legs[:3] == paper.description.legs
+    assert redundant.description.platform.attachments[:3] == paper.description.platform.attachments
+    duration, s = 0.5, np.linspace(0.0, 1.0, 501)
+    turn = -0.7
+    poses = np.column_stack([np.full_like(s, 0.26), np.full_like(s, 0.15), -0.6 + turn * (10 * s**3 - 15 * s**4
+                                                                                          + 6 * s**5)])
+    zeros = np.zeros_like(s)
+    pose_dot = np.column_stack([zeros, zeros, turn * (30 * s**2 - 60 * s**3 + 30 * s**4) / duration])
+    pose_ddot = np.column_stack([zeros, zeros, turn * (60 * s - 180 * s**2 + 120 * s**3) / duration**2])
+    own = np.array([mm.inverse_kinematics(paper, pose, (1, 1, 1)) for pose in poses])
+    measure = pkmlab.singularity_measure(paper, own)
+    assert measure.min() < 0 < measure.max()
+    q = np.array([mm.inverse_kinematics(redundant, pose, (1, 1, 1, -1)) for pose in poses])
+    assert pkmlab.actuation_singularity_measure(redundant, q).min() > 1.0
+
+    def efforts(model, configurations):
+        dynamics = pkmlab.pose_space_model(model, configurations, pose_dot)
+        force = np.einsum("kij,kj->ki", dynamics.M, pose_ddot) + dynamics.c + dynamics.g
+        if model is paper:  # one solution: Wᵀ τ = force, square
+            return np.linalg.solve(np.swapaxes(dynamics.W, -1, -2), force[..., None])[..., 0]
+        return np.array([pkmlab.distribute_efforts(w, f).tau for w, f in zip(dynamics.W, force, strict=True)])
+
+    four, three = np.abs(efforts(redundant, q)).max(), np.abs(efforts(paper, own)).max(axis=1)
+    assert four < 0.2 and three.max() > 20 * four
+    nearest = int(np.argmin(np.abs(measure)))
+    assert three[nearest] == three.max()  # the 3-RRR's efforts peak where its S is nearest zero
+
+
+@pytest.mark.parametrize("name", ["paper", "delta"])
+def test_for_as_many_actuators_as_degrees_of_freedom_the_pose_model_is_the_actuator_models(name):
+    """``Mx = Wᵀ Mθ W`` and ``gx = Wᵀ gθ`` against the compiled core's actuator-space model (the Delta with
+    gravity)."""
+    model = pkmlab.load(name)
+    pose = mm.pose_of(model, mm.well_conditioned_configuration(model, mm.working_modes(model)[0]))
+    q = mm.inverse_kinematics(model, pose + 0.01, mm.working_modes(model)[0])
+    W = pkmlab.actuation_jacobian(model, q)
+    ours = pkmlab.pose_space_model(model, q, np.zeros(model.dof))
+    theirs = pkmlab.actuator_space_model(model, q, np.zeros(model.n_actuators))
+    assert np.abs(ours.M - W.T @ theirs.M @ W).max() < 1e-12 * np.abs(ours.M).max()
+    assert np.abs(ours.g - W.T @ theirs.g).max() < 1e-12 * (1 + np.abs(ours.g).max())
+    assert np.abs(ours.W - W).max() == 0.0
