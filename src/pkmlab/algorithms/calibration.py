@@ -443,10 +443,10 @@ def _inputs(model: MechanismModel, theta, measured, measure: str):
                                     f"{np.shape(measured)}")
     if len(measured) != len(theta):
         raise InvalidParameterError(f"measured has {len(measured)} poses but theta {len(theta)}: one each")
-    redundancy = model.description.redundancy_names
-    if redundancy:  # a kinematically redundant machine's base actuators: their readings are their values
+    m = model.description
+    if m.redundancy_names:  # a kinematically redundant machine's base actuators: their readings are their values
         measured = measured.copy()
-        measured[:, [model.pose_names.index(n) for n in redundancy]] = theta[:, [int(n[1:]) - 1 for n in redundancy]]
+        measured[:, [model.pose_names.index(n) for n in m.redundancy_names]] = theta[:, list(m.redundancy_actuators)]
     return theta, measured, columns
 
 
@@ -712,9 +712,10 @@ def reachable_poses(model, count: int, rng, *, span: float = 0.1, turn: float = 
                                     f"{type(rng).__name__}")
     mode = mm.working_modes(model)[0] if mode is None else as_working_mode(model, mode, "mode")
     centre = mm.pose_of(model, mm.well_conditioned_configuration(model, mode))
-    # a kinematically redundant machine's base actuators (named a<k>) by their kind: a slide as a position
-    lengths = ("x", "y", "z", *(n for n in model.description.redundancy_names
-                                if model.description.actuator_kinds[int(n[1:]) - 1] == "P"))
+    # a kinematically redundant machine's base actuators by their kind: a slide as a position
+    m = model.description
+    lengths = ("x", "y", "z", *(name for name, k in zip(m.redundancy_names, m.redundancy_actuators, strict=True)
+                                if m.actuator_kinds[k] == "P"))
     scale = np.array([span * length_scale(model) if n in lengths else turn for n in model.pose_names])
     poses, configurations = [], []
     for _ in range(TRIES_PER_POSE * count):

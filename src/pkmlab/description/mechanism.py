@@ -82,10 +82,16 @@ class LegsAndPose:
         return tuple((i, k) for i, leg in enumerate(self.legs) for k in leg.actuated_joints)
 
     @property
+    def redundancy_actuators(self) -> tuple[int, ...]:
+        """The actuators (0-based indices of :attr:`actuators`) that move the base of a kinematically redundant leg
+        (every actuator of a leg but its last), ``(0, 2, 4)`` for a 3-PRRR; empty for a machine of one actuator per
+        leg."""
+        return tuple(k for k, (i, joint) in enumerate(self.actuators) if joint != self.legs[i].actuated)
+
+    @property
     def redundancy_names(self) -> tuple[str, ...]:
-        """The actuators that move the base of a kinematically redundant leg (every actuator of a leg but its last),
-        ``("a1", "a3", "a5")`` for a 3-PRRR; empty for a machine of one actuator per leg."""
-        return tuple(f"a{k + 1}" for k, (i, joint) in enumerate(self.actuators) if joint != self.legs[i].actuated)
+        """The names of :attr:`redundancy_actuators`, ``("a1", "a3", "a5")`` for a 3-PRRR."""
+        return tuple(f"a{k + 1}" for k in self.redundancy_actuators)
 
     @property
     def actuator_kinds(self) -> tuple[str, ...]:

@@ -121,7 +121,8 @@ def read_measurement_log(path: str | Path, model) -> MeasurementLog:
     # the first sample's pose, where the log has the platform's (a kinematically redundant machine's base actuators,
     # controlled coordinates too, are their actuator columns)
     columns = {c: data[c] if c in data else None for c in model.description.platform.pose_names}
-    columns.update({c: theta[:, int(c[1:]) - 1] for c in model.description.redundancy_names})
+    m = model.description
+    columns.update({c: theta[:, k] for c, k in zip(m.redundancy_names, m.redundancy_actuators, strict=True)})
     pose = (np.array([columns[c][0] for c in model.pose_names])
             if all(columns.get(c) is not None for c in model.pose_names) else None)
     return MeasurementLog(t, theta, np.column_stack([data[c] for c in tau_names]), pose)
