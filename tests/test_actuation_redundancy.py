@@ -70,7 +70,9 @@ def test_inverse_kinematics_closes_every_leg_in_every_working_mode(rrrr):
     assert solution.q.shape == (3, 16, 11) and np.all(solution.unreachable_legs == 0)
     for q in solution.q.reshape(-1, 11):
         assert _chain_residual(rrrr, q) < 1e-14
-    assert np.all(solution.S > 0)  # the actuation's measure
+    # its S is its actuation's measure: at least that of any three of its actuators
+    for subset in SUBSETS:
+        assert np.all(solution.S >= pkmlab.actuation_singularity_measure(rrrr, solution.q, actuators=list(subset)))
 
 
 def test_the_actuation_jacobian_is_the_derivative_of_inverse_kinematics(rrrr):
@@ -116,8 +118,8 @@ def test_its_maps_show_the_fourth_leg_removing_every_three_legs_singularities(rr
         assert np.array_equal(three.reachable, reachable)
         assert np.all(full.S[reachable] >= three.S[reachable] - 1e-12)
         assert np.nanmin(three.S) < 0.05 * np.nanmin(full.S), subset
-    with pytest.raises(InvalidParameterError, match="actuators must be indices 0 to 3"):
-        pkmlab.singularity_map(rrrr, actuators=[4])
+    with pytest.raises(InvalidParameterError, match="actuators must be at least 3 distinct indices from 0 to 3"):
+        pkmlab.singularity_map(rrrr, actuators=[0, 1, 4])
 
 
 def _legs(model, legs):
@@ -238,6 +240,44 @@ def test_limits_no_efforts_can_hold_are_refused_naming_the_actuator(wrench):
         pkmlab.distribute_efforts(np.c_[W[:, :2], W[:, 0] + W[:, 1]], force)
 
 
+def test_the_infeasible_line_names_the_actuator_and_what_it_would_need():
+    """Two actuators sharing one force of 3: each would need 1.5 at best. Both limited to 1 (one of them from above
+    only), the line names the first and the second as far beyond (limits that conflict are as far beyond each other
+    at the least violation)."""
+    W = np.array([[1.0], [1.0]])
+    for limits in (1.0, [(-1.0, 1.0), (-np.inf, 1.0)]):
+        with pytest.raises(InvalidParameterError) as refused:
+            pkmlab.distribute_efforts(W, [3.0], limits=limits)
+        assert str(refused.value) == ("the effort limits cannot be held: actuator a1 needs at least 1.5 against its "
+                                      "upper limit 1 (as far beyond theirs: a2) for the requested forces")
+    shared = pkmlab.distribute_efforts(W, [3.0], "minimum_peak", limits=[(-np.inf, np.inf), (-1.0, 1.0)])
+    assert shared.tau == pytest.approx([2.0, 1.0], abs=1e-12)  # a1 free of limits takes the rest
+
+
+def test_the_preload_within_limits_is_the_nearest_efforts_to_the_preloaded_ones():
+    """One internal effort ``n``: the efforts are ``τ_p + z n``; within the limits, the nearest to the preloaded
+    target is the target's ``z`` clamped to the interval the limits leave."""
+    W = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    force, limits = np.array([3.0, 0.0]), np.array([(-10.0, 1.8), (-10.0, 10.0), (-10.0, 10.0)])
+    least = pkmlab.distribute_efforts(W, force)
+    n = least.null_space[:, 0]
+    wanted = 0.0346 * n
+    shared = pkmlab.distribute_efforts(W, force, "preload", preload=wanted, limits=limits)
+    z_target = n @ wanted
+    ends = [((limits[i, 0] if c > 0 else limits[i, 1]) - least.tau[i]) / c for i, c in enumerate(n)]
+    ends_up = [((limits[i, 1] if c > 0 else limits[i, 0]) - least.tau[i]) / c for i, c in enumerate(n)]
+    z = min(max(z_target, max(ends)), min(ends_up))
+    assert np.abs(shared.tau - (least.tau + z * n)).max() < 1e-12
+    assert shared.tau[0] == pytest.approx(1.8, abs=1e-12)  # the limit is active: the preload is reduced
+
+
+def test_an_actuation_measure_of_fewer_actuators_than_degrees_of_freedom_is_refused(rrrr):
+    q = mm.inverse_kinematics(rrrr, [0.26, 0.26, 0.0], MODE)
+    for bad in ([2], [0, 1], [0, 0, 1], [True, 1, 2]):
+        with pytest.raises(InvalidParameterError, match="actuators must be at least 3 distinct indices"):
+            pkmlab.actuation_singularity_measure(rrrr, q, actuators=bad)
+
+
 def test_forward_kinematics_from_each_subset_finds_the_pose_and_reports_the_others_residual(rrrr):
     pose = np.array([0.27, 0.25, 0.2])
     q = mm.inverse_kinematics(rrrr, pose, MODE)
@@ -257,13 +297,21 @@ def test_forward_kinematics_from_each_subset_finds_the_pose_and_reports_the_othe
         pkmlab.forward_kinematics(rrrr, q[:4], actuators=[0, 0, 1])
 
 
+def _calibrate(model, q):
+    from pkmlab.algorithms.calibration import calibrate
+
+    return calibrate(model, q[None, :4], mm.pose_of(model, q)[None, :2])
+
+
 @pytest.mark.parametrize("call", [
     lambda model, q: pkmlab.branch_following(model, q, q[:4]),
     lambda model, q: pkmlab.actuator_space_model(model, q, np.zeros(4)),
     lambda model, q: pkmlab.velocity_jacobian(model, q),
     lambda model, q: pkmlab.singularity_measure(model, q),
     lambda model, q: pkmlab.singularity_kinds(model, q),
-], ids=["branch_following", "actuator_space_model", "velocity_jacobian", "singularity_measure", "singularity_kinds"])
+    lambda model, q: _calibrate(model, q),
+], ids=["branch_following", "actuator_space_model", "velocity_jacobian", "singularity_measure", "singularity_kinds",
+        "calibrate"])
 def test_what_takes_the_actuators_as_coordinates_is_refused_in_one_line(rrrr, call):
     q = mm.inverse_kinematics(rrrr, [0.26, 0.26, 0.0], MODE)
     with pytest.raises(InvalidParameterError) as refused:
@@ -341,4 +389,21 @@ def test_for_as_many_actuators_as_degrees_of_freedom_the_pose_model_is_the_actua
     theirs = pkmlab.actuator_space_model(model, q, np.zeros(model.n_actuators))
     assert np.abs(ours.M - W.T @ theirs.M @ W).max() < 1e-12 * np.abs(ours.M).max()
     assert np.abs(ours.g - W.T @ theirs.g).max() < 1e-12 * (1 + np.abs(ours.g).max())
-    assert np.abs(ours.W - W).max() == 0.0
+
+
+@pytest.mark.parametrize("name", ["paper", "delta"])
+def test_the_pose_models_velocity_forces_are_the_actuator_models_along_a_straight_line(name):
+    """At ``ẍ = 0`` along a straight line at constant speed, ``Wᵀ (Mθ θ̈ + cθ + gθ) = cx + gx``, with ``θ̈`` the
+    second central difference of inverse kinematics along the line and ``(Mθ, cθ, gθ)`` the compiled core's."""
+    model = pkmlab.load(name)
+    mode = mm.working_modes(model)[0]
+    pose = mm.pose_of(model, mm.well_conditioned_configuration(model, mode)) + 0.01
+    speed = np.array([0.2, -0.1, 0.5][:model.dof]) if name == "paper" else np.array([0.2, -0.1, 0.15])
+    h = 1e-4
+    theta = [mm.inverse_kinematics(model, pose + k * h * speed, mode)[:model.n_actuators] for k in (-1, 0, 1)]
+    theta_dot, theta_ddot = (theta[2] - theta[0]) / (2 * h), (theta[2] - 2 * theta[1] + theta[0]) / h**2
+    q = mm.inverse_kinematics(model, pose, mode)
+    theirs = pkmlab.actuator_space_model(model, q, theta_dot)
+    ours = pkmlab.pose_space_model(model, q, speed)
+    expected = ours.W.T @ (theirs.M @ theta_ddot + theirs.c + theirs.g)
+    assert np.abs(ours.c + ours.g - expected).max() < 1e-5 * (1 + np.abs(expected).max())

@@ -11,7 +11,7 @@ import numpy as np
 
 from .._validate import as_count, as_real
 from ..errors import InvalidParameterError, shown
-from ..model.mechanism_model import MechanismModel, inverse_kinematics_batch, path_inverse_kinematics, working_modes
+from ..model.mechanism_model import MechanismModel, actuation_measures, path_inverse_kinematics, working_modes
 from ..model.reach import planar_extent
 
 
@@ -111,8 +111,6 @@ def _machine_rows(model, x, y, alpha, modes, progress, actuators=None):
     """``S`` (rows, columns, modes) of a described mechanism's inverse kinematics over the grid, NaN out of
     reach, a row at a time; a redundantly actuated machine's actuation measure (of ``actuators``, all by
     default) instead."""
-    from .kinematics import actuation_singularity_measure
-
     m = model.description
     # a kinematically redundant machine's base actuators at zero, as its assembly check tries them
     held = [np.full_like(x, alpha)] * (m.platform.kind == "rigid") + [np.zeros_like(x)] * len(m.redundancy_names)
@@ -120,13 +118,10 @@ def _machine_rows(model, x, y, alpha, modes, progress, actuators=None):
     for j, yj in enumerate(y):
         poses = np.column_stack([x, np.full_like(x, yj), *held])
         for k, mode in enumerate(modes):
-            if not m.actuation_redundancy:
-                out[j, :, k] = path_inverse_kinematics(model, poses, mode)[1]
-                continue
-            q = inverse_kinematics_batch(model, poses, mode)[0]
-            reached = np.all(np.isfinite(q), axis=1)
-            if reached.any():
-                out[j, reached, k] = actuation_singularity_measure(model, q[reached], actuators)
+            q, out[j, :, k], _failure = path_inverse_kinematics(model, poses, mode)
+            if actuators is not None:  # a subset's measure instead
+                reached = np.all(np.isfinite(q), axis=1)
+                out[j, reached, k] = actuation_measures(model, q[reached], actuators)
         if progress is not None:
             progress(1)
     return out

@@ -47,7 +47,7 @@ from .._validate import as_batch, as_choice, as_count
 from ..errors import InvalidParameterError, PkmlabError
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
-from .kinematics import as_model, length_scale
+from .kinematics import as_model, length_scale, refuse_actuation_redundancy
 
 __all__ = ["Calibration", "geometric_parameters", "with_geometry", "perturbed_geometry", "reachable_poses", "calibrate",
            "calibration_jacobian", "select_poses", "predicted_measurements"]
@@ -333,6 +333,7 @@ def predicted_measurements(model, theta, measured, *, measure: str = "position",
     True
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "calibration (its predicted measurements)")
     theta, measured, columns = _inputs(model, theta, measured, measure)
     if offsets is not None:
         offsets = as_batch("offsets", offsets, model.n_actuators, single=True)[0][0]
@@ -384,6 +385,7 @@ def calibration_jacobian(model, theta, measured, *, measure: str = "position", n
     ((16, 14), 10)
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "calibration (its Jacobian)")
     theta, measured, columns = _inputs(model, theta, measured, measure)
     return _nominal_jacobian(model, _names(model, names), theta, measured, columns)
 
@@ -704,6 +706,7 @@ def reachable_poses(model, count: int, rng, *, span: float = 0.1, turn: float = 
     from .kinematics import as_working_mode
 
     model = as_model(model)
+    refuse_actuation_redundancy(model, "calibration (its reachable poses)")
     count = as_count("count", count, 1)
     span, turn = as_real("span", span, "positive"), as_real("turn", turn, "non-negative")
     margin = as_real("margin", margin, "non-negative")
@@ -813,6 +816,7 @@ def calibrate(model, theta, measured, *, measure: str = "position", names=None, 
     from scipy.optimize import least_squares
 
     model = as_model(model)
+    refuse_actuation_redundancy(model, "calibration")
     names = _names(model, names)
     max_iterations = as_count("max_iterations", max_iterations, 1, 10_000)
     theta, measured, columns = _inputs(model, theta, measured, measure)
@@ -930,6 +934,7 @@ def select_poses(model, theta_candidates, measured_candidates, count: int, *, me
     ((6,), 6)
     """
     model = as_model(model)
+    refuse_actuation_redundancy(model, "calibration (its choice of poses)")
     theta, measured, columns = _inputs(model, theta_candidates, measured_candidates, measure)
     count = as_count("count", count, 1, len(theta))
     J = _nominal_jacobian(model, _names(model, names), theta, measured, columns)

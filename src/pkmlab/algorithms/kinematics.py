@@ -296,9 +296,10 @@ def inverse_kinematics(model: MechanismModel, pose, mode=None, *, on_unreachable
                                        index=None if shape == () else tuple(int(i) for i in np.unravel_index(k, shape)))
     s = np.full(q.shape[:-1], np.nan)
     ok = unreachable == 0
-    if ok.any():  # a redundantly actuated machine's: its actuation's (S takes the actuators as its coordinates)
-        measure = actuation_singularity_measure if model.description.actuation_redundancy else singularity_measure
-        s[ok] = measure(model, q[ok])
+    if ok.any() and model.description.actuation_redundancy:  # its actuation's (S takes the actuators as coordinates)
+        s[ok] = mm.actuation_measures(model, q[ok])
+    elif ok.any():
+        s[ok] = singularity_measure(model, q[ok])
     if mode is not None:
         return InverseKinematicsSolution(q[:, 0].reshape(*shape, n), modes[0], unreachable[:, 0].reshape(shape),
                                          s[:, 0].reshape(shape), model.n_actuators)
@@ -1032,25 +1033,6 @@ def coordinate_accelerations(model: MechanismModel, q, theta_dot, theta_ddot) ->
     return out.reshape(*shape, n)
 
 
-def _dependent(model: MechanismModel) -> list[int]:
-    pose = set(model.pose_columns)
-    return [i for i in range(len(model.coordinates)) if i not in pose]
-
-
-def _pose_solve(model: MechanismModel, j_eta: np.ndarray, rhs: np.ndarray, shape, name: str) -> np.ndarray:
-    """``-(∂η/∂u)⁻¹ rhs`` for the dependent coordinates ``u`` (every coordinate but the pose's) of each
-    configuration; raises where ``∂η/∂u`` is singular (a leg at a serial singularity)."""
-    a = j_eta[:, :, _dependent(model)]
-    if a.shape[1] != a.shape[2]:
-        raise InvalidParameterError(f"{model.name}: its loop closures ({a.shape[1]} rows) do not fix its "
-                                    f"{a.shape[2]} coordinates other than the pose")
-    for k in range(len(a)):
-        if np.linalg.cond(a[k]) > 1e12:
-            raise SingularityError(f"{name}{index_text(k, shape)} is at a serial singularity: a leg's joint rates "
-                                   "are undetermined by the pose's (d eta / d(actuators, passive) is singular)")
-    return -np.linalg.solve(a, rhs)
-
-
 def pose_coordinate_jacobian(model: MechanismModel, q) -> np.ndarray:
     """The coordinate Jacobian with respect to the pose, ``Jqx = ∂q/∂x``, on the loop closure.
 
@@ -1091,12 +1073,16 @@ def pose_coordinate_jacobian(model: MechanismModel, q) -> np.ndarray:
     n = len(model.coordinates)
     qs, shape = as_broadcast(("q", q, n))
     check_loop_closure(model, qs, shape)
-    j_eta = constraint_jacobian(model, qs)
-    pose = list(model.pose_columns)
-    out = np.zeros((len(qs), n, model.dof))
-    out[:, pose, :] = np.eye(model.dof)
-    out[:, _dependent(model), :] = _pose_solve(model, j_eta, j_eta[:, :, pose], shape, "q")
+    out, singular = mm.pose_jacobians(model, qs)
+    _refuse_serial(singular, shape)
     return out.reshape(*shape, n, model.dof)
+
+
+def _refuse_serial(singular: np.ndarray, shape) -> None:
+    if singular.any():
+        raise SingularityError(f"q{index_text(int(np.flatnonzero(singular)[0]), shape)} is at a serial singularity: "
+                               "a leg's joint rates are undetermined by the pose's (d eta / d(actuators, passive) is "
+                               "singular)")
 
 
 def actuation_jacobian(model: MechanismModel, q) -> np.ndarray:
@@ -1139,16 +1125,6 @@ def actuation_jacobian(model: MechanismModel, q) -> np.ndarray:
     return pose_coordinate_jacobian(model, q)[..., :model.n_actuators, :]  # θ = q[..., :n_a]
 
 
-def _scaled(model: MechanismModel, W: np.ndarray) -> np.ndarray:
-    """``W`` with each orientation column divided by the platform's size ``ℓ`` (a turn at rate ``ω`` moves a point
-    ``ℓ`` from the centre at ``ℓ ω``): every column in actuator units per metre."""
-    size = float(model.kernels.platform_size(model.P))
-    orientation = [k for k, name in enumerate(model.pose_names) if name in ("alpha", "roll", "pitch", "yaw")]
-    scale = np.ones(model.dof)
-    scale[orientation] = 1.0 / size
-    return W * scale
-
-
 def actuation_singularity_measure(model: MechanismModel, q, actuators=None) -> np.ndarray:
     """The forward singularity measure of the actuation: the smallest singular value of ``W`` (scaled).
 
@@ -1165,12 +1141,13 @@ def actuation_singularity_measure(model: MechanismModel, q, actuators=None) -> n
     q : array_like, shape (..., n)
         Configurations on the loop closure.
     actuators : sequence of int, optional
-        The actuators (0-based) whose rows of ``W`` count; all by default.
+        The actuators (0-based, at least ``dof`` of them) whose rows of ``W`` count; all by default.
 
     Returns
     -------
     ndarray, shape (...)
-        The smallest singular value (actuator units per metre: rad/m or m/m).
+        The smallest singular value (actuator units per metre: rad/m or m/m); NaN where a leg is at a serial
+        singularity (``W`` does not exist there).
 
     Raises
     ------
@@ -1191,8 +1168,9 @@ def actuation_singularity_measure(model: MechanismModel, q, actuators=None) -> n
     """
     model = as_model(model)
     rows = as_actuators(model, actuators)
-    W = _scaled(model, actuation_jacobian(model, q))
-    return np.linalg.svd(W[..., rows, :], compute_uv=False)[..., -1]
+    qs, shape = as_broadcast(("q", q, len(model.coordinates)))
+    check_loop_closure(model, qs, shape)
+    return mm.actuation_measures(model, qs, rows).reshape(shape)
 
 
 def as_actuators(model: MechanismModel, actuators) -> list[int]:
@@ -1201,9 +1179,12 @@ def as_actuators(model: MechanismModel, actuators) -> list[int]:
         return list(range(model.n_actuators))
     listed = isinstance(actuators, list | tuple) or (isinstance(actuators, np.ndarray) and actuators.ndim == 1)
     rows = list(actuators) if listed else []
-    if not rows or any(not isinstance(a, int | np.integer) or not 0 <= a < model.n_actuators for a in rows):
-        raise InvalidParameterError(f"actuators must be indices 0 to {model.n_actuators - 1} of {model.name}'s "
-                                    f"actuators, got {shown(actuators)}")
+    if (len(rows) < model.dof or len(set(rows)) < len(rows)
+            or any(isinstance(a, bool | np.bool_) or not isinstance(a, int | np.integer)
+                   or not 0 <= a < model.n_actuators for a in rows)):
+        raise InvalidParameterError(f"actuators must be at least {model.dof} distinct indices from 0 to "
+                                    f"{model.n_actuators - 1} of {model.name}'s actuators (as many as its degrees of "
+                                    f"freedom, or more), got {shown(actuators)}")
     return [int(a) for a in rows]
 
 

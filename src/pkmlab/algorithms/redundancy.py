@@ -57,14 +57,7 @@ from .._validate import as_broadcast, as_choice, real_array
 from ..errors import InvalidParameterError, SingularityError, shown
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
-from .kinematics import (
-    _dependent,
-    _pose_solve,
-    as_model,
-    check_loop_closure,
-    constraint_jacobian,
-    pose_coordinate_jacobian,
-)
+from .kinematics import _refuse_serial, as_model, check_loop_closure, constraint_jacobian, pose_coordinate_jacobian
 
 __all__ = ["EffortDistribution", "PoseSpaceModel", "DISTRIBUTIONS", "pose_space_model", "distribute_efforts"]
 
@@ -175,7 +168,9 @@ def pose_space_model(model: MechanismModel, q, pose_dot) -> PoseSpaceModel:
     k_.constraint_biases(qs, q_dots, model.P, gamma)
     # J̇qx ẋ: the coordinates' accelerations at ẍ = 0, from Jηq q̈ + J̇ηq q̇ = 0
     drift = np.zeros((len(qs), n))
-    drift[:, _dependent(model)] = _pose_solve(model, j_eta, gamma[..., None], shape, "q")[..., 0]
+    solved, singular = mm.pose_solve(model, j_eta, gamma[..., None])
+    _refuse_serial(singular, shape)
+    drift[:, mm.dependent_columns(model)] = solved[..., 0]
     M, c, g = np.empty((len(qs), dof, dof)), np.empty((len(qs), dof)), np.empty((len(qs), dof))
     for k in range(len(qs)):
         full_m, full_c, full_g = mm.full_space_model(model, qs[k], q_dots[k])
@@ -221,39 +216,46 @@ def _limits(limits, na: int) -> tuple[np.ndarray, np.ndarray] | None:
 
 
 def _infeasible(W: np.ndarray, f: np.ndarray, lower: np.ndarray, upper: np.ndarray, where: str) -> str:
-    """The one line that says which actuator's limits no distribution of ``f`` respects: the one farthest beyond
-    its limits, relative to their half-width, when the farthest is brought as near as it can be (a linear
-    program: ``min s`` with ``|τ_i - centre_i| <= s · half-width_i`` for each actuator with two finite limits)."""
+    """The one line that says which actuator's limits no distribution of ``f`` respects: the one farthest beyond its
+    limits when the farthest is brought as near as it can be — the linear program ``min s`` subject to
+    ``Wᵀ τ = f`` and ``lower - s w <= τ <= upper + s w``, ``w`` an actuator's half-range (its limit's size where it
+    has one side only), so that the violations compare as fractions of each actuator's own range."""
     from scipy.optimize import linprog
 
     na, dof = W.shape
-    bounded = np.flatnonzero(np.isfinite(lower) & np.isfinite(upper) & (upper - lower < np.inf))
-    if bounded.size:
-        centre, half = (upper[bounded] + lower[bounded]) / 2, (upper[bounded] - lower[bounded]) / 2
-        rows = np.zeros((2 * bounded.size, na + 1))
-        rows[np.arange(bounded.size), bounded] = 1.0 / half
-        rows[bounded.size + np.arange(bounded.size), bounded] = -1.0 / half
-        rows[:, -1] = -1.0
-        cost = np.zeros(na + 1)
-        cost[-1] = 1.0
-        result = linprog(cost, A_ub=rows, b_ub=np.r_[centre / half, -centre / half],
-                         A_eq=np.hstack([W.T, np.zeros((dof, 1))]), b_eq=f,
-                         bounds=[(None, None)] * na + [(0, None)], method="highs")
-        if result.status == 0:
-            tau = result.x[:na]
-            beyond = np.full(na, -np.inf)
-            beyond[bounded] = np.abs(tau[bounded] - centre) / half
-            i = int(np.argmax(beyond))
-            side, bound = ("upper", upper[i]) if tau[i] > (upper[i] + lower[i]) / 2 else ("lower", lower[i])
-            return (f"{where}the effort limits cannot be held: actuator a{i + 1} needs at least {tau[i]:.6g} "
-                    f"against its {side} limit {bound:g} for the requested forces")
-    return f"{where}the effort limits cannot be held by any efforts that exert the requested forces"
+    scale = max(float(np.abs(np.linalg.pinv(W.T) @ f).max()), 1e-300)  # of a limit at zero
+    two = np.isfinite(lower) & np.isfinite(upper) & (upper - lower < np.inf)
+    one_side = np.where(np.isfinite(upper), np.abs(upper), np.abs(lower))
+    w = np.where(two, (upper - lower) / 2, np.where(one_side > 0, one_side, scale))
+    rows, bounds = [], []
+    for i in range(na):
+        if np.isfinite(upper[i]):
+            rows.append(np.r_[np.eye(na)[i], -w[i]])
+            bounds.append(upper[i])
+        if np.isfinite(lower[i]):
+            rows.append(np.r_[-np.eye(na)[i], -w[i]])
+            bounds.append(-lower[i])
+    cost = np.r_[np.zeros(na), 1.0]
+    result = linprog(cost, A_ub=np.array(rows), b_ub=np.array(bounds), A_eq=np.hstack([W.T, np.zeros((dof, 1))]),
+                     b_eq=f, bounds=[(None, None)] * na + [(0, None)], method="highs")
+    if result.status != 0:
+        return f"{where}the effort limits cannot be held by any efforts that exert the requested forces"
+    tau = result.x[:na]
+    beyond = np.maximum(tau - upper, lower - tau) / w
+    worst = float(beyond.max())
+    named = [i for i in range(na) if beyond[i] >= worst - 1e-9 * max(abs(worst), 1.0)]
+    i = named[0]
+    side, bound = ("upper", upper[i]) if tau[i] > upper[i] else ("lower", lower[i])
+    others = f" (as far beyond theirs: {', '.join(f'a{k + 1}' for k in named[1:])})" if len(named) > 1 else ""
+    return (f"{where}the effort limits cannot be held: actuator a{i + 1} needs at least {tau[i]:.6g} against its "
+            f"{side} limit {bound:g}{others} for the requested forces")
 
 
 def _bounded_least_norm(W, f, weights, lower, upper, where):
-    """The minimum weighted 2-norm ``τ`` with ``Wᵀ τ = f`` and ``lower <= τ <= upper``: a strictly convex quadratic
-    program, solved exactly by its active sets (the optimum is the equality-constrained optimum of the face it lies
-    on, which at most ``n_a - dof`` bounds define: of the candidates that respect every bound, the least norm)."""
+    """The minimum weighted 2-norm ``τ`` with ``Wᵀ τ = f`` and ``lower <= τ <= upper``, or None where no efforts
+    respect the bounds: a strictly convex quadratic program, solved exactly by its active sets (the optimum is the
+    equality-constrained optimum of the face it lies on, which at most ``n_a - dof`` bounds define: of the
+    candidates that respect every bound, the least norm)."""
     na, dof = W.shape
     free = _weighted_least_norm(W, f, weights, np.zeros(na), np.zeros(na, dtype=bool))
     if np.all(free >= lower - 1e-12 * (1 + np.abs(lower))) and np.all(free <= upper + 1e-12 * (1 + np.abs(upper))):
@@ -280,9 +282,7 @@ def _bounded_least_norm(W, f, weights, lower, upper, where):
                 cost = float(tau @ (weights * tau))
                 if cost < best_cost:
                     best, best_cost = tau, cost
-    if best is None:
-        raise InvalidParameterError(_infeasible(W, f, lower, upper, where))
-    return best
+    return best  # None: no efforts within the limits
 
 
 def _weighted_least_norm(W, f, weights, fixed_value, fixed):
@@ -343,8 +343,8 @@ def distribute_efforts(W, force, method: str = "minimum_norm", *, weights=None, 
         The internal efforts sought by ``"preload"`` (N·m or N per actuator).
     limits : float or array_like, optional
         Effort limits: one bound for every actuator (``|τ_i| <= limit``), one per actuator, or ``(lower, upper)``
-        pairs. The 2-norm rules then solve their quadratic program with these bounds exactly; ``"preload"`` keeps
-        the preload's direction and takes the nearest efforts within them.
+        pairs. The 2-norm rules then solve their quadratic program with these bounds exactly; ``"preload"`` takes
+        the efforts within them nearest (2-norm) its preloaded efforts.
     where : str, optional
         A prefix of every error's line (e.g. ``"t = 0.25 s: "``).
 
@@ -412,25 +412,20 @@ def distribute_efforts(W, force, method: str = "minimum_norm", *, weights=None, 
         if method == "preload":
             tau = tau + null @ (null.T @ p)
     elif method == "preload":
-        tau = _preloaded_within(W, f, null, null.T @ p, bounds, where)
+        target = _weighted_least_norm(W, f, w, np.zeros(na), np.zeros(na, dtype=bool)) + null @ (null.T @ p)
+        tau = _preloaded_within(W, f, target, bounds, where)
     else:
         tau = _bounded_least_norm(W, f, w, *bounds, where)
+        if tau is None:
+            raise InvalidParameterError(_infeasible(W, f, *bounds, where))
     return EffortDistribution(tau, null @ (null.T @ tau), null, method)
 
 
-def _preloaded_within(W, f, null, coefficients, bounds, where):
-    """The minimum-norm efforts plus ``s`` times the preload's internal efforts, ``s`` in [0, 1] as large as the
-    limits allow (the preload's direction kept, its size reduced where it must be)."""
+def _preloaded_within(W, f, target, bounds, where):
+    """The efforts nearest ``target`` (2-norm) that exert ``f`` within ``bounds``: ``target + δ`` with
+    ``Wᵀ δ = 0`` (``target`` exerts ``f`` already), the least ``δ`` within the shifted bounds."""
     lower, upper = bounds
-    base = _weighted_least_norm(W, f, np.ones(W.shape[0]), np.zeros(W.shape[0]), np.zeros(W.shape[0], dtype=bool))
-    internal = null @ coefficients
-    tolerance = 1e-12 * (1 + np.abs(base))
-    if np.any(base < lower - tolerance) or np.any(base > upper + tolerance):
-        base = _bounded_least_norm(W, f, np.ones(W.shape[0]), lower, upper, where)
-    s_max = 1.0
-    for i in range(W.shape[0]):
-        if internal[i] > 0 and np.isfinite(upper[i]):
-            s_max = min(s_max, (upper[i] - base[i]) / internal[i])
-        elif internal[i] < 0 and np.isfinite(lower[i]):
-            s_max = min(s_max, (lower[i] - base[i]) / internal[i])
-    return base + max(s_max, 0.0) * internal
+    shift = _bounded_least_norm(W, np.zeros(W.shape[1]), np.ones(W.shape[0]), lower - target, upper - target, where)
+    if shift is None:  # said of the efforts, not of their shift
+        raise InvalidParameterError(_infeasible(W, f, lower, upper, where))
+    return target + shift

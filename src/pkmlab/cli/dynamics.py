@@ -98,9 +98,10 @@ def _print(model, records, tau_from: str) -> None:
 def cmd_dynamics(args) -> dict:
     """``dynamics THETA... [--theta-dot W...] [--tau T...] [--near POSE...] [--mechanism M]``: the model of every
     assembly mode of the actuator values, or of the one nearest ``--near``."""
-    from ..algorithms.kinematics import forward_kinematics
+    from ..algorithms.kinematics import forward_kinematics, refuse_actuation_redundancy
 
     model = model_of(args)
+    refuse_actuation_redundancy(model, "pkmlab dynamics (the actuator-space model)")
     n, names = model.n_actuators, model.pose_names
     flag = getattr(args, "theta_dot_flag", None) or "--theta-dot"  # the spelling typed, for the messages
     check_count(args, args.theta, n, "the actuator values")

@@ -21,6 +21,9 @@ def cmd_demo(args) -> dict:
             print(text)
 
     model = model_of(args)
+    from ..algorithms.kinematics import refuse_actuation_redundancy
+
+    refuse_actuation_redundancy(model, "the demo (branch following along the paper's circle)")
     if model.pose_names != ("x", "y", "alpha"):
         from ..errors import InvalidParameterError
 

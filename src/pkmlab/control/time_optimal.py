@@ -225,9 +225,10 @@ def time_optimal(trajectory, model, mode, *, velocity=None, acceleration=None, e
     >>> round(fast.duration, 3), sorted({kind for kind, _actuator in fast.binding})
     (1.078, ['effort', 'velocity'])
     """
-    from ..algorithms.kinematics import as_model, as_working_mode
+    from ..algorithms.kinematics import as_model, as_working_mode, refuse_actuation_redundancy
 
     model = as_model(model)
+    refuse_actuation_redundancy(model, "time-optimal timing (the actuators' velocities and efforts)")
     if not callable(getattr(trajectory, "desired", None)):
         raise InvalidParameterError(f"trajectory must be a trajectory (an object with desired(t) and duration), got "
                                     f"{type(trajectory).__name__} {shown(trajectory, 50)}")

@@ -689,6 +689,63 @@ def singularity_measure(model: MechanismModel, q) -> float:
 
 
 # ------------------------------------------------------------------ along a path
+def dependent_columns(model: MechanismModel) -> list[int]:
+    """The columns of ``q`` other than the controlled coordinates' (:attr:`MechanismModel.pose_columns`): the ones
+    the loop closures fix once the pose is given."""
+    pose = set(model.pose_columns)
+    return [i for i in range(len(model.coordinates)) if i not in pose]
+
+
+#: ``∂η/∂u`` (the loop closures' Jacobian in the coordinates other than the pose's) is taken as singular beyond this
+#: condition number: a leg at a serial singularity, its joint rates undetermined by the pose's.
+SERIAL_CONDITION = 1e12
+
+
+def pose_solve(model: MechanismModel, j_eta: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``-(∂η/∂u)⁻¹ rhs`` for the coordinates ``u`` other than the pose's, for each of ``K`` configurations'
+    ``j_eta`` (K, m, n) and ``rhs`` (K, m, k); and which configurations are at a serial singularity (``(K,)``
+    bool, their rows NaN)."""
+    a = j_eta[:, :, dependent_columns(model)]
+    if a.shape[1] != a.shape[2]:
+        raise InvalidParameterError(f"{model.name}: its loop closures ({a.shape[1]} rows) do not fix its "
+                                    f"{a.shape[2]} coordinates other than the pose")
+    singular = np.linalg.cond(a) > SERIAL_CONDITION
+    out = np.full(rhs.shape, np.nan)
+    if (~singular).any():
+        out[~singular] = -np.linalg.solve(a[~singular], rhs[~singular])
+    return out, singular
+
+
+def pose_jacobians(model: MechanismModel, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``Jqx = ∂q/∂x`` (K, n, dof) of configurations ``qs`` (K, n) on the loop closure, NaN where a leg is at a
+    serial singularity, and where that is (K,)."""
+    k = model.kernels
+    j_eta = np.empty((len(qs), k.N_CONSTRAINTS, k.N_COORDINATES))
+    k.constraint_jacobians(np.ascontiguousarray(qs, dtype=float), model.P, j_eta)
+    pose = list(model.pose_columns)
+    out = np.zeros((len(qs), len(model.coordinates), model.dof))
+    out[:, pose, :] = np.eye(model.dof)
+    out[:, dependent_columns(model), :], singular = pose_solve(model, j_eta, j_eta[:, :, pose])
+    out[singular] = np.nan
+    return out, singular
+
+
+def actuation_measures(model: MechanismModel, qs: np.ndarray, actuators=None) -> np.ndarray:
+    """The smallest singular value of ``W = ∂θ/∂x`` (``Jqx``'s actuator rows, or those of ``actuators``) of each
+    configuration ``qs`` (K, n), its orientation columns divided by the platform's size (``ℓ ω`` is the speed of a
+    point ``ℓ`` from the centre: every column in actuator units per metre); NaN at a leg's serial singularity."""
+    rows = list(range(model.n_actuators)) if actuators is None else list(actuators)
+    W = pose_jacobians(model, qs)[0][:, rows, :]  # θ = q[..., :n_a]
+    scale = np.ones(model.dof)
+    scale[[k for k, name in enumerate(model.pose_names) if name in ("alpha", "roll", "pitch", "yaw")]] = \
+        1.0 / float(model.kernels.platform_size(model.P))
+    out = np.full(len(qs), np.nan)
+    finite = np.all(np.isfinite(W), axis=(1, 2))
+    if finite.any():
+        out[finite] = np.linalg.svd(W[finite] * scale, compute_uv=False)[:, -1]
+    return out
+
+
 def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = False,
                             branches: dict | None = None) -> tuple[np.ndarray, np.ndarray, tuple | None]:
     """Inverse kinematics of many poses ``(K, dof)`` in one working ``mode``, at once; ``follow`` when they are
@@ -696,14 +753,20 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = F
     (:func:`inverse_kinematics_batch`).
 
     Returns ``(q (K, n_coordinates), S (K,), failure)``: rows that cannot be reached are NaN, and
-    ``failure`` is ``(k, error)`` for the first of them (the error names the leg), else None.
+    ``failure`` is ``(k, error)`` for the first of them (the error names the leg), else None. A redundantly actuated
+    machine's ``S`` is its actuation's measure (:func:`actuation_measures`).
     """
     from ..errors import UnreachablePoseError
 
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
     q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow, branches)
-    s = np.empty(poses.shape[0])
-    model.kernels.singularity_measures(q, model.P, s)
+    s = np.full(poses.shape[0], np.nan)
+    if model.description.actuation_redundancy:  # its S is its actuation's measure
+        reached = np.all(np.isfinite(q), axis=1)
+        if reached.any():
+            s[reached] = actuation_measures(model, q[reached])
+    else:
+        model.kernels.singularity_measures(q, model.P, s)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))
     return q, s, failure
 
