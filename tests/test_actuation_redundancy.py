@@ -407,3 +407,66 @@ def test_the_pose_models_velocity_forces_are_the_actuator_models_along_a_straigh
     ours = pkmlab.pose_space_model(model, q, speed)
     expected = ours.W.T @ (theirs.M @ theta_ddot + theirs.c + theirs.g)
     assert np.abs(ours.c + ours.g - expected).max() < 1e-5 * (1 + np.abs(expected).max())
+
+
+@pytest.fixture(scope="module")
+def delta4():
+    return pkmlab.load(RRRR.parent / "4delta.toml")
+
+
+def test_a_delta_on_four_arms_is_a_redundantly_actuated_spatial_machine(delta4):
+    """``examples/mechanisms/4delta.toml``: its mobility is computed (3, the platform's translations) with four
+    actuators; inverse kinematics closes every leg by the readable chain; ``W`` is the derivative of inverse
+    kinematics; forward kinematics from any three arms (a Delta's three spheres) finds the pose with the fourth's
+    residual zero, and a fourth reading off by 0.01 rad shows as that residual."""
+    from test_lower_mobility import _independent_residual
+
+    assert (delta4.dof, delta4.n_actuators, delta4.description.actuation_redundancy) == (3, 4, 1)
+    mode = mm.working_modes(delta4)[0]
+    h = 1e-6
+    for pose in np.array([[0.01, 0.02, -0.85], [-0.05, 0.03, -0.78], [0.04, -0.06, -0.9]]):
+        q = mm.inverse_kinematics(delta4, pose, mode)
+        assert _independent_residual(delta4.description, q, delta4.coordinates) < 1e-14
+        differences = np.column_stack([(mm.inverse_kinematics(delta4, pose + h * e, mode)[:4]
+                                        - mm.inverse_kinematics(delta4, pose - h * e, mode)[:4]) / (2 * h)
+                                       for e in np.eye(3)])
+        W = pkmlab.actuation_jacobian(delta4, q)
+        assert np.abs(W - differences).max() < 1e-7 * (1 + np.abs(W).max())
+        every = pkmlab.actuation_singularity_measure(delta4, q)
+        for subset in SUBSETS:
+            assert every >= pkmlab.actuation_singularity_measure(delta4, q, actuators=list(subset))
+            found = pkmlab.forward_kinematics(delta4, q[:4], actuators=subset)
+            nearest = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+            assert np.abs(found.pose[nearest] - pose).max() < 1e-10
+            assert np.abs(found.residual[nearest]).max() < 1e-10
+    found = pkmlab.forward_kinematics(delta4, q[:4] + np.array([0.0, 0.0, 0.0, 0.01]))
+    nearest = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+    assert found.residual[nearest] == pytest.approx([0.0, 0.0, 0.0, 0.01], abs=1e-10)
+
+
+def test_the_four_arm_deltas_distributed_efforts_give_mujocos_and_the_saddle_points_accelerations(delta4):
+    """With gravity: efforts distributed (minimum norm, then preloaded) for a chosen acceleration give it back from
+    the full model's saddle-point solve, and MuJoCo's hard-constraint solve of the exported model (four motors)
+    gives the same accelerations."""
+    from test_mujoco_export import _hard_solve
+
+    m, d = mx.load_mujoco(delta4)
+    assert m.nu == 4
+    mode = mm.working_modes(delta4)[0]
+    rng = np.random.default_rng(5)
+    for pose in np.array([[0.01, 0.02, -0.85], [-0.05, 0.03, -0.78]]):
+        q = mm.inverse_kinematics(delta4, pose, mode)
+        pose_dot, pose_ddot = rng.normal(0.0, 0.2, 3), rng.normal(0.0, 2.0, 3)
+        q_dot = pkmlab.pose_coordinate_jacobian(delta4, q) @ pose_dot
+        model_x = pkmlab.pose_space_model(delta4, q, pose_dot)
+        force = model_x.M @ pose_ddot + model_x.c + model_x.g
+        for shared in (pkmlab.distribute_efforts(model_x.W, force),
+                       pkmlab.distribute_efforts(model_x.W, force, "preload", preload=[1.0, -1.0, 1.0, -1.0])):
+            ours = pkmlab.constrained_dynamics(delta4, q, q_dot, shared.tau).q_ddot
+            assert np.abs(mm.pose_of(delta4, ours) - pose_ddot).max() < 1e-12 * (1 + np.abs(pose_ddot).max())
+            d.qpos[:] = mx.qpos_from_q(delta4, q)
+            d.qvel[:] = mx.qvel_from_q_dot(delta4, q, q_dot)
+            d.ctrl[:] = shared.tau
+            mujoco.mj_forward(m, d)
+            theirs = mx.q_dot_from_qvel(delta4, q, _hard_solve(m, d, 4))
+            assert np.abs(theirs - ours).max() < 1e-12 * (1 + np.abs(ours).max())

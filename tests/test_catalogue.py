@@ -46,7 +46,7 @@ MACHINES = {
 PLANAR = {"3prrr.toml"}
 #: Redundantly actuated machines, checked in test_actuation_redundancy.py: no default run yet (pkmlab's runs refuse
 #: them, saying so).
-REDUNDANT = {"4rrr.toml", "3rrr_redundant.toml"}
+REDUNDANT = {"4rrr.toml", "3rrr_redundant.toml", "4delta.toml"}
 
 
 def test_every_description_of_the_catalogue_is_checked_here():

@@ -556,11 +556,7 @@ def _sub_machine_of(description, legs: tuple[int, ...]) -> MechanismModel:
     import dataclasses
 
     platform = description.platform
-    if not getattr(description, "spatial", False):
-        platform = dataclasses.replace(platform, attachments=tuple(platform.attachments[i] for i in legs))
-    else:
-        raise InvalidParameterError(f"{description.name}: forward kinematics from a subset of actuators is for "
-                                    "planar machines")
+    platform = dataclasses.replace(platform, attachments=tuple(platform.attachments[i] for i in legs))
     sub = dataclasses.replace(description, legs=tuple(description.legs[i] for i in legs), platform=platform)
     return MechanismModel.from_description(sub)
 

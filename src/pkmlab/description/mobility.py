@@ -602,9 +602,10 @@ def _check(m, r: Mobility) -> None:
                 f"{m.name}: leg {i + 1} ({m.legs[i].notation}) ends in a revolute joint whose orientation rows are "
                 "independent of the other loop closures: pkmlab models such a leg where they are not (a spherical "
                 "wrist's, whose legs' axes meet at its centre)")
-    if r.actuated_rank < r.rank:
+    locked = r.coordinates - len(m.actuators) - r.actuated_rank  # freedoms left with every actuator locked
+    if locked > 0:
         raise InvalidParameterError(
-            f"{m.name}: with its actuators locked it can still move ({r.rank - r.actuated_rank} freedom(s)): an "
+            f"{m.name}: with its actuators locked it can still move ({locked} freedom(s)): an "
             "actuated joint cannot move the platform (check which joint of each leg is starred)")
     if r.controlled_rank < r.rank:
         raise InvalidParameterError(

@@ -231,9 +231,9 @@ class SpatialMechanism(LegsAndPose):
         legs = tuple(self.legs)
         platform = _checked_controlled(platform, len(legs))
         dof = len(platform.pose_names)
-        if len(legs) != dof:
+        if len(legs) < dof:  # one leg per controlled coordinate; more: actuation redundancy
             raise InvalidParameterError(f"a {platform.kind} platform (pose {', '.join(platform.pose_names)}) needs "
-                                        f"{dof} actuated legs, got {len(legs)}")
+                                        f"at least {dof} actuated legs, got {len(legs)}")
         set_(self, "legs", tuple(self._checked_leg(i + 1, leg) for i, leg in enumerate(legs)))
         for i, leg in enumerate(self.legs):
             if leg.joints[-1].kind == "R" and platform.kind != "rigid":
