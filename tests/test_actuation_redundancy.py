@@ -75,15 +75,21 @@ def test_inverse_kinematics_closes_every_leg_in_every_working_mode(rrrr):
         assert np.all(solution.S >= pkmlab.actuation_singularity_measure(rrrr, solution.q, actuators=list(subset)))
 
 
+def _assert_w_is_the_derivative_of_inverse_kinematics(model, pose, mode, q):
+    """``W`` at ``q`` (the configuration of ``pose``) against central differences of the actuators' inverse
+    kinematics."""
+    h, na = 1e-6, model.n_actuators
+    differences = np.column_stack([(mm.inverse_kinematics(model, pose + h * e, mode)[:na]
+                                    - mm.inverse_kinematics(model, pose - h * e, mode)[:na]) / (2 * h)
+                                   for e in np.eye(model.dof)])
+    W = pkmlab.actuation_jacobian(model, q)
+    assert np.abs(W - differences).max() < 1e-7 * (1 + np.abs(W).max())
+
+
 def test_the_actuation_jacobian_is_the_derivative_of_inverse_kinematics(rrrr):
-    h = 1e-6
     for pose in _poses(4, 2):
         q = mm.inverse_kinematics(rrrr, pose, MODE)
-        differences = np.column_stack([(mm.inverse_kinematics(rrrr, pose + h * e, MODE)[:4]
-                                        - mm.inverse_kinematics(rrrr, pose - h * e, MODE)[:4]) / (2 * h)
-                                       for e in np.eye(3)])
-        W = pkmlab.actuation_jacobian(rrrr, q)
-        assert np.abs(W - differences).max() < 1e-7 * (1 + np.abs(W).max())
+        _assert_w_is_the_derivative_of_inverse_kinematics(rrrr, pose, MODE, q)
         jq = pkmlab.pose_coordinate_jacobian(rrrr, q)
         assert np.abs(pkmlab.constraint_jacobian(rrrr, q) @ jq).max() < 1e-12  # tangent to the loop closures
 
@@ -423,15 +429,10 @@ def test_a_delta_on_four_arms_is_a_redundantly_actuated_spatial_machine(delta4):
 
     assert (delta4.dof, delta4.n_actuators, delta4.description.actuation_redundancy) == (3, 4, 1)
     mode = mm.working_modes(delta4)[0]
-    h = 1e-6
     for pose in np.array([[0.01, 0.02, -0.85], [-0.05, 0.03, -0.78], [0.04, -0.06, -0.9]]):
         q = mm.inverse_kinematics(delta4, pose, mode)
         assert _independent_residual(delta4.description, q, delta4.coordinates) < 1e-14
-        differences = np.column_stack([(mm.inverse_kinematics(delta4, pose + h * e, mode)[:4]
-                                        - mm.inverse_kinematics(delta4, pose - h * e, mode)[:4]) / (2 * h)
-                                       for e in np.eye(3)])
-        W = pkmlab.actuation_jacobian(delta4, q)
-        assert np.abs(W - differences).max() < 1e-7 * (1 + np.abs(W).max())
+        _assert_w_is_the_derivative_of_inverse_kinematics(delta4, pose, mode, q)
         every = pkmlab.actuation_singularity_measure(delta4, q)
         for subset in SUBSETS:
             assert every >= pkmlab.actuation_singularity_measure(delta4, q, actuators=list(subset))
