@@ -1175,9 +1175,10 @@ def as_actuators(model: MechanismModel, actuators) -> list[int]:
         return list(range(model.n_actuators))
     listed = isinstance(actuators, list | tuple) or (isinstance(actuators, np.ndarray) and actuators.ndim == 1)
     rows = list(actuators) if listed else []
-    if (len(rows) < model.dof or len(set(rows)) < len(rows)
+    if (len(rows) < model.dof
             or any(isinstance(a, bool | np.bool_) or not isinstance(a, int | np.integer)
-                   or not 0 <= a < model.n_actuators for a in rows)):
+                   or not 0 <= a < model.n_actuators for a in rows)
+            or len({int(a) for a in rows}) < len(rows)):  # (distinct once they are known to be indices)
         raise InvalidParameterError(f"actuators must be at least {model.dof} distinct indices from 0 to "
                                     f"{model.n_actuators - 1} of {model.name}'s actuators (as many as its degrees of "
                                     f"freedom, or more), got {shown(actuators)}")
