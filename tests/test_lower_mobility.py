@@ -68,7 +68,8 @@ def test_under_actuated_rigid_platform_is_refused():
 
 
 def test_controlled_coordinates_are_named_and_checked():
-    with pytest.raises(InvalidParameterError, match=r"on 3 legs moves in 3 of its pose's coordinates: name them"):
+    with pytest.raises(InvalidParameterError,
+                       match=r"on 3 legs moves in at most 3 of its pose's coordinates: name them"):
         _three_ups("rigid")
     with pytest.raises(InvalidParameterError, match=r"unknown name 'rol'.*roll"):
         _three_ups("rigid", ("z", "rol", "pitch"))

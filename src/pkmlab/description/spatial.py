@@ -312,9 +312,9 @@ def _checked_controlled(platform, legs: int):
     names = POSE_NAMES[platform.kind]
     given = platform.controlled
     if given is None:
-        if platform.kind == "rigid" and legs != 6:
+        if platform.kind == "rigid" and legs < 6:  # (more legs than six: a redundantly actuated platform)
             raise InvalidParameterError(
-                f"a rigid platform on {legs} legs moves in {legs} of its pose's coordinates: name them, "
+                f"a rigid platform on {legs} legs moves in at most {legs} of its pose's coordinates: name them, "
                 f"controlled = [...] among {', '.join(names)} (e.g. [\"z\", \"roll\", \"pitch\"] for a 3-PRS); the "
                 "others are the parasitic motions its legs impose")
         return platform
