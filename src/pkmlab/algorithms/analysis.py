@@ -11,7 +11,13 @@ import numpy as np
 
 from .._validate import as_count, as_real
 from ..errors import InvalidParameterError, shown
-from ..model.mechanism_model import MechanismModel, actuation_measures, path_inverse_kinematics, working_modes
+from ..model.mechanism_model import (
+    MechanismModel,
+    configuration_measures,
+    inverse_kinematics_batch,
+    path_inverse_kinematics,
+    working_modes,
+)
 from ..model.reach import planar_extent
 
 
@@ -118,10 +124,10 @@ def _machine_rows(model, x, y, alpha, modes, progress, actuators=None):
     for j, yj in enumerate(y):
         poses = np.column_stack([x, np.full_like(x, yj), *held])
         for k, mode in enumerate(modes):
-            q, out[j, :, k], _failure = path_inverse_kinematics(model, poses, mode)
-            if actuators is not None:  # a subset's measure instead
-                reached = np.all(np.isfinite(q), axis=1)
-                out[j, reached, k] = actuation_measures(model, q[reached], actuators)
+            if actuators is None:
+                out[j, :, k] = path_inverse_kinematics(model, poses, mode)[1]
+            else:  # a subset's measure
+                out[j, :, k] = configuration_measures(model, inverse_kinematics_batch(model, poses, mode)[0], actuators)
         if progress is not None:
             progress(1)
     return out

@@ -296,10 +296,8 @@ def inverse_kinematics(model: MechanismModel, pose, mode=None, *, on_unreachable
                                        index=None if shape == () else tuple(int(i) for i in np.unravel_index(k, shape)))
     s = np.full(q.shape[:-1], np.nan)
     ok = unreachable == 0
-    if ok.any() and model.description.actuation_redundancy:  # its actuation's (S takes the actuators as coordinates)
-        s[ok] = mm.actuation_measures(model, q[ok])
-    elif ok.any():
-        s[ok] = singularity_measure(model, q[ok])
+    if ok.any():  # a redundantly actuated machine's: its actuation's (S takes the actuators as coordinates)
+        s[ok] = mm.configuration_measures(model, q[ok])
     if mode is not None:
         return InverseKinematicsSolution(q[:, 0].reshape(*shape, n), modes[0], unreachable[:, 0].reshape(shape),
                                          s[:, 0].reshape(shape), model.n_actuators)
@@ -528,16 +526,9 @@ def _solved_actuators(model: MechanismModel, actuators) -> tuple[int, ...] | Non
                                         f"kinematics solves for; the {model.name} has as many as its degrees of "
                                         "freedom")
         return None
-    chosen = tuple(range(model.dof)) if actuators is None else actuators
-    try:
-        chosen = tuple(int(i) for i in chosen)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(f"actuators must be {model.dof} actuator indices, got {shown(actuators)}") from None
-    legs = [m.actuators[i][0] if 0 <= i < model.n_actuators else -1 for i in chosen]
-    if len(chosen) != model.dof or len(set(chosen)) != len(chosen) or min(legs) < 0:
-        raise InvalidParameterError(f"actuators must be {model.dof} distinct indices from 0 to "
-                                    f"{model.n_actuators - 1} ({model.name}), got {list(chosen)}")
-    for i, leg in zip(chosen, legs, strict=True):
+    chosen = tuple(range(model.dof) if actuators is None else as_actuators(model, actuators, exactly=True))
+    for i in chosen:
+        leg = m.actuators[i][0]
         if len(m.legs[leg].actuated_joints) != 1:
             raise InvalidParameterError(f"actuator a{i + 1} is one of leg {leg + 1}'s "
                                         f"{len(m.legs[leg].actuated_joints)} actuators: forward kinematics from a "
@@ -582,7 +573,7 @@ def _redundant_assembly_modes(model: MechanismModel, theta: np.ndarray, subset: 
         if candidates:
             candidates.sort(key=lambda c: (c[0] > 1e-6, c[1]))
             q = candidates[0][2]
-            out.append((q, float(actuation_singularity_measure(model, q))))
+            out.append((q, float(mm.configuration_measures(model, q[None, :])[0])))
     return out
 
 
@@ -1169,19 +1160,22 @@ def actuation_singularity_measure(model: MechanismModel, q, actuators=None) -> n
     return mm.actuation_measures(model, qs, rows).reshape(shape)
 
 
-def as_actuators(model: MechanismModel, actuators) -> list[int]:
-    """``actuators`` as a list of the model's actuator indices (0-based; None: all), or one line refusing it."""
+def as_actuators(model: MechanismModel, actuators, exactly: bool = False) -> list[int]:
+    """``actuators`` as a list of the model's actuator indices (0-based; None: all), at least ``dof`` of them
+    (``exactly`` ``dof``), or one line refusing it."""
     if actuators is None:
         return list(range(model.n_actuators))
     listed = isinstance(actuators, list | tuple) or (isinstance(actuators, np.ndarray) and actuators.ndim == 1)
     rows = list(actuators) if listed else []
-    if (len(rows) < model.dof
+    if ((len(rows) != model.dof if exactly else len(rows) < model.dof)
             or any(isinstance(a, bool | np.bool_) or not isinstance(a, int | np.integer)
                    or not 0 <= a < model.n_actuators for a in rows)
             or len({int(a) for a in rows}) < len(rows)):  # (distinct once they are known to be indices)
-        raise InvalidParameterError(f"actuators must be at least {model.dof} distinct indices from 0 to "
-                                    f"{model.n_actuators - 1} of {model.name}'s actuators (as many as its degrees of "
-                                    f"freedom, or more), got {shown(actuators)}")
+        count = f"{model.dof}" if exactly else f"at least {model.dof}"
+        more = "" if exactly else " (as many as its degrees of freedom, or more)"
+        raise InvalidParameterError(f"actuators must be {count} distinct indices from 0 to "
+                                    f"{model.n_actuators - 1} of {model.name}'s actuators{more}, got "
+                                    f"{shown(actuators)}")
     return [int(a) for a in rows]
 
 

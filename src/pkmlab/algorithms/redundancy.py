@@ -57,7 +57,7 @@ from .._validate import as_broadcast, as_choice, real_array
 from ..errors import InvalidParameterError, SingularityError, shown
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
-from .kinematics import _refuse_serial, as_model, check_loop_closure, constraint_jacobian, pose_coordinate_jacobian
+from .kinematics import _refuse_serial, as_model, check_loop_closure
 
 __all__ = ["EffortDistribution", "PoseSpaceModel", "DISTRIBUTIONS", "pose_space_model", "distribute_efforts"]
 
@@ -160,16 +160,17 @@ def pose_space_model(model: MechanismModel, q, pose_dot) -> PoseSpaceModel:
     n, dof = len(model.coordinates), model.dof
     qs, xds, shape = as_broadcast(("q", q, n), ("pose_dot", pose_dot, dof))
     check_loop_closure(model, qs, shape)
-    jq = pose_coordinate_jacobian(model, qs)
     k_ = model.kernels
-    j_eta = constraint_jacobian(model, qs)
+    j_eta = np.empty((len(qs), k_.N_CONSTRAINTS, n))
+    k_.constraint_jacobians(qs, model.P, j_eta)
+    jq, singular = mm.pose_jacobians(model, qs, j_eta)
+    _refuse_serial(singular, shape)
     q_dots = np.einsum("kij,kj->ki", jq, xds)
     gamma = np.empty((len(qs), k_.N_CONSTRAINTS))
     k_.constraint_biases(qs, q_dots, model.P, gamma)
     # J̇qx ẋ: the coordinates' accelerations at ẍ = 0, from Jηq q̈ + J̇ηq q̇ = 0
     drift = np.zeros((len(qs), n))
-    solved, singular = mm.pose_solve(model, j_eta, gamma[..., None])
-    _refuse_serial(singular, shape)
+    solved, _singular = mm.pose_solve(model, j_eta, gamma[..., None])  # (its singular ones refused above)
     drift[:, mm.dependent_columns(model)] = solved[..., 0]
     M, c, g = np.empty((len(qs), dof, dof)), np.empty((len(qs), dof)), np.empty((len(qs), dof))
     for k in range(len(qs)):

@@ -716,12 +716,14 @@ def pose_solve(model: MechanismModel, j_eta: np.ndarray, rhs: np.ndarray) -> tup
     return out, singular
 
 
-def pose_jacobians(model: MechanismModel, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def pose_jacobians(model: MechanismModel, qs: np.ndarray, j_eta: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """``Jqx = ∂q/∂x`` (K, n, dof) of configurations ``qs`` (K, n) on the loop closure, NaN where a leg is at a
-    serial singularity, and where that is (K,)."""
-    k = model.kernels
-    j_eta = np.empty((len(qs), k.N_CONSTRAINTS, k.N_COORDINATES))
-    k.constraint_jacobians(np.ascontiguousarray(qs, dtype=float), model.P, j_eta)
+    serial singularity, and where that is (K,); from their ``Jηq`` (K, m, n) where the caller has it."""
+    if j_eta is None:
+        k = model.kernels
+        j_eta = np.empty((len(qs), k.N_CONSTRAINTS, k.N_COORDINATES))
+        k.constraint_jacobians(np.ascontiguousarray(qs, dtype=float), model.P, j_eta)
     pose = list(model.pose_columns)
     out = np.zeros((len(qs), len(model.coordinates), model.dof))
     out[:, pose, :] = np.eye(model.dof)
@@ -746,6 +748,19 @@ def actuation_measures(model: MechanismModel, qs: np.ndarray, actuators=None) ->
     return out
 
 
+def configuration_measures(model: MechanismModel, qs: np.ndarray, actuators=None) -> np.ndarray:
+    """The singularity measure of each configuration ``qs`` (K, n), NaN for a NaN row: ``S`` of the kernels, or a
+    redundantly actuated machine's actuation measure (:func:`actuation_measures`, of ``actuators`` where given)."""
+    s = np.full(len(qs), np.nan)
+    if not model.description.actuation_redundancy:
+        model.kernels.singularity_measures(qs, model.P, s)
+        return s
+    reached = np.all(np.isfinite(qs), axis=1)
+    if reached.any():
+        s[reached] = actuation_measures(model, qs[reached], actuators)
+    return s
+
+
 def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = False,
                             branches: dict | None = None) -> tuple[np.ndarray, np.ndarray, tuple | None]:
     """Inverse kinematics of many poses ``(K, dof)`` in one working ``mode``, at once; ``follow`` when they are
@@ -760,13 +775,7 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = F
 
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
     q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow, branches)
-    s = np.full(poses.shape[0], np.nan)
-    if model.description.actuation_redundancy:  # its S is its actuation's measure
-        reached = np.all(np.isfinite(q), axis=1)
-        if reached.any():
-            s[reached] = actuation_measures(model, q[reached])
-    else:
-        model.kernels.singularity_measures(q, model.P, s)
+    s = configuration_measures(model, q)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))
     return q, s, failure
 
