@@ -471,3 +471,33 @@ def test_the_four_arm_deltas_distributed_efforts_give_mujocos_and_the_saddle_poi
             mujoco.mj_forward(m, d)
             theirs = mx.q_dot_from_qvel(delta4, q, _hard_solve(m, d, 4))
             assert np.abs(theirs - ours).max() < 1e-12 * (1 + np.abs(ours).max())
+
+
+@pytest.mark.parametrize("name", ["4rrr.toml", "4delta.toml"])
+def test_the_compiled_core_models_and_follows_a_redundant_machine_in_its_pose(name):
+    """A redundantly actuated machine's compiled core takes the controlled pose as its independent coordinates
+    (its actuators over-determine it): its model is the pose-space model reduced in Python from the full-space one,
+    and its branch following, given poses, reaches inverse kinematics' configurations of the same working mode."""
+    model = pkmlab.load(RRRR.parent / name)
+    k = model.kernels
+    assert (k.N_INDEPENDENT, k.LEADING, k.ELIMINATED) == (model.dof, False, 0)
+    assert tuple(model.coordinates[c] for c in k.INDEPENDENT) == model.pose_names
+    mode = MODE if name == "4rrr.toml" else mm.working_modes(model)[0]
+    poses = _poses(4, 5) if name == "4rrr.toml" else np.array([[0.01, 0.02, -0.85], [-0.03, 0.03, -0.82],
+                                                                 [0.0, -0.04, -0.88], [0.02, 0.0, -0.8]])
+    qs = np.array([mm.inverse_kinematics(model, pose, mode) for pose in poses])
+    rates = np.random.default_rng(2).normal(0.0, 0.3, (len(qs), model.dof))
+    M, c, g = np.empty((len(qs), model.dof, model.dof)), np.empty((len(qs), model.dof)), np.empty((len(qs), model.dof))
+    assert k.actuator_space_models(qs, rates, model.P, M, c, g) == -1
+    for q, rate, Mk, ck, gk in zip(qs, rates, M, c, g, strict=True):
+        ours = pkmlab.pose_space_model(model, q, rate)
+        scale = np.abs(ours.M).max()
+        assert np.abs(Mk - ours.M).max() < 1e-12 * scale
+        assert np.abs(ck - ours.c).max() < 1e-12 * (scale + np.abs(ours.c).max())
+        assert np.abs(gk - ours.g).max() < 1e-12 * (scale + np.abs(ours.g).max())
+    out = np.empty_like(qs)
+    status, failed = k.follow_path(qs[0], poses, model.P, 1e-9, out)
+    assert (status, failed) == (k.OK, -1)
+    apart = out - qs
+    apart[:, list(k.ANGLES)] = (apart[:, list(k.ANGLES)] + np.pi) % (2 * np.pi) - np.pi  # an angle whole turns away
+    assert np.abs(apart).max() < 1e-12

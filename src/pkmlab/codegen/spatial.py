@@ -46,7 +46,15 @@ import numpy as np
 
 from ..description.mobility import orientation_legs, orientation_rows
 from ..description.spatial import SpatialMechanism
-from .planar import GENERATED_DIR, Block, jacobian_and_bias, module_header, regenerate, write_module
+from .planar import (
+    GENERATED_DIR,
+    Block,
+    independent_columns,
+    jacobian_and_bias,
+    module_header,
+    regenerate,
+    write_module,
+)
 
 _INERTIA = ("xx", "yy", "zz", "xy", "xz", "yz")
 
@@ -486,7 +494,8 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         ("platform_size", "P", "The mean distance between the platform's attachment points (1 when it translates).",
          [Block([d["size"]], ["return"])]),
     ]
-    return write_module(header, q, q_dot, names, coordinate_angles(mechanism), parameters, n, kernels)
+    return write_module(header, q, q_dot, names, coordinate_angles(mechanism), parameters,
+                        independent_columns(mechanism, names), kernels)
 
 
 def generated_path(mechanism: SpatialMechanism) -> Path:

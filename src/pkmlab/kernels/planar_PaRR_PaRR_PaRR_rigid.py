@@ -14,6 +14,11 @@ ANGLES = (False, False, False, True, True, True, False, False, True)  # which co
 PARAMETERS = ('base1_x', 'base1_y', 'rail1_x', 'rail1_y', 'body1_1_tip_x', 'body1_1_tip_y', 'body1_1_com_x', 'body1_1_com_y', 'body1_1_mass', 'body1_1_inertia', 'body1_2_tip_x', 'body1_2_tip_y', 'body1_2_com_x', 'body1_2_com_y', 'body1_2_mass', 'body1_2_inertia', 'base2_x', 'base2_y', 'rail2_x', 'rail2_y', 'body2_1_tip_x', 'body2_1_tip_y', 'body2_1_com_x', 'body2_1_com_y', 'body2_1_mass', 'body2_1_inertia', 'body2_2_tip_x', 'body2_2_tip_y', 'body2_2_com_x', 'body2_2_com_y', 'body2_2_mass', 'body2_2_inertia', 'base3_x', 'base3_y', 'rail3_x', 'rail3_y', 'body3_1_tip_x', 'body3_1_tip_y', 'body3_1_com_x', 'body3_1_com_y', 'body3_1_mass', 'body3_1_inertia', 'body3_2_tip_x', 'body3_2_tip_y', 'body3_2_com_x', 'body3_2_com_y', 'body3_2_mass', 'body3_2_inertia', 'attach1_x', 'attach1_y', 'attach2_x', 'attach2_y', 'attach3_x', 'attach3_y', 'platform_com_x', 'platform_com_y', 'platform_mass', 'platform_inertia', 'gravity_x', 'gravity_y')
 N_COORDINATES, N_CONSTRAINTS, N_BODIES = 9, 6, 7
 N_ACTUATORS, DOF, N_LEGS = 3, 3, 3
+# the compiled core's independent coordinates (q's columns): the actuators, or a redundantly actuated machine's controlled pose; the dependent ones (the columns of J_eta_phi, in order); whether the independent ones are q's first
+N_INDEPENDENT = 3
+INDEPENDENT = (0, 1, 2)
+DEPENDENT = (3, 4, 5, 6, 7, 8)
+LEADING = True
 # the rows of eta that close each leg's end point on the platform (DIM per leg, leg by leg; the others do not move with the tracked point)
 POINT_ROWS = 6
 # the platform's pose: q's last N_POSE coordinates (its parasitic ones, then the DOF it is controlled in)
@@ -25,6 +30,8 @@ REDUCED_COLUMNS = (0, 1, 2, 5)
 MEASURE_LINES = True
 # in the plane: 2 linear and 1 angular rows per body Jacobian, lines of action (point, direction) of 4
 DIM, ANGULAR, BODY_ROWS, LINE_WIDTH = 2, 1, 3, 4
+# how many point rows of eta eliminate the tracked point from J_eta_phi (DIM, or 0 where it is independent)
+ELIMINATED = 2
 # where each body's mass and inertia (legs' bodies, then the platform) and the gravity are in P
 MASS_INDEX = (8, 14, 24, 30, 40, 46, 56)
 INERTIA_INDEX = (9, 15, 25, 31, 41, 47, 57)
@@ -48,7 +55,7 @@ def trig(q, sc):
 
 @njit(cache=True)
 def trig_passive(q, sc):
-    """Write the passive angles' rows of the trig table sc (the actuators' rows are kept)."""
+    """Write the dependent angles' rows of the trig table sc (the independent ones are kept)."""
     sc[3, 0], sc[3, 1] = math.cos(q[3]), math.sin(q[3])
     sc[4, 0], sc[4, 1] = math.cos(q[4]), math.sin(q[4])
     sc[5, 0], sc[5, 1] = math.cos(q[5]), math.sin(q[5])
@@ -610,11 +617,12 @@ BACKWARD_RATES = 2
 # Every leg closes on the platform by DIM equations (2 in the plane, 3 in space: its point rows, the first
 # POINT_ROWS of η) whose derivatives with respect to the tracked point (x, y[, z]) are minus the identity
 # (η = end of the leg's chain - attachment point); the rows after them (a universal joint's at a rigid
-# platform) do not depend on it. Eliminating the tracked point with these unit pivots leaves a system of DIM
-# equations fewer in the other passive coordinates (the passive joints, the orientation and any parasitic motion), to be
-# factored instead of the whole of Jηφ. POINT_COLUMNS are the tracked point's columns in Jηφ,
-# REDUCED_COLUMNS the others (the generated module's).
-REDUCED = N_CONSTRAINTS - DIM
+# platform) do not depend on it. Where the tracked point is a dependent coordinate, eliminating it with these unit
+# pivots leaves a system of ELIMINATED = DIM equations fewer in the other dependent coordinates (the passive joints,
+# the orientation and any parasitic motion), to be factored instead of the whole of Jηφ; where it is independent (a
+# redundantly actuated machine's), ELIMINATED = 0 and the reduced system is Jηφ itself. POINT_COLUMNS are the tracked
+# point's columns in Jηφ, REDUCED_COLUMNS the others (the generated module's).
+REDUCED = N_CONSTRAINTS - ELIMINATED
 
 
 #: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
@@ -630,33 +638,34 @@ WORKSPACE = np.dtype([
     ("lu", np.float64, (REDUCED, REDUCED)),  # factors of Jηφ's reduced system (the tracked point eliminated)
     ("piv", np.int64, (REDUCED,)),
     ("eta", np.float64, (N_CONSTRAINTS,)),
-    ("j_q_theta", np.float64, (N_COORDINATES, N_ACTUATORS)),  # Jqθ (eq. 31)
+    ("j_q_theta", np.float64, (N_COORDINATES, N_INDEPENDENT)),  # Jqθ (eq. 31)
     ("q_dot", np.float64, (N_COORDINATES,)),
     ("bias_q", np.float64, (N_COORDINATES,)),  # J̇qθ θ̇ (eq. 32)
     ("gamma", np.float64, (N_CONSTRAINTS,)),  # J̇ηq q̇
     ("jb", np.float64, (N_JB,)),  # the non-zeros of the bodies' Jacobians
     ("bb", np.float64, (N_BODIES, BODY_ROWS)),  # bodies' J̇ q̇, then their accelerations at θ̈ = 0
-    ("jt", np.float64, (N_BODIES, BODY_ROWS, N_ACTUATORS)),  # the bodies' Jacobians times Jqθ
-    ("m_theta", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # Mθ
-    ("c_theta", np.float64, (N_ACTUATORS,)),  # cθ = Cθ θ̇
-    ("g_theta", np.float64, (N_ACTUATORS,)),  # gθ = ∂V/∂θ
-    ("theta_ddot", np.float64, (N_ACTUATORS,)),
-    ("ldl", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # factor of Mθ
-    ("m_drives", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # Mθ + Ia, kept while stuck actuators' rows are replaced
-    ("free_rhs", np.float64, (N_ACTUATORS,)),  # the efforts less friction of the actuators that move
-    ("stuck", np.int64, (N_ACTUATORS,)),  # 1 for an actuator held by its stick-slip friction
+    ("jt", np.float64, (N_BODIES, BODY_ROWS, N_INDEPENDENT)),  # the bodies' Jacobians times Jqθ
+    ("m_theta", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Mθ
+    ("c_theta", np.float64, (N_INDEPENDENT,)),  # cθ = Cθ θ̇
+    ("g_theta", np.float64, (N_INDEPENDENT,)),  # gθ = ∂V/∂θ
+    ("theta_ddot", np.float64, (N_INDEPENDENT,)),
+    ("ldl", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # factor of Mθ
+    ("m_drives", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Mθ + Ia, kept while stuck actuators' rows are replaced
+    ("free_rhs", np.float64, (N_INDEPENDENT,)),  # the efforts less friction of the actuators that move
+    ("stuck", np.int64, (N_INDEPENDENT,)),  # 1 for an actuator held by its stick-slip friction
     ("lines", np.float64, (N_ACTUATORS, LINE_WIDTH)),  # the legs' lines of action
     ("lu_base", np.float64, (REDUCED, REDUCED)),  # the same factors at the base, kept for branch following from it
     ("piv_base", np.int64, (REDUCED,)),
-    ("j_q_theta_base", np.float64, (N_COORDINATES, N_ACTUATORS)),  # Jqθ at the base
+    ("j_q_theta_base", np.float64, (N_COORDINATES, N_INDEPENDENT)),  # Jqθ at the base
     ("base_factored", np.int64, (1,)),  # 1 when the three above are the base's
-    ("top", np.float64, (DIM, REDUCED)),  # rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
-    ("top_base", np.float64, (DIM, REDUCED)),  # the same at the base
+    ("top", np.float64, (ELIMINATED, REDUCED)),  # rows 0 .. ELIMINATED - 1 of Jηφ in the reduced system's columns
+    ("top_base", np.float64, (ELIMINATED, REDUCED)),  # the same at the base
     ("reduced", np.float64, (REDUCED, REDUCED)),  # the reduced system before factoring
-    ("work", np.float64, (N_CONSTRAINTS,)),  # the reduced system's right-hand side, then the tracked point's DIM values
+    ("work", np.float64, (N_CONSTRAINTS,)),  # the reduced system's right-hand side, then the eliminated point's values
     ("rhs", np.float64, (N_CONSTRAINTS,)),
-    ("target", np.float64, (N_ACTUATORS,)),  # the actuators of a sub-step of follow_branch_in_steps
-    ("step", np.float64, (N_ACTUATORS,)),  # the actuators' step of follow_branch's predictor
+    ("start", np.float64, (N_INDEPENDENT,)),  # the independent coordinates follow_branch_in_steps starts from
+    ("target", np.float64, (N_INDEPENDENT,)),  # the independent coordinates of a sub-step of follow_branch_in_steps
+    ("step", np.float64, (N_INDEPENDENT,)),  # the independent coordinates' step of follow_branch's predictor
 ], align=True)
 
 
@@ -674,11 +683,24 @@ if INTERPRETED:  # the kernels read a record's arrays by attribute (ws.q): a rec
         return _workspace_records(count).view(np.recarray)
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def independent_column(j):
+    """``q``'s column of the j-th independent coordinate."""
+    return j if LEADING else INDEPENDENT[j]
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def dependent_column(i):
+    """``q``'s column of the i-th dependent coordinate (the i-th column of ``Jηφ``)."""
+    return N_INDEPENDENT + i if LEADING else DEPENDENT[i]
+
+
 @njit(**NO_REFCOUNT)
 def actuator_error(theta, theta_d, i):
-    """``θ_i - θ_d,i``, wrapped to ``(-π, π]`` for an angle (a revolute actuator)."""
+    """``θ_i - θ_d,i`` of the i-th independent coordinate, wrapped to ``(-π, π]`` for an angle (a revolute
+    actuator, an orientation)."""
     e = theta[i] - theta_d[i]
-    if ANGLES[i]:
+    if ANGLES[independent_column(i)]:
         e = (e + np.pi) % (2.0 * np.pi) - np.pi
     return e
 
@@ -693,21 +715,26 @@ def reduced_column(k):
 @njit(**NO_REFCOUNT)
 def passive_solve(lu, piv, top, b, work):
     """Overwrite ``b`` (m,) with ``Jηφ⁻¹ b`` from the factors of the reduced system (:func:`factor_passive`):
-    its rows are the constraints' rows DIM.. minus row 0 (x), 1 (y) or 2 (z) (the point rows; the rows after
+    its rows are the constraints' rows ELIMINATED.. minus row 0 (x), 1 (y) or 2 (z) (the point rows; the rows after
     them do not move with the tracked point), free of the tracked point; then the tracked point from rows
-    0 .. DIM - 1 (``top``: their entries in the reduced system's columns). ``work`` is an (m,) scratch array."""
+    0 .. ELIMINATED - 1 (``top``: their entries in the reduced system's columns). With the tracked point independent
+    (``ELIMINATED = 0``) the reduced system is ``Jηφ``. ``work`` is an (m,) scratch array."""
     for r in range(REDUCED):
-        work[r] = b[r + DIM] - b[r % DIM] if r + DIM < POINT_ROWS else b[r + DIM]
+        if ELIMINATED == 0:
+            work[r] = b[r]
+        else:
+            work[r] = b[r + ELIMINATED] - b[r % ELIMINATED] if r + ELIMINATED < POINT_ROWS else b[r + ELIMINATED]
     lu_solve_factored(lu, piv, work, REDUCED)
-    for d in range(DIM):
+    for d in range(ELIMINATED):
         acc = -b[d]
         for k in range(REDUCED):
             acc += top[d, k] * work[k]
         work[REDUCED + d] = acc
     for k in range(REDUCED):
         b[reduced_column(k)] = work[k]
-    for d in range(DIM):
-        b[POINT_COLUMNS[d]] = work[REDUCED + d]
+    if ELIMINATED > 0:  # (pruned where the tracked point is independent: POINT_COLUMNS is then empty)
+        for d in range(ELIMINATED):
+            b[POINT_COLUMNS[d]] = work[REDUCED + d]
 
 
 @njit(**NO_REFCOUNT)
@@ -800,40 +827,43 @@ def passive_determinant(q, sc, P, lines):
     angles divided by the platform's size ``ℓ`` (they are lever arms, in metres), then each row scaled to unit
     length, so that ``|S| <= 1`` (Hadamard's inequality), 1 when the constraints are orthogonal. ``lines`` is
     the scratch for ``Jηq`` (LINE_WIDTH is chosen so that it holds it)."""
-    n = N_ACTUATORS
     m = N_CONSTRAINTS
     jac = lines.reshape(-1)[:m * N_COORDINATES].reshape((m, N_COORDINATES))
     constraint_jacobian(q, sc, P, jac)
     size = platform_size(P)
     for r in range(m):
         norm = 0.0
-        for c in range(n, N_COORDINATES):
+        for i in range(m):
+            c = dependent_column(i)
             if ANGLES[c]:
                 jac[r, c] /= size
             norm += jac[r, c] * jac[r, c]
         norm = np.sqrt(norm)
         if norm == 0.0:
             return 0.0
-        for c in range(n, N_COORDINATES):
-            jac[r, c] /= norm
+        for i in range(m):
+            jac[r, dependent_column(i)] /= norm
     det = 1.0
-    for c in range(m):  # Gaussian elimination with partial pivoting on the passive block, in place
-        p = c
-        for r in range(c + 1, m):
-            if abs(jac[r, n + c]) > abs(jac[p, n + c]):
+    for i in range(m):  # Gaussian elimination with partial pivoting on the passive block, in place
+        c = dependent_column(i)
+        p = i
+        for r in range(i + 1, m):
+            if abs(jac[r, c]) > abs(jac[p, c]):
                 p = r
-        if jac[p, n + c] == 0.0:
+        if jac[p, c] == 0.0:
             return 0.0
-        if p != c:
+        if p != i:
             det = -det
-            for k in range(n + c, N_COORDINATES):
-                jac[c, k], jac[p, k] = jac[p, k], jac[c, k]
-        pivot = jac[c, n + c]
+            for kk in range(i, m):
+                k = dependent_column(kk)
+                jac[i, k], jac[p, k] = jac[p, k], jac[i, k]
+        pivot = jac[i, c]
         det *= pivot
-        for r in range(c + 1, m):
-            f = jac[r, n + c] / pivot
-            for k in range(n + c + 1, N_COORDINATES):
-                jac[r, k] -= f * jac[c, k]
+        for r in range(i + 1, m):
+            f = jac[r, c] / pivot
+            for kk in range(i + 1, m):
+                k = dependent_column(kk)
+                jac[r, k] -= f * jac[i, k]
     return det
 
 
@@ -842,36 +872,40 @@ def factor_passive(ws, q, sc, P):
     """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
     reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
     constraint_jacobian(q, sc, P, ws.j_eta[:])
-    n = N_ACTUATORS
     for k in range(REDUCED):
-        c = n + reduced_column(k)
-        for d in range(DIM):
+        c = dependent_column(reduced_column(k))
+        for d in range(ELIMINATED):
             ws.top[d, k] = ws.j_eta[d, c]
         for r in range(REDUCED):
-            ws.reduced[r, k] = ws.j_eta[r + DIM, c] - (ws.j_eta[r % DIM, c] if r + DIM < POINT_ROWS else 0.0)
+            if ELIMINATED == 0:
+                ws.reduced[r, k] = ws.j_eta[r, c]
+            else:
+                ws.reduced[r, k] = (ws.j_eta[r + ELIMINATED, c]
+                                    - (ws.j_eta[r % ELIMINATED, c] if r + ELIMINATED < POINT_ROWS else 0.0))
     ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 
 
 @njit(**NO_REFCOUNT)
 def actuated_jacobian(ws, out):
-    """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) into ``out`` (N, n) from the last :func:`factor_passive`."""
-    n = N_ACTUATORS
+    """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) into ``out`` (N, n) from the last :func:`factor_passive`: the
+    identity in the independent coordinates' rows, the dependent coordinates' rates per independent rate in the
+    others."""
+    n = N_INDEPENDENT
     for j in range(n):
         for i in range(n):
-            out[i, j] = 1.0 if i == j else 0.0
+            out[independent_column(i), j] = 1.0 if i == j else 0.0
         for i in range(N_CONSTRAINTS):
-            ws.rhs[i] = -ws.j_eta[i, j]
+            ws.rhs[i] = -ws.j_eta[i, independent_column(j)]
         passive_solve(ws.lu, ws.piv, ws.top, ws.rhs, ws.work)
         for i in range(N_CONSTRAINTS):
-            out[n + i, j] = ws.rhs[i]
+            out[dependent_column(i), j] = ws.rhs[i]
 
 
 @njit(**NO_REFCOUNT)
 def correct_passive(ws, q, sc, P):
     """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` and its trig table ``sc`` (both in
     place); returns the status."""
-    n = N_ACTUATORS
     for _ in range(MAX_NEWTON):
         constraints(q, sc, P, ws.eta[:])
         if not factor_passive(ws, q, sc, P):
@@ -883,7 +917,7 @@ def correct_passive(ws, q, sc, P):
         if not step <= MAX_NEWTON_STEP:  # (NaN included)
             return NOT_CONVERGED
         for i in range(N_CONSTRAINTS):
-            q[n + i] -= ws.eta[i]
+            q[dependent_column(i)] -= ws.eta[i]
         trig_passive(q, sc)
         if step < NEWTON_STEP:
             return OK
@@ -896,12 +930,12 @@ def keep_base_factors(ws):
     branch following from the base."""
     for i in range(REDUCED):
         ws.piv_base[i] = ws.piv[i]
-        for d in range(DIM):
+        for d in range(ELIMINATED):
             ws.top_base[d, i] = ws.top[d, i]
         for j in range(REDUCED):
             ws.lu_base[i, j] = ws.lu[i, j]
     for i in range(N_COORDINATES):
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             ws.j_q_theta_base[i, j] = ws.j_q_theta[i, j]
     ws.base_factored[0] = 1
 
@@ -909,15 +943,15 @@ def keep_base_factors(ws):
 @njit(**NO_REFCOUNT_INLINE)
 def predict(ws, theta):
     """The first-order predictor of :func:`follow_branch`: ``q[TRIAL] = q[BASE] + Jqθ(base) Δθ`` with
-    ``Δθ = ws.step``, the actuators set to ``theta``, and its trig table."""
+    ``Δθ = ws.step``, the independent coordinates set to ``theta``, and its trig table."""
     base, trial = ws.q[BASE], ws.q[TRIAL]
     for i in range(N_COORDINATES):
         acc = base[i]
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             acc += ws.j_q_theta_base[i, j] * ws.step[j]
         trial[i] = acc
-    for j in range(N_ACTUATORS):
-        trial[j] = theta[j]
+    for j in range(N_INDEPENDENT):
+        trial[independent_column(j)] = theta[j]
     trig(trial, ws.sc[TRIAL])
 
 
@@ -933,7 +967,7 @@ def follow_branch(ws, theta, P, singularity_guard):
     :func:`follow_branch_in_steps`). An actuator angle given across ±π from the base's is stepped the
     shorter way round.
     """
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     base = ws.q[BASE]
     trial, sc = ws.q[TRIAL], ws.sc[TRIAL]
     if ws.base_factored[0] == 0:
@@ -942,8 +976,8 @@ def follow_branch(ws, theta, P, singularity_guard):
         actuated_jacobian(ws, ws.j_q_theta)
         keep_base_factors(ws)
     for j in range(n):
-        d = theta[j] - base[j]
-        if ANGLES[j]:  # an angle given across ±π: the step the shorter way round (exact when it is not)
+        d = theta[j] - base[independent_column(j)]
+        if ANGLES[independent_column(j)]:  # an angle given across ±π: the step the shorter way round (exact if not)
             if d > np.pi:
                 d -= 2.0 * np.pi
             elif d < -np.pi:
@@ -957,7 +991,7 @@ def follow_branch(ws, theta, P, singularity_guard):
         passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
-            trial[n + i] -= ws.eta[i]
+            trial[dependent_column(i)] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
         trig_passive(trial, sc)
         # the chord method converges linearly with the ratio of successive steps, r: what remains after
@@ -1011,10 +1045,12 @@ def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step
     ``ws.q[BASE]``: the target's on success, else the last one reached. ``q_previous`` must not be a view
     of the workspace. Returns the status; ``SINGULAR`` at once when ``|S|`` is below ``singularity_guard`` at
     ``q_previous``."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
+    for j in range(n):
+        ws.start[j] = q_previous[independent_column(j)]
     largest = 0.0
     for j in range(n):
-        largest = max(largest, abs(actuator_error(theta, q_previous, j)))
+        largest = max(largest, abs(actuator_error(theta, ws.start, j)))
     if not max_step > 0.0:
         return NOT_CONVERGED
     ratio = largest / max_step
@@ -1026,14 +1062,14 @@ def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step
             return SINGULAR
         for k in range(1, steps + 1):
             for j in range(n):  # the sub-step's target, on q_previous's side of 2π
-                ws.target[j] = q_previous[j] + actuator_error(theta, q_previous, j) * (k / steps)
+                ws.target[j] = ws.start[j] + actuator_error(theta, ws.start, j) * (k / steps)
             status = follow_branch(ws, ws.target[:], P, singularity_guard)
             if status != OK:
                 break
             accept_trial(ws)
         if status == OK:
-            for j in range(n):  # the actuators as asked (an angle may differ by whole turns)
-                ws.q[BASE, j] = theta[j]
+            for j in range(n):  # the independent coordinates as asked (an angle may differ by whole turns)
+                ws.q[BASE, independent_column(j)] = theta[j]
             return status
         steps *= 2
     return status
@@ -1051,7 +1087,7 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
     ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``; in
     space :func:`spatial_body_sums`).
     """
-    n, N = N_ACTUATORS, N_COORDINATES
+    n, N = N_INDEPENDENT, N_COORDINATES
     if not factor_passive(ws, q, sc, P):
         return False
     actuated_jacobian(ws, ws.j_q_theta)
@@ -1065,9 +1101,9 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         ws.gamma[k] = -ws.gamma[k]
     passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
     for i in range(n):
-        ws.bias_q[i] = 0.0
+        ws.bias_q[independent_column(i)] = 0.0
     for k in range(N_CONSTRAINTS):
-        ws.bias_q[n + k] = ws.gamma[k]
+        ws.bias_q[dependent_column(k)] = ws.gamma[k]
     body_jacobian_values(q, sc, P, ws.jb[:])
     body_bias(q, sc, ws.q_dot[:], P, ws.bb[:])
     for b in range(N_BODIES):
@@ -1113,7 +1149,7 @@ def spatial_body_sums(ws, theta_dot, P):
     xy, xz, yz): Newton–Euler projected on the actuators,
     ``Mθ = Σ m Jt_vᵀ Jt_v + Jt_ωᵀ I Jt_ω``, ``cθ = Σ m Jt_vᵀ a_v + Jt_ωᵀ (I a_ω + ω × I ω)``,
     ``gθ = -Σ m Jt_vᵀ g``. The gyroscopic term ``ω × I ω`` is what a planar body never has."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     for b in range(N_BODIES):  # the angular rows of bb become I a_ω + ω × I ω
         k = INERTIA_INDEX[b]
         ixx, iyy, izz, ixy, ixz, iyz = P[k], P[k + 1], P[k + 2], P[k + 3], P[k + 4], P[k + 5]
@@ -1169,10 +1205,10 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
         trig(qs[k], sc)
         if not actuator_space_model(ws, qs[k], sc, theta_dots[k], P):
             return k
-        for i in range(N_ACTUATORS):  # element by element: an array assigned to a slice compiles its error message
+        for i in range(N_INDEPENDENT):  # element by element: an array assigned to a slice compiles its error message
             c_out[k, i] = ws.c_theta[i]
             g_out[k, i] = ws.g_theta[i]
-            for j in range(N_ACTUATORS):
+            for j in range(N_INDEPENDENT):
                 m_out[k, i, j] = ws.m_theta[i, j]
     return -1
 
@@ -1180,7 +1216,7 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
 @njit(**NO_REFCOUNT)
 def solve_accelerations(ws, tau):
     """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model`."""
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         ws.theta_ddot[i] = tau[i] - ws.c_theta[i] - ws.g_theta[i]
     return ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot)
 

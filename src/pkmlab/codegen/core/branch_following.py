@@ -19,6 +19,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         N_ACTUATORS,
         N_CONSTRAINTS,
         N_COORDINATES,
+        N_INDEPENDENT,
         N_LEGS,
         POINT_COLUMNS,
         POINT_ROWS,
@@ -34,6 +35,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 
     from .workspace import (
         BASE,
+        ELIMINATED,
         MAX_CHORD,
         MAX_NEWTON,
         MAX_NEWTON_STEP,
@@ -44,6 +46,8 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         SINGULAR,
         TRIAL,
         actuator_error,
+        dependent_column,
+        independent_column,
     )
 
 # ==== TEMPLATE
@@ -56,21 +60,26 @@ def reduced_column(k):
 @njit(**NO_REFCOUNT)
 def passive_solve(lu, piv, top, b, work):
     """Overwrite ``b`` (m,) with ``Jηφ⁻¹ b`` from the factors of the reduced system (:func:`factor_passive`):
-    its rows are the constraints' rows DIM.. minus row 0 (x), 1 (y) or 2 (z) (the point rows; the rows after
+    its rows are the constraints' rows ELIMINATED.. minus row 0 (x), 1 (y) or 2 (z) (the point rows; the rows after
     them do not move with the tracked point), free of the tracked point; then the tracked point from rows
-    0 .. DIM - 1 (``top``: their entries in the reduced system's columns). ``work`` is an (m,) scratch array."""
+    0 .. ELIMINATED - 1 (``top``: their entries in the reduced system's columns). With the tracked point independent
+    (``ELIMINATED = 0``) the reduced system is ``Jηφ``. ``work`` is an (m,) scratch array."""
     for r in range(REDUCED):
-        work[r] = b[r + DIM] - b[r % DIM] if r + DIM < POINT_ROWS else b[r + DIM]
+        if ELIMINATED == 0:
+            work[r] = b[r]
+        else:
+            work[r] = b[r + ELIMINATED] - b[r % ELIMINATED] if r + ELIMINATED < POINT_ROWS else b[r + ELIMINATED]
     lu_solve_factored(lu, piv, work, REDUCED)
-    for d in range(DIM):
+    for d in range(ELIMINATED):
         acc = -b[d]
         for k in range(REDUCED):
             acc += top[d, k] * work[k]
         work[REDUCED + d] = acc
     for k in range(REDUCED):
         b[reduced_column(k)] = work[k]
-    for d in range(DIM):
-        b[POINT_COLUMNS[d]] = work[REDUCED + d]
+    if ELIMINATED > 0:  # (pruned where the tracked point is independent: POINT_COLUMNS is then empty)
+        for d in range(ELIMINATED):
+            b[POINT_COLUMNS[d]] = work[REDUCED + d]
 
 
 @njit(**NO_REFCOUNT)
@@ -163,40 +172,43 @@ def passive_determinant(q, sc, P, lines):
     angles divided by the platform's size ``ℓ`` (they are lever arms, in metres), then each row scaled to unit
     length, so that ``|S| <= 1`` (Hadamard's inequality), 1 when the constraints are orthogonal. ``lines`` is
     the scratch for ``Jηq`` (LINE_WIDTH is chosen so that it holds it)."""
-    n = N_ACTUATORS
     m = N_CONSTRAINTS
     jac = lines.reshape(-1)[:m * N_COORDINATES].reshape((m, N_COORDINATES))
     constraint_jacobian(q, sc, P, jac)
     size = platform_size(P)
     for r in range(m):
         norm = 0.0
-        for c in range(n, N_COORDINATES):
+        for i in range(m):
+            c = dependent_column(i)
             if ANGLES[c]:
                 jac[r, c] /= size
             norm += jac[r, c] * jac[r, c]
         norm = np.sqrt(norm)
         if norm == 0.0:
             return 0.0
-        for c in range(n, N_COORDINATES):
-            jac[r, c] /= norm
+        for i in range(m):
+            jac[r, dependent_column(i)] /= norm
     det = 1.0
-    for c in range(m):  # Gaussian elimination with partial pivoting on the passive block, in place
-        p = c
-        for r in range(c + 1, m):
-            if abs(jac[r, n + c]) > abs(jac[p, n + c]):
+    for i in range(m):  # Gaussian elimination with partial pivoting on the passive block, in place
+        c = dependent_column(i)
+        p = i
+        for r in range(i + 1, m):
+            if abs(jac[r, c]) > abs(jac[p, c]):
                 p = r
-        if jac[p, n + c] == 0.0:
+        if jac[p, c] == 0.0:
             return 0.0
-        if p != c:
+        if p != i:
             det = -det
-            for k in range(n + c, N_COORDINATES):
-                jac[c, k], jac[p, k] = jac[p, k], jac[c, k]
-        pivot = jac[c, n + c]
+            for kk in range(i, m):
+                k = dependent_column(kk)
+                jac[i, k], jac[p, k] = jac[p, k], jac[i, k]
+        pivot = jac[i, c]
         det *= pivot
-        for r in range(c + 1, m):
-            f = jac[r, n + c] / pivot
-            for k in range(n + c + 1, N_COORDINATES):
-                jac[r, k] -= f * jac[c, k]
+        for r in range(i + 1, m):
+            f = jac[r, c] / pivot
+            for kk in range(i + 1, m):
+                k = dependent_column(kk)
+                jac[r, k] -= f * jac[i, k]
     return det
 
 
@@ -205,36 +217,40 @@ def factor_passive(ws, q, sc, P):
     """``Jηq`` at ``q`` (trig table ``sc``) into ``ws.j_eta`` and the factors of its passive block ``Jηφ`` (the
     reduced system of :func:`passive_solve`); returns ok (False when ``Jηφ`` is singular)."""
     constraint_jacobian(q, sc, P, ws.j_eta[:])
-    n = N_ACTUATORS
     for k in range(REDUCED):
-        c = n + reduced_column(k)
-        for d in range(DIM):
+        c = dependent_column(reduced_column(k))
+        for d in range(ELIMINATED):
             ws.top[d, k] = ws.j_eta[d, c]
         for r in range(REDUCED):
-            ws.reduced[r, k] = ws.j_eta[r + DIM, c] - (ws.j_eta[r % DIM, c] if r + DIM < POINT_ROWS else 0.0)
+            if ELIMINATED == 0:
+                ws.reduced[r, k] = ws.j_eta[r, c]
+            else:
+                ws.reduced[r, k] = (ws.j_eta[r + ELIMINATED, c]
+                                    - (ws.j_eta[r % ELIMINATED, c] if r + ELIMINATED < POINT_ROWS else 0.0))
     ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
 
 
 @njit(**NO_REFCOUNT)
 def actuated_jacobian(ws, out):
-    """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) into ``out`` (N, n) from the last :func:`factor_passive`."""
-    n = N_ACTUATORS
+    """``Jqθ = [I; -Jηφ⁻¹ Jηθ]`` (eqs. 15, 31) into ``out`` (N, n) from the last :func:`factor_passive`: the
+    identity in the independent coordinates' rows, the dependent coordinates' rates per independent rate in the
+    others."""
+    n = N_INDEPENDENT
     for j in range(n):
         for i in range(n):
-            out[i, j] = 1.0 if i == j else 0.0
+            out[independent_column(i), j] = 1.0 if i == j else 0.0
         for i in range(N_CONSTRAINTS):
-            ws.rhs[i] = -ws.j_eta[i, j]
+            ws.rhs[i] = -ws.j_eta[i, independent_column(j)]
         passive_solve(ws.lu, ws.piv, ws.top, ws.rhs, ws.work)
         for i in range(N_CONSTRAINTS):
-            out[n + i, j] = ws.rhs[i]
+            out[dependent_column(i), j] = ws.rhs[i]
 
 
 @njit(**NO_REFCOUNT)
 def correct_passive(ws, q, sc, P):
     """Newton's method on ``η(q) = 0`` for the passive coordinates of ``q`` and its trig table ``sc`` (both in
     place); returns the status."""
-    n = N_ACTUATORS
     for _ in range(MAX_NEWTON):
         constraints(q, sc, P, ws.eta[:])
         if not factor_passive(ws, q, sc, P):
@@ -246,7 +262,7 @@ def correct_passive(ws, q, sc, P):
         if not step <= MAX_NEWTON_STEP:  # (NaN included)
             return NOT_CONVERGED
         for i in range(N_CONSTRAINTS):
-            q[n + i] -= ws.eta[i]
+            q[dependent_column(i)] -= ws.eta[i]
         trig_passive(q, sc)
         if step < NEWTON_STEP:
             return OK
@@ -259,12 +275,12 @@ def keep_base_factors(ws):
     branch following from the base."""
     for i in range(REDUCED):
         ws.piv_base[i] = ws.piv[i]
-        for d in range(DIM):
+        for d in range(ELIMINATED):
             ws.top_base[d, i] = ws.top[d, i]
         for j in range(REDUCED):
             ws.lu_base[i, j] = ws.lu[i, j]
     for i in range(N_COORDINATES):
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             ws.j_q_theta_base[i, j] = ws.j_q_theta[i, j]
     ws.base_factored[0] = 1
 
@@ -272,15 +288,15 @@ def keep_base_factors(ws):
 @njit(**NO_REFCOUNT_INLINE)
 def predict(ws, theta):
     """The first-order predictor of :func:`follow_branch`: ``q[TRIAL] = q[BASE] + Jqθ(base) Δθ`` with
-    ``Δθ = ws.step``, the actuators set to ``theta``, and its trig table."""
+    ``Δθ = ws.step``, the independent coordinates set to ``theta``, and its trig table."""
     base, trial = ws.q[BASE], ws.q[TRIAL]
     for i in range(N_COORDINATES):
         acc = base[i]
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             acc += ws.j_q_theta_base[i, j] * ws.step[j]
         trial[i] = acc
-    for j in range(N_ACTUATORS):
-        trial[j] = theta[j]
+    for j in range(N_INDEPENDENT):
+        trial[independent_column(j)] = theta[j]
     trig(trial, ws.sc[TRIAL])
 
 
@@ -296,7 +312,7 @@ def follow_branch(ws, theta, P, singularity_guard):
     :func:`follow_branch_in_steps`). An actuator angle given across ±π from the base's is stepped the
     shorter way round.
     """
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     base = ws.q[BASE]
     trial, sc = ws.q[TRIAL], ws.sc[TRIAL]
     if ws.base_factored[0] == 0:
@@ -305,8 +321,8 @@ def follow_branch(ws, theta, P, singularity_guard):
         actuated_jacobian(ws, ws.j_q_theta)
         keep_base_factors(ws)
     for j in range(n):
-        d = theta[j] - base[j]
-        if ANGLES[j]:  # an angle given across ±π: the step the shorter way round (exact when it is not)
+        d = theta[j] - base[independent_column(j)]
+        if ANGLES[independent_column(j)]:  # an angle given across ±π: the step the shorter way round (exact if not)
             if d > np.pi:
                 d -= 2.0 * np.pi
             elif d < -np.pi:
@@ -320,7 +336,7 @@ def follow_branch(ws, theta, P, singularity_guard):
         passive_solve(ws.lu_base, ws.piv_base, ws.top_base, ws.eta, ws.work)
         step = 0.0
         for i in range(N_CONSTRAINTS):
-            trial[n + i] -= ws.eta[i]
+            trial[dependent_column(i)] -= ws.eta[i]
             step = max(step, abs(ws.eta[i]))
         trig_passive(trial, sc)
         # the chord method converges linearly with the ratio of successive steps, r: what remains after
@@ -374,10 +390,12 @@ def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step
     ``ws.q[BASE]``: the target's on success, else the last one reached. ``q_previous`` must not be a view
     of the workspace. Returns the status; ``SINGULAR`` at once when ``|S|`` is below ``singularity_guard`` at
     ``q_previous``."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
+    for j in range(n):
+        ws.start[j] = q_previous[independent_column(j)]
     largest = 0.0
     for j in range(n):
-        largest = max(largest, abs(actuator_error(theta, q_previous, j)))
+        largest = max(largest, abs(actuator_error(theta, ws.start, j)))
     if not max_step > 0.0:
         return NOT_CONVERGED
     ratio = largest / max_step
@@ -389,14 +407,14 @@ def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step
             return SINGULAR
         for k in range(1, steps + 1):
             for j in range(n):  # the sub-step's target, on q_previous's side of 2π
-                ws.target[j] = q_previous[j] + actuator_error(theta, q_previous, j) * (k / steps)
+                ws.target[j] = ws.start[j] + actuator_error(theta, ws.start, j) * (k / steps)
             status = follow_branch(ws, ws.target[:], P, singularity_guard)
             if status != OK:
                 break
             accept_trial(ws)
         if status == OK:
-            for j in range(n):  # the actuators as asked (an angle may differ by whole turns)
-                ws.q[BASE, j] = theta[j]
+            for j in range(n):  # the independent coordinates as asked (an angle may differ by whole turns)
+                ws.q[BASE, independent_column(j)] = theta[j]
             return status
         steps *= 2
     return status

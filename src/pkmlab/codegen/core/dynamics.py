@@ -22,10 +22,10 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         JB_COL,
         JB_ROW,
         MASS_INDEX,
-        N_ACTUATORS,
         N_BODIES,
         N_CONSTRAINTS,
         N_COORDINATES,
+        N_INDEPENDENT,
         N_JB,
         body_bias,
         body_jacobian_values,
@@ -35,7 +35,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     from pkmlab.numerics.closed_chain import ldlt_solve
 
     from .branch_following import actuated_jacobian, factor_passive, passive_solve
-    from .workspace import make_workspaces
+    from .workspace import dependent_column, independent_column, make_workspaces
 
 # ==== TEMPLATE
 @njit(**NO_REFCOUNT)
@@ -49,7 +49,7 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
     ``Mθ = Σ Jtᵀ D_b Jt``, ``cθ = Σ Jtᵀ D_b a_b``, ``gθ = -Σ m_b Jt_linᵀ g`` (``D_b = diag(m, m, I)``; in
     space :func:`spatial_body_sums`).
     """
-    n, N = N_ACTUATORS, N_COORDINATES
+    n, N = N_INDEPENDENT, N_COORDINATES
     if not factor_passive(ws, q, sc, P):
         return False
     actuated_jacobian(ws, ws.j_q_theta)
@@ -63,9 +63,9 @@ def actuator_space_model(ws, q, sc, theta_dot, P):
         ws.gamma[k] = -ws.gamma[k]
     passive_solve(ws.lu, ws.piv, ws.top, ws.gamma, ws.work)
     for i in range(n):
-        ws.bias_q[i] = 0.0
+        ws.bias_q[independent_column(i)] = 0.0
     for k in range(N_CONSTRAINTS):
-        ws.bias_q[n + k] = ws.gamma[k]
+        ws.bias_q[dependent_column(k)] = ws.gamma[k]
     body_jacobian_values(q, sc, P, ws.jb[:])
     body_bias(q, sc, ws.q_dot[:], P, ws.bb[:])
     for b in range(N_BODIES):
@@ -111,7 +111,7 @@ def spatial_body_sums(ws, theta_dot, P):
     xy, xz, yz): Newton–Euler projected on the actuators,
     ``Mθ = Σ m Jt_vᵀ Jt_v + Jt_ωᵀ I Jt_ω``, ``cθ = Σ m Jt_vᵀ a_v + Jt_ωᵀ (I a_ω + ω × I ω)``,
     ``gθ = -Σ m Jt_vᵀ g``. The gyroscopic term ``ω × I ω`` is what a planar body never has."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     for b in range(N_BODIES):  # the angular rows of bb become I a_ω + ω × I ω
         k = INERTIA_INDEX[b]
         ixx, iyy, izz, ixy, ixz, iyz = P[k], P[k + 1], P[k + 2], P[k + 3], P[k + 4], P[k + 5]
@@ -167,10 +167,10 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
         trig(qs[k], sc)
         if not actuator_space_model(ws, qs[k], sc, theta_dots[k], P):
             return k
-        for i in range(N_ACTUATORS):  # element by element: an array assigned to a slice compiles its error message
+        for i in range(N_INDEPENDENT):  # element by element: an array assigned to a slice compiles its error message
             c_out[k, i] = ws.c_theta[i]
             g_out[k, i] = ws.g_theta[i]
-            for j in range(N_ACTUATORS):
+            for j in range(N_INDEPENDENT):
                 m_out[k, i, j] = ws.m_theta[i, j]
     return -1
 
@@ -178,6 +178,6 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
 @njit(**NO_REFCOUNT)
 def solve_accelerations(ws, tau):
     """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model`."""
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         ws.theta_ddot[i] = tau[i] - ws.c_theta[i] - ws.g_theta[i]
     return ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot)

@@ -13,13 +13,17 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
         ANGLES,
         ANGULAR,
         BODY_ROWS,
+        DEPENDENT,
         DIM,
         DOF,
+        ELIMINATED,
         GRAVITY_INDEX,
+        INDEPENDENT,
         INERTIA_INDEX,
         JB_BODY,
         JB_COL,
         JB_ROW,
+        LEADING,
         LINE_WIDTH,
         MASS_INDEX,
         MEASURE_LINES,
@@ -27,6 +31,7 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
         N_BODIES,
         N_CONSTRAINTS,
         N_COORDINATES,
+        N_INDEPENDENT,
         N_JB,
         N_POSE,
         POINT_COLUMNS,
@@ -100,11 +105,12 @@ BACKWARD_RATES = 2
 # Every leg closes on the platform by DIM equations (2 in the plane, 3 in space: its point rows, the first
 # POINT_ROWS of η) whose derivatives with respect to the tracked point (x, y[, z]) are minus the identity
 # (η = end of the leg's chain - attachment point); the rows after them (a universal joint's at a rigid
-# platform) do not depend on it. Eliminating the tracked point with these unit pivots leaves a system of DIM
-# equations fewer in the other passive coordinates (the passive joints, the orientation and any parasitic motion), to be
-# factored instead of the whole of Jηφ. POINT_COLUMNS are the tracked point's columns in Jηφ,
-# REDUCED_COLUMNS the others (the generated module's).
-REDUCED = N_CONSTRAINTS - DIM
+# platform) do not depend on it. Where the tracked point is a dependent coordinate, eliminating it with these unit
+# pivots leaves a system of ELIMINATED = DIM equations fewer in the other dependent coordinates (the passive joints,
+# the orientation and any parasitic motion), to be factored instead of the whole of Jηφ; where it is independent (a
+# redundantly actuated machine's), ELIMINATED = 0 and the reduced system is Jηφ itself. POINT_COLUMNS are the tracked
+# point's columns in Jηφ, REDUCED_COLUMNS the others (the generated module's).
+REDUCED = N_CONSTRAINTS - ELIMINATED
 
 
 #: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
@@ -120,33 +126,34 @@ WORKSPACE = np.dtype([
     ("lu", np.float64, (REDUCED, REDUCED)),  # factors of Jηφ's reduced system (the tracked point eliminated)
     ("piv", np.int64, (REDUCED,)),
     ("eta", np.float64, (N_CONSTRAINTS,)),
-    ("j_q_theta", np.float64, (N_COORDINATES, N_ACTUATORS)),  # Jqθ (eq. 31)
+    ("j_q_theta", np.float64, (N_COORDINATES, N_INDEPENDENT)),  # Jqθ (eq. 31)
     ("q_dot", np.float64, (N_COORDINATES,)),
     ("bias_q", np.float64, (N_COORDINATES,)),  # J̇qθ θ̇ (eq. 32)
     ("gamma", np.float64, (N_CONSTRAINTS,)),  # J̇ηq q̇
     ("jb", np.float64, (N_JB,)),  # the non-zeros of the bodies' Jacobians
     ("bb", np.float64, (N_BODIES, BODY_ROWS)),  # bodies' J̇ q̇, then their accelerations at θ̈ = 0
-    ("jt", np.float64, (N_BODIES, BODY_ROWS, N_ACTUATORS)),  # the bodies' Jacobians times Jqθ
-    ("m_theta", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # Mθ
-    ("c_theta", np.float64, (N_ACTUATORS,)),  # cθ = Cθ θ̇
-    ("g_theta", np.float64, (N_ACTUATORS,)),  # gθ = ∂V/∂θ
-    ("theta_ddot", np.float64, (N_ACTUATORS,)),
-    ("ldl", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # factor of Mθ
-    ("m_drives", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # Mθ + Ia, kept while stuck actuators' rows are replaced
-    ("free_rhs", np.float64, (N_ACTUATORS,)),  # the efforts less friction of the actuators that move
-    ("stuck", np.int64, (N_ACTUATORS,)),  # 1 for an actuator held by its stick-slip friction
+    ("jt", np.float64, (N_BODIES, BODY_ROWS, N_INDEPENDENT)),  # the bodies' Jacobians times Jqθ
+    ("m_theta", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Mθ
+    ("c_theta", np.float64, (N_INDEPENDENT,)),  # cθ = Cθ θ̇
+    ("g_theta", np.float64, (N_INDEPENDENT,)),  # gθ = ∂V/∂θ
+    ("theta_ddot", np.float64, (N_INDEPENDENT,)),
+    ("ldl", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # factor of Mθ
+    ("m_drives", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Mθ + Ia, kept while stuck actuators' rows are replaced
+    ("free_rhs", np.float64, (N_INDEPENDENT,)),  # the efforts less friction of the actuators that move
+    ("stuck", np.int64, (N_INDEPENDENT,)),  # 1 for an actuator held by its stick-slip friction
     ("lines", np.float64, (N_ACTUATORS, LINE_WIDTH)),  # the legs' lines of action
     ("lu_base", np.float64, (REDUCED, REDUCED)),  # the same factors at the base, kept for branch following from it
     ("piv_base", np.int64, (REDUCED,)),
-    ("j_q_theta_base", np.float64, (N_COORDINATES, N_ACTUATORS)),  # Jqθ at the base
+    ("j_q_theta_base", np.float64, (N_COORDINATES, N_INDEPENDENT)),  # Jqθ at the base
     ("base_factored", np.int64, (1,)),  # 1 when the three above are the base's
-    ("top", np.float64, (DIM, REDUCED)),  # rows 0 .. DIM - 1 of Jηφ in the reduced system's columns
-    ("top_base", np.float64, (DIM, REDUCED)),  # the same at the base
+    ("top", np.float64, (ELIMINATED, REDUCED)),  # rows 0 .. ELIMINATED - 1 of Jηφ in the reduced system's columns
+    ("top_base", np.float64, (ELIMINATED, REDUCED)),  # the same at the base
     ("reduced", np.float64, (REDUCED, REDUCED)),  # the reduced system before factoring
-    ("work", np.float64, (N_CONSTRAINTS,)),  # the reduced system's right-hand side, then the tracked point's DIM values
+    ("work", np.float64, (N_CONSTRAINTS,)),  # the reduced system's right-hand side, then the eliminated point's values
     ("rhs", np.float64, (N_CONSTRAINTS,)),
-    ("target", np.float64, (N_ACTUATORS,)),  # the actuators of a sub-step of follow_branch_in_steps
-    ("step", np.float64, (N_ACTUATORS,)),  # the actuators' step of follow_branch's predictor
+    ("start", np.float64, (N_INDEPENDENT,)),  # the independent coordinates follow_branch_in_steps starts from
+    ("target", np.float64, (N_INDEPENDENT,)),  # the independent coordinates of a sub-step of follow_branch_in_steps
+    ("step", np.float64, (N_INDEPENDENT,)),  # the independent coordinates' step of follow_branch's predictor
 ], align=True)
 
 
@@ -164,10 +171,23 @@ if INTERPRETED:  # the kernels read a record's arrays by attribute (ws.q): a rec
         return _workspace_records(count).view(np.recarray)
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def independent_column(j):
+    """``q``'s column of the j-th independent coordinate."""
+    return j if LEADING else INDEPENDENT[j]
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def dependent_column(i):
+    """``q``'s column of the i-th dependent coordinate (the i-th column of ``Jηφ``)."""
+    return N_INDEPENDENT + i if LEADING else DEPENDENT[i]
+
+
 @njit(**NO_REFCOUNT)
 def actuator_error(theta, theta_d, i):
-    """``θ_i - θ_d,i``, wrapped to ``(-π, π]`` for an angle (a revolute actuator)."""
+    """``θ_i - θ_d,i`` of the i-th independent coordinate, wrapped to ``(-π, π]`` for an angle (a revolute
+    actuator, an orientation)."""
     e = theta[i] - theta_d[i]
-    if ANGLES[i]:
+    if ANGLES[independent_column(i)]:
         e = (e + np.pi) % (2.0 * np.pi) - np.pi
     return e
