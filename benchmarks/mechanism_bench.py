@@ -123,7 +123,8 @@ def _rows_for(h, name: str, repeats: int, rng, paper_loop_per_sample_s: float | 
     def loop():
         return k.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta, d.theta_dot, d.theta_ddot,
                                    prep.q_plant0, prep.q_ctrl0, scenario.plant_model.P, model.P, prep.kind, prep.kp,
-                                   prep.kv, prep.singularity_guard, *prep.realism, np.zeros((samples, N)),
+                                   prep.kv, prep.distribution, prep.singularity_guard, *prep.realism,
+                                   np.zeros((samples, N)),
                                    np.zeros((samples, n)), np.zeros((samples, n)), np.zeros(samples), np.zeros((0, n)))
 
     times, _ = h.time_runs(loop, repeats)

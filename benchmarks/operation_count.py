@@ -238,8 +238,8 @@ def count_preset(name: str, samples: int | None = None) -> dict:
             outs = (np.zeros((count, n_q)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count))
             status, _k = kernels.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta[:count],
                                                    d.theta_dot[:count], d.theta_ddot[:count], q_plant0, q_ctrl0,
-                                                   plant.P, ctrl.P, prep.kind, prep.kp, prep.kv, prep.singularity_guard,
-                                                   *prep.realism, *outs, np.zeros((0, n)))
+                                                   plant.P, ctrl.P, prep.kind, prep.kp, prep.kv, prep.distribution,
+                                                   prep.singularity_guard, *prep.realism, *outs, np.zeros((0, n)))
         finally:
             for key, function in originals.items():
                 setattr(kernels, key, function)

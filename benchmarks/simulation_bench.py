@@ -238,10 +238,12 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     buffers = outputs(n)
     # ideal drives, no compensation, ideal sensors
     ideal = (kernels.NO_DRIVES, kernels.NO_DRIVES, np.zeros((0, 3)), np.zeros(3), np.zeros((0, 3)), -1, 0)
+    minimum_norm = np.vstack([np.ones(3), np.zeros(3)])  # (one solution for as many actuators as coordinates)
 
     def loop(n_sub=1, ts=1e-3, dd=d):
         return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot, result.q[0], dd.q[0], P,
-                                         P, 0, 1000.0, kv, 0.01, *ideal, *(b[: dd.theta.shape[0]] for b in buffers),
+                                         P, 0, 1000.0, kv, minimum_norm, 0.01, *ideal,
+                                         *(b[: dd.theta.shape[0]] for b in buffers),
                                          np.zeros((0, 3)))
 
     times, _ = h.time_runs(loop, repeats)

@@ -13,6 +13,7 @@ singularity measure against the sub-machine's own measure ``S`` of the generated
 from __future__ import annotations
 
 import itertools
+import re
 from pathlib import Path
 
 import mujoco
@@ -339,14 +340,75 @@ def test_the_command_line_solves_and_checks_its_actuators(capsys):
     assert nearest["actuator_residual"] == pytest.approx([0.0, 0.0, 0.0, 0.01], abs=1e-9)
 
 
-def test_a_run_is_refused_in_one_line_naming_what_models_it(tmp_path):
-    scenario = tmp_path / "run.toml"
-    scenario.write_text(f'[mechanism]\nfile = "{RRRR.as_posix()}"\n\n[trajectory]\ntype = "waypoints"\n'
-                        'points = [[0.26, 0.26, 0.0], [0.28, 0.27, 0.1]]\ndurations = [0.4]\n')
+@pytest.mark.parametrize(("change", "expected"), [
+    (dict(sample_time=0.0), "continuous-time control of it is not modelled"),
+    (dict(sensors="quantised"), "sensors of its actuators are not modelled"),
+    (dict(drives=dict(viscous=0.01)), "its drives' viscous act at the actuators"),
+    (dict(controller_drives=dict(armature=1e-4)), "computed torque's model of its drives is not modelled"),
+])
+def test_what_a_redundant_run_does_not_model_is_refused_in_one_line(change, expected):
+    from pkmlab.simulation.realism import Drives, Sensors
+
+    scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
+    values = {key: Drives(**value) if key.endswith("drives") else Sensors(resolution=1e-4) if key == "sensors"
+              else value for key, value in change.items()}
     with pytest.raises(InvalidParameterError) as refused:
-        pkmlab.load_scenario(scenario)
+        scenario.replace(**values)
     message = str(refused.value)
-    assert "\n" not in message and "redundant actuation" in message and "pkmlab.distribute_efforts" in message
+    assert "\n" not in message and "(redundant actuation)" in message and expected in message
+
+
+def test_a_distribution_is_refused_where_it_has_no_choice_or_lacks_what_it_needs(tmp_path):
+    """The controller's distribution: refused for a machine of as many actuators as degrees of freedom, without its
+    weights or preload, with those of another, with as many numbers as another machine's actuators, and
+    ``minimum_peak`` (a linear program each sample), each in one line naming it; in a scenario file by its key."""
+    paper = pkmlab.paper_scenario("fast")
+    with pytest.raises(InvalidParameterError, match="has as many as its degrees of freedom"):
+        paper.replace(controller=pkmlab.ControllerSpec(distribution="preload", preload=(1.0, 1.0, 1.0)))
+    for kwargs, expected in ((dict(distribution="weighted"), "weights: needed by distribution 'weighted'"),
+                             (dict(preload=(1.0,) * 4), "preload: given for distribution 'preload' only"),
+                             (dict(distribution="minimum_peak"), "not available in runs"),
+                             (dict(distribution="weighted", weights=(1.0, -1.0, 1.0, 1.0)), "weights[1] must be a "
+                              "positive number")):
+        with pytest.raises(InvalidParameterError, match=re.escape(expected)):
+            pkmlab.ControllerSpec(**kwargs)
+    scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
+    with pytest.raises(InvalidParameterError, match="preload must be 4 numbers, one per actuator of 4-RRR, got 3"):
+        scenario.replace(controller=pkmlab.ControllerSpec(distribution="preload", preload=(1.0, 2.0, 3.0)))
+    text = (RRRR.parent / "4rrr_motion.toml").read_text().replace('distribution = "minimum_norm"',
+                                                                  'distribution = "weighted"')
+    (tmp_path / "run.toml").write_text(text.replace("[mechanism]\nfile = \"4rrr.toml\"",
+                                                    f"[mechanism]\nfile = \"{RRRR.as_posix()}\""))
+    with pytest.raises(InvalidParameterError) as refused:
+        pkmlab.load_scenario(tmp_path / "run.toml")
+    assert "[controller]" in str(refused.value) and "weights: needed by distribution 'weighted'" in str(refused.value)
+
+
+def test_a_redundant_run_from_its_file_shares_the_force_as_its_distribution_asks(rrrr):
+    """``examples/mechanisms/4rrr_motion.toml`` and its distributions, run through :func:`pkmlab.simulate` (and the
+    batch, which runs the same loop): at each checked sample the efforts exert the same force on the pose as the
+    minimum norm's, and are each distribution's own solution for it computed here by
+    :func:`pkmlab.distribute_efforts` (a separate solve of the optimality conditions) with ``W`` of
+    :func:`pkmlab.pose_coordinate_jacobian`; the result's rates are the actuators' (``W ẋ``) and its measure the
+    actuation's."""
+    scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
+    specs = {"minimum_norm": {}, "weighted": dict(weights=(1.0, 1.0, 4.0, 4.0)),
+             "preload": dict(preload=(1.5, -1.5, 1.5, -1.5))}
+    runs = pkmlab.simulate_batch([scenario.replace(controller=pkmlab.ControllerSpec(kp=400.0, distribution=method,
+                                                                                    **extra))
+                                  for method, extra in specs.items()])
+    single = pkmlab.simulate(scenario)
+    assert np.array_equal(single.tau, runs[0].tau) and np.array_equal(single.q, runs[0].q)
+    assert runs[0].summary()["max_path_error_m"] < 1e-4
+    for (method, extra), run in zip(specs.items(), runs, strict=True):
+        for k in range(0, len(run.t), 60):
+            W = pkmlab.pose_coordinate_jacobian(rrrr, run.q[k])[:4]
+            force = W.T @ run.tau[k]
+            ours = pkmlab.distribute_efforts(W, force, method, **extra).tau
+            assert np.abs(run.tau[k] - ours).max() <= 1e-10 * max(1.0, np.abs(ours).max()), (method, k)
+        differenced = np.gradient(run.q[:, :4], run.t, axis=0)[1:-1]  # the actuators' rates, W not used
+        assert np.abs(differenced - run.theta_dot[1:-1]).max() < 1e-3 * np.abs(run.theta_dot).max()
+    assert np.allclose(runs[0].S, pkmlab.actuation_singularity_measure(rrrr, runs[0].q), rtol=1e-12)
 
 
 def test_the_paper_machine_with_a_fourth_leg_turns_through_the_3rrrs_forward_singularity():
@@ -381,6 +443,23 @@ def test_the_paper_machine_with_a_fourth_leg_turns_through_the_3rrrs_forward_sin
     assert four < 0.2 and three.max() > 20 * four
     nearest = int(np.argmin(np.abs(measure)))
     assert three[nearest] == three.max()  # the 3-RRR's efforts peak where its S is nearest zero
+
+
+def test_the_redundant_3rrr_is_run_through_the_singularity_its_twin_cannot_cross():
+    """``examples/mechanisms/3rrr_redundant_motion.toml``: the same turn run by computed torque. The paper's 3-RRR
+    given this path in the same working mode is refused before running (its S comes within 0.001 of zero); the
+    redundant machine tracks it to the order of the paper's nominal case (its orientation error at most twice the
+    nominal's, its path error below it) with efforts below 0.2 N m, its actuation measure above 1 all along, and its
+    legs on their loop closures."""
+    scenario = pkmlab.load_scenario(RRRR.parent / "3rrr_redundant_motion.toml")
+    with pytest.raises(SingularityError, match="gain-type singularity"):
+        pkmlab.simulate(scenario.replace(model=pkmlab.load("paper"), working_mode="+++"))
+    result = pkmlab.simulate(scenario)
+    run, nominal = result.summary(), pkmlab.simulate(pkmlab.paper_scenario("nominal")).summary()
+    assert run["max_path_error_m"] < nominal["max_path_error_m"]
+    assert run["max_orientation_error_rad"] < 2.5 * nominal["max_orientation_error_rad"]
+    assert max(run["peak_effort"]) < 0.2 and run["min_abs_S"] > 1.0
+    assert max(_chain_residual(scenario.model, q) for q in result.q[::50]) < 1e-12
 
 
 @pytest.mark.parametrize("name", ["paper", "delta"])
@@ -501,3 +580,77 @@ def test_the_compiled_core_models_and_follows_a_redundant_machine_in_its_pose(na
     apart = out - qs
     apart[:, list(k.ANGLES)] = (apart[:, list(k.ANGLES)] + np.pi) % (2 * np.pi) - np.pi  # an angle whole turns away
     assert np.abs(apart).max() < 1e-12
+
+
+def _quintic_line(start, end, duration: float, ts: float):
+    """A straight line from ``start`` to ``end`` in ``duration`` with a quintic time law: poses, rates, accelerations
+    at the samples (K, dof)."""
+    t = np.arange(0.0, duration + 0.5 * ts, ts)
+    u = t / duration
+    s, s_dot, s_ddot = 10 * u**3 - 15 * u**4 + 6 * u**5, (30 * u**2 - 60 * u**3 + 30 * u**4) / duration, \
+        (60 * u - 180 * u**2 + 120 * u**3) / duration**2
+    span = np.subtract(end, start)
+    return (np.asarray(start) + s[:, None] * span, s_dot[:, None] * span, s_ddot[:, None] * span)
+
+
+def _redundant_run(model, ts, distribution, kind=0, kp=400.0, kv=40.0, P_plant=None):
+    """The compiled sampled-data loop of the 4-RRR along :func:`_quintic_line`, straight from its kernels."""
+    k = model.kernels
+    pose, pose_dot, pose_ddot = _quintic_line([0.24, 0.24, -0.2], [0.29, 0.27, 0.3], 0.4, ts)
+    q0 = mm.inverse_kinematics(model, pose[0], MODE)
+    count, n = len(pose), model.n_actuators
+    q, rates, tau, s = np.zeros((count, q0.size)), np.zeros((count, 3)), np.zeros((count, n)), np.zeros(count)
+    none = np.zeros((0, n))
+    status, failed = k.sampled_data_loop(ts, 1, pose, pose_dot, pose_ddot, q0, q0.copy(),
+                                         model.P if P_plant is None else P_plant, model.P, kind, kp, kv,
+                                         np.asarray(distribution, dtype=float), 1e-9, k.NO_DRIVES, k.NO_DRIVES, none,
+                                         np.zeros(n), none, -1, 0, q, rates, tau, s, none)
+    assert (status, failed) == (k.OK, -1)
+    return pose, q, rates, tau
+
+
+def test_a_redundant_machines_compiled_run_tracks_its_pose_with_efforts_of_the_distribution_asked_for(rrrr):
+    """The compiled loop of the 4-RRR in its pose, computed torque with the exact model: the plant stays on its loop
+    closures, tracks the line to the sampling's first order (half the sample time, about half the error), and its
+    efforts are the distribution's: the minimum norm's carry no internal part (they are in the range of ``W``, computed
+    here by :func:`pkmlab.pose_coordinate_jacobian`), the preload's carry exactly the preload's internal part."""
+    errors = []
+    for ts in (2e-3, 1e-3):
+        pose, q, _rates, tau = _redundant_run(rrrr, ts, [np.ones(4), np.zeros(4)])
+        assert max(_chain_residual(rrrr, qk) for qk in q[::25]) < 1e-12
+        errors.append(np.abs(mm.pose_of(rrrr, q) - pose).max())
+        for qk, tk in zip(q[::25], tau[::25], strict=True):
+            W = pkmlab.pose_coordinate_jacobian(rrrr, qk)[:4]
+            internal = np.linalg.svd(W.T)[2][-1]  # the null space of Wᵀ: one internal effort
+            assert abs(internal @ tk) <= 1e-12 * np.abs(tk).max()
+    assert errors[0] < 1e-3 and 0.4 < errors[1] / errors[0] < 0.6  # (measured: 4.3e-4 rad, ratio 0.50)
+    # the preload: the minimum norm plus the preload's internal part, at the configuration the controller measured.
+    # Held over a sample, that part leaves the null space of Wᵀ as the machine moves (W changes within the
+    # sample): the preloaded run departs from the unloaded one by the sampling's first order, never more
+    preload = np.array([1.5, -1.5, 1.5, -1.5])
+    departures = []
+    for ts in (1e-3, 5e-4):
+        _pose, q_0, _rates, tau_0 = _redundant_run(rrrr, ts, [np.ones(4), np.zeros(4)])
+        _pose, q_p, _rates, tau_p = _redundant_run(rrrr, ts, [np.ones(4), preload])
+        departures.append(np.abs(mm.pose_of(rrrr, q_p) - mm.pose_of(rrrr, q_0)).max())
+        for qk, tp in zip(q_p[::25], tau_p[::25], strict=True):
+            W = pkmlab.pose_coordinate_jacobian(rrrr, qk)[:4]
+            internal = np.linalg.svd(W.T)[2][-1]
+            minimum_norm = np.linalg.pinv(W.T) @ (W.T @ tp)
+            assert np.abs(tp - minimum_norm - internal * (internal @ preload)).max() < 1e-12 * np.abs(tp).max()
+    assert 0.4 < departures[1] / departures[0] < 0.6
+
+
+def test_the_four_arm_deltas_default_run_is_tracked_to_its_sampling_on_its_loop_closures(delta4):
+    """``examples/mechanisms/4delta_motion.toml``, a pick-and-place hop under gravity: computed torque on a model
+    equal to the plant leaves the error of holding the effort over a sample (halving the sample time halves it), and
+    every checked sample's configuration closes the description's readable chain."""
+    from test_lower_mobility import _independent_residual
+
+    scenario = pkmlab.load_scenario(RRRR.parent / "4delta_motion.toml")
+    result = pkmlab.simulate(scenario)
+    finer = pkmlab.simulate(scenario.replace(sample_time=scenario.sample_time / 2))
+    error = np.abs(result.pose - result.pose_d).max(axis=0)
+    ratio = np.abs(finer.pose - finer.pose_d).max(axis=0) / error
+    assert np.all((0.45 < ratio) & (ratio < 0.55)) and error.max() < 1e-4, (error, ratio)
+    assert max(_independent_residual(delta4.description, q, delta4.coordinates) for q in result.q[::25]) < 1e-12

@@ -44,8 +44,7 @@ MACHINES = {
 
 #: The catalogue's planar machines, checked in test_kinematic_redundancy.py.
 PLANAR = {"3prrr.toml"}
-#: Redundantly actuated machines, checked in test_actuation_redundancy.py: no default run yet (pkmlab's runs refuse
-#: them, saying so).
+#: Redundantly actuated machines, checked and run in test_actuation_redundancy.py.
 REDUNDANT = {"4rrr.toml", "3rrr_redundant.toml", "4delta.toml"}
 
 
@@ -53,7 +52,7 @@ def test_every_description_of_the_catalogue_is_checked_here():
     files = {p.name for p in CATALOGUE.glob("*.toml") if not p.name.endswith("_motion.toml")}
     assert files == set(MACHINES) | PLANAR | REDUNDANT
     assert {p.name for p in CATALOGUE.glob("*_motion.toml")} == {f.replace(".toml", "_motion.toml")
-                                                                 for f in set(MACHINES) | PLANAR}
+                                                                 for f in set(MACHINES) | PLANAR | REDUNDANT}
 
 
 @pytest.mark.parametrize("name", sorted(MACHINES))

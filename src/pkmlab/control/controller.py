@@ -29,6 +29,9 @@ from ..errors import InvalidParameterError, shown
 COMPUTED_TORQUE = 0
 PD = 1
 CONTROLLER_TYPES = {"computed_torque": COMPUTED_TORQUE, "pd": PD}
+#: How a redundantly actuated machine's controller distributes its efforts in a run (the compiled loop's
+#: ``distribute``; :func:`pkmlab.distribute_efforts` has these and ``minimum_peak``).
+RUN_DISTRIBUTIONS = ("minimum_norm", "weighted", "preload")
 
 
 @dataclass(frozen=True)
@@ -48,11 +51,21 @@ class ControllerSpec:
         The proportional gain, non-negative (default 1000).
     kv : float or None
         The derivative gain, non-negative; None for ``2√kp`` (:attr:`velocity_gain`).
+    distribution : {"minimum_norm", "weighted", "preload"}
+        How a redundantly actuated machine's controller shares the force on its pose among its actuators
+        (:data:`RUN_DISTRIBUTIONS`): the least 2-norm of the efforts, the least ``Σ w_i τ_i²``, or the least
+        2-norm plus the internal part of a preload (antagonistic efforts that move nothing). A machine of as many
+        actuators as degrees of freedom has one solution: keep ``"minimum_norm"``.
+    weights : sequence of float or None
+        The weights ``w_i > 0`` of ``"weighted"``, one per actuator (given with it only).
+    preload : sequence of float or None
+        The preload of ``"preload"``, one effort per actuator (given with it only).
 
     Raises
     ------
     InvalidParameterError
-        If ``kind`` is neither law, or a gain is negative or not a finite number.
+        If ``kind`` is neither law, a gain is negative or not a finite number, or the distribution is not one of
+        :data:`RUN_DISTRIBUTIONS`, lacks its weights or preload, or is given those of another.
 
     Examples
     --------
@@ -67,6 +80,9 @@ class ControllerSpec:
     kind: str = "computed_torque"
     kp: float = 1000.0
     kv: float | None = None
+    distribution: str = "minimum_norm"
+    weights: tuple | None = None
+    preload: tuple | None = None
 
     def __post_init__(self):
         if not isinstance(self.kind, str) or self.kind not in CONTROLLER_TYPES:
@@ -75,6 +91,26 @@ class ControllerSpec:
         as_real("controller kp", self.kp, "non-negative")
         if self.kv is not None:
             as_real("controller kv", self.kv, "non-negative")
+        if self.distribution == "minimum_peak":
+            raise InvalidParameterError("controller distribution 'minimum_peak' is a linear program at every sample "
+                                        "and is not available in runs: use 'minimum_norm', 'weighted' or 'preload' "
+                                        "(pkmlab.distribute_efforts gives it at a pose)")
+        if not isinstance(self.distribution, str) or self.distribution not in RUN_DISTRIBUTIONS:
+            raise InvalidParameterError(f"controller distribution must be one of {list(RUN_DISTRIBUTIONS)}, got "
+                                        f"{shown(self.distribution)}")
+        for name, method, sign in (("weights", "weighted", "positive"), ("preload", "preload", "finite")):
+            value = getattr(self, name)
+            if (value is None) == (self.distribution == method):
+                raise InvalidParameterError(f"controller {name}: " + (f"needed by distribution '{method}'"
+                                            if value is None else f"given for distribution '{method}' only, not "
+                                            f"'{self.distribution}'"))
+            if value is not None:
+                try:
+                    numbers = tuple(as_real(f"controller {name}[{i}]", v, sign) for i, v in enumerate(value))
+                except TypeError:
+                    raise InvalidParameterError(f"controller {name} must be one number per actuator, got "
+                                                f"{shown(value)}") from None
+                object.__setattr__(self, name, numbers)
 
     @property
     def velocity_gain(self) -> float:

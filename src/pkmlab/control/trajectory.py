@@ -674,7 +674,8 @@ def paper_trajectory(speed: float = 0.2) -> Trajectory:
 class JointMotion:
     """Desired actuator motion at times ``t`` (N,): ``theta``, ``theta_dot``, ``theta_ddot`` (N, 3),
     with the configurations ``q`` (N, 7) and platform ``pose`` (N, 3) they come from, and where computed
-    with them the singularity measure ``S`` (N,) along the path."""
+    with them the singularity measure ``S`` (N,) along the path and the pose's rates ``pose_dot``, ``pose_ddot``
+    (N, 3), which a redundantly actuated machine's run tracks."""
 
     t: np.ndarray
     q: np.ndarray
@@ -683,3 +684,5 @@ class JointMotion:
     theta_dot: np.ndarray
     theta_ddot: np.ndarray
     S: np.ndarray | None = None
+    pose_dot: np.ndarray | None = None
+    pose_ddot: np.ndarray | None = None

@@ -541,14 +541,22 @@ def _timed_waypoints(rd: _Reader, table: dict) -> TimedWaypoints:
         raise rd.value_error(f"[{name}].{error}") from None
 
 
-def _controller(rd: _Reader, table: dict) -> tuple[ControllerSpec, float]:
+def _controller(rd: _Reader, table: dict, model) -> tuple[ControllerSpec, float]:
     name = "controller"
     rd.known_keys(table, name, TABLES[name])
     kind = rd.spec_choice(table, name, "type")
     kp = rd.spec_number(table, name, "kp")
     kv = rd.spec_number(table, name, "kv")
     sample_time = rd.spec_number(table, name, "sample_time")
-    return ControllerSpec(kind, kp=kp, kv=kv), sample_time
+    distribution = rd.spec_choice(table, name, "distribution")
+    shares = {key: _per_actuator(rd, table, name, key, model.n_actuators, "positive" if key == "weights" else "")
+              for key in ("weights", "preload") if key in table}
+    shares = {key: value if isinstance(value, tuple) else (value,) * model.n_actuators
+              for key, value in shares.items()}
+    try:
+        return ControllerSpec(kind, kp=kp, kv=kv, distribution=distribution, **shares), sample_time
+    except InvalidParameterError as exc:
+        raise rd.value_error(f"[{name}]: {exc}") from None
 
 
 def _simulation(rd: _Reader, table: dict) -> dict:
@@ -663,7 +671,7 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
     controller_drives = _drives(rd, rd.table(data, "controller"), model, "controller")
     sensors = _sensors(rd, rd.table(data, "sensors"), model)
     trajectory = _trajectory(rd, rd.table(data, "trajectory", required=True), model)
-    controller, sample_time = _controller(rd, rd.table(data, "controller"))
+    controller, sample_time = _controller(rd, rd.table(data, "controller"), model)
     options = _simulation(rd, rd.table(data, "simulation"))
     try:
         options["working_mode"] = as_working_mode(model, options["working_mode"])

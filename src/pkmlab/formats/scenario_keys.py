@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from .._keys import NUMBER, VECTOR, Key, names
-from ..control.controller import CONTROLLER_TYPES
+from ..control.controller import CONTROLLER_TYPES, RUN_DISTRIBUTIONS
 from ..control.time_optimal import GRID, MAX_GRID
 from ..control.trajectory import ORIENTATION_PATHS
 from ..description.keys import MECHANISM
@@ -127,6 +127,13 @@ SCENARIO = {
         Key("kv", "number", "The velocity gain (none: 2 sqrt(kp), critical damping).", "1/s", sign="non-negative"),
         Key("sample_time", "number", "The control period; 0: continuous-time control.", "s", default=1e-3,
             sign="non-negative"),
+        Key("distribution", "string", "How a redundantly actuated machine's efforts are shared among its actuators: "
+            "the least 2-norm, the least weighted 2-norm (weights), or the least 2-norm plus a preload's internal "
+            "part (preload).", default="minimum_norm", choices=RUN_DISTRIBUTIONS),
+        Key("weights", "number", "The weights of distribution = 'weighted': one per actuator.", sign="positive",
+            many=True),
+        Key("preload", "number", "The preload of distribution = 'preload': one effort per actuator.", "N m or N",
+            many=True),
         Key("mechanism", "string", "The controller's own model: a description file of the machine's structure "
             "(relative to the scenario's folder); the scenario's machine is then the plant.",
             examples=("identified.toml",), schema={"type": "string", "minLength": 1}),

@@ -99,8 +99,9 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
             theta_dot[k] = affine[0][:n] @ data.qvel
         violation[k] = float(np.abs(data.efc_pos).max()) if data.nefc else 0.0
         status = ctrl.kernels.measured_control_effort(k, ts, np.concatenate([q[k, :n], theta_dot[k]]), q_ctrl,
-                                                      prep.kind, prep.kp, prep.kv, d.theta[k], d.theta_dot[k],
-                                                      d.theta_ddot[k], ctrl.P, prep.singularity_guard, r.drive,
+                                                      prep.kind, prep.kp, prep.kv, prep.distribution, d.theta[k],
+                                                      d.theta_dot[k], d.theta_ddot[k], ctrl.P, prep.singularity_guard,
+                                                      r.drive,
                                                       r.ctrl_drive, r.effort_noise, r.resolution, r.theta_noise,
                                                       r.sensing, r.delay, theta_m, theta_dot_m, q_out, effort,
                                                       applied)

@@ -465,6 +465,9 @@ BACKWARD_RATES = 2
 # redundantly actuated machine's), ELIMINATED = 0 and the reduced system is Jηφ itself. POINT_COLUMNS are the tracked
 # point's columns in Jηφ, REDUCED_COLUMNS the others (the generated module's).
 REDUCED = N_CONSTRAINTS - ELIMINATED
+#: More actuators than independent coordinates: a redundantly actuated machine, whose efforts are distributed
+#: (:func:`distribute`) and reach its pose through ``Wᵀ`` (:func:`generalised_force`).
+REDUNDANT = N_ACTUATORS != N_INDEPENDENT
 
 
 #: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
@@ -508,6 +511,9 @@ WORKSPACE = np.dtype([
     ("start", np.float64, (N_INDEPENDENT,)),  # the independent coordinates follow_branch_in_steps starts from
     ("target", np.float64, (N_INDEPENDENT,)),  # the independent coordinates of a sub-step of follow_branch_in_steps
     ("step", np.float64, (N_INDEPENDENT,)),  # the independent coordinates' step of follow_branch's predictor
+    ("force", np.float64, (N_INDEPENDENT,)),  # a generalised force on the independent coordinates, to distribute
+    ("normal", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Wᵀ D⁻¹ W of the distribution, and its factor
+    ("normal_ldl", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),
 ], align=True)
 
 
@@ -535,6 +541,19 @@ def independent_column(j):
 def dependent_column(i):
     """``q``'s column of the i-th dependent coordinate (the i-th column of ``Jηφ``)."""
     return N_INDEPENDENT + i if LEADING else DEPENDENT[i]
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def generalised_force(ws, tau, i):
+    """The generalised force the actuators' efforts ``tau`` exert on the i-th independent coordinate: ``τ_i``, or
+    for a redundantly actuated machine ``(Wᵀ τ)_i`` with ``W = ∂θ/∂x``, the actuators' rows of ``ws.j_q_theta``
+    (the actuators are ``q``'s first coordinates)."""
+    if not REDUNDANT:
+        return tau[i]
+    acc = 0.0
+    for a in range(N_ACTUATORS):
+        acc += ws.j_q_theta[a, i] * tau[a]
+    return acc
 
 
 @njit(**NO_REFCOUNT)
@@ -1057,24 +1076,29 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
 
 @njit(**NO_REFCOUNT)
 def solve_accelerations(ws, tau):
-    """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model`."""
+    """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model` (a redundantly
+    actuated machine's: ``ẍ = Mx⁻¹ (Wᵀ τ - cx - gx)``, :func:`generalised_force`)."""
     for i in range(N_INDEPENDENT):
-        ws.theta_ddot[i] = tau[i] - ws.c_theta[i] - ws.g_theta[i]
+        ws.theta_ddot[i] = generalised_force(ws, tau, i) - ws.c_theta[i] - ws.g_theta[i]
     return ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot)
 
 
 # ---- pkmlab.codegen.core.control, bound to the kernels above ----
 @njit(**NO_REFCOUNT)
-def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard, ws, tau):
+def control_effort(kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
+                   singularity_guard, ws, tau):
     """Efforts ``τ`` of one controller evaluation into ``tau``; returns the status.
 
     ``kind = 0``, computed torque (eqs. 36–39 with gravity): ``τ = M̂θ v + ĉθ + ĝθ``,
     ``v = θ̈_d - kp e - kv ė``, with the controller's own model (parameters ``P``, workspace ``ws``),
     whose passive coordinates follow the measured ``θ`` by branch following (paper figure 2).
     ``kind = 1``, PD: ``τ = -kp e - kv ė``.
+
+    ``θ`` are the independent coordinates: a redundantly actuated machine's controlled pose, whose generalised
+    force is distributed over the actuators by :func:`distribute` (``distribution``).
     """
-    n = N_ACTUATORS
-    if kind == 1:
+    n = N_INDEPENDENT
+    if kind == 1 and not REDUNDANT:
         for i in range(n):
             tau[i] = -kp * actuator_error(theta, theta_d, i) - kv * (theta_dot[i] - theta_dot_d[i])
         return OK
@@ -1082,14 +1106,30 @@ def control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_d
     if status != OK:
         return status
     accept_trial(ws)
-    return computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau)
+    if kind == 0:
+        return computed_torque(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws,
+                               tau)
+    return distributed_pd(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, P, ws, tau)
 
 
 @njit(**NO_REFCOUNT)
-def computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau):
+def distributed_pd(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, P, ws, tau):
+    """PD of a redundantly actuated machine, with the controller's model already at the measured pose
+    (``ws.q[BASE]``): the force ``-kp e - kv ė`` on its pose distributed (:func:`distribute`) with ``W`` there;
+    returns the status."""
+    if not factor_passive(ws, ws.q[BASE], ws.sc[BASE], P):
+        return SINGULAR
+    actuated_jacobian(ws, ws.j_q_theta)
+    for i in range(N_INDEPENDENT):
+        ws.force[i] = -kp * actuator_error(theta, theta_d, i) - kv * (theta_dot[i] - theta_dot_d[i])
+    return OK if distribute(ws, distribution, tau) else SINGULAR
+
+
+@njit(**NO_REFCOUNT)
+def computed_torque(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau):
     """The computed-torque law of :func:`control_effort` with the controller's model already at the measured
     ``theta`` (``ws.q[BASE]``); returns the status."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     if not actuator_space_model(ws, ws.q[BASE], ws.sc[BASE], theta_dot, P):
         return SINGULAR
     keep_base_factors(ws)
@@ -1100,8 +1140,46 @@ def computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d
         acc = ws.c_theta[i] + ws.g_theta[i]
         for j in range(n):
             acc += ws.m_theta[i, j] * ws.theta_ddot[j]
-        tau[i] = acc
-    return OK
+        ws.force[i] = acc
+    return OK if distribute(ws, distribution, tau) else SINGULAR
+
+
+@njit(**NO_REFCOUNT)
+def distribute(ws, distribution, tau):
+    """The actuators' efforts ``tau`` that exert ``ws.force``, the generalised force on the independent coordinates;
+    returns ok (False: ``W`` is rank-deficient, an actuation singularity).
+
+    With as many actuators as independent coordinates, ``τ = f``. A redundantly actuated machine's satisfy
+    ``Wᵀ τ = f`` (``W = ∂θ/∂x``, the actuators' rows of ``ws.j_q_theta``, the last model's) nearest a preload in a
+    weighted 2-norm: ``min (τ - τp)ᵀ D (τ - τp)``, that is ``τ = τp + D⁻¹ W (Wᵀ D⁻¹ W)⁻¹ (f - Wᵀ τp)``. The
+    rows of ``distribution`` (2, N_ACTUATORS) are ``D``'s diagonal and ``τp``: ones and zeros give the minimum
+    2-norm (the pseudo-inverse's efforts), zeros in the second row a weighted minimum norm, ones in the first the
+    minimum norm plus the preload's internal part (:func:`pkmlab.distribute_efforts`' methods).
+    """
+    n = N_INDEPENDENT
+    if not REDUNDANT:
+        for i in range(n):
+            tau[i] = ws.force[i]
+        return True
+    for i in range(n):  # f - Wᵀ τp and Wᵀ D⁻¹ W
+        acc = ws.force[i]
+        for a in range(N_ACTUATORS):
+            acc -= ws.j_q_theta[a, i] * distribution[1, a]
+        ws.force[i] = acc
+        for j in range(i, n):
+            acc = 0.0
+            for a in range(N_ACTUATORS):
+                acc += ws.j_q_theta[a, i] * ws.j_q_theta[a, j] / distribution[0, a]
+            ws.normal[i, j] = acc
+            ws.normal[j, i] = acc
+    if not ldlt_solve(ws.normal, ws.normal_ldl, ws.force):
+        return False
+    for a in range(N_ACTUATORS):
+        acc = 0.0
+        for i in range(n):
+            acc += ws.j_q_theta[a, i] * ws.force[i]
+        tau[a] = distribution[1, a] + acc / distribution[0, a]
+    return True
 
 
 # ---- pkmlab.codegen.core.loop, bound to the kernels above ----
@@ -1152,11 +1230,13 @@ def drive_accelerations(ws, theta_dot, tau, drive):
         ``(Mθ + Ia) θ̈ = τ - fv θ̇ - fc φ(θ̇) - cθ - gθ``,   ``φ = tanh(θ̇ / v_c)`` (``sign(θ̇)`` when ``v_c = 0``)
 
     with each actuator's reflected armature ``Ia``, viscous ``fv`` and Coulomb ``fc`` friction (``τ`` the
-    effort the drive applies). ``Mθ`` is overwritten. Returns the status."""
+    effort the drive applies). ``Mθ`` is overwritten. Returns the status. (A redundantly actuated machine's drives
+    may limit its efforts only: their armature and friction act at the actuators, not at its pose.)"""
     sticking = False
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         ws.m_theta[i, i] += drive[i, ARMATURE]
-        ws.theta_ddot[i] = tau[i] - drive_friction(drive, i, theta_dot[i]) - ws.c_theta[i] - ws.g_theta[i]
+        ws.theta_ddot[i] = (generalised_force(ws, tau, i) - drive_friction(drive, i, theta_dot[i]) - ws.c_theta[i]
+                            - ws.g_theta[i])
         ws.stuck[i] = 1 if drive[i, STICK_SLIP] > 0.0 and abs(theta_dot[i]) < drive[i, COULOMB_RATE] else 0
         sticking = sticking or ws.stuck[i] == 1
     if sticking:
@@ -1173,23 +1253,23 @@ def stick_slip_accelerations(ws, drive):
     friction (:func:`drive_accelerations`). The held actuators' rows are solved away; the friction that holds
     each, ``F_i = rhs_i - Σ_j (Mθ + Ia)_ij θ̈_j``, is checked against ``fc_i``, and the actuator that exceeds it
     most slips, its friction ``fc_i sign(F_i)``; again until every held one holds (at most once per actuator)."""
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         ws.free_rhs[i] = ws.theta_ddot[i]
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             ws.m_drives[i, j] = ws.m_theta[i, j]
-    for _ in range(N_ACTUATORS + 1):
-        for i in range(N_ACTUATORS):
-            for j in range(N_ACTUATORS):
+    for _ in range(N_INDEPENDENT + 1):
+        for i in range(N_INDEPENDENT):
+            for j in range(N_INDEPENDENT):
                 held = ws.stuck[i] == 1 or ws.stuck[j] == 1
                 ws.m_theta[i, j] = (1.0 if i == j else 0.0) if held else ws.m_drives[i, j]
             ws.theta_ddot[i] = 0.0 if ws.stuck[i] == 1 else ws.free_rhs[i]
         if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
             return SINGULAR
         worst, excess, force = -1, 1.0, 0.0
-        for i in range(N_ACTUATORS):
+        for i in range(N_INDEPENDENT):
             if ws.stuck[i] == 1:
                 f = ws.free_rhs[i]
-                for j in range(N_ACTUATORS):
+                for j in range(N_INDEPENDENT):
                     f -= ws.m_drives[i, j] * ws.theta_ddot[j]
                 limit = drive[i, COULOMB]
                 ratio = abs(f) / limit if limit > 0.0 else (math.inf if f != 0.0 else 0.0)
@@ -1220,16 +1300,16 @@ def copy_model(source, destination):
     the workspace ``source`` to ``destination``: for two workspaces of the same machine at the same base
     configuration and rates."""
     for i in range(N_COORDINATES):
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             destination.j_q_theta[i, j] = source.j_q_theta[i, j]
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         destination.c_theta[i] = source.c_theta[i]
         destination.g_theta[i] = source.g_theta[i]
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             destination.m_theta[i, j] = source.m_theta[i, j]
     for i in range(REDUCED):
         destination.piv[i] = source.piv[i]
-        for d in range(DIM):
+        for d in range(ELIMINATED):
             destination.top[d, i] = source.top[d, i]
         for j in range(REDUCED):
             destination.lu[i, j] = source.lu[i, j]
@@ -1244,7 +1324,7 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known, drive):
     (5, 2n) scratch array. ``known``: the workspace already holds the model at the sample's start
     (its first stage). ``drive``: as for :func:`plant_stage`. Returns the status.
     """
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     h = dt / n_sub
     k = work[:4]
     y = work[4]
@@ -1271,8 +1351,8 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known, drive):
 
 @njit(cache=True)
 def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                      kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
-                      sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
+                      kind, kp, kv, distribution, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
+                      theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
     """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
     returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
     own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, the commanded efforts and
@@ -1285,20 +1365,25 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     ``delay`` samples earlier; its rates the plant's own (:data:`EXACT_RATES`), the measured values differenced
     (:data:`DIFFERENCED_RATES`) or their second-order backward difference (:data:`BACKWARD_RATES`).
     ``ctrl_drive`` (rows as ``drive``'s, none: no compensation) is the controller's model of the drives: computed
-    torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
-    count, n = theta_d.shape[0], N_ACTUATORS
+    torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses.
+
+    A redundantly actuated machine's run is in its controlled pose: ``θ`` (the desired motion, the recorded rates,
+    the plant's state) are its independent coordinates (:data:`INDEPENDENT`), the efforts its actuators', distributed
+    by :func:`distribute` with ``distribution``; its sensors are ideal and its drives limit efforts only."""
+    count, n = theta_d.shape[0], N_INDEPENDENT
     theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, n))
     start = count - count  # 0, typed as sampled_data_chunk's k0 (not a literal): one compiled loop for both
     return _sampled_data_loop(make_workspaces(2), np.zeros(2 * n), theta_dot_m, start, count, ts, n_sub,
                               theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv,
-                              singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing,
-                              delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)
+                              distribution, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
+                              sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)
 
 
 @njit(cache=True)
 def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0,
-                       q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise,
-                       resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
+                       q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive, ctrl_drive,
+                       effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
+                       out_theta_m):
     """Samples ``k0 … k0 + len(theta_d) - 1`` of a sampled-data run of ``count`` samples: :func:`sampled_data_loop`
     in pieces, so that a long run needs its desired motion one piece at a time. The piece's desired motion
     (``theta_d`` …) has a row per sample of the piece; the recorded series (``out_q`` …, ``effort_noise``,
@@ -1308,16 +1393,16 @@ def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
     from one piece to the next: the pieces compute exactly what the whole run computes. Returns ``(status, k)``
     as :func:`sampled_data_loop`, ``k`` the run's sample."""
     return _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d,
-                              q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive,
-                              effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau,
-                              out_s, out_theta_m)
+                              q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive,
+                              ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot,
+                              out_tau, out_s, out_theta_m)
 
 
 @njit(**NO_REFCOUNT)
 def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m):
     """The controller's measurement at sample ``k`` of the plant's state ``x = (θ, θ̇)`` into
     ``out_theta_m[k]`` and ``theta_dot_m[k]`` (:func:`sampled_data_loop`)."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     for i in range(n):
         value = x[i] + (theta_noise[k, i] if theta_noise.shape[0] > 0 else 0.0)
         step = resolution[i]
@@ -1333,20 +1418,20 @@ def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m
 
 @njit(cache=True)
 def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d,
-                       q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive,
-                       effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
-                       out_theta_m):
-    n = N_ACTUATORS
+                       q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive,
+                       ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau,
+                       out_s, out_theta_m):
+    n = N_INDEPENDENT
     plant, ctrl = workspaces[0], workspaces[1]
     if k0 == 0:  # the run starts: the plant at rest at q_plant0, the controller's model at q_ctrl0
         set_base(plant, q_plant0, P_plant)
         set_base(ctrl, q_ctrl0, P_ctrl)
         for i in range(n):
-            x[i] = q_plant0[i]
+            x[i] = q_plant0[independent_column(i)]
             x[n + i] = 0.0
     work = np.empty((5, 2 * n))
-    tau = np.zeros(n)
-    applied = np.zeros(n)
+    tau = np.zeros(N_ACTUATORS)
+    applied = np.zeros(N_ACTUATORS)
     ideal = sensing == IDEAL_SENSORS
     # a computed-torque controller whose model is the plant (the nominal cases), which measures the plant's own
     # state: from the second sample on, its model's configuration at the measured θ is the plant's own (same
@@ -1368,20 +1453,20 @@ def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
         j = max(k - delay, 0)
         if shared:
             copy_base(plant, ctrl)
-            status = computed_torque(kp, kv, x[:n], x[n:], theta_d[c], theta_dot_d[c], theta_ddot_d[c], P_ctrl, ctrl,
-                                     tau)
+            status = computed_torque(kp, kv, distribution, x[:n], x[n:], theta_d[c], theta_dot_d[c], theta_ddot_d[c],
+                                     P_ctrl, ctrl, tau)
         elif ideal:
-            status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[c], theta_dot_d[c], theta_ddot_d[c], P_ctrl,
-                                    singularity_guard, ctrl, tau)
+            status = control_effort(kind, kp, kv, distribution, x[:n], x[n:], theta_d[c], theta_dot_d[c],
+                                    theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
         else:
             measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
-            status = control_effort(kind, kp, kv, out_theta_m[j], theta_dot_m[j], theta_d[c], theta_dot_d[c],
-                                    theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
+            status = control_effort(kind, kp, kv, distribution, out_theta_m[j], theta_dot_m[j], theta_d[c],
+                                    theta_dot_d[c], theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
         if kind == 0 and ctrl_drive.shape[0] > 0:
             compensate_drives(ctrl, tau, x[n:] if ideal else theta_dot_m[j], ctrl_drive)
-        for i in range(n):
+        for i in range(N_ACTUATORS):
             out_tau[k, i] = tau[i]
         if k == count - 1:
             break
@@ -1411,19 +1496,21 @@ def compensate_drives(ws, tau, theta_dot, drive):
     """Add the controller's model of the drives to computed torque's efforts ``tau``: ``Ia v + fv θ̇ + fc φ(θ̇)``,
     ``v`` the commanded acceleration (kept in ``ws.theta_ddot``), the friction as the plant's
     (:func:`drive_friction`)."""
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         tau[i] += drive[i, ARMATURE] * ws.theta_ddot[i] + drive_friction(drive, i, theta_dot[i])
 
 
 @njit(cache=True, parallel=True)
 def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind,
-                       kp, kv, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing,
-                       delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m, out_status, out_k):
+                       kp, kv, distribution, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
+                       theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m, out_status,
+                       out_k):
     """:func:`sampled_data_loop` for a batch of runs (leading axis) over the CPU cores; each run executes
     exactly the code of a single run."""
     for r in prange(theta_d.shape[0]):
         status, k = sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
-                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], singularity_guard[r],
+                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], distribution[r],
+                                      singularity_guard[r],
                                       drive[r], ctrl_drive[r], effort_noise[r], resolution[r], theta_noise[r],
                                       sensing[r], delay[r],
                                       out_q[r], out_theta_dot[r], out_tau[r], out_s[r], out_theta_m[r])
@@ -1482,7 +1569,7 @@ def actuator_space_rhs(q_base, y, tau, P, singularity_guard, drive, q_out):
 
 @njit(cache=True)
 def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive, q_out):
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     ws = workspaces[0]
     out = np.zeros(2 * n)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
@@ -1501,36 +1588,39 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive,
 
 
 @njit(cache=True)
-def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
-                         singularity_guard, q_out, tau):
+def _control_effort_from(workspaces, q_base, kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d,
+                         theta_ddot_d, P, singularity_guard, q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its configuration
     at the measured ``theta`` into ``q_out``. Returns the status."""
     ws = workspaces[0]
-    if kind == 1:  # PD: no model to move
+    if kind == 1 and not REDUNDANT:  # PD: no model to move
         for i in range(N_COORDINATES):
             q_out[i] = q_base[i]
-        return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
-                              ws, tau)
+        return control_effort(kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
+                              singularity_guard, ws, tau)
     # computed torque: the model follows the measurement, in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, theta, P, singularity_guard, np.inf)
-    if status == OK:
-        status = computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau)
+    if status == OK and kind == 0:
+        status = computed_torque(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws,
+                                 tau)
+    elif status == OK:
+        status = distributed_pd(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, P, ws, tau)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     return status
 
 
 @njit(cache=True)
-def measured_control_effort(k, ts, x, q_base, kind, kp, kv, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
-                            drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_theta_m,
-                            theta_dot_m, q_out, tau, applied):
+def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d, theta_ddot_d, P,
+                            singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay,
+                            out_theta_m, theta_dot_m, q_out, tau, applied):
     """Sample ``k`` of :func:`sampled_data_loop`'s controller for a plant integrated elsewhere (MuJoCo, an adaptive
     integrator), at the plant's state ``x = (θ, θ̇)``: the measurement (``sensing`` not :data:`IDEAL_SENSORS`:
     into ``out_theta_m[k]`` and ``theta_dot_m[k]``, the controller using sample ``k - delay``'s), the effort of
     :func:`_control_effort_from` into ``tau`` with the controller's model of the drives ``ctrl_drive``, and the
     effort the plant's drives ``drive`` apply (:func:`drive_effort`; no rows: the command) into ``applied``; the
     arguments as :func:`sampled_data_loop`'s. Returns the status."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     workspaces = make_workspaces(1)
     if sensing == IDEAL_SENSORS:
         theta, theta_dot = x[:n], x[n:]
@@ -1538,8 +1628,8 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, theta_d, theta_dot_d
         measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
         j = max(k - delay, 0)
         theta, theta_dot = out_theta_m[j], theta_dot_m[j]
-    status = _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
-                                  theta_ddot_d, P, singularity_guard, q_out, tau)
+    status = _control_effort_from(workspaces, q_base, kind, kp, kv, distribution, theta, theta_dot, theta_d,
+                                  theta_dot_d, theta_ddot_d, P, singularity_guard, q_out, tau)
     if status != OK:
         return status
     if kind == 0 and ctrl_drive.shape[0] > 0:

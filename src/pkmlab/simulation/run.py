@@ -92,6 +92,9 @@ class PreparedRun:
     kind: int
     kp: float
     kv: float
+    # how a redundantly actuated machine's controller distributes its efforts, as the loop reads it (the compiled
+    # core's ``distribute``): rows of the weights and the preload, one column per actuator
+    distribution: np.ndarray
     singularity_guard: float
     P_ctrl: np.ndarray  # the packed parameters of the controller's model and of the plant, as the loop reads them
     P_plant: np.ndarray
@@ -241,7 +244,8 @@ class DesiredMotion:
 
         parts = [motion for _rows, motion in self.pieces()]
         return JointMotion(self.t, *(np.concatenate([getattr(m, name) for m in parts])
-                                     for name in ("q", "pose", "theta", "theta_dot", "theta_ddot")))
+                                     for name in ("q", "pose", "theta", "theta_dot", "theta_ddot")), None,
+                           *(np.concatenate([getattr(m, name) for m in parts]) for name in ("pose_dot", "pose_ddot")))
 
 
 def _joint_motion(model: MechanismModel, full, q: np.ndarray, t: np.ndarray, previous: np.ndarray | None = None):
@@ -270,7 +274,47 @@ def _joint_motion(model: MechanismModel, full, q: np.ndarray, t: np.ndarray, pre
         q[:, :n][:, angles] = np.unwrap(q[:, :n][:, angles], axis=0)
     else:
         q[:, :n][:, angles] = np.unwrap(np.vstack([previous[angles], q[:, :n][:, angles]]), axis=0)[1:]
-    return JointMotion(t, q, pose, q[:, :n].copy(), theta_dot, theta_ddot)
+    return JointMotion(t, q, pose, q[:, :n].copy(), theta_dot, theta_ddot, None, pose_dot, pose_ddot)
+
+
+def loop_motion(model: MechanismModel, d) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The desired motion the compiled loop tracks, of a :class:`~pkmlab.control.trajectory.JointMotion` ``d``: the
+    actuators' ``(θ_d, θ̇_d, θ̈_d)``, or for a redundantly actuated machine its controlled pose and the pose's rates
+    (the loop's independent coordinates, which its actuators over-determine)."""
+    if model.description.actuation_redundancy:
+        return d.pose, d.pose_dot, d.pose_ddot
+    return d.theta, d.theta_dot, d.theta_ddot
+
+
+def run_measures(model: MechanismModel, q: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The singularity measure a run reports at its configurations ``q``: the loop's ``S`` (``s``), or for a
+    redundantly actuated machine its actuation measure (whose loop's ``S`` guards its legs' serial singularities),
+    a piece of rows at a time."""
+    if not model.description.actuation_redundancy:
+        return s
+    from ..model.mechanism_model import configuration_measures
+
+    out = np.empty(len(q))
+    for k0 in range(0, len(q), SIMULATION_PIECE):
+        rows = slice(k0, k0 + SIMULATION_PIECE)
+        out[rows] = configuration_measures(model, q[rows])
+    return out
+
+
+def actuator_rates(model: MechanismModel, q: np.ndarray, rates: np.ndarray) -> np.ndarray:
+    """The actuators' rates of a run whose loop recorded the rates ``rates`` (K, N_INDEPENDENT) of its independent
+    coordinates at configurations ``q``: those rates themselves, or for a redundantly actuated machine
+    ``θ̇ = W ẋ`` (a piece of rows at a time)."""
+    if not model.description.actuation_redundancy:
+        return rates
+    from ..model.mechanism_model import pose_jacobians
+
+    n = model.n_actuators
+    out = np.empty((len(q), n))
+    for k0 in range(0, len(q), SIMULATION_PIECE):
+        rows = slice(k0, k0 + SIMULATION_PIECE)
+        out[rows] = np.einsum("kij,kj->ki", pose_jacobians(model, q[rows])[0][:, :n, :], rates[rows])
+    return out
 
 
 def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> PreparedRun:
@@ -294,7 +338,8 @@ def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> Prepar
     q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
     spec = scenario.controller
     prep = PreparedRun(t, motion, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
-                     float(spec.velocity_gain), float(scenario.singularity_guard), scenario.model.P,
+                     float(spec.velocity_gain), _distribution(scenario), float(scenario.singularity_guard),
+                     scenario.model.P,
                      scenario.plant_model.P, realism(scenario, t.size))
     if scenario.sample_time > 0:
         _check_sampled_data_stability(scenario, prep)
@@ -318,7 +363,7 @@ def _modal_gains(scenario: Scenario, kind: int, q_ctrl: np.ndarray, q_plant: np.
     with the controller's model at ``q_ctrl`` (n, 7) and the plant at ``q_plant`` (n, 7): the eigenvalues of
     ``Mθ_plant⁻¹ M̂θ`` for computed torque, of ``Mθ_plant⁻¹`` for the PD law."""
     plant = scenario.plant_model
-    n = plant.n_actuators
+    n = plant.kernels.N_INDEPENDENT
     if kind != PD and (plant is scenario.model or plant == scenario.model):
         return np.ones((q_ctrl.shape[0], n))  # the model is exact: M̂θ = Mθ
     m_plant = _mass_matrices(plant, q_plant)
@@ -332,8 +377,8 @@ def _modal_gains(scenario: Scenario, kind: int, q_ctrl: np.ndarray, q_plant: np.
 
 def _mass_matrices(model: MechanismModel, qs: np.ndarray) -> np.ndarray:
     """``Mθ`` (K, n, n) at configurations ``qs`` (K, n_coordinates) on the manifold: the compiled core's, as the
-    loop evaluates it."""
-    n, count = model.n_actuators, qs.shape[0]
+    loop evaluates it (a redundantly actuated machine's in its pose, ``Mx``)."""
+    n, count = model.kernels.N_INDEPENDENT, qs.shape[0]
     out, c, g = np.empty((count, n, n)), np.empty((count, n)), np.empty((count, n))
     qs = np.ascontiguousarray(qs)
     if model.kernels.actuator_space_models(qs, np.zeros((count, n)), model.P, out, c, g) >= 0:
@@ -481,6 +526,15 @@ def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: in
     return None
 
 
+def _distribution(scenario: Scenario) -> np.ndarray:
+    """The loop's distribution of the efforts (:class:`PreparedRun`): the weights and the preload of the compiled
+    core's ``distribute`` — unit weights and no preload for the minimum 2-norm, which for as many actuators as
+    degrees of freedom is the one solution."""
+    spec, n = scenario.controller, scenario.model.n_actuators
+    return np.vstack([np.ones(n) if spec.weights is None else spec.weights,
+                      np.zeros(n) if spec.preload is None else spec.preload])
+
+
 def _pose_of(model: MechanismModel, q: np.ndarray) -> np.ndarray:
     """The plant's pose at configurations ``q`` (:func:`~pkmlab.model.mechanism_model.pose_of`), a copy."""
     return pose_of(model, q).copy()
@@ -601,26 +655,27 @@ def simulate(scenario: Scenario) -> SimulationResult:
         s = np.empty(q.shape[0])
         plant.kernels.singularity_measures(q, plant.P, s)
         return run_result(scenario, prep, q, theta_dot, tau, _pose_of(plant, q), s)
-    k_, n = ctrl.kernels, ctrl.n_actuators
+    k_, n, n_x = ctrl.kernels, ctrl.n_actuators, ctrl.kernels.N_INDEPENDENT
     count = prep.t.size
-    q, theta_dot, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
+    q, rates, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n_x)), np.zeros((count, n)), np.zeros(count)
     r = prep.realism
     theta_m = np.zeros((count if r.sensing >= 0 else 0, n))
     theta_d, pose_d = np.empty((count, n)), np.empty((count, _dof(ctrl)))  # the desired motion the result keeps
     # the loop's state, handed from one piece of the run to the next
-    workspaces, x, theta_dot_m = k_.make_workspaces(2), np.zeros(2 * n), np.zeros_like(theta_m)
+    workspaces, x, theta_dot_m = k_.make_workspaces(2), np.zeros(2 * n_x), np.zeros_like(theta_m)
     for rows, d in prep.motion.pieces():
         theta_d[rows], pose_d[rows] = d.theta, d.pose
         status, k_fail = k_.sampled_data_chunk(workspaces, x, theta_dot_m, rows.start, count, scenario.sample_time,
-                                               scenario.substeps, d.theta, d.theta_dot, d.theta_ddot, q_plant0,
+                                               scenario.substeps, *loop_motion(ctrl, d), q_plant0,
                                                q_ctrl0, prep.P_plant, prep.P_ctrl, prep.kind, prep.kp, prep.kv,
-                                               prep.singularity_guard, *r, q, theta_dot, tau, s, theta_m)
+                                               prep.distribution, prep.singularity_guard, *r, q, rates, tau, s,
+                                               theta_m)
         if status != k_.OK:
             raise _loop_error(scenario, prep, status, q, k_fail, theta_d=theta_d, q_d=d.q[k_fail - rows.start])
     # the plant's pose is its configuration's last coordinates: a view of q, not a copy (a long run's memory; a
     # kinematically redundant machine's, whose base actuators are q's first, a copy)
-    return run_result(scenario, prep, q, theta_dot, tau, pose_of(plant, q), s, theta_m if r.sensing >= 0 else None,
-                      theta_d, pose_d)
+    return run_result(scenario, prep, q, actuator_rates(plant, q, rates), tau, pose_of(plant, q),
+                      run_measures(plant, q, s), theta_m if r.sensing >= 0 else None, theta_d, pose_d)
 
 
 def _dof(model: MechanismModel) -> int:
@@ -641,9 +696,9 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
     def control(time, theta, theta_dot):
         d = _joint_motion_at(scenario, prep, time)
         status = k_.measured_control_effort(0, 0.0, np.concatenate([theta, theta_dot]), q_ctrl, prep.kind, prep.kp,
-                                            prep.kv, *d, P_ctrl, prep.singularity_guard, r.drive, r.ctrl_drive,
-                                            r.effort_noise, r.resolution, r.theta_noise, r.sensing, r.delay,
-                                            readings, readings, q_next, tau, applied)
+                                            prep.kv, prep.distribution, *d, P_ctrl, prep.singularity_guard, r.drive,
+                                            r.ctrl_drive, r.effort_noise, r.resolution, r.theta_noise, r.sensing,
+                                            r.delay, readings, readings, q_next, tau, applied)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the controller's model "
                                        f"{branch_failure_text(status, prep.singularity_guard)}")
@@ -791,34 +846,36 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     each scenario's own coordinates."""
     m, n = len(scenarios), preps[0].t.size
     loop = scenarios[0].model
-    n_act, n_q, P_len = loop.n_actuators, kernels.N_COORDINATES, loop.P.size
-    stack = {name: np.empty((m, n, n_act)) for name in ("theta", "theta_dot", "theta_ddot")}
+    n_act, n_x, n_q, P_len = loop.n_actuators, kernels.N_INDEPENDENT, kernels.N_COORDINATES, loop.P.size
+    stack = [np.empty((m, n, n_x)) for _ in range(3)]  # the desired motion the loop tracks
     q0, qc0 = np.empty((m, n_q)), np.empty((m, n_q))
     P_plant, P_ctrl = np.empty((m, P_len)), np.empty((m, P_len))
     ts, n_sub, kind = np.empty(m), np.empty(m, np.int64), np.empty(m, np.int64)
     kp, kv, guards = np.empty(m), np.empty(m), np.empty(m)
+    distribution = np.empty((m, 2, n_act))
     real = preps[0].realism
     drive, ctrl_drive, effort_noise, theta_noise = (np.empty((m, *a.shape)) for a in (
         real.drive, real.ctrl_drive, real.effort_noise, real.theta_noise))
     resolution, sensing, delay = np.empty((m, n_act)), np.empty(m, np.int64), np.empty(m, np.int64)
     for r, (sc, p) in enumerate(zip(scenarios, preps, strict=True)):
-        for name in stack:
-            stack[name][r] = getattr(p.desired, name)
+        for series, desired in zip(stack, loop_motion(loop, p.desired), strict=True):
+            series[r] = desired
         q0[r], qc0[r] = p.q_plant0, p.q_ctrl0
         P_plant[r], P_ctrl[r] = p.P_plant, p.P_ctrl
         ts[r], n_sub[r], kind[r] = sc.sample_time, sc.substeps, p.kind
-        kp[r], kv[r], guards[r] = p.kp, p.kv, p.singularity_guard
+        kp[r], kv[r], distribution[r], guards[r] = p.kp, p.kv, p.distribution, p.singularity_guard
         drive[r], ctrl_drive[r], effort_noise[r], resolution[r], theta_noise[r], sensing[r], delay[r] = p.realism
     # read-only as a model's own parameters are (simulate passes those): the runs of a batch and a single run then
     # call one compiled loop, not two of different argument types
     P_plant.setflags(write=False)
     P_ctrl.setflags(write=False)
-    q, theta_dot, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_act)), np.zeros((m, n, n_act))
+    q, rates, tau = np.zeros((m, n, n_q)), np.zeros((m, n, n_x)), np.zeros((m, n, n_act))
     s = np.zeros((m, n))
     theta_m = np.zeros((m, n if real.sensing >= 0 else 0, n_act))
     status, k_fail = np.zeros(m, np.int64), np.zeros(m, np.int64)
-    kernels.sampled_data_batch(ts, n_sub, stack["theta"], stack["theta_dot"], stack["theta_ddot"], q0, qc0, P_plant,
-                               P_ctrl, kind, kp, kv, guards, drive, ctrl_drive, effort_noise, resolution, theta_noise,
-                               sensing, delay, q, theta_dot, tau, s, theta_m, status, k_fail)
-    return [(status[r], q[r], theta_dot[r], tau[r], _pose_of(loop, q[r]), s[r], k_fail[r],
+    kernels.sampled_data_batch(ts, n_sub, *stack, q0, qc0, P_plant, P_ctrl, kind, kp, kv, distribution, guards, drive,
+                               ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, q, rates, tau, s,
+                               theta_m, status, k_fail)
+    return [(status[r], q[r], actuator_rates(loop, q[r], rates[r]), tau[r], _pose_of(loop, q[r]),
+             run_measures(loop, q[r], s[r]), k_fail[r],
              theta_m[r] if real.sensing >= 0 else None) for r in range(m)]

@@ -119,13 +119,6 @@ class Scenario:
     def __post_init__(self):
         set_ = object.__setattr__  # a frozen dataclass: the normalised values are stored so
         check_model(self.model, "model")
-        extra = self.model.description.actuation_redundancy
-        if extra > 0:  # the compiled loop integrates the actuators as the machine's coordinates
-            raise InvalidParameterError(
-                f"{self.model.name}: its {self.model.n_actuators} actuators are {extra} more than its "
-                f"{self.model.dof} degrees of freedom (redundant actuation), and pkmlab's runs control machines of "
-                "as many actuators as degrees of freedom; its dynamics and effort distributions are "
-                "pkmlab.pose_space_model and pkmlab.distribute_efforts")
         if self.plant is not None:
             check_model(self.plant, "plant")
             if self.plant.kernels is not self.model.kernels:
@@ -156,6 +149,12 @@ class Scenario:
         set_(self, "seed", as_count("seed", self.seed, 0))
         if self.sample_time == 0:
             _check_continuous_realism(self.drives, self.sensors)
+        if self.model.description.actuation_redundancy > 0:
+            _check_redundant_run(self)
+        elif self.controller.distribution != "minimum_norm":
+            raise InvalidParameterError(f"controller distribution '{self.controller.distribution}' shares efforts "
+                                        f"among more actuators than degrees of freedom; {self.model.name} has as many "
+                                        "as its degrees of freedom, whose efforts are one solution")
         for name in ("singularity_margin", "singularity_guard"):
             set_(self, name, as_real(name, getattr(self, name), "non-negative"))
         _check_pose_dimension(self.model, self.trajectory)
@@ -205,6 +204,38 @@ class Scenario:
                 raise InvalidParameterError(f"{name} is not a field of Scenario "
                                             f"(fields: {', '.join(self.__dataclass_fields__)})")
         return replace(self, **changes)
+
+
+def _check_redundant_run(scenario: Scenario) -> None:
+    """Refuse, in one line, what a redundantly actuated machine's run does not model: its loop is in the controlled
+    pose (the compiled core's independent coordinates), its controller reads the plant's pose and distributes its
+    efforts over the actuators, and its drives act at the actuators, so only their effort limits and effort noise
+    (which act on each actuator's effort) are modelled."""
+    model = scenario.model
+    what = (f"{model.name} has {model.n_actuators} actuators for its {model.dof} degrees of freedom (redundant "
+            "actuation)")
+    if scenario.sample_time == 0:
+        raise InvalidParameterError(f"{what}: its runs are sampled-data (give a sample_time above 0); continuous-time "
+                                    "control of it is not modelled")
+    if scenario.sensors is not None:
+        raise InvalidParameterError(f"{what}: its controller reads the plant's pose, and sensors of its actuators are "
+                                    "not modelled; remove the sensors")
+    if scenario.controller_drives is not None:
+        raise InvalidParameterError(f"{what}: computed torque's model of its drives is not modelled; remove "
+                                    "controller_drives")
+    spec = scenario.controller
+    for name in ("weights", "preload"):
+        value = getattr(spec, name)
+        if value is not None and len(value) != model.n_actuators:
+            raise InvalidParameterError(f"controller {name} must be {model.n_actuators} numbers, one per actuator of "
+                                        f"{model.name}, got {len(value)}")
+    drives = scenario.drives
+    if drives is not None:
+        acting = [name for name in ("armature", "viscous", "coulomb") if np.any(np.asarray(getattr(drives, name)) != 0)]
+        if acting or drives.stick_slip:
+            raise InvalidParameterError(f"{what}: its drives' {', '.join(acting) or 'stick-slip friction'} act at the "
+                                        "actuators and are not modelled in its pose; its drives may limit and "
+                                        "disturb the efforts only (effort_limit, effort_noise)")
 
 
 def _check_continuous_realism(drives: Drives | None, sensors: Sensors | None) -> None:

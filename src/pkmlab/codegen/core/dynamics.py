@@ -35,7 +35,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     from pkmlab.numerics.closed_chain import ldlt_solve
 
     from .branch_following import actuated_jacobian, factor_passive, passive_solve
-    from .workspace import dependent_column, independent_column, make_workspaces
+    from .workspace import dependent_column, generalised_force, independent_column, make_workspaces
 
 # ==== TEMPLATE
 @njit(**NO_REFCOUNT)
@@ -177,7 +177,8 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
 
 @njit(**NO_REFCOUNT)
 def solve_accelerations(ws, tau):
-    """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model`."""
+    """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model` (a redundantly
+    actuated machine's: ``ẍ = Mx⁻¹ (Wᵀ τ - cx - gx)``, :func:`generalised_force`)."""
     for i in range(N_INDEPENDENT):
-        ws.theta_ddot[i] = tau[i] - ws.c_theta[i] - ws.g_theta[i]
+        ws.theta_ddot[i] = generalised_force(ws, tau, i) - ws.c_theta[i] - ws.g_theta[i]
     return ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot)

@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         LINE_WIDTH,
         N_ACTUATORS,
         N_COORDINATES,
+        N_INDEPENDENT,
         constraint_bias,
         constraint_jacobian,
         constraints,
@@ -23,9 +24,9 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     )
 
     from .branch_following import follow_branch_in_steps, singularity_measure
-    from .control import computed_torque, control_effort
+    from .control import computed_torque, control_effort, distributed_pd
     from .loop import compensate_drives, drive_effort, measure, plant_stage
-    from .workspace import BASE, IDEAL_SENSORS, OK, make_workspaces
+    from .workspace import BASE, IDEAL_SENSORS, OK, REDUNDANT, make_workspaces
 
 # ==== TEMPLATE
 @njit(cache=True)
@@ -78,7 +79,7 @@ def actuator_space_rhs(q_base, y, tau, P, singularity_guard, drive, q_out):
 
 @njit(cache=True)
 def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive, q_out):
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     ws = workspaces[0]
     out = np.zeros(2 * n)
     # an adaptive integrator's trial steps may be long: branch following in sub-steps where needed
@@ -97,36 +98,39 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive,
 
 
 @njit(cache=True)
-def _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
-                         singularity_guard, q_out, tau):
+def _control_effort_from(workspaces, q_base, kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d,
+                         theta_ddot_d, P, singularity_guard, q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its configuration
     at the measured ``theta`` into ``q_out``. Returns the status."""
     ws = workspaces[0]
-    if kind == 1:  # PD: no model to move
+    if kind == 1 and not REDUNDANT:  # PD: no model to move
         for i in range(N_COORDINATES):
             q_out[i] = q_base[i]
-        return control_effort(kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
-                              ws, tau)
+        return control_effort(kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
+                              singularity_guard, ws, tau)
     # computed torque: the model follows the measurement, in sub-steps where needed
     status = follow_branch_in_steps(ws, q_base, theta, P, singularity_guard, np.inf)
-    if status == OK:
-        status = computed_torque(kp, kv, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws, tau)
+    if status == OK and kind == 0:
+        status = computed_torque(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws,
+                                 tau)
+    elif status == OK:
+        status = distributed_pd(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, P, ws, tau)
     for i in range(N_COORDINATES):
         q_out[i] = ws.q[BASE, i]
     return status
 
 
 @njit(cache=True)
-def measured_control_effort(k, ts, x, q_base, kind, kp, kv, theta_d, theta_dot_d, theta_ddot_d, P, singularity_guard,
-                            drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_theta_m,
-                            theta_dot_m, q_out, tau, applied):
+def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d, theta_ddot_d, P,
+                            singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay,
+                            out_theta_m, theta_dot_m, q_out, tau, applied):
     """Sample ``k`` of :func:`sampled_data_loop`'s controller for a plant integrated elsewhere (MuJoCo, an adaptive
     integrator), at the plant's state ``x = (θ, θ̇)``: the measurement (``sensing`` not :data:`IDEAL_SENSORS`:
     into ``out_theta_m[k]`` and ``theta_dot_m[k]``, the controller using sample ``k - delay``'s), the effort of
     :func:`_control_effort_from` into ``tau`` with the controller's model of the drives ``ctrl_drive``, and the
     effort the plant's drives ``drive`` apply (:func:`drive_effort`; no rows: the command) into ``applied``; the
     arguments as :func:`sampled_data_loop`'s. Returns the status."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     workspaces = make_workspaces(1)
     if sensing == IDEAL_SENSORS:
         theta, theta_dot = x[:n], x[n:]
@@ -134,8 +138,8 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, theta_d, theta_dot_d
         measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
         j = max(k - delay, 0)
         theta, theta_dot = out_theta_m[j], theta_dot_m[j]
-    status = _control_effort_from(workspaces, q_base, kind, kp, kv, theta, theta_dot, theta_d, theta_dot_d,
-                                  theta_ddot_d, P, singularity_guard, q_out, tau)
+    status = _control_effort_from(workspaces, q_base, kind, kp, kv, distribution, theta, theta_dot, theta_d,
+                                  theta_dot_d, theta_ddot_d, P, singularity_guard, q_out, tau)
     if status != OK:
         return status
     if kind == 0 and ctrl_drive.shape[0] > 0:

@@ -14,7 +14,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     import numpy as np
 
     from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit, prange
-    from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import DIM, N_ACTUATORS, N_COORDINATES
+    from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import ELIMINATED, N_ACTUATORS, N_COORDINATES, N_INDEPENDENT
 
     from .branch_following import accept_trial, follow_branch, keep_base_factors, set_base
     from .control import computed_torque, control_effort
@@ -35,6 +35,8 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         STICK_SLIP,
         TRIAL,
         VISCOUS,
+        generalised_force,
+        independent_column,
         ldlt_solve,
         make_workspaces,
     )
@@ -87,11 +89,13 @@ def drive_accelerations(ws, theta_dot, tau, drive):
         ``(Mθ + Ia) θ̈ = τ - fv θ̇ - fc φ(θ̇) - cθ - gθ``,   ``φ = tanh(θ̇ / v_c)`` (``sign(θ̇)`` when ``v_c = 0``)
 
     with each actuator's reflected armature ``Ia``, viscous ``fv`` and Coulomb ``fc`` friction (``τ`` the
-    effort the drive applies). ``Mθ`` is overwritten. Returns the status."""
+    effort the drive applies). ``Mθ`` is overwritten. Returns the status. (A redundantly actuated machine's drives
+    may limit its efforts only: their armature and friction act at the actuators, not at its pose.)"""
     sticking = False
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         ws.m_theta[i, i] += drive[i, ARMATURE]
-        ws.theta_ddot[i] = tau[i] - drive_friction(drive, i, theta_dot[i]) - ws.c_theta[i] - ws.g_theta[i]
+        ws.theta_ddot[i] = (generalised_force(ws, tau, i) - drive_friction(drive, i, theta_dot[i]) - ws.c_theta[i]
+                            - ws.g_theta[i])
         ws.stuck[i] = 1 if drive[i, STICK_SLIP] > 0.0 and abs(theta_dot[i]) < drive[i, COULOMB_RATE] else 0
         sticking = sticking or ws.stuck[i] == 1
     if sticking:
@@ -108,23 +112,23 @@ def stick_slip_accelerations(ws, drive):
     friction (:func:`drive_accelerations`). The held actuators' rows are solved away; the friction that holds
     each, ``F_i = rhs_i - Σ_j (Mθ + Ia)_ij θ̈_j``, is checked against ``fc_i``, and the actuator that exceeds it
     most slips, its friction ``fc_i sign(F_i)``; again until every held one holds (at most once per actuator)."""
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         ws.free_rhs[i] = ws.theta_ddot[i]
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             ws.m_drives[i, j] = ws.m_theta[i, j]
-    for _ in range(N_ACTUATORS + 1):
-        for i in range(N_ACTUATORS):
-            for j in range(N_ACTUATORS):
+    for _ in range(N_INDEPENDENT + 1):
+        for i in range(N_INDEPENDENT):
+            for j in range(N_INDEPENDENT):
                 held = ws.stuck[i] == 1 or ws.stuck[j] == 1
                 ws.m_theta[i, j] = (1.0 if i == j else 0.0) if held else ws.m_drives[i, j]
             ws.theta_ddot[i] = 0.0 if ws.stuck[i] == 1 else ws.free_rhs[i]
         if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
             return SINGULAR
         worst, excess, force = -1, 1.0, 0.0
-        for i in range(N_ACTUATORS):
+        for i in range(N_INDEPENDENT):
             if ws.stuck[i] == 1:
                 f = ws.free_rhs[i]
-                for j in range(N_ACTUATORS):
+                for j in range(N_INDEPENDENT):
                     f -= ws.m_drives[i, j] * ws.theta_ddot[j]
                 limit = drive[i, COULOMB]
                 ratio = abs(f) / limit if limit > 0.0 else (math.inf if f != 0.0 else 0.0)
@@ -155,16 +159,16 @@ def copy_model(source, destination):
     the workspace ``source`` to ``destination``: for two workspaces of the same machine at the same base
     configuration and rates."""
     for i in range(N_COORDINATES):
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             destination.j_q_theta[i, j] = source.j_q_theta[i, j]
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         destination.c_theta[i] = source.c_theta[i]
         destination.g_theta[i] = source.g_theta[i]
-        for j in range(N_ACTUATORS):
+        for j in range(N_INDEPENDENT):
             destination.m_theta[i, j] = source.m_theta[i, j]
     for i in range(REDUCED):
         destination.piv[i] = source.piv[i]
-        for d in range(DIM):
+        for d in range(ELIMINATED):
             destination.top[d, i] = source.top[d, i]
         for j in range(REDUCED):
             destination.lu[i, j] = source.lu[i, j]
@@ -179,7 +183,7 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known, drive):
     (5, 2n) scratch array. ``known``: the workspace already holds the model at the sample's start
     (its first stage). ``drive``: as for :func:`plant_stage`. Returns the status.
     """
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     h = dt / n_sub
     k = work[:4]
     y = work[4]
@@ -206,8 +210,8 @@ def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known, drive):
 
 @njit(cache=True)
 def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl,
-                      kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
-                      sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
+                      kind, kp, kv, distribution, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
+                      theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
     """The whole sampled-data run (conventions §5: the effort computed at ``t_k`` is held until ``t_k+1``);
     returns ``(status, k)``, ``k`` the sample of a failure (else -1). A status of the controller's
     own model is offset by ``CONTROLLER``. Records the plant's configuration, rates, the commanded efforts and
@@ -220,20 +224,25 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     ``delay`` samples earlier; its rates the plant's own (:data:`EXACT_RATES`), the measured values differenced
     (:data:`DIFFERENCED_RATES`) or their second-order backward difference (:data:`BACKWARD_RATES`).
     ``ctrl_drive`` (rows as ``drive``'s, none: no compensation) is the controller's model of the drives: computed
-    torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses."""
-    count, n = theta_d.shape[0], N_ACTUATORS
+    torque adds ``Ia v + fv θ̇ + fc φ(θ̇)`` at the rates it uses.
+
+    A redundantly actuated machine's run is in its controlled pose: ``θ`` (the desired motion, the recorded rates,
+    the plant's state) are its independent coordinates (:data:`INDEPENDENT`), the efforts its actuators', distributed
+    by :func:`distribute` with ``distribution``; its sensors are ideal and its drives limit efforts only."""
+    count, n = theta_d.shape[0], N_INDEPENDENT
     theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, n))
     start = count - count  # 0, typed as sampled_data_chunk's k0 (not a literal): one compiled loop for both
     return _sampled_data_loop(make_workspaces(2), np.zeros(2 * n), theta_dot_m, start, count, ts, n_sub,
                               theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv,
-                              singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing,
-                              delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)
+                              distribution, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
+                              sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)
 
 
 @njit(cache=True)
 def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0,
-                       q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive, effort_noise,
-                       resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m):
+                       q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive, ctrl_drive,
+                       effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
+                       out_theta_m):
     """Samples ``k0 … k0 + len(theta_d) - 1`` of a sampled-data run of ``count`` samples: :func:`sampled_data_loop`
     in pieces, so that a long run needs its desired motion one piece at a time. The piece's desired motion
     (``theta_d`` …) has a row per sample of the piece; the recorded series (``out_q`` …, ``effort_noise``,
@@ -243,16 +252,16 @@ def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
     from one piece to the next: the pieces compute exactly what the whole run computes. Returns ``(status, k)``
     as :func:`sampled_data_loop`, ``k`` the run's sample."""
     return _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d,
-                              q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive,
-                              effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau,
-                              out_s, out_theta_m)
+                              q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive,
+                              ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot,
+                              out_tau, out_s, out_theta_m)
 
 
 @njit(**NO_REFCOUNT)
 def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m):
     """The controller's measurement at sample ``k`` of the plant's state ``x = (θ, θ̇)`` into
     ``out_theta_m[k]`` and ``theta_dot_m[k]`` (:func:`sampled_data_loop`)."""
-    n = N_ACTUATORS
+    n = N_INDEPENDENT
     for i in range(n):
         value = x[i] + (theta_noise[k, i] if theta_noise.shape[0] > 0 else 0.0)
         step = resolution[i]
@@ -268,20 +277,20 @@ def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m
 
 @njit(cache=True)
 def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d,
-                       q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, singularity_guard, drive, ctrl_drive,
-                       effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
-                       out_theta_m):
-    n = N_ACTUATORS
+                       q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive,
+                       ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau,
+                       out_s, out_theta_m):
+    n = N_INDEPENDENT
     plant, ctrl = workspaces[0], workspaces[1]
     if k0 == 0:  # the run starts: the plant at rest at q_plant0, the controller's model at q_ctrl0
         set_base(plant, q_plant0, P_plant)
         set_base(ctrl, q_ctrl0, P_ctrl)
         for i in range(n):
-            x[i] = q_plant0[i]
+            x[i] = q_plant0[independent_column(i)]
             x[n + i] = 0.0
     work = np.empty((5, 2 * n))
-    tau = np.zeros(n)
-    applied = np.zeros(n)
+    tau = np.zeros(N_ACTUATORS)
+    applied = np.zeros(N_ACTUATORS)
     ideal = sensing == IDEAL_SENSORS
     # a computed-torque controller whose model is the plant (the nominal cases), which measures the plant's own
     # state: from the second sample on, its model's configuration at the measured θ is the plant's own (same
@@ -303,20 +312,20 @@ def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
         j = max(k - delay, 0)
         if shared:
             copy_base(plant, ctrl)
-            status = computed_torque(kp, kv, x[:n], x[n:], theta_d[c], theta_dot_d[c], theta_ddot_d[c], P_ctrl, ctrl,
-                                     tau)
+            status = computed_torque(kp, kv, distribution, x[:n], x[n:], theta_d[c], theta_dot_d[c], theta_ddot_d[c],
+                                     P_ctrl, ctrl, tau)
         elif ideal:
-            status = control_effort(kind, kp, kv, x[:n], x[n:], theta_d[c], theta_dot_d[c], theta_ddot_d[c], P_ctrl,
-                                    singularity_guard, ctrl, tau)
+            status = control_effort(kind, kp, kv, distribution, x[:n], x[n:], theta_d[c], theta_dot_d[c],
+                                    theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
         else:
             measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
-            status = control_effort(kind, kp, kv, out_theta_m[j], theta_dot_m[j], theta_d[c], theta_dot_d[c],
-                                    theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
+            status = control_effort(kind, kp, kv, distribution, out_theta_m[j], theta_dot_m[j], theta_d[c],
+                                    theta_dot_d[c], theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
         if kind == 0 and ctrl_drive.shape[0] > 0:
             compensate_drives(ctrl, tau, x[n:] if ideal else theta_dot_m[j], ctrl_drive)
-        for i in range(n):
+        for i in range(N_ACTUATORS):
             out_tau[k, i] = tau[i]
         if k == count - 1:
             break
@@ -346,19 +355,21 @@ def compensate_drives(ws, tau, theta_dot, drive):
     """Add the controller's model of the drives to computed torque's efforts ``tau``: ``Ia v + fv θ̇ + fc φ(θ̇)``,
     ``v`` the commanded acceleration (kept in ``ws.theta_ddot``), the friction as the plant's
     (:func:`drive_friction`)."""
-    for i in range(N_ACTUATORS):
+    for i in range(N_INDEPENDENT):
         tau[i] += drive[i, ARMATURE] * ws.theta_ddot[i] + drive_friction(drive, i, theta_dot[i])
 
 
 @njit(cache=True, parallel=True)
 def sampled_data_batch(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind,
-                       kp, kv, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise, sensing,
-                       delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m, out_status, out_k):
+                       kp, kv, distribution, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
+                       theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m, out_status,
+                       out_k):
     """:func:`sampled_data_loop` for a batch of runs (leading axis) over the CPU cores; each run executes
     exactly the code of a single run."""
     for r in prange(theta_d.shape[0]):
         status, k = sampled_data_loop(ts[r], n_sub[r], theta_d[r], theta_dot_d[r], theta_ddot_d[r], q_plant0[r],
-                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], singularity_guard[r],
+                                      q_ctrl0[r], P_plant[r], P_ctrl[r], kind[r], kp[r], kv[r], distribution[r],
+                                      singularity_guard[r],
                                       drive[r], ctrl_drive[r], effort_noise[r], resolution[r], theta_noise[r],
                                       sensing[r], delay[r],
                                       out_q[r], out_theta_dot[r], out_tau[r], out_s[r], out_theta_m[r])

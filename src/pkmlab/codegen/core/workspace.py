@@ -111,6 +111,9 @@ BACKWARD_RATES = 2
 # redundantly actuated machine's), ELIMINATED = 0 and the reduced system is Jηφ itself. POINT_COLUMNS are the tracked
 # point's columns in Jηφ, REDUCED_COLUMNS the others (the generated module's).
 REDUCED = N_CONSTRAINTS - ELIMINATED
+#: More actuators than independent coordinates: a redundantly actuated machine, whose efforts are distributed
+#: (:func:`distribute`) and reach its pose through ``Wᵀ`` (:func:`generalised_force`).
+REDUNDANT = N_ACTUATORS != N_INDEPENDENT
 
 
 #: One model's evaluations work in a *workspace*: a record of this type holding every scratch array
@@ -154,6 +157,9 @@ WORKSPACE = np.dtype([
     ("start", np.float64, (N_INDEPENDENT,)),  # the independent coordinates follow_branch_in_steps starts from
     ("target", np.float64, (N_INDEPENDENT,)),  # the independent coordinates of a sub-step of follow_branch_in_steps
     ("step", np.float64, (N_INDEPENDENT,)),  # the independent coordinates' step of follow_branch's predictor
+    ("force", np.float64, (N_INDEPENDENT,)),  # a generalised force on the independent coordinates, to distribute
+    ("normal", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Wᵀ D⁻¹ W of the distribution, and its factor
+    ("normal_ldl", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),
 ], align=True)
 
 
@@ -181,6 +187,19 @@ def independent_column(j):
 def dependent_column(i):
     """``q``'s column of the i-th dependent coordinate (the i-th column of ``Jηφ``)."""
     return N_INDEPENDENT + i if LEADING else DEPENDENT[i]
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def generalised_force(ws, tau, i):
+    """The generalised force the actuators' efforts ``tau`` exert on the i-th independent coordinate: ``τ_i``, or
+    for a redundantly actuated machine ``(Wᵀ τ)_i`` with ``W = ∂θ/∂x``, the actuators' rows of ``ws.j_q_theta``
+    (the actuators are ``q``'s first coordinates)."""
+    if not REDUNDANT:
+        return tau[i]
+    acc = 0.0
+    for a in range(N_ACTUATORS):
+        acc += ws.j_q_theta[a, i] * tau[a]
+    return acc
 
 
 @njit(**NO_REFCOUNT)
