@@ -118,6 +118,35 @@ class SimulationResult:
         """The names of the pose's coordinates."""
         return self.scenario.model.pose_names
 
+    @property
+    def internal_effort_error(self) -> np.ndarray | None:
+        """A redundantly actuated machine's internal efforts the plant carries beyond those its controller meant
+        (N, n_actuators; N·m or N): ``N_p τ - N_c τ``, with ``N = I - W (WᵀW)⁻¹ Wᵀ`` the projection on the internal
+        efforts (the null space of ``Wᵀ``) of the plant at its configurations and of the controller's model at the
+        plant's poses (where it reads them). The controller never observes them: they are what its model's
+        geometry gets wrong, zero when its model is the plant. None for a machine of as many actuators as degrees
+        of freedom, which has no internal efforts."""
+        plant, model = self.scenario.plant_model, self.scenario.model
+        if not model.description.actuation_redundancy:
+            return None
+        if plant is model or plant == model:
+            return np.zeros_like(self.tau)
+        from ..model.mechanism_model import path_inverse_kinematics, pose_jacobians
+
+        n, out = self.tau.shape[1], np.empty_like(self.tau)
+        for k0 in range(0, len(self.t), INTERNAL_PIECE):  # a piece of rows at a time: a long run's memory
+            rows = slice(k0, k0 + INTERNAL_PIECE)
+            q_model = path_inverse_kinematics(model, np.ascontiguousarray(self.pose[rows]), self.working_mode,
+                                              follow=True)[0]
+            parts = []
+            for machine, q in ((plant, self.q[rows]), (model, q_model)):
+                W = pose_jacobians(machine, q)[0][:, :n, :]
+                wt_tau = np.einsum("kai,ka->ki", W, self.tau[rows])
+                parts.append(self.tau[rows] - np.einsum("kai,ki->ka", W, np.linalg.solve(
+                    np.einsum("kai,kaj->kij", W, W), wt_tau[..., None])[..., 0]))
+            out[rows] = parts[0] - parts[1]
+        return out
+
     def summary(self) -> dict:
         """The run's summary, one key set for every machine (:func:`summary_units` gives each key's unit).
 
@@ -129,7 +158,8 @@ class SimulationResult:
             ``max_joint_error`` and ``peak_effort`` (one per actuator) in the actuators' units, also named with
             their unit where every actuator has the same kind: ``max_joint_error_rad`` and ``peak_torque_Nm`` for
             revolute actuators, ``max_joint_error_m`` and ``peak_force_N`` for prismatic ones; ``min_abs_S``;
-            ``working_mode``; ``max_closure_violation_m`` for a MuJoCo plant.
+            ``working_mode``; ``max_closure_violation_m`` for a MuJoCo plant; ``max_internal_effort_error`` for a
+            redundantly actuated machine (:attr:`internal_effort_error`, in the actuators' effort units).
 
         Examples
         --------
@@ -163,6 +193,9 @@ class SimulationResult:
         out["working_mode"] = list(self.working_mode)
         if self.closure_violation is not None:
             out["max_closure_violation_m"] = float(self.closure_violation.max())
+        internal = self.internal_effort_error
+        if internal is not None:
+            out["max_internal_effort_error"] = float(np.abs(internal).max())
         return out
 
     def table(self, rows: slice = slice(None)) -> np.ndarray:
@@ -250,6 +283,10 @@ class SimulationResult:
         return _write_atomic(path, json.dumps(data))
 
 
+#: :attr:`SimulationResult.internal_effort_error` is computed this many samples at a time.
+INTERNAL_PIECE = 10_000
+
+
 def summary_units(model: MechanismModel) -> dict[str, str]:
     """The unit of every key of a run's summary (:meth:`SimulationResult.summary`) for ``model``'s machine:
     ``"m"``, ``"rad"``, ``"N*m"``, ``"N"``, ``""`` (``S`` and the working mode have none); a mixed machine's
@@ -272,6 +309,8 @@ def summary_units(model: MechanismModel) -> dict[str, str]:
     elif set(kinds) == {"P"}:
         units.update(max_joint_error_m="m", peak_force_N="N")
     units.update(min_abs_S="", working_mode="", max_closure_violation_m="m")  # the last: MuJoCo plants' runs
+    if model.description.actuation_redundancy:
+        units["max_internal_effort_error"] = units["peak_effort"]
     return units
 
 

@@ -58,15 +58,22 @@ from .scenario import Scenario, best_working_mode, pose_text
 SIMULATION_PIECE = 65536
 
 
-def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray) -> np.ndarray:
+def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray, mode) -> np.ndarray:
     """The plant at rest at the controller's inverse-kinematic actuator values, in its assembly mode nearest
-    the controller's configuration (docs/conventions.md §5)."""
+    the controller's configuration (docs/conventions.md §5); a redundantly actuated plant, whose actuators
+    over-determine it, at the controller's start pose, in the run's working mode ``mode``."""
     from ..algorithms.assembly import assembly_modes as machine_fk
+    from ..model.mechanism_model import inverse_kinematics
 
     model = scenario.model
     n = model.n_actuators
     if scenario.plant is None or scenario.plant_model == model:
         return q_ctrl0.copy()
+    if model.description.actuation_redundancy:
+        try:
+            return inverse_kinematics(scenario.plant_model, pose_of(model, q_ctrl0), mode)
+        except PkmlabError as exc:
+            raise AssemblyError(f"the plant cannot be assembled at the start pose: {exc}") from None
     solutions = machine_fk(scenario.plant_model, q_ctrl0[:n])
     if not solutions:
         raise AssemblyError(f"the plant cannot be assembled at the start actuators "
@@ -335,7 +342,7 @@ def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> Prepar
         if key is not None:
             desired_cache[key] = motion
     q_ctrl0 = motion.first().q[0].copy()
-    q_plant0 = _initial_plant_configuration(scenario, q_ctrl0)
+    q_plant0 = _initial_plant_configuration(scenario, q_ctrl0, motion.mode)
     spec = scenario.controller
     prep = PreparedRun(t, motion, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
                      float(spec.velocity_gain), _distribution(scenario), float(scenario.singularity_guard),
