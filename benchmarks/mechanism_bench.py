@@ -11,6 +11,9 @@ kernels and :mod:`pkmlab.codegen.core`'s compiled loop), the five-bar, the 3-RPR
   nominal case through the generic pipeline), its compiled loop alone, and the loop's time per
   sample against the paper's nominal loop per sample (``sim_nominal_loop``) measured in the same run.
 
+And for the redundantly actuated machines (a 4-RRR, the paper's 3-RRR with a fourth leg, a Delta on four arms) the
+first run and the loop per sample for each distribution against their twin's (the 3-RRR's, the Delta's).
+
 And for the catalogue's machines (``examples/mechanisms``: a 3-PRS, a 3-RPS, a 3-UPU, a 3-UPU wrist, the Agile
 Eye, a 3-RRS, a 6-RUS, a 6-PUS, a 3-PUU, a 3-PRRR) the same rows, their loop per sample against the preset's
 with as many legs (the Delta's, the Stewart platform's, or for the planar 3-PRRR the paper's 3-RRR) in the same
@@ -180,7 +183,74 @@ def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts
     more, checks["identification"] = _identification_rows(h, 3 if quick else 5)
     rows += more
     more, checks["calibration"] = _calibration_rows(h, 3 if quick else 5)
+    rows += more
+    more, checks["redundant"] = _redundant_rows(h, 3 if quick else 7, paper_loop_per_sample_s,
+                                                checks["delta"]["loop_per_sample_us"] * 1e-6)
     return rows + more, checks
+
+
+#: The catalogue's redundantly actuated machines' default runs, each against the machine of as many legs less one.
+REDUNDANT_RUNS = {"4rrr": ("mechanisms/4rrr_motion.toml", "paper"),
+                  "3rrr_redundant": ("mechanisms/3rrr_redundant_motion.toml", "paper"),
+                  "4delta": ("mechanisms/4delta_motion.toml", "delta")}
+
+
+def _redundant_rows(h, repeats: int, paper_loop_per_sample_s: float | None, delta_loop_per_sample_s: float
+                    ) -> tuple[list[dict], dict]:
+    """The redundantly actuated machines' default runs: the first run, the compiled loop per sample (in the pose,
+    the efforts distributed with the least 2-norm; for the 4-RRR also weighted and preloaded) against its twin's
+    (the paper's 3-RRR, the Delta) measured in this run, and the minimum ∞-norm distribution, a linear program,
+    per call of :func:`pkmlab.distribute_efforts` (runs do not offer it)."""
+    from pkmlab.simulation.run import loop_motion
+
+    rows, checks = [], {}
+    twins = {"paper": paper_loop_per_sample_s, "delta": delta_loop_per_sample_s}
+    for name, (path, twin) in REDUNDANT_RUNS.items():
+        scenario = load_scenario(EXAMPLES / path)
+        model = scenario.model
+        label = f"{name} ({model.description.notation}, {model.n_actuators} actuators for {model.dof} coordinates)"
+        seconds, result = h.time_once(lambda scenario=scenario: simulate(scenario))
+        rows.append(h.first_call_row(f"mech_{name}_first_run", f"{label}: first default run in this process", seconds))
+        shares = {"minimum_norm": scenario}
+        if name == "4rrr":
+            n = model.n_actuators
+            for method, extra in (("weighted", dict(weights=(1.0, 1.0, 4.0, 4.0))),
+                                  ("preload", dict(preload=(1.5, -1.5, 1.5, -1.5)[:n]))):
+                shares[method] = scenario.replace(controller=pkmlab.ControllerSpec(
+                    kp=scenario.controller.kp, distribution=method, **extra))
+        for method, run in shares.items():
+            prep = prepare_run(run)
+            k, d, samples = model.kernels, prep.desired, result.t.size
+            outs = (np.zeros((samples, len(prep.q_ctrl0))), np.zeros((samples, k.N_INDEPENDENT)),
+                    np.zeros((samples, model.n_actuators)), np.zeros(samples), np.zeros((0, model.n_actuators)))
+
+            desired = loop_motion(model, d)
+
+            def loop(run=run, prep=prep, desired=desired, k=k, outs=outs):
+                return k.sampled_data_loop(run.sample_time, run.substeps, *desired, prep.q_plant0, prep.q_ctrl0,
+                                           run.plant_model.P, run.model.P, prep.kind, prep.kp, prep.kv,
+                                           prep.distribution, prep.singularity_guard, *prep.realism, *outs)
+
+            times, _ = h.time_runs(loop, repeats)
+            rows.append(h.rate_row(f"mech_{name}_loop_{method}", f"{label}: compiled sampled-data loop, efforts "
+                                   f"distributed ({method})", times, samples - 1, "sample", compare=False))
+            per_sample = float(np.median(times)) / (samples - 1)
+            checks[f"{name}_{method}_loop_per_sample_us"] = per_sample * 1e6
+            if twins[twin]:
+                ratio = per_sample / twins[twin]
+                checks[f"{name}_{method}_loop_vs_{twin}"] = ratio
+                rows.append(h.metric_row(f"mech_{name}_loop_{method}_vs_{twin}", f"{name} ({method}): loop per "
+                                         f"sample / the {twin}'s nominal loop per sample", ratio, "x"))
+        checks[f"{name}_max_path_error_m"] = result.summary()["max_path_error_m"]
+    rrrr = load_scenario(EXAMPLES / REDUNDANT_RUNS["4rrr"][0]).model
+    prep = prepare_run(load_scenario(EXAMPLES / REDUNDANT_RUNS["4rrr"][0]))
+    states = prep.desired.q[::20]
+    wrenches = [(pkmlab.pose_space_model(rrrr, q, np.zeros(3)).W, np.array([1.0, -0.5, 0.1])) for q in states]
+    times, _ = h.time_runs(lambda: [pkmlab.distribute_efforts(W, f, "minimum_peak") for W, f in wrenches], repeats)
+    rows.append(h.rate_row("mech_4rrr_minimum_peak", "4rrr: minimum ∞-norm distribution, a linear program (SciPy's "
+                           "HiGHS), per call of distribute_efforts", times, len(wrenches), "call", compare=False))
+    checks["4rrr_minimum_peak_per_call_us"] = float(np.median(times)) / len(wrenches) * 1e6
+    return rows, checks
 
 
 #: Dietmaier's Stewart-Gough platform and leg lengths with 40 real poses (examples/stewart_dietmaier.toml).
