@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import InvalidParameterError, PkmlabError, UnstableControlError
 from ..model.mechanism_model import pose_of
 from ..simulation.result import SimulationResult
-from ..simulation.run import branch_failure_text, prepare_run, run_result
+from ..simulation.run import branch_failure_text, loop_motion, prepare_run, run_measures, run_result
 from ..simulation.scenario import Scenario, pose_text
 from . import mujoco_export as mx
 
@@ -90,21 +90,23 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     readings = count if r.sensing >= 0 else 0  # rows of the controller's readings (none: it reads the state)
     theta_m, theta_dot_m = np.zeros((readings, n)), np.zeros((readings, n))
     affine = mx.affine_map(plant)  # the coordinate maps as one matrix where they are linear
+    # the controller's state: the actuators', or a redundantly actuated machine's pose and its rates
+    independent, desired = list(ctrl.kernels.INDEPENDENT), loop_motion(ctrl, d)
     for k in range(count):
         if affine is None:
             q[k] = mx.q_from_qpos(plant, data.qpos)
-            theta_dot[k] = mx.q_dot_from_qvel(plant, q[k], data.qvel)[:n]
+            q_dot = mx.q_dot_from_qvel(plant, q[k], data.qvel)
         else:
             q[k] = affine[0] @ data.qpos + affine[1]
-            theta_dot[k] = affine[0][:n] @ data.qvel
+            q_dot = affine[0] @ data.qvel
+        theta_dot[k] = q_dot[:n]
         violation[k] = float(np.abs(data.efc_pos).max()) if data.nefc else 0.0
-        status = ctrl.kernels.measured_control_effort(k, ts, np.concatenate([q[k, :n], theta_dot[k]]), q_ctrl,
-                                                      prep.kind, prep.kp, prep.kv, prep.distribution, d.theta[k],
-                                                      d.theta_dot[k], d.theta_ddot[k], ctrl.P, prep.singularity_guard,
-                                                      r.drive,
-                                                      r.ctrl_drive, r.effort_noise, r.resolution, r.theta_noise,
-                                                      r.sensing, r.delay, theta_m, theta_dot_m, q_out, effort,
-                                                      applied)
+        status = ctrl.kernels.measured_control_effort(k, ts, np.concatenate([q[k, independent], q_dot[independent]]),
+                                                      q_ctrl, prep.kind, prep.kp, prep.kv, prep.distribution,
+                                                      desired[0][k], desired[1][k], desired[2][k], ctrl.P,
+                                                      prep.singularity_guard, r.drive, r.ctrl_drive, r.effort_noise,
+                                                      r.resolution, r.theta_noise, r.sensing, r.delay, theta_m,
+                                                      theta_dot_m, q_out, effort, applied)
         if status != ctrl.kernels.OK:
             pose = pose_text(pose_of(plant, q[k]))
             raise PkmlabError(f"run stopped at t = {prep.t[k]:.4f} s: the controller's model "
@@ -123,5 +125,6 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                                        "or another integrator")
     plant.kernels.singularity_measures(q, plant.P, s)  # of every recorded configuration, at once
     pose = pose_of(plant, q).copy()
-    result = run_result(scenario, prep, q, theta_dot, tau, pose, s, theta_m if r.sensing >= 0 else None)
+    result = run_result(scenario, prep, q, theta_dot, tau, pose, run_measures(plant, q, s),
+                        theta_m if r.sensing >= 0 else None)
     return replace(result, closure_violation=violation)

@@ -100,7 +100,7 @@ class PreparedRun:
     kp: float
     kv: float
     # how a redundantly actuated machine's controller distributes its efforts, as the loop reads it (the compiled
-    # core's ``distribute``): rows of the weights and the preload, one column per actuator
+    # core's ``distribute``): rows of the weights, the preload and the effort limits, one column per actuator
     distribution: np.ndarray
     singularity_guard: float
     P_ctrl: np.ndarray  # the packed parameters of the controller's model and of the plant, as the loop reads them
@@ -350,6 +350,8 @@ def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> Prepar
                      scenario.plant_model.P, realism(scenario, t.size))
     if scenario.sample_time > 0:
         _check_sampled_data_stability(scenario, prep)
+    if scenario.model.description.actuation_redundancy:
+        _check_effort_limits(scenario, prep)
     else:
         _check_continuous_stiffness(scenario, prep)
     return prep
@@ -534,12 +536,37 @@ def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: in
 
 
 def _distribution(scenario: Scenario) -> np.ndarray:
-    """The loop's distribution of the efforts (:class:`PreparedRun`): the weights and the preload of the compiled
-    core's ``distribute`` — unit weights and no preload for the minimum 2-norm, which for as many actuators as
-    degrees of freedom is the one solution."""
+    """The loop's distribution of the efforts (:class:`PreparedRun`): the weights, the preload and the effort
+    limits of the compiled core's ``distribute`` — unit weights and no preload for the minimum 2-norm, which for as
+    many actuators as degrees of freedom is the one solution; the limits the plant's drives declare, at the
+    joint."""
     spec, n = scenario.controller, scenario.model.n_actuators
+    drives = scenario.drives
+    limits = np.full(n, np.inf) if drives is None else drives.table(n)[:, scenario.model.kernels.EFFORT_LIMIT]
     return np.vstack([np.ones(n) if spec.weights is None else spec.weights,
-                      np.zeros(n) if spec.preload is None else spec.preload])
+                      np.zeros(n) if spec.preload is None else spec.preload, limits])
+
+
+def _check_effort_limits(scenario: Scenario, prep: PreparedRun) -> None:
+    """Refuse, before running, a redundantly actuated machine's desired motion whose efforts the declared effort
+    limits cannot hold however the controller shares them (:func:`pkmlab.distribute_efforts` within the limits, at
+    every :data:`STABILITY_STRIDE`-th sample and the last, on the controller's model): one line naming the time and
+    the actuator."""
+    from ..algorithms.redundancy import distribute_efforts, pose_space_model
+
+    limits = prep.distribution[2]
+    if not np.isfinite(limits).any():
+        return
+    spec, model = scenario.controller, scenario.model
+    count = prep.t.size
+    rows = np.unique(np.append(np.arange(0, count, STABILITY_STRIDE), count - 1))
+    d = prep.desired
+    dynamics = pose_space_model(model, d.q[rows], d.pose_dot[rows])
+    force = np.einsum("kij,kj->ki", dynamics.M, d.pose_ddot[rows]) + dynamics.c + dynamics.g
+    extra = {"weights": spec.weights} if spec.distribution == "weighted" else {"preload": spec.preload} \
+        if spec.distribution == "preload" else {}
+    for k, W, f in zip(rows, dynamics.W, force, strict=True):
+        distribute_efforts(W, f, spec.distribution, limits=limits, where=f"t = {prep.t[k]:.4f} s: ", **extra)
 
 
 def _pose_of(model: MechanismModel, q: np.ndarray) -> np.ndarray:
@@ -859,7 +886,7 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     P_plant, P_ctrl = np.empty((m, P_len)), np.empty((m, P_len))
     ts, n_sub, kind = np.empty(m), np.empty(m, np.int64), np.empty(m, np.int64)
     kp, kv, guards = np.empty(m), np.empty(m), np.empty(m)
-    distribution = np.empty((m, 2, n_act))
+    distribution = np.empty((m, 3, n_act))
     real = preps[0].realism
     drive, ctrl_drive, effort_noise, theta_noise = (np.empty((m, *a.shape)) for a in (
         real.drive, real.ctrl_drive, real.effort_noise, real.theta_noise))

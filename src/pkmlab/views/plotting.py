@@ -40,7 +40,7 @@ def plot_singularity_map(smap: SingularityMap, ax=None, model=None,
     bound = float(np.max(np.abs(finite))) if finite.size else 1.0
     # a redundantly actuated machine's map is of its actuation's measure σmin(W), never negative
     actuation = model is not None and getattr(model.description, "actuation_redundancy", 0) > 0
-    name = "actuation measure σmin(W)" if actuation else "singularity measure S"
+    name = measure_name(model.description if model is not None else None)[0]
     cs = ax.contourf(smap.x, smap.y, smap.S, levels=np.linspace(0.0 if actuation else -bound, bound, levels),
                      cmap="Reds" if actuation else "RdBu_r")
     ax.figure.colorbar(cs, ax=ax, label=name)
@@ -366,16 +366,26 @@ def plot_efforts(result, ax=None):
     return ax
 
 
+def measure_name(description) -> tuple[str, str]:
+    """The name and symbol of the singularity measure a machine's results and maps show: ``S``, or for a
+    redundantly actuated machine its actuation's measure ``σmin(W)``."""
+    if getattr(description, "actuation_redundancy", 0) > 0:
+        return "actuation measure σmin(W)", "σmin(W)"
+    return "singularity measure S", "S"
+
+
 def plot_singularity_along_path(result, ax=None):
-    """``S`` of the plant's configuration along the run (paper figure 5)."""
+    """``S`` of the plant's configuration along the run (paper figure 5); a redundantly actuated machine's
+    actuation measure."""
     ax = _axes(ax)
+    name, symbol = measure_name(result.scenario.model.description)
     ax.plot(result.t, result.S, color="tab:blue")
     ax.axhline(0.0, color="k", lw=0.8)
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("singularity measure S")
+    ax.set_ylabel(name)
     ax.set_ylim(min(0.0, float(result.S.min()) * 1.1), max(0.0, float(result.S.max()) * 1.1))
     ax.grid(alpha=0.3)
-    ax.set_title(f"S along the trajectory ({_case(result)})")
+    ax.set_title(f"{symbol} along the trajectory ({_case(result)})")
     return ax
 
 

@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .plotting import measure_name
+
 #: At most this many animation frames (evenly spread over the run, the last sample included): the
 #: HTML file holds every frame's machine, so its size grows with them.
 MAX_FRAMES = 150
@@ -89,7 +91,8 @@ class RunView:
         kinds = description.actuator_kinds
         unit = "N·m" if all(k == "R" for k in kinds) else "N" if all(k == "P" for k in kinds) else "N·m or N"
         series["efforts"] = (unit, {f"τ{i + 1}": tau[:, i] for i in range(tau.shape[1])})
-        series["singularity measure S"] = ("", {"S": S})
+        name, symbol = measure_name(description)
+        series[name] = ("", {symbol: S})
         legs = description.legs
         return cls(name, t, samples, joints, [leg.actuated_joints for leg in legs], [len(leg.joints) for leg in legs],
                    description.platform.kind != "point", desired, actual, series,

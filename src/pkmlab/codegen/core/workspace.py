@@ -160,6 +160,7 @@ WORKSPACE = np.dtype([
     ("force", np.float64, (N_INDEPENDENT,)),  # a generalised force on the independent coordinates, to distribute
     ("normal", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Wᵀ D⁻¹ W of the distribution, and its factor
     ("normal_ldl", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),
+    ("internal", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # internal efforts: columns of the projector onto them
 ], align=True)
 
 
