@@ -744,6 +744,7 @@ WORKSPACE = np.dtype([
     ("force", np.float64, (N_INDEPENDENT,)),  # a generalised force on the independent coordinates, to distribute
     ("normal", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Wᵀ D⁻¹ W of the distribution, and its factor
     ("normal_ldl", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),
+    ("internal", np.float64, (N_ACTUATORS, N_ACTUATORS)),  # internal efforts: columns of the projector onto them
 ], align=True)
 
 
@@ -1382,9 +1383,11 @@ def distribute(ws, distribution, tau):
     With as many actuators as independent coordinates, ``τ = f``. A redundantly actuated machine's satisfy
     ``Wᵀ τ = f`` (``W = ∂θ/∂x``, the actuators' rows of ``ws.j_q_theta``, the last model's) nearest a preload in a
     weighted 2-norm: ``min (τ - τp)ᵀ D (τ - τp)``, that is ``τ = τp + D⁻¹ W (Wᵀ D⁻¹ W)⁻¹ (f - Wᵀ τp)``. The
-    rows of ``distribution`` (2, N_ACTUATORS) are ``D``'s diagonal and ``τp``: ones and zeros give the minimum
-    2-norm (the pseudo-inverse's efforts), zeros in the second row a weighted minimum norm, ones in the first the
-    minimum norm plus the preload's internal part (:func:`pkmlab.distribute_efforts`' methods).
+    rows of ``distribution`` (3, N_ACTUATORS) are ``D``'s diagonal, ``τp`` and the effort limits ``|τ_i| <= L_i``
+    (``inf``: none): ones and zeros give the minimum 2-norm (the pseudo-inverse's efforts), zeros in the second row
+    a weighted minimum norm, ones in the first the minimum norm plus the preload's internal part
+    (:func:`pkmlab.distribute_efforts`' methods). With one internal effort (``N_ACTUATORS = N_INDEPENDENT + 1``)
+    the limits are respected exactly where they can be (:func:`within_limits`).
     """
     n = N_INDEPENDENT
     if not REDUNDANT:
@@ -1409,7 +1412,59 @@ def distribute(ws, distribution, tau):
         for i in range(n):
             acc += ws.j_q_theta[a, i] * ws.force[i]
         tau[a] = distribution[1, a] + acc / distribution[0, a]
+    if N_ACTUATORS == n + 1:
+        within_limits(ws, distribution, tau)
     return True
+
+
+@njit(**NO_REFCOUNT)
+def within_limits(ws, distribution, tau):
+    """Move the efforts ``tau`` of :func:`distribute` (one internal effort) along it into their limits
+    (``distribution[2]``) where they can be: ``τ + s u``, ``u`` the internal effort (``Wᵀ u = 0``), ``s`` the
+    point of the interval every limit allows nearest 0 — the distribution's own objective is a convex quadratic
+    in ``s`` least at 0, so that point is the least-objective efforts within the limits. Where no ``s`` holds every
+    limit, the efforts are left as they are (the drives saturate them; a run whose desired motion needs that is
+    refused before it starts)."""
+    n = N_INDEPENDENT
+    limited = False
+    for a in range(N_ACTUATORS):
+        limited = limited or distribution[2, a] != np.inf
+    if not limited:
+        return
+    # u: the column of the projector I - D⁻¹ W (Wᵀ D⁻¹ W)⁻¹ Wᵀ onto the internal efforts of the largest norm
+    best, best_norm = 0, -1.0
+    for j in range(N_ACTUATORS):
+        for i in range(n):
+            ws.force[i] = ws.j_q_theta[j, i]
+        ldlt_solve(ws.normal, ws.normal_ldl, ws.force)
+        norm = 0.0
+        for a in range(N_ACTUATORS):
+            acc = 0.0
+            for i in range(n):
+                acc += ws.j_q_theta[a, i] * ws.force[i]
+            value = (1.0 if a == j else 0.0) - acc / distribution[0, a]
+            ws.internal[j, a] = value
+            norm += value * value
+        if norm > best_norm:
+            best, best_norm = j, norm
+    if not best_norm > 0.0:
+        return
+    low, high = -np.inf, np.inf
+    for a in range(N_ACTUATORS):
+        u, limit = ws.internal[best, a], distribution[2, a]
+        if limit == np.inf:
+            continue
+        if u == 0.0:
+            if abs(tau[a]) > limit:
+                return
+            continue
+        s1, s2 = (-limit - tau[a]) / u, (limit - tau[a]) / u
+        low, high = max(low, min(s1, s2)), min(high, max(s1, s2))
+    if low > high or (low <= 0.0 <= high):
+        return
+    s = low if low > 0.0 else high
+    for a in range(N_ACTUATORS):
+        tau[a] += s * ws.internal[best, a]
 
 
 # ---- pkmlab.codegen.core.loop, bound to the kernels above ----

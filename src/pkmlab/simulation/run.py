@@ -346,14 +346,13 @@ def prepare_run(scenario: Scenario, desired_cache: dict | None = None) -> Prepar
     spec = scenario.controller
     prep = PreparedRun(t, motion, q_ctrl0, q_plant0, CONTROLLER_TYPES[spec.kind], float(spec.kp),
                      float(spec.velocity_gain), _distribution(scenario), float(scenario.singularity_guard),
-                     scenario.model.P,
-                     scenario.plant_model.P, realism(scenario, t.size))
+                     scenario.model.P, scenario.plant_model.P, realism(scenario, t.size))
     if scenario.sample_time > 0:
         _check_sampled_data_stability(scenario, prep)
-    if scenario.model.description.actuation_redundancy:
-        _check_effort_limits(scenario, prep)
     else:
         _check_continuous_stiffness(scenario, prep)
+    if scenario.model.description.actuation_redundancy:
+        _check_effort_limits(scenario, prep)
     return prep
 
 
