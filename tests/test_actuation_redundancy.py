@@ -593,18 +593,19 @@ def _quintic_line(start, end, duration: float, ts: float):
     return (np.asarray(start) + s[:, None] * span, s_dot[:, None] * span, s_ddot[:, None] * span)
 
 
-def _redundant_run(model, ts, distribution, kind=0, kp=400.0, kv=40.0, P_plant=None):
-    """The compiled sampled-data loop of the 4-RRR along :func:`_quintic_line`, straight from its kernels."""
+def _redundant_run(model, ts, distribution):
+    """The compiled sampled-data loop of the 4-RRR along :func:`_quintic_line`, computed torque with its exact model
+    (kp = 400), straight from its kernels (the entry point :func:`pkmlab.simulate` calls, with its argument types)."""
     k = model.kernels
     pose, pose_dot, pose_ddot = _quintic_line([0.24, 0.24, -0.2], [0.29, 0.27, 0.3], 0.4, ts)
     q0 = mm.inverse_kinematics(model, pose[0], MODE)
     count, n = len(pose), model.n_actuators
     q, rates, tau, s = np.zeros((count, q0.size)), np.zeros((count, 3)), np.zeros((count, n)), np.zeros(count)
     none = np.zeros((0, n))
-    status, failed = k.sampled_data_loop(ts, 1, pose, pose_dot, pose_ddot, q0, q0.copy(),
-                                         model.P if P_plant is None else P_plant, model.P, kind, kp, kv,
-                                         np.asarray(distribution, dtype=float), 1e-9, k.NO_DRIVES, k.NO_DRIVES, none,
-                                         np.zeros(n), none, -1, 0, q, rates, tau, s, none)
+    status, failed = k.sampled_data_chunk(k.make_workspaces(2), np.zeros(6), np.zeros((0, n)), 0, count, ts, 1, pose,
+                                          pose_dot, pose_ddot, q0, q0.copy(), model.P, model.P, 0, 400.0, 40.0,
+                                          np.array(distribution, dtype=float), 1e-9, k.NO_DRIVES, k.NO_DRIVES, none,
+                                          np.zeros(n), none, -1, 0, q, rates, tau, s, none)
     assert (status, failed) == (k.OK, -1)
     return pose, q, rates, tau
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import functools
 import math
 import re
 from collections.abc import Callable
@@ -184,9 +185,28 @@ _SPACE_PLANT_NAMES = {name: [rf"\b{name}\b", *_BLOW_UP] for name in
 
 _LOG_T = np.linspace(0.0, 0.04, 41)
 _LOG_THETA = THETA + 0.05 * np.sin(40.0 * _LOG_T)[:, None]
-_STATES = pkmlab.random_states(GENERIC, 8, seed=1)
-_STATES_TAU = pkmlab.inverse_dynamics(GENERIC, *_STATES)
-_IDENTIFIED = pkmlab.identify(GENERIC, *_STATES, _STATES_TAU)
+
+
+class Lazy:
+    """A valid argument computed when a test first needs it, not as the module is collected (every worker of
+    ``pytest -n`` collects every module: a run or an identification made there costs each worker its compiles)."""
+
+    def __init__(self, make: Callable, array: bool = False):
+        self.make, self.array = make, array  # array: the value is a non-empty array of floats
+
+    @functools.cached_property
+    def value(self):
+        return self.make()
+
+
+def _states_identified():
+    states = pkmlab.random_states(GENERIC, 8, seed=1)
+    tau = pkmlab.inverse_dynamics(GENERIC, *states)
+    return states, tau, pkmlab.identify(GENERIC, *states, tau)
+
+
+_STATES = Lazy(_states_identified)
+_RUN = Lazy(lambda: pkmlab.simulate(SCENARIO))
 
 
 def _use_trajectory(trajectory):
@@ -231,11 +251,14 @@ TARGETS = [
     Target("filter_measurements", pkmlab.filter_measurements,
            dict(model=GENERIC, t=_LOG_T, theta=_LOG_THETA, tau=np.zeros((41, 3)), window=0.01, polyorder=4,
                 decimate="auto", q_start=G_Q, pose=None, mode=None, first_row=0), examples=80),
-    Target("identify", pkmlab.identify, dict(model=GENERIC, q=_STATES[0], theta_dot=_STATES[1],
-                                             theta_ddot=_STATES[2], tau=_STATES_TAU, drives=False, base=None),
+    Target("identify", pkmlab.identify, dict(model=GENERIC, q=Lazy(lambda: _STATES.value[0][0], True),
+                                             theta_dot=Lazy(lambda: _STATES.value[0][1], True),
+                                             theta_ddot=Lazy(lambda: _STATES.value[0][2], True),
+                                             tau=Lazy(lambda: _STATES.value[1], True), drives=False, base=None),
            examples=60),
     Target("physically_consistent", physically_consistent,
-           dict(model=GENERIC, identification=_IDENTIFIED, prior=None, slack=0.01, min_mass=None), examples=15),
+           dict(model=GENERIC, identification=Lazy(lambda: _STATES.value[2]), prior=None, slack=0.01, min_mass=None),
+           examples=15),
     Target("identified_model", identified_model, dict(model=GENERIC, parameters=pkmlab.inertial_parameters(GENERIC)),
            examples=40),
     Target("ActuatorSpacePlant.simulate", _actuator_space_plant,
@@ -314,8 +337,8 @@ TARGETS = [
                                                      combine="cross"), examples=60),
     _sig(pkmlab.load_study, path=Path(__file__).parents[1] / "examples" / "fast_gain_sweep.toml"),
     # the notebook's interactive view of a run
-    Target("show", pkmlab.show, dict(result=pkmlab.simulate(SCENARIO)), examples=40),
-    Target("plot", pkmlab.plot, dict(result=pkmlab.simulate(SCENARIO)), examples=40),
+    Target("show", pkmlab.show, dict(result=_RUN), examples=40),
+    Target("plot", pkmlab.plot, dict(result=_RUN), examples=40),
     # plants
     Target("ReducedPlant.simulate", _reduced_plant, {**_PLANT, "singularity_guard": 1e-6, "theta_dot0": np.zeros(3)},
            names=_PLANT_NAMES, examples=150, careless=CARELESS_TYPES),
@@ -334,11 +357,17 @@ def _patterns(target: Target, param: str, bad) -> list[str]:
     return patterns
 
 
+def _valid(target: Target) -> dict:
+    """``target``'s valid arguments, the lazy ones computed."""
+    return {name: value.value if isinstance(value, Lazy) else value for name, value in target.valid.items()}
+
+
 def check(target: Target, param: str, bad) -> None:
     """Call ``target`` with ``param`` replaced by ``bad``: success, or a one-line PkmlabError naming ``param``."""
     TRIED[target.name] += 1
+    valid = _valid(target)
     try:
-        result = target.call(**{**target.valid, param: bad})
+        result = target.call(**{**valid, param: bad})
     except pkmlab.PkmlabError as exc:
         message = str(exc)
         where = f"{target.name}({param}={bad!r}) raised {type(exc).__name__}({message!r})"
@@ -448,8 +477,9 @@ def test_a_scenario_with_a_string_working_mode_runs():
 # ------------------------------------------------------------------ numbers written as text or truth values
 def _numeric_params(target: Target) -> list[str]:
     """The parameters of ``target`` whose valid value is an array of floats (not a mode, a name or a path)."""
-    return [p for p in target.params if isinstance(target.valid.get(p), np.ndarray)
-            and target.valid[p].dtype.kind == "f" and target.valid[p].size]
+    valid = target.valid
+    return [p for p in target.params if (isinstance(valid.get(p), Lazy) and valid[p].array)
+            or (isinstance(valid.get(p), np.ndarray) and valid[p].dtype.kind == "f" and valid[p].size)]
 
 
 _NUMERIC = [(t, p) for t in TARGETS for p in _numeric_params(t)]
@@ -460,10 +490,11 @@ _NUMERIC = [(t, p) for t in TARGETS for p in _numeric_params(t)]
 def test_numbers_written_as_text_or_truth_values_are_refused_by_name(target, param, spelling):
     """NumPy reads ``"0.1667"`` as 0.1667 and ``True`` as 1: an array argument given as text or as truth values
     (Planar3RRR(passive_lengths="0.1667") was accepted) is refused, naming the argument, not converted."""
-    valid = target.valid[param]
+    arguments = _valid(target)
+    valid = arguments[param]
     bad = (valid.astype(str) if spelling == "text" else valid != 0).tolist()
     with pytest.raises(pkmlab.PkmlabError) as info:
-        target.call(**{**target.valid, param: bad})
+        target.call(**{**arguments, param: bad})
     assert any(re.search(p, str(info.value)) for p in _patterns(target, param, bad)), str(info.value)
 
 
