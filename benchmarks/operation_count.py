@@ -250,7 +250,7 @@ def count_preset(name: str, samples: int | None = None) -> dict:
     total = d.theta.shape[0] if samples is None else min(samples + 2, d.theta.shape[0])
     few, many = run(2), run(total)
     per_sample = {k: (many[k] - few[k]) / (total - 2) for k in many if many[k] != few[k]}
-    loop_own = own_operations(kernels._sampled_data_loop, constants, loop_body=True)
+    loop_own = own_operations(kernels.sampled_data_chunk, constants, loop_body=True)
     flops, libm, rows = 0.0, 0.0, []
     for (key, sizes), calls in sorted(per_sample.items()):
         f, t = own_operations(functions[key], constants, dict(sizes))

@@ -1428,29 +1428,10 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     count, n = theta_d.shape[0], N_INDEPENDENT
     theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, n))
     start = count - count  # 0, typed as sampled_data_chunk's k0 (not a literal): one compiled loop for both
-    return _sampled_data_loop(make_workspaces(2), np.zeros(2 * n), theta_dot_m, start, count, ts, n_sub,
+    return sampled_data_chunk(make_workspaces(2), np.zeros(2 * n), theta_dot_m, start, count, ts, n_sub,
                               theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv,
                               distribution, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
                               sensing, delay, out_q, out_theta_dot, out_tau, out_s, out_theta_m)
-
-
-@njit(cache=True)
-def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0,
-                       q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive, ctrl_drive,
-                       effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
-                       out_theta_m):
-    """Samples ``k0 … k0 + len(theta_d) - 1`` of a sampled-data run of ``count`` samples: :func:`sampled_data_loop`
-    in pieces, so that a long run needs its desired motion one piece at a time. The piece's desired motion
-    (``theta_d`` …) has a row per sample of the piece; the recorded series (``out_q`` …, ``effort_noise``,
-    ``theta_noise``) a row per sample of the run. ``workspaces`` (:func:`make_workspaces` of 2), ``x`` (2n,
-    zeros) and ``theta_dot_m`` (the controller's measured rates, which its delayed and differenced measurements
-    read back: shaped as ``out_theta_m``, zeros) are the run's state, made once by the caller and handed
-    from one piece to the next: the pieces compute exactly what the whole run computes. Returns ``(status, k)``
-    as :func:`sampled_data_loop`, ``k`` the run's sample."""
-    return _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d,
-                              q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive,
-                              ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot,
-                              out_tau, out_s, out_theta_m)
 
 
 @njit(**NO_REFCOUNT)
@@ -1472,10 +1453,18 @@ def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m
 
 
 @njit(cache=True)
-def _sampled_data_loop(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d,
-                       q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive,
-                       ctrl_drive, effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau,
-                       out_s, out_theta_m):
+def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0,
+                       q_ctrl0, P_plant, P_ctrl, kind, kp, kv, distribution, singularity_guard, drive, ctrl_drive,
+                       effort_noise, resolution, theta_noise, sensing, delay, out_q, out_theta_dot, out_tau, out_s,
+                       out_theta_m):
+    """Samples ``k0 … k0 + len(theta_d) - 1`` of a sampled-data run of ``count`` samples: :func:`sampled_data_loop`
+    in pieces, so that a long run needs its desired motion one piece at a time. The piece's desired motion
+    (``theta_d`` …) has a row per sample of the piece; the recorded series (``out_q`` …, ``effort_noise``,
+    ``theta_noise``) a row per sample of the run. ``workspaces`` (:func:`make_workspaces` of 2), ``x`` (2n,
+    zeros) and ``theta_dot_m`` (the controller's measured rates, which its delayed and differenced measurements
+    read back: shaped as ``out_theta_m``, zeros) are the run's state, made once by the caller and handed
+    from one piece to the next: the pieces compute exactly what the whole run computes. Returns ``(status, k)``
+    as :func:`sampled_data_loop`, ``k`` the run's sample."""
     n = N_INDEPENDENT
     plant, ctrl = workspaces[0], workspaces[1]
     if k0 == 0:  # the run starts: the plant at rest at q_plant0, the controller's model at q_ctrl0
