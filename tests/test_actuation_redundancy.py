@@ -712,4 +712,5 @@ def test_declared_effort_limits_are_held_by_the_distribution_or_the_run_is_refus
     with pytest.raises(InvalidParameterError) as refused:
         pkmlab.simulate(scenario.replace(drives=Drives(effort_limit=0.4)))
     message = str(refused.value)
-    assert "\n" not in message and re.match(r"t = 0\.\d{4} s: the effort limits cannot be held: actuator a\d", message)
+    assert "\n" not in message and re.match(r"t = 0\.\d{4} s: the effort limits cannot be held: actuator a\d needs at "
+                                             r"most -0\.4\d+ against its lower limit -0\.4\b", message), message

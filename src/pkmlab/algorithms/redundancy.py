@@ -246,9 +246,9 @@ def _infeasible(W: np.ndarray, f: np.ndarray, lower: np.ndarray, upper: np.ndarr
     worst = float(beyond.max())
     named = [i for i in range(na) if beyond[i] >= worst - 1e-9 * max(abs(worst), 1.0)]
     i = named[0]
-    side, bound = ("upper", upper[i]) if tau[i] > upper[i] else ("lower", lower[i])
+    side, bound, least = ("upper", upper[i], "at least") if tau[i] > upper[i] else ("lower", lower[i], "at most")
     others = f" (as far beyond theirs: {', '.join(f'a{k + 1}' for k in named[1:])})" if len(named) > 1 else ""
-    return (f"{where}the effort limits cannot be held: actuator a{i + 1} needs at least {tau[i]:.6g} against its "
+    return (f"{where}the effort limits cannot be held: actuator a{i + 1} needs {least} {tau[i]:.6g} against its "
             f"{side} limit {bound:g}{others} for the requested forces")
 
 
