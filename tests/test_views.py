@@ -34,6 +34,7 @@ def result_dir(tmp_path_factory, nominal_result):
 # ------------------------------------------------------------------ the view's data
 def test_the_view_draws_the_run_it_was_given(nominal_result):
     view = RunView.from_result(nominal_result)
+    assert view.name == nominal_result.scenario.name  # (not the name of a series it draws)
     assert view.samples[0] == 0 and view.samples[-1] == len(nominal_result.t) - 1 and len(view.samples) <= 150
     # the tracked point of the drawn machine is the platform's centroid: the mean of its vertices (the 3-RRR's
     # attachment points form an equilateral triangle about it)

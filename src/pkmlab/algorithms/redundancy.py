@@ -184,6 +184,16 @@ def pose_space_model(model: MechanismModel, q, pose_dot) -> PoseSpaceModel:
 
 
 # ------------------------------------------------------------------ effort distribution
+def internal_efforts(W, tau) -> np.ndarray:
+    """The internal part of efforts ``tau`` (..., n_a) for actuation Jacobians ``W`` (..., n_a, dof): their
+    projection ``tau - W (WᵀW)⁻¹ Wᵀ tau`` on the null space of ``Wᵀ``, what the actuators exert against each other
+    (:attr:`EffortDistribution.internal` of one pose)."""
+    W, tau = np.asarray(W, dtype=float), np.asarray(tau, dtype=float)
+    wt_tau = np.einsum("...ai,...a->...i", W, tau)
+    normal = np.einsum("...ai,...aj->...ij", W, W)
+    return tau - np.einsum("...ai,...i->...a", W, np.linalg.solve(normal, wt_tau[..., None])[..., 0])
+
+
 def _null_space(W: np.ndarray) -> np.ndarray:
     """An orthonormal basis (n_a, n_a - rank) of the null space of ``Wᵀ``; refuses a rank-deficient ``W``."""
     u, s, _vt = np.linalg.svd(W)

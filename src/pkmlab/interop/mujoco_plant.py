@@ -84,8 +84,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     mujoco.mj_forward(model, data)
     n, count, d = ctrl.n_actuators, prep.t.size, prep.desired
     q = np.zeros((count, q_plant0.size))
-    theta_dot, tau, s, violation = (np.zeros((count, n)), np.zeros((count, n)), np.zeros(count),
-                                    np.zeros(count))
+    theta_dot, tau, violation = np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
     q_out, effort, applied, r = np.empty_like(q_ctrl), np.zeros(n), np.zeros(n), prep.realism
     readings = count if r.sensing >= 0 else 0  # rows of the controller's readings (none: it reads the state)
     theta_m, theta_dot_m = np.zeros((readings, n)), np.zeros((readings, n))
@@ -123,8 +122,7 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
             raise UnstableControlError(f"MuJoCo's integration failed between t = {prep.t[k]:.4f} and "
                                        f"{prep.t[k + 1]:.4f} s (non-finite state): try a smaller --mujoco-timestep "
                                        "or another integrator")
-    plant.kernels.singularity_measures(q, plant.P, s)  # of every recorded configuration, at once
     pose = pose_of(plant, q).copy()
-    result = run_result(scenario, prep, q, theta_dot, tau, pose, run_measures(plant, q, s),
+    result = run_result(scenario, prep, q, theta_dot, tau, pose, run_measures(plant, q),
                         theta_m if r.sensing >= 0 else None)
     return replace(result, closure_violation=violation)

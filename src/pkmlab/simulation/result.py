@@ -131,6 +131,7 @@ class SimulationResult:
             return None
         if plant is model or plant == model:
             return np.zeros_like(self.tau)
+        from ..algorithms.redundancy import internal_efforts
         from ..model.mechanism_model import path_inverse_kinematics, pose_jacobians
 
         n, out = self.tau.shape[1], np.empty_like(self.tau)
@@ -138,13 +139,9 @@ class SimulationResult:
             rows = slice(k0, k0 + INTERNAL_PIECE)
             q_model = path_inverse_kinematics(model, np.ascontiguousarray(self.pose[rows]), self.working_mode,
                                               follow=True)[0]
-            parts = []
-            for machine, q in ((plant, self.q[rows]), (model, q_model)):
-                W = pose_jacobians(machine, q)[0][:, :n, :]
-                wt_tau = np.einsum("kai,ka->ki", W, self.tau[rows])
-                parts.append(self.tau[rows] - np.einsum("kai,ki->ka", W, np.linalg.solve(
-                    np.einsum("kai,kaj->kij", W, W), wt_tau[..., None])[..., 0]))
-            out[rows] = parts[0] - parts[1]
+            plant_part, model_part = (internal_efforts(pose_jacobians(machine, q)[0][:, :n, :], self.tau[rows])
+                                      for machine, q in ((plant, self.q[rows]), (model, q_model)))
+            out[rows] = plant_part - model_part
         return out
 
     def summary(self) -> dict:

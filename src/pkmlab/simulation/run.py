@@ -293,11 +293,12 @@ def loop_motion(model: MechanismModel, d) -> tuple[np.ndarray, np.ndarray, np.nd
     return d.theta, d.theta_dot, d.theta_ddot
 
 
-def run_measures(model: MechanismModel, q: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """The singularity measure a run reports at its configurations ``q``: the loop's ``S`` (``s``), or for a
-    redundantly actuated machine its actuation measure (whose loop's ``S`` guards its legs' serial singularities),
-    a piece of rows at a time."""
-    if not model.description.actuation_redundancy:
+def run_measures(model: MechanismModel, q: np.ndarray, s: np.ndarray | None = None) -> np.ndarray:
+    """The singularity measure a run reports at its configurations ``q``
+    (:func:`~pkmlab.model.mechanism_model.configuration_measures`, a piece of rows at a time): ``S``, which is the
+    loop's own ``s`` where given, or for a redundantly actuated machine its actuation measure (whose loop's ``S``
+    guards its legs' serial singularities)."""
+    if s is not None and not model.description.actuation_redundancy:
         return s
     from ..model.mechanism_model import configuration_measures
 
@@ -562,10 +563,9 @@ def _check_effort_limits(scenario: Scenario, prep: PreparedRun) -> None:
     d = prep.desired
     dynamics = pose_space_model(model, d.q[rows], d.pose_dot[rows])
     force = np.einsum("kij,kj->ki", dynamics.M, d.pose_ddot[rows]) + dynamics.c + dynamics.g
-    extra = {"weights": spec.weights} if spec.distribution == "weighted" else {"preload": spec.preload} \
-        if spec.distribution == "preload" else {}
-    for k, W, f in zip(rows, dynamics.W, force, strict=True):
-        distribute_efforts(W, f, spec.distribution, limits=limits, where=f"t = {prep.t[k]:.4f} s: ", **extra)
+    for k, W, f in zip(rows, dynamics.W, force, strict=True):  # (the spec holds only its distribution's own)
+        distribute_efforts(W, f, spec.distribution, weights=spec.weights, preload=spec.preload, limits=limits,
+                           where=f"t = {prep.t[k]:.4f} s: ")
 
 
 def _pose_of(model: MechanismModel, q: np.ndarray) -> np.ndarray:

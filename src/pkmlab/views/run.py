@@ -91,8 +91,8 @@ class RunView:
         kinds = description.actuator_kinds
         unit = "N·m" if all(k == "R" for k in kinds) else "N" if all(k == "P" for k in kinds) else "N·m or N"
         series["efforts"] = (unit, {f"τ{i + 1}": tau[:, i] for i in range(tau.shape[1])})
-        name, symbol = measure_name(description)
-        series[name] = ("", {symbol: S})
+        measure, symbol = measure_name(description)
+        series[measure] = ("", {symbol: S})
         legs = description.legs
         return cls(name, t, samples, joints, [leg.actuated_joints for leg in legs], [len(leg.joints) for leg in legs],
                    description.platform.kind != "point", desired, actual, series,
