@@ -199,8 +199,9 @@ def _redundant_rows(h, repeats: int, paper_loop_per_sample_s: float | None, delt
                     ) -> tuple[list[dict], dict]:
     """The redundantly actuated machines' default runs: the first run, the compiled loop per sample (in the pose,
     the efforts distributed with the least 2-norm; for the 4-RRR also weighted and preloaded) against its twin's
-    (the paper's 3-RRR, the Delta) measured in this run, and the minimum ∞-norm distribution, a linear program,
-    per call of :func:`pkmlab.distribute_efforts` (runs do not offer it)."""
+    (the paper's 3-RRR, the Delta) measured in this run; the 4-RRR's also with the least peak (the minimum ∞-norm,
+    solved in the loop for its one internal effort), and that linear program per call of
+    :func:`pkmlab.distribute_efforts` (SciPy's HiGHS)."""
     from pkmlab.simulation.run import loop_motion
 
     rows, checks = [], {}
@@ -215,7 +216,7 @@ def _redundant_rows(h, repeats: int, paper_loop_per_sample_s: float | None, delt
         if name == "4rrr":
             n = model.n_actuators
             for method, extra in (("weighted", dict(weights=(1.0, 1.0, 4.0, 4.0))),
-                                  ("preload", dict(preload=(1.5, -1.5, 1.5, -1.5)[:n]))):
+                                  ("preload", dict(preload=(1.5, -1.5, 1.5, -1.5)[:n])), ("minimum_peak", {})):
                 shares[method] = scenario.replace(controller=pkmlab.ControllerSpec(
                     kp=scenario.controller.kp, distribution=method, **extra))
         for method, run in shares.items():

@@ -215,7 +215,7 @@ def count_preset(name: str, samples: int | None = None) -> dict:
 
     from pkmlab.formats.scenario import load_scenario
     from pkmlab.numerics import closed_chain
-    from pkmlab.simulation.run import prepare_run
+    from pkmlab.simulation.run import loop_motion, prepare_run
 
     scenario = load_scenario(EXAMPLES / f"{DEFAULT_RUNS[name]}.toml")
     prep = prepare_run(scenario)
@@ -228,16 +228,16 @@ def count_preset(name: str, samples: int | None = None) -> dict:
     skip = {"make_workspaces", "sampled_data_loop", "sampled_data_batch", "reduced_column"}  # the last: an index
     names = [k for k in functions if k not in skip and not k.startswith("_")]
     q_plant0, q_ctrl0 = prep.q_plant0, prep.q_ctrl0
-    d = prep.desired
-    n, n_q = ctrl.n_actuators, kernels.N_COORDINATES
+    desired = loop_motion(ctrl, prep.desired)  # the actuators' motion, or a redundantly actuated machine's poses
+    n, n_x, n_q = ctrl.n_actuators, kernels.N_INDEPENDENT, kernels.N_COORDINATES
 
     def run(count):
         calls = Counter()
         originals = _wrap(kernels, names, calls)
         try:
-            outs = (np.zeros((count, n_q)), np.zeros((count, n)), np.zeros((count, n)), np.zeros(count))
-            status, _k = kernels.sampled_data_loop(scenario.sample_time, scenario.substeps, d.theta[:count],
-                                                   d.theta_dot[:count], d.theta_ddot[:count], q_plant0, q_ctrl0,
+            outs = (np.zeros((count, n_q)), np.zeros((count, n_x)), np.zeros((count, n)), np.zeros(count))
+            status, _k = kernels.sampled_data_loop(scenario.sample_time, scenario.substeps,
+                                                   *(series[:count] for series in desired), q_plant0, q_ctrl0,
                                                    plant.P, ctrl.P, prep.kind, prep.kp, prep.kv, prep.distribution,
                                                    prep.singularity_guard, *prep.realism, *outs, np.zeros((0, n)))
         finally:
@@ -247,7 +247,7 @@ def count_preset(name: str, samples: int | None = None) -> dict:
         return calls
 
     # the samples after the first: the difference of two runs, one of the first two samples only
-    total = d.theta.shape[0] if samples is None else min(samples + 2, d.theta.shape[0])
+    total = desired[0].shape[0] if samples is None else min(samples + 2, desired[0].shape[0])
     few, many = run(2), run(total)
     per_sample = {k: (many[k] - few[k]) / (total - 2) for k in many if many[k] != few[k]}
     loop_own = own_operations(kernels.sampled_data_chunk, constants, loop_body=True)
@@ -261,7 +261,7 @@ def count_preset(name: str, samples: int | None = None) -> dict:
                      "operations_per_call": f, "libm_per_call": t})
     flops += loop_own[0]
     libm += loop_own[1]
-    streamed = 8 * (3 * n + n_q + 2 * n + 1)  # θd, θ̇d, θ̈d read; q, θ̇, τ, S written
+    streamed = 8 * (3 * n_x + n_q + n_x + n + 1)  # θd, θ̇d, θ̈d read; q, θ̇, τ, S written
     # two workspaces, both machines' parameters, the state x, the RK4 stages and the effort
     working_set = 2 * kernels.WORKSPACE.itemsize + 8 * (2 * ctrl.P.size + 2 * n + 5 * 2 * n + n)
     return {"preset": name, "operations_per_sample": flops, "libm_calls_per_sample": libm,

@@ -360,14 +360,13 @@ def test_what_a_redundant_run_does_not_model_is_refused_in_one_line(change, expe
 
 def test_a_distribution_is_refused_where_it_has_no_choice_or_lacks_what_it_needs(tmp_path):
     """The controller's distribution: refused for a machine of as many actuators as degrees of freedom, without its
-    weights or preload, with those of another, with as many numbers as another machine's actuators, and
-    ``minimum_peak`` (a linear program each sample), each in one line naming it; in a scenario file by its key."""
+    weights or preload, with those of another, with as many numbers as another machine's actuators, each in one line
+    naming it; in a scenario file by its key."""
     paper = pkmlab.paper_scenario("fast")
     with pytest.raises(InvalidParameterError, match="has as many as its degrees of freedom"):
         paper.replace(controller=pkmlab.ControllerSpec(distribution="preload", preload=(1.0, 1.0, 1.0)))
     for kwargs, expected in ((dict(distribution="weighted"), "weights: needed by distribution 'weighted'"),
                              (dict(preload=(1.0,) * 4), "preload: given for distribution 'preload' only"),
-                             (dict(distribution="minimum_peak"), "not available in runs"),
                              (dict(distribution="weighted", weights=(1.0, -1.0, 1.0, 1.0)), "weights[1] must be a "
                               "positive number")):
         with pytest.raises(InvalidParameterError, match=re.escape(expected)):
@@ -384,16 +383,40 @@ def test_a_distribution_is_refused_where_it_has_no_choice_or_lacks_what_it_needs
     assert "[controller]" in str(refused.value) and "weights: needed by distribution 'weighted'" in str(refused.value)
 
 
+def test_the_least_peak_and_effort_limits_are_refused_in_runs_of_more_than_one_internal_effort(tmp_path):
+    """A fifth leg gives the 4-RRR two internal efforts: the run's least peak and its effort limits, which move the
+    efforts along one, are refused in one line saying so; its minimum-norm run is a scenario."""
+    from pkmlab.simulation.realism import Drives
+
+    text = RRRR.read_text().replace("[-0.0625, 0.0625]]", "[-0.0625, 0.0625], [0.0, -0.0625]]")
+    leg = text[text.index("[[mechanism.leg]]"):].split("\n\n")[0]
+    (tmp_path / "5rrr.toml").write_text(text.rstrip() + "\n\n" + leg.replace("base = [0.0, 0.0]", "base = [0.26, -0.1]")
+                                        + "\n")
+    five = pkmlab.load(tmp_path / "5rrr.toml")
+    assert (five.n_actuators, five.dof, five.description.actuation_redundancy) == (5, 3, 2)
+    scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
+    assert scenario.replace(model=five).model is five
+    for changes, expected in ((dict(controller=pkmlab.ControllerSpec(kp=400.0, distribution="minimum_peak")),
+                               "the least peak is solved in a run for one internal effort, and it has 2"),
+                              (dict(drives=Drives(effort_limit=0.45)),
+                               "its controller holds effort limits for one internal effort, and it has 2")):
+        with pytest.raises(InvalidParameterError) as refused:
+            scenario.replace(model=five, **changes)
+        message = str(refused.value)
+        assert "\n" not in message and "5 actuators for its 3 degrees of freedom" in message and expected in message
+
+
 def test_a_redundant_run_from_its_file_shares_the_force_as_its_distribution_asks(rrrr):
     """``examples/mechanisms/4rrr_motion.toml`` and its distributions, run through :func:`pkmlab.simulate` (and the
     batch, which runs the same loop): at each checked sample the efforts exert the same force on the pose as the
     minimum norm's, and are each distribution's own solution for it computed here by
-    :func:`pkmlab.distribute_efforts` (a separate solve of the optimality conditions) with ``W`` of
-    :func:`pkmlab.pose_coordinate_jacobian`; the result's rates are the actuators' (``W ẋ``) and its measure the
+    :func:`pkmlab.distribute_efforts` (a separate solve of the optimality conditions; for the least peak, SciPy's
+    linear program) with ``W`` of :func:`pkmlab.pose_coordinate_jacobian`, the least peak's largest effort no larger
+    than the minimum norm's for the same force; the result's rates are the actuators' (``W ẋ``) and its measure the
     actuation's."""
     scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
     specs = {"minimum_norm": {}, "weighted": dict(weights=(1.0, 1.0, 4.0, 4.0)),
-             "preload": dict(preload=(1.5, -1.5, 1.5, -1.5))}
+             "preload": dict(preload=(1.5, -1.5, 1.5, -1.5)), "minimum_peak": {}}
     runs = pkmlab.simulate_batch([scenario.replace(controller=pkmlab.ControllerSpec(kp=400.0, distribution=method,
                                                                                     **extra))
                                   for method, extra in specs.items()])
@@ -406,6 +429,8 @@ def test_a_redundant_run_from_its_file_shares_the_force_as_its_distribution_asks
             force = W.T @ run.tau[k]
             ours = pkmlab.distribute_efforts(W, force, method, **extra).tau
             assert np.abs(run.tau[k] - ours).max() <= 1e-10 * max(1.0, np.abs(ours).max()), (method, k)
+            if method == "minimum_peak":
+                assert np.abs(run.tau[k]).max() <= pkmlab.distribute_efforts(W, force).peak * (1 + 1e-12)
         differenced = np.gradient(run.q[:, :4], run.t, axis=0)[1:-1]  # the actuators' rates, W not used
         assert np.abs(differenced - run.theta_dot[1:-1]).max() < 1e-3 * np.abs(run.theta_dot).max()
     assert np.allclose(runs[0].S, pkmlab.actuation_singularity_measure(rrrr, runs[0].q), rtol=1e-12)
@@ -593,6 +618,10 @@ def _quintic_line(start, end, duration: float, ts: float):
     return (np.asarray(start) + s[:, None] * span, s_dot[:, None] * span, s_ddot[:, None] * span)
 
 
+#: The compiled loop's distribution (rows: weights, preload, effort limits, least-peak flag) of the least 2-norm.
+LEAST_NORM = [np.ones(4), np.zeros(4), np.full(4, np.inf), np.zeros(4)]
+
+
 def _redundant_run(model, ts, distribution):
     """The compiled sampled-data loop of the 4-RRR along :func:`_quintic_line`, computed torque with its exact model
     (kp = 400), straight from its kernels (the entry point :func:`pkmlab.simulate` calls, with its argument types)."""
@@ -617,7 +646,7 @@ def test_a_redundant_machines_compiled_run_tracks_its_pose_with_efforts_of_the_d
     here by :func:`pkmlab.pose_coordinate_jacobian`), the preload's carry exactly the preload's internal part."""
     errors = []
     for ts in (2e-3, 1e-3):
-        pose, q, _rates, tau = _redundant_run(rrrr, ts, [np.ones(4), np.zeros(4), np.full(4, np.inf)])
+        pose, q, _rates, tau = _redundant_run(rrrr, ts, LEAST_NORM)
         assert max(_chain_residual(rrrr, qk) for qk in q[::25]) < 1e-12
         errors.append(np.abs(mm.pose_of(rrrr, q) - pose).max())
         for qk, tk in zip(q[::25], tau[::25], strict=True):
@@ -631,8 +660,8 @@ def test_a_redundant_machines_compiled_run_tracks_its_pose_with_efforts_of_the_d
     preload = np.array([1.5, -1.5, 1.5, -1.5])
     departures = []
     for ts in (1e-3, 5e-4):
-        _pose, q_0, _rates, tau_0 = _redundant_run(rrrr, ts, [np.ones(4), np.zeros(4), np.full(4, np.inf)])
-        _pose, q_p, _rates, tau_p = _redundant_run(rrrr, ts, [np.ones(4), preload, np.full(4, np.inf)])
+        _pose, q_0, _rates, tau_0 = _redundant_run(rrrr, ts, LEAST_NORM)
+        _pose, q_p, _rates, tau_p = _redundant_run(rrrr, ts, [np.ones(4), preload, *LEAST_NORM[2:]])
         departures.append(np.abs(mm.pose_of(rrrr, q_p) - mm.pose_of(rrrr, q_0)).max())
         for qk, tp in zip(q_p[::25], tau_p[::25], strict=True):
             W = pkmlab.pose_coordinate_jacobian(rrrr, qk)[:4]
@@ -698,8 +727,9 @@ def test_the_mujoco_plant_runs_a_redundant_machine_as_pkmlabs_plant_does():
 def test_declared_effort_limits_are_held_by_the_distribution_or_the_run_is_refused_naming_time_and_actuator():
     """The 4-RRR's default run under drives limited to 0.45 N m, below its second actuator's least-norm peak
     (0.484 N m): the controller moves its efforts along the internal effort into the limits (no effort beyond them,
-    the second actuator held at its limit) and the platform is tracked as well as without limits. At 0.4 N m no
-    efforts exert the motion's forces: refused before running, in one line naming the time and the actuator."""
+    the second actuator held at its limit) and the platform is tracked as well as without limits; so does the least
+    peak within a limit of each actuator's own. At 0.4 N m no efforts exert the motion's forces: refused before
+    running, in one line naming the time and the actuator."""
     from pkmlab.simulation.realism import Drives
 
     scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
@@ -709,6 +739,17 @@ def test_declared_effort_limits_are_held_by_the_distribution_or_the_run_is_refus
     assert np.abs(limited.tau).max() <= 0.45 * (1 + 1e-12)
     assert np.abs(limited.tau).max(axis=0)[1] == pytest.approx(0.45, rel=1e-12)
     assert limited.summary()["max_path_error_m"] < 1.01 * free.summary()["max_path_error_m"]
+    # the least peak within limits of its own for each actuator: the third's, 0.12 N m, below the 0.28 N m the least
+    # peak gives it unlimited, binds; every checked sample's efforts are SciPy's linear program's within the bounds
+    limits = (0.45, 0.45, 0.12, 0.45)
+    peak = pkmlab.simulate(scenario.replace(controller=pkmlab.ControllerSpec(kp=400.0, distribution="minimum_peak"),
+                                            drives=Drives(effort_limit=limits)))
+    assert np.all(np.abs(peak.tau).max(axis=0) <= np.array(limits) * (1 + 1e-12))
+    assert np.abs(peak.tau[:, 2]).max() == pytest.approx(0.12, rel=1e-12)
+    for k in range(0, len(peak.t), 50):
+        W = pkmlab.pose_coordinate_jacobian(scenario.model, peak.q[k])[:4]
+        theirs = pkmlab.distribute_efforts(W, W.T @ peak.tau[k], "minimum_peak", limits=limits).tau
+        assert np.abs(peak.tau[k] - theirs).max() < 1e-12, k
     with pytest.raises(InvalidParameterError) as refused:
         pkmlab.simulate(scenario.replace(drives=Drives(effort_limit=0.4)))
     message = str(refused.value)

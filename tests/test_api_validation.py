@@ -46,22 +46,28 @@ from pkmlab.simulation.run import prepare_run
 
 # ------------------------------------------------------------------ valid arguments
 MODEL = Planar3RRR.paper()
-_IK = kin.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=(-1, 1, -1))
-Q = _IK.q
-THETA = _IK.theta
+# The configuration of pose (0.2, 0.21, 0) in working mode -+-, and its rates for THETA_DOT, as inverse kinematics and
+# coordinate_rates give them (test_the_valid_arguments_are_the_machines_own checks it): written out, because every
+# worker of ``pytest -n`` collects this module, and computing them here would make each compile the paper's kernels
+# before its first test.
+Q = np.array([0.18901246549290407, 3.112030887676176, -2.6424045361135295, 2.275956433356745, 1.6164584394659685,
+              -0.29512459017084014, 0.0])
+THETA = Q[:3].copy()
 THETA_DOT = np.array([0.3, -0.2, 0.5])
 THETA_DDOT = np.array([1.0, 0.0, -1.0])
 TAU = np.array([0.1, -0.2, 0.3])
-Q_DOT = kin.coordinate_rates(MODEL, Q, THETA_DOT)
+Q_DOT = np.array([0.3, -0.2, 0.5, -0.5290498661672587, -0.30979988136650916, 1.2622983416055762, -0.6279306161666469])
 CIRCLE = Circle((0.25, 0.21), 0.05)
 TRAJECTORY = Trajectory(CIRCLE, 0.2)
 CONTROLLER = ControllerSpec("computed_torque", kp=400.0)
 SCENARIO = pkmlab.paper_scenario("nominal").replace(sample_time=0.01, name="coarse")  # 158 samples: quick
 RNG = np.random.default_rng(0)
-# the one API, on the paper's machine as every machine loads (tests/test_api.py checks its numbers)
+# the one API, on the paper's machine as every machine loads (tests/test_api.py checks its numbers): the same
+# configuration with the platform's pose
 GENERIC = pkmlab.load("paper")
-G_Q = pkmlab.inverse_kinematics(GENERIC, [0.2, 0.21, 0.0], mode=(-1, 1, -1)).q
-G_Q_DOT = pkmlab.coordinate_rates(GENERIC, G_Q, THETA_DOT)
+G_Q = np.array([*Q[:6], 0.2, 0.21, 0.0])
+G_Q_DOT = np.array([0.3, -0.2, 0.5, -0.5290498661672584, -0.30979988136650893, 1.2622983416055762,
+                    0.07572617776040173, 0.09158115598435614, -0.627930616166647])
 
 # ------------------------------------------------------------------ careless arguments
 NAN, INF = float("nan"), float("inf")
@@ -450,6 +456,16 @@ def test_scenario_working_mode_takes_the_spellings_of_inverse_kinematics(spellin
     assert scenario.working_mode == (-1, 1, -1)
     assert all(type(s) is int for s in scenario.working_mode)
     np.testing.assert_array_equal(kin.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=spelling).q, Q)
+
+
+def test_the_valid_arguments_are_the_machines_own():
+    """The configurations and rates written out above are the paper machine's (inverse kinematics and
+    ``coordinate_rates``, both formulations), to the last bit."""
+    ik = kin.inverse_kinematics(MODEL, [0.2, 0.21, 0.0], mode=(-1, 1, -1))
+    assert np.array_equal(ik.q, Q) and np.array_equal(ik.theta, THETA)
+    assert np.array_equal(kin.coordinate_rates(MODEL, Q, THETA_DOT), Q_DOT)
+    assert np.array_equal(pkmlab.inverse_kinematics(GENERIC, [0.2, 0.21, 0.0], mode=(-1, 1, -1)).q, G_Q)
+    assert np.array_equal(pkmlab.coordinate_rates(GENERIC, G_Q, THETA_DOT), G_Q_DOT)
 
 
 def test_planar3rrr_replace_names_an_unknown_attribute():

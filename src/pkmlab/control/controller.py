@@ -30,8 +30,8 @@ COMPUTED_TORQUE = 0
 PD = 1
 CONTROLLER_TYPES = {"computed_torque": COMPUTED_TORQUE, "pd": PD}
 #: How a redundantly actuated machine's controller distributes its efforts in a run (the compiled loop's
-#: ``distribute``; :func:`pkmlab.distribute_efforts` has these and ``minimum_peak``).
-RUN_DISTRIBUTIONS = ("minimum_norm", "weighted", "preload")
+#: ``distribute``), the rules of :func:`pkmlab.distribute_efforts`.
+RUN_DISTRIBUTIONS = ("minimum_norm", "weighted", "minimum_peak", "preload")
 
 
 @dataclass(frozen=True)
@@ -51,11 +51,12 @@ class ControllerSpec:
         The proportional gain, non-negative (default 1000).
     kv : float or None
         The derivative gain, non-negative; None for ``2√kp`` (:attr:`velocity_gain`).
-    distribution : {"minimum_norm", "weighted", "preload"}
+    distribution : {"minimum_norm", "weighted", "minimum_peak", "preload"}
         How a redundantly actuated machine's controller shares the force on its pose among its actuators
-        (:data:`RUN_DISTRIBUTIONS`): the least 2-norm of the efforts, the least ``Σ w_i τ_i²``, or the least
-        2-norm plus the internal part of a preload (antagonistic efforts that move nothing). A machine of as many
-        actuators as degrees of freedom has one solution: keep ``"minimum_norm"``.
+        (:data:`RUN_DISTRIBUTIONS`): the least 2-norm of the efforts, the least ``Σ w_i τ_i²``, the least largest
+        effort ``max |τ_i|`` (for one actuator beyond the degrees of freedom), or the least 2-norm plus the
+        internal part of a preload (antagonistic efforts that move nothing). A machine of as many actuators as
+        degrees of freedom has one solution: keep ``"minimum_norm"``.
     weights : sequence of float or None
         The weights ``w_i > 0`` of ``"weighted"``, one per actuator (given with it only).
     preload : sequence of float or None
@@ -91,10 +92,6 @@ class ControllerSpec:
         as_real("controller kp", self.kp, "non-negative")
         if self.kv is not None:
             as_real("controller kv", self.kv, "non-negative")
-        if self.distribution == "minimum_peak":
-            raise InvalidParameterError("controller distribution 'minimum_peak' is a linear program at every sample "
-                                        "and is not available in runs: use 'minimum_norm', 'weighted' or 'preload' "
-                                        "(pkmlab.distribute_efforts gives it at a pose)")
         if not isinstance(self.distribution, str) or self.distribution not in RUN_DISTRIBUTIONS:
             raise InvalidParameterError(f"controller distribution must be one of {list(RUN_DISTRIBUTIONS)}, got "
                                         f"{shown(self.distribution)}")

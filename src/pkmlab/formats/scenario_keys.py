@@ -128,8 +128,9 @@ SCENARIO = {
         Key("sample_time", "number", "The control period; 0: continuous-time control.", "s", default=1e-3,
             sign="non-negative"),
         Key("distribution", "string", "How a redundantly actuated machine's efforts are shared among its actuators: "
-            "the least 2-norm, the least weighted 2-norm (weights), or the least 2-norm plus a preload's internal "
-            "part (preload).", default="minimum_norm", choices=RUN_DISTRIBUTIONS),
+            "the least 2-norm, the least weighted 2-norm (weights), the least largest effort (one actuator beyond the "
+            "degrees of freedom), or the least 2-norm plus a preload's internal part (preload).",
+            default="minimum_norm", choices=RUN_DISTRIBUTIONS),
         Key("weights", "number", "The weights of distribution = 'weighted': one per actuator.", sign="positive",
             many=True),
         Key("preload", "number", "The preload of distribution = 'preload': one effort per actuator.", "N m or N",

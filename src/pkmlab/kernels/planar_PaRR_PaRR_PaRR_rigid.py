@@ -1311,11 +1311,12 @@ def distribute(ws, distribution, tau):
     With as many actuators as independent coordinates, ``τ = f``. A redundantly actuated machine's satisfy
     ``Wᵀ τ = f`` (``W = ∂θ/∂x``, the actuators' rows of ``ws.j_q_theta``, the last model's) nearest a preload in a
     weighted 2-norm: ``min (τ - τp)ᵀ D (τ - τp)``, that is ``τ = τp + D⁻¹ W (Wᵀ D⁻¹ W)⁻¹ (f - Wᵀ τp)``. The
-    rows of ``distribution`` (3, N_ACTUATORS) are ``D``'s diagonal, ``τp`` and the effort limits ``|τ_i| <= L_i``
-    (``inf``: none): ones and zeros give the minimum 2-norm (the pseudo-inverse's efforts), zeros in the second row
-    a weighted minimum norm, ones in the first the minimum norm plus the preload's internal part
-    (:func:`pkmlab.distribute_efforts`' methods). With one internal effort (``N_ACTUATORS = N_INDEPENDENT + 1``)
-    the limits are respected exactly where they can be (:func:`within_limits`).
+    rows of ``distribution`` (4, N_ACTUATORS) are ``D``'s diagonal, ``τp``, the effort limits ``|τ_i| <= L_i``
+    (``inf``: none) and the rule's flag (1 for the least peak ``max |τ_i|``, 0 for the 2-norm rules): ones and
+    zeros give the minimum 2-norm (the pseudo-inverse's efforts), zeros in the second row a weighted minimum norm,
+    ones in the first the minimum norm plus the preload's internal part (:func:`pkmlab.distribute_efforts`'
+    methods). With one internal effort (``N_ACTUATORS = N_INDEPENDENT + 1``) the least peak is exact
+    (:func:`least_peak`) and the limits are respected exactly where they can be (:func:`within_limits`).
     """
     n = N_INDEPENDENT
     if not REDUNDANT:
@@ -1341,26 +1342,20 @@ def distribute(ws, distribution, tau):
             acc += ws.j_q_theta[a, i] * ws.force[i]
         tau[a] = distribution[1, a] + acc / distribution[0, a]
     if N_ACTUATORS == n + 1:
-        within_limits(ws, distribution, tau)
+        if distribution[3, 0] > 0.0:
+            least_peak(ws, distribution, tau)
+        else:
+            within_limits(ws, distribution, tau)
     return True
 
 
 @njit(**NO_REFCOUNT)
-def within_limits(ws, distribution, tau):
-    """Move the efforts ``tau`` of :func:`distribute` (one internal effort) along it into their limits
-    (``distribution[2]``) where they can be: ``τ + s u``, ``u`` the internal effort (``Wᵀ u = 0``), ``s`` the
-    point of the interval every limit allows nearest 0 — the distribution's own objective is a convex quadratic
-    in ``s`` least at 0, so that point is the least-objective efforts within the limits. Where no ``s`` holds every
-    limit, the efforts are left as they are (the drives saturate them; a run whose desired motion needs that is
-    refused before it starts)."""
+def internal_effort(ws, distribution):
+    """The row of ``ws.internal`` that holds the machine's one internal effort ``u`` (``Wᵀ u = 0``), after
+    :func:`distribute`: the column of the projector ``I - D⁻¹ W (Wᵀ D⁻¹ W)⁻¹ Wᵀ`` of the largest norm (every
+    column is a multiple of ``u``; the largest is the best conditioned); -1 where the projector is zero."""
     n = N_INDEPENDENT
-    limited = False
-    for a in range(N_ACTUATORS):
-        limited = limited or distribution[2, a] != np.inf
-    if not limited:
-        return
-    # u: the column of the projector I - D⁻¹ W (Wᵀ D⁻¹ W)⁻¹ Wᵀ onto the internal efforts of the largest norm
-    best, best_norm = 0, -1.0
+    best, best_norm = -1, 0.0
     for j in range(N_ACTUATORS):
         for i in range(n):
             ws.force[i] = ws.j_q_theta[j, i]
@@ -1375,8 +1370,13 @@ def within_limits(ws, distribution, tau):
             norm += value * value
         if norm > best_norm:
             best, best_norm = j, norm
-    if not best_norm > 0.0:
-        return
+    return best
+
+
+@njit(**NO_REFCOUNT)
+def limits_interval(ws, best, distribution, tau):
+    """``(low, high)``: the steps ``s`` along the internal effort (``ws.internal[best]``) for which ``τ + s u``
+    holds every effort limit (``distribution[2]``); ``low > high`` where none does."""
     low, high = -np.inf, np.inf
     for a in range(N_ACTUATORS):
         u, limit = ws.internal[best, a], distribution[2, a]
@@ -1384,15 +1384,80 @@ def within_limits(ws, distribution, tau):
             continue
         if u == 0.0:
             if abs(tau[a]) > limit:
-                return
+                return np.inf, -np.inf
             continue
         s1, s2 = (-limit - tau[a]) / u, (limit - tau[a]) / u
         low, high = max(low, min(s1, s2)), min(high, max(s1, s2))
+    return low, high
+
+
+@njit(**NO_REFCOUNT)
+def within_limits(ws, distribution, tau):
+    """Move the efforts ``tau`` of :func:`distribute` (one internal effort) along it into their limits
+    (``distribution[2]``) where they can be: ``τ + s u``, ``u`` the internal effort (``Wᵀ u = 0``), ``s`` the
+    point of the interval every limit allows nearest 0 — the distribution's own objective is a convex quadratic
+    in ``s`` least at 0, so that point is the least-objective efforts within the limits. Where no ``s`` holds every
+    limit, the efforts are left as they are (the drives saturate them; a run whose desired motion needs that is
+    refused before it starts)."""
+    limited = False
+    for a in range(N_ACTUATORS):
+        limited = limited or distribution[2, a] != np.inf
+    if not limited:
+        return
+    best = internal_effort(ws, distribution)
+    if best < 0:
+        return
+    low, high = limits_interval(ws, best, distribution, tau)
     if low > high or (low <= 0.0 <= high):
         return
     s = low if low > 0.0 else high
     for a in range(N_ACTUATORS):
         tau[a] += s * ws.internal[best, a]
+
+
+@njit(**NO_REFCOUNT)
+def peak_at(ws, best, tau, s):
+    """``max |τ_a + s u_a|``, the peak effort a step ``s`` along the internal effort ``u`` gives."""
+    peak = 0.0
+    for a in range(N_ACTUATORS):
+        peak = max(peak, abs(tau[a] + s * ws.internal[best, a]))
+    return peak
+
+
+@njit(**NO_REFCOUNT)
+def least_peak(ws, distribution, tau):
+    """The efforts of least ``max |τ_a|`` (``τ + s u`` from the minimum-norm ``tau`` of :func:`distribute`, ``u``
+    the one internal effort), within the effort limits where they can be held: the linear program of
+    :func:`pkmlab.distribute_efforts`' ``minimum_peak`` in one unknown, solved exactly. The peak is a convex
+    piecewise-linear function of ``s``, least at one of its breakpoints, where two efforts are equal or opposite
+    (``τ_a + s u_a = ±(τ_b + s u_b)``), or at an end of the limits' interval: every one is tried."""
+    best = internal_effort(ws, distribution)
+    if best < 0:
+        return
+    low, high = limits_interval(ws, best, distribution, tau)
+    if low > high:  # no efforts hold the limits (refused before a run whose desired motion needs that)
+        low, high = -np.inf, np.inf
+    s_best = min(max(0.0, low), high)
+    peak_best = peak_at(ws, best, tau, s_best)
+    for side in range(2):
+        s = low if side == 0 else high
+        if s != -np.inf and s != np.inf:
+            peak = peak_at(ws, best, tau, s)
+            if peak < peak_best:
+                s_best, peak_best = s, peak
+    for a in range(N_ACTUATORS):
+        for b in range(a + 1, N_ACTUATORS):
+            for sign in (-1.0, 1.0):
+                slope = ws.internal[best, a] - sign * ws.internal[best, b]
+                if slope == 0.0:
+                    continue
+                s = -(tau[a] - sign * tau[b]) / slope
+                if low <= s <= high:
+                    peak = peak_at(ws, best, tau, s)
+                    if peak < peak_best:
+                        s_best, peak_best = s, peak
+    for a in range(N_ACTUATORS):
+        tau[a] += s_best * ws.internal[best, a]
 
 
 # ---- pkmlab.codegen.core.loop, bound to the kernels above ----

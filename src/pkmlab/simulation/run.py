@@ -100,7 +100,8 @@ class PreparedRun:
     kp: float
     kv: float
     # how a redundantly actuated machine's controller distributes its efforts, as the loop reads it (the compiled
-    # core's ``distribute``): rows of the weights, the preload and the effort limits, one column per actuator
+    # core's ``distribute``): rows of the weights, the preload, the effort limits and the least-peak flag, one
+    # column per actuator
     distribution: np.ndarray
     singularity_guard: float
     P_ctrl: np.ndarray  # the packed parameters of the controller's model and of the plant, as the loop reads them
@@ -536,15 +537,16 @@ def _divergence(scenario: Scenario, prep: PreparedRun, q: np.ndarray, k_fail: in
 
 
 def _distribution(scenario: Scenario) -> np.ndarray:
-    """The loop's distribution of the efforts (:class:`PreparedRun`): the weights, the preload and the effort
-    limits of the compiled core's ``distribute`` — unit weights and no preload for the minimum 2-norm, which for as
-    many actuators as degrees of freedom is the one solution; the limits the plant's drives declare, at the
-    joint."""
+    """The loop's distribution of the efforts (:class:`PreparedRun`): the weights, the preload, the effort limits
+    and the least-peak flag of the compiled core's ``distribute`` — unit weights and no preload for the minimum
+    2-norm (which for as many actuators as degrees of freedom is the one solution) and the minimum peak, which
+    starts from it; the limits the plant's drives declare, at the joint."""
     spec, n = scenario.controller, scenario.model.n_actuators
     drives = scenario.drives
     limits = np.full(n, np.inf) if drives is None else drives.table(n)[:, scenario.model.kernels.EFFORT_LIMIT]
     return np.vstack([np.ones(n) if spec.weights is None else spec.weights,
-                      np.zeros(n) if spec.preload is None else spec.preload, limits])
+                      np.zeros(n) if spec.preload is None else spec.preload, limits,
+                      np.full(n, float(spec.distribution == "minimum_peak"))])
 
 
 def _check_effort_limits(scenario: Scenario, prep: PreparedRun) -> None:
@@ -885,7 +887,7 @@ def _run_batch(kernels, scenarios: list, preps: list) -> list:
     P_plant, P_ctrl = np.empty((m, P_len)), np.empty((m, P_len))
     ts, n_sub, kind = np.empty(m), np.empty(m, np.int64), np.empty(m, np.int64)
     kp, kv, guards = np.empty(m), np.empty(m), np.empty(m)
-    distribution = np.empty((m, 3, n_act))
+    distribution = np.empty((m, 4, n_act))
     real = preps[0].realism
     drive, ctrl_drive, effort_noise, theta_noise = (np.empty((m, *a.shape)) for a in (
         real.drive, real.ctrl_drive, real.effort_noise, real.theta_noise))

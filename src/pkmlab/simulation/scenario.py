@@ -210,7 +210,8 @@ def _check_redundant_run(scenario: Scenario) -> None:
     """Refuse, in one line, what a redundantly actuated machine's run does not model: its loop is in the controlled
     pose (the compiled core's independent coordinates), its controller reads the plant's pose and distributes its
     efforts over the actuators, and its drives act at the actuators, so only their effort limits and effort noise
-    (which act on each actuator's effort) are modelled."""
+    (which act on each actuator's effort) are modelled. The least peak and the effort limits move the efforts along
+    the machine's internal effort: with more than one, they are refused."""
     model = scenario.model
     what = (f"{model.name} has {model.n_actuators} actuators for its {model.dof} degrees of freedom (redundant "
             "actuation)")
@@ -230,6 +231,16 @@ def _check_redundant_run(scenario: Scenario) -> None:
             raise InvalidParameterError(f"controller {name} must be {model.n_actuators} numbers, one per actuator of "
                                         f"{model.name}, got {len(value)}")
     drives = scenario.drives
+    internal = model.description.actuation_redundancy
+    if internal > 1:  # the loop's least peak and its limits move the efforts along one internal effort
+        if spec.distribution == "minimum_peak":
+            raise InvalidParameterError(f"{what}: the least peak is solved in a run for one internal effort, and it "
+                                        f"has {internal}; use 'minimum_norm', 'weighted' or 'preload' "
+                                        "(pkmlab.distribute_efforts gives the least peak at a pose)")
+        if drives is not None and np.isfinite(np.asarray(drives.effort_limit, dtype=float)).any():
+            raise InvalidParameterError(f"{what}: its controller holds effort limits for one internal effort, and it "
+                                        f"has {internal}; remove effort_limit (pkmlab.distribute_efforts holds them at "
+                                        "a pose)")
     if drives is not None:
         acting = [name for name in ("armature", "viscous", "coulomb") if np.any(np.asarray(getattr(drives, name)) != 0)]
         if acting or drives.stick_slip:
