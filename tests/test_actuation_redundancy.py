@@ -581,6 +581,7 @@ def test_the_four_arm_deltas_distributed_efforts_give_mujocos_and_the_saddle_poi
 def test_the_compiled_core_models_and_follows_a_redundant_machine_in_its_pose(name):
     """A redundantly actuated machine's compiled core takes the controlled pose as its independent coordinates
     (its actuators over-determine it): its model is the pose-space model reduced in Python from the full-space one,
+    its passive block ``Jηφ`` one block per leg, its singularity measure NumPy's determinant of that block scaled,
     and its branch following, given poses, reaches inverse kinematics' configurations of the same working mode."""
     model = pkmlab.load(RRRR.parent / name)
     k = model.kernels
@@ -599,6 +600,24 @@ def test_the_compiled_core_models_and_follows_a_redundant_machine_in_its_pose(na
         assert np.abs(Mk - ours.M).max() < 1e-12 * scale
         assert np.abs(ck - ours.c).max() < 1e-12 * (scale + np.abs(ours.c).max())
         assert np.abs(gk - ours.g).max() < 1e-12 * (scale + np.abs(ours.g).max())
+    # its legs close each on the pose: Jηφ, its columns in the generated order, is block diagonal, one block per leg,
+    # factored block by block; S, the scaled determinant of Jηφ, is NumPy's of the whole matrix
+    jacobians = np.empty((len(qs), k.N_CONSTRAINTS, k.N_COORDINATES))
+    k.constraint_jacobians(qs, model.P, jacobians)
+    columns = [k.DEPENDENT[i] for i in k.REDUCED_COLUMNS]
+    assert k.BLOCKED and len(set(k.BLOCK_END)) == model.n_actuators
+    inside = np.zeros((k.N_CONSTRAINTS, len(columns)), dtype=bool)
+    for i, end in enumerate(k.BLOCK_END):
+        start = max([e for e in k.BLOCK_END if e <= i], default=0)
+        inside[start:end, i] = True
+    assert np.all(jacobians[:, :, columns][:, ~inside] == 0.0)
+    measures = np.empty(len(qs))
+    k.singularity_measures(qs, model.P, measures)
+    for jacobian, measure in zip(jacobians, measures, strict=True):
+        passive = jacobian[:, list(k.DEPENDENT)].copy()
+        passive[:, [k.ANGLES[c] for c in k.DEPENDENT]] /= k.platform_size(model.P)
+        passive /= np.linalg.norm(passive, axis=1)[:, None]
+        assert abs(measure - np.linalg.det(passive)) < 1e-12
     out = np.empty_like(qs)
     status, failed = k.follow_path(qs[0], poses, model.P, 1e-9, out)
     assert (status, failed) == (k.OK, -1)

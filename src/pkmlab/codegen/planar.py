@@ -273,7 +273,8 @@ def generate_source(mechanism: Mechanism) -> str:
         "# in the plane: 2 linear and 1 angular rows per body Jacobian, lines of action (point, direction) of 4",
         (2, 1, 3, 4), "# where each body's mass and inertia (legs' bodies, then the platform) and the gravity are in P",
         [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero,
-        layout=(n_pose, [x_col - len(mechanism.actuators) + c for c in range(2)], True))
+        layout=(n_pose, [x_col - len(mechanism.actuators) + c for c in range(2)], True),
+        pattern={(r, c) for r in range(m) for c in range(nq) if j_eta[r, c] != 0})
     width = max(len(leg.joints) for leg in mechanism.legs)
     points, where = [], []
     for i, leg_points in enumerate(d["joints"]):
@@ -313,19 +314,71 @@ def generate_source(mechanism: Mechanism) -> str:
                         kernels)
 
 
+def _permutation_sign(order) -> int:
+    """+1 or -1: the sign of the permutation ``order`` of ``range(len(order))``."""
+    sign, seen = 1, set()
+    for start in range(len(order)):
+        length, k = 0, start
+        while k not in seen:
+            seen.add(k)
+            k = order[k]
+            length += 1
+        if length and length % 2 == 0:
+            sign = -sign
+    return sign
+
+
+def diagonal_blocks(pattern, rows: int, dependent) -> tuple[tuple[int, ...], tuple[int, ...]] | None:
+    """The columns of ``Jηφ`` (indices into ``dependent``, the dependent coordinates' columns of ``q``) in an order
+    that makes it block diagonal, and the end of each one's block (exclusive), where it has two blocks or more whose
+    rows are consecutive: a redundantly actuated machine's, whose legs close each on the pose (independent) by
+    equations in that leg's coordinates only. ``pattern`` holds the structural non-zeros ``(row, column of q)`` of
+    ``Jηq``; None for one block (or blocks not square or not on consecutive rows: factored whole)."""
+    owner = list(range(rows))  # union-find over the rows, joined by the dependent columns they share
+
+    def find(r):
+        while owner[r] != r:
+            owner[r] = owner[owner[r]]
+            r = owner[r]
+        return r
+
+    first_row = {}
+    for r, c in sorted(pattern):
+        if c in dependent:
+            if c in first_row:
+                owner[find(r)] = find(first_row[c])
+            else:
+                first_row[c] = r
+    blocks = {}
+    for r in range(rows):
+        blocks.setdefault(find(r), []).append(r)
+    if len(blocks) < 2:
+        return None
+    order, ends = [], []
+    for block_rows in sorted(blocks.values()):
+        columns = [i for i, c in enumerate(dependent) if c in first_row and find(first_row[c]) == find(block_rows[0])]
+        if block_rows != list(range(block_rows[0], block_rows[-1] + 1)) or len(columns) != len(block_rows):
+            return None
+        order += columns
+        ends += [len(order)] * len(columns)
+    return (tuple(order), tuple(ends)) if sorted(order) == list(range(len(dependent))) else None
+
+
 def module_header(kind: str, mechanism, structure_name: str, names, angles, parameters, sizes, dims_comment: str,
-                  dims, weights_comment: str, indices, nonzero, layout, point_rows=None) -> list[str]:
+                  dims, weights_comment: str, indices, nonzero, layout, point_rows=None, pattern=()) -> list[str]:
     """The head of a generated module of ``kind`` ("planar" or "spatial"): its docstring, imports and the
     constants the compiled core reads — coordinates, sizes ``(N_COORDINATES, N_CONSTRAINTS, N_BODIES)``,
     ``dims = (DIM, ANGULAR, BODY_ROWS, LINE_WIDTH)``, the positions in ``P`` of the masses, inertias and
     gravity (``indices``), the bodies' Jacobians' structural non-zeros ``(body, row, column)``, and
     ``layout = (N_POSE, point, lines)``: how many of ``q``'s last coordinates are the platform's pose, the
     columns of ``Jηφ`` of the tracked point (x, y[, z]), whether the singularity measure is the legs' lines';
-    ``point_rows``, how many of ``η``'s rows are the legs' points' (DIM per leg, first; default all of them).
+    ``point_rows``, how many of ``η``'s rows are the legs' points' (DIM per leg, first; default all of them);
+    ``pattern``, the structural non-zeros ``(row, column)`` of ``Jηq``.
 
     The compiled core's independent coordinates (:func:`independent_columns`) are the actuators, first in ``q``; a
     redundantly actuated machine's are its controlled pose, so that the tracked point is not eliminated, the
-    singularity measure is ``Jηφ``'s scaled determinant, and ``LINE_WIDTH`` is widened to hold ``Jηq``."""
+    singularity measure is ``Jηφ``'s scaled determinant, ``LINE_WIDTH`` is widened to hold ``Jηq``, and ``Jηφ``,
+    one block per leg (:func:`diagonal_blocks`), is factored block by block."""
     import sympy as sp
 
     mass, inertia, gravity = indices
@@ -337,6 +390,10 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
         point, lines = (), False
         dims = (*dims[:3], max(dims[3], -(-sizes[1] * sizes[0] // len(mechanism.actuators))))
     reduced = tuple(c for c in range(len(dependent)) if c not in point)
+    ends = (len(reduced),) * len(reduced)
+    blocks = None if leading else diagonal_blocks(pattern, sizes[1], dependent)
+    if blocks is not None:
+        reduced, ends = blocks
     return [
         f'"""GENERATED by ``python -m pkmlab.codegen.{kind}`` -- do not edit.',
         "",
@@ -368,6 +425,10 @@ def module_header(kind: str, mechanism, structure_name: str, names, angles, para
         "# the columns of J_eta_phi of the tracked point, and the others (the reduced system's, in order)",
         f"POINT_COLUMNS = {tuple(point)!r}",
         f"REDUCED_COLUMNS = {reduced!r}",
+        "# the end (exclusive) of the diagonal block of J_eta_phi each reduced column is in (one block: all of them), "
+        "and the sign of the reduced columns' permutation",
+        f"BLOCK_END = {ends!r}",
+        f"REDUCED_SIGN = {1 if blocks is None else _permutation_sign(reduced)}",
         "# whether S is the determinant of the legs' lines of action (else the scaled determinant of J_eta_phi)",
         f"MEASURE_LINES = {bool(lines)!r}",
         dims_comment,

@@ -378,7 +378,10 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         "for Jηq)", (3, 3, 6, 6 if lines_of_action else -(-m * nq // n)),
         "# where each body's mass and inertia tensor (xx, yy, zz, xy, xz, yz) and the gravity are in P",
         [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero,
-        layout=(n_pose, [c - n for c in point], lines_of_action), point_rows=3 * n)
+        layout=(n_pose, [c - n for c in point], lines_of_action), point_rows=3 * n,
+        pattern={(3 * i + r if r < 3 else 3 * n + ends.index(i), _column(c, local[types[i]]["own"], i, leg_q[i], pose0))
+                 for i in range(n) for r in range(local[types[i]]["j_eta"].rows)
+                 for c in range(local[types[i]]["j_eta"].cols) if local[types[i]]["j_eta"][r, c] != 0})
     header += ["# where each leg's passive coordinates (in q), parameters and attachment point (in P), bodies and "
                "bodies' Jacobians' non-zeros start",
                f"LEG_Q = {tuple(leg_q)!r}", f"LEG_P = {tuple(leg_p)!r}", f"LEG_ATTACH = {tuple(leg_attach)!r}",

@@ -26,6 +26,9 @@ N_POSE = 6
 # the columns of J_eta_phi of the tracked point, and the others (the reduced system's, in order)
 POINT_COLUMNS = (12, 13, 14)
 REDUCED_COLUMNS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 15, 16, 17)
+# the end (exclusive) of the diagonal block of J_eta_phi each reduced column is in (one block: all of them), and the sign of the reduced columns' permutation
+BLOCK_END = (15, 15, 15, 15, 15, 15, 15, 15, 15, 15, 15, 15, 15, 15, 15)
+REDUCED_SIGN = 1
 # whether S is the determinant of the legs' lines of action (else the scaled determinant of J_eta_phi)
 MEASURE_LINES = True
 # in space: 3 linear and 3 angular (body frame) rows per body Jacobian, lines of action of 6 (or the room for Jηq)
@@ -1476,6 +1479,9 @@ BACKWARD_RATES = 2
 # redundantly actuated machine's), ELIMINATED = 0 and the reduced system is Jηφ itself. POINT_COLUMNS are the tracked
 # point's columns in Jηφ, REDUCED_COLUMNS the others (the generated module's).
 REDUCED = N_CONSTRAINTS - ELIMINATED
+#: Jηφ (in REDUCED_COLUMNS' order) is block diagonal, one block per leg (BLOCK_END): a redundantly actuated
+#: machine's, whose legs close each on its independent pose. Factored block by block; elsewhere whole.
+BLOCKED = REDUCED > 1 and BLOCK_END[0] < REDUCED
 #: More actuators than independent coordinates: a redundantly actuated machine, whose efforts are distributed
 #: (:func:`distribute`) and reach its pose through ``Wᵀ`` (:func:`generalised_force`).
 REDUNDANT = N_ACTUATORS != N_INDEPENDENT
@@ -1597,7 +1603,10 @@ def passive_solve(lu, piv, top, b, work):
             work[r] = b[r]
         else:
             work[r] = b[r + ELIMINATED] - b[r % ELIMINATED] if r + ELIMINATED < POINT_ROWS else b[r + ELIMINATED]
-    lu_solve_factored(lu, piv, work, REDUCED)
+    if BLOCKED:
+        block_lu_solve(lu, piv, work)
+    else:
+        lu_solve_factored(lu, piv, work, REDUCED)
     for d in range(ELIMINATED):
         acc = -b[d]
         for k in range(REDUCED):
@@ -1692,6 +1701,13 @@ def spatial_singularity_measure(P, lines):
     return det
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def passive_column(i):
+    """The column of ``Jηq`` of the i-th dependent coordinate, in the blocks' order where ``Jηφ`` is block diagonal
+    (``BLOCKED``)."""
+    return dependent_column(reduced_column(i)) if BLOCKED else dependent_column(i)
+
+
 @njit(**NO_REFCOUNT)
 def passive_determinant(q, sc, P, lines):
     """``S`` of a machine whose legs are not two-force members (a 3-PRS, a 3-RPS, a leg of three revolute
@@ -1716,26 +1732,29 @@ def passive_determinant(q, sc, P, lines):
             return 0.0
         for i in range(m):
             jac[r, dependent_column(i)] /= norm
-    det = 1.0
-    for i in range(m):  # Gaussian elimination with partial pivoting on the passive block, in place
-        c = dependent_column(i)
+    # Gaussian elimination with partial pivoting on the passive block, in place; a block-diagonal one (BLOCKED) in
+    # its blocks' column order, block by block, its determinant that order's times the order's sign
+    det = float(REDUCED_SIGN) if BLOCKED else 1.0
+    for i in range(m):
+        c = passive_column(i)
+        end = BLOCK_END[i] if BLOCKED else m
         p = i
-        for r in range(i + 1, m):
+        for r in range(i + 1, end):
             if abs(jac[r, c]) > abs(jac[p, c]):
                 p = r
         if jac[p, c] == 0.0:
             return 0.0
         if p != i:
             det = -det
-            for kk in range(i, m):
-                k = dependent_column(kk)
+            for kk in range(i, end):
+                k = passive_column(kk)
                 jac[i, k], jac[p, k] = jac[p, k], jac[i, k]
         pivot = jac[i, c]
         det *= pivot
-        for r in range(i + 1, m):
+        for r in range(i + 1, end):
             f = jac[r, c] / pivot
-            for kk in range(i + 1, m):
-                k = dependent_column(kk)
+            for kk in range(i + 1, end):
+                k = passive_column(kk)
                 jac[r, k] -= f * jac[i, k]
     return det
 
@@ -1755,8 +1774,60 @@ def factor_passive(ws, q, sc, P):
             else:
                 ws.reduced[r, k] = (ws.j_eta[r + ELIMINATED, c]
                                     - (ws.j_eta[r % ELIMINATED, c] if r + ELIMINATED < POINT_ROWS else 0.0))
+    if BLOCKED:
+        return block_lu_factor(ws.reduced, ws.lu, ws.piv)
     ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
+
+
+@njit(**NO_REFCOUNT)
+def block_lu_factor(a, lu, piv):
+    """:func:`~pkmlab.numerics.closed_chain.lu_factor` of the block-diagonal reduced system (``BLOCKED``), block by
+    block: the pivots are sought, and the rows eliminated, within each column's block (``BLOCK_END``) only — the
+    same factors as the whole matrix's partial pivoting would give (the other rows hold zeros there), at the cost
+    of the blocks. Returns ok."""
+    scale = 0.0
+    for i in range(REDUCED):
+        for j in range(REDUCED):
+            lu[i, j] = a[i, j]
+            scale = max(scale, abs(a[i, j]))
+    for col in range(REDUCED):
+        end = BLOCK_END[col]
+        p = col
+        for row in range(col + 1, end):
+            if abs(lu[row, col]) > abs(lu[p, col]):
+                p = row
+        piv[col] = p
+        if abs(lu[p, col]) <= 1e-14 * scale or lu[p, col] == 0.0:
+            return False
+        if p != col:
+            for j in range(REDUCED):
+                lu[col, j], lu[p, j] = lu[p, j], lu[col, j]
+        inv = 1.0 / lu[col, col]
+        for row in range(col + 1, end):
+            f = lu[row, col] * inv
+            lu[row, col] = f
+            for j in range(col + 1, end):
+                lu[row, j] -= f * lu[col, j]
+        lu[col, col] = inv
+    return scale > 0.0
+
+
+@njit(**NO_REFCOUNT)
+def block_lu_solve(lu, piv, b):
+    """Overwrite ``b`` (REDUCED,) with the reduced system's solution from the factors of :func:`block_lu_factor`."""
+    for col in range(REDUCED):
+        p = piv[col]
+        if p != col:
+            b[col], b[p] = b[p], b[col]
+    for col in range(REDUCED):
+        for row in range(col + 1, BLOCK_END[col]):
+            b[row] -= lu[row, col] * b[col]
+    for col in range(REDUCED - 1, -1, -1):
+        acc = b[col]
+        for c in range(col + 1, BLOCK_END[col]):
+            acc -= lu[col, c] * b[c]
+        b[col] = acc * lu[col, col]  # the diagonal holds 1 / U_kk
 
 
 @njit(**NO_REFCOUNT)

@@ -14,6 +14,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit
     from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
         ANGLES,
+        BLOCK_END,
         DIM,
         MEASURE_LINES,
         N_ACTUATORS,
@@ -24,6 +25,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         POINT_COLUMNS,
         POINT_ROWS,
         REDUCED_COLUMNS,
+        REDUCED_SIGN,
         constraint_jacobian,
         constraints,
         leg_lines,
@@ -35,6 +37,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 
     from .workspace import (
         BASE,
+        BLOCKED,
         ELIMINATED,
         MAX_CHORD,
         MAX_NEWTON,
@@ -69,7 +72,10 @@ def passive_solve(lu, piv, top, b, work):
             work[r] = b[r]
         else:
             work[r] = b[r + ELIMINATED] - b[r % ELIMINATED] if r + ELIMINATED < POINT_ROWS else b[r + ELIMINATED]
-    lu_solve_factored(lu, piv, work, REDUCED)
+    if BLOCKED:
+        block_lu_solve(lu, piv, work)
+    else:
+        lu_solve_factored(lu, piv, work, REDUCED)
     for d in range(ELIMINATED):
         acc = -b[d]
         for k in range(REDUCED):
@@ -164,6 +170,13 @@ def spatial_singularity_measure(P, lines):
     return det
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def passive_column(i):
+    """The column of ``Jηq`` of the i-th dependent coordinate, in the blocks' order where ``Jηφ`` is block diagonal
+    (``BLOCKED``)."""
+    return dependent_column(reduced_column(i)) if BLOCKED else dependent_column(i)
+
+
 @njit(**NO_REFCOUNT)
 def passive_determinant(q, sc, P, lines):
     """``S`` of a machine whose legs are not two-force members (a 3-PRS, a 3-RPS, a leg of three revolute
@@ -188,26 +201,29 @@ def passive_determinant(q, sc, P, lines):
             return 0.0
         for i in range(m):
             jac[r, dependent_column(i)] /= norm
-    det = 1.0
-    for i in range(m):  # Gaussian elimination with partial pivoting on the passive block, in place
-        c = dependent_column(i)
+    # Gaussian elimination with partial pivoting on the passive block, in place; a block-diagonal one (BLOCKED) in
+    # its blocks' column order, block by block, its determinant that order's times the order's sign
+    det = float(REDUCED_SIGN) if BLOCKED else 1.0
+    for i in range(m):
+        c = passive_column(i)
+        end = BLOCK_END[i] if BLOCKED else m
         p = i
-        for r in range(i + 1, m):
+        for r in range(i + 1, end):
             if abs(jac[r, c]) > abs(jac[p, c]):
                 p = r
         if jac[p, c] == 0.0:
             return 0.0
         if p != i:
             det = -det
-            for kk in range(i, m):
-                k = dependent_column(kk)
+            for kk in range(i, end):
+                k = passive_column(kk)
                 jac[i, k], jac[p, k] = jac[p, k], jac[i, k]
         pivot = jac[i, c]
         det *= pivot
-        for r in range(i + 1, m):
+        for r in range(i + 1, end):
             f = jac[r, c] / pivot
-            for kk in range(i + 1, m):
-                k = dependent_column(kk)
+            for kk in range(i + 1, end):
+                k = passive_column(kk)
                 jac[r, k] -= f * jac[i, k]
     return det
 
@@ -227,8 +243,60 @@ def factor_passive(ws, q, sc, P):
             else:
                 ws.reduced[r, k] = (ws.j_eta[r + ELIMINATED, c]
                                     - (ws.j_eta[r % ELIMINATED, c] if r + ELIMINATED < POINT_ROWS else 0.0))
+    if BLOCKED:
+        return block_lu_factor(ws.reduced, ws.lu, ws.piv)
     ok, _det = lu_factor(ws.reduced, ws.lu, ws.piv, REDUCED)
     return ok
+
+
+@njit(**NO_REFCOUNT)
+def block_lu_factor(a, lu, piv):
+    """:func:`~pkmlab.numerics.closed_chain.lu_factor` of the block-diagonal reduced system (``BLOCKED``), block by
+    block: the pivots are sought, and the rows eliminated, within each column's block (``BLOCK_END``) only — the
+    same factors as the whole matrix's partial pivoting would give (the other rows hold zeros there), at the cost
+    of the blocks. Returns ok."""
+    scale = 0.0
+    for i in range(REDUCED):
+        for j in range(REDUCED):
+            lu[i, j] = a[i, j]
+            scale = max(scale, abs(a[i, j]))
+    for col in range(REDUCED):
+        end = BLOCK_END[col]
+        p = col
+        for row in range(col + 1, end):
+            if abs(lu[row, col]) > abs(lu[p, col]):
+                p = row
+        piv[col] = p
+        if abs(lu[p, col]) <= 1e-14 * scale or lu[p, col] == 0.0:
+            return False
+        if p != col:
+            for j in range(REDUCED):
+                lu[col, j], lu[p, j] = lu[p, j], lu[col, j]
+        inv = 1.0 / lu[col, col]
+        for row in range(col + 1, end):
+            f = lu[row, col] * inv
+            lu[row, col] = f
+            for j in range(col + 1, end):
+                lu[row, j] -= f * lu[col, j]
+        lu[col, col] = inv
+    return scale > 0.0
+
+
+@njit(**NO_REFCOUNT)
+def block_lu_solve(lu, piv, b):
+    """Overwrite ``b`` (REDUCED,) with the reduced system's solution from the factors of :func:`block_lu_factor`."""
+    for col in range(REDUCED):
+        p = piv[col]
+        if p != col:
+            b[col], b[p] = b[p], b[col]
+    for col in range(REDUCED):
+        for row in range(col + 1, BLOCK_END[col]):
+            b[row] -= lu[row, col] * b[col]
+    for col in range(REDUCED - 1, -1, -1):
+        acc = b[col]
+        for c in range(col + 1, BLOCK_END[col]):
+            acc -= lu[col, c] * b[c]
+        b[col] = acc * lu[col, col]  # the diagonal holds 1 / U_kk
 
 
 @njit(**NO_REFCOUNT)

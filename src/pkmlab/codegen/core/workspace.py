@@ -12,6 +12,7 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
     from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (  # noqa: F401
         ANGLES,
         ANGULAR,
+        BLOCK_END,
         BODY_ROWS,
         DEPENDENT,
         DIM,
@@ -111,6 +112,9 @@ BACKWARD_RATES = 2
 # redundantly actuated machine's), ELIMINATED = 0 and the reduced system is Jηφ itself. POINT_COLUMNS are the tracked
 # point's columns in Jηφ, REDUCED_COLUMNS the others (the generated module's).
 REDUCED = N_CONSTRAINTS - ELIMINATED
+#: Jηφ (in REDUCED_COLUMNS' order) is block diagonal, one block per leg (BLOCK_END): a redundantly actuated
+#: machine's, whose legs close each on its independent pose. Factored block by block; elsewhere whole.
+BLOCKED = REDUCED > 1 and BLOCK_END[0] < REDUCED
 #: More actuators than independent coordinates: a redundantly actuated machine, whose efforts are distributed
 #: (:func:`distribute`) and reach its pose through ``Wᵀ`` (:func:`generalised_force`).
 REDUNDANT = N_ACTUATORS != N_INDEPENDENT
