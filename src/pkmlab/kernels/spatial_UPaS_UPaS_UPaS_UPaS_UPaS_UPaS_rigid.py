@@ -1482,6 +1482,8 @@ REDUCED = N_CONSTRAINTS - ELIMINATED
 #: Jηφ (in REDUCED_COLUMNS' order) is block diagonal, one block per leg (BLOCK_END): a redundantly actuated
 #: machine's, whose legs close each on its independent pose. Factored block by block; elsewhere whole.
 BLOCKED = REDUCED > 1 and BLOCK_END[0] < REDUCED
+#: Where each reduced column's block starts.
+BLOCK_START = tuple(max([end for end in BLOCK_END if end <= i], default=0) for i in range(REDUCED))
 #: More actuators than independent coordinates: a redundantly actuated machine, whose efforts are distributed
 #: (:func:`distribute`) and reach its pose through ``Wᵀ`` (:func:`generalised_force`).
 REDUNDANT = N_ACTUATORS != N_INDEPENDENT
@@ -1721,17 +1723,18 @@ def passive_determinant(q, sc, P, lines):
     constraint_jacobian(q, sc, P, jac)
     size = platform_size(P)
     for r in range(m):
+        first, end = (BLOCK_START[r], BLOCK_END[r]) if BLOCKED else (0, m)  # the row's non-zeros
         norm = 0.0
-        for i in range(m):
-            c = dependent_column(i)
+        for i in range(first, end):
+            c = passive_column(i)
             if ANGLES[c]:
                 jac[r, c] /= size
             norm += jac[r, c] * jac[r, c]
         norm = np.sqrt(norm)
         if norm == 0.0:
             return 0.0
-        for i in range(m):
-            jac[r, dependent_column(i)] /= norm
+        for i in range(first, end):
+            jac[r, passive_column(i)] /= norm
     # Gaussian elimination with partial pivoting on the passive block, in place; a block-diagonal one (BLOCKED) in
     # its blocks' column order, block by block, its determinant that order's times the order's sign
     det = float(REDUCED_SIGN) if BLOCKED else 1.0

@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 
     from .workspace import (
         BASE,
+        BLOCK_START,
         BLOCKED,
         ELIMINATED,
         MAX_CHORD,
@@ -190,17 +191,18 @@ def passive_determinant(q, sc, P, lines):
     constraint_jacobian(q, sc, P, jac)
     size = platform_size(P)
     for r in range(m):
+        first, end = (BLOCK_START[r], BLOCK_END[r]) if BLOCKED else (0, m)  # the row's non-zeros
         norm = 0.0
-        for i in range(m):
-            c = dependent_column(i)
+        for i in range(first, end):
+            c = passive_column(i)
             if ANGLES[c]:
                 jac[r, c] /= size
             norm += jac[r, c] * jac[r, c]
         norm = np.sqrt(norm)
         if norm == 0.0:
             return 0.0
-        for i in range(m):
-            jac[r, dependent_column(i)] /= norm
+        for i in range(first, end):
+            jac[r, passive_column(i)] /= norm
     # Gaussian elimination with partial pivoting on the passive block, in place; a block-diagonal one (BLOCKED) in
     # its blocks' column order, block by block, its determinant that order's times the order's sign
     det = float(REDUCED_SIGN) if BLOCKED else 1.0

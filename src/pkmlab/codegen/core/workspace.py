@@ -115,6 +115,8 @@ REDUCED = N_CONSTRAINTS - ELIMINATED
 #: Jηφ (in REDUCED_COLUMNS' order) is block diagonal, one block per leg (BLOCK_END): a redundantly actuated
 #: machine's, whose legs close each on its independent pose. Factored block by block; elsewhere whole.
 BLOCKED = REDUCED > 1 and BLOCK_END[0] < REDUCED
+#: Where each reduced column's block starts.
+BLOCK_START = tuple(max([end for end in BLOCK_END if end <= i], default=0) for i in range(REDUCED))
 #: More actuators than independent coordinates: a redundantly actuated machine, whose efforts are distributed
 #: (:func:`distribute`) and reach its pose through ``Wᵀ`` (:func:`generalised_force`).
 REDUNDANT = N_ACTUATORS != N_INDEPENDENT
