@@ -341,12 +341,13 @@ def test_the_command_line_solves_and_checks_its_actuators(capsys):
 
 
 @pytest.mark.parametrize(("change", "expected"), [
-    (dict(sample_time=0.0), "continuous-time control of it is not modelled"),
     (dict(sensors="quantised"), "sensors of its actuators are not modelled"),
     (dict(drives=dict(viscous=0.01)), "its drives' viscous act at the actuators"),
     (dict(controller_drives=dict(armature=1e-4)), "computed torque's model of its drives is not modelled"),
 ])
 def test_what_a_redundant_run_does_not_model_is_refused_in_one_line(change, expected):
+    """Sensors of the actuators, the drives' friction and the controller's model of the drives, which act at the
+    actuators: refused in one line saying so."""
     from pkmlab.simulation.realism import Drives, Sensors
 
     scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
@@ -703,6 +704,23 @@ def test_the_four_arm_deltas_default_run_is_tracked_to_its_sampling_on_its_loop_
     ratio = np.abs(finer.pose - finer.pose_d).max(axis=0) / error
     assert np.all((0.45 < ratio) & (ratio < 0.55)) and error.max() < 1e-4, (error, ratio)
     assert max(_independent_residual(delta4.description, q, delta4.coordinates) for q in result.q[::25]) < 1e-12
+
+
+def test_continuous_time_control_of_a_redundant_machine_tracks_to_integration_level(rrrr):
+    """The 4-RRR's default motion under continuous-time computed torque (the controller evaluated at every stage of
+    the adaptive integrator) with its exact model: the pose tracked to the integrator's tolerance, the legs on their
+    loop closures, and the efforts the least 2-norm's (no internal part, ``W`` computed here)."""
+    scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml").replace(sample_time=0.0)
+    result = pkmlab.simulate(scenario)
+    assert result.summary()["max_path_error_m"] < 1e-8
+    assert np.abs(result.pose[:, 2] - result.pose_d[:, 2]).max() < 1e-8
+    assert max(_chain_residual(rrrr, q) for q in result.q[::50]) < 1e-12
+    for qk, tk in zip(result.q[::50], result.tau[::50], strict=True):
+        W = pkmlab.pose_coordinate_jacobian(rrrr, qk)[:4]
+        internal = np.linalg.svd(W.T)[2][-1]
+        assert abs(internal @ tk) <= 1e-12 * np.abs(tk).max()
+    differenced = np.gradient(result.q[:, :4], result.t, axis=0)[1:-1]  # the actuators' rates, W not used
+    assert np.abs(differenced - result.theta_dot[1:-1]).max() < 1e-3 * np.abs(result.theta_dot).max()
 
 
 def test_a_controller_whose_model_is_not_the_plant_leaves_internal_efforts_it_never_sees(tmp_path):

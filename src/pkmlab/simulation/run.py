@@ -686,10 +686,11 @@ def simulate(scenario: Scenario) -> SimulationResult:
     ctrl, plant = scenario.model, scenario.plant_model
     q_plant0, q_ctrl0 = prep.q_plant0, prep.q_ctrl0
     if scenario.sample_time == 0:
-        q, theta_dot, tau = _continuous_time(scenario, prep, ctrl, plant, q_plant0, q_ctrl0)
+        q, rates, tau = _continuous_time(scenario, prep, ctrl, plant, q_plant0, q_ctrl0)
         s = np.empty(q.shape[0])
         plant.kernels.singularity_measures(q, plant.P, s)
-        return run_result(scenario, prep, q, theta_dot, tau, _pose_of(plant, q), s)
+        return run_result(scenario, prep, q, actuator_rates(plant, q, rates), tau, _pose_of(plant, q),
+                          run_measures(plant, q, s))
     k_, n, n_x = ctrl.kernels, ctrl.n_actuators, ctrl.kernels.N_INDEPENDENT
     count = prep.t.size
     q, rates, tau, s = np.zeros((count, q_ctrl0.size)), np.zeros((count, n_x)), np.zeros((count, n)), np.zeros(count)
@@ -720,8 +721,10 @@ def _dof(model: MechanismModel) -> int:
 def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel, plant: MechanismModel,
                      q_plant0: np.ndarray, q_ctrl0: np.ndarray):
     """Continuous-time control: the controller evaluated at every stage of DOP853. Configurations in the loop
-    model's coordinates."""
-    k_, n = ctrl.kernels, ctrl.n_actuators
+    model's coordinates; the state is the loop's independent coordinates and their rates (the actuators', or a
+    redundantly actuated machine's pose's). Returns the configurations, those rates and the efforts at the
+    samples."""
+    k_, n, n_x = ctrl.kernels, ctrl.n_actuators, ctrl.kernels.N_INDEPENDENT
     P_plant, P_ctrl = plant.P, ctrl.P
     # the last configurations reached: each evaluation branch-follows from there
     q_plant, q_ctrl, q_next = q_plant0.copy(), q_ctrl0.copy(), np.empty_like(q_plant0)
@@ -729,7 +732,7 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
     readings = np.zeros((0, n))  # continuous-time control reads the plant's state
 
     def control(time, theta, theta_dot):
-        d = _joint_motion_at(scenario, prep, time)
+        d = _loop_motion_at(scenario, prep, time)
         status = k_.measured_control_effort(0, 0.0, np.concatenate([theta, theta_dot]), q_ctrl, prep.kind, prep.kp,
                                             prep.kv, prep.distribution, *d, P_ctrl, prep.singularity_guard, r.drive,
                                             r.ctrl_drive, r.effort_noise, r.resolution, r.theta_noise, r.sensing,
@@ -741,7 +744,7 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
         return tau
 
     def rhs(time, y):
-        control(time, y[:n], y[n:])
+        control(time, y[:n_x], y[n_x:])
         y_dot, status = k_.actuator_space_rhs(q_plant, y, applied, P_plant, prep.singularity_guard, r.drive, q_next)
         if status != k_.OK:
             raise BranchFollowingError(f"run stopped at t = {time:.4f} s: the plant "
@@ -750,31 +753,35 @@ def _continuous_time(scenario: Scenario, prep: PreparedRun, ctrl: MechanismModel
         return y_dot
 
     from scipy.integrate import solve_ivp  # (0.3 s to import: only where it is used)
-    sol = solve_ivp(rhs, (0.0, float(prep.t[-1])), np.concatenate([q_plant0[:n], np.zeros(n)]),
+    start = q_plant0[list(k_.INDEPENDENT)]
+    sol = solve_ivp(rhs, (0.0, float(prep.t[-1])), np.concatenate([start, np.zeros(n_x)]),
                     method="DOP853", rtol=1e-12, atol=1e-13, t_eval=prep.t)
     if sol.status != 0:
         raise SingularityError(f"integration failed: {sol.message}")
     # the reported samples: configurations by branch following along the solution, efforts re-evaluated
     q = np.empty((prep.t.size, len(q_plant0)))
-    status, k = k_.follow_path(q_plant0, np.ascontiguousarray(sol.y[:n].T), P_plant, prep.singularity_guard, q)
+    status, k = k_.follow_path(q_plant0, np.ascontiguousarray(sol.y[:n_x].T), P_plant, prep.singularity_guard, q)
     if status != k_.OK:
         raise BranchFollowingError(f"run stopped at t = {prep.t[k]:.4f} s: the plant "
                                    f"{branch_failure_text(status, prep.singularity_guard)}")
     efforts = np.empty((prep.t.size, n))
     q_ctrl[:] = q_ctrl0
     for k in range(prep.t.size):
-        efforts[k] = control(prep.t[k], sol.y[:n, k].copy(), sol.y[n:, k].copy())  # the commands
-    return q, sol.y[n:].T.copy(), efforts
+        efforts[k] = control(prep.t[k], sol.y[:n_x, k].copy(), sol.y[n_x:, k].copy())  # the commands
+    return q, sol.y[n_x:].T.copy(), efforts
 
 
-def _joint_motion_at(scenario: Scenario, prep: PreparedRun, time: float):
-    """``(θ_d, θ̇_d, θ̈_d)`` at one time, from the configuration of the nearest sample (the same branch)."""
+def _loop_motion_at(scenario: Scenario, prep: PreparedRun, time: float):
+    """The desired motion the loop tracks (:func:`loop_motion`) at one time: ``(θ_d, θ̇_d, θ̈_d)`` from the
+    configuration of the nearest sample (the same branch), or a redundantly actuated machine's pose and its rates."""
     from ..model.mechanism_model import inverse_kinematics as machine_ik
     from ..model.mechanism_model import path_rates
 
     model = scenario.model
     dof = model.dof
     pose, pose_dot, pose_ddot = (np.asarray(a, dtype=float)[:, :dof] for a in scenario.trajectory.desired([time]))
+    if model.description.actuation_redundancy:
+        return pose[0], pose_dot[0], pose_ddot[0]
     q = machine_ik(model, pose[0], prep.mode)[None, :]
     theta_dot, theta_ddot, k = path_rates(model, q, pose_dot, pose_ddot)
     if k >= 0:

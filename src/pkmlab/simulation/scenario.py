@@ -215,9 +215,6 @@ def _check_redundant_run(scenario: Scenario) -> None:
     model = scenario.model
     what = (f"{model.name} has {model.n_actuators} actuators for its {model.dof} degrees of freedom (redundant "
             "actuation)")
-    if scenario.sample_time == 0:
-        raise InvalidParameterError(f"{what}: its runs are sampled-data (give a sample_time above 0); continuous-time "
-                                    "control of it is not modelled")
     if scenario.sensors is not None:
         raise InvalidParameterError(f"{what}: its controller reads the plant's pose, and sensors of its actuators are "
                                     "not modelled; remove the sensors")
