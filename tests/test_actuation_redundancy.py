@@ -341,18 +341,16 @@ def test_the_command_line_solves_and_checks_its_actuators(capsys):
 
 
 @pytest.mark.parametrize(("change", "expected"), [
-    (dict(sensors="quantised"), "sensors of its actuators are not modelled"),
     (dict(drives=dict(viscous=0.01)), "its drives' viscous act at the actuators"),
     (dict(controller_drives=dict(armature=1e-4)), "computed torque's model of its drives is not modelled"),
 ])
 def test_what_a_redundant_run_does_not_model_is_refused_in_one_line(change, expected):
-    """Sensors of the actuators, the drives' friction and the controller's model of the drives, which act at the
-    actuators: refused in one line saying so."""
-    from pkmlab.simulation.realism import Drives, Sensors
+    """The drives' friction and the controller's model of the drives, which act at the actuators: refused in one line
+    saying so."""
+    from pkmlab.simulation.realism import Drives
 
     scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
-    values = {key: Drives(**value) if key.endswith("drives") else Sensors(resolution=1e-4) if key == "sensors"
-              else value for key, value in change.items()}
+    values = {key: Drives(**value) for key, value in change.items()}
     with pytest.raises(InvalidParameterError) as refused:
         scenario.replace(**values)
     message = str(refused.value)
@@ -704,6 +702,29 @@ def test_the_four_arm_deltas_default_run_is_tracked_to_its_sampling_on_its_loop_
     ratio = np.abs(finer.pose - finer.pose_d).max(axis=0) / error
     assert np.all((0.45 < ratio) & (ratio < 0.55)) and error.max() < 1e-4, (error, ratio)
     assert max(_independent_residual(delta4.description, q, delta4.coordinates) for q in result.q[::25]) < 1e-12
+
+
+def test_a_controller_that_reads_the_actuators_estimates_the_pose_they_over_determine(rrrr):
+    """The 4-RRR's default run with sensors on its four actuators: the controller finds the pose of least squared
+    residual to the readings (Gauss–Newton) and its rates ``(WᵀW)⁻¹ Wᵀ θ̇_m``. With exact readings that is the
+    plant's pose: the run is the ideal-sensor run to round-off. Encoders of 1e-4 rad record the plant's actuators
+    rounded to their resolution (checked here from the recorded configurations), the controller's rates their
+    differences, and the run still tracks, its path error within the order of the resolution times the legs'
+    length (0.25 m)."""
+    from pkmlab.simulation.realism import Sensors
+
+    scenario = pkmlab.load_scenario(RRRR.parent / "4rrr_motion.toml")
+    ideal = pkmlab.simulate(scenario)
+    exact = pkmlab.simulate(scenario.replace(sensors=Sensors(rates="exact")))
+    assert np.abs(exact.pose - ideal.pose).max() < 1e-10 and np.abs(exact.tau - ideal.tau).max() < 1e-8
+    assert np.array_equal(exact.theta_measured, exact.q[:, :4])
+    resolution = 1e-4
+    encoders = pkmlab.simulate(scenario.replace(sensors=Sensors(resolution=resolution)))
+    readings = encoders.theta_measured
+    assert np.array_equal(readings, resolution * np.floor(encoders.q[:, :4] / resolution + 0.5))
+    summary = encoders.summary()
+    assert ideal.summary()["max_path_error_m"] < summary["max_path_error_m"] < 0.25 * resolution * 10
+    assert max(_chain_residual(rrrr, q) for q in encoders.q[::100]) < 1e-12
 
 
 def test_continuous_time_control_of_a_redundant_machine_tracks_to_integration_level(rrrr):

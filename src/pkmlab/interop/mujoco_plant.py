@@ -65,6 +65,10 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     if ts <= 0:
         raise InvalidParameterError("the MuJoCo plant runs sampled-data control: give the scenario a sample_time "
                                     "above 0")
+    if scenario.sensors is not None and scenario.model.description.actuation_redundancy:
+        raise InvalidParameterError(f"{scenario.model.name} is redundantly actuated: the MuJoCo plant gives its "
+                                    "controller the pose, and sensors of its actuators are modelled on pkmlab's plant "
+                                    "(pkmlab.simulate); remove the sensors")
     step = min(ts, 1e-3) if timestep is None else timestep
     if not (isinstance(step, float | int) and math.isfinite(step) and step > 0):
         raise InvalidParameterError(f"the MuJoCo time step must be a positive number of seconds, got {step!r}")

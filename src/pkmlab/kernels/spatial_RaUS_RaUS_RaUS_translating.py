@@ -2589,9 +2589,10 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
 
     A redundantly actuated machine's run is in its controlled pose: ``θ`` (the desired motion, the recorded rates,
     the plant's state) are its independent coordinates (:data:`INDEPENDENT`), the efforts its actuators', distributed
-    by :func:`distribute` with ``distribution``; its sensors are ideal and its drives limit efforts only."""
+    by :func:`distribute` with ``distribution``; its sensors read its actuators, whose readings the controller turns
+    into a pose (:func:`pose_from_actuators`); its drives limit and disturb efforts only."""
     count, n = theta_d.shape[0], N_INDEPENDENT
-    theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, n))
+    theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, N_ACTUATORS))
     start = count - count  # 0, typed as sampled_data_chunk's k0 (not a literal): one compiled loop for both
     return sampled_data_chunk(make_workspaces(2), np.zeros(2 * n), theta_dot_m, start, count, ts, n_sub,
                               theta_d, theta_dot_d, theta_ddot_d, q_plant0, q_ctrl0, P_plant, P_ctrl, kind, kp, kv,
@@ -2605,16 +2606,108 @@ def measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m
     ``out_theta_m[k]`` and ``theta_dot_m[k]`` (:func:`sampled_data_loop`)."""
     n = N_INDEPENDENT
     for i in range(n):
-        value = x[i] + (theta_noise[k, i] if theta_noise.shape[0] > 0 else 0.0)
-        step = resolution[i]
-        out_theta_m[k, i] = step * math.floor(value / step + 0.5) if step > 0.0 else value
-        if sensing == DIFFERENCED_RATES or (sensing == BACKWARD_RATES and k == 1):
-            theta_dot_m[k, i] = (out_theta_m[k, i] - out_theta_m[k - 1, i]) / ts if k > 0 else x[n + i]
-        elif sensing == BACKWARD_RATES:
-            theta_dot_m[k, i] = ((3.0 * out_theta_m[k, i] - 4.0 * out_theta_m[k - 1, i] + out_theta_m[k - 2, i])
-                                 / (2.0 * ts) if k > 1 else x[n + i])
-        else:
-            theta_dot_m[k, i] = x[n + i]
+        read_sensor(x[i], x[n + i], k, i, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def read_sensor(value, rate, k, i, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m):
+    """Actuator ``i``'s reading at sample ``k`` of its ``value`` and ``rate`` into ``out_theta_m[k, i]`` and
+    ``theta_dot_m[k, i]``: noise added, rounded to its resolution, the rate its own or the readings differenced
+    (``rate`` is read only where :func:`exact_rate_read` says so)."""
+    value = value + (theta_noise[k, i] if theta_noise.shape[0] > 0 else 0.0)
+    step = resolution[i]
+    out_theta_m[k, i] = step * math.floor(value / step + 0.5) if step > 0.0 else value
+    if sensing == DIFFERENCED_RATES or (sensing == BACKWARD_RATES and k == 1):
+        theta_dot_m[k, i] = (out_theta_m[k, i] - out_theta_m[k - 1, i]) / ts if k > 0 else rate
+    elif sensing == BACKWARD_RATES:
+        theta_dot_m[k, i] = ((3.0 * out_theta_m[k, i] - 4.0 * out_theta_m[k - 1, i] + out_theta_m[k - 2, i])
+                             / (2.0 * ts) if k > 1 else rate)
+    else:
+        theta_dot_m[k, i] = rate
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def exact_rate_read(k, sensing):
+    """Whether :func:`read_sensor` reads the plant's own rate at sample ``k``: exact rates, or the first sample of
+    differenced ones."""
+    return k == 0 or (sensing != DIFFERENCED_RATES and sensing != BACKWARD_RATES)
+
+
+@njit(**NO_REFCOUNT)
+def measure_actuators(ws, x, k, ts, P, resolution, theta_noise, sensing, out_theta_m, theta_dot_m):
+    """:func:`measure` of a redundantly actuated plant, whose state ``x`` is its pose and the pose's rates and
+    whose workspace ``ws`` is at the sample's configuration: its actuators' readings (``q``'s first
+    ``N_ACTUATORS`` coordinates), their rates ``W ẋ`` where read. Returns ok (False: ``Jηφ`` singular)."""
+    n = N_INDEPENDENT
+    exact = exact_rate_read(k, sensing)
+    if exact:
+        if not factor_passive(ws, ws.q[BASE], ws.sc[BASE], P):
+            return False
+        actuated_jacobian(ws, ws.j_q_theta)
+    for a in range(N_ACTUATORS):
+        rate = 0.0
+        if exact:
+            for j in range(n):
+                rate += ws.j_q_theta[a, j] * x[n + j]
+        read_sensor(ws.q[BASE, a], rate, k, a, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
+    return True
+
+
+@njit(**NO_REFCOUNT)
+def pose_from_actuators(ws, theta_m, theta_dot_m, P, singularity_guard, pose, pose_dot):
+    """Forward kinematics of a redundantly actuated machine from its actuators' readings ``theta_m`` (more than
+    its degrees of freedom, and inconsistent once rounded or noisy): the pose of least squared actuator residual
+    into ``pose``, by Gauss–Newton from the pose of the workspace's base (the last one accepted), each iterate's
+    configuration by branch following; the pose's rates of least squared residual to ``theta_dot_m``,
+    ``ẋ = (WᵀW)⁻¹ Wᵀ θ̇_m``, into ``pose_dot``. Returns the status (the base is kept)."""
+    n = N_INDEPENDENT
+    for j in range(n):
+        pose[j] = ws.q[BASE, independent_column(j)]
+    status = NOT_CONVERGED
+    for _ in range(MAX_NEWTON):
+        status = follow_branch(ws, pose, P, singularity_guard)
+        if status != OK:
+            return status
+        if not factor_passive(ws, ws.q[TRIAL], ws.sc[TRIAL], P):
+            return SINGULAR
+        actuated_jacobian(ws, ws.j_q_theta)
+        for a in range(N_ACTUATORS):  # the residual θ_m - θ(x), an angle's the shorter way round
+            e = theta_m[a] - ws.q[TRIAL, a]
+            ws.internal[0, a] = (e + np.pi) % (2.0 * np.pi) - np.pi if ANGLES[a] else e
+        if not least_squares_step(ws, ws.internal[0]):
+            return SINGULAR
+        step = 0.0
+        for j in range(n):
+            pose[j] += ws.force[j]
+            step = max(step, abs(ws.force[j]))
+        if step < NEWTON_STEP:
+            status = OK
+            break
+        status = NOT_CONVERGED
+    if status != OK:
+        return status
+    least_squares_step(ws, theta_dot_m)
+    for j in range(n):
+        pose_dot[j] = ws.force[j]
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def least_squares_step(ws, values):
+    """``(WᵀW)⁻¹ Wᵀ values`` into ``ws.force``, ``W`` the actuators' rows of ``ws.j_q_theta``; returns ok."""
+    n = N_INDEPENDENT
+    for i in range(n):
+        acc = 0.0
+        for a in range(N_ACTUATORS):
+            acc += ws.j_q_theta[a, i] * values[a]
+        ws.force[i] = acc
+        for j in range(i, n):
+            acc = 0.0
+            for a in range(N_ACTUATORS):
+                acc += ws.j_q_theta[a, i] * ws.j_q_theta[a, j]
+            ws.normal[i, j] = acc
+            ws.normal[j, i] = acc
+    return ldlt_solve(ws.normal, ws.normal_ldl, ws.force)
 
 
 @njit(cache=True)
@@ -2639,6 +2732,7 @@ def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
             x[i] = q_plant0[independent_column(i)]
             x[n + i] = 0.0
     work = np.empty((5, 2 * n))
+    estimate = np.empty(2 * n)  # a redundantly actuated machine's pose and rates from its actuators' readings
     tau = np.zeros(N_ACTUATORS)
     applied = np.zeros(N_ACTUATORS)
     ideal = sensing == IDEAL_SENSORS
@@ -2667,6 +2761,15 @@ def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
         elif ideal:
             status = control_effort(kind, kp, kv, distribution, x[:n], x[n:], theta_d[c], theta_dot_d[c],
                                     theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
+        elif REDUNDANT:  # the actuators' readings over-determine the pose: the controller's least-squares estimate
+            if not measure_actuators(plant, x, k, ts, P_plant, resolution, theta_noise, sensing, out_theta_m,
+                                     theta_dot_m):
+                return SINGULAR, k
+            status = pose_from_actuators(ctrl, out_theta_m[j], theta_dot_m[j], P_ctrl, singularity_guard,
+                                         estimate[:n], estimate[n:])
+            if status == OK:
+                status = control_effort(kind, kp, kv, distribution, estimate[:n], estimate[n:], theta_d[c],
+                                        theta_dot_d[c], theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
         else:
             measure(x, k, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
             status = control_effort(kind, kp, kv, distribution, out_theta_m[j], theta_dot_m[j], theta_d[c],

@@ -208,16 +208,13 @@ class Scenario:
 
 def _check_redundant_run(scenario: Scenario) -> None:
     """Refuse, in one line, what a redundantly actuated machine's run does not model: its loop is in the controlled
-    pose (the compiled core's independent coordinates), its controller reads the plant's pose and distributes its
-    efforts over the actuators, and its drives act at the actuators, so only their effort limits and effort noise
-    (which act on each actuator's effort) are modelled. The least peak and the effort limits move the efforts along
-    the machine's internal effort: with more than one, they are refused."""
+    pose (the compiled core's independent coordinates), its controller reads the plant's pose (or estimates it from
+    its actuators' readings) and distributes its efforts over the actuators, and its drives act at the actuators, so
+    only their effort limits and effort noise (which act on each actuator's effort) are modelled. The least peak and
+    the effort limits move the efforts along the machine's internal effort: with more than one, they are refused."""
     model = scenario.model
     what = (f"{model.name} has {model.n_actuators} actuators for its {model.dof} degrees of freedom (redundant "
             "actuation)")
-    if scenario.sensors is not None:
-        raise InvalidParameterError(f"{what}: its controller reads the plant's pose, and sensors of its actuators are "
-                                    "not modelled; remove the sensors")
     if scenario.controller_drives is not None:
         raise InvalidParameterError(f"{what}: computed torque's model of its drives is not modelled; remove "
                                     "controller_drives")
