@@ -2435,8 +2435,10 @@ def drive_accelerations(ws, theta_dot, tau, drive):
         ``(Mθ + Ia) θ̈ = τ - fv θ̇ - fc φ(θ̇) - cθ - gθ``,   ``φ = tanh(θ̇ / v_c)`` (``sign(θ̇)`` when ``v_c = 0``)
 
     with each actuator's reflected armature ``Ia``, viscous ``fv`` and Coulomb ``fc`` friction (``τ`` the
-    effort the drive applies). ``Mθ`` is overwritten. Returns the status. (A redundantly actuated machine's drives
-    may limit its efforts only: their armature and friction act at the actuators, not at its pose.)"""
+    effort the drive applies). ``Mθ`` is overwritten. Returns the status. A redundantly actuated machine's drives
+    act at its actuators, whose rates are ``θ̇_a = W ẋ`` and accelerations ``W ẍ + b`` (:func:`redundant_drives`)."""
+    if REDUNDANT:
+        return redundant_drives(ws, theta_dot, tau, drive)
     sticking = False
     for i in range(N_INDEPENDENT):
         ws.m_theta[i, i] += drive[i, ARMATURE]
@@ -2446,6 +2448,37 @@ def drive_accelerations(ws, theta_dot, tau, drive):
         sticking = sticking or ws.stuck[i] == 1
     if sticking:
         return stick_slip_accelerations(ws, drive)
+    if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
+        return SINGULAR
+    return OK
+
+
+@njit(**NO_REFCOUNT)
+def redundant_drives(ws, pose_dot, tau, drive):
+    """:func:`drive_accelerations` of a redundantly actuated machine, in its pose: each actuator's drive takes
+    ``Ia θ̈_a + f(θ̇_a)`` of its effort, ``θ̇_a = W ẋ`` and ``θ̈_a = W ẍ + b`` (``b``, the actuators' accelerations
+    at ``ẍ = 0``, in ``ws.bias_q``), so that
+
+        ``(Mx + Wᵀ Ia W) ẍ = Wᵀ (τ - f(W ẋ) - Ia b) - cx - gx``.
+
+    Friction is smooth or exact-sign (stick–slip friction, a constraint on ``ẍ`` where an actuator holds, is not
+    modelled for it)."""
+    n = N_INDEPENDENT
+    for a in range(N_ACTUATORS):  # the effort each drive passes on: τ - f(θ̇_a) - Ia b_a, kept in ws.internal[0]
+        rate = 0.0
+        for j in range(n):
+            rate += ws.j_q_theta[a, j] * pose_dot[j]
+        ws.internal[0, a] = tau[a] - drive_friction(drive, a, rate) - drive[a, ARMATURE] * ws.bias_q[a]
+    for i in range(n):
+        acc = -ws.c_theta[i] - ws.g_theta[i]
+        for a in range(N_ACTUATORS):
+            acc += ws.j_q_theta[a, i] * ws.internal[0, a]
+        ws.theta_ddot[i] = acc
+        for j in range(n):
+            acc = 0.0
+            for a in range(N_ACTUATORS):
+                acc += ws.j_q_theta[a, i] * drive[a, ARMATURE] * ws.j_q_theta[a, j]
+            ws.m_theta[i, j] += acc
     if not ldlt_solve(ws.m_theta, ws.ldl, ws.theta_ddot):
         return SINGULAR
     return OK
@@ -2761,8 +2794,9 @@ def sampled_data_chunk(workspaces, x, theta_dot_m, k0, count, ts, n_sub, theta_d
                                     theta_dot_d[c], theta_ddot_d[c], P_ctrl, singularity_guard, ctrl, tau)
         if status != OK:
             return CONTROLLER + status, k
-        if kind == 0 and ctrl_drive.shape[0] > 0:
-            compensate_drives(ctrl, tau, x[n:] if ideal else theta_dot_m[j], ctrl_drive)
+        if kind == 0 and ctrl_drive.shape[0] > 0:  # at the rates the controller used
+            compensate_drives(ctrl, tau, x[n:] if ideal else (estimate[n:] if REDUNDANT else theta_dot_m[j]),
+                              ctrl_drive)
         for i in range(N_ACTUATORS):
             out_tau[k, i] = tau[i]
         if k == count - 1:
@@ -2792,7 +2826,16 @@ def drive_effort(drive, tau, effort_noise, k, applied):
 def compensate_drives(ws, tau, theta_dot, drive):
     """Add the controller's model of the drives to computed torque's efforts ``tau``: ``Ia v + fv θ̇ + fc φ(θ̇)``,
     ``v`` the commanded acceleration (kept in ``ws.theta_ddot``), the friction as the plant's
-    (:func:`drive_friction`)."""
+    (:func:`drive_friction`). A redundantly actuated machine's at its actuators: ``θ̇`` its pose's rates, the
+    actuators' ``W θ̇``, their commanded accelerations ``W v + b`` (:func:`redundant_drives`)."""
+    if REDUNDANT:
+        for a in range(N_ACTUATORS):
+            rate, acceleration = 0.0, ws.bias_q[a]
+            for j in range(N_INDEPENDENT):
+                rate += ws.j_q_theta[a, j] * theta_dot[j]
+                acceleration += ws.j_q_theta[a, j] * ws.theta_ddot[j]
+            tau[a] += drive[a, ARMATURE] * acceleration + drive_friction(drive, a, rate)
+        return
     for i in range(N_INDEPENDENT):
         tau[i] += drive[i, ARMATURE] * ws.theta_ddot[i] + drive_friction(drive, i, theta_dot[i])
 

@@ -209,15 +209,12 @@ class Scenario:
 def _check_redundant_run(scenario: Scenario) -> None:
     """Refuse, in one line, what a redundantly actuated machine's run does not model: its loop is in the controlled
     pose (the compiled core's independent coordinates), its controller reads the plant's pose (or estimates it from
-    its actuators' readings) and distributes its efforts over the actuators, and its drives act at the actuators, so
-    only their effort limits and effort noise (which act on each actuator's effort) are modelled. The least peak and
-    the effort limits move the efforts along the machine's internal effort: with more than one, they are refused."""
+    its actuators' readings) and distributes its efforts over the actuators, and its drives act at the actuators,
+    where stick-slip friction would hold an actuator by a constraint on the pose: refused. The least peak and the
+    effort limits move the efforts along the machine's internal effort: with more than one, they are refused."""
     model = scenario.model
     what = (f"{model.name} has {model.n_actuators} actuators for its {model.dof} degrees of freedom (redundant "
             "actuation)")
-    if scenario.controller_drives is not None:
-        raise InvalidParameterError(f"{what}: computed torque's model of its drives is not modelled; remove "
-                                    "controller_drives")
     spec = scenario.controller
     for name in ("weights", "preload"):
         value = getattr(spec, name)
@@ -235,12 +232,11 @@ def _check_redundant_run(scenario: Scenario) -> None:
             raise InvalidParameterError(f"{what}: its controller holds effort limits for one internal effort, and it "
                                         f"has {internal}; remove effort_limit (pkmlab.distribute_efforts holds them at "
                                         "a pose)")
-    if drives is not None:
-        acting = [name for name in ("armature", "viscous", "coulomb") if np.any(np.asarray(getattr(drives, name)) != 0)]
-        if acting or drives.stick_slip:
-            raise InvalidParameterError(f"{what}: its drives' {', '.join(acting) or 'stick-slip friction'} act at the "
-                                        "actuators and are not modelled in its pose; its drives may limit and "
-                                        "disturb the efforts only (effort_limit, effort_noise)")
+    for name in ("drives", "controller_drives"):
+        if getattr(scenario, name) is not None and getattr(scenario, name).stick_slip:
+            raise InvalidParameterError(f"{what}: stick-slip friction of its {name.replace('_', ' ')} (an actuator "
+                                        "held by it constrains the pose's accelerations) is not modelled; give "
+                                        "stick_slip = false (smooth or exact-sign Coulomb friction)")
 
 
 def _check_continuous_realism(drives: Drives | None, sensors: Sensors | None) -> None:
