@@ -263,7 +263,7 @@ def count_preset(name: str, samples: int | None = None) -> dict:
     libm += loop_own[1]
     streamed = 8 * (3 * n_x + n_q + n_x + n + 1)  # θd, θ̇d, θ̈d read; q, θ̇, τ, S written
     # two workspaces, both machines' parameters, the state x, the RK4 stages and the effort
-    working_set = 2 * kernels.WORKSPACE.itemsize + 8 * (2 * ctrl.P.size + 2 * n + 5 * 2 * n + n)
+    working_set = 2 * kernels.WORKSPACE.itemsize + 8 * (2 * ctrl.P.size + 2 * n_x + 5 * 2 * n_x + n)
     return {"preset": name, "operations_per_sample": flops, "libm_calls_per_sample": libm,
             "bytes_streamed_per_sample": streamed, "working_set_bytes": working_set, "functions": rows}
 

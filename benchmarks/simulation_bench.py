@@ -238,7 +238,8 @@ def simulation_rows(h, quick: bool) -> tuple[list[dict], dict]:
     buffers = outputs(n)
     # ideal drives, no compensation, ideal sensors
     ideal = (kernels.NO_DRIVES, kernels.NO_DRIVES, np.zeros((0, 3)), np.zeros(3), np.zeros((0, 3)), -1, 0)
-    minimum_norm = np.vstack([np.ones(3), np.zeros(3), np.full(3, np.inf)])  # (one solution for as many actuators)
+    # the distribution's rows (weights, preload, limits, least-peak flag): one solution for as many actuators
+    minimum_norm = np.vstack([np.ones(3), np.zeros(3), np.full(3, np.inf), np.zeros(3)])
 
     def loop(n_sub=1, ts=1e-3, dd=d):
         return kernels.sampled_data_loop(ts, n_sub, dd.theta, dd.theta_dot, dd.theta_ddot, result.q[0], dd.q[0], P,

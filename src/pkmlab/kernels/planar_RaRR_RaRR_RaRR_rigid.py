@@ -1462,7 +1462,8 @@ def distribute(ws, distribution, tau):
     zeros give the minimum 2-norm (the pseudo-inverse's efforts), zeros in the second row a weighted minimum norm,
     ones in the first the minimum norm plus the preload's internal part (:func:`pkmlab.distribute_efforts`'
     methods). With one internal effort (``N_ACTUATORS = N_INDEPENDENT + 1``) the least peak is exact
-    (:func:`least_peak`) and the limits are respected exactly where they can be (:func:`within_limits`).
+    (:func:`least_peak`) and the limits are respected exactly where they can be (:func:`within_limits`); with more,
+    only the 2-norm rules apply (a run refuses the least peak and effort limits for such a machine).
     """
     n = N_INDEPENDENT
     if not REDUNDANT:
@@ -1827,7 +1828,7 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     A redundantly actuated machine's run is in its controlled pose: ``θ`` (the desired motion, the recorded rates,
     the plant's state) are its independent coordinates (:data:`INDEPENDENT`), the efforts its actuators', distributed
     by :func:`distribute` with ``distribution``; its sensors read its actuators, whose readings the controller turns
-    into a pose (:func:`pose_from_actuators`); its drives limit and disturb efforts only."""
+    into a pose (:func:`pose_from_actuators`); its drives act at its actuators (:func:`redundant_drives`)."""
     count, n = theta_d.shape[0], N_INDEPENDENT
     theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, N_ACTUATORS))
     start = count - count  # 0, typed as sampled_data_chunk's k0 (not a literal): one compiled loop for both
@@ -2046,7 +2047,9 @@ def compensate_drives(ws, tau, theta_dot, drive):
     """Add the controller's model of the drives to computed torque's efforts ``tau``: ``Ia v + fv θ̇ + fc φ(θ̇)``,
     ``v`` the commanded acceleration (kept in ``ws.theta_ddot``), the friction as the plant's
     (:func:`drive_friction`). A redundantly actuated machine's at its actuators: ``θ̇`` its pose's rates, the
-    actuators' ``W θ̇``, their commanded accelerations ``W v + b`` (:func:`redundant_drives`)."""
+    actuators' ``W θ̇``, their commanded accelerations ``W v + b`` (:func:`redundant_drives`). Added after the
+    distribution: the efforts then exceed its least peak or its limits by what the drives take (the drives
+    saturate at their limits)."""
     if REDUNDANT:
         for a in range(N_ACTUATORS):
             rate, acceleration = 0.0, ws.bias_q[a]
@@ -2178,7 +2181,9 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_
     into ``out_theta_m[k]`` and ``theta_dot_m[k]``, the controller using sample ``k - delay``'s), the effort of
     :func:`_control_effort_from` into ``tau`` with the controller's model of the drives ``ctrl_drive``, and the
     effort the plant's drives ``drive`` apply (:func:`drive_effort`; no rows: the command) into ``applied``; the
-    arguments as :func:`sampled_data_loop`'s. Returns the status."""
+    arguments as :func:`sampled_data_loop`'s. Returns the status. A redundantly actuated machine's ``x`` is its pose
+    and the pose's rates, read as they are: its sensors (of its actuators) are modelled in the loop only, and
+    refused where this is called (the MuJoCo plant; continuous time has no sensors)."""
     n = N_INDEPENDENT
     workspaces = make_workspaces(1)
     if sensing == IDEAL_SENSORS:

@@ -123,9 +123,9 @@ class SimulationResult:
         """A redundantly actuated machine's internal efforts the plant carries beyond those its controller meant
         (N, n_actuators; N·m or N): ``N_p τ - N_c τ``, with ``N = I - W (WᵀW)⁻¹ Wᵀ`` the projection on the internal
         efforts (the null space of ``Wᵀ``) of the plant at its configurations and of the controller's model at the
-        plant's poses (where it reads them). The controller never observes them: they are what its model's
-        geometry gets wrong, zero when its model is the plant. None for a machine of as many actuators as degrees
-        of freedom, which has no internal efforts."""
+        plant's poses (where it reads them; with sensors it reads an estimate near them). The controller never
+        observes them: they are what its model's geometry gets wrong, zero when its model is the plant. None for a
+        machine of as many actuators as degrees of freedom, which has no internal efforts."""
         plant, model = self.scenario.plant_model, self.scenario.model
         if not model.description.actuation_redundancy:
             return None

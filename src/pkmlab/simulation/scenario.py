@@ -232,11 +232,10 @@ def _check_redundant_run(scenario: Scenario) -> None:
             raise InvalidParameterError(f"{what}: its controller holds effort limits for one internal effort, and it "
                                         f"has {internal}; remove effort_limit (pkmlab.distribute_efforts holds them at "
                                         "a pose)")
-    for name in ("drives", "controller_drives"):
-        if getattr(scenario, name) is not None and getattr(scenario, name).stick_slip:
-            raise InvalidParameterError(f"{what}: stick-slip friction of its {name.replace('_', ' ')} (an actuator "
-                                        "held by it constrains the pose's accelerations) is not modelled; give "
-                                        "stick_slip = false (smooth or exact-sign Coulomb friction)")
+    if drives is not None and drives.stick_slip:  # (computed torque's model of it is only friction to add)
+        raise InvalidParameterError(f"{what}: stick-slip friction of its drives (an actuator held by it constrains "
+                                    "the pose's accelerations) is not modelled; give stick_slip = false (smooth or "
+                                    "exact-sign Coulomb friction)")
 
 
 def _check_continuous_realism(drives: Drives | None, sensors: Sensors | None) -> None:

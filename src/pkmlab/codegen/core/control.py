@@ -92,7 +92,8 @@ def distribute(ws, distribution, tau):
     zeros give the minimum 2-norm (the pseudo-inverse's efforts), zeros in the second row a weighted minimum norm,
     ones in the first the minimum norm plus the preload's internal part (:func:`pkmlab.distribute_efforts`'
     methods). With one internal effort (``N_ACTUATORS = N_INDEPENDENT + 1``) the least peak is exact
-    (:func:`least_peak`) and the limits are respected exactly where they can be (:func:`within_limits`).
+    (:func:`least_peak`) and the limits are respected exactly where they can be (:func:`within_limits`); with more,
+    only the 2-norm rules apply (a run refuses the least peak and effort limits for such a machine).
     """
     n = N_INDEPENDENT
     if not REDUNDANT:

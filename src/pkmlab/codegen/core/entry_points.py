@@ -129,7 +129,9 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_
     into ``out_theta_m[k]`` and ``theta_dot_m[k]``, the controller using sample ``k - delay``'s), the effort of
     :func:`_control_effort_from` into ``tau`` with the controller's model of the drives ``ctrl_drive``, and the
     effort the plant's drives ``drive`` apply (:func:`drive_effort`; no rows: the command) into ``applied``; the
-    arguments as :func:`sampled_data_loop`'s. Returns the status."""
+    arguments as :func:`sampled_data_loop`'s. Returns the status. A redundantly actuated machine's ``x`` is its pose
+    and the pose's rates, read as they are: its sensors (of its actuators) are modelled in the loop only, and
+    refused where this is called (the MuJoCo plant; continuous time has no sensors)."""
     n = N_INDEPENDENT
     workspaces = make_workspaces(1)
     if sensing == IDEAL_SENSORS:

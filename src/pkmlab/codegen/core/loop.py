@@ -279,7 +279,7 @@ def sampled_data_loop(ts, n_sub, theta_d, theta_dot_d, theta_ddot_d, q_plant0, q
     A redundantly actuated machine's run is in its controlled pose: ``θ`` (the desired motion, the recorded rates,
     the plant's state) are its independent coordinates (:data:`INDEPENDENT`), the efforts its actuators', distributed
     by :func:`distribute` with ``distribution``; its sensors read its actuators, whose readings the controller turns
-    into a pose (:func:`pose_from_actuators`); its drives limit and disturb efforts only."""
+    into a pose (:func:`pose_from_actuators`); its drives act at its actuators (:func:`redundant_drives`)."""
     count, n = theta_d.shape[0], N_INDEPENDENT
     theta_dot_m = np.zeros((count if sensing != IDEAL_SENSORS else 0, N_ACTUATORS))
     start = count - count  # 0, typed as sampled_data_chunk's k0 (not a literal): one compiled loop for both
@@ -498,7 +498,9 @@ def compensate_drives(ws, tau, theta_dot, drive):
     """Add the controller's model of the drives to computed torque's efforts ``tau``: ``Ia v + fv θ̇ + fc φ(θ̇)``,
     ``v`` the commanded acceleration (kept in ``ws.theta_ddot``), the friction as the plant's
     (:func:`drive_friction`). A redundantly actuated machine's at its actuators: ``θ̇`` its pose's rates, the
-    actuators' ``W θ̇``, their commanded accelerations ``W v + b`` (:func:`redundant_drives`)."""
+    actuators' ``W θ̇``, their commanded accelerations ``W v + b`` (:func:`redundant_drives`). Added after the
+    distribution: the efforts then exceed its least peak or its limits by what the drives take (the drives
+    saturate at their limits)."""
     if REDUNDANT:
         for a in range(N_ACTUATORS):
             rate, acceleration = 0.0, ws.bias_q[a]
