@@ -1591,14 +1591,29 @@ def generalised_force(ws, tau, i):
     return acc
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def actuator_component(ws, a, v):
+    """``(W v)_a``: what a vector ``v`` of the independent coordinates (a redundantly actuated machine's pose's rates,
+    accelerations…) is at actuator ``a``, ``W`` the actuators' rows of ``ws.j_q_theta`` (the transpose of
+    :func:`generalised_force`): ``θ̇_a = (W ẋ)_a``."""
+    acc = 0.0
+    for j in range(N_INDEPENDENT):
+        acc += ws.j_q_theta[a, j] * v[j]
+    return acc
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def wrapped(e, angle):
+    """The difference ``e`` of two coordinates, for angles (``angle``) wrapped to ``(-π, π]``: the shorter way
+    round."""
+    return (e + np.pi) % (2.0 * np.pi) - np.pi if angle else e
+
+
 @njit(**NO_REFCOUNT)
 def actuator_error(theta, theta_d, i):
     """``θ_i - θ_d,i`` of the i-th independent coordinate, wrapped to ``(-π, π]`` for an angle (a revolute
     actuator, an orientation)."""
-    e = theta[i] - theta_d[i]
-    if ANGLES[independent_column(i)]:
-        e = (e + np.pi) % (2.0 * np.pi) - np.pi
-    return e
+    return wrapped(theta[i] - theta_d[i], ANGLES[independent_column(i)])
 
 
 # ---- pkmlab.codegen.core.branch_following, bound to the kernels above ----
@@ -2280,10 +2295,7 @@ def distribute(ws, distribution, tau):
     if not ldlt_solve(ws.normal, ws.normal_ldl, ws.force):
         return False
     for a in range(N_ACTUATORS):
-        acc = 0.0
-        for i in range(n):
-            acc += ws.j_q_theta[a, i] * ws.force[i]
-        tau[a] = distribution[1, a] + acc / distribution[0, a]
+        tau[a] = distribution[1, a] + actuator_component(ws, a, ws.force) / distribution[0, a]
     if N_ACTUATORS == n + 1:
         if distribution[3, 0] > 0.0:
             least_peak(ws, distribution, tau)
@@ -2305,10 +2317,7 @@ def internal_effort(ws, distribution):
         ldlt_solve(ws.normal, ws.normal_ldl, ws.force)
         norm = 0.0
         for a in range(N_ACTUATORS):
-            acc = 0.0
-            for i in range(n):
-                acc += ws.j_q_theta[a, i] * ws.force[i]
-            value = (1.0 if a == j else 0.0) - acc / distribution[0, a]
+            value = (1.0 if a == j else 0.0) - actuator_component(ws, a, ws.force) / distribution[0, a]
             ws.internal[j, a] = value
             norm += value * value
         if norm > best_norm:
@@ -2480,16 +2489,12 @@ def redundant_drives(ws, pose_dot, tau, drive):
     Friction is smooth or exact-sign (stick–slip friction, a constraint on ``ẍ`` where an actuator holds, is not
     modelled for it)."""
     n = N_INDEPENDENT
-    for a in range(N_ACTUATORS):  # the effort each drive passes on: τ - f(θ̇_a) - Ia b_a, kept in ws.internal[0]
-        rate = 0.0
-        for j in range(n):
-            rate += ws.j_q_theta[a, j] * pose_dot[j]
-        ws.internal[0, a] = tau[a] - drive_friction(drive, a, rate) - drive[a, ARMATURE] * ws.bias_q[a]
+    passed = ws.internal[0]  # the effort each drive passes on: τ - f(θ̇_a) - Ia b_a
+    for a in range(N_ACTUATORS):
+        friction = drive_friction(drive, a, actuator_component(ws, a, pose_dot))
+        passed[a] = tau[a] - friction - drive[a, ARMATURE] * ws.bias_q[a]
     for i in range(n):
-        acc = -ws.c_theta[i] - ws.g_theta[i]
-        for a in range(N_ACTUATORS):
-            acc += ws.j_q_theta[a, i] * ws.internal[0, a]
-        ws.theta_ddot[i] = acc
+        ws.theta_ddot[i] = generalised_force(ws, passed, i) - ws.c_theta[i] - ws.g_theta[i]
         for j in range(n):
             acc = 0.0
             for a in range(N_ACTUATORS):
@@ -2679,10 +2684,7 @@ def measure_actuators(ws, x, k, ts, P, resolution, theta_noise, sensing, out_the
             return False
         actuated_jacobian(ws, ws.j_q_theta)
     for a in range(N_ACTUATORS):
-        rate = 0.0
-        if exact:
-            for j in range(n):
-                rate += ws.j_q_theta[a, j] * x[n + j]
+        rate = actuator_component(ws, a, x[n:]) if exact else 0.0
         read_sensor(ws.q[BASE, a], rate, k, a, ts, resolution, theta_noise, sensing, out_theta_m, theta_dot_m)
     return True
 
@@ -2706,8 +2708,7 @@ def pose_from_actuators(ws, theta_m, theta_dot_m, P, singularity_guard, pose, po
             return SINGULAR
         actuated_jacobian(ws, ws.j_q_theta)
         for a in range(N_ACTUATORS):  # the residual θ_m - θ(x), an angle's the shorter way round
-            e = theta_m[a] - ws.q[TRIAL, a]
-            ws.internal[0, a] = (e + np.pi) % (2.0 * np.pi) - np.pi if ANGLES[a] else e
+            ws.internal[0, a] = wrapped(theta_m[a] - ws.q[TRIAL, a], ANGLES[a])
         if not least_squares_step(ws, ws.internal[0]):
             return SINGULAR
         step = 0.0
@@ -2848,11 +2849,8 @@ def compensate_drives(ws, tau, theta_dot, drive):
     saturate at their limits)."""
     if REDUNDANT:
         for a in range(N_ACTUATORS):
-            rate, acceleration = 0.0, ws.bias_q[a]
-            for j in range(N_INDEPENDENT):
-                rate += ws.j_q_theta[a, j] * theta_dot[j]
-                acceleration += ws.j_q_theta[a, j] * ws.theta_ddot[j]
-            tau[a] += drive[a, ARMATURE] * acceleration + drive_friction(drive, a, rate)
+            acceleration = ws.bias_q[a] + actuator_component(ws, a, ws.theta_ddot)
+            tau[a] += drive[a, ARMATURE] * acceleration + drive_friction(drive, a, actuator_component(ws, a, theta_dot))
         return
     for i in range(N_INDEPENDENT):
         tau[i] += drive[i, ARMATURE] * ws.theta_ddot[i] + drive_friction(drive, i, theta_dot[i])

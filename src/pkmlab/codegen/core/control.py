@@ -16,7 +16,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 
     from .branch_following import accept_trial, actuated_jacobian, factor_passive, follow_branch, keep_base_factors
     from .dynamics import actuator_space_model
-    from .workspace import BASE, OK, REDUNDANT, SINGULAR, actuator_error, ldlt_solve
+    from .workspace import BASE, OK, REDUNDANT, SINGULAR, actuator_component, actuator_error, ldlt_solve
 
 # ==== TEMPLATE
 @njit(**NO_REFCOUNT)
@@ -114,10 +114,7 @@ def distribute(ws, distribution, tau):
     if not ldlt_solve(ws.normal, ws.normal_ldl, ws.force):
         return False
     for a in range(N_ACTUATORS):
-        acc = 0.0
-        for i in range(n):
-            acc += ws.j_q_theta[a, i] * ws.force[i]
-        tau[a] = distribution[1, a] + acc / distribution[0, a]
+        tau[a] = distribution[1, a] + actuator_component(ws, a, ws.force) / distribution[0, a]
     if N_ACTUATORS == n + 1:
         if distribution[3, 0] > 0.0:
             least_peak(ws, distribution, tau)
@@ -139,10 +136,7 @@ def internal_effort(ws, distribution):
         ldlt_solve(ws.normal, ws.normal_ldl, ws.force)
         norm = 0.0
         for a in range(N_ACTUATORS):
-            acc = 0.0
-            for i in range(n):
-                acc += ws.j_q_theta[a, i] * ws.force[i]
-            value = (1.0 if a == j else 0.0) - acc / distribution[0, a]
+            value = (1.0 if a == j else 0.0) - actuator_component(ws, a, ws.force) / distribution[0, a]
             ws.internal[j, a] = value
             norm += value * value
         if norm > best_norm:

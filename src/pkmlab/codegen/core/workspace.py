@@ -209,11 +209,26 @@ def generalised_force(ws, tau, i):
     return acc
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def actuator_component(ws, a, v):
+    """``(W v)_a``: what a vector ``v`` of the independent coordinates (a redundantly actuated machine's pose's rates,
+    accelerations…) is at actuator ``a``, ``W`` the actuators' rows of ``ws.j_q_theta`` (the transpose of
+    :func:`generalised_force`): ``θ̇_a = (W ẋ)_a``."""
+    acc = 0.0
+    for j in range(N_INDEPENDENT):
+        acc += ws.j_q_theta[a, j] * v[j]
+    return acc
+
+
+@njit(**NO_REFCOUNT_INLINE)
+def wrapped(e, angle):
+    """The difference ``e`` of two coordinates, for angles (``angle``) wrapped to ``(-π, π]``: the shorter way
+    round."""
+    return (e + np.pi) % (2.0 * np.pi) - np.pi if angle else e
+
+
 @njit(**NO_REFCOUNT)
 def actuator_error(theta, theta_d, i):
     """``θ_i - θ_d,i`` of the i-th independent coordinate, wrapped to ``(-π, π]`` for an angle (a revolute
     actuator, an orientation)."""
-    e = theta[i] - theta_d[i]
-    if ANGLES[independent_column(i)]:
-        e = (e + np.pi) % (2.0 * np.pi) - np.pi
-    return e
+    return wrapped(theta[i] - theta_d[i], ANGLES[independent_column(i)])
