@@ -189,9 +189,11 @@ def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts
     return rows + more, checks
 
 
-#: The catalogue's redundantly actuated machines' default runs, each against the machine of as many legs less one.
+#: The catalogue's redundantly actuated machines' default runs, each against the machine of as many legs less one
+#: (the driven elbow's: the paper's, of as many legs).
 REDUNDANT_RUNS = {"4rrr": ("mechanisms/4rrr_motion.toml", "paper"),
                   "3rrr_redundant": ("mechanisms/3rrr_redundant_motion.toml", "paper"),
+                  "3rrr_elbow": ("mechanisms/3rrr_elbow_motion.toml", "paper"),
                   "4delta": ("mechanisms/4delta_motion.toml", "delta")}
 
 

@@ -44,8 +44,8 @@ MACHINES = {
 
 #: The catalogue's planar machines, checked in test_kinematic_redundancy.py.
 PLANAR = {"3prrr.toml"}
-#: Redundantly actuated machines, checked and run in test_actuation_redundancy.py.
-REDUNDANT = {"4rrr.toml", "3rrr_redundant.toml", "4delta.toml"}
+#: Redundantly actuated machines, checked and run in test_actuation_redundancy.py and test_leg_of_two_actuators.py.
+REDUNDANT = {"4rrr.toml", "3rrr_redundant.toml", "4delta.toml", "3rrr_elbow.toml"}
 
 
 def test_every_description_of_the_catalogue_is_checked_here():

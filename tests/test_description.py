@@ -159,9 +159,10 @@ def _three(**kw):
 BAD = {
     "unknown joint type": (_rigid([_leg("R*QR")] * 3), "leg[1].joints"),
     "no actuator": (_rigid(_three(joints="RRR")), "leg 1 (RRR) has no actuated joint"),
-    # a second actuator at the base moves an R*R leg, which holds the platform by two rows: a mobility of 3, not 6
-    "two actuators, too few joints": (_rigid(_three(joints="R*R*R")), "mobility (Grübler: 3 x 7 moving bodies - 2 x 9 "
-                                      "joints = 3) is not its 6 degrees of freedom"),
+    # a fourth joint, actuated, moves the base of an ordinary leg (RRR) with no actuator of its own
+    "a moved base carrying no actuator": (
+        _rigid(_three(joints="R*RRR", bodies=[{"tip": [0.1, 0.0], "mass": 0.2, "inertia": 1e-3}] * 3)),
+        "leg 1 (R*RRR): the ordinary leg its first joint moves (RRR) has no actuated joint"),
     "actuated last joint": (_rigid(_three(joints="RRR*")), "leg 1: its last joint carries the platform"),
     "legs of one joint too few": (_rigid([_leg("R*R", bodies=[{"tip": [0.3, 0], "mass": 1, "inertia": 1e-3}],
                                                base=b) for b in ([0, 0], [0.5, 0], [0.25, 0.43])]),

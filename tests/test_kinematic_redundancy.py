@@ -69,14 +69,14 @@ def test_extra_actuators_not_at_the_base_and_a_wrong_count_are_refused_naming_th
     m = load_mechanism(PRRR)
     leg = m.legs[1]
     moved = replace(leg, joints=(Joint("P", False, leg.joints[0].axis), Joint("R", True), Joint("R", True), Joint("R")))
-    with pytest.raises(InvalidParameterError, match=r"leg 2 \(PR\*R\*R\) has 2 actuated joints: a leg's extra "
-                                                    r"actuators are its first joints"):
+    with pytest.raises(InvalidParameterError, match=r"leg 2 \(PR\*R\*R\) has 4 joints, 1 more than an "
+                                                    r"ordinary leg: the first, moving the ordinary leg's base, must be "
+                                                    r"actuated"):
         replace(m, legs=(m.legs[0], moved, m.legs[2]))
-    short = replace(leg, joints=(Joint("P", True, leg.joints[0].axis), Joint("R", True), Joint("R")),
-                    bodies=leg.bodies[:2])
-    with pytest.raises(InvalidParameterError, match=r"mobility \(Grübler: 3 x 9 moving bodies - 2 x 11 joints = 5\) "
-                                                    r"is not its 6 degrees of freedom \(3 for its pose x, y, alpha "
-                                                    r"and 3 moving its legs' bases\)"):
+    short = replace(leg, joints=(Joint("P", True, leg.joints[0].axis), Joint("R")), bodies=leg.bodies[:1])
+    with pytest.raises(InvalidParameterError, match=r"mobility \(Grübler: 3 x 8 moving bodies - 2 x 10 joints = 4\) "
+                                                    r"is not its 5 degrees of freedom \(3 for its pose x, y, alpha "
+                                                    r"and 2 moving its legs' bases\)"):
         replace(m, legs=(m.legs[0], short, m.legs[2]))
 
 

@@ -518,7 +518,11 @@ def forward_kinematics(model: MechanismModel, theta, *, actuators=None) -> Forwa
 
 def _solved_actuators(model: MechanismModel, actuators) -> tuple[int, ...] | None:
     """The actuators forward kinematics solves for: None (all) but for a redundantly actuated machine, whose
-    ``actuators`` (default: the first ``dof``) must be ``dof`` distinct ones of legs of one actuator each."""
+    ``actuators`` must be ``dof`` distinct ones: one per leg of its own ordinary part, as many legs as the
+    platform's pose has coordinates, with every actuator moving a leg's base — those legs' among them (the base's
+    actuators are controlled coordinates). Default: the first legs' own
+    (:attr:`~pkmlab.description.mechanism.JointChain.actuated`). Returned in increasing order, the sub-machine's
+    (:func:`_sub_machine`)."""
     m = model.description
     if not m.actuation_redundancy:
         if actuators is not None:
@@ -526,29 +530,50 @@ def _solved_actuators(model: MechanismModel, actuators) -> tuple[int, ...] | Non
                                         f"kinematics solves for; the {model.name} has as many as its degrees of "
                                         "freedom")
         return None
-    chosen = tuple(range(model.dof) if actuators is None else as_actuators(model, actuators, exactly=True))
+    bases = set(m.redundancy_actuators)
+    if actuators is None:
+        moved = [i for i, leg in enumerate(m.legs) if leg.moving_base]
+        legs = (moved + [i for i in range(len(m.legs)) if i not in moved])[:len(m.platform.pose_names)]
+        return tuple(sorted(bases | {m.actuators.index((i, m.legs[i].actuated)) for i in legs}))
+    chosen = tuple(as_actuators(model, actuators, exactly=True))
+    legs: dict[int, int] = {}
     for i in chosen:
+        leg, joint = m.actuators[i]
+        if i in bases:
+            continue
+        if leg in legs:
+            raise InvalidParameterError(f"actuators a{legs[leg] + 1} and a{i + 1} are both leg {leg + 1}'s: forward "
+                                        "kinematics from a subset takes one actuator per leg")
+        legs[leg] = i
+    for i in sorted(bases):
         leg = m.actuators[i][0]
-        if len(m.legs[leg].actuated_joints) != 1:
-            raise InvalidParameterError(f"actuator a{i + 1} is one of leg {leg + 1}'s "
-                                        f"{len(m.legs[leg].actuated_joints)} actuators: forward kinematics from a "
-                                        "subset takes legs of one actuator")
-    return chosen
+        if i not in chosen or leg not in legs:
+            raise InvalidParameterError(f"actuator a{i + 1} moves the base of leg {leg + 1}: forward kinematics from a "
+                                        f"subset takes it and one of that leg's other actuators")
+    return tuple(sorted(chosen))
 
 
 def _sub_machine(model: MechanismModel, actuators: tuple[int, ...]) -> MechanismModel:
-    """The machine of the legs of ``actuators`` alone (their platform attachments kept): one of as many actuators
-    as degrees of freedom, whose forward kinematics solves the redundant machine's."""
-    return _sub_machine_of(model.description, tuple(model.description.actuators[i][0] for i in actuators))
+    """The machine of the legs of ``actuators`` (increasing) alone, their platform attachments kept, each with only
+    those of its actuators: one of as many actuators as degrees of freedom, whose forward kinematics solves the
+    redundant machine's."""
+    return _sub_machine_of(model.description, tuple(model.description.actuators[i] for i in actuators))
 
 
 @functools.lru_cache(maxsize=32)
-def _sub_machine_of(description, legs: tuple[int, ...]) -> MechanismModel:
+def _sub_machine_of(description, actuators: tuple[tuple[int, int], ...]) -> MechanismModel:
     import dataclasses
 
+    chosen = dict.fromkeys(i for i, _k in actuators)
+    legs = []
+    for i in chosen:  # the leg with only the chosen joints actuated (its stroke, its own actuator's)
+        leg = description.legs[i]
+        joints = tuple(dataclasses.replace(j, actuated=(i, n) in actuators) for n, j in enumerate(leg.joints))
+        own = (i, leg.actuated) in actuators
+        legs.append(dataclasses.replace(leg, joints=joints, stroke=leg.stroke if own else None))
     platform = description.platform
-    platform = dataclasses.replace(platform, attachments=tuple(platform.attachments[i] for i in legs))
-    sub = dataclasses.replace(description, legs=tuple(description.legs[i] for i in legs), platform=platform)
+    platform = dataclasses.replace(platform, attachments=tuple(platform.attachments[i] for i in chosen))
+    sub = dataclasses.replace(description, legs=tuple(legs), platform=platform)
     return MechanismModel.from_description(sub)
 
 

@@ -178,7 +178,8 @@ def _leg_lines(mechanism: Mechanism, P: dict, pose, joints, slides):
 
     lines = []
     for leg, points, slide in zip(mechanism.legs, joints, slides, strict=True):
-        k = max(k for k, j in enumerate(leg.joints[:-1]) if not j.actuated)  # the passive joint before the platform
+        # the passive joint before the platform (an extra actuator counted passive: the line of the leg's own)
+        k = max(k for k, j in enumerate(leg.joints[:-1]) if not j.actuated or k in leg.extra_actuated)
         if leg.joints[k].kind == "R":
             after = next(j for j in range(k + 1, len(leg.joints)) if leg.joints[j].kind == "R")
             d = points[after] - points[k]

@@ -47,12 +47,13 @@ PLANAR_BODY = (
 PLANAR_LEG = (
     Key("base", "array", "The leg's base point [x, y].", "m", required=True, schema=POINT),
     Key("joints", "string", "The leg's joints from the base to the platform, R (revolute) or P (prismatic), the "
-        "actuated one starred (a kinematically redundant leg's first joints too, moving the base of the rest); the "
-        "last is a passive R.", required=True, examples=("R*RR", "RP*R", "P*RR", "P*R*RR"),
+        "actuated one starred (a kinematically redundant leg's first joints too, moving the base of the rest; a "
+        "second actuator in the leg's last three joints makes the machine redundantly actuated); the last is a "
+        "passive R.", required=True, examples=("R*RR", "RP*R", "P*RR", "P*R*RR", "R*R*R"),
         schema={"type": "string", "pattern": r"^ *([RP] *(\* *)?)+$"}),
     Key("axis", "number", "A prismatic first joint's rail: its absolute angle from the base x axis.", "rad"),
-    Key("stroke", "array", "The actuator's stroke [lower, upper] (rad or m; a kinematically redundant leg's: its "
-        "last actuator's); none: no limit.", schema=_STROKE),
+    Key("stroke", "array", "The stroke [lower, upper] of the leg's own actuator, the first of its last three "
+        "joints (rad or m); none: no limit.", schema=_STROKE),
     Key("bodies", "array", "The leg's bodies, one after each joint but the last.", default=[]),
 )
 

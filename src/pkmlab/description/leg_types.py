@@ -298,7 +298,8 @@ def leg_inverse_kinematics_batch(leg: Leg, number: int, points, sigma: int = 1, 
     its angles turned back, its actuator's stroke checked on the values in the machine's frame."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if not leg.moving_base:
-        return _solver(leg, number)(leg, number, points, sigma)
+        part = ordinary_part(leg)
+        return _solver(part, number)(part, number, points, sigma)
     values = np.asarray(base_values, dtype=float).reshape(len(points), leg.moving_base)
     origin, direction = moving_base(leg, values)
     part = replace(ordinary_part(leg), stroke=None)

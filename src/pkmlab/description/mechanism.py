@@ -29,8 +29,13 @@ Conventions (pkmlab's, for every mechanism):
   displacements (m), efforts torques (N·m) or forces (N). A *kinematically redundant* leg has more:
   its first joints, from the base, are actuated too (``"P*R*RR"``, the 3-PRRR's) and carry an ordinary
   leg on a base they move. Their values are controlled coordinates beside the platform's pose — the
-  machine has as many degrees of freedom as actuators, the platform three (or two) of them. Actuators
-  are numbered ``a1, a2, …`` leg by leg, base to platform.
+  machine has as many degrees of freedom as actuators, the platform three (or two) of them. A leg may
+  also carry more actuators than its ordinary part needs (``"R*R*R"``: its elbow driven too), or a
+  machine more legs than its pose has coordinates (a 4-RRR): *actuation redundancy*, more actuators
+  than degrees of freedom, whose efforts balance each other in part (internal efforts). An actuated
+  revolute after another revolute drives its body's absolute angle, as a belt or a parallelogram from
+  the base does, its effort a torque against the base. Actuators are numbered ``a1, a2, …`` leg by leg,
+  base to platform.
 * Gravity is a vector in the plane, zero by default (a machine in the horizontal plane).
 """
 
@@ -39,6 +44,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -86,7 +92,7 @@ class LegsAndPose:
         """The actuators (0-based indices of :attr:`actuators`) that move the base of a kinematically redundant leg
         (every actuator of a leg but its last), ``(0, 2, 4)`` for a 3-PRRR; empty for a machine of one actuator per
         leg."""
-        return tuple(k for k, (i, joint) in enumerate(self.actuators) if joint != self.legs[i].actuated)
+        return tuple(k for k, (i, joint) in enumerate(self.actuators) if joint < self.legs[i].moving_base)
 
     @property
     def redundancy_names(self) -> tuple[str, ...]:
@@ -141,38 +147,62 @@ class Joint:
 class JointChain:
     """What every leg (planar or spatial) derives from its joints."""
 
+    #: How many joints an ordinary leg has (a planar one: its actuator, a passive joint and the platform's revolute);
+    #: None where the joint count alone does not say (a spatial leg, which never moves its own base).
+    ORDINARY_JOINTS: ClassVar[int | None] = None
+
     @property
     def actuated(self) -> int:
-        """Index of the leg's own actuated joint: its only one, or a kinematically redundant leg's last."""
-        return max(i for i, j in enumerate(self.joints) if j.actuated)
+        """Index of the leg's own actuated joint: the first of its ordinary part (:attr:`moving_base`), the one
+        whose kind makes the leg's type (``R*RR``'s ``R*``, a ``P*R*RR``'s ``R*``, an ``R*R*R``'s first)."""
+        return next(i for i, j in enumerate(self.joints) if j.actuated and i >= self.moving_base)
 
     @property
     def actuated_joints(self) -> tuple[int, ...]:
-        """Indices of the leg's actuated joints, base to platform (one, but for a kinematically redundant leg)."""
+        """Indices of the leg's actuated joints, base to platform: one, or more for a kinematically redundant leg
+        (its base's) and for a leg of more actuators than its ordinary part needs (actuation redundancy)."""
         return tuple(i for i, j in enumerate(self.joints) if j.actuated)
+
+    @property
+    def extra_actuated(self) -> tuple[int, ...]:
+        """The leg's actuated joints in its ordinary part after its own (:attr:`actuated`): an ``R*R*R`` leg's
+        second, whose actuator only adds to the machine's internal efforts (actuation redundancy); empty for most
+        legs."""
+        return tuple(k for k in self.actuated_joints if k > self.actuated)
 
     @property
     def moving_base(self) -> int:
         """How many joints at the base move the base of the leg's ordinary part: a kinematically redundant leg's
-        actuators but its last (0 for an ordinary leg)."""
-        return len(self.actuated_joints) - 1
+        first joints, actuated, beyond the ordinary leg's joint count (``P*R*RR``: 1); 0 for an ordinary leg, and
+        for a leg whose extra actuators act within its ordinary part (``R*R*R``)."""
+        if self.ORDINARY_JOINTS is None:
+            return 0
+        leading = next((k for k, j in enumerate(self.joints) if not j.actuated), len(self.joints))
+        return max(0, min(leading, len(self.joints) - self.ORDINARY_JOINTS))
 
     @property
     def notation(self) -> str:
         """The leg in the literature's notation, the actuated joint starred: ``"R*RR"``, ``"UP*S"``."""
-        return "".join(j.kind + ("*" if j.actuated else "") for j in self.joints)
+        return notation_of(self.joints)
+
+
+def notation_of(joints) -> str:
+    """Joints in the literature's notation, each actuated one starred: ``"R*RR"``, ``"P*R*RR"``."""
+    return "".join(j.kind + ("*" if j.actuated else "") for j in joints)
 
 
 @dataclass(frozen=True)
 class Leg(JointChain):
     """A serial chain from ``base`` to the platform: ``joints`` (the last one carries the platform),
-    ``bodies`` (one after each joint but the last), the actuator's ``stroke`` (lower, upper) or None (a
-    kinematically redundant leg's: its last actuator's, the one of its ordinary part)."""
+    ``bodies`` (one after each joint but the last), the stroke (lower, upper) of its own actuator
+    (:attr:`~JointChain.actuated`, the first of its ordinary part) or None."""
 
     base: tuple[float, float]
     joints: tuple[Joint, ...]
     bodies: tuple[Body, ...]
     stroke: tuple[float, float] | None = None
+
+    ORDINARY_JOINTS: ClassVar[int] = 3
 
 
 @dataclass(frozen=True)
@@ -236,15 +266,22 @@ class Mechanism(LegsAndPose):
                 raise InvalidParameterError(f"{where}, joint {k + 1}: unknown joint type {kind!r} "
                                             f"(use R for revolute, P for prismatic)")
         actuated = [k for k, j in enumerate(joints) if j.actuated]
-        notation = "".join(j.kind + ("*" if j.actuated else "") for j in joints)
+        notation = notation_of(joints)
         if not actuated:
             raise InvalidParameterError(f"{where} ({notation}) has no actuated joint: one joint per leg is actuated "
                                         "(mark it with *, e.g. R*RR)")
-        if actuated[:-1] != list(range(len(actuated) - 1)):
-            raise InvalidParameterError(f"{where} ({notation}) has {len(actuated)} actuated joints: a leg's extra "
-                                        "actuators are its first joints, from the base, moving the base of an "
-                                        "ordinary leg (kinematic redundancy, e.g. P*R*RR); otherwise one joint per "
-                                        "leg is actuated")
+        moved = Leg(leg.base, joints, ()).moving_base
+        extra = len(joints) - Leg.ORDINARY_JOINTS
+        if moved < extra:
+            first = "the first" if extra == 1 else f"the first {extra}"
+            raise InvalidParameterError(f"{where} ({notation}) has {len(joints)} joints, {extra} more than an ordinary "
+                                        f"leg: {first}, moving the ordinary leg's base, must be actuated (kinematic "
+                                        "redundancy, e.g. P*R*RR); a passive one would be a freedom no actuator holds")
+        if not any(j.actuated for j in joints[moved:]):
+            first = "its first joint moves" if moved == 1 else f"its first {moved} joints move"
+            ordinary = notation_of(joints[moved:])
+            raise InvalidParameterError(f"{where} ({notation}): the ordinary leg {first} ({ordinary}) has no actuated "
+                                        "joint (mark one with *, e.g. P*R*RR)")
         last = joints[-1]
         if last.kind != "R" or last.actuated:
             raise InvalidParameterError(f"{where}: its last joint carries the platform and must be a passive "
@@ -381,13 +418,16 @@ def moving_base(leg: Leg, values) -> tuple[np.ndarray, np.ndarray]:
 
 
 def ordinary_part(leg: Leg, origin=(0.0, 0.0), direction: float = 0.0) -> Leg:
-    """The ordinary leg (one actuator) that a kinematically redundant ``leg`` carries on the base its first
-    actuators move, with that base at ``origin`` and the body before it at angle ``direction`` (what a first
-    prismatic joint slides along); ``leg`` itself when it has one actuator."""
-    k = leg.moving_base
-    if not k:
+    """The ordinary leg (one actuator, its own) of ``leg``: a kinematically redundant leg's carried on the base its
+    first actuators move, with that base at ``origin`` and the body before it at angle ``direction`` (what a first
+    prismatic joint slides along); its extra actuators (:attr:`~JointChain.extra_actuated`) passive, which move
+    nothing the ordinary leg's kinematics does not; ``leg`` itself when it has one actuator."""
+    k, extra = leg.moving_base, leg.extra_actuated
+    if not k and not extra:
         return leg
-    joints = list(leg.joints[k:])
+    joints = [Joint(j.kind, j.actuated and i not in extra, j.axis) for i, j in enumerate(leg.joints)][k:]
+    if not k:
+        return Leg(leg.base, tuple(joints), leg.bodies, leg.stroke)
     if joints[0].kind == "P":
         joints[0] = Joint("P", joints[0].actuated, float(direction))
     return Leg((float(origin[0]), float(origin[1])), tuple(joints), leg.bodies[k:], leg.stroke)

@@ -598,7 +598,7 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
         sigma = sigma[0] if len(sigma) == 1 else sigma
         if (i, sigma) not in branches:
             base = (poses[:, [m.pose_names.index(f"a{m.actuators.index((i, k)) + 1}")
-                              for k in leg.actuated_joints[:-1]]],) if leg.moving_base else ()
+                              for k in leg.actuated_joints[:leg.moving_base]]],) if leg.moving_base else ()
             branches[i, sigma] = leg_inverse_kinematics_batch(leg, i, attachment_points_of(m, i, poses), sigma,
                                                               *extra, *base)
         solved = branches[i, sigma]

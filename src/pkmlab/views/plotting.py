@@ -182,7 +182,7 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
         first = i == 0
         if leg.joints[0].kind == "P":  # a rail from its base point along its axis, over the stroke
             u = np.array([np.cos(leg.joints[0].axis), np.sin(leg.joints[0].axis)])
-            # the rail over the slider's stroke (a kinematically redundant leg's stroke is its last actuator's)
+            # the rail over the slider's stroke (a kinematically redundant leg's stroke is its ordinary part's)
             lo, hi = (leg.stroke if leg.stroke is not None and leg.actuated == 0
                       else (0.0, float(np.hypot(*(pts[1] - pts[0])))))
             rail = np.array([pts[0] + lo * u, pts[0] + hi * u])
@@ -190,11 +190,7 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
                     label="rails" if first else None)
             ax.plot(*pts[1], "s", color="tab:blue", ms=9,
                     label=("actuated sliders" if leg.joints[0].actuated else "sliders") if first else None)
-            k = 1 + leg.moving_base  # a kinematically redundant leg's actuated link on its slider, then the passive
-            if leg.moving_base:
-                ax.plot(pts[1:k + 1, 0], pts[1:k + 1, 1], color="tab:blue", lw=3,
-                        label="actuated links" if first else None)
-            ax.plot(pts[k:, 0], pts[k:, 1], color="tab:orange", lw=2, label="passive links" if first else None)
+            _links(ax, leg, pts, 1, first)
         elif leg.joints[1].kind == "P":  # telescopic: the cylinder from the base, the rod to the platform
             end = pts[-1]
             along = end - pts[0]
@@ -204,14 +200,8 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
                     solid_capstyle="butt", label="cylinders" if first else None)
             ax.plot([pts[0, 0], end[0]], [pts[0, 1], end[1]], color="tab:orange", lw=2,
                     label=("actuated rods" if leg.joints[1].actuated else "rods") if first else None)
-        else:  # R*RR (R*R*RR, …): each link bold where its joint is actuated
-            labelled = set()
-            for k in range(len(leg.joints) - 1):
-                actuated = leg.joints[k].actuated
-                name = "actuated links" if actuated else "passive links"
-                ax.plot(pts[k:k + 2, 0], pts[k:k + 2, 1], color="tab:blue" if actuated else "tab:orange",
-                        lw=3 if actuated else 2, label=name if first and name not in labelled else None)
-                labelled.add(name)
+        else:  # R*RR (R*R*RR, R*R*R, …)
+            _links(ax, leg, pts, 0, first)
             ax.plot(*pts[1], "o", color="tab:blue", ms=5)
         ax.plot(*pts[0], "ks", ms=7, label="base" if first else None)
         ax.annotate(f"{i + 1}", pts[0], textcoords="offset points", xytext=(-10, -12), fontsize=8)
@@ -228,6 +218,18 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     gap = "\n" if m.redundancy_names else " "  # a kinematically redundant machine's coordinates: a line of theirs
     ax.set_title(title or f"{m.name} ({m.notation}){gap}at {where}")
     return ax
+
+
+def _links(ax, leg, pts, start: int, first: bool) -> None:
+    """A planar leg's links from joint ``start`` on, each bold where its joint is actuated; the legend's names
+    from the first leg (``first``)."""
+    labelled = set()
+    for k in range(start, len(leg.joints) - 1):
+        actuated = leg.joints[k].actuated
+        name = "actuated links" if actuated else "passive links"
+        ax.plot(pts[k:k + 2, 0], pts[k:k + 2, 1], color="tab:blue" if actuated else "tab:orange",
+                lw=3 if actuated else 2, label=name if first and name not in labelled else None)
+        labelled.add(name)
 
 
 def _axes3d(ax):
