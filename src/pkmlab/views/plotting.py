@@ -177,6 +177,7 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     q = np.asarray(q, dtype=float)
     m = model.description
     points = mm.joint_positions(model, q)
+    labelled: set[str] = set()
     for i, leg in enumerate(m.legs):
         pts = points[i, :len(leg.joints)]
         first = i == 0
@@ -190,7 +191,7 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
                     label="rails" if first else None)
             ax.plot(*pts[1], "s", color="tab:blue", ms=9,
                     label=("actuated sliders" if leg.joints[0].actuated else "sliders") if first else None)
-            _links(ax, leg, pts, 1, first)
+            _links(ax, leg, pts, 1, labelled)
         elif leg.joints[1].kind == "P":  # telescopic: the cylinder from the base, the rod to the platform
             end = pts[-1]
             along = end - pts[0]
@@ -201,7 +202,7 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
             ax.plot([pts[0, 0], end[0]], [pts[0, 1], end[1]], color="tab:orange", lw=2,
                     label=("actuated rods" if leg.joints[1].actuated else "rods") if first else None)
         else:  # R*RR (R*R*RR, R*R*R, …)
-            _links(ax, leg, pts, 0, first)
+            _links(ax, leg, pts, 0, labelled)
             ax.plot(*pts[1], "o", color="tab:blue", ms=5)
         ax.plot(*pts[0], "ks", ms=7, label="base" if first else None)
         ax.annotate(f"{i + 1}", pts[0], textcoords="offset points", xytext=(-10, -12), fontsize=8)
@@ -220,15 +221,14 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     return ax
 
 
-def _links(ax, leg, pts, start: int, first: bool) -> None:
-    """A planar leg's links from joint ``start`` on, each bold where its joint is actuated; the legend's names
-    from the first leg (``first``)."""
-    labelled = set()
+def _links(ax, leg, pts, start: int, labelled: set) -> None:
+    """A planar leg's links from joint ``start`` on, each bold where its joint is actuated; each kind named in the
+    legend once (``labelled``: the names given already, added to)."""
     for k in range(start, len(leg.joints) - 1):
         actuated = leg.joints[k].actuated
         name = "actuated links" if actuated else "passive links"
         ax.plot(pts[k:k + 2, 0], pts[k:k + 2, 1], color="tab:blue" if actuated else "tab:orange",
-                lw=3 if actuated else 2, label=name if first and name not in labelled else None)
+                lw=3 if actuated else 2, label=name if name not in labelled else None)
         labelled.add(name)
 
 
