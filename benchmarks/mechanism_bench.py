@@ -190,10 +190,11 @@ def mechanism_rows(h, quick: bool, paper_loop_per_sample_s: float | None, counts
 
 
 #: The catalogue's redundantly actuated machines' default runs, each against the machine of as many legs less one
-#: (the driven elbow's: the paper's, of as many legs).
+#: (the driven elbow's: the paper's, of as many legs; the driven knee's: none of the presets).
 REDUNDANT_RUNS = {"4rrr": ("mechanisms/4rrr_motion.toml", "paper"),
                   "3rrr_redundant": ("mechanisms/3rrr_redundant_motion.toml", "paper"),
                   "3rrr_elbow": ("mechanisms/3rrr_elbow_motion.toml", "paper"),
+                  "3rrs_knee": ("mechanisms/3rrs_knee_motion.toml", None),
                   "4delta": ("mechanisms/4delta_motion.toml", "delta")}
 
 
@@ -239,7 +240,7 @@ def _redundant_rows(h, repeats: int, paper_loop_per_sample_s: float | None, delt
                                    f"distributed ({method})", times, samples - 1, "sample", compare=False))
             per_sample = float(np.median(times)) / (samples - 1)
             checks[f"{name}_{method}_loop_per_sample_us"] = per_sample * 1e6
-            if twins[twin]:
+            if twins.get(twin):
                 ratio = per_sample / twins[twin]
                 checks[f"{name}_{method}_loop_vs_{twin}"] = ratio
                 rows.append(h.metric_row(f"mech_{name}_loop_{method}_vs_{twin}", f"{name} ({method}): loop per "

@@ -45,7 +45,7 @@ MACHINES = {
 #: The catalogue's planar machines, checked in test_kinematic_redundancy.py.
 PLANAR = {"3prrr.toml"}
 #: Redundantly actuated machines, checked and run in test_actuation_redundancy.py and test_leg_of_two_actuators.py.
-REDUNDANT = {"4rrr.toml", "3rrr_redundant.toml", "4delta.toml", "3rrr_elbow.toml"}
+REDUNDANT = {"4rrr.toml", "3rrr_redundant.toml", "4delta.toml", "3rrr_elbow.toml", "3rrs_knee.toml"}
 
 
 def test_every_description_of_the_catalogue_is_checked_here():

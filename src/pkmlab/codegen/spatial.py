@@ -98,7 +98,7 @@ def _leg_coordinate_names(leg, tag: str) -> list[str]:
 
 def coordinate_names(mechanism: SpatialMechanism) -> tuple[str, ...]:
     """``a1..an`` (actuators), ``q<leg>_<joint>`` (passive joints; a U joint's two are ``…a``, ``…b``), the pose."""
-    names = [f"a{i + 1}" for i in range(len(mechanism.legs))]
+    names = [f"a{i + 1}" for i in range(len(mechanism.actuators))]
     for i, leg in enumerate(mechanism.legs):
         names += _leg_coordinate_names(leg, str(i + 1))
     return (*names, *mechanism.platform.q_pose_names)
@@ -109,13 +109,19 @@ def _leg_angles(leg) -> list[bool]:
     return [joint.kind != "P" for joint in leg.joints[:-1] if not joint.actuated for _ in range(joint.coordinates)]
 
 
-def _actuator_angle(leg) -> bool:
-    """Whether a leg's actuator is an angle (a revolute joint)."""
-    return leg.joints[leg.actuated].kind == "R"
+def _actuator_angles(leg) -> list[bool]:
+    """Whether each of a leg's actuators is an angle (a revolute joint), base to platform."""
+    return [leg.joints[k].kind == "R" for k in leg.actuated_joints]
+
+
+def _local_actuators(leg) -> list[str]:
+    """The names of a leg's actuators in its type's derivation: ``a`` (its own), then ``a2``, ``a3``… (a leg of
+    several)."""
+    return ["a" if k == 0 else f"a{k + 1}" for k in range(len(leg.actuated_joints))]
 
 
 def coordinate_angles(mechanism: SpatialMechanism) -> tuple[bool, ...]:
-    angles = [_actuator_angle(leg) for leg in mechanism.legs]
+    angles = [a for leg in mechanism.legs for a in _actuator_angles(leg)]
     for leg in mechanism.legs:
         angles += _leg_angles(leg)
     return (*angles, *(name in ("roll", "pitch", "yaw") for name in mechanism.platform.q_pose_names))
@@ -214,7 +220,8 @@ def derive_leg(mechanism: SpatialMechanism, leg, row: bool = False) -> dict:
     """The symbolic kinematics of one leg of ``mechanism``, in the names of any leg of its type (with its
     orientation row where ``row``: :func:`leg_types`).
 
-    The leg's coordinates are ``a`` (its actuator), its passive ones ``q_<joint>`` and the platform's pose; its
+    The leg's coordinates are ``a`` (its actuator; ``a2``… a leg's others), its passive ones ``q_<joint>`` and the
+    platform's pose; its
     parameters ``base_x``, ``axis_<joint><a|b>_x``, ``body_<k>_tip_x``..., and ``attach_x``... (its platform
     attachment point). Returns ``{"q", "q_dot": the leg's coordinates and rates, then the pose's; "P": its
     parameters' symbols by name; "eta": its point rows (3), then its orientation row if it has one;
@@ -223,7 +230,7 @@ def derive_leg(mechanism: SpatialMechanism, leg, row: bool = False) -> dict:
     import sympy as sp
 
     pose, pose_dot, point_p, platform_rot, _ = _platform(sp, mechanism)
-    names = ["a", *_leg_coordinate_names(leg, "")]
+    names = [*_local_actuators(leg), *_leg_coordinate_names(leg, "")]
     own, own_dot = _symbols(sp, names), _symbols(sp, [f"{n}_dot" for n in names])
     rate = dict(zip(own, own_dot, strict=True))
     parameters = [*_leg_parameter_names(leg, ""), *(f"attach_{c}" for c in "xyz")]
@@ -236,13 +243,13 @@ def derive_leg(mechanism: SpatialMechanism, leg, row: bool = False) -> dict:
         return sp.Matrix([sum(sp.diff(e, v) * rate[v] for v in own) for e in expr])
 
     point, rot, omega = vec("base"), sp.eye(3), sp.zeros(3, 1)
-    passive = iter(own[1:])
+    actuators, passive = iter(own[:len(leg.actuated_joints)]), iter(own[len(leg.actuated_joints):])
     joints, bodies = [], []
     rotary = None  # where the leg's last passive rotary joint is
     for k, (joint, _body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
         joints.append(point)
         axes = [vec(f"axis_{k + 1}{'ab'[a]}") for a in range(len(joint.axes))]
-        values = [own[0]] if joint.actuated else [next(passive) for _ in range(joint.coordinates)]
+        values = [next(actuators)] if joint.actuated else [next(passive) for _ in range(joint.coordinates)]
         origin = point
         if joint.kind == "P":
             origin = point + values[0] * (rot * axes[0])
@@ -265,7 +272,7 @@ def derive_leg(mechanism: SpatialMechanism, leg, row: bool = False) -> dict:
         k = len(leg.joints)
         eta.append(((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"axis_{k}b")))[0])
     return {"q": (*own, *pose), "q_dot": (*own_dot, *pose_dot), "P": P, "eta": eta,
-            "bodies": bodies, "joints": joints, "lines": lines}
+            "bodies": bodies, "joints": joints, "lines": lines, "acts": len(leg.actuated_joints)}
 
 
 def derive(mechanism: SpatialMechanism) -> dict:
@@ -309,14 +316,15 @@ def _plus(base: str, k: int) -> str:
     return f"{base} + {k}" if k else base
 
 
-def _column(c: int, own: int, leg, iq, pose0: int):
-    """The column in ``q`` of a leg's local coordinate ``c`` (its actuator, its ``own`` passive ones, then the
-    pose's): a number for numbers ``leg`` and ``iq`` (where its passive ones start), an expression for names."""
-    if c == 0:
-        return leg
-    if c <= own:
-        return _plus(iq, c - 1) if isinstance(iq, str) else iq + c - 1
-    return pose0 + c - 1 - own
+def _column(c: int, acts: int, own: int, ja, iq, pose0: int):
+    """The column in ``q`` of a leg's local coordinate ``c`` (its ``acts`` actuators, its ``own`` passive ones, then
+    the pose's): a number for numbers ``ja`` (where its actuators start) and ``iq`` (where its passive ones start),
+    an expression for names."""
+    if c < acts:
+        return _plus(ja, c) if isinstance(ja, str) else ja + c
+    if c < acts + own:
+        return _plus(iq, c - acts) if isinstance(iq, str) else iq + c - acts
+    return pose0 + c - acts - own
 
 
 def generate_source(mechanism: SpatialMechanism) -> str:
@@ -346,20 +354,28 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         j_eta, b_eta = jacobian_and_bias(t["eta"], t["q"], t["q_dot"])
         j_body = rows.jacobian(t["q_dot"])
         local[notation] = {"j_eta": j_eta, "b_eta": b_eta, "j_body": j_body,
-                           "b_body": rows.jacobian(t["q"]) * sp.Matrix(t["q_dot"]), "own": len(t["q"]) - n_pose - 1,
+                           "b_body": rows.jacobian(t["q"]) * sp.Matrix(t["q_dot"]), "acts": t["acts"],
+                           "own": len(t["q"]) - n_pose - t["acts"],
                            "nonzero": [(k, r, c) for k in range(len(t["bodies"])) for r in range(6)
                                        for c in range(len(t["q"])) if j_body[6 * k + r, c] != 0]}
     nonzero = []
     types = leg_types(mechanism)
+    n_a = len(mechanism.actuators)
+    # where each leg's actuators start in q (its number, but on a machine of legs of several actuators)
+    leg_a = [sum(len(other.actuated_joints) for other in mechanism.legs[:i]) for i in range(n)]
+    several = n_a != n
+    ja = "ja" if several else "leg"
+
+    def at(i, c):  # the column in q of leg i's local coordinate c
+        return _column(c, local[types[i]]["acts"], local[types[i]]["own"], leg_a[i], leg_q[i], pose0)
+
     for i in range(n):
-        own = local[types[i]]["own"]
-        leg_q.append(n + sum(local[other]["own"] for other in types[:i]))
+        leg_q.append(n_a + sum(local[other]["own"] for other in types[:i]))
         leg_p.append(parameters.index(f"base{i + 1}_x"))
         leg_attach.append(parameters.index(f"attach{i + 1}_x"))
         leg_body.append(sum(len(other.bodies) for other in mechanism.legs[:i]))
         leg_jb.append(len(nonzero))
-        nonzero += [(leg_body[i] + k, r, _column(c, own, i, leg_q[i], pose0))
-                    for k, r, c in local[types[i]]["nonzero"]]
+        nonzero += [(leg_body[i] + k, r, at(i, c)) for k, r, c in local[types[i]]["nonzero"]]
     point = [list(names).index(c) for c in "xyz"]
     for t in d["legs"].values():  # the compiled core eliminates the tracked point with these unit pivots
         j = sp.Matrix(t["eta"]).jacobian([t["q"][len(t["q"]) - nq + c] for c in point])
@@ -379,13 +395,15 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         "# where each body's mass and inertia tensor (xx, yy, zz, xy, xz, yz) and the gravity are in P",
         [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero,
         layout=(n_pose, [c - n for c in point], lines_of_action), point_rows=3 * n,
-        pattern={(3 * i + r if r < 3 else 3 * n + ends.index(i), _column(c, local[types[i]]["own"], i, leg_q[i], pose0))
+        pattern={(3 * i + r if r < 3 else 3 * n + ends.index(i), at(i, c))
                  for i in range(n) for r in range(local[types[i]]["j_eta"].rows)
                  for c in range(local[types[i]]["j_eta"].cols) if local[types[i]]["j_eta"][r, c] != 0})
     header += ["# where each leg's passive coordinates (in q), parameters and attachment point (in P), bodies and "
                "bodies' Jacobians' non-zeros start",
                f"LEG_Q = {tuple(leg_q)!r}", f"LEG_P = {tuple(leg_p)!r}", f"LEG_ATTACH = {tuple(leg_attach)!r}",
                f"LEG_BODY = {tuple(leg_body)!r}", f"LEG_JB = {tuple(leg_jb)!r}"]
+    if several:
+        header += ["# where each leg's actuators start in q (legs of several actuators)", f"LEG_A = {tuple(leg_a)!r}"]
     if ends:
         header += ["# the row of eta of each leg's orientation row (-1: none)",
                    f"LEG_ETA = {tuple(3 * n + ends.index(i) if i in ends else -1 for i in range(n))!r}"]
@@ -395,22 +413,26 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     loops = {}
     for g, (notation, members) in enumerate(groups.items()):
         if len(groups) == 1:
-            loops[notation] = "for leg in range(N_ACTUATORS):"
+            loops[notation] = "for leg in range(N_LEGS):"
         else:
             header.append(f"LEGS_{g} = {tuple(members)!r}  # the legs {notation}")
             loops[notation] = f"for leg in LEGS_{g}:"
+
+    def column(notation, c):  # the column of a local coordinate in the loop over the legs of a type
+        return _column(c, local[notation]["acts"], local[notation]["own"], ja, "iq", pose0)
 
     # per type of leg, the lines that bind its names in a pass of the loop (each kept where used), and the names
     # of the trig table's entries of its angles
     unpacks = {}
     for notation, t in d["legs"].items():
         unpack = ["iq = LEG_Q[leg]", "ip = LEG_P[leg]", "ia = LEG_ATTACH[leg]", "ib = LEG_BODY[leg]",
-                  "jb = LEG_JB[leg]", *(["ie = LEG_ETA[leg]"] if ends else [])]
+                  "jb = LEG_JB[leg]", *(["ie = LEG_ETA[leg]"] if ends else []),
+                  *(["ja = LEG_A[leg]"] if several else [])]
         trig = {}
         first = mechanism.legs[groups[notation][0]]
-        angles = [_actuator_angle(first), *_leg_angles(first)]
+        angles = [*_actuator_angles(first), *_leg_angles(first)]
         for k, (symbol, angle) in enumerate(zip(t["q"], angles, strict=False)):  # its own coordinates
-            name, where = str(symbol), _column(k, local[notation]["own"], "leg", "iq", pose0)
+            name, where = str(symbol), column(notation, k)
             unpack.append(f"{name} = q[{where}]")
             if angle:
                 c, s = sp.symbols(f"c_{name} s_{name}", real=True)
@@ -426,8 +448,6 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         """One block per type of leg: ``kernel(t, notation)`` gives its outputs and indices."""
         return [Block(*kernel(t, notation), loops[notation], *unpacks[notation]) for notation, t in d["legs"].items()]
 
-    def column(notation, c):
-        return _column(c, local[notation]["own"], "leg", "iq", pose0)
 
     def row(r):  # a leg's r-th row of eta: its point rows, then its orientation row
         return _plus("3 * leg", r) if r < 3 else "ie"
@@ -489,9 +509,9 @@ def generate_source(mechanism: SpatialMechanism) -> str:
                 [str(len(nonzero) - len(platform_nonzero) + z) for z in range(len(platform_nonzero))])]),
         ("body_bias", "q, sc, q_dot, P, out", "Write each body's dJ_b/dt q_dot (N_BODIES, 6) into out.",
          [*leg_blocks(body_bias), Block(list(platform_bias), [f"{platform}, {r}" for r in range(6)])]),
-        ("joint_points", "q, sc, P, out", "Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 3) into out, "
+        ("joint_points", "q, sc, P, out", "Write every joint's position (N_LEGS, JOINTS_PER_LEG, 3) into out, "
          "base to platform.", leg_blocks(joint_points)),
-        *([("leg_lines", "q, sc, P, out", "Write each leg's line of action (N_ACTUATORS, 6): its attachment point "
+        *([("leg_lines", "q, sc, P, out", "Write each leg's line of action (N_LEGS, 6): its attachment point "
             "minus the tracked point, and its direction (unnormalised).", leg_blocks(leg_lines))]
           if lines_of_action else []),
         ("platform_size", "P", "The mean distance between the platform's attachment points (1 when it translates).",

@@ -84,13 +84,15 @@ SPATIAL_BODY = (
 SPATIAL_LEG = (
     Key("base", "array", "The leg's base point [x, y, z].", "m", required=True, schema=VECTOR),
     Key("joints", "string", "The leg's joints from the base to the platform, R, P, U (universal) or S (spherical), "
-        "the actuated one (R or P) starred; the last carries the platform.", required=True,
-        examples=("UP*S", "R*US", "P*US"), schema={"type": "string", "pattern": r"^ *([RPUS] *(\* *)?)+$"}),
+        "the actuated one (R or P) starred (a second starred makes the machine redundantly actuated); the last "
+        "carries the platform.", required=True, examples=("UP*S", "R*US", "P*US", "R*R*S"),
+        schema={"type": "string", "pattern": r"^ *([RPUS] *(\* *)?)+$"}),
     Key("axes", "array", "One entry per joint but an S: a vector [x, y, z] for R and P, a pair of perpendicular "
         "vectors for U (zero configuration).", default=[],
         schema={"type": "array", "items": {"anyOf": [VECTOR, {"type": "array", "items": VECTOR, "minItems": 2,
                                                                 "maxItems": 2}]}}),
-    Key("stroke", "array", "The actuator's stroke [lower, upper] (rad or m); none: no limit.", schema=_STROKE),
+    Key("stroke", "array", "The stroke [lower, upper] of the leg's own actuator, its first (rad or m); none: no "
+        "limit.", schema=_STROKE),
     Key("bodies", "array", "The leg's bodies, one after each joint but the last.", default=[]),
 )
 #: The keys of a spatial ``[mechanism]`` (``dimension = 3``).

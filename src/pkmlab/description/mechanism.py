@@ -185,6 +185,17 @@ class JointChain:
         """The leg in the literature's notation, the actuated joint starred: ``"R*RR"``, ``"UP*S"``."""
         return notation_of(self.joints)
 
+    def own_actuator_only(self):
+        """The leg with its :attr:`extra_actuated` joints passive: what its kinematics are solved as (an actuator
+        held or moving changes no joint's geometry); the leg itself when it has none."""
+        extra = self.extra_actuated
+        if not extra:
+            return self
+        from dataclasses import replace
+
+        return replace(self, joints=tuple(replace(j, actuated=False) if k in extra else j
+                                          for k, j in enumerate(self.joints)))
+
 
 def notation_of(joints) -> str:
     """Joints in the literature's notation, each actuated one starred: ``"R*RR"``, ``"P*R*RR"``."""
@@ -422,12 +433,10 @@ def ordinary_part(leg: Leg, origin=(0.0, 0.0), direction: float = 0.0) -> Leg:
     first actuators move, with that base at ``origin`` and the body before it at angle ``direction`` (what a first
     prismatic joint slides along); its extra actuators (:attr:`~JointChain.extra_actuated`) passive, which move
     nothing the ordinary leg's kinematics does not; ``leg`` itself when it has one actuator."""
-    k, extra = leg.moving_base, leg.extra_actuated
-    if not k and not extra:
-        return leg
-    joints = [Joint(j.kind, j.actuated and i not in extra, j.axis) for i, j in enumerate(leg.joints)][k:]
+    leg, k = leg.own_actuator_only(), leg.moving_base
     if not k:
-        return Leg(leg.base, tuple(joints), leg.bodies, leg.stroke)
+        return leg
+    joints = list(leg.joints[k:])
     if joints[0].kind == "P":
         joints[0] = Joint("P", joints[0].actuated, float(direction))
     return Leg((float(origin[0]), float(origin[1])), tuple(joints), leg.bodies[k:], leg.stroke)

@@ -451,7 +451,8 @@ def _computed(m, seed: int) -> Mobility:
         found.append(x if x is not None else found[0])
     scale = np.where(angles, 1.0 / size, 1.0)
     n_coordinates = len(found[0])
-    actuated = [starts[i] + sum(jt.coordinates for jt in leg.joints[:leg.actuated]) for i, leg in enumerate(m.legs)]
+    actuated = [starts[i] + sum(jt.coordinates for jt in leg.joints[:k]) for i, leg in enumerate(m.legs)
+                for k in leg.actuated_joints]
     pose_names = m.platform.full_pose_names
     controlled = [starts[-1] + pose_names.index(c) for c in m.platform.pose_names]
 

@@ -31,7 +31,9 @@ Conventions (pkmlab's, for every spatial mechanism):
   and a leg may end in a passive ``R``, its axis fixed in both the leg's last body and the platform (two
   equations more: a spherical wrist's, whose axes all meet at its centre).
 
-  One joint of each leg, ``R*`` or ``P*``, anywhere in the chain, is actuated.
+  One joint of each leg, ``R*`` or ``P*``, anywhere in the chain, is actuated: the leg's own actuator. A leg may
+  carry more (``R*R*S``: a 3-RRS leg whose knee is driven too): the machine is then redundantly actuated, its
+  actuators more than its degrees of freedom; the leg's own actuator is its first (its stroke the file's).
 * The platform is ``translating`` (pose ``(x, y, z)``: its orientation is held fixed by its legs —
   parallelogram forearms, as the Delta's are, a forearm between a universal joint and the spherical
   joint, a ``…US`` leg; or universal joints at the platform whose axes keep it level, as Tsai's 3-UPU's;
@@ -159,7 +161,8 @@ class SpatialJoint:
 @dataclass(frozen=True)
 class SpatialLeg(JointChain):
     """A serial chain from ``base`` to the platform: ``joints`` (the last the platform joint, an S, a U or an R),
-    ``bodies`` (one after each joint but the platform joint), the actuator's ``stroke`` (lower, upper) or None."""
+    ``bodies`` (one after each joint but the platform joint), the ``stroke`` (lower, upper) of its own actuator (its
+    first) or None."""
 
     base: tuple[float, float, float]
     joints: tuple[SpatialJoint, ...]
@@ -257,11 +260,13 @@ class SpatialMechanism(LegsAndPose):
         if any(j.kind == "S" for j in joints[:-1]):
             raise InvalidParameterError(f"{where}: a spherical joint (S) may only be the last joint")
         actuated = [k for k, j in enumerate(joints) if j.actuated]
-        if len(actuated) != 1 or joints[actuated[0]].kind not in ("R", "P"):
-            what = ("no actuated joint" if not actuated else f"{len(actuated)} actuated joints" if len(actuated) > 1
-                    else f"an actuated {joints[actuated[0]].kind} joint")
-            raise InvalidParameterError(f"{where} ({''.join(j.kind for j in joints)}) has {what}: exactly one R or P "
-                                        "joint per leg is actuated (mark it with *, e.g. R*US or UP*S)")
+        if not actuated:
+            raise InvalidParameterError(f"{where} ({''.join(j.kind for j in joints)}) has no actuated joint: an R or P "
+                                        "joint of each leg is actuated (mark it with *, e.g. R*US or UP*S)")
+        for k in actuated:
+            if joints[k].kind not in ("R", "P"):
+                raise InvalidParameterError(f"{where}, joint {k + 1}: an actuated {joints[k].kind} joint; only R and P "
+                                            "joints are actuated (mark them with *, e.g. R*US, UP*S, R*R*S)")
         checked = []
         for k, joint in enumerate(joints):
             axes = tuple(joint.axes)

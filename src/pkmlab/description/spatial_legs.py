@@ -66,7 +66,9 @@ def _leg(leg: SpatialLeg, number: int) -> str:
 
 def has_closed_form(leg: SpatialLeg) -> bool:
     """Whether pkmlab solves ``leg`` in closed form (module docstring); every other leg is solved by the general
-    method (:mod:`pkmlab.description.general_legs`)."""
+    method (:mod:`pkmlab.description.general_legs`). A leg of two actuators is solved as its own actuator's
+    (:meth:`~pkmlab.description.mechanism.JointChain.own_actuator_only`), here and below."""
+    leg = leg.own_actuator_only()
     notation = position_notation(leg)
     if notation == "R*RS":
         return abs(abs(float(np.dot(leg.joints[0].axes[0], leg.joints[1].axes[0]))) - 1.0) <= 1e-9
@@ -77,6 +79,7 @@ def working_modes(leg: SpatialLeg) -> tuple:
     """``(+1, -1)`` for a leg with two inverse-kinematic branches (R*US, P*US, a P*RS whose slide is across its
     hinge), ``()`` for one; a leg of the general method has its own
     (:func:`pkmlab.description.general_legs.working_modes`: up to four, as pairs of signs)."""
+    leg = leg.own_actuator_only()
     if not has_closed_form(leg):
         return general_legs.working_modes(leg)
     notation = position_notation(leg)
@@ -373,6 +376,7 @@ def leg_inverse_kinematics_batch(leg: SpatialLeg, number: int, points, sigma: in
     (:mod:`pkmlab.description.general_legs`), which follows its branch by continuity along ``points`` that are a
     path when ``follow`` is set (the closed forms' modes are continuous away from singularities)."""
     points = np.asarray(points, dtype=float).reshape(-1, 3)
+    leg = leg.own_actuator_only()
     if not has_closed_form(leg):
         return general_legs.general_inverse_kinematics_batch(leg, number, points, sigma, follow)
     if axis is None:

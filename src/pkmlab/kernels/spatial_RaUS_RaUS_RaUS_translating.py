@@ -84,7 +84,7 @@ def constraints(q, sc, P, out):
     x = q[9]
     y = q[10]
     z = q[11]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ia = LEG_ATTACH[leg]
@@ -181,7 +181,7 @@ def constraints(q, sc, P, out):
 def constraint_jacobian(q, sc, P, out):
     """Write J_eta_q = d eta / dq (N_CONSTRAINTS, N_COORDINATES) into out."""
     out[:] = 0.0
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         c_a = sc[leg, 0]
@@ -351,7 +351,7 @@ def constraint_jacobian(q, sc, P, out):
 @njit(cache=True)
 def constraint_bias(q, sc, q_dot, P, out):
     """Write dJ_eta_q/dt q_dot (N_CONSTRAINTS,) into out."""
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         c_a = sc[leg, 0]
@@ -599,7 +599,7 @@ def body_poses(q, sc, P, out):
     platform_com_x = P[123]
     platform_com_y = P[124]
     platform_com_z = P[125]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ib = LEG_BODY[leg]
@@ -702,7 +702,7 @@ def body_poses(q, sc, P, out):
 def body_jacobians(q, sc, P, out):
     """Write each body's d(v, omega)/dqd (N_BODIES, 6, N_COORDINATES) into out (omega in the body's frame)."""
     out[:] = 0.0
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ib = LEG_BODY[leg]
@@ -894,7 +894,7 @@ def body_jacobians(q, sc, P, out):
 @njit(cache=True)
 def body_jacobian_values(q, sc, P, out):
     """Write the non-zeros of the bodies' Jacobians (N_JB,) into out (positions: JB_BODY, JB_ROW, JB_COL)."""
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         jb = LEG_JB[leg]
@@ -1087,7 +1087,7 @@ def body_jacobian_values(q, sc, P, out):
 def body_bias(q, sc, q_dot, P, out):
     """Write each body's dJ_b/dt q_dot (N_BODIES, 6) into out."""
     out[:] = 0.0
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ib = LEG_BODY[leg]
@@ -1348,11 +1348,11 @@ def body_bias(q, sc, q_dot, P, out):
 
 @njit(cache=True)
 def joint_points(q, sc, P, out):
-    """Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 3) into out, base to platform."""
+    """Write every joint's position (N_LEGS, JOINTS_PER_LEG, 3) into out, base to platform."""
     x = q[9]
     y = q[10]
     z = q[11]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         ip = LEG_P[leg]
         ia = LEG_ATTACH[leg]
         c_a = sc[leg, 0]
@@ -1389,11 +1389,11 @@ def joint_points(q, sc, P, out):
 
 @njit(cache=True)
 def leg_lines(q, sc, P, out):
-    """Write each leg's line of action (N_ACTUATORS, 6): its attachment point minus the tracked point, and its direction (unnormalised)."""
+    """Write each leg's line of action (N_LEGS, 6): its attachment point minus the tracked point, and its direction (unnormalised)."""
     x = q[9]
     y = q[10]
     z = q[11]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         ip = LEG_P[leg]
         ia = LEG_ATTACH[leg]
         c_a = sc[leg, 0]

@@ -105,7 +105,7 @@ def constraints(q, sc, P, out):
     s_pitch = sc[22, 1]
     c_yaw = sc[23, 0]
     s_yaw = sc[23, 1]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ia = LEG_ATTACH[leg]
@@ -195,7 +195,7 @@ def constraint_jacobian(q, sc, P, out):
     c_yaw = sc[23, 0]
     s_yaw = sc[23, 1]
     out[:] = 0.0
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ia = LEG_ATTACH[leg]
@@ -353,7 +353,7 @@ def constraint_bias(q, sc, q_dot, P, out):
     roll_dot = q_dot[21]
     pitch_dot = q_dot[22]
     yaw_dot = q_dot[23]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ia = LEG_ATTACH[leg]
@@ -561,7 +561,7 @@ def body_poses(q, sc, P, out):
     platform_com_x = P[246]
     platform_com_y = P[247]
     platform_com_z = P[248]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ib = LEG_BODY[leg]
@@ -660,7 +660,7 @@ def body_jacobians(q, sc, P, out):
     platform_com_y = P[247]
     platform_com_z = P[248]
     out[:] = 0.0
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ib = LEG_BODY[leg]
@@ -848,7 +848,7 @@ def body_jacobian_values(q, sc, P, out):
     platform_com_x = P[246]
     platform_com_y = P[247]
     platform_com_z = P[248]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         jb = LEG_JB[leg]
@@ -1039,7 +1039,7 @@ def body_bias(q, sc, q_dot, P, out):
     platform_com_x = P[246]
     platform_com_y = P[247]
     platform_com_z = P[248]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ib = LEG_BODY[leg]
@@ -1264,7 +1264,7 @@ def body_bias(q, sc, q_dot, P, out):
 
 @njit(cache=True)
 def joint_points(q, sc, P, out):
-    """Write every joint's position (N_ACTUATORS, JOINTS_PER_LEG, 3) into out, base to platform."""
+    """Write every joint's position (N_LEGS, JOINTS_PER_LEG, 3) into out, base to platform."""
     x = q[18]
     y = q[19]
     z = q[20]
@@ -1274,7 +1274,7 @@ def joint_points(q, sc, P, out):
     s_pitch = sc[22, 1]
     c_yaw = sc[23, 0]
     s_yaw = sc[23, 1]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         iq = LEG_Q[leg]
         ip = LEG_P[leg]
         ia = LEG_ATTACH[leg]
@@ -1346,7 +1346,7 @@ def joint_points(q, sc, P, out):
 
 @njit(cache=True)
 def leg_lines(q, sc, P, out):
-    """Write each leg's line of action (N_ACTUATORS, 6): its attachment point minus the tracked point, and its direction (unnormalised)."""
+    """Write each leg's line of action (N_LEGS, 6): its attachment point minus the tracked point, and its direction (unnormalised)."""
     x = q[18]
     y = q[19]
     z = q[20]
@@ -1356,7 +1356,7 @@ def leg_lines(q, sc, P, out):
     s_pitch = sc[22, 1]
     c_yaw = sc[23, 0]
     s_yaw = sc[23, 1]
-    for leg in range(N_ACTUATORS):
+    for leg in range(N_LEGS):
         ip = LEG_P[leg]
         ia = LEG_ATTACH[leg]
         base_x = P[ip]

@@ -262,14 +262,15 @@ def draw_spatial_mechanism(model, q, ax=None, title: str | None = None):
     points = mm.joint_positions(model, q)
     base = np.array([leg.base for leg in m.legs] + [m.legs[0].base])
     ax.plot(*base.T, color="0.3", lw=2.5, label="base")
+    labelled: set[str] = set()
     for i, leg in enumerate(m.legs):
         pts = points[i, :len(leg.joints)]
-        first = i == 0
-        a = leg.actuated
-        ax.plot(*pts[a:a + 2].T, color="tab:blue", lw=4, label="actuated bodies" if first else None)
-        ax.plot(*pts[a + 1:].T, color="tab:orange", lw=2, label="passive bodies" if first else None)
-        if a > 0:
-            ax.plot(*pts[:a + 1].T, color="tab:orange", lw=2)
+        for k in range(len(leg.joints) - 1):  # each body bold where the joint moving it is actuated
+            actuated = leg.joints[k].actuated
+            name = "actuated bodies" if actuated else "passive bodies"
+            ax.plot(*pts[k:k + 2].T, color="tab:blue" if actuated else "tab:orange", lw=4 if actuated else 2,
+                    label=name if name not in labelled else None)
+            labelled.add(name)
         ax.scatter(*pts[1:-1].T, color="k", s=8)
     plat = np.vstack([points[:, -1], points[:1, -1]])
     ax.plot(*plat.T, color="tab:green", lw=2.5, label="platform")
