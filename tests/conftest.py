@@ -49,7 +49,8 @@ WARMED = ("delta", "stewart", "6rus", "6pus")
 #: several workers (``make test``) hands out whole files in this order, then the others, so that the workers finish
 #: together rather than one of them starting a long file as the other ends.
 LONGEST_FILES = ("test_mujoco_export.py", "test_api_validation.py", "test_study.py", "test_docs_site.py",
-                 "test_api.py", "test_machine_simulation.py", "test_actuation_redundancy.py", "test_output_safety.py",
+                 "test_api.py", "test_machine_simulation.py", "test_actuation_redundancy.py",
+                 "test_leg_of_two_actuators.py", "test_output_safety.py",
                  "test_scenarios.py", "test_catalogue_fk.py", "test_catalogue_runs.py", "test_catalogue_kinematics.py",
                  "test_kinematic_redundancy.py", "test_overconstrained.py", "test_spatial_general_legs.py",
                  "test_identification.py", "test_delta.py")
