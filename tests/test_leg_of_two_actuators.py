@@ -88,29 +88,53 @@ def test_inverse_kinematics_gives_both_actuators_of_the_leg_and_their_jacobian(e
         for mode in mm.working_modes(elbow):
             q = mm.inverse_kinematics(elbow, pose, mode)
             assert _chain_residual(elbow, q) < 1e-14
-            assert np.array_equal(q[:2], mm.leg_joint_values(elbow, q)[0])
+            # the two actuators are the two links' absolute angles, read off the generated joints' positions
+            base, elbow_point, end = mm.joint_positions(elbow, q)[0, :3]
+            angles = [np.arctan2(*(elbow_point - base)[::-1]), np.arctan2(*(end - elbow_point)[::-1])]
+            assert np.abs(np.angle(np.exp(1j * (q[:2] - angles)))).max() < 1e-12
         assert _jacobian_error(elbow, pose, MODE) < 1e-8
 
 
 def test_forward_kinematics_from_either_actuator_of_the_leg_finds_the_pose(elbow):
-    """From (a1, a3, a4), the paper's 3-RRR, and from (a2, a3, a4), leg 1 held by its elbow: the pose the inverse
-    kinematics started from, the other actuator's residual zero, or its offset when it reads otherwise. Two
-    actuators of one leg are refused in one line naming them."""
+    """From (a1, a3, a4), the paper's 3-RRR (the default: each leg's own actuator), and from (a2, a3, a4), leg 1 held
+    by its elbow: the pose the inverse kinematics started from, the other actuator's residual zero, or its offset
+    when it reads otherwise. Two actuators of one leg are refused in one line naming them."""
     pose = np.array([0.27, 0.16, -0.2])
     q = mm.inverse_kinematics(elbow, pose, MODE)
-    for subset in (None, (0, 2, 3), (1, 2, 3)):
+    for subset, offset in ((None, [0.0, 0.01, 0.0, 0.0]), ((1, 2, 3), [-0.01, 0.0, 0.0, 0.0])):
         found = pkmlab.forward_kinematics(elbow, q[:4], actuators=subset)
-        nearest = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+        assert found.solved == ((0, 2, 3) if subset is None else subset)
+        nearest = _nearest(found, pose)
         assert np.abs(found.pose[nearest] - pose).max() < 1e-12
         assert np.abs(found.residual[nearest]).max() < 1e-12
         assert all(_chain_residual(elbow, qj) < 1e-12 for qj in found.q[:len(found)])
-    assert "a1, a3, a4" in pkmlab.forward_kinematics(elbow, q[:4]).method
-    found = pkmlab.forward_kinematics(elbow, q[:4] + [0.0, 0.01, 0.0, 0.0])
-    nearest = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
-    assert found.residual[nearest] == pytest.approx([0.0, 0.01, 0.0, 0.0], abs=1e-12)
+        moved = pkmlab.forward_kinematics(elbow, q[:4] + offset, actuators=subset)  # the other actuator misread
+        nearest = _nearest(moved, pose)
+        assert np.abs(moved.pose[nearest] - pose).max() < 1e-12
+        assert moved.residual[nearest] == pytest.approx(offset, abs=1e-12)
     with pytest.raises(InvalidParameterError, match=r"^actuators a1 and a2 are both leg 1's: forward kinematics "
                                                     r"from a subset takes one actuator per leg$"):
         pkmlab.forward_kinematics(elbow, q[:4], actuators=(0, 1, 2))
+
+
+def _nearest(found, pose) -> int:
+    """The assembly mode of ``found`` nearest ``pose``."""
+    return int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+
+
+def test_the_command_line_reports_the_residual_of_the_actuator_it_does_not_solve(capsys):
+    """``pkmlab fk`` of the elbow machine solves a1, a3, a4 (each leg's own): its table's residual column is a2's,
+    carrying the offset given to a2."""
+    from pkmlab.cli import main
+
+    q = mm.inverse_kinematics(pkmlab.load(ELBOW), [0.27, 0.16, -0.2], MODE)
+    theta = q[:4] + [0.0, 0.01, 0.0, 0.0]
+    assert main(["fk", *map(str, theta), "--mechanism", str(ELBOW)]) == 0
+    out = capsys.readouterr().out
+    header = next(line for line in out.splitlines() if line.startswith("#"))
+    assert header.split()[-1] == "residual2"
+    rows = [line.split() for line in out.splitlines() if line[:1].isdigit()]
+    assert any(abs(float(row[-1]) - 0.01) < 1e-9 for row in rows)
 
 
 def _mujoco_accelerations(model, q, q_dot, tau, legs: int):
@@ -214,10 +238,10 @@ def test_a_leg_may_move_its_base_and_carry_two_actuators(prrr_two):
         theirs = _mujoco_accelerations(prrr_two, q, q_dot, tau, 3)
         assert np.abs(theirs - ours).max() < 1e-12 * (1 + np.abs(ours).max())
         found = pkmlab.forward_kinematics(prrr_two, q[:7])
-        nearest = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+        nearest = _nearest(found, pose)
         assert np.abs(found.pose[nearest] - pose).max() < 1e-12 and np.abs(found.residual[nearest]).max() < 1e-12
     found = pkmlab.forward_kinematics(prrr_two, q[:7], actuators=(0, 1, 3, 4, 5, 6))  # the 3-PRRR's actuators
-    nearest = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+    nearest = _nearest(found, pose)
     assert np.abs(found.pose[nearest] - pose).max() < 1e-12 and np.abs(found.residual[nearest]).max() < 1e-12
     with pytest.raises(InvalidParameterError, match=r"^actuators a2 and a3 are both leg 1's: forward kinematics from "
                                                     r"a subset takes one actuator per leg$"):
@@ -240,22 +264,29 @@ def _spatial_residual(model, q) -> float:
 
 def test_a_spatial_leg_may_carry_two_actuators(knee):
     """The 3-RRS with its first knee driven: four actuators (the knee a relative angle), its computed mobility the
-    platform's three controlled coordinates; in every working mode its legs close by the readable chain, and ``W`` is
-    the central difference of the inverse kinematics."""
+    platform's three controlled coordinates; in every working mode it reaches its legs close by the readable chain,
+    and the knee's actuator is the angle the link turns from the crank about the hinge, read off the generated
+    joints' positions; ``W`` is the central difference of the inverse kinematics."""
     m = knee.description
     assert m.notation == "R*R*S + R*RS + R*RS" and knee.n_actuators == 4 and m.dof == 3
     assert m.actuation_redundancy == 1 and m.pose_names == ("z", "roll", "pitch")
     assert knee.coordinates[:4] == ("a1", "a2", "a3", "a4") and m.actuators[:2] == ((0, 0), (0, 1))
     assert mobility(m).mobility == 3
     pose = np.array([0.34, 0.05, -0.03])
+    hinge = np.array(m.legs[0].joints[1].axes[0])
+    reached = 0
     for mode in mm.working_modes(knee):
         try:
             q = mm.inverse_kinematics(knee, pose, mode)
         except pkmlab.UnreachablePoseError:
             continue
+        reached += 1
         assert _spatial_residual(knee, q) < 1e-12
-    q = mm.inverse_kinematics(knee, pose, (-1, -1, -1))
-    assert np.array_equal(q[:2], mm.leg_joint_values(knee, q)[0])
+        base, knee_point, end = mm.joint_positions(knee, q)[0, :3]
+        crank, link = knee_point - base, end - knee_point
+        turn = np.arctan2(hinge @ np.cross(crank, link), crank @ link) - np.pi / 2  # (at zero: the link upright)
+        assert abs(np.angle(np.exp(1j * (q[1] - turn)))) < 1e-12
+    assert reached == 8  # (measured: every mode reaches this pose)
     assert _jacobian_error(knee, pose, (-1, -1, -1)) < 1e-7
 
 
@@ -273,7 +304,7 @@ def test_the_spatial_leg_of_two_actuators_is_modelled_as_mujoco_says_and_solved_
         joints = len(q) - len(knee.description.platform.q_pose_names)
         assert np.abs(theirs[:joints] - ours[:joints]).max() < 1e-12 * (1 + np.abs(ours).max())
     found = pkmlab.forward_kinematics(knee, q[:4])
-    nearest = int(np.argmin(np.abs(found.pose[:len(found)] - pose).max(axis=1)))
+    nearest = _nearest(found, pose)
     assert np.abs(found.pose[nearest] - pose).max() < 1e-10 and np.abs(found.residual[nearest]).max() < 1e-10
 
 
@@ -299,6 +330,29 @@ def test_the_knee_driven_3rrs_runs_as_the_3rrs_does_and_as_mujoco_runs_it(knee):
     assert np.abs(result.pose[:, 0] - theirs.pose[:, 0]).max() < 1e-6
     assert np.abs(result.pose[:, 1:] - theirs.pose[:, 1:]).max() < 1e-5
     assert np.abs(result.tau - theirs.tau).max() < 1e-4 * np.abs(result.tau).max()
+
+
+@pytest.mark.parametrize("name", ["3rrr_elbow_motion.toml", "3rrs_knee_motion.toml"])
+def test_a_run_of_legs_of_two_actuators_is_rebuilt_for_its_views_from_its_recorded_poses(name, tmp_path):
+    """A redundantly actuated machine's run folder (``pkmlab simulate --no-figures``), read for its views
+    (``pkmlab view``): the configurations rebuilt from its recorded poses are the run's own, every joint where the
+    run put it; a recorded actuator the poses do not hold is refused in one line naming the sample."""
+    from pkmlab.cli import main
+    from pkmlab.errors import AssemblyError
+    from pkmlab.views.animation import rebuild_configurations
+    from pkmlab.views.folder import read_view
+
+    scenario = pkmlab.load_scenario(CATALOGUE / name)
+    result = pkmlab.simulate(scenario)
+    out = tmp_path / "run"
+    assert main(["simulate", str(CATALOGUE / name), "--out", str(out), "--no-figures"]) == 0
+    view = read_view(out, "run")
+    joints = mm.joint_positions(scenario.model, result.q[view.samples])
+    assert np.abs(view.joints - joints).max() < 1e-8  # (the CSV's printed digits)
+    theta = result.theta.copy()
+    theta[7, 1] += 1e-3
+    with pytest.raises(AssemblyError, match=r"^sample 8: the recorded actuators do not hold the recorded pose"):
+        rebuild_configurations(scenario.model, theta, result.pose[0], result.pose)
 
 
 def test_legs_whose_actuators_cannot_hold_them_are_refused_naming_the_leg():

@@ -78,7 +78,8 @@ def ordinary_machine(model: MechanismModel, theta: np.ndarray):
     """The machine of one actuator per leg that ``model``'s is at actuator values ``theta`` (each kinematically
     redundant leg's ordinary part on the base its first actuators put it on: what its forward kinematics solves),
     each leg's own actuator's value ``(legs,)`` and its base actuators' values (a list of ``(moving_base,)``); the
-    description itself for a machine of one actuator per leg."""
+    description itself for a machine of one actuator per leg. (A redundantly actuated machine's forward kinematics
+    solves the sub-machine of a subset of its actuators, one per leg.)"""
     from ..description.mechanism import Mechanism, moving_base, ordinary_part
 
     m = model.description
@@ -86,10 +87,10 @@ def ordinary_machine(model: MechanismModel, theta: np.ndarray):
     for leg in m.legs:
         values = np.asarray(theta[k:k + len(leg.actuated_joints)], dtype=float)
         k += len(leg.actuated_joints)
-        own.append(float(values[-1]))
-        base.append(values[:-1])
+        own.append(float(values[leg.actuated_joints.index(leg.actuated)]))
+        base.append(values[:leg.moving_base])
         if leg.moving_base:
-            origin, direction = moving_base(leg, values[None, :-1])
+            origin, direction = moving_base(leg, values[None, :leg.moving_base])
             leg = ordinary_part(leg, origin[0], float(direction[0]))
         legs.append(leg)
     if not m.redundancy_names:
@@ -167,6 +168,11 @@ def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float
     assembly mode.
     """
     theta = _actuator_values(model, theta)
+    if model.description.actuation_redundancy:  # (forward_kinematics solves it from a subset of its actuators)
+        raise InvalidParameterError(f"the {model.name}'s {model.n_actuators} actuators are "
+                                    f"{model.description.actuation_redundancy} more than its {model.dof} degrees of "
+                                    "freedom: its assembly modes are those of a subset of them "
+                                    "(forward_kinematics(..., actuators=))")
     method = fk_method(model)
     if method == "soma":
         return _stewart_assembly_modes(model, theta)

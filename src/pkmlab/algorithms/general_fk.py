@@ -353,9 +353,9 @@ def _reach(description) -> float:
     bound = 0.0
     for leg in description.legs:
         slide = 0.0
-        for joint in leg.joints[:-1]:
+        for k, joint in enumerate(leg.joints[:-1]):
             if joint.kind == "P":
-                if not joint.actuated or leg.stroke is None:
+                if k != leg.actuated or leg.stroke is None:  # (the stroke is the leg's own actuator's)
                     return np.inf
                 slide += max(abs(v) for v in leg.stroke)
         bound = max(bound, float(np.linalg.norm(leg.base)) + slide

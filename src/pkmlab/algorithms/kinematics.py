@@ -361,6 +361,9 @@ class ForwardKinematicsSolution:
         A redundantly actuated machine's (solved from a subset of its actuators): each actuator's given value minus
         its value in the configuration found (angles modulo 2π) — zero on the subset, the measured-actuator
         residual on the others: how far the given values are from a consistent set. None for other machines.
+    solved : tuple of int, or None
+        A redundantly actuated machine's: the actuators (0-based) solved for, in increasing order; the others are
+        checked (their ``residual``). None for other machines.
 
     Examples
     --------
@@ -378,6 +381,7 @@ class ForwardKinematicsSolution:
     method: str = ""
     angles: tuple[bool, ...] = (False, False, True)
     residual: np.ndarray | None = None
+    solved: tuple[int, ...] | None = None
 
     def __len__(self) -> int:
         if self.count.ndim:
@@ -445,8 +449,11 @@ def forward_kinematics(model: MechanismModel, theta, *, actuators=None) -> Forwa
     theta : array_like, shape (..., n_actuators)
         The actuator values (rad for a revolute actuator, m for a prismatic one).
     actuators : sequence of int, optional
-        A redundantly actuated machine's: the ``dof`` actuators (0-based, one per leg) whose values are solved
-        for, the others checked (:attr:`ForwardKinematicsSolution.residual`); the first ``dof`` by default.
+        A redundantly actuated machine's: the ``dof`` actuators (0-based) whose values are solved for, the others
+        checked (:attr:`ForwardKinematicsSolution.residual`): one of each chosen leg's, and every actuator that
+        moves a leg's base with one of that leg's others. By default each leg's own
+        (:attr:`~pkmlab.description.mechanism.JointChain.actuated`), first the legs that move their base, then
+        the others in order (:attr:`ForwardKinematicsSolution.solved` says which).
         Each assembly mode of the machine they alone would drive is completed by the other legs' inverse
         kinematics, in the working mode nearest their given values. Choose actuators away from their own forward
         singularities (:func:`actuation_singularity_measure` with ``actuators``).
@@ -513,16 +520,16 @@ def forward_kinematics(model: MechanismModel, theta, *, actuators=None) -> Forwa
         f"({method_statement(_sub_machine(model, subset))}), the others' legs completed by inverse kinematics")
     return ForwardKinematicsSolution(q.reshape(*shape, most, n), q[..., columns].reshape(*shape, most, dof),
                                      s.reshape(*shape, most), count.reshape(shape), method,
-                                     tuple(bool(model.kernels.ANGLES[c]) for c in columns), residual)
+                                     tuple(bool(model.kernels.ANGLES[c]) for c in columns), residual, subset)
 
 
 def _solved_actuators(model: MechanismModel, actuators) -> tuple[int, ...] | None:
     """The actuators forward kinematics solves for: None (all) but for a redundantly actuated machine, whose
     ``actuators`` must be ``dof`` distinct ones: one per leg of its own ordinary part, as many legs as the
     platform's pose has coordinates, with every actuator moving a leg's base — those legs' among them (the base's
-    actuators are controlled coordinates). Default: the first legs' own
-    (:attr:`~pkmlab.description.mechanism.JointChain.actuated`). Returned in increasing order, the sub-machine's
-    (:func:`_sub_machine`)."""
+    actuators are controlled coordinates). Default: each leg's own
+    (:attr:`~pkmlab.description.mechanism.JointChain.actuated`), the legs that move their base first, checked as a
+    given choice is. Returned in increasing order, the sub-machine's (:func:`_sub_machine`)."""
     m = model.description
     if not m.actuation_redundancy:
         if actuators is not None:
@@ -534,7 +541,7 @@ def _solved_actuators(model: MechanismModel, actuators) -> tuple[int, ...] | Non
     if actuators is None:
         moved = [i for i, leg in enumerate(m.legs) if leg.moving_base]
         legs = (moved + [i for i in range(len(m.legs)) if i not in moved])[:len(m.platform.pose_names)]
-        return tuple(sorted(bases | {m.actuators.index((i, m.legs[i].actuated)) for i in legs}))
+        actuators = sorted(bases | {m.actuators.index((i, m.legs[i].actuated)) for i in legs})
     chosen = tuple(as_actuators(model, actuators, exactly=True))
     legs: dict[int, int] = {}
     for i in chosen:

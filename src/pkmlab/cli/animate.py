@@ -39,7 +39,7 @@ def _animate(args, machine, folder: Path, csv_path: Path, out: Path) -> dict:
     data = read_result_csv(csv_path, columns)
     theta = np.column_stack([data[f"theta{i + 1}"] for i in range(n_act)])
     pose = np.column_stack([data[v] for v in names])
-    q = rebuild_configurations(model, theta, pose[0])
+    q = rebuild_configurations(model, theta, pose[0], pose)
     point = tracked_point(model, q)
     tracked = point[:, [("x", "y", "z").index(c) for c in position]]
     desired = point.copy()

@@ -150,8 +150,8 @@ def cmd_fk(args) -> dict:
                             f"{model.name} has no real solution")
     solutions = [{"pose": mode.pose.tolist(), "passive": passive_of(model, mode.q), "S": mode.S} for mode in found]
     # a redundantly actuated machine's: how far each actuator's given value is from the configuration found
-    # (the first dof actuators are solved for, the others checked)
-    checked = [] if found.residual is None else list(range(model.dof, model.n_actuators))
+    # (the actuators found.solved are solved for, the others checked)
+    checked = [] if found.solved is None else [i for i in range(model.n_actuators) if i not in found.solved]
     for j, sol in enumerate(solutions):
         if found.residual is not None:
             sol["actuator_residual"] = found.residual[j].tolist()

@@ -394,7 +394,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         "for Jηq)", (3, 3, 6, 6 if lines_of_action else -(-m * nq // n)),
         "# where each body's mass and inertia tensor (xx, yy, zz, xy, xz, yz) and the gravity are in P",
         [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero,
-        layout=(n_pose, [c - n for c in point], lines_of_action), point_rows=3 * n,
+        layout=(n_pose, [c - n_a for c in point], lines_of_action), point_rows=3 * n,
         pattern={(3 * i + r if r < 3 else 3 * n + ends.index(i), at(i, c))
                  for i in range(n) for r in range(local[types[i]]["j_eta"].rows)
                  for c in range(local[types[i]]["j_eta"].cols) if local[types[i]]["j_eta"][r, c] != 0})

@@ -52,8 +52,8 @@ PLANAR_LEG = (
         "passive R.", required=True, examples=("R*RR", "RP*R", "P*RR", "P*R*RR", "R*R*R"),
         schema={"type": "string", "pattern": r"^ *([RP] *(\* *)?)+$"}),
     Key("axis", "number", "A prismatic first joint's rail: its absolute angle from the base x axis.", "rad"),
-    Key("stroke", "array", "The stroke [lower, upper] of the leg's own actuator, the first of its last three "
-        "joints (rad or m); none: no limit.", schema=_STROKE),
+    Key("stroke", "array", "The stroke [lower, upper] of the leg's own actuator, the first actuated joint among its "
+        "last three (rad or m); none: no limit.", schema=_STROKE),
     Key("bodies", "array", "The leg's bodies, one after each joint but the last.", default=[]),
 )
 
@@ -91,8 +91,8 @@ SPATIAL_LEG = (
         "vectors for U (zero configuration).", default=[],
         schema={"type": "array", "items": {"anyOf": [VECTOR, {"type": "array", "items": VECTOR, "minItems": 2,
                                                                 "maxItems": 2}]}}),
-    Key("stroke", "array", "The stroke [lower, upper] of the leg's own actuator, its first (rad or m); none: no "
-        "limit.", schema=_STROKE),
+    Key("stroke", "array", "The stroke [lower, upper] of the leg's own actuator, its first actuated joint (rad or "
+        "m); none: no limit.", schema=_STROKE),
     Key("bodies", "array", "The leg's bodies, one after each joint but the last.", default=[]),
 )
 #: The keys of a spatial ``[mechanism]`` (``dimension = 3``).

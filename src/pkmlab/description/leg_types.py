@@ -74,7 +74,8 @@ def mark_outside_stroke(leg: Leg, number: int, value: np.ndarray, bad: np.ndarra
     def reason(k):
         if outside[k]:
             unit = "m" if leg.joints[leg.actuated].kind == "P" else "rad"
-            return (f"leg {number + 1} needs its actuator at {value[k]:.6g} {unit}, outside its stroke "
+            which = "its actuator" if len(leg.actuated_joints) == 1 else f"its own actuator (joint {leg.actuated + 1})"
+            return (f"leg {number + 1} needs {which} at {value[k]:.6g} {unit}, outside its stroke "
                     f"[{lo:g}, {hi:g}] {unit}")
         return why(k)
 

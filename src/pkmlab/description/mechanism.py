@@ -90,8 +90,8 @@ class LegsAndPose:
     @property
     def redundancy_actuators(self) -> tuple[int, ...]:
         """The actuators (0-based indices of :attr:`actuators`) that move the base of a kinematically redundant leg
-        (every actuator of a leg but its last), ``(0, 2, 4)`` for a 3-PRRR; empty for a machine of one actuator per
-        leg."""
+        (its first :attr:`~JointChain.moving_base` joints), ``(0, 2, 4)`` for a 3-PRRR; empty for a machine whose
+        legs have three joints (an ``R*R*R`` leg's second actuator moves no base)."""
         return tuple(k for k, (i, joint) in enumerate(self.actuators) if joint < self.legs[i].moving_base)
 
     @property
@@ -279,7 +279,8 @@ class Mechanism(LegsAndPose):
         actuated = [k for k, j in enumerate(joints) if j.actuated]
         notation = notation_of(joints)
         if not actuated:
-            raise InvalidParameterError(f"{where} ({notation}) has no actuated joint: one joint per leg is actuated "
+            raise InvalidParameterError(f"{where} ({notation}) has no actuated joint: at least one joint per leg is "
+                                        "actuated "
                                         "(mark it with *, e.g. R*RR)")
         moved = Leg(leg.base, joints, ()).moving_base
         extra = len(joints) - Leg.ORDINARY_JOINTS

@@ -26,9 +26,10 @@ choice of whole types does, of as many single legs as do (a 4-RUU keeps two of i
 (the same dimension, and it lies in theirs); the rows set aside are checked to vanish at generic configurations
 of the kept ones (:func:`check_kept_rows`), and a machine whose rows no choice makes independent is refused.
 
-A description is accepted when its mobility is the number of its actuators and of its controlled pose
-coordinates, its constraints are independent (or kept so), its actuators determine its configuration (locked, they
-leave no motion), and its controlled coordinates do too (no motion leaves them unchanged). Each refusal
+A description is accepted when its mobility is the number of its controlled pose coordinates (its actuators may
+be more: redundant actuation), its constraints are independent (or kept so), its actuators determine its
+configuration (locked, they leave no motion), and its controlled coordinates do too (no motion leaves them
+unchanged). Each refusal
 is one line giving the computed numbers and each leg's share: the number of the platform's freedoms a
 leg removes (its rows less the rank of their Jacobian in the leg's own coordinates: ``3 -`` the rank of its end
 point's Jacobian, for a leg ending in a spherical joint).
@@ -294,9 +295,9 @@ def _start(mechanism, rng: np.random.Generator, size: float) -> np.ndarray:
     machine's size out, the platform where its attachment points best meet the legs' ends."""
     x = []
     for leg in mechanism.legs:
-        for joint in leg.joints[:-1]:
+        for k, joint in enumerate(leg.joints[:-1]):
             if joint.kind == "P":
-                if joint.actuated and leg.stroke is not None:
+                if k == leg.actuated and leg.stroke is not None:  # (the stroke is the leg's own actuator's)
                     lo, hi = leg.stroke
                     x.append(lo + (hi - lo) * rng.uniform(0.3, 0.7))
                 else:

@@ -44,7 +44,7 @@ Conventions (pkmlab's, for every spatial mechanism):
   refused. Attachment points and the mass centre are in the platform frame, whose origin is the
   tracked point.
 * **Lower mobility.** A rigid platform on fewer than six legs moves in as many coordinates as it has
-  actuators: the user names them, ``controlled`` (e.g. ``("z", "roll", "pitch")`` for a 3-PRS), and the
+  legs: the user names them, ``controlled`` (e.g. ``("z", "roll", "pitch")`` for a 3-PRS), and the
   others are the *parasitic* motions the legs impose, which pkmlab computes. In the coordinates ``q``
   of the generated kernels the parasitic ones come before the controlled ones (:attr:`SpatialPlatform.q_pose_names`),
   so that the pose a trajectory gives is always ``q``'s last entries. The machine's mobility is computed,

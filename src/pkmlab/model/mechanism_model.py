@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import itertools
 from dataclasses import dataclass, field
 from types import ModuleType
 
@@ -121,7 +122,8 @@ class MechanismModel:
 
     @property
     def n_actuators(self) -> int:
-        """The number of actuators ``n_a`` (one per leg, more on a kinematically redundant leg)."""
+        """The number of actuators ``n_a`` (one per leg, more on a leg of two actuators: a kinematically redundant
+        leg's, an ``R*R*R`` leg's)."""
         return len(self.description.actuators)
 
     @property
@@ -323,20 +325,20 @@ def tracked_point(model: MechanismModel, q) -> np.ndarray:
     return np.asarray(q, dtype=float)[..., columns]
 
 
+def leg_columns(description) -> list[list[int]]:
+    """The columns of ``q`` of each leg's joint coordinates, in the order of its joints (a universal joint's two):
+    its actuators among ``q``'s first (numbered leg by leg), its passive ones among those after them."""
+    n = len(description.actuators)
+    actuators, passive = iter(range(n)), itertools.count(n)
+    return [[next(actuators) if joint.actuated else next(passive)
+             for joint in leg.joints[:-1] for _ in range(getattr(joint, "coordinates", 1))]
+            for leg in description.legs]
+
+
 def leg_joint_values(model: MechanismModel, q) -> list[list[float]]:
     """Each leg's joint coordinates, in the order of its joints (a universal joint's two), from the configuration
     ``q`` (n_coordinates,): what :func:`~pkmlab.description.spatial.leg_frames` and MuJoCo's joints read."""
-    m = model.description
-    n = len(m.actuators)
-    actuators, passive = iter(q[:n]), iter(q[n:len(q) - len(_q_pose_names(m))])
-    out = []
-    for leg in m.legs:
-        values = []
-        for joint in leg.joints[:-1]:
-            count = getattr(joint, "coordinates", 1)
-            values += [float(next(actuators))] if joint.actuated else [float(next(passive)) for _ in range(count)]
-        out.append(values)
-    return out
+    return [[float(q[c]) for c in columns] for columns in leg_columns(model.description)]
 
 
 def pose_of(model: MechanismModel, q) -> np.ndarray:
@@ -670,10 +672,8 @@ def _description_coordinates(model: MechanismModel, q: np.ndarray) -> np.ndarray
     from ..description.spatial import full_poses
 
     m = model.description
-    n, n_pose = len(m.legs), len(m.platform.q_pose_names)
-    passive = iter(range(n, q.shape[-1] - n_pose))
-    columns = [i if joint.actuated else next(passive) for i, leg in enumerate(m.legs) for joint in leg.joints[:-1]
-               for _ in range(joint.coordinates)]
+    n_pose = len(m.platform.q_pose_names)
+    columns = [c for leg in leg_columns(m) for c in leg]
     return np.concatenate([q[..., columns], full_poses(m, q[..., q.shape[-1] - n_pose:])], axis=-1)
 
 

@@ -2,7 +2,7 @@
 from the controlled ones.
 
 A rigid platform on fewer than six legs (a 3-PRS, a 3-RPS) moves in as many of its pose's coordinates as it
-has actuators; the others follow from the loop closures. Given the controlled coordinates ``c``, the
+has legs; the others follow from the loop closures. Given the controlled coordinates ``c``, the
 configuration solves ``η(u, c) = 0`` for ``u`` = (actuators, passive joints, parasitic coordinates) — as many
 unknowns as equations, ``∂η/∂u`` regular away from singularities. pkmlab solves it by continuation: from a
 known configuration (the previous pose of a batch, else the machine's home configuration, the one its
@@ -31,15 +31,15 @@ def configuration_of(description, x: np.ndarray) -> np.ndarray:
     """The configuration ``q`` (the generated kernels' order: actuators, passive joints leg by leg, the pose's
     parasitic then controlled coordinates) of ``x`` (legs' joint coordinates leg by leg, then the whole pose,
     as :mod:`pkmlab.description.mobility` orders them)."""
-    actuators, passive, at = [], [], 0
-    for leg in description.legs:
-        for joint in leg.joints[:-1]:  # the platform joint has no coordinate
-            values = list(x[at:at + joint.coordinates])
-            at += joint.coordinates
-            (actuators if joint.actuated else passive).extend(values)
+    from .mechanism_model import leg_columns
+
+    columns = [c for leg in leg_columns(description) for c in leg]
     platform = description.platform
-    pose = dict(zip(platform.full_pose_names, x[at:], strict=True))
-    return np.array([*actuators, *passive, *(pose[n] for n in platform.q_pose_names)])
+    q = np.empty(len(columns) + len(platform.q_pose_names))
+    q[columns] = x[:len(columns)]
+    pose = dict(zip(platform.full_pose_names, x[len(columns):], strict=True))
+    q[len(columns):] = [pose[n] for n in platform.q_pose_names]
+    return q
 
 
 @functools.lru_cache(maxsize=64)

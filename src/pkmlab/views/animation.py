@@ -141,12 +141,15 @@ def _write_frames(fig, writer, path: Path, frames, draw: Callable[[int], None], 
 
 
 # ------------------------------------------------------------------ any described mechanism
-def rebuild_configurations(model, theta, pose0) -> np.ndarray:
+def rebuild_configurations(model, theta, pose0, poses=None) -> np.ndarray:
     """Configurations ``q`` (N, n_coordinates) continuously following recorded actuator values ``theta`` (N, n).
 
     The first is the assembly mode whose platform pose is nearest ``pose0`` (a six-degree-of-freedom
     platform's: the inverse kinematics of ``pose0``, checked against ``theta[0]``); each next one is on the
-    same branch as the previous (:func:`~pkmlab.algorithms.kinematics.branch_following`, paper §3.2).
+    same branch as the previous (:func:`~pkmlab.algorithms.kinematics.branch_following`, paper §3.2). A redundantly
+    actuated machine's actuators over-determine its pose, which the run recorded: its configurations are the
+    inverse kinematics of the recorded ``poses`` (N, dof) in the working mode whose actuators are ``theta[0]``,
+    checked against every sample's ``theta``.
 
     >>> from pkmlab import inverse_kinematics, load
     >>> model = load("paper")
@@ -162,6 +165,9 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
 
     theta = np.asarray(theta, dtype=float)
     m = model.description
+    if m.actuation_redundancy:
+        return _configurations_of_poses(model, theta, np.asarray(pose0 if poses is None else poses, dtype=float))
+    n = model.n_actuators
     if getattr(m, "spatial", False) and m.platform.kind == "rigid":
         # a six-degree-of-freedom platform: the recorded start pose's inverse kinematics (its one working
         # mode), the recorded actuators checked against it below
@@ -175,8 +181,8 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
         if not candidates:
             raise AssemblyError(f"the recorded start pose {np.round(pose0, 6).tolist()} is reached in no working "
                                 "mode of this machine: is it the one that produced the run?")
-        solutions = [(min(candidates, key=lambda q: float(np.abs(q[:len(m.legs)] - theta[0]).max())), 0.0)]
-        if np.abs(solutions[0][0][:len(m.legs)] - theta[0]).max() > 1e-6:
+        solutions = [(min(candidates, key=lambda q: float(np.abs(q[:n] - theta[0]).max())), 0.0)]
+        if np.abs(solutions[0][0][:n] - theta[0]).max() > 1e-6:
             raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} do not hold the "
                                 "recorded start pose with this machine: is it the one that produced the run?")
     else:
@@ -192,6 +198,35 @@ def rebuild_configurations(model, theta, pose0) -> np.ndarray:
             q[k] = branch_following(model, q[k - 1], theta[k])
         except BranchFollowingError as exc:
             raise BranchFollowingError(f"sample {k + 1}: {exc}") from None
+    return q
+
+
+def _configurations_of_poses(model, theta, poses) -> np.ndarray:
+    """:func:`rebuild_configurations` of a redundantly actuated machine: the inverse kinematics of the recorded
+    ``poses`` (N, dof; one row: the first sample's only) in the working mode whose actuators are ``theta[0]``."""
+    from ..model import mechanism_model as mm
+
+    poses = poses.reshape(-1, model.dof)
+    if len(poses) != len(theta):
+        raise AssemblyError(f"a redundantly actuated machine's run is rebuilt from its recorded poses: "
+                            f"{len(theta)} samples of actuators, {len(poses)} poses")
+    angles = np.asarray(model.kernels.ANGLES[:model.n_actuators], dtype=bool)
+    best, gap = None, np.inf
+    for mode in mm.working_modes(model):
+        q, _s, _failure = mm.path_inverse_kinematics(model, poses, mode, follow=True)
+        apart = q[:, :model.n_actuators] - theta
+        apart[:, angles] = np.angle(np.exp(1j * apart[:, angles]))  # an angle whole turns away
+        if np.isfinite(apart[0]).all() and np.abs(apart[0]).max() < gap:
+            best, gap = (q, apart), float(np.abs(apart[0]).max())
+    if best is None or gap > 1e-6:
+        raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} do not hold the "
+                            "recorded start pose with this machine: is it the one that produced the run?")
+    q, apart = best
+    bad = ~np.isfinite(apart).all(axis=1) | (np.abs(apart).max(axis=1, initial=0.0) > 1e-6)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise AssemblyError(f"sample {k + 1}: the recorded actuators do not hold the recorded pose with this "
+                            "machine: is it the one that produced the run?")
     return q
 
 

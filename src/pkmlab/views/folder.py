@@ -92,7 +92,7 @@ def read_view(folder: Path, case: str) -> RunView:
     pose_d = np.column_stack([data[f"{v}_d"] for v in names])
     tau = np.column_stack([data[f"tau{i + 1}"] for i in range(n)])
     try:
-        q = rebuild_configurations(model, theta, pose[0])
+        q = rebuild_configurations(model, theta, pose[0], pose)
     except PkmlabError as exc:
         raise PkmlabError(f"{path}: the machine of {source} does not hold this run: {exc}") from None
     summary = {}

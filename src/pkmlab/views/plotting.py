@@ -124,11 +124,13 @@ def plot_workspace(ws: Workspace, model=None, fig=None):
 
 # ------------------------------------------------------------------ closed-loop results
 def three_joint_planar(model) -> bool:
-    """Whether ``model`` is a planar machine of three-joint legs on a rigid platform (the paper's 3-RRR and its
-    kin): what :func:`plot_configuration` and :func:`~pkmlab.views.animation.write_gif` draw in the paper's style."""
+    """Whether ``model`` is a planar machine of three-joint legs of one actuator each on a rigid platform (the
+    paper's 3-RRR and its kin): what :func:`plot_configuration` and :func:`~pkmlab.views.animation.write_gif` draw
+    in the paper's style (a leg whose elbow is driven too is drawn by :func:`draw_mechanism`, each link as its
+    joint is)."""
     m = model.description
-    return not getattr(m, "spatial", False) and m.platform.kind == "rigid" and all(len(leg.joints) == 3
-                                                                                  for leg in m.legs)
+    return not getattr(m, "spatial", False) and m.platform.kind == "rigid" and all(
+        len(leg.joints) == 3 and len(leg.actuated_joints) == 1 for leg in m.legs)
 
 
 def plot_configuration(model, q, ax=None, title: str | None = None):
@@ -177,10 +179,9 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     q = np.asarray(q, dtype=float)
     m = model.description
     points = mm.joint_positions(model, q)
-    labelled: set[str] = set()
+    once = _legend_once()
     for i, leg in enumerate(m.legs):
         pts = points[i, :len(leg.joints)]
-        first = i == 0
         if leg.joints[0].kind == "P":  # a rail from its base point along its axis, over the stroke
             u = np.array([np.cos(leg.joints[0].axis), np.sin(leg.joints[0].axis)])
             # the rail over the slider's stroke (a kinematically redundant leg's stroke is its ordinary part's)
@@ -188,23 +189,23 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
                       else (0.0, float(np.hypot(*(pts[1] - pts[0])))))
             rail = np.array([pts[0] + lo * u, pts[0] + hi * u])
             ax.plot(rail[:, 0], rail[:, 1], color="0.5", lw=4, alpha=0.5, solid_capstyle="butt",
-                    label="rails" if first else None)
+                    label=once("rails"))
             ax.plot(*pts[1], "s", color="tab:blue", ms=9,
-                    label=("actuated sliders" if leg.joints[0].actuated else "sliders") if first else None)
-            _links(ax, leg, pts, 1, labelled)
+                    label=once("actuated sliders" if leg.joints[0].actuated else "sliders"))
+            _links(ax, leg, pts, 1, once)
         elif leg.joints[1].kind == "P":  # telescopic: the cylinder from the base, the rod to the platform
             end = pts[-1]
             along = end - pts[0]
             reach = float(np.hypot(*along))
             sleeve = pts[0] + along / reach * min(reach, 2 * abs(leg.bodies[0].com[0]) or 0.5 * reach)
             ax.plot([pts[0, 0], sleeve[0]], [pts[0, 1], sleeve[1]], color="tab:blue", lw=6, alpha=0.7,
-                    solid_capstyle="butt", label="cylinders" if first else None)
+                    solid_capstyle="butt", label=once("cylinders"))
             ax.plot([pts[0, 0], end[0]], [pts[0, 1], end[1]], color="tab:orange", lw=2,
-                    label=("actuated rods" if leg.joints[1].actuated else "rods") if first else None)
+                    label=once("actuated rods" if leg.joints[1].actuated else "rods"))
         else:  # R*RR (R*R*RR, R*R*R, …)
-            _links(ax, leg, pts, 0, labelled)
+            _links(ax, leg, pts, 0, once)
             ax.plot(*pts[1], "o", color="tab:blue", ms=5)
-        ax.plot(*pts[0], "ks", ms=7, label="base" if first else None)
+        ax.plot(*pts[0], "ks", ms=7, label=once("base"))
         ax.annotate(f"{i + 1}", pts[0], textcoords="offset points", xytext=(-10, -12), fontsize=8)
     pose = mm.pose_of(model, q)
     if m.platform.kind == "rigid":
@@ -221,15 +222,27 @@ def draw_mechanism(model, q, ax=None, title: str | None = None):
     return ax
 
 
-def _links(ax, leg, pts, start: int, labelled: set) -> None:
-    """A planar leg's links from joint ``start`` on, each bold where its joint is actuated; each kind named in the
-    legend once (``labelled``: the names given already, added to)."""
+def _legend_once():
+    """A legend's labeller: ``once(name)`` is ``name`` the first time, None after (each name once, from whichever
+    leg first draws it)."""
+    given: set[str] = set()
+
+    def once(name: str) -> str | None:
+        if name in given:
+            return None
+        given.add(name)
+        return name
+
+    return once
+
+
+def _links(ax, leg, pts, start: int, once, width: float = 3.0, noun: str = "links") -> None:
+    """A leg's links (bodies) from joint ``start`` on, each bold where its joint is actuated; ``once(name)`` gives
+    the legend's label (None where it was given already)."""
     for k in range(start, len(leg.joints) - 1):
         actuated = leg.joints[k].actuated
-        name = "actuated links" if actuated else "passive links"
-        ax.plot(pts[k:k + 2, 0], pts[k:k + 2, 1], color="tab:blue" if actuated else "tab:orange",
-                lw=3 if actuated else 2, label=name if name not in labelled else None)
-        labelled.add(name)
+        ax.plot(*pts[k:k + 2].T, color="tab:blue" if actuated else "tab:orange", lw=width if actuated else 2,
+                label=once(f"actuated {noun}" if actuated else f"passive {noun}"))
 
 
 def _axes3d(ax):
@@ -262,15 +275,10 @@ def draw_spatial_mechanism(model, q, ax=None, title: str | None = None):
     points = mm.joint_positions(model, q)
     base = np.array([leg.base for leg in m.legs] + [m.legs[0].base])
     ax.plot(*base.T, color="0.3", lw=2.5, label="base")
-    labelled: set[str] = set()
+    once = _legend_once()
     for i, leg in enumerate(m.legs):
         pts = points[i, :len(leg.joints)]
-        for k in range(len(leg.joints) - 1):  # each body bold where the joint moving it is actuated
-            actuated = leg.joints[k].actuated
-            name = "actuated bodies" if actuated else "passive bodies"
-            ax.plot(*pts[k:k + 2].T, color="tab:blue" if actuated else "tab:orange", lw=4 if actuated else 2,
-                    label=name if name not in labelled else None)
-            labelled.add(name)
+        _links(ax, leg, pts, 0, once, width=4.0, noun="bodies")
         ax.scatter(*pts[1:-1].T, color="k", s=8)
     plat = np.vstack([points[:, -1], points[:1, -1]])
     ax.plot(*plat.T, color="tab:green", lw=2.5, label="platform")
