@@ -41,6 +41,7 @@ Conventions (pkmlab's, for every mechanism):
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from dataclasses import dataclass
@@ -427,6 +428,18 @@ def moving_base(leg: Leg, values) -> tuple[np.ndarray, np.ndarray]:
         c, s = np.cos(direction), np.sin(direction)
         point = point + np.column_stack([c * body.tip[0] - s * body.tip[1], s * body.tip[0] + c * body.tip[1]])
     return point, direction
+
+
+def leg_columns(description) -> list[list[int]]:
+    """The columns of a configuration ``q`` (actuators, passive joint coordinates leg by leg, pose: the generated
+    kernels' order) of each leg's joint coordinates, in the order of its joints (a universal joint's two): its
+    actuators among ``q``'s first (numbered leg by leg), its passive ones among those after them. For a planar or a
+    spatial description."""
+    n = len(description.actuators)
+    actuators, passive = iter(range(n)), itertools.count(n)
+    return [[next(actuators) if joint.actuated else next(passive)
+             for joint in leg.joints[:-1] for _ in range(getattr(joint, "coordinates", 1))]
+            for leg in description.legs]
 
 
 def ordinary_part(leg: Leg, origin=(0.0, 0.0), direction: float = 0.0) -> Leg:

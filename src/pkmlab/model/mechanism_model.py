@@ -22,14 +22,13 @@ from __future__ import annotations
 
 import functools
 import importlib
-import itertools
 from dataclasses import dataclass, field
 from types import ModuleType
 
 import numpy as np
 
 from ..codegen import planar
-from ..description.mechanism import Mechanism
+from ..description.mechanism import Mechanism, leg_columns
 from ..description.presets import preset
 from ..errors import InvalidParameterError, SingularityError
 from ..numerics import lagrangian
@@ -323,16 +322,6 @@ def tracked_point(model: MechanismModel, q) -> np.ndarray:
     ``q``'s coordinates of those names, which are not all controlled on a platform of lower mobility."""
     columns = [model.coordinates.index(c) for c in ("x", "y", "z") if c in model.coordinates]
     return np.asarray(q, dtype=float)[..., columns]
-
-
-def leg_columns(description) -> list[list[int]]:
-    """The columns of ``q`` of each leg's joint coordinates, in the order of its joints (a universal joint's two):
-    its actuators among ``q``'s first (numbered leg by leg), its passive ones among those after them."""
-    n = len(description.actuators)
-    actuators, passive = iter(range(n)), itertools.count(n)
-    return [[next(actuators) if joint.actuated else next(passive)
-             for joint in leg.joints[:-1] for _ in range(getattr(joint, "coordinates", 1))]
-            for leg in description.legs]
 
 
 def leg_joint_values(model: MechanismModel, q) -> list[list[float]]:

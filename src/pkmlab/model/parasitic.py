@@ -18,6 +18,7 @@ import functools
 
 import numpy as np
 
+from ..description.mechanism import leg_columns
 from ..errors import InvalidParameterError
 
 #: Newton's method on η = 0: at most this many iterations per step, converged when a step is below this
@@ -31,8 +32,6 @@ def configuration_of(description, x: np.ndarray) -> np.ndarray:
     """The configuration ``q`` (the generated kernels' order: actuators, passive joints leg by leg, the pose's
     parasitic then controlled coordinates) of ``x`` (legs' joint coordinates leg by leg, then the whole pose,
     as :mod:`pkmlab.description.mobility` orders them)."""
-    from .mechanism_model import leg_columns
-
     columns = [c for leg in leg_columns(description) for c in leg]
     platform = description.platform
     q = np.empty(len(columns) + len(platform.q_pose_names))
