@@ -337,13 +337,6 @@ def pose_of(model: MechanismModel, q) -> np.ndarray:
     return np.asarray(q, dtype=float)[..., _run_or_list(list(model.pose_columns))]
 
 
-def _q_pose_names(description) -> tuple[str, ...]:
-    """The names of the platform's pose in ``q`` (its last coordinates; a lower-mobility platform's parasitic ones
-    included)."""
-    platform = description.platform
-    return platform.q_pose_names if getattr(description, "spatial", False) else platform.pose_names
-
-
 def platform_joint_names(description) -> tuple[str, ...]:
     """The names of the angles of the universal joints that carry the platform (a 3-UPU's), as
     :func:`platform_joint_angles` gives them: ``q<leg>_<joint>a``, ``…b``; empty for other machines."""

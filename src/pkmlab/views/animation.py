@@ -203,7 +203,8 @@ def rebuild_configurations(model, theta, pose0, poses=None) -> np.ndarray:
 
 def _configurations_of_poses(model, theta, poses) -> np.ndarray:
     """:func:`rebuild_configurations` of a redundantly actuated machine: the inverse kinematics of the recorded
-    ``poses`` (N, dof; one row: the first sample's only) in the working mode whose actuators are ``theta[0]``."""
+    ``poses`` (N, dof), one per sample of ``theta``, in the working mode whose actuators are ``theta[0]`` (chosen at
+    the first pose, then followed along the path), every sample's actuators checked against ``theta``."""
     from ..model import mechanism_model as mm
 
     poses = poses.reshape(-1, model.dof)
@@ -211,18 +212,20 @@ def _configurations_of_poses(model, theta, poses) -> np.ndarray:
         raise AssemblyError(f"a redundantly actuated machine's run is rebuilt from its recorded poses: "
                             f"{len(theta)} samples of actuators, {len(poses)} poses")
     angles = np.asarray(model.kernels.ANGLES[:model.n_actuators], dtype=bool)
-    best, gap = None, np.inf
-    for mode in mm.working_modes(model):
-        q, _s, _failure = mm.path_inverse_kinematics(model, poses, mode, follow=True)
-        apart = q[:, :model.n_actuators] - theta
-        apart[:, angles] = np.angle(np.exp(1j * apart[:, angles]))  # an angle whole turns away
-        if np.isfinite(apart[0]).all() and np.abs(apart[0]).max() < gap:
-            best, gap = (q, apart), float(np.abs(apart[0]).max())
-    if best is None or gap > 1e-6:
+
+    def apart(q):  # each sample's largest gap between its actuators in q and the recorded ones (NaN: unreached)
+        gap = q[:, :model.n_actuators] - theta[:len(q)]
+        gap[:, angles] = np.angle(np.exp(1j * gap[:, angles]))  # an angle whole turns away
+        return np.abs(gap).max(axis=1)
+
+    gaps = {mode: float(apart(mm.path_inverse_kinematics(model, poses[:1], mode)[0])[0])
+            for mode in mm.working_modes(model)}
+    mode = min(gaps, key=lambda m: gaps[m] if np.isfinite(gaps[m]) else np.inf)
+    if not gaps[mode] <= 1e-6:
         raise AssemblyError(f"the first sample's actuators {np.round(theta[0], 6).tolist()} do not hold the "
                             "recorded start pose with this machine: is it the one that produced the run?")
-    q, apart = best
-    bad = ~np.isfinite(apart).all(axis=1) | (np.abs(apart).max(axis=1, initial=0.0) > 1e-6)
+    q = mm.path_inverse_kinematics(model, poses, mode, follow=True)[0]
+    bad = ~(apart(q) <= 1e-6)
     if bad.any():
         k = int(np.argmax(bad))
         raise AssemblyError(f"sample {k + 1}: the recorded actuators do not hold the recorded pose with this "
