@@ -16,8 +16,9 @@ A leg that ends in a universal joint under a rigid platform adds its orientation
 solutions where they do not vanish, the assembly modes of the machine its kept rows describe but not of this
 one, are dropped after polishing). Where the leg's last passive joint is a universal one eliminated as a sphere,
 the row is polynomial when the joint's second axis is the platform joint's first and stays across the leg (each
-leg's inner axes parallel, as in every 3-UPU): ``R_leg a₁`` is then along ``(R u₁) × (p_i − c)``. Other legs with
-such a row are refused (a universal joint's two angles follow from ``p_i − c`` only up to a square root).
+leg's inner axes parallel, as in every 3-UPU): ``R_leg a₁`` is then along ``(R u₁) × (p_i − c)``. In any other leg
+with such a row no joint is eliminated (a universal joint's two angles follow from ``p_i − c`` only up to a square
+root, which is no polynomial): every passive angle is an unknown, the leg's three point equations and its row kept.
 
 Every other passive angle ``φ`` is the pair ``(cos φ, sin φ)`` with ``c² + s² = 1``; the orientation is the
 Cayley map ``R = R₀ ((1 − |g|²) I + 2 g gᵀ + 2 [g]×) / (1 + |g|²)`` of three unknowns ``g`` about a fixed
@@ -136,19 +137,20 @@ def build_system(description):
             ta = sp.Symbol(f"ta{i + 1}")
             params.append(ta)
             theta = (ta,)
-        values = {}  # joint index -> tuple of (c, s) pairs (angles) or a value (slide)
+        values = {leg.actuated: (theta,) if actuated.kind == "R" else theta}  # joint index -> (c, s) pairs or a slide
+        n_joints = len(leg.joints) - 1
+        held = i in kept  # an orientation row the model keeps (module docstring)
+        a1, a2 = (sp.Matrix(a) for a in leg.joints[-1].axes) if held else (None, None)
+        if held and last is not None and not _row_survives_elimination(leg, last, values, a1):
+            last, free = None, [k for k, j in enumerate(leg.joints[:-1]) if not j.actuated]
         unknown_joints = []
         for k in free:
             values[k], more, circles = joint_unknowns(leg.joints[k], f"{i + 1}_{k + 1}")
             unknowns += more
             equations += circles
             unknown_joints.append(k)
-        values[leg.actuated] = (theta,) if actuated.kind == "R" else theta
 
         p_num = X * D + R_num * sp.Matrix(m.platform.attachments[i])  # D·(x + R a_i)
-        n_joints = len(leg.joints) - 1
-        held = i in kept  # an orientation row the model keeps (module docstring)
-        a1, a2 = (sp.Matrix(a) for a in leg.joints[-1].axes) if held else (None, None)
         if last is None:
             end, rot = symbolic_chain(leg, values, range(n_joints), leg.base)
             equations += list(p_num - end * D)
@@ -161,16 +163,10 @@ def build_system(description):
         # w: from the eliminated joint to the spherical joint, in the frame after the eliminated joint's turns
         w, after = symbolic_chain(leg, values, range(last + 1, n_joints), leg.bodies[last].tip)
         d = p_num - centre * D
-        if held and not (joint.kind == "U" and _inner_axes_parallel(joint, after * a1, w)):
-            raise InvalidParameterError(
-                f"{m.name}: leg {i + 1} ({leg.notation}): its universal joint at the platform and its last passive "
-                f"joint ({joint.kind}, joint {last + 1}) do not give its orientation row as a polynomial (pkmlab's "
-                "forward kinematics takes such a leg where that joint is universal, its second axis the platform "
-                "joint's first, as in every 3-UPU)")
         if joint.kind == "U":
             equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
-            if held:  # R_leg a1 is the joint's second axis turned, across both its first and d: ∝ (R u1) × d
-                equations.append((((rot * sp.Matrix(joint.axes[0])).cross(d)).T * (R_num * a2))[0])
+            if held:
+                equations.append(_row_through_sphere(joint, after * a1, w, rot, d, R_num * a2, D))
             legs_layout.append(("sphere", last, unknown_joints))
         else:
             axis = sp.Matrix(joint.axes[0])
@@ -184,8 +180,8 @@ def build_system(description):
     return equations, unknowns, params, {"legs": legs_layout, "R0": np.array(R0, dtype=float), "rigid": rigid}
 
 
-#: Coefficients below this vanish in :func:`_inner_axes_parallel`: axes written to six digits are parallel (the
-#: polynomial system is then that close to the machine's, whose own rows polish every solution to round-off).
+#: Coefficients below this vanish in :func:`_vanishes`: axes written to six digits are perpendicular (the polynomial
+#: system is then that close to the machine's, whose own rows polish every solution to round-off).
 PARALLEL_TOL = 1e-6
 
 
@@ -193,20 +189,48 @@ def _vanishes(expression) -> bool:
     """Whether a polynomial of the actuators' parameters is zero (every coefficient below :data:`PARALLEL_TOL`)."""
     import sympy as sp
 
+    expression = sp.sympify(expression)
     values = sp.Poly(sp.expand(expression), *expression.free_symbols).coeffs() if expression.free_symbols \
         else [expression]
     return all(abs(complex(c)) < PARALLEL_TOL for c in values)
 
 
-def _inner_axes_parallel(joint, e, w) -> bool:
-    """Whether an eliminated universal joint's second axis ``u2`` is the platform joint's first, ``e`` (in the
-    frame after the joint), and stays across the leg (``w·u2 = 0``, ``w`` the joint's centre to the platform
-    joint's): then the leg's last body turns ``e`` across both the joint's first axis and the leg, so the
-    orientation row needs neither angle (Tsai's and the 3-UPU wrist's legs: each leg's two inner axes parallel)."""
+def _row_survives_elimination(leg, last: int, values: dict, a1) -> bool:
+    """Whether the orientation row of ``leg`` (the platform joint's first axis ``a1``, in the leg's last body) is a
+    polynomial of the unknowns once its last passive joint ``last`` is eliminated as a sphere (module docstring and
+    :func:`_row_through_sphere`). ``values`` holds the joints after ``last`` (actuated)."""
+    joint = leg.joints[last]
+    if joint.kind != "U":
+        return False
+    import sympy as sp
+
+    w, after = symbolic_chain(leg, values, range(last + 1, len(leg.joints) - 1), leg.bodies[last].tip)
+    return _vanishes(w.dot(sp.Matrix(joint.axes[1]))) and _vanishes((after * a1).dot(w))
+
+
+def _row_through_sphere(joint, e, w, rot, d, b, D):
+    """The orientation row ``(R_leg e)·(R a₂) = 0`` of a leg whose last passive joint, universal, is eliminated as
+    a sphere, without its angles: ``e`` is the platform joint's first axis in the body after that joint, ``w`` the
+    joint's centre to the platform joint's in that body, ``rot`` the frame before the joint, ``d = D (p_i − c)``,
+    ``b = D R a₂``, ``D`` the Cayley map's denominator.
+
+    When the joint's second axis ``u₂`` is across the leg (``w·u₂ = 0``) the body turns ``u₂`` across both the
+    joint's first axis and the leg: ``R_leg u₂ = σ v / |v|`` with ``v = (R u₁) × d`` and a sign ``σ`` (the joint's
+    two branches), ``R_leg w = d / D``. So where ``e`` is across the leg too (``e·w = 0``), ``e = α u₂ + γ (u₂ × w)
+    / |w|²`` turns to ``σ (α v + γ v × d / (D |w|²)) / |v|``, and the row, times ``|v| D³ |w|²`` and the sign, is
+    ``α |w|² D (v·b) + γ (v × d)·b`` — both branches' (as the leg's joints are, the configuration reads one).
+    With ``e = u₂`` (each leg's inner axes parallel, every 3-UPU) it is ``v·b``."""
     import sympy as sp
 
     u2 = sp.Matrix(joint.axes[1])
-    return all(_vanishes(c) for c in e - e.dot(u2) * u2) and _vanishes(w.dot(u2))
+    v = (rot * sp.Matrix(joint.axes[0])).cross(d)
+    alpha, gamma = e.dot(u2), e.dot(u2.cross(w))
+    if _vanishes(gamma):
+        return v.dot(b)
+    square = w.dot(w)
+    if _vanishes(alpha):
+        return gamma * v.cross(d).dot(b)
+    return alpha * square * D * v.dot(b) + gamma * v.cross(d).dot(b)
 
 
 def _key(description) -> str:
