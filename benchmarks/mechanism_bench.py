@@ -45,15 +45,16 @@ DEFAULT_RUNS = {"paper": None, "five_bar": "five_bar_circle.toml", "3rpr": "3rpr
                 "3upu": "mechanisms/3upu_motion.toml", "3rrs": "mechanisms/3rrs_motion.toml",
                 "6rus": "mechanisms/6rus_motion.toml", "6pus": "mechanisms/6pus_motion.toml",
                 "3upu_wrist": "mechanisms/3upu_wrist_motion.toml", "agile_eye": "mechanisms/agile_eye_motion.toml",
-                "3prrr": "mechanisms/3prrr_motion.toml", "3puu": "mechanisms/3puu_motion.toml"}
+                "3prrr": "mechanisms/3prrr_motion.toml", "3puu": "mechanisms/3puu_motion.toml",
+                "4ruu": "mechanisms/4ruu_motion.toml"}
 #: The catalogue's machines, each compared with the preset of as many legs.
 CATALOGUE = {"3prs": "delta", "3rps": "delta", "3upu": "delta", "3rrs": "delta", "6rus": "stewart",
              "6pus": "stewart", "3upu_wrist": "delta", "agile_eye": "delta", "3prrr": "paper",
-             "3puu": "delta"}
+             "3puu": "delta", "4ruu": "delta"}
 #: Forward kinematics of every assembly mode solves a polynomial system (the Stewart–Gough platform's: 128
 #: homotopy paths, ~0.3 s): fewer samples there.
 FK_SAMPLES = {"stewart": 4, "3prs": 4, "3rps": 4, "3upu": 4, "3rrs": 4, "6rus": 4, "6pus": 4, "3upu_wrist": 4,
-              "agile_eye": 4, "3puu": 4}
+              "agile_eye": 4, "3puu": 4, "4ruu": 4}
 
 
 def _scenario(name: str) -> Scenario:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_catalogue import regular_mode
 
 import pkmlab
 from pkmlab.algorithms.assembly import assembly_modes
@@ -34,6 +35,7 @@ MACHINES = {
     "agile_eye.toml": [0.1, -0.05, 0.2],
     "6rus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
     "6pus.toml": [0.0, 0.0, -0.30, 0.05, -0.03, 0.1],
+    "4ruu.toml": [0.01, -0.005, -0.45, 0.03],
 }
 
 
@@ -125,7 +127,7 @@ def _contains(poses: np.ndarray, pose: np.ndarray, tol: float = 1e-7) -> bool:
 @pytest.mark.parametrize("name", sorted(MACHINES))
 def test_forward_kinematics_finds_every_pose_a_newton_multistart_finds(name):
     model = pkmlab.load(CATALOGUE / name)
-    q = mm.inverse_kinematics(model, MACHINES[name], mm.working_modes(model)[0])
+    q = mm.inverse_kinematics(model, MACHINES[name], regular_mode(model, name))
     theta = q[:model.n_actuators]
     poses = _forward_poses(model, theta)
     assert _contains(poses, q[_pose_columns(model)], 1e-9)

@@ -1,9 +1,9 @@
 """The default runs of the catalogue's machines that no other file runs (``examples/mechanisms/*_motion.toml``: the
-3-RPS, the 6-RUS, the 6-PUS and the 3-PUU; the others are run with their machine's own checks): each tracked to
-within its sampling — computed torque on a model equal to the plant leaves the error of holding the effort over a
-sample, first order in the sample time, so halving it halves the error — and each sample's configuration on the
-loop closures of the description's readable chain (:func:`pkmlab.description.spatial.leg_frames`), not the
-generated kernels'.
+3-RPS, the 6-RUS, the 6-PUS, the 3-PUU and the 4-RUU; the others are run with their machine's own checks): each
+tracked to within its sampling — computed torque on a model equal to the plant leaves the error of holding the
+effort over a sample, first order in the sample time, so halving it halves the error — and each sample's
+configuration on the loop closures of the description's readable chain
+(:func:`pkmlab.description.spatial.leg_frames`), not the generated kernels'.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from test_lower_mobility import _independent_residual
 import pkmlab
 
 CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
-RUNS = ["3rps.toml", "6rus.toml", "6pus.toml", "3puu.toml"]
+RUNS = ["3rps.toml", "6rus.toml", "6pus.toml", "3puu.toml", "4ruu.toml"]
 
 
 @pytest.mark.parametrize("name", RUNS)

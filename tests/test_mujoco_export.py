@@ -22,6 +22,8 @@ CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
                           # universal joints at a rigid platform (a tendon holds their axes), revolute ones (two
                           # connects on each axis, rows dependent as the machine's are)
                           "3upu_wrist.toml", "agile_eye.toml", "3puu.toml",
+                          # overconstrained: two legs' orientation rows kept, two set aside
+                          "4ruu.toml",
                           # two actuators on a leg: a slider under each leg's actuated link (kinematic redundancy)
                           "3prrr.toml")] + [
     str(Path(__file__).resolve().parents[1] / "examples" / "3rrs_tilted.toml")]  # legs of the general method

@@ -1,5 +1,6 @@
-"""An overconstrained machine whose rows a choice of whole leg types cannot make independent: a 4-RUU moving in
-Schönflies motion (x, y, z and yaw; roll and pitch held at zero by the legs), built here.
+"""An overconstrained machine whose rows a choice of whole leg types cannot make independent: the catalogue's 4-RUU
+(``examples/mechanisms/4ruu.toml``) moving in Schönflies motion (x, y, z and yaw; roll and pitch held at zero by the
+legs).
 
 Each leg — a crank about a vertical axis, a forearm between universal joints whose inner axes are parallel and
 horizontal, whose outer axes are vertical — holds the platform by a couple about the horizontal axis across its
@@ -13,7 +14,7 @@ the level platform (the geometry, not anything pkmlab was told), every row of th
 
 from __future__ import annotations
 
-import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,47 +29,12 @@ from pkmlab.model import mechanism_model as mm
 #: hyperboloid, and every symmetric pose is singular there.
 MODE = (1, -1, 1, -1)
 HOME = [0.0, 0.0, -0.453, 0.0]
-#: The bodies' inertia tensors (kg m², about the mass centre, in the body's frame at the zero configuration).
-CRANK = "[[0.0005, 0.0, 0.0], [0.0, 0.002, 0.0], [0.0, 0.0, 0.002]]"
-FOREARM = "[[0.004, 0.0, 0.0], [0.0, 0.004, 0.0], [0.0, 0.0, 0.0003]]"
-
-
-def _description_text() -> str:
-    """Four legs at 90° on a base circle of 0.3 m, cranks of 0.2 m, forearms of 0.4√2 m to a platform circle of
-    0.1 m."""
-    legs = []
-    for k in range(4):
-        c, s = round(math.cos(k * math.pi / 2), 12) + 0.0, round(math.sin(k * math.pi / 2), 12) + 0.0
-        across = [-s, c, 0.0]
-        legs.append(f"""
-[[mechanism.leg]]
-base = [{0.3 * c}, {0.3 * s}, 0.0]
-joints = "R*UU"
-axes = [[0.0, 0.0, 1.0], [[0.0, 0.0, 1.0], {across}], [{across}, [0.0, 0.0, 1.0]]]
-bodies = [
-  {{ tip = [{0.2 * c}, {0.2 * s}, 0.0], mass = 0.5, com = [{0.1 * c}, {0.1 * s}, 0.0], inertia = {CRANK} }},
-  {{ tip = [{-0.4 * c}, {-0.4 * s}, -0.4], mass = 0.3, com = [{-0.2 * c}, {-0.2 * s}, -0.2], inertia = {FOREARM} }},
-]""")
-    return """[mechanism]
-name = "4-RUU"
-dimension = 3
-gravity = [0.0, 0.0, -9.81]
-
-[mechanism.platform]
-kind = "rigid"
-attachments = [[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [-0.1, 0.0, 0.0], [0.0, -0.1, 0.0]]
-mass = 1.0
-com = [0.0, 0.0, 0.0]
-inertia = [[0.005, 0.0, 0.0], [0.0, 0.005, 0.0], [0.0, 0.0, 0.008]]
-controlled = ["x", "y", "z", "yaw"]
-""" + "".join(legs) + "\n"
+RUU = Path(__file__).resolve().parents[1] / "examples" / "mechanisms" / "4ruu.toml"
 
 
 @pytest.fixture(scope="module")
-def ruu(tmp_path_factory):
-    path = tmp_path_factory.mktemp("ruu") / "4ruu.toml"
-    path.write_text(_description_text())
-    return pkmlab.load(path)
+def ruu():
+    return pkmlab.load(RUU)
 
 
 def test_it_keeps_every_point_row_and_two_legs_orientation_rows(ruu):

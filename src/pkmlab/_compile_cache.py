@@ -138,12 +138,12 @@ def _acquire(handle) -> bool:
 
 
 @contextlib.contextmanager
-def _compile_lock(name: str):
-    """Hold the lock file of the cached function ``name`` while it compiles: a second process that reaches the
-    same function waits, then loads the first's compiled code from the cache instead of compiling it too (test
-    workers, a batch's processes, two commands started at once). No lock where the cache folder is read-only,
-    the file system or the system has no ``flock``, or another process has held it for :data:`LOCK_WAIT`: each
-    process then compiles, as it would without."""
+def cache_lock(name: str):
+    """Hold the lock file of the cached item ``name`` (a function compiling, a generic instance solved) while it is
+    made: a second process that reaches the same item waits, then loads the first's from the cache instead of
+    making it too (test workers, a batch's processes, two commands started at once). No lock where the cache
+    folder is read-only, the file system or the system has no ``flock``, or another process has held it for
+    :data:`LOCK_WAIT`: each process then makes it, as it would without."""
     if fcntl is None or name in _HELD:
         yield
         return
@@ -167,7 +167,7 @@ def _compile_lock(name: str):
 
 
 def _locked(dispatcher):
-    """``dispatcher`` (a cached Numba function) whose compilations hold its lock (:func:`_compile_lock`). Numba
+    """``dispatcher`` (a cached Numba function) whose compilations hold its lock (:func:`cache_lock`). Numba
     calls ``compile`` for a signature at each call site it types, and looks in its cache first; the lock makes
     that look happen after another process's compilation is saved. The lock is taken inside Numba's own
     compiler lock (held by every compilation of the process, and by a nested one already), so threads of one
@@ -183,7 +183,7 @@ def _locked(dispatcher):
         with global_compiler_lock:
             if tuple(normalize_signature(sig)[0]) in dispatcher.overloads:
                 return compile_signature(sig)
-            with _compile_lock(name):
+            with cache_lock(name):
                 return compile_signature(sig)
 
     dispatcher.compile = compile

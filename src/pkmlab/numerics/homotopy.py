@@ -246,18 +246,20 @@ def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, c
 
 def cached_arrays(name: str, compute, notice_text: str) -> dict:
     """``compute()``'s arrays (a dict), kept in pkmlab's cache folder as ``name``: a later process reads them
-    instead of computing them again (a generic instance's monodromy, seconds). ``notice_text`` is said, once,
-    when they are computed."""
-    from .._compile_cache import CACHE_DIR
+    instead of computing them again (a generic instance's monodromy, seconds). A process that needs them while
+    another computes them waits for its result (the lock of compiled kernels, shared by processes).
+    ``notice_text`` is said, once, when they are computed."""
+    from .._compile_cache import CACHE_DIR, cache_lock
     from ..outputs import atomic_file
     from ..progress import notice
 
     path = CACHE_DIR / "generic" / f"{name}.npz"
-    if path.exists():
-        with np.load(path) as data:
-            return {k: data[k] for k in data.files}
-    notice(notice_text)
-    arrays = compute()
-    with atomic_file(path) as tmp, open(tmp, "wb") as f:
-        np.savez(f, **arrays)
+    with cache_lock(f"generic/{name}"):
+        if path.exists():
+            with np.load(path) as data:
+                return {k: data[k] for k in data.files}
+        notice(notice_text)
+        arrays = compute()
+        with atomic_file(path) as tmp, open(tmp, "wb") as f:
+            np.savez(f, **arrays)
     return arrays

@@ -1,0 +1,40 @@
+"""Two processes that need the same cached result at once (test workers, two commands started together): the
+second waits for the first's and reads it, instead of computing it too (a generic instance's monodromy takes
+tens of seconds)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+#: A process that asks pkmlab's cache for an array computed slowly, each computation leaving a line in a log.
+SCRIPT = """
+import sys, time
+import numpy as np
+from pkmlab.numerics.homotopy import cached_arrays
+
+def compute():
+    with open(sys.argv[1], "a") as log:
+        log.write("computed\\n")
+    time.sleep(2.0)
+    return {"x": np.arange(3.0)}
+
+print(cached_arrays("lock-test", compute, "computing")["x"].sum())
+"""
+
+
+def test_a_result_two_processes_need_at_once_is_computed_once(tmp_path):
+    log = tmp_path / "log.txt"
+    env = {**os.environ, "PKMLAB_CACHE_DIR": str(tmp_path / "cache")}
+    procs = [subprocess.Popen([sys.executable, "-c", SCRIPT, str(log)], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    outputs = [p.communicate(timeout=120) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], outputs
+    assert [float(out.strip()) for out, _err in outputs] == [3.0, 3.0]
+    assert log.read_text().splitlines() == ["computed"]
+    assert sum("computing" in err for _out, err in outputs) == 1  # the notice, said by the process that computes
+    saved = list((tmp_path / "cache").glob("numba-*/generic/lock-test.npz"))
+    assert len(saved) == 1 and np.load(saved[0])["x"].tolist() == [0.0, 1.0, 2.0]
