@@ -42,6 +42,7 @@ import numpy as np
 
 from ..errors import InvalidParameterError
 from ..numerics import homotopy
+from ..numerics.angles import wrapped_angle
 from .leg_types import Solved, mark_outside_stroke
 
 #: Seed of the generic instance and of the random combinations (the same leg gets the same labels everywhere).
@@ -349,7 +350,7 @@ def _wrap(leg, q: np.ndarray) -> np.ndarray:
     for joint in leg.joints[:-1]:
         for _ in range(joint.coordinates):
             if joint.kind != "P":
-                out[:, column] = np.angle(np.exp(1j * q[:, column]))
+                out[:, column] = wrapped_angle(q[:, column])
             column += 1
     return out
 
@@ -388,7 +389,7 @@ def _canonical_solutions(leg, points: np.ndarray) -> list[np.ndarray]:
 def _distinct(q: np.ndarray) -> np.ndarray:
     out: list[np.ndarray] = []
     for v in q:
-        d = np.angle(np.exp(1j * (np.array(out) - v))) if out else None  # angles compared modulo 2π
+        d = wrapped_angle(np.array(out) - v) if out else None  # angles compared modulo 2π
         if d is None or np.abs(d).max(axis=1).min() > 1e-7:
             out.append(v)
     return np.array(out).reshape(-1, q.shape[1])

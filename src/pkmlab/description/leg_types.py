@@ -30,6 +30,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import InvalidParameterError, UnreachablePoseError
+from ..numerics.angles import wrapped_angle
 from .mechanism import Leg, moving_base, ordinary_part
 
 #: Leg types with a closed-form solution, and how many working modes each has.
@@ -309,7 +310,7 @@ def leg_inverse_kinematics_batch(leg: Leg, number: int, points, sigma: int = 1, 
     solved = _solver(part, number)(part, number, np.column_stack([c * dx + s * dy, c * dy - s * dx]), sigma)
     turns = np.array([j.kind == "R" for j in part.joints[:-1]])
     # the angles turned back into the machine's frame and wrapped to (-pi, pi], where the stroke is read
-    turned = np.angle(np.exp(1j * (solved.coordinates + direction[:, None])))
+    turned = wrapped_angle(solved.coordinates + direction[:, None])
     coordinates = np.column_stack([values, np.where(turns, turned, solved.coordinates)])
     bad, why = mark_outside_stroke(leg, number, coordinates[:, leg.actuated], solved.bad, solved.why)
     return Solved(coordinates, bad, why)

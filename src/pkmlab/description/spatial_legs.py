@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..numerics.angles import wrapped_angle
 from . import general_legs
 from .leg_types import Solved, mark_outside_stroke
 from .spatial import SpatialLeg, SpatialMechanism
@@ -119,7 +120,7 @@ def universal_angles(axes, tip, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ratio = np.clip(ratio, -1.0, 1.0)
     centre = np.arctan2(beta, alpha)
     roots = np.stack([centre + np.arccos(ratio), centre - np.arccos(ratio)])
-    roots = np.angle(np.exp(1j * roots))
+    roots = wrapped_angle(roots)
     q2 = np.where(np.abs(roots[0]) <= np.abs(roots[1]), roots[0], roots[1])
     w = rotate(a2, q2, tip.copy())
     # the turn about a1 that takes w to v: the signed angle between their parts across a1
@@ -194,7 +195,7 @@ def _crank_root(leg: SpatialLeg, alpha, beta, ratio, along, across, sigma: int, 
     machine's central ``axis`` ("knee out")."""
     axis_r = np.array(leg.joints[0].axes[0])
     centre, half = np.arctan2(beta, alpha), np.arccos(np.clip(ratio, -1.0, 1.0))
-    roots = [np.angle(np.exp(1j * (centre + half))), np.angle(np.exp(1j * (centre - half)))]
+    roots = [wrapped_angle(centre + half), wrapped_angle(centre - half)]
     elbows = [np.array(leg.base) + along + rotate(axis_r, r, np.broadcast_to(across, (len(r), 3)).copy())
               for r in roots]
     if abs(float(axis_r @ np.asarray(axis[1]))) > 1.0 - PARALLEL:  # by the side of the point's plane (module doc)

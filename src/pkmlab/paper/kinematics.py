@@ -31,6 +31,7 @@ from .._validate import as_batch, as_broadcast, as_choice, as_mode, as_pair, as_
 from ..algorithms.kinematics import CLOSURE_TOLERANCE, refuse_off_closure
 from ..errors import BranchFollowingError, InvalidParameterError, SingularityError, UnreachablePoseError, shown
 from ..numerics import closed_chain
+from ..numerics.angles import wrapped_angle
 from . import rrr3
 from .geometry import WORKING_MODES, Planar3RRR
 
@@ -344,7 +345,7 @@ class ForwardKinematicsSolution:
             raise IndexError("no assembly mode")
         target = as_batch("pose", pose, 3, single=True)[0][0]
         d = self.pose[:n] - target
-        d[:, 2] = np.angle(np.exp(1j * d[:, 2]))
+        d[:, 2] = wrapped_angle(d[:, 2])
         return self[int(np.argmin(np.linalg.norm(d, axis=1)))]
 
 
@@ -501,7 +502,7 @@ def coordinates_to_3rrr(q: np.ndarray) -> np.ndarray:
     """The inverse of :func:`coordinates_from_3rrr`: ``(θ, φ, x, y, α)`` → ``(θ, φ, α)``, the passive angles ``φ``
     in (-π, π] as the 3-RRR's kinematics gives them (``α`` stays continuous)."""
     out = np.concatenate([q[..., :6], q[..., 8:]], axis=-1)
-    out[..., 3:6] = np.angle(np.exp(1j * out[..., 3:6]))
+    out[..., 3:6] = wrapped_angle(out[..., 3:6])
     return out
 
 

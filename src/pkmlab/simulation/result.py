@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import PkmlabError
 from ..model.mechanism_model import MechanismModel
+from ..numerics.angles import wrapped_angle
 from ..outputs import atomic_file
 from .scenario import Scenario, check_model
 
@@ -326,10 +327,10 @@ def orientation_error(pose: np.ndarray, pose_d: np.ndarray, names) -> np.ndarray
     names = tuple(names)
     if "alpha" in names:
         k = names.index("alpha")
-        return np.abs(np.angle(np.exp(1j * (pose[:, k] - pose_d[:, k]))))
+        return np.abs(wrapped_angle(pose[:, k] - pose_d[:, k]))
     turns = [k for k, n in enumerate(names) if n in ("roll", "pitch", "yaw")]
     if turns and len(turns) < 3:  # a platform of lower mobility controls some of its angles: the largest error
-        return np.abs(np.angle(np.exp(1j * (pose[:, turns] - pose_d[:, turns])))).max(axis=1)
+        return np.abs(wrapped_angle(pose[:, turns] - pose_d[:, turns])).max(axis=1)
     if "roll" in names:
         from ..description.spatial import orientations
 
@@ -358,4 +359,4 @@ def actuator_errors(model, theta: np.ndarray, theta_d: np.ndarray) -> np.ndarray
     """``θ - θ_d``, angles wrapped to (-π, π] (a prismatic actuator's error is a length)."""
     e = theta - theta_d
     angles = np.array(model.kernels.ANGLES[:model.n_actuators])
-    return np.where(angles, np.angle(np.exp(1j * e)), e)
+    return np.where(angles, wrapped_angle(e), e)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AssemblyError, BranchFollowingError, PkmlabError
+from ..numerics.angles import wrapped_angle
 from ..outputs import atomic_file
 
 
@@ -215,7 +216,7 @@ def _configurations_of_poses(model, theta, poses) -> np.ndarray:
 
     def apart(q):  # each sample's largest gap between its actuators in q and the recorded ones (NaN: unreached)
         gap = q[:, :model.n_actuators] - theta[:len(q)]
-        gap[:, angles] = np.angle(np.exp(1j * gap[:, angles]))  # an angle whole turns away
+        gap[:, angles] = wrapped_angle(gap[:, angles])  # an angle whole turns away
         return np.abs(gap).max(axis=1)
 
     gaps = {mode: float(apart(mm.path_inverse_kinematics(model, poses[:1], mode)[0])[0])

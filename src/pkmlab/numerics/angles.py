@@ -1,0 +1,13 @@
+"""Angles compared the shorter way round."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def wrapped_angle(angle):
+    """``angle`` (radians, any shape) taken into ``(-π, π]``: the difference of two angles the shorter way round.
+
+    The argument of ``exp(i angle)``, so a value a whole number of turns away maps to the same one. The compiled
+    kernels' scalar counterpart is ``wrapped`` (:mod:`pkmlab.codegen.core.workspace`)."""
+    return np.angle(np.exp(1j * angle))
