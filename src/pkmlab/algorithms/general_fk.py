@@ -141,8 +141,12 @@ def build_system(description):
         n_joints = len(leg.joints) - 1
         held = i in kept  # an orientation row the model keeps (module docstring)
         a1, a2 = (sp.Matrix(a) for a in leg.joints[-1].axes) if held else (None, None)
-        if held and last is not None and not _row_survives_elimination(leg, last, values, a1):
-            last, free = None, [k for k, j in enumerate(leg.joints[:-1]) if not j.actuated]
+        if last is not None:
+            # w: from the eliminated joint to the spherical joint, in the frame after the eliminated joint's turns
+            # (the joints after it are actuated: known)
+            w, after = symbolic_chain(leg, values, range(last + 1, n_joints), leg.bodies[last].tip)
+            if held and not _row_survives_elimination(leg.joints[last], after * a1, w):
+                last, free = None, [k for k, j in enumerate(leg.joints[:-1]) if not j.actuated]
         unknown_joints = []
         for k in free:
             values[k], more, circles = joint_unknowns(leg.joints[k], f"{i + 1}_{k + 1}")
@@ -160,8 +164,6 @@ def build_system(description):
             continue
         centre, rot = symbolic_chain(leg, values, range(last), leg.base)
         joint = leg.joints[last]
-        # w: from the eliminated joint to the spherical joint, in the frame after the eliminated joint's turns
-        w, after = symbolic_chain(leg, values, range(last + 1, n_joints), leg.bodies[last].tip)
         d = p_num - centre * D
         if joint.kind == "U":
             equations.append((d.T * d)[0] - (w.T * w)[0] * D * D)
@@ -195,17 +197,14 @@ def _vanishes(expression) -> bool:
     return all(abs(complex(c)) < PARALLEL_TOL for c in values)
 
 
-def _row_survives_elimination(leg, last: int, values: dict, a1) -> bool:
-    """Whether the orientation row of ``leg`` (the platform joint's first axis ``a1``, in the leg's last body) is a
-    polynomial of the unknowns once its last passive joint ``last`` is eliminated as a sphere (module docstring and
-    :func:`_row_through_sphere`). ``values`` holds the joints after ``last`` (actuated)."""
-    joint = leg.joints[last]
-    if joint.kind != "U":
-        return False
+def _row_survives_elimination(joint, e, w) -> bool:
+    """Whether a leg's orientation row is a polynomial of the unknowns once its last passive joint ``joint`` is
+    eliminated as a sphere (:func:`_row_through_sphere`): that joint universal, its second axis and the platform
+    joint's first axis ``e`` both across the leg (``w``, from the joint's centre to the platform joint's; both in the
+    body after the joint)."""
     import sympy as sp
 
-    w, after = symbolic_chain(leg, values, range(last + 1, len(leg.joints) - 1), leg.bodies[last].tip)
-    return _vanishes(w.dot(sp.Matrix(joint.axes[1]))) and _vanishes((after * a1).dot(w))
+    return joint.kind == "U" and _vanishes(w.dot(sp.Matrix(joint.axes[1]))) and _vanishes(e.dot(w))
 
 
 def _row_through_sphere(joint, e, w, rot, d, b, D):

@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AssemblyError, BranchFollowingError, PkmlabError
-from ..numerics.angles import wrapped_angle
 from ..outputs import atomic_file
 
 
@@ -207,17 +206,15 @@ def _configurations_of_poses(model, theta, poses) -> np.ndarray:
     ``poses`` (N, dof), one per sample of ``theta``, in the working mode whose actuators are ``theta[0]`` (chosen at
     the first pose, then followed along the path), every sample's actuators checked against ``theta``."""
     from ..model import mechanism_model as mm
+    from ..simulation.result import actuator_errors
 
     poses = poses.reshape(-1, model.dof)
     if len(poses) != len(theta):
         raise AssemblyError(f"a redundantly actuated machine's run is rebuilt from its recorded poses: "
                             f"{len(theta)} samples of actuators, {len(poses)} poses")
-    angles = np.asarray(model.kernels.ANGLES[:model.n_actuators], dtype=bool)
 
     def apart(q):  # each sample's largest gap between its actuators in q and the recorded ones (NaN: unreached)
-        gap = q[:, :model.n_actuators] - theta[:len(q)]
-        gap[:, angles] = wrapped_angle(gap[:, angles])  # an angle whole turns away
-        return np.abs(gap).max(axis=1)
+        return np.abs(actuator_errors(model, q[:, :model.n_actuators], theta[:len(q)])).max(axis=1)
 
     gaps = {mode: float(apart(mm.path_inverse_kinematics(model, poses[:1], mode)[0])[0])
             for mode in mm.working_modes(model)}
