@@ -15,7 +15,7 @@ And for the redundantly actuated machines (a 4-RRR, the paper's 3-RRR with a fou
 first run and the loop per sample for each distribution against their twin's (the 3-RRR's, the Delta's).
 
 And for the catalogue's machines (``examples/mechanisms``: a 3-PRS, a 3-RPS, a 3-UPU, a 3-UPU wrist, the Agile
-Eye, a 3-RRS, a 6-RUS, a 6-PUS, a 3-PUU, a 3-PRRR) the same rows, their loop per sample against the preset's
+Eye, a 3-RRS, a 6-RUS, a 6-PUS, a 3-PUU, a 3-PRRR, a 4-RUU, a 3-CRR) the same rows, their loop per sample against the preset's
 with as many legs (the Delta's, the Stewart platform's, or for the planar 3-PRRR the paper's 3-RRR) in the same
 run, and the general forward kinematics (:mod:`pkmlab.algorithms.general_fk`): its generic instance solved by
 monodromy the first time (then read from the cache), and, for the Delta and the Stewart platform, the ratio of
@@ -46,15 +46,15 @@ DEFAULT_RUNS = {"paper": None, "five_bar": "five_bar_circle.toml", "3rpr": "3rpr
                 "6rus": "mechanisms/6rus_motion.toml", "6pus": "mechanisms/6pus_motion.toml",
                 "3upu_wrist": "mechanisms/3upu_wrist_motion.toml", "agile_eye": "mechanisms/agile_eye_motion.toml",
                 "3prrr": "mechanisms/3prrr_motion.toml", "3puu": "mechanisms/3puu_motion.toml",
-                "4ruu": "mechanisms/4ruu_motion.toml"}
+                "4ruu": "mechanisms/4ruu_motion.toml", "3crr": "mechanisms/3crr_motion.toml"}
 #: The catalogue's machines, each compared with the preset of as many legs.
 CATALOGUE = {"3prs": "delta", "3rps": "delta", "3upu": "delta", "3rrs": "delta", "6rus": "stewart",
              "6pus": "stewart", "3upu_wrist": "delta", "agile_eye": "delta", "3prrr": "paper",
-             "3puu": "delta", "4ruu": "delta"}
+             "3puu": "delta", "4ruu": "delta", "3crr": "delta"}
 #: Forward kinematics of every assembly mode solves a polynomial system (the Stewart–Gough platform's: 128
 #: homotopy paths, ~0.3 s): fewer samples there.
 FK_SAMPLES = {"stewart": 4, "3prs": 4, "3rps": 4, "3upu": 4, "3rrs": 4, "6rus": 4, "6pus": 4, "3upu_wrist": 4,
-              "agile_eye": 4, "3puu": 4, "4ruu": 4}
+              "agile_eye": 4, "3puu": 4, "4ruu": 4, "3crr": 4}
 
 
 def _scenario(name: str) -> Scenario:

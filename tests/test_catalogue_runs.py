@@ -17,7 +17,7 @@ from test_lower_mobility import _independent_residual
 import pkmlab
 
 CATALOGUE = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
-RUNS = ["3rps.toml", "6rus.toml", "6pus.toml", "3puu.toml", "4ruu.toml"]
+RUNS = ["3rps.toml", "6rus.toml", "6pus.toml", "3puu.toml", "4ruu.toml", "3crr.toml"]
 
 
 @pytest.mark.parametrize("name", RUNS)

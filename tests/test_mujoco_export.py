@@ -24,6 +24,8 @@ CATALOGUE = [str(Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
                           "3upu_wrist.toml", "agile_eye.toml", "3puu.toml",
                           # overconstrained: two legs' orientation rows kept, two set aside
                           "4ruu.toml",
+                          # revolute joints at the platform whose rows are independent: one of each leg's two kept
+                          "3crr.toml",
                           # two actuators on a leg: a slider under each leg's actuated link (kinematic redundancy)
                           "3prrr.toml")] + [
     str(Path(__file__).resolve().parents[1] / "examples" / "3rrs_tilted.toml")]  # legs of the general method

@@ -19,6 +19,8 @@ the row is polynomial when the joint's second axis is the platform joint's first
 leg's inner axes parallel, as in every 3-UPU): ``R_leg a₁`` is then along ``(R u₁) × (p_i − c)``. In any other leg
 with such a row no joint is eliminated (a universal joint's two angles follow from ``p_i − c`` only up to a square
 root, which is no polynomial): every passive angle is an unknown, the leg's three point equations and its row kept.
+A leg ending in a revolute joint whose rows the model keeps (a 3-CRR's) is written the same way, with its kept rows
+``(R_leg a)·(R b_k) = 0`` (``b_k`` across ``a``).
 
 Every other passive angle ``φ`` is the pair ``(cos φ, sin φ)`` with ``c² + s² = 1``; the orientation is the
 Cayley map ``R = R₀ ((1 − |g|²) I + 2 g gᵀ + 2 [g]×) / (1 + |g|²)`` of three unknowns ``g`` about a fixed
@@ -58,7 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..description.general_legs import joint_unknowns, symbolic_chain
-from ..description.mobility import orientation_rows
+from ..description.mobility import across, kept_leg_rows
 from ..errors import AssemblyError, InvalidParameterError
 from ..numerics import homotopy
 from .stewart_fk import rotation_of_quaternion
@@ -125,7 +127,7 @@ def build_system(description):
         R0 = sp.eye(3)
         D, R_num = sp.Integer(1), sp.eye(3)
     legs_layout = []
-    kept = orientation_rows(m)
+    kept = kept_leg_rows(m)
     for i, leg in enumerate(m.legs):
         last, free = _leg_plan(leg)
         actuated = leg.joints[leg.actuated]
@@ -139,8 +141,14 @@ def build_system(description):
             theta = (ta,)
         values = {leg.actuated: (theta,) if actuated.kind == "R" else theta}  # joint index -> (c, s) pairs or a slide
         n_joints = len(leg.joints) - 1
-        held = i in kept  # an orientation row the model keeps (module docstring)
-        a1, a2 = (sp.Matrix(a) for a in leg.joints[-1].axes) if held else (None, None)
+        held = bool(kept[i])  # orientation rows the model keeps (module docstring)
+        revolute = leg.joints[-1].kind == "R"
+        if held and revolute:  # its axis, in the leg's last body, across the kept directions in the platform
+            a1 = sp.Matrix(leg.joints[-1].axes[0])
+            across_ = [sp.Matrix(across(leg.joints[-1].axes[0])[k]) for k in kept[i]]
+            last, free = None, [k for k, j in enumerate(leg.joints[:-1]) if not j.actuated]
+        elif held:
+            a1, a2 = (sp.Matrix(a) for a in leg.joints[-1].axes)
         if last is not None:
             # w: from the eliminated joint to the spherical joint, in the frame after the eliminated joint's turns
             # (the joints after it are actuated: known)
@@ -158,7 +166,9 @@ def build_system(description):
         if last is None:
             end, rot = symbolic_chain(leg, values, range(n_joints), leg.base)
             equations += list(p_num - end * D)
-            if held:
+            if held and revolute:
+                equations += [((rot * a1).T * (R_num * b))[0] for b in across_]
+            elif held:
                 equations.append(((rot * a1).T * (R_num * a2))[0])
             legs_layout.append(("point", last, unknown_joints))
             continue

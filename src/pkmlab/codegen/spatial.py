@@ -11,11 +11,12 @@ It derives, with SymPy:
 * the loop-closure constraints ``η(q) = 0`` — for each leg, the centre of its platform joint (the
   end of its chain) minus its platform attachment point, x, y then z (3 per leg: a universal joint
   under a translating platform closes the loop at its centre too, its angles following from the
-  leg's, :mod:`pkmlab.description.spatial`), then, after every leg's, one row per leg ending in a
-  universal joint under a rigid platform: its two axes perpendicular (:mod:`pkmlab.description.mobility`;
-  rows ``LEG_ETA``; the orientation rows an overconstrained machine sets aside are not generated: a spherical
-  wrist's legs ending in revolute joints close at their points alone); their Jacobian and the bias ``J̇ηq q̇``
-  (paper eqs. 14–17, 32);
+  leg's, :mod:`pkmlab.description.spatial`), then, after every leg's, each leg's orientation rows under a rigid
+  platform (:mod:`pkmlab.description.mobility`; from row ``LEG_ETA[leg]`` on): a universal joint's one, its two
+  axes perpendicular, a revolute joint's two, its axis in the leg's last body across the two directions
+  ``across`` its axis in the platform (parameters, as the axes are). The rows an overconstrained machine sets
+  aside are not generated: a spherical wrist's legs ending in revolute joints close at their points alone, a
+  3-CRR's keep one of their two. Their Jacobian and the bias ``J̇ηq q̇`` (paper eqs. 14–17, 32);
 * for every body (the legs' bodies, then the platform) the velocity of its mass centre (3 rows) and
   its angular velocity in its own frame ``ω`` (3 rows), both linear in ``q̇``: their Jacobian
   ``J_b = ∂(v, ω)/∂q̇`` and bias ``J̇_b q̇`` — with the 3×3 inertia tensors, everything the compiled
@@ -44,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..description.mobility import orientation_legs, orientation_rows
+from ..description.mobility import across, all_orientation_rows, kept_leg_rows, orientation_rows
 from ..description.spatial import SpatialMechanism
 from .planar import (
     GENERATED_DIR,
@@ -66,11 +67,19 @@ def structure(mechanism: SpatialMechanism) -> str:
     name = "_".join(leg.notation.replace("*", "a") for leg in mechanism.legs) + "_" + mechanism.platform.kind
     name = name + "".join(f"_{c}" for c in mechanism.platform.pose_names) if mechanism.platform.parasitic_names \
         else name
-    ends = orientation_legs(mechanism)
-    kept = orientation_rows(mechanism)
-    if len(kept) < len(ends):  # some legs' orientation rows set aside: say whose are kept (1) or not (0)
-        name += "_rows_" + "".join("1" if i in kept else "0" for i in ends)
+    orient = all_orientation_rows(mechanism)
+    kept = kept_leg_rows(mechanism)
+    if sum(map(len, kept)) < len(orient):  # some rows set aside: say whose are kept (1: all, x or y: one) or not (0)
+        ends = dict.fromkeys(i for i, _k in orient)
+        name += "_rows_" + "".join("0" if not kept[i] else "1" if len(kept[i]) == _end_rows(mechanism.legs[i])
+                                   else "xy"[kept[i][0]] for i in ends)
     return name
+
+
+def _end_rows(leg) -> int:
+    """The number of orientation rows of a leg's platform joint under a rigid platform: 1 for a universal joint,
+    2 for a revolute one (:mod:`pkmlab.description.mobility`)."""
+    return 1 if leg.joints[-1].kind == "U" else 2
 
 
 def measures_lines(mechanism: SpatialMechanism) -> bool:
@@ -131,8 +140,10 @@ def _body_names(mechanism: SpatialMechanism) -> list[str]:
     return [f"body{i + 1}_{k + 1}" for i, leg in enumerate(mechanism.legs) for k in range(len(leg.bodies))]
 
 
-def _leg_parameter_names(leg, tag: str) -> list[str]:
-    """The names of a leg's parameters, in their order in ``P``: its base point, its joints' axes, its bodies'."""
+def _leg_parameter_names(leg, tag: str, rows: tuple[int, ...] = ()) -> list[str]:
+    """The names of a leg's parameters, in their order in ``P``: its base point, its joints' axes, its bodies',
+    then, for a leg ending in a revolute joint some of whose orientation rows are kept (``rows``), the two
+    directions across its axis the rows measure it against (:func:`_across_values`)."""
     names = [f"base{tag}_{c}" for c in "xyz"]
     for k, joint in enumerate(leg.joints):
         for a in range(len(joint.axes)):
@@ -141,14 +152,22 @@ def _leg_parameter_names(leg, tag: str) -> list[str]:
         pre = f"body{tag}_{k + 1}"
         names += [f"{pre}_tip_{c}" for c in "xyz"] + [f"{pre}_com_{c}" for c in "xyz"]
         names += [f"{pre}_mass"] + [f"{pre}_inertia_{c}" for c in _INERTIA]
+    if rows and leg.joints[-1].kind == "R":
+        names += [f"across{tag}_{k}_{c}" for k in (1, 2) for c in "xyz"]
     return names
+
+
+def _across_values(leg) -> list[float]:
+    """The two unit directions across a revolute platform joint's axis, as the description's rows take them
+    (:func:`pkmlab.description.mobility.across`): data of the description, as its axes are."""
+    return [float(v) for b in across(leg.joints[-1].axes[0]) for v in b]
 
 
 def parameter_names(mechanism: SpatialMechanism) -> tuple[str, ...]:
     """Names of the packed parameter vector, in order (:func:`pack`)."""
     names = []
-    for i, leg in enumerate(mechanism.legs):
-        names += _leg_parameter_names(leg, str(i + 1))
+    for i, (leg, rows) in enumerate(zip(mechanism.legs, kept_leg_rows(mechanism), strict=True)):
+        names += _leg_parameter_names(leg, str(i + 1), rows)
     for i in range(len(mechanism.legs)):
         names += [f"attach{i + 1}_{c}" for c in "xyz"]
     names += [f"platform_com_{c}" for c in "xyz"] + ["platform_mass"] + [f"platform_inertia_{c}" for c in _INERTIA]
@@ -164,13 +183,15 @@ def _inertia_values(tensor) -> list[float]:
 def pack(mechanism: SpatialMechanism) -> np.ndarray:
     """The parameter vector of ``mechanism`` read by its generated kernels (:func:`parameter_names`)."""
     values = []
-    for leg in mechanism.legs:
+    for leg, rows in zip(mechanism.legs, kept_leg_rows(mechanism), strict=True):
         values += [*leg.base]
         for joint in leg.joints:
             for axis in joint.axes:
                 values += [*axis]
         for body in leg.bodies:
             values += [*body.tip, *body.com, body.mass, *_inertia_values(body.inertia)]
+        if rows and leg.joints[-1].kind == "R":
+            values += _across_values(leg)
     for point in mechanism.platform.attachments:
         values += [*point]
     p = mechanism.platform
@@ -210,15 +231,26 @@ def _platform(sp, mechanism: SpatialMechanism):
 
 def leg_types(mechanism: SpatialMechanism) -> list[str]:
     """Each leg's type, what its kernels are derived once for: its notation, with ``"+row"`` where the model keeps
-    its orientation row (an overconstrained machine may keep the rows of some legs of one notation and set aside
-    the others': a 4-RUU's)."""
-    kept = orientation_rows(mechanism)
-    return [leg.notation + ("+row" if i in kept else "") for i, leg in enumerate(mechanism.legs)]
+    its universal joint's orientation row, ``"+row1"``, ``"+row2"`` or ``"+row12"`` which of its revolute joint's
+    (an overconstrained machine may keep the rows of some legs of one notation and set aside the others': a
+    4-RUU's)."""
+    def tag(leg, rows):
+        if not rows:
+            return ""
+        return "+row" if leg.joints[-1].kind == "U" else "+row" + "".join(str(k + 1) for k in rows)
+
+    return [leg.notation + tag(leg, rows) for leg, rows in zip(mechanism.legs, kept_leg_rows(mechanism), strict=True)]
 
 
-def derive_leg(mechanism: SpatialMechanism, leg, row: bool = False) -> dict:
-    """The symbolic kinematics of one leg of ``mechanism``, in the names of any leg of its type (with its
-    orientation row where ``row``: :func:`leg_types`).
+def _type_rows(kind: str) -> tuple[int, ...]:
+    """Which orientation rows a leg type of :func:`leg_types` keeps."""
+    _notation, _, tag = kind.partition("+row")
+    return (0,) if kind.endswith("+row") else tuple(int(k) - 1 for k in tag)
+
+
+def derive_leg(mechanism: SpatialMechanism, leg, rows: tuple[int, ...] = ()) -> dict:
+    """The symbolic kinematics of one leg of ``mechanism``, in the names of any leg of its type (with the
+    orientation rows ``rows`` it keeps: :func:`leg_types`).
 
     The leg's coordinates are ``a`` (its actuator; ``a2``… a leg's others), its passive ones ``q_<joint>`` and the
     platform's pose; its
@@ -233,7 +265,7 @@ def derive_leg(mechanism: SpatialMechanism, leg, row: bool = False) -> dict:
     names = [*_local_actuators(leg), *_leg_coordinate_names(leg, "")]
     own, own_dot = _symbols(sp, names), _symbols(sp, [f"{n}_dot" for n in names])
     rate = dict(zip(own, own_dot, strict=True))
-    parameters = [*_leg_parameter_names(leg, ""), *(f"attach_{c}" for c in "xyz")]
+    parameters = [*_leg_parameter_names(leg, "", rows), *(f"attach_{c}" for c in "xyz")]
     P = dict(zip(parameters, _symbols(sp, parameters), strict=True))
 
     def vec(prefix):
@@ -267,10 +299,11 @@ def derive_leg(mechanism: SpatialMechanism, leg, row: bool = False) -> dict:
     joints.append(target)
     lines = [*(target - point_p), *(target - rotary)] if measures_lines(mechanism) else []
     eta = list(point - target)
-    if row:
-        assert leg.joints[-1].kind == "U", "a leg ending in R whose rows are kept is refused by its mobility"
-        k = len(leg.joints)
+    k = len(leg.joints)
+    if rows and leg.joints[-1].kind == "U":  # its two axes perpendicular
         eta.append(((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"axis_{k}b")))[0])
+    elif rows:  # its axis turned by the leg across each kept direction turned by the platform
+        eta += [((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"across_{r + 1}")))[0] for r in rows]
     return {"q": (*own, *pose), "q_dot": (*own_dot, *pose_dot), "P": P, "eta": eta,
             "bodies": bodies, "joints": joints, "lines": lines, "acts": len(leg.actuated_joints)}
 
@@ -300,7 +333,7 @@ def derive(mechanism: SpatialMechanism) -> dict:
     legs = {}
     for leg, kind in zip(mechanism.legs, leg_types(mechanism), strict=True):
         if kind not in legs:
-            legs[kind] = derive_leg(mechanism, leg, kind.endswith("+row"))
+            legs[kind] = derive_leg(mechanism, leg, _type_rows(kind))
     return {"legs": legs, "q": q, "q_dot": q_dot, "P": P, "platform": (com, com_velocity, omega), "size": size}
 
 
@@ -341,7 +374,10 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     q, q_dot = d["q"], d["q_dot"]
     n, nq, n_pose = len(mechanism.legs), len(q), len(mechanism.platform.q_pose_names)
     ends = orientation_rows(mechanism)
-    m, nb = 3 * n + len(ends), sum(len(leg.bodies) for leg in mechanism.legs) + 1
+    kept = kept_leg_rows(mechanism)
+    # the row of eta where each leg's kept orientation rows start (after every leg's point rows)
+    leg_eta = [3 * n + sum(map(len, kept[:i])) if kept[i] else -1 for i in range(n)]
+    m, nb = 3 * n + sum(map(len, kept)), sum(len(leg.bodies) for leg in mechanism.legs) + 1
     pose0 = nq - n_pose
     names, parameters = coordinate_names(mechanism), parameter_names(mechanism)
     # where each leg's own coordinates, parameters, attachment point, bodies and Jacobian non-zeros start
@@ -395,7 +431,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         "# where each body's mass and inertia tensor (xx, yy, zz, xy, xz, yz) and the gravity are in P",
         [_indices(mechanism, what) for what in ("mass", "inertia", "gravity")], nonzero,
         layout=(n_pose, [c - n_a for c in point], lines_of_action), point_rows=3 * n,
-        pattern={(3 * i + r if r < 3 else 3 * n + ends.index(i), at(i, c))
+        pattern={(3 * i + r if r < 3 else leg_eta[i] + r - 3, at(i, c))
                  for i in range(n) for r in range(local[types[i]]["j_eta"].rows)
                  for c in range(local[types[i]]["j_eta"].cols) if local[types[i]]["j_eta"][r, c] != 0})
     header += ["# where each leg's passive coordinates (in q), parameters and attachment point (in P), bodies and "
@@ -405,8 +441,7 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     if several:
         header += ["# where each leg's actuators start in q (legs of several actuators)", f"LEG_A = {tuple(leg_a)!r}"]
     if ends:
-        header += ["# the row of eta of each leg's orientation row (-1: none)",
-                   f"LEG_ETA = {tuple(3 * n + ends.index(i) if i in ends else -1 for i in range(n))!r}"]
+        header += ["# the row of eta of each leg's first orientation row (-1: none)", f"LEG_ETA = {tuple(leg_eta)!r}"]
     groups = {}
     for i, kind in enumerate(types):
         groups.setdefault(kind, []).append(i)
@@ -449,8 +484,8 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         return [Block(*kernel(t, notation), loops[notation], *unpacks[notation]) for notation, t in d["legs"].items()]
 
 
-    def row(r):  # a leg's r-th row of eta: its point rows, then its orientation row
-        return _plus("3 * leg", r) if r < 3 else "ie"
+    def row(r):  # a leg's r-th row of eta: its point rows, then its orientation rows
+        return _plus("3 * leg", r) if r < 3 else _plus("ie", r - 3)
 
     def constraints(t, _notation):
         return t["eta"], [row(r) for r in range(len(t["eta"]))]

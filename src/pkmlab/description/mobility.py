@@ -21,8 +21,9 @@ columns of angles scaled by the machine's size so that metres and radians weigh 
 **Overconstrained machines.** Where the rows are dependent at every configuration (a spherical 3-RRR, the
 Agile Eye, whose orientation rows all follow from its point rows), the model keeps an independent set: every
 point row, and the orientation rows of the legs of the types (notations) that add to the rank — or, where no
-choice of whole types does, of as many single legs as do (a 4-RUU keeps two of its four legs' rows)
-(:func:`orientation_rows`), chosen at a generic configuration. Near it the kept rows define the same manifold
+choice of whole types does, of as many single legs as do (a 4-RUU keeps two of its four legs' rows) — or, where
+no choice of whole legs does, single rows (a 3-CRR keeps one of each leg's two: any two legs' four rows repeat
+one) (:func:`kept_leg_rows`), chosen at a generic configuration. Near it the kept rows define the same manifold
 (the same dimension, and it lies in theirs); the rows set aside are checked to vanish at generic configurations
 of the kept ones (:func:`check_kept_rows`), and a machine whose rows no choice makes independent is refused.
 
@@ -60,7 +61,7 @@ class Mobility:
     ``mobility`` is ``coordinates - rank``; ``leg_constraints`` the number of the platform's freedoms each leg
     removes; ``configuration`` one generic configuration found (legs' joint coordinates leg by leg, then the
     whole pose); ``kept`` the rows of ``η`` the model keeps (every one where they are independent; None where no
-    choice of leg types or single legs makes them so, module docstring)."""
+    choice of leg types, single legs or single rows makes them so, module docstring)."""
 
     mobility: int
     rank: int
@@ -161,16 +162,26 @@ def kept_rows(mechanism) -> tuple[int, ...]:
 
 
 def orientation_rows(mechanism) -> tuple[int, ...]:
-    """The legs whose orientation rows the model keeps (module docstring), in order: every leg ending in a
-    universal joint under a rigid platform unless its rows depend on the others."""
-    return _kept_legs(mechanism, kept_rows(mechanism)) if all_orientation_rows(mechanism) else ()
+    """The legs some of whose orientation rows the model keeps (module docstring), in order: every leg ending in a
+    universal or revolute joint under a rigid platform unless its rows depend on the others."""
+    return tuple(i for i, rows in enumerate(kept_leg_rows(mechanism)) if rows)
 
 
-def _kept_legs(mechanism, kept) -> tuple[int, ...]:
-    """The legs with an orientation row among the rows ``kept``."""
+def kept_leg_rows(mechanism) -> tuple[tuple[int, ...], ...]:
+    """Which of each leg's orientation rows the model keeps, leg by leg: ``(0,)`` for a universal joint's row,
+    ``(0, 1)``, ``(0,)`` or ``(1,)`` for a revolute joint's two (:func:`across` their axes), ``()`` for none."""
+    orient = all_orientation_rows(mechanism)
+    if not orient:
+        return ((),) * len(mechanism.legs)
+    return _leg_masks(mechanism, kept_rows(mechanism))
+
+
+def _leg_masks(mechanism, kept) -> tuple[tuple[int, ...], ...]:
+    """Each leg's orientation rows (its ``k``s) among the rows ``kept`` of ``η``."""
     n_point = 3 * len(mechanism.legs)
-    rows = all_orientation_rows(mechanism)
-    return tuple(sorted({rows[r - n_point][0] for r in kept if r >= n_point}))
+    orient = all_orientation_rows(mechanism)
+    return tuple(tuple(k for r, (j, k) in enumerate(orient) if j == i and n_point + r in kept)
+                 for i in range(len(mechanism.legs)))
 
 
 def leg_rows(mechanism, leg: int) -> list[int]:
@@ -351,6 +362,28 @@ def _kept_rows(m, j: np.ndarray, rank: int) -> tuple[int, ...] | None:
     for chosen in choices:
         rows = [*range(n_point), *(n_point + r for r, (i, _k) in enumerate(orient) if i in chosen)]
         if len(rows) == rank and _rank(j[rows]) == rank:
+            return tuple(rows)
+    return _kept_single_rows(m, j, rank)
+
+
+def _kept_single_rows(m, j: np.ndarray, rank: int) -> tuple[int, ...] | None:
+    """Where no choice of whole legs' rows is independent (a leg ending in a revolute joint whose two rows the
+    others half repeat: a 3-CRR's), single rows: each leg keeps some of its rows (:func:`kept_leg_rows`), the
+    choices of the fewest kinds of leg first (a kind, its notation and which rows it keeps, is one derivation),
+    then in order. None where no choice is independent and of rank ``rank``."""
+    n_point = 3 * len(m.legs)
+    orient = all_orientation_rows(m)
+    legs = list(dict.fromkeys(i for i, _k in orient))
+    options = [[subset for size in range(PLATFORM_JOINT_ROWS[m.legs[i].joints[-1].kind], -1, -1)
+                for subset in itertools.combinations(range(PLATFORM_JOINT_ROWS[m.legs[i].joints[-1].kind]), size)]
+               for i in legs]
+    wanted = rank - n_point
+    choices = [c for c in itertools.product(*options) if sum(map(len, c)) == wanted]
+    choices.sort(key=lambda c: len({(m.legs[i].notation, s) for i, s in zip(legs, c, strict=True)}))
+    for choice in choices:
+        chosen = {(i, k) for i, subset in zip(legs, choice, strict=True) for k in subset}
+        rows = [*range(n_point), *(n_point + r for r, row in enumerate(orient) if row in chosen)]
+        if _rank(j[rows]) == rank:
             return tuple(rows)
     return None
 
@@ -596,14 +629,8 @@ def _check(m, r: Mobility) -> None:
     if r.kept is None:
         raise InvalidParameterError(
             f"{m.name}: its {r.constraints} loop-closure equations are dependent (rank {r.rank}) and no choice of "
-            "its legs' orientation rows leaves an independent set with every point row: an overconstrained machine "
-            "pkmlab does not model yet")
-    for i in _kept_legs(m, r.kept):
-        if m.legs[i].joints[-1].kind == "R":
-            raise InvalidParameterError(
-                f"{m.name}: leg {i + 1} ({m.legs[i].notation}) ends in a revolute joint whose orientation rows are "
-                "independent of the other loop closures: pkmlab models such a leg where they are not (a spherical "
-                "wrist's, whose legs' axes meet at its centre)")
+            "its legs' orientation rows leaves an independent set with every point row (its point rows are "
+            "dependent): an overconstrained machine pkmlab does not model yet")
     locked = r.coordinates - len(m.actuators) - r.actuated_rank  # freedoms left with every actuator locked
     if locked > 0:
         raise InvalidParameterError(

@@ -66,12 +66,13 @@ class Family:
     ``p ∈ Cᵐ``) as a :class:`~pkmlab.numerics.straight_line.Program` of the inputs ``(x, p)`` whose outputs are
     ``F`` (n), ``∂F/∂x`` (n × n, by rows) and ``∂F/∂p`` along the first ``moving`` parameters (n × moving) — the
     ones a homotopy moves. ``scale`` is the size of a solution (what "diverged" and "converged" are relative
-    to)."""
+    to); ``fixed`` the equations of an offset family that no parameter but their offset enters."""
 
     program: Program
     n: int
     moving: int
     scale: float = 1.0
+    fixed: tuple[int, ...] = ()
 
     def _outputs(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=complex)
@@ -105,7 +106,8 @@ def offset_family(name: str, equations, unknowns, parameters, scale: float = 1.0
         F = sp.Matrix([e - b for e, b in zip(equations, offsets, strict=True)])
         return compile_program([*F, *F.jacobian(unknowns), *F.jacobian(moving)], [*unknowns, *moving])
 
-    return Family(cached_program(name, derive), n, len(parameters) + n, scale=scale)
+    fixed = tuple(k for k, e in enumerate(equations) if not set(parameters) & sp.sympify(e).free_symbols)
+    return Family(cached_program(name, derive), n, len(parameters) + n, scale=scale, fixed=fixed)
 
 
 def newton_polish(family: Family, x: np.ndarray, p: np.ndarray, iterations: int = 6):
@@ -176,12 +178,18 @@ class TooManySolutions(Exception):
 
 def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.random.Generator, *,
                     known: np.ndarray | None = None, free: int | None = None, stale_loops: int = 8,
-                    max_loops: int = 100, max_solutions: int | None = None):
+                    max_loops: int = 100, max_solutions: int | None = None, probe: tuple[int, ...] = (),
+                    probe_loops: int = 2):
     """Every solution at the generic complex parameters ``p0`` (m,) found by monodromy from one, ``x0`` (n,)
     (or from ``known`` solutions), loops moving only the first ``free`` parameters (all by default).
 
     Returns ``(solutions (N, n), loops)``: the loops run. Stops after ``stale_loops`` loops in a row
-    add nothing. A solve that lasts says how far it is on stderr every
+    add nothing. Then, where ``probe`` names parameters, ``probe_loops`` loops move those alone, a hundred
+    times as far (:data:`PROBE_SCALE`), going on while they find solutions: a loop permutes solutions only when
+    it goes round a branch point, and a block of equations that no other parameter enters can have its branch
+    points far out — a 3-CRR's orientation rows, which no actuator moves, whose solutions near the chart's
+    infinity permute only in such loops. The probe draws from its own random stream (``rng``, and so every
+    later use of it, stays as it was without it). A solve that lasts says how far it is on stderr every
     :data:`~pkmlab.progress.STATUS_EVERY` seconds (a system of many solutions takes minutes); one that finds more
     than ``max_solutions`` raises :class:`TooManySolutions`."""
     import time
@@ -193,19 +201,26 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
     said = time.monotonic()
     m = len(p0)
     free = m if free is None else free
-    while stale < stale_loops and loops < max_loops:
+    moved, scale, draw, limit = np.arange(free), 1.0, rng, stale_loops
+    while loops < max_loops:
+        if stale >= limit:
+            if scale != 1.0 or not len(probe):
+                break
+            moved, scale, draw = np.asarray(probe), PROBE_SCALE, np.random.default_rng(len(sols))
+            stale, limit = 0, probe_loops
         loops += 1
         pa, pb = p0.copy(), p0.copy()
+        k = len(moved)
         for p in (pa, pb):
-            p[:free] += (rng.standard_normal(free) + 1j * rng.standard_normal(free)) * np.maximum(np.abs(p0[:free]),
-                                                                                               1.0)
+            p[moved] += (draw.standard_normal(k) + 1j * draw.standard_normal(k)) * np.maximum(np.abs(p0[moved]), 1.0) \
+                * scale
         x = sols
         ok = np.ones(len(x), dtype=bool)
         for start, end in ((p0, pa), (pa, pb), (pb, p0)):
             x, regular, _div, _reached = parameter_homotopy(family, x, start, end)
             ok &= regular
         merged = distinct(np.concatenate([sols, x[ok]]), family.scale)
-        stale = stale + 1 if len(merged) == len(sols) else 0
+        stale, limit = (stale + 1, limit) if len(merged) == len(sols) else (0, stale_loops)
         sols = merged
         if max_solutions is not None and len(sols) > max_solutions:
             raise TooManySolutions(len(sols), loops)
@@ -219,6 +234,8 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
 #: Monodromy loops in the problem's own parameters that must find no new solution of a generic instance (each
 #: costs some 20–40 ms for a machine: ten of them add a few tenths of a second to its first solve).
 CHECK_LOOPS = 10
+#: How much farther than its other loops monodromy's probe of a parameter-free block goes (:func:`monodromy_solve`).
+PROBE_SCALE = 100.0
 
 
 def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, check_loops: int = CHECK_LOOPS,
@@ -234,7 +251,8 @@ def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, c
     theta0 = rng.standard_normal(m) + 1j * rng.standard_normal(m)
     b0 = family.F(z0[None], np.concatenate([theta0, np.zeros(n)])[None])[0]
     p0 = np.concatenate([theta0, b0])
-    offset_solutions, loops = monodromy_solve(family, z0, p0, rng, max_solutions=max_solutions)
+    offset_solutions, loops = monodromy_solve(family, z0, p0, rng, max_solutions=max_solutions,
+                                              probe=tuple(m + k for k in family.fixed))
     p1 = np.concatenate([rng.standard_normal(m) + 1j * rng.standard_normal(m), np.zeros(n)])
     ends = parameter_homotopy(family, offset_solutions, p0, p1)
     solutions = distinct(ends.x[ends.regular], family.scale)
