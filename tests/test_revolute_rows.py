@@ -79,7 +79,12 @@ def test_inverse_kinematics_holds_the_platform_level_and_closes_every_row(crr, m
 
 def test_forward_kinematics_gives_each_elbow_combination_for_the_four_orientations_that_keep_the_legs_axes(crr):
     """Every leg's axis kept up to its sign: the rotation is diagonal — the identity or a half turn about x, y or
-    z — and, for each, the legs' elbows place the platform in 2 × 2 × 2 ways."""
+    z — and, for each, the legs' elbows place the platform in 2 × 2 × 2 ways. At generic actuator values: the
+    three kept orientation rows, quadrics in the orientation's three unknowns that no actuator enters, have
+    Bézout's 8 solutions, each with its 8 elbow combinations."""
+    from pkmlab.algorithms.general_fk import generic_solutions
+
+    assert len(generic_solutions(crr.description)[0]) == 64
     q = mm.inverse_kinematics(crr, POSE, (1, -1, 1))
     found = assembly_modes(crr, q[:3])
     assert min(np.abs(np.angle(np.exp(1j * (qj - q)))).max() for qj, _s in found) < 1e-9

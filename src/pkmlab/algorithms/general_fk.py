@@ -26,7 +26,10 @@ Every other passive angle ``φ`` is the pair ``(cos φ, sin φ)`` with ``c² + s
 Cayley map ``R = R₀ ((1 − |g|²) I + 2 g gᵀ + 2 [g]×) / (1 + |g|²)`` of three unknowns ``g`` about a fixed
 random rotation ``R₀`` (no double cover, unlike Euler angles or quaternions; the rotations it misses — a half
 turn from ``R₀`` — are a set of measure zero, at no real solution with probability one); every equation is
-multiplied by the powers of ``1 + |g|²`` that make it polynomial. The actuators enter as parameters (an
+multiplied by the powers of ``1 + |g|²`` that make it polynomial. Where the orientation rows alone fix the
+orientation at every actuator value (three equations in ``g`` that no actuator enters: a 3-CRR's), ``R₀`` is
+chosen far from the half turns of those rotations instead (:func:`_centred_chart`): one near a half turn from
+``R₀`` would have a large ``g``, and monodromy's loops would hardly move it. The actuators enter as parameters (an
 angle as its cosine and sine).
 
 **The method.** The family ``F(z; θ) − b = 0`` (``b`` an offset, the trick that makes a start solution
@@ -104,9 +107,10 @@ def _leg_plan(leg):
     return last, [k for k in passive if k != last]
 
 
-def build_system(description):
+def build_system(description, R0: np.ndarray | None = None):
     """The polynomial system of ``description`` (module docstring): ``(equations, unknowns, parameters,
-    layout)`` as SymPy objects; ``layout`` says how to read a solution."""
+    layout)`` as SymPy objects; ``layout`` says how to read a solution. The orientation's chart is centred on
+    ``R0`` (a random rotation by default)."""
     import sympy as sp
 
     m = description
@@ -119,7 +123,7 @@ def build_system(description):
     if rigid:
         g = sp.Matrix(sp.symbols("g1 g2 g3"))
         unknowns += list(g)
-        R0 = sp.Matrix(rotation_of_quaternion(rng.standard_normal(4)))  # a random rotation
+        R0 = sp.Matrix(rotation_of_quaternion(rng.standard_normal(4)) if R0 is None else R0)
         D = 1 + (g.T * g)[0]
         skew = sp.Matrix([[0, -g[2], g[1]], [g[2], 0, -g[0]], [-g[1], g[0], 0]])
         R_num = R0 * ((1 - (g.T * g)[0]) * sp.eye(3) + 2 * g * g.T + 2 * skew)
@@ -260,8 +264,44 @@ def _family(description):
     from ..description.mobility import _size
 
     equations, unknowns, params, layout = build_system(description)
-    family = homotopy.offset_family(f"general_fk-{_key(description)}", equations, unknowns, params, _size(description))
+    name = f"general_fk-{_key(description)}"
+    family = homotopy.offset_family(name, equations, unknowns, params, _size(description))
+    if layout["rigid"] and family.block is not None and set(family.block.unknowns) == {3, 4, 5}:  # g1, g2, g3
+        R0 = _centred_chart(family, layout["R0"])
+        equations, unknowns, params, layout = build_system(description, R0)
+        family = homotopy.offset_family(f"{name}-centred", equations, unknowns, params, _size(description))
     return family, len(unknowns), len(params), layout, [str(u) for u in unknowns]
+
+
+#: Rotations :func:`_centred_chart` chooses among.
+CHART_CANDIDATES = 2000
+
+
+def _centred_chart(family, R0: np.ndarray) -> np.ndarray:
+    """A centre for the orientation's chart among the solutions of a parameter-free block of the orientation's
+    three unknowns: the orientation rows of legs that no actuator turns (a 3-CRR's), whose solutions are the
+    same rotations at every actuator value. The chart misses the half turns from its centre, and the rotations
+    near them have large ``g``: their equations' terms are large, and monodromy's loops, of the offsets' size,
+    hardly move them (a 3-CRR's generic instance came out short). The block's solutions (its total-degree
+    homotopy at zero offsets: every one) as rotations; the centre, among :data:`CHART_CANDIDATES` rotations from a
+    fixed seed, the one whose largest angle to them is least."""
+    import itertools
+
+    block = family.block
+    roots = [np.exp(2j * np.pi * np.arange(d) / d) for d in block.degrees]
+    starts = np.array(list(itertools.product(*roots)), dtype=complex)
+    zero = np.zeros(len(block.equations))
+    ends = homotopy.parameter_homotopy(block.homotopy, starts, np.concatenate([[0.0], zero]),
+                                       np.concatenate([[1.0], zero]))
+    real = ends.x[ends.regular & (np.abs(ends.x.imag).max(axis=1) < 1e-9)].real
+    if not len(real):
+        return R0
+    rotations = np.array([_cayley(R0, g) for g in real])
+    rng = np.random.default_rng(SEED + 2)
+    candidates = np.array([rotation_of_quaternion(e) for e in rng.standard_normal((CHART_CANDIDATES, 4))])
+    # the angle of Cᵀ R from its trace; the largest over the block's rotations, least over the candidates
+    cosines = (np.einsum("cji,kji->ck", candidates, rotations) - 1.0) / 2.0
+    return candidates[int(np.argmax(cosines.min(axis=1)))]
 
 
 @functools.lru_cache(maxsize=16)

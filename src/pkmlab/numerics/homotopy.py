@@ -66,13 +66,14 @@ class Family:
     ``p ∈ Cᵐ``) as a :class:`~pkmlab.numerics.straight_line.Program` of the inputs ``(x, p)`` whose outputs are
     ``F`` (n), ``∂F/∂x`` (n × n, by rows) and ``∂F/∂p`` along the first ``moving`` parameters (n × moving) — the
     ones a homotopy moves. ``scale`` is the size of a solution (what "diverged" and "converged" are relative
-    to); ``fixed`` the equations of an offset family that no parameter but their offset enters."""
+    to). ``block`` is, for an offset family, a block of its equations that no parameter but their offsets enters,
+    in as many unknowns, with its total-degree homotopy (:class:`Block`); None where it has none."""
 
     program: Program
     n: int
     moving: int
     scale: float = 1.0
-    fixed: tuple[int, ...] = ()
+    block: Block | None = None
 
     def _outputs(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=complex)
@@ -90,10 +91,52 @@ class Family:
         return out[:, :n], out[:, n:n + n * n].reshape(-1, n, n)
 
 
+@dataclass(frozen=True)
+class Block:
+    """A block of an offset family's equations (indices ``equations``) in as many of its unknowns (``unknowns``)
+    that no parameter but their offsets enters, and its total-degree homotopy: the family
+    ``λ (F_E(u) − β) + (1 − λ) γ (u_i^{d_i} − 1)`` in ``u`` with parameters ``(λ, β)`` (``degrees`` the
+    ``d_i``)."""
+
+    equations: tuple[int, ...]
+    unknowns: tuple[int, ...]
+    degrees: tuple[int, ...]
+    homotopy: Family
+
+
+#: The largest parameter-free block :func:`offset_family` looks for (equations).
+BLOCK_SIZE = 4
+#: The total-degree homotopy's ``γ`` (the gamma trick: a random complex number, fixed so that it is reproducible).
+GAMMA = complex(0.6312, -0.7756)
+
+
+def _parameter_free_block(equations, unknowns, parameters):
+    """The first smallest set of ``equations`` that no parameter enters, in as many ``unknowns`` and of more than
+    one solution (a nonlinear one), as ``(equation indices, unknown indices, degrees)``; None where there is none."""
+    import itertools
+
+    import sympy as sp
+
+    params, names = set(parameters), list(unknowns)
+    free = [(k, frozenset(sp.sympify(e).free_symbols) & set(names)) for k, e in enumerate(equations)
+            if not sp.sympify(e).free_symbols & params]
+    for size in range(1, BLOCK_SIZE + 1):
+        for combo in itertools.combinations(free, size):
+            used = frozenset().union(*(v for _k, v in combo))
+            if len(used) != size:
+                continue
+            order = [u for u in names if u in used]
+            degrees = [sp.Poly(equations[k], *order).total_degree() for k, _v in combo]
+            if max(degrees) > 1:
+                return tuple(k for k, _v in combo), tuple(names.index(u) for u in order), tuple(degrees)
+    return None
+
+
 def offset_family(name: str, equations, unknowns, parameters, scale: float = 1.0) -> Family:
     """The offset family ``F(z; p) − b`` of the SymPy ``equations`` in ``unknowns`` and ``parameters`` (both moving:
     the form :func:`generic_instance` solves), its straight-line program derived once and kept in the cache folder
-    as ``name`` (:func:`~pkmlab.numerics.straight_line.cached_program`)."""
+    as ``name`` (:func:`~pkmlab.numerics.straight_line.cached_program`); with its parameter-free block's
+    total-degree homotopy where it has one (:class:`Block`)."""
     import sympy as sp
 
     from .straight_line import cached_program, compile_program
@@ -106,8 +149,47 @@ def offset_family(name: str, equations, unknowns, parameters, scale: float = 1.0
         F = sp.Matrix([e - b for e, b in zip(equations, offsets, strict=True)])
         return compile_program([*F, *F.jacobian(unknowns), *F.jacobian(moving)], [*unknowns, *moving])
 
-    fixed = tuple(k for k, e in enumerate(equations) if not set(parameters) & sp.sympify(e).free_symbols)
-    return Family(cached_program(name, derive), n, len(parameters) + n, scale=scale, fixed=fixed)
+    found = _parameter_free_block(equations, unknowns, parameters)
+    block = None
+    if found is not None:
+        rows, columns, degrees = found
+        u = [unknowns[c] for c in columns]
+
+        def derive_block():
+            lam, beta = sp.Symbol("lam"), list(sp.symbols(f"beta0:{len(rows)}"))
+            G = sp.Matrix([lam * (equations[r] - b) + (1 - lam) * GAMMA * (x ** d - 1)
+                           for r, b, x, d in zip(rows, beta, u, degrees, strict=True)])
+            moving = [lam, *beta]
+            return compile_program([*G, *G.jacobian(u), *G.jacobian(moving)], [*u, *moving])
+
+        homotopy = Family(cached_program(f"{name}-block", derive_block), len(rows), 1 + len(rows), scale=scale)
+        block = Block(rows, columns, degrees, homotopy)
+    return Family(cached_program(name, derive), n, len(parameters) + n, scale=scale, block=block)
+
+
+def _block_starts(family: Family, z0: np.ndarray, p0: np.ndarray) -> np.ndarray:
+    """Solutions of the offset family at ``p0`` (its parameters, then its offsets): ``z0`` and one more for each
+    other solution of its parameter-free block (:class:`Block`). The block's solutions at its offsets, every one,
+    by its total-degree homotopy (complete: Bézout's count of paths), each put into ``z0`` in place of the block's
+    unknowns — a solution at other offsets of the rest — and carried to ``p0`` by a parameter homotopy of the
+    rest's offsets (the block's stay, and so do its unknowns). Monodromy starts from these: its loops reach a
+    block's solutions from one another only round branch points that can lie far out (a 3-CRR's orientation
+    rows, which no actuator moves)."""
+    import itertools
+
+    block = family.block
+    m = len(p0) - family.n
+    beta = p0[m + np.array(block.equations)]
+    roots = [np.exp(2j * np.pi * np.arange(d) / d) for d in block.degrees]
+    starts = np.array(list(itertools.product(*roots)), dtype=complex)
+    ends = parameter_homotopy(block.homotopy, starts, np.concatenate([[0.0], beta]), np.concatenate([[1.0], beta]))
+    solved = distinct(ends.x[ends.regular], family.scale)
+    z = np.repeat(z0[None], len(solved), axis=0)
+    z[:, list(block.unknowns)] = solved
+    offsets = family.F(z, np.concatenate([p0[:m], np.zeros(family.n)]))
+    carried = parameter_homotopy(family, z, np.concatenate([np.broadcast_to(p0[:m], (len(z), m)), offsets], axis=1),
+                                 p0)
+    return distinct(np.vstack([z0[None], carried.x[carried.regular]]), family.scale)
 
 
 def newton_polish(family: Family, x: np.ndarray, p: np.ndarray, iterations: int = 6):
@@ -178,18 +260,12 @@ class TooManySolutions(Exception):
 
 def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.random.Generator, *,
                     known: np.ndarray | None = None, free: int | None = None, stale_loops: int = 8,
-                    max_loops: int = 100, max_solutions: int | None = None, probe: tuple[int, ...] = (),
-                    probe_loops: int = 2):
+                    max_loops: int = 100, max_solutions: int | None = None):
     """Every solution at the generic complex parameters ``p0`` (m,) found by monodromy from one, ``x0`` (n,)
     (or from ``known`` solutions), loops moving only the first ``free`` parameters (all by default).
 
     Returns ``(solutions (N, n), loops)``: the loops run. Stops after ``stale_loops`` loops in a row
-    add nothing. Then, where ``probe`` names parameters, ``probe_loops`` loops move those alone, a hundred
-    times as far (:data:`PROBE_SCALE`), going on while they find solutions: a loop permutes solutions only when
-    it goes round a branch point, and a block of equations that no other parameter enters can have its branch
-    points far out — a 3-CRR's orientation rows, which no actuator moves, whose solutions near the chart's
-    infinity permute only in such loops. The probe draws from its own random stream (``rng``, and so every
-    later use of it, stays as it was without it). A solve that lasts says how far it is on stderr every
+    add nothing. A solve that lasts says how far it is on stderr every
     :data:`~pkmlab.progress.STATUS_EVERY` seconds (a system of many solutions takes minutes); one that finds more
     than ``max_solutions`` raises :class:`TooManySolutions`."""
     import time
@@ -201,26 +277,19 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
     said = time.monotonic()
     m = len(p0)
     free = m if free is None else free
-    moved, scale, draw, limit = np.arange(free), 1.0, rng, stale_loops
-    while loops < max_loops:
-        if stale >= limit:
-            if scale != 1.0 or not len(probe):
-                break
-            moved, scale, draw = np.asarray(probe), PROBE_SCALE, np.random.default_rng(len(sols))
-            stale, limit = 0, probe_loops
+    while stale < stale_loops and loops < max_loops:
         loops += 1
         pa, pb = p0.copy(), p0.copy()
-        k = len(moved)
         for p in (pa, pb):
-            p[moved] += (draw.standard_normal(k) + 1j * draw.standard_normal(k)) * np.maximum(np.abs(p0[moved]), 1.0) \
-                * scale
+            p[:free] += (rng.standard_normal(free) + 1j * rng.standard_normal(free)) * np.maximum(np.abs(p0[:free]),
+                                                                                               1.0)
         x = sols
         ok = np.ones(len(x), dtype=bool)
         for start, end in ((p0, pa), (pa, pb), (pb, p0)):
             x, regular, _div, _reached = parameter_homotopy(family, x, start, end)
             ok &= regular
         merged = distinct(np.concatenate([sols, x[ok]]), family.scale)
-        stale, limit = (stale + 1, limit) if len(merged) == len(sols) else (0, stale_loops)
+        stale = stale + 1 if len(merged) == len(sols) else 0
         sols = merged
         if max_solutions is not None and len(sols) > max_solutions:
             raise TooManySolutions(len(sols), loops)
@@ -234,8 +303,6 @@ def monodromy_solve(family: Family, x0: np.ndarray, p0: np.ndarray, rng: np.rand
 #: Monodromy loops in the problem's own parameters that must find no new solution of a generic instance (each
 #: costs some 20–40 ms for a machine: ten of them add a few tenths of a second to its first solve).
 CHECK_LOOPS = 10
-#: How much farther than its other loops monodromy's probe of a parameter-free block goes (:func:`monodromy_solve`).
-PROBE_SCALE = 100.0
 
 
 def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, check_loops: int = CHECK_LOOPS,
@@ -251,8 +318,8 @@ def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, c
     theta0 = rng.standard_normal(m) + 1j * rng.standard_normal(m)
     b0 = family.F(z0[None], np.concatenate([theta0, np.zeros(n)])[None])[0]
     p0 = np.concatenate([theta0, b0])
-    offset_solutions, loops = monodromy_solve(family, z0, p0, rng, max_solutions=max_solutions,
-                                              probe=tuple(m + k for k in family.fixed))
+    known = _block_starts(family, z0, p0) if family.block is not None else None
+    offset_solutions, loops = monodromy_solve(family, z0, p0, rng, known=known, max_solutions=max_solutions)
     p1 = np.concatenate([rng.standard_normal(m) + 1j * rng.standard_normal(m), np.zeros(n)])
     ends = parameter_homotopy(family, offset_solutions, p0, p1)
     solutions = distinct(ends.x[ends.regular], family.scale)
