@@ -125,8 +125,15 @@ class Line:
     def __post_init__(self):
         a = _finite_vector("line start", self.start, 3)
         b = _finite_vector("line end", self.end, 3)
-        if np.allclose(a, b):
-            raise InvalidParameterError("line start and end are the same pose")
+        with np.errstate(all="ignore"):  # the checks themselves may overflow: it is what the second looks for
+            if np.allclose(a, b):
+                raise InvalidParameterError("line start and end are the same pose")
+            d = np.subtract(b, a)
+            length = np.hypot(d[0], d[1]) or abs(d[2])
+            rate = d / length
+        if not (np.isfinite(length) and np.all(np.isfinite(rate))):
+            raise InvalidParameterError(f"line start {tuple(map(float, a))} and end {tuple(map(float, b))}: too far "
+                                        "apart for their difference or its rate along the line to be a float")
 
     @property
     def length(self) -> float:
