@@ -15,10 +15,10 @@ And for the redundantly actuated machines (a 4-RRR, the paper's 3-RRR with a fou
 first run and the loop per sample for each distribution against their twin's (the 3-RRR's, the Delta's).
 
 And for the catalogue's machines (``examples/mechanisms``: a 3-PRS, a 3-RPS, a 3-UPU, a 3-UPU wrist, the Agile
-Eye, a 3-RRS, a 6-RUS, a 6-PUS, a 3-PUU, a 3-PRRR, a 4-RUU, a 3-CRR) the same rows, their loop per sample against the preset's
-with as many legs (the Delta's, the Stewart platform's, or for the planar 3-PRRR the paper's 3-RRR) in the same
-run, and the general forward kinematics (:mod:`pkmlab.algorithms.general_fk`): its generic instance solved by
-monodromy the first time (then read from the cache), and, for the Delta and the Stewart platform, the ratio of
+Eye, a 3-RRS, a 6-RUS, a 6-PUS, a 3-PUU, a 3-PRRR, a 4-RUU, a 3-CRR) the same rows, their loop per sample against
+the preset's with as many legs (the Delta's, the Stewart platform's, or for the planar 3-PRRR the paper's 3-RRR) in
+the same run, and the general forward kinematics (:mod:`pkmlab.algorithms.general_fk`): its generic instance solved
+by monodromy the first time (then read from the cache), and, for the Delta and the Stewart platform, the ratio of
 their fast paths to it at the same actuators.
 """
 
