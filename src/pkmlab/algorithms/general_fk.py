@@ -285,14 +285,7 @@ def _centred_chart(family, R0: np.ndarray) -> np.ndarray:
     hardly move them (a 3-CRR's generic instance came out short). The block's solutions (its total-degree
     homotopy at zero offsets: every one) as rotations; the centre, among :data:`CHART_CANDIDATES` rotations from a
     fixed seed, the one whose largest angle to them is least."""
-    import itertools
-
-    block = family.block
-    roots = [np.exp(2j * np.pi * np.arange(d) / d) for d in block.degrees]
-    starts = np.array(list(itertools.product(*roots)), dtype=complex)
-    zero = np.zeros(len(block.equations))
-    ends = homotopy.parameter_homotopy(block.homotopy, starts, np.concatenate([[0.0], zero]),
-                                       np.concatenate([[1.0], zero]))
+    ends = homotopy.block_solutions(family.block, np.zeros(len(family.block.equations)))
     real = ends.x[ends.regular & (np.abs(ends.x.imag).max(axis=1) < 1e-9)].real
     if not len(real):
         return R0

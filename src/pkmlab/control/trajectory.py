@@ -130,8 +130,9 @@ class Line:
                 raise InvalidParameterError("line start and end are the same pose")
             d = np.subtract(b, a)
             length = np.hypot(d[0], d[1]) or abs(d[2])
-            rate = d / length
-        if not (np.isfinite(length) and np.all(np.isfinite(rate))):
+            # twice the difference a float too: the pose along the line, ``start + s (d / length)``, stays one
+            fits = np.isfinite(length) and np.all(np.isfinite(2 * d)) and np.all(np.isfinite(d / length))
+        if not fits:
             raise InvalidParameterError(f"line start {tuple(map(float, a))} and end {tuple(map(float, b))}: too far "
                                         "apart for their difference or its rate along the line to be a float")
 

@@ -19,7 +19,10 @@ What this module offers on top of tracking:
 * :func:`monodromy_solve` — the solutions at a generic ``p₀`` from a single one: loops
   ``p₀ → p_a → p_b → p₀`` through random complex parameters permute the solutions, and the new
   endpoints are kept, until several loops in a row find none (the stopping rule of monodromy solvers
-  such as HomotopyContinuation.jl's, stated with the count it reached).
+  such as HomotopyContinuation.jl's, stated with the count it reached);
+* :func:`block_solutions` — every solution of a block of equations that no parameter enters, by a
+  total-degree homotopy (Bézout's count of paths): a generic instance's monodromy starts from each
+  (:func:`generic_instance`), where its loops would reach them slowly.
 
 Why pkmlab's own tracker and not a solver library: Bertini 2's Python bindings (``bertini`` 2.0 on the
 package registry) failed on a three-equation system (a precision mismatch raised by its Cauchy end
@@ -167,6 +170,18 @@ def offset_family(name: str, equations, unknowns, parameters, scale: float = 1.0
     return Family(cached_program(name, derive), n, len(parameters) + n, scale=scale, block=block)
 
 
+def block_solutions(block: Block, beta: np.ndarray) -> Endpoints:
+    """Every solution of a parameter-free ``block`` (:class:`Block`) at its offsets ``beta``: the endpoints of its
+    total-degree homotopy, one path from each of the ``∏ d_i`` solutions of ``u_i^{d_i} = 1`` (Bézout's count:
+    every isolated solution is the end of one)."""
+    import itertools
+
+    roots = [np.exp(2j * np.pi * np.arange(d) / d) for d in block.degrees]
+    starts = np.array(list(itertools.product(*roots)), dtype=complex)
+    beta = np.asarray(beta, dtype=complex)
+    return parameter_homotopy(block.homotopy, starts, np.concatenate([[0.0], beta]), np.concatenate([[1.0], beta]))
+
+
 def _block_starts(family: Family, z0: np.ndarray, p0: np.ndarray) -> np.ndarray:
     """Solutions of the offset family at ``p0`` (its parameters, then its offsets): ``z0`` and one more for each
     other solution of its parameter-free block (:class:`Block`). The block's solutions at its offsets, every one,
@@ -175,14 +190,9 @@ def _block_starts(family: Family, z0: np.ndarray, p0: np.ndarray) -> np.ndarray:
     rest's offsets (the block's stay, and so do its unknowns). Monodromy starts from these: its loops reach a
     block's solutions from one another only round branch points that can lie far out (a 3-CRR's orientation
     rows, which no actuator moves)."""
-    import itertools
-
     block = family.block
     m = len(p0) - family.n
-    beta = p0[m + np.array(block.equations)]
-    roots = [np.exp(2j * np.pi * np.arange(d) / d) for d in block.degrees]
-    starts = np.array(list(itertools.product(*roots)), dtype=complex)
-    ends = parameter_homotopy(block.homotopy, starts, np.concatenate([[0.0], beta]), np.concatenate([[1.0], beta]))
+    ends = block_solutions(block, p0[m + np.array(block.equations)])
     solved = distinct(ends.x[ends.regular], family.scale)
     z = np.repeat(z0[None], len(solved), axis=0)
     z[:, list(block.unknowns)] = solved
@@ -309,7 +319,8 @@ def generic_instance(family: Family, n: int, m: int, rng: np.random.Generator, c
                      max_solutions: int | None = None):
     """Every solution of ``F(z; θ) = 0`` at generic complex parameters ``θ₁`` (m,), for an offset family
     ``F(z; θ) − b`` (parameters ``(θ, b)``, ``b`` of length ``n``): a random complex ``z₀`` solves it at
-    ``b₀ = F(z₀; θ₀)``; monodromy finds the others at ``(θ₀, b₀)``; a parameter homotopy carries them to
+    ``b₀ = F(z₀; θ₀)``; monodromy finds the others at ``(θ₀, b₀)`` (starting too from one solution per solution
+    of a parameter-free block, where the family has one: :func:`_block_starts`); a parameter homotopy carries them to
     ``(θ₁, 0)``, where the paths that end regular are kept (the offset family has more solutions than the
     problem: the others go to infinity or to singular points); then more monodromy loops in ``θ`` alone until
     ``check_loops`` in a row find nothing new. Returns ``(solutions, (θ₁, 0), loops)``; raises
