@@ -4,6 +4,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+# The suite compiles its kernels at LLVM's optimisation level 1, before anything imports Numba: the same numbers
+# (arithmetic without fast-math is not reordered at any level; benchmarks/check_numbers.py --compare run at level 1
+# gives 0.0), about 8 % less compile time, which is most of a fresh run's. Benchmarks and users compile at level 3,
+# into a cache folder of their own (pkmlab._compile_cache.cache_folder).
+os.environ.setdefault("NUMBA_OPT", "1")
+
 import numpy as np
 import pytest
 from hypothesis import settings

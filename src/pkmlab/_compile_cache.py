@@ -54,9 +54,12 @@ def digest_sources(digest, root: Path, files) -> str:
 
 def cache_folder() -> Path:
     """The folder of this version's compiled kernels (and of the kernels generated for new structures),
-    made if missing."""
+    made if missing; one of its own for kernels compiled at another optimisation level than LLVM's usual 3
+    (``NUMBA_OPT``: the test suite's 1), so that such code never serves a run at the usual level."""
     package = Path(__file__).resolve().parent
-    cache = cache_base() / f"numba-{digest_sources(hashlib.sha1(), package, sorted(package.rglob('*.py')))[:16]}"
+    opt = os.environ.get("NUMBA_OPT", "").strip()
+    level = "" if opt in ("", "3") else f"-opt{opt}"
+    cache = cache_base() / f"numba-{digest_sources(hashlib.sha1(), package, sorted(package.rglob('*.py')))[:16]}{level}"
     new = not cache.exists()
     try:
         cache.mkdir(parents=True, exist_ok=True)
