@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..description.mobility import across, all_orientation_rows, kept_leg_rows, orientation_rows
+from ..description.mobility import PLATFORM_JOINT_ROWS, across, all_orientation_rows, kept_leg_rows, orientation_rows
 from ..description.spatial import SpatialMechanism
 from .planar import (
     GENERATED_DIR,
@@ -71,15 +71,10 @@ def structure(mechanism: SpatialMechanism) -> str:
     kept = kept_leg_rows(mechanism)
     if sum(map(len, kept)) < len(orient):  # some rows set aside: say whose are kept (1: all, x or y: one) or not (0)
         ends = dict.fromkeys(i for i, _k in orient)
-        name += "_rows_" + "".join("0" if not kept[i] else "1" if len(kept[i]) == _end_rows(mechanism.legs[i])
-                                   else "xy"[kept[i][0]] for i in ends)
+        name += "_rows_" + "".join(
+            "0" if not kept[i] else "1" if len(kept[i]) == PLATFORM_JOINT_ROWS[mechanism.legs[i].joints[-1].kind]
+            else "xy"[kept[i][0]] for i in ends)
     return name
-
-
-def _end_rows(leg) -> int:
-    """The number of orientation rows of a leg's platform joint under a rigid platform: 1 for a universal joint,
-    2 for a revolute one (:mod:`pkmlab.description.mobility`)."""
-    return 1 if leg.joints[-1].kind == "U" else 2
 
 
 def measures_lines(mechanism: SpatialMechanism) -> bool:
@@ -242,12 +237,6 @@ def leg_types(mechanism: SpatialMechanism) -> list[str]:
     return [leg.notation + tag(leg, rows) for leg, rows in zip(mechanism.legs, kept_leg_rows(mechanism), strict=True)]
 
 
-def _type_rows(kind: str) -> tuple[int, ...]:
-    """Which orientation rows a leg type of :func:`leg_types` keeps."""
-    _notation, _, tag = kind.partition("+row")
-    return (0,) if kind.endswith("+row") else tuple(int(k) - 1 for k in tag)
-
-
 def derive_leg(mechanism: SpatialMechanism, leg, rows: tuple[int, ...] = ()) -> dict:
     """The symbolic kinematics of one leg of ``mechanism``, in the names of any leg of its type (with the
     orientation rows ``rows`` it keeps: :func:`leg_types`).
@@ -331,9 +320,9 @@ def derive(mechanism: SpatialMechanism) -> dict:
     else:
         size = sp.Integer(1)
     legs = {}
-    for leg, kind in zip(mechanism.legs, leg_types(mechanism), strict=True):
+    for leg, kind, rows in zip(mechanism.legs, leg_types(mechanism), kept_leg_rows(mechanism), strict=True):
         if kind not in legs:
-            legs[kind] = derive_leg(mechanism, leg, _type_rows(kind))
+            legs[kind] = derive_leg(mechanism, leg, rows)
     return {"legs": legs, "q": q, "q_dot": q_dot, "P": P, "platform": (com, com_velocity, omega), "size": size}
 
 
@@ -373,8 +362,8 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     d = derive(mechanism)
     q, q_dot = d["q"], d["q_dot"]
     n, nq, n_pose = len(mechanism.legs), len(q), len(mechanism.platform.q_pose_names)
-    ends = orientation_rows(mechanism)
     kept = kept_leg_rows(mechanism)
+    ends = any(kept)
     # the row of eta where each leg's kept orientation rows start (after every leg's point rows)
     leg_eta = [3 * n + sum(map(len, kept[:i])) if kept[i] else -1 for i in range(n)]
     m, nb = 3 * n + sum(map(len, kept)), sum(len(leg.bodies) for leg in mechanism.legs) + 1

@@ -128,8 +128,7 @@ class Line:
         with np.errstate(all="ignore"):  # the checks themselves may overflow: it is what the second looks for
             if np.allclose(a, b):
                 raise InvalidParameterError("line start and end are the same pose")
-            d = np.subtract(b, a)
-            length = np.hypot(d[0], d[1]) or abs(d[2])
+            d, length = np.subtract(b, a), self.length
             # twice the difference a float too: the pose along the line, ``start + s (d / length)``, stays one
             fits = np.isfinite(length) and np.all(np.isfinite(2 * d)) and np.all(np.isfinite(d / length))
         if not fits:

@@ -374,9 +374,9 @@ def _kept_single_rows(m, j: np.ndarray, rank: int) -> tuple[int, ...] | None:
     n_point = 3 * len(m.legs)
     orient = all_orientation_rows(m)
     legs = list(dict.fromkeys(i for i, _k in orient))
-    options = [[subset for size in range(PLATFORM_JOINT_ROWS[m.legs[i].joints[-1].kind], -1, -1)
-                for subset in itertools.combinations(range(PLATFORM_JOINT_ROWS[m.legs[i].joints[-1].kind]), size)]
-               for i in legs]
+    counts = [PLATFORM_JOINT_ROWS[m.legs[i].joints[-1].kind] for i in legs]
+    options = [[subset for size in range(count, -1, -1) for subset in itertools.combinations(range(count), size)]
+               for count in counts]
     wanted = rank - n_point
     choices = [c for c in itertools.product(*options) if sum(map(len, c)) == wanted]
     choices.sort(key=lambda c: len({(m.legs[i].notation, s) for i, s in zip(legs, c, strict=True)}))

@@ -121,8 +121,8 @@ def _parameter_free_block(equations, unknowns, parameters):
     import sympy as sp
 
     params, names = set(parameters), list(unknowns)
-    free = [(k, frozenset(sp.sympify(e).free_symbols) & set(names)) for k, e in enumerate(equations)
-            if not sp.sympify(e).free_symbols & params]
+    symbols = [sp.sympify(e).free_symbols for e in equations]
+    free = [(k, frozenset(s & set(names))) for k, s in enumerate(symbols) if not s & params]
     for size in range(1, BLOCK_SIZE + 1):
         for combo in itertools.combinations(free, size):
             used = frozenset().union(*(v for _k, v in combo))
