@@ -74,7 +74,7 @@ def frontier_rows(h, quick: bool) -> tuple[list[dict], dict]:
             for setting in ("default", "stiff"):
                 try:
                     seconds, run = _median_time(lambda s=scenario, st=setting, dt=step: simulate_mujoco(
-                        s, timestep=dt, stiff=st == "stiff"), repeats)
+                        s, timestep=dt, closures="stiff" if st == "stiff" else "soft"), repeats)
                 except Exception as exc:  # an unstable setting is a result too
                     entries.append({"plant": "mujoco", "setting": setting, "step_ms": step * 1e3,
                                     "failed": f"{type(exc).__name__}: {exc}"})
@@ -91,4 +91,50 @@ def frontier_rows(h, quick: bool) -> tuple[list[dict], dict]:
                 continue
             rows.append(h.metric_row(key, label + f" (violation {e['violation_m']:.1e} m, deviation "
                                      f"{e['deviation_m']:.1e} m)", e["wall_s"] * 1e3, "ms"))
+    return rows, checks
+
+
+#: The runs of the MuJoCo plant timed against MuJoCo's own stepping of the same model.
+PLANT_RUNS = ("paper", "delta", "stewart")
+
+
+def plant_rows(h, quick: bool) -> tuple[list[dict], dict]:
+    """Rows ``mujoco_plant_<preset>`` (the default run on the MuJoCo plant, pkmlab's controller stepping MuJoCo from
+    compiled code), ``mujoco_replay_<preset>`` (MuJoCo alone stepping the same exported model from the same state
+    with that run's efforts, precomputed: ``mujoco.rollout``, no Python per step) and their ratio; in the checks,
+    the largest difference between the two runs' configurations (the plant steps MuJoCo as its own loop does: 0)."""
+    import mujoco
+    from mujoco import rollout
+
+    from pkmlab.interop import mujoco_export as mx
+    from pkmlab.simulation.run import prepare_run
+
+    repeats = 1 if quick else 5
+    rows: list[dict] = [h.section_row("the MuJoCo plant against MuJoCo stepping the same model with the run's "
+                                      "efforts precomputed")]
+    checks: dict = {}
+    for name in PLANT_RUNS:
+        scenario = _scenario(name)
+        seconds, run = _median_time(lambda s=scenario: simulate_mujoco(s), repeats)
+        plant, step = scenario.plant_model, min(scenario.sample_time, 1e-3)
+        steps = round(scenario.sample_time / step)
+        m, d = mx.load_mujoco(plant, prepare_run(scenario).q_plant0, timestep=step, drives=scenario.drives)
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        start = np.empty(mujoco.mj_stateSize(m, spec))
+        mujoco.mj_getState(m, d, start, spec)
+        efforts = np.ascontiguousarray(np.repeat(run.tau[:-1], steps, axis=0))  # held over each sample
+        replay_seconds, (states, _sensors) = _median_time(
+            lambda m=m, d=d, start=start, efforts=efforts: rollout.rollout(m, d, start, efforts[None]), repeats)
+        q = []
+        for state in states[0, steps - 1::steps]:
+            mujoco.mj_setState(m, d, state, spec)
+            q.append(mx.q_from_qpos(plant, d.qpos))
+        checks[name] = {"plant_ms": seconds * 1e3, "replay_ms": replay_seconds * 1e3, "steps": len(efforts),
+                        "max_q_difference": float(np.abs(np.array(q) - run.q[1:]).max())}
+        rows.append(h.metric_row(f"mujoco_plant_{name}", f"{name}: default run on the MuJoCo plant ({len(efforts)} "
+                                 "steps), in-process", seconds * 1e3, "ms"))
+        rows.append(h.metric_row(f"mujoco_replay_{name}", f"{name}: MuJoCo alone, the same model and steps, the run's "
+                                 "efforts precomputed (rollout)", replay_seconds * 1e3, "ms"))
+        rows.append(h.metric_row(f"ratio_mujoco_plant_{name}", f"ratio: {name}'s MuJoCo plant run / MuJoCo alone",
+                                 seconds / replay_seconds, "x"))
     return rows, checks

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import pkmlab
 from pkmlab import load_scenario, paper_scenario, simulate
 from pkmlab.errors import InvalidParameterError
 from pkmlab.simulation.realism import Drives, Sensors
@@ -172,21 +173,63 @@ def test_the_core_never_imports_mujoco_and_says_how_to_install_it(monkeypatch):
         simulate_mujoco(paper_scenario("nominal"))
 
 
-def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch):
-    """MuJoCo's state turning non-finite (as an unstable integration leaves it) stops the run with one line
-    naming the sample interval, instead of NaN results."""
+@pytest.mark.parametrize("failure", ["non-finite", "warning"])
+def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, failure):
+    """MuJoCo's state turning non-finite (as an unstable integration leaves it), or MuJoCo warning of a bad
+    acceleration (after which it resets its state), stops the run with one line naming the sample interval,
+    instead of NaN or reset results. The compiled loop calls MuJoCo's step at an address: here a step that calls
+    MuJoCo's and then fails at its 100th call."""
+    import ctypes
+
     import mujoco
 
-    step, calls = mujoco.mj_step, {"n": 0}
+    from pkmlab.errors import UnstableControlError
+    from pkmlab.interop import mujoco_plant
 
+    made, calls = [], {"n": 0}
+    make = mujoco.MjData
+    monkeypatch.setattr(mujoco, "MjData", lambda model: made.append(make(model)) or made[-1])
+    signature = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
+    step = signature(mujoco_plant._step_address(mujoco))
+
+    @signature
     def failing(model, data):
         step(model, data)
         calls["n"] += 1
         if calls["n"] == 100:
-            data.qvel[0] = np.nan
+            if failure == "non-finite":
+                made[-1].qvel[0] = np.nan
+            else:
+                made[-1].warning.number[mujoco.mjtWarning.mjWARN_BADQACC] += 1  # as mj_warning counts
 
-    monkeypatch.setattr(mujoco, "mj_step", failing)
-    from pkmlab.errors import UnstableControlError
-
+    monkeypatch.setattr(mujoco_plant, "_step_address", lambda _mujoco: ctypes.cast(failing, ctypes.c_void_p).value)
     with pytest.raises(UnstableControlError, match=r"MuJoCo's integration failed between t = 0\.0990 and 0\.1000 s"):
         simulate_mujoco(paper_scenario("nominal"))
+    assert calls["n"] == 100
+
+
+@pytest.mark.parametrize("name", ["paper", "3upu_wrist.toml", "3crr.toml"])
+def test_the_loop_measures_the_loop_closures_as_mujocos_constraints_do(name):
+    """The compiled loop measures MuJoCo's loop-closure violation from the sites and tendons of the exported
+    model's equality constraints (connects between two sites; a tendon held at a length: a universal joint's axes,
+    the 3-UPU wrist's); at every step of a run under random efforts that opens the loops (soft closures), that
+    measure is MuJoCo's own largest constraint violation ``efc_pos``, to round-off."""
+    import mujoco
+
+    from pkmlab.interop import mujoco_export as mx
+    from pkmlab.interop.mujoco_plant import _closure_rows
+
+    model = pkmlab.load(EXAMPLES / "mechanisms" / name) if name.endswith(".toml") else pkmlab.load(name)
+    m, d = mx.load_mujoco(model, closures="soft")
+    connects, tendons, targets = _closure_rows(mujoco, m)
+    assert len(connects) >= len(model.description.legs) and (len(tendons) > 0) == (name == "3upu_wrist.toml")
+    rng = np.random.default_rng(2)
+    largest = 0.0
+    for _ in range(200):
+        d.ctrl[:] = rng.normal(0.0, 2.0, m.nu)
+        mujoco.mj_step(m, d)
+        measured = max(np.abs(d.site_xpos[connects[:, 0]] - d.site_xpos[connects[:, 1]]).max(),
+                       np.abs(d.ten_length[tendons] - targets).max(initial=0.0))
+        assert measured == pytest.approx(np.abs(d.efc_pos).max(), rel=1e-12, abs=1e-15)
+        largest = max(largest, measured)
+    assert largest > 1e-6  # the loops did open

@@ -208,14 +208,46 @@ def compiled_njit(*args, **options):
     return lambda function: _locked(decorate(function))
 
 
+def _interpreted_call_native(address, first, second):
+    """:func:`call_native` of an interpreted process, through :mod:`ctypes`."""
+    import ctypes
+
+    function = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(int(address))
+    function(int(first), int(second))
+
+
+def _compiled_call_native():
+    """:func:`call_native` for compiled code: a Numba intrinsic calling the function at an address (an integer
+    argument, so that the code calling it is cached as any other: no address is compiled in)."""
+    from llvmlite import ir
+    from numba import types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def call_native(typingctx, address, first, second):
+        def codegen(context, builder, signature, args):
+            pointer = ir.IntType(8).as_pointer()
+            function = builder.inttoptr(args[0], ir.FunctionType(ir.VoidType(), [pointer, pointer]).as_pointer())
+            builder.call(function, [builder.inttoptr(args[1], pointer), builder.inttoptr(args[2], pointer)])
+            return context.get_dummy_value()
+
+        return types.void(address, first, second), codegen
+
+    return call_native
+
+
 if INTERPRETED:
     CACHE_DIR = cache_folder()  # (kernels generated for a new structure are kept there too)
     njit, prange = _interpreted_njit, range
+    call_native = _interpreted_call_native
 else:
     CACHE_DIR = configure()
     from numba import prange  # noqa: F401  (re-exported: every kernel module's compiler)
 
     njit = compiled_njit
+    #: ``call_native(address, first, second)``: call the C function ``void f(void *, void *)`` at ``address`` (all
+    #: three integers) — a native plant's step (MuJoCo's ``mj_step(model, data)``) from compiled code.
+    call_native = _compiled_call_native()
 
 
 def has_compiled(module_name: str) -> bool:

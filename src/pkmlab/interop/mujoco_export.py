@@ -398,16 +398,16 @@ def qpos_from_q(model, q) -> np.ndarray:
     return np.array([*out, *pose])
 
 
-def _legs_from_mujoco(model, values: np.ndarray, rates: bool) -> tuple[list[float], int]:
-    """pkmlab's actuators then passive joint coordinates (or their rates) from MuJoCo's leg values; and how
-    many of ``values`` the legs take."""
+def _legs_from_mujoco(model, values: np.ndarray, rates: bool) -> tuple[list, int]:
+    """pkmlab's actuators then passive joint coordinates (or their rates) from MuJoCo's leg values (..., its
+    ``qpos`` or ``qvel``), each an array (...); and how many of ``values`` the legs take."""
     m = model.description
     actuators, passive, k = [], [], 0
     for leg in m.legs:
         direction = 0.0  # the absolute angle (rate) of the body before the joint
         for j, joint in enumerate(leg.joints[:-1]):
             count = getattr(joint, "coordinates", 1)
-            got = list(values[k:k + count])
+            got = [values[..., k + c] for c in range(count)]
             k += count
             if not _spatial(m):
                 if joint.kind == "R":
@@ -423,21 +423,30 @@ def _legs_from_mujoco(model, values: np.ndarray, rates: bool) -> tuple[list[floa
 
 
 def q_from_qpos(model, qpos) -> np.ndarray:
-    """The inverse of :func:`qpos_from_q`."""
+    """The inverse of :func:`qpos_from_q`, of one ``qpos`` or of many (..., its size)."""
     m = model.description
-    legs, k = _legs_from_mujoco(model, np.asarray(qpos, dtype=float), rates=False)
-    rest = np.asarray(qpos, dtype=float)[k:]
+    qpos = np.asarray(qpos, dtype=float)
+    legs, k = _legs_from_mujoco(model, qpos, rates=False)
+    rest = qpos[..., k:]
     if _spatial(m) and m.platform.kind == "rigid":
-        w, x, y, z = rest[3:7] / np.linalg.norm(rest[3:7])
-        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-        pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-        rest = np.array([*rest[:3], roll, pitch, yaw])
+        unit = rest[..., 3:7] / np.linalg.norm(rest[..., 3:7], axis=-1, keepdims=True)
+        w, x, y, z = (unit[..., c] for c in range(4))
+        roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+        yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        rest = np.concatenate([rest[..., :3], np.stack([roll, pitch, yaw], axis=-1)], axis=-1)
     if _spatial(m):
         from ..description.spatial import q_poses
 
         rest = q_poses(m, rest)
-    return np.array([*legs, *rest])
+    return np.concatenate([np.stack(legs, axis=-1), rest], axis=-1)
+
+
+def actuator_rates(model, qvel) -> np.ndarray:
+    """pkmlab's actuator rates ``θ̇`` of MuJoCo's ``qvel`` (..., its size): the first of
+    :func:`q_dot_from_qvel`'s, which depend on the legs' joints' rates alone."""
+    actuators = _legs_from_mujoco(model, np.asarray(qvel, dtype=float), rates=True)[0][:model.n_actuators]
+    return np.stack(actuators, axis=-1)
 
 
 def affine_map(model) -> tuple[np.ndarray, np.ndarray] | None:
@@ -451,6 +460,25 @@ def affine_map(model) -> tuple[np.ndarray, np.ndarray] | None:
     b = q_from_qpos(model, np.zeros(size))
     a = np.column_stack([q_from_qpos(model, e) - b for e in np.eye(size)])
     return a, b
+
+
+def independent_map(model, nq: int, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """``(A, b, V)``: the compiled core's independent coordinates (the actuators, or a redundantly actuated
+    machine's pose) ``A qpos + b`` and their rates ``V qvel``, for MuJoCo's ``qpos`` of ``nq`` and ``qvel`` of
+    ``nv`` — or None where they do not map linearly (a redundantly actuated six-DOF platform's pose: its
+    quaternion). A six-DOF platform's actuators are values of its legs' joints, which come first in both."""
+    independent = list(model.kernels.INDEPENDENT)
+    affine = affine_map(model)
+    if affine is not None:
+        a, b = affine[0][independent], affine[1][independent]
+        return a, b, a
+    if model.description.actuation_redundancy:
+        return None
+    offset, k = _legs_from_mujoco(model, np.zeros(nq), rates=False)
+    legs = np.column_stack([_legs_from_mujoco(model, e, rates=True)[0] for e in np.eye(k)])[independent]
+    a, v = np.zeros((len(independent), nq)), np.zeros((len(independent), nv))
+    a[:, :k], v[:, :k] = legs, legs
+    return a, np.array(offset)[independent], v
 
 
 def q_dot_from_qvel(model, q, qvel) -> np.ndarray:

@@ -2,17 +2,20 @@
 
 The controller is the one of :func:`pkmlab.simulation.run.simulate` — computed torque (or PD) on the
 controller's own model, its passive coordinates followed by branch following from the measured actuators,
-the effort held over each sample — compiled as :func:`pkmlab.codegen.core.entry_points.measured_control_effort`.
+the effort held over each sample. The whole run is one compiled loop
+(:func:`pkmlab.codegen.core.entry_points.native_plant_samples`): it calls MuJoCo's ``mj_step`` itself (in the
+library MuJoCo's Python bindings load) on the model and data the bindings made, reading and writing their state
+in place, so that a sample costs MuJoCo's steps and the controller's arithmetic, not Python's.
 The plant is MuJoCo stepping :func:`pkmlab.interop.mujoco_export.mjcf` of the scenario's plant model (its time step
 ``timestep``, which must divide the sample time, and its integrator), started at rest at the plant's
 configuration of :func:`~pkmlab.simulation.run.simulate`. Each sample measures MuJoCo's actuated joints
 (pkmlab's actuator values, :func:`~pkmlab.interop.mujoco_export.q_from_qpos`), and records, besides what every run
-records, MuJoCo's loop-closure violation: the largest distance between a leg's end and its platform
-attachment point (m) — zero for pkmlab's own plant, whose loops are closed to round-off.
+records, MuJoCo's loop-closure violation as its equality constraints measure it (``efc_pos``): the largest
+coordinate of a leg end's offset from its platform attachment point, or of a held joint's tendon from its length
+(m) — zero for pkmlab's own plant, whose loops are closed to round-off.
 
 A scenario's drives and sensors apply as on pkmlab's plant: the controller sees the sensors' readings, the
-command is saturated and its noise added by the same compiled code
-(:func:`pkmlab.codegen.core.entry_points.measured_control_effort`); the drives' armature, viscous and Coulomb
+command is saturated and its noise added by the same compiled code; the drives' armature, viscous and Coulomb
 friction are MuJoCo's joint ``armature``, ``damping`` and ``frictionloss``
 (:func:`pkmlab.interop.mujoco_export.drive_attributes`) — MuJoCo's dry friction is stick–slip, so Coulomb friction
 is taken only as stick–slip friction (``stick_slip = true``).
@@ -22,8 +25,10 @@ Needs ``mujoco`` (``pip install pkmlab[mujoco]``).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -80,53 +85,82 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                                     f"{integrator!r}")
     prep = prepare_run(scenario)
     ctrl, plant = scenario.model, scenario.plant_model
-    q_plant0, q_ctrl = prep.q_plant0, prep.q_ctrl0.copy()
-    model = mujoco.MjModel.from_xml_string(mx.mjcf(plant, q_plant0, timestep=step, integrator=integrator,
+    q_ctrl = prep.q_ctrl0.copy()
+    model = mujoco.MjModel.from_xml_string(mx.mjcf(plant, prep.q_plant0, timestep=step, integrator=integrator,
                                                    closures=closures, drives=scenario.drives))
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0)
     mujoco.mj_forward(model, data)
-    n, count, d = ctrl.n_actuators, prep.t.size, prep.desired
-    q = np.zeros((count, q_plant0.size))
-    theta_dot, tau, violation = np.zeros((count, n)), np.zeros((count, n)), np.zeros(count)
-    q_out, effort, applied, r = np.empty_like(q_ctrl), np.zeros(n), np.zeros(n), prep.realism
+    n, count, r = ctrl.n_actuators, prep.t.size, prep.realism
+    qpos, qvel = np.zeros((count, model.nq)), np.zeros((count, model.nv))
+    tau, violation = np.zeros((count, n)), np.zeros(count)
     readings = count if r.sensing >= 0 else 0  # rows of the controller's readings (none: it reads the state)
     theta_m, theta_dot_m = np.zeros((readings, n)), np.zeros((readings, n))
-    affine = mx.affine_map(plant)  # the coordinate maps as one matrix where they are linear
-    # the controller's state: the actuators', or a redundantly actuated machine's pose and its rates
-    independent, desired = list(ctrl.kernels.INDEPENDENT), loop_motion(ctrl, d)
-    for k in range(count):
-        if affine is None:
-            q[k] = mx.q_from_qpos(plant, data.qpos)
-            q_dot = mx.q_dot_from_qvel(plant, q[k], data.qvel)
-        else:
-            q[k] = affine[0] @ data.qpos + affine[1]
-            q_dot = affine[0] @ data.qvel
-        theta_dot[k] = q_dot[:n]
-        violation[k] = float(np.abs(data.efc_pos).max()) if data.nefc else 0.0
-        status = ctrl.kernels.measured_control_effort(k, ts, np.concatenate([q[k, independent], q_dot[independent]]),
-                                                      q_ctrl, prep.kind, prep.kp, prep.kv, prep.distribution,
-                                                      desired[0][k], desired[1][k], desired[2][k], ctrl.P,
-                                                      prep.singularity_guard, r.drive, r.ctrl_drive, r.effort_noise,
-                                                      r.resolution, r.theta_noise, r.sensing, r.delay, theta_m,
-                                                      theta_dot_m, q_out, effort, applied)
-        if status != ctrl.kernels.OK:
-            pose = pose_text(pose_of(plant, q[k]))
-            raise PkmlabError(f"run stopped at t = {prep.t[k]:.4f} s: the controller's model "
-                              f"{branch_failure_text(status, prep.singularity_guard)} near pose {pose}")
-        q_ctrl[:] = q_out
-        tau[k] = effort
-        if k == count - 1:
-            break
-        data.ctrl[:] = applied
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
-        if not math.isfinite(float(data.qpos.sum() + data.qvel.sum())) \
-                or data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
-            raise UnstableControlError(f"MuJoCo's integration failed between t = {prep.t[k]:.4f} and "
-                                       f"{prep.t[k + 1]:.4f} s (non-finite state): try a smaller --mujoco-timestep "
-                                       "or another integrator")
+    native = (_step_address(mujoco), model._address, data._address, steps, int(mujoco.mjtWarning.mjWARN_BADQACC))
+    desired = tuple(np.ascontiguousarray(a) for a in loop_motion(ctrl, prep.desired))
+    closures_measured = _closure_rows(mujoco, model)
+
+    def samples(k0, k1, x, state_map):  # the compiled loop over samples k0 to k1 - 1 (its docstring)
+        return ctrl.kernels.native_plant_samples(
+            k0, k1, ts, x, native, data.qpos, data.qvel, data.ctrl, data.warning.number, data.site_xpos,
+            data.ten_length, state_map, *closures_measured, q_ctrl, prep.kind, prep.kp, prep.kv,
+            prep.distribution, *desired, ctrl.P, prep.singularity_guard, r.drive, r.ctrl_drive, r.effort_noise,
+            r.resolution, r.theta_noise, r.sensing, r.delay, theta_m, theta_dot_m, qpos, qvel, tau, violation)
+
+    state_map = mx.independent_map(plant, model.nq, model.nv)
+    if state_map is not None:
+        status, k = samples(0, count, np.zeros(0), state_map)
+    else:  # a redundantly actuated six-DOF platform's pose, from its quaternion here at each sample
+        independent, read = list(ctrl.kernels.INDEPENDENT), (np.zeros((0, model.nq)), np.zeros(0),
+                                                              np.zeros((0, model.nv)))
+        for k in range(count):
+            q_k = mx.q_from_qpos(plant, data.qpos)
+            x = np.concatenate([q_k[independent], mx.q_dot_from_qvel(plant, q_k, data.qvel)[independent]])
+            status, _ = samples(k, k + 1, x, read)
+            if status != ctrl.kernels.OK:
+                break
+    if status == ctrl.kernels.PLANT_FAILED:
+        raise UnstableControlError(f"MuJoCo's integration failed between t = {prep.t[k]:.4f} and "
+                                   f"{prep.t[k + 1]:.4f} s (non-finite state): try a smaller --mujoco-timestep "
+                                   "or another integrator")
+    if status != ctrl.kernels.OK:
+        raise PkmlabError(f"run stopped at t = {prep.t[k]:.4f} s: the controller's model "
+                          f"{branch_failure_text(status, prep.singularity_guard)} near pose "
+                          f"{pose_text(pose_of(plant, mx.q_from_qpos(plant, qpos[k])))}")
+    q = mx.q_from_qpos(plant, qpos)
     pose = pose_of(plant, q).copy()
-    result = run_result(scenario, prep, q, theta_dot, tau, pose, run_measures(plant, q),
+    result = run_result(scenario, prep, q, mx.actuator_rates(plant, qvel), tau, pose, run_measures(plant, q),
                         theta_m if r.sensing >= 0 else None)
     return replace(result, closure_violation=violation)
+
+
+@functools.cache
+def _step_address(mujoco) -> int:
+    """The address of MuJoCo's ``mj_step`` in the library its Python bindings load (beside them), for the compiled
+    loop to step the plant without returning to Python."""
+    import ctypes
+
+    folder = Path(mujoco.__file__).parent
+    for pattern in ("libmujoco.so*", "libmujoco*.dylib", "mujoco.dll"):
+        for path in sorted(folder.glob(pattern)):
+            return ctypes.cast(ctypes.CDLL(str(path)).mj_step, ctypes.c_void_p).value
+    raise PkmlabError(f"MuJoCo's library was not found beside its Python bindings in {folder}: reinstall mujoco "
+                      "(pip install --force-reinstall mujoco)")
+
+
+def _closure_rows(mujoco, model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The loop closures of an exported model as the compiled loop measures them — MuJoCo's constraint violations
+    ``efc_pos`` of its equalities: each ``connect``'s two sites (pairs of site indices, (n, 2)), each
+    ``tendon`` equality's tendon and the length it holds it at (its length at ``qpos0`` plus ``polycoef[0]``)."""
+    connects, tendons, targets = [], [], []
+    for e in range(model.neq):
+        if model.eq_type[e] == mujoco.mjtEq.mjEQ_CONNECT and model.eq_objtype[e] == mujoco.mjtObj.mjOBJ_SITE:
+            connects.append((model.eq_obj1id[e], model.eq_obj2id[e]))
+        elif model.eq_type[e] == mujoco.mjtEq.mjEQ_TENDON and model.eq_obj2id[e] < 0:
+            tendons.append(model.eq_obj1id[e])
+            targets.append(model.tendon_length0[model.eq_obj1id[e]] + model.eq_data[e, 0])
+        else:
+            raise PkmlabError(f"the exported model's equality {e} is neither a connect between two sites nor a "
+                              "tendon held at a length: pkmlab's MuJoCo plant does not measure it")
+    return (np.array(connects, dtype=np.int64).reshape(-1, 2), np.array(tendons, dtype=np.int64),
+            np.array(targets, dtype=float))

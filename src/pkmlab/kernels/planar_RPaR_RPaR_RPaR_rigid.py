@@ -604,7 +604,14 @@ def platform_size(P):
 import numpy as np  # noqa: E402
 
 # what every part of the compiled core uses (the parts after this one, too)
-from pkmlab._compile_cache import INTERPRETED, NO_REFCOUNT, NO_REFCOUNT_INLINE, njit, prange  # noqa: E402, F401
+from pkmlab._compile_cache import (  # noqa: E402, F401
+    INTERPRETED,
+    NO_REFCOUNT,
+    NO_REFCOUNT_INLINE,
+    call_native,
+    njit,
+    prange,
+)
 from pkmlab.numerics.closed_chain import (  # noqa: E402, F401
     ldlt_solve,
     lu_factor,
@@ -615,6 +622,7 @@ from pkmlab.numerics.closed_chain import (  # noqa: E402, F401
 OK = 0
 NOT_CONVERGED = 1  # Newton's method did not converge (no nearby configuration)
 SINGULAR = 2  # |S| fell below the guard, S changed sign, or a matrix was singular
+PLANT_FAILED = 3  # a plant stepped by native code (MuJoCo) turned non-finite or warned
 CONTROLLER = 10  # added to a status of the controller's own model
 
 #: Newton's method on the passive coordinates: at most this many iterations, stopping when a
@@ -2147,8 +2155,17 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_
     arguments as :func:`sampled_data_loop`'s. Returns the status. A redundantly actuated machine's ``x`` is its pose
     and the pose's rates, read as they are: its sensors (of its actuators) are modelled in the loop only, and
     refused where this is called (the MuJoCo plant; continuous time has no sensors)."""
+    return _measured_control_effort(make_workspaces(1), k, ts, x, q_base, kind, kp, kv, distribution, theta_d,
+                                    theta_dot_d, theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise,
+                                    resolution, theta_noise, sensing, delay, out_theta_m, theta_dot_m, q_out, tau,
+                                    applied)
+
+
+@njit(cache=True)
+def _measured_control_effort(workspaces, k, ts, x, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d,
+                             theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
+                             theta_noise, sensing, delay, out_theta_m, theta_dot_m, q_out, tau, applied):
     n = N_INDEPENDENT
-    workspaces = make_workspaces(1)
     if sensing == IDEAL_SENSORS:
         theta, theta_dot = x[:n], x[n:]
     else:
@@ -2167,6 +2184,79 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_
         for i in range(N_ACTUATORS):
             applied[i] = tau[i]
     return OK
+
+
+@njit(cache=True)
+def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings, site_xpos, ten_length, state_map,
+                         connects, tendons, tendon_targets, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d,
+                         theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
+                         sensing, delay, out_theta_m, theta_dot_m, qpos_out, qvel_out, tau_out, violation_out):
+    """Samples ``k0`` to ``k1 - 1`` of the sampled-data controller against a plant stepped by native code (MuJoCo)
+    that keeps its state in arrays shared with the caller: at each sample, the plant's state ``qpos``, ``qvel`` is
+    recorded (into ``qpos_out[k]``, ``qvel_out[k]``) with its loop closures' violation (``violation_out[k]``: the
+    largest component of ``site_xpos[a] - site_xpos[b]`` over the pairs ``connects``, and of
+    ``ten_length[t] - target`` over ``tendons`` and ``tendon_targets``); the controller of
+    :func:`measured_control_effort` runs on ``x = (A qpos + b, V qvel)`` (``state_map = (A, b, V)``: the
+    independent coordinates and their rates; ``x_given`` where ``A`` has no rows), its effort into ``tau_out[k]``
+    and the drives' into ``ctrl``; then, but after the last sample, the plant steps ``native = (step, model,
+    data, steps, warning)`` — ``steps`` calls of the C function ``step(model, data)`` at the address ``step``
+    (:func:`pkmlab._compile_cache.call_native`) — and fails if its state is not finite or ``warnings[warning]``
+    counts. Returns ``(status, k)``: :data:`OK` and ``k1``, the controller's status and its sample, or
+    :data:`PLANT_FAILED` and the sample the plant stepped from."""
+    n = N_INDEPENDENT
+    workspaces = make_workspaces(1)
+    x = np.empty(2 * n)
+    q_out, tau, applied = np.empty(N_COORDINATES), np.empty(N_ACTUATORS), np.empty(N_ACTUATORS)
+    a, b, v = state_map
+    step, model, data, steps, warning = native
+    last = qpos_out.shape[0] - 1
+    for k in range(k0, k1):
+        for j in range(qpos.shape[0]):
+            qpos_out[k, j] = qpos[j]
+        for j in range(qvel.shape[0]):
+            qvel_out[k, j] = qvel[j]
+        gap = 0.0
+        for c in range(connects.shape[0]):
+            for r in range(3):
+                gap = max(gap, abs(site_xpos[connects[c, 0], r] - site_xpos[connects[c, 1], r]))
+        for c in range(tendons.shape[0]):
+            gap = max(gap, abs(ten_length[tendons[c]] - tendon_targets[c]))
+        violation_out[k] = gap
+        if a.shape[0] == 0:
+            for i in range(2 * n):
+                x[i] = x_given[i]
+        else:
+            for i in range(n):
+                position, rate = b[i], 0.0
+                for j in range(qpos.shape[0]):
+                    position += a[i, j] * qpos[j]
+                for j in range(qvel.shape[0]):
+                    rate += v[i, j] * qvel[j]
+                x[i], x[n + i] = position, rate
+        status = _measured_control_effort(workspaces, k, ts, x, q_base, kind, kp, kv, distribution, theta_d[k],
+                                          theta_dot_d[k], theta_ddot_d[k], P, singularity_guard, drive, ctrl_drive,
+                                          effort_noise, resolution, theta_noise, sensing, delay, out_theta_m,
+                                          theta_dot_m, q_out, tau, applied)
+        if status != OK:
+            return status, k
+        for i in range(N_COORDINATES):
+            q_base[i] = q_out[i]
+        for i in range(N_ACTUATORS):
+            tau_out[k, i] = tau[i]
+        if k == last:
+            break
+        for i in range(N_ACTUATORS):
+            ctrl[i] = applied[i]
+        for _ in range(steps):
+            call_native(step, model, data)
+        finite = warnings[warning] == 0
+        for j in range(qpos.shape[0]):
+            finite = finite and np.isfinite(qpos[j])
+        for j in range(qvel.shape[0]):
+            finite = finite and np.isfinite(qvel[j])
+        if not finite:
+            return PLANT_FAILED, k
+    return OK, k1
 
 
 @njit(cache=True)

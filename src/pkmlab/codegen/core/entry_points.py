@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # defined in the generated module before this text
     import numpy as np
 
-    from pkmlab._compile_cache import njit
+    from pkmlab._compile_cache import call_native, njit
     from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
         LINE_WIDTH,
         N_ACTUATORS,
@@ -26,7 +26,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     from .branch_following import follow_branch_in_steps, singularity_measure
     from .control import computed_torque, control_effort, distributed_pd
     from .loop import compensate_drives, drive_effort, measure, plant_stage
-    from .workspace import BASE, IDEAL_SENSORS, OK, REDUNDANT, make_workspaces
+    from .workspace import BASE, IDEAL_SENSORS, OK, PLANT_FAILED, REDUNDANT, make_workspaces
 
 # ==== TEMPLATE
 @njit(cache=True)
@@ -132,8 +132,17 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_
     arguments as :func:`sampled_data_loop`'s. Returns the status. A redundantly actuated machine's ``x`` is its pose
     and the pose's rates, read as they are: its sensors (of its actuators) are modelled in the loop only, and
     refused where this is called (the MuJoCo plant; continuous time has no sensors)."""
+    return _measured_control_effort(make_workspaces(1), k, ts, x, q_base, kind, kp, kv, distribution, theta_d,
+                                    theta_dot_d, theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise,
+                                    resolution, theta_noise, sensing, delay, out_theta_m, theta_dot_m, q_out, tau,
+                                    applied)
+
+
+@njit(cache=True)
+def _measured_control_effort(workspaces, k, ts, x, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d,
+                             theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
+                             theta_noise, sensing, delay, out_theta_m, theta_dot_m, q_out, tau, applied):
     n = N_INDEPENDENT
-    workspaces = make_workspaces(1)
     if sensing == IDEAL_SENSORS:
         theta, theta_dot = x[:n], x[n:]
     else:
@@ -152,6 +161,79 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_
         for i in range(N_ACTUATORS):
             applied[i] = tau[i]
     return OK
+
+
+@njit(cache=True)
+def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings, site_xpos, ten_length, state_map,
+                         connects, tendons, tendon_targets, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d,
+                         theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
+                         sensing, delay, out_theta_m, theta_dot_m, qpos_out, qvel_out, tau_out, violation_out):
+    """Samples ``k0`` to ``k1 - 1`` of the sampled-data controller against a plant stepped by native code (MuJoCo)
+    that keeps its state in arrays shared with the caller: at each sample, the plant's state ``qpos``, ``qvel`` is
+    recorded (into ``qpos_out[k]``, ``qvel_out[k]``) with its loop closures' violation (``violation_out[k]``: the
+    largest component of ``site_xpos[a] - site_xpos[b]`` over the pairs ``connects``, and of
+    ``ten_length[t] - target`` over ``tendons`` and ``tendon_targets``); the controller of
+    :func:`measured_control_effort` runs on ``x = (A qpos + b, V qvel)`` (``state_map = (A, b, V)``: the
+    independent coordinates and their rates; ``x_given`` where ``A`` has no rows), its effort into ``tau_out[k]``
+    and the drives' into ``ctrl``; then, but after the last sample, the plant steps ``native = (step, model,
+    data, steps, warning)`` — ``steps`` calls of the C function ``step(model, data)`` at the address ``step``
+    (:func:`pkmlab._compile_cache.call_native`) — and fails if its state is not finite or ``warnings[warning]``
+    counts. Returns ``(status, k)``: :data:`OK` and ``k1``, the controller's status and its sample, or
+    :data:`PLANT_FAILED` and the sample the plant stepped from."""
+    n = N_INDEPENDENT
+    workspaces = make_workspaces(1)
+    x = np.empty(2 * n)
+    q_out, tau, applied = np.empty(N_COORDINATES), np.empty(N_ACTUATORS), np.empty(N_ACTUATORS)
+    a, b, v = state_map
+    step, model, data, steps, warning = native
+    last = qpos_out.shape[0] - 1
+    for k in range(k0, k1):
+        for j in range(qpos.shape[0]):
+            qpos_out[k, j] = qpos[j]
+        for j in range(qvel.shape[0]):
+            qvel_out[k, j] = qvel[j]
+        gap = 0.0
+        for c in range(connects.shape[0]):
+            for r in range(3):
+                gap = max(gap, abs(site_xpos[connects[c, 0], r] - site_xpos[connects[c, 1], r]))
+        for c in range(tendons.shape[0]):
+            gap = max(gap, abs(ten_length[tendons[c]] - tendon_targets[c]))
+        violation_out[k] = gap
+        if a.shape[0] == 0:
+            for i in range(2 * n):
+                x[i] = x_given[i]
+        else:
+            for i in range(n):
+                position, rate = b[i], 0.0
+                for j in range(qpos.shape[0]):
+                    position += a[i, j] * qpos[j]
+                for j in range(qvel.shape[0]):
+                    rate += v[i, j] * qvel[j]
+                x[i], x[n + i] = position, rate
+        status = _measured_control_effort(workspaces, k, ts, x, q_base, kind, kp, kv, distribution, theta_d[k],
+                                          theta_dot_d[k], theta_ddot_d[k], P, singularity_guard, drive, ctrl_drive,
+                                          effort_noise, resolution, theta_noise, sensing, delay, out_theta_m,
+                                          theta_dot_m, q_out, tau, applied)
+        if status != OK:
+            return status, k
+        for i in range(N_COORDINATES):
+            q_base[i] = q_out[i]
+        for i in range(N_ACTUATORS):
+            tau_out[k, i] = tau[i]
+        if k == last:
+            break
+        for i in range(N_ACTUATORS):
+            ctrl[i] = applied[i]
+        for _ in range(steps):
+            call_native(step, model, data)
+        finite = warnings[warning] == 0
+        for j in range(qpos.shape[0]):
+            finite = finite and np.isfinite(qpos[j])
+        for j in range(qvel.shape[0]):
+            finite = finite and np.isfinite(qvel[j])
+        if not finite:
+            return PLANT_FAILED, k
+    return OK, k1
 
 
 @njit(cache=True)

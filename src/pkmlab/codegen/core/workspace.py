@@ -53,7 +53,14 @@ if TYPE_CHECKING:  # what a structure's generated module defines before the temp
 import numpy as np  # noqa: E402
 
 # what every part of the compiled core uses (the parts after this one, too)
-from pkmlab._compile_cache import INTERPRETED, NO_REFCOUNT, NO_REFCOUNT_INLINE, njit, prange  # noqa: E402, F401
+from pkmlab._compile_cache import (  # noqa: E402, F401
+    INTERPRETED,
+    NO_REFCOUNT,
+    NO_REFCOUNT_INLINE,
+    call_native,
+    njit,
+    prange,
+)
 from pkmlab.numerics.closed_chain import (  # noqa: E402, F401
     ldlt_solve,
     lu_factor,
@@ -64,6 +71,7 @@ from pkmlab.numerics.closed_chain import (  # noqa: E402, F401
 OK = 0
 NOT_CONVERGED = 1  # Newton's method did not converge (no nearby configuration)
 SINGULAR = 2  # |S| fell below the guard, S changed sign, or a matrix was singular
+PLANT_FAILED = 3  # a plant stepped by native code (MuJoCo) turned non-finite or warned
 CONTROLLER = 10  # added to a status of the controller's own model
 
 #: Newton's method on the passive coordinates: at most this many iterations, stopping when a
