@@ -24,7 +24,7 @@ from ..model.mechanism_model import (
     set_aside_residual,
     singularity_measure,
 )
-from ..numerics.angles import wrapped_angle
+from ..numerics.angles import wrapped_angle, wrapped_where
 
 #: Largest row an overconstrained machine sets aside (rad or m) at an assembly mode of its own: the others of its
 #: kept rows miss them by far more.
@@ -327,7 +327,7 @@ def _polished(model: MechanismModel, configurations) -> list[tuple[np.ndarray, f
             continue
         q[angular] = wrapped_angle(q[angular])
         # a double root (at a singularity) is found only to about sqrt(eps): closer than 1e-6 is one mode
-        if all(np.max(np.abs(wrapped_angle(q - other))) > 1e-6 for other, _s in solutions):
+        if all(np.max(np.abs(wrapped_where(q - other, model.kernels.ANGLES))) > 1e-6 for other, _s in solutions):
             solutions.append((q, singularity_measure(model, q)))
     return sorted(solutions, key=lambda sol: sol[0][-1])
 

@@ -47,7 +47,7 @@ from .._validate import as_batch, as_choice, as_count
 from ..errors import InvalidParameterError, PkmlabError
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
-from ..numerics.angles import wrapped_angle
+from ..numerics.angles import wrapped_where
 from .kinematics import as_model, length_scale, refuse_actuation_redundancy
 
 __all__ = ["Calibration", "geometric_parameters", "with_geometry", "perturbed_geometry", "reachable_poses", "calibrate",
@@ -273,7 +273,7 @@ def _start_configurations(model: MechanismModel, theta: np.ndarray, measured: np
         for mode in mm.working_modes(model):
             q, _s, _failure = mm.path_inverse_kinematics(model, measured, mode)
             with np.errstate(invalid="ignore"):
-                gap = np.abs(wrapped_angle(q[:, :n] - theta)).max(axis=1)
+                gap = np.abs(wrapped_where(q[:, :n] - theta, model.kernels.ANGLES[:n])).max(axis=1)
             better = np.isfinite(gap) & (gap < best_gap)
             out[better], best_gap[better] = q[better], gap[better]
         found = np.isfinite(best_gap)

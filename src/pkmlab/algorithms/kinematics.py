@@ -33,7 +33,7 @@ from .._validate import as_batch, as_broadcast, as_choice, as_mode, as_real, ind
 from ..errors import BranchFollowingError, IncompleteSolutionWarning, InvalidParameterError, SingularityError, shown
 from ..model import mechanism_model as mm
 from ..model.mechanism_model import MechanismModel
-from ..numerics.angles import wrapped_angle
+from ..numerics.angles import wrapped_where
 from ..numerics.batched import first_singular
 from .assembly import assembly_modes, method_statement
 
@@ -427,9 +427,7 @@ class ForwardKinematicsSolution:
         if n == 0:
             raise IndexError("no assembly mode")
         target = as_batch("pose", pose, self.pose.shape[-1], single=True)[0][0]
-        d = self.pose[:n] - target
-        angular = np.array(self.angles, dtype=bool)
-        d[:, angular] = wrapped_angle(d[:, angular])
+        d = wrapped_where(self.pose[:n] - target, self.angles)
         return self[int(np.argmin(np.linalg.norm(d, axis=1)))]
 
 
@@ -512,9 +510,7 @@ def forward_kinematics(model: MechanismModel, theta, *, actuators=None) -> Forwa
     residual = None
     if subset is not None:
         na = model.n_actuators
-        angles = np.asarray(model.kernels.ANGLES[:na], dtype=bool)
-        residual = thetas[:, None, :] - q[..., :na]
-        residual[..., angles] = wrapped_angle(residual[..., angles])
+        residual = wrapped_where(thetas[:, None, :] - q[..., :na], model.kernels.ANGLES[:na])
         residual = residual.reshape(*shape, most, na)
     method = method_statement(model) if subset is None else (
         f"the actuators {', '.join(f'a{i + 1}' for i in subset)} solved by the machine they alone drive "
@@ -600,8 +596,7 @@ def _redundant_assembly_modes(model: MechanismModel, theta: np.ndarray, subset: 
             q, unreachable, _failure = mm.inverse_kinematics_batch(model, pose[None, :], mode)
             if unreachable[0]:
                 continue
-            gap = theta - q[0, :na]
-            gap[angles] = wrapped_angle(gap[angles])
+            gap = wrapped_where(theta - q[0, :na], angles)
             candidates.append((float(np.abs(gap[list(subset)]).max()), float(np.abs(gap).max()), q[0]))
         if candidates:
             candidates.sort(key=lambda c: (c[0] > 1e-6, c[1]))

@@ -11,3 +11,11 @@ def wrapped_angle(angle):
     The argument of ``exp(i angle)``, so a value a whole number of turns away maps to the same one. The compiled
     kernels' scalar counterpart is ``wrapped`` (:mod:`pkmlab.codegen.core.workspace`)."""
     return np.angle(np.exp(1j * angle))
+
+
+def wrapped_where(difference, angles):
+    """``difference`` (any shape) with its entries that are angles (``angles``, a boolean mask over its last axis)
+    taken into ``(-π, π]`` by :func:`wrapped_angle`, the others (lengths: a slide's, a pose's position) as they
+    are: the gap between two configurations, coordinate by coordinate."""
+    difference = np.asarray(difference)
+    return np.where(np.asarray(angles, dtype=bool), wrapped_angle(difference), difference)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import PkmlabError
 from ..model.mechanism_model import MechanismModel
-from ..numerics.angles import wrapped_angle
+from ..numerics.angles import wrapped_angle, wrapped_where
 from ..outputs import atomic_file
 from .scenario import Scenario, check_model
 
@@ -357,6 +357,4 @@ def actuator_kinds(model: MechanismModel) -> frozenset[str]:
 
 def actuator_errors(model, theta: np.ndarray, theta_d: np.ndarray) -> np.ndarray:
     """``θ - θ_d``, angles wrapped to (-π, π] (a prismatic actuator's error is a length)."""
-    e = theta - theta_d
-    angles = np.array(model.kernels.ANGLES[:model.n_actuators])
-    return np.where(angles, wrapped_angle(e), e)
+    return wrapped_where(theta - theta_d, model.kernels.ANGLES[:model.n_actuators])

@@ -48,7 +48,7 @@ from ..errors import (
     shown,
 )
 from ..model.mechanism_model import MechanismModel, pose_of
-from ..numerics.angles import wrapped_angle
+from ..numerics.angles import wrapped_angle, wrapped_where
 from .result import SimulationResult, actuator_errors
 from .scenario import Scenario, best_working_mode, pose_text
 
@@ -80,8 +80,7 @@ def _initial_plant_configuration(scenario: Scenario, q_ctrl0: np.ndarray, mode) 
         raise AssemblyError(f"the plant cannot be assembled at the start actuators "
                             f"{np.round(q_ctrl0[:n], 6).tolist()}")
     angles = np.array(model.kernels.ANGLES)
-    gaps = [np.max(np.where(angles, np.abs(wrapped_angle(q - q_ctrl0)), np.abs(q - q_ctrl0))[n:])
-            for q, _s in solutions]
+    gaps = [np.max(np.abs(wrapped_where(q - q_ctrl0, angles))[n:]) for q, _s in solutions]
     q = solutions[int(np.argmin(gaps))][0].copy()
     # the passive angles on the controller's side of 2π (the FK wraps them)
     q[angles] = q_ctrl0[angles] + wrapped_angle(q[angles] - q_ctrl0[angles])
