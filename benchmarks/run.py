@@ -952,8 +952,8 @@ def main(argv: list[str] | None = None) -> int:
     frontier_rows, frontier_checks = mujoco_frontier.frontier_rows(sys.modules[__name__], args.quick)
     rows += frontier_rows
     checks["plants_frontier"] = frontier_checks
-    plant_rows, checks["mujoco_plant"] = mujoco_frontier.plant_rows(sys.modules[__name__], args.quick)
-    rows += plant_rows
+    mujoco_plant, checks["mujoco_plant"] = mujoco_frontier.plant_rows(sys.modules[__name__], args.quick)
+    rows += mujoco_plant
 
     progress("a study of 2,000 runs: in-process and on Dask")
     import study_bench

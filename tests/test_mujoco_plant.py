@@ -173,12 +173,13 @@ def test_the_core_never_imports_mujoco_and_says_how_to_install_it(monkeypatch):
         simulate_mujoco(paper_scenario("nominal"))
 
 
-@pytest.mark.parametrize("failure", ["non-finite", "warning"])
+@pytest.mark.parametrize("failure", ["non-finite", "warning", "reset"])
 def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, failure):
-    """MuJoCo's state turning non-finite (as an unstable integration leaves it), or MuJoCo warning of a bad
-    acceleration (after which it resets its state), stops the run with one line naming the sample interval,
-    instead of NaN or reset results. The compiled loop calls MuJoCo's step at an address: here a step that calls
-    MuJoCo's and then fails at its 100th call."""
+    """MuJoCo's state turning non-finite (as an unstable integration leaves it) at the end of a sample, MuJoCo
+    warning of a bad acceleration, or a state gone bad inside a sample (four steps of 0.25 ms), which MuJoCo resets
+    at its next step with a warning: each stops the run with one line naming the sample interval, instead of NaN or
+    reset results. The compiled loop calls MuJoCo's step at an address: here a step that calls MuJoCo's and then
+    fails."""
     import ctypes
 
     import mujoco
@@ -191,21 +192,23 @@ def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, failure):
     monkeypatch.setattr(mujoco, "MjData", lambda model: made.append(make(model)) or made[-1])
     signature = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
     step = signature(mujoco_plant._step_address(mujoco))
+    when = 398 if failure == "reset" else 100  # the reset: the 2nd of sample 99's 4 steps (t = 0.099 s on)
 
     @signature
     def failing(model, data):
         step(model, data)
         calls["n"] += 1
-        if calls["n"] == 100:
-            if failure == "non-finite":
-                made[-1].qvel[0] = np.nan
-            else:
-                made[-1].warning.number[mujoco.mjtWarning.mjWARN_BADQACC] += 1  # as mj_warning counts
+        if calls["n"] == when and failure == "warning":
+            made[-1].warning.number[mujoco.mjtWarning.mjWARN_BADQACC] += 1  # as mj_warning counts
+        elif calls["n"] == when:
+            made[-1].qvel[0] = np.nan
 
     monkeypatch.setattr(mujoco_plant, "_step_address", lambda _mujoco: ctypes.cast(failing, ctypes.c_void_p).value)
     with pytest.raises(UnstableControlError, match=r"MuJoCo's integration failed between t = 0\.0990 and 0\.1000 s"):
-        simulate_mujoco(paper_scenario("nominal"))
-    assert calls["n"] == 100
+        simulate_mujoco(paper_scenario("nominal"), timestep=2.5e-4 if failure == "reset" else None)
+    assert calls["n"] == (400 if failure == "reset" else 100)
+    if failure == "reset":
+        assert np.isfinite(made[-1].qvel).all()  # MuJoCo did reset the state the run would have gone on from
 
 
 @pytest.mark.parametrize("name", ["paper", "3upu_wrist.toml", "3crr.toml"])
@@ -233,3 +236,24 @@ def test_the_loop_measures_the_loop_closures_as_mujocos_constraints_do(name):
         assert measured == pytest.approx(np.abs(d.efc_pos).max(), rel=1e-12, abs=1e-15)
         largest = max(largest, measured)
     assert largest > 1e-6  # the loops did open
+
+
+def test_the_runs_loop_closure_violation_is_mujocos_efc_pos_along_the_same_steps():
+    """The violation the compiled loop records at each sample is MuJoCo's own ``efc_pos`` (its largest absolute
+    entry) after the step before that sample: MuJoCo alone, from the same start, stepped by the run's efforts in a
+    Python loop of ``mj_step``, gives the same states and those values, with soft closures and stiff ones."""
+    import mujoco
+
+    from pkmlab.interop import mujoco_export as mx
+    from pkmlab.simulation.run import prepare_run
+
+    scenario = RUNS["nominal"]()
+    for closures, run in _runs("nominal")[1].items():
+        m, d = mx.load_mujoco(scenario.plant_model, prepare_run(scenario).q_plant0, closures=closures)
+        violation = [np.abs(d.efc_pos).max()]
+        for effort in run.tau[:-1]:
+            d.ctrl[:] = effort
+            mujoco.mj_step(m, d)
+            violation.append(np.abs(d.efc_pos).max())
+        assert np.array_equal(run.closure_violation, violation), closures
+        assert np.array_equal(run.q[-1], mx.q_from_qpos(scenario.plant_model, d.qpos))

@@ -5,14 +5,18 @@ controller's own model, its passive coordinates followed by branch following fro
 the effort held over each sample. The whole run is one compiled loop
 (:func:`pkmlab.codegen.core.entry_points.native_plant_samples`): it calls MuJoCo's ``mj_step`` itself (in the
 library MuJoCo's Python bindings load) on the model and data the bindings made, reading and writing their state
-in place, so that a sample costs MuJoCo's steps and the controller's arithmetic, not Python's.
+in place, so that a sample costs MuJoCo's steps and the controller's arithmetic, not Python's. (Called at its
+address, MuJoCo reports an error of its own — out of memory — by ending the process, not by an exception: the
+exported models, without contacts, have a fixed number of constraints.)
 The plant is MuJoCo stepping :func:`pkmlab.interop.mujoco_export.mjcf` of the scenario's plant model (its time step
 ``timestep``, which must divide the sample time, and its integrator), started at rest at the plant's
 configuration of :func:`~pkmlab.simulation.run.simulate`. Each sample measures MuJoCo's actuated joints
-(pkmlab's actuator values, :func:`~pkmlab.interop.mujoco_export.q_from_qpos`), and records, besides what every run
-records, MuJoCo's loop-closure violation as its equality constraints measure it (``efc_pos``): the largest
-coordinate of a leg end's offset from its platform attachment point, or of a held joint's tendon from its length
-(m) — zero for pkmlab's own plant, whose loops are closed to round-off.
+(pkmlab's actuator values, :func:`~pkmlab.interop.mujoco_export.independent_map`; a redundantly actuated six-DOF
+platform's pose is read from MuJoCo's quaternion in Python at each sample), and records, besides what every run
+records, MuJoCo's loop-closure violation as its equality constraints measure it (``efc_pos``, of the last state
+MuJoCo evaluated in the step before the sample: an RK4 step's last stage): the largest coordinate, in absolute
+value, of a leg end's offset from its platform attachment point, or of a held joint's tendon from its length (m) —
+zero for pkmlab's own plant, whose loops are closed to round-off.
 
 A scenario's drives and sensors apply as on pkmlab's plant: the controller sees the sensors' readings, the
 command is saturated and its noise added by the same compiled code; the drives' armature, viscous and Coulomb
@@ -40,6 +44,8 @@ from ..simulation.scenario import Scenario, pose_text
 from . import mujoco_export as mx
 
 INTEGRATORS = ("RK4", "implicitfast", "implicit", "Euler")
+#: Samples of one call of the compiled loop (which holds the process until it returns).
+SAMPLES_PER_CALL = 1000
 
 
 def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integrator: str = "RK4",
@@ -86,30 +92,37 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     prep = prepare_run(scenario)
     ctrl, plant = scenario.model, scenario.plant_model
     q_ctrl = prep.q_ctrl0.copy()
-    model = mujoco.MjModel.from_xml_string(mx.mjcf(plant, prep.q_plant0, timestep=step, integrator=integrator,
-                                                   closures=closures, drives=scenario.drives))
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, 0)
-    mujoco.mj_forward(model, data)
+    model, data = mx.load_mujoco(plant, prep.q_plant0, timestep=step, integrator=integrator, closures=closures,
+                                 drives=scenario.drives)
     n, count, r = ctrl.n_actuators, prep.t.size, prep.realism
     qpos, qvel = np.zeros((count, model.nq)), np.zeros((count, model.nv))
     tau, violation = np.zeros((count, n)), np.zeros(count)
     readings = count if r.sensing >= 0 else 0  # rows of the controller's readings (none: it reads the state)
     theta_m, theta_dot_m = np.zeros((readings, n)), np.zeros((readings, n))
-    native = (_step_address(mujoco), model._address, data._address, steps, int(mujoco.mjtWarning.mjWARN_BADQACC))
+    native = (_step_address(mujoco), model._address, data._address, steps)
+    # the warnings of a state MuJoCo found bad and reset
+    bad = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{what}")) for what in ("QPOS", "QVEL", "QACC")])
     desired = tuple(np.ascontiguousarray(a) for a in loop_motion(ctrl, prep.desired))
     closures_measured = _closure_rows(mujoco, model)
 
     def samples(k0, k1, x, state_map):  # the compiled loop over samples k0 to k1 - 1 (its docstring)
         return ctrl.kernels.native_plant_samples(
-            k0, k1, ts, x, native, data.qpos, data.qvel, data.ctrl, data.warning.number, data.site_xpos,
+            k0, k1, ts, x, native, data.qpos, data.qvel, data.ctrl, data.warning.number, bad, data.site_xpos,
             data.ten_length, state_map, *closures_measured, q_ctrl, prep.kind, prep.kp, prep.kv,
             prep.distribution, *desired, ctrl.P, prep.singularity_guard, r.drive, r.ctrl_drive, r.effort_noise,
             r.resolution, r.theta_noise, r.sensing, r.delay, theta_m, theta_dot_m, qpos, qvel, tau, violation)
 
     state_map = mx.independent_map(plant, model.nq, model.nv)
+    # the compiled loop reads and writes MuJoCo's arrays by these sizes
+    if (data.ctrl.size, data.qpos.size, data.qvel.size) != (n, model.nq, model.nv) or (
+            state_map is not None and (state_map[0].shape[1], state_map[2].shape[1]) != (model.nq, model.nv)):
+        raise PkmlabError(f"the exported MuJoCo model of {plant.name} does not have the sizes of pkmlab's map of its "
+                          "coordinates: please report this")
     if state_map is not None:
-        status, k = samples(0, count, np.zeros(0), state_map)
+        for k0 in range(0, count, SAMPLES_PER_CALL):  # (Ctrl-C is seen between calls)
+            status, k = samples(k0, min(count, k0 + SAMPLES_PER_CALL), np.zeros(0), state_map)
+            if status != ctrl.kernels.OK:
+                break
     else:  # a redundantly actuated six-DOF platform's pose, from its quaternion here at each sample
         independent, read = list(ctrl.kernels.INDEPENDENT), (np.zeros((0, model.nq)), np.zeros(0),
                                                               np.zeros((0, model.nv)))
@@ -121,8 +134,8 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                 break
     if status == ctrl.kernels.PLANT_FAILED:
         raise UnstableControlError(f"MuJoCo's integration failed between t = {prep.t[k]:.4f} and "
-                                   f"{prep.t[k + 1]:.4f} s (non-finite state): try a smaller --mujoco-timestep "
-                                   "or another integrator")
+                                   f"{prep.t[k + 1]:.4f} s (a state not finite, or one MuJoCo found bad and reset): "
+                                   "try a smaller --mujoco-timestep or another integrator")
     if status != ctrl.kernels.OK:
         raise PkmlabError(f"run stopped at t = {prep.t[k]:.4f} s: the controller's model "
                           f"{branch_failure_text(status, prep.singularity_guard)} near pose "
@@ -139,13 +152,21 @@ def _step_address(mujoco) -> int:
     """The address of MuJoCo's ``mj_step`` in the library its Python bindings load (beside them), for the compiled
     loop to step the plant without returning to Python."""
     import ctypes
+    import os
 
     folder = Path(mujoco.__file__).parent
     for pattern in ("libmujoco.so*", "libmujoco*.dylib", "mujoco.dll"):
         for path in sorted(folder.glob(pattern)):
-            return ctypes.cast(ctypes.CDLL(str(path)).mj_step, ctypes.c_void_p).value
-    raise PkmlabError(f"MuJoCo's library was not found beside its Python bindings in {folder}: reinstall mujoco "
-                      "(pip install --force-reinstall mujoco)")
+            try:  # only the copy the bindings have loaded (POSIX: RTLD_NOLOAD opens nothing new)
+                library = ctypes.CDLL(str(path), mode=getattr(os, "RTLD_NOLOAD", 0) | ctypes.RTLD_LOCAL)
+            except OSError:
+                continue
+            library.mj_versionString.restype = ctypes.c_char_p
+            if library.mj_versionString().decode() == mujoco.mj_versionString():
+                return ctypes.cast(library.mj_step, ctypes.c_void_p).value
+    raise PkmlabError(f"the MuJoCo plant steps MuJoCo's library from compiled code, and the one MuJoCo's Python "
+                      f"bindings loaded is not beside them in {folder} (a MuJoCo built another way): install MuJoCo "
+                      "from its wheel (pip install mujoco)")
 
 
 def _closure_rows(mujoco, model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1991,8 +1991,8 @@ def _measured_control_effort(workspaces, k, ts, x, q_base, kind, kp, kv, distrib
     return OK
 
 
-@njit(cache=True)
-def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings, site_xpos, ten_length, state_map,
+@njit(cache=True, nogil=True)
+def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings, bad, site_xpos, ten_length, state_map,
                          connects, tendons, tendon_targets, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d,
                          theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise, resolution, theta_noise,
                          sensing, delay, out_theta_m, theta_dot_m, qpos_out, qvel_out, tau_out, violation_out):
@@ -2000,20 +2000,25 @@ def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings
     that keeps its state in arrays shared with the caller: at each sample, the plant's state ``qpos``, ``qvel`` is
     recorded (into ``qpos_out[k]``, ``qvel_out[k]``) with its loop closures' violation (``violation_out[k]``: the
     largest component of ``site_xpos[a] - site_xpos[b]`` over the pairs ``connects``, and of
-    ``ten_length[t] - target`` over ``tendons`` and ``tendon_targets``); the controller of
+    ``ten_length[t] - target`` over ``tendons`` and ``tendon_targets``, in absolute value: MuJoCo's ``efc_pos`` of
+    its equality constraints, of the last state it evaluated — an RK4 step's last stage); the controller of
     :func:`measured_control_effort` runs on ``x = (A qpos + b, V qvel)`` (``state_map = (A, b, V)``: the
     independent coordinates and their rates; ``x_given`` where ``A`` has no rows), its effort into ``tau_out[k]``
     and the drives' into ``ctrl``; then, but after the last sample, the plant steps ``native = (step, model,
-    data, steps, warning)`` — ``steps`` calls of the C function ``step(model, data)`` at the address ``step``
-    (:func:`pkmlab._compile_cache.call_native`) — and fails if its state is not finite or ``warnings[warning]``
-    counts. Returns ``(status, k)``: :data:`OK` and ``k1``, the controller's status and its sample, or
-    :data:`PLANT_FAILED` and the sample the plant stepped from."""
+    data, steps)`` — ``steps`` calls of the C function ``step(model, data)`` at the address ``step``
+    (:func:`pkmlab._compile_cache.call_native`) — and fails if its state is not finite or any of the counts
+    ``warnings[bad]`` has grown (MuJoCo resets a bad state and warns). The GIL is released throughout. Returns
+    ``(status, k)``: :data:`OK` and ``k1``, the controller's status and its sample, or :data:`PLANT_FAILED` and
+    the sample the plant stepped from."""
     n = N_INDEPENDENT
     workspaces = make_workspaces(1)
     x = np.empty(2 * n)
     q_out, tau, applied = np.empty(N_COORDINATES), np.empty(N_ACTUATORS), np.empty(N_ACTUATORS)
     a, b, v = state_map
-    step, model, data, steps, warning = native
+    step, model, data, steps = native
+    warned = 0
+    for i in range(bad.shape[0]):
+        warned += warnings[bad[i]]
     last = qpos_out.shape[0] - 1
     for k in range(k0, k1):
         for j in range(qpos.shape[0]):
@@ -2054,7 +2059,10 @@ def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings
             ctrl[i] = applied[i]
         for _ in range(steps):
             call_native(step, model, data)
-        finite = warnings[warning] == 0
+        now = 0
+        for i in range(bad.shape[0]):
+            now += warnings[bad[i]]
+        finite = now == warned
         for j in range(qpos.shape[0]):
             finite = finite and np.isfinite(qpos[j])
         for j in range(qvel.shape[0]):

@@ -17,5 +17,7 @@ def wrapped_where(difference, angles):
     """``difference`` (any shape) with its entries that are angles (``angles``, a boolean mask over its last axis)
     taken into ``(-π, π]`` by :func:`wrapped_angle`, the others (lengths: a slide's, a pose's position) as they
     are: the gap between two configurations, coordinate by coordinate."""
-    difference = np.asarray(difference)
-    return np.where(np.asarray(angles, dtype=bool), wrapped_angle(difference), difference)
+    out = np.array(difference, dtype=float)  # a copy
+    angles = np.asarray(angles, dtype=bool)
+    out[..., angles] = wrapped_angle(out[..., angles])
+    return out
