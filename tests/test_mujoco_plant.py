@@ -174,7 +174,7 @@ def test_the_core_never_imports_mujoco_and_says_how_to_install_it(monkeypatch):
 
 
 @pytest.mark.parametrize("failure", ["non-finite", "warning", "reset"])
-def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, failure):
+def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, failure):
     """MuJoCo's state turning non-finite (as an unstable integration leaves it) at the end of a sample, MuJoCo
     warning of a bad acceleration, or a state gone bad inside a sample (four steps of 0.25 ms), which MuJoCo resets
     at its next step with a warning: each stops the run with one line naming the sample interval, instead of NaN or
@@ -187,6 +187,7 @@ def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, failure):
     from pkmlab.errors import UnstableControlError
     from pkmlab.interop import mujoco_plant
 
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working folder
     made, calls = [], {"n": 0}
     make = mujoco.MjData
     monkeypatch.setattr(mujoco, "MjData", lambda model: made.append(make(model)) or made[-1])
