@@ -41,6 +41,7 @@ Conventions (pkmlab's, for every mechanism):
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import re
@@ -64,48 +65,48 @@ class LegsAndPose:
     #: Whether the machine is spatial (:class:`~pkmlab.description.spatial.SpatialMechanism`) or planar.
     spatial = False
 
-    @property
+    @functools.cached_property
     def dof(self) -> int:
         """Degrees of freedom: the number of controlled coordinates (:attr:`pose_names`), the mobility; the number of
         actuators too but for a redundantly actuated machine (:attr:`actuation_redundancy`)."""
         return len(self.pose_names)
 
-    @property
+    @functools.cached_property
     def actuation_redundancy(self) -> int:
         """How many actuators the machine has beyond its degrees of freedom: 0, or, for a redundantly actuated
         machine (a 4-RRR: four actuated legs for the platform's three coordinates), the dimension of its internal
         efforts — the actuator efforts that balance each other and move nothing."""
         return len(self.actuators) - self.dof
 
-    @property
+    @functools.cached_property
     def pose_names(self) -> tuple[str, ...]:
         """The controlled coordinates: the platform's pose, then the actuators that move a kinematically redundant
         leg's base (:attr:`redundancy_names`)."""
         return (*self.platform.pose_names, *self.redundancy_names)
 
-    @property
+    @functools.cached_property
     def actuators(self) -> tuple[tuple[int, int], ...]:
         """``(leg, joint)`` of every actuator ``a1, a2, …`` (0-based), leg by leg, base to platform."""
         return tuple((i, k) for i, leg in enumerate(self.legs) for k in leg.actuated_joints)
 
-    @property
+    @functools.cached_property
     def redundancy_actuators(self) -> tuple[int, ...]:
         """The actuators (0-based indices of :attr:`actuators`) that move the base of a kinematically redundant leg
         (its first :attr:`~JointChain.moving_base` joints), ``(0, 2, 4)`` for a 3-PRRR; empty for a machine whose
         legs have three joints (an ``R*R*R`` leg's second actuator moves no base)."""
         return tuple(k for k, (i, joint) in enumerate(self.actuators) if joint < self.legs[i].moving_base)
 
-    @property
+    @functools.cached_property
     def redundancy_names(self) -> tuple[str, ...]:
         """The names of :attr:`redundancy_actuators`, ``("a1", "a3", "a5")`` for a 3-PRRR."""
         return tuple(f"a{k + 1}" for k in self.redundancy_actuators)
 
-    @property
+    @functools.cached_property
     def actuator_kinds(self) -> tuple[str, ...]:
         """``"R"`` (an angle, torque in N·m) or ``"P"`` (a displacement, force in N) per actuator."""
         return tuple(self.legs[i].joints[k].kind for i, k in self.actuators)
 
-    @property
+    @functools.cached_property
     def notation(self) -> str:
         """E.g. ``"3-R*RR"``, ``"6-UP*S"``, or ``"R*RR + R*RR"`` for legs that differ."""
         names = [leg.notation for leg in self.legs]
@@ -152,26 +153,26 @@ class JointChain:
     #: None where the joint count alone does not say (a spatial leg, which never moves its own base).
     ORDINARY_JOINTS: ClassVar[int | None] = None
 
-    @property
+    @functools.cached_property
     def actuated(self) -> int:
         """Index of the leg's own actuated joint: the first of its ordinary part (:attr:`moving_base`), the one
         whose kind makes the leg's type (``R*RR``'s ``R*``, a ``P*R*RR``'s ``R*``, an ``R*R*R``'s first)."""
         return next(i for i, j in enumerate(self.joints) if j.actuated and i >= self.moving_base)
 
-    @property
+    @functools.cached_property
     def actuated_joints(self) -> tuple[int, ...]:
         """Indices of the leg's actuated joints, base to platform: one, or more for a kinematically redundant leg
         (its base's) and for a leg of more actuators than its ordinary part needs (actuation redundancy)."""
         return tuple(i for i, j in enumerate(self.joints) if j.actuated)
 
-    @property
+    @functools.cached_property
     def extra_actuated(self) -> tuple[int, ...]:
         """The leg's actuated joints in its ordinary part after its own (:attr:`actuated`): an ``R*R*R`` leg's
         second, whose actuator only adds to the machine's internal efforts (actuation redundancy); empty for most
         legs."""
         return tuple(k for k in self.actuated_joints if k > self.actuated)
 
-    @property
+    @functools.cached_property
     def moving_base(self) -> int:
         """How many joints at the base move the base of the leg's ordinary part: a kinematically redundant leg's
         first joints, actuated, beyond the ordinary leg's joint count (``P*R*RR``: 1); 0 for an ordinary leg, and
@@ -181,7 +182,7 @@ class JointChain:
         leading = next((k for k, j in enumerate(self.joints) if not j.actuated), len(self.joints))
         return max(0, min(leading, len(self.joints) - self.ORDINARY_JOINTS))
 
-    @property
+    @functools.cached_property
     def notation(self) -> str:
         """The leg in the literature's notation, the actuated joint starred: ``"R*RR"``, ``"UP*S"``."""
         return notation_of(self.joints)

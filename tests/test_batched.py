@@ -1,0 +1,68 @@
+"""The singularity test of a stack of matrices (pkmlab.numerics.batched): block by block where the matrices are block
+diagonal in some order of their rows and columns, as NumPy's condition number of the whole matrices judges them."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from pkmlab.numerics.batched import CONDITION_LIMIT, diagonal_blocks, first_singular
+
+
+def _numpy_first_singular(a: np.ndarray) -> int:
+    singular = ~(np.linalg.cond(a, 1) < CONDITION_LIMIT)
+    return int(np.argmax(singular)) if singular.any() else -1
+
+
+def _stack(seed: int, sizes: list[int], count: int, singular_at: list[int]) -> np.ndarray:
+    """``count`` random matrices block diagonal with blocks of ``sizes``, rows and columns shuffled; at each sample of
+    ``singular_at`` one block made singular (one of its columns a combination of the others, or all zero)."""
+    rng = np.random.default_rng(seed)
+    m = sum(sizes)
+    a = np.zeros((count, m, m))
+    start = 0
+    for s in sizes:
+        a[:, start:start + s, start:start + s] = rng.uniform(-1, 1, (count, s, s)) + 2 * np.eye(s)
+        start += s
+    for k in singular_at:
+        b = rng.integers(len(sizes))
+        lo = sum(sizes[:b])
+        block = a[k, lo:lo + sizes[b], lo:lo + sizes[b]]
+        block[:, -1] = block[:, :-1] @ rng.uniform(-1, 1, sizes[b] - 1) if sizes[b] > 1 else 0.0
+    return a[:, rng.permutation(m)][:, :, rng.permutation(m)]
+
+
+@given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 4), min_size=1, max_size=5), st.integers(1, 12),
+       st.lists(st.integers(0, 11), max_size=3))
+def test_the_first_singular_matrix_is_numpys(seed, sizes, count, singular_at):
+    a = _stack(seed, sizes, count, [k for k in singular_at if k < count])
+    assert first_singular(a) == _numpy_first_singular(a)
+
+
+@given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 4), min_size=1, max_size=5))
+def test_the_blocks_hold_every_nonzero_entry_and_each_row_and_column_once(seed, sizes):
+    nonzero = np.any(_stack(seed, sizes, 3, []) != 0, axis=0)
+    rows, cols, ends = diagonal_blocks(nonzero)
+    m = nonzero.shape[0]
+    assert sorted(rows) == list(range(m)) and sorted(cols) == list(range(m)) and ends[-1] == m
+    assert len(ends) == len(sizes)  # random blocks are not split further, nor merged
+    inside = np.zeros_like(nonzero)
+    for start, end in zip([0, *ends[:-1]], ends, strict=True):
+        inside[np.ix_(rows[start:end], cols[start:end])] = True
+    assert not (nonzero & ~inside).any()
+
+
+def test_a_column_of_zeros_is_singular_at_every_matrix():
+    a = _stack(1, [2, 3], 4, [])
+    a[:, :, 3] = 0.0  # the blocks' graph then has a part of more columns than rows: the whole matrix, one block
+    assert diagonal_blocks(np.any(a != 0, axis=0))[2].tolist() == [5]
+    assert first_singular(a) == 0 == _numpy_first_singular(a)
+
+
+def test_non_finite_entries_are_singular_as_numpy_judges_them():
+    a = _stack(2, [3, 3], 5, [])
+    a[3, 1, 2] = np.nan
+    a[2, 0, 0] = np.inf
+    assert first_singular(a) == 2 == _numpy_first_singular(a)
+    assert first_singular(a[3:]) == 0 == _numpy_first_singular(a[3:])
