@@ -255,13 +255,23 @@ def has_compiled(module_name: str) -> bool:
     after the last part of its module's name)."""
     return any(CACHE_DIR.rglob(f"{module_name.rsplit('.', 1)[-1]}.*.nbi"))
 
+#: Numba options of a compiled function called from compiled code only: without the two wrappers Numba otherwise
+#: compiles and caches with each function, one that converts Python's arguments and one that makes it a C callback
+#: (measured: a machine's first simulation compiles in 8-17 % less time). Calling it from Python raises a TypeError.
+NO_WRAPPERS = {"cache": True, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+
 #: Numba options of the allocation-free kernels of the hot path (they only read and write
 #: arrays they are given, typically a workspace's). Numba's reference counting, on by
 #: default, makes every call that passes arrays pay an atomic increment and decrement per
 #: array — for a workspace of ~20 arrays that is most of the cost of a small kernel
 #: (measured: a 3×3 solve called with a workspace, 280 ns with it, 43 ns without). Kernels
-#: compiled with these options must not allocate or return arrays.
-NO_REFCOUNT = {"cache": True, "_nrt": False}
+#: compiled with these options must not allocate or return arrays. Called from compiled code only
+#: (:data:`NO_WRAPPERS`).
+NO_REFCOUNT = {**NO_WRAPPERS, "_nrt": False}
+
+#: The same for the few of them also called from Python: the simulation's steps, which tests and benchmarks take
+#: one at a time, and the singularity measure of one configuration.
+NO_REFCOUNT_PYTHON = {"cache": True, "_nrt": False}
 
 #: The same, inlined into the caller by Numba: for the small kernels that take a whole
 #: workspace, whose ~20 arrays would otherwise be passed by value at every call.

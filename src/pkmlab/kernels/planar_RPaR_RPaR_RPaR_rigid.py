@@ -608,6 +608,8 @@ from pkmlab._compile_cache import (  # noqa: E402, F401
     INTERPRETED,
     NO_REFCOUNT,
     NO_REFCOUNT_INLINE,
+    NO_REFCOUNT_PYTHON,
+    NO_WRAPPERS,
     call_native,
     njit,
     prange,
@@ -828,7 +830,7 @@ def passive_solve(lu, piv, top, b, work):
             b[POINT_COLUMNS[d]] = work[REDUCED + d]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def singularity_measure(q, sc, P, lines):
     """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
 
@@ -1169,7 +1171,7 @@ def follow_branch(ws, theta, P, singularity_guard):
     return OK
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def accept_trial(ws):
     """The trial configuration becomes the base."""
     for i in range(N_COORDINATES):
@@ -1180,7 +1182,7 @@ def accept_trial(ws):
     ws.base_factored[0] = 0
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def set_base(ws, q, P):
     """Start branch following from the configuration ``q`` (on the constraint manifold)."""
     for i in range(N_COORDINATES):
@@ -1190,7 +1192,7 @@ def set_base(ws, q, P):
     ws.base_factored[0] = 0
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step):
     """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take
     large steps: the actuators moved in equal sub-steps of at most ``max_step`` (rad or m, > 0; an angle the
@@ -1351,7 +1353,7 @@ def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
     return _actuator_space_models(make_workspaces(1), qs, theta_dots, P, m_out, c_out, g_out)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
     ws = workspaces[0]
     sc = np.zeros((N_COORDINATES, 2))
@@ -1367,7 +1369,7 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
     return -1
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def solve_accelerations(ws, tau):
     """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model` (a redundantly
     actuated machine's: ``ẍ = Mx⁻¹ (Wᵀ τ - cx - gx)``, :func:`generalised_force`)."""
@@ -1590,7 +1592,7 @@ def least_peak(ws, distribution, tau):
 
 
 # ---- pkmlab.codegen.core.loop, bound to the kernels above ----
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known, drive):
     """``θ̈`` of the actuator-space plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
 
@@ -1751,7 +1753,7 @@ def copy_model(source, destination):
             destination.lu[i, j] = source.lu[i, j]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known, drive):
     """Advance the actuator-space plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
 
@@ -2100,7 +2102,7 @@ def actuator_space_rhs(q_base, y, tau, P, singularity_guard, drive, q_out):
     return _actuator_space_rhs(make_workspaces(1), q_base, y, tau, P, singularity_guard, drive, q_out)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive, q_out):
     n = N_INDEPENDENT
     ws = workspaces[0]
@@ -2120,7 +2122,7 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive,
     return out, status
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _control_effort_from(workspaces, q_base, kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d,
                          theta_ddot_d, P, singularity_guard, q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its configuration
@@ -2161,7 +2163,7 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_
                                     applied)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _measured_control_effort(workspaces, k, ts, x, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d,
                              theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
                              theta_noise, sensing, delay, out_theta_m, theta_dot_m, q_out, tau, applied):
@@ -2274,7 +2276,7 @@ def branch_following_batch(q_previous, thetas, P, singularity_guard, max_step, q
     _branch_following_batch(make_workspaces(1), q_previous, thetas, P, singularity_guard, max_step, q_out, status)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _branch_following_batch(workspaces, q_previous, thetas, P, singularity_guard, max_step, q_out, status):
     ws = workspaces[0]
     for k in range(thetas.shape[0]):
@@ -2291,7 +2293,7 @@ def follow_path(q_start, thetas, P, singularity_guard, q_out):
     return _follow_path(make_workspaces(1), q_start, thetas, P, singularity_guard, q_out)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _follow_path(workspaces, q_start, thetas, P, singularity_guard, q_out):
     ws = workspaces[0]
     previous = q_start.copy()

@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit
+from .._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, NO_REFCOUNT_PYTHON, njit
 from ..algorithms.three_circles import DEGENERATE, OK, rotate, three_circles  # noqa: F401  (status bits here too)
 from ..description._rrr3_layout import (
     ACTIVE_COM,
@@ -232,7 +232,7 @@ def pose_convective(q, q_dot, P, out):
     out[2] = 0.0
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def singularity_scale(P):
     """``a r1 r2 r3``: the factor of eq. (18) that makes ``S`` independent of the scale."""
     a = math.hypot(P[PLATFORM], P[PLATFORM + 1])

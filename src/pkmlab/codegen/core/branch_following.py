@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # defined in the generated module before this text
     import numpy as np
 
-    from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit
+    from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, NO_REFCOUNT_PYTHON, njit
     from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
         ANGLES,
         BLOCK_END,
@@ -89,7 +89,7 @@ def passive_solve(lu, piv, top, b, work):
             b[POINT_COLUMNS[d]] = work[REDUCED + d]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def singularity_measure(q, sc, P, lines):
     """The gain-type singularity measure ``S`` at ``q``: zero where the passive motion is undetermined.
 
@@ -430,7 +430,7 @@ def follow_branch(ws, theta, P, singularity_guard):
     return OK
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def accept_trial(ws):
     """The trial configuration becomes the base."""
     for i in range(N_COORDINATES):
@@ -441,7 +441,7 @@ def accept_trial(ws):
     ws.base_factored[0] = 0
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def set_base(ws, q, P):
     """Start branch following from the configuration ``q`` (on the constraint manifold)."""
     for i in range(N_COORDINATES):
@@ -451,7 +451,7 @@ def set_base(ws, q, P):
     ws.base_factored[0] = 0
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step):
     """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take
     large steps: the actuators moved in equal sub-steps of at most ``max_step`` (rad or m, > 0; an angle the

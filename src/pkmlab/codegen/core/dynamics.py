@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # defined in the generated module before this text
     import numpy as np
 
-    from pkmlab._compile_cache import NO_REFCOUNT, njit
+    from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_PYTHON, NO_WRAPPERS, njit
     from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
         ANGULAR,
         BODY_ROWS,
@@ -159,7 +159,7 @@ def actuator_space_models(qs, theta_dots, P, m_out, c_out, g_out):
     return _actuator_space_models(make_workspaces(1), qs, theta_dots, P, m_out, c_out, g_out)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
     ws = workspaces[0]
     sc = np.zeros((N_COORDINATES, 2))
@@ -175,7 +175,7 @@ def _actuator_space_models(workspaces, qs, theta_dots, P, m_out, c_out, g_out):
     return -1
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def solve_accelerations(ws, tau):
     """``θ̈ = Mθ⁻¹ (τ - cθ - gθ)`` into ``ws.theta_ddot`` from the last :func:`actuator_space_model` (a redundantly
     actuated machine's: ``ẍ = Mx⁻¹ (Wᵀ τ - cx - gx)``, :func:`generalised_force`)."""

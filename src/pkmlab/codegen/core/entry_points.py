@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # defined in the generated module before this text
     import numpy as np
 
-    from pkmlab._compile_cache import call_native, njit
+    from pkmlab._compile_cache import NO_WRAPPERS, call_native, njit
     from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
         LINE_WIDTH,
         N_ACTUATORS,
@@ -77,7 +77,7 @@ def actuator_space_rhs(q_base, y, tau, P, singularity_guard, drive, q_out):
     return _actuator_space_rhs(make_workspaces(1), q_base, y, tau, P, singularity_guard, drive, q_out)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive, q_out):
     n = N_INDEPENDENT
     ws = workspaces[0]
@@ -97,7 +97,7 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive,
     return out, status
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _control_effort_from(workspaces, q_base, kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d,
                          theta_ddot_d, P, singularity_guard, q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its configuration
@@ -138,7 +138,7 @@ def measured_control_effort(k, ts, x, q_base, kind, kp, kv, distribution, theta_
                                     applied)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _measured_control_effort(workspaces, k, ts, x, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d,
                              theta_ddot_d, P, singularity_guard, drive, ctrl_drive, effort_noise, resolution,
                              theta_noise, sensing, delay, out_theta_m, theta_dot_m, q_out, tau, applied):
@@ -251,7 +251,7 @@ def branch_following_batch(q_previous, thetas, P, singularity_guard, max_step, q
     _branch_following_batch(make_workspaces(1), q_previous, thetas, P, singularity_guard, max_step, q_out, status)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _branch_following_batch(workspaces, q_previous, thetas, P, singularity_guard, max_step, q_out, status):
     ws = workspaces[0]
     for k in range(thetas.shape[0]):
@@ -268,7 +268,7 @@ def follow_path(q_start, thetas, P, singularity_guard, q_out):
     return _follow_path(make_workspaces(1), q_start, thetas, P, singularity_guard, q_out)
 
 
-@njit(cache=True)
+@njit(**NO_WRAPPERS)
 def _follow_path(workspaces, q_start, thetas, P, singularity_guard, q_out):
     ws = workspaces[0]
     previous = q_start.copy()

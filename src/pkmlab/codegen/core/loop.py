@@ -13,7 +13,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
 
     import numpy as np
 
-    from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, njit, prange
+    from pkmlab._compile_cache import NO_REFCOUNT, NO_REFCOUNT_INLINE, NO_REFCOUNT_PYTHON, njit, prange
     from pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid import (
         ANGLES,
         ELIMINATED,
@@ -61,7 +61,7 @@ if TYPE_CHECKING:  # defined in the generated module before this text
     )
 
 # ==== TEMPLATE
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def plant_stage(ws, theta, theta_dot, tau, P, singularity_guard, slot, known, drive):
     """``θ̈`` of the actuator-space plant at ``(θ, θ̇)`` into ``ws.theta_ddot``; returns the status.
 
@@ -222,7 +222,7 @@ def copy_model(source, destination):
             destination.lu[i, j] = source.lu[i, j]
 
 
-@njit(**NO_REFCOUNT)
+@njit(**NO_REFCOUNT_PYTHON)
 def rk4_sample(ws, x, tau, P, dt, n_sub, singularity_guard, work, known, drive):
     """Advance the actuator-space plant over one sample with constant ``τ``: classical RK4 in ``n_sub`` steps.
 

@@ -57,6 +57,8 @@ from pkmlab._compile_cache import (  # noqa: E402, F401
     INTERPRETED,
     NO_REFCOUNT,
     NO_REFCOUNT_INLINE,
+    NO_REFCOUNT_PYTHON,
+    NO_WRAPPERS,
     call_native,
     njit,
     prange,
