@@ -469,6 +469,13 @@ def independent_map(model, nq: int, nv: int) -> tuple[np.ndarray, np.ndarray, np
     machine's pose) ``A qpos + b`` and their rates ``V qvel``, for MuJoCo's ``qpos`` of ``nq`` and ``qvel`` of
     ``nv`` — or None where they do not map linearly (a redundantly actuated six-DOF platform's pose: its
     quaternion). A six-DOF platform's actuators are values of its legs' joints, which come first in both."""
+    maps = _independent_map(model, nq, nv)
+    return None if maps is None else tuple(a.copy() for a in maps)
+
+
+@functools.lru_cache(maxsize=8)
+def _independent_map(model, nq: int, nv: int):
+    """:func:`independent_map`, kept for the next run of the same machine (it probes the maps column by column)."""
     independent = list(model.kernels.INDEPENDENT)
     affine = affine_map(model)
     if affine is not None:
@@ -538,7 +545,14 @@ def load_mujoco(model, q=None, **options):
         import mujoco
     except ImportError:
         raise PkmlabError("MuJoCo is not installed: pip install 'pkmlab[mujoco]' (or pip install mujoco)") from None
-    mj_model = copy.copy(_compiled(mjcf(model, q, **options)))  # (a copy: the caller may change it)
+    q = None if q is None else np.asarray(q, dtype=float)
+    key = (model, None if q is None else (q.shape, q.tobytes()), tuple(sorted(options.items())))
+    try:
+        hash(key)
+    except TypeError:  # an option given as a list: not kept
+        mj_model = mujoco.MjModel.from_xml_string(mjcf(model, q, **options))
+    else:
+        mj_model = copy.copy(_compiled(key))  # (a copy: the caller may change it)
     data = mujoco.MjData(mj_model)
     mujoco.mj_resetDataKeyframe(mj_model, data, 0)
     mujoco.mj_forward(mj_model, data)
@@ -546,10 +560,13 @@ def load_mujoco(model, q=None, **options):
 
 
 @functools.lru_cache(maxsize=8)
-def _compiled(text: str):
-    """MuJoCo's model of an MJCF document (``MjModel.from_xml_string``), kept for the next run of the same machine:
-    MuJoCo's compiler takes about a millisecond a document, a copy of its result a fifth of that. Keyed by the text,
-    which says everything the model depends on."""
+def _compiled(key):
+    """MuJoCo's model (``MjModel``) of :func:`mjcf`'s document of ``key = (model, q's shape and bytes or None, the
+    options)``, kept for the next run of the same machine from the same configuration: writing the document and
+    MuJoCo's compiling it take about two milliseconds, a copy of the result a fifth of one. A model is its description
+    (its parameters are packed from it), which the key compares."""
     import mujoco
 
-    return mujoco.MjModel.from_xml_string(text)
+    model, q, options = key
+    q = None if q is None else np.frombuffer(q[1]).reshape(q[0])
+    return mujoco.MjModel.from_xml_string(mjcf(model, q, **dict(options)))
