@@ -38,3 +38,18 @@ def test_a_result_two_processes_need_at_once_is_computed_once(tmp_path):
     assert sum("computing" in err for _out, err in outputs) == 1  # the notice, said by the process that computes
     saved = list((tmp_path / "cache").glob("numba-*/generic/lock-test.npz"))
     assert len(saved) == 1 and np.load(saved[0])["x"].tolist() == [0.0, 1.0, 2.0]
+
+
+def test_a_function_compiled_without_its_python_wrapper_refuses_a_call_from_python():
+    """The compiled core's internal functions have no wrapper for Python's arguments (NO_WRAPPERS): Numba would call
+    the missing wrapper and end the process (its issue 2541); pkmlab's refuse in one line naming the function."""
+    import pytest
+
+    import pkmlab
+    from pkmlab import _compile_cache
+
+    if _compile_cache.INTERPRETED:
+        pytest.skip("interpreted: the kernels are Python functions")
+    kernels = pkmlab.load("paper").kernels
+    with pytest.raises(TypeError, match=r"\.block_lu_solve is called from compiled code only"):
+        kernels.block_lu_solve(np.eye(6), np.arange(6), np.ones(6))
