@@ -2223,6 +2223,15 @@ def _measured_control_effort(workspaces, k, ts, x, q_base, kind, kp, kv, distrib
     return OK
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def warning_count(warnings, bad):
+    """How many times MuJoCo has warned of the kinds ``bad`` (indices into its counters ``warnings``)."""
+    count = 0
+    for i in range(bad.shape[0]):
+        count += warnings[bad[i]]
+    return count
+
+
 @njit(cache=True, nogil=True)
 def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings, bad, site_xpos, ten_length, state_map,
                          connects, tendons, tendon_targets, q_base, kind, kp, kv, distribution, theta_d, theta_dot_d,
@@ -2248,9 +2257,7 @@ def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings
     q_out, tau, applied = np.empty(N_COORDINATES), np.empty(N_ACTUATORS), np.empty(N_ACTUATORS)
     a, b, v = state_map
     step, model, data, steps = native
-    warned = 0
-    for i in range(bad.shape[0]):
-        warned += warnings[bad[i]]
+    warned = warning_count(warnings, bad)
     last = qpos_out.shape[0] - 1
     for k in range(k0, k1):
         for j in range(qpos.shape[0]):
@@ -2291,10 +2298,7 @@ def native_plant_samples(k0, k1, ts, x_given, native, qpos, qvel, ctrl, warnings
             ctrl[i] = applied[i]
         for _ in range(steps):
             call_native(step, model, data)
-        now = 0
-        for i in range(bad.shape[0]):
-            now += warnings[bad[i]]
-        finite = now == warned
+        finite = warning_count(warnings, bad) == warned
         for j in range(qpos.shape[0]):
             finite = finite and np.isfinite(qpos[j])
         for j in range(qvel.shape[0]):
