@@ -195,14 +195,28 @@ def _leg_lines(mechanism: Mechanism, P: dict, pose, joints, slides):
     return lines, size
 
 
+def jacobian(exprs, variables):
+    """``∂exprs/∂variables``, a SymPy matrix: SymPy's ``Matrix.jacobian``, entry for entry the same expressions,
+    with each row's free symbols found once. SymPy's derivative finds them again for every entry, which costs as much as
+    the derivative where the row does not hold the variable: a closed chain's rows hold one leg's coordinates each, so
+    most entries are such zeros (a fifth of a four-legged spatial machine's derivation)."""
+    import sympy as sp
+
+    rows = []
+    for e in exprs:
+        held = e.free_symbols
+        rows.append([e.diff(v) if v in held else sp.S.Zero for v in variables])
+    return sp.Matrix(len(rows), len(variables), [e for row in rows for e in row])
+
+
 def jacobian_and_bias(exprs, q, q_dot):
     """``J = ∂exprs/∂q`` and ``J̇ q̇ = Σ_k (∂(J q̇)/∂q_k) q̇_k`` (the terms of the acceleration that do
     not multiply ``q̈``)."""
     import sympy as sp
 
-    jac = sp.Matrix(exprs).jacobian(q)
+    jac = jacobian(exprs, q)
     velocity = jac * sp.Matrix(q_dot)
-    bias = velocity.jacobian(q) * sp.Matrix(q_dot)
+    bias = jacobian(velocity, q) * sp.Matrix(q_dot)
     return jac, bias
 
 

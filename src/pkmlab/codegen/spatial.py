@@ -51,6 +51,7 @@ from .planar import (
     GENERATED_DIR,
     Block,
     independent_columns,
+    jacobian,
     jacobian_and_bias,
     module_header,
     regenerate,
@@ -377,9 +378,9 @@ def generate_source(mechanism: SpatialMechanism) -> str:
     for notation, t in d["legs"].items():
         rows = sp.Matrix([e for _pos, v, w in t["bodies"] for e in [*v, *w]])
         j_eta, b_eta = jacobian_and_bias(t["eta"], t["q"], t["q_dot"])
-        j_body = rows.jacobian(t["q_dot"])
+        j_body = jacobian(rows, t["q_dot"])
         local[notation] = {"j_eta": j_eta, "b_eta": b_eta, "j_body": j_body,
-                           "b_body": rows.jacobian(t["q"]) * sp.Matrix(t["q_dot"]), "acts": t["acts"],
+                           "b_body": jacobian(rows, t["q"]) * sp.Matrix(t["q_dot"]), "acts": t["acts"],
                            "own": len(t["q"]) - n_pose - t["acts"],
                            "nonzero": [(k, r, c) for k in range(len(t["bodies"])) for r in range(6)
                                        for c in range(len(t["q"])) if j_body[6 * k + r, c] != 0]}
@@ -408,8 +409,8 @@ def generate_source(mechanism: SpatialMechanism) -> str:
         assert j[3:, :].is_zero_matrix, "an orientation row does not move with the tracked point"
     com, com_velocity, omega = d["platform"]
     platform_rows = [*com_velocity, *omega]
-    platform_jacobian = sp.Matrix(platform_rows).jacobian(q_dot[pose0:])
-    platform_bias = sp.Matrix(platform_rows).jacobian(q[pose0:]) * sp.Matrix(q_dot[pose0:])
+    platform_jacobian = jacobian(platform_rows, q_dot[pose0:])
+    platform_bias = jacobian(platform_rows, q[pose0:]) * sp.Matrix(q_dot[pose0:])
     nonzero += [(nb - 1, r, pose0 + c) for r in range(6) for c in range(n_pose) if platform_jacobian[r, c] != 0]
     width = max(len(leg.joints) for leg in mechanism.legs)
     lines_of_action = measures_lines(mechanism)
