@@ -1,5 +1,6 @@
-"""The singularity test of a stack of matrices (pkmlab.numerics.batched): block by block where the matrices are block
-diagonal in some order of their rows and columns, as NumPy's condition number of the whole matrices judges them."""
+"""The singularity test and the solve of a stack of matrices (pkmlab.numerics.batched): block by block where the
+matrices are block diagonal in some order of their rows and columns, as NumPy's condition number and solve of the whole
+matrices judge and solve them."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from pkmlab.numerics.batched import CONDITION_LIMIT, diagonal_blocks, first_singular
+from pkmlab.numerics.batched import BLOCK_SOLVE_FROM, CONDITION_LIMIT, diagonal_blocks, first_singular, solve_blocks
 
 
 def _numpy_first_singular(a: np.ndarray) -> int:
@@ -66,3 +67,35 @@ def test_non_finite_entries_are_singular_as_numpy_judges_them():
     a[2, 0, 0] = np.inf
     assert first_singular(a) == 2 == _numpy_first_singular(a)
     assert first_singular(a[3:]) == 0 == _numpy_first_singular(a[3:])
+
+
+@given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 6), min_size=1, max_size=8), st.integers(1, 12))
+def test_the_blocks_solution_is_numpys_of_the_whole_matrix(seed, sizes, count):
+    """Large stacks split into their blocks, small ones solved whole (then the very same numbers); either way the
+    solution of the whole matrices, to round-off, whether the blocks are given or found."""
+    a = _stack(seed, sizes, count, [])
+    b = np.random.default_rng(seed + 1).uniform(-1, 1, a.shape[:2])
+    x = solve_blocks(a, b)
+    whole = np.linalg.solve(a, b[..., None])[..., 0]
+    if a.shape[-1] < BLOCK_SOLVE_FROM or len(sizes) == 1:
+        assert np.array_equal(x, whole)
+    np.testing.assert_allclose(x, whole, rtol=0, atol=1e-12 * np.abs(whole).max())
+    np.testing.assert_allclose(np.einsum("kij,kj->ki", a, x), b, rtol=0, atol=1e-12)
+    assert np.array_equal(solve_blocks(a, b, diagonal_blocks(np.any(a != 0.0, axis=0))), x)
+
+
+def test_a_large_stack_is_solved_by_its_blocks():
+    """Past the size where splitting pays, each block is solved alone: a block's unknowns are its own solve's, and
+    a NaN in one block leaves the others' unknowns as they were (the whole matrix's elimination would spread it)."""
+    sizes = [3] * (BLOCK_SOLVE_FROM // 3 + 1)
+    a = _stack(5, sizes, 4, [])
+    b = np.random.default_rng(6).uniform(-1, 1, a.shape[:2])
+    rows, cols, ends = blocks = diagonal_blocks(np.any(a != 0.0, axis=0))
+    assert len(ends) == len(sizes)
+    x = solve_blocks(a, b, blocks)
+    first = np.linalg.solve(a[:, rows[:3]][:, :, cols[:3]], b[:, rows[:3], None])[..., 0]
+    assert np.array_equal(x[:, cols[:3]], first)
+    a[1, rows[0], cols[0]] = np.nan
+    spoilt = solve_blocks(a, b, blocks)
+    assert np.isnan(spoilt[1, cols[:3]]).any() and np.array_equal(spoilt[1, cols[3:]], x[1, cols[3:]])
+    assert np.isnan(np.linalg.solve(a[1], b[1])[cols[3:]]).any()

@@ -32,7 +32,7 @@ from ..description.mechanism import Mechanism, leg_columns
 from ..description.presets import preset
 from ..errors import InvalidParameterError, SingularityError
 from ..numerics import lagrangian
-from ..numerics.batched import first_singular
+from ..numerics.batched import CONDITION_LIMIT, diagonal_blocks, first_singular_of_blocks, solve_blocks
 from .reach import attachment_points_of, check_assembly, leg_solver
 
 
@@ -829,15 +829,16 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
         qc = np.ascontiguousarray(q[rows])
         j_eta, gamma = np.empty((len(qc), k_.N_CONSTRAINTS, N)), np.empty((len(qc), k_.N_CONSTRAINTS))
         k_.constraint_jacobians(qc, model.P, j_eta)
-        a, b = j_eta[:, :, others], j_eta[:, :, pose]
-        singular = first_singular(a)
+        a, b = np.ascontiguousarray(j_eta[:, :, others]), j_eta[:, :, pose]
+        blocks = diagonal_blocks(np.any(a != 0.0, axis=0))  # one leg's loop closures each, found once for both
+        singular = first_singular_of_blocks(a, *blocks, CONDITION_LIMIT)
         if singular >= 0:
             return np.empty((count, n)), np.empty((count, n)), start + singular
         q_dot, q_ddot = np.empty((len(qc), N)), np.empty((len(qc), N))
         q_dot[:, pose], q_ddot[:, pose] = pose_dot[rows], pose_ddot[rows]
-        q_dot[:, others] = np.linalg.solve(a, -np.einsum("kij,kj->ki", b, pose_dot[rows])[..., None])[..., 0]
+        q_dot[:, others] = solve_blocks(a, -np.einsum("kij,kj->ki", b, pose_dot[rows]), blocks)
         k_.constraint_biases(qc, q_dot, model.P, gamma)
         rhs = -np.einsum("kij,kj->ki", b, pose_ddot[rows]) - gamma
-        q_ddot[:, others] = np.linalg.solve(a, rhs[..., None])[..., 0]
+        q_ddot[:, others] = solve_blocks(a, rhs, blocks)
         theta_dot[rows], theta_ddot[rows] = q_dot[:, :n], q_ddot[:, :n]
     return theta_dot, theta_ddot, -1
