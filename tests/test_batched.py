@@ -39,6 +39,7 @@ def _stack(seed: int, sizes: list[int], count: int, singular_at: list[int]) -> n
 def test_the_first_singular_matrix_is_numpys(seed, sizes, count, singular_at):
     a = _stack(seed, sizes, count, [k for k in singular_at if k < count])
     assert first_singular(a) == _numpy_first_singular(a)
+    assert first_singular(a, blocks=diagonal_blocks(np.any(a != 0.0, axis=0))) == first_singular(a)
 
 
 @given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 4), min_size=1, max_size=5))

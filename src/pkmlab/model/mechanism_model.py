@@ -32,7 +32,7 @@ from ..description.mechanism import Mechanism, leg_columns
 from ..description.presets import preset
 from ..errors import InvalidParameterError, SingularityError
 from ..numerics import lagrangian
-from ..numerics.batched import CONDITION_LIMIT, diagonal_blocks, first_singular_of_blocks, solve_blocks
+from ..numerics.batched import diagonal_blocks, first_singular, solve_blocks
 from .reach import attachment_points_of, check_assembly, leg_solver
 
 
@@ -831,7 +831,7 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
         k_.constraint_jacobians(qc, model.P, j_eta)
         a, b = np.ascontiguousarray(j_eta[:, :, others]), j_eta[:, :, pose]
         blocks = diagonal_blocks(np.any(a != 0.0, axis=0))  # one leg's loop closures each, found once for both
-        singular = first_singular_of_blocks(a, *blocks, CONDITION_LIMIT)
+        singular = first_singular(a, blocks=blocks)
         if singular >= 0:
             return np.empty((count, n)), np.empty((count, n)), start + singular
         q_dot, q_ddot = np.empty((len(qc), N)), np.empty((len(qc), N))

@@ -15,7 +15,7 @@ CONDITION_LIMIT = 1e12
 BLOCK_SOLVE_FROM = 12
 
 
-def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT) -> int:
+def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None) -> int:
     """The index of the first singular matrix of a stack of square matrices ``a`` (K, m, m), or -1 if none is.
 
     A matrix is singular when its condition number in the 1-norm, ``‖A‖₁ ‖A⁻¹‖₁``, is not below ``limit`` (an
@@ -25,11 +25,12 @@ def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT) -> int:
     A closed chain's Jacobians are often block diagonal (each leg's loop closures in its own coordinates, its rows
     and columns wherever the coordinates put them): the condition number is then that of the blocks
     (:func:`diagonal_blocks` of the entries nonzero in any matrix of the stack — an entry zero in every matrix is
-    zero in each), found by :func:`first_singular_of_blocks` — compiled: NumPy's own (``np.linalg.cond``) inverts
-    each whole matrix and spends about a microsecond a matrix on its bookkeeping.
+    zero in each; given as ``blocks`` where the caller has them, for :func:`solve_blocks` too), found by
+    :func:`first_singular_of_blocks` — compiled: NumPy's own (``np.linalg.cond``) inverts each whole matrix and spends
+    about a microsecond a matrix on its bookkeeping.
     """
     a = np.ascontiguousarray(a, dtype=float)
-    rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0))
+    rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0)) if blocks is None else blocks
     return first_singular_of_blocks(a, rows, cols, ends, limit)
 
 
