@@ -5,10 +5,18 @@ matrices judge and solve them."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from pkmlab.numerics.batched import BLOCK_SOLVE_FROM, CONDITION_LIMIT, diagonal_blocks, first_singular, solve_blocks
+from pkmlab.numerics.batched import (
+    BLOCK_SOLVE_FROM,
+    CONDITION_LIMIT,
+    diagonal_blocks,
+    factor_blocks,
+    first_singular,
+    solve_factored_blocks,
+)
 
 
 def _numpy_first_singular(a: np.ndarray) -> int:
@@ -40,6 +48,7 @@ def test_the_first_singular_matrix_is_numpys(seed, sizes, count, singular_at):
     a = _stack(seed, sizes, count, [k for k in singular_at if k < count])
     assert first_singular(a) == _numpy_first_singular(a)
     assert first_singular(a, blocks=diagonal_blocks(np.any(a != 0.0, axis=0))) == first_singular(a)
+    assert factor_blocks(a).singular == first_singular(a)
 
 
 @given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 4), min_size=1, max_size=5))
@@ -72,31 +81,39 @@ def test_non_finite_entries_are_singular_as_numpy_judges_them():
 
 @given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 6), min_size=1, max_size=8), st.integers(1, 12))
 def test_the_blocks_solution_is_numpys_of_the_whole_matrix(seed, sizes, count):
-    """Large stacks split into their blocks, small ones solved whole (then the very same numbers); either way the
-    solution of the whole matrices, to round-off, whether the blocks are given or found."""
+    """Large stacks solved with their blocks' factors, small ones by NumPy's solve of the whole (then the very same
+    numbers); either way the solution of the whole matrices, to round-off, whether the blocks are given or found."""
     a = _stack(seed, sizes, count, [])
     b = np.random.default_rng(seed + 1).uniform(-1, 1, a.shape[:2])
-    x = solve_blocks(a, b)
+    factors = factor_blocks(a)
+    assert factors.singular == -1
+    x = solve_factored_blocks(factors, a, b)
     whole = np.linalg.solve(a, b[..., None])[..., 0]
-    if a.shape[-1] < BLOCK_SOLVE_FROM or len(sizes) == 1:
+    if a.shape[-1] < BLOCK_SOLVE_FROM:
         assert np.array_equal(x, whole)
     np.testing.assert_allclose(x, whole, rtol=0, atol=1e-12 * np.abs(whole).max())
     np.testing.assert_allclose(np.einsum("kij,kj->ki", a, x), b, rtol=0, atol=1e-12)
-    assert np.array_equal(solve_blocks(a, b, diagonal_blocks(np.any(a != 0.0, axis=0))), x)
+    given = factor_blocks(a, blocks=diagonal_blocks(np.any(a != 0.0, axis=0)))
+    assert np.array_equal(solve_factored_blocks(given, a, b), x)
 
 
 def test_a_large_stack_is_solved_by_its_blocks():
-    """Past the size where splitting pays, each block is solved alone: a block's unknowns are its own solve's, and
-    a NaN in one block leaves the others' unknowns as they were (the whole matrix's elimination would spread it)."""
+    """Past the size where it pays, each block is solved alone with its own factors: a block's unknowns are its own
+    system's solution, whatever the other blocks hold; a stack with a singular matrix is refused, not solved."""
     sizes = [3] * (BLOCK_SOLVE_FROM // 3 + 1)
     a = _stack(5, sizes, 4, [])
     b = np.random.default_rng(6).uniform(-1, 1, a.shape[:2])
     rows, cols, ends = blocks = diagonal_blocks(np.any(a != 0.0, axis=0))
     assert len(ends) == len(sizes)
-    x = solve_blocks(a, b, blocks)
+    x = solve_factored_blocks(factor_blocks(a, blocks=blocks), a, b)
     first = np.linalg.solve(a[:, rows[:3]][:, :, cols[:3]], b[:, rows[:3], None])[..., 0]
-    assert np.array_equal(x[:, cols[:3]], first)
-    a[1, rows[0], cols[0]] = np.nan
-    spoilt = solve_blocks(a, b, blocks)
-    assert np.isnan(spoilt[1, cols[:3]]).any() and np.array_equal(spoilt[1, cols[3:]], x[1, cols[3:]])
-    assert np.isnan(np.linalg.solve(a[1], b[1])[cols[3:]]).any()
+    np.testing.assert_allclose(x[:, cols[:3]], first, rtol=0, atol=1e-13)
+    changed = a.copy()
+    changed[:, rows[3:, None], cols[3:]] *= 2.0  # the other blocks only
+    assert np.array_equal(solve_factored_blocks(factor_blocks(changed, blocks=blocks), changed, b)[:, cols[:3]],
+                          x[:, cols[:3]])
+    a[1, rows[0], cols[0]] = np.nan  # the first entry a block's norms see: a NaN there was once dropped by max()
+    factors = factor_blocks(a, blocks=blocks)
+    assert factors.singular == 1 == first_singular(a, blocks=blocks) == _numpy_first_singular(a)
+    with pytest.raises(ValueError, match="matrix 1 of the stack is singular"):
+        solve_factored_blocks(factors, a, b)

@@ -32,7 +32,7 @@ from ..description.mechanism import Mechanism, leg_columns
 from ..description.presets import preset
 from ..errors import InvalidParameterError, SingularityError
 from ..numerics import lagrangian
-from ..numerics.batched import diagonal_blocks, first_singular, solve_blocks
+from ..numerics.batched import factor_blocks, solve_factored_blocks
 from .reach import attachment_points_of, check_assembly, leg_solver
 
 
@@ -815,7 +815,7 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
     with ``u`` the coordinates other than the controlled ones (the actuators and passive joints), ``A = ∂η/∂u``,
     ``B = ∂η/∂pose`` (paper eqs. 14–17, 32).
     Returns ``(θ̇, θ̈, k)``: ``k`` the first sample where ``A`` is singular (the pose at the edge of the
-    workspace: an inverse-kinematic singularity; :func:`~pkmlab.numerics.batched.first_singular`), else -1.
+    workspace: an inverse-kinematic singularity; :func:`~pkmlab.numerics.batched.factor_blocks`), else -1.
     """
     k_ = model.kernels
     count, n, N = q.shape[0], model.n_actuators, k_.N_COORDINATES
@@ -829,16 +829,15 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
         qc = np.ascontiguousarray(q[rows])
         j_eta, gamma = np.empty((len(qc), k_.N_CONSTRAINTS, N)), np.empty((len(qc), k_.N_CONSTRAINTS))
         k_.constraint_jacobians(qc, model.P, j_eta)
-        a, b = np.ascontiguousarray(j_eta[:, :, others]), j_eta[:, :, pose]
-        blocks = diagonal_blocks(np.any(a != 0.0, axis=0))  # one leg's loop closures each, found once for both
-        singular = first_singular(a, blocks=blocks)
-        if singular >= 0:
-            return np.empty((count, n)), np.empty((count, n)), start + singular
+        a, b = j_eta[:, :, others], j_eta[:, :, pose]
+        factors = factor_blocks(a)  # each leg's loop closures alone, factored once for the check and the solves
+        if factors.singular >= 0:
+            return np.empty((count, n)), np.empty((count, n)), start + factors.singular
         q_dot, q_ddot = np.empty((len(qc), N)), np.empty((len(qc), N))
         q_dot[:, pose], q_ddot[:, pose] = pose_dot[rows], pose_ddot[rows]
-        q_dot[:, others] = solve_blocks(a, -np.einsum("kij,kj->ki", b, pose_dot[rows]), blocks)
+        q_dot[:, others] = solve_factored_blocks(factors, a, -np.einsum("kij,kj->ki", b, pose_dot[rows]))
         k_.constraint_biases(qc, q_dot, model.P, gamma)
         rhs = -np.einsum("kij,kj->ki", b, pose_ddot[rows]) - gamma
-        q_ddot[:, others] = solve_blocks(a, rhs, blocks)
+        q_ddot[:, others] = solve_factored_blocks(factors, a, rhs)
         theta_dot[rows], theta_ddot[rows] = q_dot[:, :n], q_ddot[:, :n]
     return theta_dot, theta_ddot, -1

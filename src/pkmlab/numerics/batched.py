@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .._compile_cache import njit
@@ -9,10 +11,28 @@ from .closed_chain import lu_factor, lu_solve_factored
 
 #: A matrix whose condition number (1-norm) reaches this is treated as singular.
 CONDITION_LIMIT = 1e12
-#: :func:`solve_blocks` solves a stack's diagonal blocks one by one from this size of its matrices, the whole matrices
-#: below it (measured on a path's Jacobians, a thousand and more: the paper's 6×6 and the Delta's 9×9 solve as fast
-#: whole as by their blocks, the Stewart platform's 18×18 twice as fast by its six blocks of three).
+#: :func:`solve_factored_blocks` solves with the blocks' factors from this size of the matrices; below it with NumPy's
+#: solve of the whole matrices (LAPACK's ``gesv``), whose numbers the smaller machines' runs keep bit for bit — a
+#: continuous-time run, integrated to ``rtol = 1e-12``, would move by its tolerance with those of another
+#: factorization. Measured on each preset's path (a thousand and more samples): the Stewart platform's 18×18 in six
+#: blocks of three solved 6 times faster (its run's set-up 11.0 → 9.2 ms).
 BLOCK_SOLVE_FROM = 12
+
+
+class BlockFactors(NamedTuple):
+    """The LU factors of each diagonal block of a stack of block-diagonal matrices (:func:`factor_blocks`)."""
+
+    #: The rows and the columns in block order, and each block's end in them (:func:`diagonal_blocks`).
+    rows: np.ndarray
+    cols: np.ndarray
+    ends: np.ndarray
+    #: (K, m, m): each matrix's blocks factored by :func:`~pkmlab.numerics.closed_chain.lu_factor`, block ``b`` at
+    #: ``[ends[b-1]:ends[b], ends[b-1]:ends[b]]`` in block order (zeros elsewhere); (K, m): their pivots, in the block.
+    lu: np.ndarray
+    piv: np.ndarray
+    #: The index of the first singular matrix (:func:`first_singular`), -1 if none is; the factors are those of the
+    #: matrices before it.
+    singular: int
 
 
 def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None) -> int:
@@ -25,36 +45,44 @@ def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None) -
     A closed chain's Jacobians are often block diagonal (each leg's loop closures in its own coordinates, its rows
     and columns wherever the coordinates put them): the condition number is then that of the blocks
     (:func:`diagonal_blocks` of the entries nonzero in any matrix of the stack — an entry zero in every matrix is
-    zero in each; given as ``blocks`` where the caller has them, for :func:`solve_blocks` too), found by
-    :func:`first_singular_of_blocks` — compiled: NumPy's own (``np.linalg.cond``) inverts each whole matrix and spends
-    about a microsecond a matrix on its bookkeeping.
+    zero in each; given as ``blocks`` where the caller has them), found block by block, compiled: NumPy's own
+    (``np.linalg.cond``) inverts each whole matrix and spends about a microsecond a matrix on its bookkeeping.
+    :func:`factor_blocks` judges the same way and keeps the factors, for solves.
     """
     a = np.ascontiguousarray(a, dtype=float)
     rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0)) if blocks is None else blocks
-    return first_singular_of_blocks(a, rows, cols, ends, limit)
+    m = a.shape[-1]
+    return factor_stack_blocks(a, rows, cols, ends, limit, np.zeros((1, m, m)), np.empty((1, m), np.int64), False)
 
 
-def solve_blocks(a: np.ndarray, b: np.ndarray, blocks=None) -> np.ndarray:
-    """``x`` with ``a x = b`` for a stack ``a`` (K, m, m), ``b`` (K, m): NumPy's solve (LAPACK's ``gesv``), of each
-    diagonal block of :func:`diagonal_blocks` (given as ``blocks``, or found from ``a``'s nonzero entries) where
-    ``m`` reaches :data:`BLOCK_SOLVE_FROM`, of the whole matrix below it.
+def factor_blocks(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None) -> BlockFactors:
+    """:func:`first_singular` of the stack ``a`` (K, m, m), and the LU factors of each matrix's diagonal blocks up to
+    that one, for :func:`solve_factored_blocks`: one factorization of a path's Jacobians for its singularity check
+    and every right-hand side after it.
 
     Partial pivoting never picks a row outside a column's block (its entries there are zero), and the elimination
-    adds only exact zeros to a block from outside it: the blocks' solutions are the whole matrix's, to round-off (the
-    order LAPACK sums a large matrix's updates in may differ from a block's), for a fraction of the work.
+    adds only exact zeros to a block from outside it: the blocks' solutions are the whole matrix's, to round-off, for
+    a fraction of the work (a leg's closures, two to three equations, instead of the whole machine's).
     """
-    m = a.shape[-1]
-    if m >= BLOCK_SOLVE_FROM:
-        rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0)) if blocks is None else blocks
-        if len(ends) > 1:
-            x = np.empty(b.shape)
-            start = 0
-            for end in ends:
-                r, c = rows[start:end], cols[start:end]
-                x[:, c] = np.linalg.solve(a[:, r[:, None], c], b[:, r][..., None])[..., 0]
-                start = end
-            return x
-    return np.linalg.solve(a, b[..., None])[..., 0]
+    a = np.ascontiguousarray(a, dtype=float)
+    rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0)) if blocks is None else blocks
+    lu, piv = np.zeros(a.shape), np.zeros(a.shape[:2], np.int64)
+    singular = factor_stack_blocks(a, rows, cols, ends, limit, lu, piv, True)
+    return BlockFactors(rows, cols, ends, lu, piv, singular)
+
+
+def solve_factored_blocks(factors: BlockFactors, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``x`` (K, m) with ``a x = b`` for each matrix of the stack ``a`` (K, m, m) factored by :func:`factor_blocks`
+    (none singular) and ``b`` (K, m): with the blocks' factors from :data:`BLOCK_SOLVE_FROM` coordinates, by NumPy's
+    solve of the whole matrices below it."""
+    if factors.singular >= 0:
+        raise ValueError(f"matrix {factors.singular} of the stack is singular: no solution")
+    if a.shape[-1] < BLOCK_SOLVE_FROM:
+        return np.linalg.solve(a, b[..., None])[..., 0]
+    x = np.empty(b.shape)
+    solve_stack_blocks(factors.lu, factors.piv, factors.rows, factors.cols, factors.ends,
+                       np.ascontiguousarray(b, dtype=float), x)
+    return x
 
 
 def diagonal_blocks(nonzero: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -88,35 +116,41 @@ def diagonal_blocks(nonzero: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
 
 
 @njit(cache=True)
-def first_singular_of_blocks(a, rows, cols, ends, limit):
-    """:func:`first_singular` of the stack ``a`` (K, m, m) whose matrices are block diagonal in the order ``rows``,
-    ``cols`` (:func:`diagonal_blocks`, blocks ending at ``ends``): a block diagonal matrix's 1-norm is the largest
-    of its blocks', and so is its inverse's; each block's by
+def factor_stack_blocks(a, rows, cols, ends, limit, lu, piv, keep):
+    """:func:`factor_blocks` (``keep``: each matrix's factors into ``lu`` (K, m, m), ``piv`` (K, m)) or
+    :func:`first_singular` (not ``keep``: ``lu`` (1, m, m), ``piv`` (1, m) scratch) of the stack ``a`` (K, m, m),
+    block diagonal in the order ``rows``, ``cols`` (blocks ending at ``ends``). A block diagonal matrix's 1-norm is
+    the largest of its blocks', and so is its inverse's; each block's by
     :func:`~pkmlab.numerics.closed_chain.lu_factor` (a pivot below ``1e-14`` of the block's largest entry: singular)
-    and its inverse's columns."""
+    and its inverse's columns. A matrix with a NaN or an infinite entry is singular (its condition number is NaN, as
+    NumPy's). Returns the first singular matrix's index, -1 if none is."""
     m = rows.shape[0]
-    block, lu, e = np.empty((m, m)), np.empty((m, m)), np.empty(m)
-    piv = np.empty(m, np.int64)
+    block, e = np.empty((m, m)), np.empty(m)
     for k in range(a.shape[0]):
+        slot = k if keep else 0
         norm, inverse_norm, start = 0.0, 0.0, 0
         for b in range(ends.shape[0]):
             end = ends[b]
             s = end - start
             for r in range(s):
                 for c in range(s):
-                    block[r, c] = a[k, rows[start + r], cols[start + c]]
+                    v = a[k, rows[start + r], cols[start + c]]
+                    if not np.isfinite(v):  # (max() would drop a NaN from the norms, depending on its place)
+                        return k
+                    block[r, c] = v
             for c in range(s):
                 column = 0.0
                 for r in range(s):
                     column += abs(block[r, c])
                 norm = max(norm, column)
-            ok, _det = lu_factor(block, lu, piv, s)
+            lu_k, piv_k = lu[slot, start:end, start:end], piv[slot, start:end]
+            ok, _det = lu_factor(block, lu_k, piv_k, s)
             if not ok:
                 return k
             for c in range(s):  # A⁻¹ e_c
                 for r in range(s):
                     e[r] = 1.0 if r == c else 0.0
-                lu_solve_factored(lu, piv, e, s)
+                lu_solve_factored(lu_k, piv_k, e, s)
                 column = 0.0
                 for r in range(s):
                     column += abs(e[r])
@@ -125,3 +159,22 @@ def first_singular_of_blocks(a, rows, cols, ends, limit):
         if not norm * inverse_norm < limit:  # (NaN included)
             return k
     return -1
+
+
+@njit(cache=True)
+def solve_stack_blocks(lu, piv, rows, cols, ends, b, x):
+    """:func:`solve_factored_blocks`: each block's right-hand side (``b``'s rows in block order) solved with its
+    factors, into ``x``'s columns of the block."""
+    m = rows.shape[0]
+    work = np.empty(m)
+    for k in range(b.shape[0]):
+        start = 0
+        for blk in range(ends.shape[0]):
+            end = ends[blk]
+            s = end - start
+            for r in range(s):
+                work[r] = b[k, rows[start + r]]
+            lu_solve_factored(lu[k, start:end, start:end], piv[k, start:end], work, s)
+            for c in range(s):
+                x[k, cols[start + c]] = work[c]
+            start = end
