@@ -323,16 +323,45 @@ def test_the_working_mode_tie_rule_is_within_1e_9_of_the_best(monkeypatch):
     from pkmlab.simulation.scenario import choose_working_mode
 
     scenario = load_scenario(Path(__file__).parents[1] / "examples" / "five_bar_circle.toml")
-    real = mm.path_inverse_kinematics
     min_s = {(1, 1): 0.5, (1, -1): 0.5 + 0.6e-9, (-1, 1): 0.5 + 1.2e-9, (-1, -1): 0.1}
+    modes = list(min_s)
 
-    def stub(model, poses, mode, follow=False, branches=None):
-        q, _s, _failure = real(model, poses, (1, -1), follow, branches)
-        return q, np.full(len(poses), min_s[tuple(mode)]), None
+    def configurations(model, poses, mode, follow=False, branches=None):  # each "configuration" names its mode
+        return np.full((len(poses), 1), float(modes.index(tuple(mode)))), None
 
-    monkeypatch.setattr(mm, "path_inverse_kinematics", stub)
+    def measures(model, q):
+        return np.full(len(q), min_s[modes[int(q[0, 0])]])
+
+    monkeypatch.setattr(mm, "working_modes", lambda model: modes)
+    monkeypatch.setattr(mm, "path_configurations", configurations)
+    monkeypatch.setattr(mm, "configuration_measures", measures)
     mode, best = choose_working_mode(scenario, sample_times(scenario))
     assert mode == (1, -1) and best == min_s[(1, -1)]
+
+
+@pytest.mark.parametrize("name", ["paper", "five_bar_circle.toml", "3rpr_circle.toml", "delta_pick_and_place.toml"])
+def test_the_working_mode_is_the_one_every_modes_whole_path_gives(name):
+    """conventions §3 by brute force — every mode's inverse kinematics and |S| along the whole path, the largest
+    min |S| (the first mode within 1e-9 of it) — against the choice, which measures each path's sparse samples first
+    and stops a mode there; the same in pieces (a long run's), and with the modes' min |S| the same numbers."""
+    from pkmlab.simulation.run import sample_times
+    from pkmlab.simulation.scenario import best_working_mode
+
+    scenario = paper_scenario("nominal") if name == "paper" else load_scenario(
+        Path(__file__).parents[1] / "examples" / name)
+    model, t = scenario.model, sample_times(scenario)
+    pose = np.ascontiguousarray(np.asarray(scenario.trajectory.desired(t)[0], dtype=float)[:, :model.dof])
+    lowest = {}
+    for mode in mm.working_modes(model):
+        _q, s, failure = mm.path_inverse_kinematics(model, pose, mode, follow=True)
+        if failure is None:
+            lowest[tuple(mode)] = float(np.abs(s).min())
+    top = max(lowest.values())
+    expected = next(mode for mode, value in lowest.items() if value >= top - 1e-9)
+    mode, min_s, q = best_working_mode(scenario, t, pose)
+    assert (mode, min_s) == (expected, lowest[expected])
+    np.testing.assert_array_equal(q, mm.path_inverse_kinematics(model, pose, expected, follow=True)[0])
+    assert best_working_mode(scenario, t, pose, piece=97)[:2] == (expected, lowest[expected])
 
 
 def test_a_working_mode_spelt_with_floats_is_kept_as_ints():

@@ -753,13 +753,19 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = F
     ``failure`` is ``(k, error)`` for the first of them (the error names the leg), else None. A redundantly actuated
     machine's ``S`` is its actuation's measure (:func:`actuation_measures`).
     """
+    q, failure = path_configurations(model, poses, mode, follow, branches)
+    return q, configuration_measures(model, q), failure
+
+
+def path_configurations(model: MechanismModel, poses, mode, follow: bool = False,
+                        branches: dict | None = None) -> tuple[np.ndarray, tuple | None]:
+    """:func:`path_inverse_kinematics` without the singularity measures: ``(q (K, n_coordinates), failure)``."""
     from ..errors import UnreachablePoseError
 
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
     q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow, branches)
-    s = configuration_measures(model, q)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))
-    return q, s, failure
+    return q, failure
 
 
 def well_conditioned_configuration(model: MechanismModel, mode: tuple[int, ...]) -> np.ndarray:

@@ -386,7 +386,7 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
     ``pose`` may instead be a function of a slice of the samples that returns their poses: the path is then taken
     ``piece`` samples at a time and none of it is kept (a long run's memory), and the inverse kinematics returned
     is None unless the path is one piece."""
-    from ..model.mechanism_model import path_inverse_kinematics, working_modes
+    from ..model.mechanism_model import configuration_measures, path_configurations, working_modes
 
     model = scenario.model
     count = t.size
@@ -398,32 +398,46 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
         return np.ascontiguousarray(np.asarray(poses_of(rows), dtype=float)[:, :model.dof])
 
     modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
-    # (mode, min |S|, its sample, max |S|, q) of the modes reaching the whole path that may still be the best: the
-    # first whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory)
-    first_failure, candidates, top = None, [], -np.inf
-    # a path of one piece: each leg's branches solved once for all the modes (a long run's are not kept)
+    # a path of one piece: each leg's branches solved once for all the modes (a long run's are not kept), and every
+    # mode's configurations at once, so that the modes are measured in the order of their sparse samples' min |S|
+    # (the likely best first: the others then stop at their sparse samples, below)
     branches = {} if len(pieces) == 1 else None
-    for mode in modes:
-        lowest, closest, highest, failure, q = np.inf, 0, 0.0, None, None
+    solved = {mode: path_configurations(model, poses(pieces[0]), mode, follow=True, branches=branches)
+              for mode in modes} if len(pieces) == 1 else {}
+    sparse = {mode: _sparse_min(model, q) for mode, (q, _failure) in solved.items()}
+    order = sorted(modes, key=lambda mode: -sparse[mode]) if solved else modes
+    # (mode, min |S|, its sample, max |S|, q) of the modes reaching the whole path that may still be the best: those
+    # whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory). The
+    # choice is the first of them in the modes' order, whatever order they were measured in.
+    failures, candidates, top = [], [], -np.inf
+    for mode in order:
+        lowest, closest, highest, failure, q, dropped = np.inf, 0, 0.0, None, None, False
         for rows in pieces:
-            q, s, failure = path_inverse_kinematics(model, poses(rows), mode, follow=True, branches=branches)
+            q, failure = solved[mode] if solved else path_configurations(model, poses(rows), mode, follow=True)
             if failure is not None:
                 failure = (failure[0] + rows.start, failure[1])
                 break
-            a = np.abs(s)
+            # min |S| of the whole path is at most that of every SPARSE-th sample (the same numbers: each sample's
+            # S is its own): below the best mode's less the tie's 1e-9, the mode cannot be chosen — exact, not a guess
+            if (sparse[mode] if solved else _sparse_min(model, q)) < top - 1e-9:
+                dropped = True
+                break
+            a = np.abs(configuration_measures(model, q))
             k = int(np.argmin(a))
             if a[k] < lowest:  # the first sample of the smallest |S|
                 lowest, closest = float(a[k]), k + rows.start
             highest = max(highest, float(a.max()))
+        if dropped:
+            continue
         if failure is not None:
-            if first_failure is None or failure[0] > first_failure[0]:
-                first_failure = failure  # the mode that gets furthest names the problem
+            failures.append((mode, failure))
             continue
         top = max(top, lowest)
         kept = q if len(pieces) == 1 else None
         candidates = [c for c in [*candidates, (mode, lowest, closest, highest, kept)] if c[1] >= top - 1e-9]
-    if not candidates:
-        k, exc = first_failure
+    candidates.sort(key=lambda c: modes.index(c[0]))
+    if not candidates:  # the mode that gets furthest names the problem (the first in the modes' order, of a tie)
+        k, exc = max(failures, key=lambda f: (f[1][0], -modes.index(f[0])))[1]
         raise UnreachablePoseError(f"the path leaves the workspace at t = {t[k]:.4f} s, pose "
                                    f"{pose_text(poses(slice(k, k + 1))[0])}: {exc}") from None
     best, best_min, closest, highest, best_q = candidates[0]
@@ -437,6 +451,17 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
             f"the path comes within {near} of a gain-type singularity (margin {margin}) {every}; closest at "
             f"t = {t[closest]:.4f} s, pose {pose_text(poses(slice(closest, closest + 1))[0])}")
     return tuple(best), best_min, best_q
+
+
+#: :func:`best_working_mode` measures every SPARSE-th sample of a path first.
+SPARSE = 16
+
+
+def _sparse_min(model, q: np.ndarray) -> float:
+    """min |S| over every :data:`SPARSE`-th configuration of ``q`` (NaN where one is NaN: no bound then)."""
+    from ..model.mechanism_model import configuration_measures
+
+    return float(np.abs(configuration_measures(model, np.ascontiguousarray(q[::SPARSE]))).min())
 
 
 def pose_text(pose) -> str:
