@@ -12,11 +12,12 @@ from .closed_chain import lu_factor, lu_solve_factored
 #: A matrix whose condition number (1-norm) reaches this is treated as singular.
 CONDITION_LIMIT = 1e12
 #: :func:`solve_factored_blocks` solves with the blocks' factors from this size of the matrices; below it with NumPy's
-#: solve of the whole matrices (LAPACK's ``gesv``), whose numbers the smaller machines' runs keep bit for bit — a
-#: continuous-time run, integrated to ``rtol = 1e-12``, would move by its tolerance with those of another
-#: factorization. Measured on each preset's path (a thousand and more samples): the Stewart platform's 18×18 in six
-#: blocks of three solved 6 times faster (its run's set-up 11.0 → 9.2 ms).
-BLOCK_SOLVE_FROM = 12
+#: solve of the whole matrices (LAPACK's ``gesv``), whose numbers the planar machines of three legs — the paper's
+#: among them — keep bit for bit: the paper's continuous-time run, integrated to ``rtol = 1e-12``, moves by 2e-12
+#: with another factorization's round-off. Measured interleaved on the presets' paths (a thousand and more samples):
+#: the Delta's 9×9 in three blocks of three, its run's set-up 7.3 → 6.3 ms; the Stewart platform's 18×18 in six,
+#: 19.9 → 14.0 ms.
+BLOCK_SOLVE_FROM = 7
 
 
 class BlockFactors(NamedTuple):
