@@ -827,8 +827,9 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
     count, n, N = q.shape[0], model.n_actuators, k_.N_COORDINATES
     # the controlled coordinates' columns and the others': slices where they are runs (every machine of one actuator
     # per leg), so that the Jacobians' blocks are views and the numbers those of one summation order
-    pose = _run_or_list(list(model.pose_columns))  # in the order of pose_dot's columns
-    others = _run_or_list([c for c in range(N) if c not in model.pose_columns])
+    columns = model.pose_columns  # (a property that searches the coordinates' names: once, not once a column)
+    pose = _run_or_list(list(columns))  # in the order of pose_dot's columns
+    others = _run_or_list([c for c in range(N) if c not in columns])
     theta_dot, theta_ddot = np.empty((count, n)), np.empty((count, n))
     for start in range(0, count, PATH_CHUNK):  # a chunk at a time: a long path's Jacobians never all at once
         rows = slice(start, min(start + PATH_CHUNK, count))
