@@ -226,15 +226,15 @@ def _delta_assembly_modes(model: MechanismModel, theta: np.ndarray) -> list[tupl
     from ..description.spatial_legs import delta_forward_kinematics, forearm_angles
 
     m = model.description
-    configurations = []
-    for point in delta_forward_kinematics(m, theta):
-        passive = []
-        for i, leg in enumerate(m.legs):
-            target = point + np.array(m.platform.attachments[i])
-            q1, q2, _ = forearm_angles(leg, theta[i:i + 1], target[None, :])
-            passive += [q1[0], q2[0]]
-        configurations.append(np.array([*theta, *passive, *point]))
-    return _polished(model, configurations)
+    points = delta_forward_kinematics(m, theta)
+    if not points:
+        return _polished(model, [])
+    points = np.array(points)
+    passive = np.empty((len(points), 2 * len(m.legs)))
+    for i, leg in enumerate(m.legs):  # each leg's forearm at every point at once
+        q1, q2, _ = forearm_angles(leg, np.full(len(points), theta[i]), points + np.array(m.platform.attachments[i]))
+        passive[:, 2 * i], passive[:, 2 * i + 1] = q1, q2
+    return _polished(model, [np.array([*theta, *row, *point]) for row, point in zip(passive, points, strict=True)])
 
 
 def general_spatial_assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float]]:
