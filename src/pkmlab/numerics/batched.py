@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -93,8 +94,17 @@ def diagonal_blocks(nonzero: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
     columns in block order, and each block's end in them. The blocks are the connected parts of the graph whose
     edges are the nonzero entries (rows and columns keep their order within a block). Where a part has more columns
     than rows the matrices are singular: then one block, the whole matrix, whose factorization finds them so.
+    A pattern seen before is not searched again (a continuous-time run asks for one configuration's, thousands
+    of times); each call gets arrays of its own.
     """
-    m = nonzero.shape[0]
+    nonzero = np.asarray(nonzero, dtype=bool)
+    return tuple(part.copy() for part in _pattern_blocks(nonzero.shape[0], nonzero.tobytes()))
+
+
+@functools.lru_cache(maxsize=64)
+def _pattern_blocks(m: int, packed: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`diagonal_blocks` of the (m, m) pattern whose bytes are ``packed``."""
+    nonzero = np.frombuffer(packed, dtype=bool).reshape(m, m)
     parent = list(range(2 * m))  # rows 0 .. m-1, columns m .. 2m-1
 
     def root(i: int) -> int:
