@@ -30,14 +30,15 @@ class BlockFactors(NamedTuple):
     ends: np.ndarray
     #: (K, m, m): each matrix's blocks factored by :func:`~pkmlab.numerics.closed_chain.lu_factor`, block ``b`` at
     #: ``[ends[b-1]:ends[b], ends[b-1]:ends[b]]`` in block order (zeros elsewhere); (K, m): their pivots, in the block.
-    lu: np.ndarray
-    piv: np.ndarray
+    #: None below :data:`BLOCK_SOLVE_FROM` coordinates, where :func:`solve_factored_blocks` solves with NumPy.
+    lu: np.ndarray | None
+    piv: np.ndarray | None
     #: The index of the first singular matrix (:func:`first_singular`), -1 if none is; the factors are those of the
     #: matrices before it.
     singular: int
 
 
-def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None) -> int:
+def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT) -> int:
     """The index of the first singular matrix of a stack of square matrices ``a`` (K, m, m), or -1 if none is.
 
     A matrix is singular when its condition number in the 1-norm, ``‖A‖₁ ‖A⁻¹‖₁``, is not below ``limit`` (an
@@ -47,30 +48,34 @@ def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None) -
     A closed chain's Jacobians are often block diagonal (each leg's loop closures in its own coordinates, its rows
     and columns wherever the coordinates put them): the condition number is then that of the blocks
     (:func:`diagonal_blocks` of the entries nonzero in any matrix of the stack — an entry zero in every matrix is
-    zero in each; given as ``blocks`` where the caller has them), found block by block, compiled: NumPy's own
-    (``np.linalg.cond``) inverts each whole matrix and spends about a microsecond a matrix on its bookkeeping.
+    zero in each), found block by block, compiled: NumPy's own (``np.linalg.cond``) inverts each whole matrix and
+    spends about a microsecond a matrix on its bookkeeping.
     :func:`factor_blocks` judges the same way and keeps the factors, for solves.
     """
-    a = np.ascontiguousarray(a, dtype=float)
-    rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0)) if blocks is None else blocks
-    m = a.shape[-1]
-    return factor_stack_blocks(a, rows, cols, ends, limit, np.zeros((1, m, m)), np.empty((1, m), np.int64), False)
+    return _factored(a, limit, None, keep=False).singular
 
 
 def factor_blocks(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None) -> BlockFactors:
     """:func:`first_singular` of the stack ``a`` (K, m, m), and the LU factors of each matrix's diagonal blocks up to
     that one, for :func:`solve_factored_blocks`: one factorization of a path's Jacobians for its singularity check
-    and every right-hand side after it.
+    and every right-hand side after it (kept from :data:`BLOCK_SOLVE_FROM` coordinates, where the solve uses them).
+    ``blocks``: :func:`diagonal_blocks` of ``a``'s pattern, where the caller has them.
 
     Partial pivoting never picks a row outside a column's block (its entries there are zero), and the elimination
     adds only exact zeros to a block from outside it: the blocks' solutions are the whole matrix's, to round-off, for
     a fraction of the work (a leg's closures, two to three equations, instead of the whole machine's).
     """
+    return _factored(a, limit, blocks, keep=np.shape(a)[-1] >= BLOCK_SOLVE_FROM)
+
+
+def _factored(a: np.ndarray, limit: float, blocks, keep: bool) -> BlockFactors:
+    """:func:`factor_stack_blocks` of the stack ``a``, its factors kept or not (a scratch matrix then)."""
     a = np.ascontiguousarray(a, dtype=float)
     rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0)) if blocks is None else blocks
-    lu, piv = np.zeros(a.shape), np.zeros(a.shape[:2], np.int64)
-    singular = factor_stack_blocks(a, rows, cols, ends, limit, lu, piv, True)
-    return BlockFactors(rows, cols, ends, lu, piv, singular)
+    shape = a.shape if keep else (1, *a.shape[1:])
+    lu, piv = np.zeros(shape), np.zeros(shape[:2], np.int64)
+    singular = factor_stack_blocks(a, rows, cols, ends, limit, lu, piv, keep)
+    return BlockFactors(rows, cols, ends, lu if keep else None, piv if keep else None, singular)
 
 
 def solve_factored_blocks(factors: BlockFactors, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -79,7 +84,7 @@ def solve_factored_blocks(factors: BlockFactors, a: np.ndarray, b: np.ndarray) -
     solve of the whole matrices below it."""
     if factors.singular >= 0:
         raise ValueError(f"matrix {factors.singular} of the stack is singular: no solution")
-    if a.shape[-1] < BLOCK_SOLVE_FROM:
+    if factors.lu is None:
         return np.linalg.solve(a, b[..., None])[..., 0]
     x = np.empty(b.shape)
     solve_stack_blocks(factors.lu, factors.piv, factors.rows, factors.cols, factors.ends,
