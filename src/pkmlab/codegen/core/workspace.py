@@ -152,6 +152,7 @@ WORKSPACE = np.dtype([
     ("jb", np.float64, (N_JB,)),  # the non-zeros of the bodies' Jacobians
     ("bb", np.float64, (N_BODIES, BODY_ROWS)),  # bodies' J̇ q̇, then their accelerations at θ̈ = 0
     ("jt", np.float64, (N_BODIES, BODY_ROWS, N_INDEPENDENT)),  # the bodies' Jacobians times Jqθ
+    ("inertia_jt", np.float64, (N_BODIES, 3, N_INDEPENDENT)),  # a spatial body's inertia tensor times its rows ω of jt
     ("m_theta", np.float64, (N_INDEPENDENT, N_INDEPENDENT)),  # Mθ
     ("c_theta", np.float64, (N_INDEPENDENT,)),  # cθ = Cθ θ̇
     ("g_theta", np.float64, (N_INDEPENDENT,)),  # gθ = ∂V/∂θ
