@@ -44,6 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..numerics.angles import wrapped_angle
+from ..numerics.rotations import rotate_rows, turn_onto_rows, universal_rows
 from . import general_legs
 from .leg_types import Solved, mark_outside_stroke
 from .spatial import SpatialLeg, SpatialMechanism
@@ -91,48 +92,38 @@ def working_modes(leg: SpatialLeg) -> tuple:
     return ()
 
 
-def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a × b`` of vectors ``(..., 3)``, broadcast: ``np.cross``'s products and differences component by component,
-    the same numbers, without its moving of axes (on a path of a thousand rows, more than the arithmetic)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+def _rows(v, k: int | None = None) -> np.ndarray:
+    """``v`` as C-ordered float64: one vector (3,) repeated as ``k`` rows (K, 3) if ``k`` is given, else as it is."""
+    v = np.asarray(v, dtype=float)
+    return np.ascontiguousarray(np.broadcast_to(v, (k, 3)) if v.ndim == 1 and k is not None else v)
 
 
 def rotate(axis, angle, v):
-    """Rodrigues' rotation of vectors ``v`` (K, 3) by ``angle`` (K,) about the unit ``axis`` (3,)."""
-    a = np.asarray(axis, dtype=float)
-    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
-    return c * v + s * cross_rows(a, v) + (1.0 - c) * (v @ a)[:, None] * a
+    """Rodrigues' rotation of vectors ``v`` (K, 3) by ``angle`` (K,) about the unit ``axis`` (3,) (compiled:
+    :func:`pkmlab.numerics.rotations.rotate_rows`)."""
+    angle = np.ascontiguousarray(angle, dtype=float)
+    out = np.empty((len(angle), 3))
+    rotate_rows(_rows(axis), angle, _rows(v, len(angle)), out)
+    return out
 
 
 def turn_onto(axis: np.ndarray, v: np.ndarray, w: np.ndarray) -> np.ndarray:
     """The angle (K,) of the turn about the unit ``axis`` that takes the parts of ``v`` (3,) or (K, 3) across
     the axis onto the direction of those of ``w`` (K, 3)."""
-    v = np.broadcast_to(v, w.shape)
-    return np.arctan2(cross_rows(v, w) @ axis, np.einsum("ki,ki->k", v, w) - (v @ axis) * (w @ axis))
+    w = _rows(w)
+    out = np.empty(len(w))
+    turn_onto_rows(_rows(axis), _rows(v, len(w)), w, out)
+    return out
 
 
 def universal_angles(axes, tip, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The angles ``(q1, q2)`` of a universal joint (perpendicular ``axes``) with
-    ``Rot(a1, q1) Rot(a2, q2) tip = v`` (``v`` (K, 3) of the tip's length), and where no angle does it."""
-    a1, a2 = (np.asarray(a, dtype=float) for a in axes)
-    tip = np.broadcast_to(np.asarray(tip, dtype=float), v.shape)  # one tip, or one per row
-    # a1 · Rot(a2, q2) tip = a1 · v  (the first turn keeps the a1 component): α cos q2 + β sin q2 = γ
-    alpha, beta = tip @ a1, cross_rows(a2, tip) @ a1
-    gamma = v @ a1
-    rho = np.hypot(alpha, beta)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.where(rho > 0, gamma / np.where(rho > 0, rho, 1.0), 0.0)
-    bad = np.abs(gamma) > rho * (1 + 1e-12)
-    ratio = np.clip(ratio, -1.0, 1.0)
-    centre = np.arctan2(beta, alpha)
-    roots = np.stack([centre + np.arccos(ratio), centre - np.arccos(ratio)])
-    roots = wrapped_angle(roots)
-    q2 = np.where(np.abs(roots[0]) <= np.abs(roots[1]), roots[0], roots[1])
-    w = rotate(a2, q2, tip.copy())
-    # the turn about a1 that takes w to v: the signed angle between their parts across a1
-    q1 = turn_onto(a1, w, v)
+    ``Rot(a1, q1) Rot(a2, q2) tip = v`` (``v`` (K, 3) of the tip's length; one ``tip`` (3,) or one per row), and
+    where no angle does it (:func:`pkmlab.numerics.rotations.universal_rows`)."""
+    v = _rows(v)
+    k = len(v)
+    q1, q2, bad = np.empty(k), np.empty(k), np.empty(k, dtype=np.bool_)
+    universal_rows(_rows(axes[0]), _rows(axes[1]), _rows(tip, k), v, q1, q2, bad, np.empty((k, 3)))
     return q1, q2, bad
 
 
