@@ -31,10 +31,10 @@ Angular velocities follow the chain: through a revolute joint of axis ``a`` and 
 A leg's points are written in Horner's form, ``base + R1 (v1 + R2 (v2 + ...))``, each frame's vectors (a body's
 tip, a prismatic joint's stroke along its axis) summed in that frame and turned once by Rodrigues' formula on the
 vector (:func:`_turn`), never multiplied into rotation matrices: products of rotations about axes that are
-parameters, and their derivatives, grow with every joint. Against the products of matrices this replaced, the
-kernels of the 15 spatial structures of the presets and the catalogue count 39 % fewer operations (the Delta's
-constraint Jacobian 1,413 → 657 a call, its bias 2,691 → 1,305), with the same non-zeros and the same values to
-round-off (1.7e-15 of their scale, every kernel at random configurations).
+parameters, and their derivatives, grow with every joint. Over the 15 spatial structures of the presets and the
+catalogue, the products of matrices count 1.6 times the operations in the five per-sample kernels (the Delta's
+constraint Jacobian 1,413 against 657 a call, its bias 2,691 against 1,305), for the same non-zeros and the same
+values to round-off (1.7e-15 of their scale, every kernel at random configurations).
 
 A leg's rows depend on its own coordinates, its own parameters and the platform's pose only, and legs of one
 type (one notation) differ by their parameters alone. So each type of leg is derived once (:func:`derive_leg`),

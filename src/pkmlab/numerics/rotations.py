@@ -2,7 +2,7 @@
 
 What the closed-form inverse kinematics of spatial legs (:mod:`pkmlab.description.spatial_legs`) computes for every
 point of a path, and the Delta's forward kinematics for its two: on a thousand rows NumPy's temporaries cost more
-than the arithmetic (the Delta's path took 2.9 of its run's 5 ms of preparation). Each function works on rows
+than the arithmetic. Each function works on rows
 ``(K, 3)`` and writes into arrays its caller made; every argument an array of float64, C-ordered.
 """
 
