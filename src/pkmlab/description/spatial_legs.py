@@ -99,8 +99,8 @@ def _rows(v, k: int | None = None) -> np.ndarray:
 
 
 def rotate(axis, angle, v):
-    """Rodrigues' rotation of vectors ``v`` (K, 3) by ``angle`` (K,) about the unit ``axis`` (3,) (compiled:
-    :func:`pkmlab.numerics.rotations.rotate_rows`)."""
+    """Rodrigues' rotation of vectors ``v`` (K, 3), or of one vector (3,) for every row, by ``angle`` (K,) about the
+    unit ``axis`` (3,) (compiled: :func:`pkmlab.numerics.rotations.rotate_rows`)."""
     angle = np.ascontiguousarray(angle, dtype=float)
     out = np.empty((len(angle), 3))
     rotate_rows(_rows(axis), angle, _rows(v, len(angle)), out)
@@ -151,7 +151,7 @@ def forearm_angles(leg: SpatialLeg, theta: np.ndarray, points: np.ndarray, elbow
     undone) turned onto by the universal joint. ``elbow`` (K, 3), the arm's tip, is computed unless given."""
     axis = np.array(leg.joints[0].axes[0])
     if elbow is None:
-        elbow = np.array(leg.base) + rotate(axis, theta, np.broadcast_to(leg.bodies[0].tip, points.shape).copy())
+        elbow = np.array(leg.base) + rotate(axis, theta, leg.bodies[0].tip)
     return universal_angles(leg.joints[1].axes, leg.bodies[1].tip, rotate(axis, -theta, points - elbow))
 
 
@@ -195,7 +195,7 @@ def _crank_root(leg: SpatialLeg, alpha, beta, ratio, along, across, sigma: int, 
     axis_r = np.array(leg.joints[0].axes[0])
     centre, half = np.arctan2(beta, alpha), np.arccos(np.clip(ratio, -1.0, 1.0))
     roots = [wrapped_angle(centre + half), wrapped_angle(centre - half)]
-    elbows = [np.array(leg.base) + along + rotate(axis_r, r, np.broadcast_to(across, (len(r), 3)).copy())
+    elbows = [np.array(leg.base) + along + rotate(axis_r, r, across)
               for r in roots]
     if abs(float(axis_r @ np.asarray(axis[1]))) > 1.0 - PARALLEL:  # by the side of the point's plane (module doc)
         outer = np.ones(len(centre), dtype=bool)

@@ -14,6 +14,13 @@ from .._compile_cache import njit
 
 
 @njit(cache=True)
+def _wrapped(angle):
+    """``angle`` into ``(-π, π]`` as :func:`pkmlab.numerics.angles.wrapped_angle` takes it: the argument of
+    ``(cos, sin)``."""
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+@njit(cache=True)
 def rotate_rows(axis, angle, v, out):
     """``out[k] = Rot(axis, angle[k]) v[k]`` (K, 3), the unit ``axis`` (3,): ``c v + s (a × v) + (1 - c)(a · v) a``."""
     a0, a1, a2 = axis[0], axis[1], axis[2]
@@ -55,9 +62,7 @@ def universal_rows(a1, a2, tip, v, q1, q2, bad, turned):
         bad[k] = abs(gamma) > rho * (1 + 1e-12)
         ratio = min(max(ratio, -1.0), 1.0)
         centre, half = math.atan2(beta, alpha), math.acos(ratio)
-        first, second = centre + half, centre - half
-        first = math.atan2(math.sin(first), math.cos(first))  # into (-π, π]
-        second = math.atan2(math.sin(second), math.cos(second))
+        first, second = _wrapped(centre + half), _wrapped(centre - half)
         q2[k] = first if abs(first) <= abs(second) else second
     rotate_rows(a2, q2, tip, turned)
     turn_onto_rows(a1, turned, v, q1)
