@@ -117,3 +117,24 @@ def test_a_large_stack_is_solved_by_its_blocks():
     assert factors.singular == 1 == first_singular(a) == _numpy_first_singular(a)
     with pytest.raises(ValueError, match="matrix 1 of the stack is singular"):
         solve_factored_blocks(factors, a, b)
+
+
+@given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 4), min_size=1, max_size=5), st.integers(1, 6),
+       st.lists(st.integers(0, 5), max_size=2), st.integers(0, 3), st.booleans())
+def test_columns_read_in_place_are_the_matrices_of_those_columns(seed, sizes, count, singular_at, extra, run):
+    """A path's Jacobians hold every coordinate's column; the stack of some of them (a run of columns, or any) is
+    factored where it lies, with the factors, pivots and verdict of the same columns copied out, bit for bit."""
+    square = _stack(seed, sizes, count, [k for k in singular_at if k < count])
+    m = square.shape[-1]
+    rng = np.random.default_rng(seed + 2)
+    columns = slice(extra, extra + m) if run else rng.permutation(m + extra)[:m]
+    wide = rng.uniform(-1, 1, (count, m, m + extra))  # the other columns: anything
+    wide[:, :, columns] = square
+    copied, in_place = factor_blocks(square), factor_blocks(wide, columns=columns)
+    assert in_place.singular == copied.singular == first_singular(square)
+    for name in ("rows", "cols", "ends", "lu", "piv"):
+        mine, theirs = getattr(in_place, name), getattr(copied, name)
+        assert (mine is None and theirs is None) or np.array_equal(mine, theirs), name
+    if copied.singular < 0:
+        b = rng.uniform(-1, 1, (count, m))
+        assert np.array_equal(solve_factored_blocks(in_place, square, b), solve_factored_blocks(copied, square, b))

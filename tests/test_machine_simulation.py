@@ -326,8 +326,8 @@ def test_the_working_mode_tie_rule_is_within_1e_9_of_the_best(monkeypatch):
     min_s = {(1, 1): 0.5, (1, -1): 0.5 + 0.6e-9, (-1, 1): 0.5 + 1.2e-9, (-1, -1): 0.1}
     modes = list(min_s)
 
-    def configurations(model, poses, mode, follow=False, branches=None):  # each "configuration" names its mode
-        return np.full((len(poses), 1), float(modes.index(tuple(mode)))), None
+    def configurations(model, poses, mode, follow=False, branches=None, rows=None):  # each names its mode
+        return np.full((len(poses), 1), float(modes.index(tuple(mode))))[slice(None) if rows is None else rows], None
 
     def measures(model, q):
         return np.full(len(q), min_s[modes[int(q[0, 0])]])

@@ -5,6 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pkmlab.description.spatial_legs import rotate, turn_onto, universal_angles
+from pkmlab.numerics.rotations import crank_rows
 
 K = 400
 
@@ -52,3 +53,39 @@ def test_universal_angles_turn_the_tip_onto_every_reachable_direction(tips):
     # a direction whose component along a1 is beyond the tip's reach is refused
     far = v + 3.0 * np.linalg.norm(rows, axis=1)[:, None] * a1
     assert universal_angles((a1, a2), tip, far)[2].all()
+
+
+@pytest.mark.parametrize("sigma", [1, -1])
+def test_the_crank_takes_the_root_of_its_working_mode(sigma):
+    """A crank's two roots of ``α cos θ + β sin θ = γ`` (its tip on a sphere about a point): each tip the crank's turn
+    of its arm (SciPy's rotation), on the sphere; the knee out (``σ = +1``) the root farther from the central line,
+    ``σ = -1`` the nearer; out of reach (|ratio| > 1) the nearest angle, NaN kept."""
+    rng = np.random.default_rng(6)
+    axis, across = _unit(rng.normal(size=3)), rng.normal(size=3)
+    across -= (across @ axis) * axis  # the arm's part across its axis
+    start = rng.normal(size=3)
+    centre, sphere = rng.normal(size=(K, 3)), rng.uniform(0.5, 2.0, K)
+    d = centre - start  # |d - Rot(axis, θ) across| = sphere: α cos θ + β sin θ = γ
+    alpha, beta = d @ across, d @ np.cross(axis, across)
+    ratio = (np.einsum("ki,ki->k", d, d) + across @ across - sphere**2) / 2 / np.hypot(alpha, beta)
+    ratio[:3] = [1.5, -1.5, np.nan]
+    point, direction = rng.normal(size=3), _unit(rng.normal(size=3))
+    theta, elbow = np.empty(K), np.empty((K, 3))
+    crank_rows(axis, start, across, alpha, beta, ratio, sigma, point, direction, False, theta, elbow)
+    reach = np.abs(ratio) <= 1
+    assert np.isnan(theta[2]) and np.all(np.isfinite(theta[:2])) and np.all(np.abs(theta[:2]) <= np.pi)
+    solved = ~np.isnan(theta)
+    tips = start + _turned(axis, theta[solved], np.tile(across, (solved.sum(), 1)))
+    assert np.allclose(elbow[solved], tips, rtol=0, atol=1e-13)
+    assert np.allclose(np.linalg.norm(elbow - centre, axis=1)[reach], sphere[reach], rtol=0, atol=1e-12)
+    # the other root: the same sphere, the other side of the central line's distance
+    root = np.arctan2(beta, alpha)
+    other = 2 * root - theta  # the roots are symmetric about atan2(β, α)
+    other_tip = start + _turned(axis, other, np.tile(across, (K, 1)))
+    off = lambda x: np.linalg.norm((x - point) - np.outer((x - point) @ direction, direction), axis=1)  # noqa: E731
+    farther = off(elbow) >= off(other_tip) - 1e-12
+    assert np.all(farther[reach] if sigma > 0 else ~farther[reach] | np.isclose(off(elbow), off(other_tip))[reach])
+    # by the side: the first root for +1, the second for -1, whatever the distances
+    crank_rows(axis, start, across, alpha, beta, ratio, sigma, point, direction, True, theta, elbow)
+    half = np.arccos(np.clip(ratio, -1, 1))
+    assert np.allclose(np.angle(np.exp(1j * (theta - root - sigma * half)))[reach], 0.0, atol=1e-12)

@@ -467,12 +467,18 @@ def attachment_point(mechanism: Mechanism, leg: int, pose) -> tuple[float, float
     return (float(x), float(y))
 
 
-def attachment_points(mechanism: Mechanism, leg: int, poses: np.ndarray) -> np.ndarray:
-    """:func:`attachment_point` of many poses ``(K, dof)`` at once, ``(K, 2)``."""
-    alpha = poses[:, 2] if mechanism.platform.kind == "rigid" else np.zeros(len(poses))
+def attachment_points(mechanism: Mechanism, leg: int, poses: np.ndarray, turns=None) -> np.ndarray:
+    """:func:`attachment_point` of many poses ``(K, dof)`` at once, ``(K, 2)``; ``turns``: the platform's
+    :func:`platform_turns` at those poses, where the caller has them (one computation for every leg)."""
     ax, ay = mechanism.platform.attachments[leg]  # (0, 0) for a point platform
-    c, s = np.cos(alpha), np.sin(alpha)
+    c, s = platform_turns(mechanism, poses) if turns is None else turns
     return np.column_stack([poses[:, 0] + c * ax - s * ay, poses[:, 1] + s * ax + c * ay])
+
+
+def platform_turns(mechanism: Mechanism, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(cos α, sin α)`` of the platform's orientation at many poses ``(K, dof)`` (a point platform: α = 0)."""
+    alpha = poses[:, 2] if mechanism.platform.kind == "rigid" else np.zeros(len(poses))
+    return np.cos(alpha), np.sin(alpha)
 
 
 # ------------------------------------------------------------------ the TOML form

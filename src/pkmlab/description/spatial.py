@@ -490,13 +490,21 @@ def attachment_point(mechanism: SpatialMechanism, leg: int, pose) -> np.ndarray:
     return pose[:3] + rot @ np.array(mechanism.platform.attachments[leg])
 
 
-def attachment_points(mechanism: SpatialMechanism, leg: int, poses: np.ndarray) -> np.ndarray:
-    """:func:`attachment_point` of many whole poses (K, 3 or 6) at once, (K, 3)."""
+def attachment_points(mechanism: SpatialMechanism, leg: int, poses: np.ndarray, turns=None) -> np.ndarray:
+    """:func:`attachment_point` of many whole poses (K, 3 or 6) at once, (K, 3); ``turns``: the platform's
+    :func:`platform_turns` at those poses, where the caller has them (one computation for every leg)."""
     poses = np.asarray(poses, dtype=float)
     a = np.array(mechanism.platform.attachments[leg])
     if mechanism.platform.kind != "rigid":
         return poses[:, :3] + a
-    return poses[:, :3] + np.einsum("kij,j->ki", orientations(poses[:, 3:6]), a)
+    return poses[:, :3] + np.einsum("kij,j->ki", orientations(poses[:, 3:6]) if turns is None else turns, a)
+
+
+def platform_turns(mechanism: SpatialMechanism, poses: np.ndarray) -> np.ndarray | None:
+    """The rigid platform's :func:`orientations` at many whole poses (K, 6), (K, 3, 3); None for a translating one."""
+    if mechanism.platform.kind != "rigid":
+        return None
+    return orientations(np.asarray(poses, dtype=float)[:, 3:6])
 
 
 # ------------------------------------------------------------------ the TOML form

@@ -43,8 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..numerics.angles import wrapped_angle
-from ..numerics.rotations import rotate_rows, turn_onto_rows, universal_rows
+from ..numerics.rotations import crank_rows, rotate_rows, turn_onto_rows, universal_rows
 from . import general_legs
 from .leg_types import Solved, mark_outside_stroke
 from .spatial import SpatialLeg, SpatialMechanism
@@ -139,12 +138,6 @@ def central_axis(mechanism: SpatialMechanism) -> tuple[np.ndarray, np.ndarray]:
     return centre, np.array([0.0, 0.0, 1.0])
 
 
-def _distance_from(axis, points: np.ndarray) -> np.ndarray:
-    centre, direction = axis
-    d = points - centre
-    return np.linalg.norm(d - (d @ direction)[:, None] * direction, axis=1)
-
-
 def forearm_angles(leg: SpatialLeg, theta: np.ndarray, points: np.ndarray, elbow: np.ndarray | None = None):
     """The universal joint's angles ``(q1, q2, bad)`` of an R*US leg whose arm is at ``theta`` (K,) and whose
     spherical joint is at ``points`` (K, 3): the forearm's direction in the arm's frame (the arm's turn
@@ -193,16 +186,11 @@ def _crank_root(leg: SpatialLeg, alpha, beta, ratio, along, across, sigma: int, 
     (``ratio = γ / √(α² + β²)``), and its elbow (K, 3): ``σ = +1`` the root whose elbow is farther from the
     machine's central ``axis`` ("knee out")."""
     axis_r = np.array(leg.joints[0].axes[0])
-    centre, half = np.arctan2(beta, alpha), np.arccos(np.clip(ratio, -1.0, 1.0))
-    roots = [wrapped_angle(centre + half), wrapped_angle(centre - half)]
-    elbows = [np.array(leg.base) + along + rotate(axis_r, r, across)
-              for r in roots]
-    if abs(float(axis_r @ np.asarray(axis[1]))) > 1.0 - PARALLEL:  # by the side of the point's plane (module doc)
-        outer = np.ones(len(centre), dtype=bool)
-    else:
-        outer = _distance_from(axis, elbows[0]) > _distance_from(axis, elbows[1])
-    first = outer if sigma > 0 else ~outer
-    return np.where(first, roots[0], roots[1]), np.where(first[:, None], elbows[0], elbows[1])
+    by_side = abs(float(axis_r @ np.asarray(axis[1]))) > 1.0 - PARALLEL  # by the side of the point's plane (module doc)
+    theta, elbow = np.empty(len(alpha)), np.empty((len(alpha), 3))
+    crank_rows(axis_r, _rows(np.array(leg.base) + along), _rows(across), _rows(alpha), _rows(beta), _rows(ratio),
+               sigma, _rows(axis[0]), _rows(axis[1]), by_side, theta, elbow)
+    return theta, elbow
 
 
 def _ups(leg: SpatialLeg, number: int, points: np.ndarray, _sigma: int, _axis) -> Solved:

@@ -33,7 +33,7 @@ from ..description.presets import preset
 from ..errors import InvalidParameterError, SingularityError
 from ..numerics import lagrangian
 from ..numerics.batched import factor_blocks, solve_factored_blocks
-from .reach import attachment_points_of, check_assembly, leg_solver
+from .reach import attachment_points_of, check_assembly, leg_solver, platform_turns_of
 
 
 @dataclass(frozen=True)
@@ -542,15 +542,17 @@ def inverse_kinematics(model: MechanismModel, pose, mode) -> np.ndarray:
 
 
 def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, follow: bool = False,
-                             branches: dict | None = None):
+                             branches: dict | None = None, rows: slice | None = None):
     """``q`` (K, n_coordinates) of poses (K, dof) in one working mode, NaN rows where a leg cannot reach;
     the legs that cannot, a bit mask per pose (K,) (bit ``i`` for leg ``i + 1``); and the first failure
     ``(k, leg, message)`` (else None). ``follow``: the poses are a finely sampled path, along which a leg of the
     general method follows its branch by continuity
     (:func:`~pkmlab.description.general_legs.general_inverse_kinematics_batch`). ``branches``: a dict that calls
     on the same poses with the same ``follow`` in other modes share, so that each leg's branch (and a
-    lower-mobility platform's whole pose) is solved once for all the modes — ``2n`` leg solutions for the ``2ⁿ``
-    modes of ``n`` two-branch legs."""
+    lower-mobility platform's whole pose, and the platform's orientation) is solved once for all the modes —
+    ``2n`` leg solutions for the ``2ⁿ`` modes of ``n`` two-branch legs. ``rows``: the configurations of those poses
+    only (the failures still those of all the poses), where a leg's reach alone decides them (no platform joint's
+    orientation to check)."""
     branches = {} if branches is None else branches
     m = model.description
     solver = leg_solver(m)
@@ -583,7 +585,10 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
         if (i, sigma) not in branches:
             base = (poses[:, [m.pose_names.index(f"a{m.actuators.index((i, k)) + 1}")
                               for k in leg.actuated_joints[:leg.moving_base]]],) if leg.moving_base else ()
-            branches[i, sigma] = leg_inverse_kinematics_batch(leg, i, attachment_points_of(m, i, poses), sigma,
+            if "turns" not in branches:  # the platform's orientation, once for all the legs and modes
+                branches["turns"] = platform_turns_of(m, poses)
+            points = attachment_points_of(m, i, poses, branches["turns"])
+            branches[i, sigma] = leg_inverse_kinematics_batch(leg, i, points, sigma,
                                                               *extra, *base)
         solved = branches[i, sigma]
         if solved.bad.any():
@@ -605,6 +610,10 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
             first = (first_failure[0], 0, first_failure[1])
     # C order whatever the columns' (a lower-mobility platform's pose columns may be in Fortran order): the kernels
     # are compiled for one layout of q
+    if rows is not None and not _orientation_rows(m):  # the other poses' configurations are not needed
+        q = np.ascontiguousarray(np.column_stack([column[rows] for column in (*actuators, *passive, q_pose)]))
+        q[unreachable[rows] != 0] = np.nan
+        return q, unreachable, first
     q = np.ascontiguousarray(np.column_stack([*actuators, *passive, q_pose]))
     missed = _platform_joint_misses(model, q, unreachable)
     if missed is not None:
@@ -612,7 +621,16 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
         if first is None or missed[1][0] < first[0]:
             first = missed[1]
     q[unreachable != 0] = np.nan
-    return q, unreachable, first
+    return (q, unreachable, first) if rows is None else (np.ascontiguousarray(q[rows]), unreachable, first)
+
+
+def _orientation_rows(description) -> bool:
+    """Whether some leg ends in a joint whose orientation :func:`_platform_joint_misses` checks."""
+    if not getattr(description, "spatial", False):
+        return False
+    from ..description import mobility
+
+    return bool(mobility.all_orientation_rows(description))
 
 
 #: Largest orientation row (rad) of a configuration inverse kinematics gives: a leg's platform joint that misses by
@@ -758,12 +776,13 @@ def path_inverse_kinematics(model: MechanismModel, poses, mode, follow: bool = F
 
 
 def path_configurations(model: MechanismModel, poses, mode, follow: bool = False,
-                        branches: dict | None = None) -> tuple[np.ndarray, tuple | None]:
-    """:func:`path_inverse_kinematics` without the singularity measures: ``(q (K, n_coordinates), failure)``."""
+                        branches: dict | None = None, rows: slice | None = None) -> tuple[np.ndarray, tuple | None]:
+    """:func:`path_inverse_kinematics` without the singularity measures: ``(q (K, n_coordinates), failure)``; the
+    configurations of the poses ``rows`` only, if given (:func:`inverse_kinematics_batch`)."""
     from ..errors import UnreachablePoseError
 
     poses = np.asarray(poses, dtype=float).reshape(-1, model.description.dof)
-    q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow, branches)
+    q, _unreachable, first = inverse_kinematics_batch(model, poses, mode, follow, branches, rows)
     failure = None if first is None else (first[0], UnreachablePoseError(first[2], legs=(first[1] + 1,)))
     return q, failure
 
@@ -837,7 +856,8 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
         j_eta, gamma = np.empty((len(qc), k_.N_CONSTRAINTS, N)), np.empty((len(qc), k_.N_CONSTRAINTS))
         k_.constraint_jacobians(qc, model.P, j_eta)
         a, b = j_eta[:, :, others], j_eta[:, :, pose]
-        factors = factor_blocks(a)  # each leg's loop closures alone, factored once for the check and the solves
+        # each leg's loop closures alone, factored once for the check and the solves (read in j_eta: no copy)
+        factors = factor_blocks(j_eta, columns=others)
         if factors.singular >= 0:
             return np.empty((count, n)), np.empty((count, n)), start + factors.singular
         q_dot, q_ddot = np.empty((len(qc), N)), np.empty((len(qc), N))

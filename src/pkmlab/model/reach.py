@@ -148,11 +148,25 @@ def leg_solver(description) -> ModuleType:
     return leg_types
 
 
-def attachment_points_of(description, leg: int, poses: np.ndarray) -> np.ndarray:
+def attachment_points_of(description, leg: int, poses: np.ndarray, turns=None) -> np.ndarray:
+    """Where leg ``leg`` (0-based) meets the platform at many poses, planar or spatial; ``turns``: the platform's
+    :func:`platform_turns_of` those poses, where the caller has them."""
     if getattr(description, "spatial", False):
         from ..description.spatial import attachment_points
 
-        return attachment_points(description, leg, poses)
+        return attachment_points(description, leg, poses, turns)
     from ..description.mechanism import attachment_points
 
-    return attachment_points(description, leg, poses)
+    return attachment_points(description, leg, poses, turns)
+
+
+def platform_turns_of(description, poses: np.ndarray):
+    """The platform's orientation at many poses, as the description's ``attachment_points`` reads it: computed
+    once for all the legs."""
+    if getattr(description, "spatial", False):
+        from ..description.spatial import platform_turns
+
+        return platform_turns(description, poses)
+    from ..description.mechanism import platform_turns
+
+    return platform_turns(description, poses)

@@ -55,26 +55,35 @@ def first_singular(a: np.ndarray, limit: float = CONDITION_LIMIT) -> int:
     return _factored(a, limit, None, keep=False).singular
 
 
-def factor_blocks(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None) -> BlockFactors:
+def factor_blocks(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None, columns=None) -> BlockFactors:
     """:func:`first_singular` of the stack ``a`` (K, m, m), and the LU factors of each matrix's diagonal blocks up to
     that one, for :func:`solve_factored_blocks`: one factorization of a path's Jacobians for its singularity check
     and every right-hand side after it (kept from :data:`BLOCK_SOLVE_FROM` coordinates, where the solve uses them).
-    ``blocks``: :func:`diagonal_blocks` of ``a``'s pattern, where the caller has them.
+    ``blocks``: :func:`diagonal_blocks` of ``a``'s pattern, where the caller has them. ``columns`` (m,): the
+    matrices are these columns of ``a`` (K, m, M), read in place (a path's Jacobians of all its coordinates, of
+    which the solves need some: no copy of them).
 
     Partial pivoting never picks a row outside a column's block (its entries there are zero), and the elimination
     adds only exact zeros to a block from outside it: the blocks' solutions are the whole matrix's, to round-off, for
     a fraction of the work (a leg's closures, two to three equations, instead of the whole machine's).
     """
-    return _factored(a, limit, blocks, keep=np.shape(a)[-1] >= BLOCK_SOLVE_FROM)
+    m = np.shape(a)[-2]
+    return _factored(a, limit, blocks, keep=m >= BLOCK_SOLVE_FROM, columns=columns)
 
 
-def _factored(a: np.ndarray, limit: float, blocks, keep: bool) -> BlockFactors:
-    """:func:`factor_stack_blocks` of the stack ``a``, its factors kept or not (a scratch matrix then)."""
+def _factored(a: np.ndarray, limit: float, blocks, keep: bool, columns=None) -> BlockFactors:
+    """:func:`factor_stack_blocks` of the stack ``a`` (or of its ``columns``), its factors kept or not (a scratch
+    matrix then)."""
     a = np.ascontiguousarray(a, dtype=float)
-    rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0)) if blocks is None else blocks
-    shape = a.shape if keep else (1, *a.shape[1:])
+    m = a.shape[1]
+    index = np.arange(m) if columns is None else np.arange(a.shape[2])[columns]
+    if blocks is None:
+        rows, cols, ends = diagonal_blocks(np.any(a != 0.0, axis=0)[:, index])
+    else:
+        rows, cols, ends = blocks
+    shape = (a.shape[0] if keep else 1, m, m)
     lu, piv = np.zeros(shape), np.zeros(shape[:2], np.int64)
-    singular = factor_stack_blocks(a, rows, cols, ends, limit, lu, piv, keep)
+    singular = factor_stack_blocks(a, rows, index[cols], ends, limit, lu, piv, keep)
     return BlockFactors(rows, cols, ends, lu if keep else None, piv if keep else None, singular)
 
 
@@ -134,8 +143,9 @@ def _pattern_blocks(m: int, packed: bytes) -> tuple[np.ndarray, np.ndarray, np.n
 @njit(cache=True)
 def factor_stack_blocks(a, rows, cols, ends, limit, lu, piv, keep):
     """:func:`factor_blocks` (``keep``: each matrix's factors into ``lu`` (K, m, m), ``piv`` (K, m)) or
-    :func:`first_singular` (not ``keep``: ``lu`` (1, m, m), ``piv`` (1, m) scratch) of the stack ``a`` (K, m, m),
-    block diagonal in the order ``rows``, ``cols`` (blocks ending at ``ends``). A block diagonal matrix's 1-norm is
+    :func:`first_singular` (not ``keep``: ``lu`` (1, m, m), ``piv`` (1, m) scratch) of the stack ``a`` (K, m, M)
+    — its matrices the columns ``cols`` of it —, block diagonal in the order ``rows``, ``cols`` (blocks ending at
+    ``ends``). A block diagonal matrix's 1-norm is
     the largest of its blocks', and so is its inverse's; each block's by
     :func:`~pkmlab.numerics.closed_chain.lu_factor` (a pivot below ``1e-14`` of the block's largest entry: singular)
     and its inverse's columns. A matrix with a NaN or an infinite entry is singular (its condition number is NaN, as

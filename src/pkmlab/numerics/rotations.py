@@ -1,8 +1,8 @@
 """Rotations of many vectors at once, compiled: Rodrigues' formula row by row, and the angles that undo it.
 
 What the closed-form inverse kinematics of spatial legs (:mod:`pkmlab.description.spatial_legs`) computes for every
-point of a path, and the Delta's forward kinematics for its two: on a thousand rows NumPy's temporaries cost more
-than the arithmetic. Each function works on rows
+point of a path (a universal joint's angles, a crank's), and the Delta's forward kinematics for its two: on a
+thousand rows NumPy's temporaries cost more than the arithmetic. Each function works on rows
 ``(K, 3)`` and writes into arrays its caller made; every argument an array of float64, C-ordered.
 """
 
@@ -21,16 +21,56 @@ def _wrapped(angle):
 
 
 @njit(cache=True)
-def rotate_rows(axis, angle, v, out):
-    """``out[k] = Rot(axis, angle[k]) v[k]`` (K, 3), the unit ``axis`` (3,): ``c v + s (a × v) + (1 - c)(a · v) a``."""
+def _rotated(axis, angle, x, y, z):
+    """``Rot(axis, angle) (x, y, z)`` by Rodrigues' formula, ``c v + s (a × v) + (1 - c)(a · v) a`` (unit ``axis``)."""
     a0, a1, a2 = axis[0], axis[1], axis[2]
+    c, s = math.cos(angle), math.sin(angle)
+    along = (1.0 - c) * (x * a0 + y * a1 + z * a2)
+    return c * x + s * (a1 * z - a2 * y) + along * a0, c * y + s * (a2 * x - a0 * z) + along * a1, \
+        c * z + s * (a0 * y - a1 * x) + along * a2
+
+
+@njit(cache=True)
+def rotate_rows(axis, angle, v, out):
+    """``out[k] = Rot(axis, angle[k]) v[k]`` (K, 3), the unit ``axis`` (3,) (:func:`_rotated`)."""
     for k in range(v.shape[0]):
-        c, s = math.cos(angle[k]), math.sin(angle[k])
-        x, y, z = v[k, 0], v[k, 1], v[k, 2]
-        along = (1.0 - c) * (x * a0 + y * a1 + z * a2)
-        out[k, 0] = c * x + s * (a1 * z - a2 * y) + along * a0
-        out[k, 1] = c * y + s * (a2 * x - a0 * z) + along * a1
-        out[k, 2] = c * z + s * (a0 * y - a1 * x) + along * a2
+        out[k, 0], out[k, 1], out[k, 2] = _rotated(axis, angle[k], v[k, 0], v[k, 1], v[k, 2])
+
+
+@njit(cache=True)
+def _off_line(x, y, z, point, direction):
+    """The distance of ``(x, y, z)`` from the line through ``point`` along the unit ``direction``."""
+    d0, d1, d2 = x - point[0], y - point[1], z - point[2]
+    along = d0 * direction[0] + d1 * direction[1] + d2 * direction[2]
+    e0, e1, e2 = d0 - along * direction[0], d1 - along * direction[1], d2 - along * direction[2]
+    return math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+
+
+@njit(cache=True)
+def crank_rows(axis, start, across, alpha, beta, ratio, sigma, point, direction, by_side, theta, elbow):
+    """The angle ``theta[k]`` of a crank turning about the unit ``axis`` (3,) whose tip ``elbow[k]`` (K, 3) is
+    ``start + Rot(axis, θ) across`` and solves ``α cos θ + β sin θ = γ`` (``ratio[k] = γ / √(α² + β²)``, taken
+    into [-1, 1]; NaN stays NaN). Of the two roots ``atan2(β, α) ± acos(ratio)``, each taken into (-π, π], working
+    mode ``sigma = +1`` takes the one whose tip is farther from the line through ``point`` along the unit
+    ``direction`` ("knee out"), -1 the other; where ``by_side`` (the crank's axis along that line), +1 takes the
+    first root and -1 the second."""
+    for k in range(alpha.shape[0]):
+        r = ratio[k]
+        if r > 1.0:
+            r = 1.0
+        elif r < -1.0:
+            r = -1.0
+        middle, half = math.atan2(beta[k], alpha[k]), math.acos(r)
+        first, second = _wrapped(middle + half), _wrapped(middle - half)
+        x0, y0, z0 = _rotated(axis, first, across[0], across[1], across[2])
+        x1, y1, z1 = _rotated(axis, second, across[0], across[1], across[2])
+        x0, y0, z0 = start[0] + x0, start[1] + y0, start[2] + z0
+        x1, y1, z1 = start[0] + x1, start[1] + y1, start[2] + z1
+        outer = by_side or _off_line(x0, y0, z0, point, direction) > _off_line(x1, y1, z1, point, direction)
+        if outer == (sigma > 0):
+            theta[k], elbow[k, 0], elbow[k, 1], elbow[k, 2] = first, x0, y0, z0
+        else:
+            theta[k], elbow[k, 0], elbow[k, 1], elbow[k, 2] = second, x1, y1, z1
 
 
 @njit(cache=True)

@@ -399,12 +399,13 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
 
     modes = working_modes(model) if scenario.working_mode == "auto" else [scenario.working_mode]
     # a path of one piece: each leg's branches solved once for all the modes (a long run's are not kept), and every
-    # mode's configurations at once, so that the modes are measured in the order of their sparse samples' min |S|
-    # (the likely best first: the others then stop at their sparse samples, below)
-    branches = {} if len(pieces) == 1 else None
-    solved = {mode: path_configurations(model, poses(pieces[0]), mode, follow=True, branches=branches)
-              for mode in modes} if len(pieces) == 1 else {}
-    sparse = {mode: _sparse_min(model, q) for mode, (q, _failure) in solved.items()}
+    # mode's configurations at its sparse samples first, so that the modes are measured in the order of those
+    # samples' min |S| (the likely best first: the others then stop at their sparse samples, below, and only the
+    # modes measured whole have all their configurations put together)
+    branches, path = ({}, poses(pieces[0])) if len(pieces) == 1 else (None, None)
+    solved = {mode: path_configurations(model, path, mode, follow=True, branches=branches,
+                                        rows=slice(None, None, SPARSE)) for mode in modes} if path is not None else {}
+    sparse = {mode: _sparse_min(model, q, sampled=True) for mode, (q, _failure) in solved.items()}
     order = sorted(modes, key=lambda mode: -sparse[mode]) if solved else modes
     # (mode, min |S|, its sample, max |S|, q) of the modes reaching the whole path that may still be the best: those
     # whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory). The
@@ -422,6 +423,8 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
             if (sparse[mode] if solved else _sparse_min(model, q)) < top - 1e-9:
                 dropped = True
                 break
+            if solved:  # the whole path's configurations in this mode, its legs' branches known
+                q, _failure = path_configurations(model, path, mode, follow=True, branches=branches)
             a = np.abs(configuration_measures(model, q))
             k = int(np.argmin(a))
             if a[k] < lowest:  # the first sample of the smallest |S|
@@ -457,11 +460,12 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
 SPARSE = 16
 
 
-def _sparse_min(model, q: np.ndarray) -> float:
-    """min |S| over every :data:`SPARSE`-th configuration of ``q`` (NaN where one is NaN: no bound then)."""
+def _sparse_min(model, q: np.ndarray, sampled: bool = False) -> float:
+    """min |S| over every :data:`SPARSE`-th configuration of ``q`` (``sampled``: ``q`` holds those only; NaN where
+    one is NaN: no bound then)."""
     from ..model.mechanism_model import configuration_measures
 
-    return float(np.abs(configuration_measures(model, np.ascontiguousarray(q[::SPARSE]))).min())
+    return float(np.abs(configuration_measures(model, np.ascontiguousarray(q if sampled else q[::SPARSE]))).min())
 
 
 def pose_text(pose) -> str:
