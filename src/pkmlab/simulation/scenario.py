@@ -401,12 +401,14 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
     # a path of one piece: each leg's branches solved once for all the modes (a long run's are not kept), and every
     # mode's configurations at its sparse samples first, so that the modes are measured in the order of those
     # samples' min |S| (the likely best first: the others then stop at their sparse samples, below, and only the
-    # modes measured whole have all their configurations put together)
+    # modes measured whole have all their configurations put together; a single mode's at once)
     branches, path = ({}, poses(pieces[0])) if len(pieces) == 1 else (None, None)
+    sampled = len(modes) > 1
     solved = {mode: path_configurations(model, path, mode, follow=True, branches=branches,
-                                        rows=slice(None, None, SPARSE)) for mode in modes} if path is not None else {}
-    sparse = {mode: _sparse_min(model, q, sampled=True) for mode, (q, _failure) in solved.items()}
-    order = sorted(modes, key=lambda mode: -sparse[mode]) if solved else modes
+                                        rows=slice(None, None, SPARSE) if sampled else None)
+              for mode in modes} if path is not None else {}
+    sparse = {mode: _sparse_min(model, q, sampled) for mode, (q, _failure) in solved.items()} if sampled else {}
+    order = sorted(modes, key=lambda mode: -sparse[mode]) if sparse else modes
     # (mode, min |S|, its sample, max |S|, q) of the modes reaching the whole path that may still be the best: those
     # whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory). The
     # choice is the first of them in the modes' order, whatever order they were measured in.
@@ -420,10 +422,10 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
                 break
             # min |S| of the whole path is at most that of every SPARSE-th sample (the same numbers: each sample's
             # S is its own): below the best mode's less the tie's 1e-9, the mode cannot be chosen — exact, not a guess
-            if (sparse[mode] if solved else _sparse_min(model, q)) < top - 1e-9:
+            if sampled and (sparse[mode] if solved else _sparse_min(model, q)) < top - 1e-9:
                 dropped = True
                 break
-            if solved:  # the whole path's configurations in this mode, its legs' branches known
+            if solved and sampled:  # the whole path's configurations in this mode, its legs' branches known
                 q, _failure = path_configurations(model, path, mode, follow=True, branches=branches)
             a = np.abs(configuration_measures(model, q))
             k = int(np.argmin(a))
