@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import collections
 import functools
 import json
 from pathlib import Path
@@ -185,9 +186,10 @@ def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, 
     import mujoco
 
     from pkmlab.errors import UnstableControlError
-    from pkmlab.interop import mujoco_plant
+    from pkmlab.interop import mujoco_export, mujoco_plant
 
     monkeypatch.chdir(tmp_path)  # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working folder
+    monkeypatch.setattr(mujoco_export, "_IDLE", collections.OrderedDict())  # a new MjData: none kept from a run before
     made, calls = [], {"n": 0}
     make = mujoco.MjData
     monkeypatch.setattr(mujoco, "MjData", lambda model: made.append(make(model)) or made[-1])
@@ -210,6 +212,51 @@ def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, 
     assert calls["n"] == (400 if failure == "reset" else 100)
     if failure == "reset":
         assert np.isfinite(made[-1].qvel).all()  # MuJoCo did reset the state the run would have gone on from
+
+
+def test_a_run_on_the_model_and_data_of_the_last_run_is_the_same_run(monkeypatch):
+    """The MuJoCo plant keeps a finished run's model and data for the next run of the same machine from the same
+    start with the same options (pkmlab.interop.mujoco_export.pooled_mujoco), its data reset to the keyframe: the next
+    run is the same, bit for bit, as on new ones — after a run with noisy, delayed sensors on them, after one with
+    other closures, and after one that MuJoCo's integration ended."""
+    import ctypes
+
+    import mujoco
+
+    from pkmlab.errors import UnstableControlError
+    from pkmlab.interop import mujoco_export, mujoco_plant
+
+    monkeypatch.setattr(mujoco_export, "_IDLE", collections.OrderedDict())
+    made, steps = [], []
+    make = mujoco.MjData
+    monkeypatch.setattr(mujoco, "MjData", lambda model: made.append(make(model)) or made[-1])
+    scenario = paper_scenario("nominal")
+    first = simulate_mujoco(scenario)
+    assert len(made) == 1
+    signature = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
+    step = signature(mujoco_plant._step_address(mujoco))
+
+    @signature
+    def failing(model, data):  # MuJoCo's step, then the kept data's state made not finite at the 100th
+        step(model, data)
+        steps.append(1)
+        if len(steps) == 100:
+            made[0].qvel[0] = np.nan
+
+    def failed_run():
+        with monkeypatch.context() as patch:
+            patch.setattr(mujoco_plant, "_step_address", lambda _mujoco: ctypes.cast(failing, ctypes.c_void_p).value)
+            with pytest.raises(UnstableControlError, match="MuJoCo's integration failed"):
+                simulate_mujoco(scenario)
+
+    noisy = scenario.replace(sensors=Sensors(resolution=2 * np.pi / 2**12, delay=2, noise=1e-4))
+    for before in (lambda: simulate_mujoco(noisy), lambda: simulate_mujoco(scenario, closures="soft"), failed_run):
+        before()
+        again = simulate_mujoco(scenario)
+        assert all(np.array_equal(getattr(again, f), getattr(first, f)) for f in ("q", "theta_dot", "tau",
+                                                                                  "closure_violation"))
+    assert len(made) == 2 and len(steps) == 100  # the first run's data (the failed run's too), the soft closures'
+    assert len(mujoco_export._IDLE) == 2
 
 
 def test_the_loop_measures_the_loop_closures_as_mujocos_constraints_do():

@@ -46,9 +46,12 @@ optional dependency (``pip install pkmlab[mujoco]``): this module writes the tex
 
 from __future__ import annotations
 
+import collections
+import contextlib
 import copy
 import functools
 import math
+import threading
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -546,10 +549,8 @@ def load_mujoco(model, q=None, **options):
     except ImportError:
         raise PkmlabError("MuJoCo is not installed: pip install 'pkmlab[mujoco]' (or pip install mujoco)") from None
     q = None if q is None else np.asarray(q, dtype=float)
-    key = (model, None if q is None else (q.shape, q.tobytes()), tuple(sorted(options.items())))
-    try:
-        hash(key)
-    except TypeError:  # an option given as a list: not kept
+    key = _key(model, q, options)
+    if key is None:  # an option given as a list: not kept
         mj_model = mujoco.MjModel.from_xml_string(mjcf(model, q, **options))
     else:
         mj_model = copy.copy(_compiled(key))  # (a copy: the caller may change it)
@@ -557,6 +558,54 @@ def load_mujoco(model, q=None, **options):
     mujoco.mj_resetDataKeyframe(mj_model, data, 0)
     mujoco.mj_forward(mj_model, data)
     return mj_model, data
+
+
+def _key(model, q, options: dict):
+    """The key of :func:`load_mujoco`'s arguments: ``(model, q's shape and bytes or None, the options)``, None where an
+    option cannot be hashed."""
+    key = (model, None if q is None else (q.shape, q.tobytes()), tuple(sorted(options.items())))
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
+
+
+#: Finished runs' models and data (:func:`pooled_mujoco`), by :func:`load_mujoco`'s key: at most
+#: :data:`IDLE_KEPT` keys, the least recently used dropped first.
+_IDLE: collections.OrderedDict = collections.OrderedDict()
+_IDLE_LOCK = threading.Lock()
+IDLE_KEPT = 4
+
+
+@contextlib.contextmanager
+def pooled_mujoco(model, q=None, **options):
+    """:func:`load_mujoco` for a run that gives its ``(MjModel, MjData)`` back when it ends: the next run of the same
+    machine from the same configuration with the same options takes them, the data reset to the keyframe — the state
+    a new ``MjData`` starts in (:func:`mujoco.mj_resetDataKeyframe`, then ``mj_forward``) — instead of new ones. A
+    new ``MjData`` costs about 0.7 ms (MuJoCo maps its arena, 14 MB for the Delta), a copy of the compiled model 0.4,
+    a reset 0.05: a millisecond of a run of a thousand steps. One run uses a pair at a time (threads included)."""
+    import mujoco
+
+    q = None if q is None else np.asarray(q, dtype=float)
+    key = _key(model, q, options)
+    pair = None
+    if key is not None:
+        with _IDLE_LOCK:
+            pair = _IDLE.pop(key, None)
+    if pair is None:
+        pair = load_mujoco(model, q, **options)
+    else:
+        mujoco.mj_resetDataKeyframe(pair[0], pair[1], 0)
+        mujoco.mj_forward(pair[0], pair[1])
+    try:
+        yield pair
+    finally:
+        if key is not None:
+            with _IDLE_LOCK:
+                _IDLE[key] = pair
+                while len(_IDLE) > IDLE_KEPT:
+                    _IDLE.popitem(last=False)
 
 
 @functools.lru_cache(maxsize=8)

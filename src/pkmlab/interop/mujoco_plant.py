@@ -92,46 +92,47 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     prep = prepare_run(scenario)
     ctrl, plant = scenario.model, scenario.plant_model
     q_ctrl = prep.q_ctrl0.copy()
-    model, data = mx.load_mujoco(plant, prep.q_plant0, timestep=step, integrator=integrator, closures=closures,
-                                 drives=scenario.drives)
-    n, count, r = ctrl.n_actuators, prep.t.size, prep.realism
-    qpos, qvel = np.zeros((count, model.nq)), np.zeros((count, model.nv))
-    tau, violation = np.zeros((count, n)), np.zeros(count)
-    readings = count if r.sensing >= 0 else 0  # rows of the controller's readings (none: it reads the state)
-    theta_m, theta_dot_m = np.zeros((readings, n)), np.zeros((readings, n))
-    native = (_step_address(mujoco), model._address, data._address, steps)
-    # the warnings of a state MuJoCo found bad and reset
-    bad = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{what}")) for what in ("QPOS", "QVEL", "QACC")])
-    desired = tuple(np.ascontiguousarray(a) for a in loop_motion(ctrl, prep.desired))
-    closures_measured = _closure_rows(mujoco, model)
+    # (the model and data of the last run of this machine from this start, reset, where there is one)
+    with mx.pooled_mujoco(plant, prep.q_plant0, timestep=step, integrator=integrator, closures=closures,
+                          drives=scenario.drives) as (model, data):
+        n, count, r = ctrl.n_actuators, prep.t.size, prep.realism
+        qpos, qvel = np.zeros((count, model.nq)), np.zeros((count, model.nv))
+        tau, violation = np.zeros((count, n)), np.zeros(count)
+        readings = count if r.sensing >= 0 else 0  # rows of the controller's readings (none: it reads the state)
+        theta_m, theta_dot_m = np.zeros((readings, n)), np.zeros((readings, n))
+        native = (_step_address(mujoco), model._address, data._address, steps)
+        # the warnings of a state MuJoCo found bad and reset
+        bad = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{what}")) for what in ("QPOS", "QVEL", "QACC")])
+        desired = tuple(np.ascontiguousarray(a) for a in loop_motion(ctrl, prep.desired))
+        closures_measured = _closure_rows(mujoco, model)
 
-    def samples(k0, k1, x, state_map):  # the compiled loop over samples k0 to k1 - 1 (its docstring)
-        return ctrl.kernels.native_plant_samples(
-            k0, k1, ts, x, native, data.qpos, data.qvel, data.ctrl, data.warning.number, bad, data.site_xpos,
-            data.ten_length, state_map, *closures_measured, q_ctrl, prep.kind, prep.kp, prep.kv,
-            prep.distribution, *desired, ctrl.P, prep.singularity_guard, r.drive, r.ctrl_drive, r.effort_noise,
-            r.resolution, r.theta_noise, r.sensing, r.delay, theta_m, theta_dot_m, qpos, qvel, tau, violation)
+        def samples(k0, k1, x, state_map):  # the compiled loop over samples k0 to k1 - 1 (its docstring)
+            return ctrl.kernels.native_plant_samples(
+                k0, k1, ts, x, native, data.qpos, data.qvel, data.ctrl, data.warning.number, bad, data.site_xpos,
+                data.ten_length, state_map, *closures_measured, q_ctrl, prep.kind, prep.kp, prep.kv,
+                prep.distribution, *desired, ctrl.P, prep.singularity_guard, r.drive, r.ctrl_drive, r.effort_noise,
+                r.resolution, r.theta_noise, r.sensing, r.delay, theta_m, theta_dot_m, qpos, qvel, tau, violation)
 
-    state_map = mx.independent_map(plant, model.nq, model.nv)
-    # the compiled loop reads and writes MuJoCo's arrays by these sizes
-    if (data.ctrl.size, data.qpos.size, data.qvel.size) != (n, model.nq, model.nv) or (
-            state_map is not None and (state_map[0].shape[1], state_map[2].shape[1]) != (model.nq, model.nv)):
-        raise PkmlabError(f"the exported MuJoCo model of {plant.name} does not have the sizes of pkmlab's map of its "
-                          "coordinates: please report this")
-    if state_map is not None:
-        for k0 in range(0, count, SAMPLES_PER_CALL):  # (Ctrl-C is seen between calls)
-            status, k = samples(k0, min(count, k0 + SAMPLES_PER_CALL), np.zeros(0), state_map)
-            if status != ctrl.kernels.OK:
-                break
-    else:  # a redundantly actuated six-DOF platform's pose, from its quaternion here at each sample
-        independent, read = list(ctrl.kernels.INDEPENDENT), (np.zeros((0, model.nq)), np.zeros(0),
-                                                              np.zeros((0, model.nv)))
-        for k in range(count):
-            q_k = mx.q_from_qpos(plant, data.qpos)
-            x = np.concatenate([q_k[independent], mx.q_dot_from_qvel(plant, q_k, data.qvel)[independent]])
-            status, _ = samples(k, k + 1, x, read)
-            if status != ctrl.kernels.OK:
-                break
+        state_map = mx.independent_map(plant, model.nq, model.nv)
+        # the compiled loop reads and writes MuJoCo's arrays by these sizes
+        if (data.ctrl.size, data.qpos.size, data.qvel.size) != (n, model.nq, model.nv) or (
+                state_map is not None and (state_map[0].shape[1], state_map[2].shape[1]) != (model.nq, model.nv)):
+            raise PkmlabError(f"the exported MuJoCo model of {plant.name} does not have the sizes of pkmlab's map of "
+                              "its coordinates: please report this")
+        if state_map is not None:
+            for k0 in range(0, count, SAMPLES_PER_CALL):  # (Ctrl-C is seen between calls)
+                status, k = samples(k0, min(count, k0 + SAMPLES_PER_CALL), np.zeros(0), state_map)
+                if status != ctrl.kernels.OK:
+                    break
+        else:  # a redundantly actuated six-DOF platform's pose, from its quaternion here at each sample
+            independent, read = list(ctrl.kernels.INDEPENDENT), (np.zeros((0, model.nq)), np.zeros(0),
+                                                                  np.zeros((0, model.nv)))
+            for k in range(count):
+                q_k = mx.q_from_qpos(plant, data.qpos)
+                x = np.concatenate([q_k[independent], mx.q_dot_from_qvel(plant, q_k, data.qvel)[independent]])
+                status, _ = samples(k, k + 1, x, read)
+                if status != ctrl.kernels.OK:
+                    break
     if status == ctrl.kernels.PLANT_FAILED:
         raise UnstableControlError(f"MuJoCo's integration failed between t = {prep.t[k]:.4f} and "
                                    f"{prep.t[k + 1]:.4f} s (a state not finite, or one MuJoCo found bad and reset): "
