@@ -364,6 +364,29 @@ def test_the_working_mode_is_the_one_every_modes_whole_path_gives(name):
     assert best_working_mode(scenario, t, pose, piece=97)[:2] == (expected, lowest[expected])
 
 
+@pytest.mark.parametrize("name", ["paper", "delta_pick_and_place.toml"])
+def test_the_configurations_of_some_poses_are_those_rows_of_every_poses(name):
+    """Inverse kinematics asked for some rows of a path (the working mode's choice measures every 16th sample first)
+    gives those rows of the whole path's configurations bit for bit, NaN where a leg cannot reach, and the whole
+    path's failures: a pose out of reach among the rows not asked for is still the first failure."""
+    from pkmlab.simulation.run import sample_times
+
+    scenario = paper_scenario("nominal") if name == "paper" else load_scenario(
+        Path(__file__).parents[1] / "examples" / name)
+    model, t = scenario.model, sample_times(scenario)
+    pose = np.asarray(scenario.trajectory.desired(t)[0], dtype=float)[:, :model.dof]
+    pose = np.ascontiguousarray(np.insert(pose, [5, 31], pose[[5, 31]] + 10.0, axis=0))  # out of reach: rows 5, 32
+    rows = slice(None, None, 16)
+    for mode in mm.working_modes(model):
+        q, unreachable, first = mm.inverse_kinematics_batch(model, pose, mode, follow=True)
+        some, some_unreachable, some_first = mm.inverse_kinematics_batch(model, pose, mode, follow=True,
+                                                                         branches={}, rows=rows)
+        np.testing.assert_array_equal(some, q[rows])
+        assert np.isnan(some[2]).all() and not np.isnan(some[1]).any()  # row 32 asked for (the third), row 5 not
+        np.testing.assert_array_equal(some_unreachable, unreachable)
+        assert some_first[:2] == first[:2] == (5, first[1])
+
+
 def test_a_working_mode_spelt_with_floats_is_kept_as_ints():
     data = {"mechanism": {"preset": "five_bar"}, "simulation": {"working_mode": [1.0, -1.0]},
             "trajectory": {"type": "circle", "center": [0.0, 0.35], "radius": 0.06, "speed": 0.3}}

@@ -73,7 +73,11 @@ def test_the_crank_takes_the_root_of_its_working_mode(sigma):
     theta, elbow = np.empty(K), np.empty((K, 3))
     crank_rows(axis, start, across, alpha, beta, ratio, sigma, point, direction, False, theta, elbow)
     reach = np.abs(ratio) <= 1
-    assert np.isnan(theta[2]) and np.all(np.isfinite(theta[:2])) and np.all(np.abs(theta[:2]) <= np.pi)
+    assert np.isnan(theta[2]) and np.isnan(elbow[2]).all()
+    # out of reach, the nearest angle: the double root of ratio ±1, atan2(β, α) and the opposite direction
+    nearest = np.arctan2(beta[:2], alpha[:2]) + np.array([0.0, np.pi])
+    assert np.allclose(np.angle(np.exp(1j * (theta[:2] - nearest))), 0.0, atol=1e-12)
+    assert np.all(np.abs(theta[:2]) <= np.pi)
     solved = ~np.isnan(theta)
     tips = start + _turned(axis, theta[solved], np.tile(across, (solved.sum(), 1)))
     assert np.allclose(elbow[solved], tips, rtol=0, atol=1e-13)

@@ -583,8 +583,10 @@ def pooled_mujoco(model, q=None, **options):
     """:func:`load_mujoco` for a run that gives its ``(MjModel, MjData)`` back when it ends: the next run of the same
     machine from the same configuration with the same options takes them, the data reset to the keyframe — the state
     a new ``MjData`` starts in (:func:`mujoco.mj_resetDataKeyframe`, then ``mj_forward``) — instead of new ones. A
-    new ``MjData`` costs about 0.7 ms (MuJoCo maps its arena, 14 MB for the Delta), a copy of the compiled model 0.4,
-    a reset 0.05: a millisecond of a run of a thousand steps. One run uses a pair at a time (threads included)."""
+    new ``MjData`` costs about 0.7 ms (MuJoCo maps its arena, 14 MB of address space for the Delta), a copy of the
+    compiled model 0.4, a reset 0.05: a millisecond of a run of a thousand steps. One run uses a pair at a time
+    (threads included). The block must not change the model (the next run would inherit the change: take
+    :func:`load_mujoco`'s own copy for that), nor keep the data past its end (the next run's)."""
     import mujoco
 
     q = None if q is None else np.asarray(q, dtype=float)
@@ -604,6 +606,7 @@ def pooled_mujoco(model, q=None, **options):
         if key is not None:
             with _IDLE_LOCK:
                 _IDLE[key] = pair
+                _IDLE.move_to_end(key)
                 while len(_IDLE) > IDLE_KEPT:
                     _IDLE.popitem(last=False)
 

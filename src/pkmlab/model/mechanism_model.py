@@ -610,7 +610,7 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
             first = (first_failure[0], 0, first_failure[1])
     # C order whatever the columns' (a lower-mobility platform's pose columns may be in Fortran order): the kernels
     # are compiled for one layout of q
-    if rows is not None and not _orientation_rows(m):  # the other poses' configurations are not needed
+    if rows is not None and not checks_platform_joints(model):  # the other poses' configurations are not needed
         q = np.ascontiguousarray(np.column_stack([column[rows] for column in (*actuators, *passive, q_pose)]))
         q[unreachable[rows] != 0] = np.nan
         return q, unreachable, first
@@ -624,13 +624,15 @@ def inverse_kinematics_batch(model: MechanismModel, poses: np.ndarray, mode, fol
     return (q, unreachable, first) if rows is None else (np.ascontiguousarray(q[rows]), unreachable, first)
 
 
-def _orientation_rows(description) -> bool:
-    """Whether some leg ends in a joint whose orientation :func:`_platform_joint_misses` checks."""
-    if not getattr(description, "spatial", False):
+def checks_platform_joints(model: MechanismModel) -> bool:
+    """Whether the inverse kinematics of a pose checks that a leg's platform joint can carry the platform (a leg
+    ending in a universal or revolute joint under a rigid platform, :func:`_platform_joint_misses`): a path's
+    configurations are then put together whole, whatever rows are asked for."""
+    if not getattr(model.description, "spatial", False):
         return False
     from ..description import mobility
 
-    return bool(mobility.all_orientation_rows(description))
+    return bool(mobility.all_orientation_rows(model.description))
 
 
 #: Largest orientation row (rad) of a configuration inverse kinematics gives: a leg's platform joint that misses by
@@ -645,13 +647,11 @@ def _platform_joint_misses(model: MechanismModel, q: np.ndarray, unreachable: np
     mask per configuration, and the first ``(k, leg, message)``; None when every one can (or the machine has no
     such rows)."""
     m = model.description
-    if not getattr(m, "spatial", False):
+    if not checks_platform_joints(model):
         return None
     from ..description import mobility
 
     orient = mobility.all_orientation_rows(m)
-    if not orient:
-        return None
     placed = np.flatnonzero(unreachable == 0)
     rows = np.abs(mobility.orientation_residuals(m, _description_coordinates(model, q[placed])))
     missed, first = np.zeros(len(q), dtype=np.int64), None
@@ -855,9 +855,10 @@ def path_rates(model: MechanismModel, q, pose_dot, pose_ddot) -> tuple[np.ndarra
         qc = np.ascontiguousarray(q[rows])
         j_eta, gamma = np.empty((len(qc), k_.N_CONSTRAINTS, N)), np.empty((len(qc), k_.N_CONSTRAINTS))
         k_.constraint_jacobians(qc, model.P, j_eta)
-        a, b = j_eta[:, :, others], j_eta[:, :, pose]
+        b = j_eta[:, :, pose]
         # each leg's loop closures alone, factored once for the check and the solves (read in j_eta: no copy)
         factors = factor_blocks(j_eta, columns=others)
+        a = j_eta[:, :, others] if factors.lu is None else None  # the matrices, for NumPy's solve of small ones
         if factors.singular >= 0:
             return np.empty((count, n)), np.empty((count, n)), start + factors.singular
         q_dot, q_ddot = np.empty((len(qc), N)), np.empty((len(qc), N))

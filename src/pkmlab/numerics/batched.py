@@ -59,7 +59,7 @@ def factor_blocks(a: np.ndarray, limit: float = CONDITION_LIMIT, blocks=None, co
     """:func:`first_singular` of the stack ``a`` (K, m, m), and the LU factors of each matrix's diagonal blocks up to
     that one, for :func:`solve_factored_blocks`: one factorization of a path's Jacobians for its singularity check
     and every right-hand side after it (kept from :data:`BLOCK_SOLVE_FROM` coordinates, where the solve uses them).
-    ``blocks``: :func:`diagonal_blocks` of ``a``'s pattern, where the caller has them. ``columns`` (m,): the
+    ``blocks``: :func:`diagonal_blocks` of the matrices' pattern, where the caller has them. ``columns`` (m,): the
     matrices are these columns of ``a`` (K, m, M), read in place (a path's Jacobians of all its coordinates, of
     which the solves need some: no copy of them).
 
@@ -87,10 +87,10 @@ def _factored(a: np.ndarray, limit: float, blocks, keep: bool, columns=None) -> 
     return BlockFactors(rows, cols, ends, lu if keep else None, piv if keep else None, singular)
 
 
-def solve_factored_blocks(factors: BlockFactors, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def solve_factored_blocks(factors: BlockFactors, a: np.ndarray | None, b: np.ndarray) -> np.ndarray:
     """``x`` (K, m) with ``a x = b`` for each matrix of the stack ``a`` (K, m, m) factored by :func:`factor_blocks`
-    (none singular) and ``b`` (K, m): with the blocks' factors from :data:`BLOCK_SOLVE_FROM` coordinates, by NumPy's
-    solve of the whole matrices below it."""
+    (none singular) and ``b`` (K, m): with the blocks' factors from :data:`BLOCK_SOLVE_FROM` coordinates (``a`` is
+    not read: None will do), by NumPy's solve of the whole matrices below it."""
     if factors.singular >= 0:
         raise ValueError(f"matrix {factors.singular} of the stack is singular: no solution")
     if factors.lu is None:

@@ -21,13 +21,25 @@ def _wrapped(angle):
 
 
 @njit(cache=True)
+def _roots(alpha, beta, ratio):
+    """The two roots ``atan2(β, α) ± acos(ratio)`` of ``α cos θ + β sin θ = γ`` (``ratio = γ / √(α² + β²)``, taken
+    into [-1, 1]: the nearest angle where none reaches; NaN stays NaN), each taken into (-π, π]."""
+    if ratio > 1.0:
+        ratio = 1.0
+    elif ratio < -1.0:
+        ratio = -1.0
+    middle, half = math.atan2(beta, alpha), math.acos(ratio)
+    return _wrapped(middle + half), _wrapped(middle - half)
+
+
+@njit(cache=True)
 def _rotated(axis, angle, x, y, z):
     """``Rot(axis, angle) (x, y, z)`` by Rodrigues' formula, ``c v + s (a × v) + (1 - c)(a · v) a`` (unit ``axis``)."""
     a0, a1, a2 = axis[0], axis[1], axis[2]
     c, s = math.cos(angle), math.sin(angle)
     along = (1.0 - c) * (x * a0 + y * a1 + z * a2)
-    return c * x + s * (a1 * z - a2 * y) + along * a0, c * y + s * (a2 * x - a0 * z) + along * a1, \
-        c * z + s * (a0 * y - a1 * x) + along * a2
+    return (c * x + s * (a1 * z - a2 * y) + along * a0, c * y + s * (a2 * x - a0 * z) + along * a1,
+            c * z + s * (a0 * y - a1 * x) + along * a2)
 
 
 @njit(cache=True)
@@ -49,19 +61,12 @@ def _off_line(x, y, z, point, direction):
 @njit(cache=True)
 def crank_rows(axis, start, across, alpha, beta, ratio, sigma, point, direction, by_side, theta, elbow):
     """The angle ``theta[k]`` of a crank turning about the unit ``axis`` (3,) whose tip ``elbow[k]`` (K, 3) is
-    ``start + Rot(axis, θ) across`` and solves ``α cos θ + β sin θ = γ`` (``ratio[k] = γ / √(α² + β²)``, taken
-    into [-1, 1]; NaN stays NaN). Of the two roots ``atan2(β, α) ± acos(ratio)``, each taken into (-π, π], working
-    mode ``sigma = +1`` takes the one whose tip is farther from the line through ``point`` along the unit
-    ``direction`` ("knee out"), -1 the other; where ``by_side`` (the crank's axis along that line), +1 takes the
-    first root and -1 the second."""
+    ``start + Rot(axis, θ) across`` and solves ``α cos θ + β sin θ = γ`` (``ratio[k] = γ / √(α² + β²)``). Of its two
+    roots (:func:`_roots`), working mode ``sigma = +1`` takes the one whose tip is farther from the line through
+    ``point`` along the unit ``direction`` ("knee out"), -1 the other; where ``by_side`` (the crank's axis along
+    that line), +1 takes the first root, ``atan2(β, α) + acos(ratio)``, and -1 the second."""
     for k in range(alpha.shape[0]):
-        r = ratio[k]
-        if r > 1.0:
-            r = 1.0
-        elif r < -1.0:
-            r = -1.0
-        middle, half = math.atan2(beta[k], alpha[k]), math.acos(r)
-        first, second = _wrapped(middle + half), _wrapped(middle - half)
+        first, second = _roots(alpha[k], beta[k], ratio[k])
         x0, y0, z0 = _rotated(axis, first, across[0], across[1], across[2])
         x1, y1, z1 = _rotated(axis, second, across[0], across[1], across[2])
         x0, y0, z0 = start[0] + x0, start[1] + y0, start[2] + z0
@@ -90,19 +95,16 @@ def universal_rows(a1, a2, tip, v, q1, q2, bad, turned):
     """The angles ``q1[k], q2[k]`` of a universal joint of perpendicular unit axes ``a1``, ``a2`` (3,) with
     ``Rot(a1, q1) Rot(a2, q2) tip[k] = v[k]`` (K, 3; ``v`` of the tip's length), ``bad[k]`` where no angle does it;
     ``turned`` (K, 3) is scratch. The first turn keeps the ``a1`` component, so
-    ``a1 · Rot(a2, q2) tip = a1 · v``: ``α cos q2 + β sin q2 = γ``, of the root nearer zero; then ``q1`` turns
-    ``Rot(a2, q2) tip`` onto ``v`` about ``a1``."""
+    ``a1 · Rot(a2, q2) tip = a1 · v``: ``α cos q2 + β sin q2 = γ``, of its roots (:func:`_roots`) the one nearer
+    zero; then ``q1`` turns ``Rot(a2, q2) tip`` onto ``v`` about ``a1``."""
     for k in range(v.shape[0]):
         t0, t1, t2 = tip[k, 0], tip[k, 1], tip[k, 2]
         alpha = t0 * a1[0] + t1 * a1[1] + t2 * a1[2]
         beta = (a2[1] * t2 - a2[2] * t1) * a1[0] + (a2[2] * t0 - a2[0] * t2) * a1[1] + (a2[0] * t1 - a2[1] * t0) * a1[2]
         gamma = v[k, 0] * a1[0] + v[k, 1] * a1[1] + v[k, 2] * a1[2]
         rho = math.hypot(alpha, beta)
-        ratio = gamma / rho if rho > 0 else 0.0
         bad[k] = abs(gamma) > rho * (1 + 1e-12)
-        ratio = min(max(ratio, -1.0), 1.0)
-        centre, half = math.atan2(beta, alpha), math.acos(ratio)
-        first, second = _wrapped(centre + half), _wrapped(centre - half)
+        first, second = _roots(alpha, beta, gamma / rho if rho > 0 else 0.0)
         q2[k] = first if abs(first) <= abs(second) else second
     rotate_rows(a2, q2, tip, turned)
     turn_onto_rows(a1, turned, v, q1)

@@ -386,7 +386,12 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
     ``pose`` may instead be a function of a slice of the samples that returns their poses: the path is then taken
     ``piece`` samples at a time and none of it is kept (a long run's memory), and the inverse kinematics returned
     is None unless the path is one piece."""
-    from ..model.mechanism_model import configuration_measures, path_configurations, working_modes
+    from ..model.mechanism_model import (
+        checks_platform_joints,
+        configuration_measures,
+        path_configurations,
+        working_modes,
+    )
 
     model = scenario.model
     count = t.size
@@ -401,13 +406,15 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
     # a path of one piece: each leg's branches solved once for all the modes (a long run's are not kept), and every
     # mode's configurations at its sparse samples first, so that the modes are measured in the order of those
     # samples' min |S| (the likely best first: the others then stop at their sparse samples, below, and only the
-    # modes measured whole have all their configurations put together; a single mode's at once)
+    # modes measured whole have all their configurations put together; a single mode's at once, and every mode's of a
+    # machine whose inverse kinematics checks its platform joints on the whole path anyway)
     branches, path = ({}, poses(pieces[0])) if len(pieces) == 1 else (None, None)
-    sampled = len(modes) > 1
+    sampled = len(modes) > 1 and not checks_platform_joints(model)
     solved = {mode: path_configurations(model, path, mode, follow=True, branches=branches,
                                         rows=slice(None, None, SPARSE) if sampled else None)
               for mode in modes} if path is not None else {}
-    sparse = {mode: _sparse_min(model, q, sampled) for mode, (q, _failure) in solved.items()} if sampled else {}
+    # (q of the sparse samples only, or of the whole path)
+    sparse = {mode: _min_measure(model, q if sampled else q[::SPARSE]) for mode, (q, _failure) in solved.items()}
     order = sorted(modes, key=lambda mode: -sparse[mode]) if sparse else modes
     # (mode, min |S|, its sample, max |S|, q) of the modes reaching the whole path that may still be the best: those
     # whose min |S| is within 1e-9 of the largest; the others' paths are dropped at once (a long run's memory). The
@@ -422,7 +429,7 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
                 break
             # min |S| of the whole path is at most that of every SPARSE-th sample (the same numbers: each sample's
             # S is its own): below the best mode's less the tie's 1e-9, the mode cannot be chosen — exact, not a guess
-            if sampled and (sparse[mode] if solved else _sparse_min(model, q)) < top - 1e-9:
+            if (sparse[mode] if solved else _min_measure(model, q[::SPARSE])) < top - 1e-9:
                 dropped = True
                 break
             if solved and sampled:  # the whole path's configurations in this mode, its legs' branches known
@@ -462,12 +469,12 @@ def best_working_mode(scenario: Scenario, t: np.ndarray, pose, piece: int | None
 SPARSE = 16
 
 
-def _sparse_min(model, q: np.ndarray, sampled: bool = False) -> float:
-    """min |S| over every :data:`SPARSE`-th configuration of ``q`` (``sampled``: ``q`` holds those only; NaN where
-    one is NaN: no bound then)."""
+def _min_measure(model, q: np.ndarray) -> float:
+    """min |S| over the configurations ``q`` (a path's every :data:`SPARSE`-th; NaN where one is NaN: no bound
+    then)."""
     from ..model.mechanism_model import configuration_measures
 
-    return float(np.abs(configuration_measures(model, np.ascontiguousarray(q if sampled else q[::SPARSE]))).min())
+    return float(np.abs(configuration_measures(model, np.ascontiguousarray(q))).min())
 
 
 def pose_text(pose) -> str:
