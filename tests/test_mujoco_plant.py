@@ -259,6 +259,37 @@ def test_a_run_on_the_model_and_data_of_the_last_run_is_the_same_run(monkeypatch
     assert len(mujoco_export._IDLE) == 2
 
 
+@pytest.mark.parametrize("name", ["nominal", "delta"])
+def test_the_controller_that_keeps_its_models_base_computes_the_efforts_of_one_that_starts_afresh(name):
+    """The MuJoCo plant's compiled loop keeps the controller's workspace from sample to sample and follows the
+    measurement from the base it left there, its factors and S reused (_control_effort_from). The controller called
+    afresh at each sample — a new workspace, its base set from the last configuration and followed in sub-steps
+    (measured_control_effort) — computes the same efforts from the run's recorded states, to round-off."""
+    from pkmlab.simulation.run import loop_motion, prepare_run
+
+    scenario = RUNS[name]()
+    run = _runs(name)[1]["stiff"]
+    ctrl = scenario.model
+    k_, prep = ctrl.kernels, prepare_run(scenario)
+    r = prep.realism
+    desired = loop_motion(ctrl, prep.desired)
+    columns = list(k_.INDEPENDENT)
+    q_base, q_out = prep.q_ctrl0.copy(), np.empty(prep.q_ctrl0.size)
+    tau, applied, none = np.empty(ctrl.n_actuators), np.empty(ctrl.n_actuators), np.zeros((0, ctrl.n_actuators))
+    afresh = np.empty_like(run.tau)
+    for k in range(run.t.size):
+        x = np.concatenate([run.q[k, columns], run.theta_dot[k]])
+        status = k_.measured_control_effort(k, scenario.sample_time, x, q_base, prep.kind, prep.kp, prep.kv,
+                                            prep.distribution, *(a[k] for a in desired), ctrl.P,
+                                            prep.singularity_guard, r.drive, r.ctrl_drive, r.effort_noise,
+                                            r.resolution, r.theta_noise, r.sensing, r.delay, none, none, q_out, tau,
+                                            applied)
+        assert status == k_.OK
+        afresh[k], q_base = tau, q_out.copy()
+    scale = np.abs(afresh).max()
+    assert np.abs(run.tau - afresh).max() < 1e-12 * scale
+
+
 def test_the_loop_measures_the_loop_closures_as_mujocos_constraints_do():
     """The compiled loop measures MuJoCo's loop-closure violation from the sites and tendons of the exported
     model's equality constraints (connects between two sites, as the next test checks on a run; and a tendon held

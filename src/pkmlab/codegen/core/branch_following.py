@@ -464,6 +464,18 @@ def set_base(ws, q, P):
     ws.base_factored[0] = 0
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def is_base(ws, q):
+    """Whether ``q`` is the workspace's base, bit for bit, with its factors kept (:func:`keep_base_factors`): branch
+    following from ``q`` may then start from the base as it is."""
+    if ws.base_factored[0] == 0:
+        return False
+    for i in range(N_COORDINATES):
+        if ws.q[BASE, i] != q[i]:
+            return False
+    return True
+
+
 @njit(**NO_REFCOUNT_PYTHON)
 def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step):
     """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take

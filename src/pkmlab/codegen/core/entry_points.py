@@ -23,10 +23,10 @@ if TYPE_CHECKING:  # defined in the generated module before this text
         trig,
     )
 
-    from .branch_following import follow_branch_in_steps, singularity_measure
+    from .branch_following import accept_trial, follow_branch, follow_branch_in_steps, is_base, singularity_measure
     from .control import computed_torque, control_effort, distributed_pd
     from .loop import compensate_drives, drive_effort, measure, plant_stage
-    from .workspace import BASE, IDEAL_SENSORS, OK, PLANT_FAILED, REDUNDANT, make_workspaces
+    from .workspace import BASE, IDEAL_SENSORS, NOT_CONVERGED, OK, PLANT_FAILED, REDUNDANT, make_workspaces
 
 # ==== TEMPLATE
 @njit(cache=True)
@@ -101,15 +101,25 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive,
 def _control_effort_from(workspaces, q_base, kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d,
                          theta_ddot_d, P, singularity_guard, q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its configuration
-    at the measured ``theta`` into ``q_out``. Returns the status."""
+    at the measured ``theta`` into ``q_out``. Returns the status.
+
+    A workspace whose base is ``q_base`` and factored (the last call's, handed on by a caller that keeps it) is
+    followed from as :func:`control_effort` follows it — the base's factors, ``S`` and trigonometry reused — and in
+    sub-steps only where that one step fails."""
     ws = workspaces[0]
     if kind == 1 and not REDUNDANT:  # PD: no model to move
         for i in range(N_COORDINATES):
             q_out[i] = q_base[i]
         return control_effort(kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
                               singularity_guard, ws, tau)
-    # computed torque: the model follows the measurement, in sub-steps where needed
-    status = follow_branch_in_steps(ws, q_base, theta, P, singularity_guard, np.inf)
+    # computed torque: the model follows the measurement, in one step from a kept base, else in sub-steps
+    status = NOT_CONVERGED
+    if is_base(ws, q_base):
+        status = follow_branch(ws, theta, P, singularity_guard)
+        if status == OK:
+            accept_trial(ws)
+    if status != OK:
+        status = follow_branch_in_steps(ws, q_base, theta, P, singularity_guard, np.inf)
     if status == OK and kind == 0:
         status = computed_torque(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws,
                                  tau)
