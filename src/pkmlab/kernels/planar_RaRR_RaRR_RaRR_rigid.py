@@ -1241,6 +1241,18 @@ def set_base(ws, q, P):
     ws.base_factored[0] = 0
 
 
+@njit(**NO_REFCOUNT_INLINE)
+def is_base(ws, q):
+    """Whether ``q`` is the workspace's base, bit for bit, with its factors kept (:func:`keep_base_factors`): branch
+    following from ``q`` may then start from the base as it is."""
+    if ws.base_factored[0] == 0:
+        return False
+    for i in range(N_COORDINATES):
+        if ws.q[BASE, i] != q[i]:
+            return False
+    return True
+
+
 @njit(**NO_REFCOUNT_PYTHON)
 def follow_branch_in_steps(ws, q_previous, theta, P, singularity_guard, max_step):
     """Branch following (paper §3.2) from ``q_previous`` to the actuators ``theta`` for callers that may take
@@ -2176,15 +2188,25 @@ def _actuator_space_rhs(workspaces, q_base, y, tau, P, singularity_guard, drive,
 def _control_effort_from(workspaces, q_base, kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d,
                          theta_ddot_d, P, singularity_guard, q_out, tau):
     """:func:`control_effort` with the controller's model at ``q_base`` before the measurement; its configuration
-    at the measured ``theta`` into ``q_out``. Returns the status."""
+    at the measured ``theta`` into ``q_out``. Returns the status.
+
+    A workspace whose base is ``q_base`` and factored (the last call's, handed on by a caller that keeps it) is
+    followed from as :func:`control_effort` follows it — the base's factors, ``S`` and trigonometry reused — and in
+    sub-steps only where that one step fails."""
     ws = workspaces[0]
     if kind == 1 and not REDUNDANT:  # PD: no model to move
         for i in range(N_COORDINATES):
             q_out[i] = q_base[i]
         return control_effort(kind, kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P,
                               singularity_guard, ws, tau)
-    # computed torque: the model follows the measurement, in sub-steps where needed
-    status = follow_branch_in_steps(ws, q_base, theta, P, singularity_guard, np.inf)
+    # computed torque: the model follows the measurement, in one step from a kept base, else in sub-steps
+    status = NOT_CONVERGED
+    if is_base(ws, q_base):
+        status = follow_branch(ws, theta, P, singularity_guard)
+        if status == OK:
+            accept_trial(ws)
+    if status != OK:
+        status = follow_branch_in_steps(ws, q_base, theta, P, singularity_guard, np.inf)
     if status == OK and kind == 0:
         status = computed_torque(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d, theta_ddot_d, P, ws,
                                  tau)
