@@ -9,6 +9,9 @@ from pathlib import Path
 # gives 0.0), about 8 % less compile time, which is most of a fresh run's. Benchmarks and users compile at level 3,
 # into a cache folder of their own (pkmlab._compile_cache.cache_folder).
 os.environ.setdefault("NUMBA_OPT", "1")
+# A first run's loop is not compiled ahead in a second process (pkmlab.simulation.ahead): the suite's workers share
+# the cores already, and a test's own subprocess (a command killed mid-run) must leave no second one behind.
+os.environ.setdefault("PKMLAB_COMPILE_AHEAD", "0")
 
 import numpy as np
 import pytest

@@ -49,6 +49,7 @@ from ..errors import (
 )
 from ..model.mechanism_model import MechanismModel, pose_of
 from ..numerics.angles import wrapped_angle, wrapped_where
+from .ahead import compile_loop_ahead
 from .result import SimulationResult, actuator_errors
 from .scenario import Scenario, best_working_mode, pose_text
 
@@ -669,6 +670,11 @@ def simulate(scenario: Scenario) -> SimulationResult:
     AssemblyError
         If the plant cannot be assembled at the start actuator values.
 
+    Notes
+    -----
+    A machine's first sampled-data run from an empty kernel cache compiles its loop in a second Python process
+    while this one prepares the run (:mod:`pkmlab.simulation.ahead`; ``PKMLAB_COMPILE_AHEAD=0`` switches it off).
+
     Examples
     --------
     >>> import pkmlab
@@ -682,7 +688,15 @@ def simulate(scenario: Scenario) -> SimulationResult:
         hint = f" (a paper case: simulate(paper_scenario({scenario!r})))" if isinstance(scenario, str) else ""
         raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__} "
                                     f"{shown(scenario, 50)}{hint}")
-    prep = prepare_run(scenario)
+    if scenario.sample_time > 0:  # from an empty kernel cache: the loop compiled meanwhile, in a second process
+        compile_loop_ahead(scenario.model)
+    return run_prepared(scenario, prepare_run(scenario))
+
+
+def run_prepared(scenario: Scenario, prep: PreparedRun) -> SimulationResult:
+    """:func:`simulate` of ``scenario`` with its run prepared already: ``prep`` is :func:`prepare_run`'s of this
+    scenario (the paper's cases are prepared before any of them runs, while their loop compiles:
+    :func:`pkmlab.report.run_cases`)."""
     ctrl, plant = scenario.model, scenario.plant_model
     q_plant0, q_ctrl0 = prep.q_plant0, prep.q_ctrl0
     if scenario.sample_time == 0:

@@ -1,0 +1,59 @@
+"""A machine's loop compiled ahead in a second process while its first run is prepared (pkmlab.simulation.ahead)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pkmlab
+from pkmlab.simulation import ahead
+from pkmlab.simulation.realism import Drives, Sensors
+
+MECHANISMS = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
+
+
+def _paper_with_drives_and_sensors():
+    drives = Drives(armature=1e-4, viscous=1e-3, coulomb=1e-3, coulomb_rate=0.05, effort_noise=1e-4)
+    return pkmlab.paper_scenario("nominal").replace(drives=drives, controller_drives=drives,
+                                                    sensors=Sensors(resolution=2 * np.pi / 2**14, delay=1, noise=1e-5))
+
+
+#: Runs whose loop arguments differ in kind: the paper's ideal machine; with drives (the controller compensating
+#: them), effort noise and delayed noisy sensors (rows in every array of the loop's realism); a redundantly actuated
+#: machine (the desired motion its pose, fewer columns than its actuators).
+RUNS = {"paper": lambda: pkmlab.paper_scenario("nominal"),
+        "paper_drives_sensors": _paper_with_drives_and_sensors,
+        "4rrr": lambda: pkmlab.load_scenario(MECHANISMS / "4rrr_motion.toml")}
+
+
+@pytest.mark.parametrize("name", sorted(RUNS))
+def test_the_loop_compiled_ahead_is_the_one_the_run_calls(name):
+    """compile_loop compiles the loop for the argument types simulate passes it: after both, the loop has one
+    compiled signature (a second one would be a compile of its own for the run, in whichever order they came)."""
+    scenario = RUNS[name]()
+    ahead.compile_loop(scenario.model)
+    result = pkmlab.simulate(scenario)
+    assert len(scenario.model.kernels.sampled_data_chunk.signatures) == 1
+    assert np.all(np.isfinite(result.tau))
+
+
+def test_a_second_process_compiles_the_loop_once_per_structure_unless_switched_off(monkeypatch):
+    """The second process starts where the loop is not compiled, once per structure, compiles it (here: loads it
+    from the cache the suite filled) and ends cleanly; none is started where it is compiled already, or with
+    PKMLAB_COMPILE_AHEAD=0; none by the second process itself (its environment says 0)."""
+    model = pkmlab.load("paper")
+    pkmlab.simulate(pkmlab.paper_scenario("fast"))  # the loop compiled here, and in the cache
+    monkeypatch.setattr(ahead, "_STARTED", {})
+    monkeypatch.delenv(ahead.SWITCH, raising=False)
+    assert ahead.loop_is_compiled(model)
+    assert ahead.compile_loop_ahead(model) is None  # compiled already
+    monkeypatch.setattr(ahead, "loop_is_compiled", lambda _model: False)
+    monkeypatch.setenv(ahead.SWITCH, "0")
+    assert ahead.compile_loop_ahead(model) is None  # switched off
+    monkeypatch.delenv(ahead.SWITCH)
+    process = ahead.compile_loop_ahead(model)
+    assert process is not None and process.wait(timeout=300) == 0
+    assert ahead.compile_loop_ahead(model) is None  # started once for the structure
+    assert list(ahead._STARTED) == [model.kernels.__name__]
