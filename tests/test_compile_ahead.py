@@ -41,8 +41,8 @@ def test_the_loop_compiled_ahead_is_the_one_the_run_calls(name):
 
 def test_a_second_process_compiles_the_loop_once_per_structure_unless_switched_off(monkeypatch):
     """The second process starts where the loop is not compiled, once per structure, compiles it (here: loads it
-    from the cache the suite filled) and ends cleanly; none is started where it is compiled already, or with
-    PKMLAB_COMPILE_AHEAD=0; none by the second process itself (its environment says 0)."""
+    from the cache the suite filled) and ends cleanly; none is started where it is compiled already, with
+    PKMLAB_COMPILE_AHEAD=0 (as the second process's own environment says), or on one core."""
     model = pkmlab.load("paper")
     pkmlab.simulate(pkmlab.paper_scenario("fast"))  # the loop compiled here, and in the cache
     monkeypatch.setattr(ahead, "_STARTED", {})
@@ -53,6 +53,9 @@ def test_a_second_process_compiles_the_loop_once_per_structure_unless_switched_o
     monkeypatch.setenv(ahead.SWITCH, "0")
     assert ahead.compile_loop_ahead(model) is None  # switched off
     monkeypatch.delenv(ahead.SWITCH)
+    monkeypatch.setattr(ahead, "available_cores", lambda: 1)
+    assert ahead.compile_loop_ahead(model) is None  # one core: the two would take turns on it
+    monkeypatch.setattr(ahead, "available_cores", lambda: 2)
     process = ahead.compile_loop_ahead(model)
     assert process is not None and process.wait(timeout=300) == 0
     assert ahead.compile_loop_ahead(model) is None  # started once for the structure

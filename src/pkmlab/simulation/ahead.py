@@ -10,7 +10,7 @@ this process prepares the run on the other core. The kernel cache's compile lock
 loaded by the other, and the run's call of the loop waits for the second process's compile, then loads it.
 
 Only where it pays: the loop of this machine structure neither compiled in this process nor in the cache,
-compiled kernels (not ``PKMLAB_INTERPRETED=1``), a system with the cache's locks, and not switched off by
+compiled kernels (not ``PKMLAB_INTERPRETED=1``), a second core, a system with the cache's locks, and not switched off by
 ``PKMLAB_COMPILE_AHEAD=0`` (the test suite's workers, which share the cores already). The second process is
 ended if it still runs when this one exits.
 """
@@ -46,11 +46,19 @@ def loop_is_compiled(model: MechanismModel) -> bool:
     return any(_compile_cache.CACHE_DIR.rglob(f"{stem}.sampled_data_chunk-*.nbi"))
 
 
+def available_cores() -> int:
+    """The cores this process may run on (its affinity, where the system says it)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # (macOS, Windows)
+        return os.cpu_count() or 1
+
+
 def compile_loop_ahead(model: MechanismModel) -> subprocess.Popen | None:
     """Start compiling the sampled-data loop of ``model``'s structure in a second process (module docstring);
     returns that process, or None where it is not started (compiled already, started already, switched off)."""
     if (_compile_cache.INTERPRETED or _compile_cache.fcntl is None or os.environ.get(SWITCH) == "0"
-            or model.kernels.__name__ in _STARTED or loop_is_compiled(model)):
+            or available_cores() < 2 or model.kernels.__name__ in _STARTED or loop_is_compiled(model)):
         return None
     try:
         description = pickle.dumps(model.description)
