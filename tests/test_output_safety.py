@@ -87,7 +87,8 @@ def test_a_result_written_onto_a_folder_is_refused_by_its_name(results, tmp_path
 @pytest.fixture
 def quick(monkeypatch, results):
     """pkmlab reproduce/simulate with the simulation replaced by the precomputed results."""
-    monkeypatch.setattr(pkmlab.report, "simulate", lambda scenario: results[scenario.name])
+    monkeypatch.setattr(pkmlab.report, "run_cases", lambda scenarios: {name: results[s.name]
+                                                                        for name, s in scenarios.items()})
     monkeypatch.setattr(pkmlab.simulation.run, "simulate", lambda scenario: results["fast"])
 
 
@@ -506,6 +507,70 @@ def test_a_new_cache_folder_removes_those_of_other_versions_unused_for_a_week(tm
     assert _compile_cache.cache_folder() == cache and (tmp_path / "numba-old").exists()  # not a new folder: kept
 
 
+#: A process calling a small cached kernel (its folder the first argument), printing Numba's counts of cache
+#: misses and hits and the value.
+SMALL_KERNEL = ("import json, sys\nsys.path.insert(0, sys.argv[1])\nimport small_kernel\nvalue = small_kernel.f(0.5)\n"
+                "stats = small_kernel.f.stats\n"
+                "print(json.dumps([sum(stats.cache_misses.values()), sum(stats.cache_hits.values()), value]))")
+
+
+def _small_kernel_process(folder: Path) -> tuple[list, str]:
+    """Run :data:`SMALL_KERNEL` on the kernel cache ``folder / "cache"``: its counts and value, and its stderr."""
+    if not (folder / "small_kernel.py").exists():
+        (folder / "small_kernel.py").write_text("from pkmlab._compile_cache import njit\n\n\n@njit(cache=True)\n"
+                                                "def f(x):\n    return 2.0 * x + 1.0\n")
+    env = {**os.environ, "PKMLAB_CACHE_DIR": str(folder / "cache")}
+    env.pop("PKMLAB_INTERPRETED", None)
+    done = subprocess.run([sys.executable, "-c", SMALL_KERNEL, str(folder)], env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    return json.loads(done.stdout), done.stderr
+
+
+def _small_kernel_files(folder: Path) -> list[Path]:
+    return sorted(p for p in (folder / "cache").rglob("small_kernel.*") if p.suffix in (".nbi", ".nbc"))
+
+
+def test_a_kernel_cache_whose_files_are_cut_short_is_compiled_again_and_mended(tmp_path):
+    """A cached kernel whose files were cut short (a full disk, a process killed while writing them): the next
+    process compiles it again, silently, and saves it over them; the one after loads it."""
+    assert _small_kernel_process(tmp_path) == ([1, 0, 2.0], "")
+    files = _small_kernel_files(tmp_path)
+    assert sorted(p.suffix for p in files) == [".nbc", ".nbi"]
+    for path in files:
+        path.write_bytes(path.read_bytes()[:len(path.read_bytes()) // 2])
+    assert _small_kernel_process(tmp_path) == ([1, 0, 2.0], "")
+    assert _small_kernel_process(tmp_path) == ([0, 1, 2.0], "")
+
+
+def test_a_kernel_cache_that_cannot_be_written_is_said_in_one_line_and_the_run_goes_on(tmp_path):
+    """Where a kernel's cache files cannot be written (here: a folder stands where its index goes, which no user,
+    root either, can write over), the process compiles it, gives its value, and says once, in one line, what to do."""
+    _small_kernel_process(tmp_path)
+    files = _small_kernel_files(tmp_path)
+    for path in files:
+        path.unlink()
+    next(p for p in files if p.suffix == ".nbi").mkdir()
+    (counts, err) = _small_kernel_process(tmp_path)
+    assert counts == [1, 0, 2.0]
+    assert len(err.splitlines()) == 1 and "cannot write the kernel cache" in err and "PKMLAB_CACHE_DIR" in err, err
+
+
+def test_a_cache_folder_that_cannot_be_written_gives_way_to_the_temporary_folders(tmp_path, monkeypatch):
+    """A cache folder this process cannot write into (a read-only home, a folder under a file): the temporary
+    folder's ``pkmlab-cache`` instead, with the same version's name."""
+    from pkmlab import _compile_cache
+
+    assert _compile_cache._writable(tmp_path / "new" / "cache")
+    (tmp_path / "file").write_text("")
+    assert not _compile_cache._writable(tmp_path / "file" / "cache")
+    monkeypatch.setenv("PKMLAB_CACHE_DIR", str(tmp_path / "file" / "cache"))
+    monkeypatch.setattr(_compile_cache.tempfile, "gettempdir", lambda: str(tmp_path / "temporary"))
+    cache = _compile_cache.cache_folder()
+    assert cache.parent == tmp_path / "temporary" / "pkmlab-cache" and cache.name.startswith("numba-")
+    assert cache.is_dir() and (cache / _compile_cache.LAST_USED).exists()
+
+
 def test_two_processes_reaching_one_function_at_once_compile_it_once(tmp_path):
     """Two processes started together on an empty cache, each calling the same cached kernel: one compiles it,
     the other waits for it and loads it from the cache (Numba's own counts of cache misses and hits), and both
@@ -554,7 +619,7 @@ def test_promise_refused_before_anything_is_computed(capsys, tmp_path, monkeypat
         raise AssertionError("simulated although the output folder is refused")
 
     monkeypatch.setattr(pkmlab.simulation.run, "simulate", must_not_run)
-    monkeypatch.setattr(pkmlab.report, "simulate", must_not_run)
+    monkeypatch.setattr(pkmlab.report, "run_cases", must_not_run)
     out = tmp_path / "mine"
     before = user_folder(out)
     for argv in (["simulate", EXAMPLES / "fast.toml"], ["reproduce"]):

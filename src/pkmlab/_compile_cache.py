@@ -62,9 +62,7 @@ def cache_folder() -> Path:
     level = "" if opt in ("", "3") else f"-opt{opt}"
     cache = cache_base() / f"numba-{digest_sources(hashlib.sha1(), package, sorted(package.rglob('*.py')))[:16]}{level}"
     new = not cache.exists()
-    try:
-        cache.mkdir(parents=True, exist_ok=True)
-    except OSError:  # read-only home: fall back to the temporary folder
+    if not _writable(cache):  # a read-only home or cache folder: the temporary folder's
         cache = Path(tempfile.gettempdir()) / "pkmlab-cache" / cache.name
         new = not cache.exists()
         cache.mkdir(parents=True, exist_ok=True)
@@ -75,6 +73,17 @@ def cache_folder() -> Path:
     if new:
         prune(cache.parent, keep=cache)
     return cache
+
+
+def _writable(folder: Path) -> bool:
+    """Whether ``folder`` is (made if missing and) a folder this process can write files into."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError:
+        return False
+    return True
 
 
 #: A process marks the cache folder it uses by this file's time.
@@ -191,7 +200,48 @@ def _locked(dispatcher):
                 return compile_signature(sig)
 
     dispatcher.compile = compile
+    _tolerant(dispatcher._cache)
     return dispatcher
+
+
+def _tolerant(cache) -> None:
+    """Numba's cache of one function (``cache``), made to survive its files: an entry that cannot be read (a file
+    cut short by a full disk or a process killed while writing it, or overwritten) is a miss — its index emptied,
+    the function compiled and saved again over it — and an entry that cannot be written (a folder made read-only,
+    a full disk) is not kept, said once on stderr: the process goes on either way, with what it compiled."""
+    load, save = cache.load_overload, cache.save_overload
+
+    def load_overload(sig, target_context):
+        try:
+            return load(sig, target_context)
+        except Exception:  # noqa: BLE001  (unpickling or rebuilding an unreadable entry raises anything)
+            try:
+                cache.flush()  # an empty index, which the compile about to follow saves its entry into
+            except OSError as exc:
+                _say_unsaved(exc)
+            return None
+
+    def save_overload(sig, data):
+        try:
+            save(sig, data)
+        except OSError as exc:
+            _say_unsaved(exc)
+
+    cache.load_overload, cache.save_overload = load_overload, save_overload
+
+
+#: Whether this process has said that it cannot write the kernel cache.
+_UNSAVED: list[str] = []
+
+
+def _say_unsaved(exc: OSError) -> None:
+    """Say once, in one line on stderr, that compiled kernels cannot be kept in the cache folder, and what to do."""
+    if not _UNSAVED:
+        import sys
+
+        _UNSAVED.append(str(exc))
+        print(f"pkmlab: cannot write the kernel cache in {CACHE_DIR} ({exc.strerror or exc}): this process compiles "
+              "what it needs each time it starts; set PKMLAB_CACHE_DIR to a folder you can write to", file=sys.stderr)
 
 
 def compiled_njit(*args, **options):

@@ -695,8 +695,8 @@ def simulate(scenario: Scenario) -> SimulationResult:
 
 def run_prepared(scenario: Scenario, prep: PreparedRun) -> SimulationResult:
     """:func:`simulate` of ``scenario`` with its run prepared already: ``prep`` is :func:`prepare_run`'s of this
-    scenario (the paper's cases are prepared before any of them runs, while their loop compiles:
-    :func:`pkmlab.report.run_cases`)."""
+    scenario (several runs prepared before the first of them, while their loop compiles in a second process:
+    :mod:`~pkmlab.simulation.ahead`)."""
     ctrl, plant = scenario.model, scenario.plant_model
     q_plant0, q_ctrl0 = prep.q_plant0, prep.q_ctrl0
     if scenario.sample_time == 0:
