@@ -41,22 +41,39 @@ def test_the_loop_compiled_ahead_is_the_one_the_run_calls(name):
 
 def test_a_second_process_compiles_the_loop_once_per_structure_unless_switched_off(monkeypatch):
     """The second process starts where the loop is not compiled, once per structure, compiles it (here: loads it
-    from the cache the suite filled) and ends cleanly; none is started where it is compiled already, with
-    PKMLAB_COMPILE_AHEAD=0 (as the second process's own environment says), or on one core."""
-    model = pkmlab.load("paper")
-    pkmlab.simulate(pkmlab.paper_scenario("fast"))  # the loop compiled here, and in the cache
+    from the cache the suite filled) and ends cleanly; none is started for a continuous-time run, where the loop is
+    compiled already, with PKMLAB_COMPILE_AHEAD=0 (as the second process's own environment says), or on one core."""
+    scenario = pkmlab.paper_scenario("fast")
+    model = scenario.model
+    pkmlab.simulate(scenario)  # the loop compiled here, and in the cache
     monkeypatch.setattr(ahead, "_STARTED", {})
     monkeypatch.delenv(ahead.SWITCH, raising=False)
     assert ahead.loop_is_compiled(model)
-    assert ahead.compile_loop_ahead(model) is None  # compiled already
+    assert ahead.compile_loop_ahead(scenario) is None  # compiled already
     monkeypatch.setattr(ahead, "loop_is_compiled", lambda _model: False)
+    assert ahead.compile_loop_ahead(scenario.replace(sample_time=0.0)) is None  # no loop to compile
     monkeypatch.setenv(ahead.SWITCH, "0")
-    assert ahead.compile_loop_ahead(model) is None  # switched off
+    assert ahead.compile_loop_ahead(scenario) is None  # switched off
     monkeypatch.delenv(ahead.SWITCH)
     monkeypatch.setattr(ahead, "available_cores", lambda: 1)
-    assert ahead.compile_loop_ahead(model) is None  # one core: the two would take turns on it
+    assert ahead.compile_loop_ahead(scenario) is None  # one core: the two would take turns on it
     monkeypatch.setattr(ahead, "available_cores", lambda: 2)
-    process = ahead.compile_loop_ahead(model)
+    process = ahead.compile_loop_ahead(scenario)
     assert process is not None and process.wait(timeout=300) == 0
-    assert ahead.compile_loop_ahead(model) is None  # started once for the structure
+    assert ahead.compile_loop_ahead(scenario) is None  # started once for the structure
     assert list(ahead._STARTED) == [model.kernels.__name__]
+    process.stdin.close()
+
+
+def test_the_second_process_ends_itself_when_the_first_has_ended(monkeypatch):
+    """The first process killed (its end of the pipe closed, as the system closes it): the second ends at once,
+    without finishing its compile (exit 1), rather than compiling on for nobody."""
+    scenario = pkmlab.paper_scenario("fast")
+    monkeypatch.setattr(ahead, "_STARTED", {})
+    monkeypatch.delenv(ahead.SWITCH, raising=False)
+    monkeypatch.setattr(ahead, "loop_is_compiled", lambda _model: False)
+    monkeypatch.setattr(ahead, "available_cores", lambda: 2)
+    process = ahead.compile_loop_ahead(scenario)
+    assert process is not None
+    process.stdin.close()
+    assert process.wait(timeout=300) == 1

@@ -478,6 +478,9 @@ def test_has_compiled_reads_the_kernel_cache(tmp_path, monkeypatch):
     (tmp_path / "kernels_1f" / "planar_RaRR_RaRR_RaRR_rigid._ik-1.py311.nbi").write_bytes(b"")
     assert _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid")
     assert not _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_point")
+    assert _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid", "_ik")
+    assert not _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid", "_i")
+    assert not _compile_cache.has_compiled("pkmlab.kernels.planar_RaRR_RaRR_RaRR_rigid", "sampled_data_chunk")
 
 
 def test_a_new_cache_folder_removes_those_of_other_versions_unused_for_a_week(tmp_path, monkeypatch):

@@ -317,10 +317,11 @@ else:
     call_native = _compiled_call_native()
 
 
-def has_compiled(module_name: str) -> bool:
-    """Whether a kernel of the module ``module_name`` is in this version's cache (Numba names a kernel's files
-    after the last part of its module's name)."""
-    return any(CACHE_DIR.rglob(f"{module_name.rsplit('.', 1)[-1]}.*.nbi"))
+def has_compiled(module_name: str, function: str = "") -> bool:
+    """Whether a kernel of the module ``module_name`` (its ``function``, given one) is in this version's cache
+    (Numba names a kernel's index file after the last part of its module's name and its own)."""
+    stem = module_name.rsplit(".", 1)[-1]
+    return any(CACHE_DIR.rglob(f"{stem}.{function}-*.nbi" if function else f"{stem}.*.nbi"))
 
 #: Numba options of a compiled function called from compiled code only: without the two wrappers Numba otherwise
 #: compiles and caches with each function, one that converts Python's arguments and one that makes it a C callback

@@ -120,22 +120,16 @@ def run_cases(scenarios: dict[str, Scenario]) -> dict[str, SimulationResult]:
     Every case is prepared before the first runs: from an empty kernel cache, their preparation (the disturbed
     plant's forward kinematics among it) compiles while a second process compiles their loop
     (:mod:`pkmlab.simulation.ahead`)."""
+    def of_case(name, step, *args):
+        try:
+            return step(*args)
+        except PkmlabError as exc:
+            raise type(exc)(f"case {name}: {exc}") from None
+
     for scenario in scenarios.values():
-        if scenario.sample_time > 0:
-            compile_loop_ahead(scenario.model)
-    prepared = {}
-    for name, scenario in scenarios.items():
-        try:
-            prepared[name] = prepare_run(scenario)
-        except PkmlabError as exc:
-            raise type(exc)(f"case {name}: {exc}") from None
-    results = {}
-    for name, scenario in scenarios.items():
-        try:
-            results[name] = run_prepared(scenario, prepared[name])
-        except PkmlabError as exc:
-            raise type(exc)(f"case {name}: {exc}") from None
-    return results
+        compile_loop_ahead(scenario)
+    prepared = {name: of_case(name, prepare_run, scenario) for name, scenario in scenarios.items()}
+    return {name: of_case(name, run_prepared, scenario, prepared[name]) for name, scenario in scenarios.items()}
 
 
 def provenance(control: str, sample_time: float, mechanism_source: str) -> dict:

@@ -1651,6 +1651,7 @@ def distributed_pd(kp, kv, distribution, theta, theta_dot, theta_d, theta_dot_d,
     if not factor_passive(ws, ws.q[BASE], ws.sc[BASE], P):
         return SINGULAR
     actuated_jacobian(ws, ws.j_q_theta)
+    keep_base_factors(ws)  # (the next sample's branch following starts from them)
     for i in range(N_INDEPENDENT):
         ws.force[i] = -kp * actuator_error(theta, theta_d, i) - kv * (theta_dot[i] - theta_dot_d[i])
     return OK if distribute(ws, distribution, tau) else SINGULAR

@@ -688,15 +688,29 @@ def simulate(scenario: Scenario) -> SimulationResult:
         hint = f" (a paper case: simulate(paper_scenario({scenario!r})))" if isinstance(scenario, str) else ""
         raise InvalidParameterError(f"scenario must be a Scenario, got {type(scenario).__name__} "
                                     f"{shown(scenario, 50)}{hint}")
-    if scenario.sample_time > 0:  # from an empty kernel cache: the loop compiled meanwhile, in a second process
-        compile_loop_ahead(scenario.model)
+    compile_loop_ahead(scenario)  # from an empty kernel cache: the loop compiled meanwhile, in a second process
     return run_prepared(scenario, prepare_run(scenario))
 
 
 def run_prepared(scenario: Scenario, prep: PreparedRun) -> SimulationResult:
-    """:func:`simulate` of ``scenario`` with its run prepared already: ``prep`` is :func:`prepare_run`'s of this
-    scenario (several runs prepared before the first of them, while their loop compiles in a second process:
-    :mod:`~pkmlab.simulation.ahead`)."""
+    """:func:`simulate` of a run prepared already: several runs prepared before the first of them, while their loop
+    compiles in a second process (:mod:`~pkmlab.simulation.ahead`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run.
+    prep : PreparedRun
+        :func:`prepare_run` of ``scenario``.
+
+    Returns
+    -------
+    SimulationResult
+        As :func:`simulate`'s.
+    """
+    if not isinstance(scenario, Scenario) or not isinstance(prep, PreparedRun):
+        raise InvalidParameterError(f"run_prepared takes a Scenario and its PreparedRun, got "
+                                    f"{type(scenario).__name__} and {type(prep).__name__}")
     ctrl, plant = scenario.model, scenario.plant_model
     q_plant0, q_ctrl0 = prep.q_plant0, prep.q_ctrl0
     if scenario.sample_time == 0:
