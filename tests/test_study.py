@@ -264,6 +264,19 @@ def cluster():
         yield client
 
 
+def test_the_workers_of_a_local_cluster_compile_no_loop_ahead(monkeypatch):
+    """The workers of the local cluster a study starts share the cores already: none starts a second process to
+    compile a first run's loop (pkmlab.simulation.ahead), whatever this process's environment says."""
+    pytest.importorskip("distributed")
+    from pkmlab.simulation.ahead import SWITCH
+    from pkmlab.study.engine import dask_client
+
+    monkeypatch.delenv(SWITCH, raising=False)
+    with dask_client(1, None, None) as client:
+        seen = client.run(lambda: os.environ.get(SWITCH))  # (the worker's environment, not a copy of this one's)
+    assert list(seen.values()) == ["0"]
+
+
 def test_a_killed_worker_loses_nothing(cluster, tmp_path, reference):
     study = small_study()
     killed = []

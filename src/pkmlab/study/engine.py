@@ -29,6 +29,7 @@ from pathlib import Path
 
 from ..errors import PkmlabError
 from ..outputs import atomic_file
+from ..simulation.ahead import SWITCH, available_cores
 from .definition import Study
 from .runs import columns, run_chunk
 
@@ -214,13 +215,6 @@ def _in_run_order(table, study: Study, where: str):
 
 
 # ------------------------------------------------------------------ where the chunks run
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
-
-
 @contextlib.contextmanager
 def dask_client(workers: int | None, scheduler: str | None, client):
     """A Dask client: the one given, one of the cluster at ``scheduler``, or one of a local cluster
@@ -245,7 +239,7 @@ def dask_client(workers: int | None, scheduler: str | None, client):
     import logging
     import signal
 
-    n = workers or _cores()
+    n = workers or available_cores()
     # Ctrl-C reaches every process of the terminal's group: the workers, started with SIGINT ignored (a
     # disposition a new process inherits), leave it to this process, which stops them and keeps what is written
     try:
@@ -257,8 +251,10 @@ def dask_client(workers: int | None, scheduler: str | None, client):
         # silence_logs=CRITICAL: every failure that matters reaches this process as an exception (a task's
         # error, a killed worker, a lost scheduler); what Dask logs at ERROR are its processes losing each
         # other while the cluster stops (a worker's heartbeat to a scheduler already closed, after Ctrl-C)
+        # the workers share the cores already: none compiles a first run's loop in a second process of its own
         cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                           dashboard_address=":0", silence_logs=logging.CRITICAL)
+                                           dashboard_address=":0", silence_logs=logging.CRITICAL,
+                                           env={SWITCH: "0"})
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
@@ -319,7 +315,7 @@ def execute(study: Study, todo: list[int], *, folder: StudyFolder | None = None,
     else:
         with dask_client(workers, scheduler, client) as dask:
             count = max(1, len(dask.scheduler_info(n_workers=-1)["workers"])) if client is not None or scheduler \
-                else (workers or _cores())
+                else (workers or available_cores())
             size = chunk_size or default_chunk_size(len(todo), count)
             # one compiled thread per task: a worker is one core (Dask runs one task per worker thread), and
             # more threads per task would contend with the other workers and the scheduler for the cores
