@@ -39,6 +39,64 @@ def test_the_loop_compiled_ahead_is_the_one_the_run_calls(name):
     assert np.all(np.isfinite(result.tau))
 
 
+@pytest.mark.parametrize("name", sorted(RUNS))
+def test_the_plant_stage_compiled_meanwhile_is_the_one_the_loop_calls(name):
+    """compile_plant_stage compiles the plant's stage for the types the loop passes it: after it and the run, the
+    stage has one compiled signature, and so has the loop."""
+    from pkmlab.simulation.run import prepare_run
+
+    scenario = RUNS[name]()
+    prep = prepare_run(scenario)
+    ahead.compile_plant_stage(scenario.model, prep.P_plant, prep.realism.drive)
+    result = pkmlab.simulate(scenario)
+    kernels = scenario.model.kernels
+    assert len(kernels.plant_stage.signatures) == 1 and len(kernels.sampled_data_chunk.signatures) == 1
+    assert np.all(np.isfinite(result.tau))
+
+
+class _Compiled:
+    """A stand-in for a compiled entry point that records the signatures it is asked to compile."""
+
+    def __init__(self):
+        self.signatures = []
+
+    def compile(self, signature):
+        self.signatures.append(signature)
+
+
+class _Running:
+    """A stand-in for a second process: running while ``code`` is None."""
+
+    def __init__(self, code=None):
+        self.code = code
+
+    def poll(self):
+        return self.code
+
+
+def test_the_plant_stage_is_compiled_meanwhile_only_while_the_second_process_has_not_passed_the_model(monkeypatch):
+    """compile_meanwhile compiles here only while a second process compiles this structure's loop and has not saved
+    the controller's model (which it compiles first): not without one, not after it ended, not past that point."""
+    scenario = pkmlab.paper_scenario("nominal")
+    model = scenario.model
+    entry = _Compiled()
+    monkeypatch.setattr(model.kernels, "actuator_space_rhs", entry)
+    saved = {"actuator_space_model": False}
+    monkeypatch.setattr(ahead._compile_cache, "has_compiled", lambda _module, function="": saved[function])
+    drive = model.kernels.NO_DRIVES
+    for started in ({}, {model.kernels.__name__: _Running(code=0)}, {"another structure": _Running()}):
+        monkeypatch.setattr(ahead, "_STARTED", started)
+        ahead.compile_meanwhile(model, model.P, drive)
+    assert entry.signatures == []
+    monkeypatch.setattr(ahead, "_STARTED", {model.kernels.__name__: _Running()})
+    saved["actuator_space_model"] = True
+    ahead.compile_meanwhile(model, model.P, drive)
+    assert entry.signatures == []
+    saved["actuator_space_model"] = False
+    ahead.compile_meanwhile(model, model.P, drive)
+    assert len(entry.signatures) == 1 and len(entry.signatures[0]) == 7
+
+
 def test_a_second_process_compiles_the_loop_once_per_structure_unless_switched_off(monkeypatch):
     """The second process starts where the loop is not compiled, once per structure, compiles it (here: loads it
     from the cache the suite filled) and ends cleanly; none is started for a continuous-time run, where the loop is
