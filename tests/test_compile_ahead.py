@@ -74,27 +74,21 @@ class _Running:
         return self.code
 
 
-def test_the_plant_stage_is_compiled_meanwhile_only_while_the_second_process_has_not_passed_the_model(monkeypatch):
-    """compile_meanwhile compiles here only while a second process compiles this structure's loop and has not saved
-    the controller's model (which it compiles first): not without one, not after it ended, not past that point."""
+def test_the_plant_stage_is_compiled_meanwhile_only_while_a_second_process_compiles_the_loop(monkeypatch):
+    """compile_meanwhile compiles the plant's stage here only while a second process compiles this structure's loop:
+    not without one, not after it ended, not for another structure's."""
     scenario = pkmlab.paper_scenario("nominal")
     model = scenario.model
-    entry = _Compiled()
-    monkeypatch.setattr(model.kernels, "actuator_space_rhs", entry)
-    saved = {"actuator_space_model": False}
-    monkeypatch.setattr(ahead._compile_cache, "has_compiled", lambda _module, function="": saved[function])
+    stage = _Compiled()
+    monkeypatch.setattr(model.kernels, "plant_stage", stage)
     drive = model.kernels.NO_DRIVES
     for started in ({}, {model.kernels.__name__: _Running(code=0)}, {"another structure": _Running()}):
         monkeypatch.setattr(ahead, "_STARTED", started)
         ahead.compile_meanwhile(model, model.P, drive)
-    assert entry.signatures == []
+    assert stage.signatures == []
     monkeypatch.setattr(ahead, "_STARTED", {model.kernels.__name__: _Running()})
-    saved["actuator_space_model"] = True
     ahead.compile_meanwhile(model, model.P, drive)
-    assert entry.signatures == []
-    saved["actuator_space_model"] = False
-    ahead.compile_meanwhile(model, model.P, drive)
-    assert len(entry.signatures) == 1 and len(entry.signatures[0]) == 7
+    assert len(stage.signatures) == 1 and len(stage.signatures[0]) == 9
 
 
 def test_a_second_process_compiles_the_loop_once_per_structure_unless_switched_off(monkeypatch):

@@ -8,8 +8,8 @@ it on a run of no samples, with arguments of the types :func:`~pkmlab.simulation
 this process prepares the run on the other core. The kernel cache's compile locks
 (:func:`pkmlab._compile_cache.cache_lock`) do the rest: a function the two reach at once is compiled by one and
 loaded by the other, and the run's call of the loop waits for the second process's compile, then loads it. A run
-prepared before the second process is far into the loop compiles the loop's last part, the plant's stage, here
-meanwhile (:func:`compile_meanwhile`).
+prepared while the second process still compiles compiles the loop's last part, the plant's stage, here meanwhile
+(:func:`compile_meanwhile`).
 
 Only where it pays: a sampled-data scenario whose structure's loop is neither compiled in this process nor in the
 cache, compiled kernels (not ``PKMLAB_INTERPRETED=1``), a second core, a system with the cache's locks, and not
@@ -131,32 +131,30 @@ def compile_loop(model: MechanismModel) -> None:
 def compile_meanwhile(model: MechanismModel, P: np.ndarray, drive: np.ndarray) -> None:
     """While a second process compiles the loop of ``model``'s structure (:func:`compile_loop_ahead`), compile
     here the part of it that process reaches last: the plant's stage (:func:`~pkmlab.codegen.core.loop.plant_stage`
-    and what it calls), under the continuous-time entry point ``actuator_space_rhs``, for the parameters ``P`` and
-    drives ``drive`` the loop is given (their types are its types). Compiled only, nothing evaluated.
+    and what it calls) for the parameters ``P`` and drives ``drive`` the loop is given (their types are its
+    types). Compiled only, nothing evaluated.
 
     The second process compiles the loop depth first: the controller's model
     (:func:`~pkmlab.codegen.core.dynamics.actuator_space_model`) first, the plant's stage last. This process, its
     run prepared, takes the plant's stage meanwhile, and the cache's compile locks make whichever of the two
-    reaches a function second load it. Only while the second process has not saved the controller's model yet:
-    past it, little is left to share, and the entry point's own functions (about 2 s of compiling, which the
-    loop does not call) would only delay the run — a machine whose preparation compiles much, the paper's with
-    its disturbed plant's forward kinematics, reaches its loop then. Measured from an empty cache, alternating
-    (three each): the Delta's first ``simulate`` 19.1, 19.2, 20.7 s without, 14.5, 14.7, 17.0 s with."""
+    reaches a function second load it. Nothing is done where no second process is compiling this structure's
+    loop (none was started, or it ended)."""
     process = _STARTED.get(model.kernels.__name__)
-    if (process is not None and process.poll() is None
-            and not _compile_cache.has_compiled(model.kernels.__name__, "actuator_space_model")):
+    if process is not None and process.poll() is None:
         compile_plant_stage(model, P, drive)
 
 
 def compile_plant_stage(model: MechanismModel, P: np.ndarray, drive: np.ndarray) -> None:
-    """Compile the plant's stage of ``model``'s structure as the loop calls it with parameters ``P`` and drives
-    ``drive`` (a test holds the two to one compiled signature): the continuous-time entry point
-    ``actuator_space_rhs`` for their types, which calls it typed as the loop does. Nothing is evaluated."""
+    """Compile the plant's stage of ``model``'s structure (:func:`~pkmlab.codegen.core.loop.plant_stage`) for the
+    argument types the loop passes it, with parameters ``P`` and drives ``drive`` (a test holds the two to one
+    compiled signature). Nothing is evaluated."""
     from numba import typeof
 
     k_ = model.kernels
-    n, q = k_.N_INDEPENDENT, np.zeros(k_.N_COORDINATES)
-    k_.actuator_space_rhs.compile(tuple(typeof(a) for a in (q, np.zeros(2 * n), np.zeros(n), P, 0.0, drive, q)))
+    n, y = k_.N_INDEPENDENT, np.zeros(2 * k_.N_INDEPENDENT)
+    # (the workspace's record, θ and θ̇ as slices of one state, τ, P, the guard, the slot, whether the model is known)
+    arguments = (k_.make_workspaces(1)[0], y[:n], y[n:], np.zeros(n), P, 0.0, k_.BASE, False, drive)
+    k_.plant_stage.compile(tuple(typeof(a) for a in arguments))
 
 
 def main() -> None:
