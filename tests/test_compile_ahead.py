@@ -39,19 +39,36 @@ def test_the_loop_compiled_ahead_is_the_one_the_run_calls(name):
     assert np.all(np.isfinite(result.tau))
 
 
-@pytest.mark.parametrize("name", sorted(RUNS))
+def _call_types(dispatcher, signature, callee) -> set:
+    """The argument types of every call of ``callee`` in ``dispatcher``'s function typed for ``signature``, by a copy
+    of it compiled here and not cached (a function loaded from the cache has no record of its calls' types)."""
+    import numba
+    from numba.core import ir, types
+
+    options = {key: value for key, value in dispatcher.targetoptions.items() if key not in ("cache", "nopython")}
+    copy = numba.njit(**options)(dispatcher.py_func)
+    copy.compile(signature)
+    fndesc = next(iter(copy.overloads.values())).fndesc
+    return {call_type.args for expr, call_type in fndesc.calltypes.items()
+            if isinstance(expr, ir.Expr) and expr.op == "call"
+            and isinstance(fndesc.typemap[expr.func.name], types.Dispatcher)
+            and fndesc.typemap[expr.func.name].dispatcher is callee}
+
+
+@pytest.mark.parametrize("name", ["paper_drives_sensors", "4rrr"])
 def test_the_plant_stage_compiled_meanwhile_is_the_one_the_loop_calls(name):
-    """compile_plant_stage compiles the plant's stage for the types the loop passes it: after it and the run, the
-    stage has one compiled signature, and so has the loop."""
+    """plant_stage_signature is the types of the loop's own call of the plant's stage (sampled_data_chunk's call of
+    rk4_sample, and rk4_sample's of plant_stage, typed here), for the run's parameters and drives."""
     from pkmlab.simulation.run import prepare_run
 
     scenario = RUNS[name]()
     prep = prepare_run(scenario)
-    ahead.compile_plant_stage(scenario.model, prep.P_plant, prep.realism.drive)
-    result = pkmlab.simulate(scenario)
-    kernels = scenario.model.kernels
-    assert len(kernels.plant_stage.signatures) == 1 and len(kernels.sampled_data_chunk.signatures) == 1
-    assert np.all(np.isfinite(result.tau))
+    pkmlab.simulate(scenario)  # (the loop compiled here or loaded: its signature)
+    k = scenario.model.kernels
+    (loop_signature,) = k.sampled_data_chunk.signatures
+    (sample_call,) = _call_types(k.sampled_data_chunk, loop_signature, k.rk4_sample)
+    stage_calls = _call_types(k.rk4_sample, sample_call, k.plant_stage)
+    assert stage_calls == {ahead.plant_stage_signature(scenario.model, prep.P_plant, prep.realism.drive)}
 
 
 class _Compiled:
@@ -75,8 +92,9 @@ class _Running:
 
 
 def test_the_plant_stage_is_compiled_meanwhile_only_while_a_second_process_compiles_the_loop(monkeypatch):
-    """compile_meanwhile compiles the plant's stage here only while a second process compiles this structure's loop:
-    not without one, not after it ended, not for another structure's."""
+    """compile_plant_stage_meanwhile compiles the plant's stage here only while a second process compiles this
+    structure's loop and the stage is not in the cache: not without one, not after it ended, not for another
+    structure's, not once it is saved."""
     scenario = pkmlab.paper_scenario("nominal")
     model = scenario.model
     stage = _Compiled()
@@ -84,11 +102,15 @@ def test_the_plant_stage_is_compiled_meanwhile_only_while_a_second_process_compi
     drive = model.kernels.NO_DRIVES
     for started in ({}, {model.kernels.__name__: _Running(code=0)}, {"another structure": _Running()}):
         monkeypatch.setattr(ahead, "_STARTED", started)
-        ahead.compile_meanwhile(model, model.P, drive)
+        ahead.compile_plant_stage_meanwhile(model, model.P, drive)
     assert stage.signatures == []
     monkeypatch.setattr(ahead, "_STARTED", {model.kernels.__name__: _Running()})
-    ahead.compile_meanwhile(model, model.P, drive)
-    assert len(stage.signatures) == 1 and len(stage.signatures[0]) == 9
+    monkeypatch.setattr(ahead._compile_cache, "has_compiled", lambda _module, function="": function == "plant_stage")
+    ahead.compile_plant_stage_meanwhile(model, model.P, drive)  # in the cache already
+    assert stage.signatures == []
+    monkeypatch.setattr(ahead._compile_cache, "has_compiled", lambda _module, function="": False)
+    ahead.compile_plant_stage_meanwhile(model, model.P, drive)
+    assert stage.signatures == [ahead.plant_stage_signature(model, model.P, drive)]
 
 
 def test_a_second_process_compiles_the_loop_once_per_structure_unless_switched_off(monkeypatch):

@@ -7,9 +7,9 @@ independent, so :func:`compile_loop_ahead` starts a second Python process that c
 it on a run of no samples, with arguments of the types :func:`~pkmlab.simulation.run.simulate` gives it — while
 this process prepares the run on the other core. The kernel cache's compile locks
 (:func:`pkmlab._compile_cache.cache_lock`) do the rest: a function the two reach at once is compiled by one and
-loaded by the other, and the run's call of the loop waits for the second process's compile, then loads it. A run
-prepared while the second process still compiles compiles the loop's last part, the plant's stage, here meanwhile
-(:func:`compile_meanwhile`).
+loaded by the other, and the run's call of the loop waits for the second process's compile, then loads it. While the
+second process runs, a run prepared here compiles the loop's last part, the plant's stage, itself
+(:func:`compile_plant_stage_meanwhile`).
 
 Only where it pays: a sampled-data scenario whose structure's loop is neither compiled in this process nor in the
 cache, compiled kernels (not ``PKMLAB_INTERPRETED=1``), a second core, a system with the cache's locks, and not
@@ -128,33 +128,36 @@ def compile_loop(model: MechanismModel) -> None:
                           np.zeros((0, n)), np.zeros(0), none)
 
 
-def compile_meanwhile(model: MechanismModel, P: np.ndarray, drive: np.ndarray) -> None:
+def compile_plant_stage_meanwhile(model: MechanismModel, P: np.ndarray, drive: np.ndarray) -> None:
     """While a second process compiles the loop of ``model``'s structure (:func:`compile_loop_ahead`), compile
     here the part of it that process reaches last: the plant's stage (:func:`~pkmlab.codegen.core.loop.plant_stage`
-    and what it calls) for the parameters ``P`` and drives ``drive`` the loop is given (their types are its
-    types). Compiled only, nothing evaluated.
+    and what it calls) for the parameters ``P`` and drives ``drive`` the loop is given (:func:`plant_stage_signature`).
+    Compiled only, nothing evaluated.
 
     The second process compiles the loop depth first: the controller's model
     (:func:`~pkmlab.codegen.core.dynamics.actuator_space_model`) first, the plant's stage last. This process, its
     run prepared, takes the plant's stage meanwhile, and the cache's compile locks make whichever of the two
-    reaches a function second load it. Nothing is done where no second process is compiling this structure's
-    loop (none was started, or it ended)."""
+    reaches a function second wait for the other and load it. Nothing is done where no second process is running
+    for this structure (none was started, or it ended), or where the plant's stage is in the cache already."""
     process = _STARTED.get(model.kernels.__name__)
-    if process is not None and process.poll() is None:
-        compile_plant_stage(model, P, drive)
+    if (process is not None and process.poll() is None
+            and not _compile_cache.has_compiled(model.kernels.__name__, "plant_stage")):
+        model.kernels.plant_stage.compile(plant_stage_signature(model, P, drive))
 
 
-def compile_plant_stage(model: MechanismModel, P: np.ndarray, drive: np.ndarray) -> None:
-    """Compile the plant's stage of ``model``'s structure (:func:`~pkmlab.codegen.core.loop.plant_stage`) for the
-    argument types the loop passes it, with parameters ``P`` and drives ``drive`` (a test holds the two to one
-    compiled signature). Nothing is evaluated."""
+def plant_stage_signature(model: MechanismModel, P: np.ndarray, drive: np.ndarray) -> tuple:
+    """The argument types the loop of ``model``'s structure passes its plant's stage
+    (:func:`~pkmlab.codegen.core.loop.plant_stage`, from ``rk4_sample``) with parameters ``P`` and drives ``drive``:
+    those of stand-ins, of which only the types count — the workspace's record, ``θ`` and ``θ̇`` as slices of one
+    state, ``τ``, ``P``, the guard, the slot, whether the model there is known, ``drive``. A test holds them to the
+    types the loop's call has, typed afresh."""
     from numba import typeof
 
     k_ = model.kernels
-    n, y = k_.N_INDEPENDENT, np.zeros(2 * k_.N_INDEPENDENT)
-    # (the workspace's record, θ and θ̇ as slices of one state, τ, P, the guard, the slot, whether the model is known)
-    arguments = (k_.make_workspaces(1)[0], y[:n], y[n:], np.zeros(n), P, 0.0, k_.BASE, False, drive)
-    k_.plant_stage.compile(tuple(typeof(a) for a in arguments))
+    n = k_.N_INDEPENDENT
+    y = np.zeros(2 * n)
+    stand_ins = (k_.make_workspaces(1)[0], y[:n], y[n:], np.zeros(n), P, 0.0, k_.BASE, False, drive)
+    return tuple(typeof(a) for a in stand_ins)
 
 
 def main() -> None:

@@ -49,7 +49,7 @@ from ..errors import (
 )
 from ..model.mechanism_model import MechanismModel, pose_of
 from ..numerics.angles import wrapped_angle, wrapped_where
-from .ahead import compile_loop_ahead, compile_meanwhile
+from .ahead import compile_loop_ahead, compile_plant_stage_meanwhile
 from .result import SimulationResult, actuator_errors
 from .scenario import Scenario, best_working_mode, pose_text
 
@@ -727,7 +727,7 @@ def run_prepared(scenario: Scenario, prep: PreparedRun) -> SimulationResult:
     theta_d, pose_d = np.empty((count, n)), np.empty((count, _dof(ctrl)))  # the desired motion the result keeps
     # the loop's state, handed from one piece of the run to the next
     workspaces, x, theta_dot_m = k_.make_workspaces(2), np.zeros(2 * n_x), np.zeros_like(theta_m)
-    compile_meanwhile(ctrl, prep.P_plant, r.drive)  # (from an empty cache: a share of the loop's compile, here)
+    compile_plant_stage_meanwhile(ctrl, prep.P_plant, r.drive)  # (an empty cache: a share of the loop's compile)
     for rows, d in prep.motion.pieces():
         theta_d[rows], pose_d[rows] = d.theta, d.pose
         status, k_fail = k_.sampled_data_chunk(workspaces, x, theta_dot_m, rows.start, count, scenario.sample_time,
