@@ -8,10 +8,13 @@ import numpy as np
 import pytest
 
 import pkmlab
+from pkmlab._files import read_toml
+from pkmlab.description.files import load_mechanism
 from pkmlab.simulation import ahead
 from pkmlab.simulation.realism import Drives, Sensors
 
-MECHANISMS = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+MECHANISMS = EXAMPLES / "mechanisms"
 
 
 def _paper_with_drives_and_sensors():
@@ -122,9 +125,9 @@ def test_a_second_process_compiles_the_loop_once_per_structure_unless_switched_o
     pkmlab.simulate(scenario)  # the loop compiled here, and in the cache
     monkeypatch.setattr(ahead, "_STARTED", {})
     monkeypatch.delenv(ahead.SWITCH, raising=False)
-    assert ahead.loop_is_compiled(model)
+    assert ahead.loop_is_compiled(model.kernels.__name__)
     assert ahead.compile_loop_ahead(scenario) is None  # compiled already
-    monkeypatch.setattr(ahead, "loop_is_compiled", lambda _model: False)
+    monkeypatch.setattr(ahead, "loop_is_compiled", lambda _name: False)
     assert ahead.compile_loop_ahead(scenario.replace(sample_time=0.0)) is None  # no loop to compile
     monkeypatch.setenv(ahead.SWITCH, "0")
     assert ahead.compile_loop_ahead(scenario) is None  # switched off
@@ -145,9 +148,63 @@ def test_the_second_process_ends_itself_when_the_first_has_ended(monkeypatch):
     scenario = pkmlab.paper_scenario("fast")
     monkeypatch.setattr(ahead, "_STARTED", {})
     monkeypatch.delenv(ahead.SWITCH, raising=False)
-    monkeypatch.setattr(ahead, "loop_is_compiled", lambda _model: False)
+    monkeypatch.setattr(ahead, "loop_is_compiled", lambda _name: False)
     monkeypatch.setattr(ahead, "available_cores", lambda: 2)
     process = ahead.compile_loop_ahead(scenario)
     assert process is not None
     process.stdin.close()
     assert process.wait(timeout=300) == 1
+
+
+def test_a_scenario_file_starts_its_loop_compiling_before_its_machine_is_checked(monkeypatch):
+    """load_scenario of a sampled-data run starts the second process for its machine's description before the
+    model is bound (its assembly check compiles too); a continuous-time run starts none."""
+    from pkmlab.formats import scenario as scenario_format
+
+    calls = []
+    monkeypatch.setattr(scenario_format, "compile_loop_ahead_of", lambda d: calls.append(("ahead", d.name)))
+    bound = scenario_format.MechanismModel.from_description
+    monkeypatch.setattr(scenario_format.MechanismModel, "from_description",
+                        lambda d: calls.append(("checked", d.name)) or bound(d))
+    data = read_toml(EXAMPLES / "delta_pick_and_place.toml")
+    scenario_format.scenario_from_dict(data)
+    assert calls == [("ahead", "delta"), ("checked", "delta")]
+    calls.clear()
+    data["controller"]["sample_time"] = 0.0
+    scenario_format.scenario_from_dict(data)
+    assert calls == [("checked", "delta")]
+
+
+def test_a_structure_another_process_derives_is_waited_for_not_derived_again(monkeypatch, tmp_path):
+    """A new structure's kernels, derived by another process (the second one, which derives while this one checks
+    the machine): this one waits for that derivation's lock and imports its module, deriving nothing itself."""
+    import subprocess
+    import sys
+
+    from pkmlab import _compile_cache
+    from pkmlab.model import mechanism_model
+
+    description = load_mechanism(MECHANISMS / "6rus.toml")
+    name = mechanism_model.kernels_name(description)
+    assert name.startswith("pkmlab_kernels_") and name not in sys.modules
+    monkeypatch.setattr(_compile_cache, "CACHE_DIR", tmp_path)
+    monkeypatch.setattr(mechanism_model.derivation(description), "generate_source",
+                        lambda _d: pytest.fail("derived a second time"))
+    holder = subprocess.Popen(
+        [sys.executable, "-c", f"""import sys, time
+from pathlib import Path
+from pkmlab import _compile_cache
+_compile_cache.CACHE_DIR = Path(sys.argv[1])
+with _compile_cache.cache_lock("{name}.py"):
+    print("held", flush=True)
+    time.sleep(0.5)
+    (Path(sys.argv[1]) / "kernels").mkdir()
+    (Path(sys.argv[1]) / "kernels" / "{name}.py").write_text("DERIVED_BY = 'the other process'\\n")
+""", str(tmp_path)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "held\n"
+        module = mechanism_model._user_structure_kernels(description)
+    finally:
+        sys.modules.pop(name, None)
+        holder.wait(timeout=60)
+    assert module.DERIVED_BY == "the other process"

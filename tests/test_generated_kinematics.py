@@ -20,7 +20,7 @@ def kernels(name):
 
 
 def packed(m):
-    """The packed parameters, read-only as the model hands them to the kernels (mechanism_model._bind): the
+    """The packed parameters, read-only as the model hands them to the kernels (mechanism_model.bind): the
     same numbers, and the kernels compiled for the library's calls serve these checks too (a writable array
     would compile every kernel a second time, for the same code)."""
     P = planar.pack(m)

@@ -16,7 +16,7 @@ from pkmlab.codegen import provenance, spatial
 from pkmlab.description.files import load_mechanism
 from pkmlab.description.presets import SPATIAL_PRESETS, preset
 from pkmlab.description.spatial import attachment_point, full_poses, leg_frames, orientation
-from pkmlab.model.mechanism_model import MechanismModel, _bind, _evaluate, constraint_residual
+from pkmlab.model.mechanism_model import MechanismModel, _evaluate, bind, constraint_residual
 
 NAMES = sorted(SPATIAL_PRESETS)
 MECHANISMS = Path(__file__).resolve().parents[1] / "examples" / "mechanisms"
@@ -30,7 +30,7 @@ def _model(name: str) -> MechanismModel:
     if name != "mixed":
         return MechanismModel.from_preset(name)
     rps, prs = load_mechanism(MECHANISMS / "3rps.toml"), load_mechanism(MECHANISMS / "3prs.toml")
-    return _bind(dataclasses.replace(rps, name="3-RPS with a PRS leg", legs=(*rps.legs[:2], prs.legs[2])))
+    return bind(dataclasses.replace(rps, name="3-RPS with a PRS leg", legs=(*rps.legs[:2], prs.legs[2])))
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -99,8 +99,10 @@ from ..control.trajectory import (
     WaypointTrajectory,
     paper_trajectory,
 )
+from ..description import presets
 from ..errors import FileFormatError, InvalidParameterError, PkmlabDeprecationWarning, PkmlabError, shown
 from ..model.mechanism_model import MechanismModel, load
+from ..simulation.ahead import compile_loop_ahead_of
 from ..simulation.realism import Drives, Sensors
 from ..simulation.scenario import MAX_SAMPLES, Scenario, scaled_model
 from .params import PARAM_KEYS, PRESETS, manipulator_from_dict
@@ -273,33 +275,53 @@ def _manipulator(rd: _Reader, table: dict):
     return model
 
 
-def _mechanism(rd: _Reader, table: dict, folder: Path):
+def _mechanism(rd: _Reader, table: dict, folder: Path, ahead: bool = False):
     """The controller's model of a ``[mechanism]`` table: ``preset = "NAME"``, ``file = "PATH"`` (a
-    mechanism file, relative to the scenario's folder) or a description inline."""
+    mechanism file, relative to the scenario's folder) or a description inline; its loop compiled ahead where
+    ``ahead`` (:func:`_model_of`)."""
     from ..description.files import mechanism_from_dict
 
     if "file" in table:
         others = sorted(set(table) - {"file"})
         if others:
             raise rd.value_error(f"[mechanism] has file and {', '.join(others)}: give one of them")
-        return _description_file(rd, "[mechanism].file", table["file"], folder)
+        return _description_file(rd, "[mechanism].file", table["file"], folder, ahead=ahead)
     try:
-        return MechanismModel.from_description(mechanism_from_dict(table, "[mechanism]"))
+        return _model_of(mechanism_from_dict(table, "[mechanism]"), ahead)
     except PkmlabError as exc:
         raise rd.value_error(str(exc)) from None
 
 
-def _description_file(rd: _Reader, where: str, path, folder: Path, named: bool = False) -> MechanismModel:
+def _description_file(rd: _Reader, where: str, path, folder: Path, named: bool = False,
+                      ahead: bool = False) -> MechanismModel:
     """The machine of the description file ``path`` (relative to the scenario's ``folder``) the key ``where``
-    names; the file's own errors with ``where`` before them when ``named``."""
+    names; the file's own errors with ``where`` before them when ``named``; its loop compiled ahead where
+    ``ahead`` (:func:`_model_of`)."""
     from ..description.files import load_mechanism
 
     if not isinstance(path, str) or not path:
         raise rd.value_error(f"{where} must be a file name, got {show(path)}")
     try:
-        return MechanismModel.from_description(load_mechanism(folder / path))
+        return _model_of(load_mechanism(folder / path), ahead)
     except PkmlabError as exc:
         raise rd.value_error(f"{where}: {exc}" if named else str(exc)) from None
+
+
+def _model_of(description, ahead: bool) -> MechanismModel:
+    """The model of a scenario's machine. For a sampled-data run (``ahead``), its structure's loop starts compiling
+    in a second process first (:func:`~pkmlab.simulation.ahead.compile_loop_ahead_of`; from an empty kernel cache
+    only), while this process checks the description — the check compiles too — and prepares the run."""
+    if ahead:
+        compile_loop_ahead_of(description)
+    return MechanismModel.from_description(description)
+
+
+def _sampled_data(data: dict) -> bool:
+    """Whether the scenario ``data`` runs sampled-data control, from its ``[controller].sample_time`` before that is
+    checked (:func:`_controller` refuses a bad one): what decides only whether its loop starts compiling early."""
+    controller = data.get("controller")
+    sample_time = controller.get("sample_time") if isinstance(controller, dict) else None
+    return sample_time is None or sample_time != 0
 
 
 def _controller_model(rd: _Reader, table: dict, machine: MechanismModel, folder: Path) -> MechanismModel | None:
@@ -658,11 +680,11 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
     if "mechanism" in data and "manipulator" in data:
         raise rd.format_error("the scenario has both [manipulator] and [mechanism]: give one of them")
     if "mechanism" in data:
-        model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent)
+        model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent, _sampled_data(data))
     elif "manipulator" in data:
         model = _manipulator(rd, rd.table(data, "manipulator"))
     else:
-        model = load("paper")
+        model = _model_of(presets.preset("paper"), _sampled_data(data))
     plant = _plant(rd, rd.table(data, "plant"), model)
     controller_model = _controller_model(rd, rd.table(data, "controller"), model, Path(str(source)).parent)
     if controller_model is not None:  # the scenario's machine is the plant; the controller computes with its own

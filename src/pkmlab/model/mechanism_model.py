@@ -90,7 +90,7 @@ class MechanismModel:
             raise InvalidParameterError(f"description must be a Mechanism or a SpatialMechanism, got "
                                         f"{type(description).__name__}")
         check_assembly(description)  # before the kernels: a refused structure is never derived
-        return _bind(description)
+        return bind(description)
 
     @classmethod
     def from_preset(cls, name: str) -> MechanismModel:
@@ -219,8 +219,10 @@ def derivation(description) -> ModuleType:
     return planar
 
 
-def _bind(description: Mechanism) -> MechanismModel:
-    """The description with its packed parameters and its structure's kernels (shipped, or generated once)."""
+def bind(description: Mechanism) -> MechanismModel:
+    """The model of a description whose platform is known to assemble: the description with its packed parameters
+    and its structure's kernels (shipped, or generated once), without :meth:`MechanismModel.from_description`'s
+    assembly check — for a description checked already (a second process given one by the first)."""
     derived = derivation(description)
     try:
         kernels = importlib.import_module(f"..kernels.{derived.generated_path(description).stem}",
@@ -255,7 +257,7 @@ def _say_if_compiling(kernels: ModuleType, description) -> None:
 
 @functools.lru_cache(maxsize=64)
 def _from_3rrr(model) -> MechanismModel:
-    return _bind(model.to_mechanism())  # the Planar3RRR checked already that its platform can be assembled
+    return bind(model.to_mechanism())  # the Planar3RRR checked already that its platform can be assembled
 
 
 def _user_structure_kernels(description: Mechanism) -> ModuleType:
@@ -268,10 +270,10 @@ def _user_structure_kernels(description: Mechanism) -> ModuleType:
     import sys
     import tempfile
 
-    from .._compile_cache import CACHE_DIR
+    from .._compile_cache import CACHE_DIR, cache_lock
 
     derived = derivation(description)
-    name = f"pkmlab_kernels_{derived.generated_path(description).stem}"
+    name = kernels_name(description)
     if name in sys.modules:
         return sys.modules[name]
     folder = CACHE_DIR / "kernels"
@@ -283,17 +285,26 @@ def _user_structure_kernels(description: Mechanism) -> ModuleType:
         compiling = "" if INTERPRETED else ", then compiling them as they are first used (up to a minute)"
         notice(f"{description.name}: a machine structure new to this installation ({derived.structure(description)}): "
                f"deriving its kernels (seconds){compiling}; once, later runs read them from the cache")
-        source = derived.generate_source(description)
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}-", suffix=".tmp")
-        with os.fdopen(fd, "w") as f:
-            f.write(source)
-        os.replace(tmp, path)
+        with cache_lock(f"{name}.py"):  # a process deriving it already (a second one compiling ahead): its module
+            if not path.exists():
+                source = derived.generate_source(description)
+                folder.mkdir(parents=True, exist_ok=True)
+                fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}-", suffix=".tmp")
+                with os.fdopen(fd, "w") as f:
+                    f.write(source)
+                os.replace(tmp, path)
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
     return module
+
+
+def kernels_name(description) -> str:
+    """The name of the kernel module of ``description``'s structure: ``pkmlab.kernels.<structure>`` for one pkmlab
+    ships, ``pkmlab_kernels_<structure>`` for one derived on first use and kept in the cache folder."""
+    path = derivation(description).generated_path(description)
+    return f"pkmlab.kernels.{path.stem}" if path.exists() else f"pkmlab_kernels_{path.stem}"
 
 
 def trig_table(model: MechanismModel, q: np.ndarray) -> np.ndarray:

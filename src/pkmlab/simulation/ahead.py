@@ -40,11 +40,12 @@ SWITCH = "PKMLAB_COMPILE_AHEAD"
 _STARTED: dict[str, subprocess.Popen] = {}
 
 
-def loop_is_compiled(model: MechanismModel) -> bool:
-    """Whether the loop of ``model``'s structure is compiled in this process or saved in the kernel cache."""
-    kernels = model.kernels
-    return bool(kernels.sampled_data_chunk.signatures) or _compile_cache.has_compiled(kernels.__name__,
-                                                                                      "sampled_data_chunk")
+def loop_is_compiled(kernels_name: str) -> bool:
+    """Whether the loop of the structure whose kernel module is ``kernels_name`` is compiled in this process or
+    saved in the kernel cache."""
+    kernels = sys.modules.get(kernels_name)
+    return (kernels is not None and bool(kernels.sampled_data_chunk.signatures)) or _compile_cache.has_compiled(
+        kernels_name, "sampled_data_chunk")
 
 
 def available_cores() -> int:
@@ -56,30 +57,44 @@ def available_cores() -> int:
 
 
 def compile_loop_ahead(scenario) -> subprocess.Popen | None:
-    """Start compiling the sampled-data loop of ``scenario``'s controller model in a second process (the module's
-    text).
+    """Start compiling the sampled-data loop of ``scenario``'s controller model in a second process
+    (:func:`compile_loop_ahead_of`; the module's text); None for a continuous-time run."""
+    if scenario.sample_time == 0:
+        return None
+    return compile_loop_ahead_of(scenario.model.description)
+
+
+def compile_loop_ahead_of(description) -> subprocess.Popen | None:
+    """Start compiling the sampled-data loop of ``description``'s structure in a second process (the module's
+    text): from :func:`compile_loop_ahead`, or earlier, from a scenario file read before its machine's model is
+    bound (:func:`~pkmlab.formats.scenario.load_scenario`: the model's assembly check compiles too).
 
     Parameters
     ----------
-    scenario : Scenario
-        The run about to be prepared.
+    description : Mechanism or SpatialMechanism
+        The machine, checked or about to be: the second process binds it without checking it again — and
+        derives its structure where it is new to this installation, while this process checks it (this one
+        then waits for that derivation instead of making its own).
 
     Returns
     -------
     subprocess.Popen or None
-        The second process; None where none is started: a continuous-time run, the loop compiled or cached
-        already, a process started already for the structure, switched off (``PKMLAB_COMPILE_AHEAD=0``), an
-        interpreted process, one core, no file locks, or no process to be had.
+        The second process; None where none is started: the loop compiled or cached already, a process started
+        already for the structure, switched off (``PKMLAB_COMPILE_AHEAD=0``), an interpreted process, one core, no
+        file locks, or no process to be had.
     """
-    model = scenario.model
+    from ..model.mechanism_model import kernels_name
+
     for process in _STARTED.values():
         process.poll()  # (a finished one is reaped)
-    if (scenario.sample_time == 0 or _compile_cache.INTERPRETED or _compile_cache.fcntl is None
-            or os.environ.get(SWITCH) == "0" or available_cores() < 2 or model.kernels.__name__ in _STARTED
-            or loop_is_compiled(model)):
+    if (_compile_cache.INTERPRETED or _compile_cache.fcntl is None or os.environ.get(SWITCH) == "0"
+            or available_cores() < 2):
+        return None
+    name = kernels_name(description)
+    if name in _STARTED or loop_is_compiled(name):
         return None
     try:
-        description = pickle.dumps(model.description)
+        sent = pickle.dumps(description)
     except (pickle.PicklingError, TypeError, AttributeError):  # (a description holding what cannot be sent)
         return None
     # -P: no current folder on the second process's path, which would import a pkmlab found there; this pkmlab's
@@ -94,13 +109,13 @@ def compile_loop_ahead(scenario) -> subprocess.Popen | None:
     except OSError:  # no process to be had: this one compiles the loop as it would
         return None
     try:  # the description; the pipe then stays open, and its end tells the second process that this one ended
-        process.stdin.write(description)
+        process.stdin.write(sent)
         process.stdin.flush()
     except OSError:  # (it ended at once)
         process.kill()
         process.wait()
         return None
-    _STARTED[model.kernels.__name__] = process
+    _STARTED[name] = process
     if len(_STARTED) == 1:
         atexit.register(_end_started)
     return process
@@ -162,8 +177,9 @@ def plant_stage_signature(model: MechanismModel, P: np.ndarray, drive: np.ndarra
 
 def main() -> None:
     """The second process: the structure's description from stdin, its loop compiled, and an end to it as soon as
-    stdin closes (the process that started it has ended)."""
-    from ..model.mechanism_model import load
+    stdin closes (the process that started it has ended). The description is bound without the assembly check:
+    the first process checks it (and ends this one where it refuses it)."""
+    from ..model.mechanism_model import bind
 
     description = pickle.load(sys.stdin.buffer)
 
@@ -173,4 +189,4 @@ def main() -> None:
         os._exit(1)
 
     threading.Thread(target=watch, daemon=True).start()
-    compile_loop(load(description))
+    compile_loop(bind(description))
