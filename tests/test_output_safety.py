@@ -243,15 +243,26 @@ def test_kill_9_mid_write_leaves_the_old_result_or_the_new_one(tmp_path):
     assert _is_complete(out, "C") and hidden(tmp_path) == []
 
 
+def _files_being_written(folder: Path, pid: int) -> int:
+    """How many files the temporary output folder in ``folder`` of the run of process ``pid`` holds (-1: it has
+    none there yet)."""
+    tmp = [p for p in folder.iterdir() if p.name.startswith(".") and f".pkmlab-tmp-{pid}-" in p.name]
+    return sum(1 for t in tmp for p in t.rglob("*") if p.is_file()) if tmp else -1
+
+
 def test_kill_9_of_a_real_simulation_keeps_the_earlier_result(tmp_path):
+    """A run killed -9 while it writes its results (its temporary folder there, with none, three and eight of its
+    thirteen files in it) leaves the earlier result as it was; one that finished before the kill left its whole
+    result."""
     out = tmp_path / "r"
     argv = [sys.executable, "-m", "pkmlab.cli", "simulate", str(EXAMPLES / "fast.toml"), "--out", str(out)]
     subprocess.run(argv + ["--no-figures"], check=True, capture_output=True)
     before = snapshot(out)
     landed = 0
-    for delay in (0.5, 1.5, 3.0, 4.5):
+    for written in (0, 3, 8):
         proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(delay)
+        while proc.poll() is None and _files_being_written(tmp_path, proc.pid) < written:
+            time.sleep(0.005)
         proc.send_signal(signal.SIGKILL)
         killed = proc.wait() == -signal.SIGKILL
         now = snapshot(out)
