@@ -53,3 +53,33 @@ def test_a_function_compiled_without_its_python_wrapper_refuses_a_call_from_pyth
     kernels = pkmlab.load("paper").kernels
     with pytest.raises(TypeError, match=r"\.block_lu_solve is called from compiled code only"):
         kernels.block_lu_solve(np.eye(6), np.arange(6), np.ones(6))
+
+
+#: A process that imports Numba through pkmlab or before it, then reports whether a typing error's message is
+#: highlighted for a terminal and whether Numba's switch is left in its environment.
+HIGHLIGHT = """
+import os, sys
+if sys.argv[1] == "numba first":
+    import numba
+from pkmlab import _compile_cache
+import numba
+try:
+    numba.njit(lambda x: x.no_such_attribute)(1.0)
+except numba.core.errors.TypingError as exc:
+    print("\\x1b[" in str(exc), "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING" in os.environ)
+"""
+
+
+def test_numba_imported_by_pkmlab_formats_its_typing_errors_plain_and_leaves_the_environment_as_it_was():
+    """Numba's typing errors without terminal highlighting where pkmlab imports Numba first (formatting them
+    through colorama costs a few percent of a first compile), the environment as it was after; where Numba was
+    imported first, its messages are its own."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"}
+    env.pop("PKMLAB_INTERPRETED", None)
+
+    def run(order: str) -> str:
+        return subprocess.run([sys.executable, "-c", HIGHLIGHT, order], capture_output=True, text=True, env=env,
+                              check=True).stdout.strip()
+
+    assert run("pkmlab first") == "False False"
+    assert run("numba first") == "True False"
