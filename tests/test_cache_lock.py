@@ -83,3 +83,32 @@ def test_numba_imported_by_pkmlab_formats_its_typing_errors_plain_and_leaves_the
 
     assert run("pkmlab first") == "False False"
     assert run("numba first") == "True False"
+
+
+#: A process that lets pkmlab import Numba, compiles one kernel, and reports where Numba keeps it.
+KEPT = """
+import sys
+from pathlib import Path
+import numpy as np
+import pkmlab
+from pkmlab import _compile_cache
+from pkmlab.model import mechanism_model as mm
+import numba
+model = pkmlab.load("five_bar")
+mm.trig_table(model, np.zeros(len(model.coordinates)))  # compiled here, and saved
+cache = Path(_compile_cache.CACHE_DIR)
+print(numba.config.CACHE_DIR == str(cache), cache.is_relative_to(sys.argv[1]), any(cache.rglob("*.trig-*.nbi")))
+"""
+
+
+def test_the_kernels_compiled_after_pkmlab_imported_numba_are_kept_in_its_cache_folder(tmp_path):
+    """Numba reads its settings from the environment again at a compile where the environment changed: pkmlab's
+    import of Numba, which sets and takes back the switch of its error highlighting, must not leave a change for that
+    compile to find — it would set Numba's cache folder back to the default, the sources' own folders, where an
+    edit of another module is not seen."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.pop("PKMLAB_INTERPRETED", None)
+    env["PKMLAB_CACHE_DIR"] = str(tmp_path)
+    out = subprocess.run([sys.executable, "-c", KEPT, str(tmp_path)], capture_output=True, text=True, env=env,
+                         check=True).stdout.strip()
+    assert out == "True True True"

@@ -131,7 +131,8 @@ def _import_numba() -> None:
     each failure — highlighted through colorama, which wraps the output streams every time (some 30,000 times in a
     machine's first compile): measured, single processes from an empty cache, alternating, the Delta's first run's
     CPU time 19.7-22.2 s with it, 18.6-21.2 s without (a second less in three pairs of four). The switch is taken
-    out of the environment again, so that this process's environment, and that of what it starts, is as it was."""
+    out of the environment again, so that this process's environment, and that of what it starts, is as it was, and
+    Numba's settings read again from it before pkmlab sets its own (:func:`configure`)."""
     import sys
 
     if "numba" in sys.modules or _PLAIN_ERRORS in os.environ:
@@ -142,6 +143,11 @@ def _import_numba() -> None:
         import numba.core.errors  # noqa: F401
     finally:
         del os.environ[_PLAIN_ERRORS]
+        # Numba reads its settings from the environment again at each compile where the environment changed since:
+        # read now, or the first compile would set back what this process sets after (the cache folder among them)
+        from numba.core import config
+
+        config.reload_config()
 
 
 def _interpreted_njit(*args, **_options):
