@@ -112,3 +112,40 @@ def test_the_kernels_compiled_after_pkmlab_imported_numba_are_kept_in_its_cache_
     out = subprocess.run([sys.executable, "-c", KEPT, str(tmp_path)], capture_output=True, text=True, env=env,
                          check=True).stdout.strip()
     assert out == "True True True"
+
+
+#: The same, a NUMBA_ variable set by the program after pkmlab imported Numba and compiled, then another structure's
+#: kernels imported and compiled.
+KEPT_AFTER_A_SETTING = """
+import os, sys
+from pathlib import Path
+import numpy as np
+import pkmlab
+from pkmlab import _compile_cache
+from pkmlab.model import mechanism_model as mm
+import numba
+five_bar = pkmlab.load("five_bar")
+mm.trig_table(five_bar, np.zeros(len(five_bar.coordinates)))
+os.environ["NUMBA_DEBUG_CACHE"] = "0"  # the program's own setting: Numba reads its settings again at the next compile
+mm.trig_table(five_bar, np.zeros(len(five_bar.coordinates), dtype=np.float32))  # (another signature: a compile)
+assert numba.config.CACHE_DIR != str(_compile_cache.CACHE_DIR)  # Numba's default again
+paper = pkmlab.load("paper")  # kernels decorated after Numba read its settings again
+mm.trig_table(paper, np.zeros(len(paper.coordinates)))
+cache = Path(_compile_cache.CACHE_DIR)
+print(sorted(p.name.split(".")[0] for p in cache.rglob("*.trig-*.nbi")),
+      [str(p) for p in Path(pkmlab.__file__).parent.rglob("*.nbi") if p.stat().st_mtime > float(sys.argv[2])])
+"""
+
+
+def test_kernels_decorated_after_the_program_changes_a_numba_setting_are_kept_in_pkmlabs_cache_folder(tmp_path):
+    """A NUMBA_ variable set by the program after pkmlab imported Numba: Numba then reads its settings again, its
+    cache folder among them; kernels decorated after (another structure's) are kept in pkmlab's cache folder all
+    the same, none beside the sources."""
+    import time
+
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.pop("PKMLAB_INTERPRETED", None)
+    env["PKMLAB_CACHE_DIR"] = str(tmp_path)
+    out = subprocess.run([sys.executable, "-c", KEPT_AFTER_A_SETTING, str(tmp_path), str(time.time() - 1)],
+                         capture_output=True, text=True, env=env, check=True).stdout.strip()
+    assert out == "['planar_RaRR_RaRR_RaRR_rigid', 'planar_RaRR_RaRR_point'] []"

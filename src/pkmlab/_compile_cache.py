@@ -286,9 +286,25 @@ def compiled_njit(*args, **options):
         return _locked(dispatcher) if options.get("cache") else dispatcher
 
     if args and callable(args[0]):
+        _keep_cache_folder(numba)
         return finish(numba.njit(*args, **options))
     decorate = numba.njit(*args, **options)
-    return lambda function: finish(decorate(function))
+
+    def apply(function):
+        _keep_cache_folder(numba)
+        return finish(decorate(function))
+
+    return apply
+
+
+def _keep_cache_folder(numba) -> None:
+    """Numba's cache folder set back to pkmlab's (:data:`CACHE_DIR`) where Numba has set it back to its default, before
+    a function is decorated (which fixes where its compiled code is kept): Numba reads its settings from the
+    environment again at a compile where a ``NUMBA_`` variable has changed since — a program's own setting of one
+    after pkmlab was imported — and a kernel decorated after that would be kept beside the sources, where an edit of
+    another module is not seen."""
+    if numba.config.CACHE_DIR != str(CACHE_DIR):
+        numba.config.CACHE_DIR = str(CACHE_DIR)
 
 
 @functools.cache
