@@ -74,6 +74,9 @@ def test_numba_imported_by_pkmlab_formats_its_typing_errors_plain_and_leaves_the
     """Numba's typing errors without terminal highlighting where pkmlab imports Numba first (formatting them
     through colorama costs a few percent of a first compile), the environment as it was after; where Numba was
     imported first, its messages are its own."""
+    import pytest
+
+    pytest.importorskip("colorama")  # (Numba highlights through it: without it, its messages are plain anyway)
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"}
     env.pop("PKMLAB_INTERPRETED", None)
 

@@ -167,12 +167,37 @@ def test_a_scenario_file_starts_its_loop_compiling_before_its_machine_is_checked
     monkeypatch.setattr(scenario_format.MechanismModel, "from_description",
                         lambda d: calls.append(("checked", d.name)) or bound(d))
     data = read_toml(EXAMPLES / "delta_pick_and_place.toml")
-    scenario_format.scenario_from_dict(data)
+    scenario_format.scenario_from_dict(data, compile_ahead=True)
     assert calls == [("ahead", "delta"), ("checked", "delta")]
     calls.clear()
-    data["controller"]["sample_time"] = 0.0
-    scenario_format.scenario_from_dict(data)
+    scenario_format.scenario_from_dict(data)  # a study's variant: its runs go to its workers
     assert calls == [("checked", "delta")]
+    calls.clear()
+    data["controller"]["sample_time"] = 0.0
+    scenario_format.scenario_from_dict(data, compile_ahead=True)
+    assert calls == [("checked", "delta")]
+
+
+def test_a_machine_refused_by_its_check_ends_the_second_process_started_for_it(monkeypatch):
+    """The second process is started before the machine's assembly check: a machine the check refuses ends it, and
+    it is forgotten (the structure may be started again for a machine that assembles)."""
+    import subprocess
+    import sys
+
+    from pkmlab.errors import InvalidParameterError
+    from pkmlab.formats import scenario as scenario_format
+
+    process = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    monkeypatch.setattr(ahead, "_STARTED", {"a structure": process})
+    monkeypatch.setattr(scenario_format, "compile_loop_ahead_of", lambda _d: process)
+
+    def refused(_description):
+        raise InvalidParameterError("delta: the platform can be assembled nowhere")
+
+    monkeypatch.setattr(scenario_format.MechanismModel, "from_description", refused)
+    with pytest.raises(InvalidParameterError, match="assembled nowhere"):
+        scenario_format.scenario_from_dict(read_toml(EXAMPLES / "delta_pick_and_place.toml"), compile_ahead=True)
+    assert process.poll() is not None and ahead._STARTED == {}
 
 
 def test_a_structure_another_process_derives_is_waited_for_not_derived_again(monkeypatch, tmp_path):

@@ -247,7 +247,10 @@ def _files_being_written(folder: Path, pid: int) -> int:
     """How many files the temporary output folder in ``folder`` of the run of process ``pid`` holds (-1: it has
     none there yet)."""
     tmp = [p for p in folder.iterdir() if p.name.startswith(".") and f".pkmlab-tmp-{pid}-" in p.name]
-    return sum(1 for t in tmp for p in t.rglob("*") if p.is_file()) if tmp else -1
+    try:
+        return sum(1 for t in tmp for p in t.rglob("*") if p.is_file()) if tmp else -1
+    except OSError:  # (the folder renamed or removed while counted: the run has finished writing)
+        return -1
 
 
 def test_kill_9_of_a_real_simulation_keeps_the_earlier_result(tmp_path):

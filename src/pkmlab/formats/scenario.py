@@ -102,7 +102,7 @@ from ..control.trajectory import (
 from ..description import presets
 from ..errors import FileFormatError, InvalidParameterError, PkmlabDeprecationWarning, PkmlabError, shown
 from ..model.mechanism_model import MechanismModel, load
-from ..simulation.ahead import compile_loop_ahead_of
+from ..simulation.ahead import compile_loop_ahead_of, end_compiling_ahead
 from ..simulation.realism import Drives, Sensors
 from ..simulation.scenario import MAX_SAMPLES, Scenario, scaled_model
 from .params import PARAM_KEYS, PRESETS, manipulator_from_dict
@@ -308,12 +308,16 @@ def _description_file(rd: _Reader, where: str, path, folder: Path, named: bool =
 
 
 def _model_of(description, ahead: bool) -> MechanismModel:
-    """The model of a scenario's machine. For a sampled-data run (``ahead``), its structure's loop starts compiling
-    in a second process first (:func:`~pkmlab.simulation.ahead.compile_loop_ahead_of`; from an empty kernel cache
-    only), while this process checks the description — the check compiles too — and prepares the run."""
-    if ahead:
-        compile_loop_ahead_of(description)
-    return MechanismModel.from_description(description)
+    """The model of a scenario's machine. For a sampled-data run read to be run (``ahead``), its structure's loop
+    starts compiling in a second process first (:func:`~pkmlab.simulation.ahead.compile_loop_ahead_of`; from an empty
+    kernel cache only), while this process checks the description — the check compiles too — and prepares the run;
+    a machine the check refuses ends that process."""
+    process = compile_loop_ahead_of(description) if ahead else None
+    try:
+        return MechanismModel.from_description(description)
+    except BaseException:
+        end_compiling_ahead(process)
+        raise
 
 
 def _sampled_data(data: dict) -> bool:
@@ -648,10 +652,13 @@ def _time_optimal(rd: _Reader, scenario: Scenario, limits: dict) -> Scenario:
 
 
 # ------------------------------------------------------------------ public API
-def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None = None) -> Scenario:
+def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None = None, *,
+                       compile_ahead: bool = False) -> Scenario:
     """The :class:`~pkmlab.simulation.scenario.Scenario` described by parsed TOML ``data``.
 
-    ``source`` (the file) starts every error message; ``name`` defaults to its stem.
+    ``source`` (the file) starts every error message; ``name`` defaults to its stem. ``compile_ahead``: the scenario
+    is read to be run here (:func:`load_scenario`, ``pkmlab simulate``), so a sampled-data run's loop starts compiling
+    as soon as its machine is known (:func:`_model_of`) — not for a study's variants, whose runs go to its workers.
 
     >>> s = scenario_from_dict({"trajectory": {"type": "circle", "center": [0.25, 0.21],
     ...                                        "radius": 0.05, "speed": 0.2}}, "mine.toml")
@@ -680,11 +687,12 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
     if "mechanism" in data and "manipulator" in data:
         raise rd.format_error("the scenario has both [manipulator] and [mechanism]: give one of them")
     if "mechanism" in data:
-        model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent, _sampled_data(data))
+        model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent,
+                           compile_ahead and _sampled_data(data))
     elif "manipulator" in data:
         model = _manipulator(rd, rd.table(data, "manipulator"))
     else:
-        model = _model_of(presets.preset("paper"), _sampled_data(data))
+        model = _model_of(presets.preset("paper"), compile_ahead and _sampled_data(data))
     plant = _plant(rd, rd.table(data, "plant"), model)
     controller_model = _controller_model(rd, rd.table(data, "controller"), model, Path(str(source)).parent)
     if controller_model is not None:  # the scenario's machine is the plant; the controller computes with its own
@@ -744,8 +752,9 @@ def scenario_to_toml(data: dict, comment: str | None = None) -> str:
 
 
 def scenario_from_text(text: str, source: str | Path) -> Scenario:
-    """The scenario of a scenario file's ``text``, already read from ``source`` (named in errors)."""
-    return scenario_from_dict(parse_toml(text, source), str(source), Path(source).stem)
+    """The scenario of a scenario file's ``text``, already read from ``source`` (named in errors), to be run here
+    (``compile_ahead``: :func:`scenario_from_dict`)."""
+    return scenario_from_dict(parse_toml(text, source), str(source), Path(source).stem, compile_ahead=True)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -780,7 +789,7 @@ def load_scenario(path: str | Path) -> Scenario:
         raise InvalidParameterError(f"path must be a file name (a str or a pathlib.Path), got {type(path).__name__} "
                                     f"{shown(path, 50)}")
     data = read_toml(path)
-    return scenario_from_dict(data, str(path), Path(path).stem)
+    return scenario_from_dict(data, str(path), Path(path).stem, compile_ahead=True)
 
 
 # ------------------------------------------------------------------ the paper's cases

@@ -89,7 +89,7 @@ class MechanismModel:
         if not isinstance(description, Mechanism | SpatialMechanism):
             raise InvalidParameterError(f"description must be a Mechanism or a SpatialMechanism, got "
                                         f"{type(description).__name__}")
-        check_assembly(description)  # before the kernels: a refused structure is never derived
+        check_assembly(description)  # before the kernels: a refused machine's structure is not derived here
         return bind(description)
 
     @classmethod

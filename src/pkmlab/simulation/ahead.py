@@ -121,6 +121,18 @@ def compile_loop_ahead_of(description) -> subprocess.Popen | None:
     return process
 
 
+def end_compiling_ahead(process: subprocess.Popen | None) -> None:
+    """End a second process :func:`compile_loop_ahead_of` started for a machine then refused (its assembly check):
+    its work would be of no use, and a structure new to the installation would be derived for nothing."""
+    if process is None:
+        return
+    if process.poll() is None:
+        process.kill()
+        process.wait()
+    for name in [name for name, started in _STARTED.items() if started is process]:
+        del _STARTED[name]
+
+
 def _end_started() -> None:
     """End the second processes still compiling as this process exits (their work is of no use to it now)."""
     for process in _STARTED.values():
@@ -178,7 +190,7 @@ def plant_stage_signature(model: MechanismModel, P: np.ndarray, drive: np.ndarra
 def main() -> None:
     """The second process: the structure's description from stdin, its loop compiled, and an end to it as soon as
     stdin closes (the process that started it has ended). The description is bound without the assembly check:
-    the first process checks it (and ends this one where it refuses it)."""
+    the first process checks it, and ends this one where it refuses it (:func:`end_compiling_ahead`)."""
     from ..model.mechanism_model import bind
 
     description = pickle.load(sys.stdin.buffer)
