@@ -126,8 +126,8 @@ _PLAIN_ERRORS = "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"
 
 
 def _import_numba() -> None:
-    """Import Numba, its error messages without terminal highlighting where pkmlab is the first to import it and the
-    environment does not say otherwise. Typing a kernel tries overloads that fail, and Numba formats the message of
+    """Import Numba where pkmlab is the first to, its error messages without terminal highlighting unless the
+    environment says otherwise. Typing a kernel tries overloads that fail, and Numba formats the message of
     each failure — highlighted through colorama, which wraps the output streams every time (some 30,000 times in a
     machine's first compile): measured, single processes from an empty cache, alternating, the Delta's first run's
     CPU time 19.7-22.2 s with it, 18.6-21.2 s without (a second less in three pairs of four). The switch is taken
@@ -135,8 +135,7 @@ def _import_numba() -> None:
     Numba's settings read again from it before pkmlab sets its own (:func:`configure`)."""
     import sys
 
-    if "numba" in sys.modules or _PLAIN_ERRORS in os.environ:
-        import numba  # noqa: F401
+    if "numba" in sys.modules or _PLAIN_ERRORS in os.environ:  # (imported by the caller, :func:`configure`)
         return
     os.environ[_PLAIN_ERRORS] = "1"
     try:

@@ -686,13 +686,13 @@ def scenario_from_dict(data: dict, source: str = "<scenario>", name: str | None 
         raise rd.format_error(f"unknown {'table' if isinstance(value, dict) else 'key'} '{_key(key)}'{hint}")
     if "mechanism" in data and "manipulator" in data:
         raise rd.format_error("the scenario has both [manipulator] and [mechanism]: give one of them")
+    ahead = compile_ahead and _sampled_data(data)
     if "mechanism" in data:
-        model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent,
-                           compile_ahead and _sampled_data(data))
+        model = _mechanism(rd, rd.table(data, "mechanism"), Path(str(source)).parent, ahead)
     elif "manipulator" in data:
         model = _manipulator(rd, rd.table(data, "manipulator"))
     else:
-        model = _model_of(presets.preset("paper"), compile_ahead and _sampled_data(data))
+        model = _model_of(presets.preset("paper"), ahead)
     plant = _plant(rd, rd.table(data, "plant"), model)
     controller_model = _controller_model(rd, rd.table(data, "controller"), model, Path(str(source)).parent)
     if controller_model is not None:  # the scenario's machine is the plant; the controller computes with its own
