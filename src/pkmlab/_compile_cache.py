@@ -368,6 +368,114 @@ def has_compiled(module_name: str, function: str = "") -> bool:
     stem = module_name.rsplit(".", 1)[-1]
     return any(CACHE_DIR.rglob(f"{stem}.{function}-*.nbi" if function else f"{stem}.*.nbi"))
 
+
+def _is_kernel(value) -> bool:
+    """Whether ``value`` is a compiled kernel (a Numba function): its Python function and its compiled versions."""
+    return hasattr(value, "py_func") and hasattr(value, "overloads")
+
+
+#: The interpreted copies made so far (:func:`interpreted`): of each kernel's Python function, and of each module's
+#: names (by the module's name).
+_COPIES: dict = {}
+_NAMESPACES: dict[str, dict] = {}
+
+
+def interpreted(kernel):
+    """The compiled kernel ``kernel`` run by Python: its Python function, every compiled kernel that it calls (by a
+    name of its module, or as an attribute of a module of pkmlab's) replaced by its interpreted copy, and so on
+    down its calls. The same operations in the same order as compiled, so the same numbers bit for bit where Python
+    and the compiled code compute each operation alike: ``+ - * /``, comparisons, ``sqrt`` and the C library's
+    ``sin``, ``cos``, ``atan2``... — not ``x**k`` (Numba multiplies it out, Python's ``pow`` rounds once: write the
+    products) nor ``math.hypot`` (Python's own, Numba's is the C library's): a test holds each kernel run this way
+    (:class:`InterpretedFirst`) to its compiled numbers. For kernels of plain arrays and numbers (a workspace's
+    fields, read by attribute, are not). A copy sees its module's names as they were at its first copy."""
+    if not _is_kernel(kernel):
+        return kernel
+    function = kernel.py_func
+    copy = _COPIES.get(function)
+    if copy is None:
+        import types
+
+        namespace = _interpreted_namespace(function.__globals__)
+        cells = function.__closure__ and tuple(types.CellType(_interpreted_value(cell.cell_contents))
+                                               for cell in function.__closure__)
+        copy = types.FunctionType(function.__code__, namespace, function.__name__, function.__defaults__, cells)
+        copy.__qualname__, copy.__doc__ = function.__qualname__, function.__doc__
+        _COPIES[function] = copy
+    return copy
+
+
+class _InterpretedModule:
+    """A module of pkmlab's as an interpreted kernel sees it: its compiled kernels interpreted (:func:`interpreted`)."""
+
+    def __init__(self, module):
+        self._module = module
+
+    def __getattr__(self, name):
+        return _interpreted_value(getattr(self._module, name))
+
+
+def _interpreted_value(value):
+    import types
+
+    if _is_kernel(value):
+        return interpreted(value)
+    if isinstance(value, types.ModuleType) and value.__name__.split(".")[0] == __name__.split(".")[0]:
+        return _InterpretedModule(value)
+    return value
+
+
+def _interpreted_namespace(namespace: dict) -> dict:
+    """A copy of a module's names (``namespace``) whose kernels and modules of pkmlab's are interpreted; one per
+    module, made before its kernels' copies (which share it: two kernels that call each other end there)."""
+    name = namespace.get("__name__", "")
+    copy = _NAMESPACES.get(name)
+    if copy is None or copy.get("__file__") != namespace.get("__file__"):
+        copy = _NAMESPACES[name] = dict(namespace)
+        for key, value in namespace.items():
+            copy[key] = _interpreted_value(value)
+    return copy
+
+
+#: Seconds of interpreted calls a kernel run interpreted first (:class:`InterpretedFirst`) may take in a process
+#: before it is compiled.
+INTERPRETED_BUDGET = 1.0
+
+
+class InterpretedFirst:
+    """A compiled kernel called from Python (``kernel``) that runs interpreted (:func:`interpreted`) until its
+    compiled code is at hand: compiled in this process already (by a compiled caller, say), or in the cache, or
+    once its interpreted calls have taken ``budget`` seconds of this process, when it compiles.
+
+    For a kernel that a command calls a few times, whose compile costs seconds and whose interpreted call
+    milliseconds: a planar machine's assembly modes at a run's start (``three_circles``: 5-6 s of compiling on the
+    first run of the paper's disturbed case, against 10 ms interpreted). The numbers are the same either way: only
+    for a kernel that :func:`interpreted` runs bit for bit as compiled, which a test checks."""
+
+    def __init__(self, kernel, budget: float = INTERPRETED_BUDGET):
+        self.kernel = kernel
+        self.budget = budget
+        self._cached: bool | None = None
+
+    def compiled_at_hand(self) -> bool:
+        """Whether the kernel runs compiled at its next call: compiled or cached already, or its budget spent."""
+        if INTERPRETED or not _is_kernel(self.kernel) or self.kernel.signatures or self.budget <= 0.0:
+            return True
+        if self._cached is None:  # looked up once: a process that saves it has compiled it
+            index = getattr(getattr(getattr(self.kernel, "_cache", None), "_cache_file", None), "_index_path", None)
+            module, name = self.kernel.py_func.__module__, self.kernel.py_func.__qualname__
+            self._cached = os.path.exists(index) if index else has_compiled(module, name)
+        return self._cached
+
+    def __call__(self, *args):
+        if self.compiled_at_hand():
+            return self.kernel(*args)
+        start = time.perf_counter()
+        try:
+            return interpreted(self.kernel)(*args)
+        finally:
+            self.budget -= time.perf_counter() - start
+
 #: Numba options of a compiled function called from compiled code only: without the two wrappers Numba otherwise
 #: compiles and caches with each function, one that converts Python's arguments and one that makes it a C callback
 #: (measured interleaved with and without: a machine's first simulation compiles in 4-15 % less time). Called from

@@ -193,7 +193,7 @@ def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float
         return solutions
     from ..description.leg_types import leg_circle, leg_coordinates
     from ..description.mechanism import attachment_point
-    from .three_circles import OK, three_circles
+    from .three_circles import OK, three_circles_from_python
 
     if method == "two_circles":
         return [(q, singularity_measure(model, q)) for q in five_bar_assembly_modes(model, theta)]
@@ -204,7 +204,7 @@ def assembly_modes(model: MechanismModel, theta) -> list[tuple[np.ndarray, float
     a = np.array(m.platform.attachments)
     vertices = np.array([*(a[1] - a[0]), *(a[2] - a[0])])
     alphas, p1 = np.empty(6), np.empty((6, 2))
-    count, status = three_circles(centres, radii, vertices, alphas, p1)
+    count, status = three_circles_from_python(centres, radii, vertices, alphas, p1)
     if status != OK:
         raise SingularityError(f"actuators {theta.tolist()}: the forward-kinematics polynomial vanishes "
                                "identically (a continuum of assembly modes)")

@@ -5,6 +5,11 @@ Forward kinematics of every planar 3-DOF machine whose legs hold their platform 
 their actuators are fixed (the paper's 3-RRR, the 3-RPR, the 3-PRR...) reduces to this problem: the
 generic model (:func:`pkmlab.algorithms.assembly.assembly_modes`) and the paper's own formulation
 (:mod:`pkmlab.paper.rrr3`) both solve it here.
+
+Called from Python (:data:`three_circles_from_python`), it runs interpreted until its compiled code is at hand: a
+run's start needs a disturbed plant's assembly modes once, 10 ms interpreted against 5-6 s of compiling. Its code
+gives the same numbers bit for bit either way (:func:`pkmlab._compile_cache.interpreted`): no ``x**k`` (the
+generated sextic writes its powers as products) and no ``math.hypot``.
 """
 
 from __future__ import annotations
@@ -13,7 +18,7 @@ import math
 
 import numpy as np
 
-from .._compile_cache import njit
+from .._compile_cache import InterpretedFirst, njit
 from ..kernels import rrr3_sextic as sextic
 from ..numerics.polynomial import moebius_shift, real_roots
 
@@ -53,9 +58,9 @@ def three_circles(e, radii, vertices, alpha_out, p1_out):
     gamma = math.atan2(p2y, p2x)  # platform-frame normalisation: P2 on the x axis
     cg, sg = math.cos(gamma), math.sin(gamma)
     m3x, m3y = rotate(vertices[2], vertices[3], cg, -sg)
-    a2 = math.hypot(p2x, p2y)
+    a2 = math.sqrt(p2x * p2x + p2y * p2y)  # (not hypot: Python's is not the C library's, module docstring)
     r1, r2, r3 = radii[0], radii[1], radii[2]
-    d2 = math.hypot(d2x, d2y)
+    d2 = math.sqrt(d2x * d2x + d2y * d2y)
 
     k = np.empty(7)
     sextic.cubic_coefficients(d2, n3x, n3y, r1, r2, r3, a2, m3x, m3y, k)
@@ -113,7 +118,7 @@ def circle_vertex1(e, radii, vertices, ca, sa):
     cx, cy = e[1, 0] - ox, e[1, 1] - oy  # p1 lies on the circle (c, r2) and on (e1, r1)
     r1, r2 = radii[0], radii[1]
     dx, dy = cx - e[0, 0], cy - e[0, 1]
-    d = max(math.hypot(dx, dy), 1e-300)
+    d = max(math.sqrt(dx * dx + dy * dy), 1e-300)
     along = (r1 * r1 - r2 * r2 + d * d) / (2.0 * d)
     h = math.sqrt(max(0.0, r1 * r1 - along * along))
     bx, by = e[0, 0] + along * dx / d, e[0, 1] + along * dy / d
@@ -121,7 +126,12 @@ def circle_vertex1(e, radii, vertices, ca, sa):
     ox3, oy3 = rotate(vertices[2], vertices[3], ca, sa)
     for sign in (-1.0, 1.0):
         px, py = bx - sign * h * dy / d, by + sign * h * dx / d
-        res = abs(math.hypot(px + ox3 - e[2, 0], py + oy3 - e[2, 1]) - radii[2])
+        rx, ry = px + ox3 - e[2, 0], py + oy3 - e[2, 1]
+        res = abs(math.sqrt(rx * rx + ry * ry) - radii[2])
         if res < best_res:
             best_x, best_y, best_res = px, py, res
     return best_x, best_y
+
+
+#: :func:`three_circles` for callers in Python: interpreted until its compiled code is at hand (module docstring).
+three_circles_from_python = InterpretedFirst(three_circles)

@@ -35,6 +35,8 @@ import sys
 from pathlib import Path
 
 import sympy as sp
+from sympy.printing.precedence import PRECEDENCE
+from sympy.printing.pycode import PythonCodePrinter
 
 #: Symbols of the generated functions, in argument order.
 INPUT_NAMES = ("d2x", "d3x", "d3y", "r1", "r2", "r3", "p2x", "p3x", "p3y")
@@ -103,15 +105,43 @@ def _reduce_cs(expr, c, s):
     return sp.expand(sp.rem(sp.expand(expr), c**2 + s**2 - 1, c))
 
 
+def _power_products(base: str, exponent: int) -> str:
+    """``base**exponent`` as the products Numba computes it by (its power by a constant integer: repeated squaring,
+    the squares of the exponent's set bits multiplied in from the lowest): ``x**3`` is ``(x*(x*x))``."""
+    factors, square = [], base
+    while True:
+        if exponent & 1:
+            factors.append(square)
+        exponent >>= 1
+        if not exponent:
+            return factors[0] if len(factors) == 1 else "(" + "*".join(factors) + ")"
+        square = f"({square}*{square})"
+
+
+class _NumbaPowers(PythonCodePrinter):
+    """Python code whose integer powers are written as the products the compiled code computes them by: the
+    kernels then give the same numbers bit for bit run by Python (Python's ``pow`` rounds once), which the
+    forward kinematics run interpreted at a run's start relies on (:class:`pkmlab._compile_cache.InterpretedFirst`)."""
+
+    def _print_Pow(self, expr, rational=False):
+        if expr.exp.is_Integer and expr.exp > 1:
+            return _power_products(self.parenthesize(expr.base, PRECEDENCE["Pow"]), int(expr.exp))
+        return super()._print_Pow(expr, rational=rational)
+
+
+def _code(expr) -> str:
+    return _NumbaPowers().doprint(expr)
+
+
 def _emit(lines, signature, doc, outputs, out_comments=None, prelude=()):
     lines += ["", "", "@njit(cache=True)", f"def {signature}:", f'    """{doc}"""']
     lines += [f"    {line}" for line in prelude]
     replacements, reduced = sp.cse(outputs, symbols=sp.numbered_symbols("w"), order="canonical")
     for sym, expr in replacements:
-        lines.append(f"    {sym} = {sp.pycode(expr)}")
+        lines.append(f"    {sym} = {_code(expr)}")
     for k, expr in enumerate(reduced):
         comment = f"  # {out_comments[k]}" if out_comments else ""
-        lines.append(f"    out[{k}] = {sp.pycode(expr)}{comment}")
+        lines.append(f"    out[{k}] = {_code(expr)}{comment}")
 
 
 def generate_source() -> str:
