@@ -175,13 +175,15 @@ def test_the_core_never_imports_mujoco_and_says_how_to_install_it(monkeypatch):
         simulate_mujoco(paper_scenario("nominal"))
 
 
-@pytest.mark.parametrize("failure", ["non-finite", "warning", "reset"])
-def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, failure):
+@pytest.mark.parametrize("failure", ["non-finite", "warning", "reset", "other warning"])
+def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, capfd, failure):
     """MuJoCo's state turning non-finite (as an unstable integration leaves it) at the end of a sample, MuJoCo
     warning of a bad acceleration, or a state gone bad inside a sample (four steps of 0.25 ms), which MuJoCo resets
     at its next step with a warning: each stops the run with one line naming the sample interval, instead of NaN or
-    reset results. The compiled loop calls MuJoCo's step at an address: here a step that calls MuJoCo's and then
-    fails."""
+    reset results; another warning of MuJoCo's is said once, as a RuntimeWarning, and the run goes on. MuJoCo
+    neither prints its warnings nor writes them to MUJOCO_LOG.TXT in the working folder meanwhile, and its log
+    settings are as they were after the run. The compiled loop calls MuJoCo's step at an address: here a step that
+    calls MuJoCo's and then fails."""
     import ctypes
 
     import mujoco
@@ -189,7 +191,9 @@ def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, 
     from pkmlab.errors import UnstableControlError
     from pkmlab.interop import mujoco_export, mujoco_plant
 
-    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working folder
+    monkeypatch.chdir(tmp_path)  # where MuJoCo would write its warnings (MUJOCO_LOG.TXT)
+    logging = mujoco.MjLogConfig.get()
+    logging_before = (logging.logto_file, logging.logto_console)
     monkeypatch.setattr(mujoco_export, "_IDLE", collections.OrderedDict())  # a new MjData: none kept from a run before
     made, calls = [], {"n": 0}
     make = mujoco.MjData
@@ -204,15 +208,26 @@ def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, 
         calls["n"] += 1
         if calls["n"] == when and failure == "warning":
             made[-1].warning.number[mujoco.mjtWarning.mjWARN_BADQACC] += 1  # as mj_warning counts
+        elif calls["n"] == when and failure == "other warning":
+            made[-1].warning.number[mujoco.mjtWarning.mjWARN_CNSTRFULL] += 1
         elif calls["n"] == when:
             made[-1].qvel[0] = np.nan
 
     monkeypatch.setattr(mujoco_plant, "_step_address", lambda _mujoco: ctypes.cast(failing, ctypes.c_void_p).value)
-    with pytest.raises(UnstableControlError, match=r"MuJoCo's integration failed between t = 0\.0990 and 0\.1000 s"):
-        simulate_mujoco(paper_scenario("nominal"), timestep=2.5e-4 if failure == "reset" else None)
-    assert calls["n"] == (400 if failure == "reset" else 100)
+    if failure == "other warning":
+        with pytest.warns(RuntimeWarning, match=r"MuJoCo warned 1 time\(s\) during the run: Insufficient arena"):
+            result = simulate_mujoco(paper_scenario("nominal"))
+        assert calls["n"] == result.t.size - 1
+    else:
+        with pytest.raises(UnstableControlError,
+                           match=r"MuJoCo's integration failed between t = 0\.0990 and 0\.1000 s"):
+            simulate_mujoco(paper_scenario("nominal"), timestep=2.5e-4 if failure == "reset" else None)
+        assert calls["n"] == (400 if failure == "reset" else 100)
     if failure == "reset":
         assert np.isfinite(made[-1].qvel).all()  # MuJoCo did reset the state the run would have gone on from
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists() and "WARNING" not in capfd.readouterr().out
+    logging = mujoco.MjLogConfig.get()
+    assert (logging.logto_file, logging.logto_console) == logging_before
 
 
 def test_a_run_on_the_model_and_data_of_the_last_run_is_the_same_run(monkeypatch):

@@ -611,6 +611,42 @@ def pooled_mujoco(model, q=None, **options):
                     _IDLE.popitem(last=False)
 
 
+@contextlib.contextmanager
+def mujoco_log_held(mujoco):
+    """MuJoCo's warnings neither printed nor written to ``MUJOCO_LOG.TXT`` in the working folder while pkmlab steps its
+    models (MuJoCo's log settings, ``mujoco.MjLogConfig``, are the process's: set back as they were at the end).
+    MuJoCo still counts each warning in its data (``MjData.warning``), where pkmlab reads them: a state MuJoCo found
+    bad stops the run in one line, another warning is said once (:func:`say_mujoco_warnings`). A MuJoCo without log
+    settings (an older release) logs as it always did."""
+    settings = getattr(mujoco, "MjLogConfig", None)
+    if settings is None:
+        yield
+        return
+    config = settings.get()
+    kept = (config.logto_file, config.logto_console)
+    config.logto_file = config.logto_console = False
+    config.set()
+    try:
+        yield
+    finally:
+        config = settings.get()
+        config.logto_file, config.logto_console = kept
+        config.set()
+
+
+def say_mujoco_warnings(mujoco, data, said_otherwise=()) -> None:
+    """Each warning MuJoCo counted in ``data`` (other than the kinds ``said_otherwise``) as a ``RuntimeWarning`` naming
+    it and how often: the models pkmlab exports have no contacts and a fixed number of constraints, so that any is
+    worth a report."""
+    import warnings
+
+    for kind, counted in enumerate(data.warning):
+        if counted.number > 0 and kind not in said_otherwise:
+            text = mujoco.mju_warningText(kind, counted.lastinfo).rstrip(".")
+            warnings.warn(f"MuJoCo warned {counted.number} time(s) during the run: {text}", RuntimeWarning,
+                          stacklevel=3)
+
+
 @functools.lru_cache(maxsize=8)
 def _compiled(key):
     """MuJoCo's model (``MjModel``) of :func:`mjcf`'s document of ``key = (model, q's shape and bytes or None, the

@@ -93,8 +93,8 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
     ctrl, plant = scenario.model, scenario.plant_model
     q_ctrl = prep.q_ctrl0.copy()
     # (the model and data of the last run of this machine from this start, reset, where there is one)
-    with mx.pooled_mujoco(plant, prep.q_plant0, timestep=step, integrator=integrator, closures=closures,
-                          drives=scenario.drives) as (model, data):
+    with mx.mujoco_log_held(mujoco), mx.pooled_mujoco(plant, prep.q_plant0, timestep=step, integrator=integrator,
+                                                      closures=closures, drives=scenario.drives) as (model, data):
         n, count, r = ctrl.n_actuators, prep.t.size, prep.realism
         qpos, qvel = np.zeros((count, model.nq)), np.zeros((count, model.nv))
         tau, violation = np.zeros((count, n)), np.zeros(count)
@@ -133,6 +133,8 @@ def simulate_mujoco(scenario: Scenario, *, timestep: float | None = None, integr
                 status, _ = samples(k, k + 1, x, read)
                 if status != ctrl.kernels.OK:
                     break
+        if status != ctrl.kernels.PLANT_FAILED:  # (a state found bad is the run's error below)
+            mx.say_mujoco_warnings(mujoco, data, said_otherwise=bad)
     if status == ctrl.kernels.PLANT_FAILED:
         raise UnstableControlError(f"MuJoCo's integration failed between t = {prep.t[k]:.4f} and "
                                    f"{prep.t[k + 1]:.4f} s (a state not finite, or one MuJoCo found bad and reset): "
