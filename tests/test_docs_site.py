@@ -324,16 +324,21 @@ def test_search_finds_forward_kinematics(server, browser):
 
     page, errors = _open(browser, f"{server}/", server)
     try:
-        # the search index is built in a web worker as the page opens (seconds on a busy machine), and a query typed
-        # before it is ready may be answered by nothing: typed again until the results show, for up to a minute
-        for attempt in range(12):
-            page.fill("input.md-search__input", "")
-            page.fill("input.md-search__input", "forward_kinematics")  # as typed in the header's search box
+        # the search index is built in a web worker as the page opens (seconds, or a minute on a machine busy with
+        # the other tests), saying "Initializing search" until it is ready; a query typed before may be answered by
+        # nothing: typed key by key once it is ready (as in the header's search box), and again should the results
+        # not show
+        page.wait_for_function("() => !/Initializing/.test(document.querySelector('.md-search-result__meta')"
+                               ".textContent)", timeout=240_000)
+        box = page.locator("input.md-search__input")
+        for attempt in range(6):
+            box.fill("")
+            box.press_sequentially("forward_kinematics")
             try:
-                page.wait_for_selector(".md-search-result__item a", timeout=5_000)
+                page.wait_for_selector(".md-search-result__item a", timeout=10_000)
                 break
             except PageTimeout:
-                if attempt == 11:
+                if attempt == 5:
                     raise
         links = page.eval_on_selector_all(".md-search-result__item a", "as => as.map(a => a.href)")
         found = {(urlsplit(href).path, urlsplit(href).fragment) for href in links}  # the query highlights the word
