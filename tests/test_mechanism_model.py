@@ -464,3 +464,28 @@ def test_3rpr_kinetic_energy_from_its_specification():
     q = mm.inverse_kinematics(model, pose0, ())
     m_theta = mm.actuator_space_model(model, q, np.zeros(3))[0]
     assert 0.5 * rho_dot @ m_theta @ rho_dot == pytest.approx(energy, rel=1e-7)
+
+
+def test_a_shipped_structure_whose_module_fails_to_import_is_an_error_not_a_new_structure(monkeypatch, tmp_path):
+    """bind takes a structure whose kernel module pkmlab ships as shipped: a failure to import that module (a
+    dependency of its missing, say) is raised as it is, instead of the structure being derived again as one new to
+    the installation, into the cache folder under the shipped module's name."""
+    import importlib
+
+    from pkmlab import _compile_cache
+
+    description = pkmlab.load("five_bar").description
+    name = mm.kernels_name(description)
+    assert name.startswith(mm.SHIPPED_KERNELS)
+    real_import = importlib.import_module
+
+    def failing(module, *args):
+        if module == name:
+            raise ModuleNotFoundError("No module named 'a_missing_dependency'", name="a_missing_dependency")
+        return real_import(module, *args)
+
+    monkeypatch.setattr(mm.importlib, "import_module", failing)
+    monkeypatch.setattr(_compile_cache, "CACHE_DIR", tmp_path)
+    with pytest.raises(ModuleNotFoundError, match="a_missing_dependency"):
+        mm.bind(description)
+    assert not (tmp_path / "kernels").exists()

@@ -223,15 +223,13 @@ def bind(description: Mechanism) -> MechanismModel:
     """The model of a description whose platform is known to assemble: the description with its packed parameters
     and its structure's kernels (shipped, or generated once), without :meth:`MechanismModel.from_description`'s
     assembly check — for a description checked already (a second process given one by the first)."""
-    derived = derivation(description)
-    try:
-        kernels = importlib.import_module(f"..kernels.{derived.generated_path(description).stem}",
-                                          __package__)
-    except ModuleNotFoundError:
-        kernels = _user_structure_kernels(description)  # (a new structure's derivation says what takes time)
-    else:
+    name = kernels_name(description)
+    if name.startswith(SHIPPED_KERNELS):  # (a shipped module that fails to import is an error to report, not a new one)
+        kernels = importlib.import_module(name)
         _say_if_compiling(kernels, description)
-    P = derived.pack(description)
+    else:
+        kernels = _user_structure_kernels(description)  # (a new structure's derivation says what takes time)
+    P = derivation(description).pack(description)
     P.setflags(write=False)
     return MechanismModel(description, P, kernels)
 
@@ -300,11 +298,17 @@ def _user_structure_kernels(description: Mechanism) -> ModuleType:
     return module
 
 
+#: The package of the kernel modules pkmlab ships (:func:`kernels_name`).
+SHIPPED_KERNELS = "pkmlab.kernels."
+
+
 def kernels_name(description) -> str:
     """The name of the kernel module of ``description``'s structure: ``pkmlab.kernels.<structure>`` for one pkmlab
-    ships, ``pkmlab_kernels_<structure>`` for one derived on first use and kept in the cache folder."""
+    ships (its module's file is in the package), ``pkmlab_kernels_<structure>`` for one derived on first use and
+    kept in the cache folder. What :func:`bind` imports, and what :mod:`pkmlab.simulation.ahead` looks up before it
+    compiles a run's loop ahead: one decision of which structures are shipped."""
     path = derivation(description).generated_path(description)
-    return f"pkmlab.kernels.{path.stem}" if path.exists() else f"pkmlab_kernels_{path.stem}"
+    return f"{SHIPPED_KERNELS}{path.stem}" if path.exists() else f"pkmlab_kernels_{path.stem}"
 
 
 def trig_table(model: MechanismModel, q: np.ndarray) -> np.ndarray:
