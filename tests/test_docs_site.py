@@ -334,8 +334,9 @@ def test_search_finds_forward_kinematics(server, browser):
         for attempt in range(6):
             box.fill("")
             box.press_sequentially("forward_kinematics")
-            try:
-                page.wait_for_selector(".md-search-result__item a", timeout=10_000)
+            try:  # (the results of the whole query: those of a prefix typed before may show first)
+                page.wait_for_selector('.md-search-result__item a[href*="#pkmlab.algorithms.kinematics.forward_'
+                                       'kinematics"]', timeout=10_000)
                 break
             except PageTimeout:
                 if attempt == 5:

@@ -471,6 +471,7 @@ def test_a_shipped_structure_whose_module_fails_to_import_is_an_error_not_a_new_
     dependency of its missing, say) is raised as it is, instead of the structure being derived again as one new to
     the installation, into the cache folder under the shipped module's name."""
     import importlib
+    import importlib.util
 
     from pkmlab import _compile_cache
 
@@ -479,10 +480,10 @@ def test_a_shipped_structure_whose_module_fails_to_import_is_an_error_not_a_new_
     assert name.startswith(mm.SHIPPED_KERNELS)
     real_import = importlib.import_module
 
-    def failing(module, *args):
-        if module == name:
+    def failing(module, package=None):
+        if importlib.util.resolve_name(module, package) == name:  # (however bind names it)
             raise ModuleNotFoundError("No module named 'a_missing_dependency'", name="a_missing_dependency")
-        return real_import(module, *args)
+        return real_import(module, package)
 
     monkeypatch.setattr(mm.importlib, "import_module", failing)
     monkeypatch.setattr(_compile_cache, "CACHE_DIR", tmp_path)

@@ -191,9 +191,9 @@ def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, 
     from pkmlab.errors import UnstableControlError
     from pkmlab.interop import mujoco_export, mujoco_plant
 
-    monkeypatch.chdir(tmp_path)  # where MuJoCo would write its warnings (MUJOCO_LOG.TXT)
-    logging = mujoco.MjLogConfig.get()
-    logging_before = (logging.logto_file, logging.logto_console)
+    monkeypatch.chdir(tmp_path)  # where MuJoCo would write its warnings (MUJOCO_LOG.TXT): the reset makes it warn
+    held = hasattr(mujoco, "MjLogConfig")  # (a MuJoCo without log settings logs as it always did)
+    logging_before = _log_settings(mujoco) if held else None
     monkeypatch.setattr(mujoco_export, "_IDLE", collections.OrderedDict())  # a new MjData: none kept from a run before
     made, calls = [], {"n": 0}
     make = mujoco.MjData
@@ -225,9 +225,32 @@ def test_mujocos_own_failure_is_one_line_naming_the_time(monkeypatch, tmp_path, 
         assert calls["n"] == (400 if failure == "reset" else 100)
     if failure == "reset":
         assert np.isfinite(made[-1].qvel).all()  # MuJoCo did reset the state the run would have gone on from
-    assert not (tmp_path / "MUJOCO_LOG.TXT").exists() and "WARNING" not in capfd.readouterr().out
-    logging = mujoco.MjLogConfig.get()
-    assert (logging.logto_file, logging.logto_console) == logging_before
+    if held:
+        assert not (tmp_path / "MUJOCO_LOG.TXT").exists() and "WARNING" not in capfd.readouterr().out
+        assert _log_settings(mujoco) == logging_before
+
+
+def _log_settings(mujoco) -> tuple[bool, bool]:
+    config = mujoco.MjLogConfig.get()
+    return config.logto_file, config.logto_console
+
+
+def test_mujocos_log_is_held_from_the_first_run_in_to_the_last_out():
+    """Runs in threads overlap: MuJoCo's log settings, the process's, are held while any of them runs, and set back
+    as they were when the last ends."""
+    mujoco = pytest.importorskip("mujoco")
+    if not hasattr(mujoco, "MjLogConfig"):
+        pytest.skip("this MuJoCo has no log settings")
+    from pkmlab.interop.mujoco_export import mujoco_log_held
+
+    before = _log_settings(mujoco)
+    first, second = mujoco_log_held(mujoco), mujoco_log_held(mujoco)
+    first.__enter__()
+    second.__enter__()
+    first.__exit__(None, None, None)
+    assert _log_settings(mujoco) == (False, False)  # the second run still holds it
+    second.__exit__(None, None, None)
+    assert _log_settings(mujoco) == before
 
 
 def test_a_run_on_the_model_and_data_of_the_last_run_is_the_same_run(monkeypatch):

@@ -24,7 +24,9 @@ import hashlib
 import os
 import shutil
 import tempfile
+import threading
 import time
+import types
 from pathlib import Path
 
 try:
@@ -375,38 +377,44 @@ def _is_kernel(value) -> bool:
 
 
 #: The interpreted copies made so far (:func:`interpreted`): of each kernel's Python function, and of each module's
-#: names (by the module's name).
+#: names (by the identity of the module's namespace, kept alive beside its copy). Made under :data:`_COPYING`: a
+#: copy is handed out only once the names its module's kernels see are all interpreted.
 _COPIES: dict = {}
-_NAMESPACES: dict[str, dict] = {}
+_NAMESPACES: dict[int, tuple[dict, dict]] = {}
+_COPYING = threading.RLock()
 
 
 def interpreted(kernel):
     """The compiled kernel ``kernel`` run by Python: its Python function, every compiled kernel that it calls (by a
-    name of its module, or as an attribute of a module of pkmlab's) replaced by its interpreted copy, and so on
-    down its calls. The same operations in the same order as compiled, so the same numbers bit for bit where Python
-    and the compiled code compute each operation alike: ``+ - * /``, comparisons, ``sqrt`` and the C library's
-    ``sin``, ``cos``, ``atan2``... — not ``x**k`` (Numba multiplies it out, Python's ``pow`` rounds once: write the
-    products) nor ``math.hypot`` (Python's own, Numba's is the C library's): a test holds each kernel run this way
-    (:class:`InterpretedFirst`) to its compiled numbers. For kernels of plain arrays and numbers (a workspace's
-    fields, read by attribute, are not). A copy sees its module's names as they were at its first copy."""
+    name of its module, or as an attribute of a module of pkmlab's or of a structure's generated kernels) replaced by
+    its interpreted copy, and so on down its calls. The same operations in the same order as compiled, so the same
+    numbers bit for bit where Python and the compiled code compute each operation alike: ``+ - * /``, comparisons,
+    ``max``, ``abs``, ``sqrt`` and the C library's ``sin``, ``cos``, ``atan2``... — not ``x**k`` (Numba multiplies
+    it out, Python's ``pow`` rounds once: write the products) nor ``math.hypot`` (Python's own, Numba's is the C
+    library's): a test holds each kernel run this way (:class:`InterpretedFirst`) to its compiled numbers. Where the
+    compiled code raises (a float divided by zero), NumPy's numbers may give infinities with a warning instead. For
+    kernels of plain arrays and numbers (a workspace's fields, read by attribute, are not). A copy sees its module's
+    names as they were when the module was first copied."""
     if not _is_kernel(kernel):
         return kernel
     function = kernel.py_func
-    copy = _COPIES.get(function)
-    if copy is None:
-        import types
-
-        namespace = _interpreted_namespace(function.__globals__)
-        cells = function.__closure__ and tuple(types.CellType(_interpreted_value(cell.cell_contents))
-                                               for cell in function.__closure__)
-        copy = types.FunctionType(function.__code__, namespace, function.__name__, function.__defaults__, cells)
-        copy.__qualname__, copy.__doc__ = function.__qualname__, function.__doc__
-        _COPIES[function] = copy
+    with _COPYING:
+        copy = _COPIES.get(function)
+        if copy is None:
+            namespace = _interpreted_namespace(function.__globals__)
+            copy = _COPIES.get(function)  # (made while its module's names were: a kernel of the same module)
+        if copy is None:
+            cells = function.__closure__ and tuple(types.CellType(_interpreted_value(cell.cell_contents))
+                                                   for cell in function.__closure__)
+            copy = types.FunctionType(function.__code__, namespace, function.__name__, function.__defaults__, cells)
+            copy.__kwdefaults__, copy.__qualname__ = function.__kwdefaults__, function.__qualname__
+            copy.__doc__ = function.__doc__
+            _COPIES[function] = copy
     return copy
 
 
 class _InterpretedModule:
-    """A module of pkmlab's as an interpreted kernel sees it: its compiled kernels interpreted (:func:`interpreted`)."""
+    """A module as an interpreted kernel sees it: its compiled kernels interpreted (:func:`interpreted`)."""
 
     def __init__(self, module):
         self._module = module
@@ -415,26 +423,31 @@ class _InterpretedModule:
         return _interpreted_value(getattr(self._module, name))
 
 
-def _interpreted_value(value):
-    import types
+#: The modules whose kernels an interpreted kernel calls interpreted too: pkmlab's, and the kernels generated for a
+#: structure new to the installation (``pkmlab_kernels_<structure>``, :mod:`pkmlab.model.mechanism_model`).
+_OWN_MODULES = (__name__.split(".")[0] + ".", __name__.split(".")[0] + "_kernels_")
 
+
+def _interpreted_value(value):
     if _is_kernel(value):
         return interpreted(value)
-    if isinstance(value, types.ModuleType) and value.__name__.split(".")[0] == __name__.split(".")[0]:
+    if isinstance(value, types.ModuleType) and (value.__name__ + ".").startswith(_OWN_MODULES):
         return _InterpretedModule(value)
     return value
 
 
 def _interpreted_namespace(namespace: dict) -> dict:
-    """A copy of a module's names (``namespace``) whose kernels and modules of pkmlab's are interpreted; one per
-    module, made before its kernels' copies (which share it: two kernels that call each other end there)."""
-    name = namespace.get("__name__", "")
-    copy = _NAMESPACES.get(name)
-    if copy is None or copy.get("__file__") != namespace.get("__file__"):
-        copy = _NAMESPACES[name] = dict(namespace)
-        for key, value in namespace.items():
+    """A copy of a module's names (``namespace``) whose kernels and modules are interpreted
+    (:func:`_interpreted_value`); one per module, registered before its kernels are copied (which share it: two
+    kernels that call each other end there)."""
+    entry = _NAMESPACES.get(id(namespace))
+    if entry is None:
+        copy = dict(namespace)
+        _NAMESPACES[id(namespace)] = (namespace, copy)
+        for key, value in list(copy.items()):
             copy[key] = _interpreted_value(value)
-    return copy
+        return copy
+    return entry[1]
 
 
 #: Seconds of interpreted calls a kernel run interpreted first (:class:`InterpretedFirst`) may take in a process
@@ -444,8 +457,9 @@ INTERPRETED_BUDGET = 1.0
 
 class InterpretedFirst:
     """A compiled kernel called from Python (``kernel``) that runs interpreted (:func:`interpreted`) until its
-    compiled code is at hand: compiled in this process already (by a compiled caller, say), or in the cache, or
-    once its interpreted calls have taken ``budget`` seconds of this process, when it compiles.
+    compiled code for the call's argument types is at hand: compiled in this process already (by a compiled caller,
+    say), or in the cache, or once its interpreted calls have taken ``budget`` seconds of this process, when it
+    compiles.
 
     For a kernel that a command calls a few times, whose compile costs seconds and whose interpreted call
     milliseconds: a planar machine's assembly modes at a run's start (``three_circles``: 5-6 s of compiling on the
@@ -455,26 +469,41 @@ class InterpretedFirst:
     def __init__(self, kernel, budget: float = INTERPRETED_BUDGET):
         self.kernel = kernel
         self.budget = budget
-        self._cached: bool | None = None
+        self._cached: dict[tuple, bool] = {}
 
-    def compiled_at_hand(self) -> bool:
-        """Whether the kernel runs compiled at its next call: compiled or cached already, or its budget spent."""
-        if INTERPRETED or not _is_kernel(self.kernel) or self.kernel.signatures or self.budget <= 0.0:
+    def compiled_at_hand(self, *args) -> bool:
+        """Whether a call with ``args`` runs compiled: its compiled code in this process or in the cache, or the
+        budget spent."""
+        if INTERPRETED or not _is_kernel(self.kernel) or self.budget <= 0.0:
             return True
-        if self._cached is None:  # looked up once: a process that saves it has compiled it
-            index = getattr(getattr(getattr(self.kernel, "_cache", None), "_cache_file", None), "_index_path", None)
-            module, name = self.kernel.py_func.__module__, self.kernel.py_func.__qualname__
-            self._cached = os.path.exists(index) if index else has_compiled(module, name)
-        return self._cached
+        signature = tuple(self.kernel.typeof_pyval(a) for a in args)
+        if signature in self.kernel.overloads:
+            return True
+        if signature not in self._cached:  # looked up once: a process that saves it has compiled it
+            self._cached[signature] = _in_cache(self.kernel, signature)
+        return self._cached[signature]
 
     def __call__(self, *args):
-        if self.compiled_at_hand():
+        if self.compiled_at_hand(*args):
             return self.kernel(*args)
         start = time.perf_counter()
         try:
             return interpreted(self.kernel)(*args)
         finally:
             self.budget -= time.perf_counter() - start
+
+
+def _in_cache(kernel, signature: tuple) -> bool:
+    """Whether Numba's cache holds ``kernel`` compiled for the argument types ``signature``, for this Numba and
+    processor (its index's key for them): what its next call would load rather than compile. False where it cannot
+    tell (no cache, an index it cannot read)."""
+    cache = getattr(kernel, "_cache", None)
+    try:
+        key = cache._index_key(signature, kernel.targetctx.codegen())
+        return cache._cache_file._load_index().get(key) is not None
+    except Exception:  # noqa: BLE001  (Numba's private cache: any failure means "cannot tell")
+        return False
+
 
 #: Numba options of a compiled function called from compiled code only: without the two wrappers Numba otherwise
 #: compiles and caches with each function, one that converts Python's arguments and one that makes it a C callback

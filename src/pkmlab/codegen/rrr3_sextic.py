@@ -124,8 +124,9 @@ class _NumbaPowers(PythonCodePrinter):
     forward kinematics run interpreted at a run's start relies on (:class:`pkmlab._compile_cache.InterpretedFirst`)."""
 
     def _print_Pow(self, expr, rational=False):
-        if expr.exp.is_Integer and expr.exp > 1:
-            return _power_products(self.parenthesize(expr.base, PRECEDENCE["Pow"]), int(expr.exp))
+        if expr.exp.is_Integer and abs(expr.exp) > 1:  # (a negative power: Numba divides 1.0 by the products)
+            products = _power_products(self.parenthesize(expr.base, PRECEDENCE["Pow"]), abs(int(expr.exp)))
+            return products if expr.exp > 0 else f"(1.0/{products})"
         return super()._print_Pow(expr, rational=rational)
 
 

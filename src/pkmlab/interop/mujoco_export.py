@@ -611,27 +611,39 @@ def pooled_mujoco(model, q=None, **options):
                     _IDLE.popitem(last=False)
 
 
+#: Runs holding MuJoCo's log (:func:`mujoco_log_held`), and the log settings the first of them found.
+_LOG_HOLDERS: list = []
+_LOG_LOCK = threading.Lock()
+
+
 @contextlib.contextmanager
 def mujoco_log_held(mujoco):
-    """MuJoCo's warnings neither printed nor written to ``MUJOCO_LOG.TXT`` in the working folder while pkmlab steps its
-    models (MuJoCo's log settings, ``mujoco.MjLogConfig``, are the process's: set back as they were at the end).
-    MuJoCo still counts each warning in its data (``MjData.warning``), where pkmlab reads them: a state MuJoCo found
-    bad stops the run in one line, another warning is said once (:func:`say_mujoco_warnings`). A MuJoCo without log
-    settings (an older release) logs as it always did."""
+    """MuJoCo's warnings neither printed nor written to ``MUJOCO_LOG.TXT`` in the working folder while pkmlab loads and
+    steps its models (MuJoCo's log settings, ``mujoco.MjLogConfig``, are the process's: held from the first run in,
+    of runs in threads, to the last out, and set back then as they were). MuJoCo still counts each warning in its
+    data (``MjData.warning``), where pkmlab reads them: a state MuJoCo found bad stops the run in one line, another
+    warning is said once (:func:`say_mujoco_warnings`). A MuJoCo without log settings (an older release) logs as it
+    always did."""
     settings = getattr(mujoco, "MjLogConfig", None)
     if settings is None:
         yield
         return
-    config = settings.get()
-    kept = (config.logto_file, config.logto_console)
-    config.logto_file = config.logto_console = False
-    config.set()
+    with _LOG_LOCK:
+        if not _LOG_HOLDERS:
+            config = settings.get()
+            _LOG_HOLDERS.append((config.logto_file, config.logto_console))
+            config.logto_file = config.logto_console = False
+            config.set()
+        _LOG_HOLDERS.append(None)
     try:
         yield
     finally:
-        config = settings.get()
-        config.logto_file, config.logto_console = kept
-        config.set()
+        with _LOG_LOCK:
+            _LOG_HOLDERS.pop()
+            if len(_LOG_HOLDERS) == 1:
+                config = settings.get()
+                config.logto_file, config.logto_console = _LOG_HOLDERS.pop()
+                config.set()
 
 
 def say_mujoco_warnings(mujoco, data, said_otherwise=()) -> None:
