@@ -1,5 +1,5 @@
-"""A kernel called a few times from Python runs interpreted until its compiled code is at hand
-(``_compile_cache.InterpretedFirst``): the same numbers bit for bit, and no compile until its budget is spent."""
+"""A kernel that a command may call once from Python runs interpreted until its compiled code is at hand
+(``_compile_cache.InterpretedFirst``): the same numbers bit for bit, and no compile for a process's first call."""
 
 from __future__ import annotations
 
@@ -95,16 +95,16 @@ def _twice_plus_one(x, out):
     out[0] = _twice(x) + 1.0
 
 
-def test_a_kernel_runs_interpreted_until_its_budget_is_spent_then_compiled():
+def test_a_kernel_runs_interpreted_for_its_first_calls_then_compiled():
     out = np.zeros(1)
-    first = InterpretedFirst(_twice_plus_one, budget=60.0)
+    first = InterpretedFirst(_twice_plus_one, calls=60)
     first(3.0, out)
     assert out[0] == 7.0
     assert _twice_plus_one.signatures == [] and _twice.signatures == []  # nothing compiled, its callee neither
-    tiny = InterpretedFirst(_twice_plus_one, budget=1e-12)
-    tiny(4.0, out)  # interpreted: the budget is spent by it
-    assert out[0] == 9.0 and _twice_plus_one.signatures == [] and tiny.budget < 0.0
-    tiny(5.0, out)  # compiled
+    once = InterpretedFirst(_twice_plus_one)  # one call interpreted (the default)
+    once(4.0, out)
+    assert out[0] == 9.0 and _twice_plus_one.signatures == [] and once.calls == 0
+    once(5.0, out)  # compiled
     assert out[0] == 11.0 and len(_twice_plus_one.signatures) == 1
     assert first.compiled_at_hand(6.0, out)  # compiled in this process now: every caller takes the compiled code
     assert not first.compiled_at_hand(np.float32(6.0), out)  # but not for other argument types

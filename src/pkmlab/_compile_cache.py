@@ -450,31 +450,31 @@ def _interpreted_namespace(namespace: dict) -> dict:
     return entry[1]
 
 
-#: Seconds of interpreted calls a kernel run interpreted first (:class:`InterpretedFirst`) may take in a process
-#: before it is compiled.
-INTERPRETED_BUDGET = 1.0
+#: Calls of a kernel run interpreted first (:class:`InterpretedFirst`) in a process before it is compiled.
+INTERPRETED_CALLS = 1
 
 
 class InterpretedFirst:
-    """A compiled kernel called from Python (``kernel``) that runs interpreted (:func:`interpreted`) until its
-    compiled code for the call's argument types is at hand: compiled in this process already (by a compiled caller,
-    say), or in the cache, or once its interpreted calls have taken ``budget`` seconds of this process, when it
-    compiles.
+    """A compiled kernel called from Python (``kernel``) that runs interpreted (:func:`interpreted`) for its first
+    ``calls`` calls in a process, unless its compiled code for the call's argument types is at hand (compiled in
+    this process already, by a compiled caller say, or in the cache); then compiled, and kept in the cache.
 
-    For a kernel that a command calls a few times, whose compile costs seconds and whose interpreted call
-    milliseconds: a planar machine's assembly modes at a run's start (``three_circles``: 5-6 s of compiling on the
-    first run of the paper's disturbed case, against 10 ms interpreted). The numbers are the same either way: only
-    for a kernel that :func:`interpreted` runs bit for bit as compiled, which a test checks."""
+    For a kernel that a command may call once, whose compile costs seconds and whose interpreted call milliseconds:
+    a planar machine's assembly modes at a run's start (``three_circles``: 5-6 s of compiling on the first run of
+    the paper's disturbed case, against 10 ms interpreted). A process that calls it more (a batch of disturbed runs)
+    compiles it at its second call, as it would have at its first, and every later process loads it. The numbers are
+    the same either way: only for a kernel that :func:`interpreted` runs bit for bit as compiled, which a test
+    checks."""
 
-    def __init__(self, kernel, budget: float = INTERPRETED_BUDGET):
+    def __init__(self, kernel, calls: int = INTERPRETED_CALLS):
         self.kernel = kernel
-        self.budget = budget
+        self.calls = calls
         self._cached: dict[tuple, bool] = {}
 
     def compiled_at_hand(self, *args) -> bool:
         """Whether a call with ``args`` runs compiled: its compiled code in this process or in the cache, or the
-        budget spent."""
-        if INTERPRETED or not _is_kernel(self.kernel) or self.budget <= 0.0:
+        interpreted calls spent."""
+        if INTERPRETED or not _is_kernel(self.kernel) or self.calls <= 0:
             return True
         signature = tuple(self.kernel.typeof_pyval(a) for a in args)
         if signature in self.kernel.overloads:
@@ -486,11 +486,8 @@ class InterpretedFirst:
     def __call__(self, *args):
         if self.compiled_at_hand(*args):
             return self.kernel(*args)
-        start = time.perf_counter()
-        try:
-            return interpreted(self.kernel)(*args)
-        finally:
-            self.budget -= time.perf_counter() - start
+        self.calls -= 1
+        return interpreted(self.kernel)(*args)
 
 
 def _in_cache(kernel, signature: tuple) -> bool:

@@ -6,8 +6,9 @@ their actuators are fixed (the paper's 3-RRR, the 3-RPR, the 3-PRR...) reduces t
 generic model (:func:`pkmlab.algorithms.assembly.assembly_modes`) and the paper's own formulation
 (:mod:`pkmlab.paper.rrr3`) both solve it here.
 
-Called from Python (:data:`three_circles_from_python`), it runs interpreted until its compiled code is at hand: a
-run's start needs a disturbed plant's assembly modes once, 10 ms interpreted against 5-6 s of compiling. Its code
+Called from Python (:data:`three_circles_from_python`), it runs interpreted at a process's first call unless its
+compiled code is at hand: a run's start needs a disturbed plant's assembly modes once, 10 ms interpreted against
+5-6 s of compiling; a second call compiles it (:class:`pkmlab._compile_cache.InterpretedFirst`). Its code
 gives the same numbers bit for bit either way (:func:`pkmlab._compile_cache.interpreted`): no ``x**k`` (the
 generated sextic writes its powers as products) and no ``math.hypot``.
 """
@@ -133,5 +134,5 @@ def circle_vertex1(e, radii, vertices, ca, sa):
     return best_x, best_y
 
 
-#: :func:`three_circles` for callers in Python: interpreted until its compiled code is at hand (module docstring).
+#: :func:`three_circles` for callers in Python: interpreted at a process's first call (module docstring).
 three_circles_from_python = InterpretedFirst(three_circles)
