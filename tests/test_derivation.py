@@ -66,3 +66,21 @@ def test_sextic_vanishes_at_the_orientation_of_an_assembled_configuration():
         value = np.polyval(a, t)
         scale = np.polyval(np.abs(a), abs(t))
         assert abs(value) < 1e-10 * scale
+
+
+def test_the_jacobians_differentiated_by_symengine_are_sympys_own_expressions():
+    """codegen.planar.jacobian differentiates with SymEngine and converts back: entry for entry the expressions of
+    SymPy's Matrix.jacobian (so the generated kernels are as SymPy would write them), on a Delta leg's loop-closure
+    rows and their bias, and on its forearm's velocity rows."""
+    import pkmlab
+    from pkmlab.codegen import planar, spatial
+
+    leg = next(iter(spatial.derive(pkmlab.load("delta").description)["legs"].values()))
+    q, q_dot = leg["q"], leg["q_dot"]
+    rows = sp.Matrix(leg["eta"])
+    jac, bias = planar.jacobian_and_bias(list(rows), q, q_dot)
+    assert jac == rows.jacobian(q)
+    assert bias == (rows.jacobian(q) * sp.Matrix(q_dot)).jacobian(q) * sp.Matrix(q_dot)
+    velocity = sp.Matrix([e for _position, v, w in leg["bodies"] for e in [*v, *w]])
+    assert planar.jacobian(list(velocity), q_dot) == velocity.jacobian(q_dot)
+    assert planar.jacobian(list(velocity), q) == velocity.jacobian(q)
