@@ -611,8 +611,8 @@ def pooled_mujoco(model, q=None, **options):
                     _IDLE.popitem(last=False)
 
 
-#: Runs holding MuJoCo's log (:func:`mujoco_log_held`), and the log settings the first of them found.
-_LOG_HOLDERS: list = []
+#: Runs holding MuJoCo's log (:func:`mujoco_log_held`): how many, and the log settings the first of them found.
+_LOG_HELD = {"runs": 0, "kept": None}
 _LOG_LOCK = threading.Lock()
 
 
@@ -629,20 +629,20 @@ def mujoco_log_held(mujoco):
         yield
         return
     with _LOG_LOCK:
-        if not _LOG_HOLDERS:
+        if _LOG_HELD["runs"] == 0:
             config = settings.get()
-            _LOG_HOLDERS.append((config.logto_file, config.logto_console))
+            _LOG_HELD["kept"] = (config.logto_file, config.logto_console)
             config.logto_file = config.logto_console = False
             config.set()
-        _LOG_HOLDERS.append(None)
+        _LOG_HELD["runs"] += 1
     try:
         yield
     finally:
         with _LOG_LOCK:
-            _LOG_HOLDERS.pop()
-            if len(_LOG_HOLDERS) == 1:
+            _LOG_HELD["runs"] -= 1
+            if _LOG_HELD["runs"] == 0:
                 config = settings.get()
-                config.logto_file, config.logto_console = _LOG_HOLDERS.pop()
+                config.logto_file, config.logto_console = _LOG_HELD["kept"]
                 config.set()
 
 
