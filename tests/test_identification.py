@@ -98,11 +98,11 @@ def test_weighting_by_each_actuators_noise_beats_ordinary_least_squares():
 def test_a_logged_motion_is_filtered_to_its_exact_rates_and_accelerations():
     t, q, theta_dot, theta_ddot = fourier_motion(PAPER)
     tau = pkmlab.inverse_dynamics(PAPER, q, theta_dot, theta_ddot)
-    data = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, decimate=1, efforts="sampled")
+    data = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, decimate=1, efforts="sampled", reversals="keep")
     assert np.abs(data.q - q).max() < 1e-9
     assert np.abs(data.theta_dot - theta_dot).max() < 1e-5 * np.abs(theta_dot).max()
     assert np.abs(data.theta_ddot - theta_ddot).max() < 1e-3 * np.abs(theta_ddot).max()
-    kept = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, efforts="sampled")
+    kept = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, efforts="sampled", reversals="keep")
     d = decimation(51, 4)
     assert d == 15 and np.array_equal(kept.t, t[::d]) and np.array_equal(kept.q, data.q[::d])
     result = pkmlab.identify(PAPER, *kept.states, kept.tau)
@@ -113,6 +113,28 @@ def test_a_logged_motion_is_filtered_to_its_exact_rates_and_accelerations():
     t2, q2, td2, tdd2 = fourier_motion(PAPER, seconds=4.0, seed=8)
     held_out = pkmlab.inverse_dynamics(PAPER, q2, td2, tdd2)
     assert np.abs(result.predict(PAPER, q2, td2, tdd2) - held_out).max() < 1e-3 * np.abs(held_out).max()
+
+
+def test_rows_whose_filter_window_holds_a_rate_reversal_are_dropped():
+    """By default the rows whose window (51 samples at 1 kHz, the default 50 ms) holds a change of sign of an
+    actuator's rate are left out — judged here on the exact rates: a kept row's window has none, a dropped row's
+    window, a sample wider either side, has one; the others of the decimated rows are all kept."""
+    t, q, theta_dot, theta_ddot = fourier_motion(PAPER)
+    tau = pkmlab.inverse_dynamics(PAPER, q, theta_dot, theta_ddot)
+    every = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, efforts="sampled", reversals="keep")
+    kept = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, efforts="sampled")
+    rows = np.searchsorted(t, every.t)
+    dropped = ~np.isin(every.t, kept.t)
+    assert 0 < dropped.sum() < len(rows) // 2 and np.array_equal(kept.q, every.q[~dropped])
+    signs = np.sign(theta_dot)
+    for row, drop in zip(rows, dropped, strict=True):
+        lo = min(max(row - 25, 0), len(t) - 51)
+        window = signs[lo:lo + 51] if not drop else signs[max(lo - 2, 0):lo + 53]
+        reverses = bool(np.any(window != window[0], axis=0).any())
+        assert reverses == drop, (row, drop)
+    with pytest.raises(pkmlab.InvalidParameterError, match="reversal"):  # a machine at rest: noise reverses it
+        rest = np.repeat(q[:1, :3], 500, axis=0) + np.random.default_rng(1).standard_normal((500, 3)) * 1e-7
+        pkmlab.filter_measurements(PAPER, t[:500], rest, tau[:500], q_start=q[0])
 
 
 def test_the_reported_sigma_of_a_filtered_noisy_log_is_its_spread():
@@ -251,7 +273,9 @@ def test_identify_reads_a_log_and_writes_its_results(tmp_path, paper_log):
     assert done.returncode == 0, done.stderr
     out = json.loads(done.stdout)
     written = json.loads((tmp_path / "result" / "identification.json").read_text())
-    assert written == out and out["samples"] == len(t[::15])
+    # the rows whose filter window holds a rate's reversal left out, as the API leaves them out
+    kept = pkmlab.filter_measurements(PAPER, t, q[:, :3], tau, pose=q[0, -3:], efforts="sampled")
+    assert written == out and out["reversals"] == "drop" and out["samples"] == len(kept.t) < len(t[::15])
     truth = pkmlab.base_parameters(PAPER).of(pkmlab.inertial_parameters(PAPER))
     rows = out["base_parameters"]
     assert len(rows) == 13
@@ -261,6 +285,8 @@ def test_identify_reads_a_log_and_writes_its_results(tmp_path, paper_log):
     assert csv_lines[0] == "name,estimate,sigma,relative_sigma_percent" and len(csv_lines) == 14
     table = _pkmlab("identify", str(log), "--efforts", "sampled", cwd=tmp_path)
     assert table.returncode == 0 and "platform.Izz" in table.stdout and "sigma %" in table.stdout
+    every = _pkmlab("identify", str(log), "--efforts", "sampled", "--reversals", "keep", "--json", cwd=tmp_path)
+    assert every.returncode == 0 and json.loads(every.stdout)["samples"] == len(t[::15])
 
 
 @pytest.mark.parametrize("change, message", [

@@ -74,7 +74,7 @@ class Measurements:
     >>> run = pkmlab.simulate(pkmlab.paper_scenario("fast"))
     >>> log = pkmlab.filter_measurements(run.scenario.model, run.t, run.theta, run.tau, q_start=run.q[0])
     >>> log.q.shape, [a.shape for a in log.states[1:]]
-    ((53, 9), [(53, 3), (53, 3)])
+    ((31, 9), [(31, 3), (31, 3)])
     """
 
     t: np.ndarray
@@ -153,6 +153,19 @@ def _window_samples(window: float, step: float, polyorder: int, count: int) -> i
     return length
 
 
+def _reversal_rows(rates: np.ndarray, length: int) -> np.ndarray:
+    """The rows (N,) whose Savitzky–Golay window of ``length`` samples (the whole first or last window at the log's
+    ends, as ``mode="interp"`` fits them) holds a reversal of any column of ``rates`` (N, n): a change of its sign,
+    a sample either side of it included (the true reversal lies between two samples of the filtered rate)."""
+    count, half = len(rates), length // 2
+    signs = np.sign(rates)
+    reversal = np.any(signs[1:] != signs[:-1], axis=1)  # between row k and k + 1
+    before = np.concatenate([[0], np.cumsum(reversal)])  # reversals between rows below j: before[j]
+    lo = np.clip(np.arange(count) - half, 0, count - length)
+    first, last = np.maximum(lo - 1, 0), np.minimum(lo + length, count - 1)  # reversal indices k in [first, last)
+    return before[last] > before[first]
+
+
 def _start_configuration(model: MechanismModel, theta0: np.ndarray, pose, mode) -> np.ndarray:
     """The assembly mode the log starts in: the one nearest ``pose`` (the pose logged at the first row) when
     given, else the one nearest a well-conditioned configuration of working ``mode``."""
@@ -198,7 +211,7 @@ def decimation(length: int, polyorder: int) -> int:
 
 def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
                         polyorder: int = DEFAULT_POLYORDER, decimate="auto", q_start=None, pose=None,
-                        mode=None, first_row: int = 0, efforts: str = "held") -> Measurements:
+                        mode=None, first_row: int = 0, efforts: str = "held", reversals: str = "drop") -> Measurements:
     """States from a log of measured actuators and efforts at a fixed rate.
 
     Savitzky–Golay smoothing and differentiation of ``theta``, the same smoothing of ``tau`` (parallel
@@ -237,6 +250,13 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
         state at ``t_k`` would be half a sample late, a bias of order ``h`` on every estimate (0.8 % of the
         largest base parameter of a five-bar at 1 kHz, measured). ``"sampled"``: an instantaneous
         measurement at the sample's time.
+    reversals : {"drop", "keep"}
+        ``"drop"`` (default): leave out the rows whose filter window holds a reversal of any actuator's rate (a
+        change of sign of its filtered rate). There the smoothed effort mixes the Coulomb friction of both
+        directions of motion, which no friction law of the smoothed rate represents: kept, such rows bias the
+        drives' friction estimates (Coulomb friction low, viscous high; 3–9 % on the paper's machine logged by a
+        20-bit encoder, measured). A machine at rest reverses at each wiggle of its noise: its rows at rest go
+        too. ``"keep"``: every decimated row (a machine without friction loses nothing by them).
 
     Returns
     -------
@@ -246,7 +266,8 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
     Raises
     ------
     InvalidParameterError
-        Naming the row where time does not increase or the rate changes, or too few samples for the window.
+        Naming the row where time does not increase or the rate changes, too few samples for the window, or no
+        row left away from the rates' reversals.
     BranchFollowingError
         Naming the first row the machine cannot reach from the one before it.
 
@@ -256,7 +277,7 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
     >>> run = pkmlab.simulate(pkmlab.paper_scenario("fast"))
     >>> log = filter_measurements(run.scenario.model, run.t, run.theta, run.tau, q_start=run.q[0])
     >>> run.t.size, log.t.size
-    (787, 53)
+    (787, 31)
     """
     from scipy.signal import savgol_filter
 
@@ -277,11 +298,12 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
         mode = as_working_mode(model, mode, "mode")
     first_row = as_count("first_row", first_row, 0)
     efforts = as_choice("efforts", efforts, ("held", "sampled"))
+    reversals = as_choice("reversals", reversals, ("drop", "keep"))
     if len(ts) < 2:
         raise InvalidParameterError(f"too few samples: {len(ts)} rows")
     step = sampling_step(ts, first_row)
     length = _window_samples(window, step, polyorder, len(ts))
-    keep = slice(0, None, decimation(length, polyorder) if decimate == "auto" else decimate)
+    keep = np.arange(0, len(ts), decimation(length, polyorder) if decimate == "auto" else decimate)
 
     def smoothed(x, deriv=0):
         return savgol_filter(x, length, polyorder, deriv=deriv, delta=step, axis=0, mode="interp")
@@ -297,8 +319,14 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
         raise BranchFollowingError(f"the log leaves the machine's reach: theta at row {exc.row + first_row} "
                                    f"{np.round(thetas[exc.row], 6).tolist()} cannot be reached from the row before it:"
                                    f" {exc.reason}") from None
-    return Measurements(ts[keep], q[keep], smoothed(thetas, 1)[keep], smoothed(thetas, 2)[keep],
-                        smoothed(taus)[keep])
+    rates = smoothed(thetas, 1)
+    if reversals == "drop":
+        keep = keep[~_reversal_rows(rates, length)[keep]]
+        if keep.size == 0:
+            raise InvalidParameterError(f"every row's filter window of {window:g} s holds a reversal of an actuator's "
+                                        "rate (or the machine is at rest): log a longer motion, or give "
+                                        "reversals='keep' where the machine has no friction to identify")
+    return Measurements(ts[keep], q[keep], rates[keep], smoothed(thetas, 2)[keep], smoothed(taus)[keep])
 
 
 # ------------------------------------------------------------------ estimation

@@ -255,6 +255,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--efforts", choices=("held", "sampled"), default="held", help="how the logged efforts act: held "
                    "from each sample to the next (commanded efforts, pkmlab simulate's tau; default) or sampled at "
                    "their instants (a measurement)")
+    p.add_argument("--reversals", choices=("drop", "keep"), default="drop", help="the samples whose filter window "
+                   "holds a reversal of an actuator's rate, where the smoothed effort mixes the friction of both "
+                   "directions: left out (default; kept, they bias the friction estimates) or kept")
     p.add_argument("--coulomb-rate", type=float, metavar="V", help="with --drives, the Coulomb friction model "
                    "fc tanh(rate / V) (the [plant] key coulomb_rate); default 0, fc sign(rate)")
     p.add_argument("--mode", nargs="+", metavar="SIGN", help="the working mode whose home configuration chooses the "

@@ -1,7 +1,7 @@
 """``pkmlab identify``: a machine's base parameters estimated from a log of its actuators and efforts.
 
-JSON (``--json``): ``{"mechanism", "log", "window_s", "polyorder", "efforts", "drives", ...}`` (with ``--drives``, also
-``coulomb_rate``, the friction model estimated) and the estimate's
+JSON (``--json``): ``{"mechanism", "log", "window_s", "polyorder", "efforts", "reversals", "drives", ...}`` (with
+``--drives``, also ``coulomb_rate``, the friction model estimated) and the estimate's
 summary (:meth:`pkmlab.algorithms.identification.Identification.summary`): ``base_parameters`` (name, estimate,
 sigma, relative_sigma_percent), ``condition_number``, ``samples``, ``effort_sigma``, ``rms_residual``,
 ``unidentifiable``; with ``--consistent``, ``consistent``: ``{"distance", "parameters": {name: value}}`` (the
@@ -66,7 +66,7 @@ def cmd_identify(args) -> dict:
     if args.coulomb_rate is not None and not args.drives:
         raise InvalidParameterError("--coulomb-rate is the drives' friction model: it needs --drives")
     provenance = {"log": str(args.log), "window_s": window, "polyorder": polyorder, "efforts": args.efforts,
-                  "drives": args.drives,
+                  "reversals": args.reversals, "drives": args.drives,
                   **({"coulomb_rate": coulomb_rate} if args.drives else {})}
     inputs = [args.log, *([args.validate] if args.validate else [])]
     folder = (atomic_output_dir(args.out, "identify", inputs=inputs, provenance=provenance) if args.out else
@@ -75,7 +75,8 @@ def cmd_identify(args) -> dict:
         log = read_measurement_log(args.log, model)
         try:
             data = filter_measurements(model, log.t, log.theta, log.tau, window=window, polyorder=polyorder,
-                                       pose=log.pose, mode=mode, first_row=1, efforts=args.efforts)
+                                       pose=log.pose, mode=mode, first_row=1, efforts=args.efforts,
+                                       reversals=args.reversals)
         except InvalidParameterError as exc:  # its rows are the file's: say which file
             raise InvalidParameterError(f"{args.log}: {exc}") from None
         result = identify(model, *data.states, data.tau, drives=args.drives, coulomb_rate=coulomb_rate)
@@ -99,7 +100,8 @@ def cmd_identify(args) -> dict:
 
             held = read_measurement_log(args.validate, model)
             other = filter_measurements(model, held.t, held.theta, held.tau, window=window, polyorder=polyorder,
-                                        pose=held.pose, mode=mode, first_row=1, efforts=args.efforts)
+                                        pose=held.pose, mode=mode, first_row=1, efforts=args.efforts,
+                                        reversals=args.reversals)
             predicted = result.predict(model, *other.states)
             rms = np.sqrt(np.mean((other.tau - predicted) ** 2, axis=0))
             out["validation"] = {"log": str(args.validate), "samples": int(len(other.t)),
