@@ -132,9 +132,11 @@ def test_rows_whose_filter_window_holds_a_rate_reversal_are_dropped():
         window = signs[lo:lo + 51] if not drop else signs[max(lo - 2, 0):lo + 53]
         reverses = bool(np.any(window != window[0], axis=0).any())
         assert reverses == drop, (row, drop)
-    with pytest.raises(pkmlab.InvalidParameterError, match="reversal"):  # a machine at rest: noise reverses it
-        rest = np.repeat(q[:1, :3], 500, axis=0) + np.random.default_rng(1).standard_normal((500, 3)) * 1e-7
-        pkmlab.filter_measurements(PAPER, t[:500], rest, tau[:500], q_start=q[0])
+    rest = np.repeat(q[:1, :3], 500, axis=0)
+    for noise in (0.0, 1e-7):  # a machine at rest: its rate zero, or reversed by every wiggle of its noise
+        readings = rest + np.random.default_rng(1).standard_normal(rest.shape) * noise
+        with pytest.raises(pkmlab.InvalidParameterError, match="reversal"):
+            pkmlab.filter_measurements(PAPER, t[:500], readings, tau[:500], q_start=q[0])
 
 
 def test_the_reported_sigma_of_a_filtered_noisy_log_is_its_spread():

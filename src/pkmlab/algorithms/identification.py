@@ -153,13 +153,15 @@ def _window_samples(window: float, step: float, polyorder: int, count: int) -> i
     return length
 
 
-def _reversal_rows(rates: np.ndarray, length: int) -> np.ndarray:
+def _reversal_rows(rates: np.ndarray, length: int, rest: np.ndarray) -> np.ndarray:
     """The rows (N,) whose Savitzky–Golay window of ``length`` samples (the whole first or last window at the log's
-    ends, as ``mode="interp"`` fits them) holds a reversal of any column of ``rates`` (N, n): a change of its sign,
-    a sample either side of it included (the true reversal lies between two samples of the filtered rate)."""
+    ends, as ``mode="interp"`` fits them) holds a reversal of any column of ``rates`` (N, n) — a change of its sign,
+    or a rate within ``rest`` (n,) of zero (at rest, where friction holds whatever it must) —, a sample either side
+    of it included (the true reversal lies between two samples of the filtered rate)."""
     count, half = len(rates), length // 2
-    signs = np.sign(rates)
-    reversal = np.any(signs[1:] != signs[:-1], axis=1)  # between row k and k + 1
+    signs = np.where(np.abs(rates) <= rest, 0.0, np.sign(rates))
+    reversal = np.any((signs[1:] != signs[:-1]) | (signs[:-1] == 0), axis=1)  # at row k or between k and k + 1
+    reversal[-1] |= bool(np.any(signs[-1] == 0))
     before = np.concatenate([[0], np.cumsum(reversal)])  # reversals between rows below j: before[j]
     lo = np.clip(np.arange(count) - half, 0, count - length)
     first, last = np.maximum(lo - 1, 0), np.minimum(lo + length, count - 1)  # reversal indices k in [first, last)
@@ -255,8 +257,8 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
         change of sign of its filtered rate). There the smoothed effort mixes the Coulomb friction of both
         directions of motion, which no friction law of the smoothed rate represents: kept, such rows bias the
         drives' friction estimates (Coulomb friction low, viscous high; 3–9 % on the paper's machine logged by a
-        20-bit encoder, measured). A machine at rest reverses at each wiggle of its noise: its rows at rest go
-        too. ``"keep"``: every decimated row (a machine without friction loses nothing by them).
+        20-bit encoder, measured). The rows of a machine at rest go too (a rate of zero, or the wiggles of its
+        readings' noise). ``"keep"``: every decimated row (a machine without friction loses nothing by them).
 
     Returns
     -------
@@ -321,7 +323,9 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
                                    f" {exc.reason}") from None
     rates = smoothed(thetas, 1)
     if reversals == "drop":
-        keep = keep[~_reversal_rows(rates, length)[keep]]
+        # at rest: a rate the filter's round-off could give readings that never change (a thousand times its unit)
+        rest = 1e3 * np.finfo(float).eps * np.abs(thetas).max(axis=0) / window
+        keep = keep[~_reversal_rows(rates, length, rest)[keep]]
         if keep.size == 0:
             raise InvalidParameterError(f"every row's filter window of {window:g} s holds a reversal of an actuator's "
                                         "rate (or the machine is at rest): log a longer motion, or give "
