@@ -139,6 +139,24 @@ def test_rows_whose_filter_window_holds_a_rate_reversal_are_dropped():
             pkmlab.filter_measurements(PAPER, t[:500], readings, tau[:500], q_start=q[0])
 
 
+@pytest.mark.parametrize("rate, polyorder", [(10000.0, 4), (1000.0, 6)])
+def test_a_rest_in_the_middle_of_a_log_is_left_out_whatever_the_filter(rate, polyorder):
+    """Readings held constant for 0.3 s amid a motion: each row whose window lies in the rest is left out (the
+    filter's rate of constant readings is its round-off, which grows with its window and order), the rows well
+    away from it are all kept."""
+    t, q, _theta_dot, _theta_ddot = fourier_motion(PAPER, seconds=1.0, rate=rate)
+    k0, held = len(t) // 3, int(0.3 * rate)
+    theta = np.concatenate([q[:k0, :3], np.repeat(q[k0 - 1:k0, :3], held, axis=0), q[k0:, :3]])
+    times = np.arange(len(theta)) / rate
+    every = pkmlab.filter_measurements(PAPER, times, theta, np.zeros_like(theta), q_start=q[0], polyorder=polyorder,
+                                       reversals="keep")
+    kept = pkmlab.filter_measurements(PAPER, times, theta, np.zeros_like(theta), q_start=q[0], polyorder=polyorder)
+    half = 0.025 + 2.0 / rate  # half the default window, and a sample either side
+    resting = (every.t > (k0 - 1) / rate + half) & (every.t < (k0 + held) / rate - half)
+    assert resting.sum() >= 3 and not np.isin(every.t[resting], kept.t).any()
+    assert np.isin(kept.t, every.t[~resting]).all()
+
+
 def test_the_reported_sigma_of_a_filtered_noisy_log_is_its_spread():
     """Filtering correlates the noise from sample to sample; decimation to the filter's bandwidth keeps the
     reported σ honest (without it, about four times too small)."""

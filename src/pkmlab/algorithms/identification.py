@@ -153,6 +153,18 @@ def _window_samples(window: float, step: float, polyorder: int, count: int) -> i
     return length
 
 
+def _rest_rate(thetas: np.ndarray, smoothed) -> np.ndarray:
+    """The largest rate (n,) the differentiating filter ``smoothed`` gives readings ``thetas`` (N, n) would show
+    held constant, by its round-off alone: the filter's rate of constant readings of each actuator's largest
+    magnitude, and at least its coefficients' round-off bound (it grows with the window and the polynomial's order)."""
+    level = np.abs(thetas).max(axis=0)
+    constant = np.abs(smoothed(np.ones((len(thetas), 1)) * level, 1)).max(axis=0)
+    impulse = np.zeros((len(thetas), 1))
+    impulse[len(thetas) // 2] = 1.0
+    bound = np.finfo(float).eps * level * np.abs(smoothed(impulse, 1)).sum()  # ε |θ| Σ|c|
+    return np.maximum(constant, bound)
+
+
 def _reversal_rows(rates: np.ndarray, length: int, rest: np.ndarray) -> np.ndarray:
     """The rows (N,) whose Savitzky–Golay window of ``length`` samples (the whole first or last window at the log's
     ends, as ``mode="interp"`` fits them) holds a reversal of any column of ``rates`` (N, n) — a change of its sign,
@@ -160,8 +172,8 @@ def _reversal_rows(rates: np.ndarray, length: int, rest: np.ndarray) -> np.ndarr
     of it included (the true reversal lies between two samples of the filtered rate)."""
     count, half = len(rates), length // 2
     signs = np.where(np.abs(rates) <= rest, 0.0, np.sign(rates))
-    reversal = np.any((signs[1:] != signs[:-1]) | (signs[:-1] == 0), axis=1)  # at row k or between k and k + 1
-    reversal[-1] |= bool(np.any(signs[-1] == 0))
+    # at row k or between k and k + 1 (a rest at the last row is a change from the row before, or a rest there)
+    reversal = np.any((signs[1:] != signs[:-1]) | (signs[:-1] == 0), axis=1)
     before = np.concatenate([[0], np.cumsum(reversal)])  # reversals between rows below j: before[j]
     lo = np.clip(np.arange(count) - half, 0, count - length)
     first, last = np.maximum(lo - 1, 0), np.minimum(lo + length, count - 1)  # reversal indices k in [first, last)
@@ -256,9 +268,11 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
         ``"drop"`` (default): leave out the rows whose filter window holds a reversal of any actuator's rate (a
         change of sign of its filtered rate). There the smoothed effort mixes the Coulomb friction of both
         directions of motion, which no friction law of the smoothed rate represents: kept, such rows bias the
-        drives' friction estimates (Coulomb friction low, viscous high; 3–9 % on the paper's machine logged by a
-        20-bit encoder, measured). The rows of a machine at rest go too (a rate of zero, or the wiggles of its
-        readings' noise). ``"keep"``: every decimated row (a machine without friction loses nothing by them).
+        drives' friction estimates (on the paper's machine logged by a 20-bit encoder, measured: the Coulomb
+        friction 3–9 % low, the viscous 2–4 % high). A row goes when its window, widened by a sample either side,
+        holds a change of sign of a rate; the rows of a machine at rest go too (a rate within a hundred times the
+        filter's round-off of zero, or the wiggles of its readings' noise). ``"keep"``: every decimated row (a
+        machine without friction loses nothing by them).
 
     Returns
     -------
@@ -323,13 +337,13 @@ def filter_measurements(model, t, theta, tau, *, window: float = DEFAULT_WINDOW,
                                    f" {exc.reason}") from None
     rates = smoothed(thetas, 1)
     if reversals == "drop":
-        # at rest: a rate the filter's round-off could give readings that never change (a thousand times its unit)
-        rest = 1e3 * np.finfo(float).eps * np.abs(thetas).max(axis=0) / window
-        keep = keep[~_reversal_rows(rates, length, rest)[keep]]
+        # at rest: a rate within a hundred times what the filter's round-off gives readings that never change
+        keep = keep[~_reversal_rows(rates, length, 100.0 * _rest_rate(thetas, smoothed))[keep]]
         if keep.size == 0:
             raise InvalidParameterError(f"every row's filter window of {window:g} s holds a reversal of an actuator's "
-                                        "rate (or the machine is at rest): log a longer motion, or give "
-                                        "reversals='keep' where the machine has no friction to identify")
+                                        "rate (or the machine is at rest): log a longer motion, or keep those rows "
+                                        "(reversals='keep', pkmlab identify --reversals keep) where the machine has "
+                                        "no friction to identify")
     return Measurements(ts[keep], q[keep], rates[keep], smoothed(thetas, 2)[keep], smoothed(taus)[keep])
 
 

@@ -99,9 +99,12 @@ def cmd_identify(args) -> dict:
             import numpy as np
 
             held = read_measurement_log(args.validate, model)
-            other = filter_measurements(model, held.t, held.theta, held.tau, window=window, polyorder=polyorder,
-                                        pose=held.pose, mode=mode, first_row=1, efforts=args.efforts,
-                                        reversals=args.reversals)
+            try:
+                other = filter_measurements(model, held.t, held.theta, held.tau, window=window, polyorder=polyorder,
+                                            pose=held.pose, mode=mode, first_row=1, efforts=args.efforts,
+                                            reversals=args.reversals)
+            except InvalidParameterError as exc:  # its rows are the held-out file's: say which file
+                raise InvalidParameterError(f"{args.validate}: {exc}") from None
             predicted = result.predict(model, *other.states)
             rms = np.sqrt(np.mean((other.tau - predicted) ** 2, axis=0))
             out["validation"] = {"log": str(args.validate), "samples": int(len(other.t)),

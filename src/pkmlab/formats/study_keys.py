@@ -55,6 +55,8 @@ OPTIONS = {
         Key("drives", "boolean", "Estimate the drives' armature and friction too.", default=False),
         Key("coulomb_rate", "number", "The drives' Coulomb model: fc tanh(rate / coulomb_rate); 0 for fc sign(rate).",
             "rad/s or m/s", default=0.0, sign="non-negative"),
+        Key("reversals", "string", "The samples whose filter window holds a reversal of an actuator's rate (or "
+            "rest): left out, or kept.", default="drop", choices=("drop", "keep")),
     ),
     "calibrate": (
         Key("poses", "integer", "Measured poses.", default=40, minimum=1),

@@ -137,7 +137,8 @@ def identification_metrics(scenario, result, options: dict) -> dict:
     plant = scenario.plant_model
     theta = result.theta_measured if result.theta_measured is not None else result.theta
     data = filter_measurements(plant, result.t, theta, result.tau, window=options["window"],
-                               polyorder=options["polyorder"], pose=result.pose[0], mode=result.working_mode)
+                               polyorder=options["polyorder"], pose=result.pose[0], mode=result.working_mode,
+                               reversals=options["reversals"])
     found = identify(plant, *data.states, data.tau, drives=options["drives"], coulomb_rate=options["coulomb_rate"])
     truth = found.base.of(_true_parameters(scenario, options["drives"]))
     error = np.abs(found.estimate - truth)
