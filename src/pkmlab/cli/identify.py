@@ -71,14 +71,20 @@ def cmd_identify(args) -> dict:
     inputs = [args.log, *([args.validate] if args.validate else [])]
     folder = (atomic_output_dir(args.out, "identify", inputs=inputs, provenance=provenance) if args.out else
               contextlib.nullcontext())
-    with folder as tmp:  # a folder that cannot take the results is refused before the log is read
-        log = read_measurement_log(args.log, model)
+
+    def filtered(path):
+        """The log file ``path`` read and filtered into states, its filter's errors naming the file (their rows
+        are the file's)."""
+        log = read_measurement_log(path, model)
         try:
-            data = filter_measurements(model, log.t, log.theta, log.tau, window=window, polyorder=polyorder,
+            return filter_measurements(model, log.t, log.theta, log.tau, window=window, polyorder=polyorder,
                                        pose=log.pose, mode=mode, first_row=1, efforts=args.efforts,
                                        reversals=args.reversals)
-        except InvalidParameterError as exc:  # its rows are the file's: say which file
-            raise InvalidParameterError(f"{args.log}: {exc}") from None
+        except InvalidParameterError as exc:
+            raise InvalidParameterError(f"{path}: {exc}") from None
+
+    with folder as tmp:  # a folder that cannot take the results is refused before the log is read
+        data = filtered(args.log)
         result = identify(model, *data.states, data.tau, drives=args.drives, coulomb_rate=coulomb_rate)
         out = {"mechanism": mechanism_name(args, model), **provenance, **result.summary()}
         identified = None
@@ -98,13 +104,7 @@ def cmd_identify(args) -> dict:
         if args.validate:  # a held-out log: its efforts against the estimate's prediction at its states
             import numpy as np
 
-            held = read_measurement_log(args.validate, model)
-            try:
-                other = filter_measurements(model, held.t, held.theta, held.tau, window=window, polyorder=polyorder,
-                                            pose=held.pose, mode=mode, first_row=1, efforts=args.efforts,
-                                            reversals=args.reversals)
-            except InvalidParameterError as exc:  # its rows are the held-out file's: say which file
-                raise InvalidParameterError(f"{args.validate}: {exc}") from None
+            other = filtered(args.validate)
             predicted = result.predict(model, *other.states)
             rms = np.sqrt(np.mean((other.tau - predicted) ** 2, axis=0))
             out["validation"] = {"log": str(args.validate), "samples": int(len(other.t)),
