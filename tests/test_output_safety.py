@@ -465,6 +465,43 @@ def test_ctrl_c_during_start_up_is_no_traceback():
         assert 130 in codes, interpreted  # the signal did arrive during the start-up
 
 
+@pytest.mark.parametrize("window", ["before main's own try", "after main returned"])
+def test_ctrl_c_between_the_executables_handler_and_main_is_no_traceback(monkeypatch, capsys, window):
+    """The executable's Ctrl-C handler raises at whichever instruction runs next: one that lands outside
+    main()'s try — at main's first instruction, or once main has returned and before Ctrl-C is ignored — was a
+    traceback (seen once in a suite run, at the start-up test's 0.08 s). Both windows made to happen: before main
+    took charge, exit 130 and one line; after it returned, its own exit code and nothing said."""
+    import pkmlab.cli as cli
+
+    calls, original = [], cli._stop_interrupts
+    if window == "before main's own try":
+        def main(**_kwargs):
+            raise KeyboardInterrupt  # as the handler raises it at main's first instruction
+        stop = original
+    else:
+        def main(**_kwargs):
+            return 0
+
+        def stop(signal_module):  # a Ctrl-C at its first instruction, once (the signal is then handled)
+            calls.append(True)
+            if len(calls) == 1:
+                raise KeyboardInterrupt
+            original(signal_module)
+    monkeypatch.setattr(cli, "main", main)
+    monkeypatch.setattr(cli, "_stop_interrupts", stop)
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)
+    previous = signal.getsignal(signal.SIGINT)
+    try:
+        code = cli.entry()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    _out, err = capsys.readouterr()
+    if window == "before main's own try":
+        assert (code, err) == (130, "pkmlab: interrupted\n")
+    else:
+        assert (code, err, len(calls)) == (0, "", 2)
+
+
 @pytest.mark.parametrize("terminal", [True, False])
 def test_first_run_says_it_compiles(capsys, monkeypatch, terminal):
     """The first run of a machine structure compiles for up to a minute: it is said once per process on stderr,

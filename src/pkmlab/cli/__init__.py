@@ -273,11 +273,27 @@ def entry() -> int:
     would otherwise print a traceback, and there is nothing left to interrupt)."""
     import signal
 
-    signal.signal(signal.SIGINT, _on_interrupt)
-    sys.unraisablehook = _interrupt_from_callbacks()
-    code = main(one_shot_interpreted=True)
+    code = None
+    # The handler raises at any instruction: from its installation until it is set to ignore Ctrl-C again, every
+    # instruction is inside this try — main()'s own first instruction, before its try, and those after it returned
+    # (a Ctrl-C there ends the process with the work's own exit code)
+    try:
+        signal.signal(signal.SIGINT, _on_interrupt)
+        sys.unraisablehook = _interrupt_from_callbacks()
+        code = main(one_shot_interpreted=True)
+        _stop_interrupts(signal)
+    except KeyboardInterrupt:
+        _stop_interrupts(signal)
+        if code is None:
+            print("pkmlab: interrupted", file=sys.stderr)
+            code = 130
+    return code
+
+
+def _stop_interrupts(signal) -> None:
+    """Ctrl-C ignored from here on, and a Ctrl-C still to be delivered again (:func:`_interrupt_from_callbacks`)
+    cancelled: the work is done, or its interruption reported."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if hasattr(signal, "setitimer"):
-        signal.setitimer(signal.ITIMER_REAL, 0)  # a Ctrl-C still to be delivered: the work is done
-    return code
+        signal.setitimer(signal.ITIMER_REAL, 0)
 
