@@ -59,15 +59,20 @@ def check_assembly(description) -> None:
         rigid = m.platform.kind == "rigid"
         for alpha in (np.linspace(-np.pi, np.pi, turns, endpoint=False) if rigid else (0.0,)):
             poses = np.column_stack([x, y, np.full(x.size, alpha)])[:, :len(m.platform.pose_names)]
-            together = np.ones(x.size, dtype=bool)
+            # each leg is solved at the poses every leg before it reaches only, and in a working mode only where
+            # none before it reached (each pose's solution is its own: the same answer, for a fraction of the work)
+            together = np.arange(x.size)
             for i, leg in enumerate(m.legs):
-                points = attachment_points(m, i, poses)
-                reached = np.zeros(x.size, dtype=bool)
+                points = attachment_points(m, i, poses[together])
+                reached = np.zeros(together.size, dtype=bool)
                 for sigma in leg_modes(leg) or (1,):
-                    reached |= ~leg_inverse_kinematics_batch(leg, i, points, sigma,
-                                                             np.zeros((x.size, leg.moving_base))).bad
-                together &= reached
-                if not together.any():
+                    rows = np.flatnonzero(~reached)
+                    if rows.size == 0:
+                        break
+                    reached[rows] = ~leg_inverse_kinematics_batch(leg, i, points[rows], sigma,
+                                                                  np.zeros((rows.size, leg.moving_base))).bad
+                together = together[reached]
+                if together.size == 0:
                     furthest = max(furthest, i)
                     break
             else:
