@@ -9,16 +9,23 @@ The grammar is :mod:`._parser`'s; each command lives in the module of its family
 :mod:`.mujoco`, :mod:`.study`), imported when it runs; what they share is in :mod:`._common`.
 """
 
-from __future__ import annotations
-
 import sys
 
+# (no `from __future__ import annotations` here: its import, the first of a process, would be a moment outside the
+# try below; this module's annotations are all valid as they are)
 try:  # Ctrl-C while the command line itself loads (its own imports): a quiet exit, as anywhere later
+    import signal  # (its import takes milliseconds: here, not in entry() before its handler is installed)
+
     from ..errors import InvalidParameterError, PkmlabError
     from ._common import deprecated, notes, print_error, print_json
     from ._common import strict_json as _strict_json  # noqa: F401 (its former name here, kept importable)
     from ._parser import build_parser
-except KeyboardInterrupt:
+except BaseException as exc:  # (a Ctrl-C inside a class's creation comes out as a RuntimeError caused by it)
+    cause = exc
+    while cause is not None and not isinstance(cause, KeyboardInterrupt):
+        cause = cause.__cause__ or cause.__context__
+    if cause is None:
+        raise
     print("pkmlab: interrupted", file=sys.stderr)
     raise SystemExit(130) from None
 
@@ -249,8 +256,6 @@ def _interrupt_from_callbacks(hook=sys.unraisablehook):
     LLVM engine calls back into Python while it compiles; an exception there cannot propagate and would
     be printed as "Exception ignored", then lost) into a Ctrl-C delivered again to the main program, and
     that keeps quiet, once interrupted, about the finalisers of what the interrupt left half-built."""
-    import signal
-
     def interrupt(*_args):
         raise KeyboardInterrupt
 
@@ -271,29 +276,26 @@ def entry() -> int:
     """The ``pkmlab`` executable: :func:`main` with Ctrl-C honoured everywhere, even inside callbacks of
     compiled code; ignored only once the work is done and the interpreter shuts down (its exit handlers
     would otherwise print a traceback, and there is nothing left to interrupt)."""
-    import signal
-
-    code = None
-    # The handler raises at any instruction: from its installation until it is set to ignore Ctrl-C again, every
-    # instruction is inside this try — main()'s own first instruction, before its try, and those after it returned
-    # (a Ctrl-C there ends the process with the work's own exit code)
+    code, interrupted = None, False
+    # The handler raises at whichever instruction runs next: main()'s first one (before its own try), and those
+    # after it returned, are this function's to handle, up to the moment Ctrl-C is ignored again
     try:
         signal.signal(signal.SIGINT, _on_interrupt)
         sys.unraisablehook = _interrupt_from_callbacks()
         code = main(one_shot_interpreted=True)
-        _stop_interrupts(signal)
     except KeyboardInterrupt:
-        _stop_interrupts(signal)
-        if code is None:
-            print("pkmlab: interrupted", file=sys.stderr)
-            code = 130
+        interrupted = True
+    finally:  # (also on the way out of --help, a malformed command line, an error)
+        while True:  # an interrupt landing while Ctrl-C is being ignored: ignore it again
+            try:
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+                if hasattr(signal, "setitimer"):
+                    signal.setitimer(signal.ITIMER_REAL, 0)  # a Ctrl-C still to be delivered again: cancelled
+                break
+            except KeyboardInterrupt:
+                interrupted = True
+    if code is None and interrupted:  # (after main returned, its own exit code: its work is done)
+        print("pkmlab: interrupted", file=sys.stderr)
+        code = 130
     return code
-
-
-def _stop_interrupts(signal) -> None:
-    """Ctrl-C ignored from here on, and a Ctrl-C still to be delivered again (:func:`_interrupt_from_callbacks`)
-    cancelled: the work is done, or its interruption reported."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if hasattr(signal, "setitimer"):
-        signal.setitimer(signal.ITIMER_REAL, 0)
 
