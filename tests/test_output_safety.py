@@ -453,8 +453,10 @@ def test_ctrl_c_during_start_up_is_no_traceback():
     The command is started as the executable starts it (``from pkmlab.cli import entry; sys.exit(entry())``), after
     a line on stdout once the interpreter has started and imported the ``pkmlab`` package (which defines names
     only): the delays count from there, so that a loaded machine's slow start-up does not move them (a fixed delay
-    from the process's start once landed in the interpreter's own start-up). What Python does before pkmlab's code
-    runs is its own: a Ctrl-C while its import system looks for ``pkmlab.cli``'s file is its traceback."""
+    from the process's start once landed in the interpreter's own start-up). What Python does outside pkmlab's code
+    is its own: a Ctrl-C while its import system looks for ``pkmlab.cli``'s file, or in the few instructions between
+    that module's last line and ``entry()``'s try (the console script's, under Python's default handler), is a
+    traceback that passes through no file of pkmlab's."""
     entry = ("import sys, pkmlab\nsys.stdout.write('started\\n')\nsys.stdout.flush()\n"
              "from pkmlab.cli import entry\nsys.argv[0] = 'pkmlab'\nsys.exit(entry())")
     # the kernels compiled (PKMLAB_INTERPRETED=0: fk would otherwise run them interpreted, in a fifth of a
@@ -471,13 +473,37 @@ def test_ctrl_c_during_start_up_is_no_traceback():
             _out, err = proc.communicate()
             err = err.decode()
             if "Traceback" in err and not _in_pkmlab(err) and err.endswith("KeyboardInterrupt\n"):
-                continue  # Python's import system, before pkmlab.cli's first line
+                continue  # Python's own moments (the docstring)
             assert "Traceback" not in err and "Exception ignored" not in err, (delay, err)
             assert proc.returncode in (0, 130), (delay, proc.returncode)
             if proc.returncode == 130:
                 assert err.endswith("interrupted\n")
             codes.append(proc.returncode)
         assert 130 in codes, interpreted  # the signal did arrive during the start-up
+
+
+def test_an_interrupt_python_reports_as_another_error_while_the_command_line_loads_is_the_interrupt():
+    """Python reports a Ctrl-C inside a class's creation (``__set_name__``) as a RuntimeError caused by it: the
+    command line's import guard takes it for the interrupt it is (exit 130, one line); an error not caused by one
+    is raised as it is."""
+    finder = textwrap.dedent("""
+        import sys
+        class Interrupted:  # raises, as Python does, the error an interrupt caused while pkmlab.cli._parser loads
+            def find_spec(self, name, path=None, target=None):
+                if name == "pkmlab.cli._parser":
+                    try:
+                        raise KeyboardInterrupt
+                    except KeyboardInterrupt as exc:
+                        if sys.argv[1] == "caused":
+                            raise RuntimeError("Error calling __set_name__") from exc
+                    raise RuntimeError("an error of its own")
+        sys.meta_path.insert(0, Interrupted())
+        import pkmlab.cli
+        """)
+    caused = subprocess.run([sys.executable, "-c", finder, "caused"], capture_output=True, text=True)
+    assert (caused.returncode, caused.stderr) == (130, "pkmlab: interrupted\n")
+    other = subprocess.run([sys.executable, "-c", finder, "other"], capture_output=True, text=True)
+    assert other.returncode == 1 and other.stderr.strip().endswith("RuntimeError: an error of its own")
 
 
 @pytest.mark.parametrize("moment", ["before main's own try", "while Ctrl-C is being ignored", "on SystemExit"])
@@ -506,6 +532,7 @@ def test_ctrl_c_between_the_executables_handler_and_main_is_no_traceback(monkeyp
         return set_handler(signum, handler)
 
     monkeypatch.setattr(cli, "main", main)
+    monkeypatch.setattr(cli, "_INTERRUPTED", False)  # (the real handler sets it: the process's later main() calls)
     monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)
     if moment == "while Ctrl-C is being ignored":
         monkeypatch.setattr(signal, "signal", signal_once_interrupted)
